@@ -1,1 +1,248 @@
+//! Shared helpers of the workspace-level tests: a validated Vulkan context on the real device
+//! (lavapipe in CI), scene builders for the test families, and the MODEL.md section 8 comparison.
+use std::sync::Arc;
 
+use scratchart::model::scene::{Camera, Light, LightKind, Plate, Scene, Scratch, View};
+use scratchart::render::Renderer;
+use scratchart::scenes::{orbit_camera, orbit_light, random_scratches, Rng};
+use scratchart::vulkan::{Context, ContextDesc};
+
+/// A context with the validation layer on. Tests call [`assert_no_validation`] at the end.
+pub fn gpu() -> Arc<Context> {
+    Context::new(ContextDesc {
+        validation: true,
+        quiet: true,
+        ..Default::default()
+    })
+    .expect("a Vulkan device (lavapipe in CI)")
+}
+
+pub fn assert_no_validation(ctx: &Context) {
+    let m = ctx.validation_messages();
+    assert!(
+        m.is_empty(),
+        "{} Vulkan validation message(s), first: {}",
+        m.len(),
+        m[0]
+    );
+}
+
+/// Renders every view of `scene` on the GPU.
+pub fn gpu_render(ctx: &Arc<Context>, scene: &Scene) -> Vec<Vec<f32>> {
+    let r = Renderer::new(ctx).expect("pipelines");
+    let mut gs = r.upload(scene).expect("upload");
+    r.render(&mut gs).expect("render").images
+}
+
+/// Outcome of comparing one view against the reference with the bar of MODEL.md section 8.
+#[derive(Debug)]
+pub struct Comparison {
+    pub on_plate: usize,
+    pub within: usize,
+    pub worst_rel: f64,
+    pub worst_at: (u32, u32, f64, f64),
+    pub off_plate_nonzero: usize,
+    pub non_finite: usize,
+    pub max_ref: f64,
+}
+
+impl Comparison {
+    pub fn fraction(&self) -> f64 {
+        if self.on_plate == 0 {
+            1.0
+        } else {
+            self.within as f64 / self.on_plate as f64
+        }
+    }
+}
+
+/// Compares `gpu` with the float64 reference `reference` of one view.
+pub fn compare(scene: &Scene, view: usize, gpu: &[f32], reference: &[f64]) -> Comparison {
+    let mask = scratchart::model::reference::on_plate_mask(scene, view);
+    let w = scene.views[view].camera.width;
+    let max_ref = reference.iter().cloned().fold(0.0, f64::max);
+    let abs_tol = 1e-6 * max_ref;
+    let mut c = Comparison {
+        on_plate: 0,
+        within: 0,
+        worst_rel: 0.0,
+        worst_at: (0, 0, 0.0, 0.0),
+        off_plate_nonzero: 0,
+        non_finite: 0,
+        max_ref,
+    };
+    for (idx, (&g, &r)) in gpu.iter().zip(reference).enumerate() {
+        if !g.is_finite() {
+            c.non_finite += 1;
+        }
+        if !mask[idx] {
+            if g != 0.0 {
+                c.off_plate_nonzero += 1;
+            }
+            continue;
+        }
+        c.on_plate += 1;
+        let err = (g as f64 - r).abs();
+        let rel = if r != 0.0 {
+            err / r.abs()
+        } else if err == 0.0 {
+            0.0
+        } else {
+            f64::INFINITY
+        };
+        if rel <= 1e-3 || err <= abs_tol {
+            c.within += 1;
+        }
+        // Worst relative error among pixels above the absolute floor (reported, not asserted).
+        if err > abs_tol && rel > c.worst_rel {
+            c.worst_rel = rel;
+            c.worst_at = ((idx as u32) % w, (idx as u32) / w, g as f64, r);
+        }
+    }
+    c
+}
+
+/// Renders on the GPU and with the reference, and asserts the MODEL.md section 8 forward bar on
+/// every view. Names the worst pixel and both values on failure.
+pub fn assert_matches_reference(label: &str, scene: &Scene) {
+    scene.validate().expect("test scene is valid");
+    let ctx = gpu();
+    let images = gpu_render(&ctx, scene);
+    for v in 0..scene.views.len() {
+        let reference = scratchart::model::reference::render_view(scene, v);
+        let c = compare(scene, v, &images[v], &reference);
+        eprintln!(
+            "{label} view {v}: {}/{} on-plate pixels within the bar ({:.4}%), worst relative error above the 1e-6 x max floor {:.3e} at (i, j, gpu, ref) = {:?}",
+            c.within, c.on_plate, 100.0 * c.fraction(), c.worst_rel, c.worst_at
+        );
+        assert!(
+            c.on_plate > 0,
+            "{label} view {v}: no on-plate pixel, the test scene is wrong"
+        );
+        assert_eq!(
+            c.non_finite, 0,
+            "{label} view {v}: NaN or infinity in the GPU image"
+        );
+        assert_eq!(
+            c.off_plate_nonzero, 0,
+            "{label} view {v}: off-plate pixels must be exactly 0"
+        );
+        assert!(
+            c.fraction() >= 0.99,
+            "{label} view {v}: only {:.3}% of on-plate pixels within 1e-3 relative / 1e-6 x max; worst at pixel ({}, {}): gpu {:e} vs reference {:e}",
+            100.0 * c.fraction(), c.worst_at.0, c.worst_at.1, c.worst_at.2, c.worst_at.3
+        );
+    }
+    assert_no_validation(&ctx);
+}
+
+pub fn plate(size: f64) -> Plate {
+    Plate {
+        size_mm: size,
+        roughness: 0.02,
+        f0: 0.91,
+    }
+}
+
+/// A view on an orbit around the plate centre with a point light on another orbit.
+pub fn orbit_view(
+    name: &str,
+    res: u32,
+    elev: f64,
+    az: f64,
+    light_elev: f64,
+    light_az: f64,
+    plate_mm: f64,
+) -> View {
+    View {
+        name: name.into(),
+        camera: orbit_camera(3.0 * plate_mm, elev, az, plate_mm, res, res),
+        light: orbit_light(3.0 * plate_mm, light_elev, light_az, 1.0e4),
+    }
+}
+
+pub fn directional_view(
+    name: &str,
+    res: u32,
+    elev: f64,
+    az: f64,
+    light_elev: f64,
+    light_az: f64,
+    plate_mm: f64,
+) -> View {
+    let (e, a) = (light_elev.to_radians(), light_az.to_radians());
+    View {
+        name: name.into(),
+        camera: orbit_camera(3.0 * plate_mm, elev, az, plate_mm, res, res),
+        light: Light {
+            kind: LightKind::Directional {
+                direction: [e.cos() * a.cos(), e.cos() * a.sin(), e.sin()],
+            },
+            intensity: 1.0,
+        },
+    }
+}
+
+/// A random scene of `n` scratches on a `plate_mm` plate.
+pub fn random_scene(
+    seed: u64,
+    n: usize,
+    plate_mm: f64,
+    w: f64,
+    d: f64,
+    alpha: f64,
+    views: Vec<View>,
+) -> Scene {
+    let mut rng = Rng::new(seed);
+    Scene {
+        plate: plate(plate_mm),
+        views,
+        scratches: random_scratches(
+            &mut rng,
+            n,
+            plate_mm,
+            0.05 * plate_mm,
+            0.3 * plate_mm,
+            w,
+            d,
+            alpha,
+        ),
+    }
+}
+
+/// A camera `elev` degrees above the plate with a narrow field of view, so that a grazing view
+/// still puts many pixels on the plate.
+pub fn grazing_view(
+    name: &str,
+    res: u32,
+    elev: f64,
+    az: f64,
+    light_elev: f64,
+    light_az: f64,
+    plate_mm: f64,
+) -> View {
+    let mut v = orbit_view(name, res, elev, az, light_elev, light_az, plate_mm);
+    v.camera.fov_y_deg = 4.0;
+    v
+}
+
+pub fn camera(eye: [f64; 3], res: u32, fov: f64) -> Camera {
+    Camera {
+        eye,
+        target: [0.0, 0.0, 0.0],
+        up: [0.0, 0.0, 1.0],
+        fov_y_deg: fov,
+        width: res,
+        height: res,
+    }
+}
+
+pub fn scratch(p0: [f64; 2], p1: [f64; 2], w: f64, d: f64, alpha: f64) -> Scratch {
+    Scratch {
+        p0,
+        p1,
+        w,
+        d,
+        alpha,
+    }
+}

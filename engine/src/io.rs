@@ -1,1 +1,364 @@
-//! placeholder
+//! Image files: PFM (linear float images), PNG (display images), PNG/JPEG targets, resizing,
+//! and the atomic file writer every writer in the engine goes through.
+//!
+//! Conventions (MODEL.md section 6):
+//! - In memory, images are row-major with row 0 the TOP image row (sy = 0).
+//! - PFM files store rows BOTTOM row first, as the PFM format orders them. [`write_pfm`] writes
+//!   grayscale `Pf` with scale -1.0 (little endian); [`read_pfm`] reads `Pf` and `PF` (colour,
+//!   converted to Rec. 709 luma) in either byte order and returns top-row-first data.
+//! - Display PNGs store round(255 min(1, L^(1/2.2))) as 8-bit gray.
+//! - Every file is written atomically: a temporary file in the same directory, fsync, rename.
+
+use std::fs;
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicU64, Ordering};
+
+/// An image file could not be read or written. Every variant names the path.
+#[derive(Debug, thiserror::Error)]
+pub enum IoError {
+    #[error("cannot {action} `{path}`: {source}")]
+    Io {
+        action: &'static str,
+        path: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+    #[error("`{path}` is not a valid {kind} file: {msg}")]
+    Format {
+        kind: &'static str,
+        path: PathBuf,
+        msg: String,
+    },
+    #[error("cannot decode or encode image `{path}`: {source}")]
+    Image {
+        path: PathBuf,
+        #[source]
+        source: image::ImageError,
+    },
+    #[error("bad image arguments for `{path}`: {msg}")]
+    Args { path: PathBuf, msg: String },
+}
+
+fn io_err(action: &'static str, path: &Path, source: std::io::Error) -> IoError {
+    IoError::Io {
+        action,
+        path: path.to_path_buf(),
+        source,
+    }
+}
+
+fn check_dims(path: &Path, width: u32, height: u32, len: usize) -> Result<(), IoError> {
+    let expect = width as usize * height as usize;
+    if width == 0 || height == 0 || expect != len {
+        return Err(IoError::Args {
+            path: path.to_path_buf(),
+            msg: format!(
+                "{width}x{height} image needs {expect} values (width and height > 0), got {len}"
+            ),
+        });
+    }
+    Ok(())
+}
+
+static TEMP_COUNTER: AtomicU64 = AtomicU64::new(0);
+
+/// Write `bytes` to `path` atomically: write a temporary file in the same directory, fsync it,
+/// then rename it over `path` (and, on Unix, fsync the directory). A reader never sees a
+/// partially written file; on error the temporary file is removed.
+pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), IoError> {
+    let dir = match path.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
+        _ => PathBuf::from("."),
+    };
+    let file_name = path
+        .file_name()
+        .ok_or_else(|| IoError::Args {
+            path: path.to_path_buf(),
+            msg: "the path has no file name".into(),
+        })?
+        .to_string_lossy()
+        .into_owned();
+    let n = TEMP_COUNTER.fetch_add(1, Ordering::Relaxed);
+    let tmp = dir.join(format!(".{file_name}.tmp.{}.{n}", std::process::id()));
+    let result = (|| {
+        let mut f = fs::File::create(&tmp).map_err(|e| io_err("create", &tmp, e))?;
+        f.write_all(bytes).map_err(|e| io_err("write", &tmp, e))?;
+        f.sync_all().map_err(|e| io_err("fsync", &tmp, e))?;
+        drop(f);
+        fs::rename(&tmp, path).map_err(|e| io_err("rename into place", path, e))?;
+        Ok(())
+    })();
+    if result.is_err() {
+        let _ = fs::remove_file(&tmp);
+        return result;
+    }
+    #[cfg(unix)]
+    {
+        // Make the rename durable; failure to open a directory for sync is not an error.
+        if let Ok(d) = fs::File::open(&dir) {
+            let _ = d.sync_all();
+        }
+    }
+    Ok(())
+}
+
+/// Encode a grayscale PFM (`Pf`, scale -1.0 = little endian). `data` is top row first; the file
+/// stores the bottom row first.
+pub fn encode_pfm(width: u32, height: u32, data_top_row_first: &[f32]) -> Vec<u8> {
+    let (w, h) = (width as usize, height as usize);
+    let header = format!("Pf\n{width} {height}\n-1.0\n");
+    let mut out = Vec::with_capacity(header.len() + 4 * w * h);
+    out.extend_from_slice(header.as_bytes());
+    for row in (0..h).rev() {
+        for v in &data_top_row_first[row * w..(row + 1) * w] {
+            out.extend_from_slice(&v.to_le_bytes());
+        }
+    }
+    out
+}
+
+/// Write a grayscale PFM file atomically (see [`encode_pfm`]).
+pub fn write_pfm(
+    path: &Path,
+    width: u32,
+    height: u32,
+    data_top_row_first: &[f32],
+) -> Result<(), IoError> {
+    check_dims(path, width, height, data_top_row_first.len())?;
+    write_atomic(path, &encode_pfm(width, height, data_top_row_first))
+}
+
+/// Read a PFM file (`Pf` grayscale or `PF` colour, converted to Rec. 709 luma; either byte
+/// order). Returns (width, height, data) with data top row first.
+pub fn read_pfm(path: &Path) -> Result<(u32, u32, Vec<f32>), IoError> {
+    let bytes = fs::read(path).map_err(|e| io_err("read", path, e))?;
+    decode_pfm(&bytes).map_err(|msg| IoError::Format {
+        kind: "PFM",
+        path: path.to_path_buf(),
+        msg,
+    })
+}
+
+/// Decode PFM bytes; see [`read_pfm`].
+pub fn decode_pfm(bytes: &[u8]) -> Result<(u32, u32, Vec<f32>), String> {
+    // Header: three whitespace-separated tokens, then exactly one whitespace byte before data.
+    let mut pos = 0usize;
+    let mut tokens: Vec<String> = Vec::new();
+    while tokens.len() < 4 {
+        while pos < bytes.len() && bytes[pos].is_ascii_whitespace() {
+            pos += 1;
+        }
+        if pos >= bytes.len() {
+            return Err(format!(
+                "the header ends early (found {} of 4 fields: magic, width, height, scale)",
+                tokens.len()
+            ));
+        }
+        let start = pos;
+        while pos < bytes.len() && !bytes[pos].is_ascii_whitespace() {
+            pos += 1;
+            if pos - start > 64 {
+                return Err("a header field is too long; is this a PFM file?".into());
+            }
+        }
+        tokens.push(String::from_utf8_lossy(&bytes[start..pos]).into_owned());
+        if tokens.len() == 1 && tokens[0] != "Pf" && tokens[0] != "PF" {
+            return Err(format!(
+                "magic is `{}`, expected `Pf` (gray) or `PF` (colour)",
+                tokens[0]
+            ));
+        }
+    }
+    if pos >= bytes.len() || !bytes[pos].is_ascii_whitespace() {
+        return Err("no whitespace byte after the scale field".into());
+    }
+    pos += 1;
+    let channels = if tokens[0] == "PF" { 3 } else { 1 };
+    let width: u32 = tokens[1]
+        .parse()
+        .map_err(|_| format!("width `{}` is not a positive integer", tokens[1]))?;
+    let height: u32 = tokens[2]
+        .parse()
+        .map_err(|_| format!("height `{}` is not a positive integer", tokens[2]))?;
+    if width == 0 || height == 0 {
+        return Err(format!("size {width}x{height} is empty"));
+    }
+    let scale: f64 = tokens[3]
+        .parse()
+        .map_err(|_| format!("scale `{}` is not a number", tokens[3]))?;
+    if !scale.is_finite() || scale == 0.0 {
+        return Err(format!(
+            "scale `{}` must be a non-zero finite number",
+            tokens[3]
+        ));
+    }
+    let little = scale < 0.0;
+    let (w, h) = (width as usize, height as usize);
+    let need = w
+        .checked_mul(h)
+        .and_then(|n| n.checked_mul(4 * channels))
+        .ok_or("size overflows")?;
+    let data = &bytes[pos..];
+    if data.len() < need {
+        return Err(format!(
+            "{width}x{height}x{channels} image needs {need} data bytes, file has {}",
+            data.len()
+        ));
+    }
+    let read = |k: usize| -> f32 {
+        let b = [
+            data[4 * k],
+            data[4 * k + 1],
+            data[4 * k + 2],
+            data[4 * k + 3],
+        ];
+        if little {
+            f32::from_le_bytes(b)
+        } else {
+            f32::from_be_bytes(b)
+        }
+    };
+    let mut out = vec![0f32; w * h];
+    for file_row in 0..h {
+        let row = h - 1 - file_row;
+        for i in 0..w {
+            let k = (file_row * w + i) * channels;
+            out[row * w + i] = if channels == 1 {
+                read(k)
+            } else {
+                0.2126 * read(k) + 0.7152 * read(k + 1) + 0.0722 * read(k + 2)
+            };
+        }
+    }
+    Ok((width, height, out))
+}
+
+/// Display value of a linear pixel: round(255 min(1, L^(1/2.2))) (MODEL.md section 5).
+/// Negative and NaN inputs give 0.
+pub fn display_byte(l: f32) -> u8 {
+    if l.is_nan() || l <= 0.0 {
+        return 0;
+    }
+    let i = (l as f64).powf(1.0 / 2.2).min(1.0);
+    (255.0 * i).round() as u8
+}
+
+/// Write the display PNG of a linear image (see [`display_byte`]). `linear` is top row first.
+pub fn write_png_display(
+    path: &Path,
+    width: u32,
+    height: u32,
+    linear: &[f32],
+) -> Result<(), IoError> {
+    check_dims(path, width, height, linear.len())?;
+    let bytes: Vec<u8> = linear.iter().map(|&l| display_byte(l)).collect();
+    write_png_gray(path, width, height, &bytes)
+}
+
+/// Write an 8-bit grayscale PNG atomically. `data` is top row first.
+pub fn write_png_gray(path: &Path, width: u32, height: u32, data: &[u8]) -> Result<(), IoError> {
+    use image::ImageEncoder;
+    check_dims(path, width, height, data.len())?;
+    let mut buf = Vec::new();
+    image::codecs::png::PngEncoder::new(&mut buf)
+        .write_image(data, width, height, image::ExtendedColorType::L8)
+        .map_err(|source| IoError::Image {
+            path: path.to_path_buf(),
+            source,
+        })?;
+    write_atomic(path, &buf)
+}
+
+/// Read a PNG or JPEG image as gray values in [0, 1] (colour is converted to luma by the
+/// `image` crate's Rec. 709 weights on the stored, display-encoded values; alpha is dropped).
+/// Returns (width, height, data) top row first.
+pub fn read_image_gray(path: &Path) -> Result<(u32, u32, Vec<f32>), IoError> {
+    let bytes = fs::read(path).map_err(|e| io_err("read", path, e))?;
+    let img = image::load_from_memory(&bytes).map_err(|source| IoError::Image {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    let luma = img.to_luma32f();
+    let (w, h) = luma.dimensions();
+    let data: Vec<f32> = luma
+        .into_raw()
+        .into_iter()
+        .map(|v| v.clamp(0.0, 1.0))
+        .collect();
+    Ok((w, h, data))
+}
+
+/// Resize a one-channel image (top row first) with a separable tent filter aligned on pixel
+/// centres. When enlarging this is plain bilinear interpolation; when shrinking by a factor k
+/// the tent is widened k times (antialiased bilinear, as PIL's BILINEAR), so no detail aliases.
+/// Edges are handled by renormalising the weights inside the image.
+pub fn resize_bilinear(src: &[f32], sw: u32, sh: u32, dw: u32, dh: u32) -> Vec<f32> {
+    assert_eq!(
+        src.len(),
+        sw as usize * sh as usize,
+        "resize_bilinear: bad source size"
+    );
+    assert!(
+        sw > 0 && sh > 0 && dw > 0 && dh > 0,
+        "resize_bilinear: empty image"
+    );
+    let wx = tent_weights(sw as usize, dw as usize);
+    let wy = tent_weights(sh as usize, dh as usize);
+    let (sw, dw, dh) = (sw as usize, dw as usize, dh as usize);
+    // Horizontal pass: sh x dw.
+    let mut tmp = vec![0f32; sh as usize * dw];
+    for y in 0..sh as usize {
+        for (x, (start, ws)) in wx.iter().enumerate() {
+            let row = &src[y * sw..(y + 1) * sw];
+            let acc: f64 = ws
+                .iter()
+                .enumerate()
+                .map(|(k, w)| w * row[start + k] as f64)
+                .sum();
+            tmp[y * dw + x] = acc as f32;
+        }
+    }
+    let mut out = vec![0f32; dh * dw];
+    for (y, (start, ws)) in wy.iter().enumerate() {
+        for x in 0..dw {
+            let acc: f64 = ws
+                .iter()
+                .enumerate()
+                .map(|(k, w)| w * tmp[(start + k) * dw + x] as f64)
+                .sum();
+            out[y * dw + x] = acc as f32;
+        }
+    }
+    out
+}
+
+/// For each destination index: (first source index, normalised weights).
+fn tent_weights(src_n: usize, dst_n: usize) -> Vec<(usize, Vec<f64>)> {
+    let scale = src_n as f64 / dst_n as f64;
+    let support = scale.max(1.0); // tent half-width in source pixels
+    (0..dst_n)
+        .map(|d| {
+            let centre = (d as f64 + 0.5) * scale - 0.5; // in source pixel-centre coordinates
+            let lo = ((centre - support).floor() as i64 + 1).max(0) as usize;
+            let hi = ((centre + support).ceil() as i64 - 1)
+                .min(src_n as i64 - 1)
+                .max(0) as usize;
+            let lo = lo.min(hi);
+            let mut ws: Vec<f64> = (lo..=hi)
+                .map(|s| (1.0 - ((s as f64 - centre) / support).abs()).max(0.0))
+                .collect();
+            let sum: f64 = ws.iter().sum();
+            if sum > 0.0 {
+                ws.iter_mut().for_each(|w| *w /= sum);
+            } else {
+                // Centre exactly between samples with zero weights cannot happen for support >= 1,
+                // but keep a safe nearest-neighbour fallback.
+                ws.iter_mut().for_each(|w| *w = 0.0);
+                let nearest = (centre.round().max(0.0) as usize).clamp(lo, hi);
+                ws[nearest - lo] = 1.0;
+            }
+            (lo, ws)
+        })
+        .collect()
+}

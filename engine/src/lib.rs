@@ -5,7 +5,9 @@
 //!   reference (a test oracle only; never a fallback for the GPU path).
 //! - [`render`]: the GPU forward renderer (pair search, patch-NDF shading, images).
 //! - [`io`]: PFM/PNG image files, written atomically.
+pub mod bench;
 pub mod io;
 pub mod model;
 pub mod render;
+pub mod scenes;
 pub mod vulkan;

@@ -1,1 +1,190 @@
-fn main() {}
+//! `scratchart`: render, benchmark and (with `design`) optimize scratched reflector plates.
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+
+use anyhow::{Context as _, Result};
+use clap::{Parser, Subcommand};
+
+use scratchart::bench;
+use scratchart::model::scene::Scene;
+use scratchart::render::Renderer;
+use scratchart::vulkan::{Context, ContextDesc};
+
+#[derive(Parser)]
+#[command(
+    name = "scratchart",
+    version,
+    about = "Design, render and benchmark scratch-based reflection art on any Vulkan device.",
+    long_about = "Design, render and benchmark scratch-based reflection art on any Vulkan device.\n\n\
+A plate carved with many short straight scratches shows a different image from each of several viewpoints \
+under a light. Scenes are JSON files (see MODEL.md section 6) with scratches inline or in a CSV file.\n\n\
+Device choice: discrete GPU, then integrated, then CPU (lavapipe); --device or SCRATCHART_DEVICE picks one \
+by index or by part of its name. SCRATCHART_VALIDATION=1 (or --validation) turns on the Vulkan validation layer.\n\n\
+Exit codes: 0 success, 1 runtime failure, 2 bad command line, 3 bad input file, 4 GPU/device failure."
+)]
+struct Cli {
+    /// Vulkan device to use: index or part of the name (default: best available)
+    #[arg(long, global = true)]
+    device: Option<String>,
+    /// Enable the Vulkan validation layer and report its messages
+    #[arg(long, global = true)]
+    validation: bool,
+    #[command(subcommand)]
+    cmd: Cmd,
+}
+
+#[derive(Subcommand)]
+enum Cmd {
+    /// Render every view of a scene to NAME.pfm (linear L) and NAME.png (display value).
+    /// Without SCENE, renders the built-in demo plate.
+    Render {
+        /// Scene file (JSON, MODEL.md section 6)
+        scene: Option<PathBuf>,
+        /// Output directory (created if missing)
+        #[arg(long, default_value = "out")]
+        out: PathBuf,
+    },
+    /// Benchmark the GPU pipeline on the standard scenes (S, M, P) or on a scene file.
+    Bench {
+        /// Standard scenes to run: S (4,000 scratches, 2x128^2), M (40,000, 3x256^2), P (40,000, 3x512^2)
+        #[arg(long, value_delimiter = ',', default_value = "S,M")]
+        sizes: Vec<String>,
+        /// Time this scene file instead of the standard scenes
+        #[arg(long)]
+        scene: Option<PathBuf>,
+        /// Timed repeats (median reported)
+        #[arg(long, default_value_t = 7)]
+        repeats: usize,
+        /// Untimed warm-up runs
+        #[arg(long, default_value_t = 2)]
+        warmup: usize,
+    },
+}
+
+fn main() -> ExitCode {
+    let cli = match Cli::try_parse() {
+        Ok(c) => c,
+        Err(e) => {
+            let _ = e.print();
+            return if e.use_stderr() {
+                ExitCode::from(2)
+            } else {
+                ExitCode::SUCCESS
+            };
+        }
+    };
+    match run(cli) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e:#}");
+            ExitCode::from(exit_code(&e))
+        }
+    }
+}
+
+fn exit_code(e: &anyhow::Error) -> u8 {
+    for cause in e.chain() {
+        if cause
+            .downcast_ref::<scratchart::model::scene::SceneError>()
+            .is_some()
+        {
+            return 3;
+        }
+        if cause.downcast_ref::<scratchart::io::IoError>().is_some() {
+            return 3;
+        }
+        if cause
+            .downcast_ref::<scratchart::vulkan::GpuError>()
+            .is_some()
+        {
+            return 4;
+        }
+    }
+    1
+}
+
+fn context(cli: &Cli) -> Result<std::sync::Arc<Context>> {
+    Ok(Context::new(ContextDesc {
+        validation: cli.validation,
+        device: cli.device.clone(),
+        ..Default::default()
+    })?)
+}
+
+fn run(cli: Cli) -> Result<()> {
+    match &cli.cmd {
+        Cmd::Render { scene, out } => {
+            let scene = match scene {
+                Some(p) => Scene::load(p)?,
+                None => {
+                    eprintln!("no scene given: rendering the built-in demo plate");
+                    scratchart::scenes::demo_scene(256)
+                }
+            };
+            let ctx = context(&cli)?;
+            render_to_dir(&ctx, &scene, out)?;
+            check_validation(&ctx)
+        }
+        Cmd::Bench {
+            sizes,
+            scene,
+            repeats,
+            warmup,
+        } => {
+            let ctx = context(&cli)?;
+            let scenes: Vec<(String, Scene)> = match scene {
+                Some(p) => vec![(p.display().to_string(), Scene::load(p)?)],
+                None => sizes
+                    .iter()
+                    .map(|s| {
+                        scratchart::scenes::bench_scene(s)
+                            .map(|sc| (s.to_uppercase(), sc))
+                            .with_context(|| {
+                                format!("unknown standard scene '{s}' (choose S, M or P)")
+                            })
+                    })
+                    .collect::<Result<_>>()?,
+            };
+            let rows = bench::run_forward(&ctx, &scenes, *warmup, (*repeats).max(1))?;
+            print!("{}", bench::forward_table(&ctx, &rows));
+            check_validation(&ctx)
+        }
+    }
+}
+
+fn render_to_dir(ctx: &std::sync::Arc<Context>, scene: &Scene, out: &Path) -> Result<()> {
+    std::fs::create_dir_all(out)
+        .with_context(|| format!("cannot create output directory {}", out.display()))?;
+    let renderer = Renderer::new(ctx)?;
+    let mut gs = renderer.upload(scene)?;
+    let frame = renderer.render(&mut gs)?;
+    for (view, img) in scene.views.iter().zip(&frame.images) {
+        let (w, h) = (view.camera.width, view.camera.height);
+        let pfm = out.join(format!("{}.pfm", view.name));
+        let png = out.join(format!("{}.png", view.name));
+        scratchart::io::write_pfm(&pfm, w, h, img)?;
+        scratchart::io::write_png_display(&png, w, h, img)?;
+        eprintln!("wrote {} and {}", pfm.display(), png.display());
+    }
+    eprintln!(
+        "{} scratches, {} views: {} overlapping (pixel, scratch) pairs, {} candidates tested, {:.1} ms on the GPU",
+        scene.scratches.len(),
+        scene.views.len(),
+        frame.stats.pairs,
+        frame.stats.candidates,
+        frame.timings.total_ms()
+    );
+    Ok(())
+}
+
+fn check_validation(ctx: &Context) -> Result<()> {
+    let msgs = ctx.validation_messages();
+    if !msgs.is_empty() {
+        anyhow::bail!(
+            "{} Vulkan validation message(s); first: {}",
+            msgs.len(),
+            msgs[0]
+        );
+    }
+    Ok(())
+}

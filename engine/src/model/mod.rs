@@ -1,1 +1,16 @@
-//! placeholder
+//! The scratch reflection model of `MODEL.md` (the contract in `shared/spec/MODEL.md`).
+//!
+//! - [`scene`]: scene types and the scene file (JSON + scratch CSV), with validation.
+//! - [`camera`]: float64 view geometry (rays, footprints, shading points, light).
+//! - [`reference`]: the float64 CPU reference renderer — a test oracle only, never a fallback
+//!   for the GPU path.
+
+pub mod camera;
+pub mod reference;
+pub mod scene;
+
+pub use camera::{LightSample, ViewGeom};
+pub use reference::{check_loss, pixel, render_view, scratch_patch_integral, PixelRef};
+pub use scene::{
+    read_scratches_csv, Camera, Light, LightKind, Plate, Scene, SceneError, Scratch, View,
+};

@@ -1,1 +1,284 @@
-//! placeholder
+//! The GPU forward renderer: tile binning (pair search), deterministic scan, and the patch-NDF
+//! shading kernel; produces the linear pixel values L of MODEL.md section 5 for every view.
+//!
+//! Buffers live in a [`GpuScene`]; a [`Renderer`] owns the pipelines. One `render` call records
+//! binning and shading into one command buffer and waits for it.
+pub mod layout;
+
+use std::sync::Arc;
+
+use crate::model::scene::Scene;
+use crate::vulkan::{
+    Buffer, ComputePipeline, Context, GpuError, MemLoc, Recorder, ShaderCompiler, Timings,
+};
+use layout::{BinPush, ScanPush, ScratchGpu, ShadePush, ViewSlots};
+
+/// Scratches per binning thread (see `shaders/bin.comp`).
+pub const GROUP_SIZE: u32 = 64;
+const SCAN_BLOCK: u32 = 4096;
+
+/// Compute pipelines of the forward path.
+pub struct Renderer {
+    pub ctx: Arc<Context>,
+    bin_count: ComputePipeline,
+    bin_scatter: ComputePipeline,
+    scan_reduce: ComputePipeline,
+    scan_sums: ComputePipeline,
+    scan_apply: ComputePipeline,
+    forward: ComputePipeline,
+}
+
+/// Device-resident scene: parameters, binning state and images.
+pub struct GpuScene {
+    pub slots: ViewSlots,
+    pub n_scratches: u32,
+    pub n_groups: u32,
+    pub shade: ShadePush,
+    pub views: Buffer,
+    pub scratches: Buffer,
+    /// per (tile, group) counts, scanned in place into list offsets; n_tiles * n_groups + 1 entries
+    pub hist: Buffer,
+    cursor: Buffer,
+    sums: Buffer,
+    /// tile lists of scratch indices
+    pub list: Buffer,
+    pub capacity: u32,
+    /// L of every view, concatenated (views[v].base[1] is the first pixel of view v)
+    pub image: Buffer,
+    /// [0] candidates tested, [1] overlapping pairs, [2] tile-list entries
+    pub stats: Buffer,
+}
+
+/// Counters of one render.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct RenderStats {
+    /// (tile, scratch) entries produced by binning
+    pub entries: u64,
+    /// (pixel, scratch) candidates tested by the shading kernel
+    pub candidates: u64,
+    /// (pixel, scratch) pairs whose footprint and carved rectangle really overlap
+    pub pairs: u64,
+}
+
+/// Output of a render: one image per view (row-major, top row first).
+pub struct Frame {
+    pub images: Vec<Vec<f32>>,
+    pub stats: RenderStats,
+    pub timings: Timings,
+}
+
+impl Renderer {
+    pub fn new(ctx: &Arc<Context>) -> Result<Renderer, GpuError> {
+        let sc = ShaderCompiler::embedded()?;
+        let bin_push = std::mem::size_of::<BinPush>() as u32;
+        let scan_push = std::mem::size_of::<ScanPush>() as u32;
+        let shade_push = std::mem::size_of::<ShadePush>() as u32;
+        Ok(Renderer {
+            ctx: ctx.clone(),
+            bin_count: ComputePipeline::new(ctx, &sc, "bin.comp", &[("COUNT", "1")], 4, bin_push)?,
+            bin_scatter: ComputePipeline::new(
+                ctx,
+                &sc,
+                "bin.comp",
+                &[("SCATTER", "1")],
+                4,
+                bin_push,
+            )?,
+            scan_reduce: ComputePipeline::new(
+                ctx,
+                &sc,
+                "scan.comp",
+                &[("REDUCE", "1")],
+                2,
+                scan_push,
+            )?,
+            scan_sums: ComputePipeline::new(ctx, &sc, "scan.comp", &[("SUMS", "1")], 2, scan_push)?,
+            scan_apply: ComputePipeline::new(
+                ctx,
+                &sc,
+                "scan.comp",
+                &[("APPLY", "1")],
+                2,
+                scan_push,
+            )?,
+            forward: ComputePipeline::new(ctx, &sc, "forward.comp", &[], 6, shade_push)?,
+        })
+    }
+
+    /// Uploads a (validated) scene. Fails with a clear error when a buffer would exceed the
+    /// device's storage-buffer limit.
+    pub fn upload(&self, scene: &Scene) -> Result<GpuScene, GpuError> {
+        let slots = layout::view_slots(scene);
+        let n_scratches = scene.scratches.len() as u32;
+        let n_groups = n_scratches.div_ceil(GROUP_SIZE).max(1);
+        let scr: Vec<ScratchGpu> = scene.scratches.iter().map(ScratchGpu::from).collect();
+        let hist_len = slots.n_tiles as u64 * n_groups as u64 + 1;
+        let n_blocks = hist_len.div_ceil(SCAN_BLOCK as u64);
+        // Initial list capacity: a guess, grown on demand after the first binning.
+        let capacity = ((n_scratches as u64 * scene.views.len() as u64 * 4).max(1 << 16))
+            .min(u32::MAX as u64 / 4) as u32;
+        let ctx = &self.ctx;
+        Ok(GpuScene {
+            shade: ShadePush {
+                half_plate: (scene.plate.size_mm * 0.5) as f32,
+                alpha_s: scene.plate.roughness as f32,
+                f0: scene.plate.f0 as f32,
+                n_views: scene.views.len() as u32,
+                n_groups,
+                n_tiles: slots.n_tiles,
+                capacity,
+                pad0: 0,
+            },
+            views: ctx.upload("views", &slots.views)?,
+            scratches: ctx.upload("scratches", &scr)?,
+            hist: Buffer::new(ctx, "bin offsets", hist_len * 4, MemLoc::GpuOnly)?,
+            cursor: Buffer::new(ctx, "bin cursors", hist_len * 4, MemLoc::GpuOnly)?,
+            sums: Buffer::new(ctx, "scan block sums", n_blocks * 4, MemLoc::GpuOnly)?,
+            list: Buffer::new(ctx, "tile lists", capacity as u64 * 4, MemLoc::GpuOnly)?,
+            capacity,
+            image: Buffer::new(ctx, "image", slots.n_pixels * 4, MemLoc::GpuOnly)?,
+            stats: Buffer::new(ctx, "stats", 64, MemLoc::GpuToCpu)?,
+            n_scratches,
+            n_groups,
+            slots,
+        })
+    }
+
+    /// Records tile binning (count, scan, scatter) into `rec`.
+    pub fn record_binning(&self, rec: &mut Recorder, gs: &GpuScene) {
+        let push = BinPush {
+            n_scratches: gs.n_scratches,
+            n_views: gs.shade.n_views,
+            n_groups: gs.n_groups,
+            group_size: GROUP_SIZE,
+            capacity: gs.capacity,
+            pad: [0; 3],
+        };
+        let groups = gs.n_groups.div_ceil(64);
+        rec.fill(&gs.hist, 0);
+        rec.barrier();
+        rec.dispatch_1d(
+            &self.bin_count,
+            &[&gs.views, &gs.scratches, &gs.hist, &gs.list],
+            bytemuck::bytes_of(&push),
+            groups,
+        );
+        rec.barrier();
+        self.record_scan(
+            rec,
+            &gs.hist,
+            &gs.sums,
+            gs.slots.n_tiles as u64 * gs.n_groups as u64 + 1,
+        );
+        rec.copy(&gs.hist, &gs.cursor, gs.hist.size());
+        rec.barrier();
+        rec.dispatch_1d(
+            &self.bin_scatter,
+            &[&gs.views, &gs.scratches, &gs.cursor, &gs.list],
+            bytemuck::bytes_of(&push),
+            groups,
+        );
+        rec.barrier();
+    }
+
+    /// Exclusive scan of `n` u32 in `data`, in place.
+    pub fn record_scan(&self, rec: &mut Recorder, data: &Buffer, sums: &Buffer, n: u64) {
+        let n_blocks = n.div_ceil(SCAN_BLOCK as u64) as u32;
+        let push = ScanPush {
+            n: n as u32,
+            n_blocks,
+            pad: [0; 2],
+        };
+        let pb = bytemuck::bytes_of(&push);
+        rec.dispatch_1d(&self.scan_reduce, &[data, sums], pb, n_blocks);
+        rec.barrier();
+        rec.dispatch(&self.scan_sums, &[data, sums], pb, [1, 1, 1]);
+        rec.barrier();
+        rec.dispatch_1d(&self.scan_apply, &[data, sums], pb, n_blocks);
+        rec.barrier();
+    }
+
+    /// Records the shading kernel (writes `gs.image` and `gs.stats`).
+    pub fn record_shading(&self, rec: &mut Recorder, gs: &GpuScene) {
+        rec.dispatch_1d(
+            &self.forward,
+            &[
+                &gs.views,
+                &gs.scratches,
+                &gs.hist,
+                &gs.list,
+                &gs.image,
+                &gs.stats,
+            ],
+            bytemuck::bytes_of(&gs.shade),
+            gs.slots.n_tiles,
+        );
+        rec.barrier();
+    }
+
+    /// Bins and shades; grows the tile-list buffer and repeats if binning overflowed it.
+    /// Returns the stats of the final pass; images stay on the device.
+    pub fn run(
+        &self,
+        rec: &mut Recorder,
+        gs: &mut GpuScene,
+    ) -> Result<(RenderStats, Timings), GpuError> {
+        loop {
+            rec.begin()?;
+            rec.fill(&gs.stats, 0);
+            rec.barrier();
+            self.record_binning(rec, gs);
+            rec.timestamp("bin");
+            self.record_shading(rec, gs);
+            rec.timestamp("shade");
+            let timings = rec.submit_and_wait()?;
+            let st: Vec<u32> = gs.stats.read()?;
+            let stats = RenderStats {
+                candidates: st[0] as u64,
+                pairs: st[1] as u64,
+                entries: st[2] as u64,
+            };
+            if stats.entries <= gs.capacity as u64 {
+                return Ok((stats, timings));
+            }
+            self.grow_list(gs, stats.entries)?;
+        }
+    }
+
+    /// Replaces the tile-list buffer by one that holds `entries` (plus slack).
+    pub fn grow_list(&self, gs: &mut GpuScene, entries: u64) -> Result<(), GpuError> {
+        let want = entries + entries / 4 + 1024;
+        if want * 4 > self.ctx.info().max_storage_buffer_range || want > u32::MAX as u64 {
+            return Err(GpuError::BufferTooLarge {
+                name: "tile lists".into(),
+                size: want * 4,
+                limit: self.ctx.info().max_storage_buffer_range,
+            });
+        }
+        gs.list = Buffer::new(&self.ctx, "tile lists", want * 4, MemLoc::GpuOnly)?;
+        gs.capacity = want as u32;
+        gs.shade.capacity = gs.capacity;
+        Ok(())
+    }
+
+    /// Renders every view and downloads the images.
+    pub fn render(&self, gs: &mut GpuScene) -> Result<Frame, GpuError> {
+        let mut rec = Recorder::new(&self.ctx)?;
+        let (stats, timings) = self.run(&mut rec, gs)?;
+        let all: Vec<f32> = self.ctx.download(&gs.image)?;
+        let images = gs
+            .slots
+            .views
+            .iter()
+            .map(|v| {
+                let n = v.dims[0] as usize * v.dims[1] as usize;
+                all[v.base[1] as usize..v.base[1] as usize + n].to_vec()
+            })
+            .collect();
+        Ok(Frame {
+            images,
+            stats,
+            timings,
+        })
+    }
+}

@@ -1,0 +1,112 @@
+//! Benchmarks (not tests): GPU time from Vulkan timestamp queries, median of repeats after warm-up.
+use std::fmt::Write as _;
+use std::sync::Arc;
+
+use crate::model::scene::Scene;
+use crate::render::Renderer;
+use crate::vulkan::{Context, GpuError, Recorder};
+
+/// Floating-point operations of `forward.comp` per candidate (pixel, scratch) test that is culled
+/// by the footprint's bounding circle: 2 subtractions, 2 dot products (4 mul + 2 add),
+/// 4 compares/adds.
+pub const FLOPS_PER_CANDIDATE: f64 = 12.0;
+/// Floating-point operations per overlapping pair, counted on the common path (a footprint edge
+/// pair crossing the carved strip: 4 clip passes over <= 8 vertices, 2 non-vertical edges, each
+/// with the closed-form lobe part and the 5-point Gauss part): local coordinates 24, pair
+/// constants 45, clipping 4 x 8 x 8 = 256, shoelace 40, per edge 2 x (setup 12 + closed form 70 +
+/// 3 transcendental (atan, log, sqrt) counted as 1 each + Gauss 5 x 16) = 330. Sum 695; rounded to 700.
+pub const FLOPS_PER_PAIR: f64 = 700.0;
+
+/// One benchmark row.
+#[derive(Clone, Debug)]
+pub struct ForwardRow {
+    pub name: String,
+    pub scratches: usize,
+    pub views: usize,
+    pub pixels: u64,
+    pub entries: u64,
+    pub candidates: u64,
+    pub pairs: u64,
+    pub bin_ms: f64,
+    pub shade_ms: f64,
+}
+
+fn median(mut v: Vec<f64>) -> f64 {
+    v.sort_by(|a, b| a.total_cmp(b));
+    let n = v.len();
+    if n % 2 == 1 {
+        v[n / 2]
+    } else {
+        0.5 * (v[n / 2 - 1] + v[n / 2])
+    }
+}
+
+/// Times binning and shading of each scene: `warmup` untimed runs, then the median of `repeats`.
+pub fn run_forward(
+    ctx: &Arc<Context>,
+    scenes: &[(String, Scene)],
+    warmup: usize,
+    repeats: usize,
+) -> Result<Vec<ForwardRow>, GpuError> {
+    let renderer = Renderer::new(ctx)?;
+    let mut rows = Vec::new();
+    for (name, scene) in scenes {
+        let mut gs = renderer.upload(scene)?;
+        let mut rec = Recorder::new(ctx)?;
+        let (mut bins, mut shades) = (Vec::new(), Vec::new());
+        let mut last = Default::default();
+        for i in 0..warmup + repeats {
+            let (stats, t) = renderer.run(&mut rec, &mut gs)?;
+            last = stats;
+            if i >= warmup {
+                bins.push(t.get("bin").unwrap_or(f64::NAN));
+                shades.push(t.get("shade").unwrap_or(f64::NAN));
+            }
+        }
+        rows.push(ForwardRow {
+            name: name.clone(),
+            scratches: scene.scratches.len(),
+            views: scene.views.len(),
+            pixels: gs.slots.n_pixels,
+            entries: last.entries,
+            candidates: last.candidates,
+            pairs: last.pairs,
+            bin_ms: median(bins),
+            shade_ms: median(shades),
+        });
+    }
+    Ok(rows)
+}
+
+/// Markdown table of forward rows.
+pub fn forward_table(ctx: &Context, rows: &[ForwardRow]) -> String {
+    let mut s = String::new();
+    let _ = writeln!(s, "device: {} ({})", ctx.info().name, ctx.info().kind);
+    let _ = writeln!(
+        s,
+        "| scene | scratches | views x pixels | tile entries | candidates | pairs | pair search ms/view | shading ms/view | Mpairs/s | GFLOP/s |"
+    );
+    let _ = writeln!(s, "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
+    for r in rows {
+        let v = r.views as f64;
+        let secs = r.shade_ms * 1e-3;
+        let flops =
+            r.pairs as f64 * FLOPS_PER_PAIR + (r.candidates - r.pairs) as f64 * FLOPS_PER_CANDIDATE;
+        let _ = writeln!(
+            s,
+            "| {} | {} | {} x {} | {} | {} | {} | {:.2} | {:.2} | {:.1} | {:.1} |",
+            r.name,
+            r.scratches,
+            r.views,
+            r.pixels / r.views as u64,
+            r.entries,
+            r.candidates,
+            r.pairs,
+            r.bin_ms / v,
+            r.shade_ms / v,
+            r.pairs as f64 / secs * 1e-6,
+            flops / secs * 1e-9
+        );
+    }
+    s
+}

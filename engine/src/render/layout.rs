@@ -1,0 +1,136 @@
+//! `#[repr(C)]` twins of the GLSL structs in `shaders/inc/common.glsl` and of the kernels'
+//! push-constant blocks. Field order and padding must match std430 / push-constant layout
+//! exactly; `tests/` checks them against the shaders on the device.
+use bytemuck::{Pod, Zeroable};
+
+use glam::DVec3;
+
+use crate::model::scene::{LightKind, Scene, Scratch, View};
+
+pub const TILE: u32 = 16;
+
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
+pub struct ViewGpu {
+    /// xyz eye; w = tan(fov_y / 2)
+    pub eye: [f32; 4],
+    /// xyz forward; w = aspect W / H
+    pub fwd: [f32; 4],
+    /// xyz right; w = light intensity Phi
+    pub right: [f32; 4],
+    /// xyz up'; w = light kind (0 point, 1 directional)
+    pub up: [f32; 4],
+    /// xyz light position (point) or unit direction towards the light (directional)
+    pub light: [f32; 4],
+    /// W, H, tiles_x, tiles_y
+    pub dims: [u32; 4],
+    /// first tile index, first pixel index, 0, 0
+    pub base: [u32; 4],
+}
+
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
+pub struct ScratchGpu {
+    /// p0.x, p0.y, p1.x, p1.y
+    pub ends: [f32; 4],
+    /// w, d, alpha, unused
+    pub shape: [f32; 4],
+}
+
+impl From<&Scratch> for ScratchGpu {
+    fn from(s: &Scratch) -> Self {
+        ScratchGpu {
+            ends: [
+                s.p0[0] as f32,
+                s.p0[1] as f32,
+                s.p1[0] as f32,
+                s.p1[1] as f32,
+            ],
+            shape: [s.w as f32, s.d as f32, s.alpha as f32, 0.0],
+        }
+    }
+}
+
+/// Push constants of `bin.comp`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
+pub struct BinPush {
+    pub n_scratches: u32,
+    pub n_views: u32,
+    pub n_groups: u32,
+    pub group_size: u32,
+    pub capacity: u32,
+    pub pad: [u32; 3],
+}
+
+/// Push constants of `scan.comp`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
+pub struct ScanPush {
+    pub n: u32,
+    pub n_blocks: u32,
+    pub pad: [u32; 2],
+}
+
+/// Push constants of `forward.comp` (and the backward kernels).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
+pub struct ShadePush {
+    pub half_plate: f32,
+    pub alpha_s: f32,
+    pub f0: f32,
+    pub n_views: u32,
+    pub n_groups: u32,
+    pub n_tiles: u32,
+    pub capacity: u32,
+    pub pad0: u32,
+}
+
+/// Where each view's tiles and pixels sit in the concatenated buffers.
+#[derive(Clone, Debug)]
+pub struct ViewSlots {
+    pub views: Vec<ViewGpu>,
+    pub n_tiles: u32,
+    pub n_pixels: u64,
+}
+
+pub fn view_gpu(view: &View, tile_base: u32, pixel_base: u32) -> ViewGpu {
+    let cam = &view.camera;
+    // MODEL.md section 4: f = normalize(T - C), r = normalize(f x U), up' = r x f.
+    let fwd = (DVec3::from(cam.target) - DVec3::from(cam.eye)).normalize();
+    let right = fwd.cross(DVec3::from(cam.up)).normalize();
+    let up = right.cross(fwd);
+    let (w, h) = (cam.width, cam.height);
+    let tiles_x = w.div_ceil(TILE);
+    let tiles_y = h.div_ceil(TILE);
+    let f3 = |v: [f64; 3], w: f32| [v[0] as f32, v[1] as f32, v[2] as f32, w];
+    let (kind, light) = match view.light.kind {
+        LightKind::Point { position } => (0.0, position),
+        LightKind::Directional { direction } => (1.0, direction),
+    };
+    ViewGpu {
+        eye: f3(cam.eye, (cam.fov_y_deg.to_radians() * 0.5).tan() as f32),
+        fwd: f3(fwd.to_array(), (w as f64 / h as f64) as f32),
+        right: f3(right.to_array(), view.light.intensity as f32),
+        up: f3(up.to_array(), kind),
+        light: f3(light, 0.0),
+        dims: [w, h, tiles_x, tiles_y],
+        base: [tile_base, pixel_base, 0, 0],
+    }
+}
+
+pub fn view_slots(scene: &Scene) -> ViewSlots {
+    let mut views = Vec::with_capacity(scene.views.len());
+    let (mut tiles, mut pixels) = (0u32, 0u64);
+    for v in &scene.views {
+        let gv = view_gpu(v, tiles, pixels as u32);
+        tiles += gv.dims[2] * gv.dims[3];
+        pixels += v.camera.width as u64 * v.camera.height as u64;
+        views.push(gv);
+    }
+    ViewSlots {
+        views,
+        n_tiles: tiles,
+        n_pixels: pixels,
+    }
+}

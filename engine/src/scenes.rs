@@ -1,0 +1,191 @@
+//! Built-in scenes: the benchmark scenes S and M of the README, the paper-scale scene, and the demo
+//! plate. Generated from a seed with a small deterministic generator, so every machine builds the
+//! same scene.
+use crate::model::scene::{Camera, Light, LightKind, Plate, Scene, Scratch, View};
+
+/// SplitMix64: tiny, deterministic, good enough for scene generation.
+#[derive(Clone, Debug)]
+pub struct Rng(u64);
+
+impl Rng {
+    pub fn new(seed: u64) -> Rng {
+        Rng(seed ^ 0x9E37_79B9_7F4A_7C15)
+    }
+    pub fn next_u64(&mut self) -> u64 {
+        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        z ^ (z >> 31)
+    }
+    /// Uniform in [0, 1).
+    pub fn f64(&mut self) -> f64 {
+        (self.next_u64() >> 11) as f64 * (1.0 / (1u64 << 53) as f64)
+    }
+    pub fn range(&mut self, lo: f64, hi: f64) -> f64 {
+        lo + (hi - lo) * self.f64()
+    }
+}
+
+/// A camera on a sphere around the plate centre, looking at it, with the plate filling the view.
+pub fn orbit_camera(
+    distance: f64,
+    elevation_deg: f64,
+    azimuth_deg: f64,
+    plate_mm: f64,
+    width: u32,
+    height: u32,
+) -> Camera {
+    let (el, az) = (elevation_deg.to_radians(), azimuth_deg.to_radians());
+    let eye = [
+        distance * el.cos() * az.cos(),
+        distance * el.cos() * az.sin(),
+        distance * el.sin(),
+    ];
+    // Vertical field of view that holds the plate's half-diagonal with a small margin.
+    let fov = 2.0 * ((0.75 * plate_mm) / distance).atan().to_degrees();
+    Camera {
+        eye,
+        target: [0.0, 0.0, 0.0],
+        up: [0.0, 0.0, 1.0],
+        fov_y_deg: fov,
+        width,
+        height,
+    }
+}
+
+/// A point light on the same kind of sphere; `intensity` is chosen by the caller.
+pub fn orbit_light(distance: f64, elevation_deg: f64, azimuth_deg: f64, intensity: f64) -> Light {
+    let (el, az) = (elevation_deg.to_radians(), azimuth_deg.to_radians());
+    Light {
+        kind: LightKind::Point {
+            position: [
+                distance * el.cos() * az.cos(),
+                distance * el.cos() * az.sin(),
+                distance * el.sin(),
+            ],
+        },
+        intensity,
+    }
+}
+
+/// `n` random scratches over a square plate of side `plate_mm`: uniform first endpoint, uniform
+/// direction, length uniform in [len_lo, len_hi]; redrawn until both ends are on the plate.
+pub fn random_scratches(
+    rng: &mut Rng,
+    n: usize,
+    plate_mm: f64,
+    len_lo: f64,
+    len_hi: f64,
+    w: f64,
+    d: f64,
+    alpha: f64,
+) -> Vec<Scratch> {
+    let h = 0.5 * plate_mm;
+    let mut out = Vec::with_capacity(n);
+    while out.len() < n {
+        let p0 = [rng.range(-h, h), rng.range(-h, h)];
+        let a = rng.range(0.0, std::f64::consts::TAU);
+        let l = rng.range(len_lo, len_hi);
+        let p1 = [p0[0] + l * a.cos(), p0[1] + l * a.sin()];
+        if p1[0].abs() <= h && p1[1].abs() <= h {
+            out.push(Scratch {
+                p0,
+                p1,
+                w,
+                d,
+                alpha,
+            });
+        }
+    }
+    out
+}
+
+/// The views of the paper's rule: M views at elevation `elev`, view j at azimuth 360 j / M.
+pub fn ring_views(
+    m: usize,
+    elev: f64,
+    distance: f64,
+    plate_mm: f64,
+    res: u32,
+    light: &Light,
+) -> Vec<View> {
+    (0..m)
+        .map(|j| View {
+            name: format!("v{j}"),
+            camera: orbit_camera(
+                distance,
+                elev,
+                360.0 * j as f64 / m as f64,
+                plate_mm,
+                res,
+                res,
+            ),
+            light: light.clone(),
+        })
+        .collect()
+}
+
+/// Standard benchmark scenes. S: 4,000 scratches, 2 views of 128x128. M: 40,000 scratches,
+/// 3 views of 256x256. P (paper scale): 40,000 scratches, 3 views of 512x512. All: random
+/// endpoints over a 100 mm plate, lengths 5-30 mm, w = d = 0.05 mm, alpha 0.04, views at 45
+/// degrees elevation and azimuths 0/120/240 (0/180 for S), one point light at 45 degrees.
+pub fn bench_scene(name: &str) -> Option<Scene> {
+    let (n, views, res) = match name {
+        "S" | "s" => (4_000, 2, 128),
+        "M" | "m" => (40_000, 3, 256),
+        "P" | "p" => (40_000, 3, 512),
+        _ => return None,
+    };
+    let plate = 100.0;
+    let mut rng = Rng::new(0x5C2A7C4 + n as u64);
+    let light = orbit_light(300.0, 45.0, 60.0, 90_000.0);
+    let mut vs = ring_views(3, 45.0, 300.0, plate, res, &light);
+    vs.truncate(views);
+    Some(Scene {
+        plate: Plate {
+            size_mm: plate,
+            roughness: 0.02,
+            f0: 0.91,
+        },
+        views: vs,
+        scratches: random_scratches(&mut rng, n, plate, 5.0, 30.0, 0.05, 0.05, 0.04),
+    })
+}
+
+/// The demo plate: scratches tangent to concentric circles (a turned finish). Under a point
+/// light it shows the classic bright arc that swings round as the light or the eye moves.
+pub fn demo_scene(res: u32) -> Scene {
+    let plate = 100.0;
+    let mut rng = Rng::new(7);
+    let mut scratches = Vec::new();
+    let mut r = 3.0;
+    while r < 48.0 {
+        let n = (std::f64::consts::TAU * r / 2.5) as usize;
+        for k in 0..n {
+            let a = std::f64::consts::TAU * (k as f64 + 0.5 * rng.f64()) / n as f64;
+            let (c, s) = (a.cos(), a.sin());
+            let l = 2.0;
+            let p = [r * c, r * s];
+            let t = [-s, c];
+            scratches.push(Scratch {
+                p0: [p[0] - 0.5 * l * t[0], p[1] - 0.5 * l * t[1]],
+                p1: [p[0] + 0.5 * l * t[0], p[1] + 0.5 * l * t[1]],
+                w: 0.06,
+                d: 0.04,
+                alpha: 0.05,
+            });
+        }
+        r += 0.35;
+    }
+    let light = orbit_light(300.0, 50.0, 200.0, 90_000.0);
+    Scene {
+        plate: Plate {
+            size_mm: plate,
+            roughness: 0.02,
+            f0: 0.91,
+        },
+        views: ring_views(3, 45.0, 300.0, plate, res, &light),
+        scratches,
+    }
+}

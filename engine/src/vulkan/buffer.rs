@@ -1,0 +1,207 @@
+//! [`Buffer`]: a storage buffer with its `gpu-allocator` memory. Every buffer is usable as a
+//! storage buffer and as a transfer source/destination, so any buffer can be bound to any
+//! compute pipeline, filled, copied or read back.
+use std::sync::Arc;
+
+use ash::vk;
+use gpu_allocator::{
+    vulkan::{Allocation, AllocationCreateDesc, AllocationScheme},
+    AllocationError, MemoryLocation,
+};
+
+use super::{
+    context::Context,
+    error::{vk_err, GpuError},
+};
+
+/// Where a buffer's memory lives.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum MemLoc {
+    /// Device-local; fill with [`Context::upload`], read with [`Context::download`].
+    GpuOnly,
+    /// Host-visible, written by the CPU (staging, per-frame parameters).
+    CpuToGpu,
+    /// Host-visible and cached, read by the CPU (readback).
+    GpuToCpu,
+}
+
+pub struct Buffer {
+    ctx: Arc<Context>,
+    raw: vk::Buffer,
+    /// `Option` so `Drop` can move it into `Allocator::free`.
+    allocation: Option<Allocation>,
+    size: u64,
+    loc: MemLoc,
+    name: String,
+}
+
+impl Buffer {
+    /// Creates a buffer of `size` bytes (0 becomes 16: Vulkan forbids empty buffers).
+    pub fn new(ctx: &Arc<Context>, name: &str, size: u64, loc: MemLoc) -> Result<Buffer, GpuError> {
+        let size = size.max(16);
+        let limit = ctx.info().max_storage_buffer_range;
+        if size > limit {
+            return Err(GpuError::BufferTooLarge {
+                name: name.into(),
+                size,
+                limit,
+            });
+        }
+        let d = &ctx.device;
+        let ci = vk::BufferCreateInfo::default()
+            .size(size)
+            .usage(
+                vk::BufferUsageFlags::STORAGE_BUFFER
+                    | vk::BufferUsageFlags::TRANSFER_SRC
+                    | vk::BufferUsageFlags::TRANSFER_DST,
+            )
+            .sharing_mode(vk::SharingMode::EXCLUSIVE);
+        let raw = unsafe { d.create_buffer(&ci, None) }.map_err(|e| match e {
+            vk::Result::ERROR_OUT_OF_DEVICE_MEMORY | vk::Result::ERROR_OUT_OF_HOST_MEMORY => {
+                GpuError::OutOfMemory {
+                    name: name.into(),
+                    size,
+                }
+            }
+            e => vk_err("vkCreateBuffer")(e),
+        })?;
+        let requirements = unsafe { d.get_buffer_memory_requirements(raw) };
+        let location = match loc {
+            MemLoc::GpuOnly => MemoryLocation::GpuOnly,
+            MemLoc::CpuToGpu => MemoryLocation::CpuToGpu,
+            MemLoc::GpuToCpu => MemoryLocation::GpuToCpu,
+        };
+        let allocation = ctx.allocator().allocate(&AllocationCreateDesc {
+            name,
+            requirements,
+            location,
+            linear: true,
+            allocation_scheme: AllocationScheme::GpuAllocatorManaged,
+        });
+        let allocation = match allocation {
+            Ok(a) => a,
+            Err(e) => {
+                unsafe { d.destroy_buffer(raw, None) };
+                return Err(match e {
+                    AllocationError::OutOfMemory => GpuError::OutOfMemory {
+                        name: name.into(),
+                        size,
+                    },
+                    e => GpuError::Allocation {
+                        name: name.into(),
+                        msg: e.to_string(),
+                    },
+                });
+            }
+        };
+        if let Err(e) =
+            unsafe { d.bind_buffer_memory(raw, allocation.memory(), allocation.offset()) }
+        {
+            let _ = ctx.allocator().free(allocation);
+            unsafe { d.destroy_buffer(raw, None) };
+            return Err(vk_err("vkBindBufferMemory")(e));
+        }
+        ctx.set_object_name(raw, name);
+        Ok(Buffer {
+            ctx: ctx.clone(),
+            raw,
+            allocation: Some(allocation),
+            size,
+            loc,
+            name: name.into(),
+        })
+    }
+
+    /// Size in bytes (at least 16).
+    pub fn size(&self) -> u64 {
+        self.size
+    }
+
+    pub fn raw(&self) -> vk::Buffer {
+        self.raw
+    }
+
+    pub fn name(&self) -> &str {
+        &self.name
+    }
+
+    pub fn location(&self) -> MemLoc {
+        self.loc
+    }
+
+    /// Whether the CPU can read/write the memory directly. Only coherent mappings count: we
+    /// never flush/invalidate, so a non-coherent mapping would silently read stale data.
+    /// (`GpuOnly` memory is host-visible on UMA devices and lavapipe.)
+    pub fn is_host_visible(&self) -> bool {
+        let a = self.allocation.as_ref().unwrap();
+        a.mapped_ptr().is_some()
+            && a.memory_properties()
+                .contains(vk::MemoryPropertyFlags::HOST_COHERENT)
+    }
+
+    fn mapped(&self) -> Result<*mut u8, GpuError> {
+        let a = self.allocation.as_ref().unwrap();
+        match a.mapped_ptr() {
+            Some(p) if self.is_host_visible() => Ok(p.as_ptr() as *mut u8),
+            _ => Err(GpuError::NotHostVisible(self.name.clone())),
+        }
+    }
+
+    /// Writes `data` at `offset_bytes`. Host-visible buffers only. Hazard: the caller must make
+    /// sure the GPU is not using the range (e.g. write before submitting, or after waiting).
+    pub fn write<T: bytemuck::Pod>(&self, offset_bytes: u64, data: &[T]) -> Result<(), GpuError> {
+        let bytes: &[u8] = bytemuck::cast_slice(data);
+        let ptr = self.mapped()?;
+        assert!(
+            offset_bytes
+                .checked_add(bytes.len() as u64)
+                .is_some_and(|end| end <= self.size),
+            "write of {} bytes at offset {offset_bytes} overflows buffer '{}' ({} bytes)",
+            bytes.len(),
+            self.name,
+            self.size
+        );
+        // SAFETY: the mapping covers `size` bytes and the range was checked above; raw copies
+        // avoid creating `&mut [u8]` over memory the GPU may also access.
+        unsafe {
+            std::ptr::copy_nonoverlapping(
+                bytes.as_ptr(),
+                ptr.add(offset_bytes as usize),
+                bytes.len(),
+            )
+        };
+        Ok(())
+    }
+
+    /// Reads the whole buffer as `size / size_of::<T>()` elements. Host-visible buffers only.
+    pub fn read<T: bytemuck::Pod>(&self) -> Result<Vec<T>, GpuError> {
+        let ptr = self.mapped()?;
+        let n = self.size as usize / std::mem::size_of::<T>().max(1);
+        let mut out = vec![T::zeroed(); n];
+        let dst: &mut [u8] = bytemuck::cast_slice_mut(&mut out);
+        // SAFETY: `dst.len() <= size`, inside the mapping.
+        unsafe { std::ptr::copy_nonoverlapping(ptr as *const u8, dst.as_mut_ptr(), dst.len()) };
+        Ok(out)
+    }
+}
+
+impl Drop for Buffer {
+    fn drop(&mut self) {
+        // Hazard: the GPU must be done with the buffer. Recorder::submit_and_wait and the
+        // one-off transfers wait for completion, so this holds unless a submission timed out.
+        if let Some(a) = self.allocation.take() {
+            let _ = self.ctx.allocator().free(a);
+        }
+        unsafe { self.ctx.device.destroy_buffer(self.raw, None) };
+    }
+}
+
+impl std::fmt::Debug for Buffer {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Buffer")
+            .field("name", &self.name)
+            .field("size", &self.size)
+            .field("loc", &self.loc)
+            .finish()
+    }
+}

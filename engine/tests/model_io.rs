@@ -1,0 +1,140 @@
+//! Image files: PFM byte layout and round trip, PNG display values, resizing, errors.
+
+use std::path::PathBuf;
+
+use scratchart::io;
+
+fn tmpdir(tag: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("scratchart_model_io_{}_{tag}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+#[test]
+fn pfm_bytes_are_bottom_row_first_little_endian() {
+    let d = tmpdir("pfmbytes");
+    let p = d.join("a.pfm");
+    // 3 wide, 2 high; top row = 1, 2, 3; bottom row = 4, 5, 6.
+    let data = [1.0f32, 2.0, 3.0, 4.0, 5.0, 6.0];
+    io::write_pfm(&p, 3, 2, &data).unwrap();
+    let bytes = std::fs::read(&p).unwrap();
+    let header = b"Pf\n3 2\n-1.0\n";
+    assert_eq!(&bytes[..header.len()], header);
+    let body = &bytes[header.len()..];
+    assert_eq!(body.len(), 24);
+    let vals: Vec<f32> = body
+        .chunks(4)
+        .map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]]))
+        .collect();
+    assert_eq!(vals, vec![4.0, 5.0, 6.0, 1.0, 2.0, 3.0]);
+    let (w, h, back) = io::read_pfm(&p).unwrap();
+    assert_eq!((w, h), (3, 2));
+    assert_eq!(back, data);
+    // No temp file left.
+    assert_eq!(std::fs::read_dir(&d).unwrap().count(), 1);
+}
+
+#[test]
+fn pfm_round_trip_exact_and_big_endian() {
+    let d = tmpdir("pfmrt");
+    let (w, h) = (7u32, 5u32);
+    let data: Vec<f32> = (0..w * h)
+        .map(|k| (k as f32 * 0.37).sin() * 1e-3 + f32::MIN_POSITIVE * k as f32)
+        .collect();
+    let p = d.join("x.pfm");
+    io::write_pfm(&p, w, h, &data).unwrap();
+    let (w2, h2, back) = io::read_pfm(&p).unwrap();
+    assert_eq!((w2, h2), (w, h));
+    assert_eq!(
+        back.iter().map(|v| v.to_bits()).collect::<Vec<_>>(),
+        data.iter().map(|v| v.to_bits()).collect::<Vec<_>>()
+    );
+    // Big-endian file with a different header layout.
+    let mut be = b"Pf 2 1 1.0\n".to_vec();
+    be.extend_from_slice(&1.5f32.to_be_bytes());
+    be.extend_from_slice(&(-2.25f32).to_be_bytes());
+    let p = d.join("be.pfm");
+    std::fs::write(&p, &be).unwrap();
+    assert_eq!(io::read_pfm(&p).unwrap(), (2, 1, vec![1.5, -2.25]));
+}
+
+#[test]
+fn pfm_errors_name_the_file() {
+    let d = tmpdir("pfmerr");
+    let cases: Vec<(&str, Vec<u8>, &str)> = vec![
+        ("magic.pfm", b"P6\n1 1\n-1.0\n\0\0\0\0".to_vec(), "magic"),
+        (
+            "short.pfm",
+            b"Pf\n2 2\n-1.0\n\0\0\0\0".to_vec(),
+            "needs 16 data bytes",
+        ),
+        ("width.pfm", b"Pf\nx 2\n-1.0\n".to_vec(), "width"),
+        ("scale.pfm", b"Pf\n1 1\n0\n\0\0\0\0".to_vec(), "scale"),
+        ("trunc.pfm", b"Pf\n1".to_vec(), "header ends early"),
+    ];
+    for (name, bytes, needle) in cases {
+        let p = d.join(name);
+        std::fs::write(&p, bytes).unwrap();
+        let msg = io::read_pfm(&p).unwrap_err().to_string();
+        assert!(msg.contains(name) && msg.contains(needle), "{msg}");
+    }
+    let msg = io::read_pfm(&d.join("missing.pfm"))
+        .unwrap_err()
+        .to_string();
+    assert!(msg.contains("missing.pfm"), "{msg}");
+    let msg = io::write_pfm(&d.join("bad.pfm"), 2, 2, &[0.0; 3])
+        .unwrap_err()
+        .to_string();
+    assert!(msg.contains("bad.pfm"), "{msg}");
+}
+
+#[test]
+fn png_display_values() {
+    let d = tmpdir("png");
+    let p = d.join("disp.png");
+    let lin = [0.0f32, 1.0, 2.0, 0.5, -1.0, f32::NAN];
+    io::write_png_display(&p, 3, 2, &lin).unwrap();
+    let img = image::open(&p).unwrap();
+    assert_eq!(img.color(), image::ColorType::L8);
+    let raw = img.to_luma8().into_raw();
+    let half = (255.0 * 0.5f64.powf(1.0 / 2.2)).round() as u8;
+    assert_eq!(raw, vec![0, 255, 255, half, 0, 0]);
+    let (w, h, g) = io::read_image_gray(&p).unwrap();
+    assert_eq!((w, h), (3, 2));
+    assert!((g[3] - half as f32 / 255.0).abs() < 1e-6);
+    // Colour JPEG -> luma in [0, 1].
+    let rgb = image::RgbImage::from_fn(8, 4, |x, _| image::Rgb([(x * 30) as u8, 128, 200]));
+    let pj = d.join("c.jpg");
+    rgb.save(&pj).unwrap();
+    let (w, h, g) = io::read_image_gray(&pj).unwrap();
+    assert_eq!((w, h, g.len()), (8, 4, 32));
+    assert!(g.iter().all(|v| (0.0..=1.0).contains(v)));
+    let msg = io::read_image_gray(&d.join("nothere.png"))
+        .unwrap_err()
+        .to_string();
+    assert!(msg.contains("nothere.png"), "{msg}");
+}
+
+#[test]
+fn resize() {
+    // Identity.
+    let src: Vec<f32> = (0..12).map(|k| k as f32).collect();
+    assert_eq!(io::resize_bilinear(&src, 4, 3, 4, 3), src);
+    // Constant stays constant; linear ramps stay linear in the interior when enlarging.
+    let c = vec![0.25f32; 20];
+    assert!(io::resize_bilinear(&c, 5, 4, 13, 7)
+        .iter()
+        .all(|v| (v - 0.25).abs() < 1e-6));
+    let ramp: Vec<f32> = (0..4).map(|k| k as f32).collect();
+    let up = io::resize_bilinear(&ramp, 4, 1, 8, 1);
+    // Destination centre x maps to source (x + 0.5)/2 - 0.5.
+    for (x, v) in up.iter().enumerate().skip(1).take(6) {
+        let s = (x as f32 + 0.5) / 2.0 - 0.5;
+        assert!((v - s).abs() < 1e-6, "{x}: {v} vs {s}");
+    }
+    // Downscale by 2 of a checkerboard averages to ~0.5.
+    let cb: Vec<f32> = (0..64).map(|k| ((k % 8 + k / 8) % 2) as f32).collect();
+    let down = io::resize_bilinear(&cb, 8, 8, 4, 4);
+    assert!(down.iter().all(|v| (v - 0.5).abs() < 0.2), "{down:?}");
+}

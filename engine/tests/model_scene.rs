@@ -1,0 +1,533 @@
+//! Scene file reading, validation and writing (MODEL.md section 6).
+
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicUsize, Ordering};
+
+use scratchart::model::scene::{LightKind, Scene, Scratch};
+use serde_json::{json, Value};
+
+static COUNTER: AtomicUsize = AtomicUsize::new(0);
+
+fn tmpdir(tag: &str) -> PathBuf {
+    let n = COUNTER.fetch_add(1, Ordering::Relaxed);
+    let d = std::env::temp_dir().join(format!(
+        "scratchart_model_scene_{}_{tag}_{n}",
+        std::process::id()
+    ));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+fn base() -> Value {
+    json!({
+        "plate": { "size_mm": 100.0, "roughness": 0.02, "f0": 0.91 },
+        "views": [
+            { "name": "v0",
+              "camera": { "eye": [0, -250, 250], "target": [0, 0, 0], "up": [0, 0, 1],
+                          "fov_y_deg": 28.0, "width": 64, "height": 48 },
+              "light": { "kind": "point", "position": [0, 250, 250], "intensity": 60000.0 } }
+        ],
+        "scratches": [[-10.0, 0.0, 10.0, 5.0, 0.05, 0.01, 0.1]]
+    })
+}
+
+/// Write `v` as scene.json (plus optional CSV text) into a fresh directory and load it.
+fn load_value(tag: &str, v: &Value, csv: Option<&str>) -> (Result<Scene, String>, PathBuf) {
+    let d = tmpdir(tag);
+    let p = d.join(format!("{tag}.json"));
+    std::fs::write(&p, serde_json::to_string_pretty(v).unwrap()).unwrap();
+    if let Some(c) = csv {
+        std::fs::write(d.join(format!("{tag}.csv")), c).unwrap();
+    }
+    (Scene::load(&p).map_err(|e| e.to_string()), p)
+}
+
+fn set(v: &mut Value, pointer: &str, x: Value) {
+    *v.pointer_mut(pointer)
+        .unwrap_or_else(|| panic!("no {pointer}")) = x;
+}
+
+/// Loading `v` fails with a message naming the file and containing every `needles` string.
+fn expect_err(tag: &str, v: &Value, needles: &[&str]) {
+    let (r, p) = load_value(tag, v, None);
+    let msg = r.expect_err(&format!("{tag}: should fail"));
+    eprintln!("{tag}: {msg}");
+    let fname = p.file_name().unwrap().to_str().unwrap();
+    assert!(
+        msg.contains(fname),
+        "{tag}: message does not name the file: {msg}"
+    );
+    for n in needles {
+        assert!(msg.contains(n), "{tag}: message lacks `{n}`: {msg}");
+    }
+}
+
+fn expect_csv_err(tag: &str, csv: &str, needles: &[&str]) {
+    let mut v = base();
+    set(&mut v, "/scratches", json!(format!("{tag}.csv")));
+    let (r, _) = load_value(tag, &v, Some(csv));
+    let msg = r.expect_err(&format!("{tag}: should fail"));
+    eprintln!("{tag}: {msg}");
+    assert!(
+        msg.contains(&format!("{tag}.csv")),
+        "{tag}: message does not name the CSV: {msg}"
+    );
+    for n in needles {
+        assert!(msg.contains(n), "{tag}: message lacks `{n}`: {msg}");
+    }
+}
+
+#[test]
+fn base_scene_loads() {
+    let (r, _) = load_value("base", &base(), None);
+    let s = r.unwrap();
+    assert_eq!(s.views.len(), 1);
+    assert_eq!(s.scratches.len(), 1);
+    assert_eq!(s.views[0].camera.width, 64);
+    assert!(matches!(s.views[0].light.kind, LightKind::Point { .. }));
+    s.validate().unwrap();
+}
+
+#[test]
+fn json_errors() {
+    let d = tmpdir("badjson");
+    let p = d.join("broken.json");
+    std::fs::write(&p, "{\n  \"plate\": { \"size_mm\": 100.0,, }\n}").unwrap();
+    let msg = Scene::load(&p).unwrap_err().to_string();
+    assert!(
+        msg.contains("broken.json") && msg.contains("line 2") && msg.contains("column"),
+        "{msg}"
+    );
+
+    std::fs::write(&p, "{ \"plate\": { \"size_mm\": NaN } }").unwrap();
+    let msg = Scene::load(&p).unwrap_err().to_string();
+    assert!(
+        msg.contains("broken.json") && msg.contains("NaN") && msg.contains("line 1"),
+        "{msg}"
+    );
+
+    let msg = Scene::load(&d.join("nope.json")).unwrap_err().to_string();
+    assert!(
+        msg.contains("nope.json") && msg.contains("cannot read scene file"),
+        "{msg}"
+    );
+}
+
+#[test]
+fn missing_csv() {
+    let mut v = base();
+    set(&mut v, "/scratches", json!("absent.csv"));
+    let (r, _) = load_value("missingcsv", &v, None);
+    let msg = r.unwrap_err();
+    assert!(
+        msg.contains("absent.csv") && msg.contains("scratch CSV file"),
+        "{msg}"
+    );
+}
+
+#[test]
+fn csv_errors() {
+    let h = "x0,y0,x1,y1,w,d,alpha\n";
+    expect_csv_err(
+        "cols",
+        &format!("{h}0,0,1,1,0.1,0.1,0.5\n0,0,1,1,0.1,0.1\n"),
+        &["data row 2", "line 3", "6 columns", "expected 7"],
+    );
+    expect_csv_err(
+        "nonnum",
+        &format!("{h}0,0,1,abc,0.1,0.1,0.5\n"),
+        &["data row 1", "line 2", "y1", "`abc` is not a number"],
+    );
+    expect_csv_err(
+        "nan",
+        &format!("{h}\n0,0,1,1,0.1,0.1,0.5\n0,0,1,1,nan,0.1,0.5\n"),
+        &["data row 2", "line 4", "column w", "not a finite number"],
+    );
+    expect_csv_err(
+        "inf",
+        &format!("{h}0,0,1,1,0.1,inf,0.5\n"),
+        &["data row 1", "column d", "not a finite"],
+    );
+    expect_csv_err(
+        "header",
+        "x0,y0,x1,y1,w,depth,alpha\n0,0,1,1,0.1,0.1,0.5\n",
+        &["header", "expected"],
+    );
+    expect_csv_err(
+        "wzero",
+        &format!("{h}0,0,1,1,0,0.1,0.5\n"),
+        &["data row 1", "line 2", "w = 0", "> 0"],
+    );
+    expect_csv_err(
+        "dneg",
+        &format!("{h}0,0,1,1,0.1,-0.1,0.5\n"),
+        &["data row 1", "d = -0.1", "> 0"],
+    );
+    expect_csv_err(
+        "alpha1",
+        &format!("{h}0,0,1,1,0.1,0.1,1\n"),
+        &["alpha = 1", "between 0 and 1"],
+    );
+    expect_csv_err(
+        "alpha0",
+        &format!("{h}0,0,1,1,0.1,0.1,0\n"),
+        &["alpha = 0", "between 0 and 1"],
+    );
+    expect_csv_err(
+        "zerolen",
+        &format!("{h}0,0,1,1,0.1,0.1,0.5\n2,3,2,3,0.1,0.1,0.5\n"),
+        &["data row 2", "zero-length"],
+    );
+    expect_csv_err(
+        "offplate",
+        &format!("{h}0,0,50.5,1,0.1,0.1,0.5\n"),
+        &["p1", "off the plate", "50"],
+    );
+}
+
+#[test]
+fn csv_valid_edge_cases_and_reader() {
+    // Headerless, CRLF, comments, blank lines, thin and short scratches, edge endpoints.
+    let csv = "# scratches\r\n0,0,1e-4,0,1e-4,1e-6,1e-3\r\n\r\n-50,-50,50,50,0.1,0.1,0.999\r\n";
+    let mut v = base();
+    set(&mut v, "/scratches", json!("edge.csv"));
+    let (r, p) = load_value("edge", &v, Some(csv));
+    let s = r.unwrap();
+    assert_eq!(s.scratches.len(), 2);
+    assert_eq!(s.scratches[0].alpha, 1e-3);
+    assert!(s.scratches[0].half_width() > 0.0);
+    let direct =
+        scratchart::model::read_scratches_csv(&p.parent().unwrap().join("edge.csv")).unwrap();
+    assert_eq!(direct, s.scratches);
+}
+
+#[test]
+fn inline_scratch_errors() {
+    let bad = |tag: &str, row: Value, needles: &[&str]| {
+        let mut v = base();
+        set(
+            &mut v,
+            "/scratches",
+            json!([[0, 0, 1, 1, 0.1, 0.1, 0.5], row]),
+        );
+        let mut n = vec!["scratches row 2"];
+        n.extend_from_slice(needles);
+        expect_err(tag, &v, &n);
+    };
+    bad("in_w", json!([0, 0, 1, 1, -1, 0.1, 0.5]), &["w = -1"]);
+    bad("in_d", json!([0, 0, 1, 1, 0.1, 0, 0.5]), &["d = 0"]);
+    bad(
+        "in_a",
+        json!([0, 0, 1, 1, 0.1, 0.1, 1.5]),
+        &["alpha = 1.5", "not clamped"],
+    );
+    bad(
+        "in_len",
+        json!([1, 1, 1, 1, 0.1, 0.1, 0.5]),
+        &["zero-length"],
+    );
+    bad(
+        "in_off",
+        json!([0, -60, 1, 1, 0.1, 0.1, 0.5]),
+        &["p0", "off the plate"],
+    );
+    bad("in_cols", json!([0, 0, 1, 1, 0.1, 0.1]), &["7 numbers"]);
+    bad(
+        "in_str",
+        json!([0, 0, 1, "x", 0.1, 0.1, 0.5]),
+        &["y1", "not a number"],
+    );
+}
+
+#[test]
+fn plate_and_view_errors() {
+    let cases: Vec<(&str, &str, Value, Vec<&str>)> = vec![
+        (
+            "size0",
+            "/plate/size_mm",
+            json!(0.0),
+            vec!["plate.size_mm", "> 0"],
+        ),
+        (
+            "sizeneg",
+            "/plate/size_mm",
+            json!(-5),
+            vec!["plate.size_mm"],
+        ),
+        (
+            "rough0",
+            "/plate/roughness",
+            json!(0.0),
+            vec!["plate.roughness", "between 0 and 1"],
+        ),
+        (
+            "rough1",
+            "/plate/roughness",
+            json!(1.0),
+            vec!["plate.roughness"],
+        ),
+        ("f0big", "/plate/f0", json!(1.5), vec!["plate.f0", "[0, 1]"]),
+        ("noviews", "/views", json!([]), vec!["views", "no views"]),
+        (
+            "width0",
+            "/views/0/camera/width",
+            json!(0),
+            vec!["camera.width", "at least 1"],
+        ),
+        (
+            "height0",
+            "/views/0/camera/height",
+            json!(0),
+            vec!["camera.height", "at least 1"],
+        ),
+        (
+            "fov0",
+            "/views/0/camera/fov_y_deg",
+            json!(0.0),
+            vec!["fov_y_deg", "between 0 and 180"],
+        ),
+        (
+            "fov180",
+            "/views/0/camera/fov_y_deg",
+            json!(180.0),
+            vec!["fov_y_deg", "between 0 and 180"],
+        ),
+        (
+            "eyetarget",
+            "/views/0/camera/target",
+            json!([0, -250, 250]),
+            vec!["v0", "eye and target coincide"],
+        ),
+        (
+            "upparallel",
+            "/views/0/camera/up",
+            json!([0, 1, -1]),
+            vec!["v0", "camera.up", "parallel"],
+        ),
+        (
+            "kind",
+            "/views/0/light/kind",
+            json!("spot"),
+            vec!["light.kind", "unknown light kind", "spot"],
+        ),
+        (
+            "int0",
+            "/views/0/light/intensity",
+            json!(0.0),
+            vec!["light.intensity", "> 0"],
+        ),
+        (
+            "intneg",
+            "/views/0/light/intensity",
+            json!(-3.0),
+            vec!["light.intensity"],
+        ),
+        (
+            "badname",
+            "/views/0/name",
+            json!("a/b"),
+            vec!["view name", "file name"],
+        ),
+        (
+            "emptyname",
+            "/views/0/name",
+            json!(""),
+            vec!["view name is empty"],
+        ),
+        (
+            "dotname",
+            "/views/0/name",
+            json!(".."),
+            vec!["view name", "file name"],
+        ),
+        (
+            "nosee",
+            "/views/0/camera/target",
+            json!([0, -500, 500]),
+            vec!["v0", "does not see the plate", "move the target"],
+        ),
+    ];
+    for (tag, ptr, val, needles) in cases {
+        let mut v = base();
+        set(&mut v, ptr, val);
+        expect_err(tag, &v, &needles);
+    }
+
+    // Missing position, missing/zero direction.
+    let mut v = base();
+    v.pointer_mut("/views/0/light")
+        .unwrap()
+        .as_object_mut()
+        .unwrap()
+        .remove("position");
+    expect_err("nopos", &v, &["light.position", "missing"]);
+    let mut v = base();
+    set(
+        &mut v,
+        "/views/0/light",
+        json!({"kind": "directional", "intensity": 1.0}),
+    );
+    expect_err("nodir", &v, &["light.direction", "missing"]);
+    let mut v = base();
+    set(
+        &mut v,
+        "/views/0/light",
+        json!({"kind": "directional", "direction": [0, 0, 0], "intensity": 1.0}),
+    );
+    expect_err("zerodir", &v, &["light.direction", "zero"]);
+
+    // Duplicate names.
+    let mut v = base();
+    let view = v["views"][0].clone();
+    v["views"].as_array_mut().unwrap().push(view);
+    expect_err("dup", &v, &["duplicate view name", "v0"]);
+
+    // Missing plate size.
+    let mut v = base();
+    v["plate"].as_object_mut().unwrap().remove("size_mm");
+    expect_err("nosize", &v, &["plate.size_mm", "missing"]);
+}
+
+#[test]
+fn valid_edge_cases_accepted() {
+    let mut v = base();
+    // Defaults, unknown fields, directional light normalised, extreme-but-legal scratches.
+    v["plate"] = json!({ "size_mm": 100.0, "comment": "hi" });
+    v["extra"] = json!({"anything": [1, 2, 3]});
+    v["views"][0]["light"] =
+        json!({"kind": "directional", "direction": [0, 3, 4], "intensity": 2.5});
+    v["views"][0]["camera"]["notes"] = json!("ignored");
+    v["scratches"] = json!([
+        [0, 0, 1e-4, 0, 1e-4, 1e-4, 1e-3],
+        [-50, -50, 50, 50, 1e-4, 10.0, 0.999],
+        [49.9, 0, 50, 0, 3.0, 1e-6, 0.5]
+    ]);
+    let (r, _) = load_value("edgeok", &v, None);
+    let s = r.unwrap();
+    assert_eq!(s.plate.roughness, 0.02);
+    assert_eq!(s.plate.f0, 0.91);
+    match s.views[0].light.kind {
+        LightKind::Directional { direction } => {
+            assert!((direction[1] - 0.6).abs() < 1e-15 && (direction[2] - 0.8).abs() < 1e-15)
+        }
+        _ => panic!("directional expected"),
+    }
+    assert_eq!(s.scratches.len(), 3);
+    // f0 bounds are inclusive; a camera straight down with a sideways up works.
+    let mut v = base();
+    v["plate"]["f0"] = json!(1.0);
+    v["views"][0]["camera"] = json!({"eye": [0, 0, 300], "target": [0, 0, 0], "up": [0, 1, 0],
+        "fov_y_deg": 170.0, "width": 1, "height": 1});
+    let (r, _) = load_value("edgeok2", &v, None);
+    r.unwrap();
+    // A camera seeing only a corner of the plate is accepted.
+    let mut v = base();
+    v["views"][0]["camera"] = json!({"eye": [80, 80, 40], "target": [60, 60, 0], "up": [0, 0, 1],
+        "fov_y_deg": 30.0, "width": 32, "height": 32});
+    let (r, _) = load_value("corner", &v, None);
+    r.unwrap();
+}
+
+#[test]
+fn half_width_is_stable() {
+    let s = Scratch {
+        p0: [0.0; 2],
+        p1: [1.0, 0.0],
+        w: 1.0,
+        d: 1e-12,
+        alpha: 0.5,
+    };
+    // e ~ (w/2) sqrt(2d/w) for d << w.
+    let e = s.half_width();
+    let approx = 0.5 * (2.0e-12f64).sqrt();
+    assert!((e / approx - 1.0).abs() < 1e-9, "{e} vs {approx}");
+    let s = Scratch {
+        w: 0.2,
+        d: 0.05,
+        ..s
+    };
+    let exact = 0.1 * (1.0 - (-0.5f64).exp()).sqrt();
+    assert!((s.half_width() - exact).abs() < 1e-16);
+    assert!(
+        (Scratch {
+            p1: [3.0, 4.0],
+            ..s
+        }
+        .length()
+            - 5.0)
+            .abs()
+            < 1e-15
+    );
+}
+
+fn awkward_scene() -> Scene {
+    let mut s = Scene::from_json_str(&base().to_string(), Path::new("."), "mem").unwrap();
+    s.plate.size_mm = 100.0 / 3.0;
+    s.plate.roughness = 0.1 + 0.2;
+    s.views[0].camera.fov_y_deg = 27.123456789012345;
+    s.views[0].camera.eye = [1e-7, -250.00000000000003, 250.1];
+    s.views.push(s.views[0].clone());
+    s.views[1].name = "second_view".into();
+    s.views[1].light.kind = LightKind::Directional {
+        direction: [0.0, 0.6, 0.8],
+    };
+    s.views[1].light.intensity = 1.0 / 7.0;
+    s.scratches = (0..50)
+        .map(|k| {
+            let a = k as f64 * 0.7313;
+            Scratch {
+                p0: [5.0 * a.sin(), 4.0 * a.cos() + 1e-9],
+                p1: [-3.3 * (1.7 * a).cos(), 2.0 / (k as f64 + 3.0)],
+                w: 0.01 + 1e-3 / (k as f64 + 1.0),
+                d: 1e-5 * (k as f64 + 1.0).sqrt(),
+                alpha: 1.0 / (k as f64 + 2.0),
+            }
+        })
+        .collect();
+    s.validate().unwrap();
+    s
+}
+
+#[test]
+fn save_load_round_trip_is_exact() {
+    let s = awkward_scene();
+    let d = tmpdir("roundtrip");
+    let p = d.join("scene.json");
+    s.save(&p, "marks.csv").unwrap();
+    let back = Scene::load(&p).unwrap();
+    assert_eq!(back, s);
+    // Header line present; no temp files left behind.
+    let csv = std::fs::read_to_string(d.join("marks.csv")).unwrap();
+    assert!(csv.starts_with("x0,y0,x1,y1,w,d,alpha\n"));
+    let names: Vec<_> = std::fs::read_dir(&d)
+        .unwrap()
+        .map(|e| e.unwrap().file_name())
+        .collect();
+    assert_eq!(names.len(), 2, "{names:?}");
+    // Overwriting works too.
+    s.save(&p, "marks.csv").unwrap();
+    assert_eq!(Scene::load(&p).unwrap(), s);
+    // Inline JSON round-trips.
+    let text = s.to_json_inline();
+    let back = Scene::from_json_str(&text, Path::new("/nonexistent"), "inline").unwrap();
+    assert_eq!(back, s);
+}
+
+#[test]
+fn validate_catches_programmatic_errors() {
+    let mut s = awkward_scene();
+    s.scratches[3].w = f64::NAN;
+    let msg = s.validate().unwrap_err().to_string();
+    assert!(
+        msg.contains("scratch 4") && msg.contains("not a finite"),
+        "{msg}"
+    );
+    let mut s = awkward_scene();
+    s.views[1].light.intensity = f64::INFINITY;
+    let msg = s.validate().unwrap_err().to_string();
+    assert!(
+        msg.contains("second_view") && msg.contains("intensity"),
+        "{msg}"
+    );
+}

@@ -1,0 +1,99 @@
+#version 450
+// Tile binning, deterministic. Scratches are split into groups of `group_size`; thread g owns
+// group g. Pass COUNT: hist[t * n_groups + g] = number of (tile t, scratch of group g) pairs.
+// After an exclusive scan of hist (tile-major), pass SCATTER re-enumerates in the same order and
+// writes scratch indices to list[cursor[t * n_groups + g]++]: every tile's list is then sorted by
+// scratch index, whatever the thread timing, so pixel sums are bit-reproducible.
+// A tile is listed for a scratch when the projected carved rectangle (a convex quad in image
+// space) meets the tile's image rectangle, grown by half a pixel against rounding (separating axes).
+#extension GL_GOOGLE_include_directive : require
+#include "inc/common.glsl"
+
+layout(local_size_x = 64) in;
+layout(std430, binding = 0) readonly buffer Views { ViewGPU views[]; };
+layout(std430, binding = 1) readonly buffer Scratches { ScratchGPU scr[]; };
+layout(std430, binding = 2) buffer Hist { uint hist[]; };
+layout(std430, binding = 3) buffer List { uint list[]; };
+
+layout(push_constant) uniform Push {
+    uint n_scratches;
+    uint n_views;
+    uint n_groups;
+    uint group_size;
+    uint capacity;   // length of list[]
+    uint pad0, pad1, pad2;
+} pc;
+
+bool quad_meets_rect(vec2 q[4], float orient, vec2 lo, vec2 hi) {
+    vec2 qmin = min(min(q[0], q[1]), min(q[2], q[3]));
+    vec2 qmax = max(max(q[0], q[1]), max(q[2], q[3]));
+    if (any(greaterThan(qmin, hi)) || any(lessThan(qmax, lo))) return false;
+    for (int i = 0; i < 4; ++i) {
+        vec2 a = q[i], b = q[(i + 1) & 3];
+        vec2 nrm = orient * vec2(b.y - a.y, a.x - b.x);  // outward normal
+        float m = max(max(dot(vec2(lo.x, lo.y) - a, nrm), dot(vec2(hi.x, lo.y) - a, nrm)),
+                      max(dot(vec2(hi.x, hi.y) - a, nrm), dot(vec2(lo.x, hi.y) - a, nrm)));
+        if (m < 0.0) continue;  // some tile corner inside this edge's half-plane
+        if (min(min(dot(vec2(lo.x, lo.y) - a, nrm), dot(vec2(hi.x, lo.y) - a, nrm)),
+                min(dot(vec2(hi.x, hi.y) - a, nrm), dot(vec2(lo.x, hi.y) - a, nrm))) > 0.0) return false;
+    }
+    return true;
+}
+
+void main() {
+    uint g = gl_GlobalInvocationID.x + gl_GlobalInvocationID.y * gl_NumWorkGroups.x * gl_WorkGroupSize.x;
+    if (g >= pc.n_groups) return;
+    uint k0 = g * pc.group_size;
+    uint k1 = min(k0 + pc.group_size, pc.n_scratches);
+    for (uint k = k0; k < k1; ++k) {
+        ScratchGPU S = scr[k];
+        vec2 p0 = S.ends.xy, p1 = S.ends.zw;
+        vec2 t = normalize(p1 - p0);
+        vec2 b = vec2(-t.y, t.x);
+        float e = 0.5 * S.shape.x * carved_se(S.shape.x, S.shape.y);
+        vec2 rc[4] = vec2[](p0 - e * b, p1 - e * b, p1 + e * b, p0 + e * b);
+        for (uint vi = 0; vi < pc.n_views; ++vi) {
+            ViewGPU V = views[vi];
+            vec2 q[4];
+            bool all_ok = true;
+            for (int c = 0; c < 4; ++c) {
+                bool ok;
+                q[c] = project(V, rc[c], ok);
+                all_ok = all_ok && ok;
+            }
+            uint tx0 = 0u, ty0 = 0u, tx1 = V.dims.z - 1u, ty1 = V.dims.w - 1u;
+            float orient = 0.0;  // 0: no separating-axis test (conservative)
+            if (all_ok) {
+                vec2 qmin = min(min(q[0], q[1]), min(q[2], q[3])) - 0.5;
+                vec2 qmax = max(max(q[0], q[1]), max(q[2], q[3])) + 0.5;
+                if (qmax.x < 0.0 || qmax.y < 0.0 || qmin.x > float(V.dims.x) || qmin.y > float(V.dims.y)) continue;
+                tx0 = uint(max(qmin.x, 0.0)) / TILE;
+                ty0 = uint(max(qmin.y, 0.0)) / TILE;
+                tx1 = min(uint(min(qmax.x, float(V.dims.x))) / TILE, V.dims.z - 1u);
+                ty1 = min(uint(min(qmax.y, float(V.dims.y))) / TILE, V.dims.w - 1u);
+                float a2 = 0.0;
+                for (int c = 0; c < 4; ++c) a2 += (q[c].x - q[(c + 1) & 3].x) * (q[c].y + q[(c + 1) & 3].y);
+                orient = a2 > 0.0 ? 1.0 : -1.0;  // CCW (a2 > 0): outward normal of a->b is (dy, -dx)
+                if (a2 == 0.0) orient = 0.0;
+            }
+            for (uint ty = ty0; ty <= ty1; ++ty) {
+                for (uint tx = tx0; tx <= tx1; ++tx) {
+                    if (orient != 0.0) {
+                        vec2 lo = vec2(float(tx * TILE), float(ty * TILE)) - 0.5;
+                        vec2 hi = vec2(float((tx + 1u) * TILE), float((ty + 1u) * TILE)) + 0.5;
+                        if (!quad_meets_rect(q, orient, lo, hi)) continue;
+                    }
+                    uint tile = V.base.x + ty * V.dims.z + tx;
+                    uint slot = tile * pc.n_groups + g;
+#ifdef COUNT
+                    hist[slot] += 1u;
+#else
+                    uint pos = hist[slot];
+                    hist[slot] = pos + 1u;
+                    if (pos < pc.capacity) list[pos] = k;
+#endif
+                }
+            }
+        }
+    }
+}

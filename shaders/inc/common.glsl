@@ -1,0 +1,70 @@
+// Shared structs and camera geometry (MODEL.md sections 1-4).
+// Every struct here has a #[repr(C)] twin in engine/src/render/layout.rs; a test checks they agree.
+#ifndef SA_COMMON_GLSL
+#define SA_COMMON_GLSL
+
+#define PI 3.14159265358979323846
+#define TILE 16u
+
+// One view: camera basis, image size, light. std430, 16-byte rows.
+struct ViewGPU {
+    vec4 eye;    // xyz camera position; w = tan(fov_y / 2)
+    vec4 fwd;    // xyz forward (unit); w = aspect W / H
+    vec4 right;  // xyz right (unit); w = light intensity Phi
+    vec4 up;     // xyz up' (unit); w = light kind: 0 point, 1 directional
+    vec4 light;  // xyz point-light position, or unit direction towards a directional light
+    uvec4 dims;  // W, H, tiles_x, tiles_y
+    uvec4 base;  // first tile index, first pixel index (in the concatenated image buffer), 0, 0
+};
+
+// One scratch as the user gives it (MODEL.md section 2).
+struct ScratchGPU {
+    vec4 ends;   // p0.x, p0.y, p1.x, p1.y (mm)
+    vec4 shape;  // w, d, alpha, unused
+};
+
+// Image point (sx, sy) -> unnormalized ray direction (normalization does not move the hit).
+vec3 ray_dir(ViewGPU v, vec2 sp) {
+    float kx = (2.0 * sp.x / float(v.dims.x) - 1.0) * v.eye.w * v.fwd.w;
+    float ky = (1.0 - 2.0 * sp.y / float(v.dims.y)) * v.eye.w;
+    return v.fwd.xyz + kx * v.right.xyz + ky * v.up.xyz;
+}
+
+// Plate-plane hit of the ray through image point sp; ok = false when it misses (s <= 0 or dir.z = 0).
+vec2 ray_hit(ViewGPU v, vec2 sp, out bool ok) {
+    vec3 d = ray_dir(v, sp);
+    float s = -v.eye.z / d.z;
+    ok = d.z != 0.0 && s > 0.0 && !isinf(s);
+    return v.eye.xy + s * d.xy;
+}
+
+// Plate point -> image point; ok = false when the point is not in front of the camera.
+vec2 project(ViewGPU v, vec2 q, out bool ok) {
+    vec3 d = vec3(q, 0.0) - v.eye.xyz;
+    float z = dot(d, v.fwd.xyz);
+    ok = z > 1e-6 * length(d);
+    float kx = dot(d, v.right.xyz) / z;
+    float ky = dot(d, v.up.xyz) / z;
+    return vec2((kx / (v.eye.w * v.fwd.w) + 1.0) * 0.5 * float(v.dims.x),
+                (1.0 - ky / v.eye.w) * 0.5 * float(v.dims.y));
+}
+
+// GGX point NDF (MODEL.md section 3) of the macro normal z, with the stable denominator of
+// section 9: alpha^2 c^2 + |z x h|^2 instead of (alpha^2 - 1) c^2 + 1.
+float ggx_flat(vec3 h, float alpha) {
+    if (h.z <= 0.0) return 0.0;
+    float a2 = alpha * alpha;
+    float den = a2 * h.z * h.z + dot(h.xy, h.xy);
+    return a2 / (PI * den * den);
+}
+
+// Half-width of the carved region: e = (w/2) sqrt(1 - exp(-2d/w)), with 1 - exp(-x) computed
+// without cancellation for small x (Kahan's expm1 trick); returns s_e = 2e/w.
+float carved_se(float w, float d) {
+    float x = 2.0 * d / w;
+    float u = exp(-x);
+    float one_minus = (u == 1.0) ? x : (1.0 - u) * x / (-log(u));
+    return sqrt(one_minus);
+}
+
+#endif

@@ -1,0 +1,158 @@
+//! The GPU forward renderer against the float64 reference (MODEL.md section 8 forward bar), on
+//! seeded scene families: moderate and sharp alpha, grazing views and lights, directional light,
+//! thousands of scratches in one footprint, scratch ends and edges on footprint corners, very
+//! thin and very short scratches.
+use scratchart::model::camera::ViewGeom;
+use scratchart::scenes::Rng;
+use scratchart_tests::*;
+
+#[test]
+fn random_moderate_alpha() {
+    let views = vec![
+        orbit_view("a", 40, 45.0, 0.0, 45.0, 180.0, 20.0),
+        orbit_view("b", 40, 45.0, 120.0, 45.0, 300.0, 20.0),
+    ];
+    let scene = random_scene(1, 300, 20.0, 0.2, 0.15, 0.2, views);
+    assert_matches_reference("moderate", &scene);
+}
+
+#[test]
+fn sharp_alpha_1e3() {
+    let views = vec![
+        orbit_view("a", 40, 45.0, 0.0, 45.0, 180.0, 20.0),
+        orbit_view("b", 40, 60.0, 200.0, 30.0, 10.0, 20.0),
+    ];
+    let scene = random_scene(2, 300, 20.0, 0.2, 0.2, 1e-3, views);
+    assert_matches_reference("alpha 1e-3", &scene);
+}
+
+#[test]
+fn grazing_camera_and_light_5deg() {
+    let views = vec![
+        grazing_view("a", 48, 5.0, 0.0, 5.0, 180.0, 20.0),
+        grazing_view("b", 48, 5.0, 90.0, 5.0, 90.0, 20.0),
+    ];
+    let mut scene = random_scene(3, 300, 20.0, 0.2, 0.1, 0.05, views);
+    scene
+        .scratches
+        .iter_mut()
+        .enumerate()
+        .for_each(|(k, s)| s.alpha = [1e-3, 0.05, 0.5][k % 3]);
+    assert_matches_reference("grazing", &scene);
+}
+
+#[test]
+fn directional_light() {
+    let views = vec![
+        directional_view("a", 40, 40.0, 30.0, 50.0, 210.0, 20.0),
+        directional_view("b", 40, 70.0, 250.0, 20.0, 90.0, 20.0),
+    ];
+    let scene = random_scene(4, 300, 20.0, 0.2, 0.3, 0.1, views);
+    assert_matches_reference("directional", &scene);
+}
+
+#[test]
+fn thousands_of_scratches_per_footprint() {
+    // A coarse view (large footprints) and 3,000 scratches through the plate centre.
+    let mut rng = Rng::new(5);
+    let mut scratches = Vec::new();
+    for _ in 0..3000 {
+        let a = rng.range(0.0, std::f64::consts::PI);
+        let (l0, l1) = (rng.range(0.5, 4.0), rng.range(0.5, 4.0));
+        let (c, s) = (a.cos(), a.sin());
+        let o = [rng.range(-0.3, 0.3), rng.range(-0.3, 0.3)];
+        let alpha = [1e-3, 0.02, 0.3][scratches.len() % 3];
+        scratches.push(scratch(
+            [o[0] - l0 * c, o[1] - l0 * s],
+            [o[0] + l1 * c, o[1] + l1 * s],
+            0.05,
+            0.04,
+            alpha,
+        ));
+    }
+    let scene = scratchart::model::scene::Scene {
+        plate: plate(20.0),
+        views: vec![orbit_view("a", 12, 50.0, 30.0, 50.0, 210.0, 20.0)],
+        scratches,
+    };
+    assert_matches_reference("dense", &scene);
+}
+
+#[test]
+fn ends_and_edges_on_footprint_corners() {
+    let view = orbit_view("a", 24, 50.0, 0.0, 50.0, 180.0, 20.0);
+    let g = ViewGeom::new(&view);
+    // Every footprint corner well inside the plate.
+    let mut corners = Vec::new();
+    for j in 0..24 {
+        for i in 0..24 {
+            if let Some(f) = g.footprint(i, j) {
+                corners.extend(
+                    f.iter()
+                        .copied()
+                        .filter(|c| c[0].abs() < 9.0 && c[1].abs() < 9.0),
+                );
+            }
+        }
+    }
+    assert!(
+        corners.len() > 100,
+        "test view sees too little of the plate"
+    );
+    let mut rng = Rng::new(6);
+    let mut scratches = Vec::new();
+    while scratches.len() < 120 {
+        let a = corners[(rng.f64() * corners.len() as f64) as usize];
+        let b = corners[(rng.f64() * corners.len() as f64) as usize];
+        let l = ((b[0] - a[0]).powi(2) + (b[1] - a[1]).powi(2)).sqrt();
+        if l < 0.5 {
+            continue;
+        }
+        // Ends exactly on footprint corners; every other scratch is moved across by its
+        // half-width so that a carved edge, not the axis, runs through the corners.
+        let s = scratch(a, b, 0.1, 0.08, 0.1);
+        let e = if scratches.len() % 2 == 0 {
+            0.0
+        } else {
+            s.half_width()
+        };
+        let n = [-(b[1] - a[1]) / l * e, (b[0] - a[0]) / l * e];
+        scratches.push(scratch(
+            [a[0] - n[0], a[1] - n[1]],
+            [b[0] - n[0], b[1] - n[1]],
+            0.1,
+            0.08,
+            0.1,
+        ));
+    }
+    assert!(scratches.len() > 50);
+    let scene = scratchart::model::scene::Scene {
+        plate: plate(20.0),
+        views: vec![view],
+        scratches,
+    };
+    assert_matches_reference("corners", &scene);
+}
+
+#[test]
+fn very_thin_and_very_short_scratches() {
+    let views = vec![orbit_view("a", 40, 45.0, 0.0, 45.0, 180.0, 20.0)];
+    let mut scene = random_scene(7, 400, 20.0, 0.2, 0.2, 0.05, views);
+    let mut rng = Rng::new(8);
+    for (k, s) in scene.scratches.iter_mut().enumerate() {
+        if k % 2 == 0 {
+            // very thin
+            s.w = 1e-4;
+            s.d = 1e-4 * rng.range(0.2, 3.0);
+        } else {
+            // very short
+            let l = rng.range(1e-4, 1e-2);
+            let t = [
+                (s.p1[0] - s.p0[0]) / s.length(),
+                (s.p1[1] - s.p0[1]) / s.length(),
+            ];
+            s.p1 = [s.p0[0] + l * t[0], s.p0[1] + l * t[1]];
+        }
+    }
+    assert_matches_reference("thin/short", &scene);
+}
