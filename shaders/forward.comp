@@ -73,10 +73,16 @@ void main() {
             if (abs(u) > e + P.radius || v < -P.radius || v > len + P.radius) continue;
             vec2 fl[4];
             float k2w = 2.0 / w;
+            // The map to (s, v) = (2 (q-p0).b / w, (q-p0).t) has determinant -2/w < 0, so a
+            // footprint that is counter-clockwise on the plate is clockwise in (s, v): reverse it.
             for (int c = 0; c < 4; ++c) {
-                vec2 r = P.fp[c] - p0;
+                vec2 r = P.fp[P.ccw ? 3 - c : c] - p0;
                 fl[c] = vec2(dot(r, b) * k2w, dot(r, t));
             }
+            // Exact reject on the local bounding box.
+            vec2 fmin = min(min(fl[0], fl[1]), min(fl[2], fl[3]));
+            vec2 fmax = max(max(fl[0], fl[1]), max(fl[2], fl[3]));
+            if (fmin.x >= se || fmax.x <= -se || fmin.y >= len || fmax.y <= 0.0) continue;
             PairGeom G = pair_geom(dot(P.h.xy, b), dot(P.h.xy, t), P.h.z, S.b.w);
             float I, A;
             patch_integral(fl, se, len, 0.5 * w, G, I, A);

@@ -430,7 +430,7 @@ fn many_overlapping_scratches_and_check_loss() {
     assert!(p.cov <= 1.0 && p.cov > 0.0);
     assert!((img[24 * 48 + 24] - p.l).abs() <= 1e-15 * p.l);
     // check_loss: zero against itself; against zeros it is the mean of L^2 over on-plate pixels.
-    assert_eq!(check_loss(&sc, &[img.clone()]), 0.0);
+    assert_eq!(check_loss(&sc, std::slice::from_ref(&img)), 0.0);
     let mask = reference::on_plate_mask(&sc, 0);
     let n = mask.iter().filter(|m| **m).count() as f64;
     let want: f64 = img

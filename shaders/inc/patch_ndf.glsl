@@ -121,64 +121,82 @@ float lin_integral(PairGeom G, float lo, float hi, float Vlo, float Vhi) {
     return G.alpha * G.alpha * (0.25 / PI) * (J1 + J2);
 }
 
-// Keeps the part of polygon p (n vertices, (s, v)) where sgn * (p[axis] - bound) <= 0.
-void clip_half(inout vec2 p[8], inout int n, int axis, float bound, float sgn) {
-    vec2 o[8];
-    int m = 0;
-    for (int i = 0; i < n; ++i) {
-        vec2 a = p[i];
-        vec2 b = p[(i + 1 == n) ? 0 : i + 1];
-        float da = sgn * (a[axis] - bound), db = sgn * (b[axis] - bound);
-        if (da <= 0.0 && m < 8) o[m++] = a;
-        if (((da < 0.0 && db > 0.0) || (da > 0.0 && db < 0.0)) && m < 8) {
-            vec2 x = a + (da / (da - db)) * (b - a);
-            x[axis] = bound;  // exactly on the clip line, so the edge along it is exactly vertical/horizontal
-            o[m++] = x;
-        }
-    }
-    n = m;
-    for (int i = 0; i < 8; ++i) p[i] = o[i];
+// Green's theorem over the boundary of F ∩ R without building the clipped polygon:
+// ∂(F ∩ R) = (∂F inside R) ∪ (∂R inside F). Every footprint edge is clipped to R (Liang-Barsky)
+// and R's two across-edges (v = 0 and v = len) are clipped to F (Cyrus-Beck); R's long edges
+// (s = ±se) are vertical and contribute nothing. Both are walked counter-clockwise in (s, v).
+// Each piece adds  -∫ D(s) (v(s) - vref) ds  to I and  -∫ (v - vref) ds  to the area;
+// vref (the footprint centre's v) keeps the v values small, and drops out of the closed sum.
+void add_segment(PairGeom G, vec2 a, vec2 b, float vref, inout float I, inout float A) {
+    if (a.x == b.x) return;
+    float lo = min(a.x, b.x), hi = max(a.x, b.x);
+    float k = (b.y - a.y) / (b.x - a.x);
+    // area: exact trapezoid of the whole segment
+    float dA = 0.5 * (b.x - a.x) * (a.y + b.y - 2.0 * vref);
+    A -= dA;
+    float clo = max(lo, G.chi_lo), chi = min(hi, G.chi_hi);
+    if (clo >= chi) return;
+    float vlo = (a.y - vref) + k * (clo - a.x);
+    float vhi = (a.y - vref) + k * (chi - a.x);
+    float J = lin_integral(G, clo, chi, vlo, vhi);
+    I += (b.x > a.x) ? -J : J;
 }
 
-// Footprint corners fp[4] in scratch-local (s, v) coordinates (s = 2u/w). Carved region:
-// |s| <= se, 0 <= v <= len. Returns I (∫ D dA) and A (area), both in mm^2 (times half_w = w/2).
+// Footprint corners fp[4] in scratch-local (s, v) coordinates (s = 2u/w), ordered
+// counter-clockwise in (s, v). Carved region: |s| <= se, 0 <= v <= len.
+// Returns I = ∫ D dA and A = area over F ∩ R, in mm^2 (half_w = w/2 converts ds to du).
 void patch_integral(vec2 fp[4], float se, float len, float half_w, PairGeom G, out float I, out float A) {
-    vec2 p[8];
-    for (int i = 0; i < 4; ++i) p[i] = fp[i];
-    for (int i = 4; i < 8; ++i) p[i] = vec2(0.0);
-    int n = 4;
-    clip_half(p, n, 0, se, 1.0);
-    clip_half(p, n, 0, -se, -1.0);
-    clip_half(p, n, 1, len, 1.0);
-    clip_half(p, n, 1, 0.0, -1.0);
     I = 0.0; A = 0.0;
-    if (n < 3) return;
-    // Shoelace (signed) and a reference v so that v values stay small (the constant drops out).
-    float vref = p[0].y;
-    float area2 = 0.0;
-    for (int i = 0; i < n; ++i) {
-        vec2 a = p[i], b = p[(i + 1 == n) ? 0 : i + 1];
-        area2 += (a.x - b.x) * (a.y + b.y - 2.0 * vref);
+    float vref = clamp(0.25 * (fp[0].y + fp[1].y + fp[2].y + fp[3].y), 0.0, len);
+    // Footprint edges clipped to the box [-se, se] x [0, len].
+    for (int e = 0; e < 4; ++e) {
+        vec2 a = fp[e], d = fp[(e + 1) & 3] - fp[e];
+        float t0 = 0.0, t1 = 1.0;
+        // s >= -se, s <= se, v >= 0, v <= len as p_i t <= q_i
+        float ps[4] = float[](-d.x, d.x, -d.y, d.y);
+        float qs[4] = float[](a.x + se, se - a.x, a.y, len - a.y);
+        bool keep = true;
+        for (int i = 0; i < 4; ++i) {
+            float p = ps[i], q = qs[i];
+            // An edge lying on R's across-edge line (v = 0 or v = len) is left to R's own edge
+            // below, which counts a shared piece once (on s = ±se it contributes nothing anyway).
+            if (p == 0.0) { if (q < 0.0 || (q == 0.0 && i >= 2)) keep = false; }
+            else {
+                float r = q / p;
+                if (p < 0.0) t0 = max(t0, r); else t1 = min(t1, r);
+            }
+        }
+        if (!keep || t0 >= t1) continue;
+        vec2 pa = a + t0 * d, pb = a + t1 * d;
+        // Snap to the box so pieces meet R's edges exactly.
+        pa = clamp(pa, vec2(-se, 0.0), vec2(se, len));
+        pb = clamp(pb, vec2(-se, 0.0), vec2(se, len));
+        add_segment(G, pa, pb, vref, I, A);
     }
-    // area2 = 2 * signed area (CCW positive) in (s, v)
-    if (area2 == 0.0) return;
-    float sum = 0.0;
-    for (int i = 0; i < n; ++i) {
-        vec2 a = p[i], b = p[(i + 1 == n) ? 0 : i + 1];
-        if (a.x == b.x) continue;
-        float lo = min(a.x, b.x), hi = max(a.x, b.x);
-        float clo = max(lo, G.chi_lo), chi = min(hi, G.chi_hi);
-        if (clo >= chi) continue;
-        // v(s) on the edge, relative to vref
-        float k = (b.y - a.y) / (b.x - a.x);
-        float vlo = (a.y - vref) + k * (clo - a.x);
-        float vhi = (a.y - vref) + k * (chi - a.x);
-        float J = lin_integral(G, clo, chi, vlo, vhi);
-        sum += (b.x > a.x) ? -J : J;
+    // R's across-edges clipped to F: bottom (v = 0) walks +s, top (v = len) walks -s.
+    for (int side = 0; side < 2; ++side) {
+        vec2 a = (side == 0) ? vec2(-se, 0.0) : vec2(se, len);
+        vec2 d = (side == 0) ? vec2(2.0 * se, 0.0) : vec2(-2.0 * se, 0.0);
+        float t0 = 0.0, t1 = 1.0;
+        bool keep = true;
+        for (int e = 0; e < 4; ++e) {
+            vec2 c = fp[e], f = fp[(e + 1) & 3] - fp[e];
+            // inside F (CCW): cross(f, p - c) >= 0, p = a + t d
+            float q = f.x * (a.y - c.y) - f.y * (a.x - c.x);   // value at t = 0
+            float p = f.x * d.y - f.y * d.x;                   // slope in t
+            // Collinear with a footprint edge: count the shared piece only when both boundaries
+            // run the same way (interiors on the same side); opposite ways bound no area.
+            if (p == 0.0) { if (q < 0.0 || (q == 0.0 && dot(f, d) < 0.0)) keep = false; }
+            else {
+                float r = -q / p;
+                if (p > 0.0) t0 = max(t0, r); else t1 = min(t1, r);
+            }
+        }
+        if (!keep || t0 >= t1) continue;
+        add_segment(G, a + t0 * d, a + t1 * d, vref, I, A);
     }
-    float orient = area2 > 0.0 ? 1.0 : -1.0;
-    I = orient * sum * half_w;
-    A = 0.5 * abs(area2) * half_w;
+    I *= half_w;
+    A *= half_w;
 }
 
 #endif

@@ -9,6 +9,7 @@ struct PixelSetup {
     vec2 centre;       // centroid of the corners (for culling only)
     float radius;      // max distance centroid -> corner (for culling only)
     float inv_sp;      // 1 / area(F)
+    bool ccw;          // footprint corners counter-clockwise on the plate (x, y)
     vec3 h;            // half vector
     float scale;       // E Fr / (4 cos_o): L = scale * (D_P + (1 - cov) D_flat)
     float d_flat;      // D(h . z; alpha_s)
@@ -18,6 +19,7 @@ struct PixelSetup {
 PixelSetup pixel_setup(ViewGPU V, uvec2 ij, float half_plate, float alpha_s, float f0) {
     PixelSetup P;
     P.on_plate = false;
+    P.ccw = true;
     P.scale = 0.0; P.d_flat = 0.0; P.inv_sp = 0.0; P.radius = 0.0; P.e_irr = 0.0;
     P.h = vec3(0.0, 0.0, 1.0); P.centre = vec2(0.0);
     bool ok0, ok1, ok2, ok3, okc;
@@ -32,7 +34,9 @@ PixelSetup pixel_setup(ViewGPU V, uvec2 ij, float half_plate, float alpha_s, flo
     P.on_plate = true;
     // Footprint area relative to its first corner (keeps the products small).
     vec2 a = P.fp[1] - P.fp[0], b = P.fp[2] - P.fp[0], c = P.fp[3] - P.fp[0];
-    float sp = 0.5 * abs((a.x * b.y - b.x * a.y) + (b.x * c.y - c.x * b.y));
+    float sp2 = (a.x * b.y - b.x * a.y) + (b.x * c.y - c.x * b.y);
+    P.ccw = sp2 > 0.0;
+    float sp = 0.5 * abs(sp2);
     P.inv_sp = 1.0 / sp;
     P.centre = 0.25 * (P.fp[0] + P.fp[1] + P.fp[2] + P.fp[3]);
     for (int k = 0; k < 4; ++k) P.radius = max(P.radius, length(P.fp[k] - P.centre));

@@ -5,6 +5,9 @@
 //! - [`reference`]: the float64 CPU reference renderer — a test oracle only, never a fallback
 //!   for the GPU path.
 
+// `!(x > 0.0)` is used on purpose throughout: it also rejects NaN.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+
 pub mod camera;
 pub mod reference;
 pub mod scene;

@@ -129,7 +129,18 @@ impl Renderer {
                 capacity,
                 pad0: 0,
             },
-            views: ctx.upload("views", &slots.views)?,
+            views: {
+                // Host-visible so a viewer can move cameras and lights every frame without
+                // reallocating (see `update_views`).
+                let b = Buffer::new(
+                    ctx,
+                    "views",
+                    std::mem::size_of_val(slots.views.as_slice()) as u64,
+                    MemLoc::CpuToGpu,
+                )?;
+                b.write(0, &slots.views)?;
+                b
+            },
             scratches: ctx.upload("scratches", &scr)?,
             hist: Buffer::new(ctx, "bin offsets", hist_len * 4, MemLoc::GpuOnly)?,
             cursor: Buffer::new(ctx, "bin cursors", hist_len * 4, MemLoc::GpuOnly)?,
@@ -142,6 +153,29 @@ impl Renderer {
             n_groups,
             slots,
         })
+    }
+
+    /// Replaces the cameras and lights of an uploaded scene (same number of views, same image
+    /// sizes): cheap enough for every frame of a viewer. Returns false (and changes nothing) when
+    /// the sizes differ, in which case the caller uploads the scene again.
+    pub fn update_views(
+        &self,
+        gs: &mut GpuScene,
+        views: &[crate::model::scene::View],
+    ) -> Result<bool, GpuError> {
+        if views.len() != gs.slots.views.len() {
+            return Ok(false);
+        }
+        let mut new = Vec::with_capacity(views.len());
+        for (v, old) in views.iter().zip(&gs.slots.views) {
+            if v.camera.width != old.dims[0] || v.camera.height != old.dims[1] {
+                return Ok(false);
+            }
+            new.push(layout::view_gpu(v, old.base[0], old.base[1]));
+        }
+        gs.views.write(0, &new)?;
+        gs.slots.views = new;
+        Ok(true)
     }
 
     /// Records tile binning (count, scan, scatter) into `rec`.

@@ -725,6 +725,14 @@ impl Context {
         staging.read()
     }
 
+    /// Runs `f` with the queue while holding the queue lock, for queue operations this type does
+    /// not wrap (e.g. the viewer's `vkQueuePresentKHR`, which needs the same external
+    /// synchronisation as `vkQueueSubmit`).
+    pub fn with_queue<R>(&self, f: impl FnOnce(vk::Queue) -> R) -> R {
+        let _g = self.queue_lock.lock().unwrap_or_else(|e| e.into_inner());
+        f(self.queue)
+    }
+
     /// `vkDeviceWaitIdle` (under the queue lock, which it requires).
     pub fn wait_idle(&self) {
         let _g = self.queue_lock.lock().unwrap_or_else(|e| e.into_inner());

@@ -322,6 +322,14 @@ impl Recorder {
         self.dispatch(p, buffers, push, [gx, gy, 1]);
     }
 
+    /// The command buffer being recorded, for commands this type does not wrap (image barriers
+    /// and buffer-to-image copies of the viewer's swapchain). Only valid between `begin()` and
+    /// `submit_and_wait()`; what is recorded into it follows the same hazard rules as above.
+    pub fn raw_cmd(&self) -> vk::CommandBuffer {
+        self.assert_recording("raw_cmd");
+        self.cmd
+    }
+
     /// Global memory barrier: all prior compute/transfer writes become visible to later
     /// compute, transfer and host accesses.
     pub fn barrier(&mut self) {

@@ -5,12 +5,17 @@
 //! viewer's hot reload). Paths are relative to the shaders root, e.g. `"forward.comp"`;
 //! `#include "inc/x.glsl"` resolves against the root first, then the including file's folder.
 use std::path::{Path, PathBuf};
+use std::sync::Mutex;
 
 use super::error::GpuError;
 
 mod embedded {
     include!(concat!(env!("OUT_DIR"), "/embedded_shaders.rs"));
 }
+
+/// Set by [`ShaderCompiler::override_embedded`]: when `Some`, [`ShaderCompiler::embedded`] reads
+/// from this directory instead of the built-in copy.
+static EMBEDDED_OVERRIDE: Mutex<Option<PathBuf>> = Mutex::new(None);
 
 enum Source {
     Embedded,
@@ -46,9 +51,25 @@ impl ShaderCompiler {
         Ok(ShaderCompiler { compiler, source })
     }
 
-    /// Compiles the sources embedded in the binary at build time.
+    /// Compiles the sources embedded in the binary at build time (or, after
+    /// [`override_embedded`](Self::override_embedded)`(Some(dir))`, the sources in `dir`).
     pub fn embedded() -> Result<Self, GpuError> {
-        Self::with_source(Source::Embedded)
+        let dir = EMBEDDED_OVERRIDE
+            .lock()
+            .unwrap_or_else(|e| e.into_inner())
+            .clone();
+        match dir {
+            Some(d) => Self::with_source(Source::Dir(d)),
+            None => Self::with_source(Source::Embedded),
+        }
+    }
+
+    /// Makes every later [`embedded`](Self::embedded) call in this process read its sources from
+    /// `dir` (`None` restores the built-in copy). This is how the viewer hot-reloads the engine's
+    /// own kernels: `Renderer::new` compiles through `embedded()`, so building a new `Renderer`
+    /// after an edit picks up the edited files without a second copy of the renderer.
+    pub fn override_embedded(dir: Option<PathBuf>) {
+        *EMBEDDED_OVERRIDE.lock().unwrap_or_else(|e| e.into_inner()) = dir;
     }
 
     /// Reads sources from `dir` at every [`compile`](Self::compile) (hot reload).
