@@ -1,7 +1,16 @@
 #version 450
-// Forward renderer: one workgroup per 16x16 tile, one thread per pixel. The tile's scratch list
-// (sorted by scratch index, see bin.comp) is streamed through shared memory; each pixel sums its
-// patch integrals in list order, so the result does not depend on thread timing.
+// Forward renderer: one workgroup per 16x16 tile, one thread per pixel.
+//
+// The tile's scratch list (sorted by scratch index, see bin.comp) is streamed through shared
+// memory in chunks of 32. Per chunk:
+//   1. every pixel tests the 32 scratches (footprint bounding circle, then the footprint's
+//      bounding box in the scratch frame) and keeps a 32-bit mask of overlapping ones;
+//   2. an exclusive scan of the mask counts gives each (pixel, scratch) pair a queue slot, in
+//      (pixel, scratch) order;
+//   3. all 256 threads integrate queue entries side by side (no idle SIMD lanes, unlike a
+//      per-pixel loop where a thin scratch touches a few pixels of the tile);
+//   4. every pixel adds its own results in scratch order.
+// The sums therefore do not depend on thread timing: renders are bit-reproducible.
 #extension GL_GOOGLE_include_directive : require
 #include "inc/common.glsl"
 #include "inc/pixel.glsl"
@@ -26,9 +35,23 @@ layout(push_constant) uniform Push {
     uint pad0;
 } pc;
 
+const uint CHUNK = 32u;   // scratches per chunk (one mask bit each)
+const uint QCAP = 512u;   // queue entries integrated per round
+
 struct Prep { vec4 a; vec4 b; };  // a = p0.xy, t.xy; b = len, w, s_e, alpha
-shared Prep sh[256];
-shared uint sh_cand, sh_pairs;
+shared Prep sh_s[CHUNK];
+shared vec4 sh_fp01[256];          // pixel footprint corners, ordered CCW in scratch (s, v) frames
+shared vec4 sh_fp23[256];
+shared vec4 sh_h[256];             // half vector (xyz)
+shared uint sh_base[256];          // exclusive scan of per-pixel pair counts
+shared uint sh_total;
+shared uint sh_queue[QCAP];        // (pixel << 8) | scratch-in-chunk
+shared vec2 sh_res[QCAP];          // (I, A)
+shared uint sh_pairs;
+shared vec4 sh_blk01[16];          // plate-space corners of the 4x4-pixel blocks of the tile
+shared vec4 sh_blk23[16];
+shared bool sh_blk_all[16];        // a block whose corner rays miss the plate: test every scratch
+shared uint sh_blk_hits[16];       // per block: scratches of the chunk that may meet it
 
 void main() {
     uint tile = gl_WorkGroupID.x + gl_WorkGroupID.y * gl_NumWorkGroups.x;
@@ -40,64 +63,159 @@ void main() {
     uvec2 ij = uvec2((lt % V.dims.z) * TILE, (lt / V.dims.z) * TILE) + gl_LocalInvocationID.xy;
     bool inside = ij.x < V.dims.x && ij.y < V.dims.y;
     uint lid = gl_LocalInvocationIndex;
-    if (lid == 0u) { sh_cand = 0u; sh_pairs = 0u; }
+    if (lid == 0u) sh_pairs = 0u;
 
     PixelSetup P = pixel_setup(V, ij, pc.half_plate, pc.alpha_s, pc.f0);
     bool live = inside && P.on_plate && P.scale > 0.0;
+    // The map to (s, v) = (2 (q-p0).b / w, (q-p0).t) has determinant -2/w < 0: a footprint that
+    // is counter-clockwise on the plate is clockwise in (s, v), so store it reversed.
+    vec2 f0 = P.fp[P.ccw ? 3 : 0], f1 = P.fp[P.ccw ? 2 : 1], f2 = P.fp[P.ccw ? 1 : 2], f3 = P.fp[P.ccw ? 0 : 3];
+    sh_fp01[lid] = vec4(f0, f1);
+    sh_fp23[lid] = vec4(f2, f3);
+    sh_h[lid] = vec4(P.h, 0.0);
+
+    // Blocks of 4x4 pixels: their plate quads give a cheap second culling level.
+    if (lid < 16u) {
+        uvec2 b0 = uvec2((lt % V.dims.z) * TILE, (lt / V.dims.z) * TILE) + 4u * uvec2(lid & 3u, lid >> 2);
+        bool k0, k1, k2, k3;
+        vec2 c0 = ray_hit(V, vec2(b0), k0), c1 = ray_hit(V, vec2(b0) + vec2(4.0, 0.0), k1);
+        vec2 c2 = ray_hit(V, vec2(b0) + vec2(4.0), k2), c3 = ray_hit(V, vec2(b0) + vec2(0.0, 4.0), k3);
+        sh_blk01[lid] = vec4(c0, c1);
+        sh_blk23[lid] = vec4(c2, c3);
+        sh_blk_all[lid] = !(k0 && k1 && k2 && k3);
+    }
+    uint myblk = (gl_LocalInvocationID.x >> 2) + 4u * (gl_LocalInvocationID.y >> 2);
+
     float dp = 0.0, cov = 0.0;
     uint cand = 0u, pairs = 0u;
-
     uint start = offs[tile * pc.n_groups];
     uint end = min(offs[(tile + 1u) * pc.n_groups], pc.capacity);
-    for (uint c0 = start; c0 < end; c0 += 256u) {
+    for (uint c0 = start; c0 < end; c0 += CHUNK) {
         barrier();
-        if (c0 + lid < end) {
+        if (lid < CHUNK && c0 + lid < end) {
             ScratchGPU S = scr[list[c0 + lid]];
             vec2 d = S.ends.zw - S.ends.xy;
             float len = length(d);
-            sh[lid].a = vec4(S.ends.xy, d / len);
-            sh[lid].b = vec4(len, S.shape.x, carved_se(S.shape.x, S.shape.y), S.shape.z);
+            sh_s[lid].a = vec4(S.ends.xy, d / len);
+            sh_s[lid].b = vec4(len, S.shape.x, carved_se(S.shape.x, S.shape.y), S.shape.z);
+        }
+        if (lid < 16u) sh_blk_hits[lid] = 0u;
+        barrier();
+        uint cnt = min(CHUNK, end - c0);
+        // 0. scratch x block tests: bounding box of the block's plate quad in the scratch frame
+        {
+            uint k = lid & 31u;
+            for (uint bb = 0u; bb < 2u; ++bb) {
+                uint blk = 2u * (lid >> 5) + bb;
+                if (k >= cnt) break;
+                bool hit = sh_blk_all[blk];
+                if (!hit) {
+                    Prep S = sh_s[k];
+                    vec2 p0 = S.a.xy, t = S.a.zw, b = vec2(-t.y, t.x);
+                    float e = 0.5 * S.b.y * S.b.z, len = S.b.x;
+                    vec4 qa = sh_blk01[blk], qb = sh_blk23[blk];
+                    vec4 us = vec4(dot(qa.xy - p0, b), dot(qa.zw - p0, b), dot(qb.xy - p0, b), dot(qb.zw - p0, b));
+                    vec4 vs = vec4(dot(qa.xy - p0, t), dot(qa.zw - p0, t), dot(qb.xy - p0, t), dot(qb.zw - p0, t));
+                    hit = !(min(min(us.x, us.y), min(us.z, us.w)) >= e || max(max(us.x, us.y), max(us.z, us.w)) <= -e ||
+                            min(min(vs.x, vs.y), min(vs.z, vs.w)) >= len || max(max(vs.x, vs.y), max(vs.z, vs.w)) <= 0.0);
+                }
+                if (hit) atomicOr(sh_blk_hits[blk], 1u << k);
+            }
         }
         barrier();
-        uint cnt = min(256u, end - c0);
-        if (!live) continue;
-        for (uint k = 0u; k < cnt; ++k) {
-            Prep S = sh[k];
-            vec2 p0 = S.a.xy, t = S.a.zw, b = vec2(-t.y, t.x);
-            float len = S.b.x, w = S.b.y, se = S.b.z;
-            float e = 0.5 * w * se;
-            // Cheap reject with the footprint's bounding circle.
-            vec2 q = P.centre - p0;
-            float u = dot(q, b), v = dot(q, t);
-            ++cand;
-            if (abs(u) > e + P.radius || v < -P.radius || v > len + P.radius) continue;
-            vec2 fl[4];
-            float k2w = 2.0 / w;
-            // The map to (s, v) = (2 (q-p0).b / w, (q-p0).t) has determinant -2/w < 0, so a
-            // footprint that is counter-clockwise on the plate is clockwise in (s, v): reverse it.
-            for (int c = 0; c < 4; ++c) {
-                vec2 r = P.fp[P.ccw ? 3 - c : c] - p0;
-                fl[c] = vec2(dot(r, b) * k2w, dot(r, t));
+        // 1. candidate tests
+        uint mask = 0u;
+        if (live) {
+            uint bm = sh_blk_hits[myblk];
+            cand += uint(bitCount(bm));
+            while (bm != 0u) {
+                uint k = uint(findLSB(bm));
+                bm &= bm - 1u;
+                Prep S = sh_s[k];
+                vec2 p0 = S.a.xy, t = S.a.zw, b = vec2(-t.y, t.x);
+                float len = S.b.x, se = S.b.z;
+                float e = 0.5 * S.b.y * se;
+                vec2 q = P.centre - p0;
+                float u = dot(q, b), v = dot(q, t);
+                if (abs(u) > e + P.radius || v < -P.radius || v > len + P.radius) continue;
+                // exact reject on the footprint's bounding box in the scratch frame
+                float umin = 1e30, umax = -1e30, vmin = 1e30, vmax = -1e30;
+                for (int c = 0; c < 4; ++c) {
+                    vec2 r = P.fp[c] - p0;
+                    float uu = dot(r, b), vv = dot(r, t);
+                    umin = min(umin, uu); umax = max(umax, uu); vmin = min(vmin, vv); vmax = max(vmax, vv);
+                }
+                if (umin >= e || umax <= -e || vmin >= len || vmax <= 0.0) continue;
+                mask |= 1u << k;
             }
-            // Exact reject on the local bounding box.
-            vec2 fmin = min(min(fl[0], fl[1]), min(fl[2], fl[3]));
-            vec2 fmax = max(max(fl[0], fl[1]), max(fl[2], fl[3]));
-            if (fmin.x >= se || fmax.x <= -se || fmin.y >= len || fmax.y <= 0.0) continue;
-            PairGeom G = pair_geom(dot(P.h.xy, b), dot(P.h.xy, t), P.h.z, S.b.w);
-            float I, A;
-            patch_integral(fl, se, len, 0.5 * w, G, I, A);
-            if (A > 0.0) { ++pairs; dp += I; cov += A; }
+        }
+        // 2. queue slots
+        sh_base[lid] = bitCount(mask);
+        barrier();
+        if (lid == 0u) {
+            uint run = 0u;
+            for (uint i = 0u; i < 256u; ++i) { uint c = sh_base[i]; sh_base[i] = run; run += c; }
+            sh_total = run;
+        }
+        barrier();
+        uint total = sh_total;
+        uint mybase = sh_base[lid];
+        for (uint r0 = 0u; r0 < total; r0 += QCAP) {
+            // enqueue my pairs that fall in [r0, r0 + QCAP)
+            uint m = mask, idx = mybase;
+            while (m != 0u) {
+                uint k = uint(findLSB(m));
+                m &= m - 1u;
+                if (idx >= r0 && idx < r0 + QCAP) sh_queue[idx - r0] = (lid << 8) | k;
+                ++idx;
+            }
+            barrier();
+            // 3. integrate side by side
+            uint n = min(QCAP, total - r0);
+            for (uint i = lid; i < n; i += 256u) {
+                uint e = sh_queue[i];
+                uint px = e >> 8, k = e & 255u;
+                Prep S = sh_s[k];
+                vec2 p0 = S.a.xy, t = S.a.zw, b = vec2(-t.y, t.x);
+                float len = S.b.x, w = S.b.y, se = S.b.z;
+                float k2w = 2.0 / w;
+                vec4 fa = sh_fp01[px], fb = sh_fp23[px];
+                vec2 fl[4];
+                fl[0] = vec2(dot(fa.xy - p0, b) * k2w, dot(fa.xy - p0, t));
+                fl[1] = vec2(dot(fa.zw - p0, b) * k2w, dot(fa.zw - p0, t));
+                fl[2] = vec2(dot(fb.xy - p0, b) * k2w, dot(fb.xy - p0, t));
+                fl[3] = vec2(dot(fb.zw - p0, b) * k2w, dot(fb.zw - p0, t));
+                vec3 h = sh_h[px].xyz;
+                PairGeom G = pair_geom(dot(h.xy, b), dot(h.xy, t), h.z, S.b.w);
+                float I, A;
+                patch_integral(fl, se, len, 0.5 * w, G, I, A);
+                sh_res[i] = vec2(I, A);
+            }
+            barrier();
+            // 4. my results, in scratch order
+            uint lo = max(mybase, r0), hi = min(mybase + bitCount(mask), r0 + QCAP);
+            for (uint j = lo; j < hi; ++j) {
+                vec2 ra = sh_res[j - r0];
+                if (ra.y > 0.0) { ++pairs; dp += ra.x; cov += ra.y; }
+            }
+            barrier();
         }
     }
     if (live) {
-        atomicAdd(sh_cand, cand);
         atomicAdd(sh_pairs, pairs);
     }
     barrier();
     if (lid == 0u) {
-        atomicAdd(stats[0], sh_cand);
         atomicAdd(stats[1], sh_pairs);
         if (tile == 0u) stats[2] = offs[pc.n_tiles * pc.n_groups];  // total tile-list entries
+    }
+    // candidates: one atomic per live thread would serialize; reduce through sh_base
+    sh_base[lid] = live ? cand : 0u;
+    barrier();
+    if (lid == 0u) {
+        uint s = 0u;
+        for (uint i = 0u; i < 256u; ++i) s += sh_base[i];
+        atomicAdd(stats[0], s);
     }
     if (!inside) return;
     float L = 0.0;

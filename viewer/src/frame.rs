@@ -1,0 +1,385 @@
+//! [`FrameRenderer`]: one interactive view rendered by the engine's own [`Renderer`] (the same
+//! binning and shading kernels as `scratchart render`), then mapped to display bytes by
+//! `shaders/view_present.comp` into a buffer the size of the output, which is copied to the
+//! swapchain image in the same submission (or read back for a screenshot).
+//!
+//! Why a buffer and not a storage image: many drivers do not offer STORAGE on the swapchain's
+//! BGRA8 formats, while TRANSFER_DST is offered nearly everywhere; the extra copy of one frame
+//! is negligible next to the shading. The output is gray, so RGBA and BGRA pack the same.
+//!
+//! Reduced resolution: the engine renders at an internal size (see [`internal_size`]) and the
+//! present pass upsamples. One [`GpuScene`] is kept per internal size, so moving the camera only
+//! rewrites the views buffer (`Renderer::update_views`) and changing the level re-uploads nothing.
+use std::sync::Arc;
+use std::time::Instant;
+
+use ash::vk;
+use bytemuck::{Pod, Zeroable};
+use scratchart::model::scene::{Scene, View};
+use scratchart::render::{GpuScene, RenderStats, Renderer};
+use scratchart::vulkan::{
+    Buffer, ComputePipeline, Context, GpuError, MemLoc, Recorder, ShaderCompiler, Timings,
+};
+
+use crate::design::Target;
+
+/// Push constants of `shaders/view_present.comp` (same field order and meaning).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
+pub struct PresentPush {
+    /// out_w, out_h, src_w, src_h
+    pub dims: [u32; 4],
+    /// x0, y0, w, h of the render in the output
+    pub view_rect: [u32; 4],
+    /// x0, y0, w, h of the target in the output (w = 0: none)
+    pub tgt_rect: [u32; 4],
+    /// first pixel of the view in the image buffer, tgt_w, tgt_h, flags (bit 0: nearest)
+    pub misc: [u32; 4],
+    /// exposure, background display value, 0, 0
+    pub params: [f32; 4],
+}
+
+/// Divisors of the full resolution, finest first; level i renders at full / DIVISORS[i].
+pub const DIVISORS: [f64; 9] = [1.0, 1.25, 1.5, 2.0, 2.5, 3.0, 4.0, 6.0, 8.0];
+
+/// Internal render size at `level` for a viewport of `full` pixels.
+pub fn internal_size(full: (u32, u32), level: usize) -> (u32, u32) {
+    let d = DIVISORS[level.min(DIVISORS.len() - 1)];
+    let f = |n: u32| ((n as f64 / d).round() as u32).clamp(1, n.max(1));
+    (f(full.0), f(full.1))
+}
+
+/// Where the render and the (optional) target go in an output of `out` pixels.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Layout {
+    pub out: (u32, u32),
+    pub view_rect: [u32; 4],
+    pub tgt_rect: [u32; 4],
+}
+
+impl Layout {
+    /// Without a target the render fills the output; with one, the render takes the left half
+    /// and the target is fitted (aspect kept) and centred in the right half.
+    pub fn new(out: (u32, u32), target: Option<(u32, u32)>) -> Layout {
+        let (w, h) = out;
+        match target {
+            None => Layout {
+                out,
+                view_rect: [0, 0, w, h],
+                tgt_rect: [0; 4],
+            },
+            Some((tw, th)) => {
+                let half = (w / 2).max(1);
+                let s = (half as f64 / tw as f64).min(h as f64 / th as f64);
+                let rw = ((tw as f64 * s).round() as u32).clamp(1, half);
+                let rh = ((th as f64 * s).round() as u32).clamp(1, h.max(1));
+                Layout {
+                    out,
+                    view_rect: [0, 0, half, h],
+                    tgt_rect: [half + (w - half - rw) / 2, (h - rh) / 2, rw, rh],
+                }
+            }
+        }
+    }
+
+    pub fn viewport(&self) -> (u32, u32) {
+        (self.view_rect[2], self.view_rect[3])
+    }
+}
+
+/// What one frame cost and what it drew.
+#[derive(Clone, Debug, Default)]
+pub struct FrameInfo {
+    pub internal: (u32, u32),
+    pub timings: Timings,
+    /// Host time of the whole frame: recording, submission and the wait.
+    pub wall_ms: f64,
+    pub stats: RenderStats,
+}
+
+/// How to draw one frame.
+pub struct FrameParams<'a> {
+    /// The view to render; its camera's width/height is the internal resolution.
+    pub view: &'a View,
+    pub layout: Layout,
+    pub exposure: f32,
+    pub nearest: bool,
+    /// The target to show (must match the layout's target rectangle being non-empty).
+    pub show_target: bool,
+}
+
+struct Pipelines {
+    renderer: Renderer,
+    present: ComputePipeline,
+}
+
+fn build_pipelines(ctx: &Arc<Context>) -> Result<Pipelines, GpuError> {
+    // `embedded()` honours ShaderCompiler::override_embedded, i.e. the hot-reload directory.
+    let sc = ShaderCompiler::embedded()?;
+    let present = ComputePipeline::new(
+        ctx,
+        &sc,
+        "view_present.comp",
+        &[],
+        3,
+        std::mem::size_of::<PresentPush>() as u32,
+    )?;
+    Ok(Pipelines {
+        renderer: Renderer::new(ctx)?,
+        present,
+    })
+}
+
+pub struct FrameRenderer {
+    ctx: Arc<Context>,
+    pipes: Pipelines,
+    /// The design with its views replaced by the one interactive view (plate and scratches kept).
+    scene: Scene,
+    /// One uploaded scene per internal size, most recently used last.
+    cache: Vec<((u32, u32), GpuScene)>,
+    out: Option<Buffer>,
+    target: Buffer,
+    target_dims: Option<(u32, u32)>,
+    rec: Recorder,
+}
+
+/// Uploaded scenes kept at once (each holds the scratches and the binning buffers).
+const CACHE_LIMIT: usize = 10;
+
+impl FrameRenderer {
+    pub fn new(ctx: &Arc<Context>, scene: &Scene) -> Result<FrameRenderer, GpuError> {
+        Ok(FrameRenderer {
+            ctx: ctx.clone(),
+            pipes: build_pipelines(ctx)?,
+            scene: single_view_template(scene),
+            cache: Vec::new(),
+            out: None,
+            target: Buffer::new(ctx, "view target", 16, MemLoc::GpuOnly)?,
+            target_dims: None,
+            rec: Recorder::new(ctx)?,
+        })
+    }
+
+    pub fn ctx(&self) -> &Arc<Context> {
+        &self.ctx
+    }
+
+    /// Replaces the plate and scratches (design reload); uploaded scenes are dropped.
+    pub fn set_scene(&mut self, scene: &Scene) {
+        self.scene = single_view_template(scene);
+        self.cache.clear();
+    }
+
+    /// Recompiles every kernel from the current shader sources. On failure the old pipelines
+    /// stay in use and the error (with the compiler log) is returned.
+    pub fn reload_shaders(&mut self) -> Result<(), GpuError> {
+        self.pipes = build_pipelines(&self.ctx)?;
+        Ok(())
+    }
+
+    /// Uploads `t` as the target shown beside the render (`None`: no target).
+    pub fn set_target(&mut self, t: Option<&Target>) -> Result<(), GpuError> {
+        match t {
+            Some(t) => {
+                self.target = self.ctx.upload("view target", &t.data)?;
+                self.target_dims = Some((t.width, t.height));
+            }
+            None => {
+                self.target = Buffer::new(&self.ctx, "view target", 16, MemLoc::GpuOnly)?;
+                self.target_dims = None;
+            }
+        }
+        Ok(())
+    }
+
+    pub fn target_dims(&self) -> Option<(u32, u32)> {
+        self.target_dims
+    }
+
+    /// Drops the uploaded scenes whose size is not `keep` (after a resize).
+    pub fn trim_cache(&mut self, keep: &[(u32, u32)]) {
+        self.cache.retain(|(s, _)| keep.contains(s));
+    }
+
+    /// The uploaded scene for `size`, uploading (and evicting the oldest) when needed.
+    fn scene_for(&mut self, view: &View) -> Result<usize, GpuError> {
+        let size = (view.camera.width, view.camera.height);
+        if let Some(i) = self.cache.iter().position(|(s, _)| *s == size) {
+            let entry = self.cache.remove(i);
+            self.cache.push(entry);
+        } else {
+            if self.cache.len() >= CACHE_LIMIT {
+                self.cache.remove(0);
+            }
+            let mut scene = self.scene.clone();
+            scene.views = vec![view.clone()];
+            let gs = self.pipes.renderer.upload(&scene)?;
+            self.cache.push((size, gs));
+        }
+        Ok(self.cache.len() - 1)
+    }
+
+    /// Renders one frame into the output buffer and, when `swap` is given, copies it to that
+    /// swapchain image and leaves the image in PRESENT_SRC layout. Waits for completion.
+    ///
+    /// Hazard: `swap` must be an image the presentation engine has released (its acquire fence
+    /// waited on): the copy is not ordered against presentation by a semaphore.
+    pub fn render(
+        &mut self,
+        p: &FrameParams,
+        swap: Option<vk::Image>,
+    ) -> Result<FrameInfo, GpuError> {
+        let t0 = Instant::now();
+        let idx = self.scene_for(p.view)?;
+        let (out_w, out_h) = p.layout.out;
+        let need = out_w as u64 * out_h as u64 * 4;
+        if self.out.as_ref().map(|b| b.size()) != Some(need.max(16)) {
+            self.out = Some(Buffer::new(&self.ctx, "view output", need, MemLoc::GpuOnly)?);
+        }
+        let (iw, ih) = (p.view.camera.width, p.view.camera.height);
+        let show_target = p.show_target && self.target_dims.is_some() && p.layout.tgt_rect[2] > 0;
+        let (tw, th) = self.target_dims.unwrap_or((0, 0));
+        let gs = &mut self.cache[idx].1;
+        let ok = self
+            .pipes
+            .renderer
+            .update_views(gs, std::slice::from_ref(p.view))?;
+        assert!(ok, "cached scene for {iw}x{ih} has another size");
+        let push = PresentPush {
+            dims: [out_w, out_h, iw, ih],
+            view_rect: p.layout.view_rect,
+            tgt_rect: if show_target { p.layout.tgt_rect } else { [0; 4] },
+            misc: [gs.slots.views[0].base[1], tw, th, p.nearest as u32],
+            params: [p.exposure, 0.1, 0.0, 0.0],
+        };
+        let out = self.out.as_ref().unwrap();
+        loop {
+            let rec = &mut self.rec;
+            rec.begin()?;
+            rec.fill(&gs.stats, 0);
+            rec.barrier();
+            self.pipes.renderer.record_binning(rec, gs);
+            rec.timestamp("bin");
+            self.pipes.renderer.record_shading(rec, gs);
+            rec.timestamp("shade");
+            rec.dispatch(
+                &self.pipes.present,
+                &[&gs.image, &self.target, out],
+                bytemuck::bytes_of(&push),
+                [out_w.div_ceil(16), out_h.div_ceil(16), 1],
+            );
+            rec.barrier();
+            rec.timestamp("present");
+            if let Some(image) = swap {
+                record_copy_to_swapchain(&self.ctx, rec.raw_cmd(), out, image, (out_w, out_h));
+                rec.timestamp("copy");
+            }
+            let timings = rec.submit_and_wait()?;
+            let st: Vec<u32> = gs.stats.read()?;
+            let stats = RenderStats {
+                candidates: st[0] as u64,
+                pairs: st[1] as u64,
+                entries: st[2] as u64,
+            };
+            if stats.entries > gs.capacity as u64 {
+                // The tile lists overflowed (a view that sees more scratches per tile than the
+                // first guess): grow them and draw the frame again.
+                self.pipes.renderer.grow_list(gs, stats.entries)?;
+                continue;
+            }
+            return Ok(FrameInfo {
+                internal: (iw, ih),
+                timings,
+                wall_ms: t0.elapsed().as_secs_f64() * 1e3,
+                stats,
+            });
+        }
+    }
+
+    /// The last frame's display bytes (gray), top row first, `layout.out` sized.
+    pub fn read_output_gray(&self) -> Result<Vec<u8>, GpuError> {
+        let out = self.out.as_ref().expect("read_output_gray before any frame");
+        let px: Vec<u32> = self.ctx.download(out)?;
+        Ok(px.iter().map(|p| (p & 0xff) as u8).collect())
+    }
+}
+
+fn single_view_template(scene: &Scene) -> Scene {
+    Scene {
+        plate: scene.plate.clone(),
+        views: Vec::new(),
+        scratches: scene.scratches.clone(),
+    }
+}
+
+/// UNDEFINED -> TRANSFER_DST, copy the output buffer, -> PRESENT_SRC. The output buffer was
+/// written by the present pass; the recorder's barrier before this made it TRANSFER_READ-able.
+fn record_copy_to_swapchain(
+    ctx: &Context,
+    cmd: vk::CommandBuffer,
+    out: &Buffer,
+    image: vk::Image,
+    (w, h): (u32, u32),
+) {
+    let range = vk::ImageSubresourceRange::default()
+        .aspect_mask(vk::ImageAspectFlags::COLOR)
+        .level_count(1)
+        .layer_count(1);
+    let to_dst = [vk::ImageMemoryBarrier::default()
+        .src_access_mask(vk::AccessFlags::empty())
+        .dst_access_mask(vk::AccessFlags::TRANSFER_WRITE)
+        .old_layout(vk::ImageLayout::UNDEFINED)
+        .new_layout(vk::ImageLayout::TRANSFER_DST_OPTIMAL)
+        .src_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
+        .dst_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
+        .image(image)
+        .subresource_range(range)];
+    let to_present = [vk::ImageMemoryBarrier::default()
+        .src_access_mask(vk::AccessFlags::TRANSFER_WRITE)
+        .dst_access_mask(vk::AccessFlags::empty())
+        .old_layout(vk::ImageLayout::TRANSFER_DST_OPTIMAL)
+        .new_layout(vk::ImageLayout::PRESENT_SRC_KHR)
+        .src_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
+        .dst_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
+        .image(image)
+        .subresource_range(range)];
+    let region = [vk::BufferImageCopy::default()
+        .image_subresource(
+            vk::ImageSubresourceLayers::default()
+                .aspect_mask(vk::ImageAspectFlags::COLOR)
+                .layer_count(1),
+        )
+        .image_extent(vk::Extent3D {
+            width: w,
+            height: h,
+            depth: 1,
+        })];
+    let d = &ctx.device;
+    unsafe {
+        d.cmd_pipeline_barrier(
+            cmd,
+            vk::PipelineStageFlags::TOP_OF_PIPE,
+            vk::PipelineStageFlags::TRANSFER,
+            vk::DependencyFlags::empty(),
+            &[],
+            &[],
+            &to_dst,
+        );
+        d.cmd_copy_buffer_to_image(
+            cmd,
+            out.raw(),
+            image,
+            vk::ImageLayout::TRANSFER_DST_OPTIMAL,
+            &region,
+        );
+        d.cmd_pipeline_barrier(
+            cmd,
+            vk::PipelineStageFlags::TRANSFER,
+            vk::PipelineStageFlags::BOTTOM_OF_PIPE,
+            vk::DependencyFlags::empty(),
+            &[],
+            &[],
+            &to_present,
+        );
+    }
+}
