@@ -32,10 +32,7 @@ fn main() {
     let mut out = String::from("pub static EMBEDDED_SHADERS: &[(&str, &str)] = &[\n");
     for rel in &entries {
         let abs = root.join(rel).canonicalize().unwrap();
-        out += &format!(
-            "    ({rel:?}, include_str!({:?})),\n",
-            abs.display().to_string()
-        );
+        out += &format!("    ({rel:?}, include_str!({:?})),\n", abs.display().to_string());
     }
     out += "];\n";
     let dest = Path::new(&env::var("OUT_DIR").unwrap()).join("embedded_shaders.rs");
@@ -50,16 +47,8 @@ fn collect(root: &Path, dir: &Path, out: &mut Vec<String>) {
         println!("cargo:rerun-if-changed={}", p.display());
         if p.is_dir() {
             collect(root, &p, out);
-        } else if matches!(
-            p.extension().and_then(|s| s.to_str()),
-            Some("glsl" | "comp")
-        ) {
-            out.push(
-                p.strip_prefix(root)
-                    .unwrap()
-                    .to_string_lossy()
-                    .replace('\\', "/"),
-            );
+        } else if matches!(p.extension().and_then(|s| s.to_str()), Some("glsl" | "comp")) {
+            out.push(p.strip_prefix(root).unwrap().to_string_lossy().replace('\\', "/"));
         }
     }
 }

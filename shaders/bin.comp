@@ -14,6 +14,11 @@ layout(std430, binding = 0) readonly buffer Views { ViewGPU views[]; };
 layout(std430, binding = 1) readonly buffer Scratches { ScratchGPU scr[]; };
 layout(std430, binding = 2) buffer Hist { uint hist[]; };
 layout(std430, binding = 3) buffer List { uint list[]; };
+// Per scratch: COUNT writes its number of entries; after a scan, SCATTER reads it as the first
+// slot of the scratch's entries in `inv`, which maps them (in enumeration order) to list positions.
+// The backward pass uses it to add a scratch's per-tile partial gradients in a fixed order.
+layout(std430, binding = 4) buffer ScratchBase { uint sbase[]; };
+layout(std430, binding = 5) buffer Inverse { uint inv[]; };
 
 layout(push_constant) uniform Push {
     uint n_scratches;
@@ -46,6 +51,10 @@ void main() {
     uint k0 = g * pc.group_size;
     uint k1 = min(k0 + pc.group_size, pc.n_scratches);
     for (uint k = k0; k < k1; ++k) {
+        uint nk = 0u;
+#ifndef COUNT
+        uint sb = sbase[k];
+#endif
         ScratchGPU S = scr[k];
         vec2 p0 = S.ends.xy, p1 = S.ends.zw;
         vec2 t = normalize(p1 - p0);
@@ -91,9 +100,14 @@ void main() {
                     uint pos = hist[slot];
                     hist[slot] = pos + 1u;
                     if (pos < pc.capacity) list[pos] = k;
+                    if (sb + nk < pc.capacity) inv[sb + nk] = pos;
 #endif
+                    ++nk;
                 }
             }
         }
+#ifdef COUNT
+        sbase[k] = nk;
+#endif
     }
 }

@@ -23,6 +23,7 @@ layout(std430, binding = 2) readonly buffer Offsets { uint offs[]; };  // scanne
 layout(std430, binding = 3) readonly buffer List { uint list[]; };
 layout(std430, binding = 4) writeonly buffer Image { float img[]; };  // L of every view, concatenated
 layout(std430, binding = 5) buffer Stats { uint stats[]; };            // [0] candidates tested, [1] overlapping pairs, [2] list entries
+layout(std430, binding = 6) writeonly buffer Coverage { float cov_raw[]; };  // sum_k area(F ∩ R_k) / S_P, for the backward pass
 
 layout(push_constant) uniform Push {
     float half_plate;
@@ -180,15 +181,12 @@ void main() {
                 float len = S.b.x, w = S.b.y, se = S.b.z;
                 float k2w = 2.0 / w;
                 vec4 fa = sh_fp01[px], fb = sh_fp23[px];
-                vec2 fl[4];
-                fl[0] = vec2(dot(fa.xy - p0, b) * k2w, dot(fa.xy - p0, t));
-                fl[1] = vec2(dot(fa.zw - p0, b) * k2w, dot(fa.zw - p0, t));
-                fl[2] = vec2(dot(fb.xy - p0, b) * k2w, dot(fb.xy - p0, t));
-                fl[3] = vec2(dot(fb.zw - p0, b) * k2w, dot(fb.zw - p0, t));
+                float fs[4] = float[](dot(fa.xy - p0, b) * k2w, dot(fa.zw - p0, b) * k2w, dot(fb.xy - p0, b) * k2w, dot(fb.zw - p0, b) * k2w);
+                float fv[4] = float[](dot(fa.xy - p0, t), dot(fa.zw - p0, t), dot(fb.xy - p0, t), dot(fb.zw - p0, t));
                 vec3 h = sh_h[px].xyz;
                 PairGeom G = pair_geom(dot(h.xy, b), dot(h.xy, t), h.z, S.b.w);
                 float I, A;
-                patch_integral(fl, se, len, 0.5 * w, G, I, A);
+                patch_integral(fs, fv, se, len, 0.5 * w, G, I, A);
                 sh_res[i] = vec2(I, A);
             }
             barrier();
@@ -219,6 +217,7 @@ void main() {
     }
     if (!inside) return;
     float L = 0.0;
+    cov_raw[V.base.y + ij.y * V.dims.x + ij.x] = live ? cov * P.inv_sp : 0.0;
     if (live) {
         float c = min(1.0, cov * P.inv_sp);
         L = P.scale * (dp * P.inv_sp + (1.0 - c) * P.d_flat);

@@ -87,18 +87,11 @@ fn ends_and_edges_on_footprint_corners() {
     for j in 0..24 {
         for i in 0..24 {
             if let Some(f) = g.footprint(i, j) {
-                corners.extend(
-                    f.iter()
-                        .copied()
-                        .filter(|c| c[0].abs() < 9.0 && c[1].abs() < 9.0),
-                );
+                corners.extend(f.iter().copied().filter(|c| c[0].abs() < 9.0 && c[1].abs() < 9.0));
             }
         }
     }
-    assert!(
-        corners.len() > 100,
-        "test view sees too little of the plate"
-    );
+    assert!(corners.len() > 100, "test view sees too little of the plate");
     let mut rng = Rng::new(6);
     let mut scratches = Vec::new();
     while scratches.len() < 120 {
@@ -111,11 +104,7 @@ fn ends_and_edges_on_footprint_corners() {
         // Ends exactly on footprint corners; every other scratch is moved across by its
         // half-width so that a carved edge, not the axis, runs through the corners.
         let s = scratch(a, b, 0.1, 0.08, 0.1);
-        let e = if scratches.len() % 2 == 0 {
-            0.0
-        } else {
-            s.half_width()
-        };
+        let e = if scratches.len() % 2 == 0 { 0.0 } else { s.half_width() };
         let n = [-(b[1] - a[1]) / l * e, (b[0] - a[0]) / l * e];
         scratches.push(scratch(
             [a[0] - n[0], a[1] - n[1]],
@@ -147,10 +136,7 @@ fn very_thin_and_very_short_scratches() {
         } else {
             // very short
             let l = rng.range(1e-4, 1e-2);
-            let t = [
-                (s.p1[0] - s.p0[0]) / s.length(),
-                (s.p1[1] - s.p0[1]) / s.length(),
-            ];
+            let t = [(s.p1[0] - s.p0[0]) / s.length(), (s.p1[1] - s.p0[1]) / s.length()];
             s.p1 = [s.p0[0] + l * t[0], s.p0[1] + l * t[1]];
         }
     }

@@ -119,10 +119,7 @@ pub fn assert_matches_reference(label: &str, scene: &Scene) {
             c.on_plate > 0,
             "{label} view {v}: no on-plate pixel, the test scene is wrong"
         );
-        assert_eq!(
-            c.non_finite, 0,
-            "{label} view {v}: NaN or infinity in the GPU image"
-        );
+        assert_eq!(c.non_finite, 0, "{label} view {v}: NaN or infinity in the GPU image");
         assert_eq!(
             c.off_plate_nonzero, 0,
             "{label} view {v}: off-plate pixels must be exactly 0"
@@ -145,15 +142,7 @@ pub fn plate(size: f64) -> Plate {
 }
 
 /// A view on an orbit around the plate centre with a point light on another orbit.
-pub fn orbit_view(
-    name: &str,
-    res: u32,
-    elev: f64,
-    az: f64,
-    light_elev: f64,
-    light_az: f64,
-    plate_mm: f64,
-) -> View {
+pub fn orbit_view(name: &str, res: u32, elev: f64, az: f64, light_elev: f64, light_az: f64, plate_mm: f64) -> View {
     View {
         name: name.into(),
         camera: orbit_camera(3.0 * plate_mm, elev, az, plate_mm, res, res),
@@ -184,43 +173,18 @@ pub fn directional_view(
 }
 
 /// A random scene of `n` scratches on a `plate_mm` plate.
-pub fn random_scene(
-    seed: u64,
-    n: usize,
-    plate_mm: f64,
-    w: f64,
-    d: f64,
-    alpha: f64,
-    views: Vec<View>,
-) -> Scene {
+pub fn random_scene(seed: u64, n: usize, plate_mm: f64, w: f64, d: f64, alpha: f64, views: Vec<View>) -> Scene {
     let mut rng = Rng::new(seed);
     Scene {
         plate: plate(plate_mm),
         views,
-        scratches: random_scratches(
-            &mut rng,
-            n,
-            plate_mm,
-            0.05 * plate_mm,
-            0.3 * plate_mm,
-            w,
-            d,
-            alpha,
-        ),
+        scratches: random_scratches(&mut rng, n, plate_mm, 0.05 * plate_mm, 0.3 * plate_mm, w, d, alpha),
     }
 }
 
 /// A camera `elev` degrees above the plate with a narrow field of view, so that a grazing view
 /// still puts many pixels on the plate.
-pub fn grazing_view(
-    name: &str,
-    res: u32,
-    elev: f64,
-    az: f64,
-    light_elev: f64,
-    light_az: f64,
-    plate_mm: f64,
-) -> View {
+pub fn grazing_view(name: &str, res: u32, elev: f64, az: f64, light_elev: f64, light_az: f64, plate_mm: f64) -> View {
     let mut v = orbit_view(name, res, elev, az, light_elev, light_az, plate_mm);
     v.camera.fov_y_deg = 4.0;
     v
@@ -238,11 +202,5 @@ pub fn camera(eye: [f64; 3], res: u32, fov: f64) -> Camera {
 }
 
 pub fn scratch(p0: [f64; 2], p1: [f64; 2], w: f64, d: f64, alpha: f64) -> Scratch {
-    Scratch {
-        p0,
-        p1,
-        w,
-        d,
-        alpha,
-    }
+    Scratch { p0, p1, w, d, alpha }
 }

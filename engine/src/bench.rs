@@ -90,8 +90,7 @@ pub fn forward_table(ctx: &Context, rows: &[ForwardRow]) -> String {
     for r in rows {
         let v = r.views as f64;
         let secs = r.shade_ms * 1e-3;
-        let flops =
-            r.pairs as f64 * FLOPS_PER_PAIR + (r.candidates - r.pairs) as f64 * FLOPS_PER_CANDIDATE;
+        let flops = r.pairs as f64 * FLOPS_PER_PAIR + (r.candidates - r.pairs) as f64 * FLOPS_PER_CANDIDATE;
         let _ = writeln!(
             s,
             "| {} | {} | {} x {} | {} | {} | {} | {:.2} | {:.2} | {:.1} | {:.1} |",

@@ -53,9 +53,7 @@ fn check_dims(path: &Path, width: u32, height: u32, len: usize) -> Result<(), Io
     if width == 0 || height == 0 || expect != len {
         return Err(IoError::Args {
             path: path.to_path_buf(),
-            msg: format!(
-                "{width}x{height} image needs {expect} values (width and height > 0), got {len}"
-            ),
+            msg: format!("{width}x{height} image needs {expect} values (width and height > 0), got {len}"),
         });
     }
     Ok(())
@@ -119,12 +117,7 @@ pub fn encode_pfm(width: u32, height: u32, data_top_row_first: &[f32]) -> Vec<u8
 }
 
 /// Write a grayscale PFM file atomically (see [`encode_pfm`]).
-pub fn write_pfm(
-    path: &Path,
-    width: u32,
-    height: u32,
-    data_top_row_first: &[f32],
-) -> Result<(), IoError> {
+pub fn write_pfm(path: &Path, width: u32, height: u32, data_top_row_first: &[f32]) -> Result<(), IoError> {
     check_dims(path, width, height, data_top_row_first.len())?;
     write_atomic(path, &encode_pfm(width, height, data_top_row_first))
 }
@@ -188,10 +181,7 @@ pub fn decode_pfm(bytes: &[u8]) -> Result<(u32, u32, Vec<f32>), String> {
         .parse()
         .map_err(|_| format!("scale `{}` is not a number", tokens[3]))?;
     if !scale.is_finite() || scale == 0.0 {
-        return Err(format!(
-            "scale `{}` must be a non-zero finite number",
-            tokens[3]
-        ));
+        return Err(format!("scale `{}` must be a non-zero finite number", tokens[3]));
     }
     let little = scale < 0.0;
     let (w, h) = (width as usize, height as usize);
@@ -207,12 +197,7 @@ pub fn decode_pfm(bytes: &[u8]) -> Result<(u32, u32, Vec<f32>), String> {
         ));
     }
     let read = |k: usize| -> f32 {
-        let b = [
-            data[4 * k],
-            data[4 * k + 1],
-            data[4 * k + 2],
-            data[4 * k + 3],
-        ];
+        let b = [data[4 * k], data[4 * k + 1], data[4 * k + 2], data[4 * k + 3]];
         if little {
             f32::from_le_bytes(b)
         } else {
@@ -245,12 +230,7 @@ pub fn display_byte(l: f32) -> u8 {
 }
 
 /// Write the display PNG of a linear image (see [`display_byte`]). `linear` is top row first.
-pub fn write_png_display(
-    path: &Path,
-    width: u32,
-    height: u32,
-    linear: &[f32],
-) -> Result<(), IoError> {
+pub fn write_png_display(path: &Path, width: u32, height: u32, linear: &[f32]) -> Result<(), IoError> {
     check_dims(path, width, height, linear.len())?;
     let bytes: Vec<u8> = linear.iter().map(|&l| display_byte(l)).collect();
     write_png_gray(path, width, height, &bytes)
@@ -281,11 +261,7 @@ pub fn read_image_gray(path: &Path) -> Result<(u32, u32, Vec<f32>), IoError> {
     })?;
     let luma = img.to_luma32f();
     let (w, h) = luma.dimensions();
-    let data: Vec<f32> = luma
-        .into_raw()
-        .into_iter()
-        .map(|v| v.clamp(0.0, 1.0))
-        .collect();
+    let data: Vec<f32> = luma.into_raw().into_iter().map(|v| v.clamp(0.0, 1.0)).collect();
     Ok((w, h, data))
 }
 
@@ -294,15 +270,8 @@ pub fn read_image_gray(path: &Path) -> Result<(u32, u32, Vec<f32>), IoError> {
 /// the tent is widened k times (antialiased bilinear, as PIL's BILINEAR), so no detail aliases.
 /// Edges are handled by renormalising the weights inside the image.
 pub fn resize_bilinear(src: &[f32], sw: u32, sh: u32, dw: u32, dh: u32) -> Vec<f32> {
-    assert_eq!(
-        src.len(),
-        sw as usize * sh as usize,
-        "resize_bilinear: bad source size"
-    );
-    assert!(
-        sw > 0 && sh > 0 && dw > 0 && dh > 0,
-        "resize_bilinear: empty image"
-    );
+    assert_eq!(src.len(), sw as usize * sh as usize, "resize_bilinear: bad source size");
+    assert!(sw > 0 && sh > 0 && dw > 0 && dh > 0, "resize_bilinear: empty image");
     let wx = tent_weights(sw as usize, dw as usize);
     let wy = tent_weights(sh as usize, dh as usize);
     let (sw, dw, dh) = (sw as usize, dw as usize, dh as usize);
@@ -311,11 +280,7 @@ pub fn resize_bilinear(src: &[f32], sw: u32, sh: u32, dw: u32, dh: u32) -> Vec<f
     for y in 0..sh as usize {
         for (x, (start, ws)) in wx.iter().enumerate() {
             let row = &src[y * sw..(y + 1) * sw];
-            let acc: f64 = ws
-                .iter()
-                .enumerate()
-                .map(|(k, w)| w * row[start + k] as f64)
-                .sum();
+            let acc: f64 = ws.iter().enumerate().map(|(k, w)| w * row[start + k] as f64).sum();
             tmp[y * dw + x] = acc as f32;
         }
     }
@@ -341,9 +306,7 @@ fn tent_weights(src_n: usize, dst_n: usize) -> Vec<(usize, Vec<f64>)> {
         .map(|d| {
             let centre = (d as f64 + 0.5) * scale - 0.5; // in source pixel-centre coordinates
             let lo = ((centre - support).floor() as i64 + 1).max(0) as usize;
-            let hi = ((centre + support).ceil() as i64 - 1)
-                .min(src_n as i64 - 1)
-                .max(0) as usize;
+            let hi = ((centre + support).ceil() as i64 - 1).min(src_n as i64 - 1).max(0) as usize;
             let lo = lo.min(hi);
             let mut ws: Vec<f64> = (lo..=hi)
                 .map(|s| (1.0 - ((s as f64 - centre) / support).abs()).max(0.0))

@@ -84,19 +84,13 @@ fn main() -> ExitCode {
 
 fn exit_code(e: &anyhow::Error) -> u8 {
     for cause in e.chain() {
-        if cause
-            .downcast_ref::<scratchart::model::scene::SceneError>()
-            .is_some()
-        {
+        if cause.downcast_ref::<scratchart::model::scene::SceneError>().is_some() {
             return 3;
         }
         if cause.downcast_ref::<scratchart::io::IoError>().is_some() {
             return 3;
         }
-        if cause
-            .downcast_ref::<scratchart::vulkan::GpuError>()
-            .is_some()
-        {
+        if cause.downcast_ref::<scratchart::vulkan::GpuError>().is_some() {
             return 4;
         }
     }
@@ -139,9 +133,7 @@ fn run(cli: Cli) -> Result<()> {
                     .map(|s| {
                         scratchart::scenes::bench_scene(s)
                             .map(|sc| (s.to_uppercase(), sc))
-                            .with_context(|| {
-                                format!("unknown standard scene '{s}' (choose S, M or P)")
-                            })
+                            .with_context(|| format!("unknown standard scene '{s}' (choose S, M or P)"))
                     })
                     .collect::<Result<_>>()?,
             };
@@ -153,8 +145,7 @@ fn run(cli: Cli) -> Result<()> {
 }
 
 fn render_to_dir(ctx: &std::sync::Arc<Context>, scene: &Scene, out: &Path) -> Result<()> {
-    std::fs::create_dir_all(out)
-        .with_context(|| format!("cannot create output directory {}", out.display()))?;
+    std::fs::create_dir_all(out).with_context(|| format!("cannot create output directory {}", out.display()))?;
     let renderer = Renderer::new(ctx)?;
     let mut gs = renderer.upload(scene)?;
     let frame = renderer.render(&mut gs)?;
@@ -180,11 +171,7 @@ fn render_to_dir(ctx: &std::sync::Arc<Context>, scene: &Scene, out: &Path) -> Re
 fn check_validation(ctx: &Context) -> Result<()> {
     let msgs = ctx.validation_messages();
     if !msgs.is_empty() {
-        anyhow::bail!(
-            "{} Vulkan validation message(s); first: {}",
-            msgs.len(),
-            msgs[0]
-        );
+        anyhow::bail!("{} Vulkan validation message(s); first: {}", msgs.len(), msgs[0]);
     }
     Ok(())
 }

@@ -89,38 +89,18 @@ pub fn random_scratches(
         let l = rng.range(len_lo, len_hi);
         let p1 = [p0[0] + l * a.cos(), p0[1] + l * a.sin()];
         if p1[0].abs() <= h && p1[1].abs() <= h {
-            out.push(Scratch {
-                p0,
-                p1,
-                w,
-                d,
-                alpha,
-            });
+            out.push(Scratch { p0, p1, w, d, alpha });
         }
     }
     out
 }
 
 /// The views of the paper's rule: M views at elevation `elev`, view j at azimuth 360 j / M.
-pub fn ring_views(
-    m: usize,
-    elev: f64,
-    distance: f64,
-    plate_mm: f64,
-    res: u32,
-    light: &Light,
-) -> Vec<View> {
+pub fn ring_views(m: usize, elev: f64, distance: f64, plate_mm: f64, res: u32, light: &Light) -> Vec<View> {
     (0..m)
         .map(|j| View {
             name: format!("v{j}"),
-            camera: orbit_camera(
-                distance,
-                elev,
-                360.0 * j as f64 / m as f64,
-                plate_mm,
-                res,
-                res,
-            ),
+            camera: orbit_camera(distance, elev, 360.0 * j as f64 / m as f64, plate_mm, res, res),
             light: light.clone(),
         })
         .collect()

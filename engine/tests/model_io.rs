@@ -64,11 +64,7 @@ fn pfm_errors_name_the_file() {
     let d = tmpdir("pfmerr");
     let cases: Vec<(&str, Vec<u8>, &str)> = vec![
         ("magic.pfm", b"P6\n1 1\n-1.0\n\0\0\0\0".to_vec(), "magic"),
-        (
-            "short.pfm",
-            b"Pf\n2 2\n-1.0\n\0\0\0\0".to_vec(),
-            "needs 16 data bytes",
-        ),
+        ("short.pfm", b"Pf\n2 2\n-1.0\n\0\0\0\0".to_vec(), "needs 16 data bytes"),
         ("width.pfm", b"Pf\nx 2\n-1.0\n".to_vec(), "width"),
         ("scale.pfm", b"Pf\n1 1\n0\n\0\0\0\0".to_vec(), "scale"),
         ("trunc.pfm", b"Pf\n1".to_vec(), "header ends early"),
@@ -79,9 +75,7 @@ fn pfm_errors_name_the_file() {
         let msg = io::read_pfm(&p).unwrap_err().to_string();
         assert!(msg.contains(name) && msg.contains(needle), "{msg}");
     }
-    let msg = io::read_pfm(&d.join("missing.pfm"))
-        .unwrap_err()
-        .to_string();
+    let msg = io::read_pfm(&d.join("missing.pfm")).unwrap_err().to_string();
     assert!(msg.contains("missing.pfm"), "{msg}");
     let msg = io::write_pfm(&d.join("bad.pfm"), 2, 2, &[0.0; 3])
         .unwrap_err()
@@ -110,9 +104,7 @@ fn png_display_values() {
     let (w, h, g) = io::read_image_gray(&pj).unwrap();
     assert_eq!((w, h, g.len()), (8, 4, 32));
     assert!(g.iter().all(|v| (0.0..=1.0).contains(v)));
-    let msg = io::read_image_gray(&d.join("nothere.png"))
-        .unwrap_err()
-        .to_string();
+    let msg = io::read_image_gray(&d.join("nothere.png")).unwrap_err().to_string();
     assert!(msg.contains("nothere.png"), "{msg}");
 }
 

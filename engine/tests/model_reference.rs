@@ -120,10 +120,7 @@ fn patch_integral_matches_brute_force_full_cover() {
     assert!((p.cov - 1.0).abs() < 1e-12, "cov {}", p.cov);
     let (bi, ba) = brute(&sc, i, j, 0, 1500);
     assert!((ba / area - 1.0).abs() < 1e-5, "area {ba} vs {area}");
-    assert!(
-        (int / bi - 1.0).abs() < 1e-4,
-        "integral {int} vs brute {bi}"
-    );
+    assert!((int / bi - 1.0).abs() < 1e-4, "integral {int} vs brute {bi}");
     assert!(int > 0.0 && (p.d_p - int / p.s_p).abs() <= 1e-12 * p.d_p);
 }
 
@@ -159,10 +156,7 @@ fn patch_integral_matches_brute_force_partial() {
     );
     let (bi, ba) = brute(&sc, 20, 30, 0, 3000);
     assert!((ba / area - 1.0).abs() < 2e-3, "area {ba} vs {area}");
-    assert!(
-        (bi / int - 1.0).abs() < 2e-3,
-        "integral {int} vs brute {bi}"
-    );
+    assert!((bi / int - 1.0).abs() < 2e-3, "integral {int} vs brute {bi}");
     assert!((p.cov - area / p.s_p).abs() < 1e-14);
 }
 
@@ -221,10 +215,7 @@ fn flat_plate_closed_form() {
             assert_eq!(got, 0.0);
             continue;
         }
-        assert!(
-            (got / l - 1.0).abs() < 1e-9,
-            "pixel ({i},{j}): {got} vs {l}"
-        );
+        assert!((got / l - 1.0).abs() < 1e-9, "pixel ({i},{j}): {got} vs {l}");
         checked += 1;
     }
     assert!(checked >= 4, "{checked}");
@@ -312,10 +303,7 @@ fn mirror_symmetry() {
     for j in 0..24 {
         for i in 0..24 {
             let (x, y) = (a[j * 24 + i], b[j * 24 + 23 - i]);
-            assert!(
-                (x - y).abs() <= 1e-9 * x.abs() + 1e-14 * max,
-                "({i},{j}): {x} vs {y}"
-            );
+            assert!((x - y).abs() <= 1e-9 * x.abs() + 1e-14 * max, "({i},{j}): {x} vs {y}");
             if pixel(&sc, 0, i as u32, j as u32).n_pairs > 0 {
                 nonflat += 1;
             }
@@ -334,16 +322,8 @@ fn analytic_width_integral(w: f64, e: f64, alpha: f64, hz: f64, hb: f64) -> f64 
     let d_hi = (th_e - th_star).min(PI / 2.0);
     let phi = |d: f64| (d.tan() / alpha).atan();
     let (p_lo, p_hi) = (
-        if d_lo <= -PI / 2.0 {
-            -PI / 2.0
-        } else {
-            phi(d_lo)
-        },
-        if d_hi >= PI / 2.0 {
-            PI / 2.0
-        } else {
-            phi(d_hi)
-        },
+        if d_lo <= -PI / 2.0 { -PI / 2.0 } else { phi(d_lo) },
+        if d_hi >= PI / 2.0 { PI / 2.0 } else { phi(d_hi) },
     );
     let f = |p: f64| {
         let delta = (alpha * p.tan()).atan();

@@ -10,10 +10,7 @@ static COUNTER: AtomicUsize = AtomicUsize::new(0);
 
 fn tmpdir(tag: &str) -> PathBuf {
     let n = COUNTER.fetch_add(1, Ordering::Relaxed);
-    let d = std::env::temp_dir().join(format!(
-        "scratchart_model_scene_{}_{tag}_{n}",
-        std::process::id()
-    ));
+    let d = std::env::temp_dir().join(format!("scratchart_model_scene_{}_{tag}_{n}", std::process::id()));
     let _ = std::fs::remove_dir_all(&d);
     std::fs::create_dir_all(&d).unwrap();
     d
@@ -44,8 +41,7 @@ fn load_value(tag: &str, v: &Value, csv: Option<&str>) -> (Result<Scene, String>
 }
 
 fn set(v: &mut Value, pointer: &str, x: Value) {
-    *v.pointer_mut(pointer)
-        .unwrap_or_else(|| panic!("no {pointer}")) = x;
+    *v.pointer_mut(pointer).unwrap_or_else(|| panic!("no {pointer}")) = x;
 }
 
 /// Loading `v` fails with a message naming the file and containing every `needles` string.
@@ -54,10 +50,7 @@ fn expect_err(tag: &str, v: &Value, needles: &[&str]) {
     let msg = r.expect_err(&format!("{tag}: should fail"));
     eprintln!("{tag}: {msg}");
     let fname = p.file_name().unwrap().to_str().unwrap();
-    assert!(
-        msg.contains(fname),
-        "{tag}: message does not name the file: {msg}"
-    );
+    assert!(msg.contains(fname), "{tag}: message does not name the file: {msg}");
     for n in needles {
         assert!(msg.contains(n), "{tag}: message lacks `{n}`: {msg}");
     }
@@ -120,10 +113,7 @@ fn missing_csv() {
     set(&mut v, "/scratches", json!("absent.csv"));
     let (r, _) = load_value("missingcsv", &v, None);
     let msg = r.unwrap_err();
-    assert!(
-        msg.contains("absent.csv") && msg.contains("scratch CSV file"),
-        "{msg}"
-    );
+    assert!(msg.contains("absent.csv") && msg.contains("scratch CSV file"), "{msg}");
 }
 
 #[test]
@@ -197,8 +187,7 @@ fn csv_valid_edge_cases_and_reader() {
     assert_eq!(s.scratches.len(), 2);
     assert_eq!(s.scratches[0].alpha, 1e-3);
     assert!(s.scratches[0].half_width() > 0.0);
-    let direct =
-        scratchart::model::read_scratches_csv(&p.parent().unwrap().join("edge.csv")).unwrap();
+    let direct = scratchart::model::read_scratches_csv(&p.parent().unwrap().join("edge.csv")).unwrap();
     assert_eq!(direct, s.scratches);
 }
 
@@ -206,11 +195,7 @@ fn csv_valid_edge_cases_and_reader() {
 fn inline_scratch_errors() {
     let bad = |tag: &str, row: Value, needles: &[&str]| {
         let mut v = base();
-        set(
-            &mut v,
-            "/scratches",
-            json!([[0, 0, 1, 1, 0.1, 0.1, 0.5], row]),
-        );
+        set(&mut v, "/scratches", json!([[0, 0, 1, 1, 0.1, 0.1, 0.5], row]));
         let mut n = vec!["scratches row 2"];
         n.extend_from_slice(needles);
         expect_err(tag, &v, &n);
@@ -222,51 +207,24 @@ fn inline_scratch_errors() {
         json!([0, 0, 1, 1, 0.1, 0.1, 1.5]),
         &["alpha = 1.5", "not clamped"],
     );
-    bad(
-        "in_len",
-        json!([1, 1, 1, 1, 0.1, 0.1, 0.5]),
-        &["zero-length"],
-    );
-    bad(
-        "in_off",
-        json!([0, -60, 1, 1, 0.1, 0.1, 0.5]),
-        &["p0", "off the plate"],
-    );
+    bad("in_len", json!([1, 1, 1, 1, 0.1, 0.1, 0.5]), &["zero-length"]);
+    bad("in_off", json!([0, -60, 1, 1, 0.1, 0.1, 0.5]), &["p0", "off the plate"]);
     bad("in_cols", json!([0, 0, 1, 1, 0.1, 0.1]), &["7 numbers"]);
-    bad(
-        "in_str",
-        json!([0, 0, 1, "x", 0.1, 0.1, 0.5]),
-        &["y1", "not a number"],
-    );
+    bad("in_str", json!([0, 0, 1, "x", 0.1, 0.1, 0.5]), &["y1", "not a number"]);
 }
 
 #[test]
 fn plate_and_view_errors() {
     let cases: Vec<(&str, &str, Value, Vec<&str>)> = vec![
-        (
-            "size0",
-            "/plate/size_mm",
-            json!(0.0),
-            vec!["plate.size_mm", "> 0"],
-        ),
-        (
-            "sizeneg",
-            "/plate/size_mm",
-            json!(-5),
-            vec!["plate.size_mm"],
-        ),
+        ("size0", "/plate/size_mm", json!(0.0), vec!["plate.size_mm", "> 0"]),
+        ("sizeneg", "/plate/size_mm", json!(-5), vec!["plate.size_mm"]),
         (
             "rough0",
             "/plate/roughness",
             json!(0.0),
             vec!["plate.roughness", "between 0 and 1"],
         ),
-        (
-            "rough1",
-            "/plate/roughness",
-            json!(1.0),
-            vec!["plate.roughness"],
-        ),
+        ("rough1", "/plate/roughness", json!(1.0), vec!["plate.roughness"]),
         ("f0big", "/plate/f0", json!(1.5), vec!["plate.f0", "[0, 1]"]),
         ("noviews", "/views", json!([]), vec!["views", "no views"]),
         (
@@ -323,24 +281,9 @@ fn plate_and_view_errors() {
             json!(-3.0),
             vec!["light.intensity"],
         ),
-        (
-            "badname",
-            "/views/0/name",
-            json!("a/b"),
-            vec!["view name", "file name"],
-        ),
-        (
-            "emptyname",
-            "/views/0/name",
-            json!(""),
-            vec!["view name is empty"],
-        ),
-        (
-            "dotname",
-            "/views/0/name",
-            json!(".."),
-            vec!["view name", "file name"],
-        ),
+        ("badname", "/views/0/name", json!("a/b"), vec!["view name", "file name"]),
+        ("emptyname", "/views/0/name", json!(""), vec!["view name is empty"]),
+        ("dotname", "/views/0/name", json!(".."), vec!["view name", "file name"]),
         (
             "nosee",
             "/views/0/camera/target",
@@ -395,8 +338,7 @@ fn valid_edge_cases_accepted() {
     // Defaults, unknown fields, directional light normalised, extreme-but-legal scratches.
     v["plate"] = json!({ "size_mm": 100.0, "comment": "hi" });
     v["extra"] = json!({"anything": [1, 2, 3]});
-    v["views"][0]["light"] =
-        json!({"kind": "directional", "direction": [0, 3, 4], "intensity": 2.5});
+    v["views"][0]["light"] = json!({"kind": "directional", "direction": [0, 3, 4], "intensity": 2.5});
     v["views"][0]["camera"]["notes"] = json!("ignored");
     v["scratches"] = json!([
         [0, 0, 1e-4, 0, 1e-4, 1e-4, 1e-3],
@@ -442,23 +384,10 @@ fn half_width_is_stable() {
     let e = s.half_width();
     let approx = 0.5 * (2.0e-12f64).sqrt();
     assert!((e / approx - 1.0).abs() < 1e-9, "{e} vs {approx}");
-    let s = Scratch {
-        w: 0.2,
-        d: 0.05,
-        ..s
-    };
+    let s = Scratch { w: 0.2, d: 0.05, ..s };
     let exact = 0.1 * (1.0 - (-0.5f64).exp()).sqrt();
     assert!((s.half_width() - exact).abs() < 1e-16);
-    assert!(
-        (Scratch {
-            p1: [3.0, 4.0],
-            ..s
-        }
-        .length()
-            - 5.0)
-            .abs()
-            < 1e-15
-    );
+    assert!((Scratch { p1: [3.0, 4.0], ..s }.length() - 5.0).abs() < 1e-15);
 }
 
 fn awkward_scene() -> Scene {
@@ -500,10 +429,7 @@ fn save_load_round_trip_is_exact() {
     // Header line present; no temp files left behind.
     let csv = std::fs::read_to_string(d.join("marks.csv")).unwrap();
     assert!(csv.starts_with("x0,y0,x1,y1,w,d,alpha\n"));
-    let names: Vec<_> = std::fs::read_dir(&d)
-        .unwrap()
-        .map(|e| e.unwrap().file_name())
-        .collect();
+    let names: Vec<_> = std::fs::read_dir(&d).unwrap().map(|e| e.unwrap().file_name()).collect();
     assert_eq!(names.len(), 2, "{names:?}");
     // Overwriting works too.
     s.save(&p, "marks.csv").unwrap();
@@ -519,15 +445,9 @@ fn validate_catches_programmatic_errors() {
     let mut s = awkward_scene();
     s.scratches[3].w = f64::NAN;
     let msg = s.validate().unwrap_err().to_string();
-    assert!(
-        msg.contains("scratch 4") && msg.contains("not a finite"),
-        "{msg}"
-    );
+    assert!(msg.contains("scratch 4") && msg.contains("not a finite"), "{msg}");
     let mut s = awkward_scene();
     s.views[1].light.intensity = f64::INFINITY;
     let msg = s.validate().unwrap_err().to_string();
-    assert!(
-        msg.contains("second_view") && msg.contains("intensity"),
-        "{msg}"
-    );
+    assert!(msg.contains("second_view") && msg.contains("intensity"), "{msg}");
 }

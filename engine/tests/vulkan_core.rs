@@ -5,8 +5,7 @@
 use std::sync::Arc;
 
 use scratchart::vulkan::{
-    Buffer, ComputePipeline, Context, ContextDesc, GpuError, MemLoc, Recorder, ShaderCompiler,
-    ValidationLog,
+    Buffer, ComputePipeline, Context, ContextDesc, GpuError, MemLoc, Recorder, ShaderCompiler, ValidationLog,
 };
 
 fn context() -> Arc<Context> {
@@ -50,8 +49,7 @@ fn add_shader_matches_cpu_with_timings() {
     {
         let compiler = ShaderCompiler::embedded().unwrap();
         let wg = 64u32;
-        let pipe =
-            ComputePipeline::new(&ctx, &compiler, "test/add.comp", &[("WG", "64")], 3, 8).unwrap();
+        let pipe = ComputePipeline::new(&ctx, &compiler, "test/add.comp", &[("WG", "64")], 3, 8).unwrap();
 
         let n = 1_000_000u32;
         let a: Vec<f32> = (0..n).map(|i| (i as f32) * 0.25 - 1000.0).collect();
@@ -81,10 +79,7 @@ fn add_shader_matches_cpu_with_timings() {
                 assert_eq!(labels, ["clear", "add"], "round {round}");
                 let add = timings.get("add").unwrap();
                 assert!(add >= 0.0 && add.is_finite(), "add took {add} ms");
-                assert!(
-                    (timings.total_ms() - timings.entries.iter().map(|e| e.1).sum::<f64>()).abs()
-                        < 1e-9
-                );
+                assert!((timings.total_ms() - timings.entries.iter().map(|e| e.1).sum::<f64>()).abs() < 1e-9);
                 assert!(timings.get("nope").is_none());
             } else {
                 assert!(timings.entries.is_empty());
@@ -128,11 +123,7 @@ fn add_shader_matches_cpu_with_timings() {
 fn shader_compile_error_reports_line() {
     let dir = std::env::temp_dir().join(format!("scratchart-shader-test-{}", std::process::id()));
     std::fs::create_dir_all(dir.join("inc")).unwrap();
-    std::fs::write(
-        dir.join("inc/ok.glsl"),
-        "float twice(float x) { return 2.0 * x; }\n",
-    )
-    .unwrap();
+    std::fs::write(dir.join("inc/ok.glsl"), "float twice(float x) { return 2.0 * x; }\n").unwrap();
     std::fs::write(
         dir.join("bad.comp"),
         "#version 450\n#extension GL_GOOGLE_include_directive : require\n#include \"inc/ok.glsl\"\nlayout(local_size_x = 1) in;\nvoid main() {\n    float x = undefined_thing;\n}\n",
@@ -180,10 +171,7 @@ fn buffer_over_storage_range_is_rejected() {
         Err(e @ GpuError::BufferTooLarge { .. }) => {
             let msg = e.to_string();
             assert!(msg.starts_with("buffer 'pairs' needs "), "{msg}");
-            assert!(
-                msg.contains("per storage buffer; reduce the scene"),
-                "{msg}"
-            );
+            assert!(msg.contains("per storage buffer; reduce the scene"), "{msg}");
         }
         other => panic!("expected BufferTooLarge, got {other:?}"),
     }

@@ -45,11 +45,10 @@ impl Design {
 
     pub fn load(path: &Path) -> Result<Design> {
         let scene = Scene::load(path)?;
-        let text = std::fs::read_to_string(path)
-            .with_context(|| format!("cannot read {}", path.display()))?;
+        let text = std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))?;
         // Scene::load accepted the file, so it is valid JSON.
-        let json: serde_json::Value = serde_json::from_str(&text)
-            .with_context(|| format!("{} is not valid JSON", path.display()))?;
+        let json: serde_json::Value =
+            serde_json::from_str(&text).with_context(|| format!("{} is not valid JSON", path.display()))?;
         let dir = path.parent().unwrap_or(Path::new("."));
         let mut watched = vec![path.to_path_buf()];
         if let Some(csv) = json.get("scratches").and_then(|s| s.as_str()) {

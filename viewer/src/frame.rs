@@ -17,9 +17,7 @@ use ash::vk;
 use bytemuck::{Pod, Zeroable};
 use scratchart::model::scene::{Scene, View};
 use scratchart::render::{GpuScene, RenderStats, Renderer};
-use scratchart::vulkan::{
-    Buffer, ComputePipeline, Context, GpuError, MemLoc, Recorder, ShaderCompiler, Timings,
-};
+use scratchart::vulkan::{Buffer, ComputePipeline, Context, GpuError, MemLoc, Recorder, ShaderCompiler, Timings};
 
 use crate::design::Target;
 
@@ -224,11 +222,7 @@ impl FrameRenderer {
     ///
     /// Hazard: `swap` must be an image the presentation engine has released (its acquire fence
     /// waited on): the copy is not ordered against presentation by a semaphore.
-    pub fn render(
-        &mut self,
-        p: &FrameParams,
-        swap: Option<vk::Image>,
-    ) -> Result<FrameInfo, GpuError> {
+    pub fn render(&mut self, p: &FrameParams, swap: Option<vk::Image>) -> Result<FrameInfo, GpuError> {
         let t0 = Instant::now();
         let idx = self.scene_for(p.view)?;
         let (out_w, out_h) = p.layout.out;
@@ -240,10 +234,7 @@ impl FrameRenderer {
         let show_target = p.show_target && self.target_dims.is_some() && p.layout.tgt_rect[2] > 0;
         let (tw, th) = self.target_dims.unwrap_or((0, 0));
         let gs = &mut self.cache[idx].1;
-        let ok = self
-            .pipes
-            .renderer
-            .update_views(gs, std::slice::from_ref(p.view))?;
+        let ok = self.pipes.renderer.update_views(gs, std::slice::from_ref(p.view))?;
         assert!(ok, "cached scene for {iw}x{ih} has another size");
         let push = PresentPush {
             dims: [out_w, out_h, iw, ih],
@@ -314,13 +305,7 @@ fn single_view_template(scene: &Scene) -> Scene {
 
 /// UNDEFINED -> TRANSFER_DST, copy the output buffer, -> PRESENT_SRC. The output buffer was
 /// written by the present pass; the recorder's barrier before this made it TRANSFER_READ-able.
-fn record_copy_to_swapchain(
-    ctx: &Context,
-    cmd: vk::CommandBuffer,
-    out: &Buffer,
-    image: vk::Image,
-    (w, h): (u32, u32),
-) {
+fn record_copy_to_swapchain(ctx: &Context, cmd: vk::CommandBuffer, out: &Buffer, image: vk::Image, (w, h): (u32, u32)) {
     let range = vk::ImageSubresourceRange::default()
         .aspect_mask(vk::ImageAspectFlags::COLOR)
         .level_count(1)
@@ -365,13 +350,7 @@ fn record_copy_to_swapchain(
             &[],
             &to_dst,
         );
-        d.cmd_copy_buffer_to_image(
-            cmd,
-            out.raw(),
-            image,
-            vk::ImageLayout::TRANSFER_DST_OPTIMAL,
-            &region,
-        );
+        d.cmd_copy_buffer_to_image(cmd, out.raw(), image, vk::ImageLayout::TRANSFER_DST_OPTIMAL, &region);
         d.cmd_pipeline_barrier(
             cmd,
             vk::PipelineStageFlags::TRANSFER,

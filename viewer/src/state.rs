@@ -77,8 +77,7 @@ impl OrbitCamera {
         let fwd = (self.target - self.eye()).normalize();
         let right = fwd.cross(self.up).normalize();
         let up = right.cross(fwd);
-        let mm_per_px = 2.0 * self.distance * (0.5 * self.fov_y_deg.to_radians()).tan()
-            / viewport_height_px.max(1.0);
+        let mm_per_px = 2.0 * self.distance * (0.5 * self.fov_y_deg.to_radians()).tan() / viewport_height_px.max(1.0);
         self.target += (-dx_px * right + dy_px * up) * mm_per_px;
     }
 
@@ -122,8 +121,7 @@ impl LightRig {
             }
         } else {
             LightKind::Point {
-                position: spherical(self.distance, self.azimuth_deg, self.elevation_deg)
-                    .to_array(),
+                position: spherical(self.distance, self.azimuth_deg, self.elevation_deg).to_array(),
             }
         };
         Light {
@@ -162,8 +160,7 @@ mod tests {
     fn light_round_trips() {
         let l = scratchart::scenes::orbit_light(300.0, 50.0, 200.0, 9e4);
         let back = LightRig::from_light(&l).light();
-        let (LightKind::Point { position: a }, LightKind::Point { position: b }) = (l.kind, back.kind)
-        else {
+        let (LightKind::Point { position: a }, LightKind::Point { position: b }) = (l.kind, back.kind) else {
             panic!("kind changed")
         };
         for i in 0..3 {

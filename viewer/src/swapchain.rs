@@ -54,17 +54,12 @@ pub struct Presenter {
 }
 
 /// The Vulkan instance extensions a surface on this display needs.
-pub fn required_instance_extensions(
-    display: &impl HasDisplayHandle,
-) -> Result<Vec<&'static std::ffi::CStr>> {
+pub fn required_instance_extensions(display: &impl HasDisplayHandle) -> Result<Vec<&'static std::ffi::CStr>> {
     let raw = display.display_handle().context("no display handle")?.as_raw();
     let names = ash_window::enumerate_required_extensions(raw)
         .context("this windowing system has no Vulkan surface support")?;
     // SAFETY: ash-window returns pointers to 'static, NUL-terminated extension names.
-    Ok(names
-        .iter()
-        .map(|&p| unsafe { std::ffi::CStr::from_ptr(p) })
-        .collect())
+    Ok(names.iter().map(|&p| unsafe { std::ffi::CStr::from_ptr(p) }).collect())
 }
 
 impl Presenter {
@@ -104,11 +99,8 @@ impl Presenter {
         .map_err(vk_fail("vkCreate*SurfaceKHR"))?;
         self.surface = surface;
         let ok = unsafe {
-            self.surface_fn.get_physical_device_surface_support(
-                ctx.physical_device,
-                ctx.queue_family,
-                surface,
-            )
+            self.surface_fn
+                .get_physical_device_surface_support(ctx.physical_device, ctx.queue_family, surface)
         }
         .map_err(vk_fail("vkGetPhysicalDeviceSurfaceSupportKHR"))?;
         if !ok {
@@ -156,22 +148,15 @@ impl Presenter {
             caps.current_extent
         } else {
             vk::Extent2D {
-                width: size
-                    .0
-                    .clamp(caps.min_image_extent.width, caps.max_image_extent.width),
-                height: size
-                    .1
-                    .clamp(caps.min_image_extent.height, caps.max_image_extent.height),
+                width: size.0.clamp(caps.min_image_extent.width, caps.max_image_extent.width),
+                height: size.1.clamp(caps.min_image_extent.height, caps.max_image_extent.height),
             }
         };
         if extent.width == 0 || extent.height == 0 || size.0 == 0 || size.1 == 0 {
             self.destroy_swapchain();
             return Ok(false);
         }
-        if !caps
-            .supported_usage_flags
-            .contains(vk::ImageUsageFlags::TRANSFER_DST)
-        {
+        if !caps.supported_usage_flags.contains(vk::ImageUsageFlags::TRANSFER_DST) {
             bail!("the surface's images cannot be copied to (no TRANSFER_DST usage)");
         }
         let formats = unsafe {
@@ -255,8 +240,8 @@ impl Presenter {
         };
         self.ctx.set_object_name(swapchain, "swapchain");
         self.swapchain = swapchain;
-        self.images = unsafe { self.swap_fn.get_swapchain_images(swapchain) }
-            .map_err(vk_fail("vkGetSwapchainImagesKHR"))?;
+        self.images =
+            unsafe { self.swap_fn.get_swapchain_images(swapchain) }.map_err(vk_fail("vkGetSwapchainImagesKHR"))?;
         self.extent = extent;
         self.format = format.format;
         Ok(true)
@@ -267,12 +252,8 @@ impl Presenter {
         let d = &self.ctx.device;
         unsafe { d.reset_fences(&[self.fence]) }.map_err(vk_fail("vkResetFences"))?;
         let r = unsafe {
-            self.swap_fn.acquire_next_image(
-                self.swapchain,
-                ACQUIRE_TIMEOUT_NS,
-                vk::Semaphore::null(),
-                self.fence,
-            )
+            self.swap_fn
+                .acquire_next_image(self.swapchain, ACQUIRE_TIMEOUT_NS, vk::Semaphore::null(), self.fence)
         };
         let (index, suboptimal) = match r {
             Ok(x) => x,
@@ -303,9 +284,7 @@ impl Presenter {
         let info = vk::PresentInfoKHR::default()
             .swapchains(&swapchains)
             .image_indices(&indices);
-        let r = self
-            .ctx
-            .with_queue(|q| unsafe { self.swap_fn.queue_present(q, &info) });
+        let r = self.ctx.with_queue(|q| unsafe { self.swap_fn.queue_present(q, &info) });
         match r {
             Ok(false) => Ok(Presented::Ok),
             Ok(true) | Err(vk::Result::ERROR_OUT_OF_DATE_KHR) => Ok(Presented::Rebuild),

@@ -96,10 +96,7 @@ impl ViewGeom {
         let (w, h) = (self.width as f64, self.height as f64);
         let kx = (2.0 * sx / w - 1.0) * self.tan_half * w / h;
         let ky = (1.0 - 2.0 * sy / h) * self.tan_half;
-        normalize(add(
-            self.forward,
-            add(scale(self.right, kx), scale(self.up, ky)),
-        ))
+        normalize(add(self.forward, add(scale(self.right, kx), scale(self.up, ky))))
     }
 
     /// Where the ray through (sx, sy) hits the plane z = 0: C + s dir with s = -C.z / dir.z,

@@ -14,6 +14,4 @@ pub mod scene;
 
 pub use camera::{LightSample, ViewGeom};
 pub use reference::{check_loss, pixel, render_view, scratch_patch_integral, PixelRef};
-pub use scene::{
-    read_scratches_csv, Camera, Light, LightKind, Plate, Scene, SceneError, Scratch, View,
-};
+pub use scene::{read_scratches_csv, Camera, Light, LightKind, Plate, Scene, SceneError, Scratch, View};

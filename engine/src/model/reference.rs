@@ -89,12 +89,7 @@ fn prep(s: &super::scene::Scratch) -> Prep {
     let t = [(s.p1[0] - s.p0[0]) / l, (s.p1[1] - s.p0[1]) / l];
     let b = [-t[1], t[0]];
     let e = s.half_width();
-    let mut bbox = [
-        f64::INFINITY,
-        f64::INFINITY,
-        f64::NEG_INFINITY,
-        f64::NEG_INFINITY,
-    ];
+    let mut bbox = [f64::INFINITY, f64::INFINITY, f64::NEG_INFINITY, f64::NEG_INFINITY];
     for p in [s.p0, s.p1] {
         for sg in [-1.0, 1.0] {
             let q = [p[0] + sg * e * b[0], p[1] + sg * e * b[1]];
@@ -105,13 +100,7 @@ fn prep(s: &super::scene::Scratch) -> Prep {
         }
     }
     // Pad by a relative epsilon so rounding in the bbox never culls a touching pair.
-    let pad = 1e-12
-        * (1.0
-            + bbox[2]
-                .abs()
-                .max(bbox[3].abs())
-                .max(bbox[0].abs())
-                .max(bbox[1].abs()));
+    let pad = 1e-12 * (1.0 + bbox[2].abs().max(bbox[3].abs()).max(bbox[0].abs()).max(bbox[1].abs()));
     bbox[0] -= pad;
     bbox[1] -= pad;
     bbox[2] += pad;
@@ -262,12 +251,7 @@ impl<'a> Prepared<'a> {
         if !out.on_plate {
             return out;
         }
-        let mut bb = [
-            f64::INFINITY,
-            f64::INFINITY,
-            f64::NEG_INFINITY,
-            f64::NEG_INFINITY,
-        ];
+        let mut bb = [f64::INFINITY, f64::INFINITY, f64::NEG_INFINITY, f64::NEG_INFINITY];
         for q in &foot {
             bb[0] = bb[0].min(q[0]);
             bb[1] = bb[1].min(q[1]);
@@ -289,8 +273,7 @@ impl<'a> Prepared<'a> {
         out.cov = (sum_a / out.s_p).min(1.0);
         if out.cos_i > 0.0 && out.cos_o > 0.0 {
             let alpha_s = self.scene.plate.roughness;
-            out.l = out.e_irr * out.fresnel * (out.d_p + (1.0 - out.cov) * ndf_flat(h, alpha_s))
-                / (4.0 * out.cos_o);
+            out.l = out.e_irr * out.fresnel * (out.d_p + (1.0 - out.cov) * ndf_flat(h, alpha_s)) / (4.0 * out.cos_o);
         }
         out
     }
@@ -343,11 +326,7 @@ fn chord_at(poly: &[[f64; 2]], u: f64) -> f64 {
     for k in 0..n {
         let a = poly[k];
         let b = poly[(k + 1) % n];
-        let (umin, umax) = if a[0] <= b[0] {
-            (a[0], b[0])
-        } else {
-            (b[0], a[0])
-        };
+        let (umin, umax) = if a[0] <= b[0] { (a[0], b[0]) } else { (b[0], a[0]) };
         if u < umin || u > umax {
             continue;
         }
@@ -460,11 +439,10 @@ pub(crate) fn integrate(f: &dyn Fn(f64) -> f64, pts: &[f64], rel: f64, abs: f64)
             break;
         }
         // Bisect the interval with the largest error estimate.
-        let (k, _) =
-            iv.iter().enumerate().fold(
-                (0, -1.0),
-                |acc, (k, x)| if x.3 > acc.1 { (k, x.3) } else { acc },
-            );
+        let (k, _) = iv
+            .iter()
+            .enumerate()
+            .fold((0, -1.0), |acc, (k, x)| if x.3 > acc.1 { (k, x.3) } else { acc });
         let (a, b, _, _) = iv[k];
         let m = 0.5 * (a + b);
         if !(m > a && m < b) {
@@ -486,20 +464,9 @@ fn patch_integral(p: &Prep, foot: &[[f64; 2]; 4], h: [f64; 3]) -> (f64, f64) {
 
 /// `patch_integral` with a given relative tolerance and `extra` additional uniform breakpoints
 /// (the latter only for self-tests of the quadrature).
-fn patch_integral_with(
-    p: &Prep,
-    foot: &[[f64; 2]; 4],
-    h: [f64; 3],
-    rel: f64,
-    extra: usize,
-) -> (f64, f64) {
+fn patch_integral_with(p: &Prep, foot: &[[f64; 2]; 4], h: [f64; 3], rel: f64, extra: usize) -> (f64, f64) {
     // Quick reject on bounding boxes.
-    let mut bb = [
-        f64::INFINITY,
-        f64::INFINITY,
-        f64::NEG_INFINITY,
-        f64::NEG_INFINITY,
-    ];
+    let mut bb = [f64::INFINITY, f64::INFINITY, f64::NEG_INFINITY, f64::NEG_INFINITY];
     for q in foot {
         bb[0] = bb[0].min(q[0]);
         bb[1] = bb[1].min(q[1]);
@@ -609,8 +576,7 @@ fn render_prepared(prepared: &Prepared, view: usize) -> Vec<f64> {
         .clamp(1, 16)
         .min(h.max(1));
     let next = std::sync::atomic::AtomicUsize::new(0);
-    let rows: Vec<std::sync::Mutex<Option<Vec<f64>>>> =
-        (0..h).map(|_| std::sync::Mutex::new(None)).collect();
+    let rows: Vec<std::sync::Mutex<Option<Vec<f64>>>> = (0..h).map(|_| std::sync::Mutex::new(None)).collect();
     std::thread::scope(|s| {
         for _ in 0..threads {
             s.spawn(|| {
@@ -733,9 +699,7 @@ mod tests {
     fn quadrature_self_convergence() {
         let mut seed = 12345u64;
         let mut rnd = || {
-            seed = seed
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
+            seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
             (seed >> 11) as f64 / (1u64 << 53) as f64
         };
         let mut worst = 0.0f64;

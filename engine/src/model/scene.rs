@@ -98,11 +98,7 @@ pub enum SceneError {
         msg: String,
     },
     #[error("`{file}`: {field}: {msg}")]
-    Invalid {
-        file: String,
-        field: String,
-        msg: String,
-    },
+    Invalid { file: String, field: String, msg: String },
     #[error("`{file}`, scratch data row {row} (line {line}): {msg}")]
     Csv {
         file: String,
@@ -217,10 +213,7 @@ fn check_plate(p: &Plate) -> Result<(), (&'static str, String)> {
     if !(p.f0.is_finite() && (0.0..=1.0).contains(&p.f0)) {
         return Err((
             "plate.f0",
-            format!(
-                "Fresnel f0 {} must lie in [0, 1] (default {DEFAULT_F0})",
-                p.f0
-            ),
+            format!("Fresnel f0 {} must lie in [0, 1] (default {DEFAULT_F0})", p.f0),
         ));
     }
     Ok(())
@@ -229,21 +222,18 @@ fn check_plate(p: &Plate) -> Result<(), (&'static str, String)> {
 /// Whether a view name can be used as a file name (NAME.pfm, NAME.png) on common systems.
 fn check_view_name(name: &str) -> Result<(), String> {
     if name.is_empty() {
-        return Err(
-            "view name is empty; give every view a name (used for NAME.pfm / NAME.png)".into(),
-        );
+        return Err("view name is empty; give every view a name (used for NAME.pfm / NAME.png)".into());
     }
     if name == "." || name == ".." {
-        return Err(format!(
-            "view name `{name}` cannot be a file name; choose e.g. `v0`"
-        ));
+        return Err(format!("view name `{name}` cannot be a file name; choose e.g. `v0`"));
     }
     if name.len() > 200 {
         return Err("view name is longer than 200 bytes; use a shorter name".into());
     }
-    if let Some(c) = name.chars().find(|c| {
-        c.is_control() || matches!(c, '/' | '\\' | ':' | '*' | '?' | '"' | '<' | '>' | '|')
-    }) {
+    if let Some(c) = name
+        .chars()
+        .find(|c| c.is_control() || matches!(c, '/' | '\\' | ':' | '*' | '?' | '"' | '<' | '>' | '|'))
+    {
         return Err(format!(
             "view name `{}` contains {:?}, which cannot appear in a file name; use letters, \
              digits, `-`, `_` or `.`",
@@ -251,10 +241,7 @@ fn check_view_name(name: &str) -> Result<(), String> {
             c
         ));
     }
-    if name.starts_with(char::is_whitespace)
-        || name.ends_with(char::is_whitespace)
-        || name.ends_with('.')
-    {
+    if name.starts_with(char::is_whitespace) || name.ends_with(char::is_whitespace) || name.ends_with('.') {
         return Err(format!(
             "view name `{name}` begins or ends with a space or ends with `.`, which file systems \
              mangle; trim it"
@@ -272,11 +259,7 @@ fn check_view(v: &View) -> Result<(), (String, String)> {
     let f = |field: &str| field.to_string();
     check_view_name(name).map_err(|m| ("name".to_string(), m))?;
     let c = &v.camera;
-    for (field, val) in [
-        ("camera.eye", c.eye),
-        ("camera.target", c.target),
-        ("camera.up", c.up),
-    ] {
+    for (field, val) in [("camera.eye", c.eye), ("camera.target", c.target), ("camera.up", c.up)] {
         if val.iter().any(|x| !x.is_finite()) {
             return Err((f(field), format!("{val:?} has a non-finite component")));
         }
@@ -296,11 +279,7 @@ fn check_view(v: &View) -> Result<(), (String, String)> {
             ),
         ));
     }
-    let dir = [
-        c.target[0] - c.eye[0],
-        c.target[1] - c.eye[1],
-        c.target[2] - c.eye[2],
-    ];
+    let dir = [c.target[0] - c.eye[0], c.target[1] - c.eye[1], c.target[2] - c.eye[2]];
     let dn = norm3(dir);
     if !(dn > 0.0 && dn.is_finite()) {
         return Err((
@@ -310,10 +289,7 @@ fn check_view(v: &View) -> Result<(), (String, String)> {
     }
     let un = norm3(c.up);
     if !(un > 0.0 && un.is_finite()) {
-        return Err((
-            f("camera.up"),
-            "up vector is zero; use e.g. [0, 0, 1]".into(),
-        ));
+        return Err((f("camera.up"), "up vector is zero; use e.g. [0, 0, 1]".into()));
     }
     let fw = [dir[0] / dn, dir[1] / dn, dir[2] / dn];
     let up = [c.up[0] / un, c.up[1] / un, c.up[2] / un];
@@ -336,10 +312,7 @@ fn check_view(v: &View) -> Result<(), (String, String)> {
     match l.kind {
         LightKind::Point { position } => {
             if position.iter().any(|x| !x.is_finite()) {
-                return Err((
-                    f("light.position"),
-                    format!("{position:?} has a non-finite component"),
-                ));
+                return Err((f("light.position"), format!("{position:?} has a non-finite component")));
             }
         }
         LightKind::Directional { direction } => {
@@ -361,10 +334,7 @@ fn check_view(v: &View) -> Result<(), (String, String)> {
     if !(l.intensity.is_finite() && l.intensity > 0.0) {
         return Err((
             f("light.intensity"),
-            format!(
-                "light intensity {} must be a finite number > 0",
-                l.intensity
-            ),
+            format!("light intensity {} must be a finite number > 0", l.intensity),
         ));
     }
     Ok(())
@@ -430,9 +400,7 @@ fn validate_header(plate: &Plate, views: &[View], file: &str) -> Result<(), Scen
     }
     let mut seen: Vec<String> = Vec::new();
     for (k, v) in views.iter().enumerate() {
-        check_view(v).map_err(|(field, msg)| {
-            invalid(file, format!("views[{k}] (`{}`).{field}", v.name), msg)
-        })?;
+        check_view(v).map_err(|(field, msg)| invalid(file, format!("views[{k}] (`{}`).{field}", v.name), msg))?;
         let low = v.name.to_lowercase();
         if let Some(p) = seen.iter().position(|s| *s == low) {
             return Err(invalid(
@@ -479,11 +447,7 @@ impl Scene {
 
     /// Parse and validate a scene from JSON text. A scratch CSV path is resolved against
     /// `base_dir`; `source_name` names the JSON text in error messages.
-    pub fn from_json_str(
-        text: &str,
-        base_dir: &Path,
-        source_name: &str,
-    ) -> Result<Scene, SceneError> {
+    pub fn from_json_str(text: &str, base_dir: &Path, source_name: &str) -> Result<Scene, SceneError> {
         let file = source_name;
         let root: Value = serde_json::from_str(text).map_err(|e| SceneError::Json {
             file: file.to_string(),
@@ -491,22 +455,14 @@ impl Scene {
             column: e.column(),
             msg: e.to_string(),
         })?;
-        let root = root.as_object().ok_or_else(|| {
-            invalid(
-                file,
-                "top level",
-                "must be a JSON object with plate, views, scratches",
-            )
-        })?;
+        let root = root
+            .as_object()
+            .ok_or_else(|| invalid(file, "top level", "must be a JSON object with plate, views, scratches"))?;
 
         // Plate.
-        let pv = root.get("plate").ok_or_else(|| {
-            invalid(
-                file,
-                "plate",
-                "missing; add \"plate\": {\"size_mm\": 100.0}",
-            )
-        })?;
+        let pv = root
+            .get("plate")
+            .ok_or_else(|| invalid(file, "plate", "missing; add \"plate\": {\"size_mm\": 100.0}"))?;
         let po = pv
             .as_object()
             .ok_or_else(|| invalid(file, "plate", "must be an object"))?;
@@ -557,17 +513,13 @@ impl Scene {
                 for (k, r) in rows.iter().enumerate() {
                     let field = format!("scratches row {} (1-based)", k + 1);
                     let arr = r.as_array().filter(|a| a.len() == 7).ok_or_else(|| {
-                        invalid(
-                            file,
-                            &field,
-                            format!("must be an array of 7 numbers [{CSV_HEADER}]"),
-                        )
+                        invalid(file, &field, format!("must be an array of 7 numbers [{CSV_HEADER}]"))
                     })?;
                     let mut row = [0.0; 7];
                     for (c, x) in arr.iter().enumerate() {
-                        row[c] = x.as_f64().ok_or_else(|| {
-                            invalid(file, &field, format!("{} = {x} is not a number", COLS[c]))
-                        })?;
+                        row[c] = x
+                            .as_f64()
+                            .ok_or_else(|| invalid(file, &field, format!("{} = {x} is not a number", COLS[c])))?;
                     }
                     let s = Scratch::from_row(row);
                     check_scratch(&s, plate.size_mm).map_err(|msg| invalid(file, &field, msg))?;
@@ -658,8 +610,7 @@ impl Scene {
         }
         crate::io::write_atomic(&dir.join(csv_name), csv.as_bytes())?;
         let mut text =
-            serde_json::to_string_pretty(&self.to_value(Value::String(csv_name.to_string())))
-                .expect("serialize scene");
+            serde_json::to_string_pretty(&self.to_value(Value::String(csv_name.to_string()))).expect("serialize scene");
         text.push('\n');
         crate::io::write_atomic(json_path, text.as_bytes())?;
         Ok(())
@@ -667,62 +618,35 @@ impl Scene {
 }
 
 fn req_num(o: &Map<String, Value>, key: &str, ctx: &str, file: &str) -> Result<f64, SceneError> {
-    opt_num(o, key, ctx, file)?.ok_or_else(|| {
-        invalid(
-            file,
-            format!("{ctx}.{key}"),
-            "missing; this number is required",
-        )
-    })
+    opt_num(o, key, ctx, file)?.ok_or_else(|| invalid(file, format!("{ctx}.{key}"), "missing; this number is required"))
 }
 
-fn opt_num(
-    o: &Map<String, Value>,
-    key: &str,
-    ctx: &str,
-    file: &str,
-) -> Result<Option<f64>, SceneError> {
+fn opt_num(o: &Map<String, Value>, key: &str, ctx: &str, file: &str) -> Result<Option<f64>, SceneError> {
     match o.get(key) {
         None | Some(Value::Null) => Ok(None),
         Some(v) => v
             .as_f64()
             .filter(|x| x.is_finite())
             .map(Some)
-            .ok_or_else(|| {
-                invalid(
-                    file,
-                    format!("{ctx}.{key}"),
-                    format!("`{v}` is not a finite number"),
-                )
-            }),
+            .ok_or_else(|| invalid(file, format!("{ctx}.{key}"), format!("`{v}` is not a finite number"))),
     }
 }
 
 fn vec3(o: &Map<String, Value>, key: &str, ctx: &str, file: &str) -> Result<[f64; 3], SceneError> {
     let field = format!("{ctx}.{key}");
-    let v = o.get(key).ok_or_else(|| {
-        invalid(
-            file,
-            &field,
-            "missing; give an array of 3 numbers [x, y, z]",
-        )
-    })?;
-    let a = v.as_array().filter(|a| a.len() == 3).ok_or_else(|| {
-        invalid(
-            file,
-            &field,
-            format!("`{v}` must be an array of 3 numbers [x, y, z]"),
-        )
-    })?;
+    let v = o
+        .get(key)
+        .ok_or_else(|| invalid(file, &field, "missing; give an array of 3 numbers [x, y, z]"))?;
+    let a = v
+        .as_array()
+        .filter(|a| a.len() == 3)
+        .ok_or_else(|| invalid(file, &field, format!("`{v}` must be an array of 3 numbers [x, y, z]")))?;
     let mut out = [0.0; 3];
     for (k, x) in a.iter().enumerate() {
-        out[k] = x.as_f64().filter(|x| x.is_finite()).ok_or_else(|| {
-            invalid(
-                file,
-                &field,
-                format!("component {k} `{x}` is not a finite number"),
-            )
-        })?;
+        out[k] = x
+            .as_f64()
+            .filter(|x| x.is_finite())
+            .ok_or_else(|| invalid(file, &field, format!("component {k} `{x}` is not a finite number")))?;
     }
     Ok(out)
 }
@@ -736,18 +660,10 @@ fn dim(o: &Map<String, Value>, key: &str, ctx: &str, file: &str) -> Result<u32, 
         .as_f64()
         .ok_or_else(|| invalid(file, &field, format!("`{v}` is not a number")))?;
     if x.fract() != 0.0 || x < 0.0 || x > u32::MAX as f64 {
-        return Err(invalid(
-            file,
-            &field,
-            format!("`{v}` must be a whole number of pixels"),
-        ));
+        return Err(invalid(file, &field, format!("`{v}` must be a whole number of pixels")));
     }
     if x == 0.0 {
-        return Err(invalid(
-            file,
-            &field,
-            "image size 0; must be at least 1 pixel",
-        ));
+        return Err(invalid(file, &field, "image size 0; must be at least 1 pixel"));
     }
     Ok(x as u32)
 }
@@ -766,13 +682,7 @@ fn parse_view(v: &Value, k: usize, file: &str) -> Result<View, SceneError> {
                 format!("`{other}` must be a string"),
             ))
         }
-        None => {
-            return Err(invalid(
-                file,
-                format!("{ctx}.name"),
-                "missing; give the view a name",
-            ))
-        }
+        None => return Err(invalid(file, format!("{ctx}.name"), "missing; give the view a name")),
     };
     let ctx = format!("views[{k}] (`{name}`)");
     let cam_ctx = format!("{ctx}.camera");
@@ -820,7 +730,9 @@ fn parse_view(v: &Value, k: usize, file: &str) -> Result<View, SceneError> {
             return Err(invalid(
                 file,
                 format!("{light_ctx}.kind"),
-                format!("unknown light kind {other}; use \"point\" (with position) or \"directional\" (with direction)"),
+                format!(
+                    "unknown light kind {other}; use \"point\" (with position) or \"directional\" (with direction)"
+                ),
             ))
         }
         None => {
@@ -886,10 +798,7 @@ pub fn read_scratches_csv_lines(path: &Path) -> Result<Vec<(Scratch, usize)>, Sc
             msg,
         };
         if cells.len() != 7 {
-            return Err(err(format!(
-                "found {} columns, expected 7 ({CSV_HEADER})",
-                cells.len()
-            )));
+            return Err(err(format!("found {} columns, expected 7 ({CSV_HEADER})", cells.len())));
         }
         let mut r = [0.0; 7];
         for (c, cell) in cells.iter().enumerate() {

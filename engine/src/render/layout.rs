@@ -40,12 +40,7 @@ pub struct ScratchGpu {
 impl From<&Scratch> for ScratchGpu {
     fn from(s: &Scratch) -> Self {
         ScratchGpu {
-            ends: [
-                s.p0[0] as f32,
-                s.p0[1] as f32,
-                s.p1[0] as f32,
-                s.p1[1] as f32,
-            ],
+            ends: [s.p0[0] as f32, s.p0[1] as f32, s.p1[0] as f32, s.p1[1] as f32],
             shape: [s.w as f32, s.d as f32, s.alpha as f32, 0.0],
         }
     }

@@ -3,14 +3,13 @@
 //!
 //! Buffers live in a [`GpuScene`]; a [`Renderer`] owns the pipelines. One `render` call records
 //! binning and shading into one command buffer and waits for it.
+pub mod grad;
 pub mod layout;
 
 use std::sync::Arc;
 
 use crate::model::scene::Scene;
-use crate::vulkan::{
-    Buffer, ComputePipeline, Context, GpuError, MemLoc, Recorder, ShaderCompiler, Timings,
-};
+use crate::vulkan::{Buffer, ComputePipeline, Context, GpuError, MemLoc, Recorder, ShaderCompiler, Timings};
 use layout::{BinPush, ScanPush, ScratchGpu, ShadePush, ViewSlots};
 
 /// Scratches per binning thread (see `shaders/bin.comp`).
@@ -26,6 +25,9 @@ pub struct Renderer {
     scan_sums: ComputePipeline,
     scan_apply: ComputePipeline,
     forward: ComputePipeline,
+    grad: ComputePipeline,
+    grad_reduce: ComputePipeline,
+    grad_light: ComputePipeline,
 }
 
 /// Device-resident scene: parameters, binning state and images.
@@ -43,6 +45,21 @@ pub struct GpuScene {
     /// tile lists of scratch indices
     pub list: Buffer,
     pub capacity: u32,
+    /// per scratch: entry count, scanned into the first slot of its entries in `inv`; n + 1 entries
+    pub sbase: Buffer,
+    sbase_sums: Buffer,
+    /// scratch-major entry -> tile-list position (for deterministic gradient sums)
+    pub inv: Buffer,
+    /// per tile-list entry: partial gradient (8 f32)
+    pub partials: Buffer,
+    /// raw coverage sum_k area / S_P per pixel (forward output, backward input)
+    pub cov_raw: Buffer,
+    /// dE/dL per pixel (same layout as `image`): input of the backward pass
+    pub dl: Buffer,
+    /// per scratch: dE/d(x0, y0, x1, y1, w, d, alpha), 8 f32 (last unused)
+    pub grad: Buffer,
+    /// per view: dE/dPhi of its light
+    pub grad_light: Buffer,
     /// L of every view, concatenated (views[v].base[1] is the first pixel of view v)
     pub image: Buffer,
     /// [0] candidates tested, [1] overlapping pairs, [2] tile-list entries
@@ -75,33 +92,15 @@ impl Renderer {
         let shade_push = std::mem::size_of::<ShadePush>() as u32;
         Ok(Renderer {
             ctx: ctx.clone(),
-            bin_count: ComputePipeline::new(ctx, &sc, "bin.comp", &[("COUNT", "1")], 4, bin_push)?,
-            bin_scatter: ComputePipeline::new(
-                ctx,
-                &sc,
-                "bin.comp",
-                &[("SCATTER", "1")],
-                4,
-                bin_push,
-            )?,
-            scan_reduce: ComputePipeline::new(
-                ctx,
-                &sc,
-                "scan.comp",
-                &[("REDUCE", "1")],
-                2,
-                scan_push,
-            )?,
+            bin_count: ComputePipeline::new(ctx, &sc, "bin.comp", &[("COUNT", "1")], 6, bin_push)?,
+            bin_scatter: ComputePipeline::new(ctx, &sc, "bin.comp", &[("SCATTER", "1")], 6, bin_push)?,
+            scan_reduce: ComputePipeline::new(ctx, &sc, "scan.comp", &[("REDUCE", "1")], 2, scan_push)?,
             scan_sums: ComputePipeline::new(ctx, &sc, "scan.comp", &[("SUMS", "1")], 2, scan_push)?,
-            scan_apply: ComputePipeline::new(
-                ctx,
-                &sc,
-                "scan.comp",
-                &[("APPLY", "1")],
-                2,
-                scan_push,
-            )?,
-            forward: ComputePipeline::new(ctx, &sc, "forward.comp", &[], 6, shade_push)?,
+            scan_apply: ComputePipeline::new(ctx, &sc, "scan.comp", &[("APPLY", "1")], 2, scan_push)?,
+            forward: ComputePipeline::new(ctx, &sc, "forward.comp", &[], 7, shade_push)?,
+            grad: ComputePipeline::new(ctx, &sc, "grad.comp", &[], 7, shade_push)?,
+            grad_reduce: ComputePipeline::new(ctx, &sc, "grad_reduce.comp", &[], 4, scan_push)?,
+            grad_light: ComputePipeline::new(ctx, &sc, "grad_light.comp", &[], 4, 0)?,
         })
     }
 
@@ -115,8 +114,9 @@ impl Renderer {
         let hist_len = slots.n_tiles as u64 * n_groups as u64 + 1;
         let n_blocks = hist_len.div_ceil(SCAN_BLOCK as u64);
         // Initial list capacity: a guess, grown on demand after the first binning.
+        // (bounded so that the 32-byte-per-entry partial-gradient buffer fits the device limit).
         let capacity = ((n_scratches as u64 * scene.views.len() as u64 * 4).max(1 << 16))
-            .min(u32::MAX as u64 / 4) as u32;
+            .min(self.ctx.info().max_storage_buffer_range / 32) as u32;
         let ctx = &self.ctx;
         Ok(GpuScene {
             shade: ShadePush {
@@ -147,6 +147,29 @@ impl Renderer {
             sums: Buffer::new(ctx, "scan block sums", n_blocks * 4, MemLoc::GpuOnly)?,
             list: Buffer::new(ctx, "tile lists", capacity as u64 * 4, MemLoc::GpuOnly)?,
             capacity,
+            sbase: Buffer::new(
+                ctx,
+                "scratch entry bases",
+                (n_scratches as u64 + 1) * 4,
+                MemLoc::GpuOnly,
+            )?,
+            sbase_sums: Buffer::new(
+                ctx,
+                "scan block sums (scratches)",
+                (n_scratches as u64 + 1).div_ceil(SCAN_BLOCK as u64) * 4,
+                MemLoc::GpuOnly,
+            )?,
+            inv: Buffer::new(ctx, "entry inverse map", capacity as u64 * 4, MemLoc::GpuOnly)?,
+            partials: Buffer::new(ctx, "partial gradients", capacity as u64 * 32, MemLoc::GpuOnly)?,
+            cov_raw: Buffer::new(ctx, "coverage", slots.n_pixels * 4, MemLoc::GpuOnly)?,
+            dl: Buffer::new(ctx, "dE/dL", slots.n_pixels * 4, MemLoc::GpuOnly)?,
+            grad: Buffer::new(
+                ctx,
+                "scratch gradients",
+                n_scratches.max(1) as u64 * 32,
+                MemLoc::GpuOnly,
+            )?,
+            grad_light: Buffer::new(ctx, "light gradients", scene.views.len() as u64 * 4, MemLoc::GpuOnly)?,
             image: Buffer::new(ctx, "image", slots.n_pixels * 4, MemLoc::GpuOnly)?,
             stats: Buffer::new(ctx, "stats", 64, MemLoc::GpuToCpu)?,
             n_scratches,
@@ -158,11 +181,7 @@ impl Renderer {
     /// Replaces the cameras and lights of an uploaded scene (same number of views, same image
     /// sizes): cheap enough for every frame of a viewer. Returns false (and changes nothing) when
     /// the sizes differ, in which case the caller uploads the scene again.
-    pub fn update_views(
-        &self,
-        gs: &mut GpuScene,
-        views: &[crate::model::scene::View],
-    ) -> Result<bool, GpuError> {
+    pub fn update_views(&self, gs: &mut GpuScene, views: &[crate::model::scene::View]) -> Result<bool, GpuError> {
         if views.len() != gs.slots.views.len() {
             return Ok(false);
         }
@@ -190,28 +209,18 @@ impl Renderer {
         };
         let groups = gs.n_groups.div_ceil(64);
         rec.fill(&gs.hist, 0);
+        rec.fill(&gs.sbase, 0);
         rec.barrier();
-        rec.dispatch_1d(
-            &self.bin_count,
-            &[&gs.views, &gs.scratches, &gs.hist, &gs.list],
-            bytemuck::bytes_of(&push),
-            groups,
-        );
+        let bufs = [&gs.views, &gs.scratches, &gs.hist, &gs.list, &gs.sbase, &gs.inv];
+        rec.dispatch_1d(&self.bin_count, &bufs, bytemuck::bytes_of(&push), groups);
         rec.barrier();
-        self.record_scan(
-            rec,
-            &gs.hist,
-            &gs.sums,
-            gs.slots.n_tiles as u64 * gs.n_groups as u64 + 1,
-        );
+        let n_hist = gs.slots.n_tiles as u64 * gs.n_groups as u64 + 1;
+        self.record_scan(rec, &gs.hist, &gs.sums, n_hist);
+        self.record_scan(rec, &gs.sbase, &gs.sbase_sums, gs.n_scratches as u64 + 1);
         rec.copy(&gs.hist, &gs.cursor, gs.hist.size());
         rec.barrier();
-        rec.dispatch_1d(
-            &self.bin_scatter,
-            &[&gs.views, &gs.scratches, &gs.cursor, &gs.list],
-            bytemuck::bytes_of(&push),
-            groups,
-        );
+        let bufs = [&gs.views, &gs.scratches, &gs.cursor, &gs.list, &gs.sbase, &gs.inv];
+        rec.dispatch_1d(&self.bin_scatter, &bufs, bytemuck::bytes_of(&push), groups);
         rec.barrier();
     }
 
@@ -243,6 +252,7 @@ impl Renderer {
                 &gs.list,
                 &gs.image,
                 &gs.stats,
+                &gs.cov_raw,
             ],
             bytemuck::bytes_of(&gs.shade),
             gs.slots.n_tiles,
@@ -252,11 +262,7 @@ impl Renderer {
 
     /// Bins and shades; grows the tile-list buffer and repeats if binning overflowed it.
     /// Returns the stats of the final pass; images stay on the device.
-    pub fn run(
-        &self,
-        rec: &mut Recorder,
-        gs: &mut GpuScene,
-    ) -> Result<(RenderStats, Timings), GpuError> {
+    pub fn run(&self, rec: &mut Recorder, gs: &mut GpuScene) -> Result<(RenderStats, Timings), GpuError> {
         loop {
             rec.begin()?;
             rec.fill(&gs.stats, 0);
@@ -282,14 +288,17 @@ impl Renderer {
     /// Replaces the tile-list buffer by one that holds `entries` (plus slack).
     pub fn grow_list(&self, gs: &mut GpuScene, entries: u64) -> Result<(), GpuError> {
         let want = entries + entries / 4 + 1024;
-        if want * 4 > self.ctx.info().max_storage_buffer_range || want > u32::MAX as u64 {
+        // The partial-gradient buffer (32 bytes per entry) is the largest of the three.
+        if want * 32 > self.ctx.info().max_storage_buffer_range || want > u32::MAX as u64 {
             return Err(GpuError::BufferTooLarge {
-                name: "tile lists".into(),
-                size: want * 4,
+                name: "partial gradients (one per tile-list entry)".into(),
+                size: want * 32,
                 limit: self.ctx.info().max_storage_buffer_range,
             });
         }
         gs.list = Buffer::new(&self.ctx, "tile lists", want * 4, MemLoc::GpuOnly)?;
+        gs.inv = Buffer::new(&self.ctx, "entry inverse map", want * 4, MemLoc::GpuOnly)?;
+        gs.partials = Buffer::new(&self.ctx, "partial gradients", want * 32, MemLoc::GpuOnly)?;
         gs.capacity = want as u32;
         gs.shade.capacity = gs.capacity;
         Ok(())
@@ -309,10 +318,6 @@ impl Renderer {
                 all[v.base[1] as usize..v.base[1] as usize + n].to_vec()
             })
             .collect();
-        Ok(Frame {
-            images,
-            stats,
-            timings,
-        })
+        Ok(Frame { images, stats, timings })
     }
 }

@@ -57,12 +57,10 @@ impl Buffer {
             )
             .sharing_mode(vk::SharingMode::EXCLUSIVE);
         let raw = unsafe { d.create_buffer(&ci, None) }.map_err(|e| match e {
-            vk::Result::ERROR_OUT_OF_DEVICE_MEMORY | vk::Result::ERROR_OUT_OF_HOST_MEMORY => {
-                GpuError::OutOfMemory {
-                    name: name.into(),
-                    size,
-                }
-            }
+            vk::Result::ERROR_OUT_OF_DEVICE_MEMORY | vk::Result::ERROR_OUT_OF_HOST_MEMORY => GpuError::OutOfMemory {
+                name: name.into(),
+                size,
+            },
             e => vk_err("vkCreateBuffer")(e),
         })?;
         let requirements = unsafe { d.get_buffer_memory_requirements(raw) };
@@ -94,9 +92,7 @@ impl Buffer {
                 });
             }
         };
-        if let Err(e) =
-            unsafe { d.bind_buffer_memory(raw, allocation.memory(), allocation.offset()) }
-        {
+        if let Err(e) = unsafe { d.bind_buffer_memory(raw, allocation.memory(), allocation.offset()) } {
             let _ = ctx.allocator().free(allocation);
             unsafe { d.destroy_buffer(raw, None) };
             return Err(vk_err("vkBindBufferMemory")(e));
@@ -134,9 +130,7 @@ impl Buffer {
     /// (`GpuOnly` memory is host-visible on UMA devices and lavapipe.)
     pub fn is_host_visible(&self) -> bool {
         let a = self.allocation.as_ref().unwrap();
-        a.mapped_ptr().is_some()
-            && a.memory_properties()
-                .contains(vk::MemoryPropertyFlags::HOST_COHERENT)
+        a.mapped_ptr().is_some() && a.memory_properties().contains(vk::MemoryPropertyFlags::HOST_COHERENT)
     }
 
     fn mapped(&self) -> Result<*mut u8, GpuError> {
@@ -163,13 +157,7 @@ impl Buffer {
         );
         // SAFETY: the mapping covers `size` bytes and the range was checked above; raw copies
         // avoid creating `&mut [u8]` over memory the GPU may also access.
-        unsafe {
-            std::ptr::copy_nonoverlapping(
-                bytes.as_ptr(),
-                ptr.add(offset_bytes as usize),
-                bytes.len(),
-            )
-        };
+        unsafe { std::ptr::copy_nonoverlapping(bytes.as_ptr(), ptr.add(offset_bytes as usize), bytes.len()) };
         Ok(())
     }
 

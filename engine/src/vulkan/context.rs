@@ -109,10 +109,9 @@ unsafe extern "system" fn debug_callback(
     let msg = unsafe { (*data).message_as_c_str() }
         .map(|s| s.to_string_lossy().into_owned())
         .unwrap_or_default();
-    if severity.intersects(
-        vk::DebugUtilsMessageSeverityFlagsEXT::WARNING
-            | vk::DebugUtilsMessageSeverityFlagsEXT::ERROR,
-    ) {
+    if severity
+        .intersects(vk::DebugUtilsMessageSeverityFlagsEXT::WARNING | vk::DebugUtilsMessageSeverityFlagsEXT::ERROR)
+    {
         eprintln!("vulkan validation: {msg}");
         let log = unsafe { &*(user as *const Mutex<Vec<String>>) };
         log.lock().unwrap_or_else(|e| e.into_inner()).push(msg);
@@ -141,8 +140,7 @@ fn kind_rank(t: vk::PhysicalDeviceType) -> u32 {
 }
 
 fn has_ext(list: &[vk::ExtensionProperties], name: &CStr) -> bool {
-    list.iter()
-        .any(|e| e.extension_name_as_c_str().ok() == Some(name))
+    list.iter().any(|e| e.extension_name_as_c_str().ok() == Some(name))
 }
 
 struct Candidate {
@@ -157,11 +155,10 @@ impl Context {
     pub fn new(desc: ContextDesc) -> Result<Arc<Context>, GpuError> {
         let env_on = |k: &str| std::env::var(k).is_ok_and(|v| !v.is_empty() && v != "0");
         let want_validation = desc.validation || env_on("SCRATCHART_VALIDATION");
-        let selector = desc.device.clone().or_else(|| {
-            std::env::var("SCRATCHART_DEVICE")
-                .ok()
-                .filter(|s| !s.is_empty())
-        });
+        let selector = desc
+            .device
+            .clone()
+            .or_else(|| std::env::var("SCRATCHART_DEVICE").ok().filter(|s| !s.is_empty()));
 
         let entry = unsafe { ash::Entry::load() }.map_err(|e| GpuError::Loading(e.to_string()))?;
 
@@ -175,9 +172,7 @@ impl Context {
                 .iter()
                 .any(|l| l.layer_name_as_c_str().ok() == Some(VALIDATION_LAYER));
         if want_validation && !validation {
-            eprintln!(
-                "warning: validation requested but VK_LAYER_KHRONOS_validation is not installed"
-            );
+            eprintln!("warning: validation requested but VK_LAYER_KHRONOS_validation is not installed");
         }
         let debug_utils = has_ext(&inst_exts, ash::ext::debug_utils::NAME);
         let mut ext_names: Vec<&CStr> = desc.instance_extensions.clone();
@@ -193,13 +188,11 @@ impl Context {
         // Synchronization validation catches missing barriers between dispatches; it needs
         // VK_EXT_validation_features, which the validation layer itself provides.
         let layer_exts = if validation {
-            unsafe { entry.enumerate_instance_extension_properties(Some(VALIDATION_LAYER)) }
-                .unwrap_or_default()
+            unsafe { entry.enumerate_instance_extension_properties(Some(VALIDATION_LAYER)) }.unwrap_or_default()
         } else {
             Vec::new()
         };
-        let sync_validation =
-            validation && has_ext(&layer_exts, ash::ext::validation_features::NAME);
+        let sync_validation = validation && has_ext(&layer_exts, ash::ext::validation_features::NAME);
         if sync_validation {
             ext_names.push(ash::ext::validation_features::NAME);
         }
@@ -216,8 +209,7 @@ impl Context {
         let log_ptr = Arc::as_ptr(&log.0) as *mut c_void;
         let mut messenger_info = vk::DebugUtilsMessengerCreateInfoEXT::default()
             .message_severity(
-                vk::DebugUtilsMessageSeverityFlagsEXT::WARNING
-                    | vk::DebugUtilsMessageSeverityFlagsEXT::ERROR,
+                vk::DebugUtilsMessageSeverityFlagsEXT::WARNING | vk::DebugUtilsMessageSeverityFlagsEXT::ERROR,
             )
             .message_type(
                 vk::DebugUtilsMessageTypeFlagsEXT::GENERAL
@@ -246,11 +238,9 @@ impl Context {
         if sync_validation {
             ci = ci.push_next(&mut validation_features);
         }
-        let instance =
-            unsafe { entry.create_instance(&ci, None) }.map_err(vk_err("vkCreateInstance"))?;
+        let instance = unsafe { entry.create_instance(&ci, None) }.map_err(vk_err("vkCreateInstance"))?;
 
-        let debug_instance =
-            debug_utils.then(|| ash::ext::debug_utils::Instance::new(&entry, &instance));
+        let debug_instance = debug_utils.then(|| ash::ext::debug_utils::Instance::new(&entry, &instance));
         let mut messenger = vk::DebugUtilsMessengerEXT::null();
         if let (true, Some(di)) = (validation, &debug_instance) {
             let info = vk::DebugUtilsMessengerCreateInfoEXT {
@@ -284,8 +274,7 @@ impl Context {
             }
         };
         let queue = unsafe { device.get_device_queue(queue_family, 0) };
-        let debug_device =
-            debug_utils.then(|| ash::ext::debug_utils::Device::new(&instance, &device));
+        let debug_device = debug_utils.then(|| ash::ext::debug_utils::Device::new(&instance, &device));
         if !desc.quiet {
             eprintln!("device: {} ({})", info.name, info.kind);
         }
@@ -314,22 +303,17 @@ impl Context {
         desc: &ContextDesc,
         selector: Option<&str>,
     ) -> Result<(vk::PhysicalDevice, ash::Device, u32, DeviceInfo, Allocator), GpuError> {
-        let pds = unsafe { instance.enumerate_physical_devices() }
-            .map_err(vk_err("vkEnumeratePhysicalDevices"))?;
+        let pds = unsafe { instance.enumerate_physical_devices() }.map_err(vk_err("vkEnumeratePhysicalDevices"))?;
         let candidates: Vec<Candidate> = pds
             .iter()
             .map(|&pd| {
                 let props = unsafe { instance.get_physical_device_properties(pd) };
-                let name = props
-                    .device_name_as_c_str()
-                    .map(|s| s.to_string_lossy().into_owned());
+                let name = props.device_name_as_c_str().map(|s| s.to_string_lossy().into_owned());
                 let families = unsafe { instance.get_physical_device_queue_family_properties(pd) };
                 let compute: Vec<_> = families
                     .iter()
                     .enumerate()
-                    .filter(|(_, f)| {
-                        f.queue_flags.contains(vk::QueueFlags::COMPUTE) && f.queue_count > 0
-                    })
+                    .filter(|(_, f)| f.queue_flags.contains(vk::QueueFlags::COMPUTE) && f.queue_count > 0)
                     .map(|(i, f)| (i as u32, *f))
                     .collect();
                 let family = compute
@@ -351,27 +335,21 @@ impl Context {
             .map(|(i, c)| format!("{i}: {} ({})", c.name, kind_name(c.props.device_type)))
             .collect();
         // SPIR-V 1.3 (our shader target) needs Vulkan 1.1.
-        let usable =
-            |c: &Candidate| c.family.is_some() && c.props.api_version >= vk::API_VERSION_1_1;
+        let usable = |c: &Candidate| c.family.is_some() && c.props.api_version >= vk::API_VERSION_1_1;
         let chosen = match selector {
             Some(sel) => {
                 let found = match sel.trim().parse::<usize>() {
                     Ok(i) => candidates.get(i),
                     Err(_) => {
                         let s = sel.to_lowercase();
-                        candidates
-                            .iter()
-                            .find(|c| c.name.to_lowercase().contains(&s))
+                        candidates.iter().find(|c| c.name.to_lowercase().contains(&s))
                     }
                 };
                 match found {
                     Some(c) if usable(c) => c,
                     Some(c) => {
                         return Err(GpuError::NoDevice {
-                            reason: format!(
-                                "device '{}' has no compute queue or is older than Vulkan 1.1",
-                                c.name
-                            ),
+                            reason: format!("device '{}' has no compute queue or is older than Vulkan 1.1", c.name),
                             available,
                         })
                     }
@@ -468,13 +446,11 @@ impl Context {
         let mut en12 = vk::PhysicalDeviceVulkan12Features::default();
         if let Some((s11, s12)) = &sup1x {
             en11.storage_buffer16_bit_access = s11.storage_buffer16_bit_access;
-            en11.uniform_and_storage_buffer16_bit_access =
-                s11.uniform_and_storage_buffer16_bit_access;
+            en11.uniform_and_storage_buffer16_bit_access = s11.uniform_and_storage_buffer16_bit_access;
             en12.shader_float16 = s12.shader_float16;
             en12.shader_int8 = s12.shader_int8;
             en12.storage_buffer8_bit_access = s12.storage_buffer8_bit_access;
-            en12.uniform_and_storage_buffer8_bit_access =
-                s12.uniform_and_storage_buffer8_bit_access;
+            en12.uniform_and_storage_buffer8_bit_access = s12.uniform_and_storage_buffer8_bit_access;
             en12.shader_buffer_int64_atomics = s12.shader_buffer_int64_atomics;
             en12.shader_shared_int64_atomics = s12.shader_shared_int64_atomics;
             en12.scalar_block_layout = s12.scalar_block_layout;
@@ -514,8 +490,7 @@ impl Context {
             .queue_create_infos(&qci)
             .enabled_extension_names(&ext_ptrs)
             .push_next(&mut f2);
-        let device =
-            unsafe { instance.create_device(pd, &dci, None) }.map_err(vk_err("vkCreateDevice"))?;
+        let device = unsafe { instance.create_device(pd, &dci, None) }.map_err(vk_err("vkCreateDevice"))?;
 
         let allocator = Allocator::new(&AllocatorCreateDesc {
             instance: instance.clone(),
@@ -602,16 +577,11 @@ impl Context {
     }
 
     /// Submits to the queue under the queue lock.
-    pub(crate) fn queue_submit(
-        &self,
-        cmd: vk::CommandBuffer,
-        fence: vk::Fence,
-    ) -> Result<(), GpuError> {
+    pub(crate) fn queue_submit(&self, cmd: vk::CommandBuffer, fence: vk::Fence) -> Result<(), GpuError> {
         let cmds = [cmd];
         let submit = [vk::SubmitInfo::default().command_buffers(&cmds)];
         let _g = self.queue_lock.lock().unwrap_or_else(|e| e.into_inner());
-        unsafe { self.device.queue_submit(self.queue, &submit, fence) }
-            .map_err(vk_err("vkQueueSubmit"))
+        unsafe { self.device.queue_submit(self.queue, &submit, fence) }.map_err(vk_err("vkQueueSubmit"))
     }
 
     /// Waits for `fence` with the standard timeout.
@@ -633,17 +603,14 @@ impl Context {
         let pool_ci = vk::CommandPoolCreateInfo::default()
             .queue_family_index(self.queue_family)
             .flags(vk::CommandPoolCreateFlags::TRANSIENT);
-        let pool = unsafe { d.create_command_pool(&pool_ci, None) }
-            .map_err(vk_err("vkCreateCommandPool"))?;
+        let pool = unsafe { d.create_command_pool(&pool_ci, None) }.map_err(vk_err("vkCreateCommandPool"))?;
         let result = (|| {
             let ai = vk::CommandBufferAllocateInfo::default()
                 .command_pool(pool)
                 .level(vk::CommandBufferLevel::PRIMARY)
                 .command_buffer_count(1);
-            let cmd = unsafe { d.allocate_command_buffers(&ai) }
-                .map_err(vk_err("vkAllocateCommandBuffers"))?[0];
-            let bi = vk::CommandBufferBeginInfo::default()
-                .flags(vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT);
+            let cmd = unsafe { d.allocate_command_buffers(&ai) }.map_err(vk_err("vkAllocateCommandBuffers"))?[0];
+            let bi = vk::CommandBufferBeginInfo::default().flags(vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT);
             unsafe { d.begin_command_buffer(cmd, &bi) }.map_err(vk_err("vkBeginCommandBuffer"))?;
             f(cmd);
             // Make transfer results visible to host reads after the fence.
@@ -662,11 +629,9 @@ impl Context {
                 )
             };
             unsafe { d.end_command_buffer(cmd) }.map_err(vk_err("vkEndCommandBuffer"))?;
-            let fence = unsafe { d.create_fence(&vk::FenceCreateInfo::default(), None) }
-                .map_err(vk_err("vkCreateFence"))?;
-            let r = self
-                .queue_submit(cmd, fence)
-                .and_then(|_| self.wait_fence(fence));
+            let fence =
+                unsafe { d.create_fence(&vk::FenceCreateInfo::default(), None) }.map_err(vk_err("vkCreateFence"))?;
+            let r = self.queue_submit(cmd, fence).and_then(|_| self.wait_fence(fence));
             if r.is_ok() {
                 unsafe { d.destroy_fence(fence, None) };
             } else {
@@ -682,26 +647,14 @@ impl Context {
     }
 
     /// Creates a device-local storage buffer holding `data` (via a staging buffer).
-    pub fn upload<T: bytemuck::Pod>(
-        self: &Arc<Self>,
-        name: &str,
-        data: &[T],
-    ) -> Result<Buffer, GpuError> {
+    pub fn upload<T: bytemuck::Pod>(self: &Arc<Self>, name: &str, data: &[T]) -> Result<Buffer, GpuError> {
         let bytes: &[u8] = bytemuck::cast_slice(data);
         let buf = Buffer::new(self, name, bytes.len() as u64, MemLoc::GpuOnly)?;
         if !bytes.is_empty() {
-            let staging = Buffer::new(
-                self,
-                &format!("{name} (staging)"),
-                bytes.len() as u64,
-                MemLoc::CpuToGpu,
-            )?;
+            let staging = Buffer::new(self, &format!("{name} (staging)"), bytes.len() as u64, MemLoc::CpuToGpu)?;
             staging.write(0, bytes)?;
             let region = [vk::BufferCopy::default().size(bytes.len() as u64)];
-            self.one_shot(|cmd| unsafe {
-                self.device
-                    .cmd_copy_buffer(cmd, staging.raw(), buf.raw(), &region)
-            })?;
+            self.one_shot(|cmd| unsafe { self.device.cmd_copy_buffer(cmd, staging.raw(), buf.raw(), &region) })?;
         }
         Ok(buf)
     }
@@ -718,10 +671,7 @@ impl Context {
             MemLoc::GpuToCpu,
         )?;
         let region = [vk::BufferCopy::default().size(buf.size())];
-        self.one_shot(|cmd| unsafe {
-            self.device
-                .cmd_copy_buffer(cmd, buf.raw(), staging.raw(), &region)
-        })?;
+        self.one_shot(|cmd| unsafe { self.device.cmd_copy_buffer(cmd, buf.raw(), staging.raw(), &region) })?;
         staging.read()
     }
 

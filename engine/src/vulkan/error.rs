@@ -13,16 +13,10 @@ pub enum GpuError {
     Loading(String),
 
     #[error("no usable Vulkan device: {reason}; available devices: {}", list_or_none(.available))]
-    NoDevice {
-        reason: String,
-        available: Vec<String>,
-    },
+    NoDevice { reason: String, available: Vec<String> },
 
     #[error("{call} failed: {result}")]
-    Vk {
-        call: &'static str,
-        result: vk::Result,
-    },
+    Vk { call: &'static str, result: vk::Result },
 
     #[error(
         "buffer '{name}' needs {} but this device binds at most {} per storage buffer; \
@@ -38,9 +32,7 @@ pub enum GpuError {
     #[error("memory allocation for '{name}' failed: {msg}")]
     Allocation { name: String, msg: String },
 
-    #[error(
-        "buffer '{0}' is not host-visible; use Context::download or a GpuToCpu/CpuToGpu buffer"
-    )]
+    #[error("buffer '{0}' is not host-visible; use Context::download or a GpuToCpu/CpuToGpu buffer")]
     NotHostVisible(String),
 
     #[error("shader '{path}' failed to compile:\n{log}")]

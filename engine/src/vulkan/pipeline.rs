@@ -59,10 +59,7 @@ impl ComputePipeline {
             })
             .collect();
         let set_layout = unsafe {
-            d.create_descriptor_set_layout(
-                &vk::DescriptorSetLayoutCreateInfo::default().bindings(&bindings),
-                None,
-            )
+            d.create_descriptor_set_layout(&vk::DescriptorSetLayoutCreateInfo::default().bindings(&bindings), None)
         }
         .map_err(vk_err("vkCreateDescriptorSetLayout"))?;
         // Name each object as soon as it exists, so creation errors already name them.
@@ -79,32 +76,22 @@ impl ComputePipeline {
                 .size(push_constant_bytes)];
             let lci = vk::PipelineLayoutCreateInfo::default()
                 .set_layouts(&set_layouts)
-                .push_constant_ranges(if push_constant_bytes > 0 {
-                    &ranges[..]
-                } else {
-                    &[]
-                });
-            layout = unsafe { d.create_pipeline_layout(&lci, None) }
-                .map_err(vk_err("vkCreatePipelineLayout"))?;
+                .push_constant_ranges(if push_constant_bytes > 0 { &ranges[..] } else { &[] });
+            layout = unsafe { d.create_pipeline_layout(&lci, None) }.map_err(vk_err("vkCreatePipelineLayout"))?;
             ctx.set_object_name(layout, &format!("{name} (layout)"));
 
-            let module = unsafe {
-                d.create_shader_module(&vk::ShaderModuleCreateInfo::default().code(spirv), None)
-            }
-            .map_err(vk_err("vkCreateShaderModule"))?;
+            let module = unsafe { d.create_shader_module(&vk::ShaderModuleCreateInfo::default().code(spirv), None) }
+                .map_err(vk_err("vkCreateShaderModule"))?;
             ctx.set_object_name(module, name);
             let stage = vk::PipelineShaderStageCreateInfo::default()
                 .stage(vk::ShaderStageFlags::COMPUTE)
                 .module(module)
                 .name(c"main");
-            let ci = [vk::ComputePipelineCreateInfo::default()
-                .stage(stage)
-                .layout(layout)];
+            let ci = [vk::ComputePipelineCreateInfo::default().stage(stage).layout(layout)];
             let r = unsafe { d.create_compute_pipelines(vk::PipelineCache::null(), &ci, None) };
             // The module is only needed during pipeline creation.
             unsafe { d.destroy_shader_module(module, None) };
-            r.map(|p| p[0])
-                .map_err(|(_, e)| vk_err("vkCreateComputePipelines")(e))
+            r.map(|p| p[0]).map_err(|(_, e)| vk_err("vkCreateComputePipelines")(e))
         })();
         let pipeline = match result {
             Ok(p) => p,

@@ -34,10 +34,7 @@ pub struct Timings {
 impl Timings {
     /// Milliseconds of the first section labelled `label`.
     pub fn get(&self, label: &str) -> Option<f64> {
-        self.entries
-            .iter()
-            .find(|(l, _)| l == label)
-            .map(|(_, ms)| *ms)
+        self.entries.iter().find(|(l, _)| l == label).map(|(_, ms)| *ms)
     }
 
     pub fn total_ms(&self) -> f64 {
@@ -95,10 +92,9 @@ impl Recorder {
             .command_pool(pool)
             .level(vk::CommandBufferLevel::PRIMARY)
             .command_buffer_count(1);
-        rec.cmd = unsafe { d.allocate_command_buffers(&ai) }
-            .map_err(vk_err("vkAllocateCommandBuffers"))?[0];
-        rec.fence = unsafe { d.create_fence(&vk::FenceCreateInfo::default(), None) }
-            .map_err(vk_err("vkCreateFence"))?;
+        rec.cmd = unsafe { d.allocate_command_buffers(&ai) }.map_err(vk_err("vkAllocateCommandBuffers"))?[0];
+        rec.fence =
+            unsafe { d.create_fence(&vk::FenceCreateInfo::default(), None) }.map_err(vk_err("vkCreateFence"))?;
         if ctx.info().timestamps {
             let qp = unsafe {
                 d.create_query_pool(
@@ -132,10 +128,8 @@ impl Recorder {
             )
         }
         .map_err(vk_err("vkCreateDescriptorPool"))?;
-        self.ctx.set_object_name(
-            p,
-            &format!("recorder descriptors {}", self.desc_pools.len()),
-        );
+        self.ctx
+            .set_object_name(p, &format!("recorder descriptors {}", self.desc_pools.len()));
         self.desc_pools.push(p);
         Ok(())
     }
@@ -163,8 +157,7 @@ impl Recorder {
             }
             d.begin_command_buffer(
                 self.cmd,
-                &vk::CommandBufferBeginInfo::default()
-                    .flags(vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT),
+                &vk::CommandBufferBeginInfo::default().flags(vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT),
             )
             .map_err(vk_err("vkBeginCommandBuffer"))?;
         }
@@ -223,13 +216,7 @@ impl Recorder {
 
     /// Binds `buffers` to bindings `0..` of `p`, pushes `push`, dispatches `groups`.
     /// Any zero group count skips the dispatch.
-    pub fn dispatch(
-        &mut self,
-        p: &ComputePipeline,
-        buffers: &[&Buffer],
-        push: &[u8],
-        groups: [u32; 3],
-    ) {
+    pub fn dispatch(&mut self, p: &ComputePipeline, buffers: &[&Buffer], push: &[u8], groups: [u32; 3]) {
         self.assert_recording("dispatch");
         let name = p.name();
         assert!(
@@ -287,14 +274,7 @@ impl Recorder {
         unsafe {
             d.cmd_bind_pipeline(self.cmd, vk::PipelineBindPoint::COMPUTE, p.raw());
             if let Some(set) = set {
-                d.cmd_bind_descriptor_sets(
-                    self.cmd,
-                    vk::PipelineBindPoint::COMPUTE,
-                    p.layout(),
-                    0,
-                    &[set],
-                    &[],
-                );
+                d.cmd_bind_descriptor_sets(self.cmd, vk::PipelineBindPoint::COMPUTE, p.layout(), 0, &[set], &[]);
             }
             if !push.is_empty() {
                 d.cmd_push_constants(self.cmd, p.layout(), vk::ShaderStageFlags::COMPUTE, 0, push);
@@ -306,13 +286,7 @@ impl Recorder {
     /// Dispatches `n_groups` workgroups as `[min(n, 65535), ceil(n / gx), 1]`. Shaders compute
     /// the flat group id as `gl_WorkGroupID.x + gl_WorkGroupID.y * gl_NumWorkGroups.x` and must
     /// bounds-check (the grid can overshoot `n_groups` by up to `gx - 1` groups).
-    pub fn dispatch_1d(
-        &mut self,
-        p: &ComputePipeline,
-        buffers: &[&Buffer],
-        push: &[u8],
-        n_groups: u32,
-    ) {
+    pub fn dispatch_1d(&mut self, p: &ComputePipeline, buffers: &[&Buffer], push: &[u8], n_groups: u32) {
         if n_groups == 0 {
             // Still validate the call's contract.
             return self.dispatch(p, buffers, push, [0, 0, 0]);
@@ -384,11 +358,7 @@ impl Recorder {
             return;
         }
         let region = [vk::BufferCopy::default().size(bytes)];
-        unsafe {
-            self.ctx
-                .device
-                .cmd_copy_buffer(self.cmd, src.raw(), dst.raw(), &region)
-        };
+        unsafe { self.ctx.device.cmd_copy_buffer(self.cmd, src.raw(), dst.raw(), &region) };
     }
 
     /// Records a timestamp ending the section `label`. No-op without timestamp support; past
@@ -407,12 +377,9 @@ impl Recorder {
             return;
         }
         unsafe {
-            self.ctx.device.cmd_write_timestamp(
-                self.cmd,
-                vk::PipelineStageFlags::BOTTOM_OF_PIPE,
-                qp,
-                self.queries,
-            )
+            self.ctx
+                .device
+                .cmd_write_timestamp(self.cmd, vk::PipelineStageFlags::BOTTOM_OF_PIPE, qp, self.queries)
         };
         self.queries += 1;
         self.labels.push(label.to_string());
@@ -437,10 +404,8 @@ impl Recorder {
                 &[],
                 &[],
             );
-            d.end_command_buffer(self.cmd)
-                .map_err(vk_err("vkEndCommandBuffer"))?;
-            d.reset_fences(&[self.fence])
-                .map_err(vk_err("vkResetFences"))?;
+            d.end_command_buffer(self.cmd).map_err(vk_err("vkEndCommandBuffer"))?;
+            d.reset_fences(&[self.fence]).map_err(vk_err("vkResetFences"))?;
         }
         self.ctx.queue_submit(self.cmd, self.fence)?;
         self.pending = true;
@@ -460,11 +425,7 @@ impl Recorder {
             }
             .map_err(vk_err("vkGetQueryPoolResults"))?;
             let bits = self.ctx.info().timestamp_valid_bits;
-            let mask = if bits >= 64 {
-                u64::MAX
-            } else {
-                (1u64 << bits) - 1
-            };
+            let mask = if bits >= 64 { u64::MAX } else { (1u64 << bits) - 1 };
             let period = self.ctx.info().timestamp_period_ns;
             timings.entries = self
                 .labels

@@ -54,10 +54,7 @@ impl ShaderCompiler {
     /// Compiles the sources embedded in the binary at build time (or, after
     /// [`override_embedded`](Self::override_embedded)`(Some(dir))`, the sources in `dir`).
     pub fn embedded() -> Result<Self, GpuError> {
-        let dir = EMBEDDED_OVERRIDE
-            .lock()
-            .unwrap_or_else(|e| e.into_inner())
-            .clone();
+        let dir = EMBEDDED_OVERRIDE.lock().unwrap_or_else(|e| e.into_inner()).clone();
         match dir {
             Some(d) => Self::with_source(Source::Dir(d)),
             None => Self::with_source(Source::Embedded),
@@ -99,20 +96,14 @@ impl ShaderCompiler {
         let rel = normalize(path).ok_or_else(|| err("path escapes the shaders root".into()))?;
         let src = self.load(&rel).ok_or_else(|| {
             err(match &self.source {
-                Source::Embedded => {
-                    "no such embedded shader (is it under shaders/ at build time?)".into()
-                }
+                Source::Embedded => "no such embedded shader (is it under shaders/ at build time?)".into(),
                 Source::Dir(d) => format!("cannot read {}", d.join(&rel).display()),
             })
         })?;
 
-        let mut opts = shaderc::CompileOptions::new()
-            .ok_or_else(|| err("cannot create shaderc options".into()))?;
+        let mut opts = shaderc::CompileOptions::new().ok_or_else(|| err("cannot create shaderc options".into()))?;
         opts.set_source_language(shaderc::SourceLanguage::GLSL);
-        opts.set_target_env(
-            shaderc::TargetEnv::Vulkan,
-            shaderc::EnvVersion::Vulkan1_1 as u32,
-        );
+        opts.set_target_env(shaderc::TargetEnv::Vulkan, shaderc::EnvVersion::Vulkan1_1 as u32);
         opts.set_target_spirv(shaderc::SpirvVersion::V1_3);
         opts.set_optimization_level(shaderc::OptimizationLevel::Performance);
         opts.set_warnings_as_errors();
@@ -122,9 +113,7 @@ impl ShaderCompiler {
         // The resolved name is the root-relative path: it shows up in error messages and is
         // what nested relative includes are resolved against.
         opts.set_include_callback(|requested, _ty, includer, _depth| {
-            let includer_dir = Path::new(includer)
-                .parent()
-                .map(|p| p.to_string_lossy().into_owned());
+            let includer_dir = Path::new(includer).parent().map(|p| p.to_string_lossy().into_owned());
             let mut tries = vec![requested.to_string()];
             if let Some(d) = includer_dir.filter(|d| !d.is_empty()) {
                 tries.push(format!("{d}/{requested}"));
@@ -147,13 +136,7 @@ impl ShaderCompiler {
 
         let artifact = self
             .compiler
-            .compile_into_spirv(
-                &src,
-                shaderc::ShaderKind::Compute,
-                &rel,
-                "main",
-                Some(&opts),
-            )
+            .compile_into_spirv(&src, shaderc::ShaderKind::Compute, &rel, "main", Some(&opts))
             .map_err(|e| {
                 err(match e {
                     shaderc::Error::CompilationError(_, log) => log,

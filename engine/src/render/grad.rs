@@ -1,0 +1,90 @@
+//! The backward pass: gradients of a loss with respect to every scratch's parameters and every
+//! view's light intensity, from dE/dL per pixel. Kernels: `grad.comp` (per tile-list entry,
+//! dual-number differentiation of the forward pair integral), `grad_reduce.comp` (per scratch, in
+//! a fixed order) and `grad_light.comp`. Reuses the tile lists of the forward pass.
+use super::layout::ScanPush;
+use super::{GpuScene, Renderer};
+use crate::vulkan::{GpuError, Recorder};
+
+/// Gradients downloaded to the host.
+#[derive(Clone, Debug)]
+pub struct Gradients {
+    /// per scratch: dE/d(x0, y0, x1, y1, w, d, alpha)
+    pub scratches: Vec<[f32; 7]>,
+    /// per view: dE/dPhi
+    pub lights: Vec<f32>,
+}
+
+impl Renderer {
+    /// Records the backward pass for the forward pass just recorded on `gs` (same tile lists):
+    /// reads `gs.dl`, `gs.image`, `gs.cov_raw`; writes `gs.grad` and `gs.grad_light`.
+    pub fn record_backward(&self, rec: &mut Recorder, gs: &GpuScene) {
+        rec.dispatch_1d(
+            &self.grad,
+            &[
+                &gs.views,
+                &gs.scratches,
+                &gs.hist,
+                &gs.list,
+                &gs.dl,
+                &gs.cov_raw,
+                &gs.partials,
+            ],
+            bytemuck::bytes_of(&gs.shade),
+            gs.slots.n_tiles,
+        );
+        rec.barrier();
+        let push = ScanPush {
+            n: gs.n_scratches,
+            n_blocks: gs.capacity,
+            pad: [0; 2],
+        };
+        rec.dispatch_1d(
+            &self.grad_reduce,
+            &[&gs.partials, &gs.sbase, &gs.inv, &gs.grad],
+            bytemuck::bytes_of(&push),
+            gs.n_scratches.div_ceil(64),
+        );
+        rec.dispatch(
+            &self.grad_light,
+            &[&gs.views, &gs.image, &gs.dl, &gs.grad_light],
+            &[],
+            [gs.shade.n_views, 1, 1],
+        );
+        rec.barrier();
+    }
+
+    /// Forward + backward for given dE/dL (one value per pixel of every view, concatenated like
+    /// `gs.image`), with results downloaded. For checks and the `grad` command; the optimizer
+    /// keeps everything on the device.
+    pub fn gradients(&self, gs: &mut GpuScene, dl: &[f32]) -> Result<(Vec<Vec<f32>>, Gradients), GpuError> {
+        assert_eq!(
+            dl.len() as u64,
+            gs.slots.n_pixels,
+            "dE/dL needs one value per pixel of every view"
+        );
+        let mut rec = Recorder::new(&self.ctx)?;
+        // The forward pass sizes the tile lists; then one submission runs it again with the backward.
+        self.run(&mut rec, gs)?;
+        gs.dl = self.ctx.upload("dE/dL", dl)?;
+        rec.begin()?;
+        self.record_binning(&mut rec, gs);
+        self.record_shading(&mut rec, gs);
+        self.record_backward(&mut rec, gs);
+        rec.submit_and_wait()?;
+        let image: Vec<f32> = self.ctx.download(&gs.image)?;
+        let images = gs
+            .slots
+            .views
+            .iter()
+            .map(|v| image[v.base[1] as usize..(v.base[1] + v.dims[0] * v.dims[1]) as usize].to_vec())
+            .collect();
+        let g: Vec<[f32; 8]> = self.ctx.download(&gs.grad)?;
+        let scratches = g[..gs.n_scratches as usize]
+            .iter()
+            .map(|r| [r[0], r[1], r[2], r[3], r[4], r[5], r[6]])
+            .collect();
+        let lights = self.ctx.download(&gs.grad_light)?;
+        Ok((images, Gradients { scratches, lights }))
+    }
+}

@@ -1,0 +1,23 @@
+#version 450
+// Per scratch: adds its per-tile partial gradients (grad.comp) in enumeration order (bin.comp's
+// `inv` map), so the result does not depend on thread timing.
+layout(local_size_x = 64) in;
+layout(std430, binding = 0) readonly buffer Partials { vec4 partial[]; };
+layout(std430, binding = 1) readonly buffer ScratchBase { uint sbase[]; };  // scanned, n + 1
+layout(std430, binding = 2) readonly buffer Inverse { uint inv[]; };
+layout(std430, binding = 3) writeonly buffer Grad { vec4 grad[]; };        // 2 per scratch
+layout(push_constant) uniform Push { uint n_scratches; uint capacity; uint pad0, pad1; } pc;
+
+void main() {
+    uint k = gl_GlobalInvocationID.x + gl_GlobalInvocationID.y * gl_NumWorkGroups.x * gl_WorkGroupSize.x;
+    if (k >= pc.n_scratches) return;
+    vec4 a0 = vec4(0.0), a1 = vec4(0.0);
+    uint hi = min(sbase[k + 1u], pc.capacity);
+    for (uint i = sbase[k]; i < hi; ++i) {
+        uint pos = inv[i];
+        a0 += partial[2u * pos];
+        a1 += partial[2u * pos + 1u];
+    }
+    grad[2u * k] = a0;
+    grad[2u * k + 1u] = a1;
+}

@@ -1,0 +1,89 @@
+#version 450
+// Backward passes of the design loss: dE/dL per pixel into `dl` (the renderer's backward reads it).
+// Recorded after loss_fwd.comp's passes (which leave the filter responses in `pre`, B = g*(I-T) in
+// `bbuf` and the Gram matrices in `gram`), in this order:
+//   PRE_GRAD    at every pyramid pixel: dE/d(filter response), written over `pre` in place.
+//               With R = 2 lambda_g (G - G_T) (9 x 9, symmetric), dE/dc_k(p) = (2 / N_s) sum_j R_kj c_j(p),
+//               then through the half-wave rectifiers.
+//   LEVEL_GRAD  once per level, coarsest first: dE/dX at each pixel of the level = the transposed
+//               clamp-to-edge filters applied to those gradients + 1/4 of the gradient of the
+//               pooled pixel above it; at level 0 plus the pixel term's
+//               (2 lambda_p / N_v) g^T B, then times dI/dL (taken at max(L, 1e-4)) into `dl`.
+// Each output is computed by its own thread from a fixed set of inputs: no atomics, reproducible.
+#extension GL_GOOGLE_include_directive : require
+#include "inc/loss_bindings.glsl"
+#include "inc/loss_bank.glsl"
+
+// Full symmetric R_ij of segment sg.
+float rmat(uint sg, uint i, uint j) {
+    uint e = i <= j ? gram_idx(i, j) : gram_idx(j, i);
+    return 2.0 * pc.lambda_g * (gram[sg * NPART + e] - gramT[sg * NPART + e]);
+}
+
+void main() {
+#if defined(PRE_GRAD)
+    uint i = flat_id();
+    if (i >= pc.lvl_end) return;
+    uint sg = seg_of(i);
+    LossSeg S = segs[sg];
+    float r[NPRE];
+    for (uint k = 0u; k < NPRE; ++k) r[k] = pre[i * NPRE + k];
+    float c[NCH];
+    channels(r, c);
+    float scale = 2.0 / float(S.w * S.h);
+    float dc[NCH];
+    for (uint a = 0u; a < NCH; ++a) {
+        float acc = 0.0;
+        for (uint b = 0u; b < NCH; ++b) acc += rmat(sg, a, b) * c[b];
+        dc[a] = scale * acc;
+    }
+    pre[i * NPRE] = dc[0];
+    for (uint k = 1u; k < NPRE; ++k) {
+        float gk = 0.0;
+        if (r[k] > 0.0) gk = dc[2u * k - 1u];
+        else if (r[k] < 0.0) gk = -dc[2u * k];
+        pre[i * NPRE + k] = gk;
+    }
+#elif defined(LEVEL_GRAD)
+    uint i = pc.lvl_begin + flat_id();
+    if (i >= pc.lvl_end) return;
+    uint sg = seg_of(i);
+    LossSeg S = segs[sg];
+    int x = int((i - S.off) % S.w), y = int((i - S.off) / S.w);
+    int W = int(S.w), H = int(S.h);
+    float g1[3] = float[3](pc.g_s, pc.g_c, pc.g_s);
+    float pix_scale = 2.0 * pc.lambda_p / float(S.w * S.h);
+    float acc = 0.0, accp = 0.0;
+    // Output pixel p reads input clamp(p + o); collect every (p, o) that reads this pixel.
+    for (int py = max(y - 1, 0); py <= min(y + 1, H - 1); ++py)
+        for (int px = max(x - 1, 0); px <= min(x + 1, W - 1); ++px) {
+            uint p = S.off + uint(py) * S.w + uint(px);
+            for (int oy = -1; oy <= 1; ++oy) {
+                if (clampi(py + oy, H) != y) continue;
+                for (int ox = -1; ox <= 1; ++ox) {
+                    if (clampi(px + ox, W) != x) continue;
+                    for (uint k = 0u; k < NPRE; ++k) acc += bank_w(k, ox, oy) * pre[p * NPRE + k];
+                    if (S.level == 0u) accp += g1[ox + 1] * g1[oy + 1] * bbuf[p];
+                }
+            }
+        }
+    if (S.level + 1u < pc.n_levels) {
+        LossSeg U = segs[sg + pc.n_views];  // same view, level above
+        uint ux = uint(x) / 2u, uy = uint(y) / 2u;
+        if (ux < U.w && uy < U.h) {
+            float gu = gx[U.off + uy * U.w + ux];
+            // Taps of the 2x2 mean of pixel (ux, uy) that land here (several when the level is 1 wide).
+            uint hits = 0u;
+            for (uint b = 0u; b < 2u; ++b)
+                for (uint a = 0u; a < 2u; ++a)
+                    if (clampi(int(2u * ux + a), W) == x && clampi(int(2u * uy + b), H) == y) ++hits;
+            acc += 0.25 * float(hits) * gu;
+        }
+    }
+    if (S.level == 0u) {
+        dl[i] = (acc + pix_scale * accp) * display_slope(img[i]);
+    } else {
+        gx[i] = acc;
+    }
+#endif
+}

@@ -1,0 +1,183 @@
+//! GPU gradients against central differences of the float64 reference (MODEL.md section 8
+//! gradient bar): for each kind of parameter (endpoints, w, d, alpha, light intensity),
+//! ||g - g_ref|| / ||g_ref|| <= 1e-2 over all scratches, for the check loss E_lin.
+use scratchart::model::reference::{check_loss, on_plate_mask, render_view};
+use scratchart::model::scene::Scene;
+use scratchart::render::Renderer;
+use scratchart_tests::*;
+
+/// dE_lin/dL per pixel for GPU images `l` and targets `t` (off-plate pixels: 0).
+fn dl_of(scene: &Scene, l: &[Vec<f32>], t: &[Vec<f64>]) -> Vec<f32> {
+    let mut out = Vec::new();
+    for v in 0..scene.views.len() {
+        let mask = on_plate_mask(scene, v);
+        let n = mask.iter().filter(|m| **m).count().max(1) as f64;
+        for (i, &m) in mask.iter().enumerate() {
+            out.push(if m {
+                (2.0 * (l[v][i] as f64 - t[v][i]) / n) as f32
+            } else {
+                0.0
+            });
+        }
+    }
+    out
+}
+
+fn rel(a: &[f64], b: &[f64]) -> f64 {
+    let num: f64 = a.iter().zip(b).map(|(x, y)| (x - y) * (x - y)).sum::<f64>().sqrt();
+    let den: f64 = b.iter().map(|y| y * y).sum::<f64>().sqrt();
+    num / den
+}
+
+/// Targets: the reference render of a perturbed copy of the scene (so residuals are structured).
+fn targets(scene: &Scene) -> Vec<Vec<f64>> {
+    let mut t = scene.clone();
+    for (k, s) in t.scratches.iter_mut().enumerate() {
+        let d = if k % 2 == 0 { 0.15 } else { -0.1 };
+        s.p0[0] += d;
+        s.p1[1] -= d;
+        s.w *= 1.1;
+    }
+    (0..t.views.len()).map(|v| render_view(&t, v)).collect()
+}
+
+fn check_gradients(label: &str, scene: &Scene) {
+    scene.validate().expect("valid test scene");
+    let ctx = gpu();
+    let r = Renderer::new(&ctx).unwrap();
+    let mut gs = r.upload(scene).unwrap();
+    let t = targets(scene);
+    let first = r.render(&mut gs).unwrap().images;
+    let dl = dl_of(scene, &first, &t);
+    let (_, g) = r.gradients(&mut gs, &dl).unwrap();
+
+    // Central differences of the float64 reference.
+    let e = |s: &Scene| check_loss(s, &t);
+    let mut gpu_kind: [Vec<f64>; 4] = Default::default();
+    let mut ref_kind: [Vec<f64>; 4] = Default::default();
+    for k in 0..scene.scratches.len() {
+        for p in 0..7 {
+            let base = scene.scratches[k].to_row()[p];
+            let h = if p < 4 { 1e-5 } else { 1e-5 * base };
+            let mut plus = scene.clone();
+            let mut minus = scene.clone();
+            let mut rp = plus.scratches[k].to_row();
+            rp[p] += h;
+            plus.scratches[k] = scratchart::model::scene::Scratch::from_row(rp);
+            let mut rm = minus.scratches[k].to_row();
+            rm[p] -= h;
+            minus.scratches[k] = scratchart::model::scene::Scratch::from_row(rm);
+            let fd = (e(&plus) - e(&minus)) / (2.0 * h);
+            let kind = match p {
+                0..=3 => 0,
+                4 => 1,
+                5 => 2,
+                _ => 3,
+            };
+            gpu_kind[kind].push(g.scratches[k][p] as f64);
+            ref_kind[kind].push(fd);
+        }
+    }
+    let mut light_gpu = Vec::new();
+    let mut light_ref = Vec::new();
+    for v in 0..scene.views.len() {
+        let phi = scene.views[v].light.intensity;
+        let h = 1e-6 * phi;
+        let mut plus = scene.clone();
+        plus.views[v].light.intensity += h;
+        let mut minus = scene.clone();
+        minus.views[v].light.intensity -= h;
+        light_gpu.push(g.lights[v] as f64);
+        light_ref.push((e(&plus) - e(&minus)) / (2.0 * h));
+    }
+    let names = ["endpoints", "w", "d", "alpha"];
+    for i in 0..4 {
+        let err = rel(&gpu_kind[i], &ref_kind[i]);
+        let norm: f64 = ref_kind[i].iter().map(|x| x * x).sum::<f64>().sqrt();
+        eprintln!(
+            "{label}: {}: relative gradient error {err:.3e} (|g_ref| = {norm:.3e})",
+            names[i]
+        );
+        assert!(
+            norm > 0.0,
+            "{label}: zero reference gradient for {}: the test scene is wrong",
+            names[i]
+        );
+        assert!(
+            err <= 1e-2,
+            "{label}: {} gradient off by {err:.3e} (> 1e-2): gpu {:?} vs reference {:?}",
+            names[i],
+            &gpu_kind[i][..8.min(gpu_kind[i].len())],
+            &ref_kind[i][..8.min(ref_kind[i].len())]
+        );
+    }
+    let err = rel(&light_gpu, &light_ref);
+    eprintln!("{label}: light intensity: relative gradient error {err:.3e}");
+    assert!(err <= 1e-2, "{label}: light gradient {light_gpu:?} vs {light_ref:?}");
+    assert_no_validation(&ctx);
+}
+
+#[test]
+fn gradients_moderate_alpha() {
+    let views = vec![
+        orbit_view("a", 24, 45.0, 0.0, 45.0, 180.0, 20.0),
+        orbit_view("b", 24, 60.0, 120.0, 40.0, 300.0, 20.0),
+    ];
+    let scene = random_scene(11, 24, 20.0, 0.4, 0.3, 0.2, views);
+    check_gradients("moderate", &scene);
+}
+
+#[test]
+fn gradients_sharp_alpha_and_grazing() {
+    let views = vec![
+        grazing_view("a", 32, 5.0, 0.0, 5.0, 180.0, 20.0),
+        orbit_view("b", 24, 45.0, 90.0, 45.0, 270.0, 20.0),
+    ];
+    let mut scene = random_scene(12, 24, 20.0, 0.4, 0.3, 0.02, views);
+    for (k, s) in scene.scratches.iter_mut().enumerate() {
+        s.alpha = [1e-3, 0.01, 0.3][k % 3];
+    }
+    check_gradients("sharp/grazing", &scene);
+}
+
+#[test]
+fn gradients_directional_light() {
+    let views = vec![directional_view("a", 24, 40.0, 30.0, 50.0, 210.0, 20.0)];
+    let scene = random_scene(13, 20, 20.0, 0.4, 0.2, 0.1, views);
+    check_gradients("directional", &scene);
+}
+
+#[test]
+fn gradients_are_bit_reproducible() {
+    let views = vec![
+        orbit_view("a", 40, 45.0, 0.0, 45.0, 180.0, 20.0),
+        orbit_view("b", 40, 45.0, 120.0, 45.0, 300.0, 20.0),
+    ];
+    let scene = random_scene(14, 400, 20.0, 0.2, 0.15, 0.1, views);
+    let ctx = gpu();
+    let r = Renderer::new(&ctx).unwrap();
+    let mut gs = r.upload(&scene).unwrap();
+    let n = gs.slots.n_pixels as usize;
+    let dl: Vec<f32> = (0..n).map(|i| ((i * 7919) % 1000) as f32 * 1e-3 - 0.5).collect();
+    let (img1, g1) = r.gradients(&mut gs, &dl).unwrap();
+    let (img2, g2) = r.gradients(&mut gs, &dl).unwrap();
+    let bits = |v: &[[f32; 7]]| v.iter().flat_map(|r| r.iter().map(|x| x.to_bits())).collect::<Vec<_>>();
+    assert_eq!(
+        bits(&g1.scratches),
+        bits(&g2.scratches),
+        "scratch gradients differ between runs"
+    );
+    assert_eq!(
+        g1.lights.iter().map(|x| x.to_bits()).collect::<Vec<_>>(),
+        g2.lights.iter().map(|x| x.to_bits()).collect::<Vec<_>>()
+    );
+    assert_eq!(
+        img1.concat().iter().map(|x| x.to_bits()).collect::<Vec<_>>(),
+        img2.concat().iter().map(|x| x.to_bits()).collect::<Vec<_>>()
+    );
+    assert!(
+        g1.scratches.iter().any(|r| r.iter().any(|x| *x != 0.0)),
+        "all-zero gradients: the test is vacuous"
+    );
+    assert_no_validation(&ctx);
+}

@@ -1,0 +1,265 @@
+//! Work without a window: `--screenshot` (one frame through the same render + present path as
+//! the window, read back and written as a PNG) and the headless half of `--benchmark`. Also the
+//! setup shared with the window: the Vulkan context and the frame renderer with its shaders.
+use std::cell::RefCell;
+use std::path::Path;
+use std::sync::Arc;
+
+use anyhow::{Context as _, Result};
+use scratchart::model::scene::View;
+use scratchart::vulkan::{Context, ContextDesc, GpuError, ShaderCompiler, ValidationLog};
+
+use crate::design::Design;
+use crate::frame::{internal_size, FrameParams, FrameRenderer, Layout};
+use crate::state::{LightRig, OrbitCamera};
+use crate::Opts;
+
+/// Default window and screenshot size.
+pub const DEFAULT_SIZE: (u32, u32) = (1280, 720);
+/// Untimed frames before each benchmark row.
+pub const BENCH_WARMUP: usize = 3;
+/// Levels timed at a fixed internal resolution: full, 1/2, 1/3 and 1/4 per axis.
+pub const BENCH_LEVELS: [usize; 4] = [0, 3, 5, 6];
+
+pub fn make_context(
+    opts: &Opts,
+    instance_extensions: Vec<&'static std::ffi::CStr>,
+    device_extensions: Vec<&'static std::ffi::CStr>,
+    log: &RefCell<Option<ValidationLog>>,
+) -> Result<Arc<Context>> {
+    let ctx = Context::new(ContextDesc {
+        validation: opts.validation,
+        device: opts.device.clone(),
+        instance_extensions,
+        device_extensions,
+        quiet: false,
+    })?;
+    log.replace(Some(ctx.validation_log()));
+    Ok(ctx)
+}
+
+/// Builds the frame renderer from `shaders` (hot-reload directory) or the embedded copy. When
+/// the directory's sources do not compile, says why and falls back to the embedded copy.
+pub fn make_frame_renderer(ctx: &Arc<Context>, design: &Design, shaders: Option<&Path>) -> Result<FrameRenderer> {
+    ShaderCompiler::override_embedded(shaders.map(Path::to_path_buf));
+    match FrameRenderer::new(ctx, &design.scene) {
+        Err(e @ GpuError::Shader { .. }) if shaders.is_some() => {
+            eprintln!("warning: {e}\nwarning: using the shaders built into the binary instead");
+            ShaderCompiler::override_embedded(None);
+            Ok(FrameRenderer::new(ctx, &design.scene)?)
+        }
+        r => Ok(r?),
+    }
+}
+
+/// The interactive camera and light a session starts with: view `idx`'s, as orbit parameters,
+/// with `--light-azimuth` applied.
+pub fn initial_state(opts: &Opts, design: &Design, idx: usize) -> (OrbitCamera, LightRig) {
+    let v = &design.scene.views[idx];
+    let mut light = LightRig::from_light(&v.light);
+    if let Some(az) = opts.light_azimuth {
+        light.azimuth_deg = az;
+    }
+    (OrbitCamera::from_camera(&v.camera), light)
+}
+
+/// The scripted benchmark path at `t` in [0, 1): the camera swings 90 degrees in azimuth and
+/// bobs 8 degrees in elevation while the light makes a full turn.
+pub fn bench_path(cam0: &OrbitCamera, light0: &LightRig, t: f64) -> (OrbitCamera, LightRig) {
+    let mut cam = cam0.clone();
+    cam.azimuth_deg += 90.0 * t;
+    cam.elevation_deg = (cam.elevation_deg + 8.0 * (std::f64::consts::TAU * t).sin()).clamp(5.0, 85.0);
+    let mut light = light0.clone();
+    light.rotate(360.0 * t);
+    (cam, light)
+}
+
+pub fn screenshot(
+    opts: &Opts,
+    design: &Design,
+    shaders: Option<&Path>,
+    log: &RefCell<Option<ValidationLog>>,
+) -> Result<()> {
+    let path = opts.screenshot.as_ref().expect("screenshot mode");
+    let idx = opts.view.as_deref().map(|s| design.view_index(s)).transpose()?;
+    let base = &design.scene.views[idx.unwrap_or(0)];
+    // With --view: that view's camera, light and (unless --size) resolution, exactly as
+    // `scratchart render` has them. Without: the window's starting state at --size.
+    let view = match idx {
+        Some(_) => {
+            let mut v = base.clone();
+            if let Some((w, h)) = opts.size {
+                v.camera.width = w;
+                v.camera.height = h;
+            }
+            if let Some(az) = opts.light_azimuth {
+                let mut rig = LightRig::from_light(&v.light);
+                rig.azimuth_deg = az;
+                v.light = rig.light();
+            }
+            v
+        }
+        None => {
+            let (w, h) = opts.size.unwrap_or(DEFAULT_SIZE);
+            let (cam, light) = initial_state(opts, design, 0);
+            View {
+                name: "interactive".into(),
+                camera: cam.camera(w, h),
+                light: light.light(),
+            }
+        }
+    };
+    let (w, h) = (view.camera.width, view.camera.height);
+    let ctx = make_context(opts, vec![], vec![], log)?;
+    let mut fr = make_frame_renderer(&ctx, design, shaders)?;
+    let target = design.targets[idx.unwrap_or(0)].as_ref();
+    let show_target = opts.show_target && target.is_some();
+    if opts.show_target && target.is_none() {
+        eprintln!("warning: view '{}' has no target image", base.name);
+    }
+    fr.set_target(target.filter(|_| show_target))?;
+    // With the target the output doubles in width so the render keeps its resolution.
+    let layout = if show_target {
+        Layout::new((2 * w, h), fr.target_dims())
+    } else {
+        Layout::new((w, h), None)
+    };
+    let info = fr.render(
+        &FrameParams {
+            view: &view,
+            layout,
+            exposure: opts.exposure as f32,
+            nearest: false,
+            show_target,
+        },
+        None,
+    )?;
+    let bytes = fr.read_output_gray()?;
+    scratchart::io::write_png_gray(path, layout.out.0, layout.out.1, &bytes)?;
+    eprintln!(
+        "wrote {} ({}x{}, view '{}', {:.1} ms on the GPU, {} overlapping pairs)",
+        path.display(),
+        layout.out.0,
+        layout.out.1,
+        base.name,
+        info.timings.total_ms(),
+        info.stats.pairs
+    );
+    Ok(())
+}
+
+/// One row of the benchmark table.
+pub struct BenchRow {
+    pub mode: String,
+    pub internal: (u32, u32),
+    pub full: (u32, u32),
+    /// Median GPU time of a frame (Vulkan timestamps: binning, shading, present pass, copy).
+    pub gpu_ms: f64,
+    /// Median time per frame as the user sees it: host time of a frame headless, the interval
+    /// between presented frames in a window.
+    pub frame_ms: f64,
+}
+
+pub fn median(v: &mut [f64]) -> f64 {
+    if v.is_empty() {
+        return f64::NAN;
+    }
+    v.sort_by(|a, b| a.total_cmp(b));
+    let n = v.len();
+    if n % 2 == 1 {
+        v[n / 2]
+    } else {
+        0.5 * (v[n / 2 - 1] + v[n / 2])
+    }
+}
+
+pub fn print_table(title: &str, device: &str, rows: &[BenchRow]) {
+    println!("\n{title} ({device})");
+    println!(
+        "{:<22} {:>11} {:>7} {:>9} {:>10} {:>7}",
+        "mode", "internal", "scale", "gpu ms", "frame ms", "fps"
+    );
+    for r in rows {
+        println!(
+            "{:<22} {:>11} {:>7.3} {:>9.1} {:>10.1} {:>7.1}",
+            r.mode,
+            format!("{}x{}", r.internal.0, r.internal.1),
+            r.internal.0 as f64 / r.full.0 as f64,
+            r.gpu_ms,
+            r.frame_ms,
+            1000.0 / r.frame_ms
+        );
+    }
+}
+
+pub fn benchmark(
+    opts: &Opts,
+    design: &Design,
+    shaders: Option<&Path>,
+    log: &RefCell<Option<ValidationLog>>,
+) -> Result<()> {
+    let full = opts.size.unwrap_or(DEFAULT_SIZE);
+    let idx = opts
+        .view
+        .as_deref()
+        .map(|s| design.view_index(s))
+        .transpose()?
+        .unwrap_or(0);
+    let ctx = make_context(opts, vec![], vec![], log)?;
+    let mut fr = make_frame_renderer(&ctx, design, shaders)?;
+    let (cam0, light0) = initial_state(opts, design, idx);
+    let n = opts.bench_frames.max(1);
+    let mut rows = Vec::new();
+    for level in BENCH_LEVELS {
+        let (iw, ih) = internal_size(full, level);
+        let (mut gpu, mut wall) = (Vec::new(), Vec::new());
+        for k in 0..BENCH_WARMUP + n {
+            let t = k.saturating_sub(BENCH_WARMUP) as f64 / n as f64;
+            let (cam, light) = bench_path(&cam0, &light0, t);
+            let view = View {
+                name: "bench".into(),
+                camera: cam.camera(iw, ih),
+                light: light.light(),
+            };
+            let info = fr
+                .render(
+                    &FrameParams {
+                        view: &view,
+                        layout: Layout::new(full, None),
+                        exposure: opts.exposure as f32,
+                        nearest: false,
+                        show_target: false,
+                    },
+                    None,
+                )
+                .context("benchmark frame")?;
+            if std::env::var_os("SCRATCHART_VIEW_DEBUG").is_some() {
+                eprintln!(
+                    "bench level {level} k {k}: {:?} entries {} candidates {} pairs {} cam az {:.1} el {:.1} light az {:.1}",
+                    info.timings.entries, info.stats.entries, info.stats.candidates, info.stats.pairs,
+                    cam.azimuth_deg, cam.elevation_deg, light.azimuth_deg
+                );
+            }
+            if k >= BENCH_WARMUP {
+                gpu.push(info.timings.total_ms());
+                wall.push(info.wall_ms);
+            }
+        }
+        rows.push(BenchRow {
+            mode: format!("headless 1/{}", crate::frame::DIVISORS[level]),
+            internal: (iw, ih),
+            full,
+            gpu_ms: median(&mut gpu),
+            frame_ms: median(&mut wall),
+        });
+    }
+    print_table(
+        &format!(
+            "headless, {}x{} output, {} frames per row after {BENCH_WARMUP} warm-up, camera + light moving",
+            full.0, full.1, n
+        ),
+        &ctx.info().name,
+        &rows,
+    );
+    Ok(())
+}
