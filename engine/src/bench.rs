@@ -29,6 +29,9 @@ pub struct ForwardRow {
     pub pairs: u64,
     pub bin_ms: f64,
     pub shade_ms: f64,
+    /// backward pass (all views) for dE/dL of the check loss against the scene's own render
+    /// perturbed by a fixed pattern
+    pub backward_ms: f64,
 }
 
 fn median(mut v: Vec<f64>) -> f64 {
@@ -53,14 +56,33 @@ pub fn run_forward(
     for (name, scene) in scenes {
         let mut gs = renderer.upload(scene)?;
         let mut rec = Recorder::new(ctx)?;
-        let (mut bins, mut shades) = (Vec::new(), Vec::new());
-        let mut last = Default::default();
+        // Size the tile lists, then make dE/dL of E_lin against a perturbed copy of the render.
+        let first = renderer.render(&mut gs)?;
+        let dl = perturbed_target_dl(&first.images);
+        gs.dl = ctx.upload("dE/dL", &dl)?;
+        let (mut bins, mut shades, mut backs) = (Vec::new(), Vec::new(), Vec::new());
+        let mut last = first.stats;
         for i in 0..warmup + repeats {
-            let (stats, t) = renderer.run(&mut rec, &mut gs)?;
-            last = stats;
+            rec.begin()?;
+            rec.fill(&gs.stats, 0);
+            rec.barrier();
+            renderer.record_binning(&mut rec, &gs);
+            rec.timestamp("bin");
+            renderer.record_shading(&mut rec, &gs);
+            rec.timestamp("shade");
+            renderer.record_backward(&mut rec, &gs);
+            rec.timestamp("backward");
+            let t = rec.submit_and_wait()?;
+            let st: Vec<u32> = gs.stats.read()?;
+            last = crate::render::RenderStats {
+                candidates: st[0] as u64,
+                pairs: st[1] as u64,
+                entries: st[2] as u64,
+            };
             if i >= warmup {
                 bins.push(t.get("bin").unwrap_or(f64::NAN));
                 shades.push(t.get("shade").unwrap_or(f64::NAN));
+                backs.push(t.get("backward").unwrap_or(f64::NAN));
             }
         }
         rows.push(ForwardRow {
@@ -73,9 +95,25 @@ pub fn run_forward(
             pairs: last.pairs,
             bin_ms: median(bins),
             shade_ms: median(shades),
+            backward_ms: median(backs),
         });
     }
     Ok(rows)
+}
+
+/// dE_lin/dL (up to the per-view normalization) for a target that is the render itself,
+/// brightened or dimmed by 10% in a fixed checker pattern: every pixel gets a gradient.
+pub fn perturbed_target_dl(images: &[Vec<f32>]) -> Vec<f32> {
+    images
+        .iter()
+        .flat_map(|img| {
+            let n = img.len().max(1) as f32;
+            img.iter().enumerate().map(move |(i, &l)| {
+                let t = l * if (i / 7) % 2 == 0 { 1.1 } else { 0.9 };
+                2.0 * (l - t) / n
+            })
+        })
+        .collect()
 }
 
 /// Markdown table of forward rows.
@@ -84,16 +122,16 @@ pub fn forward_table(ctx: &Context, rows: &[ForwardRow]) -> String {
     let _ = writeln!(s, "device: {} ({})", ctx.info().name, ctx.info().kind);
     let _ = writeln!(
         s,
-        "| scene | scratches | views x pixels | tile entries | candidates | pairs | pair search ms/view | shading ms/view | Mpairs/s | GFLOP/s |"
+        "| scene | scratches | views x pixels | tile entries | candidates | pairs | pair search ms/view | shading ms/view | backward ms/view | forward Mpairs/s | forward GFLOP/s |"
     );
-    let _ = writeln!(s, "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
+    let _ = writeln!(s, "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
     for r in rows {
         let v = r.views as f64;
         let secs = r.shade_ms * 1e-3;
         let flops = r.pairs as f64 * FLOPS_PER_PAIR + (r.candidates - r.pairs) as f64 * FLOPS_PER_CANDIDATE;
         let _ = writeln!(
             s,
-            "| {} | {} | {} x {} | {} | {} | {} | {:.2} | {:.2} | {:.1} | {:.1} |",
+            "| {} | {} | {} x {} | {} | {} | {} | {:.2} | {:.2} | {:.2} | {:.1} | {:.1} |",
             r.name,
             r.scratches,
             r.views,
@@ -103,6 +141,7 @@ pub fn forward_table(ctx: &Context, rows: &[ForwardRow]) -> String {
             r.pairs,
             r.bin_ms / v,
             r.shade_ms / v,
+            r.backward_ms / v,
             r.pairs as f64 / secs * 1e-6,
             flops / secs * 1e-9
         );

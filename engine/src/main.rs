@@ -35,6 +35,9 @@ struct Cli {
 
 #[derive(Subcommand)]
 enum Cmd {
+    /// Design a plate: optimize scratches (and light intensities) so that each view shows its
+    /// target image. Without arguments, designs the built-in 3-view demo into ./out.
+    Design(Box<scratchart::optim::cli::DesignArgs>),
     /// Render every view of a scene to NAME.pfm (linear L) and NAME.png (display value).
     /// Without SCENE, renders the built-in demo plate.
     Render {
@@ -42,6 +45,20 @@ enum Cmd {
         scene: Option<PathBuf>,
         /// Output directory (created if missing)
         #[arg(long, default_value = "out")]
+        out: PathBuf,
+    },
+    /// Write the check loss E_lin of MODEL.md section 8 and its gradient with respect to every
+    /// scratch (grads.csv: x0,y0,x1,y1,w,d,alpha per scratch, in input order) and every view's
+    /// light intensity (grads_lights.csv beside it: view,intensity). Targets are DIR/NAME.pfm,
+    /// linear values, one per view.
+    Grad {
+        /// Scene file (JSON, MODEL.md section 6)
+        scene: PathBuf,
+        /// Directory holding NAME.pfm for every view NAME
+        #[arg(long)]
+        targets: PathBuf,
+        /// Output CSV of scratch gradients (grads_lights.csv is written beside it)
+        #[arg(long, default_value = "grads.csv")]
         out: PathBuf,
     },
     /// Benchmark the GPU pipeline on the standard scenes (S, M, P) or on a scene file.
@@ -90,6 +107,9 @@ fn exit_code(e: &anyhow::Error) -> u8 {
         if cause.downcast_ref::<scratchart::io::IoError>().is_some() {
             return 3;
         }
+        if cause.downcast_ref::<scratchart::optim::targets::TargetError>().is_some() {
+            return 3;
+        }
         if cause.downcast_ref::<scratchart::vulkan::GpuError>().is_some() {
             return 4;
         }
@@ -107,6 +127,11 @@ fn context(cli: &Cli) -> Result<std::sync::Arc<Context>> {
 
 fn run(cli: Cli) -> Result<()> {
     match &cli.cmd {
+        Cmd::Design(args) => {
+            let ctx = context(&cli)?;
+            scratchart::optim::cli::run(&ctx, args)?;
+            check_validation(&ctx)
+        }
         Cmd::Render { scene, out } => {
             let scene = match scene {
                 Some(p) => Scene::load(p)?,
@@ -117,6 +142,12 @@ fn run(cli: Cli) -> Result<()> {
             };
             let ctx = context(&cli)?;
             render_to_dir(&ctx, &scene, out)?;
+            check_validation(&ctx)
+        }
+        Cmd::Grad { scene, targets, out } => {
+            let scene = Scene::load(scene)?;
+            let ctx = context(&cli)?;
+            grad_command(&ctx, &scene, targets, out)?;
             check_validation(&ctx)
         }
         Cmd::Bench {
@@ -165,6 +196,46 @@ fn render_to_dir(ctx: &std::sync::Arc<Context>, scene: &Scene, out: &Path) -> Re
         frame.stats.candidates,
         frame.timings.total_ms()
     );
+    Ok(())
+}
+
+fn grad_command(ctx: &std::sync::Arc<Context>, scene: &Scene, dir: &Path, out: &Path) -> Result<()> {
+    let mut targets = Vec::new();
+    for v in &scene.views {
+        let p = dir.join(format!("{}.pfm", v.name));
+        let (w, h, data) = scratchart::io::read_pfm(&p).with_context(|| format!("target for view '{}'", v.name))?;
+        if (w, h) != (v.camera.width, v.camera.height) {
+            anyhow::bail!(
+                "target {} is {w}x{h} but view '{}' renders {}x{}",
+                p.display(),
+                v.name,
+                v.camera.width,
+                v.camera.height
+            );
+        }
+        targets.push(data);
+    }
+    if let Some(parent) = out.parent().filter(|p| !p.as_os_str().is_empty()) {
+        std::fs::create_dir_all(parent).with_context(|| format!("cannot create {}", parent.display()))?;
+    }
+    let renderer = Renderer::new(ctx)?;
+    let mut gs = renderer.upload(scene)?;
+    let r = renderer.check_loss_gradients(&mut gs, scene, &targets)?;
+    let mut csv = String::from("x0,y0,x1,y1,w,d,alpha\n");
+    for g in &r.grads.scratches {
+        let row: Vec<String> = g.iter().map(|x| format!("{x:e}")).collect();
+        csv += &row.join(",");
+        csv.push('\n');
+    }
+    scratchart::io::write_atomic(out, csv.as_bytes())?;
+    let mut lights = String::from("view,intensity\n");
+    for (v, g) in scene.views.iter().zip(&r.grads.lights) {
+        lights += &format!("{},{g:e}\n", v.name);
+    }
+    let lp = out.with_file_name("grads_lights.csv");
+    scratchart::io::write_atomic(&lp, lights.as_bytes())?;
+    println!("E_lin = {:.9e}", r.e_lin);
+    eprintln!("wrote {} and {}", out.display(), lp.display());
     Ok(())
 }
 

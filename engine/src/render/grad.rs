@@ -88,3 +88,51 @@ impl Renderer {
         Ok((images, Gradients { scratches, lights }))
     }
 }
+
+/// The check loss of MODEL.md section 8 and its gradients, for the `grad` command:
+/// E_lin = sum over views of the mean over the view's on-plate pixels of (L - T)^2, with T the
+/// given linear target images (one per view, row-major, top row first).
+pub struct CheckLoss {
+    pub e_lin: f64,
+    pub grads: Gradients,
+}
+
+impl Renderer {
+    /// Renders `scene`, forms dE_lin/dL against `targets` and runs the backward pass.
+    /// On-plate pixels are found with the float64 camera geometry of `model::camera`.
+    pub fn check_loss_gradients(
+        &self,
+        gs: &mut GpuScene,
+        scene: &crate::model::scene::Scene,
+        targets: &[Vec<f32>],
+    ) -> Result<CheckLoss, GpuError> {
+        assert_eq!(targets.len(), scene.views.len(), "one target image per view");
+        let images = self.render(gs)?.images;
+        let half = 0.5 * scene.plate.size_mm;
+        let mut e_lin = 0.0f64;
+        let mut dl = Vec::with_capacity(gs.slots.n_pixels as usize);
+        for (v, view) in scene.views.iter().enumerate() {
+            let g = crate::model::camera::ViewGeom::new(view);
+            let (w, h) = (view.camera.width, view.camera.height);
+            assert_eq!(targets[v].len(), (w * h) as usize, "target {v} has the wrong size");
+            let mask: Vec<bool> = (0..h)
+                .flat_map(|j| (0..w).map(move |i| (i, j)))
+                .map(|(i, j)| g.on_plate(i, j, half))
+                .collect();
+            let n = mask.iter().filter(|m| **m).count().max(1) as f64;
+            let mut sum = 0.0f64;
+            for (idx, &m) in mask.iter().enumerate() {
+                if m {
+                    let r = images[v][idx] as f64 - targets[v][idx] as f64;
+                    sum += r * r;
+                    dl.push((2.0 * r / n) as f32);
+                } else {
+                    dl.push(0.0);
+                }
+            }
+            e_lin += sum / n;
+        }
+        let (_, grads) = self.gradients(gs, &dl)?;
+        Ok(CheckLoss { e_lin, grads })
+    }
+}
