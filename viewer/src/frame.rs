@@ -287,11 +287,12 @@ impl FrameRenderer {
         }
     }
 
-    /// The last frame's display bytes (gray), top row first, `layout.out` sized.
-    pub fn read_output_gray(&self) -> Result<Vec<u8>, GpuError> {
-        let out = self.out.as_ref().expect("read_output_gray before any frame");
-        let px: Vec<u32> = self.ctx.download(out)?;
-        Ok(px.iter().map(|p| (p & 0xff) as u8).collect())
+    /// The last frame's display bytes (gray), top row first, for an output of `out` pixels.
+    pub fn read_output_gray(&self, out: (u32, u32)) -> Result<Vec<u8>, GpuError> {
+        let buf = self.out.as_ref().expect("read_output_gray before any frame");
+        let px: Vec<u32> = self.ctx.download(buf)?;
+        let n = out.0 as usize * out.1 as usize;
+        Ok(px[..n].iter().map(|p| (p & 0xff) as u8).collect())
     }
 }
 

@@ -134,7 +134,7 @@ pub fn screenshot(
         },
         None,
     )?;
-    let bytes = fr.read_output_gray()?;
+    let bytes = fr.read_output_gray(layout.out)?;
     scratchart::io::write_png_gray(path, layout.out.0, layout.out.1, &bytes)?;
     eprintln!(
         "wrote {} ({}x{}, view '{}', {:.1} ms on the GPU, {} overlapping pairs)",
@@ -233,13 +233,6 @@ pub fn benchmark(
                     None,
                 )
                 .context("benchmark frame")?;
-            if std::env::var_os("SCRATCHART_VIEW_DEBUG").is_some() {
-                eprintln!(
-                    "bench level {level} k {k}: {:?} entries {} candidates {} pairs {} cam az {:.1} el {:.1} light az {:.1}",
-                    info.timings.entries, info.stats.entries, info.stats.candidates, info.stats.pairs,
-                    cam.azimuth_deg, cam.elevation_deg, light.azimuth_deg
-                );
-            }
             if k >= BENCH_WARMUP {
                 gpu.push(info.timings.total_ms());
                 wall.push(info.wall_ms);

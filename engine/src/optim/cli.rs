@@ -1,0 +1,220 @@
+//! The `scratchart design` subcommand: flags, problem setup (views, lights, initial scratches,
+//! targets) and the call into [`super::design::run_design`]. Kept here so `main.rs` only adds one
+//! enum variant.
+use std::path::PathBuf;
+use std::sync::Arc;
+
+use anyhow::Context as _;
+
+use super::design::{run_design, DesignConfig, Hooks, Problem};
+use crate::model::scene::{Plate, Scene, View};
+use crate::scenes::{orbit_light, random_scratches, ring_views, Rng};
+use crate::vulkan::Context;
+
+/// Flags of `scratchart design`. Without any, designs the built-in 3-view demo (circle, triangle,
+/// star) into ./out in a few minutes on a CPU (lavapipe).
+#[derive(clap::Args, Clone, Debug)]
+pub struct DesignArgs {
+    /// Target images, one per view in view order (PNG/JPEG, any size; converted to gray and resized
+    /// to the view resolution). Default: the built-in shapes (circle, triangle, star, ...).
+    #[arg(long, num_args = 1..)]
+    pub targets: Vec<PathBuf>,
+    /// Number of views on the paper's ring: elevation --elevation, view j at azimuth 360 j / N
+    #[arg(long, default_value_t = 3)]
+    pub views: usize,
+    /// Views from a file instead: a JSON array of MODEL.md view objects (their lights' intensities are used as given)
+    #[arg(long, conflicts_with_all = ["views", "res", "elevation", "light_azimuth"])]
+    pub view_file: Option<PathBuf>,
+    /// Number of scratches
+    #[arg(long, default_value_t = 6000)]
+    pub scratches: usize,
+    /// Optimization iterations
+    #[arg(long, default_value_t = 150)]
+    pub iters: u32,
+    /// View resolution (square), pixels
+    #[arg(long, default_value_t = 112)]
+    pub res: u32,
+    /// Seed of the random initial scratches
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Elevation of the views and of the light, degrees
+    #[arg(long, default_value_t = 45.0)]
+    pub elevation: f64,
+    /// Azimuth of the point light, degrees (views sit at 0, 360/N, ...)
+    #[arg(long, default_value_t = 30.0)]
+    pub light_azimuth: f64,
+    /// Plate size, mm
+    #[arg(long, default_value_t = 100.0)]
+    pub plate: f64,
+    /// Initial scratch length range, percent of the plate size
+    #[arg(long, default_value_t = 2.0)]
+    pub len_min_pct: f64,
+    #[arg(long, default_value_t = 8.0)]
+    pub len_max_pct: f64,
+    /// Initial width parameter w, depth d (mm) and roughness alpha of every scratch
+    #[arg(long, default_value_t = 0.05)]
+    pub init_w: f64,
+    #[arg(long, default_value_t = 0.05)]
+    pub init_d: f64,
+    #[arg(long, default_value_t = 0.06)]
+    pub init_alpha: f64,
+    /// Learning rate of the endpoints, mm per step (default 1.5e-3 x plate size)
+    #[arg(long)]
+    pub lr_end: Option<f32>,
+    /// Learning rate of w, mm per step
+    #[arg(long)]
+    pub lr_w: Option<f32>,
+    /// Learning rate of d, mm per step
+    #[arg(long)]
+    pub lr_d: Option<f32>,
+    /// Learning rate of alpha per step
+    #[arg(long)]
+    pub lr_alpha: Option<f32>,
+    /// Learning rate of ln(light intensity) per step (0 keeps the lights fixed)
+    #[arg(long)]
+    pub lr_light: Option<f32>,
+    /// Weight of the blurred squared error
+    #[arg(long, default_value_t = 1.0)]
+    pub lambda_p: f32,
+    /// Weight of the Gram-matrix (feature statistics) term
+    #[arg(long, default_value_t = 0.01)]
+    pub lambda_g: f32,
+    /// Standard deviation of the loss's 3x3 Gaussian blur, pixels
+    #[arg(long, default_value_t = 1.0)]
+    pub blur_sigma: f32,
+    /// Output directory
+    #[arg(long, default_value = "out")]
+    pub out: PathBuf,
+    /// Write a checkpoint every N iterations (and at the end)
+    #[arg(long, default_value_t = 50)]
+    pub checkpoint_every: u32,
+    /// Continue a stopped run from the checkpoint in --out (same flags and targets; --iters may grow)
+    #[arg(long)]
+    pub resume: bool,
+    /// Pruning: largest relative loss increase accepted when removing scratches (0 disables)
+    #[arg(long, default_value_t = 0.01)]
+    pub prune_tol: f64,
+    /// Pruning: forward evaluations spent on trial batches
+    #[arg(long, default_value_t = 8)]
+    pub prune_trials: u32,
+    /// No progress bar
+    #[arg(long)]
+    pub quiet: bool,
+    /// Test hook: fill the gradient with NaN at this iteration (exercises the rollback)
+    #[arg(long, hide = true)]
+    pub inject_nan_grad_at: Option<u32>,
+}
+
+/// Builds the problem (views, initial scratches, targets) of `args`.
+pub fn problem(args: &DesignArgs) -> anyhow::Result<Problem> {
+    let plate_mm = args.plate;
+    anyhow::ensure!(plate_mm > 0.0, "--plate must be > 0 mm");
+    anyhow::ensure!(args.scratches > 0, "--scratches must be at least 1");
+    anyhow::ensure!(
+        args.len_min_pct > 0.0 && args.len_max_pct >= args.len_min_pct && args.len_max_pct < 100.0,
+        "--len-min-pct / --len-max-pct must satisfy 0 < min <= max < 100"
+    );
+    let plate = Plate {
+        size_mm: plate_mm,
+        roughness: crate::model::scene::DEFAULT_ROUGHNESS,
+        f0: crate::model::scene::DEFAULT_F0,
+    };
+    let distance = 3.0 * plate_mm;
+    let views: Vec<View> = match &args.view_file {
+        Some(path) => {
+            let text = std::fs::read_to_string(path)
+                .with_context(|| format!("cannot read view file `{}`", path.display()))?;
+            let arr: serde_json::Value = serde_json::from_str(&text)
+                .with_context(|| format!("view file `{}` is not valid JSON", path.display()))?;
+            anyhow::ensure!(
+                arr.as_array().is_some_and(|a| !a.is_empty()),
+                "view file `{}` must hold a non-empty JSON array of view objects (MODEL.md section 6)",
+                path.display()
+            );
+            let doc = serde_json::json!({
+                "plate": {"size_mm": plate.size_mm, "roughness": plate.roughness, "f0": plate.f0},
+                "views": arr,
+                "scratches": [],
+            });
+            let base = path.parent().map(PathBuf::from).unwrap_or_default();
+            Scene::from_json_str(&doc.to_string(), &base, &path.display().to_string())?.views
+        }
+        None => {
+            anyhow::ensure!(args.views >= 1, "--views must be at least 1");
+            anyhow::ensure!(args.res >= 8, "--res must be at least 8 pixels");
+            anyhow::ensure!(
+                args.elevation > 0.0 && args.elevation < 90.0,
+                "--elevation must lie strictly between 0 and 90 degrees"
+            );
+            // Initial intensity: a placeholder, calibrated against the targets before the first step.
+            let light = orbit_light(distance, args.elevation, args.light_azimuth, 1.0e4);
+            ring_views(args.views, args.elevation, distance, plate_mm, args.res, &light)
+        }
+    };
+    let mut rng = Rng::new(args.seed);
+    let scratches = random_scratches(
+        &mut rng,
+        args.scratches,
+        plate_mm,
+        0.01 * args.len_min_pct * plate_mm,
+        0.01 * args.len_max_pct * plate_mm,
+        args.init_w,
+        args.init_d,
+        args.init_alpha,
+    );
+    let scene = Scene {
+        plate,
+        views,
+        scratches,
+    };
+    scene.validate()?;
+    let targets = if args.targets.is_empty() {
+        super::targets::builtin_targets(&scene)
+    } else {
+        super::targets::load_targets(&args.targets, &scene)?
+    };
+    Ok(Problem { scene, targets })
+}
+
+/// The configuration of `args`.
+pub fn config(args: &DesignArgs) -> DesignConfig {
+    let mut cfg = DesignConfig::new(args.plate, args.out.clone());
+    cfg.iters = args.iters;
+    cfg.seed = args.seed;
+    cfg.loss.lambda_p = args.lambda_p;
+    cfg.loss.lambda_g = args.lambda_g;
+    cfg.loss.sigma = args.blur_sigma;
+    let a = &mut cfg.adam;
+    a.lr_end = args.lr_end.unwrap_or(a.lr_end);
+    a.lr_w = args.lr_w.unwrap_or(a.lr_w);
+    a.lr_d = args.lr_d.unwrap_or(a.lr_d);
+    a.lr_alpha = args.lr_alpha.unwrap_or(a.lr_alpha);
+    a.lr_light = args.lr_light.unwrap_or(a.lr_light);
+    cfg.checkpoint_every = args.checkpoint_every;
+    cfg.resume = args.resume;
+    cfg.prune.tol = args.prune_tol;
+    cfg.prune.max_trials = args.prune_trials;
+    cfg.progress = !args.quiet;
+    cfg.calibrate_lights = args.view_file.is_none();
+    cfg.hooks = Hooks {
+        nan_grad_at: args.inject_nan_grad_at,
+        nan_image_at: None,
+        stop_at: None,
+    };
+    cfg
+}
+
+/// Runs `scratchart design`.
+pub fn run(ctx: &Arc<Context>, args: &DesignArgs) -> anyhow::Result<()> {
+    anyhow::ensure!(args.blur_sigma > 0.0, "--blur-sigma must be > 0");
+    let problem = problem(args)?;
+    if args.targets.is_empty() {
+        let names: Vec<&str> = (0..problem.scene.views.len())
+            .map(|j| super::targets::SHAPES[j % super::targets::SHAPES.len()])
+            .collect();
+        eprintln!("no --targets given: using the built-in shapes ({})", names.join(", "));
+    }
+    let cfg = config(args);
+    run_design(ctx, &problem, &cfg)?;
+    Ok(())
+}

@@ -1,0 +1,135 @@
+//! Pruning after optimization (as the paper does): drop scratches whose removal barely changes
+//! the loss.
+//!
+//! Importance of scratch k: the first-order change of E when its carved region shrinks to nothing.
+//! The depth d only sets the half-width e = (w/2) sqrt(1 - exp(-2d/w)) (MODEL.md section 2), so with
+//! dE/de = (dE/dd) / (de/dd), the linearized change of removing it (e -> 0) is
+//! Delta_k = -e dE/de = -w (exp(2d/w) - 1) dE/dd. A scratch no view sees has Delta = 0. This is
+//! only a ranking: shrinking e removes the steep outer normals first, so the true change differs,
+//! which is why every batch is checked with a real evaluation.
+//! Scratches are removed in batches, lowest Delta first (ties by index, so the result is
+//! deterministic); each batch is kept only if a true forward evaluation of the pruned design
+//! keeps the loss within `tol` (relative) of the unpruned loss, else the batch is halved.
+use crate::model::scene::Scene;
+use crate::render::Renderer;
+use crate::vulkan::{GpuError, Recorder};
+
+use super::loss::{Loss, LossValues};
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PruneConfig {
+    /// Largest relative loss increase accepted (0 disables pruning).
+    pub tol: f64,
+    /// First batch, as a fraction of the scratches.
+    pub first_frac: f64,
+    /// Forward evaluations spent on trial batches.
+    pub max_trials: u32,
+}
+
+impl Default for PruneConfig {
+    fn default() -> Self {
+        PruneConfig {
+            tol: 0.01,
+            first_frac: 0.2,
+            max_trials: 8,
+        }
+    }
+}
+
+impl PruneConfig {
+    pub fn enabled(&self) -> bool {
+        self.tol > 0.0 && self.max_trials > 0
+    }
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct PruneStats {
+    pub before: usize,
+    pub after: usize,
+    pub loss_before: f32,
+    pub loss_after: f32,
+    pub trials: u32,
+    pub accepted: u32,
+}
+
+/// Loss and per-scratch gradients (8 f32 each) of `scene`.
+pub fn evaluate(renderer: &Renderer, loss: &Loss, scene: &Scene) -> Result<(LossValues, Vec<[f32; 8]>), GpuError> {
+    let ctx = &renderer.ctx;
+    let mut gs = renderer.upload(scene)?;
+    let mut rec = Recorder::new(ctx)?;
+    loop {
+        rec.begin()?;
+        rec.fill(&gs.stats, 0);
+        rec.barrier();
+        renderer.record_binning(&mut rec, &gs);
+        renderer.record_shading(&mut rec, &gs);
+        loss.record_forward(&mut rec, &gs.image);
+        loss.record_backward(&mut rec, &gs.image, &gs.dl);
+        renderer.record_backward(&mut rec, &gs);
+        rec.submit_and_wait()?;
+        let st: Vec<u32> = gs.stats.read()?;
+        if st[2] > gs.capacity {
+            renderer.grow_list(&mut gs, st[2] as u64)?;
+            continue;
+        }
+        break;
+    }
+    let lv = loss.read()?;
+    let g: Vec<[f32; 8]> = ctx.download(&gs.grad)?;
+    Ok((lv, g[..scene.scratches.len()].to_vec()))
+}
+
+/// Prunes `scene` (see the module doc). Returns the pruned scene and what happened.
+pub fn prune(renderer: &Renderer, loss: &Loss, scene: &Scene, cfg: &PruneConfig) -> Result<(Scene, PruneStats), GpuError> {
+    let (lv0, mut grads) = evaluate(renderer, loss, scene)?;
+    let e0 = lv0.total;
+    let limit = e0 as f64 * (1.0 + cfg.tol);
+    let mut current = scene.clone();
+    let mut cur_loss = e0;
+    let n0 = scene.scratches.len();
+    let min_batch = (n0 / 200).max(1);
+    let mut batch = ((cfg.first_frac * n0 as f64).ceil() as usize).max(1);
+    let (mut trials, mut accepted) = (0u32, 0u32);
+    while trials < cfg.max_trials && batch >= min_batch && current.scratches.len() > 1 {
+        let b = batch.min(current.scratches.len() - 1);
+        let mut order: Vec<(f64, usize)> = current
+            .scratches
+            .iter()
+            .zip(&grads)
+            .enumerate()
+            .map(|(k, (s, g))| (-s.w * ((2.0 * s.d / s.w).exp() - 1.0) * g[5] as f64, k))
+            .collect();
+        order.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+        let mut drop = vec![false; current.scratches.len()];
+        for &(_, k) in &order[..b] {
+            drop[k] = true;
+        }
+        let mut cand = current.clone();
+        cand.scratches = current
+            .scratches
+            .iter()
+            .zip(&drop)
+            .filter(|(_, d)| !**d)
+            .map(|(s, _)| *s)
+            .collect();
+        trials += 1;
+        let (lv, g) = evaluate(renderer, loss, &cand)?;
+        if lv.total.is_finite() && (lv.total as f64) <= limit {
+            current = cand;
+            grads = g;
+            cur_loss = lv.total;
+            accepted += 1;
+        } else {
+            batch /= 2;
+        }
+    }
+    let stats = PruneStats {
+        before: n0,
+        after: current.scratches.len(),
+        loss_before: e0,
+        loss_after: cur_loss,
+        trials,
+        accepted,
+    };
+    Ok((current, stats))
+}

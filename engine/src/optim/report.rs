@@ -1,0 +1,286 @@
+//! Outputs of a design run: the design files, per-view comparison images, the loss curve, SSIM,
+//! and the summary (printed and written as `summary.json`). Every file is written atomically.
+use std::path::Path;
+
+use serde_json::json;
+
+use super::design::{DesignConfig, DesignReport, Problem};
+use crate::model::scene::Scene;
+
+/// The 3x3 clamp-to-edge Gaussian blur of the loss (sigma in pixels).
+pub fn blur3(img: &[f32], w: u32, h: u32, sigma: f32) -> Vec<f64> {
+    let s = (-0.5 / (sigma as f64 * sigma as f64)).exp();
+    let g = [s / (1.0 + 2.0 * s), 1.0 / (1.0 + 2.0 * s), s / (1.0 + 2.0 * s)];
+    let (wi, hi) = (w as i64, h as i64);
+    let mut out = vec![0.0; img.len()];
+    for y in 0..hi {
+        for x in 0..wi {
+            let mut acc = 0.0;
+            for oy in -1..=1i64 {
+                for ox in -1..=1i64 {
+                    let c = (y + oy).clamp(0, hi - 1) * wi + (x + ox).clamp(0, wi - 1);
+                    acc += g[(ox + 1) as usize] * g[(oy + 1) as usize] * img[c as usize] as f64;
+                }
+            }
+            out[(y * wi + x) as usize] = acc;
+        }
+    }
+    out
+}
+
+/// SSIM (Wang et al. 2004: 11x11 Gaussian window, sigma 1.5, K1 = 0.01, K2 = 0.03, range 1) of
+/// two images in [0, 1], averaged over the pixels where `mask` is set (the on-plate pixels, so the
+/// always-black surroundings do not inflate it). Windows clamp to the image.
+pub fn ssim(a: &[f64], b: &[f64], w: u32, h: u32, mask: &[bool]) -> f64 {
+    let (c1, c2) = (0.01f64.powi(2), 0.03f64.powi(2));
+    let r = 5i64;
+    let gw: Vec<f64> = (-r..=r).map(|o| (-(o * o) as f64 / (2.0 * 1.5 * 1.5)).exp()).collect();
+    let (wi, hi) = (w as i64, h as i64);
+    let (mut sum, mut n) = (0.0, 0usize);
+    for y in 0..hi {
+        for x in 0..wi {
+            if !mask[(y * wi + x) as usize] {
+                continue;
+            }
+            let (mut sw, mut ma, mut mb, mut aa, mut bb, mut ab) = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0);
+            for oy in -r..=r {
+                let yy = y + oy;
+                if yy < 0 || yy >= hi {
+                    continue;
+                }
+                for ox in -r..=r {
+                    let xx = x + ox;
+                    if xx < 0 || xx >= wi {
+                        continue;
+                    }
+                    let k = gw[(ox + r) as usize] * gw[(oy + r) as usize];
+                    let (va, vb) = (a[(yy * wi + xx) as usize], b[(yy * wi + xx) as usize]);
+                    sw += k;
+                    ma += k * va;
+                    mb += k * vb;
+                    aa += k * va * va;
+                    bb += k * vb * vb;
+                    ab += k * va * vb;
+                }
+            }
+            let (ma, mb) = (ma / sw, mb / sw);
+            let va = aa / sw - ma * ma;
+            let vb = bb / sw - mb * mb;
+            let cov = ab / sw - ma * mb;
+            sum += ((2.0 * ma * mb + c1) * (2.0 * cov + c2)) / ((ma * ma + mb * mb + c1) * (va + vb + c2));
+            n += 1;
+        }
+    }
+    if n == 0 {
+        1.0
+    } else {
+        sum / n as f64
+    }
+}
+
+/// SSIM of the blurred display render (clamped to [0, 1]) against the target, over on-plate pixels.
+pub fn view_ssim(scene: &Scene, v: usize, display: &[f32], target: &[f32], sigma: f32) -> f64 {
+    let (w, h) = (scene.views[v].camera.width, scene.views[v].camera.height);
+    let clamped: Vec<f32> = display.iter().map(|x| x.clamp(0.0, 1.0)).collect();
+    let a = blur3(&clamped, w, h, sigma);
+    let b: Vec<f64> = target.iter().map(|&x| x as f64).collect();
+    let mask = crate::model::reference::on_plate_mask(scene, v);
+    ssim(&a, &b, w, h, &mask)
+}
+
+/// `render | target` side by side (4 gray pixels between), 8-bit.
+pub fn compare_png(path: &Path, w: u32, h: u32, display: &[f32], target: &[f32]) -> Result<(), crate::io::IoError> {
+    const GAP: u32 = 4;
+    let cw = 2 * w + GAP;
+    let mut px = vec![128u8; (cw * h) as usize];
+    let byte = |v: f32| (255.0 * v.clamp(0.0, 1.0)).round() as u8;
+    for y in 0..h {
+        for x in 0..w {
+            let i = (y * w + x) as usize;
+            px[(y * cw + x) as usize] = byte(display[i]);
+            px[(y * cw + w + GAP + x) as usize] = byte(target[i]);
+        }
+    }
+    crate::io::write_png_gray(path, cw, h, &px)
+}
+
+/// The loss curve: log10 of the total (white) and of each view's loss (grays), against the
+/// iteration, on a dark background with a grid line at every power of ten (no text: no font is
+/// bundled; the summary states the axes).
+pub fn loss_curve_png(path: &Path, report: &DesignReport) -> anyhow::Result<()> {
+    use plotters::prelude::*;
+    let (wpx, hpx) = (800u32, 450u32);
+    let mut buf = vec![0u8; (wpx * hpx * 3) as usize];
+    let hist = &report.history;
+    let series: Vec<Vec<f64>> = std::iter::once(hist.iter().map(|r| r.total as f64).collect())
+        .chain((0..hist.first().map_or(0, |r| r.pixel.len())).map(|v| {
+            hist.iter().map(|r| (r.pixel[v] + r.gram[v]) as f64).collect()
+        }))
+        .collect();
+    let logs: Vec<Vec<f64>> = series
+        .iter()
+        .map(|s| s.iter().map(|&x| x.max(1e-12).log10()).collect())
+        .collect();
+    let lo = logs.iter().flatten().cloned().fold(f64::INFINITY, f64::min).floor();
+    let hi = logs.iter().flatten().cloned().fold(f64::NEG_INFINITY, f64::max).ceil();
+    let (lo, hi) = if lo.is_finite() && hi > lo { (lo, hi) } else { (-3.0, 0.0) };
+    let n = hist.len().max(2) as f64 - 1.0;
+    {
+        let root = BitMapBackend::with_buffer(&mut buf, (wpx, hpx)).into_drawing_area();
+        root.fill(&RGBColor(20, 20, 24)).map_err(|e| anyhow::anyhow!("plot: {e}"))?;
+        let mut chart = ChartBuilder::on(&root)
+            .margin(16)
+            .build_cartesian_2d(0f64..n, lo..hi)
+            .map_err(|e| anyhow::anyhow!("plot: {e}"))?;
+        let grid = RGBColor(70, 70, 80);
+        let mut d = lo;
+        while d <= hi + 1e-9 {
+            chart
+                .draw_series(LineSeries::new(vec![(0.0, d), (n, d)], &grid))
+                .map_err(|e| anyhow::anyhow!("plot: {e}"))?;
+            d += 1.0;
+        }
+        chart
+            .draw_series(LineSeries::new(vec![(0.0, lo), (0.0, hi)], &grid))
+            .map_err(|e| anyhow::anyhow!("plot: {e}"))?;
+        for (i, s) in logs.iter().enumerate().rev() {
+            let color = if i == 0 {
+                RGBColor(255, 255, 255)
+            } else {
+                let g = 90 + (60 * i as u8) % 120;
+                RGBColor(g, (g as u16 * 3 / 4) as u8, 255 - g / 2)
+            };
+            let style = if i == 0 { color.stroke_width(2) } else { color.stroke_width(1) };
+            chart
+                .draw_series(LineSeries::new(s.iter().enumerate().map(|(k, &y)| (k as f64, y)), style))
+                .map_err(|e| anyhow::anyhow!("plot: {e}"))?;
+        }
+        root.present().map_err(|e| anyhow::anyhow!("plot: {e}"))?;
+    }
+    let img = image::RgbImage::from_raw(wpx, hpx, buf).expect("plot buffer size");
+    let mut png = Vec::new();
+    image::DynamicImage::ImageRgb8(img)
+        .write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png)
+        .map_err(|e| anyhow::anyhow!("cannot encode {}: {e}", path.display()))?;
+    crate::io::write_atomic(path, &png)?;
+    Ok(())
+}
+
+/// Writes design.json + scratches.csv, NAME_compare.png per view, loss_curve.png and
+/// summary.json, and prints the summary.
+pub fn write_outputs(
+    out: &Path,
+    problem: &Problem,
+    cfg: &DesignConfig,
+    r: &DesignReport,
+    _initial: Option<&Scene>,
+) -> anyhow::Result<()> {
+    r.scene.save(&out.join("design.json"), "scratches.csv")?;
+    let scene = &r.scene;
+    let mut views_json = Vec::new();
+    let first = r.history.first();
+    for (v, view) in scene.views.iter().enumerate() {
+        let (w, h) = (view.camera.width, view.camera.height);
+        compare_png(
+            &out.join(format!("{}_compare.png", view.name)),
+            w,
+            h,
+            &r.final_images[v],
+            &problem.targets[v],
+        )?;
+        let ssim_final = view_ssim(scene, v, &r.final_images[v], &problem.targets[v], cfg.loss.sigma);
+        let ssim_initial = view_ssim(scene, v, &r.initial_images[v], &problem.targets[v], cfg.loss.sigma);
+        views_json.push(json!({
+            "name": view.name,
+            "loss_initial": first.map(|f| (f.pixel[v] + f.gram[v]) as f64),
+            "loss_final": (r.final_loss.pixel[v] + r.final_loss.gram[v]) as f64,
+            "pixel_term_final": r.final_loss.pixel[v] as f64,
+            "gram_term_final": r.final_loss.gram[v] as f64,
+            "ssim_initial": ssim_initial,
+            "ssim_final": ssim_final,
+            "light_intensity": view.light.intensity,
+        }));
+    }
+    loss_curve_png(&out.join("loss_curve.png"), r)?;
+    let per_iter_ms = 1e3 * r.loop_seconds / r.iters_run.max(1) as f64;
+    let summary = json!({
+        "views": scene.views.len(),
+        "resolution": scene.views.iter().map(|v| [v.camera.width, v.camera.height]).collect::<Vec<_>>(),
+        "scratches_optimized": r.unpruned.scratches.len(),
+        "scratches_written": scene.scratches.len(),
+        "iterations": cfg.iters,
+        "iterations_run_now": r.iters_run,
+        "resumed_from_iteration": r.resumed_from,
+        "loop_seconds": r.loop_seconds,
+        "ms_per_iteration": per_iter_ms,
+        "gpu_ms_per_iteration": r.gpu_ms.iter().map(|(l, ms)| json!({"phase": l, "ms": ms})).collect::<Vec<_>>(),
+        "pairs_per_iteration": r.mean_pairs,
+        "loss_initial": first.map(|f| f.total as f64),
+        "loss_final": r.final_loss.total as f64,
+        "per_view": views_json,
+        "rollbacks": r.rollbacks.iter().map(|b| json!({"iteration": b.iter, "reason": b.reason, "lr_scale_after": b.lr_scale})).collect::<Vec<_>>(),
+        "pruning": r.prune.as_ref().map(|p| json!({
+            "before": p.before, "after": p.after, "removed": p.before - p.after,
+            "loss_before": p.loss_before as f64, "loss_after": p.loss_after as f64,
+            "trials": p.trials, "accepted_batches": p.accepted, "tolerance": cfg.prune.tol,
+        })),
+        "loss_curve_png": "x: iteration (0 at the left edge); y: log10 of the loss, one grid line per decade; white: total, colours: per view",
+        "config": {
+            "lambda_p": cfg.loss.lambda_p, "lambda_g": cfg.loss.lambda_g, "blur_sigma": cfg.loss.sigma,
+            "lr_end_mm": cfg.adam.lr_end, "lr_w_mm": cfg.adam.lr_w, "lr_d_mm": cfg.adam.lr_d,
+            "lr_alpha": cfg.adam.lr_alpha, "lr_light_log": cfg.adam.lr_light, "seed": cfg.seed,
+        },
+    });
+    crate::io::write_atomic(&out.join("summary.json"), serde_json::to_string_pretty(&summary)?.as_bytes())?;
+    print_summary(&summary, out);
+    Ok(())
+}
+
+fn print_summary(s: &serde_json::Value, out: &Path) {
+    let f = |v: &serde_json::Value| v.as_f64().unwrap_or(f64::NAN);
+    println!(
+        "design: {} views, {} scratches optimized, {} iterations ({} run now) in {:.1} s: {:.0} ms/iteration, {:.3e} (pixel, scratch) pairs/iteration",
+        s["views"],
+        s["scratches_optimized"],
+        s["iterations"],
+        s["iterations_run_now"],
+        f(&s["loop_seconds"]),
+        f(&s["ms_per_iteration"]),
+        f(&s["pairs_per_iteration"])
+    );
+    if let Some(phases) = s["gpu_ms_per_iteration"].as_array() {
+        let p: Vec<String> = phases
+            .iter()
+            .map(|p| format!("{} {:.1}", p["phase"].as_str().unwrap_or("?"), f(&p["ms"])))
+            .collect();
+        println!("  GPU ms per iteration: {}", p.join(", "));
+    }
+    println!("  loss {:.5} -> {:.5}", f(&s["loss_initial"]), f(&s["loss_final"]));
+    println!("  {:<8} {:>12} {:>12} {:>11} {:>11} {:>10} {:>10}", "view", "loss start", "loss final", "pixel", "gram", "SSIM start", "SSIM final");
+    for v in s["per_view"].as_array().into_iter().flatten() {
+        println!(
+            "  {:<8} {:>12.5} {:>12.5} {:>11.5} {:>11.5} {:>10.3} {:>10.3}",
+            v["name"].as_str().unwrap_or("?"),
+            f(&v["loss_initial"]),
+            f(&v["loss_final"]),
+            f(&v["pixel_term_final"]),
+            f(&v["gram_term_final"]),
+            f(&v["ssim_initial"]),
+            f(&v["ssim_final"])
+        );
+    }
+    if let Some(p) = s["pruning"].as_object() {
+        println!(
+            "  pruning: removed {} of {} scratches, loss {:.5} -> {:.5} ({} trials)",
+            p["removed"], p["before"], f(&p["loss_before"]), f(&p["loss_after"]), p["trials"]
+        );
+    }
+    let nrb = s["rollbacks"].as_array().map_or(0, |a| a.len());
+    if nrb > 0 {
+        println!("  rollbacks: {nrb} (see summary.json)");
+    }
+    println!(
+        "  wrote {0}/design.json, {0}/scratches.csv, {0}/*_compare.png (render | target), {0}/loss_curve.png, {0}/summary.json",
+        out.display()
+    );
+}
