@@ -25,16 +25,7 @@ layout(std430, binding = 4) writeonly buffer Image { float img[]; };  // L of ev
 layout(std430, binding = 5) buffer Stats { uint stats[]; };            // [0] candidates tested, [1] overlapping pairs, [2] list entries
 layout(std430, binding = 6) writeonly buffer Coverage { float cov_raw[]; };  // sum_k area(F ∩ R_k) / S_P, for the backward pass
 
-layout(push_constant) uniform Push {
-    float half_plate;
-    float alpha_s;
-    float f0;
-    uint n_views;
-    uint n_groups;
-    uint n_tiles;
-    uint capacity;
-    uint pad0;
-} pc;
+#include "inc/shade_push.glsl"
 
 const uint CHUNK = 32u;   // scratches per chunk (one mask bit each)
 const uint QCAP = 512u;   // queue entries integrated per round

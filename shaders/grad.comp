@@ -29,16 +29,7 @@ layout(std430, binding = 4) readonly buffer DL { float dl[]; };          // dE/d
 layout(std430, binding = 5) readonly buffer Coverage { float cov_raw[]; };
 layout(std430, binding = 6) writeonly buffer Partials { vec4 partial[]; };  // 2 per list entry
 
-layout(push_constant) uniform Push {
-    float half_plate;
-    float alpha_s;
-    float f0;
-    uint n_views;
-    uint n_groups;
-    uint n_tiles;
-    uint capacity;
-    uint pad0;
-} pc;
+#include "inc/shade_push.glsl"
 
 const uint CHUNK = 32u;
 const uint QCAP = 256u;
