@@ -158,7 +158,7 @@ pub fn demo_scene(res: u32) -> Scene {
         }
         r += 0.35;
     }
-    let light = orbit_light(300.0, 50.0, 200.0, 90_000.0);
+    let light = orbit_light(300.0, 60.0, 100.0, 250_000.0);
     Scene {
         plate: Plate {
             size_mm: plate,

@@ -1,0 +1,118 @@
+//! Scenes over the device's limits and bad command-line input give clear errors (and the right
+//! exit codes), not crashes. Lavapipe binds at most 128 MiB per storage buffer.
+use std::process::Command;
+
+use scratchart::model::scene::Scene;
+use scratchart::render::Renderer;
+use scratchart::vulkan::GpuError;
+use scratchart_tests::*;
+
+fn small_scene() -> Scene {
+    random_scene(
+        21,
+        10,
+        20.0,
+        0.2,
+        0.2,
+        0.1,
+        vec![orbit_view("a", 16, 45.0, 0.0, 45.0, 180.0, 20.0)],
+    )
+}
+
+#[test]
+fn too_many_pixels_is_a_clear_error() {
+    let ctx = gpu();
+    let limit = ctx.info().max_storage_buffer_range;
+    let mut scene = small_scene();
+    // One f32 per pixel: pick a square image just over the per-buffer limit.
+    let side = ((limit / 4) as f64).sqrt() as u32 + 64;
+    scene.views[0].camera.width = side;
+    scene.views[0].camera.height = side;
+    let r = Renderer::new(&ctx).unwrap();
+    match r.upload(&scene) {
+        Err(GpuError::BufferTooLarge { name, size, limit: l }) => {
+            assert!(size > l);
+            let msg = GpuError::BufferTooLarge {
+                name: name.clone(),
+                size,
+                limit: l,
+            }
+            .to_string();
+            assert!(msg.contains("reduce"), "message should say what to do: {msg}");
+        }
+        Err(e) => panic!("expected BufferTooLarge, got {e}"),
+        Ok(_) => panic!("a {side}x{side} view must not fit a {limit}-byte buffer"),
+    }
+    assert_no_validation(&ctx);
+}
+
+#[test]
+fn too_many_scratches_is_a_clear_error() {
+    let ctx = gpu();
+    let limit = ctx.info().max_storage_buffer_range;
+    let mut scene = small_scene();
+    let s = scene.scratches[0];
+    // 32 bytes of parameters per scratch on the device.
+    scene.scratches = vec![s; (limit / 32) as usize + 1000];
+    let r = Renderer::new(&ctx).unwrap();
+    let err = r.upload(&scene).err().expect("over the limit");
+    assert!(matches!(err, GpuError::BufferTooLarge { .. }), "got {err}");
+    assert_no_validation(&ctx);
+}
+
+fn scratchart_bin() -> std::path::PathBuf {
+    // target/<profile>/deps/limits-xxxx -> target/<profile>/scratchart
+    let exe = std::env::current_exe().unwrap();
+    exe.parent().unwrap().parent().unwrap().join("scratchart")
+}
+
+#[test]
+fn cli_bad_scene_exit_codes() {
+    let dir = std::env::temp_dir().join(format!("scratchart-cli-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let bin = scratchart_bin();
+    assert!(bin.exists(), "build the engine binary first ({})", bin.display());
+    let cases: [(&str, &str, &str); 4] = [
+        ("malformed.json", "{ \"plate\": ", "malformed.json"),
+        (
+            "alpha.json",
+            r#"{"plate":{"size_mm":20},"views":[{"name":"v","camera":{"eye":[0,-40,40],"target":[0,0,0],"up":[0,0,1],"fov_y_deg":30,"width":8,"height":8},"light":{"kind":"point","position":[0,40,40],"intensity":1}}],"scratches":[[0,0,1,1,0.1,0.1,1.5]]}"#,
+            "alpha",
+        ),
+        (
+            "offplate.json",
+            r#"{"plate":{"size_mm":20},"views":[{"name":"v","camera":{"eye":[0,-40,40],"target":[0,0,0],"up":[0,0,1],"fov_y_deg":30,"width":8,"height":8},"light":{"kind":"point","position":[0,40,40],"intensity":1}}],"scratches":[[0,0,11,1,0.1,0.1,0.1]]}"#,
+            "plate",
+        ),
+        (
+            "blind.json",
+            r#"{"plate":{"size_mm":20},"views":[{"name":"v","camera":{"eye":[0,-40,40],"target":[0,-80,80],"up":[0,0,1],"fov_y_deg":10,"width":8,"height":8},"light":{"kind":"point","position":[0,40,40],"intensity":1}}],"scratches":[]}"#,
+            "see",
+        ),
+    ];
+    for (name, text, needle) in cases {
+        let p = dir.join(name);
+        std::fs::write(&p, text).unwrap();
+        let out = Command::new(&bin)
+            .args(["render", p.to_str().unwrap(), "--out"])
+            .arg(dir.join("out"))
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(
+            out.status.code(),
+            Some(3),
+            "{name}: exit code for bad input; stderr: {err}"
+        );
+        assert!(err.contains(needle), "{name}: message should mention '{needle}': {err}");
+    }
+    // A missing file, and a bad flag (exit 2).
+    let out = Command::new(&bin)
+        .args(["render", "/nonexistent/scene.json"])
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(3));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("/nonexistent/scene.json"));
+    let out = Command::new(&bin).args(["render", "--no-such-flag"]).output().unwrap();
+    assert_eq!(out.status.code(), Some(2));
+}
