@@ -181,3 +181,98 @@ fn gradients_are_bit_reproducible() {
     );
     assert_no_validation(&ctx);
 }
+
+/// `scratchart grad` end to end: files in, CSV out, against central differences of the float64
+/// reference of E_lin (and the E_lin value itself).
+#[test]
+fn grad_command_matches_reference() {
+    let dir = std::env::temp_dir().join(format!("scratchart-grad-{}", std::process::id()));
+    std::fs::create_dir_all(dir.join("targets")).unwrap();
+    let views = vec![
+        orbit_view("left", 20, 45.0, 0.0, 45.0, 180.0, 20.0),
+        orbit_view("right", 16, 50.0, 140.0, 40.0, 300.0, 20.0),
+    ];
+    let scene = random_scene(15, 12, 20.0, 0.4, 0.3, 0.15, views);
+    scene.save(&dir.join("scene.json"), "scratches.csv").unwrap();
+    let t = targets(&scene);
+    for (v, view) in scene.views.iter().enumerate() {
+        let data: Vec<f32> = t[v].iter().map(|&x| x as f32).collect();
+        scratchart::io::write_pfm(
+            &dir.join("targets").join(format!("{}.pfm", view.name)),
+            view.camera.width,
+            view.camera.height,
+            &data,
+        )
+        .unwrap();
+    }
+    let bin = std::env::current_exe()
+        .unwrap()
+        .parent()
+        .unwrap()
+        .parent()
+        .unwrap()
+        .join("scratchart");
+    let out = std::process::Command::new(&bin)
+        .arg("grad")
+        .arg(dir.join("scene.json"))
+        .arg("--targets")
+        .arg(dir.join("targets"))
+        .arg("--out")
+        .arg(dir.join("g/grads.csv"))
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "grad failed: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    let e_gpu: f64 = stdout
+        .trim()
+        .strip_prefix("E_lin = ")
+        .expect("E_lin line")
+        .parse()
+        .unwrap();
+    // Targets were written as f32: use the same values for the reference.
+    let t32: Vec<Vec<f64>> = t.iter().map(|v| v.iter().map(|&x| x as f32 as f64).collect()).collect();
+    let e_ref = check_loss(&scene, &t32);
+    assert!(
+        (e_gpu - e_ref).abs() <= 1e-3 * e_ref,
+        "E_lin {e_gpu} vs reference {e_ref}"
+    );
+    let csv = std::fs::read_to_string(dir.join("g/grads.csv")).unwrap();
+    let mut lines = csv.lines();
+    assert_eq!(lines.next(), Some("x0,y0,x1,y1,w,d,alpha"));
+    let rows: Vec<Vec<f64>> = lines
+        .map(|l| l.split(',').map(|x| x.parse().unwrap()).collect())
+        .collect();
+    assert_eq!(rows.len(), scene.scratches.len());
+    let (mut g, mut r) = (Vec::new(), Vec::new());
+    for k in 0..scene.scratches.len() {
+        for p in 0..7 {
+            let h = if p < 4 {
+                1e-5
+            } else {
+                1e-5 * scene.scratches[k].to_row()[p]
+            };
+            let mut plus = scene.clone();
+            let mut minus = scene.clone();
+            let mut rp = plus.scratches[k].to_row();
+            rp[p] += h;
+            plus.scratches[k] = scratchart::model::scene::Scratch::from_row(rp);
+            let mut rm = minus.scratches[k].to_row();
+            rm[p] -= h;
+            minus.scratches[k] = scratchart::model::scene::Scratch::from_row(rm);
+            g.push(rows[k][p]);
+            r.push((check_loss(&plus, &t32) - check_loss(&minus, &t32)) / (2.0 * h));
+        }
+    }
+    let err = rel(&g, &r);
+    eprintln!("grad command: E_lin {e_gpu:.6e} vs {e_ref:.6e}; all scratch parameters: relative error {err:.3e}");
+    assert!(err <= 1e-2, "grads.csv off by {err:.3e}");
+    let lights = std::fs::read_to_string(dir.join("g/grads_lights.csv")).unwrap();
+    assert!(
+        lights.starts_with("view,intensity\nleft,") && lights.contains("\nright,"),
+        "{lights}"
+    );
+}
