@@ -9,7 +9,8 @@
 //      (pixel, scratch) order;
 //   3. all 256 threads integrate queue entries side by side (no idle SIMD lanes, unlike a
 //      per-pixel loop where a thin scratch touches a few pixels of the tile);
-//   4. every pixel adds its own results in scratch order.
+//   4. every pixel adds its own results in a fixed order (its fast-path pairs, then the others,
+//      each in scratch order).
 // The sums therefore do not depend on thread timing: renders are bit-reproducible.
 #extension GL_GOOGLE_include_directive : require
 #include "inc/common.glsl"
@@ -116,7 +117,7 @@ void main() {
         }
         barrier();
         // 1. candidate tests
-        uint mask = 0u;
+        uint mask = 0u, fmask = 0u;
         if (live) {
             uint bm = sh_blk_hits[myblk];
             cand += uint(bitCount(bm));
@@ -131,18 +132,22 @@ void main() {
                 float u = dot(q, b), v = dot(q, t);
                 if (abs(u) > e + P.radius || v < -P.radius || v > len + P.radius) continue;
                 // exact reject on the footprint's bounding box in the scratch frame
-                float umin = 1e30, umax = -1e30, vmin = 1e30, vmax = -1e30;
+                float umin = 1e30, umax = -1e30, vmin = 1e30, vmax = -1e30, uabs = 1e30;
                 for (int c = 0; c < 4; ++c) {
                     vec2 r = P.fp[c] - p0;
                     float uu = dot(r, b), vv = dot(r, t);
                     umin = min(umin, uu); umax = max(umax, uu); vmin = min(vmin, vv); vmax = max(vmax, vv);
+                    uabs = min(uabs, abs(uu));
                 }
                 if (umin >= e || umax <= -e || vmin >= len || vmax <= 0.0) continue;
-                mask |= 1u << k;
+                // likely fast-path pair (see patch_fast): queued apart so SIMD lanes agree
+                if (uabs > e && vmin > 0.0 && vmax < len) fmask |= 1u << k; else mask |= 1u << k;
             }
         }
         // 2. queue slots
-        sh_base[lid] = bitCount(mask);
+        // Queue: all fast-path pairs first, then the others; each group in (pixel, scratch) order.
+        // Both counts are scanned at once, packed in 16-bit halves (at most 256 x 32 = 8192 each).
+        sh_base[lid] = uint(bitCount(fmask)) | (uint(bitCount(mask)) << 16);
         barrier();
         if (lid == 0u) {
             uint run = 0u;
@@ -150,11 +155,20 @@ void main() {
             sh_total = run;
         }
         barrier();
-        uint total = sh_total;
-        uint mybase = sh_base[lid];
+        uint nfast = sh_total & 0xFFFFu;
+        uint total = nfast + (sh_total >> 16);
+        uint fbase = sh_base[lid] & 0xFFFFu;
+        uint gbase = nfast + (sh_base[lid] >> 16);
         for (uint r0 = 0u; r0 < total; r0 += QCAP) {
             // enqueue my pairs that fall in [r0, r0 + QCAP)
-            uint m = mask, idx = mybase;
+            uint m = fmask, idx = fbase;
+            while (m != 0u) {
+                uint k = uint(findLSB(m));
+                m &= m - 1u;
+                if (idx >= r0 && idx < r0 + QCAP) sh_queue[idx - r0] = (lid << 8) | k;
+                ++idx;
+            }
+            m = mask; idx = gbase;
             while (m != 0u) {
                 uint k = uint(findLSB(m));
                 m &= m - 1u;
@@ -177,12 +191,19 @@ void main() {
                 vec3 h = sh_h[px].xyz;
                 PairGeom G = pair_geom(dot(h.xy, b), dot(h.xy, t), h.z, S.b.w);
                 float I, A;
-                patch_integral(fs, fv, se, len, 0.5 * w, G, I, A);
+                if (!(r0 + i < nfast && patch_fast(fs, fv, se, len, 0.5 * w, G, I, A)))
+                    patch_integral(fs, fv, se, len, 0.5 * w, G, I, A);
                 sh_res[i] = vec2(I, A);
             }
             barrier();
             // 4. my results, in scratch order
-            uint lo = max(mybase, r0), hi = min(mybase + bitCount(mask), r0 + QCAP);
+            // (fast entries first, then the others: a fixed order)
+            uint lo = max(fbase, r0), hi = min(fbase + uint(bitCount(fmask)), r0 + QCAP);
+            for (uint j = lo; j < hi; ++j) {
+                vec2 ra = sh_res[j - r0];
+                if (ra.y > 0.0) { ++pairs; dp += ra.x; cov += ra.y; }
+            }
+            lo = max(gbase, r0); hi = min(gbase + uint(bitCount(mask)), r0 + QCAP);
             for (uint j = lo; j < hi; ++j) {
                 vec2 ra = sh_res[j - r0];
                 if (ra.y > 0.0) { ++pairs; dp += ra.x; cov += ra.y; }

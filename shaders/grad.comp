@@ -127,7 +127,7 @@ void main() {
             }
         }
         barrier();
-        uint mask = 0u;
+        uint mask = 0u, fmask = 0u;
         if (live) {
             uint bm = sh_blk_hits[myblk];
             while (bm != 0u) {
@@ -138,17 +138,21 @@ void main() {
                 vec2 q = P.centre - p0;
                 float u = dot(q, b), v = dot(q, t);
                 if (abs(u) > e + P.radius || v < -P.radius || v > len + P.radius) continue;
-                float umin = 1e30, umax = -1e30, vmin = 1e30, vmax = -1e30;
+                float umin = 1e30, umax = -1e30, vmin = 1e30, vmax = -1e30, uabs = 1e30;
                 for (int c = 0; c < 4; ++c) {
                     vec2 r = P.fp[c] - p0;
                     float uu = dot(r, b), vv = dot(r, t);
                     umin = min(umin, uu); umax = max(umax, uu); vmin = min(vmin, vv); vmax = max(vmax, vv);
+                    uabs = min(uabs, abs(uu));
                 }
                 if (umin >= e || umax <= -e || vmin >= len || vmax <= 0.0) continue;
-                mask |= 1u << k;
+                // likely fast-path pair (see patch_fast): queued apart so SIMD lanes agree
+                if (uabs > e && vmin > 0.0 && vmax < len) fmask |= 1u << k; else mask |= 1u << k;
             }
         }
-        sh_base[lid] = bitCount(mask);
+        // Queue: all fast-path pairs first, then the others; each group in (pixel, scratch) order.
+        // Both counts are scanned at once, packed in 16-bit halves (at most 256 x 32 = 8192 each).
+        sh_base[lid] = uint(bitCount(fmask)) | (uint(bitCount(mask)) << 16);
         barrier();
         if (lid == 0u) {
             uint run = 0u;
@@ -156,10 +160,19 @@ void main() {
             sh_total = run;
         }
         barrier();
-        uint total = sh_total;
-        uint mybase = sh_base[lid];
+        uint nfast = sh_total & 0xFFFFu;
+        uint total = nfast + (sh_total >> 16);
+        uint fbase = sh_base[lid] & 0xFFFFu;
+        uint gbase = nfast + (sh_base[lid] >> 16);
         for (uint r0 = 0u; r0 < total; r0 += QCAP) {
-            uint m = mask, idx = mybase;
+            uint m = fmask, idx = fbase;
+            while (m != 0u) {
+                uint k = uint(findLSB(m));
+                m &= m - 1u;
+                if (idx >= r0 && idx < r0 + QCAP) sh_queue[idx - r0] = (lid << 8) | k;
+                ++idx;
+            }
+            m = mask; idx = gbase;
             while (m != 0u) {
                 uint k = uint(findLSB(m));
                 m &= m - 1u;
@@ -177,7 +190,7 @@ void main() {
                 vec4 hh = sh_h[px];
                 Dual I, A;
                 pair_from_params(seed(E.x, 0), seed(E.y, 1), seed(E.z, 2), seed(E.w, 3), seed(S.x, 4), seed(S.y, 5), seed(S.z, 6),
-                                 fp, hh.xyz, I, A);
+                                 fp, hh.xyz, r0 + i < nfast, I, A);
                 float ga = sh_ga[px];
                 sh_c0[i] = hh.w * I.g0 + ga * A.g0;
                 sh_c1[i] = vec4(hh.w * I.g1 + ga * A.g1, 0.0);

@@ -217,6 +217,42 @@ void patch_integral(R fs[4], R fv[4], R se, R len, R half_w, PairGeom G, out R I
     A = mul(A, half_w);
 }
 
+// Fast path, the common pair: the carved strip crosses the footprint from side to side (no
+// footprint corner strictly inside the strip) and neither scratch end enters it. Then
+// F ∩ R = {|s| <= se, v_bot(s) <= v <= v_top(s)} with a linear chord v_top - v_bot, and
+// I = (w/2) ∫ D(s) chord(s) ds over the chi+ part of [-se, se]: one closed-form integral instead
+// of one per boundary piece. Returns false (and the caller takes patch_integral) when the pair
+// is not of this kind, e.g. a corner exactly on a strip edge.
+bool patch_fast(R fs[4], R fv[4], R se, R len, R half_w, PairGeom G, out R I, out R A) {
+    I = rc(0.0); A = rc(0.0);
+    float sev = val(se);
+    R lo0 = rc(1e30), hi0 = rc(-1e30), lo1 = rc(1e30), hi1 = rc(-1e30);
+    int n0 = 0, n1 = 0;
+    for (int e = 0; e < 4; ++e) {
+        R as = fs[e], av = fv[e], bs = fs[(e + 1) & 3], bv = fv[(e + 1) & 3];
+        float a = val(as), b = val(bs);
+        if (abs(a) < sev || a == b) return false;
+        // edges strictly crossing the lines s = -se and s = +se
+        if ((a < -sev) != (b < -sev) && a != -sev && b != -sev) {
+            R v = add(av, mul(dv(sub(bv, av), sub(bs, as)), sub(neg(se), as)));
+            lo0 = d_min(lo0, v); hi0 = d_max(hi0, v); ++n0;
+        }
+        if ((a > sev) != (b > sev) && a != sev && b != sev) {
+            R v = add(av, mul(dv(sub(bv, av), sub(bs, as)), sub(se, as)));
+            lo1 = d_min(lo1, v); hi1 = d_max(hi1, v); ++n1;
+        }
+    }
+    if (!(n0 == 2 && n1 == 2 && val(lo0) > 0.0 && val(lo1) > 0.0 && val(hi0) < val(len) && val(hi1) < val(len))) return false;
+    R c0 = sub(hi0, lo0), c1 = sub(hi1, lo1);
+    A = mul(mul(se, add(c0, c1)), half_w);
+    R clo = d_max(neg(se), G.chi_lo), chi = d_min(se, G.chi_hi);
+    if (val(clo) < val(chi)) {
+        R k = dv(sub(c1, c0), mul(2.0, se));
+        I = mul(lin_integral(G, clo, chi, add(c0, mul(k, add(clo, se))), add(c0, mul(k, add(chi, se)))), half_w);
+    }
+    return true;
+}
+
 // The carved half-width in s units, s_e = 2e/w = sqrt(1 - exp(-2d/w)), with 1 - exp(-x) free of
 // cancellation for small x (Kahan's expm1 trick).
 R carved_se_r(R w, R d) {
@@ -228,7 +264,7 @@ R carved_se_r(R w, R d) {
 
 // The whole pair from the raw scratch parameters: footprint corners fp (plate, ordered so that
 // they are counter-clockwise in the scratch frame) and half vector h are per-pixel constants.
-void pair_from_params(R x0, R y0, R x1, R y1, R w, R d, R alpha, vec2 fp[4], vec3 h, out R I, out R A) {
+void pair_from_params(R x0, R y0, R x1, R y1, R w, R d, R alpha, vec2 fp[4], vec3 h, bool try_fast, out R I, out R A) {
     R dx = sub(x1, x0), dy = sub(y1, y0);
     R len = d_sqrt(add(mul(dx, dx), mul(dy, dy)));
     R tx = dv(dx, len), ty = dv(dy, len);
@@ -243,7 +279,8 @@ void pair_from_params(R x0, R y0, R x1, R y1, R w, R d, R alpha, vec2 fp[4], vec
     R hb = add(mul(h.x, bx), mul(h.y, by));
     R ht = add(mul(h.x, tx), mul(h.y, ty));
     PairGeom G = pair_geom(hb, ht, h.z, alpha);
-    patch_integral(fs, fv, carved_se_r(w, d), len, mul(0.5, w), G, I, A);
+    R se = carved_se_r(w, d);
+    if (!(try_fast && patch_fast(fs, fv, se, len, mul(0.5, w), G, I, A))) patch_integral(fs, fv, se, len, mul(0.5, w), G, I, A);
 }
 
 #endif
