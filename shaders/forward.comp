@@ -2,9 +2,9 @@
 // Forward renderer: one workgroup per 16x16 tile, one thread per pixel.
 //
 // The tile's scratch list (sorted by scratch index, see bin.comp) is streamed through shared
-// memory in chunks of 32. Per chunk:
-//   1. every pixel tests the 32 scratches (footprint bounding circle, then the footprint's
-//      bounding box in the scratch frame) and keeps a 32-bit mask of overlapping ones;
+// memory in chunks of 64. Per chunk:
+//   1. every pixel tests the 64 scratches (footprint bounding circle, then the footprint's
+//      bounding box in the scratch frame) and keeps a 64-bit mask of overlapping ones;
 //   2. an exclusive scan of the mask counts gives each (pixel, scratch) pair a queue slot, in
 //      (pixel, scratch) order;
 //   3. all 256 threads integrate queue entries side by side (no idle SIMD lanes, unlike a
@@ -28,7 +28,7 @@ layout(std430, binding = 6) writeonly buffer Coverage { float cov_raw[]; };  // 
 
 #include "inc/shade_push.glsl"
 
-const uint CHUNK = 32u;   // scratches per chunk (one mask bit each)
+const uint CHUNK = 64u;   // scratches per chunk (one mask bit each, two 32-bit words)
 const uint QCAP = 512u;   // queue entries integrated per round
 
 struct Prep { vec4 a; vec4 b; };  // a = p0.xy, t.xy; b = len, w, s_e, alpha
@@ -44,7 +44,7 @@ shared uint sh_pairs;
 shared vec4 sh_blk01[16];          // plate-space corners of the 4x4-pixel blocks of the tile
 shared vec4 sh_blk23[16];
 shared bool sh_blk_all[16];        // a block whose corner rays miss the plate: test every scratch
-shared uint sh_blk_hits[16];       // per block: scratches of the chunk that may meet it
+shared uint sh_blk_hits[32];       // per block: scratches of the chunk that may meet it (2 words)
 
 void main() {
     uint tile = gl_WorkGroupID.x + gl_WorkGroupID.y * gl_NumWorkGroups.x;
@@ -92,14 +92,14 @@ void main() {
             sh_s[lid].a = vec4(S.ends.xy, d / len);
             sh_s[lid].b = vec4(len, S.shape.x, carved_se(S.shape.x, S.shape.y), S.shape.z);
         }
-        if (lid < 16u) sh_blk_hits[lid] = 0u;
+        if (lid < 32u) sh_blk_hits[lid] = 0u;
         barrier();
         uint cnt = min(CHUNK, end - c0);
         // 0. scratch x block tests: bounding box of the block's plate quad in the scratch frame
         {
-            uint k = lid & 31u;
-            for (uint bb = 0u; bb < 2u; ++bb) {
-                uint blk = 2u * (lid >> 5) + bb;
+            uint k = lid & 63u;
+            for (uint bb = 0u; bb < 4u; ++bb) {
+                uint blk = 4u * (lid >> 6) + bb;
                 if (k >= cnt) break;
                 bool hit = sh_blk_all[blk];
                 if (!hit) {
@@ -112,17 +112,19 @@ void main() {
                     hit = !(min(min(us.x, us.y), min(us.z, us.w)) >= e || max(max(us.x, us.y), max(us.z, us.w)) <= -e ||
                             min(min(vs.x, vs.y), min(vs.z, vs.w)) >= len || max(max(vs.x, vs.y), max(vs.z, vs.w)) <= 0.0);
                 }
-                if (hit) atomicOr(sh_blk_hits[blk], 1u << k);
+                if (hit) atomicOr(sh_blk_hits[2u * blk + (k >> 5)], 1u << (k & 31u));
             }
         }
         barrier();
         // 1. candidate tests
-        uint mask = 0u, fmask = 0u;
+        uvec2 mask = uvec2(0u), fmask = uvec2(0u);
         if (live) {
-            uint bm = sh_blk_hits[myblk];
-            cand += uint(bitCount(bm));
+            uvec2 bm2 = uvec2(sh_blk_hits[2u * myblk], sh_blk_hits[2u * myblk + 1u]);
+            cand += uint(bitCount(bm2.x) + bitCount(bm2.y));
+            for (uint wd = 0u; wd < 2u; ++wd) {
+            uint bm = bm2[wd];
             while (bm != 0u) {
-                uint k = uint(findLSB(bm));
+                uint k = uint(findLSB(bm)) + 32u * wd;
                 bm &= bm - 1u;
                 Prep S = sh_s[k];
                 vec2 p0 = S.a.xy, t = S.a.zw, b = vec2(-t.y, t.x);
@@ -141,13 +143,14 @@ void main() {
                 }
                 if (umin >= e || umax <= -e || vmin >= len || vmax <= 0.0) continue;
                 // likely fast-path pair (see patch_fast): queued apart so SIMD lanes agree
-                if (uabs > e && vmin > 0.0 && vmax < len) fmask |= 1u << k; else mask |= 1u << k;
+                if (uabs > e && vmin > 0.0 && vmax < len) fmask[wd] |= 1u << (k & 31u); else mask[wd] |= 1u << (k & 31u);
+            }
             }
         }
         // 2. queue slots
         // Queue: all fast-path pairs first, then the others; each group in (pixel, scratch) order.
-        // Both counts are scanned at once, packed in 16-bit halves (at most 256 x 32 = 8192 each).
-        sh_base[lid] = uint(bitCount(fmask)) | (uint(bitCount(mask)) << 16);
+        // Both counts are scanned at once, packed in 16-bit halves (at most 256 x 64 = 16384 each).
+        sh_base[lid] = uint(bitCount(fmask.x) + bitCount(fmask.y)) | (uint(bitCount(mask.x) + bitCount(mask.y)) << 16);
         barrier();
         if (lid == 0u) {
             uint run = 0u;
@@ -161,19 +164,25 @@ void main() {
         uint gbase = nfast + (sh_base[lid] >> 16);
         for (uint r0 = 0u; r0 < total; r0 += QCAP) {
             // enqueue my pairs that fall in [r0, r0 + QCAP)
-            uint m = fmask, idx = fbase;
-            while (m != 0u) {
-                uint k = uint(findLSB(m));
-                m &= m - 1u;
-                if (idx >= r0 && idx < r0 + QCAP) sh_queue[idx - r0] = (lid << 8) | k;
-                ++idx;
+            uint idx = fbase;
+            for (uint wd = 0u; wd < 2u; ++wd) {
+                uint m = fmask[wd];
+                while (m != 0u) {
+                    uint k = uint(findLSB(m)) + 32u * wd;
+                    m &= m - 1u;
+                    if (idx >= r0 && idx < r0 + QCAP) sh_queue[idx - r0] = (lid << 8) | k;
+                    ++idx;
+                }
             }
-            m = mask; idx = gbase;
-            while (m != 0u) {
-                uint k = uint(findLSB(m));
-                m &= m - 1u;
-                if (idx >= r0 && idx < r0 + QCAP) sh_queue[idx - r0] = (lid << 8) | k;
-                ++idx;
+            idx = gbase;
+            for (uint wd = 0u; wd < 2u; ++wd) {
+                uint m = mask[wd];
+                while (m != 0u) {
+                    uint k = uint(findLSB(m)) + 32u * wd;
+                    m &= m - 1u;
+                    if (idx >= r0 && idx < r0 + QCAP) sh_queue[idx - r0] = (lid << 8) | k;
+                    ++idx;
+                }
             }
             barrier();
             // 3. integrate side by side
@@ -198,12 +207,12 @@ void main() {
             barrier();
             // 4. my results, in scratch order
             // (fast entries first, then the others: a fixed order)
-            uint lo = max(fbase, r0), hi = min(fbase + uint(bitCount(fmask)), r0 + QCAP);
+            uint lo = max(fbase, r0), hi = min(fbase + uint(bitCount(fmask.x) + bitCount(fmask.y)), r0 + QCAP);
             for (uint j = lo; j < hi; ++j) {
                 vec2 ra = sh_res[j - r0];
                 if (ra.y > 0.0) { ++pairs; dp += ra.x; cov += ra.y; }
             }
-            lo = max(gbase, r0); hi = min(gbase + uint(bitCount(mask)), r0 + QCAP);
+            lo = max(gbase, r0); hi = min(gbase + uint(bitCount(mask.x) + bitCount(mask.y)), r0 + QCAP);
             for (uint j = lo; j < hi; ++j) {
                 vec2 ra = sh_res[j - r0];
                 if (ra.y > 0.0) { ++pairs; dp += ra.x; cov += ra.y; }

@@ -10,8 +10,8 @@
 // footprint and carved rectangle moves with the endpoints, width and depth, and is differentiated
 // with it.
 //
-// Work layout and order follow forward.comp (tiles, chunks of 32 scratches, block culling,
-// in-workgroup queue). For each chunk, thread k < 32 adds scratch k's per-pair contributions in
+// Work layout and order follow forward.comp (tiles, chunks of 64 scratches, block culling,
+// in-workgroup queue). For each chunk, thread k < 64 adds scratch k's per-pair contributions in
 // queue order and writes one partial gradient per tile-list entry; grad_reduce.comp then adds a
 // scratch's partials in enumeration order. No float atomics: gradients are bit-reproducible.
 #extension GL_GOOGLE_include_directive : require
@@ -31,7 +31,7 @@ layout(std430, binding = 6) writeonly buffer Partials { vec4 partial[]; };  // 2
 
 #include "inc/shade_push.glsl"
 
-const uint CHUNK = 32u;
+const uint CHUNK = 64u;
 const uint QCAP = 256u;
 
 shared vec4 sh_ends[CHUNK];        // raw scratch parameters
@@ -51,7 +51,7 @@ shared vec4 sh_acc1[CHUNK];
 shared vec4 sh_blk01[16];
 shared vec4 sh_blk23[16];
 shared bool sh_blk_all[16];
-shared uint sh_blk_hits[16];
+shared uint sh_blk_hits[32];
 
 void main() {
     uint tile = gl_WorkGroupID.x + gl_WorkGroupID.y * gl_NumWorkGroups.x;
@@ -105,13 +105,13 @@ void main() {
                 sh_prep[lid] = vec4(len, 0.5 * S.shape.x * carved_se(S.shape.x, S.shape.y), 0.0, 0.0);
             }
         }
-        if (lid < 16u) sh_blk_hits[lid] = 0u;
+        if (lid < 32u) sh_blk_hits[lid] = 0u;
         barrier();
         uint cnt = min(CHUNK, end - c0);
         {
-            uint k = lid & 31u;
-            for (uint bb = 0u; bb < 2u; ++bb) {
-                uint blk = 2u * (lid >> 5) + bb;
+            uint k = lid & 63u;
+            for (uint bb = 0u; bb < 4u; ++bb) {
+                uint blk = 4u * (lid >> 6) + bb;
                 if (k >= cnt) break;
                 bool hit = sh_blk_all[blk];
                 if (!hit) {
@@ -123,15 +123,17 @@ void main() {
                     hit = !(min(min(us.x, us.y), min(us.z, us.w)) >= e || max(max(us.x, us.y), max(us.z, us.w)) <= -e ||
                             min(min(vs.x, vs.y), min(vs.z, vs.w)) >= len || max(max(vs.x, vs.y), max(vs.z, vs.w)) <= 0.0);
                 }
-                if (hit) atomicOr(sh_blk_hits[blk], 1u << k);
+                if (hit) atomicOr(sh_blk_hits[2u * blk + (k >> 5)], 1u << (k & 31u));
             }
         }
         barrier();
-        uint mask = 0u, fmask = 0u;
+        uvec2 mask = uvec2(0u), fmask = uvec2(0u);
         if (live) {
-            uint bm = sh_blk_hits[myblk];
+            uvec2 bm2 = uvec2(sh_blk_hits[2u * myblk], sh_blk_hits[2u * myblk + 1u]);
+            for (uint wd = 0u; wd < 2u; ++wd) {
+            uint bm = bm2[wd];
             while (bm != 0u) {
-                uint k = uint(findLSB(bm));
+                uint k = uint(findLSB(bm)) + 32u * wd;
                 bm &= bm - 1u;
                 vec2 p0 = sh_ends[k].xy, t = (sh_ends[k].zw - p0) / sh_prep[k].x, b = vec2(-t.y, t.x);
                 float e = sh_prep[k].y, len = sh_prep[k].x;
@@ -147,12 +149,13 @@ void main() {
                 }
                 if (umin >= e || umax <= -e || vmin >= len || vmax <= 0.0) continue;
                 // likely fast-path pair (see patch_fast): queued apart so SIMD lanes agree
-                if (uabs > e && vmin > 0.0 && vmax < len) fmask |= 1u << k; else mask |= 1u << k;
+                if (uabs > e && vmin > 0.0 && vmax < len) fmask[wd] |= 1u << (k & 31u); else mask[wd] |= 1u << (k & 31u);
+            }
             }
         }
         // Queue: all fast-path pairs first, then the others; each group in (pixel, scratch) order.
-        // Both counts are scanned at once, packed in 16-bit halves (at most 256 x 32 = 8192 each).
-        sh_base[lid] = uint(bitCount(fmask)) | (uint(bitCount(mask)) << 16);
+        // Both counts are scanned at once, packed in 16-bit halves (at most 256 x 64 = 16384 each).
+        sh_base[lid] = uint(bitCount(fmask.x) + bitCount(fmask.y)) | (uint(bitCount(mask.x) + bitCount(mask.y)) << 16);
         barrier();
         if (lid == 0u) {
             uint run = 0u;
@@ -165,19 +168,25 @@ void main() {
         uint fbase = sh_base[lid] & 0xFFFFu;
         uint gbase = nfast + (sh_base[lid] >> 16);
         for (uint r0 = 0u; r0 < total; r0 += QCAP) {
-            uint m = fmask, idx = fbase;
-            while (m != 0u) {
-                uint k = uint(findLSB(m));
-                m &= m - 1u;
-                if (idx >= r0 && idx < r0 + QCAP) sh_queue[idx - r0] = (lid << 8) | k;
-                ++idx;
+            uint idx = fbase;
+            for (uint wd = 0u; wd < 2u; ++wd) {
+                uint m = fmask[wd];
+                while (m != 0u) {
+                    uint k = uint(findLSB(m)) + 32u * wd;
+                    m &= m - 1u;
+                    if (idx >= r0 && idx < r0 + QCAP) sh_queue[idx - r0] = (lid << 8) | k;
+                    ++idx;
+                }
             }
-            m = mask; idx = gbase;
-            while (m != 0u) {
-                uint k = uint(findLSB(m));
-                m &= m - 1u;
-                if (idx >= r0 && idx < r0 + QCAP) sh_queue[idx - r0] = (lid << 8) | k;
-                ++idx;
+            idx = gbase;
+            for (uint wd = 0u; wd < 2u; ++wd) {
+                uint m = mask[wd];
+                while (m != 0u) {
+                    uint k = uint(findLSB(m)) + 32u * wd;
+                    m &= m - 1u;
+                    if (idx >= r0 && idx < r0 + QCAP) sh_queue[idx - r0] = (lid << 8) | k;
+                    ++idx;
+                }
             }
             barrier();
             uint n = min(QCAP, total - r0);
