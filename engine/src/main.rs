@@ -107,7 +107,10 @@ fn exit_code(e: &anyhow::Error) -> u8 {
         if cause.downcast_ref::<scratchart::io::IoError>().is_some() {
             return 3;
         }
-        if cause.downcast_ref::<scratchart::optim::targets::TargetError>().is_some() {
+        if cause
+            .downcast_ref::<scratchart::optim::targets::TargetError>()
+            .is_some()
+        {
             return 3;
         }
         if cause.downcast_ref::<scratchart::vulkan::GpuError>().is_some() {

@@ -23,7 +23,7 @@ use winit::keyboard::{Key, NamedKey};
 use winit::window::{Window, WindowId};
 
 use crate::design::{dir_fingerprint, mtimes, Design};
-use crate::frame::{internal_size, FrameInfo, FrameParams, FrameRenderer, Layout, DIVISORS};
+use crate::frame::{internal_size, FrameInfo, FrameParams, FrameRenderer, Layout, SwapImage, DIVISORS};
 use crate::headless::{self, bench_path, BenchRow, BENCH_LEVELS, BENCH_WARMUP};
 use crate::state::{LightRig, OrbitCamera};
 use crate::swapchain::{Acquired, Presented, Presenter};
@@ -74,6 +74,7 @@ struct WindowBench {
     gpu: Vec<f64>,
     interval: Vec<f64>,
     internal: Vec<(u32, u32)>,
+    timings: Vec<scratchart::vulkan::Timings>,
     rows: Vec<BenchRow>,
     cam0: OrbitCamera,
     light0: LightRig,
@@ -141,6 +142,7 @@ impl App {
             gpu: Vec::new(),
             interval: Vec::new(),
             internal: Vec::new(),
+            timings: Vec::new(),
             rows: Vec::new(),
             cam0: cam.clone(),
             light0: light.clone(),
@@ -453,6 +455,7 @@ impl App {
         };
         let extent = (p.extent.width, p.extent.height);
         let image = p.image(index);
+        let format = p.format;
 
         // Benchmark: the scripted path decides camera, light and level.
         let mut forced_level = None;
@@ -492,7 +495,7 @@ impl App {
                 nearest: self.nearest,
                 show_target: self.show_target,
             },
-            Some(image),
+            Some(SwapImage { image, format, extent }),
         )?;
         match p.present(index)? {
             Presented::Ok => {}
@@ -605,6 +608,7 @@ impl App {
                 // frame-to-frame time all the same.
                 b.interval.push(interval_ms.unwrap_or(info.wall_ms));
                 b.internal.push(info.internal);
+                b.timings.push(info.timings.clone());
             }
             b.k += 1;
             if b.k >= BENCH_WARMUP + self.opts.bench_frames.max(1) {
@@ -619,7 +623,9 @@ impl App {
                     full,
                     gpu_ms: headless::median(&mut b.gpu),
                     frame_ms: headless::median(&mut b.interval),
+                    stages: headless::stage_medians(&b.timings),
                 });
+                b.timings.clear();
                 b.gpu.clear();
                 b.interval.clear();
                 b.internal.clear();

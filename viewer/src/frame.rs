@@ -8,7 +8,7 @@
 //! is negligible next to the shading. The output is gray, so RGBA and BGRA pack the same.
 //!
 //! Reduced resolution: the engine renders at an internal size (see [`internal_size`]) and the
-//! present pass upsamples. One [`GpuScene`] is kept per internal size, so moving the camera only
+//! present pass upsamples, or, in a window without a target, a blit does (`upscale.rs`). One [`GpuScene`] is kept per internal size, so moving the camera only
 //! rewrites the views buffer (`Renderer::update_views`) and changing the level re-uploads nothing.
 use std::sync::Arc;
 use std::time::Instant;
@@ -20,6 +20,16 @@ use scratchart::render::{GpuScene, RenderStats, Renderer};
 use scratchart::vulkan::{Buffer, ComputePipeline, Context, GpuError, MemLoc, Recorder, ShaderCompiler, Timings};
 
 use crate::design::Target;
+use crate::upscale::{blit_supported, record_blit, StagingImage};
+
+/// The swapchain image a frame goes to.
+#[derive(Clone, Copy, Debug)]
+pub struct SwapImage {
+    pub image: vk::Image,
+    pub format: vk::Format,
+    /// Must equal the frame layout's output size.
+    pub extent: (u32, u32),
+}
 
 /// Push constants of `shaders/view_present.comp` (same field order and meaning).
 #[repr(C)]
@@ -139,6 +149,10 @@ pub struct FrameRenderer {
     target: Buffer,
     target_dims: Option<(u32, u32)>,
     rec: Recorder,
+    /// Blit sources for the upscaling copy path, one per internal size in use.
+    staging: Vec<StagingImage>,
+    /// Whether a swapchain format supports the blit path (asked once per format).
+    blit_ok: Vec<(vk::Format, bool)>,
 }
 
 /// Uploaded scenes kept at once (each holds the scratches and the binning buffers).
@@ -155,6 +169,8 @@ impl FrameRenderer {
             target: Buffer::new(ctx, "view target", 16, MemLoc::GpuOnly)?,
             target_dims: None,
             rec: Recorder::new(ctx)?,
+            staging: Vec::new(),
+            blit_ok: Vec::new(),
         })
     }
 
@@ -197,6 +213,7 @@ impl FrameRenderer {
     /// Drops the uploaded scenes whose size is not `keep` (after a resize).
     pub fn trim_cache(&mut self, keep: &[(u32, u32)]) {
         self.cache.retain(|(s, _)| keep.contains(s));
+        self.staging.retain(|s| keep.contains(&s.size));
     }
 
     /// The uploaded scene for `size`, uploading (and evicting the oldest) when needed.
@@ -222,24 +239,60 @@ impl FrameRenderer {
     ///
     /// Hazard: `swap` must be an image the presentation engine has released (its acquire fence
     /// waited on): the copy is not ordered against presentation by a semaphore.
-    pub fn render(&mut self, p: &FrameParams, swap: Option<vk::Image>) -> Result<FrameInfo, GpuError> {
+    pub fn render(&mut self, p: &FrameParams, swap: Option<SwapImage>) -> Result<FrameInfo, GpuError> {
         let t0 = Instant::now();
         let idx = self.scene_for(p.view)?;
-        let (out_w, out_h) = p.layout.out;
-        let need = out_w as u64 * out_h as u64 * 4;
-        if self.out.as_ref().map(|b| b.size()) != Some(need.max(16)) {
-            self.out = Some(Buffer::new(&self.ctx, "view output", need, MemLoc::GpuOnly)?);
-        }
         let (iw, ih) = (p.view.camera.width, p.view.camera.height);
         let show_target = p.show_target && self.target_dims.is_some() && p.layout.tgt_rect[2] > 0;
+        // Upscale with a blit when the image is reduced and fills the window alone.
+        let blit = match swap {
+            Some(s) if !show_target && (iw, ih) != p.layout.viewport() => {
+                let ok = match self.blit_ok.iter().find(|(f, _)| *f == s.format) {
+                    Some(&(_, ok)) => ok,
+                    None => {
+                        let ok = blit_supported(&self.ctx, s.format);
+                        self.blit_ok.push((s.format, ok));
+                        ok
+                    }
+                };
+                ok.then_some(s)
+            }
+            _ => None,
+        };
+        let layout = match blit {
+            Some(_) => Layout::new((iw, ih), None),
+            None => p.layout,
+        };
+        let staging = match blit {
+            Some(s) => Some(
+                match self
+                    .staging
+                    .iter()
+                    .position(|i| i.size == (iw, ih) && i.format == s.format)
+                {
+                    Some(i) => i,
+                    None => {
+                        self.staging.push(StagingImage::new(&self.ctx, s.format, (iw, ih))?);
+                        self.staging.len() - 1
+                    }
+                },
+            ),
+            None => None,
+        };
+        let (out_w, out_h) = layout.out;
+        // The output buffer only grows (frames alternate between internal and window sizes).
+        let need = out_w as u64 * out_h as u64 * 4;
+        if self.out.as_ref().is_none_or(|b| b.size() < need) {
+            self.out = Some(Buffer::new(&self.ctx, "view output", need, MemLoc::GpuOnly)?);
+        }
         let (tw, th) = self.target_dims.unwrap_or((0, 0));
         let gs = &mut self.cache[idx].1;
         let ok = self.pipes.renderer.update_views(gs, std::slice::from_ref(p.view))?;
         assert!(ok, "cached scene for {iw}x{ih} has another size");
         let push = PresentPush {
             dims: [out_w, out_h, iw, ih],
-            view_rect: p.layout.view_rect,
-            tgt_rect: if show_target { p.layout.tgt_rect } else { [0; 4] },
+            view_rect: layout.view_rect,
+            tgt_rect: if show_target { layout.tgt_rect } else { [0; 4] },
             misc: [gs.slots.views[0].base[1], tw, th, p.nearest as u32],
             params: [p.exposure, 0.1, 0.0, 0.0],
         };
@@ -261,9 +314,29 @@ impl FrameRenderer {
             );
             rec.barrier();
             rec.timestamp("present");
-            if let Some(image) = swap {
-                record_copy_to_swapchain(&self.ctx, rec.raw_cmd(), out, image, (out_w, out_h));
-                rec.timestamp("copy");
+            match (swap, blit, staging) {
+                (Some(s), Some(_), Some(i)) => {
+                    record_blit(
+                        &self.ctx,
+                        rec.raw_cmd(),
+                        out.raw(),
+                        &self.staging[i],
+                        s.image,
+                        s.extent,
+                        p.nearest,
+                    );
+                    rec.timestamp("blit");
+                }
+                (Some(s), _, _) => {
+                    assert_eq!(
+                        s.extent,
+                        (out_w, out_h),
+                        "swapchain extent differs from the frame layout"
+                    );
+                    record_copy_to_swapchain(&self.ctx, rec.raw_cmd(), out, s.image, (out_w, out_h));
+                    rec.timestamp("copy");
+                }
+                _ => {}
             }
             let timings = rec.submit_and_wait()?;
             let st: Vec<u32> = gs.stats.read()?;

@@ -158,6 +158,28 @@ pub struct BenchRow {
     /// Median time per frame as the user sees it: host time of a frame headless, the interval
     /// between presented frames in a window.
     pub frame_ms: f64,
+    /// Median GPU milliseconds per labelled stage (bin, shade, present, copy or blit).
+    pub stages: Vec<(String, f64)>,
+}
+
+/// Median per label over `frames` (labels in first-seen order).
+pub fn stage_medians(frames: &[scratchart::vulkan::Timings]) -> Vec<(String, f64)> {
+    let mut labels: Vec<String> = Vec::new();
+    for t in frames {
+        for (l, _) in &t.entries {
+            if !labels.contains(l) {
+                labels.push(l.clone());
+            }
+        }
+    }
+    labels
+        .into_iter()
+        .map(|l| {
+            let mut v: Vec<f64> = frames.iter().filter_map(|t| t.get(&l)).collect();
+            let m = median(&mut v);
+            (l, m)
+        })
+        .collect()
 }
 
 pub fn median(v: &mut [f64]) -> f64 {
@@ -176,18 +198,23 @@ pub fn median(v: &mut [f64]) -> f64 {
 pub fn print_table(title: &str, device: &str, rows: &[BenchRow]) {
     println!("\n{title} ({device})");
     println!(
-        "{:<22} {:>11} {:>7} {:>9} {:>10} {:>7}",
+        "{:<22} {:>11} {:>7} {:>9} {:>10} {:>7}  gpu ms per stage",
         "mode", "internal", "scale", "gpu ms", "frame ms", "fps"
     );
     for r in rows {
         println!(
-            "{:<22} {:>11} {:>7.3} {:>9.1} {:>10.1} {:>7.1}",
+            "{:<22} {:>11} {:>7.3} {:>9.1} {:>10.1} {:>7.1}  {}",
             r.mode,
             format!("{}x{}", r.internal.0, r.internal.1),
             r.internal.0 as f64 / r.full.0 as f64,
             r.gpu_ms,
             r.frame_ms,
-            1000.0 / r.frame_ms
+            1000.0 / r.frame_ms,
+            r.stages
+                .iter()
+                .map(|(l, ms)| format!("{l} {ms:.1}"))
+                .collect::<Vec<_>>()
+                .join(", ")
         );
     }
 }
@@ -212,7 +239,7 @@ pub fn benchmark(
     let mut rows = Vec::new();
     for level in BENCH_LEVELS {
         let (iw, ih) = internal_size(full, level);
-        let (mut gpu, mut wall) = (Vec::new(), Vec::new());
+        let (mut gpu, mut wall, mut stages) = (Vec::new(), Vec::new(), Vec::new());
         for k in 0..BENCH_WARMUP + n {
             let t = k.saturating_sub(BENCH_WARMUP) as f64 / n as f64;
             let (cam, light) = bench_path(&cam0, &light0, t);
@@ -236,6 +263,7 @@ pub fn benchmark(
             if k >= BENCH_WARMUP {
                 gpu.push(info.timings.total_ms());
                 wall.push(info.wall_ms);
+                stages.push(info.timings.clone());
             }
         }
         rows.push(BenchRow {
@@ -244,6 +272,7 @@ pub fn benchmark(
             full,
             gpu_ms: median(&mut gpu),
             frame_ms: median(&mut wall),
+            stages: stage_medians(&stages),
         });
     }
     print_table(

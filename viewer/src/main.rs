@@ -8,12 +8,14 @@
 //! - [`headless`]: `--screenshot` and `--benchmark` without a window.
 //! - [`state`]: the orbit camera and the light rig.
 //! - [`design`]: design files, target images, file watching.
+//! - [`upscale`]: the blit path that upsamples reduced frames onto the swapchain image.
 mod app;
 mod design;
 mod frame;
 mod headless;
 mod state;
 mod swapchain;
+mod upscale;
 
 use std::path::PathBuf;
 use std::process::ExitCode;

@@ -29,7 +29,7 @@ pub struct DesignArgs {
     #[arg(long, default_value_t = 6000)]
     pub scratches: usize,
     /// Optimization iterations
-    #[arg(long, default_value_t = 150)]
+    #[arg(long, default_value_t = 200)]
     pub iters: u32,
     /// View resolution (square), pixels
     #[arg(long, default_value_t = 112)]
@@ -40,8 +40,10 @@ pub struct DesignArgs {
     /// Elevation of the views and of the light, degrees
     #[arg(long, default_value_t = 45.0)]
     pub elevation: f64,
-    /// Azimuth of the point light, degrees (views sit at 0, 360/N, ...)
-    #[arg(long, default_value_t = 30.0)]
+    /// Azimuth of the point light, degrees (views sit at 0, 360/N, ...). The default, 0, puts it at
+    /// view 0's azimuth: its mirror direction then falls between views, so no view sees the plate's
+    /// own specular highlight (at 30 degrees one view does, and its target dims)
+    #[arg(long, default_value_t = 0.0)]
     pub light_azimuth: f64,
     /// Plate size, mm
     #[arg(long, default_value_t = 100.0)]
@@ -122,8 +124,8 @@ pub fn problem(args: &DesignArgs) -> anyhow::Result<Problem> {
     let distance = 3.0 * plate_mm;
     let views: Vec<View> = match &args.view_file {
         Some(path) => {
-            let text = std::fs::read_to_string(path)
-                .with_context(|| format!("cannot read view file `{}`", path.display()))?;
+            let text =
+                std::fs::read_to_string(path).with_context(|| format!("cannot read view file `{}`", path.display()))?;
             let arr: serde_json::Value = serde_json::from_str(&text)
                 .with_context(|| format!("view file `{}` is not valid JSON", path.display()))?;
             anyhow::ensure!(

@@ -68,7 +68,7 @@ pub struct DesignConfig {
 impl DesignConfig {
     pub fn new(plate_mm: f64, out: PathBuf) -> DesignConfig {
         DesignConfig {
-            iters: 150,
+            iters: 200,
             loss: LossConfig::default(),
             adam: AdamConfig::for_plate(plate_mm),
             checkpoint_every: 50,
@@ -289,7 +289,11 @@ impl<'r> Optimizer<'r> {
         let disp = frame
             .images
             .iter()
-            .map(|img| img.iter().map(|&l| if l > 0.0 { l.powf(1.0 / 2.2) } else { 0.0 }).collect())
+            .map(|img| {
+                img.iter()
+                    .map(|&l| if l > 0.0 { l.powf(1.0 / 2.2) } else { 0.0 })
+                    .collect()
+            })
             .collect();
         Ok((disp, frame.images))
     }
@@ -355,7 +359,11 @@ impl<'r> Optimizer<'r> {
                 rec.fill(&gs.grad, f32::NAN.to_bits());
                 rec.barrier();
             }
-            let limit = if self.st.best.is_finite() { 10.0 * self.st.best } else { f32::INFINITY };
+            let limit = if self.st.best.is_finite() {
+                10.0 * self.st.best
+            } else {
+                f32::INFINITY
+            };
             let push = Adam::push(
                 &self.cfg.adam,
                 gs.n_scratches,
@@ -413,7 +421,11 @@ impl<'r> Optimizer<'r> {
             } else {
                 StepFlags::default()
             };
-            let limit = if self.st.best.is_finite() { 10.0 * self.st.best } else { f32::INFINITY };
+            let limit = if self.st.best.is_finite() {
+                10.0 * self.st.best
+            } else {
+                f32::INFINITY
+            };
             if !lv.total.is_finite() || lv.total > limit {
                 flags.bad_loss = true;
             }
@@ -486,7 +498,11 @@ impl<'r> Optimizer<'r> {
     /// and the raw GPU state (current and good copies).
     pub fn save_checkpoint(&self, out: &Path) -> anyhow::Result<()> {
         let mut data: Vec<u8> = Vec::new();
-        for b in self.state_bufs().into_iter().chain([&self.good.scratches, &self.good.m, &self.good.v, &self.good.views]) {
+        for b in
+            self.state_bufs()
+                .into_iter()
+                .chain([&self.good.scratches, &self.good.m, &self.good.v, &self.good.views])
+        {
             let bytes: Vec<u8> = self.ctx.download(b)?;
             data.extend_from_slice(&(bytes.len() as u64).to_le_bytes());
             data.extend_from_slice(&bytes);
@@ -515,9 +531,18 @@ impl<'r> Optimizer<'r> {
     pub fn load_checkpoint(&mut self, out: &Path) -> anyhow::Result<()> {
         use anyhow::{bail, Context as _};
         let path = out.join(CKPT_FILE);
-        let file = std::fs::read(&path)
-            .with_context(|| format!("cannot resume: cannot read checkpoint `{}` (run without --resume to start afresh)", path.display()))?;
-        let bad = |msg: &str| anyhow::anyhow!("checkpoint `{}` is damaged: {msg}; run without --resume", path.display());
+        let file = std::fs::read(&path).with_context(|| {
+            format!(
+                "cannot resume: cannot read checkpoint `{}` (run without --resume to start afresh)",
+                path.display()
+            )
+        })?;
+        let bad = |msg: &str| {
+            anyhow::anyhow!(
+                "checkpoint `{}` is damaged: {msg}; run without --resume",
+                path.display()
+            )
+        };
         if file.len() < 16 || &file[..8] != CKPT_MAGIC {
             return Err(bad("bad magic"));
         }
@@ -543,8 +568,17 @@ impl<'r> Optimizer<'r> {
         let mut pos = 0usize;
         let mut chunks = Vec::new();
         for _ in 0..8 {
-            let len = u64::from_le_bytes(data.get(pos..pos + 8).ok_or_else(|| bad("truncated data"))?.try_into().unwrap()) as usize;
-            chunks.push(data.get(pos + 8..pos + 8 + len).ok_or_else(|| bad("truncated data"))?.to_vec());
+            let len = u64::from_le_bytes(
+                data.get(pos..pos + 8)
+                    .ok_or_else(|| bad("truncated data"))?
+                    .try_into()
+                    .unwrap(),
+            ) as usize;
+            chunks.push(
+                data.get(pos + 8..pos + 8 + len)
+                    .ok_or_else(|| bad("truncated data"))?
+                    .to_vec(),
+            );
             pos += 8 + len;
         }
         let ctx = self.ctx.clone();
@@ -552,7 +586,9 @@ impl<'r> Optimizer<'r> {
         self.gs.scratches = up("scratches", &chunks[0])?;
         self.mom.m = up("adam m", &chunks[1])?;
         self.mom.v = up("adam v", &chunks[2])?;
-        self.gs.views.write(0, &chunks[3][..chunks[3].len().min(self.gs.views.size() as usize)])?;
+        self.gs
+            .views
+            .write(0, &chunks[3][..chunks[3].len().min(self.gs.views.size() as usize)])?;
         self.good.scratches = up("good copy scratches", &chunks[4])?;
         self.good.m = up("good copy adam m", &chunks[5])?;
         self.good.v = up("good copy adam v", &chunks[6])?;
@@ -560,7 +596,11 @@ impl<'r> Optimizer<'r> {
         let views: Vec<ViewGpu> = self.gs.views.read()?;
         self.gs.slots.views = views[..self.gs.slots.views.len()].to_vec();
         let num = |k: &str| meta[k].as_f64().ok_or_else(|| bad(k));
-        let f32s = |v: &Value| -> Vec<f32> { v.as_array().map(|a| a.iter().filter_map(|x| x.as_f64()).map(|x| x as f32).collect()).unwrap_or_default() };
+        let f32s = |v: &Value| -> Vec<f32> {
+            v.as_array()
+                .map(|a| a.iter().filter_map(|x| x.as_f64()).map(|x| x as f32).collect())
+                .unwrap_or_default()
+        };
         self.st = HostState {
             k: num("k")? as u32,
             t: num("t")? as u32,
@@ -677,6 +717,14 @@ pub fn run_design(ctx: &Arc<Context>, problem: &Problem, cfg: &DesignConfig) -> 
     let mut opt = Optimizer::new(&renderer, problem, cfg)?;
     let resumed_from = if cfg.resume {
         opt.load_checkpoint(&cfg.out)?;
+        anyhow::ensure!(
+            opt.next_iter() <= cfg.iters,
+            "the checkpoint in `{}` is at iteration {}, beyond --iters {}; resume with --iters {} or more",
+            cfg.out.display(),
+            opt.next_iter(),
+            cfg.iters,
+            opt.next_iter()
+        );
         Some(opt.next_iter())
     } else {
         if cfg.calibrate_lights {
@@ -700,7 +748,7 @@ pub fn run_design(ctx: &Arc<Context>, problem: &Problem, cfg: &DesignConfig) -> 
     let loss = &opt.loss;
 
     let (scene, prune) = if cfg.prune.enabled() {
-        let (s, st) = super::prune::prune(&renderer, loss, &unpruned, &cfg.prune)?;
+        let (s, st) = super::prune::prune(&renderer, loss, &unpruned, &cfg.prune, &cfg.adam)?;
         (s, Some(st))
     } else {
         (unpruned.clone(), None)
@@ -712,7 +760,11 @@ pub fn run_design(ctx: &Arc<Context>, problem: &Problem, cfg: &DesignConfig) -> 
     let final_images: Vec<Vec<f32>> = frame
         .images
         .iter()
-        .map(|img| img.iter().map(|&l| if l > 0.0 { l.powf(1.0 / 2.2) } else { 0.0 }).collect())
+        .map(|img| {
+            img.iter()
+                .map(|&l| if l > 0.0 { l.powf(1.0 / 2.2) } else { 0.0 })
+                .collect()
+        })
         .collect();
     let report = DesignReport {
         scene,

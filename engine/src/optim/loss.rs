@@ -120,10 +120,7 @@ impl Pyramid {
                 off = o + w * h;
             }
             levels.push((begin, off));
-            dims = dims
-                .iter()
-                .map(|&(w, h)| ((w / 2).max(1), (h / 2).max(1)))
-                .collect();
+            dims = dims.iter().map(|&(w, h)| ((w / 2).max(1), (h / 2).max(1))).collect();
         }
         Pyramid {
             segs,
@@ -205,17 +202,8 @@ impl Loss {
     /// Builds the pipelines and buffers for the views of an uploaded scene (their `dims` and
     /// `base`) and uploads the targets (display values in [0, 1], one image per view, W x H each,
     /// top row first), computing their pyramid and Gram matrices once.
-    pub fn new(
-        ctx: &Arc<Context>,
-        views: &[ViewGpu],
-        targets: &[Vec<f32>],
-        cfg: LossConfig,
-    ) -> Result<Loss, GpuError> {
-        assert_eq!(
-            targets.len(),
-            views.len(),
-            "Loss::new: one target per view"
-        );
+    pub fn new(ctx: &Arc<Context>, views: &[ViewGpu], targets: &[Vec<f32>], cfg: LossConfig) -> Result<Loss, GpuError> {
+        assert_eq!(targets.len(), views.len(), "Loss::new: one target per view");
         for (v, (t, view)) in targets.iter().zip(views).enumerate() {
             assert_eq!(
                 t.len(),
@@ -227,9 +215,7 @@ impl Loss {
         }
         let sc = ShaderCompiler::embedded()?;
         let push = std::mem::size_of::<LossPush>() as u32;
-        let p = |file: &str, def: &str| {
-            ComputePipeline::new(ctx, &sc, file, &[(def, "1")], NUM_BUFFERS, push)
-        };
+        let p = |file: &str, def: &str| ComputePipeline::new(ctx, &sc, file, &[(def, "1")], NUM_BUFFERS, push);
         let pipes = Pipes {
             display: p("loss_fwd.comp", "DISPLAY")?,
             pool: p("loss_fwd.comp", "POOL")?,
@@ -269,12 +255,7 @@ impl Loss {
             )?,
             gram: Buffer::new(ctx, "loss gram", n_segs * NPART * 4, MemLoc::GpuOnly)?,
             gram_t: Buffer::new(ctx, "loss target gram", n_segs * NPART * 4, MemLoc::GpuOnly)?,
-            out: Buffer::new(
-                ctx,
-                "loss values",
-                (2 * views.len() as u64 + 1) * 4,
-                MemLoc::GpuToCpu,
-            )?,
+            out: Buffer::new(ctx, "loss values", (2 * views.len() as u64 + 1) * 4, MemLoc::GpuToCpu)?,
             gx: Buffer::new(ctx, "loss pyramid gradient", n * 4, MemLoc::GpuOnly)?,
             pyr,
             pipes,
@@ -306,13 +287,7 @@ impl Loss {
     }
 
     /// Binding order of every loss kernel (see `shaders/inc/loss_bindings.glsl`).
-    fn bufs<'a>(
-        &'a self,
-        img: &'a Buffer,
-        pyr: &'a Buffer,
-        gram: &'a Buffer,
-        dl: &'a Buffer,
-    ) -> [&'a Buffer; 13] {
+    fn bufs<'a>(&'a self, img: &'a Buffer, pyr: &'a Buffer, gram: &'a Buffer, dl: &'a Buffer) -> [&'a Buffer; 13] {
         [
             &self.segs,
             &self.blocks,
@@ -340,7 +315,13 @@ impl Loss {
         let b = self.bufs(img, pyr, gram, img);
         let n = self.pyr.n_pixels();
         for (level, &(begin, end)) in self.pyr.levels.iter().enumerate().skip(1) {
-            self.dispatch(rec, &self.pipes.pool, &b, self.push(level as u32, begin, end), end - begin);
+            self.dispatch(
+                rec,
+                &self.pipes.pool,
+                &b,
+                self.push(level as u32, begin, end),
+                end - begin,
+            );
         }
         self.dispatch(rec, &self.pipes.feat, &b, self.push(0, 0, n), n);
         let push = self.push(0, 0, n);
@@ -356,7 +337,12 @@ impl Loss {
         let b = self.bufs(image, &self.disp, &self.gram, image);
         self.dispatch(rec, &self.pipes.display, &b, self.push(0, 0, n0), n0);
         self.record_features(rec, &self.disp, &self.gram, image);
-        rec.dispatch(&self.pipes.final_, &b, bytemuck::bytes_of(&self.push(0, 0, 0)), [1, 1, 1]);
+        rec.dispatch(
+            &self.pipes.final_,
+            &b,
+            bytemuck::bytes_of(&self.push(0, 0, 0)),
+            [1, 1, 1],
+        );
         rec.barrier();
     }
 
@@ -368,7 +354,13 @@ impl Loss {
         let b = self.bufs(image, &self.disp, &self.gram, dl);
         self.dispatch(rec, &self.pipes.pre_grad, &b, self.push(0, 0, n), n);
         for (level, &(begin, end)) in self.pyr.levels.iter().enumerate().rev() {
-            self.dispatch(rec, &self.pipes.level_grad, &b, self.push(level as u32, begin, end), end - begin);
+            self.dispatch(
+                rec,
+                &self.pipes.level_grad,
+                &b,
+                self.push(level as u32, begin, end),
+                end - begin,
+            );
         }
     }
 
@@ -384,12 +376,7 @@ impl Loss {
     }
 
     /// Evaluates the loss of `image` in a submission of its own (optionally with dE/dL into `dl`).
-    pub fn evaluate(
-        &self,
-        ctx: &Arc<Context>,
-        image: &Buffer,
-        dl: Option<&Buffer>,
-    ) -> Result<LossValues, GpuError> {
+    pub fn evaluate(&self, ctx: &Arc<Context>, image: &Buffer, dl: Option<&Buffer>) -> Result<LossValues, GpuError> {
         let mut rec = Recorder::new(ctx)?;
         rec.begin()?;
         self.record_forward(&mut rec, image);
@@ -449,8 +436,7 @@ pub mod reference {
                 for x in 0..w2 {
                     let mut acc = 0.0;
                     for (a, b) in [(0, 0), (1, 0), (0, 1), (1, 1)] {
-                        acc += prev[cl((2 * y + b) as i64, *ph) * *pw as usize
-                            + cl((2 * x + a) as i64, *pw)];
+                        acc += prev[cl((2 * y + b) as i64, *ph) * *pw as usize + cl((2 * x + a) as i64, *pw)];
                     }
                     next[(y * w2 + x) as usize] = 0.25 * acc;
                 }
@@ -605,8 +591,7 @@ pub mod reference {
                     for ux in 0..*uw {
                         let gu = d_up[(uy * uw + ux) as usize];
                         for (a, b) in [(0, 0), (1, 0), (0, 1), (1, 1)] {
-                            dx[cl((2 * uy + b) as i64, lh) * lw as usize + cl((2 * ux + a) as i64, lw)] +=
-                                0.25 * gu;
+                            dx[cl((2 * uy + b) as i64, lh) * lw as usize + cl((2 * ux + a) as i64, lw)] += 0.25 * gu;
                         }
                     }
                 }
@@ -623,12 +608,7 @@ pub mod reference {
     }
 
     /// The loss of every view of a render laid out as `pyr` level 0 (the renderer's image).
-    pub fn loss(
-        image: &[f32],
-        targets: &[Vec<f32>],
-        pyr: &Pyramid,
-        cfg: &LossConfig,
-    ) -> (Vec<(f64, f64)>, Vec<f64>) {
+    pub fn loss(image: &[f32], targets: &[Vec<f32>], pyr: &Pyramid, cfg: &LossConfig) -> (Vec<(f64, f64)>, Vec<f64>) {
         let mut per_view = Vec::new();
         let mut dl = vec![0.0; image.len()];
         for (v, t) in targets.iter().enumerate() {

@@ -1,19 +1,18 @@
 //! Pruning after optimization (as the paper does): drop scratches whose removal barely changes
 //! the loss.
 //!
-//! Importance of scratch k: the first-order change of E when its carved region shrinks to nothing.
-//! The depth d only sets the half-width e = (w/2) sqrt(1 - exp(-2d/w)) (MODEL.md section 2), so with
-//! dE/de = (dE/dd) / (de/dd), the linearized change of removing it (e -> 0) is
-//! Delta_k = -e dE/de = -w (exp(2d/w) - 1) dE/dd. A scratch no view sees has Delta = 0. This is
-//! only a ranking: shrinking e removes the steep outer normals first, so the true change differs,
-//! which is why every batch is checked with a real evaluation.
-//! Scratches are removed in batches, lowest Delta first (ties by index, so the result is
-//! deterministic); each batch is kept only if a true forward evaluation of the pruned design
-//! keeps the loss within `tol` (relative) of the unpruned loss, else the batch is halved.
+//! Importance of scratch k: how far its gradient would move it, sum_i |dE/dp_i| lr_i over its 7
+//! parameters with the optimizer's per-kind learning rates (gradient times parameter scale). A
+//! scratch that no view sees (its normals never send the light to an eye) has importance 0, and a
+//! random initialization leaves many of those. This is only a ranking: scratches are removed in
+//! batches, least important first (ties by index, so the result is deterministic), and each batch
+//! is kept only if a true forward evaluation of the pruned design keeps the loss within `tol`
+//! (relative) of the unpruned loss; otherwise the batch is halved.
 use crate::model::scene::Scene;
 use crate::render::Renderer;
 use crate::vulkan::{GpuError, Recorder};
 
+use super::adam::AdamConfig;
 use super::loss::{Loss, LossValues};
 
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -80,7 +79,22 @@ pub fn evaluate(renderer: &Renderer, loss: &Loss, scene: &Scene) -> Result<(Loss
 }
 
 /// Prunes `scene` (see the module doc). Returns the pruned scene and what happened.
-pub fn prune(renderer: &Renderer, loss: &Loss, scene: &Scene, cfg: &PruneConfig) -> Result<(Scene, PruneStats), GpuError> {
+pub fn prune(
+    renderer: &Renderer,
+    loss: &Loss,
+    scene: &Scene,
+    cfg: &PruneConfig,
+    adam: &AdamConfig,
+) -> Result<(Scene, PruneStats), GpuError> {
+    let lr = [
+        adam.lr_end,
+        adam.lr_end,
+        adam.lr_end,
+        adam.lr_end,
+        adam.lr_w,
+        adam.lr_d,
+        adam.lr_alpha,
+    ];
     let (lv0, mut grads) = evaluate(renderer, loss, scene)?;
     let e0 = lv0.total;
     let limit = e0 as f64 * (1.0 + cfg.tol);
@@ -97,7 +111,7 @@ pub fn prune(renderer: &Renderer, loss: &Loss, scene: &Scene, cfg: &PruneConfig)
             .iter()
             .zip(&grads)
             .enumerate()
-            .map(|(k, (s, g))| (-s.w * ((2.0 * s.d / s.w).exp() - 1.0) * g[5] as f64, k))
+            .map(|(k, (_, g))| ((0..7).map(|i| (g[i] * lr[i]).abs() as f64).sum::<f64>(), k))
             .collect();
         order.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
         let mut drop = vec![false; current.scratches.len()];

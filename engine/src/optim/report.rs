@@ -113,9 +113,10 @@ pub fn loss_curve_png(path: &Path, report: &DesignReport) -> anyhow::Result<()> 
     let mut buf = vec![0u8; (wpx * hpx * 3) as usize];
     let hist = &report.history;
     let series: Vec<Vec<f64>> = std::iter::once(hist.iter().map(|r| r.total as f64).collect())
-        .chain((0..hist.first().map_or(0, |r| r.pixel.len())).map(|v| {
-            hist.iter().map(|r| (r.pixel[v] + r.gram[v]) as f64).collect()
-        }))
+        .chain(
+            (0..hist.first().map_or(0, |r| r.pixel.len()))
+                .map(|v| hist.iter().map(|r| (r.pixel[v] + r.gram[v]) as f64).collect()),
+        )
         .collect();
     let logs: Vec<Vec<f64>> = series
         .iter()
@@ -123,11 +124,16 @@ pub fn loss_curve_png(path: &Path, report: &DesignReport) -> anyhow::Result<()> 
         .collect();
     let lo = logs.iter().flatten().cloned().fold(f64::INFINITY, f64::min).floor();
     let hi = logs.iter().flatten().cloned().fold(f64::NEG_INFINITY, f64::max).ceil();
-    let (lo, hi) = if lo.is_finite() && hi > lo { (lo, hi) } else { (-3.0, 0.0) };
+    let (lo, hi) = if lo.is_finite() && hi > lo {
+        (lo, hi)
+    } else {
+        (-3.0, 0.0)
+    };
     let n = hist.len().max(2) as f64 - 1.0;
     {
         let root = BitMapBackend::with_buffer(&mut buf, (wpx, hpx)).into_drawing_area();
-        root.fill(&RGBColor(20, 20, 24)).map_err(|e| anyhow::anyhow!("plot: {e}"))?;
+        root.fill(&RGBColor(20, 20, 24))
+            .map_err(|e| anyhow::anyhow!("plot: {e}"))?;
         let mut chart = ChartBuilder::on(&root)
             .margin(16)
             .build_cartesian_2d(0f64..n, lo..hi)
@@ -150,9 +156,16 @@ pub fn loss_curve_png(path: &Path, report: &DesignReport) -> anyhow::Result<()> 
                 let g = 90 + (60 * i as u8) % 120;
                 RGBColor(g, (g as u16 * 3 / 4) as u8, 255 - g / 2)
             };
-            let style = if i == 0 { color.stroke_width(2) } else { color.stroke_width(1) };
+            let style = if i == 0 {
+                color.stroke_width(2)
+            } else {
+                color.stroke_width(1)
+            };
             chart
-                .draw_series(LineSeries::new(s.iter().enumerate().map(|(k, &y)| (k as f64, y)), style))
+                .draw_series(LineSeries::new(
+                    s.iter().enumerate().map(|(k, &y)| (k as f64, y)),
+                    style,
+                ))
                 .map_err(|e| anyhow::anyhow!("plot: {e}"))?;
         }
         root.present().map_err(|e| anyhow::anyhow!("plot: {e}"))?;
@@ -231,7 +244,10 @@ pub fn write_outputs(
             "lr_alpha": cfg.adam.lr_alpha, "lr_light_log": cfg.adam.lr_light, "seed": cfg.seed,
         },
     });
-    crate::io::write_atomic(&out.join("summary.json"), serde_json::to_string_pretty(&summary)?.as_bytes())?;
+    crate::io::write_atomic(
+        &out.join("summary.json"),
+        serde_json::to_string_pretty(&summary)?.as_bytes(),
+    )?;
     print_summary(&summary, out);
     Ok(())
 }
@@ -256,7 +272,10 @@ fn print_summary(s: &serde_json::Value, out: &Path) {
         println!("  GPU ms per iteration: {}", p.join(", "));
     }
     println!("  loss {:.5} -> {:.5}", f(&s["loss_initial"]), f(&s["loss_final"]));
-    println!("  {:<8} {:>12} {:>12} {:>11} {:>11} {:>10} {:>10}", "view", "loss start", "loss final", "pixel", "gram", "SSIM start", "SSIM final");
+    println!(
+        "  {:<8} {:>12} {:>12} {:>11} {:>11} {:>10} {:>10}",
+        "view", "loss start", "loss final", "pixel", "gram", "SSIM start", "SSIM final"
+    );
     for v in s["per_view"].as_array().into_iter().flatten() {
         println!(
             "  {:<8} {:>12.5} {:>12.5} {:>11.5} {:>11.5} {:>10.3} {:>10.3}",
@@ -272,7 +291,11 @@ fn print_summary(s: &serde_json::Value, out: &Path) {
     if let Some(p) = s["pruning"].as_object() {
         println!(
             "  pruning: removed {} of {} scratches, loss {:.5} -> {:.5} ({} trials)",
-            p["removed"], p["before"], f(&p["loss_before"]), f(&p["loss_after"]), p["trials"]
+            p["removed"],
+            p["before"],
+            f(&p["loss_before"]),
+            f(&p["loss_after"]),
+            p["trials"]
         );
     }
     let nrb = s["rollbacks"].as_array().map_or(0, |a| a.len());

@@ -19,7 +19,12 @@ pub fn load_targets(paths: &[PathBuf], scene: &Scene) -> Result<Vec<Vec<f32>>, T
         return Err(TargetError::Count {
             given: paths.len(),
             views: scene.views.len(),
-            names: scene.views.iter().map(|v| v.name.as_str()).collect::<Vec<_>>().join(", "),
+            names: scene
+                .views
+                .iter()
+                .map(|v| v.name.as_str())
+                .collect::<Vec<_>>()
+                .join(", "),
         });
     }
     paths
@@ -127,7 +132,9 @@ pub fn builtin_targets(scene: &Scene) -> Vec<Vec<f32>> {
         .map(|(j, v)| {
             let (w, h) = (v.camera.width, v.camera.height);
             let geom = crate::model::camera::ViewGeom::new(v);
-            let (cx, cy) = geom.project([0.0, 0.0, 0.0]).unwrap_or((w as f64 / 2.0, h as f64 / 2.0));
+            let (cx, cy) = geom
+                .project([0.0, 0.0, 0.0])
+                .unwrap_or((w as f64 / 2.0, h as f64 / 2.0));
             let mask = crate::model::reference::on_plate_mask(scene, j);
             let mut r2 = f64::INFINITY;
             for y in 0..h {
@@ -138,7 +145,11 @@ pub fn builtin_targets(scene: &Scene) -> Vec<Vec<f32>> {
                     }
                 }
             }
-            let r = if r2.is_finite() { 0.9 * r2.sqrt() } else { 0.4 * w.min(h) as f64 };
+            let r = if r2.is_finite() {
+                0.9 * r2.sqrt()
+            } else {
+                0.4 * w.min(h) as f64
+            };
             draw_shape(SHAPES[j % SHAPES.len()], w, h, cx, cy, r.max(2.0))
         })
         .collect()
