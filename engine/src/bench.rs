@@ -148,3 +148,144 @@ pub fn forward_table(ctx: &Context, rows: &[ForwardRow]) -> String {
     }
     s
 }
+
+/// One row of the full-iteration benchmark: the design loop itself (`optim::design::Optimizer`),
+/// GPU stage times as medians over the timed iterations, wall time over all of them.
+#[derive(Clone, Debug)]
+pub struct IterRow {
+    pub name: String,
+    pub scratches: usize,
+    pub views: usize,
+    pub pixels: u64,
+    pub iters: u32,
+    /// median GPU ms per stage: binning, forward, loss, loss backward, backward, adam
+    pub stages: Vec<(String, f64)>,
+    /// median of the stage sum
+    pub gpu_ms: f64,
+    /// wall-clock seconds of the timed iterations (host work and read-backs included)
+    pub wall_s: f64,
+    pub pairs_per_iter: f64,
+}
+
+/// Display-value targets for a benchmark: given linear targets (`--targets`), or the scene's own
+/// render brightened/dimmed by 10% in a fixed pattern (so the loss and gradients are not zero).
+pub fn bench_targets(
+    ctx: &Arc<Context>,
+    scene: &Scene,
+    linear: Option<Vec<Vec<f32>>>,
+) -> Result<Vec<Vec<f32>>, GpuError> {
+    let lin = match linear {
+        Some(t) => t,
+        None => {
+            let r = Renderer::new(ctx)?;
+            let mut gs = r.upload(scene)?;
+            let imgs = r.render(&mut gs)?.images;
+            imgs.into_iter()
+                .map(|img| {
+                    img.iter()
+                        .enumerate()
+                        .map(|(i, &l)| l * if (i / 7) % 2 == 0 { 1.1 } else { 0.9 })
+                        .collect()
+                })
+                .collect()
+        }
+    };
+    Ok(lin
+        .into_iter()
+        .map(|img| img.into_iter().map(|l| l.max(0.0).powf(1.0 / 2.2).min(1.0)).collect())
+        .collect())
+}
+
+/// Runs `warmup + iters` optimizer iterations on `scene` and reports the timed ones.
+pub fn run_iterations(
+    ctx: &Arc<Context>,
+    name: &str,
+    scene: &Scene,
+    targets: Vec<Vec<f32>>,
+    warmup: u32,
+    iters: u32,
+) -> anyhow::Result<IterRow> {
+    use crate::optim::design::{DesignConfig, Optimizer, Problem};
+    let renderer = Renderer::new(ctx)?;
+    let problem = Problem {
+        scene: scene.clone(),
+        targets,
+    };
+    let mut cfg = DesignConfig::new(scene.plate.size_mm, std::env::temp_dir());
+    cfg.iters = warmup + iters;
+    cfg.progress = false;
+    cfg.write_outputs = false;
+    cfg.calibrate_lights = false;
+    cfg.checkpoint_every = 0;
+    let mut opt = Optimizer::new(&renderer, &problem, &cfg)?;
+    let t0 = std::time::Instant::now();
+    let (_, _) = opt.run()?;
+    let wall = t0.elapsed().as_secs_f64();
+    let steps: Vec<&Vec<(String, f64)>> = opt
+        .timing_log
+        .iter()
+        .filter(|t| t.iter().any(|(l, _)| l == "adam"))
+        .skip(warmup as usize)
+        .collect();
+    let labels = ["binning", "forward", "loss", "loss backward", "backward", "adam"];
+    let stages: Vec<(String, f64)> = labels
+        .iter()
+        .map(|l| {
+            let v: Vec<f64> = steps
+                .iter()
+                .filter_map(|t| t.iter().find(|(x, _)| x == l).map(|e| e.1))
+                .collect();
+            (l.to_string(), if v.is_empty() { f64::NAN } else { median(v) })
+        })
+        .collect();
+    let gpu_ms = median(steps.iter().map(|t| t.iter().map(|e| e.1).sum::<f64>()).collect());
+    // Wall time of the timed part: total minus the warm-up share (iterations are alike).
+    let n_all = (warmup + iters + 1) as f64;
+    let wall_s = wall * (iters as f64 / n_all);
+    let report_pairs = {
+        let st: Vec<u32> = opt.gs_stats()?;
+        st[1] as f64
+    };
+    Ok(IterRow {
+        name: name.to_string(),
+        scratches: scene.scratches.len(),
+        views: scene.views.len(),
+        pixels: scene
+            .views
+            .iter()
+            .map(|v| v.camera.width as u64 * v.camera.height as u64)
+            .sum(),
+        iters,
+        stages,
+        gpu_ms,
+        wall_s,
+        pairs_per_iter: report_pairs,
+    })
+}
+
+/// Markdown table of full-iteration rows.
+pub fn iteration_table(rows: &[IterRow]) -> String {
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "| scene | scratches | views x pixels | pairs/iter | binning | forward | loss | loss bwd | backward | Adam | GPU ms/iter | wall s for iters |"
+    );
+    let _ = writeln!(s, "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
+    for r in rows {
+        let st: Vec<String> = r.stages.iter().map(|(_, ms)| format!("{ms:.1}")).collect();
+        let _ = writeln!(
+            s,
+            "| {} | {} | {} x {} | {:.3e} | {} | {:.1} | {:.2} s for {} |",
+            r.name,
+            r.scratches,
+            r.views,
+            r.pixels / r.views as u64,
+            r.pairs_per_iter,
+            st.join(" | "),
+            r.gpu_ms,
+            r.wall_s,
+            r.iters
+        );
+    }
+    s
+}

@@ -72,9 +72,17 @@ enum Cmd {
         /// Timed repeats (median reported)
         #[arg(long, default_value_t = 7)]
         repeats: usize,
-        /// Untimed warm-up runs
+        /// Untimed warm-up runs (and warm-up iterations of the full-iteration benchmark)
         #[arg(long, default_value_t = 2)]
         warmup: usize,
+        /// Also time N full design iterations (pair search + forward + loss + backward + Adam);
+        /// 0 skips them
+        #[arg(long, default_value_t = 10)]
+        iters: u32,
+        /// Linear target images DIR/NAME.pfm for --scene (default: the scene's own render,
+        /// perturbed by 10% in a fixed pattern)
+        #[arg(long, requires = "scene")]
+        targets: Option<PathBuf>,
     },
 }
 
@@ -158,6 +166,8 @@ fn run(cli: Cli) -> Result<()> {
             scene,
             repeats,
             warmup,
+            iters,
+            targets,
         } => {
             let ctx = context(&cli)?;
             let scenes: Vec<(String, Scene)> = match scene {
@@ -173,6 +183,20 @@ fn run(cli: Cli) -> Result<()> {
             };
             let rows = bench::run_forward(&ctx, &scenes, *warmup, (*repeats).max(1))?;
             print!("{}", bench::forward_table(&ctx, &rows));
+            if *iters > 0 {
+                let mut it_rows = Vec::new();
+                for (name, sc) in &scenes {
+                    let linear = match targets {
+                        Some(dir) => Some(read_linear_targets(sc, dir)?),
+                        None => None,
+                    };
+                    let t = bench::bench_targets(&ctx, sc, linear)?;
+                    eprintln!("timing {iters} design iterations of {name} ...");
+                    it_rows.push(bench::run_iterations(&ctx, name, sc, t, *warmup as u32, *iters)?);
+                }
+                println!();
+                print!("{}", bench::iteration_table(&it_rows));
+            }
             check_validation(&ctx)
         }
     }
@@ -202,7 +226,8 @@ fn render_to_dir(ctx: &std::sync::Arc<Context>, scene: &Scene, out: &Path) -> Re
     Ok(())
 }
 
-fn grad_command(ctx: &std::sync::Arc<Context>, scene: &Scene, dir: &Path, out: &Path) -> Result<()> {
+/// Linear target images DIR/NAME.pfm, one per view, checked against the view sizes.
+fn read_linear_targets(scene: &Scene, dir: &Path) -> Result<Vec<Vec<f32>>> {
     let mut targets = Vec::new();
     for v in &scene.views {
         let p = dir.join(format!("{}.pfm", v.name));
@@ -218,6 +243,11 @@ fn grad_command(ctx: &std::sync::Arc<Context>, scene: &Scene, dir: &Path, out: &
         }
         targets.push(data);
     }
+    Ok(targets)
+}
+
+fn grad_command(ctx: &std::sync::Arc<Context>, scene: &Scene, dir: &Path, out: &Path) -> Result<()> {
+    let targets = read_linear_targets(scene, dir)?;
     if let Some(parent) = out.parent().filter(|p| !p.as_os_str().is_empty()) {
         std::fs::create_dir_all(parent).with_context(|| format!("cannot create {}", parent.display()))?;
     }

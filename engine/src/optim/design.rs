@@ -199,6 +199,8 @@ pub struct Optimizer<'r> {
     hooks_fired: (bool, bool),
     pairs_sum: f64,
     gpu_ms: Vec<(String, f64)>,
+    /// GPU milliseconds per stage of every accepted evaluation, in order (for benchmarks).
+    pub timing_log: Vec<Vec<(String, f64)>>,
     evals: u32,
 }
 
@@ -275,6 +277,7 @@ impl<'r> Optimizer<'r> {
             hooks_fired: (false, false),
             pairs_sum: 0.0,
             gpu_ms: Vec::new(),
+            timing_log: Vec::new(),
             evals: 0,
         })
     }
@@ -409,6 +412,7 @@ impl<'r> Optimizer<'r> {
             self.hooks_fired.1 |= nan_grad;
             self.evals += 1;
             self.pairs_sum += stats[1] as f64;
+            self.timing_log.push(timings.entries.clone());
             for (label, ms) in &timings.entries {
                 match self.gpu_ms.iter_mut().find(|(l, _)| l == label) {
                     Some(e) => e.1 += ms,
@@ -671,6 +675,11 @@ impl<'r> Optimizer<'r> {
         }
         bar.finish_and_clear();
         Ok((t0.elapsed().as_secs_f64(), run))
+    }
+
+    /// The render counters of the last evaluation: [candidates, pairs, list entries].
+    pub fn gs_stats(&self) -> Result<Vec<u32>, GpuError> {
+        self.gs.stats.read()
     }
 
     pub fn history(&self) -> &[IterRecord] {
