@@ -1,0 +1,146 @@
+// The tile machinery shared by forward.comp and grad.comp: one workgroup of 16x16 threads per
+// 16x16-pixel tile; the tile's scratch list (sorted by scratch index, see bin.comp) streams
+// through shared memory in chunks of CHUNK scratches. Per chunk:
+//   1. scratch x 4x4-pixel-block tests (bounding box of the block's plate quad in the scratch
+//      frame) give each block a mask of scratches that may meet it;
+//   2. every pixel tests its block's scratches (footprint bounding circle, then the footprint's
+//      bounding box in the scratch frame) and keeps masks of overlapping ones, split into
+//      likely fast-path pairs (strip crossing the footprint, see patch_fast) and the others;
+//   3. an exclusive scan of the per-pixel counts gives each pair a queue slot: all fast pairs
+//      first, then the others, each group in (pixel, scratch) order, so SIMD lanes that
+//      integrate neighbouring queue entries take the same path;
+//   4. the kernel integrates QCAP queue entries per round with all its threads.
+// Everything is in a fixed order: results do not depend on thread timing.
+//
+// Include after the buffer bindings `views`, `scr`, `offs`, `list`, the push constants `pc`,
+// and a definition of QCAP.
+#ifndef SA_TILE_QUEUE_GLSL
+#define SA_TILE_QUEUE_GLSL
+
+const uint CHUNK = 64u;            // scratches per chunk: one bit each in two 32-bit words
+
+shared vec4 sh_cull_a[CHUNK];      // p0.xy, t.xy
+shared vec4 sh_cull_b[CHUNK];      // len, w, s_e, alpha
+shared vec4 sh_blk01[16];          // plate-space corners of the tile's 4x4-pixel blocks
+shared vec4 sh_blk23[16];
+shared bool sh_blk_all[16];        // a block whose corner rays miss the plate: test every scratch
+shared uint sh_blk_hits[32];       // per block, two words: chunk scratches that may meet it
+shared uint sh_base[256];          // per pixel: packed counts, then their exclusive scan
+shared uint sh_total;
+shared uint sh_queue[QCAP];        // (pixel << 8) | scratch-in-chunk
+
+// The view that holds `tile`, and the tile's first pixel.
+uint tile_view(uint tile, out uvec2 t0) {
+    uint vi = 0u;
+    for (uint v = 1u; v < pc.n_views; ++v) if (tile >= views[v].base.x) vi = v;
+    uint lt = tile - views[vi].base.x;
+    t0 = uvec2((lt % views[vi].dims.z) * TILE, (lt / views[vi].dims.z) * TILE);
+    return vi;
+}
+
+// Threads 0..15: plate quads of the 16 blocks (visible after the chunk loop's first barrier).
+void setup_blocks(ViewGPU V, uvec2 t0, uint lid) {
+    if (lid < 16u) {
+        uvec2 b0 = t0 + 4u * uvec2(lid & 3u, lid >> 2);
+        bool k0, k1, k2, k3;
+        vec2 c0 = ray_hit(V, vec2(b0), k0), c1 = ray_hit(V, vec2(b0) + vec2(4.0, 0.0), k1);
+        vec2 c2 = ray_hit(V, vec2(b0) + vec2(4.0), k2), c3 = ray_hit(V, vec2(b0) + vec2(0.0, 4.0), k3);
+        sh_blk01[lid] = vec4(c0, c1);
+        sh_blk23[lid] = vec4(c2, c3);
+        sh_blk_all[lid] = !(k0 && k1 && k2 && k3);
+    }
+}
+
+// Thread lid < CHUNK: the culling record of scratch S; also clears the block masks.
+void load_cull(uint lid, ScratchGPU S) {
+    vec2 d = S.ends.zw - S.ends.xy;
+    float len = length(d);
+    sh_cull_a[lid] = vec4(S.ends.xy, d / len);
+    sh_cull_b[lid] = vec4(len, S.shape.x, carved_se(S.shape.x, S.shape.y), S.shape.z);
+}
+
+// Step 1 (between two barriers): 64 scratches x 16 blocks, four tests per thread.
+void block_tests(uint lid, uint cnt) {
+    uint k = lid & 63u;
+    if (k >= cnt) return;
+    vec2 p0 = sh_cull_a[k].xy, t = sh_cull_a[k].zw, b = vec2(-t.y, t.x);
+    float len = sh_cull_b[k].x, e = 0.5 * sh_cull_b[k].y * sh_cull_b[k].z;
+    for (uint bb = 0u; bb < 4u; ++bb) {
+        uint blk = 4u * (lid >> 6) + bb;
+        bool hit = sh_blk_all[blk];
+        if (!hit) {
+            vec4 qa = sh_blk01[blk], qb = sh_blk23[blk];
+            vec4 us = vec4(dot(qa.xy - p0, b), dot(qa.zw - p0, b), dot(qb.xy - p0, b), dot(qb.zw - p0, b));
+            vec4 vs = vec4(dot(qa.xy - p0, t), dot(qa.zw - p0, t), dot(qb.xy - p0, t), dot(qb.zw - p0, t));
+            hit = !(min(min(us.x, us.y), min(us.z, us.w)) >= e || max(max(us.x, us.y), max(us.z, us.w)) <= -e ||
+                    min(min(vs.x, vs.y), min(vs.z, vs.w)) >= len || max(max(vs.x, vs.y), max(vs.z, vs.w)) <= 0.0);
+        }
+        if (hit) atomicOr(sh_blk_hits[2u * blk + (k >> 5)], 1u << (k & 31u));
+    }
+}
+
+// Step 2: this pixel's overlapping scratches of the chunk (fmask: likely fast path, gmask: the
+// others). `fp` are the footprint corners on the plate, `centre`/`radius` its bounding circle.
+void pixel_masks(bool live, uint myblk, vec2 fp[4], vec2 centre, float radius,
+                 out uvec2 fmask, out uvec2 gmask, inout uint cand) {
+    fmask = uvec2(0u);
+    gmask = uvec2(0u);
+    if (!live) return;
+    uvec2 bm2 = uvec2(sh_blk_hits[2u * myblk], sh_blk_hits[2u * myblk + 1u]);
+    cand += uint(bitCount(bm2.x) + bitCount(bm2.y));
+    for (uint wd = 0u; wd < 2u; ++wd) {
+        uint bm = bm2[wd];
+        while (bm != 0u) {
+            uint k = uint(findLSB(bm)) + 32u * wd;
+            bm &= bm - 1u;
+            vec2 p0 = sh_cull_a[k].xy, t = sh_cull_a[k].zw, b = vec2(-t.y, t.x);
+            float len = sh_cull_b[k].x, e = 0.5 * sh_cull_b[k].y * sh_cull_b[k].z;
+            vec2 q = centre - p0;
+            float u = dot(q, b), v = dot(q, t);
+            if (abs(u) > e + radius || v < -radius || v > len + radius) continue;
+            float umin = 1e30, umax = -1e30, vmin = 1e30, vmax = -1e30, uabs = 1e30;
+            for (int c = 0; c < 4; ++c) {
+                vec2 r = fp[c] - p0;
+                float uu = dot(r, b), vv = dot(r, t);
+                umin = min(umin, uu); umax = max(umax, uu); vmin = min(vmin, vv); vmax = max(vmax, vv);
+                uabs = min(uabs, abs(uu));
+            }
+            if (umin >= e || umax <= -e || vmin >= len || vmax <= 0.0) continue;
+            if (uabs > e && vmin > 0.0 && vmax < len) fmask[wd] |= 1u << (k & 31u);
+            else gmask[wd] |= 1u << (k & 31u);
+        }
+    }
+}
+
+// Step 3: queue slots. Both counts are scanned at once, packed in 16-bit halves (at most
+// 256 x 64 = 16384 each). Contains barriers: call from uniform control flow.
+void queue_slots(uint lid, uvec2 fmask, uvec2 gmask, out uint nfast, out uint total, out uint fbase, out uint gbase) {
+    sh_base[lid] = uint(bitCount(fmask.x) + bitCount(fmask.y)) | (uint(bitCount(gmask.x) + bitCount(gmask.y)) << 16);
+    barrier();
+    if (lid == 0u) {
+        uint run = 0u;
+        for (uint i = 0u; i < 256u; ++i) { uint c = sh_base[i]; sh_base[i] = run; run += c; }
+        sh_total = run;
+    }
+    barrier();
+    nfast = sh_total & 0xFFFFu;
+    total = nfast + (sh_total >> 16);
+    fbase = sh_base[lid] & 0xFFFFu;
+    gbase = nfast + (sh_base[lid] >> 16);
+}
+
+// Step 4 (each round): this pixel's queue entries that fall in [r0, r0 + QCAP).
+void enqueue(uint lid, uvec2 mask, uint base, uint r0) {
+    uint idx = base;
+    for (uint wd = 0u; wd < 2u; ++wd) {
+        uint m = mask[wd];
+        while (m != 0u) {
+            uint k = uint(findLSB(m)) + 32u * wd;
+            m &= m - 1u;
+            if (idx >= r0 && idx < r0 + QCAP) sh_queue[idx - r0] = (lid << 8) | k;
+            ++idx;
+        }
+    }
+}
+
+#endif
