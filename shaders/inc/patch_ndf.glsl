@@ -139,7 +139,8 @@ R lin_integral(PairGeom G, R lo, R hi, R Vlo, R Vhi) {
 // and R's two across-edges (v = 0 and v = len) are clipped to F (Cyrus-Beck); R's long edges
 // (s = ±se) are vertical and contribute nothing. Both are walked counter-clockwise in (s, v).
 // Each piece adds  -∫ D(s) (v(s) - vref) ds  to I and  -∫ (v - vref) ds  to the area;
-// vref (the footprint centre's v) keeps the v values small, and drops out of the closed sum.
+// vref (a point of the intersection, see ref_v) keeps the v values small and drops out of the
+// closed sum.
 void add_segment(PairGeom G, R as, R av, R bs, R bv, R vref, inout R I, inout R A) {
     if (val(as) == val(bs)) return;
     R ds = sub(bs, as);
@@ -158,9 +159,33 @@ void add_segment(PairGeom G, R as, R av, R bs, R bv, R vref, inout R I, inout R 
 // Footprint corners (fs[i], fv[i]) in scratch-local (s, v) coordinates (s = 2u/w), ordered
 // counter-clockwise in (s, v). Carved region: |s| <= se, 0 <= v <= len.
 // Returns I = ∫ D dA and A = area over F ∩ R, in mm^2 (half_w = w/2 converts ds to du).
+// A v on the boundary of F ∩ R (a vertex of the first footprint edge piece inside R, else R's
+// own across-edge), from values only. The Green sum does not depend on vref, but its terms are
+// D (v - vref) ds: with vref on the intersection they stay the size of the intersection, so a
+// sliver at a footprint corner is not the difference of footprint-sized terms (float32).
+float ref_v(R fs[4], R fv[4], float se, float len) {
+    for (int e = 0; e < 4; ++e) {
+        float as = val(fs[e]), av = val(fv[e]);
+        float ds = val(fs[(e + 1) & 3]) - as, dvv = val(fv[(e + 1) & 3]) - av;
+        float t0 = 0.0, t1 = 1.0;
+        float ps[4] = float[](-ds, ds, -dvv, dvv);
+        float qs[4] = float[](as + se, se - as, av, len - av);
+        bool keep = true;
+        for (int i = 0; i < 4; ++i) {
+            if (ps[i] == 0.0) { if (qs[i] < 0.0) keep = false; }
+            else if (ps[i] < 0.0) t0 = max(t0, qs[i] / ps[i]);
+            else t1 = min(t1, qs[i] / ps[i]);
+        }
+        if (keep && t0 < t1) return clamp(av + t0 * dvv, 0.0, len);
+    }
+    // No footprint edge enters R: F contains an end of R, or F ∩ R is empty.
+    float vc = 0.25 * (val(fv[0]) + val(fv[1]) + val(fv[2]) + val(fv[3]));
+    return vc < 0.5 * len ? 0.0 : len;
+}
+
 void patch_integral(R fs[4], R fv[4], R se, R len, R half_w, PairGeom G, out R I, out R A) {
     I = rc(0.0); A = rc(0.0);
-    R vref = d_min(d_max(mul(0.25, add(add(fv[0], fv[1]), add(fv[2], fv[3]))), 0.0), len);
+    R vref = rc(ref_v(fs, fv, val(se), val(len)));
     // Footprint edges clipped to the box [-se, se] x [0, len].
     for (int e = 0; e < 4; ++e) {
         R as = fs[e], av = fv[e];
