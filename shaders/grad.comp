@@ -31,7 +31,12 @@ layout(std430, binding = 6) writeonly buffer Partials { vec4 partial[]; };  // 2
 
 #include "inc/shade_push.glsl"
 
-const uint QCAP = 256u;
+// Queue entries per round: 256 fits 32 KiB of shared memory (lavapipe's limit); the host passes
+// GRAD_QCAP = 512 on devices with at least 48 KiB (fewer rounds and barriers per chunk).
+#ifndef GRAD_QCAP
+#define GRAD_QCAP 256
+#endif
+const uint QCAP = GRAD_QCAP;
 #include "inc/tile_queue.glsl"
 
 shared vec4 sh_ends[CHUNK];        // raw scratch parameters

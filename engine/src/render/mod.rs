@@ -98,7 +98,15 @@ impl Renderer {
             scan_sums: ComputePipeline::new(ctx, &sc, "scan.comp", &[("SUMS", "1")], 2, scan_push)?,
             scan_apply: ComputePipeline::new(ctx, &sc, "scan.comp", &[("APPLY", "1")], 2, scan_push)?,
             forward: ComputePipeline::new(ctx, &sc, "forward.comp", &[], 7, shade_push)?,
-            grad: ComputePipeline::new(ctx, &sc, "grad.comp", &[], 7, shade_push)?,
+            // grad.comp needs ~30 KiB of shared memory with a 256-entry queue, ~39 KiB with 512.
+            grad: {
+                let qcap = if ctx.info().max_shared_memory >= 48 * 1024 {
+                    "512"
+                } else {
+                    "256"
+                };
+                ComputePipeline::new(ctx, &sc, "grad.comp", &[("GRAD_QCAP", qcap)], 7, shade_push)?
+            },
             grad_reduce: ComputePipeline::new(ctx, &sc, "grad_reduce.comp", &[], 4, scan_push)?,
             grad_light: ComputePipeline::new(ctx, &sc, "grad_light.comp", &[], 4, 0)?,
         })
