@@ -107,6 +107,25 @@ pub fn compare_png(path: &Path, w: u32, h: u32, display: &[f32], target: &[f32])
 /// The loss curve: log10 of the total (white) and of each view's loss (grays), against the
 /// iteration, on a dark background with a grid line at every power of ten (no text: no font is
 /// bundled; the summary states the axes).
+/// A sans-serif font from the system for plot text (Debian: fonts-dejavu-core), registered with
+/// plotters once; None when no font is found, and the plot is drawn without text.
+fn plot_font() -> Option<&'static str> {
+    static FONT: std::sync::OnceLock<Option<&'static str>> = std::sync::OnceLock::new();
+    *FONT.get_or_init(|| {
+        let candidates = [
+            "/usr/share/fonts/truetype/dejavu/DejaVuSans.ttf",
+            "/usr/share/fonts/TTF/DejaVuSans.ttf",
+            "/usr/share/fonts/dejavu/DejaVuSans.ttf",
+            "/usr/share/fonts/truetype/liberation/LiberationSans-Regular.ttf",
+        ];
+        let bytes = candidates.iter().find_map(|p| std::fs::read(p).ok())?;
+        let bytes: &'static [u8] = Box::leak(bytes.into_boxed_slice());
+        plotters::style::register_font("sans-serif", plotters::style::FontStyle::Normal, bytes).ok()?;
+        Some("sans-serif")
+    })
+}
+
+/// The loss curve: log10 of the total loss (white) and of each view's loss, per iteration.
 pub fn loss_curve_png(path: &Path, report: &DesignReport) -> anyhow::Result<()> {
     use plotters::prelude::*;
     let (wpx, hpx) = (800u32, 450u32);
@@ -130,45 +149,102 @@ pub fn loss_curve_png(path: &Path, report: &DesignReport) -> anyhow::Result<()> 
         (-3.0, 0.0)
     };
     let n = hist.len().max(2) as f64 - 1.0;
+    let pe = |e: DrawingAreaErrorKind<_>| anyhow::anyhow!("plot: {e}");
+    // white for the total, then distinct hues per view (cycling after eight views)
+    const PALETTE: [RGBColor; 8] = [
+        RGBColor(255, 160, 60),
+        RGBColor(80, 190, 255),
+        RGBColor(235, 90, 200),
+        RGBColor(120, 220, 110),
+        RGBColor(250, 230, 90),
+        RGBColor(170, 140, 255),
+        RGBColor(255, 110, 110),
+        RGBColor(90, 230, 210),
+    ];
+    let color_of = |i: usize| {
+        if i == 0 {
+            RGBColor(255, 255, 255)
+        } else {
+            PALETTE[(i - 1) % PALETTE.len()]
+        }
+    };
     {
         let root = BitMapBackend::with_buffer(&mut buf, (wpx, hpx)).into_drawing_area();
-        root.fill(&RGBColor(20, 20, 24))
-            .map_err(|e| anyhow::anyhow!("plot: {e}"))?;
-        let mut chart = ChartBuilder::on(&root)
-            .margin(16)
-            .build_cartesian_2d(0f64..n, lo..hi)
-            .map_err(|e| anyhow::anyhow!("plot: {e}"))?;
+        root.fill(&RGBColor(20, 20, 24)).map_err(pe)?;
         let grid = RGBColor(70, 70, 80);
-        let mut d = lo;
-        while d <= hi + 1e-9 {
+        let text = RGBColor(220, 220, 225);
+        if let Some(font) = plot_font() {
+            let mut chart = ChartBuilder::on(&root)
+                .margin(16)
+                .caption("design loss (log scale)", (font, 22).into_font().color(&text))
+                .x_label_area_size(40)
+                .y_label_area_size(64)
+                .build_cartesian_2d(0f64..n, lo..hi)
+                .map_err(pe)?;
             chart
-                .draw_series(LineSeries::new(vec![(0.0, d), (n, d)], &grid))
-                .map_err(|e| anyhow::anyhow!("plot: {e}"))?;
-            d += 1.0;
-        }
-        chart
-            .draw_series(LineSeries::new(vec![(0.0, lo), (0.0, hi)], &grid))
-            .map_err(|e| anyhow::anyhow!("plot: {e}"))?;
-        for (i, s) in logs.iter().enumerate().rev() {
-            let color = if i == 0 {
-                RGBColor(255, 255, 255)
-            } else {
-                let g = 90 + (60 * i as u8) % 120;
-                RGBColor(g, (g as u16 * 3 / 4) as u8, 255 - g / 2)
-            };
-            let style = if i == 0 {
-                color.stroke_width(2)
-            } else {
-                color.stroke_width(1)
-            };
+                .configure_mesh()
+                .light_line_style(RGBColor(35, 35, 42))
+                .bold_line_style(grid)
+                .axis_style(grid)
+                .x_desc("iteration")
+                .y_desc("loss")
+                .y_labels((hi - lo) as usize + 1)
+                .y_label_formatter(&|v| format!("1e{}", v.round() as i64))
+                .x_label_formatter(&|v| format!("{}", v.round() as i64))
+                .label_style((font, 14).into_font().color(&text))
+                .axis_desc_style((font, 15).into_font().color(&text))
+                .draw()
+                .map_err(pe)?;
+            for (i, s) in logs.iter().enumerate().rev() {
+                let color = color_of(i);
+                let name = if i == 0 {
+                    "total".to_string()
+                } else {
+                    format!("view {}", i - 1)
+                };
+                chart
+                    .draw_series(LineSeries::new(
+                        s.iter().enumerate().map(|(k, &y)| (k as f64, y)),
+                        color.stroke_width(if i == 0 { 2 } else { 1 }),
+                    ))
+                    .map_err(pe)?
+                    .label(name)
+                    .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], color.stroke_width(2)));
+            }
             chart
-                .draw_series(LineSeries::new(
-                    s.iter().enumerate().map(|(k, &y)| (k as f64, y)),
-                    style,
-                ))
-                .map_err(|e| anyhow::anyhow!("plot: {e}"))?;
+                .configure_series_labels()
+                .background_style(RGBColor(30, 30, 36))
+                .border_style(grid)
+                .label_font((font, 14).into_font().color(&text))
+                .position(SeriesLabelPosition::UpperRight)
+                .draw()
+                .map_err(pe)?;
+        } else {
+            // No font on this system: the same curves with one grid line per decade, no text.
+            let mut chart = ChartBuilder::on(&root)
+                .margin(16)
+                .build_cartesian_2d(0f64..n, lo..hi)
+                .map_err(pe)?;
+            let mut d = lo;
+            while d <= hi + 1e-9 {
+                chart
+                    .draw_series(LineSeries::new(vec![(0.0, d), (n, d)], &grid))
+                    .map_err(pe)?;
+                d += 1.0;
+            }
+            chart
+                .draw_series(LineSeries::new(vec![(0.0, lo), (0.0, hi)], &grid))
+                .map_err(pe)?;
+            for (i, s) in logs.iter().enumerate().rev() {
+                chart
+                    .draw_series(LineSeries::new(
+                        s.iter().enumerate().map(|(k, &y)| (k as f64, y)),
+                        color_of(i).stroke_width(if i == 0 { 2 } else { 1 }),
+                    ))
+                    .map_err(pe)?;
+            }
         }
-        root.present().map_err(|e| anyhow::anyhow!("plot: {e}"))?;
+        root.present().map_err(pe)?;
     }
     let img = image::RgbImage::from_raw(wpx, hpx, buf).expect("plot buffer size");
     let mut png = Vec::new();
