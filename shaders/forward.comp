@@ -56,12 +56,12 @@ void main() {
     uint end = min(offs[(tile + 1u) * pc.n_groups], pc.capacity);
     for (uint c0 = start; c0 < end; c0 += CHUNK) {
         barrier();
-        if (lid < CHUNK && c0 + lid < end) load_cull(lid, scr[list[c0 + lid]]);
-        if (lid < 32u) sh_blk_hits[lid] = 0u;
+        if (lid < CHUNK && c0 + lid < end) {
+            load_cull(lid, scr[list[c0 + lid]]);
+            block_tests(lid);
+        }
         barrier();
         uint cnt = min(CHUNK, end - c0);
-        block_tests(lid, cnt);
-        barrier();
         uvec2 fmask, gmask;
         pixel_masks(live, myblk, P.fp, P.centre, P.radius, fmask, gmask, cand);
         uint nfast, total, fbase, gbase;
@@ -100,7 +100,9 @@ void main() {
                 vec2 ra = sh_res[j - r0];
                 if (ra.y > 0.0) { ++pairs; dp += ra.x; cov += ra.y; }
             }
-            barrier();
+            // Another round overwrites the queue and results; after the last one the next
+            // chunk's first barrier is enough.
+            if (r0 + QCAP < total) barrier();
         }
     }
     if (live) atomicAdd(sh_pairs, pairs);

@@ -90,13 +90,11 @@ void main() {
                 sh_ends[lid] = S.ends;
                 sh_shape[lid] = S.shape;
                 load_cull(lid, S);
+                block_tests(lid);
             }
         }
-        if (lid < 32u) sh_blk_hits[lid] = 0u;
         barrier();
         uint cnt = min(CHUNK, end - c0);
-        block_tests(lid, cnt);
-        barrier();
         uvec2 fmask, gmask;
         pixel_masks(live, myblk, P.fp, P.centre, P.radius, fmask, gmask, cand);
         uint nfast, total, fbase, gbase;
@@ -130,7 +128,9 @@ void main() {
                 sh_acc0[lid] = a0;
                 sh_acc1[lid] = a1;
             }
-            barrier();
+            // Another round overwrites the queue and contributions; after the last one the next
+            // chunk's first barrier is enough (sh_acc is written and read by the same thread).
+            if (r0 + QCAP < total) barrier();
         }
         if (lid < cnt) {
             partial[2u * (c0 + lid)] = sh_acc0[lid];

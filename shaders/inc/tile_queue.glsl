@@ -2,7 +2,8 @@
 // 16x16-pixel tile; the tile's scratch list (sorted by scratch index, see bin.comp) streams
 // through shared memory in chunks of CHUNK scratches. Per chunk:
 //   1. scratch x 4x4-pixel-block tests (bounding box of the block's plate quad in the scratch
-//      frame) give each block a mask of scratches that may meet it;
+//      frame), by the thread that loads the scratch, give each block a mask of scratches that
+//      may meet it;
 //   2. every pixel tests its block's scratches (footprint bounding circle, then the footprint's
 //      bounding box in the scratch frame) and keeps masks of overlapping ones, split into
 //      likely fast-path pairs (strip crossing the footprint, see patch_fast) and the others;
@@ -38,7 +39,8 @@ uint tile_view(uint tile, out uvec2 t0) {
     return vi;
 }
 
-// Threads 0..15: plate quads of the 16 blocks (visible after the chunk loop's first barrier).
+// Threads 0..15: plate quads of the 16 blocks; threads 0..31 clear the block masks (both
+// visible after the chunk loop's first barrier).
 void setup_blocks(ViewGPU V, uvec2 t0, uint lid) {
     if (lid < 16u) {
         uvec2 b0 = t0 + 4u * uvec2(lid & 3u, lid >> 2);
@@ -49,9 +51,10 @@ void setup_blocks(ViewGPU V, uvec2 t0, uint lid) {
         sh_blk23[lid] = vec4(c2, c3);
         sh_blk_all[lid] = !(k0 && k1 && k2 && k3);
     }
+    if (lid < 32u) sh_blk_hits[lid] = 0u;
 }
 
-// Thread lid < CHUNK: the culling record of scratch S; also clears the block masks.
+// Thread lid < CHUNK: the culling record of scratch S.
 void load_cull(uint lid, ScratchGPU S) {
     vec2 d = S.ends.zw - S.ends.xy;
     float len = length(d);
@@ -59,14 +62,12 @@ void load_cull(uint lid, ScratchGPU S) {
     sh_cull_b[lid] = vec4(len, S.shape.x, carved_se(S.shape.x, S.shape.y), S.shape.z);
 }
 
-// Step 1 (between two barriers): 64 scratches x 16 blocks, four tests per thread.
-void block_tests(uint lid, uint cnt) {
-    uint k = lid & 63u;
-    if (k >= cnt) return;
+// Step 1, by the thread that loaded scratch k (right after load_cull): its tests against the
+// 16 blocks. The masks were cleared in queue_slots of the previous chunk (or before the loop).
+void block_tests(uint k) {
     vec2 p0 = sh_cull_a[k].xy, t = sh_cull_a[k].zw, b = vec2(-t.y, t.x);
     float len = sh_cull_b[k].x, e = 0.5 * sh_cull_b[k].y * sh_cull_b[k].z;
-    for (uint bb = 0u; bb < 4u; ++bb) {
-        uint blk = 4u * (lid >> 6) + bb;
+    for (uint blk = 0u; blk < 16u; ++blk) {
         bool hit = sh_blk_all[blk];
         if (!hit) {
             vec4 qa = sh_blk01[blk], qb = sh_blk23[blk];
@@ -122,6 +123,9 @@ void queue_slots(uint lid, uvec2 fmask, uvec2 gmask, out uint nfast, out uint to
         for (uint i = 0u; i < 256u; ++i) { uint c = sh_base[i]; sh_base[i] = run; run += c; }
         sh_total = run;
     }
+    // Every pixel has read the block masks (pixel_masks, before the barrier above): clear them
+    // for the next chunk here, so that chunk needs no extra barrier before its block tests.
+    if (lid >= 224u) sh_blk_hits[lid - 224u] = 0u;
     barrier();
     nfast = sh_total & 0xFFFFu;
     total = nfast + (sh_total >> 16);
