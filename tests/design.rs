@@ -300,10 +300,27 @@ fn optimization_lowers_loss_and_raises_ssim() {
         "summary.json",
         "v0_compare.png",
         "v2_compare.png",
+        "v0_target.png",
+        "v2_target.png",
         "checkpoint.bin",
     ] {
         assert!(out.join(f).is_file(), "missing output {f}");
     }
+    // The target PNG (what the viewer shows beside the render) holds the target image.
+    let (tw, th, t0) = scratchart::io::read_image_gray(&out.join("v0_target.png")).unwrap();
+    assert_eq!(
+        (tw, th),
+        (p.scene.views[0].camera.width, p.scene.views[0].camera.height)
+    );
+    let worst = t0
+        .iter()
+        .zip(&p.targets[0])
+        .map(|(a, b)| (a - b).abs())
+        .fold(0.0f32, f32::max);
+    assert!(
+        worst <= 0.5 / 255.0 + 1e-6,
+        "v0_target.png differs from the target by {worst}"
+    );
     let _ = std::fs::remove_dir_all(&out);
     assert_no_validation(&ctx);
 }

@@ -255,7 +255,7 @@ pub fn loss_curve_png(path: &Path, report: &DesignReport) -> anyhow::Result<()> 
     Ok(())
 }
 
-/// Writes design.json + scratches.csv, NAME_compare.png per view, loss_curve.png and
+/// Writes design.json + scratches.csv, NAME_compare.png and NAME_target.png per view, loss_curve.png and
 /// summary.json, and prints the summary.
 pub fn write_outputs(
     out: &Path,
@@ -277,6 +277,13 @@ pub fn write_outputs(
             &r.final_images[v],
             &problem.targets[v],
         )?;
+        // The target itself, where `scratchart-view` looks for it (its T key shows it beside
+        // the render).
+        let bytes: Vec<u8> = problem.targets[v]
+            .iter()
+            .map(|&t| (255.0 * t.clamp(0.0, 1.0)).round() as u8)
+            .collect();
+        crate::io::write_png_gray(&out.join(format!("{}_target.png", view.name)), w, h, &bytes)?;
         let ssim_final = view_ssim(scene, v, &r.final_images[v], &problem.targets[v], cfg.loss.sigma);
         let ssim_initial = view_ssim(scene, v, &r.initial_images[v], &problem.targets[v], cfg.loss.sigma);
         views_json.push(json!({
@@ -379,7 +386,7 @@ fn print_summary(s: &serde_json::Value, out: &Path) {
         println!("  rollbacks: {nrb} (see summary.json)");
     }
     println!(
-        "  wrote {0}/design.json, {0}/scratches.csv, {0}/*_compare.png (render | target), {0}/loss_curve.png, {0}/summary.json",
+        "  wrote {0}/design.json, {0}/scratches.csv, {0}/*_compare.png (render | target), {0}/*_target.png, {0}/loss_curve.png, {0}/summary.json",
         out.display()
     );
 }
