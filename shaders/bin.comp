@@ -57,7 +57,10 @@ void main() {
 #endif
         ScratchGPU S = scr[k];
         vec2 p0 = S.ends.xy, p1 = S.ends.zw;
-        vec2 t = normalize(p1 - p0);
+        vec2 d01 = p1 - p0;
+        float l01 = length(d01);
+        if (l01 <= 0.0) continue;  // shorter than float32 resolves here: overlaps nothing
+        vec2 t = d01 / l01;
         vec2 b = vec2(-t.y, t.x);
         float e = 0.5 * S.shape.x * carved_se(S.shape.x, S.shape.y);
         vec2 rc[4] = vec2[](p0 - e * b, p1 - e * b, p1 + e * b, p0 + e * b);

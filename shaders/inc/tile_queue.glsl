@@ -55,10 +55,12 @@ void setup_blocks(ViewGPU V, uvec2 t0, uint lid) {
 }
 
 // Thread lid < CHUNK: the culling record of scratch S.
+// A scratch shorter than float32 resolves at its position (p1 rounds onto p0) gets length 0 and
+// overlaps nothing (pixel_masks skips it): no NaN direction reaches the integrals or gradients.
 void load_cull(uint lid, ScratchGPU S) {
     vec2 d = S.ends.zw - S.ends.xy;
     float len = length(d);
-    sh_cull_a[lid] = vec4(S.ends.xy, d / len);
+    sh_cull_a[lid] = vec4(S.ends.xy, len > 0.0 ? d / len : vec2(1.0, 0.0));
     sh_cull_b[lid] = vec4(len, S.shape.x, carved_se(S.shape.x, S.shape.y), S.shape.z);
 }
 
@@ -96,6 +98,7 @@ void pixel_masks(bool live, uint myblk, vec2 fp[4], vec2 centre, float radius,
             bm &= bm - 1u;
             vec2 p0 = sh_cull_a[k].xy, t = sh_cull_a[k].zw, b = vec2(-t.y, t.x);
             float len = sh_cull_b[k].x, e = 0.5 * sh_cull_b[k].y * sh_cull_b[k].z;
+            if (len <= 0.0) continue;
             vec2 q = centre - p0;
             float u = dot(q, b), v = dot(q, t);
             if (abs(u) > e + radius || v < -radius || v > len + radius) continue;
