@@ -17,6 +17,7 @@ layout(std430, binding = 3) readonly buffer List { uint list[]; };
 layout(std430, binding = 4) writeonly buffer Image { float img[]; };  // L of every view, concatenated
 layout(std430, binding = 5) buffer Stats { uint stats[]; };            // [0] candidates tested, [1] overlapping pairs, [2] list entries
 layout(std430, binding = 6) writeonly buffer Coverage { float cov_raw[]; };  // sum_k area(F ∩ R_k) / S_P, for the backward pass
+layout(std430, binding = 7) readonly buffer Views64 { ViewGPU64 views64[]; };  // float64 cameras
 
 #include "inc/shade_push.glsl"
 
@@ -33,13 +34,14 @@ void main() {
     uint tile = gl_WorkGroupID.x + gl_WorkGroupID.y * gl_NumWorkGroups.x;
     if (tile >= pc.n_tiles) return;  // uniform across the workgroup
     uvec2 t0;
-    ViewGPU V = views[tile_view(tile, t0)];
+    uint vi = tile_view(tile, t0);
+    ViewGPU V = views[vi];
     uvec2 ij = t0 + gl_LocalInvocationID.xy;
     bool inside = ij.x < V.dims.x && ij.y < V.dims.y;
     uint lid = gl_LocalInvocationIndex;
     if (lid == 0u) sh_pairs = 0u;
 
-    PixelSetup P = pixel_setup(V, ij, pc.half_plate, pc.alpha_s, pc.f0);
+    PixelSetup P = pixel_setup(V, views64[vi], ij, pc.half_plate, pc.alpha_s, pc.f0);
     bool live = inside && P.on_plate && P.scale > 0.0;
     // The map to (s, v) = (2 (q-p0).b / w, (q-p0).t) has determinant -2/w < 0: a footprint that
     // is counter-clockwise on the plate is clockwise in (s, v), so store it reversed.

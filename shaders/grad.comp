@@ -28,6 +28,7 @@ layout(std430, binding = 3) readonly buffer List { uint list[]; };
 layout(std430, binding = 4) readonly buffer DL { float dl[]; };          // dE/dL per pixel
 layout(std430, binding = 5) readonly buffer Coverage { float cov_raw[]; };
 layout(std430, binding = 6) writeonly buffer Partials { vec4 partial[]; };  // 2 per list entry
+layout(std430, binding = 7) readonly buffer Views64 { ViewGPU64 views64[]; };  // float64 cameras
 
 #include "inc/shade_push.glsl"
 
@@ -54,12 +55,13 @@ void main() {
     uint tile = gl_WorkGroupID.x + gl_WorkGroupID.y * gl_NumWorkGroups.x;
     if (tile >= pc.n_tiles) return;
     uvec2 t0;
-    ViewGPU V = views[tile_view(tile, t0)];
+    uint vi = tile_view(tile, t0);
+    ViewGPU V = views[vi];
     uvec2 ij = t0 + gl_LocalInvocationID.xy;
     bool inside = ij.x < V.dims.x && ij.y < V.dims.y;
     uint lid = gl_LocalInvocationIndex;
 
-    PixelSetup P = pixel_setup(V, ij, pc.half_plate, pc.alpha_s, pc.f0);
+    PixelSetup P = pixel_setup(V, views64[vi], ij, pc.half_plate, pc.alpha_s, pc.f0);
     bool live = inside && P.on_plate && P.scale > 0.0;
     float gI = 0.0, gA = 0.0;
     if (live) {

@@ -42,6 +42,25 @@ fn grazing_camera_and_light_5deg() {
 }
 
 #[test]
+fn grazing_dense_three_views() {
+    // 1,000 scratches under three views and lights 5 degrees above the plate, one third of them
+    // with alpha 1e-3: slivers of sharp lobes at footprint corners are where float32 geometry
+    // would show (the ray hits are float64 on devices that have it).
+    let views = vec![
+        grazing_view("a", 48, 5.0, 0.0, 5.0, 180.0, 20.0),
+        grazing_view("b", 48, 5.0, 90.0, 5.0, 90.0, 20.0),
+        grazing_view("c", 48, 5.0, 200.0, 5.0, 20.0, 20.0),
+    ];
+    let mut scene = random_scene(31, 1000, 20.0, 0.2, 0.1, 0.05, views);
+    scene
+        .scratches
+        .iter_mut()
+        .enumerate()
+        .for_each(|(k, s)| s.alpha = [1e-3, 0.05, 0.5][k % 3]);
+    assert_matches_reference("grazing dense", &scene);
+}
+
+#[test]
 fn directional_light() {
     let views = vec![
         directional_view("a", 40, 40.0, 30.0, 50.0, 210.0, 20.0),

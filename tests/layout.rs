@@ -1,7 +1,7 @@
 //! The #[repr(C)] twins in engine/src/render/layout.rs agree with the GLSL declarations in
 //! shaders/inc/common.glsl and the kernels' push-constant blocks: a shader reads them through
 //! its own declarations and writes every field back in order.
-use scratchart::render::layout::{ScratchGpu, ShadePush, ViewGpu};
+use scratchart::render::layout::{ScratchGpu, ShadePush, ViewGpu, ViewGpu64};
 use scratchart::vulkan::{Buffer, ComputePipeline, MemLoc, Recorder, ShaderCompiler};
 use scratchart_tests::*;
 
@@ -32,6 +32,19 @@ fn rust_and_glsl_struct_layouts_agree() {
             shape: [f(), f(), f(), f()],
         })
         .collect();
+    let mut g = 0.0f64;
+    let mut d = || {
+        g += 1.0;
+        g + 1.0 / 3.0
+    };
+    let views64: Vec<ViewGpu64> = (0..2)
+        .map(|_| ViewGpu64 {
+            eye: [d(), d(), d(), d()],
+            fwd: [d(), d(), d(), d()],
+            right: [d(), d(), d(), d()],
+            up: [d(), d(), d(), d()],
+        })
+        .collect();
     let push = ShadePush {
         half_plate: f(),
         alpha_s: f(),
@@ -50,26 +63,35 @@ fn rust_and_glsl_struct_layouts_agree() {
     for s in &scr {
         expected.extend_from_slice(bytemuck::cast_slice(bytemuck::bytes_of(s)));
     }
+    for v in &views64 {
+        expected.extend_from_slice(bytemuck::cast_slice(bytemuck::bytes_of(v)));
+    }
     expected.extend_from_slice(bytemuck::cast_slice(bytemuck::bytes_of(&push)));
+    assert_eq!(std::mem::size_of::<ViewGpu64>(), 128);
     assert_eq!(std::mem::size_of::<ViewGpu>(), 112);
     assert_eq!(std::mem::size_of::<ScratchGpu>(), 32);
 
+    assert!(
+        ctx.info().float64,
+        "the layout test needs shaderFloat64 (lavapipe has it)"
+    );
     let sc = ShaderCompiler::embedded().unwrap();
     let p = ComputePipeline::new(
         &ctx,
         &sc,
         "test/layout.comp",
         &[],
-        3,
+        4,
         std::mem::size_of::<ShadePush>() as u32,
     )
     .unwrap();
     let vb = ctx.upload("layout views", &views).unwrap();
     let sb = ctx.upload("layout scratches", &scr).unwrap();
+    let vb64 = ctx.upload("layout views64", &views64).unwrap();
     let out = Buffer::new(&ctx, "layout out", expected.len() as u64 * 4, MemLoc::GpuToCpu).unwrap();
     let mut rec = Recorder::new(&ctx).unwrap();
     rec.begin().unwrap();
-    rec.dispatch(&p, &[&vb, &sb, &out], bytemuck::bytes_of(&push), [1, 1, 1]);
+    rec.dispatch(&p, &[&vb, &sb, &out, &vb64], bytemuck::bytes_of(&push), [1, 1, 1]);
     rec.submit_and_wait().unwrap();
     let got: Vec<u32> = out.read().unwrap();
     for (i, (g, e)) in got.iter().zip(&expected).enumerate() {

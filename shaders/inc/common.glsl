@@ -17,6 +17,30 @@ struct ViewGPU {
     uvec4 base;  // first tile index, first pixel index (in the concatenated image buffer), 0, 0
 };
 
+// The camera of a view in float64, for the footprint and shading-point ray hits (the float32
+// camera puts footprint corners ~1e-5 mm off, which matters for slivers under sharp lobes).
+// Devices without shaderFloat64 get SA_NO_F64 and a same-size placeholder.
+#ifndef SA_NO_F64
+struct ViewGPU64 {
+    dvec4 eye;    // xyz camera position; w = tan(fov_y / 2)
+    dvec4 fwd;    // xyz forward; w = aspect W / H
+    dvec4 right;  // xyz right
+    dvec4 up;     // xyz up'
+};
+
+// Plate-plane hit of the ray through image point sp, in float64 (see ray_hit).
+vec2 ray_hit64(ViewGPU64 v, uvec2 dims, dvec2 sp, out bool ok) {
+    double kx = (2.0LF * sp.x / double(dims.x) - 1.0LF) * v.eye.w * v.fwd.w;
+    double ky = (1.0LF - 2.0LF * sp.y / double(dims.y)) * v.eye.w;
+    dvec3 d = v.fwd.xyz + kx * v.right.xyz + ky * v.up.xyz;
+    ok = d.z < 0.0LF && v.eye.z > 0.0LF || d.z > 0.0LF && v.eye.z < 0.0LF;
+    double s = -v.eye.z / (d.z != 0.0LF ? d.z : 1.0LF);
+    return vec2(v.eye.xy + s * d.xy);
+}
+#else
+struct ViewGPU64 { uvec4 pad[8]; };
+#endif
+
 // One scratch as the user gives it (MODEL.md section 2).
 struct ScratchGPU {
     vec4 ends;   // p0.x, p0.y, p1.x, p1.y (mm)

@@ -16,19 +16,29 @@ struct PixelSetup {
     float e_irr;       // E / Phi (so dL/dPhi = L / Phi)
 };
 
-PixelSetup pixel_setup(ViewGPU V, uvec2 ij, float half_plate, float alpha_s, float f0) {
+PixelSetup pixel_setup(ViewGPU V, ViewGPU64 V64, uvec2 ij, float half_plate, float alpha_s, float f0) {
     PixelSetup P;
     P.on_plate = false;
     P.ccw = true;
     P.scale = 0.0; P.d_flat = 0.0; P.inv_sp = 0.0; P.radius = 0.0; P.e_irr = 0.0;
     P.h = vec3(0.0, 0.0, 1.0); P.centre = vec2(0.0);
     bool ok0, ok1, ok2, ok3, okc;
+#ifndef SA_NO_F64
+    dvec2 f = dvec2(ij);
+    uvec2 dims = V.dims.xy;
+    P.fp[0] = ray_hit64(V64, dims, f, ok0);
+    P.fp[1] = ray_hit64(V64, dims, f + dvec2(1.0LF, 0.0LF), ok1);
+    P.fp[2] = ray_hit64(V64, dims, f + dvec2(1.0LF, 1.0LF), ok2);
+    P.fp[3] = ray_hit64(V64, dims, f + dvec2(0.0LF, 1.0LF), ok3);
+    vec2 X = ray_hit64(V64, dims, f + dvec2(0.5LF), okc);
+#else
     vec2 f = vec2(ij);
     P.fp[0] = ray_hit(V, f, ok0);
     P.fp[1] = ray_hit(V, f + vec2(1.0, 0.0), ok1);
     P.fp[2] = ray_hit(V, f + vec2(1.0, 1.0), ok2);
     P.fp[3] = ray_hit(V, f + vec2(0.0, 1.0), ok3);
     vec2 X = ray_hit(V, f + vec2(0.5), okc);
+#endif
     if (!(ok0 && ok1 && ok2 && ok3 && okc)) return P;
     if (abs(X.x) > half_plate || abs(X.y) > half_plate) return P;
     P.on_plate = true;

@@ -29,6 +29,7 @@ impl Renderer {
                 &gs.dl,
                 &gs.cov_raw,
                 &gs.partials,
+                &gs.views64,
             ],
             bytemuck::bytes_of(&gs.shade),
             gs.slots.n_tiles,

@@ -28,6 +28,21 @@ pub struct ViewGpu {
     pub base: [u32; 4],
 }
 
+/// The camera of a view in float64 (`ViewGPU64`): footprint corners and shading points are ray
+/// hits computed in float64 on devices with shaderFloat64.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
+pub struct ViewGpu64 {
+    /// xyz eye; w = tan(fov_y / 2)
+    pub eye: [f64; 4],
+    /// xyz forward; w = aspect W / H
+    pub fwd: [f64; 4],
+    /// xyz right
+    pub right: [f64; 4],
+    /// xyz up'
+    pub up: [f64; 4],
+}
+
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
 pub struct ScratchGpu {
@@ -85,6 +100,7 @@ pub struct ShadePush {
 #[derive(Clone, Debug)]
 pub struct ViewSlots {
     pub views: Vec<ViewGpu>,
+    pub views64: Vec<ViewGpu64>,
     pub n_tiles: u32,
     pub n_pixels: u64,
 }
@@ -114,8 +130,23 @@ pub fn view_gpu(view: &View, tile_base: u32, pixel_base: u32) -> ViewGpu {
     }
 }
 
+pub fn view_gpu64(view: &View) -> ViewGpu64 {
+    let cam = &view.camera;
+    let fwd = (DVec3::from(cam.target) - DVec3::from(cam.eye)).normalize();
+    let right = fwd.cross(DVec3::from(cam.up)).normalize();
+    let up = right.cross(fwd);
+    let c = |v: DVec3, w: f64| [v.x, v.y, v.z, w];
+    ViewGpu64 {
+        eye: c(DVec3::from(cam.eye), (cam.fov_y_deg.to_radians() * 0.5).tan()),
+        fwd: c(fwd, cam.width as f64 / cam.height as f64),
+        right: c(right, 0.0),
+        up: c(up, 0.0),
+    }
+}
+
 pub fn view_slots(scene: &Scene) -> ViewSlots {
     let mut views = Vec::with_capacity(scene.views.len());
+    let views64 = scene.views.iter().map(view_gpu64).collect();
     let (mut tiles, mut pixels) = (0u32, 0u64);
     for v in &scene.views {
         let gv = view_gpu(v, tiles, pixels as u32);
@@ -125,6 +156,7 @@ pub fn view_slots(scene: &Scene) -> ViewSlots {
     }
     ViewSlots {
         views,
+        views64,
         n_tiles: tiles,
         n_pixels: pixels,
     }

@@ -37,6 +37,8 @@ pub struct GpuScene {
     pub n_groups: u32,
     pub shade: ShadePush,
     pub views: Buffer,
+    /// the same cameras in float64 (`ViewGPU64`)
+    pub views64: Buffer,
     pub scratches: Buffer,
     /// per (tile, group) counts, scanned in place into list offsets; n_tiles * n_groups + 1 entries
     pub hist: Buffer,
@@ -90,6 +92,12 @@ impl Renderer {
         let bin_push = std::mem::size_of::<BinPush>() as u32;
         let scan_push = std::mem::size_of::<ScanPush>() as u32;
         let shade_push = std::mem::size_of::<ShadePush>() as u32;
+        // Ray hits in float64 where the device has it (see ViewGPU64 in shaders/inc/common.glsl).
+        let f64_def: Vec<(&str, &str)> = if ctx.info().float64 {
+            vec![]
+        } else {
+            vec![("SA_NO_F64", "1")]
+        };
         Ok(Renderer {
             ctx: ctx.clone(),
             bin_count: ComputePipeline::new(ctx, &sc, "bin.comp", &[("COUNT", "1")], 6, bin_push)?,
@@ -97,7 +105,7 @@ impl Renderer {
             scan_reduce: ComputePipeline::new(ctx, &sc, "scan.comp", &[("REDUCE", "1")], 2, scan_push)?,
             scan_sums: ComputePipeline::new(ctx, &sc, "scan.comp", &[("SUMS", "1")], 2, scan_push)?,
             scan_apply: ComputePipeline::new(ctx, &sc, "scan.comp", &[("APPLY", "1")], 2, scan_push)?,
-            forward: ComputePipeline::new(ctx, &sc, "forward.comp", &[], 7, shade_push)?,
+            forward: ComputePipeline::new(ctx, &sc, "forward.comp", &f64_def, 8, shade_push)?,
             // grad.comp needs ~30 KiB of shared memory with a 256-entry queue, ~39 KiB with 512.
             grad: {
                 let qcap = if ctx.info().max_shared_memory >= 48 * 1024 {
@@ -105,7 +113,9 @@ impl Renderer {
                 } else {
                     "256"
                 };
-                ComputePipeline::new(ctx, &sc, "grad.comp", &[("GRAD_QCAP", qcap)], 7, shade_push)?
+                let mut defs = vec![("GRAD_QCAP", qcap)];
+                defs.extend_from_slice(&f64_def);
+                ComputePipeline::new(ctx, &sc, "grad.comp", &defs, 8, shade_push)?
             },
             grad_reduce: ComputePipeline::new(ctx, &sc, "grad_reduce.comp", &[], 4, scan_push)?,
             grad_light: ComputePipeline::new(ctx, &sc, "grad_light.comp", &[], 4, 0)?,
@@ -147,6 +157,16 @@ impl Renderer {
                     MemLoc::CpuToGpu,
                 )?;
                 b.write(0, &slots.views)?;
+                b
+            },
+            views64: {
+                let b = Buffer::new(
+                    ctx,
+                    "views (float64 cameras)",
+                    std::mem::size_of_val(slots.views64.as_slice()) as u64,
+                    MemLoc::CpuToGpu,
+                )?;
+                b.write(0, &slots.views64)?;
                 b
             },
             scratches: ctx.upload("scratches", &scr)?,
@@ -200,8 +220,11 @@ impl Renderer {
             }
             new.push(layout::view_gpu(v, old.base[0], old.base[1]));
         }
+        let new64: Vec<_> = views.iter().map(layout::view_gpu64).collect();
         gs.views.write(0, &new)?;
+        gs.views64.write(0, &new64)?;
         gs.slots.views = new;
+        gs.slots.views64 = new64;
         Ok(true)
     }
 
@@ -261,6 +284,7 @@ impl Renderer {
                 &gs.image,
                 &gs.stats,
                 &gs.cov_raw,
+                &gs.views64,
             ],
             bytemuck::bytes_of(&gs.shade),
             gs.slots.n_tiles,
