@@ -10,12 +10,12 @@ use crate::vulkan::{Context, GpuError, Recorder};
 /// by the footprint's bounding circle: 2 subtractions, 2 dot products (4 mul + 2 add),
 /// 4 compares/adds.
 pub const FLOPS_PER_CANDIDATE: f64 = 12.0;
-/// Floating-point operations per overlapping pair, counted on the common path (a footprint edge
-/// pair crossing the carved strip: 4 clip passes over <= 8 vertices, 2 non-vertical edges, each
-/// with the closed-form lobe part and the 5-point Gauss part): local coordinates 24, pair
-/// constants 45, clipping 4 x 8 x 8 = 256, shoelace 40, per edge 2 x (setup 12 + closed form 70 +
-/// 3 transcendental (atan, log, sqrt) counted as 1 each + Gauss 5 x 16) = 330. Sum 695; rounded to 700.
-pub const FLOPS_PER_PAIR: f64 = 700.0;
+/// Floating-point operations per overlapping pair, counted on the common (fast) path of
+/// `forward.comp` + `inc/patch_ndf.glsl`, where the carved strip crosses the footprint: local
+/// coordinates of the 4 corners 36, pair constants 40, the chord at s = ±s_e 45, one closed-form
+/// edge integral with its 5-point Gauss part 155 (atan, log and sqrt counted as 1 each),
+/// accumulation 3. Sum 279, rounded to 300; pairs on the general path cost more.
+pub const FLOPS_PER_PAIR: f64 = 300.0;
 
 /// One benchmark row.
 #[derive(Clone, Debug)]
