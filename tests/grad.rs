@@ -41,6 +41,21 @@ fn targets(scene: &Scene) -> Vec<Vec<f64>> {
     (0..t.views.len()).map(|v| render_view(&t, v)).collect()
 }
 
+/// Central difference of `e` with respect to parameter `p` (row order x0, y0, x1, y1, w, d,
+/// alpha) of scratch `k`: steps of 1e-5 mm for endpoints, 1e-5 relative otherwise.
+fn central_difference(scene: &Scene, k: usize, p: usize, e: &dyn Fn(&Scene) -> f64) -> f64 {
+    let base = scene.scratches[k].to_row()[p];
+    let h = if p < 4 { 1e-5 } else { 1e-5 * base };
+    let at = |delta: f64| {
+        let mut s = scene.clone();
+        let mut row = s.scratches[k].to_row();
+        row[p] += delta;
+        s.scratches[k] = scratchart::model::scene::Scratch::from_row(row);
+        e(&s)
+    };
+    (at(h) - at(-h)) / (2.0 * h)
+}
+
 fn check_gradients(label: &str, scene: &Scene) {
     scene.validate().expect("valid test scene");
     let ctx = gpu();
@@ -57,17 +72,7 @@ fn check_gradients(label: &str, scene: &Scene) {
     let mut ref_kind: [Vec<f64>; 4] = Default::default();
     for k in 0..scene.scratches.len() {
         for p in 0..7 {
-            let base = scene.scratches[k].to_row()[p];
-            let h = if p < 4 { 1e-5 } else { 1e-5 * base };
-            let mut plus = scene.clone();
-            let mut minus = scene.clone();
-            let mut rp = plus.scratches[k].to_row();
-            rp[p] += h;
-            plus.scratches[k] = scratchart::model::scene::Scratch::from_row(rp);
-            let mut rm = minus.scratches[k].to_row();
-            rm[p] -= h;
-            minus.scratches[k] = scratchart::model::scene::Scratch::from_row(rm);
-            let fd = (e(&plus) - e(&minus)) / (2.0 * h);
+            let fd = central_difference(scene, k, p, &e);
             let kind = match p {
                 0..=3 => 0,
                 4 => 1,
@@ -250,21 +255,8 @@ fn grad_command_matches_reference() {
     let (mut g, mut r) = (Vec::new(), Vec::new());
     for k in 0..scene.scratches.len() {
         for p in 0..7 {
-            let h = if p < 4 {
-                1e-5
-            } else {
-                1e-5 * scene.scratches[k].to_row()[p]
-            };
-            let mut plus = scene.clone();
-            let mut minus = scene.clone();
-            let mut rp = plus.scratches[k].to_row();
-            rp[p] += h;
-            plus.scratches[k] = scratchart::model::scene::Scratch::from_row(rp);
-            let mut rm = minus.scratches[k].to_row();
-            rm[p] -= h;
-            minus.scratches[k] = scratchart::model::scene::Scratch::from_row(rm);
             g.push(rows[k][p]);
-            r.push((check_loss(&plus, &t32) - check_loss(&minus, &t32)) / (2.0 * h));
+            r.push(central_difference(&scene, k, p, &|s: &Scene| check_loss(s, &t32)));
         }
     }
     let err = rel(&g, &r);

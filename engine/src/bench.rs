@@ -34,7 +34,11 @@ pub struct ForwardRow {
     pub backward_ms: f64,
 }
 
-fn median(mut v: Vec<f64>) -> f64 {
+/// Median of benchmark samples (NaN for none).
+pub fn median(mut v: Vec<f64>) -> f64 {
+    if v.is_empty() {
+        return f64::NAN;
+    }
     v.sort_by(|a, b| a.total_cmp(b));
     let n = v.len();
     if n % 2 == 1 {

@@ -183,16 +183,7 @@ pub fn stage_medians(frames: &[scratchart::vulkan::Timings]) -> Vec<(String, f64
 }
 
 pub fn median(v: &mut [f64]) -> f64 {
-    if v.is_empty() {
-        return f64::NAN;
-    }
-    v.sort_by(|a, b| a.total_cmp(b));
-    let n = v.len();
-    if n % 2 == 1 {
-        v[n / 2]
-    } else {
-        0.5 * (v[n / 2 - 1] + v[n / 2])
-    }
+    scratchart::bench::median(v.to_vec())
 }
 
 pub fn print_table(title: &str, device: &str, rows: &[BenchRow]) {
