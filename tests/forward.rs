@@ -61,6 +61,24 @@ fn grazing_dense_three_views() {
 }
 
 #[test]
+fn horizon_in_view() {
+    // A low camera with a wide field of view: the top of the image is sky (rays that never meet
+    // the plate plane), the bottom is plate, and tiles and blocks straddle the horizon.
+    let mut view = orbit_view("a", 64, 12.0, 30.0, 40.0, 210.0, 20.0);
+    view.camera.fov_y_deg = 30.0;
+    let scene = random_scene(17, 400, 20.0, 0.2, 0.15, 0.05, vec![view]);
+    let g = scratchart::model::camera::ViewGeom::new(&scene.views[0]);
+    assert!(g.hit(32.0, 0.0).is_none(), "the test view must see the sky");
+    assert!(g.hit(32.0, 40.0).is_some(), "the test view must see the plate");
+    let on = scratchart::model::reference::on_plate_mask(&scene, 0)
+        .iter()
+        .filter(|m| **m)
+        .count();
+    assert!(on > 150, "only {on} pixels on the plate");
+    assert_matches_reference("horizon", &scene);
+}
+
+#[test]
 fn directional_light() {
     let views = vec![
         directional_view("a", 40, 40.0, 30.0, 50.0, 210.0, 20.0),
