@@ -56,6 +56,7 @@ pub fn run_forward(
     repeats: usize,
 ) -> Result<Vec<ForwardRow>, GpuError> {
     let renderer = Renderer::new(ctx)?;
+    renderer.prepare_backward()?;
     let mut rows = Vec::new();
     for (name, scene) in scenes {
         let mut gs = renderer.upload(scene)?;

@@ -218,6 +218,7 @@ impl<'r> Optimizer<'r> {
     /// Uploads the problem and builds the loss and Adam state (moments zero).
     pub fn new(renderer: &'r Renderer, problem: &Problem, cfg: &DesignConfig) -> Result<Optimizer<'r>, GpuError> {
         let ctx = renderer.ctx.clone();
+        renderer.prepare_backward()?;
         let gs = renderer.upload(&problem.scene)?;
         let loss = Loss::new(&ctx, &gs.slots.views, &problem.targets, cfg.loss)?;
         let adam = Adam::new(&ctx)?;

@@ -18,9 +18,14 @@ pub struct Gradients {
 impl Renderer {
     /// Records the backward pass for the forward pass just recorded on `gs` (same tile lists):
     /// reads `gs.dl`, `gs.image`, `gs.cov_raw`; writes `gs.grad` and `gs.grad_light`.
+    /// Needs `prepare_backward` first (a contract: it panics otherwise).
     pub fn record_backward(&self, rec: &mut Recorder, gs: &GpuScene) {
+        let grad = self
+            .grad
+            .get()
+            .expect("Renderer::prepare_backward() must be called before record_backward");
         rec.dispatch_1d(
-            &self.grad,
+            grad,
             &[
                 &gs.views,
                 &gs.scratches,
@@ -64,6 +69,7 @@ impl Renderer {
             gs.slots.n_pixels,
             "dE/dL needs one value per pixel of every view"
         );
+        self.prepare_backward()?;
         let mut rec = Recorder::new(&self.ctx)?;
         // The forward pass sizes the tile lists; then one submission runs it again with the backward.
         self.run(&mut rec, gs)?;

@@ -25,7 +25,9 @@ pub struct Renderer {
     scan_sums: ComputePipeline,
     scan_apply: ComputePipeline,
     forward: ComputePipeline,
-    grad: ComputePipeline,
+    /// The backward kernel, compiled on first use (`prepare_backward`): it is the largest
+    /// pipeline, and rendering or viewing never needs it.
+    grad: std::sync::OnceLock<ComputePipeline>,
     grad_reduce: ComputePipeline,
     grad_light: ComputePipeline,
 }
@@ -106,20 +108,33 @@ impl Renderer {
             scan_sums: ComputePipeline::new(ctx, &sc, "scan.comp", &[("SUMS", "1")], 2, scan_push)?,
             scan_apply: ComputePipeline::new(ctx, &sc, "scan.comp", &[("APPLY", "1")], 2, scan_push)?,
             forward: ComputePipeline::new(ctx, &sc, "forward.comp", &f64_def, 8, shade_push)?,
-            // grad.comp needs ~30 KiB of shared memory with a 256-entry queue, ~39 KiB with 512.
-            grad: {
-                let qcap = if ctx.info().max_shared_memory >= 48 * 1024 {
-                    "512"
-                } else {
-                    "256"
-                };
-                let mut defs = vec![("GRAD_QCAP", qcap)];
-                defs.extend_from_slice(&f64_def);
-                ComputePipeline::new(ctx, &sc, "grad.comp", &defs, 8, shade_push)?
-            },
+            grad: std::sync::OnceLock::new(),
             grad_reduce: ComputePipeline::new(ctx, &sc, "grad_reduce.comp", &[], 4, scan_push)?,
             grad_light: ComputePipeline::new(ctx, &sc, "grad_light.comp", &[], 4, 0)?,
         })
+    }
+
+    /// Compiles the backward kernel if it is not compiled yet. Call before `record_backward`
+    /// (`gradients` and the design job do).
+    pub fn prepare_backward(&self) -> Result<(), GpuError> {
+        if self.grad.get().is_some() {
+            return Ok(());
+        }
+        let ctx = &self.ctx;
+        // grad.comp needs ~30 KiB of shared memory with a 256-entry queue, ~39 KiB with 512.
+        let qcap = if ctx.info().max_shared_memory >= 48 * 1024 {
+            "512"
+        } else {
+            "256"
+        };
+        let mut defs = vec![("GRAD_QCAP", qcap)];
+        if !ctx.info().float64 {
+            defs.push(("SA_NO_F64", "1"));
+        }
+        let shade_push = std::mem::size_of::<ShadePush>() as u32;
+        let p = ComputePipeline::new(ctx, &ShaderCompiler::embedded()?, "grad.comp", &defs, 8, shade_push)?;
+        let _ = self.grad.set(p);
+        Ok(())
     }
 
     /// Uploads a (validated) scene. Fails with a clear error when a buffer would exceed the
