@@ -116,3 +116,20 @@ fn cli_bad_scene_exit_codes() {
     let out = Command::new(&bin).args(["render", "--no-such-flag"]).output().unwrap();
     assert_eq!(out.status.code(), Some(2));
 }
+
+#[test]
+fn cli_devices_lists_the_default() {
+    let out = Command::new(scratchart_bin()).arg("devices").output().unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let text = String::from_utf8_lossy(&out.stdout);
+    let defaults: Vec<&str> = text.lines().filter(|l| l.starts_with('*')).collect();
+    assert_eq!(defaults.len(), 1, "exactly one default device expected:\n{text}");
+    // The default is the device a context picks with no selector.
+    let ctx = gpu();
+    assert!(
+        defaults[0].contains(&ctx.info().name),
+        "{} vs {}",
+        defaults[0],
+        ctx.info().name
+    );
+}

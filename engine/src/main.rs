@@ -61,6 +61,8 @@ enum Cmd {
         #[arg(long, default_value = "grads.csv")]
         out: PathBuf,
     },
+    /// List the Vulkan devices (the index and name are what --device takes; * marks the default).
+    Devices,
     /// Benchmark the GPU pipeline on the standard scenes (S, M, P) or on a scene file.
     Bench {
         /// Standard scenes to run: S (4,000 scratches, 2x128^2), M (40,000, 3x256^2), P (40,000, 3x512^2)
@@ -154,6 +156,28 @@ fn run(cli: Cli) -> Result<()> {
             let ctx = context(&cli)?;
             render_to_dir(&ctx, &scene, out)?;
             check_validation(&ctx)
+        }
+        Cmd::Devices => {
+            let devices = scratchart::vulkan::list_devices()?;
+            if devices.is_empty() {
+                anyhow::bail!("no Vulkan device found (on Debian, `bash .ci/setup` installs Mesa's lavapipe)");
+            }
+            for d in devices {
+                println!(
+                    "{} {}: {} ({}, Vulkan {}){}",
+                    if d.default { "*" } else { " " },
+                    d.index,
+                    d.name,
+                    d.kind,
+                    d.api_version,
+                    if d.usable {
+                        ""
+                    } else {
+                        " [unusable: needs a compute queue and Vulkan 1.1]"
+                    }
+                );
+            }
+            Ok(())
         }
         Cmd::Grad { scene, targets, out } => {
             let scene = Scene::load(scene)?;

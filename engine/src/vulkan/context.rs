@@ -129,6 +129,70 @@ fn kind_name(t: vk::PhysicalDeviceType) -> &'static str {
     }
 }
 
+/// One Vulkan device as `list_devices` reports it.
+#[derive(Clone, Debug)]
+pub struct DeviceSummary {
+    /// Index for `--device` / `SCRATCHART_DEVICE`.
+    pub index: usize,
+    pub name: String,
+    pub kind: &'static str,
+    pub api_version: String,
+    /// Whether the default choice (discrete, integrated, virtual, CPU) picks it.
+    pub default: bool,
+    /// Usable: a compute queue and Vulkan 1.1.
+    pub usable: bool,
+}
+
+/// Every Vulkan device, in the order `--device INDEX` counts them, with the default marked.
+/// Creates and destroys a bare instance (no validation layer, no surface extensions).
+pub fn list_devices() -> Result<Vec<DeviceSummary>, GpuError> {
+    let entry = unsafe { ash::Entry::load() }.map_err(|e| GpuError::Loading(e.to_string()))?;
+    let app = vk::ApplicationInfo::default().api_version(vk::API_VERSION_1_2);
+    let ci = vk::InstanceCreateInfo::default().application_info(&app);
+    let instance = unsafe { entry.create_instance(&ci, None) }.map_err(vk_err("vkCreateInstance"))?;
+    let pds = unsafe { instance.enumerate_physical_devices() };
+    let mut out = Vec::new();
+    if let Ok(pds) = &pds {
+        for (index, &pd) in pds.iter().enumerate() {
+            let props = unsafe { instance.get_physical_device_properties(pd) };
+            let name = props
+                .device_name_as_c_str()
+                .map(|c| c.to_string_lossy().into_owned())
+                .unwrap_or_else(|_| "?".into());
+            let families = unsafe { instance.get_physical_device_queue_family_properties(pd) };
+            let compute = families.iter().any(|f| f.queue_flags.contains(vk::QueueFlags::COMPUTE));
+            let v = props.api_version;
+            out.push((
+                DeviceSummary {
+                    index,
+                    name,
+                    kind: kind_name(props.device_type),
+                    api_version: format!(
+                        "{}.{}.{}",
+                        vk::api_version_major(v),
+                        vk::api_version_minor(v),
+                        vk::api_version_patch(v)
+                    ),
+                    default: false,
+                    usable: compute && v >= vk::API_VERSION_1_1,
+                },
+                kind_rank(props.device_type),
+            ));
+        }
+    }
+    unsafe { instance.destroy_instance(None) };
+    pds.map_err(vk_err("vkEnumeratePhysicalDevices"))?;
+    if let Some(best) = out
+        .iter()
+        .filter(|(d, _)| d.usable)
+        .min_by_key(|(_, r)| *r)
+        .map(|(d, _)| d.index)
+    {
+        out[best].0.default = true;
+    }
+    Ok(out.into_iter().map(|(d, _)| d).collect())
+}
+
 fn kind_rank(t: vk::PhysicalDeviceType) -> u32 {
     match t {
         vk::PhysicalDeviceType::DISCRETE_GPU => 0,

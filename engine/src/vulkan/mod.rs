@@ -19,7 +19,7 @@ pub mod recorder;
 pub mod shader;
 
 pub use buffer::{Buffer, MemLoc};
-pub use context::{Context, ContextDesc, DeviceInfo, ValidationLog};
+pub use context::{list_devices, Context, ContextDesc, DeviceInfo, DeviceSummary, ValidationLog};
 pub use error::GpuError;
 pub use pipeline::ComputePipeline;
 pub use recorder::{Recorder, Timings};
