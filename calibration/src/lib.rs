@@ -1,1 +1,1 @@
-
+//! Carving-tool calibration and machine driver (not built yet; see calibration/README.md).
