@@ -78,12 +78,7 @@ pub fn run_forward(
             renderer.record_backward(&mut rec, &gs);
             rec.timestamp("backward");
             let t = rec.submit_and_wait()?;
-            let st: Vec<u32> = gs.stats.read()?;
-            last = crate::render::RenderStats {
-                candidates: st[0] as u64,
-                pairs: st[1] as u64,
-                entries: st[2] as u64,
-            };
+            last = gs.read_stats()?;
             if i >= warmup {
                 bins.push(t.get("bin").unwrap_or(f64::NAN));
                 shades.push(t.get("shade").unwrap_or(f64::NAN));

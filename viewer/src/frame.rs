@@ -339,12 +339,7 @@ impl FrameRenderer {
                 _ => {}
             }
             let timings = rec.submit_and_wait()?;
-            let st: Vec<u32> = gs.stats.read()?;
-            let stats = RenderStats {
-                candidates: st[0] as u64,
-                pairs: st[1] as u64,
-                entries: st[2] as u64,
-            };
+            let stats = gs.read_stats()?;
             if stats.entries > gs.capacity as u64 {
                 // The tile lists overflowed (a view that sees more scratches per tile than the
                 // first guess): grow them and draw the frame again.

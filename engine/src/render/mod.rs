@@ -70,6 +70,18 @@ pub struct GpuScene {
     pub stats: Buffer,
 }
 
+impl GpuScene {
+    /// The counters of the last render (`stats` is host-visible: a small read, no copy).
+    pub fn read_stats(&self) -> Result<RenderStats, GpuError> {
+        let st: Vec<u32> = self.stats.read()?;
+        Ok(RenderStats {
+            candidates: st[0] as u64,
+            pairs: st[1] as u64,
+            entries: st[2] as u64,
+        })
+    }
+}
+
 /// Counters of one render.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct RenderStats {
@@ -319,12 +331,7 @@ impl Renderer {
             self.record_shading(rec, gs);
             rec.timestamp("shade");
             let timings = rec.submit_and_wait()?;
-            let st: Vec<u32> = gs.stats.read()?;
-            let stats = RenderStats {
-                candidates: st[0] as u64,
-                pairs: st[1] as u64,
-                entries: st[2] as u64,
-            };
+            let stats = gs.read_stats()?;
             if stats.entries <= gs.capacity as u64 {
                 return Ok((stats, timings));
             }
