@@ -101,6 +101,12 @@ pub fn run_forward(
     Ok(rows)
 }
 
+/// The benchmark target of pixel i whose value is l: the render itself, brightened or dimmed by
+/// 10% in a fixed pattern, so every pixel has a residual and a gradient.
+fn perturbed(i: usize, l: f32) -> f32 {
+    l * if (i / 7) % 2 == 0 { 1.1 } else { 0.9 }
+}
+
 /// dE_lin/dL (up to the per-view normalization) for a target that is the render itself,
 /// brightened or dimmed by 10% in a fixed checker pattern: every pixel gets a gradient.
 pub fn perturbed_target_dl(images: &[Vec<f32>]) -> Vec<f32> {
@@ -108,10 +114,9 @@ pub fn perturbed_target_dl(images: &[Vec<f32>]) -> Vec<f32> {
         .iter()
         .flat_map(|img| {
             let n = img.len().max(1) as f32;
-            img.iter().enumerate().map(move |(i, &l)| {
-                let t = l * if (i / 7) % 2 == 0 { 1.1 } else { 0.9 };
-                2.0 * (l - t) / n
-            })
+            img.iter()
+                .enumerate()
+                .map(move |(i, &l)| 2.0 * (l - perturbed(i, l)) / n)
         })
         .collect()
 }
@@ -181,18 +186,13 @@ pub fn bench_targets(
             let mut gs = r.upload(scene)?;
             let imgs = r.render(&mut gs)?.images;
             imgs.into_iter()
-                .map(|img| {
-                    img.iter()
-                        .enumerate()
-                        .map(|(i, &l)| l * if (i / 7) % 2 == 0 { 1.1 } else { 0.9 })
-                        .collect()
-                })
+                .map(|img| img.iter().enumerate().map(|(i, &l)| perturbed(i, l)).collect())
                 .collect()
         }
     };
     Ok(lin
         .into_iter()
-        .map(|img| img.into_iter().map(|l| l.max(0.0).powf(1.0 / 2.2).min(1.0)).collect())
+        .map(|img| img.into_iter().map(|l| crate::io::display_value(l).min(1.0)).collect())
         .collect())
 }
 

@@ -221,6 +221,18 @@ pub fn decode_pfm(bytes: &[u8]) -> Result<(u32, u32, Vec<f32>), String> {
 
 /// Display value of a linear pixel: round(255 min(1, L^(1/2.2))) (MODEL.md section 5).
 /// Negative and NaN inputs give 0.
+/// Display value of MODEL.md section 5, I = L^(1/2.2), unclamped (0 for L <= 0; NaN stays NaN
+/// so that a bad render shows up downstream).
+pub fn display_value(l: f32) -> f32 {
+    if l > 0.0 {
+        l.powf(1.0 / 2.2)
+    } else if l.is_nan() {
+        l
+    } else {
+        0.0
+    }
+}
+
 pub fn display_byte(l: f32) -> u8 {
     if l.is_nan() || l <= 0.0 {
         return 0;

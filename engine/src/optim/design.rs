@@ -293,11 +293,7 @@ impl<'r> Optimizer<'r> {
         let disp = frame
             .images
             .iter()
-            .map(|img| {
-                img.iter()
-                    .map(|&l| if l > 0.0 { l.powf(1.0 / 2.2) } else { 0.0 })
-                    .collect()
-            })
+            .map(|img| img.iter().map(|&l| crate::io::display_value(l)).collect())
             .collect();
         Ok((disp, frame.images))
     }
@@ -770,11 +766,7 @@ pub fn run_design(ctx: &Arc<Context>, problem: &Problem, cfg: &DesignConfig) -> 
     let final_images: Vec<Vec<f32>> = frame
         .images
         .iter()
-        .map(|img| {
-            img.iter()
-                .map(|&l| if l > 0.0 { l.powf(1.0 / 2.2) } else { 0.0 })
-                .collect()
-        })
+        .map(|img| img.iter().map(|&l| crate::io::display_value(l)).collect())
         .collect();
     let report = DesignReport {
         scene,

@@ -64,35 +64,31 @@ impl Renderer {
     /// `gs.image`), with results downloaded. For checks and the `grad` command; the optimizer
     /// keeps everything on the device.
     pub fn gradients(&self, gs: &mut GpuScene, dl: &[f32]) -> Result<(Vec<Vec<f32>>, Gradients), GpuError> {
+        let images = self.render(gs)?.images;
+        Ok((images, self.backward_and_download(gs, dl)?))
+    }
+
+    /// The backward pass alone, over the forward pass last run on `gs` (its tile lists, image and
+    /// coverage are still on the device), for dE/dL `dl`; gradients downloaded.
+    fn backward_and_download(&self, gs: &mut GpuScene, dl: &[f32]) -> Result<Gradients, GpuError> {
         assert_eq!(
             dl.len() as u64,
             gs.slots.n_pixels,
             "dE/dL needs one value per pixel of every view"
         );
         self.prepare_backward()?;
-        let mut rec = Recorder::new(&self.ctx)?;
-        // The forward pass sizes the tile lists; then one submission runs it again with the backward.
-        self.run(&mut rec, gs)?;
         gs.dl = self.ctx.upload("dE/dL", dl)?;
+        let mut rec = Recorder::new(&self.ctx)?;
         rec.begin()?;
-        self.record_binning(&mut rec, gs);
-        self.record_shading(&mut rec, gs);
         self.record_backward(&mut rec, gs);
         rec.submit_and_wait()?;
-        let image: Vec<f32> = self.ctx.download(&gs.image)?;
-        let images = gs
-            .slots
-            .views
-            .iter()
-            .map(|v| image[v.base[1] as usize..(v.base[1] + v.dims[0] * v.dims[1]) as usize].to_vec())
-            .collect();
         let g: Vec<[f32; 8]> = self.ctx.download(&gs.grad)?;
         let scratches = g[..gs.n_scratches as usize]
             .iter()
             .map(|r| [r[0], r[1], r[2], r[3], r[4], r[5], r[6]])
             .collect();
         let lights = self.ctx.download(&gs.grad_light)?;
-        Ok((images, Gradients { scratches, lights }))
+        Ok(Gradients { scratches, lights })
     }
 }
 
@@ -139,7 +135,7 @@ impl Renderer {
             }
             e_lin += sum / n;
         }
-        let (_, grads) = self.gradients(gs, &dl)?;
+        let grads = self.backward_and_download(gs, &dl)?;
         Ok(CheckLoss { e_lin, grads })
     }
 }
