@@ -18,6 +18,7 @@ layout(std430, binding = 4) writeonly buffer Image { float img[]; };  // L of ev
 layout(std430, binding = 5) buffer Stats { uint stats[]; };            // [0] candidates tested, [1] overlapping pairs, [2] list entries
 layout(std430, binding = 6) writeonly buffer Coverage { float cov_raw[]; };  // sum_k area(F ∩ R_k) / S_P, for the backward pass
 layout(std430, binding = 7) readonly buffer Views64 { ViewGPU64 views64[]; };  // float64 cameras
+layout(std430, binding = 8) readonly buffer Lights { float intensity[]; };     // Phi per view
 
 #include "inc/shade_push.glsl"
 
@@ -41,7 +42,7 @@ void main() {
     uint lid = gl_LocalInvocationIndex;
     if (lid == 0u) sh_pairs = 0u;
 
-    PixelSetup P = pixel_setup(V, views64[vi], ij, pc.half_plate, pc.alpha_s, pc.f0);
+    PixelSetup P = pixel_setup(V, views64[vi], intensity[vi], ij, pc.half_plate, pc.alpha_s, pc.f0);
     bool live = inside && P.on_plate && P.scale > 0.0;
     // The map to (s, v) = (2 (q-p0).b / w, (q-p0).t) has determinant -2/w < 0: a footprint that
     // is counter-clockwise on the plate is clockwise in (s, v), so store it reversed.

@@ -29,6 +29,7 @@ layout(std430, binding = 4) readonly buffer DL { float dl[]; };          // dE/d
 layout(std430, binding = 5) readonly buffer Coverage { float cov_raw[]; };
 layout(std430, binding = 6) writeonly buffer Partials { vec4 partial[]; };  // 2 per list entry
 layout(std430, binding = 7) readonly buffer Views64 { ViewGPU64 views64[]; };  // float64 cameras
+layout(std430, binding = 8) readonly buffer Lights { float intensity[]; };     // Phi per view
 
 #include "inc/shade_push.glsl"
 
@@ -61,7 +62,7 @@ void main() {
     bool inside = ij.x < V.dims.x && ij.y < V.dims.y;
     uint lid = gl_LocalInvocationIndex;
 
-    PixelSetup P = pixel_setup(V, views64[vi], ij, pc.half_plate, pc.alpha_s, pc.f0);
+    PixelSetup P = pixel_setup(V, views64[vi], intensity[vi], ij, pc.half_plate, pc.alpha_s, pc.f0);
     bool live = inside && P.on_plate && P.scale > 0.0;
     float gI = 0.0, gA = 0.0;
     if (live) {

@@ -8,6 +8,7 @@ layout(std430, binding = 0) readonly buffer Views { ViewGPU views[]; };
 layout(std430, binding = 1) readonly buffer Image { float img[]; };
 layout(std430, binding = 2) readonly buffer DL { float dl[]; };
 layout(std430, binding = 3) writeonly buffer GradLight { float grad_light[]; };
+layout(std430, binding = 4) readonly buffer Lights { float intensity[]; };  // Phi per view
 shared float part[256];
 
 void main() {
@@ -20,6 +21,6 @@ void main() {
     if (lid == 0u) {
         float s = 0.0;
         for (uint i = 0u; i < 256u; ++i) s += part[i];
-        grad_light[gl_WorkGroupID.x] = s / V.right.w;
+        grad_light[gl_WorkGroupID.x] = s / intensity[gl_WorkGroupID.x];
     }
 }

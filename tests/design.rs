@@ -5,9 +5,11 @@ use std::path::PathBuf;
 use std::sync::Arc;
 
 use scratchart::model::scene::Scene;
-use scratchart::optim::adam::{reference_step, Adam, AdamConfig, Moments, StepBuffers};
+use scratchart::observe::Silent;
+use scratchart::optim::adam::{Adam, AdamConfig, Moments, ParamBlock, StepCheck};
 use scratchart::optim::design::{run_design, DesignConfig, DesignReport, Hooks, Problem};
 use scratchart::optim::loss::{reference, Loss, LossConfig};
+use scratchart::optim::scene_params::{reference_step, SceneParams};
 use scratchart::optim::targets::{builtin_targets, load_targets, TargetError};
 use scratchart::render::layout::ScratchGpu;
 use scratchart::render::Renderer;
@@ -38,7 +40,6 @@ fn small_problem(views: usize, res: u32, n: usize, seed: u64) -> Problem {
 fn quiet_config(out: PathBuf, iters: u32) -> DesignConfig {
     let mut cfg = DesignConfig::new(100.0, out);
     cfg.iters = iters;
-    cfg.progress = false;
     cfg.prune.tol = 0.0;
     cfg
 }
@@ -70,10 +71,10 @@ fn loss_and_its_gradient_match_the_cpu_reference() {
     let r = Renderer::new(&ctx).unwrap();
     let mut gs = r.upload(&p.scene).unwrap();
     r.render(&mut gs).unwrap();
-    let loss = Loss::new(&ctx, &gs.slots.views, &targets, cfg).unwrap();
-    let lv = loss.evaluate(&ctx, &gs.image, Some(&gs.dl)).unwrap();
-    let image: Vec<f32> = ctx.download(&gs.image).unwrap();
-    let dl: Vec<f32> = ctx.download(&gs.dl).unwrap();
+    let loss = Loss::new(&ctx, gs.views(), &targets, cfg).unwrap();
+    let lv = loss.evaluate(&ctx, gs.image(), Some(gs.dl())).unwrap();
+    let image: Vec<f32> = ctx.download(gs.image()).unwrap();
+    let dl: Vec<f32> = ctx.download(gs.dl()).unwrap();
     let (per_view, dl_ref) = reference::loss(&image, &targets, &loss.pyr, &cfg);
     for (v, (lp, lg)) in per_view.iter().enumerate() {
         eprintln!(
@@ -158,7 +159,7 @@ fn adam_step_matches_the_cpu_reference() {
     p.scene.scratches[2].p1 = [0.06, 0.0];
     let r = Renderer::new(&ctx).unwrap();
     let gs = r.upload(&p.scene).unwrap();
-    let n = gs.n_scratches;
+    let n = gs.n_scratches();
     let mut grads = vec![0f32; 8 * n as usize];
     let mut rng = Rng::new(5);
     for g in grads.iter_mut() {
@@ -168,8 +169,8 @@ fn adam_step_matches_the_cpu_reference() {
     grads[8 * 2] = -1.0; // scratch 2: the ends move together
     grads[8 * 2 + 2] = 1.0;
     let cfg = AdamConfig::for_plate(100.0);
-    let mut m0 = vec![0f32; Moments::len_floats(n, 1)];
-    let mut v0 = vec![0f32; Moments::len_floats(n, 1)];
+    let mut m0 = vec![0f32; 8 * n as usize];
+    let mut v0 = vec![0f32; 8 * n as usize];
     for (k, (m, v)) in m0.iter_mut().zip(v0.iter_mut()).enumerate() {
         *m = 1e-4 * (k % 7) as f32;
         *v = 1e-7 * (k % 5) as f32;
@@ -179,26 +180,48 @@ fn adam_step_matches_the_cpu_reference() {
         v: ctx.upload("v", &v0).unwrap(),
     };
     let grad = ctx.upload("grad", &grads).unwrap();
-    let glight = ctx.upload("grad light", &[0f32]).unwrap();
     let lossv = ctx.upload("loss", &[0f32, 0.0, 1.0]).unwrap();
     let stats = ctx.upload("stats", &[0u32; 16]).unwrap();
+    let before = ctx
+        .upload("before", &ctx.download::<u8>(gs.scratches()).unwrap())
+        .unwrap();
     let adam = Adam::new(&ctx).unwrap();
-    let push = Adam::push(&cfg, n, 1, 1 << 20, 50.0, 3, 1.0, f32::INFINITY);
+    let params = SceneParams::new(&ctx, &cfg).unwrap();
+    let block = ParamBlock {
+        name: "scratches",
+        params: gs.scratches(),
+        grad: &grad,
+        len: 8 * n,
+        groups: SceneParams::scratch_groups(&cfg, 50.0),
+    };
+    let groups = Adam::group_buffer(&ctx, &block).unwrap();
+    let check = StepCheck {
+        objective: &lossv,
+        index: 2,
+        stats: &stats,
+        capacity: 1 << 20,
+        limit: f32::INFINITY,
+    };
+    let step = |rec: &mut Recorder| {
+        adam.record(
+            rec,
+            std::slice::from_ref(&block),
+            &[&mom],
+            &[&groups],
+            &cfg.hyper(),
+            3,
+            1.0,
+            &check,
+        )
+        .unwrap();
+        params.record_projection(rec, &gs, &before, &adam.flags);
+    };
     let mut rec = Recorder::new(&ctx).unwrap();
     rec.begin().unwrap();
-    let b = StepBuffers {
-        scratches: &gs.scratches,
-        grad: &grad,
-        moments: &mom,
-        views: &gs.views,
-        grad_light: &glight,
-        loss: &lossv,
-        stats: &stats,
-    };
-    adam.record(&mut rec, &b, &push);
+    step(&mut rec);
     rec.submit_and_wait().unwrap();
     assert!(!adam.read_flags().unwrap().any());
-    let got: Vec<ScratchGpu> = ctx.download(&gs.scratches).unwrap();
+    let got: Vec<ScratchGpu> = ctx.download(gs.scratches()).unwrap();
     for (k, s) in p.scene.scratches.iter().enumerate() {
         let sg = ScratchGpu::from(s);
         let mut x = [
@@ -213,7 +236,7 @@ fn adam_step_matches_the_cpu_reference() {
         let g: [f32; 7] = grads[8 * k..8 * k + 7].try_into().unwrap();
         let mut m: [f32; 7] = m0[8 * k..8 * k + 7].try_into().unwrap();
         let mut v: [f32; 7] = v0[8 * k..8 * k + 7].try_into().unwrap();
-        reference_step(&mut x, &g, &mut m, &mut v, &push);
+        reference_step(&mut x, &g, &mut m, &mut v, &cfg, 50.0, 3, 1.0);
         let gx = [
             got[k].ends[0],
             got[k].ends[1],
@@ -245,20 +268,20 @@ fn adam_step_matches_the_cpu_reference() {
     rec.begin().unwrap();
     rec.fill(&grad, f32::NAN.to_bits());
     rec.barrier();
-    let before: Vec<u8> = ctx.download(&gs.scratches).unwrap();
-    adam.record(&mut rec, &b, &push);
+    let before: Vec<u8> = ctx.download(gs.scratches()).unwrap();
+    step(&mut rec);
     rec.submit_and_wait().unwrap();
     assert!(adam.read_flags().unwrap().nonfinite_grad);
     assert_eq!(
         before,
-        ctx.download::<u8>(&gs.scratches).unwrap(),
+        ctx.download::<u8>(gs.scratches()).unwrap(),
         "a NaN gradient must not move anything"
     );
     assert_no_validation(&ctx);
 }
 
 fn run(ctx: &Arc<Context>, p: &Problem, cfg: &DesignConfig) -> DesignReport {
-    run_design(ctx, p, cfg).expect("design run")
+    run_design(ctx, p, cfg, &Silent).expect("design run")
 }
 
 /// The optimizer lowers the loss at least 2.5x and raises SSIM on every view of a small problem.
@@ -352,7 +375,9 @@ fn resume_is_bit_identical() {
     let mut cfg_b = quiet_config(out_b.clone(), iters);
     cfg_b.checkpoint_every = 4;
     cfg_b.hooks.stop_at = Some(10);
-    let err = run_design(&ctx, &p, &cfg_b).err().expect("the hook stops the run");
+    let err = run_design(&ctx, &p, &cfg_b, &Silent)
+        .err()
+        .expect("the hook stops the run");
     assert!(err.to_string().contains("stopped"), "{err}");
     cfg_b.hooks.stop_at = None;
     cfg_b.resume = true;
@@ -389,7 +414,9 @@ fn resume_is_bit_identical() {
     let mut cfg_d = quiet_config(out_a.clone(), iters);
     cfg_d.resume = true;
     cfg_d.loss.lambda_g = 0.5;
-    let err = run_design(&ctx, &p, &cfg_d).err().expect("mismatched resume must fail");
+    let err = run_design(&ctx, &p, &cfg_d, &Silent)
+        .err()
+        .expect("mismatched resume must fail");
     assert!(
         err.to_string().contains("different settings") && err.to_string().contains("loss"),
         "{err}"

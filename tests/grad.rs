@@ -162,7 +162,7 @@ fn gradients_are_bit_reproducible() {
     let ctx = gpu();
     let r = Renderer::new(&ctx).unwrap();
     let mut gs = r.upload(&scene).unwrap();
-    let n = gs.slots.n_pixels as usize;
+    let n = gs.n_pixels() as usize;
     let dl: Vec<f32> = (0..n).map(|i| ((i * 7919) % 1000) as f32 * 1e-3 - 0.5).collect();
     let (img1, g1) = r.gradients(&mut gs, &dl).unwrap();
     let (img2, g2) = r.gradients(&mut gs, &dl).unwrap();

@@ -64,24 +64,19 @@ pub fn run_forward(
         // Size the tile lists, then make dE/dL of E_lin against a perturbed copy of the render.
         let first = renderer.render(&mut gs)?;
         let dl = perturbed_target_dl(&first.images);
-        gs.dl = ctx.upload("dE/dL", &dl)?;
+        renderer.upload_dl(&mut gs, &dl)?;
         let (mut bins, mut shades, mut backs) = (Vec::new(), Vec::new(), Vec::new());
         let mut last = first.stats;
         for i in 0..warmup + repeats {
-            rec.begin()?;
-            rec.fill(&gs.stats, 0);
-            rec.barrier();
-            renderer.record_binning(&mut rec, &gs);
-            rec.timestamp("bin");
-            renderer.record_shading(&mut rec, &gs);
-            rec.timestamp("shade");
-            renderer.record_backward(&mut rec, &gs);
-            rec.timestamp("backward");
-            let t = rec.submit_and_wait()?;
-            last = gs.read_stats()?;
+            let (st, t) = renderer.submit(&mut rec, &mut gs, |rec, gs| {
+                renderer.record_render(rec, gs);
+                renderer.record_backward(rec, gs);
+                rec.timestamp("backward");
+            })?;
+            last = st;
             if i >= warmup {
-                bins.push(t.get("bin").unwrap_or(f64::NAN));
-                shades.push(t.get("shade").unwrap_or(f64::NAN));
+                bins.push(t.get("binning").unwrap_or(f64::NAN));
+                shades.push(t.get("forward").unwrap_or(f64::NAN));
                 backs.push(t.get("backward").unwrap_or(f64::NAN));
             }
         }
@@ -89,7 +84,7 @@ pub fn run_forward(
             name: name.clone(),
             scratches: scene.scratches.len(),
             views: scene.views.len(),
-            pixels: gs.slots.n_pixels,
+            pixels: gs.n_pixels(),
             entries: last.entries,
             candidates: last.candidates,
             pairs: last.pairs,
@@ -213,15 +208,22 @@ pub fn run_iterations(
     };
     let mut cfg = DesignConfig::new(scene.plate.size_mm, std::env::temp_dir());
     cfg.iters = warmup + iters;
-    cfg.progress = false;
     cfg.write_outputs = false;
     cfg.calibrate_lights = false;
     cfg.checkpoint_every = 0;
-    let mut opt = Optimizer::new(&renderer, &problem, &cfg)?;
+    let loss = crate::optim::loss::Loss::new(
+        ctx,
+        &crate::render::layout::view_slots(scene).views,
+        &problem.targets,
+        cfg.loss,
+    )?;
+    let mut opt = Optimizer::new(&renderer, &loss, &problem, &cfg)?;
     let t0 = std::time::Instant::now();
-    let (_, _) = opt.run()?;
+    let (_, _) = opt.run(&crate::observe::Silent)?;
     let wall = t0.elapsed().as_secs_f64();
     let steps: Vec<&Vec<(String, f64)>> = opt
+        .driver
+        .stats
         .timing_log
         .iter()
         .filter(|t| t.iter().any(|(l, _)| l == "adam"))
@@ -242,10 +244,7 @@ pub fn run_iterations(
     // Wall time of the timed part: total minus the warm-up share (iterations are alike).
     let n_all = (warmup + iters + 1) as f64;
     let wall_s = wall * (iters as f64 / n_all);
-    let report_pairs = {
-        let st: Vec<u32> = opt.gs_stats()?;
-        st[1] as f64
-    };
+    let report_pairs = opt.driver.gs.stats()?.pairs as f64;
     Ok(IterRow {
         name: name.to_string(),
         scratches: scene.scratches.len(),

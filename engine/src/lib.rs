@@ -5,10 +5,16 @@
 //!   reference (a test oracle only; never a fallback for the GPU path).
 //! - [`render`]: the GPU forward renderer (pair search, patch-NDF shading, images).
 //! - [`io`]: PFM/PNG image files, written atomically.
-//! - [`optim`]: the design optimizer (loss, Adam, rollback, checkpoints, pruning) behind `scratchart design`.
+//! - [`optim`]: the generic optimizer (objective and parameter-set interfaces, Adam, rollback,
+//!   checkpoints) and the design job behind `scratchart design`.
+//! - [`observe`]: the [`observe::Observer`] trait: how libraries report progress and warnings
+//!   (they never print).
+//! - [`exit`]: the exit-code contract shared by every binary.
 pub mod bench;
+pub mod exit;
 pub mod io;
 pub mod model;
+pub mod observe;
 pub mod optim;
 pub mod render;
 pub mod scenes;

@@ -5,6 +5,9 @@ use std::process::ExitCode;
 use anyhow::{Context as _, Result};
 use clap::{Parser, Subcommand};
 
+mod design_cmd;
+mod term;
+
 use scratchart::bench;
 use scratchart::model::scene::Scene;
 use scratchart::render::Renderer;
@@ -37,7 +40,7 @@ struct Cli {
 enum Cmd {
     /// Design a plate: optimize scratches (and light intensities) so that each view shows its
     /// target image. Without arguments, designs the built-in 3-view demo into ./out.
-    Design(Box<scratchart::optim::cli::DesignArgs>),
+    Design(Box<design_cmd::DesignArgs>),
     /// Render every view of a scene to NAME.pfm (linear L) and NAME.png (display value).
     /// Without SCENE, renders the built-in demo plate.
     Render {
@@ -104,30 +107,9 @@ fn main() -> ExitCode {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
             eprintln!("error: {e:#}");
-            ExitCode::from(exit_code(&e))
+            ExitCode::from(scratchart::exit::code_of(&e))
         }
     }
-}
-
-fn exit_code(e: &anyhow::Error) -> u8 {
-    for cause in e.chain() {
-        if cause.downcast_ref::<scratchart::model::scene::SceneError>().is_some() {
-            return 3;
-        }
-        if cause.downcast_ref::<scratchart::io::IoError>().is_some() {
-            return 3;
-        }
-        if cause
-            .downcast_ref::<scratchart::optim::targets::TargetError>()
-            .is_some()
-        {
-            return 3;
-        }
-        if cause.downcast_ref::<scratchart::vulkan::GpuError>().is_some() {
-            return 4;
-        }
-    }
-    1
 }
 
 fn context(cli: &Cli) -> Result<std::sync::Arc<Context>> {
@@ -142,7 +124,7 @@ fn run(cli: Cli) -> Result<()> {
     match &cli.cmd {
         Cmd::Design(args) => {
             let ctx = context(&cli)?;
-            scratchart::optim::cli::run(&ctx, args)?;
+            design_cmd::run(&ctx, args, &term::Terminal::new(args.quiet))?;
             check_validation(&ctx)
         }
         Cmd::Render { scene, out } => {

@@ -10,7 +10,7 @@
 struct ViewGPU {
     vec4 eye;    // xyz camera position; w = tan(fov_y / 2)
     vec4 fwd;    // xyz forward (unit); w = aspect W / H
-    vec4 right;  // xyz right (unit); w = light intensity Phi
+    vec4 right;  // xyz right (unit); w unused (0): intensities have their own buffer
     vec4 up;     // xyz up' (unit); w = light kind: 0 point, 1 directional
     vec4 light;  // xyz point-light position, or unit direction towards a directional light
     uvec4 dims;  // W, H, tiles_x, tiles_y

@@ -16,7 +16,7 @@ struct PixelSetup {
     float e_irr;       // E / Phi (so dL/dPhi = L / Phi)
 };
 
-PixelSetup pixel_setup(ViewGPU V, ViewGPU64 V64, uvec2 ij, float half_plate, float alpha_s, float f0) {
+PixelSetup pixel_setup(ViewGPU V, ViewGPU64 V64, float phi, uvec2 ij, float half_plate, float alpha_s, float f0) {
     PixelSetup P;
     P.on_plate = false;
     P.ccw = true;
@@ -68,7 +68,7 @@ PixelSetup pixel_setup(ViewGPU V, ViewGPU64 V64, uvec2 ij, float half_plate, flo
     if (cos_i <= 0.0 || cos_o <= 0.0) { P.scale = 0.0; return P; }
     P.h = normalize(wi + wo);
     float fr = f0 + (1.0 - f0) * pow(1.0 - clamp(dot(wo, P.h), 0.0, 1.0), 5.0);
-    P.scale = V.right.w * E * fr / (4.0 * cos_o);
+    P.scale = phi * E * fr / (4.0 * cos_o);
     P.d_flat = ggx_flat(P.h, alpha_s);
     return P;
 }

@@ -263,7 +263,7 @@ impl FrameRenderer {
             Some(_) => Layout::new((iw, ih), None),
             None => p.layout,
         };
-        let staging = match blit {
+        let staging_idx = match blit {
             Some(s) => Some(
                 match self
                     .staging
@@ -287,44 +287,32 @@ impl FrameRenderer {
         }
         let (tw, th) = self.target_dims.unwrap_or((0, 0));
         let gs = &mut self.cache[idx].1;
-        let ok = self.pipes.renderer.update_views(gs, std::slice::from_ref(p.view))?;
+        let ok = gs.update_views(std::slice::from_ref(p.view))?;
         assert!(ok, "cached scene for {iw}x{ih} has another size");
         let push = PresentPush {
             dims: [out_w, out_h, iw, ih],
             view_rect: layout.view_rect,
             tgt_rect: if show_target { layout.tgt_rect } else { [0; 4] },
-            misc: [gs.slots.views[0].base[1], tw, th, p.nearest as u32],
+            misc: [gs.views()[0].base[1], tw, th, p.nearest as u32],
             params: [p.exposure, 0.1, 0.0, 0.0],
         };
         let out = self.out.as_ref().unwrap();
-        loop {
-            let rec = &mut self.rec;
-            rec.begin()?;
-            rec.fill(&gs.stats, 0);
-            rec.barrier();
-            self.pipes.renderer.record_binning(rec, gs);
-            rec.timestamp("bin");
-            self.pipes.renderer.record_shading(rec, gs);
-            rec.timestamp("shade");
+        let (pipes, ctx, target, staging) = (&self.pipes, &self.ctx, &self.target, &self.staging);
+        // Pair search, shading, present and the copy to the window in one submission; redone
+        // (with larger tile lists) when a view sees more scratches per tile than the first guess.
+        let (stats, timings) = pipes.renderer.submit(&mut self.rec, gs, |rec, gs| {
+            pipes.renderer.record_render(rec, gs);
             rec.dispatch(
-                &self.pipes.present,
-                &[&gs.image, &self.target, out],
+                &pipes.present,
+                &[gs.image(), target, out],
                 bytemuck::bytes_of(&push),
                 [out_w.div_ceil(16), out_h.div_ceil(16), 1],
             );
             rec.barrier();
             rec.timestamp("present");
-            match (swap, blit, staging) {
+            match (swap, blit, staging_idx) {
                 (Some(s), Some(_), Some(i)) => {
-                    record_blit(
-                        &self.ctx,
-                        rec.raw_cmd(),
-                        out.raw(),
-                        &self.staging[i],
-                        s.image,
-                        s.extent,
-                        p.nearest,
-                    );
+                    record_blit(ctx, rec.raw_cmd(), out.raw(), &staging[i], s.image, s.extent, p.nearest);
                     rec.timestamp("blit");
                 }
                 (Some(s), _, _) => {
@@ -333,26 +321,18 @@ impl FrameRenderer {
                         (out_w, out_h),
                         "swapchain extent differs from the frame layout"
                     );
-                    record_copy_to_swapchain(&self.ctx, rec.raw_cmd(), out, s.image, (out_w, out_h));
+                    record_copy_to_swapchain(ctx, rec.raw_cmd(), out, s.image, (out_w, out_h));
                     rec.timestamp("copy");
                 }
                 _ => {}
             }
-            let timings = rec.submit_and_wait()?;
-            let stats = gs.read_stats()?;
-            if stats.entries > gs.capacity as u64 {
-                // The tile lists overflowed (a view that sees more scratches per tile than the
-                // first guess): grow them and draw the frame again.
-                self.pipes.renderer.grow_list(gs, stats.entries)?;
-                continue;
-            }
-            return Ok(FrameInfo {
-                internal: (iw, ih),
-                timings,
-                wall_ms: t0.elapsed().as_secs_f64() * 1e3,
-                stats,
-            });
-        }
+        })?;
+        Ok(FrameInfo {
+            internal: (iw, ih),
+            timings,
+            wall_ms: t0.elapsed().as_secs_f64() * 1e3,
+            stats,
+        })
     }
 
     /// The last frame's display bytes (gray), top row first, for an output of `out` pixels.

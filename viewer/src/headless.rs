@@ -158,7 +158,7 @@ pub struct BenchRow {
     /// Median time per frame as the user sees it: host time of a frame headless, the interval
     /// between presented frames in a window.
     pub frame_ms: f64,
-    /// Median GPU milliseconds per labelled stage (bin, shade, present, copy or blit).
+    /// Median GPU milliseconds per labelled stage (binning, forward, present, copy or blit).
     pub stages: Vec<(String, f64)>,
 }
 

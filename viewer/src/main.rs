@@ -148,21 +148,6 @@ fn parse_size(s: &str) -> Result<(u32, u32), String> {
     Ok((p(w)?, p(h)?))
 }
 
-/// Exit code for an error chain (see `--help`).
-pub fn exit_code(e: &anyhow::Error) -> u8 {
-    for cause in e.chain() {
-        if cause.downcast_ref::<scratchart::model::scene::SceneError>().is_some()
-            || cause.downcast_ref::<scratchart::io::IoError>().is_some()
-        {
-            return 3;
-        }
-        if cause.downcast_ref::<scratchart::vulkan::GpuError>().is_some() {
-            return 4;
-        }
-    }
-    1
-}
-
 /// The shader directory to read (and watch), if any: `--shader-dir`, else the source tree's.
 fn shader_dir(opts: &Opts) -> Option<PathBuf> {
     if opts.embedded_shaders {
@@ -209,7 +194,7 @@ fn main() -> ExitCode {
             if let Some(n) = n_validation.filter(|_| opts.validation) {
                 eprintln!("validation messages: {n}");
             }
-            ExitCode::from(exit_code(&e))
+            ExitCode::from(scratchart::exit::code_of(&e))
         }
     }
 }

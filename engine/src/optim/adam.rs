@@ -1,16 +1,19 @@
-//! Adam on the GPU (`shaders/adam.comp`): the moment buffers, the parameter bounds, and the
-//! copies of the optimizer state used for rollback and checkpoints.
+//! Adam on the GPU (`shaders/adam.comp`) over flat parameter buffers with learning-rate groups.
 //!
-//! State = scratches buffer (the parameters themselves), first and second moments (8 floats per
-//! scratch, then one per light), the views buffer (light intensities Phi in `right[3]`), and the
-//! host-side step count. Lights are optimized as u = ln Phi, so they stay positive.
+//! A parameter set (see [`super::driver::ParamSet`]) hands the optimizer one or more
+//! [`ParamBlock`]s: a buffer of f32 parameters, the buffer of their gradients, and a group per
+//! element (element i is in group `i % stride`). A group has a learning rate, box bounds, a space
+//! (linear, or logarithmic for quantities that must stay positive) and may be frozen. Adam knows
+//! nothing else about what the numbers mean: a scratch's minimum length, for instance, is the
+//! scratch parameter set's own projection pass.
 use std::sync::Arc;
 
 use bytemuck::{Pod, Zeroable};
 
 use crate::vulkan::{Buffer, ComputePipeline, Context, GpuError, MemLoc, Recorder, ShaderCompiler};
 
-/// Learning rates (per step, in the parameter's own units) and bounds.
+/// Learning rates (per step, in the parameter's own units) and bounds of the design's
+/// parameters (scratches and lights); see [`super::scene_params::SceneParams`].
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct AdamConfig {
     /// Endpoints, mm.
@@ -55,43 +58,131 @@ impl AdamConfig {
             phi_min: 1e-6,
         }
     }
+
+    /// The moment decay rates and epsilon (what [`Adam`] needs besides the groups).
+    pub fn hyper(&self) -> AdamHyper {
+        AdamHyper {
+            beta1: self.beta1,
+            beta2: self.beta2,
+            eps: self.eps,
+        }
+    }
 }
 
-/// `#[repr(C)]` twin of the push block of `shaders/adam.comp`.
+/// Adam's moment decay rates and epsilon.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct AdamHyper {
+    pub beta1: f32,
+    pub beta2: f32,
+    pub eps: f32,
+}
+
+/// How a group's parameters move.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Space {
+    /// x -= step, then clamped to [lo, hi].
+    Linear,
+    /// x = exp(u): u -= step with gradient x dE/dx, so x stays positive; then x >= lo.
+    Log,
+}
+
+/// One learning-rate group.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct AdamGroup {
+    pub lr: f32,
+    pub lo: f32,
+    pub hi: f32,
+    pub space: Space,
+    /// Neither checked nor moved (padding, or a parameter held fixed).
+    pub frozen: bool,
+}
+
+impl AdamGroup {
+    pub fn linear(lr: f32, (lo, hi): (f32, f32)) -> AdamGroup {
+        AdamGroup {
+            lr,
+            lo,
+            hi,
+            space: Space::Linear,
+            frozen: false,
+        }
+    }
+
+    pub fn log(lr: f32, lo: f32) -> AdamGroup {
+        AdamGroup {
+            lr,
+            lo,
+            hi: f32::INFINITY,
+            space: Space::Log,
+            frozen: false,
+        }
+    }
+
+    pub fn frozen() -> AdamGroup {
+        AdamGroup {
+            lr: 0.0,
+            lo: 0.0,
+            hi: 0.0,
+            space: Space::Linear,
+            frozen: true,
+        }
+    }
+
+    /// The GPU record with the learning rate scaled by `lr_scale` (the rollback factor).
+    fn gpu(&self, lr_scale: f64) -> AdamGroupGpu {
+        AdamGroupGpu {
+            lr_lo_hi: [(self.lr as f64 * lr_scale) as f32, self.lo, self.hi, 0.0],
+            mode_frozen: [(self.space == Space::Log) as u32, self.frozen as u32, 0, 0],
+        }
+    }
+}
+
+/// `#[repr(C)]` twin of `AdamGroupGPU` in `shaders/inc/adam_push.glsl`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
+pub struct AdamGroupGpu {
+    /// learning rate (scaled), lower bound, upper bound, 0
+    pub lr_lo_hi: [f32; 4],
+    /// 1 = logarithmic space, 1 = frozen, 0, 0
+    pub mode_frozen: [u32; 4],
+}
+
+/// `#[repr(C)]` twin of the push block in `shaders/inc/adam_push.glsl`.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
 pub struct AdamPush {
-    pub n_scratches: u32,
-    pub n_views: u32,
+    pub n: u32,
+    pub stride: u32,
+    pub check_objective: u32,
+    pub objective_index: u32,
     pub capacity: u32,
-    pub opt_light: u32,
-    pub lr_end: f32,
-    pub lr_w: f32,
-    pub lr_d: f32,
-    pub lr_alpha: f32,
-    pub lr_light: f32,
     pub beta1: f32,
     pub beta2: f32,
     pub eps: f32,
     pub bc1: f32,
     pub bc2: f32,
-    pub half_plate: f32,
-    pub min_len: f32,
-    pub w_lo: f32,
-    pub w_hi: f32,
-    pub d_lo: f32,
-    pub d_hi: f32,
-    pub a_lo: f32,
-    pub a_hi: f32,
-    pub phi_min: f32,
     pub loss_limit: f32,
+    pub pad0: u32,
 }
 
-/// Flags set by the CHECK pass; any set flag makes APPLY a no-op.
+/// A flat block of parameters as a parameter set hands it to the optimizer.
+pub struct ParamBlock<'a> {
+    /// Names the block in checkpoints and buffer names ("scratches", "lights", ...).
+    pub name: &'static str,
+    /// The parameters, `len` f32 (the buffer may be longer).
+    pub params: &'a Buffer,
+    /// dE/d(parameter), laid out like `params`.
+    pub grad: &'a Buffer,
+    pub len: u32,
+    /// Element i is in `groups[i % groups.len()]`.
+    pub groups: Vec<AdamGroup>,
+}
+
+/// Flags set by the CHECK pass; any set flag makes APPLY (and projections) a no-op.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct StepFlags {
     pub nonfinite_grad: bool,
-    /// The loss was NaN/inf or above the limit (10x the best so far).
+    /// The objective was NaN/inf or above the limit (10x the best so far).
     pub bad_loss: bool,
     /// The tile list overflowed: the render (and so the gradient) was incomplete.
     pub overflow: bool,
@@ -103,23 +194,33 @@ impl StepFlags {
     }
 }
 
-/// The GPU-resident optimizer state other than the parameters' own buffers.
+/// What one step checks besides the gradients: the objective's total on the device and the
+/// render's counters.
+pub struct StepCheck<'a> {
+    /// The objective's values; the total is at `index`.
+    pub objective: &'a Buffer,
+    pub index: u32,
+    /// The renderer's counters ([2] = tile-list entries) and the tile-list capacity.
+    pub stats: &'a Buffer,
+    pub capacity: u32,
+    /// A total above this is an exploding step.
+    pub limit: f32,
+}
+
+/// Adam's moments of one block.
 pub struct Moments {
     pub m: Buffer,
     pub v: Buffer,
 }
 
 impl Moments {
-    pub fn new(ctx: &Arc<Context>, name: &str, n_scratches: u32, n_views: u32) -> Result<Moments, GpuError> {
-        let bytes = (8 * n_scratches as u64 + n_views as u64) * 4;
+    /// Zero moments for `len` parameters.
+    pub fn zeros(ctx: &Arc<Context>, name: &str, len: u32) -> Result<Moments, GpuError> {
+        let zeros = vec![0f32; len.max(1) as usize];
         Ok(Moments {
-            m: Buffer::new(ctx, &format!("{name} adam m"), bytes, MemLoc::GpuOnly)?,
-            v: Buffer::new(ctx, &format!("{name} adam v"), bytes, MemLoc::GpuOnly)?,
+            m: ctx.upload(&format!("{name} adam m"), &zeros)?,
+            v: ctx.upload(&format!("{name} adam v"), &zeros)?,
         })
-    }
-
-    pub fn len_floats(n_scratches: u32, n_views: u32) -> usize {
-        8 * n_scratches as usize + n_views as usize
     }
 }
 
@@ -130,92 +231,79 @@ pub struct Adam {
     pub flags: Buffer,
 }
 
-/// What one step needs besides the push constants.
-pub struct StepBuffers<'a> {
-    pub scratches: &'a Buffer,
-    pub grad: &'a Buffer,
-    pub moments: &'a Moments,
-    pub views: &'a Buffer,
-    pub grad_light: &'a Buffer,
-    /// the loss values (`Loss::out`): the total is at index 2 n_views
-    pub loss: &'a Buffer,
-    /// the renderer's stats ([2] = tile-list entries)
-    pub stats: &'a Buffer,
-}
-
 impl Adam {
     pub fn new(ctx: &Arc<Context>) -> Result<Adam, GpuError> {
         let sc = ShaderCompiler::embedded()?;
         let push = std::mem::size_of::<AdamPush>() as u32;
         Ok(Adam {
-            check: ComputePipeline::new(ctx, &sc, "adam.comp", &[("CHECK", "1")], 9, push)?,
-            apply: ComputePipeline::new(ctx, &sc, "adam.comp", &[("APPLY", "1")], 9, push)?,
+            check: ComputePipeline::new(ctx, &sc, "adam.comp", &[("CHECK", "1")], 8, push)?,
+            apply: ComputePipeline::new(ctx, &sc, "adam.comp", &[("APPLY", "1")], 8, push)?,
             flags: Buffer::new(ctx, "adam flags", 16, MemLoc::GpuToCpu)?,
         })
     }
 
-    /// Push constants of step `t` (1-based) with learning rates scaled by `lr_scale`.
-    #[allow(clippy::too_many_arguments)]
-    pub fn push(
-        cfg: &AdamConfig,
-        n_scratches: u32,
-        n_views: u32,
-        capacity: u32,
-        half_plate: f32,
-        t: u32,
-        lr_scale: f64,
-        loss_limit: f32,
-    ) -> AdamPush {
-        let s = |lr: f32| (lr as f64 * lr_scale) as f32;
-        AdamPush {
-            n_scratches,
-            n_views,
-            capacity,
-            opt_light: (cfg.lr_light > 0.0) as u32,
-            lr_end: s(cfg.lr_end),
-            lr_w: s(cfg.lr_w),
-            lr_d: s(cfg.lr_d),
-            lr_alpha: s(cfg.lr_alpha),
-            lr_light: s(cfg.lr_light),
-            beta1: cfg.beta1,
-            beta2: cfg.beta2,
-            eps: cfg.eps,
-            bc1: (1.0 - (cfg.beta1 as f64).powi(t as i32)) as f32,
-            bc2: (1.0 - (cfg.beta2 as f64).powi(t as i32)) as f32,
-            half_plate,
-            min_len: cfg.min_len,
-            w_lo: cfg.w_bounds.0,
-            w_hi: cfg.w_bounds.1,
-            d_lo: cfg.d_bounds.0,
-            d_hi: cfg.d_bounds.1,
-            a_lo: cfg.alpha_bounds.0,
-            a_hi: cfg.alpha_bounds.1,
-            phi_min: cfg.phi_min,
-            loss_limit,
-        }
+    /// A host-visible buffer for the group records of `block` (written by [`record`](Self::record)).
+    pub fn group_buffer(ctx: &Arc<Context>, block: &ParamBlock) -> Result<Buffer, GpuError> {
+        let bytes = (block.groups.len().max(1) * std::mem::size_of::<AdamGroupGpu>()) as u64;
+        Buffer::new(ctx, &format!("{} adam groups", block.name), bytes, MemLoc::CpuToGpu)
     }
 
-    /// Records the flag reset, CHECK and APPLY. The flags are readable after submission.
-    pub fn record(&self, rec: &mut Recorder, b: &StepBuffers, push: &AdamPush) {
+    /// Records step `t` (1-based) over `blocks` with learning rates scaled by `lr_scale`: the flag
+    /// reset, CHECK of every block (the first also checks `check`), then APPLY of every block.
+    /// `moments[i]` and `groups[i]` belong to `blocks[i]`. The flags are readable after submission.
+    #[allow(clippy::too_many_arguments)]
+    pub fn record(
+        &self,
+        rec: &mut Recorder,
+        blocks: &[ParamBlock],
+        moments: &[&Moments],
+        groups: &[&Buffer],
+        hyper: &AdamHyper,
+        t: u32,
+        lr_scale: f64,
+        check: &StepCheck,
+    ) -> Result<(), GpuError> {
+        assert!(blocks.len() == moments.len() && blocks.len() == groups.len());
+        assert!(!blocks.is_empty(), "Adam needs at least one parameter block");
+        let mut pushes = Vec::with_capacity(blocks.len());
+        for (i, (b, gbuf)) in blocks.iter().zip(groups).enumerate() {
+            let recs: Vec<AdamGroupGpu> = b.groups.iter().map(|g| g.gpu(lr_scale)).collect();
+            // Written before submission; the previous step's submission has completed.
+            gbuf.write(0, &recs)?;
+            pushes.push(AdamPush {
+                n: b.len,
+                stride: b.groups.len() as u32,
+                check_objective: (i == 0) as u32,
+                objective_index: check.index,
+                capacity: check.capacity,
+                beta1: hyper.beta1,
+                beta2: hyper.beta2,
+                eps: hyper.eps,
+                bc1: (1.0 - (hyper.beta1 as f64).powi(t as i32)) as f32,
+                bc2: (1.0 - (hyper.beta2 as f64).powi(t as i32)) as f32,
+                loss_limit: check.limit,
+                pad0: 0,
+            });
+        }
         rec.fill(&self.flags, 0);
         rec.barrier();
-        let bufs = [
-            b.scratches,
-            b.grad,
-            &b.moments.m,
-            &b.moments.v,
-            b.views,
-            b.grad_light,
-            b.loss,
-            b.stats,
-            &self.flags,
-        ];
-        let n = push.n_scratches + push.n_views;
-        let groups = n.div_ceil(256);
-        rec.dispatch_1d(&self.check, &bufs, bytemuck::bytes_of(push), groups);
-        rec.barrier();
-        rec.dispatch_1d(&self.apply, &bufs, bytemuck::bytes_of(push), groups);
-        rec.barrier();
+        for pass in [&self.check, &self.apply] {
+            for (i, b) in blocks.iter().enumerate() {
+                let bufs = [
+                    b.params,
+                    b.grad,
+                    &moments[i].m,
+                    &moments[i].v,
+                    groups[i],
+                    &self.flags,
+                    check.objective,
+                    check.stats,
+                ];
+                rec.dispatch_1d(pass, &bufs, bytemuck::bytes_of(&pushes[i]), b.len.max(1).div_ceil(256));
+            }
+            rec.barrier();
+        }
+        Ok(())
     }
 
     pub fn read_flags(&self) -> Result<StepFlags, GpuError> {
@@ -226,52 +314,4 @@ impl Adam {
             overflow: f[2] != 0,
         })
     }
-}
-
-/// CPU twin of one APPLY step on one scratch (test oracle): `p` = [x0, y0, x1, y1, w, d, alpha],
-/// `g` its gradient, `m`, `v` its moments (updated in place). f32 arithmetic in the kernel's order.
-pub fn reference_step(p: &mut [f32; 7], g: &[f32; 7], m: &mut [f32; 7], v: &mut [f32; 7], push: &AdamPush) {
-    let lrs = [
-        push.lr_end,
-        push.lr_end,
-        push.lr_end,
-        push.lr_end,
-        push.lr_w,
-        push.lr_d,
-        push.lr_alpha,
-    ];
-    let q = *p;
-    let mut x = *p;
-    for k in 0..7 {
-        m[k] = push.beta1 * m[k] + (1.0 - push.beta1) * g[k];
-        v[k] = push.beta2 * v[k] + (1.0 - push.beta2) * g[k] * g[k];
-        x[k] = p[k] - lrs[k] * (m[k] / push.bc1) / ((v[k] / push.bc2).sqrt() + push.eps);
-    }
-    let h = push.half_plate;
-    for c in x.iter_mut().take(4) {
-        *c = c.clamp(-h, h);
-    }
-    let (dx, dy) = (x[2] - x[0], x[3] - x[1]);
-    let len = (dx * dx + dy * dy).sqrt();
-    if !(len >= push.min_len) {
-        let (ux, uy) = if len > 0.0 {
-            (dx / len, dy / len)
-        } else {
-            let (a, b) = (q[2] - q[0], q[3] - q[1]);
-            let l = (a * a + b * b).sqrt();
-            (a / l, b / l)
-        };
-        let (hx, hy) = (0.5 * push.min_len * ux, 0.5 * push.min_len * uy);
-        let (lx, ly) = (h - hx.abs(), h - hy.abs());
-        let mx = (0.5 * (x[0] + x[2])).clamp(-lx, lx);
-        let my = (0.5 * (x[1] + x[3])).clamp(-ly, ly);
-        x[0] = mx - hx;
-        x[1] = my - hy;
-        x[2] = mx + hx;
-        x[3] = my + hy;
-    }
-    x[4] = x[4].clamp(push.w_lo, push.w_hi);
-    x[5] = x[5].clamp(push.d_lo, push.d_hi);
-    x[6] = x[6].clamp(push.a_lo, push.a_hi);
-    *p = x;
 }

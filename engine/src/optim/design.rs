@@ -1,27 +1,24 @@
-//! The optimization loop: one GPU submission per iteration (snapshot of the state, binning,
-//! forward, loss, loss backward, renderer backward, Adam), a few scalars read back (loss per
-//! view, step flags, pair count), rollback of bad steps, checkpoints and bit-exact resume.
-//!
-//! Iteration k evaluates the loss at the parameters x_k and (for k < iters) steps to x_{k+1}; the
-//! last iteration only evaluates, so the design written out always has a verified loss.
-//! A step is rejected when its loss is NaN/inf or above 10x the best so far, or its gradient is
-//! not finite: the state is restored from the last good copy (kept on the GPU: the snapshot taken
-//! at the start of the last accepted iteration), the learning rates are halved, and that
-//! iteration is redone. Adam itself refuses to move when any of these holds (see `adam.comp`),
-//! so a NaN never reaches the parameters.
-use std::path::{Path, PathBuf};
+//! The design job (`scratchart design`): the generic [`Driver`] with the design loss
+//! ([`Loss`]) as objective and the scene's scratches and lights ([`SceneParams`]) as parameters,
+//! then pruning, a final evaluation and the reports.
+use std::path::PathBuf;
 use std::sync::Arc;
-use std::time::Instant;
 
 use serde_json::{json, Value};
 
-use super::adam::{Adam, AdamConfig, Moments, StepBuffers, StepFlags};
+use super::adam::AdamConfig;
+use super::checkpoint::fnv;
+use super::driver::{Driver, DriverConfig, Evaluation};
+pub use super::driver::{Hooks, Rollback};
+use super::error::OptimError;
 use super::loss::{Loss, LossConfig, LossValues};
 use super::prune::{PruneConfig, PruneStats};
+use super::scene_params::SceneParams;
 use crate::model::scene::{Scene, Scratch};
+use crate::observe::Observer;
 use crate::render::layout::{ScratchGpu, ViewGpu};
 use crate::render::{GpuScene, Renderer};
-use crate::vulkan::{Buffer, Context, GpuError, MemLoc, Recorder};
+use crate::vulkan::{Context, GpuError};
 
 /// A design problem: plate, views (with their lights), initial scratches, one target per view
 /// (display values in [0, 1], W x H, top row first).
@@ -29,17 +26,6 @@ use crate::vulkan::{Buffer, Context, GpuError, MemLoc, Recorder};
 pub struct Problem {
     pub scene: Scene,
     pub targets: Vec<Vec<f32>>,
-}
-
-/// Test hooks: inject failures to exercise the rollback path.
-#[derive(Clone, Copy, Debug, Default)]
-pub struct Hooks {
-    /// Fill the gradient with NaN at this iteration (once).
-    pub nan_grad_at: Option<u32>,
-    /// Fill the rendered image with NaN at this iteration (once): a NaN loss.
-    pub nan_image_at: Option<u32>,
-    /// Stop with an error at the top of this iteration (after any checkpoint), as a killed run would.
-    pub stop_at: Option<u32>,
 }
 
 #[derive(Clone, Debug)]
@@ -54,7 +40,6 @@ pub struct DesignConfig {
     pub resume: bool,
     pub prune: PruneConfig,
     pub hooks: Hooks,
-    pub progress: bool,
     /// Seed of the initialization (recorded; the optimizer itself draws no random numbers).
     pub seed: u64,
     /// Scale the lights at the start so that each view's mean on-plate L matches its target's.
@@ -76,7 +61,6 @@ impl DesignConfig {
             resume: false,
             prune: PruneConfig::default(),
             hooks: Hooks::default(),
-            progress: true,
             seed: 1,
             calibrate_lights: true,
             max_rollbacks: 30,
@@ -93,24 +77,15 @@ pub struct IterRecord {
     pub total: f32,
 }
 
-impl From<&LossValues> for IterRecord {
-    fn from(l: &LossValues) -> Self {
+impl From<&Evaluation> for IterRecord {
+    fn from(e: &Evaluation) -> Self {
+        let l = LossValues::from(e);
         IterRecord {
-            pixel: l.pixel.clone(),
-            gram: l.gram.clone(),
+            pixel: l.pixel,
+            gram: l.gram,
             total: l.total,
         }
     }
-}
-
-/// A rejected step.
-#[derive(Clone, Debug, PartialEq)]
-pub struct Rollback {
-    /// Iteration whose evaluation failed.
-    pub iter: u32,
-    pub reason: String,
-    /// Learning-rate scale after halving.
-    pub lr_scale: f64,
 }
 
 /// What a design run produced.
@@ -135,118 +110,41 @@ pub struct DesignReport {
     pub final_images: Vec<Vec<f32>>,
     pub initial_images: Vec<Vec<f32>>,
     pub resumed_from: Option<u32>,
+    /// What `summary.json` holds, when the outputs were written.
+    pub summary: Option<serde_json::Value>,
 }
 
-/// A copy of the optimizer state on the GPU (parameters, moments, views).
-struct Snapshot {
-    scratches: Buffer,
-    m: Buffer,
-    v: Buffer,
-    views: Buffer,
-}
-
-impl Snapshot {
-    fn new(ctx: &Arc<Context>, name: &str, gs: &GpuScene, mom: &Moments) -> Result<Snapshot, GpuError> {
-        Ok(Snapshot {
-            scratches: Buffer::new(ctx, &format!("{name} scratches"), gs.scratches.size(), MemLoc::GpuOnly)?,
-            m: Buffer::new(ctx, &format!("{name} adam m"), mom.m.size(), MemLoc::GpuOnly)?,
-            v: Buffer::new(ctx, &format!("{name} adam v"), mom.v.size(), MemLoc::GpuOnly)?,
-            views: Buffer::new(ctx, &format!("{name} views"), gs.views.size(), MemLoc::GpuOnly)?,
-        })
-    }
-}
-
-fn copy_state(rec: &mut Recorder, from: [&Buffer; 4], to: [&Buffer; 4]) {
-    for (a, b) in from.iter().zip(to.iter()) {
-        rec.copy(a, b, a.size().min(b.size()));
-    }
-    rec.barrier();
-}
-
-/// The optimizer's host-side state (everything else lives in GPU buffers).
-#[derive(Clone, Debug, PartialEq)]
-struct HostState {
-    /// next iteration to evaluate
-    k: u32,
-    /// Adam steps applied to the current state
-    t: u32,
-    /// Adam steps of the good copy
-    good_t: u32,
-    /// whether the good copy holds a verified state (false before the first accepted iteration)
-    have_good: bool,
-    lr_scale: f64,
-    best: f32,
-    history: Vec<IterRecord>,
-    rollbacks: Vec<Rollback>,
-}
-
-const CKPT_MAGIC: &[u8; 8] = b"SACKPT01";
-const CKPT_FILE: &str = "checkpoint.bin";
-
-/// A running optimization: the GPU scene and every optimizer buffer.
+/// The design optimizer: the driver over the design loss and the scene parameters.
 pub struct Optimizer<'r> {
-    ctx: Arc<Context>,
     renderer: &'r Renderer,
-    pub gs: GpuScene,
-    pub loss: Loss,
-    adam: Adam,
-    mom: Moments,
-    snap: Snapshot,
-    good: Snapshot,
-    st: HostState,
+    pub driver: Driver<'r>,
     cfg: DesignConfig,
-    fingerprint: Value,
-    hooks_fired: (bool, bool),
-    pairs_sum: f64,
-    gpu_ms: Vec<(String, f64)>,
-    /// GPU milliseconds per stage of every accepted evaluation, in order (for benchmarks).
-    pub timing_log: Vec<Vec<(String, f64)>>,
-    evals: u32,
-}
-
-/// FNV-1a 64 of bytes (checkpoint integrity and target fingerprints).
-fn fnv(bytes: &[u8]) -> u64 {
-    let mut h = 0xcbf2_9ce4_8422_2325u64;
-    for b in bytes {
-        h ^= *b as u64;
-        h = h.wrapping_mul(0x0100_0000_01b3);
-    }
-    h
 }
 
 impl<'r> Optimizer<'r> {
     /// Uploads the problem and builds the loss and Adam state (moments zero).
-    pub fn new(renderer: &'r Renderer, problem: &Problem, cfg: &DesignConfig) -> Result<Optimizer<'r>, GpuError> {
+    /// `loss` must have been built for the problem's views and targets.
+    pub fn new(
+        renderer: &'r Renderer,
+        loss: &'r Loss,
+        problem: &Problem,
+        cfg: &DesignConfig,
+    ) -> Result<Optimizer<'r>, GpuError> {
         let ctx = renderer.ctx.clone();
-        renderer.prepare_backward()?;
         let gs = renderer.upload(&problem.scene)?;
-        let loss = Loss::new(&ctx, &gs.slots.views, &problem.targets, cfg.loss)?;
-        let adam = Adam::new(&ctx)?;
-        let nv = gs.shade.n_views;
-        let zeros = vec![0f32; Moments::len_floats(gs.n_scratches, nv)];
-        let mom = Moments {
-            m: ctx.upload("adam m", &zeros)?,
-            v: ctx.upload("adam v", &zeros)?,
-        };
-        let snap = Snapshot::new(&ctx, "snapshot", &gs, &mom)?;
-        let good = Snapshot::new(&ctx, "good copy", &gs, &mom)?;
+        let params = SceneParams::new(&ctx, &cfg.adam)?;
         let mut tbytes = Vec::new();
         for t in &problem.targets {
             tbytes.extend_from_slice(bytemuck::cast_slice(t));
         }
         // What a checkpoint must agree with to be resumed (iters may differ: no schedule depends on it).
         let views: Vec<Value> = gs
-            .slots
-            .views
+            .views()
             .iter()
-            .map(|v| {
-                let mut v = *v;
-                v.right[3] = 0.0; // the intensity is optimized state, not setup
-                json!(bytemuck::cast_slice::<ViewGpu, u32>(&[v]))
-            })
+            .map(|v| json!(bytemuck::cast_slice::<ViewGpu, u32>(&[*v])))
             .collect();
         let fingerprint = json!({
-            "n_scratches": gs.n_scratches,
+            "n_scratches": gs.n_scratches(),
             "views": views,
             "plate": [problem.scene.plate.size_mm, problem.scene.plate.roughness, problem.scene.plate.f0],
             "targets_fnv": format!("{:016x}", fnv(&tbytes)),
@@ -254,42 +152,26 @@ impl<'r> Optimizer<'r> {
             "adam": format!("{:?}", cfg.adam),
             "seed": cfg.seed,
         });
+        let dcfg = DriverConfig {
+            iters: cfg.iters,
+            hyper: cfg.adam.hyper(),
+            checkpoint_every: cfg.checkpoint_every,
+            checkpoint_dir: cfg.write_outputs.then(|| cfg.out.clone()),
+            max_rollbacks: cfg.max_rollbacks,
+            hooks: cfg.hooks,
+            task: "design",
+        };
+        let driver = Driver::new(renderer, gs, Box::new(loss), Box::new(params), dcfg, fingerprint)?;
         Ok(Optimizer {
-            ctx,
             renderer,
-            gs,
-            loss,
-            adam,
-            mom,
-            snap,
-            good,
-            st: HostState {
-                k: 0,
-                t: 0,
-                good_t: 0,
-                have_good: false,
-                lr_scale: 1.0,
-                best: f32::INFINITY,
-                history: Vec::new(),
-                rollbacks: Vec::new(),
-            },
+            driver,
             cfg: cfg.clone(),
-            fingerprint,
-            hooks_fired: (false, false),
-            pairs_sum: 0.0,
-            gpu_ms: Vec::new(),
-            timing_log: Vec::new(),
-            evals: 0,
         })
-    }
-
-    fn state_bufs(&self) -> [&Buffer; 4] {
-        [&self.gs.scratches, &self.mom.m, &self.mom.v, &self.gs.views]
     }
 
     /// Renders the current state and returns the display images (and the linear ones).
     pub fn render(&mut self) -> Result<(Vec<Vec<f32>>, Vec<Vec<f32>>), GpuError> {
-        let frame = self.renderer.render(&mut self.gs)?;
+        let frame = self.renderer.render(&mut self.driver.gs)?;
         let disp = frame
             .images
             .iter()
@@ -302,8 +184,9 @@ impl<'r> Optimizer<'r> {
     /// target's linear values (T^2.2) there: a sensible starting brightness for any target.
     pub fn calibrate_lights(&mut self, scene: &Scene, targets: &[Vec<f32>]) -> Result<(), GpuError> {
         let (_, lin) = self.render()?;
-        let mut views: Vec<ViewGpu> = self.gs.views.read()?;
-        views.truncate(scene.views.len());
+        let gs = &self.driver.gs;
+        let mut phi: Vec<f32> = gs.lights().read()?;
+        phi.truncate(scene.views.len());
         for (v, (img, t)) in lin.iter().zip(targets).enumerate() {
             let mask = crate::model::reference::on_plate_mask(scene, v);
             let (mut sl, mut st, mut n) = (0.0f64, 0.0f64, 0usize);
@@ -315,386 +198,53 @@ impl<'r> Optimizer<'r> {
                 }
             }
             if n > 0 && sl > 0.0 && st > 0.0 {
-                let phi = views[v].right[3] as f64 * st / sl;
-                views[v].right[3] = (phi as f32).max(self.cfg.adam.phi_min);
+                let p = phi[v] as f64 * st / sl;
+                phi[v] = (p as f32).max(self.cfg.adam.phi_min);
             }
         }
-        self.gs.views.write(0, &views)?;
-        self.gs.slots.views = views;
+        gs.lights().write(0, &phi)?;
         Ok(())
     }
 
     /// The current design as a scene (parameters and light intensities read back).
     pub fn scene(&self, template: &Scene) -> Result<Scene, GpuError> {
-        let scr: Vec<ScratchGpu> = self.ctx.download(&self.gs.scratches)?;
-        let views: Vec<ViewGpu> = self.gs.views.read()?;
-        Ok(to_scene(template, &scr[..self.gs.n_scratches as usize], &views))
+        let gs = &self.driver.gs;
+        let scr: Vec<ScratchGpu> = self.renderer.ctx.download(gs.scratches())?;
+        let phi: Vec<f32> = gs.lights().read()?;
+        Ok(to_scene(template, &scr[..gs.n_scratches() as usize], &phi))
     }
 
-    fn record_eval(&self, rec: &mut Recorder, step: bool, nan_image: bool, nan_grad: bool) {
-        let gs = &self.gs;
-        copy_state(
-            rec,
-            self.state_bufs(),
-            [&self.snap.scratches, &self.snap.m, &self.snap.v, &self.snap.views],
-        );
-        rec.fill(&gs.stats, 0);
-        rec.barrier();
-        self.renderer.record_binning(rec, gs);
-        rec.timestamp("binning");
-        self.renderer.record_shading(rec, gs);
-        rec.timestamp("forward");
-        if nan_image {
-            rec.fill(&gs.image, f32::NAN.to_bits());
-            rec.barrier();
-        }
-        self.loss.record_forward(rec, &gs.image);
-        rec.timestamp("loss");
-        if step {
-            self.loss.record_backward(rec, &gs.image, &gs.dl);
-            rec.timestamp("loss backward");
-            self.renderer.record_backward(rec, gs);
-            rec.timestamp("backward");
-            if nan_grad {
-                rec.fill(&gs.grad, f32::NAN.to_bits());
-                rec.barrier();
-            }
-            let limit = if self.st.best.is_finite() {
-                10.0 * self.st.best
-            } else {
-                f32::INFINITY
-            };
-            let push = Adam::push(
-                &self.cfg.adam,
-                gs.n_scratches,
-                gs.shade.n_views,
-                gs.capacity,
-                gs.shade.half_plate,
-                self.st.t + 1,
-                self.st.lr_scale,
-                limit,
-            );
-            let b = StepBuffers {
-                scratches: &gs.scratches,
-                grad: &gs.grad,
-                moments: &self.mom,
-                views: &gs.views,
-                grad_light: &gs.grad_light,
-                loss: &self.loss.out,
-                stats: &gs.stats,
-            };
-            self.adam.record(rec, &b, &push);
-            rec.timestamp("adam");
-        }
-    }
-
-    /// Runs iteration `st.k` until it is accepted (retrying after tile-list growth, rolling back
-    /// after a bad step). Returns the accepted loss values.
-    fn iterate(&mut self, rec: &mut Recorder) -> anyhow::Result<LossValues> {
-        loop {
-            let k = self.st.k;
-            let step = k < self.cfg.iters;
-            let nan_image = self.cfg.hooks.nan_image_at == Some(k) && !self.hooks_fired.0;
-            let nan_grad = step && self.cfg.hooks.nan_grad_at == Some(k) && !self.hooks_fired.1;
-            rec.begin()?;
-            self.record_eval(rec, step, nan_image, nan_grad);
-            let timings = rec.submit_and_wait()?;
-            let stats: Vec<u32> = self.gs.stats.read()?;
-            if stats[2] > self.gs.capacity {
-                // Incomplete render (Adam did not move): grow the tile lists and redo.
-                self.renderer.grow_list(&mut self.gs, stats[2] as u64)?;
-                continue;
-            }
-            self.hooks_fired.0 |= nan_image;
-            self.hooks_fired.1 |= nan_grad;
-            self.evals += 1;
-            self.pairs_sum += stats[1] as f64;
-            self.timing_log.push(timings.entries.clone());
-            for (label, ms) in &timings.entries {
-                match self.gpu_ms.iter_mut().find(|(l, _)| l == label) {
-                    Some(e) => e.1 += ms,
-                    None => self.gpu_ms.push((label.clone(), *ms)),
-                }
-            }
-            let lv = self.loss.read()?;
-            let mut flags = if step {
-                self.adam.read_flags()?
-            } else {
-                StepFlags::default()
-            };
-            let limit = if self.st.best.is_finite() {
-                10.0 * self.st.best
-            } else {
-                f32::INFINITY
-            };
-            if !lv.total.is_finite() || lv.total > limit {
-                flags.bad_loss = true;
-            }
-            if flags.bad_loss || flags.nonfinite_grad {
-                let reason = if !lv.total.is_finite() {
-                    format!("non-finite loss {} at iteration {k}", lv.total)
-                } else if flags.bad_loss {
-                    format!(
-                        "exploding step: loss {} at iteration {k} is above 10x the best so far ({})",
-                        lv.total, self.st.best
-                    )
-                } else {
-                    format!("non-finite gradient at iteration {k}")
-                };
-                self.rollback(rec, reason)?;
-                continue;
-            }
-            // Accepted: the snapshot (state at the start of this iteration) is the new good copy.
-            std::mem::swap(&mut self.snap, &mut self.good);
-            self.st.good_t = self.st.t;
-            self.st.have_good = true;
-            if step {
-                self.st.t += 1;
-            }
-            self.st.best = self.st.best.min(lv.total);
-            self.st.history.push(IterRecord::from(&lv));
-            self.st.k += 1;
-            return Ok(lv);
-        }
-    }
-
-    fn rollback(&mut self, rec: &mut Recorder, reason: String) -> anyhow::Result<()> {
-        let k = self.st.k;
-        // A non-finite gradient at an otherwise fine x_k recurs deterministically, so in every case
-        // go back to the last accepted state x_{k-1} and redo its step with half the rate.
-        if !self.st.have_good {
-            anyhow::bail!("{reason}: the initial design is already bad, nothing to roll back to (check the targets, lights and initial scratches)");
-        }
-        if self.st.rollbacks.len() as u32 >= self.cfg.max_rollbacks {
-            anyhow::bail!("{reason}: giving up after {} rollbacks", self.st.rollbacks.len());
-        }
-        self.st.lr_scale *= 0.5;
-        rec.begin()?;
-        copy_state(
-            rec,
-            [&self.good.scratches, &self.good.m, &self.good.v, &self.good.views],
-            self.state_bufs(),
-        );
-        rec.submit_and_wait()?;
-        self.st.t = self.st.good_t;
-        self.st.k = k - 1;
-        self.st.history.pop();
-        self.st.best = self.st.history.iter().map(|h| h.total).fold(f32::INFINITY, f32::min);
-        // The good copy still holds x_{k-1} (now also the current state): a verified state to
-        // come back to if the redone iteration fails too.
-        eprintln!(
-            "warning: {reason}; rolled back to iteration {} and halved the learning rates (scale {})",
-            k - 1,
-            self.st.lr_scale
-        );
-        self.st.rollbacks.push(Rollback {
-            iter: k,
-            reason,
-            lr_scale: self.st.lr_scale,
-        });
-        Ok(())
-    }
-
-    /// Writes `out/checkpoint.bin` atomically: a JSON header (host state, fingerprint, checksum)
-    /// and the raw GPU state (current and good copies).
-    pub fn save_checkpoint(&self, out: &Path) -> anyhow::Result<()> {
-        let mut data: Vec<u8> = Vec::new();
-        for b in
-            self.state_bufs()
-                .into_iter()
-                .chain([&self.good.scratches, &self.good.m, &self.good.v, &self.good.views])
-        {
-            let bytes: Vec<u8> = self.ctx.download(b)?;
-            data.extend_from_slice(&(bytes.len() as u64).to_le_bytes());
-            data.extend_from_slice(&bytes);
-        }
-        let h = &self.st;
-        let meta = json!({
-            "version": 1,
-            "fingerprint": self.fingerprint,
-            "k": h.k, "t": h.t, "good_t": h.good_t, "have_good": h.have_good,
-            "lr_scale": h.lr_scale, "best": h.best as f64,
-            "history": h.history.iter().map(|r| json!({"pixel": r.pixel, "gram": r.gram, "total": r.total})).collect::<Vec<_>>(),
-            "rollbacks": h.rollbacks.iter().map(|r| json!({"iter": r.iter, "reason": r.reason, "lr_scale": r.lr_scale})).collect::<Vec<_>>(),
-            "data_fnv": format!("{:016x}", fnv(&data)),
-        });
-        let text = serde_json::to_vec(&meta)?;
-        let mut file = Vec::with_capacity(16 + text.len() + data.len());
-        file.extend_from_slice(CKPT_MAGIC);
-        file.extend_from_slice(&(text.len() as u64).to_le_bytes());
-        file.extend_from_slice(&text);
-        file.extend_from_slice(&data);
-        crate::io::write_atomic(&out.join(CKPT_FILE), &file)?;
-        Ok(())
-    }
-
-    /// Restores the state saved by [`save_checkpoint`](Self::save_checkpoint).
-    pub fn load_checkpoint(&mut self, out: &Path) -> anyhow::Result<()> {
-        use anyhow::{bail, Context as _};
-        let path = out.join(CKPT_FILE);
-        let file = std::fs::read(&path).with_context(|| {
-            format!(
-                "cannot resume: cannot read checkpoint `{}` (run without --resume to start afresh)",
-                path.display()
-            )
-        })?;
-        let bad = |msg: &str| {
-            anyhow::anyhow!(
-                "checkpoint `{}` is damaged: {msg}; run without --resume",
-                path.display()
-            )
-        };
-        if file.len() < 16 || &file[..8] != CKPT_MAGIC {
-            return Err(bad("bad magic"));
-        }
-        let n = u64::from_le_bytes(file[8..16].try_into().unwrap()) as usize;
-        let meta: Value = serde_json::from_slice(file.get(16..16 + n).ok_or_else(|| bad("truncated header"))?)
-            .map_err(|_| bad("bad header"))?;
-        let data = &file[16 + n..];
-        if meta["data_fnv"].as_str() != Some(&format!("{:016x}", fnv(data))) {
-            return Err(bad("checksum mismatch"));
-        }
-        if meta["fingerprint"] != self.fingerprint {
-            let fp = &meta["fingerprint"];
-            let what: Vec<&str> = ["n_scratches", "views", "plate", "targets_fnv", "loss", "adam", "seed"]
-                .into_iter()
-                .filter(|k| fp[*k] != self.fingerprint[*k])
-                .collect();
-            bail!(
-                "checkpoint `{}` was made with different settings ({} differ); resume with the same flags and targets, or run without --resume",
-                path.display(),
-                what.join(", ")
-            );
-        }
-        let mut pos = 0usize;
-        let mut chunks = Vec::new();
-        for _ in 0..8 {
-            let len = u64::from_le_bytes(
-                data.get(pos..pos + 8)
-                    .ok_or_else(|| bad("truncated data"))?
-                    .try_into()
-                    .unwrap(),
-            ) as usize;
-            chunks.push(
-                data.get(pos + 8..pos + 8 + len)
-                    .ok_or_else(|| bad("truncated data"))?
-                    .to_vec(),
-            );
-            pos += 8 + len;
-        }
-        let ctx = self.ctx.clone();
-        let up = |name: &str, c: &[u8]| -> Result<Buffer, GpuError> { ctx.upload(name, c) };
-        self.gs.scratches = up("scratches", &chunks[0])?;
-        self.mom.m = up("adam m", &chunks[1])?;
-        self.mom.v = up("adam v", &chunks[2])?;
-        self.gs
-            .views
-            .write(0, &chunks[3][..chunks[3].len().min(self.gs.views.size() as usize)])?;
-        self.good.scratches = up("good copy scratches", &chunks[4])?;
-        self.good.m = up("good copy adam m", &chunks[5])?;
-        self.good.v = up("good copy adam v", &chunks[6])?;
-        self.good.views = up("good copy views", &chunks[7])?;
-        let views: Vec<ViewGpu> = self.gs.views.read()?;
-        self.gs.slots.views = views[..self.gs.slots.views.len()].to_vec();
-        let num = |k: &str| meta[k].as_f64().ok_or_else(|| bad(k));
-        let f32s = |v: &Value| -> Vec<f32> {
-            v.as_array()
-                .map(|a| a.iter().filter_map(|x| x.as_f64()).map(|x| x as f32).collect())
-                .unwrap_or_default()
-        };
-        self.st = HostState {
-            k: num("k")? as u32,
-            t: num("t")? as u32,
-            good_t: num("good_t")? as u32,
-            have_good: meta["have_good"].as_bool().ok_or_else(|| bad("have_good"))?,
-            lr_scale: num("lr_scale")?,
-            best: meta["best"].as_f64().map(|x| x as f32).unwrap_or(f32::INFINITY),
-            history: meta["history"]
-                .as_array()
-                .ok_or_else(|| bad("history"))?
-                .iter()
-                .map(|r| IterRecord {
-                    pixel: f32s(&r["pixel"]),
-                    gram: f32s(&r["gram"]),
-                    total: r["total"].as_f64().unwrap_or(f64::NAN) as f32,
-                })
-                .collect(),
-            rollbacks: meta["rollbacks"]
-                .as_array()
-                .ok_or_else(|| bad("rollbacks"))?
-                .iter()
-                .map(|r| Rollback {
-                    iter: r["iter"].as_u64().unwrap_or(0) as u32,
-                    reason: r["reason"].as_str().unwrap_or("").to_string(),
-                    lr_scale: r["lr_scale"].as_f64().unwrap_or(1.0),
-                })
-                .collect(),
-        };
-        Ok(())
-    }
-
-    /// Runs iterations until `cfg.iters` has been evaluated, checkpointing on the way.
-    pub fn run(&mut self) -> anyhow::Result<(f64, u32)> {
-        let mut rec = Recorder::new(&self.ctx)?;
-        let total = self.cfg.iters + 1;
-        let bar = if self.cfg.progress {
-            let b = indicatif::ProgressBar::new(total as u64);
-            b.set_style(
-                indicatif::ProgressStyle::with_template(
-                    "{spinner} design [{bar:30}] {pos}/{len} iters, {elapsed} elapsed, ETA {eta} | loss {msg}",
-                )
-                .unwrap()
-                .progress_chars("=> "),
-            );
-            b
-        } else {
-            indicatif::ProgressBar::hidden()
-        };
-        bar.set_position(self.st.k as u64);
-        let t0 = Instant::now();
-        let mut run = 0u32;
-        while self.st.k <= self.cfg.iters {
-            let k = self.st.k;
-            if self.cfg.write_outputs
-                && k > 0
-                && (k == self.cfg.iters || (self.cfg.checkpoint_every > 0 && k % self.cfg.checkpoint_every == 0))
-            {
-                self.save_checkpoint(&self.cfg.out)?;
-            }
-            if self.cfg.hooks.stop_at == Some(k) {
-                anyhow::bail!("stopped by the test hook at iteration {k}");
-            }
-            let lv = self.iterate(&mut rec)?;
-            run += 1;
-            bar.set_position(self.st.k as u64);
-            let per: Vec<String> = lv.per_view().iter().map(|v| format!("{v:.4}")).collect();
-            bar.set_message(format!("{:.5} (views {})", lv.total, per.join(" ")));
-        }
-        bar.finish_and_clear();
-        Ok((t0.elapsed().as_secs_f64(), run))
-    }
-
-    /// The render counters of the last evaluation: [candidates, pairs, list entries].
-    pub fn gs_stats(&self) -> Result<Vec<u32>, GpuError> {
-        self.gs.stats.read()
-    }
-
-    pub fn history(&self) -> &[IterRecord] {
-        &self.st.history
+    pub fn history(&self) -> Vec<IterRecord> {
+        self.driver.history().iter().map(IterRecord::from).collect()
     }
 
     pub fn rollbacks(&self) -> &[Rollback] {
-        &self.st.rollbacks
+        self.driver.rollbacks()
     }
 
     pub fn next_iter(&self) -> u32 {
-        self.st.k
+        self.driver.next_iter()
+    }
+
+    /// The loss of the last accepted evaluation.
+    pub fn loss(&self) -> Result<LossValues, GpuError> {
+        Ok(LossValues::from(&self.driver.objective().read()?))
+    }
+
+    /// Runs iterations until `cfg.iters` has been evaluated, checkpointing on the way.
+    pub fn run(&mut self, obs: &dyn Observer) -> Result<(f64, u32), OptimError> {
+        self.driver.run(obs)
+    }
+
+    /// Continues from the checkpoint in `cfg.out`.
+    pub fn resume(&mut self) -> Result<(), OptimError> {
+        self.driver.load_checkpoint(&self.cfg.out)
     }
 }
 
 /// Builds a scene from GPU parameters: `template`'s plate and views with the lights' optimized
-/// intensities (`views[v].right[3]`).
-pub fn to_scene(template: &Scene, scr: &[ScratchGpu], views: &[ViewGpu]) -> Scene {
+/// intensities `phi` (one per view).
+pub fn to_scene(template: &Scene, scr: &[ScratchGpu], phi: &[f32]) -> Scene {
     let mut scene = template.clone();
     scene.scratches = scr
         .iter()
@@ -706,31 +256,44 @@ pub fn to_scene(template: &Scene, scr: &[ScratchGpu], views: &[ViewGpu]) -> Scen
             alpha: s.shape[2] as f64,
         })
         .collect();
-    for (v, g) in scene.views.iter_mut().zip(views) {
-        v.light.intensity = g.right[3] as f64;
+    for (v, &p) in scene.views.iter_mut().zip(phi) {
+        v.light.intensity = p as f64;
     }
     scene
 }
 
 /// The whole `design` job: optimize, prune, evaluate and (if configured) write the outputs.
-pub fn run_design(ctx: &Arc<Context>, problem: &Problem, cfg: &DesignConfig) -> anyhow::Result<DesignReport> {
-    use anyhow::Context as _;
+/// Progress and warnings go to `obs`.
+pub fn run_design(
+    ctx: &Arc<Context>,
+    problem: &Problem,
+    cfg: &DesignConfig,
+    obs: &dyn Observer,
+) -> Result<DesignReport, OptimError> {
     if cfg.write_outputs {
-        std::fs::create_dir_all(&cfg.out)
-            .with_context(|| format!("cannot create output directory `{}`", cfg.out.display()))?;
+        std::fs::create_dir_all(&cfg.out).map_err(|source| {
+            OptimError::Io(crate::io::IoError::Io {
+                action: "create output directory",
+                path: cfg.out.clone(),
+                source,
+            })
+        })?;
     }
     let renderer = Renderer::new(ctx)?;
-    let mut opt = Optimizer::new(&renderer, problem, cfg)?;
+    let slots = crate::render::layout::view_slots(&problem.scene);
+    let loss = Loss::new(ctx, &slots.views, &problem.targets, cfg.loss)?;
+    let mut opt = Optimizer::new(&renderer, &loss, problem, cfg)?;
     let resumed_from = if cfg.resume {
-        opt.load_checkpoint(&cfg.out)?;
-        anyhow::ensure!(
-            opt.next_iter() <= cfg.iters,
-            "the checkpoint in `{}` is at iteration {}, beyond --iters {}; resume with --iters {} or more",
-            cfg.out.display(),
-            opt.next_iter(),
-            cfg.iters,
-            opt.next_iter()
-        );
+        opt.resume()?;
+        if opt.next_iter() > cfg.iters {
+            return Err(OptimError::Usage(format!(
+                "the checkpoint in `{}` is at iteration {}, beyond --iters {}; resume with --iters {} or more",
+                cfg.out.display(),
+                opt.next_iter(),
+                cfg.iters,
+                opt.next_iter()
+            )));
+        }
         Some(opt.next_iter())
     } else {
         if cfg.calibrate_lights {
@@ -738,37 +301,33 @@ pub fn run_design(ctx: &Arc<Context>, problem: &Problem, cfg: &DesignConfig) -> 
         }
         None
     };
-    let initial_scene = if resumed_from.is_some() {
-        None
-    } else {
-        Some(opt.scene(&problem.scene)?)
-    };
     let (initial_images, _) = opt.render()?;
-    let (loop_seconds, iters_run) = opt.run()?;
+    let (loop_seconds, iters_run) = opt.run(obs)?;
     let unpruned = opt.scene(&problem.scene)?;
-    let evals = opt.evals.max(1) as f64;
-    let mean_pairs = opt.pairs_sum / evals;
-    let gpu_ms: Vec<(String, f64)> = opt.gpu_ms.iter().map(|(l, ms)| (l.clone(), ms / evals)).collect();
-    let history = opt.history().to_vec();
+    let st = &opt.driver.stats;
+    let evals = st.evals.max(1) as f64;
+    let mean_pairs = st.pairs_sum / evals;
+    let gpu_ms: Vec<(String, f64)> = st.gpu_ms.iter().map(|(l, ms)| (l.clone(), ms / evals)).collect();
+    let history = opt.history();
     let rollbacks = opt.rollbacks().to_vec();
-    let loss = &opt.loss;
+    drop(opt);
 
     let (scene, prune) = if cfg.prune.enabled() {
-        let (s, st) = super::prune::prune(&renderer, loss, &unpruned, &cfg.prune, &cfg.adam)?;
+        let (s, st) = super::prune::prune(&renderer, &loss, &unpruned, &cfg.prune, &cfg.adam)?;
         (s, Some(st))
     } else {
         (unpruned.clone(), None)
     };
     // Final evaluation and images of the written design.
-    let mut gs = renderer.upload(&scene)?;
+    let mut gs: GpuScene = renderer.upload(&scene)?;
     let frame = renderer.render(&mut gs)?;
-    let final_loss = loss.evaluate(ctx, &gs.image, None)?;
+    let final_loss = loss.evaluate(ctx, gs.image(), None)?;
     let final_images: Vec<Vec<f32>> = frame
         .images
         .iter()
         .map(|img| img.iter().map(|&l| crate::io::display_value(l)).collect())
         .collect();
-    let report = DesignReport {
+    let mut report = DesignReport {
         scene,
         unpruned,
         history,
@@ -782,9 +341,10 @@ pub fn run_design(ctx: &Arc<Context>, problem: &Problem, cfg: &DesignConfig) -> 
         final_images,
         initial_images,
         resumed_from,
+        summary: None,
     };
     if cfg.write_outputs {
-        super::report::write_outputs(&cfg.out, problem, cfg, &report, initial_scene.as_ref())?;
+        report.summary = Some(super::report::write_outputs(&cfg.out, problem, cfg, &report)?);
     }
     Ok(report)
 }

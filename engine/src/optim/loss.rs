@@ -623,3 +623,38 @@ pub mod reference {
         (per_view, dl)
     }
 }
+
+/// The design loss as the optimizer's objective: terms are, per view, the pixel and the Gram term.
+impl super::driver::Objective for Loss {
+    fn record_forward(&self, rec: &mut Recorder, gs: &crate::render::GpuScene) {
+        self.record_forward(rec, gs.image());
+    }
+
+    fn record_backward(&self, rec: &mut Recorder, gs: &crate::render::GpuScene) {
+        self.record_backward(rec, gs.image(), gs.dl());
+    }
+
+    fn total_on_device(&self) -> (&Buffer, u32) {
+        (&self.out, 2 * self.pyr.n_views)
+    }
+
+    fn read(&self) -> Result<super::driver::Evaluation, GpuError> {
+        let o: Vec<f32> = self.out.read()?;
+        let nv = self.pyr.n_views as usize;
+        Ok(super::driver::Evaluation {
+            terms: o[..2 * nv].to_vec(),
+            total: o[2 * nv],
+        })
+    }
+}
+
+impl From<&super::driver::Evaluation> for LossValues {
+    /// The design loss's terms, split per view (see [`Loss`]'s objective).
+    fn from(e: &super::driver::Evaluation) -> LossValues {
+        LossValues {
+            pixel: e.terms.iter().step_by(2).copied().collect(),
+            gram: e.terms.iter().skip(1).step_by(2).copied().collect(),
+            total: e.total,
+        }
+    }
+}

@@ -1,28 +1,39 @@
-//! The design optimizer (`scratchart design`): fits scratch parameters and light intensities so
-//! that each view of the plate shows its target image (MODEL.md section 7).
+//! The optimizer and the design job (`scratchart design`): fits parameters against an objective
+//! on the GPU (MODEL.md section 7 for the design).
 //!
-//! - [`loss`]: the loss on the GPU (display transform, blurred squared error, Gram matrices of a
-//!   fixed multi-scale oriented feature bank) and its backward to dE/dL; f64 CPU twin for tests.
-//! - [`adam`]: Adam on the GPU with the projection onto valid parameters; CPU twin for tests.
-//! - [`design`]: the optimization loop (one GPU submission per iteration: binning, forward, loss,
-//!   backward, Adam), rollback of bad steps, checkpoints and bit-exact resume.
+//! - [`driver`]: the generic optimizer: iterate, roll back, checkpoint, resume, over any
+//!   [`driver::Objective`] and any [`driver::ParamSet`].
+//! - [`adam`]: Adam on flat parameter buffers with learning-rate groups (`shaders/adam.comp`).
+//! - [`checkpoint`]: the checkpoint file (serde header, named chunks).
+//! - [`loss`]: the design loss on the GPU (display transform, blurred squared error, Gram
+//!   matrices of a fixed multi-scale oriented feature bank) and its backward to dE/dL; f64 CPU
+//!   twin for tests. It is the design's objective.
+//! - [`check`]: the check loss E_lin of MODEL.md section 8 as an objective on the GPU.
+//! - [`scene_params`]: the design's parameter set (scratches and lights) and its projection.
+//! - [`design`]: the design job: the driver with those two, then pruning and the reports.
 //! - [`prune`]: removal of scratches that barely matter, checked by true forward evaluations.
 //! - [`targets`]: target images (files, or the built-in circle / triangle / star).
 //! - [`report`]: compare images, SSIM, the loss-curve plot and the summary.
-//! - [`cli`]: the `design` subcommand's flags and driver.
+//! - [`error`]: what can stop an optimization.
 //!
 //! Determinism: every GPU reduction runs in a fixed order and the host feeds back only values it
 //! read from the GPU, so a run is bit-reproducible on one device, and a resumed run equals an
 //! uninterrupted one bit for bit.
 pub mod adam;
-pub mod cli;
+pub mod check;
+pub mod checkpoint;
 pub mod design;
+pub mod driver;
+pub mod error;
 pub mod loss;
 pub mod prune;
 pub mod report;
+pub mod scene_params;
 pub mod targets;
 
 pub use adam::AdamConfig;
 pub use design::{DesignConfig, DesignReport, Problem};
+pub use driver::{Driver, DriverConfig, Evaluation, Objective, ParamSet};
+pub use error::OptimError;
 pub use loss::LossConfig;
 pub use prune::PruneConfig;

@@ -56,25 +56,14 @@ pub fn evaluate(renderer: &Renderer, loss: &Loss, scene: &Scene) -> Result<(Loss
     let ctx = &renderer.ctx;
     let mut gs = renderer.upload(scene)?;
     let mut rec = Recorder::new(ctx)?;
-    loop {
-        rec.begin()?;
-        rec.fill(&gs.stats, 0);
-        rec.barrier();
-        renderer.record_binning(&mut rec, &gs);
-        renderer.record_shading(&mut rec, &gs);
-        loss.record_forward(&mut rec, &gs.image);
-        loss.record_backward(&mut rec, &gs.image, &gs.dl);
-        renderer.record_backward(&mut rec, &gs);
-        rec.submit_and_wait()?;
-        let st: Vec<u32> = gs.stats.read()?;
-        if st[2] > gs.capacity {
-            renderer.grow_list(&mut gs, st[2] as u64)?;
-            continue;
-        }
-        break;
-    }
+    renderer.submit(&mut rec, &mut gs, |rec, gs| {
+        renderer.record_render(rec, gs);
+        loss.record_forward(rec, gs.image());
+        loss.record_backward(rec, gs.image(), gs.dl());
+        renderer.record_backward(rec, gs);
+    })?;
     let lv = loss.read()?;
-    let g: Vec<[f32; 8]> = ctx.download(&gs.grad)?;
+    let g: Vec<[f32; 8]> = ctx.download(gs.scratch_grad())?;
     Ok((lv, g[..scene.scratches.len()].to_vec()))
 }
 

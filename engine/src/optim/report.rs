@@ -5,6 +5,7 @@ use std::path::Path;
 use serde_json::json;
 
 use super::design::{DesignConfig, DesignReport, Problem};
+use super::error::OptimError;
 use crate::model::scene::Scene;
 
 /// The 3x3 clamp-to-edge Gaussian blur of the loss (sigma in pixels).
@@ -126,7 +127,7 @@ fn plot_font() -> Option<&'static str> {
 }
 
 /// The loss curve: log10 of the total loss (white) and of each view's loss, per iteration.
-pub fn loss_curve_png(path: &Path, report: &DesignReport) -> anyhow::Result<()> {
+pub fn loss_curve_png(path: &Path, report: &DesignReport) -> Result<(), OptimError> {
     use plotters::prelude::*;
     let (wpx, hpx) = (800u32, 450u32);
     let mut buf = vec![0u8; (wpx * hpx * 3) as usize];
@@ -149,7 +150,7 @@ pub fn loss_curve_png(path: &Path, report: &DesignReport) -> anyhow::Result<()> 
         (-3.0, 0.0)
     };
     let n = hist.len().max(2) as f64 - 1.0;
-    let pe = |e: DrawingAreaErrorKind<_>| anyhow::anyhow!("plot: {e}");
+    let pe = |e: DrawingAreaErrorKind<_>| OptimError::Report(format!("plot: {e}"));
     // white for the total, then distinct hues per view (cycling after eight views)
     const PALETTE: [RGBColor; 8] = [
         RGBColor(255, 160, 60),
@@ -250,21 +251,22 @@ pub fn loss_curve_png(path: &Path, report: &DesignReport) -> anyhow::Result<()> 
     let mut png = Vec::new();
     image::DynamicImage::ImageRgb8(img)
         .write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png)
-        .map_err(|e| anyhow::anyhow!("cannot encode {}: {e}", path.display()))?;
+        .map_err(|e| OptimError::Report(format!("cannot encode {}: {e}", path.display())))?;
     crate::io::write_atomic(path, &png)?;
     Ok(())
 }
 
 /// Writes design.json + scratches.csv, NAME_compare.png and NAME_target.png per view, loss_curve.png and
-/// summary.json, and prints the summary.
+/// summary.json; returns the summary (see [`summary_text`]).
 pub fn write_outputs(
     out: &Path,
     problem: &Problem,
     cfg: &DesignConfig,
     r: &DesignReport,
-    _initial: Option<&Scene>,
-) -> anyhow::Result<()> {
-    r.scene.save(&out.join("design.json"), "scratches.csv")?;
+) -> Result<serde_json::Value, OptimError> {
+    r.scene
+        .save(&out.join("design.json"), "scratches.csv")
+        .map_err(|e| OptimError::Report(e.to_string()))?;
     let scene = &r.scene;
     let mut views_json = Vec::new();
     let first = r.history.first();
@@ -329,15 +331,20 @@ pub fn write_outputs(
     });
     crate::io::write_atomic(
         &out.join("summary.json"),
-        serde_json::to_string_pretty(&summary)?.as_bytes(),
+        serde_json::to_string_pretty(&summary)
+            .expect("the summary always serializes")
+            .as_bytes(),
     )?;
-    print_summary(&summary, out);
-    Ok(())
+    Ok(summary)
 }
 
-fn print_summary(s: &serde_json::Value, out: &Path) {
+/// The summary of a design run as the `design` command prints it.
+pub fn summary_text(s: &serde_json::Value, out: &Path) -> String {
+    let mut text = String::new();
+    use std::fmt::Write as _;
     let f = |v: &serde_json::Value| v.as_f64().unwrap_or(f64::NAN);
-    println!(
+    let _ = writeln!(
+        text,
         "design: {} views, {} scratches optimized, {} iterations ({} run now) in {:.1} s: {:.0} ms/iteration, {:.3e} (pixel, scratch) pairs/iteration",
         s["views"],
         s["scratches_optimized"],
@@ -352,15 +359,22 @@ fn print_summary(s: &serde_json::Value, out: &Path) {
             .iter()
             .map(|p| format!("{} {:.1}", p["phase"].as_str().unwrap_or("?"), f(&p["ms"])))
             .collect();
-        println!("  GPU ms per iteration: {}", p.join(", "));
+        let _ = writeln!(text, "  GPU ms per iteration: {}", p.join(", "));
     }
-    println!("  loss {:.5} -> {:.5}", f(&s["loss_initial"]), f(&s["loss_final"]));
-    println!(
+    let _ = writeln!(
+        text,
+        "  loss {:.5} -> {:.5}",
+        f(&s["loss_initial"]),
+        f(&s["loss_final"])
+    );
+    let _ = writeln!(
+        text,
         "  {:<8} {:>12} {:>12} {:>11} {:>11} {:>10} {:>10}",
         "view", "loss start", "loss final", "pixel", "gram", "SSIM start", "SSIM final"
     );
     for v in s["per_view"].as_array().into_iter().flatten() {
-        println!(
+        let _ = writeln!(
+            text,
             "  {:<8} {:>12.5} {:>12.5} {:>11.5} {:>11.5} {:>10.3} {:>10.3}",
             v["name"].as_str().unwrap_or("?"),
             f(&v["loss_initial"]),
@@ -372,7 +386,8 @@ fn print_summary(s: &serde_json::Value, out: &Path) {
         );
     }
     if let Some(p) = s["pruning"].as_object() {
-        println!(
+        let _ = writeln!(
+            text,
             "  pruning: removed {} of {} scratches, loss {:.5} -> {:.5} ({} trials)",
             p["removed"],
             p["before"],
@@ -383,10 +398,12 @@ fn print_summary(s: &serde_json::Value, out: &Path) {
     }
     let nrb = s["rollbacks"].as_array().map_or(0, |a| a.len());
     if nrb > 0 {
-        println!("  rollbacks: {nrb} (see summary.json)");
+        let _ = writeln!(text, "  rollbacks: {nrb} (see summary.json)");
     }
-    println!(
+    let _ = writeln!(
+        text,
         "  wrote {0}/design.json, {0}/scratches.csv, {0}/*_compare.png (render | target), {0}/*_target.png, {0}/loss_curve.png, {0}/summary.json",
         out.display()
     );
+    text
 }

@@ -16,6 +16,17 @@ pub struct Gradients {
 }
 
 impl Renderer {
+    /// Replaces dE/dL (one value per pixel of every view, laid out like the image) by `dl`.
+    pub fn upload_dl(&self, gs: &mut GpuScene, dl: &[f32]) -> Result<(), GpuError> {
+        assert_eq!(
+            dl.len() as u64,
+            gs.slots.n_pixels,
+            "dE/dL needs one value per pixel of every view"
+        );
+        gs.dl = self.ctx.upload("dE/dL", dl)?;
+        Ok(())
+    }
+
     /// Records the backward pass for the forward pass just recorded on `gs` (same tile lists):
     /// reads `gs.dl`, `gs.image`, `gs.cov_raw`; writes `gs.grad` and `gs.grad_light`.
     /// Needs `prepare_backward` first (a contract: it panics otherwise).
@@ -35,6 +46,7 @@ impl Renderer {
                 &gs.cov_raw,
                 &gs.partials,
                 &gs.views64,
+                &gs.lights,
             ],
             bytemuck::bytes_of(&gs.shade),
             gs.slots.n_tiles,
@@ -53,7 +65,7 @@ impl Renderer {
         );
         rec.dispatch(
             &self.grad_light,
-            &[&gs.views, &gs.image, &gs.dl, &gs.grad_light],
+            &[&gs.views, &gs.image, &gs.dl, &gs.grad_light, &gs.lights],
             &[],
             [gs.shade.n_views, 1, 1],
         );
@@ -77,11 +89,16 @@ impl Renderer {
             "dE/dL needs one value per pixel of every view"
         );
         self.prepare_backward()?;
-        gs.dl = self.ctx.upload("dE/dL", dl)?;
+        self.upload_dl(gs, dl)?;
         let mut rec = Recorder::new(&self.ctx)?;
         rec.begin()?;
         self.record_backward(&mut rec, gs);
         rec.submit_and_wait()?;
+        self.download_gradients(gs)
+    }
+
+    /// The gradients of the last backward pass.
+    pub(crate) fn download_gradients(&self, gs: &GpuScene) -> Result<Gradients, GpuError> {
         let g: Vec<[f32; 8]> = self.ctx.download(&gs.grad)?;
         let scratches = g[..gs.n_scratches as usize]
             .iter()
@@ -101,41 +118,20 @@ pub struct CheckLoss {
 }
 
 impl Renderer {
-    /// Renders `scene`, forms dE_lin/dL against `targets` and runs the backward pass.
-    /// On-plate pixels are found with the float64 camera geometry of `model::camera`.
+    /// Renders `scene` and evaluates E_lin against `targets` and its gradients on the GPU
+    /// ([`crate::optim::check::CheckObjective`]); on-plate pixels come from the float64 camera
+    /// geometry of `model::camera`.
     pub fn check_loss_gradients(
         &self,
         gs: &mut GpuScene,
         scene: &crate::model::scene::Scene,
         targets: &[Vec<f32>],
     ) -> Result<CheckLoss, GpuError> {
-        assert_eq!(targets.len(), scene.views.len(), "one target image per view");
-        let images = self.render(gs)?.images;
-        let half = 0.5 * scene.plate.size_mm;
-        let mut e_lin = 0.0f64;
-        let mut dl = Vec::with_capacity(gs.slots.n_pixels as usize);
-        for (v, view) in scene.views.iter().enumerate() {
-            let g = crate::model::camera::ViewGeom::new(view);
-            let (w, h) = (view.camera.width, view.camera.height);
-            assert_eq!(targets[v].len(), (w * h) as usize, "target {v} has the wrong size");
-            let mask: Vec<bool> = (0..h)
-                .flat_map(|j| (0..w).map(move |i| (i, j)))
-                .map(|(i, j)| g.on_plate(i, j, half))
-                .collect();
-            let n = mask.iter().filter(|m| **m).count().max(1) as f64;
-            let mut sum = 0.0f64;
-            for (idx, &m) in mask.iter().enumerate() {
-                if m {
-                    let r = images[v][idx] as f64 - targets[v][idx] as f64;
-                    sum += r * r;
-                    dl.push((2.0 * r / n) as f32);
-                } else {
-                    dl.push(0.0);
-                }
-            }
-            e_lin += sum / n;
-        }
-        let grads = self.backward_and_download(gs, &dl)?;
-        Ok(CheckLoss { e_lin, grads })
+        let objective = crate::optim::check::CheckObjective::new(&self.ctx, scene, targets)?;
+        let (ev, grads) = self.objective_gradients(gs, &objective)?;
+        Ok(CheckLoss {
+            e_lin: ev.total as f64,
+            grads,
+        })
     }
 }

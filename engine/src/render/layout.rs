@@ -16,7 +16,7 @@ pub struct ViewGpu {
     pub eye: [f32; 4],
     /// xyz forward; w = aspect W / H
     pub fwd: [f32; 4],
-    /// xyz right; w = light intensity Phi
+    /// xyz right; w unused (0): light intensities live in their own buffer (`GpuScene::lights`)
     pub right: [f32; 4],
     /// xyz up'; w = light kind (0 point, 1 directional)
     pub up: [f32; 4],
@@ -122,7 +122,7 @@ pub fn view_gpu(view: &View, tile_base: u32, pixel_base: u32) -> ViewGpu {
     ViewGpu {
         eye: f3(cam.eye, (cam.fov_y_deg.to_radians() * 0.5).tan() as f32),
         fwd: f3(fwd.to_array(), (w as f64 / h as f64) as f32),
-        right: f3(right.to_array(), view.light.intensity as f32),
+        right: f3(right.to_array(), 0.0),
         up: f3(up.to_array(), kind),
         light: f3(light, 0.0),
         dims: [w, h, tiles_x, tiles_y],

@@ -1,15 +1,25 @@
 //! The `scratchart design` subcommand: flags, problem setup (views, lights, initial scratches,
-//! targets) and the call into [`super::design::run_design`]. Kept here so `main.rs` only adds one
-//! enum variant.
+//! targets) and the call into [`scratchart::optim::design::run_design`]. Kept here so `main.rs`
+//! only adds one enum variant.
 use std::path::PathBuf;
 use std::sync::Arc;
 
 use anyhow::Context as _;
 
-use super::design::{run_design, DesignConfig, Hooks, Problem};
-use crate::model::scene::{Plate, Scene, View};
-use crate::scenes::{orbit_light, random_scratches, ring_views, Rng};
-use crate::vulkan::Context;
+use scratchart::model::scene::{Plate, Scene, View};
+use scratchart::observe::Observer;
+use scratchart::optim::design::{run_design, DesignConfig, Hooks, Problem};
+use scratchart::scenes::{orbit_light, random_scratches, ring_views, Rng};
+use scratchart::vulkan::Context;
+
+/// Fails with a [`scratchart::exit::UsageError`] (exit code 2) unless the flag condition holds.
+macro_rules! ensure_flag {
+    ($cond:expr, $($msg:tt)*) => {
+        if !$cond {
+            return Err(scratchart::exit::UsageError(format!($($msg)*)).into());
+        }
+    };
+}
 
 /// Flags of `scratchart design`. Without any, designs the built-in 3-view demo (circle, triangle,
 /// star) into ./out in a few minutes on a CPU (lavapipe).
@@ -110,16 +120,16 @@ pub struct DesignArgs {
 /// Builds the problem (views, initial scratches, targets) of `args`.
 pub fn problem(args: &DesignArgs) -> anyhow::Result<Problem> {
     let plate_mm = args.plate;
-    anyhow::ensure!(plate_mm > 0.0, "--plate must be > 0 mm");
-    anyhow::ensure!(args.scratches > 0, "--scratches must be at least 1");
-    anyhow::ensure!(
+    ensure_flag!(plate_mm > 0.0, "--plate must be > 0 mm");
+    ensure_flag!(args.scratches > 0, "--scratches must be at least 1");
+    ensure_flag!(
         args.len_min_pct > 0.0 && args.len_max_pct >= args.len_min_pct && args.len_max_pct < 100.0,
         "--len-min-pct / --len-max-pct must satisfy 0 < min <= max < 100"
     );
     let plate = Plate {
         size_mm: plate_mm,
-        roughness: crate::model::scene::DEFAULT_ROUGHNESS,
-        f0: crate::model::scene::DEFAULT_F0,
+        roughness: scratchart::model::scene::DEFAULT_ROUGHNESS,
+        f0: scratchart::model::scene::DEFAULT_F0,
     };
     let distance = 3.0 * plate_mm;
     let views: Vec<View> = match &args.view_file {
@@ -142,9 +152,9 @@ pub fn problem(args: &DesignArgs) -> anyhow::Result<Problem> {
             Scene::from_json_str(&doc.to_string(), &base, &path.display().to_string())?.views
         }
         None => {
-            anyhow::ensure!(args.views >= 1, "--views must be at least 1");
-            anyhow::ensure!(args.res >= 8, "--res must be at least 8 pixels");
-            anyhow::ensure!(
+            ensure_flag!(args.views >= 1, "--views must be at least 1");
+            ensure_flag!(args.res >= 8, "--res must be at least 8 pixels");
+            ensure_flag!(
                 args.elevation > 0.0 && args.elevation < 90.0,
                 "--elevation must lie strictly between 0 and 90 degrees"
             );
@@ -171,9 +181,9 @@ pub fn problem(args: &DesignArgs) -> anyhow::Result<Problem> {
     };
     scene.validate()?;
     let targets = if args.targets.is_empty() {
-        super::targets::builtin_targets(&scene)
+        scratchart::optim::targets::builtin_targets(&scene)
     } else {
-        super::targets::load_targets(&args.targets, &scene)?
+        scratchart::optim::targets::load_targets(&args.targets, &scene)?
     };
     Ok(Problem { scene, targets })
 }
@@ -196,7 +206,6 @@ pub fn config(args: &DesignArgs) -> DesignConfig {
     cfg.resume = args.resume;
     cfg.prune.tol = args.prune_tol;
     cfg.prune.max_trials = args.prune_trials;
-    cfg.progress = !args.quiet;
     cfg.calibrate_lights = args.view_file.is_none();
     cfg.hooks = Hooks {
         nan_grad_at: args.inject_nan_grad_at,
@@ -207,16 +216,22 @@ pub fn config(args: &DesignArgs) -> DesignConfig {
 }
 
 /// Runs `scratchart design`.
-pub fn run(ctx: &Arc<Context>, args: &DesignArgs) -> anyhow::Result<()> {
-    anyhow::ensure!(args.blur_sigma > 0.0, "--blur-sigma must be > 0");
+pub fn run(ctx: &Arc<Context>, args: &DesignArgs, obs: &dyn Observer) -> anyhow::Result<()> {
+    ensure_flag!(args.blur_sigma > 0.0, "--blur-sigma must be > 0");
     let problem = problem(args)?;
     if args.targets.is_empty() {
         let names: Vec<&str> = (0..problem.scene.views.len())
-            .map(|j| super::targets::SHAPES[j % super::targets::SHAPES.len()])
+            .map(|j| scratchart::optim::targets::SHAPES[j % scratchart::optim::targets::SHAPES.len()])
             .collect();
-        eprintln!("no --targets given: using the built-in shapes ({})", names.join(", "));
+        obs.info(&format!(
+            "no --targets given: using the built-in shapes ({})",
+            names.join(", ")
+        ));
     }
     let cfg = config(args);
-    run_design(ctx, &problem, &cfg)?;
+    let report = run_design(ctx, &problem, &cfg, obs)?;
+    if let Some(s) = &report.summary {
+        print!("{}", scratchart::optim::report::summary_text(s, &cfg.out));
+    }
     Ok(())
 }

@@ -1,0 +1,70 @@
+//! One exit-code contract for every binary of the project, in one place:
+//!
+//! | code | meaning |
+//! |---|---|
+//! | 0 | success |
+//! | 1 | runtime failure (the job stopped: divergence, an output that cannot be written, ...) |
+//! | 2 | bad command line (flags, or flag values that cannot work) |
+//! | 3 | bad input file (scene, scratch CSV, target image, checkpoint) |
+//! | 4 | GPU or device failure (no device, out of memory, a scene over the device's limits) |
+//!
+//! Binaries keep `anyhow` with context for their messages and call [`code`] on the error.
+use std::error::Error;
+
+use crate::io::IoError;
+use crate::model::scene::SceneError;
+use crate::optim::targets::TargetError;
+use crate::optim::OptimError;
+use crate::vulkan::GpuError;
+
+pub const SUCCESS: u8 = 0;
+pub const RUNTIME: u8 = 1;
+pub const USAGE: u8 = 2;
+pub const INPUT: u8 = 3;
+pub const GPU: u8 = 4;
+
+/// A flag or flag value that cannot work; the message names the flag and what to give instead.
+#[derive(Debug, thiserror::Error)]
+#[error("{0}")]
+pub struct UsageError(pub String);
+
+/// The exit code of an error: the first error in its `source()` chain that the contract knows
+/// decides; anything else is a runtime failure.
+pub fn code(err: &(dyn Error + 'static)) -> u8 {
+    let mut cur: Option<&(dyn Error + 'static)> = Some(err);
+    while let Some(e) = cur {
+        if let Some(c) = known(e) {
+            return c;
+        }
+        cur = e.source();
+    }
+    RUNTIME
+}
+
+fn known(e: &(dyn Error + 'static)) -> Option<u8> {
+    if e.is::<UsageError>() || e.is::<clap::Error>() {
+        return Some(USAGE);
+    }
+    if e.is::<SceneError>() || e.is::<IoError>() || e.is::<TargetError>() {
+        return Some(INPUT);
+    }
+    if e.is::<GpuError>() {
+        return Some(GPU);
+    }
+    if let Some(o) = e.downcast_ref::<OptimError>() {
+        return match o {
+            // transparent wrappers (their `source()` skips the wrapped error): it decides
+            OptimError::Gpu(g) => known(g),
+            OptimError::Io(i) => known(i),
+            OptimError::NoCheckpoint { .. } | OptimError::Damaged { .. } => Some(INPUT),
+            OptimError::Mismatch { .. } | OptimError::Usage(_) => Some(USAGE),
+            OptimError::Diverged(_) | OptimError::Stopped(_) | OptimError::Report(_) => Some(RUNTIME),
+        };
+    }
+    None
+}
+
+/// Exit code of an `anyhow` error (what the binaries hold).
+pub fn code_of(err: &anyhow::Error) -> u8 {
+    code(err.as_ref())
+}

@@ -1,0 +1,134 @@
+//! Checkpoint files: `SACKPT02`, the length of a JSON header, the header, then the chunks' bytes
+//! in the header's order. The header (serde) holds the format version, the fingerprint of the
+//! settings a resume must agree with, the optimizer's host state, and each chunk's name, length
+//! and FNV-1a checksum. Chunks are found by name, so a parameter set adds state without
+//! renumbering anything. Files are written atomically.
+use std::path::{Path, PathBuf};
+
+use serde::{Deserialize, Serialize};
+
+use super::driver::HostState;
+use super::error::OptimError;
+
+const MAGIC: &[u8; 8] = b"SACKPT02";
+const FILE: &str = "checkpoint.bin";
+const VERSION: u32 = 2;
+
+/// One named piece of device state.
+pub struct Chunk {
+    pub name: String,
+    pub data: Vec<u8>,
+}
+
+#[derive(Serialize, Deserialize)]
+struct ChunkInfo {
+    name: String,
+    bytes: u64,
+    fnv: String,
+}
+
+#[derive(Serialize, Deserialize)]
+struct Header {
+    version: u32,
+    fingerprint: serde_json::Value,
+    state: HostState,
+    chunks: Vec<ChunkInfo>,
+}
+
+/// The checkpoint file of an output directory.
+pub fn path(dir: &Path) -> PathBuf {
+    dir.join(FILE)
+}
+
+/// FNV-1a 64 of bytes (chunk checksums and target fingerprints).
+pub fn fnv(bytes: &[u8]) -> u64 {
+    let mut h = 0xcbf2_9ce4_8422_2325u64;
+    for b in bytes {
+        h ^= *b as u64;
+        h = h.wrapping_mul(0x0100_0000_01b3);
+    }
+    h
+}
+
+pub(super) fn write(
+    dir: &Path,
+    fingerprint: &serde_json::Value,
+    state: &HostState,
+    chunks: &[Chunk],
+) -> Result<(), OptimError> {
+    let header = Header {
+        version: VERSION,
+        fingerprint: fingerprint.clone(),
+        state: state.clone(),
+        chunks: chunks
+            .iter()
+            .map(|c| ChunkInfo {
+                name: c.name.clone(),
+                bytes: c.data.len() as u64,
+                fnv: format!("{:016x}", fnv(&c.data)),
+            })
+            .collect(),
+    };
+    let text = serde_json::to_vec(&header).expect("a checkpoint header always serializes");
+    let mut file = Vec::with_capacity(16 + text.len() + chunks.iter().map(|c| c.data.len()).sum::<usize>());
+    file.extend_from_slice(MAGIC);
+    file.extend_from_slice(&(text.len() as u64).to_le_bytes());
+    file.extend_from_slice(&text);
+    for c in chunks {
+        file.extend_from_slice(&c.data);
+    }
+    crate::io::write_atomic(&path(dir), &file)?;
+    Ok(())
+}
+
+/// Reads and checks `dir/checkpoint.bin` against `fingerprint`.
+pub(super) fn read(dir: &Path, fingerprint: &serde_json::Value) -> Result<(HostState, Vec<Chunk>), OptimError> {
+    let path = path(dir);
+    let file = std::fs::read(&path).map_err(|source| OptimError::NoCheckpoint {
+        path: path.clone(),
+        source,
+    })?;
+    let bad = |msg: &str| OptimError::damaged(&path, msg.to_string());
+    if file.len() < 16 || &file[..8] != MAGIC {
+        return Err(bad("not a checkpoint of this version (bad magic)"));
+    }
+    let n = u64::from_le_bytes(file[8..16].try_into().unwrap()) as usize;
+    let text = file
+        .get(16..16usize.saturating_add(n))
+        .ok_or_else(|| bad("truncated header"))?;
+    let header: Header = serde_json::from_slice(text).map_err(|e| bad(&format!("bad header ({e})")))?;
+    if header.version != VERSION {
+        return Err(bad(&format!(
+            "format version {} (this build reads {VERSION})",
+            header.version
+        )));
+    }
+    if &header.fingerprint != fingerprint {
+        let what: Vec<String> = match (fingerprint.as_object(), header.fingerprint.as_object()) {
+            (Some(a), Some(b)) => a.keys().filter(|k| a.get(*k) != b.get(*k)).cloned().collect(),
+            _ => vec!["settings".into()],
+        };
+        return Err(OptimError::Mismatch {
+            path,
+            what: what.join(", "),
+        });
+    }
+    let mut pos = 16 + n;
+    let mut chunks = Vec::with_capacity(header.chunks.len());
+    for c in &header.chunks {
+        let end = pos.checked_add(c.bytes as usize).ok_or_else(|| bad("truncated data"))?;
+        let data = file.get(pos..end).ok_or_else(|| bad("truncated data"))?;
+        if format!("{:016x}", fnv(data)) != c.fnv {
+            return Err(bad(&format!("checksum mismatch in chunk `{}`", c.name)));
+        }
+        chunks.push(Chunk {
+            name: c.name.clone(),
+            data: data.to_vec(),
+        });
+        pos = end;
+    }
+    if pos != file.len() {
+        return Err(bad("trailing bytes after the last chunk"));
+    }
+    Ok((header.state, chunks))
+}

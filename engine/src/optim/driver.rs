@@ -1,0 +1,581 @@
+//! The generic optimizer: iterate, roll back, checkpoint, resume, over any [`Objective`] and any
+//! [`ParamSet`]. One GPU submission per iteration: a snapshot of the state, the parameter set's
+//! map to the scene, the render ([`Renderer::record_render`]), the objective and its dE/dL, the
+//! renderer's backward, the parameter set's chain rule, Adam over the set's flat blocks, and its
+//! projection. A few scalars come back (objective terms, step flags, render counters).
+//!
+//! Iteration k evaluates the objective at x_k and (for k < iters) steps to x_{k+1}; the last
+//! iteration only evaluates, so the state written out always has a verified value. A step is
+//! rejected when its objective is NaN/inf or above 10x the best so far, or its gradient is not
+//! finite: the state goes back to the last good copy (on the GPU: the snapshot taken at the start
+//! of the last accepted iteration), the learning rates are halved, and that iteration is redone.
+//! Adam refuses to move when any of these holds, so a NaN never reaches the parameters.
+//!
+//! The design job (`design.rs`) is one use: the design loss over scratches and lights. Tool
+//! calibration will be another parameter set (a tool profile mapped to the scratches of a test
+//! card) with another objective; the check loss E_lin ([`super::check::CheckObjective`]) is a
+//! third objective.
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+use std::time::Instant;
+
+use serde::{Deserialize, Serialize};
+
+use super::adam::{Adam, AdamHyper, Moments, ParamBlock, StepCheck, StepFlags};
+use super::checkpoint::{self, Chunk};
+use super::error::OptimError;
+use crate::observe::{Observer, Progress};
+use crate::render::{GpuScene, RenderStats, Renderer};
+use crate::vulkan::{Buffer, Context, GpuError, MemLoc, Recorder};
+
+/// The values of one evaluation of an objective.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct Evaluation {
+    /// The objective's terms, in the objective's own order (for the design loss: per view, the
+    /// pixel term and the Gram term).
+    pub terms: Vec<f32>,
+    /// The objective: what the optimizer minimizes.
+    pub total: f32,
+}
+
+/// What the optimizer minimizes, given the render of the current parameters.
+pub trait Objective {
+    /// Records the objective of the render just recorded (`gs.image()`), on the device.
+    fn record_forward(&self, rec: &mut Recorder, gs: &GpuScene);
+    /// Records dE/dL of the objective just recorded into `gs.dl()`.
+    fn record_backward(&self, rec: &mut Recorder, gs: &GpuScene);
+    /// The device buffer that holds the total after `record_forward`, and its f32 index (read by
+    /// Adam's check, so a bad step never moves the parameters).
+    fn total_on_device(&self) -> (&Buffer, u32);
+    /// Reads the values of the last recorded evaluation (after submission).
+    fn read(&self) -> Result<Evaluation, GpuError>;
+}
+
+/// A borrowed objective is an objective (the caller keeps it for evaluations after the run).
+impl<T: Objective + ?Sized> Objective for &T {
+    fn record_forward(&self, rec: &mut Recorder, gs: &GpuScene) {
+        (**self).record_forward(rec, gs)
+    }
+    fn record_backward(&self, rec: &mut Recorder, gs: &GpuScene) {
+        (**self).record_backward(rec, gs)
+    }
+    fn total_on_device(&self) -> (&Buffer, u32) {
+        (**self).total_on_device()
+    }
+    fn read(&self) -> Result<Evaluation, GpuError> {
+        (**self).read()
+    }
+}
+
+/// What the optimizer moves: flat blocks of parameters on the device.
+pub trait ParamSet {
+    /// The blocks, with their gradients and learning-rate groups. Their buffers must not change
+    /// between calls (the optimizer keeps copies of them for rollback).
+    fn blocks<'a>(&'a self, gs: &'a GpuScene) -> Vec<ParamBlock<'a>>;
+    /// Records the map from the parameters to the scene before the render (nothing when the
+    /// parameters are the scene's own buffers).
+    fn record_to_scene(&self, _rec: &mut Recorder, _gs: &GpuScene) {}
+    /// Records the chain rule from the renderer's scene gradients to the blocks' gradients
+    /// (nothing when the parameters are the scene's own).
+    fn record_grad(&self, _rec: &mut Recorder, _gs: &GpuScene) {}
+    /// Records the projection onto the valid set after Adam (box bounds are Adam's own).
+    /// `before[i]` holds block i as it was before the step; nothing may move when `flags` has a
+    /// flag set (the step was refused).
+    fn record_project(&self, _rec: &mut Recorder, _gs: &GpuScene, _before: &[&Buffer], _flags: &Buffer) {}
+}
+
+/// Test hooks: inject failures to exercise the rollback path.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Hooks {
+    /// Fill the gradient with NaN at this iteration (once).
+    pub nan_grad_at: Option<u32>,
+    /// Fill the rendered image with NaN at this iteration (once): a NaN objective.
+    pub nan_image_at: Option<u32>,
+    /// Stop with an error at the top of this iteration (after any checkpoint), as a killed run would.
+    pub stop_at: Option<u32>,
+}
+
+/// How the driver runs.
+#[derive(Clone, Debug)]
+pub struct DriverConfig {
+    /// Iterations with a step; iteration `iters` only evaluates.
+    pub iters: u32,
+    pub hyper: AdamHyper,
+    /// Write a checkpoint every this many iterations (0: only at the end).
+    pub checkpoint_every: u32,
+    /// Where checkpoints go (`DIR/checkpoint.bin`); `None` writes none.
+    pub checkpoint_dir: Option<PathBuf>,
+    /// Give up after this many rollbacks.
+    pub max_rollbacks: u32,
+    pub hooks: Hooks,
+    /// Names the job in progress reports ("design", "calibration", ...).
+    pub task: &'static str,
+}
+
+/// A rejected step.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Rollback {
+    /// Iteration whose evaluation failed.
+    pub iter: u32,
+    pub reason: String,
+    /// Learning-rate scale after halving.
+    pub lr_scale: f64,
+}
+
+/// The optimizer's host-side state (everything else lives in GPU buffers); saved in checkpoints.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub(super) struct HostState {
+    /// next iteration to evaluate
+    pub k: u32,
+    /// Adam steps applied to the current state
+    pub t: u32,
+    /// Adam steps of the good copy
+    pub good_t: u32,
+    /// whether the good copy holds a verified state (false before the first accepted iteration)
+    pub have_good: bool,
+    pub lr_scale: f64,
+    /// best accepted total so far (None before the first)
+    pub best: Option<f32>,
+    pub history: Vec<Evaluation>,
+    pub rollbacks: Vec<Rollback>,
+}
+
+/// Copies of one block's state on the GPU (parameters and moments).
+struct Copy3 {
+    params: Buffer,
+    m: Buffer,
+    v: Buffer,
+}
+
+impl Copy3 {
+    fn new(ctx: &Arc<Context>, what: &str, block: &ParamBlock, mom: &Moments) -> Result<Copy3, GpuError> {
+        let b = |n: &str, size: u64| Buffer::new(ctx, &format!("{what} {} {n}", block.name), size, MemLoc::GpuOnly);
+        Ok(Copy3 {
+            params: b("parameters", block.params.size())?,
+            m: b("adam m", mom.m.size())?,
+            v: b("adam v", mom.v.size())?,
+        })
+    }
+}
+
+/// Per block: moments, the group records, the snapshot of this iteration and the good copy.
+struct BlockState {
+    moments: Moments,
+    groups: Buffer,
+    snap: Copy3,
+    good: Copy3,
+}
+
+/// Everything of a running optimization except the scene (kept apart so that recording can
+/// borrow both).
+struct Inner<'r> {
+    ctx: Arc<Context>,
+    renderer: &'r Renderer,
+    objective: Box<dyn Objective + 'r>,
+    params: Box<dyn ParamSet + 'r>,
+    adam: Adam,
+    blocks: Vec<BlockState>,
+    st: HostState,
+    cfg: DriverConfig,
+    fingerprint: serde_json::Value,
+    hooks_fired: (bool, bool),
+}
+
+/// Counters of the evaluations run in this process.
+#[derive(Clone, Debug, Default)]
+pub struct RunStats {
+    /// Accepted evaluations.
+    pub evals: u32,
+    /// Sum of their overlapping (pixel, scratch) pairs.
+    pub pairs_sum: f64,
+    /// GPU milliseconds per stage, summed over them.
+    pub gpu_ms: Vec<(String, f64)>,
+    /// GPU milliseconds per stage of every accepted evaluation, in order (for benchmarks).
+    pub timing_log: Vec<Vec<(String, f64)>>,
+}
+
+/// A running optimization: the device scene, the objective, the parameter set, Adam's state.
+pub struct Driver<'r> {
+    pub gs: GpuScene,
+    inner: Inner<'r>,
+    pub stats: RunStats,
+}
+
+impl<'r> Driver<'r> {
+    /// Builds the optimizer state (moments zero) for `params` moved against `objective` on `gs`.
+    /// `fingerprint` is what a checkpoint must agree with to be resumed.
+    pub fn new(
+        renderer: &'r Renderer,
+        gs: GpuScene,
+        objective: Box<dyn Objective + 'r>,
+        params: Box<dyn ParamSet + 'r>,
+        cfg: DriverConfig,
+        fingerprint: serde_json::Value,
+    ) -> Result<Driver<'r>, GpuError> {
+        let ctx = renderer.ctx.clone();
+        renderer.prepare_backward()?;
+        let mut blocks = Vec::new();
+        for b in params.blocks(&gs) {
+            let moments = Moments::zeros(&ctx, b.name, b.len)?;
+            blocks.push(BlockState {
+                groups: Adam::group_buffer(&ctx, &b)?,
+                snap: Copy3::new(&ctx, "snapshot", &b, &moments)?,
+                good: Copy3::new(&ctx, "good copy", &b, &moments)?,
+                moments,
+            });
+        }
+        Ok(Driver {
+            gs,
+            inner: Inner {
+                adam: Adam::new(&ctx)?,
+                ctx,
+                renderer,
+                objective,
+                params,
+                blocks,
+                st: HostState {
+                    k: 0,
+                    t: 0,
+                    good_t: 0,
+                    have_good: false,
+                    lr_scale: 1.0,
+                    best: None,
+                    history: Vec::new(),
+                    rollbacks: Vec::new(),
+                },
+                cfg,
+                fingerprint,
+                hooks_fired: (false, false),
+            },
+            stats: RunStats::default(),
+        })
+    }
+
+    pub fn history(&self) -> &[Evaluation] {
+        &self.inner.st.history
+    }
+
+    pub fn rollbacks(&self) -> &[Rollback] {
+        &self.inner.st.rollbacks
+    }
+
+    /// The next iteration to evaluate.
+    pub fn next_iter(&self) -> u32 {
+        self.inner.st.k
+    }
+
+    pub fn objective(&self) -> &dyn Objective {
+        self.inner.objective.as_ref()
+    }
+
+    /// Runs iterations until `cfg.iters` has been evaluated, checkpointing on the way and
+    /// reporting progress to `obs`. Returns the wall seconds and the iterations run.
+    pub fn run(&mut self, obs: &dyn Observer) -> Result<(f64, u32), OptimError> {
+        let mut rec = Recorder::new(&self.inner.ctx)?;
+        let total = self.inner.cfg.iters as u64 + 1;
+        let task = self.inner.cfg.task;
+        let t0 = Instant::now();
+        let mut run = 0u32;
+        obs.progress(&Progress {
+            task,
+            done: self.inner.st.k as u64,
+            total,
+            message: String::new(),
+        });
+        while self.inner.st.k <= self.inner.cfg.iters {
+            let k = self.inner.st.k;
+            let cfg = &self.inner.cfg;
+            if let Some(dir) = &cfg.checkpoint_dir {
+                if k > 0 && (k == cfg.iters || (cfg.checkpoint_every > 0 && k % cfg.checkpoint_every == 0)) {
+                    let dir = dir.clone();
+                    self.save_checkpoint(&dir)?;
+                }
+            }
+            if self.inner.cfg.hooks.stop_at == Some(k) {
+                obs.finish(task);
+                return Err(OptimError::Stopped(k));
+            }
+            let ev = self.iterate(&mut rec, obs)?;
+            run += 1;
+            obs.progress(&Progress {
+                task,
+                done: self.inner.st.k as u64,
+                total,
+                message: format!("{:.5}", ev.total),
+            });
+        }
+        obs.finish(task);
+        Ok((t0.elapsed().as_secs_f64(), run))
+    }
+
+    /// Runs iteration `st.k` until it is accepted (the render redone after tile-list growth,
+    /// rolled back after a bad step). Returns the accepted evaluation.
+    fn iterate(&mut self, rec: &mut Recorder, obs: &dyn Observer) -> Result<Evaluation, OptimError> {
+        loop {
+            let inner = &mut self.inner;
+            let k = inner.st.k;
+            let step = k < inner.cfg.iters;
+            let nan_image = inner.cfg.hooks.nan_image_at == Some(k) && !inner.hooks_fired.0;
+            let nan_grad = step && inner.cfg.hooks.nan_grad_at == Some(k) && !inner.hooks_fired.1;
+            let mut failed = None;
+            let inner_ref = &*inner;
+            let (stats, timings) = inner.renderer.submit(rec, &mut self.gs, |rec, gs| {
+                if let Err(e) = inner_ref.record_eval(rec, gs, step, nan_image, nan_grad) {
+                    failed = Some(e);
+                }
+            })?;
+            if let Some(e) = failed {
+                return Err(e.into());
+            }
+            let inner = &mut self.inner;
+            inner.hooks_fired.0 |= nan_image;
+            inner.hooks_fired.1 |= nan_grad;
+            self.stats.add(&stats, &timings.entries);
+            let ev = inner.objective.read()?;
+            let mut flags = if step {
+                inner.adam.read_flags()?
+            } else {
+                StepFlags::default()
+            };
+            let limit = inner.st.best.map_or(f32::INFINITY, |b| 10.0 * b);
+            if !ev.total.is_finite() || ev.total > limit {
+                flags.bad_loss = true;
+            }
+            if flags.bad_loss || flags.nonfinite_grad {
+                let reason = if !ev.total.is_finite() {
+                    format!("non-finite loss {} at iteration {k}", ev.total)
+                } else if flags.bad_loss {
+                    format!(
+                        "exploding step: loss {} at iteration {k} is above 10x the best so far ({})",
+                        ev.total,
+                        inner.st.best.unwrap_or(f32::INFINITY)
+                    )
+                } else {
+                    format!("non-finite gradient at iteration {k}")
+                };
+                inner.rollback(&self.gs, rec, reason, obs)?;
+                continue;
+            }
+            // Accepted: the snapshot (state at the start of this iteration) is the new good copy.
+            for b in &mut inner.blocks {
+                std::mem::swap(&mut b.snap, &mut b.good);
+            }
+            inner.st.good_t = inner.st.t;
+            inner.st.have_good = true;
+            if step {
+                inner.st.t += 1;
+            }
+            inner.st.best = Some(inner.st.best.map_or(ev.total, |b| b.min(ev.total)));
+            inner.st.history.push(ev.clone());
+            inner.st.k += 1;
+            return Ok(ev);
+        }
+    }
+
+    /// Writes `dir/checkpoint.bin` atomically: a serde header (host state, fingerprint, the
+    /// named chunks with their checksums) and the raw GPU state (current and good copies).
+    pub fn save_checkpoint(&self, dir: &Path) -> Result<(), OptimError> {
+        let ctx = &self.inner.ctx;
+        let blocks = self.inner.params.blocks(&self.gs);
+        let mut chunks = Vec::new();
+        for (b, s) in blocks.iter().zip(&self.inner.blocks) {
+            for (name, buf) in [
+                (b.name.to_string(), b.params),
+                (format!("{}/adam m", b.name), &s.moments.m),
+                (format!("{}/adam v", b.name), &s.moments.v),
+                (format!("good/{}", b.name), &s.good.params),
+                (format!("good/{}/adam m", b.name), &s.good.m),
+                (format!("good/{}/adam v", b.name), &s.good.v),
+            ] {
+                chunks.push(Chunk {
+                    name,
+                    data: ctx.download::<u8>(buf)?,
+                });
+            }
+        }
+        checkpoint::write(dir, &self.inner.fingerprint, &self.inner.st, &chunks)
+    }
+
+    /// Restores the state saved by [`save_checkpoint`](Self::save_checkpoint) in `dir`.
+    pub fn load_checkpoint(&mut self, dir: &Path) -> Result<(), OptimError> {
+        let (st, chunks) = checkpoint::read(dir, &self.inner.fingerprint)?;
+        let ctx = self.inner.ctx.clone();
+        let path = checkpoint::path(dir);
+        let blocks = self.inner.params.blocks(&self.gs);
+        let mut rec = Recorder::new(&ctx)?;
+        rec.begin()?;
+        // Temporary uploads must live until the copies have run.
+        let mut temps = Vec::new();
+        for (b, s) in blocks.iter().zip(&self.inner.blocks) {
+            for (name, buf) in [
+                (b.name.to_string(), b.params),
+                (format!("{}/adam m", b.name), &s.moments.m),
+                (format!("{}/adam v", b.name), &s.moments.v),
+                (format!("good/{}", b.name), &s.good.params),
+                (format!("good/{}/adam m", b.name), &s.good.m),
+                (format!("good/{}/adam v", b.name), &s.good.v),
+            ] {
+                let data = chunks
+                    .iter()
+                    .find(|c| c.name == name)
+                    .ok_or_else(|| OptimError::damaged(&path, format!("chunk `{name}` is missing")))?;
+                if data.data.len() as u64 != buf.size() {
+                    return Err(OptimError::damaged(
+                        &path,
+                        format!("chunk `{name}` has {} bytes, expected {}", data.data.len(), buf.size()),
+                    ));
+                }
+                let tmp = ctx.upload::<u8>(&format!("checkpoint {name}"), &data.data)?;
+                rec.copy(&tmp, buf, buf.size());
+                temps.push(tmp);
+            }
+        }
+        rec.barrier();
+        rec.submit_and_wait()?;
+        drop(temps);
+        self.inner.st = st;
+        Ok(())
+    }
+}
+
+impl RunStats {
+    fn add(&mut self, stats: &RenderStats, timings: &[(String, f64)]) {
+        self.evals += 1;
+        self.pairs_sum += stats.pairs as f64;
+        self.timing_log.push(timings.to_vec());
+        for (label, ms) in timings {
+            match self.gpu_ms.iter_mut().find(|(l, _)| l == label) {
+                Some(e) => e.1 += ms,
+                None => self.gpu_ms.push((label.clone(), *ms)),
+            }
+        }
+    }
+}
+
+impl Inner<'_> {
+    /// Records one evaluation (and, with `step`, one step) of the current state.
+    fn record_eval(
+        &self,
+        rec: &mut Recorder,
+        gs: &GpuScene,
+        step: bool,
+        nan_image: bool,
+        nan_grad: bool,
+    ) -> Result<(), GpuError> {
+        let blocks = self.params.blocks(gs);
+        for (b, s) in blocks.iter().zip(&self.blocks) {
+            copy(
+                rec,
+                [b.params, &s.moments.m, &s.moments.v],
+                [&s.snap.params, &s.snap.m, &s.snap.v],
+            );
+        }
+        rec.barrier();
+        self.params.record_to_scene(rec, gs);
+        self.renderer.record_render(rec, gs);
+        if nan_image {
+            rec.fill(gs.image(), f32::NAN.to_bits());
+            rec.barrier();
+        }
+        self.objective.record_forward(rec, gs);
+        rec.timestamp("loss");
+        if !step {
+            return Ok(());
+        }
+        self.objective.record_backward(rec, gs);
+        rec.timestamp("loss backward");
+        self.renderer.record_backward(rec, gs);
+        self.params.record_grad(rec, gs);
+        rec.timestamp("backward");
+        if nan_grad {
+            rec.fill(blocks[0].grad, f32::NAN.to_bits());
+            rec.barrier();
+        }
+        let (objective, index) = self.objective.total_on_device();
+        let check = StepCheck {
+            objective,
+            index,
+            stats: gs.stats_buffer(),
+            capacity: gs.capacity(),
+            limit: self.st.best.map_or(f32::INFINITY, |b| 10.0 * b),
+        };
+        let moments: Vec<&Moments> = self.blocks.iter().map(|s| &s.moments).collect();
+        let groups: Vec<&Buffer> = self.blocks.iter().map(|s| &s.groups).collect();
+        self.adam.record(
+            rec,
+            &blocks,
+            &moments,
+            &groups,
+            &self.cfg.hyper,
+            self.st.t + 1,
+            self.st.lr_scale,
+            &check,
+        )?;
+        let before: Vec<&Buffer> = self.blocks.iter().map(|s| &s.snap.params).collect();
+        self.params.record_project(rec, gs, &before, &self.adam.flags);
+        rec.timestamp("adam");
+        Ok(())
+    }
+
+    fn rollback(
+        &mut self,
+        gs: &GpuScene,
+        rec: &mut Recorder,
+        reason: String,
+        obs: &dyn Observer,
+    ) -> Result<(), OptimError> {
+        let k = self.st.k;
+        // A non-finite gradient at an otherwise fine x_k recurs deterministically, so in every
+        // case go back to the last accepted state x_{k-1} and redo its step with half the rate.
+        if !self.st.have_good {
+            return Err(OptimError::Diverged(format!(
+                "{reason}: the initial state is already bad, nothing to roll back to (check the targets, lights and initial scratches)"
+            )));
+        }
+        if self.st.rollbacks.len() as u32 >= self.cfg.max_rollbacks {
+            return Err(OptimError::Diverged(format!(
+                "{reason}: giving up after {} rollbacks",
+                self.st.rollbacks.len()
+            )));
+        }
+        self.st.lr_scale *= 0.5;
+        rec.begin()?;
+        for (b, s) in self.params.blocks(gs).iter().zip(&self.blocks) {
+            copy(
+                rec,
+                [&s.good.params, &s.good.m, &s.good.v],
+                [b.params, &s.moments.m, &s.moments.v],
+            );
+        }
+        rec.barrier();
+        rec.submit_and_wait()?;
+        self.st.t = self.st.good_t;
+        self.st.k = k - 1;
+        self.st.history.pop();
+        self.st.best = self
+            .st
+            .history
+            .iter()
+            .map(|h| h.total)
+            .fold(None, |a: Option<f32>, t| Some(a.map_or(t, |a| a.min(t))));
+        // The good copy still holds x_{k-1} (now also the current state): a verified state to
+        // come back to if the redone iteration fails too.
+        obs.warn(&format!(
+            "{reason}; rolled back to iteration {} and halved the learning rates (scale {})",
+            k - 1,
+            self.st.lr_scale
+        ));
+        self.st.rollbacks.push(Rollback {
+            iter: k,
+            reason,
+            lr_scale: self.st.lr_scale,
+        });
+        Ok(())
+    }
+}
+
+fn copy(rec: &mut Recorder, from: [&Buffer; 3], to: [&Buffer; 3]) {
+    for (a, b) in from.iter().zip(to.iter()) {
+        rec.copy(a, b, a.size().min(b.size()));
+    }
+}

@@ -1,0 +1,57 @@
+//! [`OptimError`]: what can stop an optimization. The binaries map it to exit codes in one
+//! place (`crate::exit`).
+use std::path::{Path, PathBuf};
+
+use crate::io::IoError;
+use crate::vulkan::GpuError;
+
+#[derive(Debug, thiserror::Error)]
+pub enum OptimError {
+    #[error(transparent)]
+    Gpu(#[from] GpuError),
+
+    /// Writing a checkpoint or an output failed.
+    #[error(transparent)]
+    Io(#[from] IoError),
+
+    #[error("cannot resume: cannot read checkpoint `{path}`: {source} (run without --resume to start afresh)")]
+    NoCheckpoint {
+        path: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+
+    #[error("checkpoint `{path}` is damaged: {msg}; run without --resume")]
+    Damaged { path: PathBuf, msg: String },
+
+    #[error(
+        "checkpoint `{path}` was made with different settings ({what} differ); resume with the same \
+         flags and targets, or run without --resume"
+    )]
+    Mismatch { path: PathBuf, what: String },
+
+    /// Bad steps could not be recovered from.
+    #[error("{0}")]
+    Diverged(String),
+
+    /// A test hook stopped the run (as a killed run would stop).
+    #[error("stopped by the test hook at iteration {0}")]
+    Stopped(u32),
+
+    /// A report (plot, summary) could not be made.
+    #[error("{0}")]
+    Report(String),
+
+    /// A setting that cannot work (names the flag to change).
+    #[error("{0}")]
+    Usage(String),
+}
+
+impl OptimError {
+    pub fn damaged(path: &Path, msg: String) -> OptimError {
+        OptimError::Damaged {
+            path: path.to_path_buf(),
+            msg,
+        }
+    }
+}

@@ -1,0 +1,252 @@
+//! [`GpuScene`]: one scene resident on the device: the parameters (scratches, light
+//! intensities), the cameras, the pair-search state (tile lists, private to `render`), the images
+//! and the gradient buffers. Callers reach the buffers they may read or write through accessors;
+//! the binning buffers stay private so that only [`super::Renderer`] can size and fill them.
+use crate::model::scene::{Scene, View};
+use crate::vulkan::{Buffer, Context, GpuError, MemLoc};
+
+use super::layout::{self, ScratchGpu, ShadePush, ViewSlots};
+use super::{GROUP_SIZE, SCAN_BLOCK};
+
+/// Counters of one render.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct RenderStats {
+    /// (tile, scratch) entries produced by binning
+    pub entries: u64,
+    /// (pixel, scratch) candidates tested by the shading kernel
+    pub candidates: u64,
+    /// (pixel, scratch) pairs whose footprint and carved rectangle really overlap
+    pub pairs: u64,
+}
+
+/// Device-resident scene: parameters, binning state and images.
+pub struct GpuScene {
+    pub(super) slots: ViewSlots,
+    pub(super) n_scratches: u32,
+    pub(super) n_groups: u32,
+    pub(super) shade: ShadePush,
+    pub(super) views: Buffer,
+    /// the same cameras in float64 (`ViewGPU64`)
+    pub(super) views64: Buffer,
+    pub(super) scratches: Buffer,
+    /// per view: the light's intensity Phi (f32): optimized state, apart from the cameras
+    pub(super) lights: Buffer,
+    /// per (tile, group) counts, scanned in place into list offsets; n_tiles * n_groups + 1 entries
+    pub(super) hist: Buffer,
+    pub(super) cursor: Buffer,
+    pub(super) sums: Buffer,
+    /// tile lists of scratch indices
+    pub(super) list: Buffer,
+    pub(super) capacity: u32,
+    /// per scratch: entry count, scanned into the first slot of its entries in `inv`; n + 1 entries
+    pub(super) sbase: Buffer,
+    pub(super) sbase_sums: Buffer,
+    /// scratch-major entry -> tile-list position (for deterministic gradient sums)
+    pub(super) inv: Buffer,
+    /// per tile-list entry: partial gradient (8 f32)
+    pub(super) partials: Buffer,
+    /// raw coverage sum_k area / S_P per pixel (forward output, backward input)
+    pub(super) cov_raw: Buffer,
+    /// dE/dL per pixel (same layout as `image`): input of the backward pass
+    pub(super) dl: Buffer,
+    /// per scratch: dE/d(x0, y0, x1, y1, w, d, alpha), 8 f32 (last unused)
+    pub(super) grad: Buffer,
+    /// per view: dE/dPhi of its light
+    pub(super) grad_light: Buffer,
+    /// L of every view, concatenated (views[v].base[1] is the first pixel of view v)
+    pub(super) image: Buffer,
+    /// [0] candidates tested, [1] overlapping pairs, [2] tile-list entries
+    pub(super) stats: Buffer,
+}
+
+impl GpuScene {
+    /// Uploads a (validated) scene. Fails with a clear error when a buffer would exceed the
+    /// device's storage-buffer limit.
+    pub(super) fn new(ctx: &std::sync::Arc<Context>, scene: &Scene) -> Result<GpuScene, GpuError> {
+        let slots = layout::view_slots(scene);
+        let n_scratches = scene.scratches.len() as u32;
+        let n_groups = n_scratches.div_ceil(GROUP_SIZE).max(1);
+        let scr: Vec<ScratchGpu> = scene.scratches.iter().map(ScratchGpu::from).collect();
+        let phi: Vec<f32> = scene.views.iter().map(|v| v.light.intensity as f32).collect();
+        let hist_len = slots.n_tiles as u64 * n_groups as u64 + 1;
+        let n_blocks = hist_len.div_ceil(SCAN_BLOCK as u64);
+        // Initial list capacity: a guess, grown on demand after the first binning.
+        // (bounded so that the 32-byte-per-entry partial-gradient buffer fits the device limit).
+        let capacity = ((n_scratches as u64 * scene.views.len() as u64 * 4).max(1 << 16))
+            .min(ctx.info().max_storage_buffer_range / 32) as u32;
+        let gpu_only = |name: &str, bytes: u64| Buffer::new(ctx, name, bytes, MemLoc::GpuOnly);
+        // Host-visible so a viewer can move cameras and lights every frame without reallocating
+        // (see `update_views`).
+        let host = |name: &str, bytes: &[u8]| -> Result<Buffer, GpuError> {
+            let b = Buffer::new(ctx, name, bytes.len() as u64, MemLoc::CpuToGpu)?;
+            b.write(0, bytes)?;
+            Ok(b)
+        };
+        Ok(GpuScene {
+            shade: ShadePush {
+                half_plate: (scene.plate.size_mm * 0.5) as f32,
+                alpha_s: scene.plate.roughness as f32,
+                f0: scene.plate.f0 as f32,
+                n_views: scene.views.len() as u32,
+                n_groups,
+                n_tiles: slots.n_tiles,
+                capacity,
+                pad0: 0,
+            },
+            views: host("views", bytemuck::cast_slice(&slots.views))?,
+            views64: host("views (float64 cameras)", bytemuck::cast_slice(&slots.views64))?,
+            scratches: ctx.upload("scratches", &scr)?,
+            // Host-visible too (the viewer's light slider); Adam writes it on the device.
+            lights: host("light intensities", bytemuck::cast_slice(&phi))?,
+            hist: gpu_only("bin offsets", hist_len * 4)?,
+            cursor: gpu_only("bin cursors", hist_len * 4)?,
+            sums: gpu_only("scan block sums", n_blocks * 4)?,
+            list: gpu_only("tile lists", capacity as u64 * 4)?,
+            capacity,
+            sbase: gpu_only("scratch entry bases", (n_scratches as u64 + 1) * 4)?,
+            sbase_sums: gpu_only(
+                "scan block sums (scratches)",
+                (n_scratches as u64 + 1).div_ceil(SCAN_BLOCK as u64) * 4,
+            )?,
+            inv: gpu_only("entry inverse map", capacity as u64 * 4)?,
+            partials: gpu_only("partial gradients", capacity as u64 * 32)?,
+            cov_raw: gpu_only("coverage", slots.n_pixels * 4)?,
+            dl: gpu_only("dE/dL", slots.n_pixels * 4)?,
+            grad: gpu_only("scratch gradients", n_scratches.max(1) as u64 * 32)?,
+            grad_light: gpu_only("light gradients", scene.views.len() as u64 * 4)?,
+            image: gpu_only("image", slots.n_pixels * 4)?,
+            stats: Buffer::new(ctx, "stats", 64, MemLoc::GpuToCpu)?,
+            n_scratches,
+            n_groups,
+            slots,
+        })
+    }
+
+    /// The counters of the last render (`stats` is host-visible: a small read, no copy).
+    pub fn stats(&self) -> Result<RenderStats, GpuError> {
+        let st: Vec<u32> = self.stats.read()?;
+        Ok(RenderStats {
+            candidates: st[0] as u64,
+            pairs: st[1] as u64,
+            entries: st[2] as u64,
+        })
+    }
+
+    /// Whether the last render's tile lists held every (tile, scratch) entry.
+    pub(super) fn complete(&self, stats: &RenderStats) -> bool {
+        stats.entries <= self.capacity as u64
+    }
+
+    pub fn n_scratches(&self) -> u32 {
+        self.n_scratches
+    }
+
+    pub fn n_views(&self) -> u32 {
+        self.shade.n_views
+    }
+
+    /// Pixels of all views together (the length of `image`, `dl`).
+    pub fn n_pixels(&self) -> u64 {
+        self.slots.n_pixels
+    }
+
+    /// The cameras as the kernels see them (image sizes, first pixel of each view).
+    pub fn views(&self) -> &[layout::ViewGpu] {
+        &self.slots.views
+    }
+
+    /// The cameras on the device (`ViewGPU` per view).
+    pub fn views_buffer(&self) -> &Buffer {
+        &self.views
+    }
+
+    /// Half the plate size, mm.
+    pub fn half_plate(&self) -> f32 {
+        self.shade.half_plate
+    }
+
+    /// Scratch parameters, one [`ScratchGpu`] per scratch: read by every kernel, moved by the
+    /// optimizer.
+    pub fn scratches(&self) -> &Buffer {
+        &self.scratches
+    }
+
+    /// Light intensity Phi of each view (f32 each).
+    pub fn lights(&self) -> &Buffer {
+        &self.lights
+    }
+
+    /// L of every view, concatenated (row-major, top row first; view v starts at
+    /// `views()[v].base[1]`).
+    pub fn image(&self) -> &Buffer {
+        &self.image
+    }
+
+    /// dE/dL per pixel, laid out like [`image`](Self::image): the input of the backward pass.
+    pub fn dl(&self) -> &Buffer {
+        &self.dl
+    }
+
+    /// Per scratch: dE/d(x0, y0, x1, y1, w, d, alpha) and one unused float (8 f32).
+    pub fn scratch_grad(&self) -> &Buffer {
+        &self.grad
+    }
+
+    /// Per view: dE/dPhi of its light.
+    pub fn light_grad(&self) -> &Buffer {
+        &self.grad_light
+    }
+
+    /// The render counters on the device ([0] candidates, [1] pairs, [2] tile-list entries).
+    pub fn stats_buffer(&self) -> &Buffer {
+        &self.stats
+    }
+
+    /// Capacity of the tile lists (entries): a render whose `entries` exceed it is incomplete.
+    pub fn capacity(&self) -> u32 {
+        self.capacity
+    }
+
+    /// Replaces the tile-list buffers by ones that hold `entries` (plus slack).
+    pub(super) fn grow_list(&mut self, ctx: &std::sync::Arc<Context>, entries: u64) -> Result<(), GpuError> {
+        let want = entries + entries / 4 + 1024;
+        // The partial-gradient buffer (32 bytes per entry) is the largest of the three.
+        if want * 32 > ctx.info().max_storage_buffer_range || want > u32::MAX as u64 {
+            return Err(GpuError::BufferTooLarge {
+                name: "partial gradients (one per tile-list entry)".into(),
+                size: want * 32,
+                limit: ctx.info().max_storage_buffer_range,
+            });
+        }
+        self.list = Buffer::new(ctx, "tile lists", want * 4, MemLoc::GpuOnly)?;
+        self.inv = Buffer::new(ctx, "entry inverse map", want * 4, MemLoc::GpuOnly)?;
+        self.partials = Buffer::new(ctx, "partial gradients", want * 32, MemLoc::GpuOnly)?;
+        self.capacity = want as u32;
+        self.shade.capacity = self.capacity;
+        Ok(())
+    }
+
+    /// Replaces the cameras and lights (same number of views, same image sizes): cheap enough
+    /// for every frame of a viewer. Returns false (and changes nothing) when the sizes differ, in
+    /// which case the caller uploads the scene again.
+    pub fn update_views(&mut self, views: &[View]) -> Result<bool, GpuError> {
+        if views.len() != self.slots.views.len() {
+            return Ok(false);
+        }
+        let mut new = Vec::with_capacity(views.len());
+        for (v, old) in views.iter().zip(&self.slots.views) {
+            if v.camera.width != old.dims[0] || v.camera.height != old.dims[1] {
+                return Ok(false);
+            }
+            new.push(layout::view_gpu(v, old.base[0], old.base[1]));
+        }
+        let new64: Vec<_> = views.iter().map(layout::view_gpu64).collect();
+        let phi: Vec<f32> = views.iter().map(|v| v.light.intensity as f32).collect();
+        self.views.write(0, &new)?;
+        self.views64.write(0, &new64)?;
+        self.lights.write(0, &phi)?;
+        self.slots.views = new;
+        self.slots.views64 = new64;
+        Ok(true)
+    }
+}

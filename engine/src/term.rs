@@ -1,0 +1,84 @@
+//! The terminal side of [`scratchart::observe::Observer`] for the `scratchart` binary: a progress
+//! bar when stderr is a terminal, otherwise a plain progress line every few seconds (so logs and
+//! CI show how far a job is); warnings and notes on stderr.
+use std::io::IsTerminal;
+use std::sync::Mutex;
+use std::time::{Duration, Instant};
+
+use scratchart::observe::{Observer, Progress};
+
+/// How often a plain progress line is printed when stderr is not a terminal.
+const LOG_EVERY: Duration = Duration::from_secs(5);
+
+pub struct Terminal {
+    quiet: bool,
+    tty: bool,
+    bar: Mutex<Option<indicatif::ProgressBar>>,
+    last_line: Mutex<Option<Instant>>,
+}
+
+impl Terminal {
+    /// `quiet`: no progress (warnings still show).
+    pub fn new(quiet: bool) -> Terminal {
+        Terminal {
+            quiet,
+            tty: std::io::stderr().is_terminal(),
+            bar: Mutex::new(None),
+            last_line: Mutex::new(None),
+        }
+    }
+}
+
+impl Observer for Terminal {
+    fn progress(&self, p: &Progress) {
+        if self.quiet {
+            return;
+        }
+        if self.tty {
+            let mut bar = self.bar.lock().unwrap();
+            let b = bar.get_or_insert_with(|| {
+                let b = indicatif::ProgressBar::new(p.total);
+                b.set_style(
+                    indicatif::ProgressStyle::with_template(&format!(
+                        "{{spinner}} {} [{{bar:30}}] {{pos}}/{{len}}, {{elapsed}} elapsed, ETA {{eta}} | {{msg}}",
+                        p.task
+                    ))
+                    .expect("a valid template")
+                    .progress_chars("=> "),
+                );
+                b
+            });
+            b.set_length(p.total);
+            b.set_position(p.done);
+            b.set_message(p.message.clone());
+        } else {
+            let mut last = self.last_line.lock().unwrap();
+            let due = last.is_none_or(|t| t.elapsed() >= LOG_EVERY) || p.done == p.total;
+            if due {
+                *last = Some(Instant::now());
+                eprintln!("{}: {}/{} {}", p.task, p.done, p.total, p.message);
+            }
+        }
+    }
+
+    fn finish(&self, _task: &str) {
+        if let Some(b) = self.bar.lock().unwrap().take() {
+            b.finish_and_clear();
+        }
+        *self.last_line.lock().unwrap() = None;
+    }
+
+    fn warn(&self, msg: &str) {
+        match self.bar.lock().unwrap().as_ref() {
+            Some(b) => b.suspend(|| eprintln!("warning: {msg}")),
+            None => eprintln!("warning: {msg}"),
+        }
+    }
+
+    fn info(&self, msg: &str) {
+        match self.bar.lock().unwrap().as_ref() {
+            Some(b) => b.suspend(|| eprintln!("{msg}")),
+            None => eprintln!("{msg}"),
+        }
+    }
+}

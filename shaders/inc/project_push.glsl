@@ -1,0 +1,11 @@
+// Push constants of scratch_project.comp; Rust twin: ProjectPush in
+// engine/src/optim/scene_params.rs (checked by tests/layout.rs).
+#ifndef SA_PROJECT_PUSH_GLSL
+#define SA_PROJECT_PUSH_GLSL
+layout(push_constant) uniform Push {
+    uint n_scratches;
+    float half_plate;  // mm
+    float min_len;     // shortest allowed scratch, mm
+    uint pad0;
+} pc;
+#endif
