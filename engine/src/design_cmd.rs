@@ -6,11 +6,12 @@ use std::sync::Arc;
 
 use anyhow::Context as _;
 
+use scratchart::limits::{largest_fitting, SceneDims};
 use scratchart::model::scene::{Plate, Scene, View};
 use scratchart::observe::Observer;
 use scratchart::optim::design::{run_design, DesignConfig, Hooks, Problem};
 use scratchart::scenes::{orbit_light, random_scratches, ring_views, Rng};
-use scratchart::vulkan::Context;
+use scratchart::vulkan::{Context, DeviceInfo};
 
 /// Fails with a [`scratchart::exit::UsageError`] (exit code 2) unless the flag condition holds.
 macro_rules! ensure_flag {
@@ -118,7 +119,7 @@ pub struct DesignArgs {
 }
 
 /// Builds the problem (views, initial scratches, targets) of `args`.
-pub fn problem(args: &DesignArgs) -> anyhow::Result<Problem> {
+pub fn problem(args: &DesignArgs, info: &DeviceInfo) -> anyhow::Result<Problem> {
     let plate_mm = args.plate;
     ensure_flag!(plate_mm > 0.0, "--plate must be > 0 mm");
     ensure_flag!(args.scratches > 0, "--scratches must be at least 1");
@@ -163,6 +164,7 @@ pub fn problem(args: &DesignArgs) -> anyhow::Result<Problem> {
             ring_views(args.views, args.elevation, distance, plate_mm, args.res, &light)
         }
     };
+    check_size(args, &views, info)?;
     let mut rng = Rng::new(args.seed);
     let scratches = random_scratches(
         &mut rng,
@@ -215,10 +217,59 @@ pub fn config(args: &DesignArgs) -> DesignConfig {
     cfg
 }
 
+/// Checks the job's size against the device and the host before anything is computed; the
+/// error names the flag to change and the largest value that fits.
+fn check_size(args: &DesignArgs, views: &[View], info: &DeviceInfo) -> anyhow::Result<()> {
+    let sizes: Vec<(u32, u32)> = views.iter().map(|v| (v.camera.width, v.camera.height)).collect();
+    let n = args.scratches as u64;
+    let Err(why) = SceneDims::new(&sizes, n, true).check(info) else {
+        return Ok(());
+    };
+    let fits = |sizes: &[(u32, u32)], n: u64| SceneDims::new(sizes, n, true).check(info).is_ok();
+    let max_n = largest_fitting(n, |k| fits(&sizes, k));
+    let hint = if args.view_file.is_none() {
+        let nv = views.len();
+        let max_res = largest_fitting(args.res as u64, |r| fits(&vec![(r as u32, r as u32); nv], n));
+        if max_res > 0 && max_res < args.res as u64 {
+            format!("use a smaller --res: the largest that fits with --views {nv} and --scratches {n} is {max_res}")
+        } else if max_n > 0 {
+            format!("use fewer --scratches: at --res {} at most {max_n} fit", args.res)
+        } else {
+            "use a smaller --res and fewer --views or --scratches".into()
+        }
+    } else if max_n > 0 && max_n < n {
+        format!("use fewer --scratches: with these views at most {max_n} fit")
+    } else {
+        "use smaller views in the --view-file (width x height) or fewer views".into()
+    };
+    Err(scratchart::exit::UsageError(format!("this design is too large: {why}; {hint}")).into())
+}
+
+/// This command line with `--resume` added (what continues an interrupted run).
+fn resume_command() -> String {
+    let mut args: Vec<String> = std::env::args().collect();
+    if let Some(first) = args.first_mut() {
+        *first = "scratchart".into();
+    }
+    if !args.iter().any(|a| a == "--resume") {
+        args.push("--resume".into());
+    }
+    args.iter()
+        .map(|a| {
+            if a.contains(char::is_whitespace) {
+                format!("'{a}'")
+            } else {
+                a.clone()
+            }
+        })
+        .collect::<Vec<_>>()
+        .join(" ")
+}
+
 /// Runs `scratchart design`.
 pub fn run(ctx: &Arc<Context>, args: &DesignArgs, obs: &dyn Observer) -> anyhow::Result<()> {
     ensure_flag!(args.blur_sigma > 0.0, "--blur-sigma must be > 0");
-    let problem = problem(args)?;
+    let problem = problem(args, ctx.info())?;
     if args.targets.is_empty() {
         let names: Vec<&str> = (0..problem.scene.views.len())
             .map(|j| scratchart::optim::targets::SHAPES[j % scratchart::optim::targets::SHAPES.len()])
@@ -229,7 +280,17 @@ pub fn run(ctx: &Arc<Context>, args: &DesignArgs, obs: &dyn Observer) -> anyhow:
         ));
     }
     let cfg = config(args);
-    let report = run_design(ctx, &problem, &cfg, obs)?;
+    let report = match run_design(ctx, &problem, &cfg, obs) {
+        Ok(r) => r,
+        Err(
+            e @ scratchart::optim::OptimError::Interrupted {
+                checkpoint: Some(_), ..
+            },
+        ) => {
+            return Err(anyhow::Error::new(e).context(format!("stopped; continue with `{}`", resume_command())));
+        }
+        Err(e) => return Err(e.into()),
+    };
     if let Some(s) = &report.summary {
         print!("{}", scratchart::optim::report::summary_text(s, &cfg.out));
     }

@@ -7,6 +7,7 @@
 //! | 2 | bad command line (flags, or flag values that cannot work) |
 //! | 3 | bad input file (scene, scratch CSV, target image, checkpoint) |
 //! | 4 | GPU or device failure (no device, out of memory, a scene over the device's limits) |
+//! | 130 | interrupted (Ctrl-C); long jobs save their state first and say how to resume |
 //!
 //! Binaries keep `anyhow` with context for their messages and call [`code`] on the error.
 use std::error::Error;
@@ -22,6 +23,7 @@ pub const RUNTIME: u8 = 1;
 pub const USAGE: u8 = 2;
 pub const INPUT: u8 = 3;
 pub const GPU: u8 = 4;
+pub const INTERRUPTED: u8 = 130;
 
 /// A flag or flag value that cannot work; the message names the flag and what to give instead.
 #[derive(Debug, thiserror::Error)]
@@ -59,6 +61,7 @@ fn known(e: &(dyn Error + 'static)) -> Option<u8> {
             OptimError::NoCheckpoint { .. } | OptimError::Damaged { .. } => Some(INPUT),
             OptimError::Mismatch { .. } | OptimError::Usage(_) => Some(USAGE),
             OptimError::Diverged(_) | OptimError::Stopped(_) | OptimError::Report(_) => Some(RUNTIME),
+            OptimError::Interrupted { .. } => Some(INTERRUPTED),
         };
     }
     None

@@ -10,9 +10,11 @@
 //! - [`observe`]: the [`observe::Observer`] trait: how libraries report progress and warnings
 //!   (they never print).
 //! - [`exit`]: the exit-code contract shared by every binary.
+//! - [`limits`]: scene sizes checked against the device and the host before any work.
 pub mod bench;
 pub mod exit;
 pub mod io;
+pub mod limits;
 pub mod model;
 pub mod observe;
 pub mod optim;

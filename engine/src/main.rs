@@ -124,6 +124,7 @@ fn run(cli: Cli) -> Result<()> {
     match &cli.cmd {
         Cmd::Design(args) => {
             let ctx = context(&cli)?;
+            term::install_interrupt_handler();
             design_cmd::run(&ctx, args, &term::Terminal::new(args.quiet))?;
             check_validation(&ctx)
         }

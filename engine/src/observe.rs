@@ -26,6 +26,11 @@ pub trait Observer {
     fn warn(&self, _msg: &str) {}
     /// A note about what happens (what was written where).
     fn info(&self, _msg: &str) {}
+    /// Whether the user asked the job to stop (Ctrl-C). Long jobs poll it between steps and stop
+    /// cleanly: the optimizer writes a checkpoint first.
+    fn should_stop(&self) -> bool {
+        false
+    }
 }
 
 /// Shows nothing.

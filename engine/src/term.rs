@@ -2,6 +2,7 @@
 //! bar when stderr is a terminal, otherwise a plain progress line every few seconds (so logs and
 //! CI show how far a job is); warnings and notes on stderr.
 use std::io::IsTerminal;
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Mutex;
 use std::time::{Duration, Instant};
 
@@ -9,6 +10,21 @@ use scratchart::observe::{Observer, Progress};
 
 /// How often a plain progress line is printed when stderr is not a terminal.
 const LOG_EVERY: Duration = Duration::from_secs(5);
+
+/// Set by the first Ctrl-C; a second one exits at once.
+static INTERRUPTED: AtomicBool = AtomicBool::new(false);
+
+/// Installs the Ctrl-C handler: the first press asks the running job to stop cleanly (the
+/// optimizer saves a checkpoint), a second exits at once with code 130.
+pub fn install_interrupt_handler() {
+    let _ = ctrlc::set_handler(|| {
+        if INTERRUPTED.swap(true, Ordering::SeqCst) {
+            eprintln!("\ninterrupted again: exiting without saving");
+            std::process::exit(scratchart::exit::INTERRUPTED as i32);
+        }
+        eprintln!("\ninterrupt: stopping after this iteration and saving a checkpoint (Ctrl-C again to quit at once)");
+    });
+}
 
 pub struct Terminal {
     quiet: bool,
@@ -80,5 +96,9 @@ impl Observer for Terminal {
             Some(b) => b.suspend(|| eprintln!("{msg}")),
             None => eprintln!("{msg}"),
         }
+    }
+
+    fn should_stop(&self) -> bool {
+        INTERRUPTED.load(Ordering::SeqCst)
     }
 }

@@ -272,13 +272,15 @@ impl<'r> Driver<'r> {
     /// reporting progress to `obs`. Returns the wall seconds and the iterations run.
     pub fn run(&mut self, obs: &dyn Observer) -> Result<(f64, u32), OptimError> {
         let mut rec = Recorder::new(&self.inner.ctx)?;
-        let total = self.inner.cfg.iters as u64 + 1;
+        // Progress counts steps: iteration k (0-based) done means k steps taken; the last
+        // evaluation (iteration `iters`, no step) completes the count.
+        let total = self.inner.cfg.iters as u64;
         let task = self.inner.cfg.task;
         let t0 = Instant::now();
         let mut run = 0u32;
         obs.progress(&Progress {
             task,
-            done: self.inner.st.k as u64,
+            done: (self.inner.st.k as u64).min(total),
             total,
             message: String::new(),
         });
@@ -295,13 +297,25 @@ impl<'r> Driver<'r> {
                 obs.finish(task);
                 return Err(OptimError::Stopped(k));
             }
+            if obs.should_stop() {
+                obs.finish(task);
+                let checkpoint = match &self.inner.cfg.checkpoint_dir {
+                    Some(dir) => {
+                        let dir = dir.clone();
+                        self.save_checkpoint(&dir)?;
+                        Some(checkpoint::path(&dir))
+                    }
+                    None => None,
+                };
+                return Err(OptimError::Interrupted { iter: k, checkpoint });
+            }
             let ev = self.iterate(&mut rec, obs)?;
             run += 1;
             obs.progress(&Progress {
                 task,
-                done: self.inner.st.k as u64,
+                done: (self.inner.st.k as u64).min(total),
                 total,
-                message: format!("{:.5}", ev.total),
+                message: format!("loss {:.5}", ev.total),
             });
         }
         obs.finish(task);

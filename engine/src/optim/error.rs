@@ -42,6 +42,10 @@ pub enum OptimError {
     #[error("{0}")]
     Report(String),
 
+    /// The user stopped the run (Ctrl-C); a checkpoint was written first when the run keeps them.
+    #[error("interrupted at iteration {iter}{}", match .checkpoint { Some(p) => format!("; the state is saved in `{}`", p.display()), None => String::new() })]
+    Interrupted { iter: u32, checkpoint: Option<PathBuf> },
+
     /// A setting that cannot work (names the flag to change).
     #[error("{0}")]
     Usage(String),

@@ -63,6 +63,19 @@ impl GpuScene {
     /// Uploads a (validated) scene. Fails with a clear error when a buffer would exceed the
     /// device's storage-buffer limit.
     pub(super) fn new(ctx: &std::sync::Arc<Context>, scene: &Scene) -> Result<GpuScene, GpuError> {
+        // Every size against the device before anything is allocated.
+        let sizes: Vec<(u32, u32)> = scene.views.iter().map(|v| (v.camera.width, v.camera.height)).collect();
+        let dims = crate::limits::SceneDims::new(&sizes, scene.scratches.len() as u64, false);
+        if let Some((what, size, limit)) = dims.over_device_limit(ctx.info()) {
+            return Err(GpuError::BufferTooLarge {
+                name: format!(
+                    "{what} ({} pixels in {} views, {} scratches)",
+                    dims.pixels, dims.views, dims.scratches
+                ),
+                size,
+                limit,
+            });
+        }
         let slots = layout::view_slots(scene);
         let n_scratches = scene.scratches.len() as u32;
         let n_groups = n_scratches.div_ceil(GROUP_SIZE).max(1);

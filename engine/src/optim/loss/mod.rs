@@ -391,7 +391,6 @@ impl Loss {
 /// Float64 CPU twin of the loss kernels (test oracle, never a fallback).
 pub mod reference;
 
-
 /// The design loss as the optimizer's objective: terms are, per view, the pixel and the Gram term.
 impl crate::optim::driver::Objective for Loss {
     fn record_forward(&self, rec: &mut Recorder, gs: &crate::render::GpuScene) {

@@ -1,0 +1,133 @@
+//! Sizes checked against the device's and the host's limits before anything is allocated or
+//! computed, so a scene that cannot run fails at once with a message that says what to reduce
+//! and the largest value that fits, instead of minutes later naming an internal buffer.
+//!
+//! The sizes are those of [`crate::render::GpuScene`] and [`crate::optim::loss::Loss`]; the
+//! functions here mirror their allocations (a test checks that the largest buffer of a real
+//! upload is within the estimate).
+use crate::render::layout::TILE;
+use crate::vulkan::DeviceInfo;
+
+/// The quantities that decide how large the device buffers are.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct SceneDims {
+    /// Pixels of all views together.
+    pub pixels: u64,
+    /// 16x16 tiles of all views together.
+    pub tiles: u64,
+    pub views: u64,
+    pub scratches: u64,
+    /// Whether the design loss (and its pyramid) is allocated too.
+    pub with_loss: bool,
+}
+
+impl SceneDims {
+    /// `views` of W x H pixels each.
+    pub fn new(view_sizes: &[(u32, u32)], scratches: u64, with_loss: bool) -> SceneDims {
+        let pixels = view_sizes.iter().map(|&(w, h)| w as u64 * h as u64).sum();
+        let tiles = view_sizes
+            .iter()
+            .map(|&(w, h)| w.div_ceil(TILE) as u64 * h.div_ceil(TILE) as u64)
+            .sum();
+        SceneDims {
+            pixels,
+            tiles,
+            views: view_sizes.len() as u64,
+            scratches,
+            with_loss,
+        }
+    }
+
+    /// The device buffers that grow with the scene: (what, bytes), largest first.
+    pub fn buffers(&self) -> Vec<(&'static str, u64)> {
+        let groups = self.scratches.div_ceil(crate::render::GROUP_SIZE as u64).max(1);
+        let mut b = vec![
+            ("per-pixel images (image, coverage, dE/dL), each", self.pixels * 4),
+            (
+                "pair-search offsets (tiles x scratch groups)",
+                (self.tiles * groups + 1) * 4,
+            ),
+            ("scratch parameters and gradients, each", self.scratches.max(1) * 32),
+            // A lower bound: every visible scratch is listed in at least one tile per view; the
+            // lists grow with the scene's pairs (and are checked again then).
+            (
+                "partial gradients (one per tile-list entry)",
+                (self.scratches * self.views).max(1 << 16) * 32,
+            ),
+        ];
+        if self.with_loss {
+            // The pyramid has at most 4/3 of the pixels; the loss keeps 5 filter responses each.
+            let pyr = self.pixels + self.pixels / 3 + self.views;
+            b.push(("loss filter responses (5 per pyramid pixel)", pyr * 5 * 4));
+        }
+        b.sort_by(|a, b| b.1.cmp(&a.1));
+        b
+    }
+
+    /// The first buffer over the device's per-buffer limit, if any: (what, bytes, limit).
+    pub fn over_device_limit(&self, info: &DeviceInfo) -> Option<(&'static str, u64, u64)> {
+        let limit = info.max_storage_buffer_range;
+        self.buffers()
+            .into_iter()
+            .find(|(_, b)| *b > limit)
+            .map(|(n, b)| (n, b, limit))
+    }
+
+    /// Host memory the job needs at least (targets, images read back, reports): a lower bound.
+    pub fn host_bytes(&self) -> u64 {
+        // Targets, linear and display images, compare images: about a dozen f32 per pixel.
+        self.pixels * 48 + self.scratches * 128
+    }
+
+    /// Whether the scene fits the device and the host. The message names the limit.
+    pub fn check(&self, info: &DeviceInfo) -> Result<(), String> {
+        if let Some((what, bytes, limit)) = self.over_device_limit(info) {
+            return Err(format!(
+                "the {what} need {} but this device binds at most {} per storage buffer",
+                mib(bytes),
+                mib(limit)
+            ));
+        }
+        if let Some(avail) = host_available() {
+            if self.host_bytes() > avail {
+                return Err(format!(
+                    "the job needs at least {} of host memory, {} is available",
+                    mib(self.host_bytes()),
+                    mib(avail)
+                ));
+            }
+        }
+        Ok(())
+    }
+}
+
+/// The largest `x` in [1, hi] for which `fits(x)` holds, when `fits` is monotone (true, then
+/// false); 0 when even 1 does not fit.
+pub fn largest_fitting(hi: u64, fits: impl Fn(u64) -> bool) -> u64 {
+    let (mut lo, mut hi) = (0u64, hi);
+    while lo < hi {
+        let mid = lo + (hi - lo).div_ceil(2);
+        if fits(mid) {
+            lo = mid;
+        } else {
+            hi = mid - 1;
+        }
+    }
+    lo
+}
+
+fn mib(bytes: u64) -> String {
+    if bytes >= 1 << 30 {
+        format!("{:.1} GiB", bytes as f64 / (1u64 << 30) as f64)
+    } else {
+        format!("{:.1} MiB", bytes as f64 / (1u64 << 20) as f64)
+    }
+}
+
+/// MemAvailable of /proc/meminfo (Linux), if readable.
+pub fn host_available() -> Option<u64> {
+    let text = std::fs::read_to_string("/proc/meminfo").ok()?;
+    let line = text.lines().find(|l| l.starts_with("MemAvailable:"))?;
+    let kib: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kib * 1024)
+}
