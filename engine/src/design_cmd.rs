@@ -104,7 +104,10 @@ pub struct DesignArgs {
     /// Continue a stopped run from the checkpoint in --out (same flags and targets; --iters may grow)
     #[arg(long)]
     pub resume: bool,
-    /// Pruning: largest relative loss increase accepted when removing scratches (0 disables)
+    /// Pruning after the optimization: scratches that barely matter are removed, in batches, as
+    /// long as the loss grows by at most this fraction (0.01: 1%). In short runs most random
+    /// initial scratches never become visible, and pruning removes them (often 70-99%): the
+    /// summary says how many were kept. 0 keeps every scratch
     #[arg(long, default_value_t = 0.01)]
     pub prune_tol: f64,
     /// Pruning: forward evaluations spent on trial batches
@@ -165,6 +168,9 @@ pub fn problem(args: &DesignArgs, info: &DeviceInfo) -> anyhow::Result<Problem> 
         }
     };
     check_size(args, &views, info)?;
+    for w in views.iter().flat_map(scratchart::limits::view_warnings) {
+        eprintln!("warning: {w}");
+    }
     let mut rng = Rng::new(args.seed);
     let scratches = random_scratches(
         &mut rng,

@@ -131,3 +131,40 @@ pub fn host_available() -> Option<u64> {
     let kib: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
     Some(kib * 1024)
 }
+
+/// What in a valid scene will surprise its user: a view that must render black (camera or light
+/// below the plate), no scratches at all. One sentence each, naming the view.
+pub fn scene_warnings(scene: &crate::model::scene::Scene) -> Vec<String> {
+    let mut w = Vec::new();
+    if scene.scratches.is_empty() {
+        w.push("the scene has 0 scratches: every view shows the bare plate".to_string());
+    }
+    for v in &scene.views {
+        w.extend(view_warnings(v));
+    }
+    w
+}
+
+/// A view that must render black: camera or light below the plate.
+pub fn view_warnings(v: &crate::model::scene::View) -> Vec<String> {
+    use crate::model::scene::LightKind;
+    let mut w = Vec::new();
+    if v.camera.eye[2] <= 0.0 {
+        w.push(format!(
+            "view `{}`: the camera is below the plate (eye z = {} mm): it sees the plate's back, \
+             and the view renders black",
+            v.name, v.camera.eye[2]
+        ));
+    }
+    let below = match v.light.kind {
+        LightKind::Point { position } => (position[2] <= 0.0).then(|| format!("position z = {} mm", position[2])),
+        LightKind::Directional { direction } => (direction[2] <= 0.0).then(|| format!("direction z = {}", direction[2])),
+    };
+    if let Some(why) = below {
+        w.push(format!(
+            "view `{}`: the light is below the plate ({why}): the view renders black",
+            v.name
+        ));
+    }
+    w
+}

@@ -164,6 +164,7 @@ fn run(cli: Cli) -> Result<()> {
         }
         Cmd::Grad { scene, targets, out } => {
             let scene = Scene::load(scene)?;
+            warn_about(&scene);
             let ctx = context(&cli)?;
             grad_command(&ctx, &scene, targets, out)?;
             check_validation(&ctx)
@@ -209,7 +210,15 @@ fn run(cli: Cli) -> Result<()> {
     }
 }
 
+/// Prints what in a valid scene will surprise its user (see `limits::scene_warnings`).
+fn warn_about(scene: &Scene) {
+    for w in scratchart::limits::scene_warnings(scene) {
+        eprintln!("warning: {w}");
+    }
+}
+
 fn render_to_dir(ctx: &std::sync::Arc<Context>, scene: &Scene, out: &Path) -> Result<()> {
+    warn_about(scene);
     std::fs::create_dir_all(out).with_context(|| format!("cannot create output directory {}", out.display()))?;
     let renderer = Renderer::new(ctx)?;
     let mut gs = renderer.upload(scene)?;

@@ -345,8 +345,9 @@ pub fn summary_text(s: &serde_json::Value, out: &Path) -> String {
     let f = |v: &serde_json::Value| v.as_f64().unwrap_or(f64::NAN);
     let _ = writeln!(
         text,
-        "design: {} views, {} scratches optimized, {} iterations ({} run now) in {:.1} s: {:.0} ms/iteration, {:.3e} (pixel, scratch) pairs/iteration",
+        "design: {} views, {} scratches written ({} optimized), {} iterations ({} run now) in {:.1} s: {:.0} ms/iteration, {:.3e} (pixel, scratch) pairs/iteration",
         s["views"],
+        s["scratches_written"],
         s["scratches_optimized"],
         s["iterations"],
         s["iterations_run_now"],
