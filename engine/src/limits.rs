@@ -158,7 +158,9 @@ pub fn view_warnings(v: &crate::model::scene::View) -> Vec<String> {
     }
     let below = match v.light.kind {
         LightKind::Point { position } => (position[2] <= 0.0).then(|| format!("position z = {} mm", position[2])),
-        LightKind::Directional { direction } => (direction[2] <= 0.0).then(|| format!("direction z = {}", direction[2])),
+        LightKind::Directional { direction } => {
+            (direction[2] <= 0.0).then(|| format!("direction z = {}", direction[2]))
+        }
     };
     if let Some(why) = below {
         w.push(format!(

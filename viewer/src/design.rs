@@ -114,8 +114,8 @@ impl Design {
                 return Ok(i);
             }
         }
-        views.iter().position(|v| v.name == sel).with_context(|| {
-            format!(
+        views.iter().position(|v| v.name == sel).ok_or_else(|| {
+            scratchart::exit::UsageError(format!(
                 "no view '{sel}' in {} (it has {} views: {})",
                 self.name(),
                 views.len(),
@@ -125,7 +125,8 @@ impl Design {
                     .map(|(i, v)| format!("{i} = {}", v.name))
                     .collect::<Vec<_>>()
                     .join(", ")
-            )
+            ))
+            .into()
         })
     }
 }

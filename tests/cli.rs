@@ -1,0 +1,261 @@
+//! The command lines as a user meets them: one exit-code contract for every binary (0 success,
+//! 1 runtime failure, 2 bad command line, 3 bad input file, 4 GPU/device, 130 interrupted), sizes
+//! checked before any work, warnings for scenes that must render black, Ctrl-C during `design`.
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+use std::time::{Duration, Instant};
+
+fn bin(name: &str) -> PathBuf {
+    // target/<profile>/deps/cli-xxxx -> target/<profile>/<name>
+    let exe = std::env::current_exe().unwrap();
+    let p = exe.parent().unwrap().parent().unwrap().join(name);
+    assert!(p.exists(), "build the binaries first ({})", p.display());
+    p
+}
+
+fn tmp(tag: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("scratchart-cli-{tag}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+fn run(bin_name: &str, args: &[&str]) -> Output {
+    Command::new(bin(bin_name)).args(args).output().unwrap()
+}
+
+fn expect(out: &Output, code: i32, needle: &str, what: &str) {
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(code), "{what}: exit code; stderr:\n{err}");
+    assert!(err.contains(needle), "{what}: stderr should mention '{needle}':\n{err}");
+}
+
+const SCENE: &str = r#"{"plate":{"size_mm":20},"views":[{"name":"v","camera":{"eye":[0,-40,40],"target":[0,0,0],"up":[0,0,1],"fov_y_deg":30,"width":16,"height":16},"light":{"kind":"point","position":[0,40,40],"intensity":1000}}],"scratches":[[0,0,5,1,0.1,0.1,0.1]]}"#;
+
+fn write(dir: &Path, name: &str, text: &str) -> String {
+    let p = dir.join(name);
+    std::fs::write(&p, text).unwrap();
+    p.to_str().unwrap().to_string()
+}
+
+#[test]
+fn scratchart_exit_codes() {
+    let d = tmp("codes");
+    let scene = write(&d, "scene.json", SCENE);
+    let out = d.join("out");
+    let out = out.to_str().unwrap();
+    // 0
+    let o = run("scratchart", &["render", &scene, "--out", out]);
+    expect(&o, 0, "wrote", "render of a valid scene");
+    // 2: unknown flag, and flag values that cannot work
+    expect(
+        &run("scratchart", &["render", "--no-such-flag"]),
+        2,
+        "no-such-flag",
+        "unknown flag",
+    );
+    expect(
+        &run("scratchart", &["design", "--scratches", "0", "--out", out]),
+        2,
+        "--scratches",
+        "--scratches 0",
+    );
+    expect(
+        &run("scratchart", &["design", "--elevation", "95", "--out", out]),
+        2,
+        "--elevation",
+        "--elevation 95",
+    );
+    // 3: a bad scene file
+    let bad = write(&d, "bad.json", "{ \"plate\": ");
+    expect(
+        &run("scratchart", &["render", &bad, "--out", out]),
+        3,
+        "bad.json",
+        "malformed scene",
+    );
+    // 4: no such device
+    expect(
+        &run(
+            "scratchart",
+            &["render", &scene, "--out", out, "--device", "no-such-device-xyz"],
+        ),
+        4,
+        "no-such-device-xyz",
+        "unknown device",
+    );
+    let _ = std::fs::remove_dir_all(&d);
+}
+
+#[test]
+fn viewer_exit_codes() {
+    let d = tmp("view-codes");
+    let scene = write(&d, "scene.json", SCENE);
+    let png = d.join("s.png");
+    let png = png.to_str().unwrap();
+    expect(
+        &run("scratchart-view", &[&scene, "--view", "0", "--screenshot", png]),
+        0,
+        "wrote",
+        "viewer screenshot",
+    );
+    expect(
+        &run("scratchart-view", &[&scene, "--view", "7", "--screenshot", png]),
+        2,
+        "no view '7'",
+        "viewer --view 7 of a one-view scene",
+    );
+    expect(
+        &run("scratchart-view", &["--no-such-flag"]),
+        2,
+        "no-such-flag",
+        "viewer unknown flag",
+    );
+    let bad = write(&d, "bad.json", "{ \"plate\": ");
+    expect(
+        &run("scratchart-view", &[&bad, "--view", "0", "--screenshot", png]),
+        3,
+        "bad.json",
+        "viewer bad design",
+    );
+    expect(
+        &run(
+            "scratchart-view",
+            &[
+                &scene,
+                "--view",
+                "0",
+                "--screenshot",
+                png,
+                "--device",
+                "no-such-device-xyz",
+            ],
+        ),
+        4,
+        "no-such-device-xyz",
+        "viewer unknown device",
+    );
+    let _ = std::fs::remove_dir_all(&d);
+}
+
+/// `--res 100000` and `--res 6000` fail at once (not after minutes and gigabytes), naming the
+/// flag and the largest value that fits; the largest value reported does fit.
+#[test]
+fn design_sizes_are_checked_before_any_work() {
+    let d = tmp("sizes");
+    let out = d.join("out");
+    let out = out.to_str().unwrap();
+    for res in ["100000", "6000"] {
+        let t0 = Instant::now();
+        let o = run("scratchart", &["design", "--res", res, "--out", out]);
+        expect(&o, 2, "the largest that fits", &format!("--res {res}"));
+        assert!(
+            t0.elapsed() < Duration::from_secs(20),
+            "--res {res} took {:?}",
+            t0.elapsed()
+        );
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(err.contains("--res"), "{err}");
+        assert!(!std::path::Path::new(out).join("design.json").exists());
+    }
+    let _ = std::fs::remove_dir_all(&d);
+}
+
+#[test]
+fn views_that_must_render_black_are_warned_about() {
+    let d = tmp("black");
+    let below = SCENE.replace("\"position\":[0,40,40]", "\"position\":[0,40,-5]");
+    let scene = write(&d, "below.json", &below);
+    let o = run(
+        "scratchart",
+        &["render", &scene, "--out", d.join("o").to_str().unwrap()],
+    );
+    expect(&o, 0, "the light is below the plate", "light below the plate");
+    let empty = SCENE.replace("[[0,0,5,1,0.1,0.1,0.1]]", "[]");
+    let scene = write(&d, "empty.json", &empty);
+    let o = run(
+        "scratchart",
+        &["render", &scene, "--out", d.join("o").to_str().unwrap()],
+    );
+    expect(&o, 0, "0 scratches", "no scratches");
+    let _ = std::fs::remove_dir_all(&d);
+}
+
+/// Ctrl-C during `design` saves a checkpoint, says how to resume and exits with 130; the
+/// resumed run finishes.
+#[test]
+fn design_interrupted_by_ctrl_c_saves_and_resumes() {
+    let d = tmp("sigint");
+    let out = d.join("out");
+    let out_s = out.to_str().unwrap().to_string();
+    let args = [
+        "design",
+        "--scratches",
+        "300",
+        "--res",
+        "24",
+        "--iters",
+        "100000",
+        "--out",
+        &out_s,
+        "--prune-tol",
+        "0",
+    ];
+    let mut child = Command::new(bin("scratchart"))
+        .args(args)
+        .stderr(std::process::Stdio::piped())
+        .stdout(std::process::Stdio::null())
+        .spawn()
+        .unwrap();
+    // Wait until the optimization runs (its first progress line), then interrupt.
+    std::thread::sleep(Duration::from_secs(4));
+    let pid = child.id().to_string();
+    assert!(Command::new("kill").args(["-INT", &pid]).status().unwrap().success());
+    let t0 = Instant::now();
+    let status = loop {
+        if let Some(s) = child.try_wait().unwrap() {
+            break s;
+        }
+        assert!(
+            t0.elapsed() < Duration::from_secs(60),
+            "design did not stop after Ctrl-C"
+        );
+        std::thread::sleep(Duration::from_millis(50));
+    };
+    let mut err = String::new();
+    std::io::Read::read_to_string(child.stderr.as_mut().unwrap(), &mut err).unwrap();
+    assert_eq!(status.code(), Some(130), "stderr:\n{err}");
+    assert!(err.contains("--resume"), "the message gives the resume command:\n{err}");
+    assert!(
+        out.join("checkpoint.bin").exists(),
+        "a checkpoint is written at the interrupt"
+    );
+    let at: u32 = err
+        .split("interrupted at iteration ")
+        .nth(1)
+        .and_then(|t| t.split(|c: char| !c.is_ascii_digit()).next())
+        .and_then(|n| n.parse().ok())
+        .unwrap_or_else(|| panic!("expected the iteration of the interrupt in:\n{err}"));
+    // The resumed run continues from there to a few more iterations and finishes.
+    let iters = (at + 2).to_string();
+    let o = run(
+        "scratchart",
+        &[
+            "design",
+            "--scratches",
+            "300",
+            "--res",
+            "24",
+            "--iters",
+            &iters,
+            "--out",
+            &out_s,
+            "--prune-tol",
+            "0",
+            "--resume",
+        ],
+    );
+    expect(&o, 0, "", "resumed run");
+    assert!(out.join("design.json").exists());
+    let _ = std::fs::remove_dir_all(&d);
+}
