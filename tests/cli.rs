@@ -74,6 +74,33 @@ fn scratchart_exit_codes() {
         "bad.json",
         "malformed scene",
     );
+    // 3: a target of the wrong size for `grad`
+    let tdir = d.join("targets");
+    std::fs::create_dir_all(&tdir).unwrap();
+    scratchart::io::write_pfm(&tdir.join("v.pfm"), 8, 8, &[0.5; 64]).unwrap();
+    expect(
+        &run(
+            "scratchart",
+            &[
+                "grad",
+                &scene,
+                "--targets",
+                tdir.to_str().unwrap(),
+                "--out",
+                d.join("g.csv").to_str().unwrap(),
+            ],
+        ),
+        3,
+        "8x8",
+        "grad target of the wrong size",
+    );
+    // 2: an unknown standard benchmark scene
+    expect(
+        &run("scratchart", &["bench", "--sizes", "XL"]),
+        2,
+        "XL",
+        "bench --sizes XL",
+    );
     // 4: no such device
     expect(
         &run(

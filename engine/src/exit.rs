@@ -30,6 +30,12 @@ pub const INTERRUPTED: u8 = 130;
 #[error("{0}")]
 pub struct UsageError(pub String);
 
+/// An input file that is readable but wrong for the job (a target of the wrong size, ...); the
+/// message names the file and what was expected.
+#[derive(Debug, thiserror::Error)]
+#[error("{0}")]
+pub struct InputError(pub String);
+
 /// The exit code of an error: the first error in its `source()` chain that the contract knows
 /// decides; anything else is a runtime failure.
 pub fn code(err: &(dyn Error + 'static)) -> u8 {
@@ -47,7 +53,7 @@ fn known(e: &(dyn Error + 'static)) -> Option<u8> {
     if e.is::<UsageError>() || e.is::<clap::Error>() {
         return Some(USAGE);
     }
-    if e.is::<SceneError>() || e.is::<IoError>() || e.is::<TargetError>() {
+    if e.is::<InputError>() || e.is::<SceneError>() || e.is::<IoError>() || e.is::<TargetError>() {
         return Some(INPUT);
     }
     if e.is::<GpuError>() {

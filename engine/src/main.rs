@@ -185,7 +185,12 @@ fn run(cli: Cli) -> Result<()> {
                     .map(|s| {
                         scratchart::scenes::bench_scene(s)
                             .map(|sc| (s.to_uppercase(), sc))
-                            .with_context(|| format!("unknown standard scene '{s}' (choose S, M or P)"))
+                            .ok_or_else(|| {
+                                scratchart::exit::UsageError(format!(
+                                    "--sizes: unknown standard scene '{s}' (choose S, M or P)"
+                                ))
+                                .into()
+                            })
                     })
                     .collect::<Result<_>>()?,
             };
@@ -249,13 +254,14 @@ fn read_linear_targets(scene: &Scene, dir: &Path) -> Result<Vec<Vec<f32>>> {
         let p = dir.join(format!("{}.pfm", v.name));
         let (w, h, data) = scratchart::io::read_pfm(&p).with_context(|| format!("target for view '{}'", v.name))?;
         if (w, h) != (v.camera.width, v.camera.height) {
-            anyhow::bail!(
+            return Err(scratchart::exit::InputError(format!(
                 "target {} is {w}x{h} but view '{}' renders {}x{}",
                 p.display(),
                 v.name,
                 v.camera.width,
                 v.camera.height
-            );
+            ))
+            .into());
         }
         targets.push(data);
     }
