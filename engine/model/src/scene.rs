@@ -86,7 +86,7 @@ pub enum SceneError {
         source: std::io::Error,
     },
     #[error("cannot write scene: {0}")]
-    Write(#[from] crate::io::IoError),
+    Write(#[from] crate::fsio::WriteError),
     #[error(
         "`{file}` is not valid JSON: {msg} (line {line}, column {column}); fix the syntax there \
          (note: NaN and Infinity are not JSON numbers, every number must be finite)"
@@ -608,11 +608,11 @@ impl Scene {
             csv.push_str(&cells.join(","));
             csv.push('\n');
         }
-        crate::io::write_atomic(&dir.join(csv_name), csv.as_bytes())?;
+        crate::fsio::write_atomic(&dir.join(csv_name), csv.as_bytes())?;
         let mut text =
             serde_json::to_string_pretty(&self.to_value(Value::String(csv_name.to_string()))).expect("serialize scene");
         text.push('\n');
-        crate::io::write_atomic(json_path, text.as_bytes())?;
+        crate::fsio::write_atomic(json_path, text.as_bytes())?;
         Ok(())
     }
 }

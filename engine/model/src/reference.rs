@@ -709,7 +709,7 @@ mod tests {
             let d = w * (0.05 + 3.0 * rnd());
             let a = rnd() * std::f64::consts::TAU;
             let l = 0.2 + rnd();
-            let s = super::super::scene::Scratch {
+            let s = crate::scene::Scratch {
                 p0: [0.0, 0.0],
                 p1: [l * a.cos(), l * a.sin()],
                 w,
