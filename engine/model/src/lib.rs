@@ -4,7 +4,8 @@
 //! The engine re-exports it as `scratchart::model`.
 //!
 //! - [`scene`]: scene types and the scene file (JSON + scratch CSV), with validation.
-//! - [`camera`]: float64 view geometry (rays, footprints, shading points, light).
+//! - [`camera`]: float64 view geometry (camera basis, rays, footprints, shading points,
+//!   on-plate mask, light).
 //! - [`reference`]: the float64 CPU reference renderer — a test oracle only, never a fallback
 //!   for the GPU path.
 //! - [`fsio`]: the atomic file writer (temporary file, fsync, rename) every output goes through.
@@ -17,6 +18,6 @@ pub mod fsio;
 pub mod reference;
 pub mod scene;
 
-pub use camera::{LightSample, ViewGeom};
+pub use camera::{CameraBasis, LightSample, ViewGeom};
 pub use reference::{check_loss, pixel, render_view, scratch_patch_integral, PixelRef};
 pub use scene::{read_scratches_csv, Camera, Light, LightKind, Plate, Scene, SceneError, Scratch, View};

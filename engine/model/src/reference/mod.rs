@@ -41,6 +41,10 @@ use clip::polygon_area;
 use cull::Grid;
 use integrate::patch_integral;
 
+/// The on-plate mask belongs to the camera geometry; re-exported here for the tests that
+/// compare against the reference.
+pub use crate::camera::on_plate_mask;
+
 /// Everything the reference computes for one pixel.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct PixelRef {
@@ -248,19 +252,6 @@ pub fn pixel(scene: &Scene, view: usize, i: u32, j: u32) -> PixelRef {
     let prepared = Prepared::new(scene);
     let g = ViewGeom::new(&scene.views[view]);
     prepared.pixel(&g, i, j, &mut Vec::new())
-}
-
-/// On-plate mask of a view (row-major, top row first).
-pub fn on_plate_mask(scene: &Scene, view: usize) -> Vec<bool> {
-    let g = ViewGeom::new(&scene.views[view]);
-    let half = 0.5 * scene.plate.size_mm;
-    let mut m = Vec::with_capacity(g.width as usize * g.height as usize);
-    for j in 0..g.height {
-        for i in 0..g.width {
-            m.push(g.on_plate(i, j, half));
-        }
-    }
-    m
 }
 
 /// The linear check loss of MODEL.md section 8:
