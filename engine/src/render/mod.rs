@@ -5,6 +5,7 @@
 //! binning and shading into one command buffer and waits for it.
 pub mod grad;
 pub mod layout;
+pub mod present;
 
 use std::sync::Arc;
 
