@@ -6,7 +6,7 @@
 //! - [`scene`]: scene types and the scene file (JSON + scratch CSV), with validation.
 //! - [`camera`]: float64 view geometry (camera basis, rays, footprints, shading points,
 //!   on-plate mask, light).
-//! - [`reference`]: the float64 CPU reference renderer — a test oracle only, never a fallback
+//! - [`reference`](mod@reference): the float64 CPU reference renderer — a test oracle only, never a fallback
 //!   for the GPU path.
 //! - [`fsio`]: the atomic file writer (temporary file, fsync, rename) every output goes through.
 

@@ -7,7 +7,8 @@ use super::{invalid, SceneError, Scratch, COLS, CSV_HEADER};
 
 /// Read a scratch CSV (header `x0,y0,x1,y1,w,d,alpha`; blank lines and `#` comments skipped).
 /// Checks the syntax and that every number is finite; MODEL.md's range checks against the plate
-/// are done by [`Scene::load`] / [`Scene::validate`], which know the plate.
+/// are done by [`Scene::load`](super::Scene::load) / [`Scene::validate`](super::Scene::validate),
+/// which know the plate.
 pub fn read_scratches_csv(path: &Path) -> Result<Vec<Scratch>, SceneError> {
     let list = read_scratches_csv_lines(path)?;
     Ok(list.into_iter().map(|(s, _)| s).collect())
