@@ -20,14 +20,7 @@ layout(std430, binding = 3) buffer List { uint list[]; };
 layout(std430, binding = 4) buffer ScratchBase { uint sbase[]; };
 layout(std430, binding = 5) buffer Inverse { uint inv[]; };
 
-layout(push_constant) uniform Push {
-    uint n_scratches;
-    uint n_views;
-    uint n_groups;
-    uint group_size;
-    uint capacity;   // length of list[]
-    uint pad0, pad1, pad2;
-} pc;
+#include "inc/bin_push.glsl"
 
 bool quad_meets_rect(vec2 q[4], float orient, vec2 lo, vec2 hi) {
     vec2 qmin = min(min(q[0], q[1]), min(q[2], q[3]));

@@ -2,10 +2,11 @@
 // Exclusive prefix sum of data[0..n), in place, deterministic (fixed association order).
 // Pass REDUCE: block sums of 4096 elements. Pass SUMS: exclusive scan of the block sums by one
 // workgroup. Pass APPLY: each block scans its elements and adds its block offset.
+#extension GL_GOOGLE_include_directive : require
 layout(local_size_x = 256) in;
 layout(std430, binding = 0) buffer Data { uint data[]; };
 layout(std430, binding = 1) buffer Sums { uint sums[]; };
-layout(push_constant) uniform Push { uint n; uint n_blocks; uint pad0, pad1; } pc;
+#include "inc/scan_push.glsl"
 
 const uint PER_THREAD = 16u;
 const uint BLOCK = 256u * PER_THREAD;

@@ -8,7 +8,7 @@
 //
 // The output is gray, so R = G = B and the packing does not depend on whether the swapchain is
 // RGBA or BGRA; alpha is 255.
-// Twin: `PresentPush` in viewer/src/present.rs.
+// Push constants: inc/present_push.glsl.
 #extension GL_GOOGLE_include_directive : require
 #include "inc/view_display.glsl"
 
@@ -17,13 +17,7 @@ layout(std430, binding = 0) readonly buffer Image { float img[]; };    // L of e
 layout(std430, binding = 1) readonly buffer Target { float tgt[]; };   // target display values, tgt_w x tgt_h
 layout(std430, binding = 2) writeonly buffer Out { uint outp[]; };     // packed RGBA8, out_w x out_h
 
-layout(push_constant) uniform Push {
-    uvec4 dims;       // out_w, out_h, src_w, src_h
-    uvec4 view_rect;  // x0, y0, w, h of the render in the output
-    uvec4 tgt_rect;   // x0, y0, w, h of the target in the output (w = 0: none)
-    uvec4 misc;       // first pixel of the view in img, tgt_w, tgt_h, flags (bit 0: nearest)
-    vec4 params;      // exposure, background display value in [0, 1], 0, 0
-} pc;
+#include "inc/present_push.glsl"
 
 float fetch_l(uvec2 p) {
     return img[pc.misc.x + p.y * pc.dims.z + p.x];

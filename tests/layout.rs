@@ -1,8 +1,17 @@
-//! The #[repr(C)] twins in engine/src/render/layout.rs agree with the GLSL declarations in
-//! shaders/inc/common.glsl and the kernels' push-constant blocks: a shader reads them through
-//! its own declarations and writes every field back in order.
-use scratchart::render::layout::{ScratchGpu, ShadePush, ViewGpu, ViewGpu64};
-use scratchart::vulkan::{Buffer, ComputePipeline, MemLoc, Recorder, ShaderCompiler};
+//! Every #[repr(C)] twin of a GLSL struct or push-constant block agrees with the GLSL
+//! declaration the kernels compile: a test shader includes the same header, reads the struct
+//! through it and writes every field back in order, and the words must equal the Rust bytes.
+//! - `rust_and_glsl_struct_layouts_agree` (test/layout.comp): ViewGpu, ViewGpu64, ScratchGpu
+//!   (inc/common.glsl) and ShadePush (inc/shade_push.glsl).
+//! - `push_constant_layouts_agree` (test/layout_push.comp): BinPush (inc/bin_push.glsl),
+//!   ScanPush (inc/scan_push.glsl), LossPush and LossSeg (inc/loss_push.glsl) and the viewer's
+//!   PresentPush (inc/present_push.glsl).
+use std::sync::Arc;
+
+use scratchart::optim::loss::{LossPush, LossSeg};
+use scratchart::render::layout::{BinPush, ScanPush, ScratchGpu, ShadePush, ViewGpu, ViewGpu64};
+use scratchart::render::present::PresentPush;
+use scratchart::vulkan::{Buffer, ComputePipeline, Context, MemLoc, Recorder, ShaderCompiler};
 use scratchart_tests::*;
 
 #[test]
@@ -100,5 +109,108 @@ fn rust_and_glsl_struct_layouts_agree() {
             "word {i}: the shader read {g:#x}, Rust wrote {e:#x} (a field is misplaced)"
         );
     }
+    assert_no_validation(&ctx);
+}
+
+/// Runs test/layout_push.comp with `define` and the push constants `push` (plus, for LOSS, the
+/// segments `segs` at binding 1) and checks that it writes back `push` then `segs`, word for word.
+fn check_push(ctx: &Arc<Context>, define: &str, push: &[u8], segs: &[LossSeg]) {
+    let mut expected: Vec<u32> = bytemuck::cast_slice(push).to_vec();
+    for s in segs {
+        expected.extend_from_slice(bytemuck::cast_slice(bytemuck::bytes_of(s)));
+    }
+    let sc = ShaderCompiler::embedded().unwrap();
+    let n_buffers = if segs.is_empty() { 1 } else { 2 };
+    let p = ComputePipeline::new(
+        ctx,
+        &sc,
+        "test/layout_push.comp",
+        &[(define, "1")],
+        n_buffers,
+        push.len() as u32,
+    )
+    .unwrap();
+    let out = Buffer::new(ctx, "layout out", expected.len() as u64 * 4, MemLoc::GpuToCpu).unwrap();
+    let seg_buf = (!segs.is_empty()).then(|| ctx.upload("layout segs", segs).unwrap());
+    let mut bufs = vec![&out];
+    bufs.extend(seg_buf.as_ref());
+    let mut rec = Recorder::new(ctx).unwrap();
+    rec.begin().unwrap();
+    rec.dispatch(&p, &bufs, push, [1, 1, 1]);
+    rec.submit_and_wait().unwrap();
+    let got: Vec<u32> = out.read().unwrap();
+    assert_eq!(got.len(), expected.len());
+    for (i, (g, e)) in got.iter().zip(&expected).enumerate() {
+        assert_eq!(
+            g, e,
+            "{define}: word {i}: the shader read {g:#x}, Rust wrote {e:#x} (a field is misplaced)"
+        );
+    }
+}
+
+#[test]
+fn push_constant_layouts_agree() {
+    let ctx = gpu();
+    // Distinct bit patterns in every field (f32 fields get small integers as floats).
+    let mut next = 100u32;
+    let mut u = || {
+        next += 1;
+        next
+    };
+    let bin = BinPush {
+        n_scratches: u(),
+        n_views: u(),
+        n_groups: u(),
+        group_size: u(),
+        capacity: u(),
+        pad: [u(), u(), u()],
+    };
+    let scan = ScanPush {
+        n: u(),
+        n_blocks: u(),
+        pad: [u(), u()],
+    };
+    let loss = LossPush {
+        n_views: u(),
+        n_levels: u(),
+        level: u(),
+        n_blocks: u(),
+        lvl_begin: u(),
+        lvl_end: u(),
+        lambda_p: u() as f32,
+        lambda_g: u() as f32,
+        g_c: u() as f32,
+        g_s: u() as f32,
+        n_segs: u(),
+        pad: u(),
+    };
+    let segs: Vec<LossSeg> = (0..2)
+        .map(|_| LossSeg {
+            off: u(),
+            w: u(),
+            h: u(),
+            view: u(),
+            level: u(),
+            blk0: u(),
+            nblk: u(),
+            pad: u(),
+        })
+        .collect();
+    let present = PresentPush {
+        dims: [u(), u(), u(), u()],
+        view_rect: [u(), u(), u(), u()],
+        tgt_rect: [u(), u(), u(), u()],
+        misc: [u(), u(), u(), u()],
+        params: [u() as f32, u() as f32, u() as f32, u() as f32],
+    };
+    assert_eq!(std::mem::size_of::<BinPush>(), 32);
+    assert_eq!(std::mem::size_of::<ScanPush>(), 16);
+    assert_eq!(std::mem::size_of::<LossPush>(), 48);
+    assert_eq!(std::mem::size_of::<LossSeg>(), 32);
+    assert_eq!(std::mem::size_of::<PresentPush>(), 80);
+    check_push(&ctx, "BIN", bytemuck::bytes_of(&bin), &[]);
+    check_push(&ctx, "SCAN", bytemuck::bytes_of(&scan), &[]);
+    check_push(&ctx, "LOSS", bytemuck::bytes_of(&loss), &segs);
+    check_push(&ctx, "PRESENT", bytemuck::bytes_of(&present), &[]);
     assert_no_validation(&ctx);
 }

@@ -10,9 +10,9 @@
 //! - Every file is written atomically: a temporary file in the same directory, fsync, rename.
 
 use std::fs;
-use std::io::Write;
 use std::path::{Path, PathBuf};
-use std::sync::atomic::{AtomicU64, Ordering};
+
+use scratchart_model::fsio::WriteError;
 
 /// An image file could not be read or written. Every variant names the path.
 #[derive(Debug, thiserror::Error)]
@@ -59,46 +59,24 @@ fn check_dims(path: &Path, width: u32, height: u32, len: usize) -> Result<(), Io
     Ok(())
 }
 
-static TEMP_COUNTER: AtomicU64 = AtomicU64::new(0);
-
 /// Write `bytes` to `path` atomically: write a temporary file in the same directory, fsync it,
 /// then rename it over `path` (and, on Unix, fsync the directory). A reader never sees a
-/// partially written file; on error the temporary file is removed.
+/// partially written file; on error the temporary file is removed. The writer itself is
+/// [`scratchart_model::fsio::write_atomic`], shared with the crates that build without the GPU.
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), IoError> {
-    let dir = match path.parent() {
-        Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
-        _ => PathBuf::from("."),
-    };
-    let file_name = path
-        .file_name()
-        .ok_or_else(|| IoError::Args {
-            path: path.to_path_buf(),
-            msg: "the path has no file name".into(),
-        })?
-        .to_string_lossy()
-        .into_owned();
-    let n = TEMP_COUNTER.fetch_add(1, Ordering::Relaxed);
-    let tmp = dir.join(format!(".{file_name}.tmp.{}.{n}", std::process::id()));
-    let result = (|| {
-        let mut f = fs::File::create(&tmp).map_err(|e| io_err("create", &tmp, e))?;
-        f.write_all(bytes).map_err(|e| io_err("write", &tmp, e))?;
-        f.sync_all().map_err(|e| io_err("fsync", &tmp, e))?;
-        drop(f);
-        fs::rename(&tmp, path).map_err(|e| io_err("rename into place", path, e))?;
-        Ok(())
-    })();
-    if result.is_err() {
-        let _ = fs::remove_file(&tmp);
-        return result;
-    }
-    #[cfg(unix)]
-    {
-        // Make the rename durable; failure to open a directory for sync is not an error.
-        if let Ok(d) = fs::File::open(&dir) {
-            let _ = d.sync_all();
+    Ok(scratchart_model::fsio::write_atomic(path, bytes)?)
+}
+
+impl From<WriteError> for IoError {
+    fn from(e: WriteError) -> IoError {
+        match e {
+            WriteError::Io { action, path, source } => IoError::Io { action, path, source },
+            WriteError::NoFileName { path } => IoError::Args {
+                path,
+                msg: "the path has no file name".into(),
+            },
         }
     }
-    Ok(())
 }
 
 /// Encode a grayscale PFM (`Pf`, scale -1.0 = little endian). `data` is top row first; the file

@@ -1,21 +1,13 @@
 // Storage buffers and push constants shared by loss_fwd.comp and loss_bwd.comp (one pipeline
 // layout of 13 buffers for every loss pass; a pass ignores what it does not use). Twin:
-// engine/src/optim/loss.rs (LossSeg, LossPush, binding order in `Loss::bufs`).
+// engine/src/optim/loss.rs (binding order in `Loss::bufs`; LossSeg and LossPush, declared in
+// inc/loss_push.glsl).
 #ifndef SA_LOSS_BINDINGS_GLSL
 #define SA_LOSS_BINDINGS_GLSL
 
 layout(local_size_x = 256) in;
 
-struct LossSeg {
-    uint off;    // first pyramid pixel
-    uint w;
-    uint h;
-    uint view;
-    uint level;
-    uint blk0;   // first reduction block
-    uint nblk;   // number of reduction blocks
-    uint pad;
-};
+#include "inc/loss_push.glsl"
 
 layout(std430, binding = 0) readonly buffer Segs { LossSeg segs[]; };     // level-major, view-minor
 layout(std430, binding = 1) readonly buffer Blocks { uvec4 blocks[]; };   // (segment, first pixel, count, 0)
@@ -30,21 +22,6 @@ layout(std430, binding = 9) readonly buffer GramT { float gramT[]; };     // the
 layout(std430, binding = 10) buffer Out { float outv[]; };                // per view (pixel, gram) loss; [2 n_views] = total
 layout(std430, binding = 11) buffer Gx { float gx[]; };                   // dE/d(pyramid value), levels >= 1
 layout(std430, binding = 12) buffer Dl { float dl[]; };                   // dE/dL (level 0 layout = image layout)
-
-layout(push_constant) uniform Push {
-    uint n_views;
-    uint n_levels;
-    uint level;      // POOL / LEVEL_GRAD: the level processed
-    uint n_blocks;   // reduction blocks over all segments
-    uint lvl_begin;  // first pyramid pixel of the range processed
-    uint lvl_end;    // one past its last pixel
-    float lambda_p;
-    float lambda_g;
-    float g_c;       // 1D Gaussian weights: centre ...
-    float g_s;       // ... and side (g_c + 2 g_s = 1); the 3x3 blur is their outer product
-    uint n_segs;
-    uint pad;
-} pc;
 
 uint flat_id() {
     return (gl_WorkGroupID.x + gl_WorkGroupID.y * gl_NumWorkGroups.x) * 256u + gl_LocalInvocationID.x;

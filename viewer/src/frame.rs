@@ -14,8 +14,8 @@ use std::sync::Arc;
 use std::time::Instant;
 
 use ash::vk;
-use bytemuck::{Pod, Zeroable};
 use scratchart::model::scene::{Scene, View};
+use scratchart::render::present::PresentPush;
 use scratchart::render::{GpuScene, RenderStats, Renderer};
 use scratchart::vulkan::{Buffer, ComputePipeline, Context, GpuError, MemLoc, Recorder, ShaderCompiler, Timings};
 
@@ -29,22 +29,6 @@ pub struct SwapImage {
     pub format: vk::Format,
     /// Must equal the frame layout's output size.
     pub extent: (u32, u32),
-}
-
-/// Push constants of `shaders/view_present.comp` (same field order and meaning).
-#[repr(C)]
-#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
-pub struct PresentPush {
-    /// out_w, out_h, src_w, src_h
-    pub dims: [u32; 4],
-    /// x0, y0, w, h of the render in the output
-    pub view_rect: [u32; 4],
-    /// x0, y0, w, h of the target in the output (w = 0: none)
-    pub tgt_rect: [u32; 4],
-    /// first pixel of the view in the image buffer, tgt_w, tgt_h, flags (bit 0: nearest)
-    pub misc: [u32; 4],
-    /// exposure, background display value, 0, 0
-    pub params: [f32; 4],
 }
 
 /// Divisors of the full resolution, finest first; level i renders at full / DIVISORS[i].

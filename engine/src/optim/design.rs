@@ -188,7 +188,7 @@ impl<'r> Optimizer<'r> {
         let mut phi: Vec<f32> = gs.lights().read()?;
         phi.truncate(scene.views.len());
         for (v, (img, t)) in lin.iter().zip(targets).enumerate() {
-            let mask = crate::model::reference::on_plate_mask(scene, v);
+            let mask = crate::model::camera::on_plate_mask(scene, v);
             let (mut sl, mut st, mut n) = (0.0f64, 0.0f64, 0usize);
             for ((&l, &tv), &m) in img.iter().zip(t).zip(&mask) {
                 if m {

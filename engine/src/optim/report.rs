@@ -85,7 +85,7 @@ pub fn view_ssim(scene: &Scene, v: usize, display: &[f32], target: &[f32], sigma
     let clamped: Vec<f32> = display.iter().map(|x| x.clamp(0.0, 1.0)).collect();
     let a = blur3(&clamped, w, h, sigma);
     let b: Vec<f64> = target.iter().map(|&x| x as f64).collect();
-    let mask = crate::model::reference::on_plate_mask(scene, v);
+    let mask = crate::model::camera::on_plate_mask(scene, v);
     ssim(&a, &b, w, h, &mask)
 }
 

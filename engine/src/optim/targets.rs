@@ -135,7 +135,7 @@ pub fn builtin_targets(scene: &Scene) -> Vec<Vec<f32>> {
             let (cx, cy) = geom
                 .project([0.0, 0.0, 0.0])
                 .unwrap_or((w as f64 / 2.0, h as f64 / 2.0));
-            let mask = crate::model::reference::on_plate_mask(scene, j);
+            let mask = crate::model::camera::on_plate_mask(scene, j);
             let mut r2 = f64::INFINITY;
             for y in 0..h {
                 for x in 0..w {

@@ -108,9 +108,8 @@ pub struct ViewSlots {
 pub fn view_gpu(view: &View, tile_base: u32, pixel_base: u32) -> ViewGpu {
     let cam = &view.camera;
     // MODEL.md section 4: f = normalize(T - C), r = normalize(f x U), up' = r x f.
-    let fwd = (DVec3::from(cam.target) - DVec3::from(cam.eye)).normalize();
-    let right = fwd.cross(DVec3::from(cam.up)).normalize();
-    let up = right.cross(fwd);
+    let b = cam.basis();
+    let (fwd, right, up) = (b.fwd, b.right, b.up);
     let (w, h) = (cam.width, cam.height);
     let tiles_x = w.div_ceil(TILE);
     let tiles_y = h.div_ceil(TILE);
@@ -132,9 +131,8 @@ pub fn view_gpu(view: &View, tile_base: u32, pixel_base: u32) -> ViewGpu {
 
 pub fn view_gpu64(view: &View) -> ViewGpu64 {
     let cam = &view.camera;
-    let fwd = (DVec3::from(cam.target) - DVec3::from(cam.eye)).normalize();
-    let right = fwd.cross(DVec3::from(cam.up)).normalize();
-    let up = right.cross(fwd);
+    let b = cam.basis();
+    let (fwd, right, up) = (b.fwd, b.right, b.up);
     let c = |v: DVec3, w: f64| [v.x, v.y, v.z, w];
     ViewGpu64 {
         eye: c(DVec3::from(cam.eye), (cam.fov_y_deg.to_radians() * 0.5).tan()),

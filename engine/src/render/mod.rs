@@ -7,6 +7,7 @@
 //! [`Renderer::submit`], the one place that grows the tile lists and redoes an incomplete render.
 pub mod grad;
 pub mod layout;
+pub mod present;
 mod scene;
 
 pub use scene::{GpuScene, RenderStats};

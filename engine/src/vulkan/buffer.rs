@@ -10,7 +10,7 @@ use gpu_allocator::{
 };
 
 use super::{
-    context::Context,
+    device::Context,
     error::{vk_err, GpuError},
 };
 

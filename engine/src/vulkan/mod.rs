@@ -1,8 +1,11 @@
 //! The low-level Vulkan layer (ash), in the spirit of kajiya's `kajiya-backend`: one small
 //! module per concept.
 //!
-//! - [`context`]: instance, validation messenger, physical-device choice, device, queue,
-//!   memory allocator, plus one-off upload/download helpers.
+//! - [`instance`]: the instance, the validation layer and the debug messenger ([`ValidationLog`]).
+//! - [`physical_device`]: device listing and choice, optional features, [`DeviceInfo`].
+//! - [`device`]: [`Context`], the logical device with its compute queue and memory allocator;
+//!   it owns the instance and destroys everything in the right order.
+//! - [`transfer`]: one-off uploads and read-backs through staging buffers.
 //! - [`buffer`]: storage buffers backed by `gpu-allocator`.
 //! - [`shader`]: GLSL -> SPIR-V via shaderc, from embedded sources or a directory.
 //! - [`pipeline`]: compute pipelines with a fixed "N storage buffers + push constants" layout.
@@ -12,15 +15,20 @@
 //! Lifetime rule: every [`Buffer`], [`ComputePipeline`] and [`Recorder`] holds an
 //! `Arc<Context>`, so the device always outlives the objects created from it.
 pub mod buffer;
-pub mod context;
+pub mod device;
 pub mod error;
+pub mod instance;
+pub mod physical_device;
 pub mod pipeline;
 pub mod recorder;
 pub mod shader;
+pub mod transfer;
 
 pub use buffer::{Buffer, MemLoc};
-pub use context::{list_devices, Context, ContextDesc, DeviceInfo, DeviceSummary, ValidationLog};
+pub use device::{Context, ContextDesc};
 pub use error::GpuError;
+pub use instance::ValidationLog;
+pub use physical_device::{list_devices, DeviceInfo, DeviceSummary};
 pub use pipeline::ComputePipeline;
 pub use recorder::{Recorder, Timings};
 pub use shader::ShaderCompiler;

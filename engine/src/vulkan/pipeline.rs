@@ -7,7 +7,7 @@ use std::sync::Arc;
 use ash::vk;
 
 use super::{
-    context::Context,
+    device::Context,
     error::{vk_err, GpuError},
     shader::ShaderCompiler,
 };

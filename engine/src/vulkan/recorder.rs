@@ -14,7 +14,7 @@ use ash::vk;
 
 use super::{
     buffer::Buffer,
-    context::Context,
+    device::Context,
     error::{vk_err, GpuError},
     pipeline::ComputePipeline,
 };

@@ -50,7 +50,7 @@ impl LossConfig {
     }
 }
 
-/// `#[repr(C)]` twin of `LossSeg` in `shaders/inc/loss_bindings.glsl`.
+/// `#[repr(C)]` twin of `LossSeg` in `shaders/inc/loss_push.glsl`.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
 pub struct LossSeg {
@@ -64,7 +64,7 @@ pub struct LossSeg {
     pub pad: u32,
 }
 
-/// `#[repr(C)]` twin of the push block in `shaders/inc/loss_bindings.glsl`.
+/// `#[repr(C)]` twin of the push block in `shaders/inc/loss_push.glsl`.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
 pub struct LossPush {

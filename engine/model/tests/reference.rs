@@ -4,9 +4,9 @@
 
 use std::f64::consts::PI;
 
-use scratchart::model::reference::{self, check_loss, pixel, render_view, scratch_patch_integral};
-use scratchart::model::scene::{Camera, Light, LightKind, Plate, Scene, Scratch, View};
-use scratchart::model::ViewGeom;
+use scratchart_model::reference::{self, check_loss, pixel, render_view, scratch_patch_integral};
+use scratchart_model::scene::{Camera, Light, LightKind, Plate, Scene, Scratch, View};
+use scratchart_model::ViewGeom;
 
 fn scene(eye: [f64; 3], light: [f64; 3], size: u32, scratches: Vec<Scratch>) -> Scene {
     let s = Scene {

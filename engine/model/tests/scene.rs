@@ -3,7 +3,7 @@
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicUsize, Ordering};
 
-use scratchart::model::scene::{LightKind, Scene, Scratch};
+use scratchart_model::scene::{LightKind, Scene, Scratch};
 use serde_json::{json, Value};
 
 static COUNTER: AtomicUsize = AtomicUsize::new(0);
@@ -187,7 +187,7 @@ fn csv_valid_edge_cases_and_reader() {
     assert_eq!(s.scratches.len(), 2);
     assert_eq!(s.scratches[0].alpha, 1e-3);
     assert!(s.scratches[0].half_width() > 0.0);
-    let direct = scratchart::model::read_scratches_csv(&p.parent().unwrap().join("edge.csv")).unwrap();
+    let direct = scratchart_model::read_scratches_csv(&p.parent().unwrap().join("edge.csv")).unwrap();
     assert_eq!(direct, s.scratches);
 }
 

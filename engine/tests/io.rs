@@ -5,7 +5,7 @@ use std::path::PathBuf;
 use scratchart::io;
 
 fn tmpdir(tag: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("scratchart_model_io_{}_{tag}", std::process::id()));
+    let d = std::env::temp_dir().join(format!("scratchart_io_{}_{tag}", std::process::id()));
     let _ = std::fs::remove_dir_all(&d);
     std::fs::create_dir_all(&d).unwrap();
     d

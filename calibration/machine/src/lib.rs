@@ -1,0 +1,90 @@
+//! `scratchart-machine`: the machine driver of the chain design -> calibration -> carving. It
+//! will hold the G-code writer (a design's scratches as tool paths, for GRBL and Marlin
+//! controllers) and the serial streaming of a plan to the controller, with resumable jobs; both
+//! are built by later issues. Today it holds what they start from: reading a design.
+//!
+//! It depends on the scene model (`scratchart-model`) only, never on the engine, so it builds and
+//! tests without Vulkan, shaderc or a GPU: `cargo build -p scratchart-machine` pulls no Vulkan
+//! crate (check with `cargo tree -p scratchart-machine`).
+
+use std::path::Path;
+
+use scratchart_model::scene::{Scene, SceneError};
+
+/// Loads a design (the `design.json` that `scratchart design` writes, with its scratch CSV, or
+/// any scene file) with the model's reader, which validates every scratch and view against
+/// MODEL.md. Errors name the file and the place, as the engine's do.
+pub fn load_design(path: &Path) -> Result<Scene, SceneError> {
+    Scene::load(path)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use scratchart_model::scene::{Camera, Light, LightKind, Plate, Scratch, View};
+
+    fn tmpdir(tag: &str) -> std::path::PathBuf {
+        let d = std::env::temp_dir().join(format!("scratchart_machine_{}_{tag}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&d);
+        std::fs::create_dir_all(&d).unwrap();
+        d
+    }
+
+    fn design() -> Scene {
+        Scene {
+            plate: Plate {
+                size_mm: 100.0,
+                roughness: 0.02,
+                f0: 0.91,
+            },
+            views: vec![View {
+                name: "v0".into(),
+                camera: Camera {
+                    eye: [0.0, -250.0, 250.0],
+                    target: [0.0, 0.0, 0.0],
+                    up: [0.0, 0.0, 1.0],
+                    fov_y_deg: 28.0,
+                    width: 64,
+                    height: 64,
+                },
+                light: Light {
+                    kind: LightKind::Point {
+                        position: [0.0, 250.0, 250.0],
+                    },
+                    intensity: 60000.0,
+                },
+            }],
+            scratches: vec![
+                Scratch::from_row([-10.0, 0.0, 10.0, 5.0, 0.05, 0.01, 0.1]),
+                Scratch::from_row([1.0 / 3.0, -2.0, 4.5, 0.1, 0.07, 0.02, 0.3]),
+            ],
+        }
+    }
+
+    #[test]
+    fn loads_a_saved_design_exactly() {
+        let d = tmpdir("roundtrip");
+        let scene = design();
+        scene.save(&d.join("design.json"), "scratches.csv").unwrap();
+        assert_eq!(load_design(&d.join("design.json")).unwrap(), scene);
+    }
+
+    #[test]
+    fn errors_name_the_file() {
+        let d = tmpdir("errors");
+        let missing = d.join("nothere.json");
+        let msg = load_design(&missing).unwrap_err().to_string();
+        assert!(msg.contains("nothere.json"), "{msg}");
+        // A scratch off the plate is refused by the model's validation, naming the CSV row.
+        let mut scene = design();
+        scene.scratches[1].p1 = [60.0, 0.0];
+        scene.save(&d.join("bad.json"), "bad.csv").unwrap();
+        match load_design(&d.join("bad.json")) {
+            Err(SceneError::Csv { file, row, .. }) => {
+                assert!(file.ends_with("bad.csv"), "{file}");
+                assert_eq!(row, 2);
+            }
+            other => panic!("expected a CSV error for row 2, got {other:?}"),
+        }
+    }
+}

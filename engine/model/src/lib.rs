@@ -1,0 +1,23 @@
+//! `scratchart-model`: the scratch reflection model of `MODEL.md` (the contract in
+//! `shared/spec/MODEL.md`), with no GPU code and no image or shader libraries, so the machine
+//! driver and other tools that need scenes but no Vulkan build and test on any machine.
+//! The engine re-exports it as `scratchart::model`.
+//!
+//! - [`scene`]: scene types and the scene file (JSON + scratch CSV), with validation.
+//! - [`camera`]: float64 view geometry (camera basis, rays, footprints, shading points,
+//!   on-plate mask, light).
+//! - [`reference`](mod@reference): the float64 CPU reference renderer — a test oracle only, never a fallback
+//!   for the GPU path.
+//! - [`fsio`]: the atomic file writer (temporary file, fsync, rename) every output goes through.
+
+// `!(x > 0.0)` is used on purpose throughout: it also rejects NaN.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+
+pub mod camera;
+pub mod fsio;
+pub mod reference;
+pub mod scene;
+
+pub use camera::{CameraBasis, LightSample, ViewGeom};
+pub use reference::{check_loss, pixel, render_view, scratch_patch_integral, PixelRef};
+pub use scene::{read_scratches_csv, Camera, Light, LightKind, Plate, Scene, SceneError, Scratch, View};

@@ -1,0 +1,260 @@
+//! Reading a scene file: JSON parsing into the types of this module, then validation
+//! (`validate.rs`); scratches inline or from a CSV file (`csv.rs`).
+
+use std::path::{Path, PathBuf};
+
+use serde_json::{Map, Value};
+
+use super::csv::read_scratches_csv_lines;
+use super::validate::{check_scratch, validate_header};
+use super::{
+    invalid, norm3, Camera, Light, LightKind, Plate, Scene, SceneError, Scratch, View, COLS, CSV_HEADER, DEFAULT_F0,
+    DEFAULT_ROUGHNESS,
+};
+
+impl Scene {
+    /// Load and validate a scene file (JSON; scratches inline or in a CSV file next to it).
+    pub fn load(path: &Path) -> Result<Scene, SceneError> {
+        let text = std::fs::read_to_string(path).map_err(|source| SceneError::Read {
+            what: "scene file",
+            path: path.to_path_buf(),
+            source,
+        })?;
+        let base = match path.parent() {
+            Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
+            _ => PathBuf::from("."),
+        };
+        Scene::from_json_str(&text, &base, &path.display().to_string())
+    }
+
+    /// Parse and validate a scene from JSON text. A scratch CSV path is resolved against
+    /// `base_dir`; `source_name` names the JSON text in error messages.
+    pub fn from_json_str(text: &str, base_dir: &Path, source_name: &str) -> Result<Scene, SceneError> {
+        let file = source_name;
+        let root: Value = serde_json::from_str(text).map_err(|e| SceneError::Json {
+            file: file.to_string(),
+            line: e.line(),
+            column: e.column(),
+            msg: e.to_string(),
+        })?;
+        let root = root
+            .as_object()
+            .ok_or_else(|| invalid(file, "top level", "must be a JSON object with plate, views, scratches"))?;
+
+        // Plate.
+        let pv = root
+            .get("plate")
+            .ok_or_else(|| invalid(file, "plate", "missing; add \"plate\": {\"size_mm\": 100.0}"))?;
+        let po = pv
+            .as_object()
+            .ok_or_else(|| invalid(file, "plate", "must be an object"))?;
+        let plate = Plate {
+            size_mm: req_num(po, "size_mm", "plate", file)?,
+            roughness: opt_num(po, "roughness", "plate", file)?.unwrap_or(DEFAULT_ROUGHNESS),
+            f0: opt_num(po, "f0", "plate", file)?.unwrap_or(DEFAULT_F0),
+        };
+
+        // Views.
+        let vv = root
+            .get("views")
+            .ok_or_else(|| invalid(file, "views", "missing; add a \"views\" array"))?;
+        let va = vv
+            .as_array()
+            .ok_or_else(|| invalid(file, "views", "must be an array of views"))?;
+        let mut views = Vec::with_capacity(va.len());
+        for (k, v) in va.iter().enumerate() {
+            views.push(parse_view(v, k, file)?);
+        }
+        validate_header(&plate, &views, file)?;
+
+        // Scratches.
+        let sv = root.get("scratches").ok_or_else(|| {
+            invalid(
+                file,
+                "scratches",
+                "missing; give a CSV path (\"scratches.csv\") or an inline array ([] for a bare plate)",
+            )
+        })?;
+        let scratches = match sv {
+            Value::String(rel) => {
+                let path = base_dir.join(rel);
+                let list = read_scratches_csv_lines(&path)?;
+                let csv_name = path.display().to_string();
+                for (k, (s, line)) in list.iter().enumerate() {
+                    check_scratch(s, plate.size_mm).map_err(|msg| SceneError::Csv {
+                        file: csv_name.clone(),
+                        row: k + 1,
+                        line: *line,
+                        msg,
+                    })?;
+                }
+                list.into_iter().map(|(s, _)| s).collect()
+            }
+            Value::Array(rows) => {
+                let mut out = Vec::with_capacity(rows.len());
+                for (k, r) in rows.iter().enumerate() {
+                    let field = format!("scratches row {} (1-based)", k + 1);
+                    let arr = r.as_array().filter(|a| a.len() == 7).ok_or_else(|| {
+                        invalid(file, &field, format!("must be an array of 7 numbers [{CSV_HEADER}]"))
+                    })?;
+                    let mut row = [0.0; 7];
+                    for (c, x) in arr.iter().enumerate() {
+                        row[c] = x
+                            .as_f64()
+                            .ok_or_else(|| invalid(file, &field, format!("{} = {x} is not a number", COLS[c])))?;
+                    }
+                    let s = Scratch::from_row(row);
+                    check_scratch(&s, plate.size_mm).map_err(|msg| invalid(file, &field, msg))?;
+                    out.push(s);
+                }
+                out
+            }
+            _ => {
+                return Err(invalid(
+                    file,
+                    "scratches",
+                    "must be a CSV path string or an array of [x0, y0, x1, y1, w, d, alpha] rows",
+                ))
+            }
+        };
+        Ok(Scene {
+            plate,
+            views,
+            scratches,
+        })
+    }
+}
+
+fn req_num(o: &Map<String, Value>, key: &str, ctx: &str, file: &str) -> Result<f64, SceneError> {
+    opt_num(o, key, ctx, file)?.ok_or_else(|| invalid(file, format!("{ctx}.{key}"), "missing; this number is required"))
+}
+
+fn opt_num(o: &Map<String, Value>, key: &str, ctx: &str, file: &str) -> Result<Option<f64>, SceneError> {
+    match o.get(key) {
+        None | Some(Value::Null) => Ok(None),
+        Some(v) => v
+            .as_f64()
+            .filter(|x| x.is_finite())
+            .map(Some)
+            .ok_or_else(|| invalid(file, format!("{ctx}.{key}"), format!("`{v}` is not a finite number"))),
+    }
+}
+
+fn vec3(o: &Map<String, Value>, key: &str, ctx: &str, file: &str) -> Result<[f64; 3], SceneError> {
+    let field = format!("{ctx}.{key}");
+    let v = o
+        .get(key)
+        .ok_or_else(|| invalid(file, &field, "missing; give an array of 3 numbers [x, y, z]"))?;
+    let a = v
+        .as_array()
+        .filter(|a| a.len() == 3)
+        .ok_or_else(|| invalid(file, &field, format!("`{v}` must be an array of 3 numbers [x, y, z]")))?;
+    let mut out = [0.0; 3];
+    for (k, x) in a.iter().enumerate() {
+        out[k] = x
+            .as_f64()
+            .filter(|x| x.is_finite())
+            .ok_or_else(|| invalid(file, &field, format!("component {k} `{x}` is not a finite number")))?;
+    }
+    Ok(out)
+}
+
+fn dim(o: &Map<String, Value>, key: &str, ctx: &str, file: &str) -> Result<u32, SceneError> {
+    let field = format!("{ctx}.{key}");
+    let v = o
+        .get(key)
+        .ok_or_else(|| invalid(file, &field, "missing; give the image size in pixels"))?;
+    let x = v
+        .as_f64()
+        .ok_or_else(|| invalid(file, &field, format!("`{v}` is not a number")))?;
+    if x.fract() != 0.0 || x < 0.0 || x > u32::MAX as f64 {
+        return Err(invalid(file, &field, format!("`{v}` must be a whole number of pixels")));
+    }
+    if x == 0.0 {
+        return Err(invalid(file, &field, "image size 0; must be at least 1 pixel"));
+    }
+    Ok(x as u32)
+}
+
+fn parse_view(v: &Value, k: usize, file: &str) -> Result<View, SceneError> {
+    let ctx = format!("views[{k}]");
+    let o = v
+        .as_object()
+        .ok_or_else(|| invalid(file, &ctx, "must be an object with name, camera, light"))?;
+    let name = match o.get("name") {
+        Some(Value::String(s)) => s.clone(),
+        Some(other) => {
+            return Err(invalid(
+                file,
+                format!("{ctx}.name"),
+                format!("`{other}` must be a string"),
+            ))
+        }
+        None => return Err(invalid(file, format!("{ctx}.name"), "missing; give the view a name")),
+    };
+    let ctx = format!("views[{k}] (`{name}`)");
+    let cam_ctx = format!("{ctx}.camera");
+    let co = o
+        .get("camera")
+        .and_then(|c| c.as_object())
+        .ok_or_else(|| invalid(file, &cam_ctx, "missing or not an object"))?;
+    let camera = Camera {
+        eye: vec3(co, "eye", &cam_ctx, file)?,
+        target: vec3(co, "target", &cam_ctx, file)?,
+        up: vec3(co, "up", &cam_ctx, file)?,
+        fov_y_deg: req_num(co, "fov_y_deg", &cam_ctx, file)?,
+        width: dim(co, "width", &cam_ctx, file)?,
+        height: dim(co, "height", &cam_ctx, file)?,
+    };
+    let light_ctx = format!("{ctx}.light");
+    let lo = o
+        .get("light")
+        .and_then(|c| c.as_object())
+        .ok_or_else(|| invalid(file, &light_ctx, "missing or not an object"))?;
+    let kind = match lo.get("kind") {
+        Some(Value::String(s)) if s == "point" => LightKind::Point {
+            position: vec3(lo, "position", &light_ctx, file)?,
+        },
+        Some(Value::String(s)) if s == "directional" => {
+            let d = vec3(lo, "direction", &light_ctx, file)?;
+            let n = norm3(d);
+            if !(n > 0.0) {
+                return Err(invalid(
+                    file,
+                    format!("{light_ctx}.direction"),
+                    "direction is zero; give the vector towards the light, e.g. [0, 1, 1]",
+                ));
+            }
+            // Normalize; a vector already unit to rounding is kept bit-exact so that
+            // save/load round-trips exactly.
+            let direction = if (n - 1.0).abs() <= 4.0 * f64::EPSILON {
+                d
+            } else {
+                [d[0] / n, d[1] / n, d[2] / n]
+            };
+            LightKind::Directional { direction }
+        }
+        Some(other) => {
+            return Err(invalid(
+                file,
+                format!("{light_ctx}.kind"),
+                format!(
+                    "unknown light kind {other}; use \"point\" (with position) or \"directional\" (with direction)"
+                ),
+            ))
+        }
+        None => {
+            return Err(invalid(
+                file,
+                format!("{light_ctx}.kind"),
+                "missing; use \"point\" (with position) or \"directional\" (with direction)",
+            ))
+        }
+    };
+    let intensity = req_num(lo, "intensity", &light_ctx, file)?;
+    Ok(View {
+        name,
+        camera,
+        light: Light { kind, intensity },
+    })
+}

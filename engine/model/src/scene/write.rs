@@ -1,0 +1,68 @@
+//! Writing a scene: JSON with the scratches inline, or JSON plus a scratch CSV, both through the
+//! atomic writer. Numbers are written in shortest round-trip form, so reading gives back exactly
+//! the scene that was written.
+
+use std::path::{Path, PathBuf};
+
+use serde_json::{json, Value};
+
+use super::csv::scratches_csv_text;
+use super::{LightKind, Scene, SceneError};
+
+impl Scene {
+    fn to_value(&self, scratches: Value) -> Value {
+        let views: Vec<Value> = self
+            .views
+            .iter()
+            .map(|v| {
+                let c = &v.camera;
+                let light = match v.light.kind {
+                    LightKind::Point { position } => json!({
+                        "kind": "point", "position": position, "intensity": v.light.intensity }),
+                    LightKind::Directional { direction } => json!({
+                        "kind": "directional", "direction": direction, "intensity": v.light.intensity }),
+                };
+                json!({
+                    "name": v.name,
+                    "camera": {
+                        "eye": c.eye, "target": c.target, "up": c.up,
+                        "fov_y_deg": c.fov_y_deg, "width": c.width, "height": c.height
+                    },
+                    "light": light
+                })
+            })
+            .collect();
+        json!({
+            "plate": {
+                "size_mm": self.plate.size_mm,
+                "roughness": self.plate.roughness,
+                "f0": self.plate.f0
+            },
+            "views": views,
+            "scratches": scratches
+        })
+    }
+
+    /// The scene as JSON with the scratches inline (numbers round-trip exactly).
+    pub fn to_json_inline(&self) -> String {
+        let rows: Vec<Value> = self.scratches.iter().map(|s| json!(s.to_row())).collect();
+        serde_json::to_string_pretty(&self.to_value(Value::Array(rows))).expect("serialize scene")
+    }
+
+    /// Write the scene as `json_path` plus the CSV `csv_name` (relative to the JSON's directory),
+    /// both atomically; the CSV first, so the JSON never points to a missing or partial CSV.
+    /// Numbers are written in shortest round-trip form, so `load` gives back exactly `self`.
+    pub fn save(&self, json_path: &Path, csv_name: &str) -> Result<(), SceneError> {
+        let dir = match json_path.parent() {
+            Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
+            _ => PathBuf::from("."),
+        };
+        let csv = scratches_csv_text(&self.scratches);
+        crate::fsio::write_atomic(&dir.join(csv_name), csv.as_bytes())?;
+        let mut text =
+            serde_json::to_string_pretty(&self.to_value(Value::String(csv_name.to_string()))).expect("serialize scene");
+        text.push('\n');
+        crate::fsio::write_atomic(json_path, text.as_bytes())?;
+        Ok(())
+    }
+}

@@ -1,0 +1,13 @@
+// Push constants of the binning kernel (bin.comp); Rust twin: BinPush in
+// engine/src/render/layout.rs (checked by tests/layout.rs through test/layout_push.comp).
+#ifndef SA_BIN_PUSH_GLSL
+#define SA_BIN_PUSH_GLSL
+layout(push_constant) uniform Push {
+    uint n_scratches;
+    uint n_views;
+    uint n_groups;
+    uint group_size;
+    uint capacity;   // length of list[]
+    uint pad0, pad1, pad2;
+} pc;
+#endif

@@ -1,0 +1,199 @@
+//! Keyboard and mouse: the key bindings of `crate::KEYS`, orbit / pan / zoom of the camera,
+//! shift-drag of the light, and the actions behind them (views, target, reset).
+use std::time::Instant;
+
+use anyhow::Result;
+use winit::event::{ElementState, MouseButton, MouseScrollDelta, WindowEvent};
+use winit::event_loop::ActiveEventLoop;
+use winit::keyboard::{Key, NamedKey};
+
+use super::App;
+use crate::headless;
+use crate::state::{LightRig, OrbitCamera};
+
+impl App {
+    pub(super) fn toggle_target(&mut self) -> Result<()> {
+        if self.show_target {
+            self.show_target = false;
+            self.fr.set_target(None)?;
+        } else {
+            match self.design.targets.get(self.view_idx).and_then(|t| t.as_ref()) {
+                Some(t) => {
+                    self.fr.set_target(Some(t))?;
+                    self.show_target = true;
+                    eprintln!("target: {}", t.path.display());
+                }
+                None => eprintln!(
+                    "view '{}' has no target image (add \"target\": \"file.png\" to the view, or \
+                     put {}_target.png next to the design)",
+                    self.design.scene.views[self.view_idx].name, self.design.scene.views[self.view_idx].name
+                ),
+            }
+        }
+        self.bump();
+        Ok(())
+    }
+
+    fn jump_to_view(&mut self, idx: usize) -> Result<()> {
+        let Some(v) = self.design.scene.views.get(idx) else {
+            eprintln!("the design has only {} views", self.design.scene.views.len());
+            return Ok(());
+        };
+        eprintln!("view {idx}: '{}'", v.name);
+        self.cam = OrbitCamera::from_camera(&v.camera);
+        self.light = LightRig::from_light(&v.light);
+        self.view_idx = idx;
+        if self.show_target {
+            // Show the new view's target (or none).
+            self.show_target = false;
+            self.fr.set_target(None)?;
+            self.toggle_target()?;
+        }
+        self.bump();
+        Ok(())
+    }
+
+    fn reset(&mut self) -> Result<()> {
+        let idx = self
+            .opts
+            .view
+            .as_deref()
+            .and_then(|s| self.design.view_index(s).ok())
+            .unwrap_or(0);
+        let (cam, light) = headless::initial_state(&self.opts, &self.design, idx);
+        self.cam = cam;
+        self.light = light;
+        self.view_idx = idx;
+        self.exposure = self.opts.exposure;
+        self.light_orbit = false;
+        self.light_speed = self.opts.light_speed;
+        if self.show_target {
+            self.toggle_target()?;
+        }
+        self.bump();
+        Ok(())
+    }
+
+    fn on_key(&mut self, key: &Key, event_loop: &ActiveEventLoop) -> Result<()> {
+        let ch = match key {
+            Key::Named(NamedKey::Escape) => {
+                event_loop.exit();
+                return Ok(());
+            }
+            Key::Character(s) => s.to_lowercase(),
+            _ => return Ok(()),
+        };
+        match ch.as_str() {
+            "q" => event_loop.exit(),
+            "l" => {
+                self.light_orbit = !self.light_orbit;
+                eprintln!("light orbit {}", if self.light_orbit { "on" } else { "off" });
+                self.bump();
+            }
+            "+" | "=" => {
+                self.light_speed *= 1.5;
+                eprintln!("light orbit speed {:.1} deg/s", self.light_speed);
+            }
+            "-" | "_" => {
+                self.light_speed /= 1.5;
+                eprintln!("light orbit speed {:.1} deg/s", self.light_speed);
+            }
+            "t" => self.toggle_target()?,
+            "e" => {
+                if self.shift {
+                    self.exposure /= 1.25;
+                } else {
+                    self.exposure *= 1.25;
+                }
+                eprintln!("exposure {:.3}", self.exposure);
+                self.bump();
+            }
+            "n" => {
+                self.nearest = !self.nearest;
+                eprintln!("upscaling: {}", if self.nearest { "nearest" } else { "bilinear" });
+                self.bump();
+            }
+            "a" => {
+                self.adaptive = !self.adaptive;
+                eprintln!("adaptive resolution {}", if self.adaptive { "on" } else { "off" });
+                self.bump();
+            }
+            "r" => self.reset()?,
+            "h" => eprintln!("{}", crate::KEYS),
+            d if d.len() == 1 && ("1"..="9").contains(&d) => self.jump_to_view(d.parse::<usize>().unwrap() - 1)?,
+            _ => {}
+        }
+        Ok(())
+    }
+
+    fn on_drag(&mut self, dx: f64, dy: f64) {
+        let h = self
+            .window
+            .as_ref()
+            .map(|w| w.inner_size().height as f64)
+            .unwrap_or(720.0);
+        if self.buttons[0] {
+            if self.light_drag {
+                self.light.drag(dx, dy);
+            } else {
+                self.cam.orbit(dx, dy);
+            }
+        } else {
+            self.cam.pan(dx, dy, h);
+        }
+        self.bump();
+    }
+
+    /// The input events of [`winit::application::ApplicationHandler::window_event`] (keys,
+    /// modifiers, buttons, cursor, wheel); other events are ignored here.
+    pub(super) fn on_input(&mut self, event_loop: &ActiveEventLoop, event: WindowEvent) -> Result<()> {
+        match event {
+            WindowEvent::ModifiersChanged(m) => {
+                self.shift = m.state().shift_key();
+                Ok(())
+            }
+            WindowEvent::KeyboardInput { event, .. } if event.state == ElementState::Pressed => {
+                self.on_key(&event.logical_key, event_loop)
+            }
+            WindowEvent::MouseInput { state, button, .. } => {
+                let i = match button {
+                    MouseButton::Left => Some(0),
+                    MouseButton::Right => Some(1),
+                    MouseButton::Middle => Some(2),
+                    _ => None,
+                };
+                if let Some(i) = i {
+                    let down = state == ElementState::Pressed;
+                    if i == 0 && down {
+                        self.light_drag = self.shift;
+                    }
+                    self.buttons[i] = down;
+                    self.last_change = Instant::now();
+                }
+                Ok(())
+            }
+            WindowEvent::CursorMoved { position, .. } => {
+                let (x, y) = (position.x, position.y);
+                if let (Some((px, py)), true) = (self.cursor, self.dragging()) {
+                    self.on_drag(x - px, y - py);
+                }
+                self.cursor = Some((x, y));
+                Ok(())
+            }
+            WindowEvent::CursorLeft { .. } => {
+                self.cursor = None;
+                Ok(())
+            }
+            WindowEvent::MouseWheel { delta, .. } => {
+                let steps = match delta {
+                    MouseScrollDelta::LineDelta(_, y) => y as f64,
+                    MouseScrollDelta::PixelDelta(p) => p.y / 40.0,
+                };
+                self.cam.zoom(steps);
+                self.bump();
+                Ok(())
+            }
+            _ => Ok(()),
+        }
+    }
+}

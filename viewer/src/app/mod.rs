@@ -1,0 +1,216 @@
+//! The window: winit 0.30 `ApplicationHandler`, input, the adaptive internal resolution, hot
+//! reload of the design and the shaders, and the windowed half of `--benchmark`.
+//!
+//! Frame policy: a frame is drawn only when something changed (camera, light, exposure, scene,
+//! shaders, window size) or when the last frame was drawn at a reduced resolution and the scene
+//! has since been still for [`SETTLE`]; then it is refined once at full resolution and the
+//! viewer sleeps. While moving, the level of [`DIVISORS`] is chosen from the measured frame
+//! times so a frame stays under `--budget-ms`.
+//!
+//! Files: this one holds the [`App`] state and [`run_window`]; `lifecycle.rs` the winit
+//! callbacks (window and surface created on `Resumed`, dropped on `Suspended`, the wake-up
+//! policy); `input.rs` keys and mouse; `reload.rs` the polling of the design and shader files;
+//! `draw.rs` the per-frame render, the adaptive level and the windowed benchmark's bookkeeping.
+use std::cell::RefCell;
+use std::path::PathBuf;
+use std::sync::Arc;
+use std::time::{Duration, Instant, SystemTime};
+
+use anyhow::{Context as _, Result};
+use scratchart::vulkan::ValidationLog;
+use winit::event_loop::{ActiveEventLoop, EventLoop};
+use winit::window::Window;
+
+use crate::design::{dir_fingerprint, mtimes, Design};
+use crate::frame::{FrameRenderer, DIVISORS};
+use crate::headless::{self, BenchRow, BENCH_LEVELS};
+use crate::state::{LightRig, OrbitCamera};
+use crate::swapchain::Presenter;
+use crate::Opts;
+
+mod draw;
+mod input;
+mod lifecycle;
+mod reload;
+
+/// Still for this long after the last change: refine to full resolution.
+const SETTLE: Duration = Duration::from_millis(120);
+/// How often the design file and the shader directory are polled.
+const POLL: Duration = Duration::from_millis(500);
+
+pub fn display_available() -> bool {
+    ["DISPLAY", "WAYLAND_DISPLAY"]
+        .iter()
+        .any(|k| std::env::var_os(k).is_some_and(|v| !v.is_empty()))
+}
+
+pub fn run_window(
+    opts: &Opts,
+    design: Design,
+    shaders: Option<PathBuf>,
+    log: &RefCell<Option<ValidationLog>>,
+) -> Result<()> {
+    if !display_available() {
+        anyhow::bail!(
+            "no display: DISPLAY and WAYLAND_DISPLAY are unset (use --screenshot PNG to render \
+             without a window)"
+        );
+    }
+    let event_loop = EventLoop::new().context("cannot connect to the display")?;
+    let inst = crate::swapchain::required_instance_extensions(&event_loop)?;
+    let ctx = headless::make_context(opts, inst, vec![ash::khr::swapchain::NAME], log)?;
+    let fr = headless::make_frame_renderer(&ctx, &design, shaders.as_deref())?;
+    let mut app = App::new(opts.clone(), design, shaders, fr)?;
+    event_loop.run_app(&mut app)?;
+    // Surface before window, everything before the context (dropped with `app`).
+    app.presenter = None;
+    match app.error.take() {
+        Some(e) => Err(e),
+        None => Ok(()),
+    }
+}
+
+/// One phase of the windowed benchmark: a fixed level, or `None` for the adaptive choice.
+struct WindowBench {
+    phases: Vec<Option<usize>>,
+    phase: usize,
+    k: usize,
+    gpu: Vec<f64>,
+    interval: Vec<f64>,
+    internal: Vec<(u32, u32)>,
+    timings: Vec<scratchart::vulkan::Timings>,
+    rows: Vec<BenchRow>,
+    cam0: OrbitCamera,
+    light0: LightRig,
+}
+
+struct App {
+    opts: Opts,
+    design: Design,
+    shaders: Option<PathBuf>,
+    // Field order is drop order: the surface goes before the window it was made from.
+    presenter: Option<Presenter>,
+    window: Option<Arc<Window>>,
+    fr: FrameRenderer,
+
+    cam: OrbitCamera,
+    light: LightRig,
+    view_idx: usize,
+    exposure: f64,
+    show_target: bool,
+    light_orbit: bool,
+    light_speed: f64,
+    nearest: bool,
+    adaptive: bool,
+
+    cursor: Option<(f64, f64)>,
+    buttons: [bool; 3],
+    shift: bool,
+    light_drag: bool,
+
+    /// Bumped on every change that alters the image.
+    version: u64,
+    /// (version, level) of the last presented frame.
+    presented: Option<(u64, usize)>,
+    last_change: Instant,
+    last_tick: Instant,
+    swap_dirty: bool,
+    /// Level to use while moving (adapted from measured frame times).
+    level: usize,
+    frames: u64,
+    start: Instant,
+    last_frame_end: Option<Instant>,
+    last_title: Option<Instant>,
+    last_poll: Instant,
+    design_mtimes: Vec<Option<SystemTime>>,
+    shader_fp: Vec<(PathBuf, Option<SystemTime>)>,
+    reload_error: Option<String>,
+    error: Option<anyhow::Error>,
+    bench: Option<WindowBench>,
+}
+
+impl App {
+    fn new(opts: Opts, design: Design, shaders: Option<PathBuf>, fr: FrameRenderer) -> Result<App> {
+        let view_idx = opts
+            .view
+            .as_deref()
+            .map(|s| design.view_index(s))
+            .transpose()?
+            .unwrap_or(0);
+        let (cam, light) = headless::initial_state(&opts, &design, view_idx);
+        let now = Instant::now();
+        let bench = opts.benchmark.then(|| WindowBench {
+            phases: BENCH_LEVELS.iter().map(|&l| Some(l)).chain([None]).collect(),
+            phase: 0,
+            k: 0,
+            gpu: Vec::new(),
+            interval: Vec::new(),
+            internal: Vec::new(),
+            timings: Vec::new(),
+            rows: Vec::new(),
+            cam0: cam.clone(),
+            light0: light.clone(),
+        });
+        let mut app = App {
+            design_mtimes: mtimes(&design.watched),
+            shader_fp: shaders.as_deref().map(dir_fingerprint).unwrap_or_default(),
+            exposure: opts.exposure,
+            show_target: false,
+            light_orbit: opts.light_orbit,
+            light_speed: opts.light_speed,
+            nearest: false,
+            adaptive: !opts.no_adaptive,
+            design,
+            shaders,
+            presenter: None,
+            window: None,
+            fr,
+            cam,
+            light,
+            view_idx,
+            cursor: None,
+            buttons: [false; 3],
+            shift: false,
+            light_drag: false,
+            version: 0,
+            presented: None,
+            last_change: now,
+            last_tick: now,
+            swap_dirty: true,
+            level: DIVISORS.len() / 2,
+            frames: 0,
+            start: now,
+            last_frame_end: None,
+            last_title: None,
+            last_poll: now,
+            reload_error: None,
+            error: None,
+            bench,
+            opts,
+        };
+        if app.opts.show_target {
+            app.toggle_target()?;
+        }
+        Ok(app)
+    }
+
+    fn bump(&mut self) {
+        self.version += 1;
+        self.last_change = Instant::now();
+    }
+
+    fn dragging(&self) -> bool {
+        self.buttons.iter().any(|&b| b)
+    }
+
+    fn still(&self, now: Instant) -> bool {
+        !self.dragging() && !self.light_orbit && self.bench.is_none() && now.duration_since(self.last_change) >= SETTLE
+    }
+
+    fn fail(&mut self, event_loop: &ActiveEventLoop, e: anyhow::Error) {
+        if self.error.is_none() {
+            self.error = Some(e);
+        }
+        event_loop.exit();
+    }
+}
