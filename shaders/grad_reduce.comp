@@ -6,7 +6,8 @@ layout(std430, binding = 0) readonly buffer Partials { vec4 partial[]; };
 layout(std430, binding = 1) readonly buffer ScratchBase { uint sbase[]; };  // scanned, n + 1
 layout(std430, binding = 2) readonly buffer Inverse { uint inv[]; };
 layout(std430, binding = 3) writeonly buffer Grad { vec4 grad[]; };        // 2 per scratch
-layout(push_constant) uniform Push { uint n_scratches; uint capacity; uint pad0, pad1; } pc;
+#extension GL_GOOGLE_include_directive : require
+#include "inc/reduce_push.glsl"
 
 void main() {
     uint k = gl_GlobalInvocationID.x + gl_GlobalInvocationID.y * gl_NumWorkGroups.x * gl_WorkGroupSize.x;

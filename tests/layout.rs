@@ -8,8 +8,11 @@
 //!   PresentPush (inc/present_push.glsl).
 use std::sync::Arc;
 
+use scratchart::optim::adam::{AdamGroupGpu, AdamPush};
+use scratchart::optim::check::CheckPush;
 use scratchart::optim::loss::{LossPush, LossSeg};
-use scratchart::render::layout::{BinPush, ScanPush, ScratchGpu, ShadePush, ViewGpu, ViewGpu64};
+use scratchart::optim::scene_params::ProjectPush;
+use scratchart::render::layout::{BinPush, ReducePush, ScanPush, ScratchGpu, ShadePush, ViewGpu, ViewGpu64};
 use scratchart::render::present::PresentPush;
 use scratchart::vulkan::{Buffer, ComputePipeline, Context, MemLoc, Recorder, ShaderCompiler};
 use scratchart_tests::*;
@@ -114,11 +117,12 @@ fn rust_and_glsl_struct_layouts_agree() {
 
 /// Runs test/layout_push.comp with `define` and the push constants `push` (plus, for LOSS, the
 /// segments `segs` at binding 1) and checks that it writes back `push` then `segs`, word for word.
-fn check_push(ctx: &Arc<Context>, define: &str, push: &[u8], segs: &[LossSeg]) {
-    let mut expected: Vec<u32> = bytemuck::cast_slice(push).to_vec();
-    for s in segs {
-        expected.extend_from_slice(bytemuck::cast_slice(bytemuck::bytes_of(s)));
-    }
+/// `records`: the std430 records the shader reads from binding 1 (LossSeg or AdamGroupGPU), as bytes.
+fn check_push(ctx: &Arc<Context>, define: &str, push: &[u8], records: &[u8]) {
+    let words = |b: &[u8]| -> Vec<u32> { b.chunks(4).map(|c| u32::from_le_bytes(c.try_into().unwrap())).collect() };
+    let mut expected = words(push);
+    expected.extend(words(records));
+    let segs = records;
     let sc = ShaderCompiler::embedded().unwrap();
     let n_buffers = if segs.is_empty() { 1 } else { 2 };
     let p = ComputePipeline::new(
@@ -131,7 +135,7 @@ fn check_push(ctx: &Arc<Context>, define: &str, push: &[u8], segs: &[LossSeg]) {
     )
     .unwrap();
     let out = Buffer::new(ctx, "layout out", expected.len() as u64 * 4, MemLoc::GpuToCpu).unwrap();
-    let seg_buf = (!segs.is_empty()).then(|| ctx.upload("layout segs", segs).unwrap());
+    let seg_buf = (!segs.is_empty()).then(|| ctx.upload::<u8>("layout records", segs).unwrap());
     let mut bufs = vec![&out];
     bufs.extend(seg_buf.as_ref());
     let mut rec = Recorder::new(ctx).unwrap();
@@ -208,9 +212,54 @@ fn push_constant_layouts_agree() {
     assert_eq!(std::mem::size_of::<LossPush>(), 48);
     assert_eq!(std::mem::size_of::<LossSeg>(), 32);
     assert_eq!(std::mem::size_of::<PresentPush>(), 80);
+    let reduce = ReducePush {
+        n_scratches: u(),
+        capacity: u(),
+        pad: [u(), u()],
+    };
+    let adam = AdamPush {
+        n: u(),
+        stride: u(),
+        check_objective: u(),
+        objective_index: u(),
+        capacity: u(),
+        beta1: u() as f32,
+        beta2: u() as f32,
+        eps: u() as f32,
+        bc1: u() as f32,
+        bc2: u() as f32,
+        loss_limit: u() as f32,
+        pad0: u(),
+    };
+    let groups: Vec<AdamGroupGpu> = (0..2)
+        .map(|_| AdamGroupGpu {
+            lr_lo_hi: [u() as f32, u() as f32, u() as f32, u() as f32],
+            mode_frozen: [u(), u(), u(), u()],
+        })
+        .collect();
+    let project = ProjectPush {
+        n_scratches: u(),
+        half_plate: u() as f32,
+        min_len: u() as f32,
+        pad0: u(),
+    };
+    let check = CheckPush {
+        n_views: u(),
+        n_pixels: u(),
+        pad: [u(), u()],
+    };
+    assert_eq!(std::mem::size_of::<ReducePush>(), 16);
+    assert_eq!(std::mem::size_of::<AdamPush>(), 48);
+    assert_eq!(std::mem::size_of::<AdamGroupGpu>(), 32);
+    assert_eq!(std::mem::size_of::<ProjectPush>(), 16);
+    assert_eq!(std::mem::size_of::<CheckPush>(), 16);
     check_push(&ctx, "BIN", bytemuck::bytes_of(&bin), &[]);
     check_push(&ctx, "SCAN", bytemuck::bytes_of(&scan), &[]);
-    check_push(&ctx, "LOSS", bytemuck::bytes_of(&loss), &segs);
+    check_push(&ctx, "LOSS", bytemuck::bytes_of(&loss), bytemuck::cast_slice(&segs));
     check_push(&ctx, "PRESENT", bytemuck::bytes_of(&present), &[]);
+    check_push(&ctx, "REDUCE", bytemuck::bytes_of(&reduce), &[]);
+    check_push(&ctx, "ADAM", bytemuck::bytes_of(&adam), bytemuck::cast_slice(&groups));
+    check_push(&ctx, "PROJECT", bytemuck::bytes_of(&project), &[]);
+    check_push(&ctx, "CHECK", bytemuck::bytes_of(&check), &[]);
     assert_no_validation(&ctx);
 }

@@ -6,7 +6,12 @@
 //   SCAN     inc/scan_push.glsl     (scan.comp)          Rust: render::layout::ScanPush
 //   LOSS     inc/loss_push.glsl     (loss_*.comp)        Rust: optim::loss::{LossPush, LossSeg}
 //   PRESENT  inc/present_push.glsl  (view_present.comp)  Rust: render::present::PresentPush
-// LOSS also reads two LossSeg from binding 1 and writes them after the push constants.
+//   REDUCE   inc/reduce_push.glsl   (grad_reduce.comp)   Rust: render::layout::ReducePush
+//   ADAM     inc/adam_push.glsl     (adam.comp)          Rust: optim::adam::{AdamPush, AdamGroupGpu}
+//   PROJECT  inc/project_push.glsl  (scratch_project.comp) Rust: optim::scene_params::ProjectPush
+//   CHECK    inc/check_push.glsl    (check_loss.comp)    Rust: optim::check::CheckPush
+// LOSS (ADAM) also reads two LossSeg (AdamGroupGPU) from binding 1 and writes them after the
+// push constants.
 #extension GL_GOOGLE_include_directive : require
 layout(local_size_x = 1) in;
 layout(std430, binding = 0) writeonly buffer Out { uint words[]; };
@@ -19,8 +24,17 @@ layout(std430, binding = 0) writeonly buffer Out { uint words[]; };
 layout(std430, binding = 1) readonly buffer Segs { LossSeg segs[]; };
 #elif defined(PRESENT)
 #include "inc/present_push.glsl"
+#elif defined(REDUCE)
+#include "inc/reduce_push.glsl"
+#elif defined(ADAM)
+#include "inc/adam_push.glsl"
+layout(std430, binding = 1) readonly buffer Groups { AdamGroupGPU groups[]; };
+#elif defined(PROJECT)
+#include "inc/project_push.glsl"
+#elif defined(CHECK)
+#include "inc/check_push.glsl"
 #else
-#error "define BIN, SCAN, LOSS or PRESENT"
+#error "define BIN, SCAN, LOSS, PRESENT, REDUCE, ADAM, PROJECT or CHECK"
 #endif
 
 uint o = 0u;
@@ -44,5 +58,15 @@ void main() {
     }
 #elif defined(PRESENT)
     put4(pc.dims); put4(pc.view_rect); put4(pc.tgt_rect); put4(pc.misc); put4(pc.params);
+#elif defined(REDUCE)
+    put(pc.n_scratches); put(pc.capacity); put(pc.pad0); put(pc.pad1);
+#elif defined(ADAM)
+    put(pc.n); put(pc.stride); put(pc.check_objective); put(pc.objective_index); put(pc.capacity);
+    put(pc.beta1); put(pc.beta2); put(pc.eps); put(pc.bc1); put(pc.bc2); put(pc.loss_limit); put(pc.pad0);
+    for (int k = 0; k < 2; ++k) { put4(groups[k].lr_lo_hi); put4(groups[k].mode_frozen); }
+#elif defined(PROJECT)
+    put(pc.n_scratches); put(pc.half_plate); put(pc.min_len); put(pc.pad0);
+#elif defined(CHECK)
+    put(pc.n_views); put(pc.n_pixels); put(pc.pad0); put(pc.pad1);
 #endif
 }

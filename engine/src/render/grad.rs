@@ -2,7 +2,7 @@
 //! view's light intensity, from dE/dL per pixel. Kernels: `grad.comp` (per tile-list entry,
 //! dual-number differentiation of the forward pair integral), `grad_reduce.comp` (per scratch, in
 //! a fixed order) and `grad_light.comp`. Reuses the tile lists of the forward pass.
-use super::layout::ScanPush;
+use super::layout::ReducePush;
 use super::{GpuScene, Renderer};
 use crate::vulkan::{GpuError, Recorder};
 
@@ -52,9 +52,9 @@ impl Renderer {
             gs.slots.n_tiles,
         );
         rec.barrier();
-        let push = ScanPush {
-            n: gs.n_scratches,
-            n_blocks: gs.capacity,
+        let push = ReducePush {
+            n_scratches: gs.n_scratches,
+            capacity: gs.capacity,
             pad: [0; 2],
         };
         rec.dispatch_1d(

@@ -82,6 +82,16 @@ pub struct ScanPush {
     pub pad: [u32; 2],
 }
 
+/// Push constants of `grad_reduce.comp` (`shaders/inc/reduce_push.glsl`).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
+pub struct ReducePush {
+    pub n_scratches: u32,
+    /// tile-list capacity (entries past it were not listed)
+    pub capacity: u32,
+    pub pad: [u32; 2],
+}
+
 /// Push constants of `forward.comp` (and the backward kernels).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]

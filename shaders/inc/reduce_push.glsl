@@ -1,0 +1,10 @@
+// Push constants of grad_reduce.comp; Rust twin: ReducePush in engine/src/render/layout.rs
+// (checked by tests/layout.rs).
+#ifndef SA_REDUCE_PUSH_GLSL
+#define SA_REDUCE_PUSH_GLSL
+layout(push_constant) uniform Push {
+    uint n_scratches;
+    uint capacity;  // tile-list capacity (entries past it were not listed)
+    uint pad0, pad1;
+} pc;
+#endif
