@@ -66,6 +66,43 @@ fn scratchart_exit_codes() {
         "--elevation",
         "--elevation 95",
     );
+    expect(
+        &run("scratchart", &["design", "--init-alpha", "1.5", "--out", out]),
+        2,
+        "--init-alpha",
+        "--init-alpha 1.5",
+    );
+    // 1: an output that cannot be written (/dev/null is a file, not a directory)
+    expect(
+        &run("scratchart", &["render", &scene, "--out", "/dev/null/out"]),
+        1,
+        "/dev/null/out",
+        "render to an unwritable directory",
+    );
+    expect(
+        &run(
+            "scratchart",
+            &[
+                "design",
+                "--scratches",
+                "50",
+                "--res",
+                "16",
+                "--iters",
+                "1",
+                "--out",
+                "/dev/null/out",
+            ],
+        ),
+        1,
+        "/dev/null/out",
+        "design to an unwritable directory",
+    );
+    // 3: a missing scene file, named once with its OS error once
+    let o = run("scratchart", &["render", "/nonexistent/scene.json", "--out", out]);
+    expect(&o, 3, "/nonexistent/scene.json", "missing scene");
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(err.matches("os error").count(), 1, "the OS error is said once: {err}");
     // 3: a bad scene file
     let bad = write(&d, "bad.json", "{ \"plate\": ");
     expect(
@@ -137,6 +174,15 @@ fn viewer_exit_codes() {
         2,
         "no-such-flag",
         "viewer unknown flag",
+    );
+    expect(
+        &run(
+            "scratchart-view",
+            &[&scene, "--view", "0", "--screenshot", "/dev/null/s.png"],
+        ),
+        1,
+        "/dev/null/s.png",
+        "viewer screenshot to an unwritable path",
     );
     let bad = write(&d, "bad.json", "{ \"plate\": ");
     expect(

@@ -126,6 +126,24 @@ pub fn problem(args: &DesignArgs, info: &DeviceInfo) -> anyhow::Result<Problem> 
     let plate_mm = args.plate;
     ensure_flag!(plate_mm > 0.0, "--plate must be > 0 mm");
     ensure_flag!(args.scratches > 0, "--scratches must be at least 1");
+    ensure_flag!(args.init_w > 0.0, "--init-w must be > 0 mm (it is {})", args.init_w);
+    ensure_flag!(args.init_d > 0.0, "--init-d must be > 0 mm (it is {})", args.init_d);
+    ensure_flag!(
+        args.init_alpha > 0.0 && args.init_alpha < 1.0,
+        "--init-alpha must lie strictly between 0 and 1 (it is {})",
+        args.init_alpha
+    );
+    for (flag, v) in [
+        ("--lr-end", args.lr_end),
+        ("--lr-w", args.lr_w),
+        ("--lr-d", args.lr_d),
+        ("--lr-alpha", args.lr_alpha),
+        ("--lr-light", args.lr_light),
+    ] {
+        if let Some(v) = v {
+            ensure_flag!(v.is_finite() && v >= 0.0, "{flag} must be a number >= 0 (it is {v})");
+        }
+    }
     ensure_flag!(
         args.len_min_pct > 0.0 && args.len_max_pct >= args.len_min_pct && args.len_max_pct < 100.0,
         "--len-min-pct / --len-max-pct must satisfy 0 < min <= max < 100"

@@ -53,7 +53,16 @@ fn known(e: &(dyn Error + 'static)) -> Option<u8> {
     if e.is::<UsageError>() || e.is::<clap::Error>() {
         return Some(USAGE);
     }
-    if e.is::<InputError>() || e.is::<SceneError>() || e.is::<IoError>() || e.is::<TargetError>() {
+    if let Some(io) = e.downcast_ref::<IoError>() {
+        return Some(if io.is_output() { RUNTIME } else { INPUT });
+    }
+    if let Some(SceneError::Write(_)) = e.downcast_ref::<SceneError>() {
+        return Some(RUNTIME);
+    }
+    if let Some(TargetError::Image(io)) = e.downcast_ref::<TargetError>() {
+        return known(io);
+    }
+    if e.is::<InputError>() || e.is::<SceneError>() || e.is::<TargetError>() {
         return Some(INPUT);
     }
     if e.is::<GpuError>() {

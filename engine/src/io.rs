@@ -17,12 +17,12 @@ use scratchart_model::fsio::WriteError;
 /// An image file could not be read or written. Every variant names the path.
 #[derive(Debug, thiserror::Error)]
 pub enum IoError {
-    #[error("cannot {action} `{path}`: {source}")]
+    #[error("cannot {action} `{path}`: {cause}")]
     Io {
         action: &'static str,
         path: PathBuf,
-        #[source]
-        source: std::io::Error,
+        /// The OS error (part of the message, so not repeated as a source).
+        cause: std::io::Error,
     },
     #[error("`{path}` is not a valid {kind} file: {msg}")]
     Format {
@@ -30,21 +30,24 @@ pub enum IoError {
         path: PathBuf,
         msg: String,
     },
-    #[error("cannot decode or encode image `{path}`: {source}")]
-    Image {
-        path: PathBuf,
-        #[source]
-        source: image::ImageError,
-    },
+    #[error("cannot decode or encode image `{path}`: {cause}")]
+    Image { path: PathBuf, cause: image::ImageError },
     #[error("bad image arguments for `{path}`: {msg}")]
     Args { path: PathBuf, msg: String },
+}
+
+impl IoError {
+    /// Whether this is a failure to write an output (as opposed to reading an input).
+    pub fn is_output(&self) -> bool {
+        matches!(self, IoError::Io { action, .. } if *action != "read")
+    }
 }
 
 fn io_err(action: &'static str, path: &Path, source: std::io::Error) -> IoError {
     IoError::Io {
         action,
         path: path.to_path_buf(),
-        source,
+        cause: source,
     }
 }
 
@@ -70,7 +73,7 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), IoError> {
 impl From<WriteError> for IoError {
     fn from(e: WriteError) -> IoError {
         match e {
-            WriteError::Io { action, path, source } => IoError::Io { action, path, source },
+            WriteError::Io { action, path, cause } => IoError::Io { action, path, cause },
             WriteError::NoFileName { path } => IoError::Args {
                 path,
                 msg: "the path has no file name".into(),
@@ -235,7 +238,7 @@ pub fn write_png_gray(path: &Path, width: u32, height: u32, data: &[u8]) -> Resu
         .write_image(data, width, height, image::ExtendedColorType::L8)
         .map_err(|source| IoError::Image {
             path: path.to_path_buf(),
-            source,
+            cause: source,
         })?;
     write_atomic(path, &buf)
 }
@@ -247,7 +250,7 @@ pub fn read_image_gray(path: &Path) -> Result<(u32, u32, Vec<f32>), IoError> {
     let bytes = fs::read(path).map_err(|e| io_err("read", path, e))?;
     let img = image::load_from_memory(&bytes).map_err(|source| IoError::Image {
         path: path.to_path_buf(),
-        source,
+        cause: source,
     })?;
     let luma = img.to_luma32f();
     let (w, h) = luma.dimensions();

@@ -86,7 +86,7 @@ pub(super) fn read(dir: &Path, fingerprint: &serde_json::Value) -> Result<(HostS
     let path = path(dir);
     let file = std::fs::read(&path).map_err(|source| OptimError::NoCheckpoint {
         path: path.clone(),
-        source,
+        cause: source,
     })?;
     let bad = |msg: &str| OptimError::damaged(&path, msg.to_string());
     if file.len() < 16 || &file[..8] != MAGIC {

@@ -275,7 +275,7 @@ pub fn run_design(
             OptimError::Io(crate::io::IoError::Io {
                 action: "create output directory",
                 path: cfg.out.clone(),
-                source,
+                cause: source,
             })
         })?;
     }

@@ -14,11 +14,11 @@ pub enum OptimError {
     #[error(transparent)]
     Io(#[from] IoError),
 
-    #[error("cannot resume: cannot read checkpoint `{path}`: {source} (run without --resume to start afresh)")]
+    #[error("cannot resume: cannot read checkpoint `{path}`: {cause} (run without --resume to start afresh)")]
     NoCheckpoint {
         path: PathBuf,
-        #[source]
-        source: std::io::Error,
+        /// The OS error (part of the message, so not repeated as a source).
+        cause: std::io::Error,
     },
 
     #[error("checkpoint `{path}` is damaged: {msg}; run without --resume")]

@@ -19,7 +19,7 @@ pub fn read_scratches_csv_lines(path: &Path) -> Result<Vec<(Scratch, usize)>, Sc
     let text = std::fs::read_to_string(path).map_err(|source| SceneError::Read {
         what: "scratch CSV file",
         path: path.to_path_buf(),
-        source,
+        cause: source,
     })?;
     let file = path.display().to_string();
     let mut out = Vec::new();

@@ -89,12 +89,12 @@ pub struct Scene {
 /// A scene could not be read, validated or written.
 #[derive(Debug, thiserror::Error)]
 pub enum SceneError {
-    #[error("cannot read {what} `{path}`: {source} (check that the file exists and is readable)")]
+    #[error("cannot read {what} `{path}`: {cause} (check that the file exists and is readable)")]
     Read {
         what: &'static str,
         path: PathBuf,
-        #[source]
-        source: std::io::Error,
+        /// The OS error (part of the message, so not repeated as a source).
+        cause: std::io::Error,
     },
     #[error("cannot write scene: {0}")]
     Write(#[from] crate::fsio::WriteError),

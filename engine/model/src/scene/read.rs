@@ -18,7 +18,7 @@ impl Scene {
         let text = std::fs::read_to_string(path).map_err(|source| SceneError::Read {
             what: "scene file",
             path: path.to_path_buf(),
-            source,
+            cause: source,
         })?;
         let base = match path.parent() {
             Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
