@@ -167,7 +167,7 @@ mod tests {
         let d = tmpdir("errors");
         let p = d.join("missing_dir").join("a.txt");
         let msg = write_atomic(&p, b"x").unwrap_err().to_string();
-        assert!(msg.contains("cannot create") && msg.contains("missing_dir"), "{msg}");
+        assert!(msg.contains("cannot write") && msg.contains("missing_dir"), "{msg}");
         let msg = write_atomic(Path::new("/"), b"x").unwrap_err().to_string();
         assert!(msg.contains("no file name"), "{msg}");
     }
