@@ -1,10 +1,19 @@
-//! The GPU forward renderer: tile binning (pair search), deterministic scan, and the patch-NDF
-//! shading kernel; produces the linear pixel values L of MODEL.md section 5 for every view.
+//! The GPU renderer: tile binning (pair search), deterministic scan, and the patch-NDF shading
+//! kernels; produces the linear pixel values L of MODEL.md section 5 for every view, and (in
+//! [`grad`]) their gradients.
 //!
 //! Buffers live in a [`GpuScene`] (the binning state private to this module); a [`Renderer`]
 //! owns the pipelines. Every render anywhere (the `render` command, the optimizer, pruning,
 //! benchmarks, the viewer) is recorded by [`Renderer::record_render`] and submitted by
 //! [`Renderer::submit`], the one place that grows the tile lists and redoes an incomplete render.
+//!
+//! The shading kernels are described by [`kernels::KernelSet`]: a forward and a backward
+//! [`kernels::ShadeKernel`], each an integrator and a mode that become a shader file and its
+//! defines. [`Renderer::new`] builds the default set (closed-form pair integral, dual-number
+//! backward); [`Renderer::with_kernels`] any other, e.g. for comparisons. On the GLSL side both
+//! kernels run one tile loop (`shaders/inc/tile_loop.glsl`) and one pair set-up
+//! (`pair_integrate` in `shaders/inc/patch_ndf.glsl`), differing only in their hooks: the forward
+//! kernel sums per pixel in float, the backward one per scratch in dual numbers.
 pub mod grad;
 pub mod kernels;
 pub mod layout;
