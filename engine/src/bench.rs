@@ -11,7 +11,7 @@ use crate::vulkan::{Context, GpuError, Recorder};
 /// 4 compares/adds.
 pub const FLOPS_PER_CANDIDATE: f64 = 12.0;
 /// Floating-point operations per overlapping pair, counted on the common (fast) path of
-/// `forward.comp` + `inc/patch_ndf.glsl`, where the carved strip crosses the footprint: local
+/// `forward.comp` + `inc/patch_ndf.glsl` with the default integrator, where the carved strip crosses the footprint: local
 /// coordinates of the 4 corners 36, pair constants 40, the chord at s = ±s_e 45, one closed-form
 /// edge integral with its 5-point Gauss part 155 (atan, log and sqrt counted as 1 each),
 /// accumulation 3. Sum 279, rounded to 300; pairs on the general path cost more.

@@ -3,6 +3,8 @@
 #ifndef SA_COMMON_GLSL
 #define SA_COMMON_GLSL
 
+#include "real.glsl"
+
 #define PI 3.14159265358979323846
 #define TILE 16u
 
@@ -83,12 +85,15 @@ float ggx_flat(vec3 h, float alpha) {
 }
 
 // Half-width of the carved region: e = (w/2) sqrt(1 - exp(-2d/w)), with 1 - exp(-x) computed
-// without cancellation for small x (Kahan's expm1 trick); returns s_e = 2e/w.
-float carved_se(float w, float d) {
-    float x = 2.0 * d / w;
-    float u = exp(-x);
-    float one_minus = (u == 1.0) ? x : (1.0 - u) * x / (-log(u));
-    return sqrt(one_minus);
+// without cancellation for small x (Kahan's expm1 trick); returns s_e = 2e/w. Written over the
+// scalar type R (real.glsl): binning and culling use it in float, the backward kernel
+// differentiates it. In a dual build, `val(carved_se(rc(w), rc(d)))` is the float value: the
+// value part of every dual operation used here is the float operation itself.
+R carved_se(R w, R d) {
+    R x = dv(mul(2.0, d), w);
+    R u = d_exp(neg(x));
+    R one_minus = (val(u) == 1.0) ? x : dv(mul(sub(1.0, u), x), neg(d_log(u)));
+    return d_sqrt(one_minus);
 }
 
 #endif

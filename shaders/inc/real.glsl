@@ -22,6 +22,9 @@ float d_min(float a, float b) { return min(a, b); }
 float d_max(float a, float b) { return max(a, b); }
 float d_abs(float a) { return abs(a); }
 float fma3(float a, float b, float c) { return a * b + c; }
+// a . b of 2-vectors given by components. The float version is GLSL's dot (the forward kernel's
+// arithmetic), the dual one the sum of two products.
+float dot2(float ax, float ay, float bx, float by) { return dot(vec2(ax, ay), vec2(bx, by)); }
 
 #ifdef SA_DUAL
 struct Dual {
@@ -71,6 +74,8 @@ Dual d_abs(Dual a) { return a.v < 0.0 ? neg(a) : a; }
 Dual fma3(Dual a, Dual b, Dual c) { return add(mul(a, b), c); }
 Dual fma3(Dual a, float b, Dual c) { return add(mul(a, b), c); }
 Dual fma3(float a, Dual b, Dual c) { return add(mul(a, b), c); }
+Dual dot2(Dual ax, Dual ay, Dual bx, Dual by) { return add(mul(ax, bx), mul(ay, by)); }
+Dual dot2(float ax, float ay, Dual bx, Dual by) { return add(mul(ax, bx), mul(ay, by)); }
 #else
 #define R float
 float rc(float a) { return a; }

@@ -1,6 +1,6 @@
-// The tile machinery shared by forward.comp and grad.comp: one workgroup of 16x16 threads per
-// 16x16-pixel tile; the tile's scratch list (sorted by scratch index, see bin.comp) streams
-// through shared memory in chunks of CHUNK scratches. Per chunk:
+// The tile machinery of the shading kernels (driven by tile_loop.glsl): one workgroup of 16x16
+// threads per 16x16-pixel tile; the tile's scratch list (sorted by scratch index, see bin.comp)
+// streams through shared memory in chunks of CHUNK scratches. Per chunk:
 //   1. scratch x 4x4-pixel-block tests (bounding box of the block's plate quad in the scratch
 //      frame), by the thread that loads the scratch, give each block a mask of scratches that
 //      may meet it;
@@ -11,7 +11,8 @@
 //      first, then the others, each group in (pixel, scratch) order, so SIMD lanes that
 //      integrate neighbouring queue entries take the same path;
 //   4. the kernel integrates QCAP queue entries per round with all its threads.
-// Everything is in a fixed order: results do not depend on thread timing.
+// Everything is in a fixed order: results do not depend on thread timing. The loop that drives
+// these steps is tile_loop.glsl.
 //
 // Include after the buffer bindings `views`, `scr`, `offs`, `list`, the push constants `pc`,
 // and a definition of QCAP.
@@ -61,7 +62,9 @@ void load_cull(uint lid, ScratchGPU S) {
     vec2 d = S.ends.zw - S.ends.xy;
     float len = length(d);
     sh_cull_a[lid] = vec4(S.ends.xy, len > 0.0 ? d / len : vec2(1.0, 0.0));
-    sh_cull_b[lid] = vec4(len, S.shape.x, carved_se(S.shape.x, S.shape.y), S.shape.z);
+    // carved_se is written over R; in float val and rc are the identity, in the backward kernel
+    // the dual version's value is the float value (see common.glsl).
+    sh_cull_b[lid] = vec4(len, S.shape.x, val(carved_se(rc(S.shape.x), rc(S.shape.y))), S.shape.z);
 }
 
 // Step 1, by the thread that loaded scratch k (right after load_cull): its tests against the

@@ -1,11 +1,21 @@
-//! The GPU forward renderer: tile binning (pair search), deterministic scan, and the patch-NDF
-//! shading kernel; produces the linear pixel values L of MODEL.md section 5 for every view.
+//! The GPU renderer: tile binning (pair search), deterministic scan, and the patch-NDF shading
+//! kernels; produces the linear pixel values L of MODEL.md section 5 for every view, and (in
+//! [`grad`]) their gradients.
 //!
 //! Buffers live in a [`GpuScene`] (the binning state private to this module); a [`Renderer`]
 //! owns the pipelines. Every render anywhere (the `render` command, the optimizer, pruning,
 //! benchmarks, the viewer) is recorded by [`Renderer::record_render`] and submitted by
 //! [`Renderer::submit`], the one place that grows the tile lists and redoes an incomplete render.
+//!
+//! The shading kernels are described by [`kernels::KernelSet`]: a forward and a backward
+//! [`kernels::ShadeKernel`], each an integrator and a mode that become a shader file and its
+//! defines. [`Renderer::new`] builds the default set (closed-form pair integral, dual-number
+//! backward); [`Renderer::with_kernels`] any other, e.g. for comparisons. On the GLSL side both
+//! kernels run one tile loop (`shaders/inc/tile_loop.glsl`) and one pair set-up
+//! (`pair_integrate` in `shaders/inc/patch_ndf.glsl`), differing only in their hooks: the forward
+//! kernel sums per pixel in float, the backward one per scratch in dual numbers.
 pub mod grad;
+pub mod kernels;
 pub mod layout;
 pub mod present;
 mod scene;
@@ -16,6 +26,7 @@ use std::sync::Arc;
 
 use crate::model::scene::Scene;
 use crate::vulkan::{Buffer, ComputePipeline, Context, GpuError, Recorder, ShaderCompiler, Timings};
+use kernels::{KernelSet, ShadeKernel};
 use layout::{BinPush, ScanPush, ShadePush};
 
 /// Scratches per binning thread (see `shaders/bin.comp`).
@@ -31,12 +42,21 @@ pub struct Renderer {
     scan_reduce: ComputePipeline,
     scan_sums: ComputePipeline,
     scan_apply: ComputePipeline,
+    /// The shading kernels this renderer builds (`forward` at once, the backward on first use).
+    kernels: KernelSet,
     forward: ComputePipeline,
     /// The backward kernel, compiled on first use (`prepare_backward`): it is the largest
     /// pipeline, and rendering or viewing never needs it.
     grad: std::sync::OnceLock<ComputePipeline>,
     grad_reduce: ComputePipeline,
     grad_light: ComputePipeline,
+}
+
+/// The pipeline of a shading kernel (forward or backward; both take the same 9 buffers and
+/// `ShadePush`).
+fn shade_pipeline(ctx: &Arc<Context>, sc: &ShaderCompiler, k: &ShadeKernel) -> Result<ComputePipeline, GpuError> {
+    let spirv = sc.compile(k.file(), &k.defines(ctx.info()))?;
+    ComputePipeline::from_spirv(ctx, &k.name(), &spirv, 9, std::mem::size_of::<ShadePush>() as u32)
 }
 
 /// Output of a render: one image per view (row-major, top row first).
@@ -47,17 +67,23 @@ pub struct Frame {
 }
 
 impl Renderer {
+    /// The renderer with the default shading kernels ([`KernelSet::default`]: the closed-form
+    /// pair integral).
     pub fn new(ctx: &Arc<Context>) -> Result<Renderer, GpuError> {
+        Self::with_kernels(ctx, KernelSet::default())
+    }
+
+    /// The renderer with the shading kernels `kernels` (e.g. another integrator, for
+    /// comparisons). Panics if `kernels.forward` is not a forward kernel or `kernels.backward`
+    /// not a backward one (a contract).
+    pub fn with_kernels(ctx: &Arc<Context>, kernels: KernelSet) -> Result<Renderer, GpuError> {
+        assert!(
+            !kernels.forward.is_backward() && kernels.backward.is_backward(),
+            "KernelSet needs a forward and a backward kernel, got {kernels:?}"
+        );
         let sc = ShaderCompiler::embedded()?;
         let bin_push = std::mem::size_of::<BinPush>() as u32;
         let scan_push = std::mem::size_of::<ScanPush>() as u32;
-        let shade_push = std::mem::size_of::<ShadePush>() as u32;
-        // Ray hits in float64 where the device has it (see ViewGPU64 in shaders/inc/common.glsl).
-        let f64_def: Vec<(&str, &str)> = if ctx.info().float64 {
-            vec![]
-        } else {
-            vec![("SA_NO_F64", "1")]
-        };
         Ok(Renderer {
             ctx: ctx.clone(),
             bin_count: ComputePipeline::new(ctx, &sc, "bin.comp", &[("COUNT", "1")], 6, bin_push)?,
@@ -65,11 +91,17 @@ impl Renderer {
             scan_reduce: ComputePipeline::new(ctx, &sc, "scan.comp", &[("REDUCE", "1")], 2, scan_push)?,
             scan_sums: ComputePipeline::new(ctx, &sc, "scan.comp", &[("SUMS", "1")], 2, scan_push)?,
             scan_apply: ComputePipeline::new(ctx, &sc, "scan.comp", &[("APPLY", "1")], 2, scan_push)?,
-            forward: ComputePipeline::new(ctx, &sc, "forward.comp", &f64_def, 9, shade_push)?,
+            kernels,
+            forward: shade_pipeline(ctx, &sc, &kernels.forward)?,
             grad: std::sync::OnceLock::new(),
             grad_reduce: ComputePipeline::new(ctx, &sc, "grad_reduce.comp", &[], 4, scan_push)?,
             grad_light: ComputePipeline::new(ctx, &sc, "grad_light.comp", &[], 5, 0)?,
         })
+    }
+
+    /// The shading kernels this renderer was built with.
+    pub fn kernels(&self) -> KernelSet {
+        self.kernels
     }
 
     /// Compiles the backward kernel if it is not compiled yet. Call before `record_backward`
@@ -78,19 +110,7 @@ impl Renderer {
         if self.grad.get().is_some() {
             return Ok(());
         }
-        let ctx = &self.ctx;
-        // grad.comp needs ~30 KiB of shared memory with a 256-entry queue, ~39 KiB with 512.
-        let qcap = if ctx.info().max_shared_memory >= 48 * 1024 {
-            "512"
-        } else {
-            "256"
-        };
-        let mut defs = vec![("GRAD_QCAP", qcap)];
-        if !ctx.info().float64 {
-            defs.push(("SA_NO_F64", "1"));
-        }
-        let shade_push = std::mem::size_of::<ShadePush>() as u32;
-        let p = ComputePipeline::new(ctx, &ShaderCompiler::embedded()?, "grad.comp", &defs, 9, shade_push)?;
+        let p = shade_pipeline(&self.ctx, &ShaderCompiler::embedded()?, &self.kernels.backward)?;
         let _ = self.grad.set(p);
         Ok(())
     }

@@ -1,0 +1,129 @@
+//! Descriptors of the shading kernels: which pair integral ([`Integrator`]) and which pass
+//! ([`Mode`]) a pipeline is built for. A descriptor turns into a shader file and its defines;
+//! the GLSL side is `shaders/inc/patch_ndf.glsl` (the `SA_INTEGRATOR_*` switch) and
+//! `shaders/inc/tile_loop.glsl` (the loop every shading kernel shares).
+//!
+//! A new integrator is one file under `shaders/inc/integrators/` (defining `pair_integral`, or
+//! `edge_integral` plus `green.glsl`), one line in the switch of `patch_ndf.glsl` and one variant
+//! here. A new backward mode (say, a reverse-mode adjoint kernel) is one kernel file beside
+//! `grad.comp`, defining the hooks of `tile_loop.glsl`, and one variant of [`Mode`].
+use crate::vulkan::DeviceInfo;
+
+/// How a shading kernel integrates the patch NDF over footprint ∩ carved rectangle.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum Integrator {
+    /// Green's theorem with the GGX lobe in closed form and Gauss-Legendre for the smooth part
+    /// (`inc/integrators/closed_form.glsl`). The default; the one MODEL.md's bars are kept with.
+    #[default]
+    ClosedForm,
+    /// Green's theorem with every edge integral by Gauss-Legendre on panels graded towards the
+    /// lobe (`inc/integrators/gauss_panels.glsl`): a numeric cross-check of the closed form,
+    /// tens of times slower.
+    GaussPanels,
+}
+
+impl Integrator {
+    pub const ALL: [Integrator; 2] = [Integrator::ClosedForm, Integrator::GaussPanels];
+
+    /// The define that selects it in `shaders/inc/patch_ndf.glsl`.
+    pub fn define(self) -> &'static str {
+        match self {
+            Integrator::ClosedForm => "SA_INTEGRATOR_CLOSED_FORM",
+            Integrator::GaussPanels => "SA_INTEGRATOR_GAUSS_PANELS",
+        }
+    }
+
+    pub fn name(self) -> &'static str {
+        match self {
+            Integrator::ClosedForm => "closed-form",
+            Integrator::GaussPanels => "gauss-panels",
+        }
+    }
+}
+
+/// Which pass a shading kernel computes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Mode {
+    /// Pixel values and coverage (`forward.comp`).
+    Forward,
+    /// Per-(tile, scratch) partial gradients by forward-mode dual numbers through the pair
+    /// integral (`grad.comp` with `SA_DUAL`).
+    BackwardDual,
+}
+
+/// One shading kernel: a pass and the pair integral it runs.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct ShadeKernel {
+    pub integrator: Integrator,
+    pub mode: Mode,
+}
+
+impl ShadeKernel {
+    /// The shader file under `shaders/`.
+    pub fn file(&self) -> &'static str {
+        match self.mode {
+            Mode::Forward => "forward.comp",
+            Mode::BackwardDual => "grad.comp",
+        }
+    }
+
+    /// Whether this is a backward kernel (reads dE/dL, writes partial gradients).
+    pub fn is_backward(&self) -> bool {
+        !matches!(self.mode, Mode::Forward)
+    }
+
+    /// The pipeline's name (validation messages and debug tools show it).
+    pub fn name(&self) -> String {
+        format!("{} [{}]", self.file(), self.integrator.name())
+    }
+
+    /// The defines to compile [`file`](Self::file) with on a device described by `info`.
+    pub fn defines(&self, info: &DeviceInfo) -> Vec<(&'static str, &'static str)> {
+        let mut defs = vec![(self.integrator.define(), "1")];
+        if let Mode::BackwardDual = self.mode {
+            defs.push(("SA_DUAL", "1"));
+            // grad.comp needs ~30 KiB of shared memory with a 256-entry queue, ~39 KiB with 512.
+            let qcap = if info.max_shared_memory >= 48 * 1024 {
+                "512"
+            } else {
+                "256"
+            };
+            defs.push(("GRAD_QCAP", qcap));
+        }
+        // Ray hits in float64 where the device has it (see ViewGPU64 in shaders/inc/common.glsl).
+        if !info.float64 {
+            defs.push(("SA_NO_F64", "1"));
+        }
+        defs
+    }
+}
+
+/// The shading kernels a [`super::Renderer`] builds: one forward and one backward kernel.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct KernelSet {
+    pub forward: ShadeKernel,
+    pub backward: ShadeKernel,
+}
+
+impl KernelSet {
+    /// Forward and dual-number backward kernels over `integrator`.
+    pub fn with_integrator(integrator: Integrator) -> KernelSet {
+        KernelSet {
+            forward: ShadeKernel {
+                integrator,
+                mode: Mode::Forward,
+            },
+            backward: ShadeKernel {
+                integrator,
+                mode: Mode::BackwardDual,
+            },
+        }
+    }
+}
+
+impl Default for KernelSet {
+    /// What [`super::Renderer::new`] builds: the closed form, dual-number backward.
+    fn default() -> KernelSet {
+        KernelSet::with_integrator(Integrator::ClosedForm)
+    }
+}

@@ -1,0 +1,161 @@
+// Green's theorem on F ∩ R for integrators that reduce the patch integral to edge integrals:
+//   ∬ D ds dv = -Σ_edges ∫_edge D(s) v(s) ds  over the boundary (counter-clockwise in (s, v)),
+// v linear along each edge; vertical edges contribute nothing. Each edge integral is clipped to
+// the chi+ range and handed to the includer's
+//   R edge_integral(PairGeom G, R lo, R hi, R Vlo, R Vhi)  // ∫_lo^hi D(s) V(s) ds, V linear,
+//                                                          // chi_lo <= lo < hi <= chi_hi
+// Defines pair_integral (see patch_ndf.glsl): the fast path when it applies, else the boundary walk.
+#ifndef SA_GREEN_GLSL
+#define SA_GREEN_GLSL
+
+R edge_integral(PairGeom G, R lo, R hi, R Vlo, R Vhi);
+
+// Green's theorem over the boundary of F ∩ R without building the clipped polygon:
+// ∂(F ∩ R) = (∂F inside R) ∪ (∂R inside F). Every footprint edge is clipped to R (Liang-Barsky)
+// and R's two across-edges (v = 0 and v = len) are clipped to F (Cyrus-Beck); R's long edges
+// (s = ±se) are vertical and contribute nothing. Both are walked counter-clockwise in (s, v).
+// Each piece adds  -∫ D(s) (v(s) - vref) ds  to I and  -∫ (v - vref) ds  to the area;
+// vref (a point of the intersection, see ref_v) keeps the v values small and drops out of the
+// closed sum.
+void add_segment(PairGeom G, R as, R av, R bs, R bv, R vref, inout R I, inout R A) {
+    if (val(as) == val(bs)) return;
+    R ds = sub(bs, as);
+    R k = dv(sub(bv, av), ds);
+    A = sub(A, mul(mul(0.5, ds), sub(add(av, bv), mul(2.0, vref))));
+    R lo = d_min(as, bs), hi = d_max(as, bs);
+    R clo = d_max(lo, G.chi_lo), chi = d_min(hi, G.chi_hi);
+    if (val(clo) >= val(chi)) return;
+    R a0 = sub(av, vref);
+    R vlo = add(a0, mul(k, sub(clo, as)));
+    R vhi = add(a0, mul(k, sub(chi, as)));
+    R J = edge_integral(G, clo, chi, vlo, vhi);
+    I = (val(bs) > val(as)) ? sub(I, J) : add(I, J);
+}
+
+// A v on the boundary of F ∩ R (a vertex of the first footprint edge piece inside R, else R's
+// own across-edge), from values only. The Green sum does not depend on vref, but its terms are
+// D (v - vref) ds: with vref on the intersection they stay the size of the intersection, so a
+// sliver at a footprint corner is not the difference of footprint-sized terms (float32).
+float ref_v(R fs[4], R fv[4], float se, float len) {
+    for (int e = 0; e < 4; ++e) {
+        float as = val(fs[e]), av = val(fv[e]);
+        float ds = val(fs[(e + 1) & 3]) - as, dvv = val(fv[(e + 1) & 3]) - av;
+        float t0 = 0.0, t1 = 1.0;
+        float ps[4] = float[](-ds, ds, -dvv, dvv);
+        float qs[4] = float[](as + se, se - as, av, len - av);
+        bool keep = true;
+        for (int i = 0; i < 4; ++i) {
+            if (ps[i] == 0.0) { if (qs[i] < 0.0) keep = false; }
+            else if (ps[i] < 0.0) t0 = max(t0, qs[i] / ps[i]);
+            else t1 = min(t1, qs[i] / ps[i]);
+        }
+        if (keep && t0 < t1) return clamp(av + t0 * dvv, 0.0, len);
+    }
+    // No footprint edge enters R: F contains an end of R, or F ∩ R is empty.
+    float vc = 0.25 * (val(fv[0]) + val(fv[1]) + val(fv[2]) + val(fv[3]));
+    return vc < 0.5 * len ? 0.0 : len;
+}
+
+// Footprint corners (fs[i], fv[i]) in scratch-local (s, v) coordinates (s = 2u/w), ordered
+// counter-clockwise in (s, v). Carved region: |s| <= se, 0 <= v <= len.
+// Returns I = ∫ D dA and A = area over F ∩ R, in mm^2 (half_w = w/2 converts ds to du).
+void patch_integral(R fs[4], R fv[4], R se, R len, R half_w, PairGeom G, out R I, out R A) {
+    I = rc(0.0); A = rc(0.0);
+    R vref = rc(ref_v(fs, fv, val(se), val(len)));
+    // Footprint edges clipped to the box [-se, se] x [0, len].
+    for (int e = 0; e < 4; ++e) {
+        R as = fs[e], av = fv[e];
+        R ds = sub(fs[(e + 1) & 3], as), dvv = sub(fv[(e + 1) & 3], av);
+        R t0 = rc(0.0), t1 = rc(1.0);
+        // s >= -se, s <= se, v >= 0, v <= len, each as p t <= q
+        R ps[4] = R[](neg(ds), ds, neg(dvv), dvv);
+        R qs[4] = R[](add(as, se), sub(se, as), av, sub(len, av));
+        bool keep = true;
+        for (int i = 0; i < 4; ++i) {
+            float p = val(ps[i]), q = val(qs[i]);
+            // An edge lying on R's across-edge line (v = 0 or v = len) is left to R's own edge
+            // below, which counts a shared piece once (on s = ±se it contributes nothing anyway).
+            if (p == 0.0) { if (q < 0.0 || (q == 0.0 && i >= 2)) keep = false; }
+            else {
+                R r = dv(qs[i], ps[i]);
+                if (p < 0.0) t0 = d_max(t0, r); else t1 = d_min(t1, r);
+            }
+        }
+        if (!keep || val(t0) >= val(t1)) continue;
+        // Snap to the box so pieces meet R's edges exactly.
+        R pas = d_min(d_max(add(as, mul(t0, ds)), neg(se)), se);
+        R pav = d_min(d_max(add(av, mul(t0, dvv)), 0.0), len);
+        R pbs = d_min(d_max(add(as, mul(t1, ds)), neg(se)), se);
+        R pbv = d_min(d_max(add(av, mul(t1, dvv)), 0.0), len);
+        add_segment(G, pas, pav, pbs, pbv, vref, I, A);
+    }
+    // R's across-edges clipped to F: bottom (v = 0) walks +s, top (v = len) walks -s.
+    for (int side = 0; side < 2; ++side) {
+        R as = (side == 0) ? neg(se) : se;
+        R av = (side == 0) ? rc(0.0) : len;
+        R ds = (side == 0) ? mul(2.0, se) : mul(-2.0, se);
+        R t0 = rc(0.0), t1 = rc(1.0);
+        bool keep = true;
+        for (int e = 0; e < 4; ++e) {
+            R cs = fs[e], cv = fv[e];
+            R fds = sub(fs[(e + 1) & 3], cs), fdv = sub(fv[(e + 1) & 3], cv);
+            // inside F (CCW): cross(f, p - c) >= 0 with p = a + t (ds, 0)
+            R q = sub(mul(fds, sub(av, cv)), mul(fdv, sub(as, cs)));
+            R p = neg(mul(fdv, ds));
+            float pv = val(p), qv = val(q);
+            // Collinear with a footprint edge: count the shared piece only when both boundaries
+            // run the same way (interiors on the same side); opposite ways bound no area.
+            if (pv == 0.0) { if (qv < 0.0 || (qv == 0.0 && val(fds) * val(ds) < 0.0)) keep = false; }
+            else {
+                R r = neg(dv(q, p));
+                if (pv > 0.0) t0 = d_max(t0, r); else t1 = d_min(t1, r);
+            }
+        }
+        if (!keep || val(t0) >= val(t1)) continue;
+        add_segment(G, add(as, mul(t0, ds)), av, add(as, mul(t1, ds)), av, vref, I, A);
+    }
+    I = mul(I, half_w);
+    A = mul(A, half_w);
+}
+
+// Fast path, the common pair: the carved strip crosses the footprint from side to side (no
+// footprint corner strictly inside the strip) and neither scratch end enters it. Then
+// F ∩ R = {|s| <= se, v_bot(s) <= v <= v_top(s)} with a linear chord v_top - v_bot, and
+// I = (w/2) ∫ D(s) chord(s) ds over the chi+ part of [-se, se]: one closed-form integral instead
+// of one per boundary piece. Returns false (and the caller takes patch_integral) when the pair
+// is not of this kind, e.g. a corner exactly on a strip edge.
+bool patch_fast(R fs[4], R fv[4], R se, R len, R half_w, PairGeom G, out R I, out R A) {
+    I = rc(0.0); A = rc(0.0);
+    float sev = val(se);
+    R lo0 = rc(1e30), hi0 = rc(-1e30), lo1 = rc(1e30), hi1 = rc(-1e30);
+    int n0 = 0, n1 = 0;
+    for (int e = 0; e < 4; ++e) {
+        R as = fs[e], av = fv[e], bs = fs[(e + 1) & 3], bv = fv[(e + 1) & 3];
+        float a = val(as), b = val(bs);
+        if (abs(a) < sev || a == b) return false;
+        // edges strictly crossing the lines s = -se and s = +se
+        if ((a < -sev) != (b < -sev) && a != -sev && b != -sev) {
+            R v = add(av, mul(dv(sub(bv, av), sub(bs, as)), sub(neg(se), as)));
+            lo0 = d_min(lo0, v); hi0 = d_max(hi0, v); ++n0;
+        }
+        if ((a > sev) != (b > sev) && a != sev && b != sev) {
+            R v = add(av, mul(dv(sub(bv, av), sub(bs, as)), sub(se, as)));
+            lo1 = d_min(lo1, v); hi1 = d_max(hi1, v); ++n1;
+        }
+    }
+    if (!(n0 == 2 && n1 == 2 && val(lo0) > 0.0 && val(lo1) > 0.0 && val(hi0) < val(len) && val(hi1) < val(len))) return false;
+    R c0 = sub(hi0, lo0), c1 = sub(hi1, lo1);
+    A = mul(mul(se, add(c0, c1)), half_w);
+    R clo = d_max(neg(se), G.chi_lo), chi = d_min(se, G.chi_hi);
+    if (val(clo) < val(chi)) {
+        R k = dv(sub(c1, c0), mul(2.0, se));
+        I = mul(edge_integral(G, clo, chi, add(c0, mul(k, add(clo, se))), add(c0, mul(k, add(chi, se)))), half_w);
+    }
+    return true;
+}
+
+void pair_integral(R fs[4], R fv[4], R se, R len, R half_w, PairGeom G, bool try_fast, out R I, out R A) {
+    if (!(try_fast && patch_fast(fs, fv, se, len, half_w, G, I, A))) patch_integral(fs, fv, se, len, half_w, G, I, A);
+}
+
+#endif

@@ -1,0 +1,98 @@
+// The tile loop of the shading kernels (forward.comp, grad.comp): one workgroup of 16x16
+// threads per 16x16-pixel tile, the tile's scratch list streamed in chunks, and per chunk the
+// pair queue integrated in rounds of QCAP entries (the machinery is in tile_queue.glsl).
+//
+// A kernel keeps only its bindings, its per-pair work and its outputs; it plugs them in through
+// hooks with fixed names (GLSL has no function pointers), declared here and defined by the kernel
+// after including this file:
+//   chunk_begin(lid)          every thread, at the start of a chunk (after its first barrier):
+//                             per-chunk state, e.g. clearing per-scratch accumulators
+//   scratch_loaded(k, S)      thread k < CHUNK that loads the chunk's scratch k: S as stored
+//   pair_eval(i, px, k, fast) queue entry i of the round (pixel px of the tile, chunk scratch k;
+//                             fast: queued as a likely fast-path pair): integrate, keep result i
+//   round_accumulate(lid, r0, n, cnt, fmask, fbase, gmask, gbase)
+//                             every thread, after the round's results are all written: fold
+//                             them in, in a fixed order (r0: first queue slot of the round,
+//                             n: entries in it, cnt: scratches in the chunk, the masks and bases
+//                             of this pixel's entries from queue_slots)
+//   chunk_end(lid, c0, cnt)   every thread, after the chunk's last round (c0: its first
+//                             tile-list entry)
+// Call tile_loop from uniform control flow (it has barriers) after store_pixel.
+//
+// Include after the buffer bindings `views`, `scr`, `offs`, `list`, the push constants `pc`,
+// and a definition of QCAP.
+#ifndef SA_TILE_LOOP_GLSL
+#define SA_TILE_LOOP_GLSL
+
+#include "pixel.glsl"
+#include "tile_queue.glsl"
+
+shared vec4 sh_fp01[256];          // pixel footprint corners, ordered CCW in scratch (s, v) frames
+shared vec4 sh_fp23[256];
+shared vec4 sh_h[256];             // xyz half vector; w is the kernel's (store_pixel)
+
+void chunk_begin(uint lid);
+void scratch_loaded(uint k, ScratchGPU S);
+void pair_eval(uint i, uint px, uint k, bool fast);
+void round_accumulate(uint lid, uint r0, uint n, uint cnt, uvec2 fmask, uint fbase, uvec2 gmask, uint gbase);
+void chunk_end(uint lid, uint c0, uint cnt);
+
+// This pixel's constants for the pairs: footprint corners and half vector (hw: the kernel's
+// per-pixel value in sh_h[lid].w).
+void store_pixel(uint lid, PixelSetup P, float hw) {
+    // The map to (s, v) = (2 (q-p0).b / w, (q-p0).t) has determinant -2/w < 0: a footprint that
+    // is counter-clockwise on the plate is clockwise in (s, v), so store it reversed.
+    vec2 f0 = P.fp[P.ccw ? 3 : 0], f1 = P.fp[P.ccw ? 2 : 1], f2 = P.fp[P.ccw ? 1 : 2], f3 = P.fp[P.ccw ? 0 : 3];
+    sh_fp01[lid] = vec4(f0, f1);
+    sh_fp23[lid] = vec4(f2, f3);
+    sh_h[lid] = vec4(P.h, hw);
+}
+
+// Pixel px's footprint corners as stored by store_pixel (for pair_integrate).
+void pixel_footprint(uint px, out vec2 fp[4]) {
+    vec4 fa = sh_fp01[px], fb = sh_fp23[px];
+    fp = vec2[](fa.xy, fa.zw, fb.xy, fb.zw);
+}
+
+// The chunk loop and the queue rounds over the tile's scratch list; cand counts this pixel's
+// candidates (for the render counters).
+void tile_loop(uint tile, ViewGPU V, uvec2 t0, uint lid, bool live, PixelSetup P, inout uint cand) {
+    setup_blocks(V, t0, lid);
+    uint myblk = (gl_LocalInvocationID.x >> 2) + 4u * (gl_LocalInvocationID.y >> 2);
+    uint start = offs[tile * pc.n_groups];
+    uint end = min(offs[(tile + 1u) * pc.n_groups], pc.capacity);
+    for (uint c0 = start; c0 < end; c0 += CHUNK) {
+        barrier();
+        chunk_begin(lid);
+        if (lid < CHUNK && c0 + lid < end) {
+            ScratchGPU S = scr[list[c0 + lid]];
+            scratch_loaded(lid, S);
+            load_cull(lid, S);
+            block_tests(lid);
+        }
+        barrier();
+        uint cnt = min(CHUNK, end - c0);
+        uvec2 fmask, gmask;
+        pixel_masks(live, myblk, P.fp, P.centre, P.radius, fmask, gmask, cand);
+        uint nfast, total, fbase, gbase;
+        queue_slots(lid, fmask, gmask, nfast, total, fbase, gbase);
+        for (uint r0 = 0u; r0 < total; r0 += QCAP) {
+            enqueue(lid, fmask, fbase, r0);
+            enqueue(lid, gmask, gbase, r0);
+            barrier();
+            uint n = min(QCAP, total - r0);
+            for (uint i = lid; i < n; i += 256u) {
+                uint e = sh_queue[i];
+                pair_eval(i, e >> 8, e & 255u, r0 + i < nfast);
+            }
+            barrier();
+            round_accumulate(lid, r0, n, cnt, fmask, fbase, gmask, gbase);
+            // Another round overwrites the queue and the results; after the last one the next
+            // chunk's first barrier is enough.
+            if (r0 + QCAP < total) barrier();
+        }
+        chunk_end(lid, c0, cnt);
+    }
+}
+
+#endif
