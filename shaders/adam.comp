@@ -31,7 +31,7 @@ void main() {
     if (i == 0u && pc.check_objective != 0u) {
         float L = objv[pc.objective_index];
         if (isnan(L) || isinf(L) || L > pc.loss_limit) atomicOr(flags[1], 1u);
-        if (stats[2] > pc.capacity) atomicOr(flags[2], 1u);
+        if (stats[2] > pc.capacity || stats[5] != 0u) atomicOr(flags[2], 1u);  // incomplete render (inc/limits.glsl)
     }
     if (i >= pc.n) return;
     AdamGroupGPU G = groups[i % pc.stride];

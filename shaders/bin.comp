@@ -8,6 +8,7 @@
 // space) meets the tile's image rectangle, grown by half a pixel against rounding (separating axes).
 #extension GL_GOOGLE_include_directive : require
 #include "inc/common.glsl"
+#include "inc/limits.glsl"
 
 layout(local_size_x = 64) in;
 layout(std430, binding = 0) readonly buffer Views { ViewGPU views[]; };
@@ -19,6 +20,7 @@ layout(std430, binding = 3) buffer List { uint list[]; };
 // The backward pass uses it to add a scratch's per-tile partial gradients in a fixed order.
 layout(std430, binding = 4) buffer ScratchBase { uint sbase[]; };
 layout(std430, binding = 5) buffer Inverse { uint inv[]; };
+layout(std430, binding = 6) buffer Stats { uint stats[]; };  // [5], [7] (inc/limits.glsl)
 
 #include "inc/bin_push.glsl"
 
@@ -106,4 +108,7 @@ void main() {
         sbase[k] = nk;
 #endif
     }
+    // A thread walks the tiles of its group's scratches in every view: with long scratches over
+    // large views that can exceed a device's loop limit; the host then uses smaller groups.
+    if (loop_limit_hit(pc.sentinel)) { atomicOr(stats[7], 1u); atomicOr(stats[5], 1u); }
 }

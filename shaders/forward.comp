@@ -15,10 +15,12 @@ layout(std430, binding = 1) readonly buffer Scratches { ScratchGPU scr[]; };
 layout(std430, binding = 2) readonly buffer Offsets { uint offs[]; };  // scanned hist, n_tiles * n_groups + 1
 layout(std430, binding = 3) readonly buffer List { uint list[]; };
 layout(std430, binding = 4) writeonly buffer Image { float img[]; };  // L of every view, concatenated
-layout(std430, binding = 5) buffer Stats { uint stats[]; };            // [0] candidates tested, [1] overlapping pairs, [2] list entries
+layout(std430, binding = 5) buffer Stats { uint stats[]; };            // render counters and flags (inc/limits.glsl)
 layout(std430, binding = 6) writeonly buffer Coverage { float cov_raw[]; };  // sum_k area(F ∩ R_k) / S_P, for the backward pass
 layout(std430, binding = 7) readonly buffer Views64 { ViewGPU64 views64[]; };  // float64 cameras
 layout(std430, binding = 8) readonly buffer Lights { float intensity[]; };     // Phi per view
+// Per pixel, between passes (see inc/limits.glsl): sum I, sum A, pairs, candidates so far.
+layout(std430, binding = 9) buffer Carry { vec4 carry[]; };
 
 #include "inc/shade_push.glsl"
 
@@ -62,26 +64,50 @@ void round_accumulate(uint lid, uint r0, uint n, uint cnt, uvec2 fmask, uint fba
 void main() {
     uint tile = gl_WorkGroupID.x + gl_WorkGroupID.y * gl_NumWorkGroups.x;
     if (tile >= pc.n_tiles) return;  // uniform across the workgroup
+    uint start, end, n_chunks, begin, stop;
+    tile_list(tile, start, end, n_chunks);
+    // Pass 0 runs for every tile (it writes even an empty tile's pixels); later passes only for
+    // tiles with chunks left. Uniform across the workgroup.
+    if (!pass_range(start, end, pc.pass, pc.chunks_per_pass, begin, stop)) return;
+    uint lid = gl_LocalInvocationIndex;
+    if (pc.pass == 0u && lid == 0u) {
+        atomicMax(stats[4], n_chunks);
+        uint covered = pc.chunks_per_pass == 0xFFFFFFFFu ? 0xFFFFFFFFu : pc.chunks_per_pass * pc.n_passes;
+        if (n_chunks > covered) atomicOr(stats[5], 1u);
+        if (tile == 0u) {
+            stats[2] = offs[pc.n_tiles * pc.n_groups];  // total tile-list entries
+            if (stats[2] > pc.capacity) atomicOr(stats[5], 1u);
+        }
+    }
     uvec2 t0;
     uint vi = tile_view(tile, t0);
     ViewGPU V = views[vi];
     uvec2 ij = t0 + gl_LocalInvocationID.xy;
     bool inside = ij.x < V.dims.x && ij.y < V.dims.y;
-    uint lid = gl_LocalInvocationIndex;
+    uint pix = V.base.y + ij.y * V.dims.x + ij.x;
     if (lid == 0u) sh_pairs = 0u;
 
     PixelSetup P = pixel_setup(V, views64[vi], intensity[vi], ij, pc.half_plate, pc.alpha_s, pc.f0);
     bool live = inside && P.on_plate && P.scale > 0.0;
     store_pixel(lid, P, 0.0);
     uint cand = 0u;
-    tile_loop(tile, V, t0, lid, live, P, cand);
+    if (begin > start && inside) {  // an earlier pass did the chunks before `begin`
+        vec4 c = carry[pix];
+        dp = c.x;
+        cov = c.y;
+        pairs = floatBitsToUint(c.z);
+        cand = floatBitsToUint(c.w);
+    }
+    tile_loop(begin, stop, V, t0, lid, live, P, cand);
+    if (stop < end) {  // a later pass goes on from here (uniform)
+        if (inside) carry[pix] = vec4(dp, cov, uintBitsToFloat(pairs), uintBitsToFloat(cand));
+        if (loop_limit_hit(pc.sentinel)) { atomicOr(stats[3], 1u); atomicOr(stats[5], 1u); }
+        return;
+    }
 
     if (live) atomicAdd(sh_pairs, pairs);
     barrier();
-    if (lid == 0u) {
-        atomicAdd(stats[1], sh_pairs);
-        if (tile == 0u) stats[2] = offs[pc.n_tiles * pc.n_groups];  // total tile-list entries
-    }
+    if (lid == 0u) atomicAdd(stats[1], sh_pairs);
     // candidates: one atomic per live thread would serialize; reduce through sh_base
     sh_base[lid] = live ? cand : 0u;
     barrier();
@@ -90,12 +116,13 @@ void main() {
         for (uint i = 0u; i < 256u; ++i) s += sh_base[i];
         atomicAdd(stats[0], s);
     }
+    if (loop_limit_hit(pc.sentinel)) { atomicOr(stats[3], 1u); atomicOr(stats[5], 1u); }
     if (!inside) return;
     float L = 0.0;
-    cov_raw[V.base.y + ij.y * V.dims.x + ij.x] = live ? cov * P.inv_sp : 0.0;
+    cov_raw[pix] = live ? cov * P.inv_sp : 0.0;
     if (live) {
         float c = min(1.0, cov * P.inv_sp);
         L = P.scale * (dp * P.inv_sp + (1.0 - c) * P.d_flat);
     }
-    img[V.base.y + ij.y * V.dims.x + ij.x] = L;
+    img[pix] = L;
 }

@@ -33,6 +33,7 @@ layout(std430, binding = 5) readonly buffer Coverage { float cov_raw[]; };
 layout(std430, binding = 6) writeonly buffer Partials { vec4 partial[]; };  // 2 per list entry
 layout(std430, binding = 7) readonly buffer Views64 { ViewGPU64 views64[]; };  // float64 cameras
 layout(std430, binding = 8) readonly buffer Lights { float intensity[]; };     // Phi per view
+layout(std430, binding = 9) buffer Stats { uint stats[]; };                    // [5], [6] (inc/limits.glsl)
 
 #include "inc/shade_push.glsl"
 
@@ -100,6 +101,14 @@ void chunk_end(uint lid, uint c0, uint cnt) {
 void main() {
     uint tile = gl_WorkGroupID.x + gl_WorkGroupID.y * gl_NumWorkGroups.x;
     if (tile >= pc.n_tiles) return;
+    uint start, end, n_chunks, begin, stop;
+    tile_list(tile, start, end, n_chunks);
+    // Each pass writes the partial gradients of its chunks; nothing carries over.
+    if (!pass_range(start, end, pc.pass, pc.chunks_per_pass, begin, stop) || begin == end) return;
+    if (pc.pass == 0u && gl_LocalInvocationIndex == 0u) {
+        uint covered = pc.chunks_per_pass == 0xFFFFFFFFu ? 0xFFFFFFFFu : pc.chunks_per_pass * pc.n_passes;
+        if (n_chunks > covered) atomicOr(stats[5], 1u);
+    }
     uvec2 t0;
     uint vi = tile_view(tile, t0);
     ViewGPU V = views[vi];
@@ -120,5 +129,6 @@ void main() {
     store_pixel(lid, P, gI);
     sh_ga[lid] = gA;
     uint cand = 0u;
-    tile_loop(tile, V, t0, lid, live, P, cand);
+    tile_loop(begin, stop, V, t0, lid, live, P, cand);
+    if (loop_limit_hit(pc.sentinel)) { atomicOr(stats[6], 1u); atomicOr(stats[5], 1u); }
 }

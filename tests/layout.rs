@@ -65,6 +65,10 @@ fn rust_and_glsl_struct_layouts_agree() {
         n_groups: f() as u32,
         n_tiles: f() as u32,
         capacity: f() as u32,
+        chunks_per_pass: f() as u32,
+        pass: f() as u32,
+        n_passes: f() as u32,
+        sentinel: f() as u32,
         pad0: f() as u32,
     };
     // Expected words: the Rust structs' own bytes, in field order.
@@ -167,7 +171,8 @@ fn push_constant_layouts_agree() {
         n_groups: u(),
         group_size: u(),
         capacity: u(),
-        pad: [u(), u(), u()],
+        sentinel: u(),
+        pad: [u(), u()],
     };
     let scan = ScanPush {
         n: u(),

@@ -8,6 +8,7 @@ layout(push_constant) uniform Push {
     uint n_groups;
     uint group_size;
     uint capacity;   // length of list[]
-    uint pad0, pad1, pad2;
+    uint sentinel;   // 2 (loop_limit_hit, inc/limits.glsl)
+    uint pad1, pad2;
 } pc;
 #endif

@@ -3,13 +3,17 @@
 #ifndef SA_SHADE_PUSH_GLSL
 #define SA_SHADE_PUSH_GLSL
 layout(push_constant) uniform Push {
-    float half_plate;  // plate half-size (mm)
-    float alpha_s;     // plate roughness
-    float f0;          // Schlick f0
+    float half_plate;      // plate half-size (mm)
+    float alpha_s;         // plate roughness
+    float f0;              // Schlick f0
     uint n_views;
-    uint n_groups;     // binning groups (hist is n_tiles x n_groups)
-    uint n_tiles;      // tiles of all views
-    uint capacity;     // tile-list capacity
+    uint n_groups;         // binning groups (hist is n_tiles x n_groups)
+    uint n_tiles;          // tiles of all views
+    uint capacity;         // tile-list capacity
+    uint chunks_per_pass;  // chunks of a tile's list one pass handles (see inc/limits.glsl)
+    uint pass;             // this pass: chunks [pass * chunks_per_pass, ...) of every tile
+    uint n_passes;         // passes recorded (a tile with more chunks marks the render incomplete)
+    uint sentinel;         // 2 (see loop_limit_hit in inc/limits.glsl)
     uint pad0;
 } pc;
 #endif

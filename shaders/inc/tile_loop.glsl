@@ -26,6 +26,7 @@
 
 #include "pixel.glsl"
 #include "tile_queue.glsl"
+#include "limits.glsl"
 
 shared vec4 sh_fp01[256];          // pixel footprint corners, ordered CCW in scratch (s, v) frames
 shared vec4 sh_fp23[256];
@@ -54,14 +55,37 @@ void pixel_footprint(uint px, out vec2 fp[4]) {
     fp = vec2[](fa.xy, fa.zw, fb.xy, fb.zw);
 }
 
-// The chunk loop and the queue rounds over the tile's scratch list; cand counts this pixel's
-// candidates (for the render counters).
-void tile_loop(uint tile, ViewGPU V, uvec2 t0, uint lid, bool live, PixelSetup P, inout uint cand) {
+// The tile's list: [start, end) of `list` (clamped to the list's capacity; an overflowing render
+// is redone by the host) and its true length in chunks.
+void tile_list(uint tile, out uint start, out uint end, out uint n_chunks) {
+    start = offs[tile * pc.n_groups];
+    uint true_end = offs[(tile + 1u) * pc.n_groups];
+    n_chunks = (true_end - start + CHUNK - 1u) / CHUNK;
+    end = min(true_end, pc.capacity);
+}
+
+// The chunks of a tile's list [start, end) that pass `pass` handles: [begin, stop).
+// Returns false when the pass has nothing to do for the tile.
+bool pass_range(uint start, uint end, uint pass, uint chunks_per_pass, out uint begin, out uint stop) {
+    uint n_chunks = (end - start + CHUNK - 1u) / CHUNK;
+    uint first = pass * chunks_per_pass;  // chunks_per_pass is 0xFFFFFFFF (one pass) or small
+    if (pass > 0u && (chunks_per_pass == 0xFFFFFFFFu || first >= n_chunks)) {
+        begin = end;
+        stop = end;
+        return false;
+    }
+    begin = start + first * CHUNK;
+    uint last = chunks_per_pass == 0xFFFFFFFFu ? n_chunks : min(n_chunks, first + chunks_per_pass);
+    stop = min(end, start + last * CHUNK);
+    return true;
+}
+
+// The chunk loop and the queue rounds over the entries [begin, end) of the tile's scratch list
+// (this pass's share, see pass_range); cand counts this pixel's candidates (for the counters).
+void tile_loop(uint begin, uint end, ViewGPU V, uvec2 t0, uint lid, bool live, PixelSetup P, inout uint cand) {
     setup_blocks(V, t0, lid);
     uint myblk = (gl_LocalInvocationID.x >> 2) + 4u * (gl_LocalInvocationID.y >> 2);
-    uint start = offs[tile * pc.n_groups];
-    uint end = min(offs[(tile + 1u) * pc.n_groups], pc.capacity);
-    for (uint c0 = start; c0 < end; c0 += CHUNK) {
+    for (uint c0 = begin; c0 < end; c0 += CHUNK) {
         barrier();
         chunk_begin(lid);
         if (lid < CHUNK && c0 + lid < end) {

@@ -46,7 +46,7 @@ void put4(uvec4 v) { put(v.x); put(v.y); put(v.z); put(v.w); }
 void main() {
 #if defined(BIN)
     put(pc.n_scratches); put(pc.n_views); put(pc.n_groups); put(pc.group_size); put(pc.capacity);
-    put(pc.pad0); put(pc.pad1); put(pc.pad2);
+    put(pc.sentinel); put(pc.pad1); put(pc.pad2);
 #elif defined(SCAN)
     put(pc.n); put(pc.n_blocks); put(pc.pad0); put(pc.pad1);
 #elif defined(LOSS)

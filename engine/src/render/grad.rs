@@ -35,23 +35,33 @@ impl Renderer {
             .grad
             .get()
             .expect("Renderer::prepare_backward() must be called before record_backward");
-        rec.dispatch_1d(
-            grad,
-            &[
-                &gs.views,
-                &gs.scratches,
-                &gs.hist,
-                &gs.list,
-                &gs.dl,
-                &gs.cov_raw,
-                &gs.partials,
-                &gs.views64,
-                &gs.lights,
-            ],
-            bytemuck::bytes_of(&gs.shade),
-            gs.slots.n_tiles,
-        );
-        rec.barrier();
+        let plan = gs.bwd_plan;
+        for pass in 0..plan.passes {
+            let push = super::layout::ShadePush {
+                chunks_per_pass: plan.chunks_per_pass,
+                pass,
+                n_passes: plan.passes,
+                ..gs.shade
+            };
+            rec.dispatch_1d(
+                grad,
+                &[
+                    &gs.views,
+                    &gs.scratches,
+                    &gs.hist,
+                    &gs.list,
+                    &gs.dl,
+                    &gs.cov_raw,
+                    &gs.partials,
+                    &gs.views64,
+                    &gs.lights,
+                    &gs.stats,
+                ],
+                bytemuck::bytes_of(&push),
+                gs.slots.n_tiles,
+            );
+            rec.barrier();
+        }
         let push = ReducePush {
             n_scratches: gs.n_scratches,
             capacity: gs.capacity,
@@ -76,25 +86,16 @@ impl Renderer {
     /// `gs.image`), with results downloaded. For checks and the `grad` command; the optimizer
     /// keeps everything on the device.
     pub fn gradients(&self, gs: &mut GpuScene, dl: &[f32]) -> Result<(Vec<Vec<f32>>, Gradients), GpuError> {
-        let images = self.render(gs)?.images;
-        Ok((images, self.backward_and_download(gs, dl)?))
-    }
-
-    /// The backward pass alone, over the forward pass last run on `gs` (its tile lists, image and
-    /// coverage are still on the device), for dE/dL `dl`; gradients downloaded.
-    fn backward_and_download(&self, gs: &mut GpuScene, dl: &[f32]) -> Result<Gradients, GpuError> {
-        assert_eq!(
-            dl.len() as u64,
-            gs.slots.n_pixels,
-            "dE/dL needs one value per pixel of every view"
-        );
         self.prepare_backward()?;
         self.upload_dl(gs, dl)?;
         let mut rec = Recorder::new(&self.ctx)?;
-        rec.begin()?;
-        self.record_backward(&mut rec, gs);
-        rec.submit_and_wait()?;
-        self.download_gradients(gs)
+        // One submission, so an incomplete render or backward is redone as a whole.
+        self.submit(&mut rec, gs, |rec, gs| {
+            self.record_render(rec, gs);
+            self.record_backward(rec, gs);
+        })?;
+        let images = self.download_images(gs)?;
+        Ok((images, self.download_gradients(gs)?))
     }
 
     /// The gradients of the last backward pass.
@@ -104,7 +105,9 @@ impl Renderer {
             .iter()
             .map(|r| [r[0], r[1], r[2], r[3], r[4], r[5], r[6]])
             .collect();
-        let lights = self.ctx.download(&gs.grad_light)?;
+        let mut lights: Vec<f32> = self.ctx.download(&gs.grad_light)?;
+        // (buffers may be allocated larger than asked)
+        lights.truncate(gs.shade.n_views as usize);
         Ok(Gradients { scratches, lights })
     }
 }

@@ -70,7 +70,9 @@ pub struct BinPush {
     pub n_groups: u32,
     pub group_size: u32,
     pub capacity: u32,
-    pub pad: [u32; 3],
+    /// 2 (the loop-limit sentinel of `shaders/inc/limits.glsl`)
+    pub sentinel: u32,
+    pub pad: [u32; 2],
 }
 
 /// Push constants of `scan.comp`.
@@ -103,6 +105,14 @@ pub struct ShadePush {
     pub n_groups: u32,
     pub n_tiles: u32,
     pub capacity: u32,
+    /// chunks of a tile's list one pass handles (`u32::MAX`: all, one pass)
+    pub chunks_per_pass: u32,
+    /// this pass (set per dispatch)
+    pub pass: u32,
+    /// passes recorded
+    pub n_passes: u32,
+    /// 2 (the loop-limit sentinel of `shaders/inc/limits.glsl`)
+    pub sentinel: u32,
     pub pad0: u32,
 }
 

@@ -52,11 +52,10 @@ pub struct Renderer {
     grad_light: ComputePipeline,
 }
 
-/// The pipeline of a shading kernel (forward or backward; both take the same 9 buffers and
-/// `ShadePush`).
+/// The pipeline of a shading kernel (forward or backward; both take 10 buffers and `ShadePush`).
 fn shade_pipeline(ctx: &Arc<Context>, sc: &ShaderCompiler, k: &ShadeKernel) -> Result<ComputePipeline, GpuError> {
     let spirv = sc.compile(k.file(), &k.defines(ctx.info()))?;
-    ComputePipeline::from_spirv(ctx, &k.name(), &spirv, 9, std::mem::size_of::<ShadePush>() as u32)
+    ComputePipeline::from_spirv(ctx, &k.name(), &spirv, 10, std::mem::size_of::<ShadePush>() as u32)
 }
 
 /// Output of a render: one image per view (row-major, top row first).
@@ -86,8 +85,8 @@ impl Renderer {
         let scan_push = std::mem::size_of::<ScanPush>() as u32;
         Ok(Renderer {
             ctx: ctx.clone(),
-            bin_count: ComputePipeline::new(ctx, &sc, "bin.comp", &[("COUNT", "1")], 6, bin_push)?,
-            bin_scatter: ComputePipeline::new(ctx, &sc, "bin.comp", &[("SCATTER", "1")], 6, bin_push)?,
+            bin_count: ComputePipeline::new(ctx, &sc, "bin.comp", &[("COUNT", "1")], 7, bin_push)?,
+            bin_scatter: ComputePipeline::new(ctx, &sc, "bin.comp", &[("SCATTER", "1")], 7, bin_push)?,
             scan_reduce: ComputePipeline::new(ctx, &sc, "scan.comp", &[("REDUCE", "1")], 2, scan_push)?,
             scan_sums: ComputePipeline::new(ctx, &sc, "scan.comp", &[("SUMS", "1")], 2, scan_push)?,
             scan_apply: ComputePipeline::new(ctx, &sc, "scan.comp", &[("APPLY", "1")], 2, scan_push)?,
@@ -127,15 +126,24 @@ impl Renderer {
             n_scratches: gs.n_scratches,
             n_views: gs.shade.n_views,
             n_groups: gs.n_groups,
-            group_size: GROUP_SIZE,
+            group_size: gs.group_size,
             capacity: gs.capacity,
-            pad: [0; 3],
+            sentinel: 2,
+            pad: [0; 2],
         };
         let groups = gs.n_groups.div_ceil(64);
         rec.fill(&gs.hist, 0);
         rec.fill(&gs.sbase, 0);
         rec.barrier();
-        let bufs = [&gs.views, &gs.scratches, &gs.hist, &gs.list, &gs.sbase, &gs.inv];
+        let bufs = [
+            &gs.views,
+            &gs.scratches,
+            &gs.hist,
+            &gs.list,
+            &gs.sbase,
+            &gs.inv,
+            &gs.stats,
+        ];
         rec.dispatch_1d(&self.bin_count, &bufs, bytemuck::bytes_of(&push), groups);
         rec.barrier();
         let n_hist = gs.slots.n_tiles as u64 * gs.n_groups as u64 + 1;
@@ -143,7 +151,15 @@ impl Renderer {
         self.record_scan(rec, &gs.sbase, &gs.sbase_sums, gs.n_scratches as u64 + 1);
         rec.copy(&gs.hist, &gs.cursor, gs.hist.size());
         rec.barrier();
-        let bufs = [&gs.views, &gs.scratches, &gs.cursor, &gs.list, &gs.sbase, &gs.inv];
+        let bufs = [
+            &gs.views,
+            &gs.scratches,
+            &gs.cursor,
+            &gs.list,
+            &gs.sbase,
+            &gs.inv,
+            &gs.stats,
+        ];
         rec.dispatch_1d(&self.bin_scatter, &bufs, bytemuck::bytes_of(&push), groups);
         rec.barrier();
     }
@@ -167,23 +183,33 @@ impl Renderer {
 
     /// Records the shading kernel (writes the image, the coverage and the counters).
     fn record_shading(&self, rec: &mut Recorder, gs: &GpuScene) {
-        rec.dispatch_1d(
-            &self.forward,
-            &[
-                &gs.views,
-                &gs.scratches,
-                &gs.hist,
-                &gs.list,
-                &gs.image,
-                &gs.stats,
-                &gs.cov_raw,
-                &gs.views64,
-                &gs.lights,
-            ],
-            bytemuck::bytes_of(&gs.shade),
-            gs.slots.n_tiles,
-        );
-        rec.barrier();
+        let plan = gs.fwd_plan;
+        for pass in 0..plan.passes {
+            let push = ShadePush {
+                chunks_per_pass: plan.chunks_per_pass,
+                pass,
+                n_passes: plan.passes,
+                ..gs.shade
+            };
+            rec.dispatch_1d(
+                &self.forward,
+                &[
+                    &gs.views,
+                    &gs.scratches,
+                    &gs.hist,
+                    &gs.list,
+                    &gs.image,
+                    &gs.stats,
+                    &gs.cov_raw,
+                    &gs.views64,
+                    &gs.lights,
+                    &gs.carry,
+                ],
+                bytemuck::bytes_of(&push),
+                gs.slots.n_tiles,
+            );
+            rec.barrier();
+        }
     }
 
     /// Records one render of `gs` (counters cleared, pair search, shading), with the timestamps
@@ -199,9 +225,11 @@ impl Renderer {
     }
 
     /// Records (with `record`, which must call [`record_render`](Self::record_render) once, and may
-    /// add passes that read its results), submits and waits; when the tile lists overflowed (a
-    /// view sees more (tile, scratch) entries than the current capacity), grows them and does it
-    /// all again, so the returned render is always complete. Returns the counters and timings of
+    /// add passes that read its results, such as the backward pass), submits and waits. When the
+    /// work was incomplete (the tile lists overflowed, or a kernel hit a device limit such as
+    /// llvmpipe's loop limit: see `shaders/inc/limits.glsl`), grows the lists or splits the work
+    /// into more passes and does it all again, so the returned render is always complete; a
+    /// limit that splitting cannot meet is an error. Returns the counters and timings of
     /// the final submission.
     pub fn submit<F>(
         &self,
@@ -217,10 +245,10 @@ impl Renderer {
             record(rec, gs);
             let timings = rec.submit_and_wait()?;
             let stats = gs.stats()?;
-            if gs.complete(&stats) {
+            if gs.complete(&stats)? {
                 return Ok((stats, timings));
             }
-            gs.grow_list(&self.ctx, stats.entries)?;
+            gs.adapt(&self.ctx, &stats)?;
         }
     }
 
@@ -233,8 +261,14 @@ impl Renderer {
     pub fn render(&self, gs: &mut GpuScene) -> Result<Frame, GpuError> {
         let mut rec = Recorder::new(&self.ctx)?;
         let (stats, timings) = self.run(&mut rec, gs)?;
+        let images = self.download_images(gs)?;
+        Ok(Frame { images, stats, timings })
+    }
+
+    /// The images of the last render, one per view (row-major, top row first).
+    pub fn download_images(&self, gs: &GpuScene) -> Result<Vec<Vec<f32>>, GpuError> {
         let all: Vec<f32> = self.ctx.download(&gs.image)?;
-        let images = gs
+        Ok(gs
             .slots
             .views
             .iter()
@@ -242,7 +276,6 @@ impl Renderer {
                 let n = v.dims[0] as usize * v.dims[1] as usize;
                 all[v.base[1] as usize..v.base[1] as usize + n].to_vec()
             })
-            .collect();
-        Ok(Frame { images, stats, timings })
+            .collect())
     }
 }

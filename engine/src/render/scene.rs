@@ -17,6 +17,46 @@ pub struct RenderStats {
     pub candidates: u64,
     /// (pixel, scratch) pairs whose footprint and carved rectangle really overlap
     pub pairs: u64,
+    /// The longest tile list, in chunks of 64 scratches.
+    pub max_tile_chunks: u64,
+}
+
+/// How the shading work of a tile is split into passes (see `shaders/inc/limits.glsl`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) struct PassPlan {
+    /// Chunks of a tile's list one pass handles (`u32::MAX`: all of them).
+    pub chunks_per_pass: u32,
+    /// Passes recorded.
+    pub passes: u32,
+}
+
+impl PassPlan {
+    const ONE: PassPlan = PassPlan {
+        chunks_per_pass: u32::MAX,
+        passes: 1,
+    };
+
+    /// The passes that cover tiles of up to `max_chunks` chunks.
+    fn covering(chunks_per_pass: u32, max_chunks: u32) -> PassPlan {
+        if chunks_per_pass == u32::MAX {
+            return PassPlan::ONE;
+        }
+        PassPlan {
+            chunks_per_pass,
+            passes: max_chunks.div_ceil(chunks_per_pass).max(1),
+        }
+    }
+
+    /// Whether tiles of `max_chunks` chunks are covered.
+    fn covers(&self, max_chunks: u32) -> bool {
+        self.chunks_per_pass == u32::MAX || self.chunks_per_pass as u64 * self.passes as u64 >= max_chunks as u64
+    }
+
+    /// After the loop limit was hit: half the chunks per pass (of what the largest tile needs).
+    fn split(&self, max_chunks: u32) -> Option<u32> {
+        let cur = self.chunks_per_pass.min(max_chunks.max(1));
+        (cur > 1).then(|| cur / 2)
+    }
 }
 
 /// Device-resident scene: parameters, binning state and images.
@@ -55,8 +95,15 @@ pub struct GpuScene {
     pub(super) grad_light: Buffer,
     /// L of every view, concatenated (views[v].base[1] is the first pixel of view v)
     pub(super) image: Buffer,
-    /// [0] candidates tested, [1] overlapping pairs, [2] tile-list entries
+    /// the render counters and completeness flags (`shaders/inc/limits.glsl`)
     pub(super) stats: Buffer,
+    /// scratches per binning thread (halved when binning hits a device's loop limit)
+    pub(super) group_size: u32,
+    /// how the forward and the backward kernel split a tile's list into passes
+    pub(super) fwd_plan: PassPlan,
+    pub(super) bwd_plan: PassPlan,
+    /// per pixel: the forward kernel's sums between passes (a placeholder until needed)
+    pub(super) carry: Buffer,
 }
 
 impl GpuScene {
@@ -104,6 +151,10 @@ impl GpuScene {
                 n_groups,
                 n_tiles: slots.n_tiles,
                 capacity,
+                chunks_per_pass: u32::MAX,
+                pass: 0,
+                n_passes: 1,
+                sentinel: 2,
                 pad0: 0,
             },
             views: host("views", bytemuck::cast_slice(&slots.views))?,
@@ -129,6 +180,10 @@ impl GpuScene {
             grad_light: gpu_only("light gradients", scene.views.len() as u64 * 4)?,
             image: gpu_only("image", slots.n_pixels * 4)?,
             stats: Buffer::new(ctx, "stats", 64, MemLoc::GpuToCpu)?,
+            group_size: GROUP_SIZE,
+            fwd_plan: PassPlan::ONE,
+            bwd_plan: PassPlan::ONE,
+            carry: gpu_only("shading carry (unused: one pass)", 16)?,
             n_scratches,
             n_groups,
             slots,
@@ -142,12 +197,131 @@ impl GpuScene {
             candidates: st[0] as u64,
             pairs: st[1] as u64,
             entries: st[2] as u64,
+            max_tile_chunks: st[4] as u64,
         })
     }
 
-    /// Whether the last render's tile lists held every (tile, scratch) entry.
-    pub(super) fn complete(&self, stats: &RenderStats) -> bool {
-        stats.entries <= self.capacity as u64
+    /// Whether the last render (and the backward pass recorded with it) did all its work: the
+    /// tile lists held every entry, and no kernel hit a capacity (`shaders/inc/limits.glsl`).
+    pub(super) fn complete(&self, stats: &RenderStats) -> Result<bool, GpuError> {
+        let raw: Vec<u32> = self.stats.read()?;
+        Ok(stats.entries <= self.capacity as u64 && raw[5] == 0)
+    }
+
+    /// After an incomplete render: grows the tile lists, splits binning into smaller groups or
+    /// the shading into more passes, as the counters say. Errors when a limit cannot be met by
+    /// splitting (one scratch, or one chunk, already over it).
+    pub(super) fn adapt(&mut self, ctx: &std::sync::Arc<Context>, stats: &RenderStats) -> Result<(), GpuError> {
+        let raw: Vec<u32> = self.stats.read()?;
+        let limit_err = |what: &str| {
+            GpuError::Capacity(format!(
+                "{what} needs more loop iterations in one shader invocation than this device allows \
+             (Mesa's llvmpipe stops every loop after 65535 in all); use smaller views (fewer \
+             tiles per scratch) or a GPU"
+            ))
+        };
+        if raw[7] != 0 {
+            // Binning hit the loop limit: fewer scratches per binning thread.
+            if self.group_size == 1 {
+                return Err(limit_err("binning a single scratch over every tile it crosses"));
+            }
+            self.set_group_size(ctx, self.group_size / 2)?;
+            return Ok(());
+        }
+        if stats.entries > self.capacity as u64 {
+            return self.grow_list(ctx, stats.entries);
+        }
+        let max_chunks = raw[4];
+        if raw[3] != 0 {
+            let m = self
+                .fwd_plan
+                .split(max_chunks)
+                .ok_or_else(|| limit_err("shading one chunk of 64 scratches"))?;
+            self.fwd_plan = PassPlan::covering(m, max_chunks);
+        }
+        if raw[6] != 0 {
+            let m = self
+                .bwd_plan
+                .split(max_chunks)
+                .ok_or_else(|| limit_err("the gradient of one chunk of 64 scratches"))?;
+            self.bwd_plan = PassPlan::covering(m, max_chunks);
+        }
+        // Lists that grew since the plans were made.
+        if !self.fwd_plan.covers(max_chunks) {
+            self.fwd_plan = PassPlan::covering(self.fwd_plan.chunks_per_pass, max_chunks);
+        }
+        if !self.bwd_plan.covers(max_chunks) {
+            self.bwd_plan = PassPlan::covering(self.bwd_plan.chunks_per_pass, max_chunks);
+        }
+        if self.fwd_plan.passes > 1 && self.carry.size() < self.slots.n_pixels * 16 {
+            self.carry = Buffer::new(
+                ctx,
+                "shading carry (sums between passes)",
+                self.slots.n_pixels.max(1) * 16,
+                MemLoc::GpuOnly,
+            )?;
+        }
+        Ok(())
+    }
+
+    /// Scratches per binning thread; reallocates the per-(tile, group) buffers.
+    fn set_group_size(&mut self, ctx: &std::sync::Arc<Context>, group_size: u32) -> Result<(), GpuError> {
+        self.group_size = group_size.max(1);
+        self.n_groups = self.n_scratches.div_ceil(self.group_size).max(1);
+        self.shade.n_groups = self.n_groups;
+        let hist_len = self.slots.n_tiles as u64 * self.n_groups as u64 + 1;
+        if hist_len * 4 > ctx.info().max_storage_buffer_range {
+            return Err(GpuError::BufferTooLarge {
+                name: format!(
+                    "pair-search offsets ({} tiles x {} scratch groups)",
+                    self.slots.n_tiles, self.n_groups
+                ),
+                size: hist_len * 4,
+                limit: ctx.info().max_storage_buffer_range,
+            });
+        }
+        self.hist = Buffer::new(ctx, "bin offsets", hist_len * 4, MemLoc::GpuOnly)?;
+        self.cursor = Buffer::new(ctx, "bin cursors", hist_len * 4, MemLoc::GpuOnly)?;
+        self.sums = Buffer::new(
+            ctx,
+            "scan block sums",
+            hist_len.div_ceil(SCAN_BLOCK as u64) * 4,
+            MemLoc::GpuOnly,
+        )?;
+        Ok(())
+    }
+
+    /// Test hook: split every tile's shading into passes of `chunks` chunks (forward and
+    /// backward), as the host does after a device's loop limit was hit. Results must not change.
+    #[doc(hidden)]
+    pub fn force_chunks_per_pass(
+        &mut self,
+        ctx: &std::sync::Arc<Context>,
+        chunks: u32,
+        max_chunks: u32,
+    ) -> Result<(), GpuError> {
+        self.fwd_plan = PassPlan::covering(chunks.max(1), max_chunks);
+        self.bwd_plan = self.fwd_plan;
+        if self.fwd_plan.passes > 1 && self.carry.size() < self.slots.n_pixels * 16 {
+            self.carry = Buffer::new(
+                ctx,
+                "shading carry (sums between passes)",
+                self.slots.n_pixels.max(1) * 16,
+                MemLoc::GpuOnly,
+            )?;
+        }
+        Ok(())
+    }
+
+    /// The passes the forward and the backward kernel run per render (1 unless a device limit
+    /// made the host split them).
+    pub fn shading_passes(&self) -> (u32, u32) {
+        (self.fwd_plan.passes, self.bwd_plan.passes)
+    }
+
+    /// Scratches per binning thread (64 unless a device limit made the host split them).
+    pub fn binning_group_size(&self) -> u32 {
+        self.group_size
     }
 
     pub fn n_scratches(&self) -> u32 {

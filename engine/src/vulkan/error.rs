@@ -38,6 +38,10 @@ pub enum GpuError {
     #[error("shader '{path}' failed to compile:\n{log}")]
     Shader { path: String, log: String },
 
+    /// A kernel capacity that splitting the work cannot meet; the message says what to change.
+    #[error("{0}")]
+    Capacity(String),
+
     #[error("GPU work did not finish within {0} s (hung or far too large a dispatch)")]
     Timeout(u64),
 

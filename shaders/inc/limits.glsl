@@ -1,0 +1,31 @@
+// Capacities of the kernels and how they are checked, so that nothing is dropped quietly.
+//
+// The render counters `stats[]` (host-visible, cleared before every render):
+//   [0] candidates tested   [1] overlapping pairs   [2] tile-list entries (binning's true total)
+//   [3] the forward kernel hit the device's loop limit
+//   [4] most chunks of CHUNK scratches in one tile's list (the true count)
+//   [5] the render (or its gradient) is incomplete, for any of the reasons here: Adam refuses
+//       such a step and the host redoes the submission after adapting (engine/src/render/scene.rs)
+//   [6] the backward kernel hit the device's loop limit
+//   [7] binning hit the device's loop limit
+//
+// The loop limit: Mesa's llvmpipe (lavapipe) ends every loop of a shader invocation once the
+// invocation has run 65535 loop iterations in all (LP_MAX_TGSI_LOOP_ITERATIONS, counted per
+// SIMD vector over every loop), silently: a tile with a few hundred chunks loses all its pairs.
+// Other drivers have no such counter but have watchdogs; the same mechanism bounds the work of
+// one dispatch there. The shaders cannot read the counter, but they can see that it ran out:
+// `loop_limit_hit` runs a loop of `pc.sentinel` = 2 iterations (a push constant, so the
+// compiler cannot unroll it); with the counter exhausted it stops after one. Called last, it
+// tells whether any loop of the invocation was cut short. The host then splits the work (more
+// passes of fewer chunks per tile, smaller binning groups) and redoes it; results do not depend
+// on the split (every sum keeps its order), so they are the same as in one pass.
+#ifndef SA_LIMITS_GLSL
+#define SA_LIMITS_GLSL
+
+bool loop_limit_hit(uint two) {
+    uint s = 0u;
+    for (uint i = 0u; i < two; ++i) ++s;
+    return s != two;
+}
+
+#endif
