@@ -57,7 +57,11 @@ fn assert_pixels_match(label: &str, scene: &Scene, image: &[f32], pixels: &[(u32
         }
     }
     // The comparison must be about something: most sampled pixels are lit.
-    assert!(lit * 2 >= pixels.len(), "{label}: only {lit} of {} pixels are lit", pixels.len());
+    assert!(
+        lit * 2 >= pixels.len(),
+        "{label}: only {lit} of {} pixels are lit",
+        pixels.len()
+    );
     eprintln!(
         "{label}: {lit} lit, {} of {} pixels outside the bar; worst relative error {:.3e} at ({}, {}): gpu {} reference {}",
         bad,
