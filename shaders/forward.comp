@@ -107,14 +107,18 @@ void main() {
 
     if (live) atomicAdd(sh_pairs, pairs);
     barrier();
-    if (lid == 0u) atomicAdd(stats[1], sh_pairs);
+    if (lid == 0u) {  // 64-bit counters: a carry into the high word (inc/limits.glsl)
+        uint old = atomicAdd(stats[1], sh_pairs);
+        if (old + sh_pairs < old) atomicAdd(stats[10], 1u);
+    }
     // candidates: one atomic per live thread would serialize; reduce through sh_base
     sh_base[lid] = live ? cand : 0u;
     barrier();
     if (lid == 0u) {
         uint s = 0u;
-        for (uint i = 0u; i < 256u; ++i) s += sh_base[i];
-        atomicAdd(stats[0], s);
+        for (uint i = 0u; i < 256u; ++i) s += sh_base[i];  // <= 256 x 64 x chunks: no wrap
+        uint old = atomicAdd(stats[0], s);
+        if (old + s < old) atomicAdd(stats[8], 1u);
     }
     if (loop_limit_hit(pc.sentinel)) { atomicOr(stats[3], 1u); atomicOr(stats[5], 1u); }
     if (!inside) return;

@@ -302,3 +302,57 @@ fn all_scratches_through_one_pixel() {
     assert_pixels_match("one pixel", &scene, &frame.images[0], &px, max_l);
     assert_no_validation(&ctx);
 }
+
+/// The pair search's scan counts (tile, scratch) entries in u32: a total past 2^32 - 1 would
+/// wrap and look small. The scan checks every addition; here at, just below and just above the
+/// limit, in the last block and across blocks.
+#[test]
+fn entry_counts_past_u32_are_caught() {
+    let ctx = gpu();
+    let r = Renderer::new(&ctx).unwrap();
+    // Below: exact exclusive scan, no flag.
+    let data: Vec<u32> = (0..10_000u32).map(|i| (i * 7919) % 1000).collect();
+    let (out, wrapped) = r.scan_u32(&data).unwrap();
+    let mut run = 0u32;
+    for (i, (&o, &d)) in out.iter().zip(&data).enumerate() {
+        assert_eq!(o, run, "element {i}");
+        run += d;
+    }
+    assert!(!wrapped);
+    // Exactly u32::MAX in all: fits.
+    let mut data = vec![0u32; 9000];
+    data[10] = u32::MAX - 5;
+    data[8999] = 5;
+    let (_, wrapped) = r.scan_u32(&data).unwrap();
+    assert!(!wrapped, "a total of u32::MAX fits");
+    // One more, in another block: wraps, and is caught.
+    data[4500] = 1;
+    let (_, wrapped) = r.scan_u32(&data).unwrap();
+    assert!(wrapped, "a total of 2^32 must be caught");
+    // Within one thread's elements.
+    let (_, wrapped) = r.scan_u32(&[u32::MAX, 1, 0]).unwrap();
+    assert!(wrapped);
+    assert_no_validation(&ctx);
+}
+
+/// A view whose per-view reductions would run past a loop-capped device's limit is refused up
+/// front with a message naming the limit; elsewhere it uploads.
+#[test]
+fn views_over_the_loop_limit_are_refused_where_loops_are_capped() {
+    let ctx = gpu();
+    let mut scene = packed(10, 6.0, 16, 1);
+    scene.views[0].camera.width = 4000;
+    scene.views[0].camera.height = 4000;
+    let r = Renderer::new(&ctx).unwrap();
+    let up = r.upload(&scene);
+    if scratchart::limits::caps_loops(ctx.info()) {
+        let err = up
+            .err()
+            .expect("a 4000 x 4000 view is over llvmpipe's per-view limit")
+            .to_string();
+        assert!(err.contains("loop limit") && err.contains("16000000"), "{err}");
+    } else {
+        assert!(up.is_ok(), "{:?}", up.err());
+    }
+    assert_no_validation(&ctx);
+}

@@ -177,7 +177,8 @@ fn push_constant_layouts_agree() {
     let scan = ScanPush {
         n: u(),
         n_blocks: u(),
-        pad: [u(), u()],
+        flag_index: u(),
+        pad: u(),
     };
     let loss = LossPush {
         n_views: u(),

@@ -19,6 +19,19 @@ pub struct SceneDims {
     pub scratches: u64,
     /// Whether the design loss (and its pyramid) is allocated too.
     pub with_loss: bool,
+    /// Pixels of the largest view.
+    pub max_view_pixels: u64,
+}
+
+/// Pixels one thread of the per-view reductions (light gradient, check loss, loss statistics)
+/// may walk on a device that caps loop iterations per shader invocation (Mesa's llvmpipe: 65535
+/// in all): 256 threads x 60,000 iterations, with a margin for the kernel's other loops.
+pub const LOOP_CAPPED_VIEW_PIXELS: u64 = 256 * 60_000;
+
+/// Whether the device stops shader loops after a fixed number of iterations (see
+/// `shaders/inc/limits.glsl`).
+pub fn caps_loops(info: &DeviceInfo) -> bool {
+    info.name.contains("llvmpipe")
 }
 
 impl SceneDims {
@@ -35,6 +48,7 @@ impl SceneDims {
             views: view_sizes.len() as u64,
             scratches,
             with_loss,
+            max_view_pixels: view_sizes.iter().map(|&(w, h)| w as u64 * h as u64).max().unwrap_or(0),
         }
     }
 
@@ -79,6 +93,17 @@ impl SceneDims {
         self.pixels * 48 + self.scratches * 128
     }
 
+    /// A view too large for the per-view reductions on a device that caps loop iterations.
+    pub fn over_loop_limit(&self, info: &DeviceInfo) -> Option<String> {
+        (caps_loops(info) && self.max_view_pixels > LOOP_CAPPED_VIEW_PIXELS).then(|| {
+            format!(
+                "a view of {} pixels is over the {} pixels per view that this device's loop limit \
+                 allows (Mesa's llvmpipe stops shader loops after 65535 iterations)",
+                self.max_view_pixels, LOOP_CAPPED_VIEW_PIXELS
+            )
+        })
+    }
+
     /// Whether the scene fits the device and the host. The message names the limit.
     pub fn check(&self, info: &DeviceInfo) -> Result<(), String> {
         if let Some((what, bytes, limit)) = self.over_device_limit(info) {
@@ -87,6 +112,9 @@ impl SceneDims {
                 mib(bytes),
                 mib(limit)
             ));
+        }
+        if let Some(why) = self.over_loop_limit(info) {
+            return Err(why);
         }
         if let Some(avail) = host_available() {
             if self.host_bytes() > avail {

@@ -8,6 +8,8 @@
 //       such a step and the host redoes the submission after adapting (engine/src/render/scene.rs)
 //   [6] the backward kernel hit the device's loop limit
 //   [7] binning hit the device's loop limit
+//   [8] high word of [0], [9] the (tile, scratch) entries passed 2^32 - 1 (scan.comp), [10] high
+//       word of [1]: the 64-bit counters are (hi << 32) | lo
 //
 // The loop limit: Mesa's llvmpipe (lavapipe) ends every loop of a shader invocation once the
 // invocation has run 65535 loop iterations in all (LP_MAX_TGSI_LOOP_ITERATIONS, counted per

@@ -48,7 +48,7 @@ void main() {
     put(pc.n_scratches); put(pc.n_views); put(pc.n_groups); put(pc.group_size); put(pc.capacity);
     put(pc.sentinel); put(pc.pad1); put(pc.pad2);
 #elif defined(SCAN)
-    put(pc.n); put(pc.n_blocks); put(pc.pad0); put(pc.pad1);
+    put(pc.n); put(pc.n_blocks); put(pc.flag_index); put(pc.pad1);
 #elif defined(LOSS)
     put(pc.n_views); put(pc.n_levels); put(pc.level); put(pc.n_blocks); put(pc.lvl_begin); put(pc.lvl_end);
     put(pc.lambda_p); put(pc.lambda_g); put(pc.g_c); put(pc.g_s); put(pc.n_segs); put(pc.pad);

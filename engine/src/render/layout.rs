@@ -81,7 +81,9 @@ pub struct BinPush {
 pub struct ScanPush {
     pub n: u32,
     pub n_blocks: u32,
-    pub pad: [u32; 2],
+    /// the `stats` slot the scan sets when its total would wrap past `u32::MAX`
+    pub flag_index: u32,
+    pub pad: u32,
 }
 
 /// Push constants of `grad_reduce.comp` (`shaders/inc/reduce_push.glsl`).

@@ -87,9 +87,9 @@ impl Renderer {
             ctx: ctx.clone(),
             bin_count: ComputePipeline::new(ctx, &sc, "bin.comp", &[("COUNT", "1")], 7, bin_push)?,
             bin_scatter: ComputePipeline::new(ctx, &sc, "bin.comp", &[("SCATTER", "1")], 7, bin_push)?,
-            scan_reduce: ComputePipeline::new(ctx, &sc, "scan.comp", &[("REDUCE", "1")], 2, scan_push)?,
-            scan_sums: ComputePipeline::new(ctx, &sc, "scan.comp", &[("SUMS", "1")], 2, scan_push)?,
-            scan_apply: ComputePipeline::new(ctx, &sc, "scan.comp", &[("APPLY", "1")], 2, scan_push)?,
+            scan_reduce: ComputePipeline::new(ctx, &sc, "scan.comp", &[("REDUCE", "1")], 3, scan_push)?,
+            scan_sums: ComputePipeline::new(ctx, &sc, "scan.comp", &[("SUMS", "1")], 3, scan_push)?,
+            scan_apply: ComputePipeline::new(ctx, &sc, "scan.comp", &[("APPLY", "1")], 3, scan_push)?,
             kernels,
             forward: shade_pipeline(ctx, &sc, &kernels.forward)?,
             grad: std::sync::OnceLock::new(),
@@ -147,8 +147,8 @@ impl Renderer {
         rec.dispatch_1d(&self.bin_count, &bufs, bytemuck::bytes_of(&push), groups);
         rec.barrier();
         let n_hist = gs.slots.n_tiles as u64 * gs.n_groups as u64 + 1;
-        self.record_scan(rec, &gs.hist, &gs.sums, n_hist);
-        self.record_scan(rec, &gs.sbase, &gs.sbase_sums, gs.n_scratches as u64 + 1);
+        self.record_scan(rec, &gs.hist, &gs.sums, &gs.stats, n_hist);
+        self.record_scan(rec, &gs.sbase, &gs.sbase_sums, &gs.stats, gs.n_scratches as u64 + 1);
         rec.copy(&gs.hist, &gs.cursor, gs.hist.size());
         rec.barrier();
         let bufs = [
@@ -164,21 +164,50 @@ impl Renderer {
         rec.barrier();
     }
 
-    /// Exclusive scan of `n` u32 in `data`, in place.
-    fn record_scan(&self, rec: &mut Recorder, data: &Buffer, sums: &Buffer, n: u64) {
+    /// Exclusive scan of `n` u32 in `data`, in place; a total past `u32::MAX` sets
+    /// `stats[STAT_ENTRIES_WRAPPED]`.
+    fn record_scan(&self, rec: &mut Recorder, data: &Buffer, sums: &Buffer, stats: &Buffer, n: u64) {
         let n_blocks = n.div_ceil(SCAN_BLOCK as u64) as u32;
         let push = ScanPush {
             n: n as u32,
             n_blocks,
-            pad: [0; 2],
+            flag_index: scene::STAT_ENTRIES_WRAPPED,
+            pad: 0,
         };
         let pb = bytemuck::bytes_of(&push);
-        rec.dispatch_1d(&self.scan_reduce, &[data, sums], pb, n_blocks);
+        rec.dispatch_1d(&self.scan_reduce, &[data, sums, stats], pb, n_blocks);
         rec.barrier();
-        rec.dispatch(&self.scan_sums, &[data, sums], pb, [1, 1, 1]);
+        rec.dispatch(&self.scan_sums, &[data, sums, stats], pb, [1, 1, 1]);
         rec.barrier();
-        rec.dispatch_1d(&self.scan_apply, &[data, sums], pb, n_blocks);
+        rec.dispatch_1d(&self.scan_apply, &[data, sums, stats], pb, n_blocks);
         rec.barrier();
+    }
+
+    /// The pair search's exclusive scan of `data` on the device, and whether its total wrapped
+    /// (for tests of the scan and its overflow check).
+    #[doc(hidden)]
+    pub fn scan_u32(&self, data: &[u32]) -> Result<(Vec<u32>, bool), GpuError> {
+        let buf = self.ctx.upload("scan test data", data)?;
+        let n = data.len() as u64;
+        let sums = Buffer::new(
+            &self.ctx,
+            "scan test sums",
+            n.div_ceil(SCAN_BLOCK as u64).max(1) * 4,
+            crate::vulkan::MemLoc::GpuOnly,
+        )?;
+        let stats = Buffer::new(&self.ctx, "scan test stats", 64, crate::vulkan::MemLoc::GpuToCpu)?;
+        let mut rec = Recorder::new(&self.ctx)?;
+        rec.begin()?;
+        rec.fill(&stats, 0);
+        rec.barrier();
+        self.record_scan(&mut rec, &buf, &sums, &stats, n);
+        rec.submit_and_wait()?;
+        let flags: Vec<u32> = stats.read()?;
+        let out: Vec<u32> = self.ctx.download(&buf)?;
+        Ok((
+            out[..data.len()].to_vec(),
+            flags[scene::STAT_ENTRIES_WRAPPED as usize] != 0,
+        ))
     }
 
     /// Records the shading kernel (writes the image, the coverage and the counters).

@@ -21,6 +21,9 @@ pub struct RenderStats {
     pub max_tile_chunks: u64,
 }
 
+/// The `stats` slot the scans set when the (tile, scratch) entries pass `u32::MAX`.
+pub(super) const STAT_ENTRIES_WRAPPED: u32 = 9;
+
 /// How the shading work of a tile is split into passes (see `shaders/inc/limits.glsl`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub(super) struct PassPlan {
@@ -123,6 +126,9 @@ impl GpuScene {
                 limit,
             });
         }
+        if let Some(why) = dims.over_loop_limit(ctx.info()) {
+            return Err(GpuError::Capacity(format!("{why}; use smaller views")));
+        }
         let slots = layout::view_slots(scene);
         let n_scratches = scene.scratches.len() as u32;
         let n_groups = n_scratches.div_ceil(GROUP_SIZE).max(1);
@@ -194,8 +200,8 @@ impl GpuScene {
     pub fn stats(&self) -> Result<RenderStats, GpuError> {
         let st: Vec<u32> = self.stats.read()?;
         Ok(RenderStats {
-            candidates: st[0] as u64,
-            pairs: st[1] as u64,
+            candidates: (st[8] as u64) << 32 | st[0] as u64,
+            pairs: (st[10] as u64) << 32 | st[1] as u64,
             entries: st[2] as u64,
             max_tile_chunks: st[4] as u64,
         })
@@ -205,7 +211,7 @@ impl GpuScene {
     /// tile lists held every entry, and no kernel hit a capacity (`shaders/inc/limits.glsl`).
     pub(super) fn complete(&self, stats: &RenderStats) -> Result<bool, GpuError> {
         let raw: Vec<u32> = self.stats.read()?;
-        Ok(stats.entries <= self.capacity as u64 && raw[5] == 0)
+        Ok(stats.entries <= self.capacity as u64 && raw[5] == 0 && raw[STAT_ENTRIES_WRAPPED as usize] == 0)
     }
 
     /// After an incomplete render: grows the tile lists, splits binning into smaller groups or
@@ -220,6 +226,13 @@ impl GpuScene {
              tiles per scratch) or a GPU"
             ))
         };
+        if raw[STAT_ENTRIES_WRAPPED as usize] != 0 {
+            return Err(GpuError::Capacity(format!(
+                "the scene has more than {} (tile, scratch) pairs for the pair search to count; \
+                 use fewer or narrower scratches, or fewer or smaller views",
+                u32::MAX
+            )));
+        }
         if raw[7] != 0 {
             // Binning hit the loop limit: fewer scratches per binning thread.
             if self.group_size == 1 {
