@@ -130,7 +130,7 @@ fn run(cli: Cli) -> Result<()> {
         }
         Cmd::Render { scene, out } => {
             let scene = match scene {
-                Some(p) => Scene::load(p)?,
+                Some(p) => load_scene(p)?,
                 None => {
                     eprintln!("no scene given: rendering the built-in demo plate");
                     scratchart::scenes::demo_scene(256)
@@ -163,7 +163,7 @@ fn run(cli: Cli) -> Result<()> {
             Ok(())
         }
         Cmd::Grad { scene, targets, out } => {
-            let scene = Scene::load(scene)?;
+            let scene = load_scene(scene)?;
             warn_about(&scene);
             let ctx = context(&cli)?;
             grad_command(&ctx, &scene, targets, out)?;
@@ -179,7 +179,7 @@ fn run(cli: Cli) -> Result<()> {
         } => {
             let ctx = context(&cli)?;
             let scenes: Vec<(String, Scene)> = match scene {
-                Some(p) => vec![(p.display().to_string(), Scene::load(p)?)],
+                Some(p) => vec![(p.display().to_string(), load_scene(p)?)],
                 None => sizes
                     .iter()
                     .map(|s| {
@@ -213,6 +213,15 @@ fn run(cli: Cli) -> Result<()> {
             check_validation(&ctx)
         }
     }
+}
+
+/// Loads a scene file and prints warnings about keys it does not know.
+fn load_scene(path: &Path) -> Result<Scene> {
+    let (scene, warnings) = Scene::load_with_warnings(path)?;
+    for w in warnings {
+        eprintln!("warning: {w}");
+    }
+    Ok(scene)
 }
 
 /// Prints what in a valid scene will surprise its user (see `limits::scene_warnings`).

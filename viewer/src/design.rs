@@ -44,7 +44,10 @@ impl Design {
     }
 
     pub fn load(path: &Path) -> Result<Design> {
-        let scene = Scene::load(path)?;
+        let (scene, warnings) = Scene::load_with_warnings(path)?;
+        for w in warnings {
+            eprintln!("warning: {w}");
+        }
         let text = std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))?;
         // Scene::load accepted the file, so it is valid JSON.
         let json: serde_json::Value =

@@ -451,3 +451,48 @@ fn validate_catches_programmatic_errors() {
     let msg = s.validate().unwrap_err().to_string();
     assert!(msg.contains("second_view") && msg.contains("intensity"), "{msg}");
 }
+
+/// A misspelt key is not silently ignored: a warning names it and the closest known key; known
+/// keys and the reserved extension keys give none.
+#[test]
+fn unknown_keys_are_warned_about_with_the_closest_key() {
+    let d = std::env::temp_dir().join(format!("scratchart-keys-{}", std::process::id()));
+    std::fs::create_dir_all(&d).unwrap();
+    let good = r#"{"plate":{"size_mm":20,"roughness":0.02},"views":[{"name":"v","target":"t.png","camera":{"eye":[0,-40,40],"target":[0,0,0],"up":[0,0,1],"fov_y_deg":30,"width":8,"height":8},"light":{"kind":"point","position":[0,40,40],"intensity":1}}],"scratches":[],"setup":{}}"#;
+    let p = d.join("good.json");
+    std::fs::write(&p, good).unwrap();
+    let (_, w) = scratchart_model::scene::Scene::load_with_warnings(&p).unwrap();
+    assert!(w.is_empty(), "{w:?}");
+    let bad = good
+        .replace("\"roughness\"", "\"roughnes\"")
+        .replace("\"fov_y_deg\":30", "\"fov_y_deg\":30,\"fovy\":2");
+    let p = d.join("bad.json");
+    std::fs::write(&p, bad).unwrap();
+    let (scene, w) = scratchart_model::scene::Scene::load_with_warnings(&p).unwrap();
+    assert_eq!(w.len(), 2, "{w:?}");
+    assert!(w[0].contains("`roughnes`") && w[0].contains("`roughness`"), "{}", w[0]);
+    assert!(
+        w[1].contains("`fovy`") && w[1].contains("views[0].camera") && w[1].contains("`fov_y_deg`"),
+        "{}",
+        w[1]
+    );
+    assert_eq!(scene.plate.roughness, scratchart_model::scene::DEFAULT_ROUGHNESS);
+    let _ = std::fs::remove_dir_all(&d);
+}
+
+/// Files that start with a UTF-8 byte-order mark (as spreadsheets write them) are read.
+#[test]
+fn byte_order_marks_are_accepted() {
+    let d = std::env::temp_dir().join(format!("scratchart-bom-{}", std::process::id()));
+    std::fs::create_dir_all(&d).unwrap();
+    std::fs::write(d.join("s.csv"), "\u{feff}x0,y0,x1,y1,w,d,alpha\n0,0,1,1,0.1,0.1,0.2\n").unwrap();
+    let json = "\u{feff}{\"plate\":{\"size_mm\":20},\"views\":[{\"name\":\"v\",\"camera\":{\"eye\":[0,-40,40],\"target\":[0,0,0],\"up\":[0,0,1],\"fov_y_deg\":30,\"width\":8,\"height\":8},\"light\":{\"kind\":\"point\",\"position\":[0,40,40],\"intensity\":1}}],\"scratches\":\"s.csv\"}";
+    std::fs::write(d.join("s.json"), json).unwrap();
+    let scene = scratchart_model::scene::Scene::load(&d.join("s.json")).unwrap();
+    assert_eq!(scene.scratches.len(), 1);
+    // Headerless CSV with a BOM before the first number.
+    std::fs::write(d.join("s.csv"), "\u{feff}0,0,1,1,0.1,0.1,0.2\n").unwrap();
+    let scene = scratchart_model::scene::Scene::load(&d.join("s.json")).unwrap();
+    assert_eq!(scene.scratches.len(), 1);
+    let _ = std::fs::remove_dir_all(&d);
+}

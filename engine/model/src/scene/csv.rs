@@ -22,6 +22,8 @@ pub fn read_scratches_csv_lines(path: &Path) -> Result<Vec<(Scratch, usize)>, Sc
         cause: source,
     })?;
     let file = path.display().to_string();
+    // Spreadsheets often write a UTF-8 byte-order mark first: it is not part of the header.
+    let text = text.strip_prefix('\u{feff}').unwrap_or(&text);
     let mut out = Vec::new();
     let mut header_seen = false;
     let mut row = 0usize;

@@ -16,6 +16,7 @@ use std::path::PathBuf;
 
 mod csv;
 mod read;
+pub use read::unknown_key_warnings;
 mod validate;
 mod write;
 

@@ -12,7 +12,86 @@ use super::{
     DEFAULT_ROUGHNESS,
 };
 
+/// The keys the reader knows, per object. Keys elsewhere get a warning naming the closest known
+/// key (a typo such as `roughnes` would otherwise be ignored silently). `card` and `setup` are
+/// reserved for the project's own extensions (calibration cards, set-up data); a view's `target`
+/// names its target image (read by the viewer).
+const TOP_KEYS: &[&str] = &["plate", "views", "scratches", "card", "setup"];
+const PLATE_KEYS: &[&str] = &["size_mm", "roughness", "f0"];
+const VIEW_KEYS: &[&str] = &["name", "camera", "light", "target"];
+const CAMERA_KEYS: &[&str] = &["eye", "target", "up", "fov_y_deg", "width", "height"];
+const LIGHT_KEYS: &[&str] = &["kind", "position", "direction", "intensity"];
+
+/// Levenshtein distance (for "did you mean").
+fn edit_distance(a: &str, b: &str) -> usize {
+    let b: Vec<char> = b.chars().collect();
+    let mut prev: Vec<usize> = (0..=b.len()).collect();
+    for (i, ca) in a.chars().enumerate() {
+        let mut cur = vec![i + 1; b.len() + 1];
+        for (j, cb) in b.iter().enumerate() {
+            cur[j + 1] = (prev[j] + (ca != *cb) as usize).min(prev[j + 1] + 1).min(cur[j] + 1);
+        }
+        prev = cur;
+    }
+    prev[b.len()]
+}
+
+/// How far a key is from a known one: edit distance, ignoring case and underscores, where a
+/// prefix of the known key counts almost as a match (`fovy` is closest to `fov_y_deg`).
+fn key_distance(key: &str, known: &str) -> usize {
+    let norm = |s: &str| s.to_lowercase().replace('_', "");
+    let (a, b) = (norm(key), norm(known));
+    let prefix: String = b.chars().take(a.chars().count()).collect();
+    edit_distance(&a, &b).min(edit_distance(&a, &prefix) + 1)
+}
+
+fn check_keys(o: &Map<String, Value>, known: &[&str], place: &str, file: &str, out: &mut Vec<String>) {
+    for key in o.keys() {
+        if known.contains(&key.as_str()) {
+            continue;
+        }
+        let closest = known.iter().min_by_key(|k| key_distance(key, k)).copied().unwrap_or("");
+        out.push(format!(
+            "`{file}`: unknown key `{key}` in {place} is ignored (the closest known key is `{closest}`)"
+        ));
+    }
+}
+
+/// Warnings for keys of a scene document that the reader does not know.
+pub fn unknown_key_warnings(root: &Value, file: &str) -> Vec<String> {
+    let mut out = Vec::new();
+    let Some(o) = root.as_object() else { return out };
+    check_keys(o, TOP_KEYS, "the top level", file, &mut out);
+    if let Some(p) = o.get("plate").and_then(|p| p.as_object()) {
+        check_keys(p, PLATE_KEYS, "plate", file, &mut out);
+    }
+    if let Some(views) = o.get("views").and_then(|v| v.as_array()) {
+        for (k, v) in views.iter().enumerate() {
+            let Some(vo) = v.as_object() else { continue };
+            check_keys(vo, VIEW_KEYS, &format!("views[{k}]"), file, &mut out);
+            if let Some(c) = vo.get("camera").and_then(|c| c.as_object()) {
+                check_keys(c, CAMERA_KEYS, &format!("views[{k}].camera"), file, &mut out);
+            }
+            if let Some(l) = vo.get("light").and_then(|l| l.as_object()) {
+                check_keys(l, LIGHT_KEYS, &format!("views[{k}].light"), file, &mut out);
+            }
+        }
+    }
+    out
+}
+
 impl Scene {
+    /// [`Scene::load`], also returning warnings about what the file holds but the reader does not
+    /// know (misspelt keys). Binaries print them.
+    pub fn load_with_warnings(path: &Path) -> Result<(Scene, Vec<String>), SceneError> {
+        let scene = Scene::load(path)?;
+        let text = std::fs::read_to_string(path).unwrap_or_default();
+        let warnings = serde_json::from_str::<Value>(&text)
+            .map(|root| unknown_key_warnings(&root, &path.display().to_string()))
+            .unwrap_or_default();
+        Ok((scene, warnings))
+    }
+
     /// Load and validate a scene file (JSON; scratches inline or in a CSV file next to it).
     pub fn load(path: &Path) -> Result<Scene, SceneError> {
         let text = std::fs::read_to_string(path).map_err(|source| SceneError::Read {
@@ -31,6 +110,8 @@ impl Scene {
     /// `base_dir`; `source_name` names the JSON text in error messages.
     pub fn from_json_str(text: &str, base_dir: &Path, source_name: &str) -> Result<Scene, SceneError> {
         let file = source_name;
+        // (a spreadsheet or editor may put a UTF-8 byte-order mark first)
+        let text = text.strip_prefix('\u{feff}').unwrap_or(text);
         let root: Value = serde_json::from_str(text).map_err(|e| SceneError::Json {
             file: file.to_string(),
             line: e.line(),
