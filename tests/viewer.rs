@@ -160,6 +160,29 @@ fn help_explains_keys_and_flags() {
     }
 }
 
+/// `--frames N` exits after N frames even when nothing moves (a still scene presents once and
+/// then waits, so counting only changed frames never ended).
+#[test]
+fn frames_flag_exits_on_a_still_scene() {
+    let x = XServer::start();
+    let t0 = Instant::now();
+    let out = Command::new(viewer_bin())
+        .args(["--frames", "6", "--exit-after", "120", "--log-frames"])
+        .env("DISPLAY", &x.display)
+        .env_remove("WAYLAND_DISPLAY")
+        .output()
+        .unwrap();
+    let took = t0.elapsed();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let frames = stdout.lines().filter(|l| l.starts_with("frame")).count();
+    assert!(frames >= 6, "{frames} frames logged:\n{stdout}");
+    assert!(
+        took < Duration::from_secs(100),
+        "--frames 6 took {took:?}: it waited for --exit-after"
+    );
+}
+
 /// An X server for the window tests: $DISPLAY when set, else our own Xvfb (killed on drop).
 struct XServer {
     display: String,

@@ -111,7 +111,8 @@ pub struct Opts {
     /// Timed frames per benchmark row (after 3 warm-up frames)
     #[arg(long, default_value_t = 20)]
     pub bench_frames: usize,
-    /// Exit after presenting this many frames
+    /// Draw this many frames, then exit (frames are drawn continuously until then, also when
+    /// nothing moves)
     #[arg(long, value_name = "N")]
     pub frames: Option<u64>,
     /// Exit after this many seconds

@@ -109,7 +109,9 @@ impl ApplicationHandler for App {
             None => true,
             Some((v, l)) => v != self.version || (still && l != 0 && l != want_level),
         };
-        let need = stale || self.swap_dirty || self.opts.continuous || self.bench.is_some();
+        // --frames N counts drawn frames: draw until N, even when nothing changes.
+        let need =
+            stale || self.swap_dirty || self.opts.continuous || self.bench.is_some() || self.opts.frames.is_some();
         let minimized = self
             .window
             .as_ref()
