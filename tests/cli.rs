@@ -332,3 +332,33 @@ fn design_interrupted_by_ctrl_c_saves_and_resumes() {
     assert!(out.join("design.json").exists());
     let _ = std::fs::remove_dir_all(&d);
 }
+
+/// With stderr in a log (not a terminal), `design` prints plain progress lines that end at
+/// N/N for `--iters N`, and its summary says how many scratches pruning kept.
+#[test]
+fn design_progress_in_a_log_and_the_count_kept() {
+    let d = tmp("progress");
+    let out = d.join("out");
+    let o = run(
+        "scratchart",
+        &[
+            "design",
+            "--scratches",
+            "200",
+            "--res",
+            "16",
+            "--iters",
+            "4",
+            "--out",
+            out.to_str().unwrap(),
+        ],
+    );
+    expect(&o, 0, "design: 4/4", "progress lines in a log");
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    let line = stdout
+        .lines()
+        .find(|l| l.starts_with("design:"))
+        .unwrap_or_else(|| panic!("{stdout}"));
+    assert!(line.contains("scratches written (200 optimized)"), "{line}");
+    let _ = std::fs::remove_dir_all(&d);
+}
