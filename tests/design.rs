@@ -34,7 +34,7 @@ fn small_problem(views: usize, res: u32, n: usize, seed: u64) -> Problem {
         scratches: random_scratches(&mut rng, n, 100.0, 2.0, 8.0, 0.05, 0.05, 0.06),
     };
     let targets = builtin_targets(&scene);
-    Problem { scene, targets }
+    Problem::new(scene, targets)
 }
 
 fn quiet_config(out: PathBuf, iters: u32) -> DesignConfig {

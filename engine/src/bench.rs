@@ -202,10 +202,7 @@ pub fn run_iterations(
 ) -> anyhow::Result<IterRow> {
     use crate::optim::design::{DesignConfig, Optimizer, Problem};
     let renderer = Renderer::new(ctx)?;
-    let problem = Problem {
-        scene: scene.clone(),
-        targets,
-    };
+    let problem = Problem::new(scene.clone(), targets);
     let mut cfg = DesignConfig::new(scene.plate.size_mm, std::env::temp_dir());
     cfg.iters = warmup + iters;
     cfg.write_outputs = false;

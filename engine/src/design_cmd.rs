@@ -10,7 +10,7 @@ use scratchart::limits::{largest_fitting, SceneDims};
 use scratchart::model::scene::{Plate, Scene, View};
 use scratchart::observe::Observer;
 use scratchart::optim::design::{run_design, DesignConfig, Hooks, Problem};
-use scratchart::scenes::{orbit_light, random_scratches, ring_views, Rng};
+use scratchart::scenes::{framed_ring_views, orbit_light, random_scratches, Rng};
 use scratchart::vulkan::{Context, DeviceInfo};
 
 /// Fails with a [`scratchart::exit::UsageError`] (exit code 2) unless the flag condition holds.
@@ -30,6 +30,16 @@ pub struct DesignArgs {
     /// to the view resolution). Default: the built-in shapes (circle, triangle, star, ...).
     #[arg(long, num_args = 1..)]
     pub targets: Vec<PathBuf>,
+    /// How each target picture is placed in its view: `contain` (upright, aspect kept, as large
+    /// as fits inside the plate's silhouette in that view; the rest of the plate shows
+    /// --background), `frame` (stretched over the whole camera frame), `cover` (aspect kept,
+    /// filling the plate's silhouette and cropping the picture) or `printed` (laid on the plate
+    /// itself and seen in perspective). NAME_target.png shows the result, as the loss uses it
+    #[arg(long, default_value = "contain", value_parser = parse_fit)]
+    pub fit: scratchart::optim::framing::Fit,
+    /// Display level (0 black .. 1 white) of the plate around a fitted picture
+    #[arg(long, default_value_t = 0.0)]
+    pub background: f32,
     /// Number of views on the paper's ring: elevation --elevation, view j at azimuth 360 j / N
     #[arg(long, default_value_t = 3)]
     pub views: usize,
@@ -121,6 +131,10 @@ pub struct DesignArgs {
     pub inject_nan_grad_at: Option<u32>,
 }
 
+fn parse_fit(s: &str) -> Result<scratchart::optim::framing::Fit, String> {
+    s.parse()
+}
+
 /// Builds the problem (views, initial scratches, targets) of `args`.
 pub fn problem(args: &DesignArgs, info: &DeviceInfo) -> anyhow::Result<Problem> {
     let plate_mm = args.plate;
@@ -182,7 +196,8 @@ pub fn problem(args: &DesignArgs, info: &DeviceInfo) -> anyhow::Result<Problem> 
             );
             // Initial intensity: a placeholder, calibrated against the targets before the first step.
             let light = orbit_light(distance, args.elevation, args.light_azimuth, 1.0e4);
-            ring_views(args.views, args.elevation, distance, plate_mm, args.res, &light)
+            // The plate's silhouette fills 95% of each frame (width or height, whichever binds).
+            framed_ring_views(args.views, args.elevation, distance, plate_mm, args.res, &light, 0.95)
         }
     };
     check_size(args, &views, info)?;
@@ -206,12 +221,19 @@ pub fn problem(args: &DesignArgs, info: &DeviceInfo) -> anyhow::Result<Problem> 
         scratches,
     };
     scene.validate()?;
-    let targets = if args.targets.is_empty() {
-        scratchart::optim::targets::builtin_targets(&scene)
-    } else {
-        scratchart::optim::targets::load_targets(&args.targets, &scene)?
-    };
-    Ok(Problem { scene, targets })
+    if args.targets.is_empty() {
+        let targets = scratchart::optim::targets::builtin_targets(&scene);
+        return Ok(Problem::new(scene, targets));
+    }
+    ensure_flag!(
+        (0.0..=1.0).contains(&args.background),
+        "--background must lie between 0 (black) and 1 (white) (it is {})",
+        args.background
+    );
+    let fitted = scratchart::optim::targets::load_fitted_targets(&args.targets, &scene, args.fit, args.background)?;
+    let mut problem = Problem::new(scene, fitted.iter().map(|f| f.image.clone()).collect());
+    problem.pictures = fitted.into_iter().map(|f| f.picture).collect();
+    Ok(problem)
 }
 
 /// The configuration of `args`.

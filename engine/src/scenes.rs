@@ -106,6 +106,68 @@ pub fn ring_views(m: usize, elev: f64, distance: f64, plate_mm: f64, res: u32, l
         .collect()
 }
 
+/// [`ring_views`] with each camera re-aimed at the middle of the plate's silhouette and its field
+/// of view narrowed so that the silhouette's bounding box fills `fill` (e.g. 0.95) of the frame's
+/// width or height, whichever binds: a target picture then gets as many pixels as the resolution
+/// allows. Eyes stay where the ring puts them.
+pub fn framed_ring_views(
+    m: usize,
+    elev: f64,
+    distance: f64,
+    plate_mm: f64,
+    res: u32,
+    light: &Light,
+    fill: f64,
+) -> Vec<View> {
+    let mut views = ring_views(m, elev, distance, plate_mm, res, light);
+    for v in &mut views {
+        frame_plate(v, plate_mm, fill);
+    }
+    views
+}
+
+/// The plate's silhouette's bounding box in `view` (pixels: x0, y0, x1, y1), if every corner is
+/// in front of the camera.
+pub fn silhouette_box(view: &View, plate_mm: f64) -> Option<[f64; 4]> {
+    let g = crate::model::camera::ViewGeom::new(view);
+    let half = 0.5 * plate_mm;
+    let mut b = [f64::INFINITY, f64::INFINITY, f64::NEG_INFINITY, f64::NEG_INFINITY];
+    for c in [[-half, -half], [half, -half], [half, half], [-half, half]] {
+        let (x, y) = g.project([c[0], c[1], 0.0])?;
+        b = [b[0].min(x), b[1].min(y), b[2].max(x), b[3].max(y)];
+    }
+    Some(b)
+}
+
+/// Re-aims `view`'s camera at the middle of the plate's silhouette and sets its field of view so
+/// that the silhouette's bounding box fills `fill` of the binding frame dimension (a few fixed
+/// point steps: aiming moves the perspective a little). Leaves the camera as it is when a plate
+/// corner is behind it.
+pub fn frame_plate(view: &mut View, plate_mm: f64, fill: f64) {
+    for _ in 0..6 {
+        let Some(b) = silhouette_box(view, plate_mm) else {
+            return;
+        };
+        let cam = &mut view.camera;
+        let (w, h) = (cam.width as f64, cam.height as f64);
+        // The plate point seen at the box's middle becomes the new target.
+        let (sx, sy) = (0.5 * (b[0] + b[2]), 0.5 * (b[1] + b[3]));
+        let t = (0.5 * cam.fov_y_deg.to_radians()).tan();
+        let basis = cam.basis();
+        let kx = (2.0 * sx / w - 1.0) * t * w / h;
+        let ky = (1.0 - 2.0 * sy / h) * t;
+        let dir = basis.fwd + kx * basis.right + ky * basis.up;
+        if dir.z >= 0.0 {
+            return;
+        }
+        let s = -cam.eye[2] / dir.z;
+        cam.target = [cam.eye[0] + s * dir.x, cam.eye[1] + s * dir.y, 0.0];
+        let frac = ((b[2] - b[0]) / w).max((b[3] - b[1]) / h);
+        let t_new = t * frac / fill;
+        cam.fov_y_deg = 2.0 * t_new.atan().to_degrees();
+    }
+}
+
 /// Standard benchmark scenes. S: 4,000 scratches, 2 views of 128x128. M: 40,000 scratches,
 /// 3 views of 256x256. P (paper scale): 40,000 scratches, 3 views of 512x512. All: random
 /// endpoints over a 100 mm plate, lengths 5-30 mm, w = d = 0.05 mm, alpha 0.04, views at 45

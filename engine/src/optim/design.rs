@@ -26,6 +26,23 @@ use crate::vulkan::{Context, GpuError};
 pub struct Problem {
     pub scene: Scene,
     pub targets: Vec<Vec<f32>>,
+    /// Per view, the pixels that show the picture (where quality is measured); the on-plate
+    /// pixels when the target has no picture region of its own.
+    pub pictures: Vec<Vec<bool>>,
+}
+
+impl Problem {
+    /// A problem whose pictures cover every on-plate pixel.
+    pub fn new(scene: Scene, targets: Vec<Vec<f32>>) -> Problem {
+        let pictures = (0..scene.views.len())
+            .map(|v| crate::model::camera::on_plate_mask(&scene, v))
+            .collect();
+        Problem {
+            scene,
+            targets,
+            pictures,
+        }
+    }
 }
 
 #[derive(Clone, Debug)]

@@ -13,6 +13,8 @@
 //! - [`design`]: the design job: the driver with those two, then pruning and the reports.
 //! - [`prune`]: removal of scratches that barely matter, checked by true forward evaluations.
 //! - [`targets`]: target images (files, or the built-in circle / triangle / star).
+//! - [`framing`]: where a picture goes in a view (upright and as large as fits inside the
+//!   plate's silhouette by default).
 //! - [`report`]: compare images, SSIM, the loss-curve plot and the summary.
 //! - [`error`]: what can stop an optimization.
 //!
@@ -25,6 +27,7 @@ pub mod checkpoint;
 pub mod design;
 pub mod driver;
 pub mod error;
+pub mod framing;
 pub mod loss;
 pub mod prune;
 pub mod report;

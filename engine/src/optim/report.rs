@@ -89,6 +89,109 @@ pub fn view_ssim(scene: &Scene, v: usize, display: &[f32], target: &[f32], sigma
     ssim(&a, &b, w, h, &mask)
 }
 
+/// Pearson correlation of `a` and `b` over the pixels where `mask` holds (0 when either is flat).
+pub fn correlation(a: &[f64], b: &[f64], mask: &[bool]) -> f64 {
+    let (mut n, mut sa, mut sb) = (0.0, 0.0, 0.0);
+    for ((&x, &y), &m) in a.iter().zip(b).zip(mask) {
+        if m {
+            n += 1.0;
+            sa += x;
+            sb += y;
+        }
+    }
+    if n < 2.0 {
+        return 0.0;
+    }
+    let (ma, mb) = (sa / n, sb / n);
+    let (mut cab, mut caa, mut cbb) = (0.0, 0.0, 0.0);
+    for ((&x, &y), &m) in a.iter().zip(b).zip(mask) {
+        if m {
+            cab += (x - ma) * (y - mb);
+            caa += (x - ma) * (x - ma);
+            cbb += (y - mb) * (y - mb);
+        }
+    }
+    if caa <= 0.0 || cbb <= 0.0 {
+        0.0
+    } else {
+        cab / (caa * cbb).sqrt()
+    }
+}
+
+/// Quality of one view: correlation of the blurred render with its target inside the picture,
+/// and cross-talk with every other view's target (DECISIONS: the correlation of this render with
+/// view k's target, less the correlation of the two targets; a perfect render has 0).
+#[derive(Clone, Debug, PartialEq)]
+pub struct ViewQuality {
+    pub corr: f64,
+    /// Per other view k (k != this view; same image size): (k, cross-talk, raw correlation).
+    pub crosstalk: Vec<(usize, f64, f64)>,
+}
+
+/// [`ViewQuality`] of every view. `pictures[v]`: where view v's picture is (the comparison
+/// region); renders are blurred with the loss's Gaussian of `sigma` pixels first.
+pub fn quality(
+    scene: &Scene,
+    displays: &[Vec<f32>],
+    targets: &[Vec<f32>],
+    pictures: &[Vec<bool>],
+    sigma: f32,
+) -> Vec<ViewQuality> {
+    let n = scene.views.len();
+    let blurred: Vec<Vec<f64>> = (0..n)
+        .map(|v| {
+            let (w, h) = (scene.views[v].camera.width, scene.views[v].camera.height);
+            let c: Vec<f32> = displays[v].iter().map(|x| x.clamp(0.0, 1.0)).collect();
+            blur3(&c, w, h, sigma)
+        })
+        .collect();
+    let t: Vec<Vec<f64>> = targets.iter().map(|t| t.iter().map(|&x| x as f64).collect()).collect();
+    (0..n)
+        .map(|j| {
+            let corr = correlation(&blurred[j], &t[j], &pictures[j]);
+            let crosstalk = (0..n)
+                .filter(|&k| k != j && t[k].len() == t[j].len())
+                .map(|k| {
+                    let raw = correlation(&blurred[j], &t[k], &pictures[j]);
+                    (k, raw - correlation(&t[j], &t[k], &pictures[j]), raw)
+                })
+                .collect();
+            ViewQuality { corr, crosstalk }
+        })
+        .collect()
+}
+
+/// A contact sheet: one row per view, `render | target | |render - target|`, 8-bit.
+pub fn contact_sheet_png(
+    path: &Path,
+    scene: &Scene,
+    displays: &[Vec<f32>],
+    targets: &[Vec<f32>],
+) -> Result<(), crate::io::IoError> {
+    const GAP: u32 = 4;
+    let w = scene.views.iter().map(|v| v.camera.width).max().unwrap_or(1);
+    let cw = 3 * w + 2 * GAP;
+    let ch: u32 = scene.views.iter().map(|v| v.camera.height + GAP).sum::<u32>().max(1);
+    let mut px = vec![128u8; (cw * ch) as usize];
+    let byte = |v: f32| (255.0 * v.clamp(0.0, 1.0)).round() as u8;
+    let mut y0 = 0;
+    for (v, view) in scene.views.iter().enumerate() {
+        let (vw, vh) = (view.camera.width, view.camera.height);
+        for y in 0..vh {
+            for x in 0..vw {
+                let i = (y * vw + x) as usize;
+                let (r, t) = (displays[v][i].clamp(0.0, 1.0), targets[v][i]);
+                let row = ((y0 + y) * cw) as usize;
+                px[row + x as usize] = byte(r);
+                px[row + (w + GAP + x) as usize] = byte(t);
+                px[row + (2 * (w + GAP) + x) as usize] = byte((r - t).abs());
+            }
+        }
+        y0 += vh + GAP;
+    }
+    crate::io::write_png_gray(path, cw, ch, &px)
+}
+
 /// `render | target` side by side (4 gray pixels between), 8-bit.
 pub fn compare_png(path: &Path, w: u32, h: u32, display: &[f32], target: &[f32]) -> Result<(), crate::io::IoError> {
     const GAP: u32 = 4;
@@ -270,6 +373,21 @@ pub fn write_outputs(
     let scene = &r.scene;
     let mut views_json = Vec::new();
     let first = r.history.first();
+    let q_final = quality(
+        scene,
+        &r.final_images,
+        &problem.targets,
+        &problem.pictures,
+        cfg.loss.sigma,
+    );
+    let q_initial = quality(
+        scene,
+        &r.initial_images,
+        &problem.targets,
+        &problem.pictures,
+        cfg.loss.sigma,
+    );
+    contact_sheet_png(&out.join("contact_sheet.png"), scene, &r.final_images, &problem.targets)?;
     for (v, view) in scene.views.iter().enumerate() {
         let (w, h) = (view.camera.width, view.camera.height);
         compare_png(
@@ -296,6 +414,11 @@ pub fn write_outputs(
             "gram_term_final": r.final_loss.gram[v] as f64,
             "ssim_initial": ssim_initial,
             "ssim_final": ssim_final,
+            "corr_initial": q_initial[v].corr,
+            "corr_final": q_final[v].corr,
+            "crosstalk_final": q_final[v].crosstalk.iter().map(|c| c.1).fold(f64::NEG_INFINITY, f64::max).max(0.0),
+            "crosstalk": q_final[v].crosstalk.iter().map(|&(k, x, raw)| json!({"other_view": scene.views[k].name, "crosstalk": x, "raw_correlation": raw})).collect::<Vec<_>>(),
+            "picture_pixels": problem.pictures[v].iter().filter(|p| **p).count(),
             "light_intensity": view.light.intensity,
         }));
     }
@@ -370,20 +493,32 @@ pub fn summary_text(s: &serde_json::Value, out: &Path) -> String {
     );
     let _ = writeln!(
         text,
-        "  {:<8} {:>12} {:>12} {:>11} {:>11} {:>10} {:>10}",
-        "view", "loss start", "loss final", "pixel", "gram", "SSIM start", "SSIM final"
+        "  {:<8} {:>12} {:>12} {:>11} {:>11} {:>10} {:>10} {:>10} {:>10} {:>10}",
+        "view",
+        "loss start",
+        "loss final",
+        "pixel",
+        "gram",
+        "SSIM start",
+        "SSIM final",
+        "corr start",
+        "corr final",
+        "crosstalk"
     );
     for v in s["per_view"].as_array().into_iter().flatten() {
         let _ = writeln!(
             text,
-            "  {:<8} {:>12.5} {:>12.5} {:>11.5} {:>11.5} {:>10.3} {:>10.3}",
+            "  {:<8} {:>12.5} {:>12.5} {:>11.5} {:>11.5} {:>10.3} {:>10.3} {:>10.3} {:>10.3} {:>10.3}",
             v["name"].as_str().unwrap_or("?"),
             f(&v["loss_initial"]),
             f(&v["loss_final"]),
             f(&v["pixel_term_final"]),
             f(&v["gram_term_final"]),
             f(&v["ssim_initial"]),
-            f(&v["ssim_final"])
+            f(&v["ssim_final"]),
+            f(&v["corr_initial"]),
+            f(&v["corr_final"]),
+            f(&v["crosstalk_final"])
         );
     }
     if let Some(p) = s["pruning"].as_object() {
@@ -403,7 +538,7 @@ pub fn summary_text(s: &serde_json::Value, out: &Path) -> String {
     }
     let _ = writeln!(
         text,
-        "  wrote {0}/design.json, {0}/scratches.csv, {0}/*_compare.png (render | target), {0}/*_target.png, {0}/loss_curve.png, {0}/summary.json",
+        "  wrote {0}/design.json, {0}/scratches.csv, {0}/*_compare.png (render | target), {0}/*_target.png, {0}/loss_curve.png, {0}/contact_sheet.png (render | target | difference), {0}/summary.json",
         out.display()
     );
     text

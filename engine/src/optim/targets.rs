@@ -34,6 +34,45 @@ pub fn load_targets(paths: &[PathBuf], scene: &Scene) -> Result<Vec<Vec<f32>>, T
         .collect()
 }
 
+/// Reads one picture per view (in view order) and places it in its view as `fit` says (see
+/// [`super::framing`]): the targets the loss uses, with where each picture went.
+pub fn load_fitted_targets(
+    paths: &[PathBuf],
+    scene: &Scene,
+    fit: super::framing::Fit,
+    background: f32,
+) -> Result<Vec<super::framing::Fitted>, TargetError> {
+    if paths.len() != scene.views.len() {
+        return Err(TargetError::Count {
+            given: paths.len(),
+            views: scene.views.len(),
+            names: scene
+                .views
+                .iter()
+                .map(|v| v.name.as_str())
+                .collect::<Vec<_>>()
+                .join(", "),
+        });
+    }
+    paths
+        .iter()
+        .zip(&scene.views)
+        .map(|(p, v)| {
+            let (sw, sh, data) = crate::io::read_image_gray(p)?;
+            let data: Vec<f32> = data.into_iter().map(|x| x.clamp(0.0, 1.0)).collect();
+            Ok(super::framing::fit_picture(
+                &data,
+                sw,
+                sh,
+                v,
+                scene.plate.size_mm,
+                fit,
+                background,
+            ))
+        })
+        .collect()
+}
+
 /// One target file as display values, resized to `w` x `h` (antialiased bilinear).
 pub fn load_target(path: &Path, w: u32, h: u32) -> Result<Vec<f32>, TargetError> {
     let (sw, sh, data) = crate::io::read_image_gray(path)?;
