@@ -244,7 +244,7 @@ pub fn write_png_gray(path: &Path, width: u32, height: u32, data: &[u8]) -> Resu
 }
 
 /// Read a PNG or JPEG image as gray values in [0, 1] (colour is converted to luma by the
-/// `image` crate's Rec. 709 weights on the stored, display-encoded values; alpha is dropped).
+/// `image` crate's Rec. 709 weights on the stored, display-encoded values; alpha is composited over black; any bit depth).
 /// Returns (width, height, data) top row first.
 pub fn read_image_gray(path: &Path) -> Result<(u32, u32, Vec<f32>), IoError> {
     let bytes = fs::read(path).map_err(|e| io_err("read", path, e))?;
@@ -252,9 +252,15 @@ pub fn read_image_gray(path: &Path) -> Result<(u32, u32, Vec<f32>), IoError> {
         path: path.to_path_buf(),
         cause: source,
     })?;
-    let luma = img.to_luma32f();
-    let (w, h) = luma.dimensions();
-    let data: Vec<f32> = luma.into_raw().into_iter().map(|v| v.clamp(0.0, 1.0)).collect();
+    // Any bit depth and colour type; an alpha channel is composited over black (a transparent
+    // pixel asks for no light).
+    let la = img.to_luma_alpha32f();
+    let (w, h) = la.dimensions();
+    let data: Vec<f32> = la
+        .into_raw()
+        .chunks_exact(2)
+        .map(|p| (p[0] * p[1]).clamp(0.0, 1.0))
+        .collect();
     Ok((w, h, data))
 }
 
