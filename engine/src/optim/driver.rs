@@ -386,26 +386,31 @@ impl<'r> Driver<'r> {
         }
     }
 
+    /// Every buffer of the optimizer's state, named as in checkpoints: each block's parameters
+    /// and moments, and the good copies of them.
+    fn state_chunks(&self) -> Vec<(String, &Buffer)> {
+        let mut out = Vec::new();
+        for (b, s) in self.inner.params.blocks(&self.gs).into_iter().zip(&self.inner.blocks) {
+            out.push((b.name.to_string(), b.params));
+            out.push((format!("{}/adam m", b.name), &s.moments.m));
+            out.push((format!("{}/adam v", b.name), &s.moments.v));
+            out.push((format!("good/{}", b.name), &s.good.params));
+            out.push((format!("good/{}/adam m", b.name), &s.good.m));
+            out.push((format!("good/{}/adam v", b.name), &s.good.v));
+        }
+        out
+    }
+
     /// Writes `dir/checkpoint.bin` atomically: a serde header (host state, fingerprint, the
     /// named chunks with their checksums) and the raw GPU state (current and good copies).
     pub fn save_checkpoint(&self, dir: &Path) -> Result<(), OptimError> {
         let ctx = &self.inner.ctx;
-        let blocks = self.inner.params.blocks(&self.gs);
         let mut chunks = Vec::new();
-        for (b, s) in blocks.iter().zip(&self.inner.blocks) {
-            for (name, buf) in [
-                (b.name.to_string(), b.params),
-                (format!("{}/adam m", b.name), &s.moments.m),
-                (format!("{}/adam v", b.name), &s.moments.v),
-                (format!("good/{}", b.name), &s.good.params),
-                (format!("good/{}/adam m", b.name), &s.good.m),
-                (format!("good/{}/adam v", b.name), &s.good.v),
-            ] {
-                chunks.push(Chunk {
-                    name,
-                    data: ctx.download::<u8>(buf)?,
-                });
-            }
+        for (name, buf) in self.state_chunks() {
+            chunks.push(Chunk {
+                name,
+                data: ctx.download::<u8>(buf)?,
+            });
         }
         checkpoint::write(dir, &self.inner.fingerprint, &self.inner.st, &chunks)
     }
@@ -415,20 +420,12 @@ impl<'r> Driver<'r> {
         let (st, chunks) = checkpoint::read(dir, &self.inner.fingerprint)?;
         let ctx = self.inner.ctx.clone();
         let path = checkpoint::path(dir);
-        let blocks = self.inner.params.blocks(&self.gs);
         let mut rec = Recorder::new(&ctx)?;
         rec.begin()?;
         // Temporary uploads must live until the copies have run.
         let mut temps = Vec::new();
-        for (b, s) in blocks.iter().zip(&self.inner.blocks) {
-            for (name, buf) in [
-                (b.name.to_string(), b.params),
-                (format!("{}/adam m", b.name), &s.moments.m),
-                (format!("{}/adam v", b.name), &s.moments.v),
-                (format!("good/{}", b.name), &s.good.params),
-                (format!("good/{}/adam m", b.name), &s.good.m),
-                (format!("good/{}/adam v", b.name), &s.good.v),
-            ] {
+        {
+            for (name, buf) in self.state_chunks() {
                 let data = chunks
                     .iter()
                     .find(|c| c.name == name)

@@ -13,8 +13,8 @@ pub enum TargetError {
     Image(#[from] crate::io::IoError),
 }
 
-/// Reads one target per view (in view order), resized to the view's size.
-pub fn load_targets(paths: &[PathBuf], scene: &Scene) -> Result<Vec<Vec<f32>>, TargetError> {
+/// One picture per view, or an error naming the views.
+fn check_count(paths: &[PathBuf], scene: &Scene) -> Result<(), TargetError> {
     if paths.len() != scene.views.len() {
         return Err(TargetError::Count {
             given: paths.len(),
@@ -27,6 +27,12 @@ pub fn load_targets(paths: &[PathBuf], scene: &Scene) -> Result<Vec<Vec<f32>>, T
                 .join(", "),
         });
     }
+    Ok(())
+}
+
+/// Reads one target per view (in view order), resized to the view's size.
+pub fn load_targets(paths: &[PathBuf], scene: &Scene) -> Result<Vec<Vec<f32>>, TargetError> {
+    check_count(paths, scene)?;
     paths
         .iter()
         .zip(&scene.views)
@@ -42,18 +48,7 @@ pub fn load_fitted_targets(
     fit: super::framing::Fit,
     background: f32,
 ) -> Result<Vec<super::framing::Fitted>, TargetError> {
-    if paths.len() != scene.views.len() {
-        return Err(TargetError::Count {
-            given: paths.len(),
-            views: scene.views.len(),
-            names: scene
-                .views
-                .iter()
-                .map(|v| v.name.as_str())
-                .collect::<Vec<_>>()
-                .join(", "),
-        });
-    }
+    check_count(paths, scene)?;
     paths
         .iter()
         .zip(&scene.views)

@@ -266,6 +266,11 @@ impl GpuScene {
         if !self.bwd_plan.covers(max_chunks) {
             self.bwd_plan = PassPlan::covering(self.bwd_plan.chunks_per_pass, max_chunks);
         }
+        self.ensure_carry(ctx)
+    }
+
+    /// The buffer of per-pixel sums between forward passes, once there is more than one.
+    fn ensure_carry(&mut self, ctx: &std::sync::Arc<Context>) -> Result<(), GpuError> {
         if self.fwd_plan.passes > 1 && self.carry.size() < self.slots.n_pixels * 16 {
             self.carry = Buffer::new(
                 ctx,
@@ -315,15 +320,7 @@ impl GpuScene {
     ) -> Result<(), GpuError> {
         self.fwd_plan = PassPlan::covering(chunks.max(1), max_chunks);
         self.bwd_plan = self.fwd_plan;
-        if self.fwd_plan.passes > 1 && self.carry.size() < self.slots.n_pixels * 16 {
-            self.carry = Buffer::new(
-                ctx,
-                "shading carry (sums between passes)",
-                self.slots.n_pixels.max(1) * 16,
-                MemLoc::GpuOnly,
-            )?;
-        }
-        Ok(())
+        self.ensure_carry(ctx)
     }
 
     /// The passes the forward and the backward kernel run per render (1 unless a device limit
