@@ -232,6 +232,7 @@ pub fn problem(args: &DesignArgs, info: &DeviceInfo) -> anyhow::Result<Problem> 
     );
     let fitted = scratchart::optim::targets::load_fitted_targets(&args.targets, &scene, args.fit, args.background)?;
     let mut problem = Problem::new(scene, fitted.iter().map(|f| f.image.clone()).collect());
+    problem.picture_rects = fitted.iter().map(|f| f.rect).collect();
     problem.pictures = fitted.into_iter().map(|f| f.picture).collect();
     Ok(problem)
 }

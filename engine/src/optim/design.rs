@@ -29,6 +29,8 @@ pub struct Problem {
     /// Per view, the pixels that show the picture (where quality is measured); the on-plate
     /// pixels when the target has no picture region of its own.
     pub pictures: Vec<Vec<bool>>,
+    /// Per view, the picture's rectangle in the frame (pixels), when it has one.
+    pub picture_rects: Vec<Option<super::framing::Rect>>,
 }
 
 impl Problem {
@@ -37,10 +39,12 @@ impl Problem {
         let pictures = (0..scene.views.len())
             .map(|v| crate::model::camera::on_plate_mask(&scene, v))
             .collect();
+        let picture_rects = vec![None; scene.views.len()];
         Problem {
             scene,
             targets,
             pictures,
+            picture_rects,
         }
     }
 }

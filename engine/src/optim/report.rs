@@ -419,6 +419,9 @@ pub fn write_outputs(
             "crosstalk_final": q_final[v].crosstalk.iter().map(|c| c.1).fold(f64::NEG_INFINITY, f64::max).max(0.0),
             "crosstalk": q_final[v].crosstalk.iter().map(|&(k, x, raw)| json!({"other_view": scene.views[k].name, "crosstalk": x, "raw_correlation": raw})).collect::<Vec<_>>(),
             "picture_pixels": problem.pictures[v].iter().filter(|p| **p).count(),
+            "picture_rect_px": problem.picture_rects[v].map(|r| [r.x0, r.y0, r.w, r.h]),
+            "plate_fills_frame": crate::scenes::silhouette_box(view, scene.plate.size_mm)
+                .map(|b| ((b[2] - b[0]) / w as f64).max((b[3] - b[1]) / h as f64)),
             "light_intensity": view.light.intensity,
         }));
     }
@@ -520,6 +523,19 @@ pub fn summary_text(s: &serde_json::Value, out: &Path) -> String {
             f(&v["corr_final"]),
             f(&v["crosstalk_final"])
         );
+    }
+    for v in s["per_view"].as_array().into_iter().flatten() {
+        if let Some(r) = v["picture_rect_px"].as_array() {
+            let _ = writeln!(
+                text,
+                "  {}: picture {:.0} x {:.0} px ({} pixels), plate fills {:.0}% of the frame",
+                v["name"].as_str().unwrap_or("?"),
+                r[2].as_f64().unwrap_or(0.0),
+                r[3].as_f64().unwrap_or(0.0),
+                v["picture_pixels"],
+                100.0 * v["plate_fills_frame"].as_f64().unwrap_or(f64::NAN)
+            );
+        }
     }
     if let Some(p) = s["pruning"].as_object() {
         let _ = writeln!(
