@@ -6,11 +6,12 @@ use std::process::{Command, Output};
 use std::time::{Duration, Instant};
 
 fn bin(name: &str) -> PathBuf {
-    // target/<profile>/deps/cli-xxxx -> target/<profile>/<name>
-    let exe = std::env::current_exe().unwrap();
-    let p = exe.parent().unwrap().parent().unwrap().join(name);
-    assert!(p.exists(), "build the binaries first ({})", p.display());
-    p
+    let package = if name == "scratchart-view" {
+        "scratchart-view"
+    } else {
+        "scratchart"
+    };
+    scratchart_tests::workspace_bin(package, name)
 }
 
 fn tmp(tag: &str) -> PathBuf {

@@ -204,3 +204,43 @@ pub fn camera(eye: [f64; 3], res: u32, fov: f64) -> Camera {
 pub fn scratch(p0: [f64; 2], p1: [f64; 2], w: f64, d: f64, alpha: f64) -> Scratch {
     Scratch { p0, p1, w, d, alpha }
 }
+
+/// The workspace's root directory.
+pub fn workspace_root() -> std::path::PathBuf {
+    std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("..")
+}
+
+/// The binary `name` (a package's `[[bin]]`) of this test's profile, built on first use: `cargo
+/// test --workspace` builds binaries only for packages with integration tests of their own.
+pub fn workspace_bin(package: &str, name: &str) -> std::path::PathBuf {
+    use std::collections::HashMap;
+    use std::sync::Mutex;
+    static BUILT: Mutex<Option<HashMap<String, std::path::PathBuf>>> = Mutex::new(None);
+    let mut built = BUILT.lock().unwrap_or_else(|e| e.into_inner());
+    let map = built.get_or_insert_with(HashMap::new);
+    if let Some(p) = map.get(name) {
+        return p.clone();
+    }
+    // target/<profile>/deps/TEST-HASH -> target/<profile>/
+    let exe = std::env::current_exe().unwrap();
+    let profile_dir = exe.parent().unwrap().parent().unwrap().to_path_buf();
+    let release = profile_dir.file_name().is_some_and(|n| n == "release");
+    let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
+    let mut cmd = std::process::Command::new(cargo);
+    cmd.current_dir(workspace_root())
+        .args(["build", "-q", "-p", package, "--bin", name]);
+    if release {
+        cmd.arg("--release");
+    }
+    let st = cmd.status().expect("run cargo build");
+    assert!(st.success(), "cargo build -p {package} failed");
+    let bin = profile_dir.join(name);
+    assert!(bin.exists(), "{} missing after the build", bin.display());
+    map.insert(name.to_string(), bin.clone());
+    bin
+}
+
+/// The viewer binary of this test's profile, built on first use.
+pub fn viewer_bin() -> std::path::PathBuf {
+    workspace_bin("scratchart-view", "scratchart-view")
+}
