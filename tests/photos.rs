@@ -167,6 +167,53 @@ fn a_photo_design_improves_every_view() {
         assert!(x <= 0.2, "{}: cross-talk {x}", v["name"]);
     }
     assert!(out.join("contact_sheet.png").exists());
+    // The set-up sheet: its positions are the design's, to the micrometre, read back from the
+    // files a maker gets (summary.json, design.json).
+    assert!(out.join("setup.txt").exists() && out.join("setup.png").exists());
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    let design = Scene::load(&out.join("design.json")).unwrap();
+    let setup = &summary["setup"];
+    assert_eq!(setup["mark"], "+x");
+    let scratchart::model::scene::LightKind::Point { position } = design.views[0].light.kind else {
+        panic!("the test design has a point light")
+    };
+    for a in 0..3 {
+        assert!((setup["light"]["position_mm"][a].as_f64().unwrap() - position[a]).abs() < 1e-3);
+    }
+    for (k, v) in design.views.iter().enumerate() {
+        assert_eq!(setup["views"][k]["name"], v.name.as_str());
+        for a in 0..3 {
+            assert!((setup["views"][k]["eye_mm"][a].as_f64().unwrap() - v.camera.eye[a]).abs() < 1e-3);
+        }
+    }
+    // Correlation falls as the lamp moves further from its place (azimuth, every view).
+    let rows = summary["sensitivity"].as_array().unwrap();
+    for v in &design.views {
+        let at = |d: f64| {
+            rows.iter()
+                .filter(|r| r["view"] == v.name.as_str() && r["moved"] == "light" && r["axis"] == "azimuth")
+                .filter(|r| (r["delta"].as_f64().unwrap().abs() - d).abs() < 1e-9)
+                .map(|r| r["corr"].as_f64().unwrap())
+                .sum::<f64>()
+                / 2.0
+        };
+        let base = summary["per_view"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .find(|p| p["name"] == v.name.as_str())
+            .unwrap()["corr_final"]
+            .as_f64()
+            .unwrap();
+        eprintln!(
+            "{}: lamp azimuth 0: {base:.3}, +-2 deg: {:.3}, +-5 deg: {:.3}",
+            v.name,
+            at(2.0),
+            at(5.0)
+        );
+        assert!(at(5.0) < at(2.0) && at(2.0) <= base + 1e-9, "{}", v.name);
+    }
     let _ = std::fs::remove_dir_all(&out);
     assert_no_validation(&ctx);
 }

@@ -64,6 +64,17 @@ enum Cmd {
         #[arg(long, default_value = "grads.csv")]
         out: PathBuf,
     },
+    /// Write the set-up sheet of a design (setup.txt, setup.png): where the plate's mark, the lamp
+    /// and each viewer go, and how precisely the lamp must stand (each view rendered with the
+    /// lamp and the eye moved). Targets are the design's NAME_target.png beside it when present,
+    /// else its own renders. `scratchart design` writes the same sheet.
+    Setup {
+        /// Design file (design.json written by `scratchart design`, or any scene file)
+        design: PathBuf,
+        /// Output directory (default: the design's directory)
+        #[arg(long)]
+        out: Option<PathBuf>,
+    },
     /// List the Vulkan devices (the index and name are what --device takes; * marks the default).
     Devices,
     /// Benchmark the GPU pipeline on the standard scenes (S, M, P) or on a scene file.
@@ -138,6 +149,20 @@ fn run(cli: Cli) -> Result<()> {
             };
             let ctx = context(&cli)?;
             render_to_dir(&ctx, &scene, out)?;
+            check_validation(&ctx)
+        }
+        Cmd::Setup { design, out } => {
+            let scene = load_scene(design)?;
+            let ctx = context(&cli)?;
+            let dir = design
+                .parent()
+                .filter(|p| !p.as_os_str().is_empty())
+                .map(Path::to_path_buf)
+                .unwrap_or_else(|| PathBuf::from("."));
+            let out = out.clone().unwrap_or_else(|| dir.clone());
+            std::fs::create_dir_all(&out)
+                .with_context(|| format!("cannot create output directory {}", out.display()))?;
+            setup_command(&ctx, &scene, &dir, &out)?;
             check_validation(&ctx)
         }
         Cmd::Devices => {
@@ -300,6 +325,39 @@ fn grad_command(ctx: &std::sync::Arc<Context>, scene: &Scene, dir: &Path, out: &
     scratchart::io::write_atomic(&lp, lights.as_bytes())?;
     println!("E_lin = {:.9e}", r.e_lin);
     eprintln!("wrote {} and {}", out.display(), lp.display());
+    Ok(())
+}
+
+fn setup_command(ctx: &std::sync::Arc<Context>, scene: &Scene, dir: &Path, out: &Path) -> Result<()> {
+    let renderer = Renderer::new(ctx)?;
+    let mut gs = renderer.upload(scene)?;
+    let frame = renderer.render(&mut gs)?;
+    let mut targets = Vec::new();
+    for (v, img) in scene.views.iter().zip(&frame.images) {
+        let t = dir.join(format!("{}_target.png", v.name));
+        let (w, h) = (v.camera.width, v.camera.height);
+        let target = match scratchart::io::read_image_gray(&t) {
+            Ok((tw, th, data)) if (tw, th) == (w, h) => data,
+            Ok((tw, th, _)) => {
+                eprintln!(
+                    "warning: {} is {tw}x{th}, the view {w}x{h}: using the design's own render",
+                    t.display()
+                );
+                img.iter().map(|&l| scratchart::io::display_value(l)).collect()
+            }
+            Err(_) => img.iter().map(|&l| scratchart::io::display_value(l)).collect(),
+        };
+        targets.push(target);
+    }
+    let pictures: Vec<Vec<bool>> = (0..scene.views.len())
+        .map(|v| scratchart::model::camera::on_plate_mask(scene, v))
+        .collect();
+    let (setup, _, advice) = scratchart::optim::setup::write_setup(out, &renderer, scene, &targets, &pictures, 1.0)?;
+    for a in advice {
+        println!("{a}");
+    }
+    println!("{}", serde_json::to_string(&setup)?);
+    eprintln!("wrote {0}/setup.txt and {0}/setup.png", out.display());
     Ok(())
 }
 

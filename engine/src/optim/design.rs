@@ -365,7 +365,26 @@ pub fn run_design(
         summary: None,
     };
     if cfg.write_outputs {
-        report.summary = Some(super::report::write_outputs(&cfg.out, problem, cfg, &report)?);
+        let mut summary = super::report::write_outputs(&cfg.out, problem, cfg, &report)?;
+        // Where the lamp and the viewers go, and how precisely (setup.txt, setup.png).
+        let (setup, sensitivity, advice) = super::setup::write_setup(
+            &cfg.out,
+            &renderer,
+            &report.scene,
+            &problem.targets,
+            &problem.pictures,
+            cfg.loss.sigma,
+        )?;
+        summary["setup"] = setup;
+        summary["sensitivity"] = sensitivity;
+        summary["setup_advice"] = json!(advice);
+        crate::io::write_atomic(
+            &cfg.out.join("summary.json"),
+            serde_json::to_string_pretty(&summary)
+                .expect("the summary always serializes")
+                .as_bytes(),
+        )?;
+        report.summary = Some(summary);
     }
     Ok(report)
 }

@@ -16,6 +16,7 @@
 //! - [`framing`]: where a picture goes in a view (upright and as large as fits inside the
 //!   plate's silhouette by default).
 //! - [`report`]: compare images, SSIM, the loss-curve plot and the summary.
+//! - [`setup`]: where the lamp and the viewers go, and how precisely (setup sheet, sensitivity).
 //! - [`error`]: what can stop an optimization.
 //!
 //! Determinism: every GPU reduction runs in a fixed order and the host feeds back only values it
@@ -32,6 +33,7 @@ pub mod loss;
 pub mod prune;
 pub mod report;
 pub mod scene_params;
+pub mod setup;
 pub mod targets;
 
 pub use adam::AdamConfig;

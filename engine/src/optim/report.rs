@@ -208,12 +208,9 @@ pub fn compare_png(path: &Path, w: u32, h: u32, display: &[f32], target: &[f32])
     crate::io::write_png_gray(path, cw, h, &px)
 }
 
-/// The loss curve: log10 of the total (white) and of each view's loss (grays), against the
-/// iteration, on a dark background with a grid line at every power of ten (no text: no font is
-/// bundled; the summary states the axes).
 /// A sans-serif font from the system for plot text (Debian: fonts-dejavu-core), registered with
 /// plotters once; None when no font is found, and the plot is drawn without text.
-fn plot_font() -> Option<&'static str> {
+pub(crate) fn plot_font() -> Option<&'static str> {
     static FONT: std::sync::OnceLock<Option<&'static str>> = std::sync::OnceLock::new();
     *FONT.get_or_init(|| {
         let candidates = [
@@ -548,13 +545,16 @@ pub fn summary_text(s: &serde_json::Value, out: &Path) -> String {
             p["trials"]
         );
     }
+    for a in s["setup_advice"].as_array().into_iter().flatten() {
+        let _ = writeln!(text, "  {}", a.as_str().unwrap_or(""));
+    }
     let nrb = s["rollbacks"].as_array().map_or(0, |a| a.len());
     if nrb > 0 {
         let _ = writeln!(text, "  rollbacks: {nrb} (see summary.json)");
     }
     let _ = writeln!(
         text,
-        "  wrote {0}/design.json, {0}/scratches.csv, {0}/*_compare.png (render | target), {0}/*_target.png, {0}/loss_curve.png, {0}/contact_sheet.png (render | target | difference), {0}/summary.json",
+        "  wrote {0}/design.json, {0}/scratches.csv, {0}/*_compare.png (render | target), {0}/*_target.png, {0}/loss_curve.png, {0}/contact_sheet.png (render | target | difference), {0}/setup.txt and {0}/setup.png (where the lamp and viewers go), {0}/summary.json",
         out.display()
     );
     text
