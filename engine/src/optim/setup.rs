@@ -192,7 +192,7 @@ pub fn advice(scene: &Scene, base: &[f64], rows: &[Moved]) -> Vec<String> {
                 if x > 0.0 {
                     format!("within {x}{unit}")
                 } else {
-                    format!("closer than {smallest}")
+                    format!("within less than {smallest}")
                 }
             };
             format!(
