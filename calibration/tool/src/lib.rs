@@ -1,0 +1,240 @@
+//! Carving-tool models (`tool.json`): the groove a tool cuts at a commanded depth, and the
+//! scratch model's (w, d) that stands for it.
+//!
+//! A tool cut to commanded depth z reaches the real depth z + `z_offset_mm` below the plate
+//! surface (the offset is where commanded zero really is). Its groove has a depth profile D(u)
+//! across the cut (`section.rs`): a V-bit of included angle phi with tip flat F, a ball of radius
+//! r, a tapered ball (a ball tangent to cone flanks), or a measured free profile of widths W(z).
+//!
+//! MODEL.md's scratch groove is D_m(u) = d + (w/2) ln(1 - 4u^2/w^2) for |u| <= e, visible width
+//! W = 2e = w sqrt(1 - exp(-2d/w)). The map from a tool's cut to (w, d) (`fit.rs`): the model
+//! keeps the tool's visible width exactly (so the carved region is the real one), which leaves one
+//! free parameter, w, chosen to minimize the squared depth difference integrated across the cut.
+//! That makes the normals (set by w) match the tool's walls in the least-squares sense.
+//!
+//! This crate uses serde only: the engine (`design --tool`), the calibration fit and the machine
+//! driver all read `tool.json` through it.
+mod fit;
+mod section;
+
+pub use fit::{model_of_section, ModelGroove};
+pub use section::Section;
+
+use std::path::Path;
+
+use serde::{Deserialize, Serialize};
+
+/// A tool model as `tool.json` stores it (`kind` selects the variant).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "kebab-case", deny_unknown_fields)]
+pub enum Tool {
+    /// A V-bit: included angle and the width of its flat tip.
+    VBit {
+        angle_deg: f64,
+        tip_flat_mm: f64,
+        z_offset_mm: f64,
+    },
+    /// A ball-end cutter (vertical flanks above the ball's equator).
+    Ball { radius_mm: f64, z_offset_mm: f64 },
+    /// A ball tip tangent to a cone of the given included angle.
+    TaperedBall {
+        radius_mm: f64,
+        angle_deg: f64,
+        z_offset_mm: f64,
+    },
+    /// A measured profile: cut width W (mm) at commanded depths z (mm), increasing, and the ratio
+    /// of the model's w to W (>= 1; at 1 the groove is as deep as the model allows).
+    Profile {
+        points: Vec<[f64; 2]>,
+        #[serde(rename = "w_over_W")]
+        w_over_w: f64,
+        z_offset_mm: f64,
+    },
+}
+
+/// A `tool.json` that cannot be used; the message names the file and the field.
+#[derive(Debug, thiserror::Error)]
+pub enum ToolError {
+    #[error("cannot read tool file `{path}`: {cause}")]
+    Read { path: String, cause: std::io::Error },
+    #[error("tool file `{path}` is not a valid tool: {msg}")]
+    Invalid { path: String, msg: String },
+}
+
+impl Tool {
+    /// The z offset: the real depth of a cut commanded to z is z + offset.
+    pub fn z_offset_mm(&self) -> f64 {
+        match self {
+            Tool::VBit { z_offset_mm, .. }
+            | Tool::Ball { z_offset_mm, .. }
+            | Tool::TaperedBall { z_offset_mm, .. }
+            | Tool::Profile { z_offset_mm, .. } => *z_offset_mm,
+        }
+    }
+
+    /// Checks the parameters: a message naming the bad one.
+    pub fn validate(&self) -> Result<(), String> {
+        let finite = |name: &str, v: f64| {
+            if v.is_finite() {
+                Ok(())
+            } else {
+                Err(format!("{name} = {v} is not a number"))
+            }
+        };
+        finite("z_offset_mm", self.z_offset_mm())?;
+        match self {
+            Tool::VBit {
+                angle_deg, tip_flat_mm, ..
+            } => {
+                if !(*angle_deg > 0.0 && *angle_deg < 180.0) {
+                    return Err(format!("angle_deg = {angle_deg} must lie between 0 and 180"));
+                }
+                if !(*tip_flat_mm >= 0.0) {
+                    return Err(format!("tip_flat_mm = {tip_flat_mm} must be >= 0"));
+                }
+            }
+            Tool::Ball { radius_mm, .. } => {
+                if !(*radius_mm > 0.0) {
+                    return Err(format!("radius_mm = {radius_mm} must be > 0"));
+                }
+            }
+            Tool::TaperedBall {
+                radius_mm, angle_deg, ..
+            } => {
+                if !(*radius_mm > 0.0) {
+                    return Err(format!("radius_mm = {radius_mm} must be > 0"));
+                }
+                if !(*angle_deg > 0.0 && *angle_deg < 180.0) {
+                    return Err(format!("angle_deg = {angle_deg} must lie between 0 and 180"));
+                }
+            }
+            Tool::Profile { points, w_over_w, .. } => {
+                if points.is_empty() {
+                    return Err("points: give at least one [z, W] pair".into());
+                }
+                for (k, p) in points.iter().enumerate() {
+                    finite(&format!("points[{k}]"), p[0] + p[1])?;
+                    if p[1] < 0.0 {
+                        return Err(format!("points[{k}]: width {} must be >= 0", p[1]));
+                    }
+                    if k > 0 && !(p[0] > points[k - 1][0] && p[1] >= points[k - 1][1]) {
+                        return Err(format!(
+                            "points[{k}]: depths must increase and widths must not decrease (a monotone profile)"
+                        ));
+                    }
+                }
+                if !(*w_over_w >= 1.0 && w_over_w.is_finite()) {
+                    return Err(format!(
+                        "w_over_W = {w_over_w} must be >= 1 (the model's w is at least its width)"
+                    ));
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// Reads and checks a `tool.json`.
+    pub fn load(path: &Path) -> Result<Tool, ToolError> {
+        let p = path.display().to_string();
+        let text = std::fs::read_to_string(path).map_err(|cause| ToolError::Read { path: p.clone(), cause })?;
+        let text = text.strip_prefix('\u{feff}').unwrap_or(&text);
+        let tool: Tool = serde_json::from_str(text).map_err(|e| ToolError::Invalid {
+            path: p.clone(),
+            msg: e.to_string(),
+        })?;
+        tool.validate().map_err(|msg| ToolError::Invalid { path: p, msg })?;
+        Ok(tool)
+    }
+
+    /// The JSON text of `tool.json` (exact numbers: it reads back equal).
+    pub fn to_json(&self) -> String {
+        serde_json::to_string_pretty(self).expect("a tool always serializes")
+    }
+
+    /// The groove cut at commanded depth `z_mm`; `None` when the tool does not reach the plate.
+    pub fn section(&self, z_mm: f64) -> Option<Section> {
+        Section::of(self, z_mm)
+    }
+
+    /// The scratch model's (w, d) for a cut at commanded depth `z_mm` (see the crate doc);
+    /// `None` when the tool does not reach the plate.
+    pub fn model(&self, z_mm: f64) -> Option<ModelGroove> {
+        if let Tool::Profile { w_over_w, .. } = self {
+            // A measured profile has widths only: w from the stated ratio, d from the width.
+            let width = self.section(z_mm)?.width;
+            return Some(fit::model_of_width(width, *w_over_w));
+        }
+        Some(model_of_section(&self.section(z_mm)?))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn tool_files_round_trip_and_bad_ones_are_named() {
+        let tools = [
+            Tool::VBit {
+                angle_deg: 60.0,
+                tip_flat_mm: 0.02,
+                z_offset_mm: -0.003,
+            },
+            Tool::Ball {
+                radius_mm: 0.1,
+                z_offset_mm: 0.0,
+            },
+            Tool::TaperedBall {
+                radius_mm: 0.05,
+                angle_deg: 30.0,
+                z_offset_mm: 0.001,
+            },
+            Tool::Profile {
+                points: vec![[0.01, 0.05], [0.02, 0.08]],
+                w_over_w: 1.2,
+                z_offset_mm: 0.0,
+            },
+        ];
+        let dir = std::env::temp_dir().join(format!("scratchart-tool-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        for (k, t) in tools.iter().enumerate() {
+            let p = dir.join(format!("t{k}.json"));
+            std::fs::write(&p, t.to_json()).unwrap();
+            assert_eq!(&Tool::load(&p).unwrap(), t);
+        }
+        // The issue's own examples read.
+        let p = dir.join("v.json");
+        std::fs::write(
+            &p,
+            r#"{ "kind": "v-bit", "angle_deg": 60.0, "tip_flat_mm": 0.02, "z_offset_mm": 0.0 }"#,
+        )
+        .unwrap();
+        assert!(matches!(Tool::load(&p).unwrap(), Tool::VBit { .. }));
+        std::fs::write(
+            &p,
+            r#"{ "kind": "profile", "points": [[0.01, 0.05], [0.02, 0.08]], "w_over_W": 1.0, "z_offset_mm": 0.0 }"#,
+        )
+        .unwrap();
+        assert!(matches!(Tool::load(&p).unwrap(), Tool::Profile { .. }));
+        for (text, needle) in [
+            (
+                r#"{ "kind": "v-bit", "angle_deg": 200, "tip_flat_mm": 0, "z_offset_mm": 0 }"#,
+                "angle_deg",
+            ),
+            (r#"{ "kind": "drill", "z_offset_mm": 0 }"#, "drill"),
+            (
+                r#"{ "kind": "ball", "radius_mm": 0.1, "z_offset_mm": 0, "radus": 2 }"#,
+                "radus",
+            ),
+            (
+                r#"{ "kind": "profile", "points": [[0.02, 0.05], [0.01, 0.08]], "w_over_W": 1, "z_offset_mm": 0 }"#,
+                "points[1]",
+            ),
+        ] {
+            std::fs::write(&p, text).unwrap();
+            let e = Tool::load(&p).unwrap_err().to_string();
+            assert!(e.contains("v.json") && e.contains(needle), "{e}");
+        }
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+}
