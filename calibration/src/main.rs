@@ -1,0 +1,169 @@
+//! `scratchart-cal`: calibrate the carving tool before a carving session.
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use anyhow::{Context as _, Result};
+use clap::{Parser, Subcommand};
+
+use scratchart::vulkan::{Context, ContextDesc};
+use scratchart_calibration::card::{Card, CardSpec};
+use scratchart_calibration::simulate::{photos, Camera};
+use scratchart_tool::Tool;
+
+#[derive(Parser)]
+#[command(
+    name = "scratchart-cal",
+    version,
+    about = "Calibrate the carving tool: cut a test card, photograph it, fit the tool's profile.",
+    long_about = "Calibrate the carving tool before a carving session, in this order:\n\n\
+  1. scratchart-cal card --out DIR       writes DIR/card.json: the test card (a ladder of commanded depths\n\
+                                         straddling the plate surface, at several orientations, with corner\n\
+                                         fiducials) and where the camera and the lamp go to photograph it.\n\
+  2. cut the card on the machine, and photograph it from each capture view of card.json.\n\
+  3. scratchart-cal simulate --card DIR/card.json --tool tool.json --out IMGDIR\n\
+                                         renders the card as a known tool would cut it, as the camera would\n\
+                                         see it (for checking a set-up, and for tests).\n\n\
+The fit of a tool to the photos (tool.json) is not built yet.\n\n\
+Exit codes: 0 success, 1 runtime failure, 2 bad command line, 3 bad input file, 4 GPU/device failure."
+)]
+struct Cli {
+    /// Vulkan device to use: index or part of the name (default: best available)
+    #[arg(long, global = true)]
+    device: Option<String>,
+    #[command(subcommand)]
+    cmd: Cmd,
+}
+
+#[derive(Subcommand)]
+enum Cmd {
+    /// Write the calibration card (card.json) into DIR.
+    Card {
+        /// Output directory
+        #[arg(long, default_value = "card")]
+        out: PathBuf,
+        /// Card plate size, mm
+        #[arg(long, default_value_t = 70.0)]
+        plate: f64,
+        /// Resolution of the capture views (square), pixels
+        #[arg(long, default_value_t = 256)]
+        res: u32,
+    },
+    /// Render the card as TOOL cuts it, from every capture view, as PNG photos named after the views.
+    Simulate {
+        /// The card (card.json from `scratchart-cal card`)
+        #[arg(long)]
+        card: PathBuf,
+        /// The tool (tool.json)
+        #[arg(long)]
+        tool: PathBuf,
+        /// Output directory for the photos
+        #[arg(long, default_value = "photos")]
+        out: PathBuf,
+        /// Exposure factor on the linear image
+        #[arg(long, default_value_t = 1.0)]
+        exposure: f64,
+        /// Gaussian blur, pixels
+        #[arg(long, default_value_t = 0.0)]
+        blur: f64,
+        /// Gaussian noise on display values (0..1)
+        #[arg(long, default_value_t = 0.0)]
+        noise: f64,
+        /// Seed of the noise
+        #[arg(long, default_value_t = 1)]
+        seed: u64,
+    },
+}
+
+fn main() -> ExitCode {
+    let cli = match Cli::try_parse() {
+        Ok(c) => c,
+        Err(e) => {
+            let _ = e.print();
+            return if e.use_stderr() {
+                ExitCode::from(2)
+            } else {
+                ExitCode::SUCCESS
+            };
+        }
+    };
+    match run(cli) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e:#}");
+            ExitCode::from(scratchart::exit::code_of(&e))
+        }
+    }
+}
+
+fn run(cli: Cli) -> Result<()> {
+    match &cli.cmd {
+        Cmd::Card { out, plate, res } => {
+            if !(*plate > 0.0) {
+                return Err(scratchart::exit::UsageError("--plate must be > 0 mm".into()).into());
+            }
+            let card = Card::new(&CardSpec {
+                plate_mm: *plate,
+                res: *res,
+                ..CardSpec::default()
+            });
+            std::fs::create_dir_all(out)
+                .with_context(|| format!("cannot create output directory {}", out.display()))?;
+            let path = out.join("card.json");
+            let text = serde_json::to_string_pretty(&card.to_json(*res))?;
+            scratchart::io::write_atomic(&path, text.as_bytes())?;
+            println!(
+                "wrote {}: {} ladder cuts ({} depths from {} to {} mm, {} orientations x {} repeats) and 4 fiducial crosses",
+                path.display(),
+                card.cuts.len() - 8,
+                card.depths_mm.len(),
+                card.depths_mm[0],
+                card.depths_mm[card.depths_mm.len() - 1],
+                card.orientations_deg.len(),
+                card.repeats
+            );
+            for v in card.views(*res) {
+                println!(
+                    "  capture view {}: camera at ({:.0}, {:.0}, {:.0}) mm, lamp at {:?} mm, both from the card's centre",
+                    v.name, v.camera.eye[0], v.camera.eye[1], v.camera.eye[2], match v.light.kind {
+                        scratchart::model::scene::LightKind::Point { position } => position.map(|x| x.round()),
+                        scratchart::model::scene::LightKind::Directional { direction } => direction,
+                    }
+                );
+            }
+            Ok(())
+        }
+        Cmd::Simulate {
+            card,
+            tool,
+            out,
+            exposure,
+            blur,
+            noise,
+            seed,
+        } => {
+            let (card, capture) = Card::load(card)?;
+            let tool = Tool::load(tool).map_err(|e| scratchart::exit::InputError(e.to_string()))?;
+            let ctx = Context::new(ContextDesc {
+                device: cli.device.clone(),
+                ..Default::default()
+            })?;
+            let renderer = scratchart::render::Renderer::new(&ctx)?;
+            let cam = Camera {
+                exposure: *exposure,
+                blur_px: *blur,
+                noise: *noise,
+                seed: *seed,
+            };
+            let imgs = photos(&renderer, &card, &capture, &tool, &cam)?;
+            std::fs::create_dir_all(out)
+                .with_context(|| format!("cannot create output directory {}", out.display()))?;
+            for (v, img) in capture.views.iter().zip(&imgs) {
+                let bytes: Vec<u8> = img.iter().map(|&x| (255.0 * x).round() as u8).collect();
+                let p = out.join(format!("{}.png", v.name));
+                scratchart::io::write_png_gray(&p, v.camera.width, v.camera.height, &bytes)?;
+                println!("wrote {}", p.display());
+            }
+            Ok(())
+        }
+    }
+}

@@ -1,0 +1,127 @@
+//! The card as a tool would cut it, photographed from each capture view: every cut becomes the
+//! scratch model's groove for that tool at its commanded depth (`scratchart_tool::Tool::model`),
+//! the engine renders each capture view, and the display image is degraded as a camera would:
+//! an exposure factor, a small Gaussian blur and Gaussian noise (seeded, so reproducible).
+use scratchart::model::scene::{Scene, Scratch};
+use scratchart::render::Renderer;
+use scratchart::scenes::Rng;
+use scratchart_tool::Tool;
+
+use super::card::Card;
+
+/// How the photos are degraded.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Camera {
+    /// Linear exposure factor applied to L before the display transform.
+    pub exposure: f64,
+    /// Sigma of the Gaussian blur, pixels (0: none).
+    pub blur_px: f64,
+    /// Standard deviation of the noise on display values in [0, 1] (0: none).
+    pub noise: f64,
+    pub seed: u64,
+}
+
+impl Default for Camera {
+    fn default() -> Camera {
+        Camera {
+            exposure: 1.0,
+            blur_px: 0.0,
+            noise: 0.0,
+            seed: 1,
+        }
+    }
+}
+
+/// The card's scene as `tool` cuts it: cuts that do not reach the plate are left out.
+pub fn cut_scene(card: &Card, capture: &Scene, tool: &Tool) -> Scene {
+    let scratches = card
+        .cuts
+        .iter()
+        .filter_map(|c| {
+            let m = tool.model(c.z_mm)?;
+            Some(Scratch {
+                p0: c.p0,
+                p1: c.p1,
+                w: m.w,
+                d: m.d,
+                alpha: card.alpha,
+            })
+        })
+        .collect();
+    Scene {
+        plate: capture.plate.clone(),
+        views: capture.views.clone(),
+        scratches,
+    }
+}
+
+/// Separable Gaussian blur of a `w` x `h` image (clamped edges).
+fn blur(img: &[f32], w: usize, h: usize, sigma: f64) -> Vec<f32> {
+    if sigma <= 0.0 {
+        return img.to_vec();
+    }
+    let r = (3.0 * sigma).ceil() as i64;
+    let k: Vec<f64> = (-r..=r)
+        .map(|x| (-(x * x) as f64 / (2.0 * sigma * sigma)).exp())
+        .collect();
+    let s: f64 = k.iter().sum();
+    let pass = |src: &[f32], horizontal: bool| -> Vec<f32> {
+        let mut out = vec![0f32; src.len()];
+        for y in 0..h as i64 {
+            for x in 0..w as i64 {
+                let mut acc = 0.0;
+                for (i, kv) in k.iter().enumerate() {
+                    let o = i as i64 - r;
+                    let (xx, yy) = if horizontal {
+                        ((x + o).clamp(0, w as i64 - 1), y)
+                    } else {
+                        (x, (y + o).clamp(0, h as i64 - 1))
+                    };
+                    acc += kv * src[(yy * w as i64 + xx) as usize] as f64;
+                }
+                out[(y * w as i64 + x) as usize] = (acc / s) as f32;
+            }
+        }
+        out
+    };
+    pass(&pass(img, true), false)
+}
+
+/// Renders the card cut by `tool` from every capture view: display images in [0, 1], one per
+/// view, as `camera` would take them.
+pub fn photos(
+    renderer: &Renderer,
+    card: &Card,
+    capture: &Scene,
+    tool: &Tool,
+    camera: &Camera,
+) -> anyhow::Result<Vec<Vec<f32>>> {
+    let scene = cut_scene(card, capture, tool);
+    let mut gs = renderer.upload(&scene)?;
+    let frame = renderer.render(&mut gs)?;
+    let mut rng = Rng::new(camera.seed);
+    Ok(frame
+        .images
+        .iter()
+        .zip(&scene.views)
+        .map(|(img, v)| {
+            let disp: Vec<f32> = img
+                .iter()
+                .map(|&l| scratchart::io::display_value((l as f64 * camera.exposure) as f32))
+                .collect();
+            let b = blur(&disp, v.camera.width as usize, v.camera.height as usize, camera.blur_px);
+            b.into_iter()
+                .map(|x| {
+                    // Box-Muller from the project's generator (reproducible).
+                    let n = if camera.noise > 0.0 {
+                        let (u1, u2) = (rng.range(1e-12, 1.0), rng.range(0.0, 1.0));
+                        (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos()
+                    } else {
+                        0.0
+                    };
+                    (x as f64 + camera.noise * n).clamp(0.0, 1.0) as f32
+                })
+                .collect()
+        })
+        .collect())
+}
