@@ -13,7 +13,7 @@ fn the_card_straddles_the_surface_and_reads_back() {
     assert!(d.windows(2).all(|w| w[1] > w[0]), "depths increase");
     let near: Vec<f64> = d
         .windows(2)
-        .filter(|w| w[0].abs() <= 0.02)
+        .filter(|w| w[0].abs() <= 0.02 && w[1].abs() <= 0.02)
         .map(|w| w[1] - w[0])
         .collect();
     assert!(
