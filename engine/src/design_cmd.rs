@@ -37,6 +37,10 @@ pub struct DesignArgs {
     /// itself and seen in perspective). NAME_target.png shows the result, as the loss uses it
     #[arg(long, default_value = "contain", value_parser = parse_fit)]
     pub fit: scratchart::optim::framing::Fit,
+    /// Tone curve of the pictures: each display value v becomes v^GAMMA before fitting (below 1
+    /// lifts dark mid-tones, which a scratched plate renders poorly; 1 keeps the picture)
+    #[arg(long, default_value_t = 1.0)]
+    pub gamma: f32,
     /// Display level (0 black .. 1 white) of the plate around a fitted picture
     #[arg(long, default_value_t = 0.0)]
     pub background: f32,
@@ -230,7 +234,21 @@ pub fn problem(args: &DesignArgs, info: &DeviceInfo) -> anyhow::Result<Problem> 
         "--background must lie between 0 (black) and 1 (white) (it is {})",
         args.background
     );
-    let fitted = scratchart::optim::targets::load_fitted_targets(&args.targets, &scene, args.fit, args.background)?;
+    ensure_flag!(
+        args.gamma > 0.0 && args.gamma.is_finite(),
+        "--gamma must be > 0 (it is {})",
+        args.gamma
+    );
+    let mut fitted = scratchart::optim::targets::load_fitted_targets(&args.targets, &scene, args.fit, args.background)?;
+    if args.gamma != 1.0 {
+        for f in &mut fitted {
+            for (v, p) in f.image.iter_mut().zip(&f.picture) {
+                if *p {
+                    *v = v.powf(args.gamma);
+                }
+            }
+        }
+    }
     let mut problem = Problem::new(scene, fitted.iter().map(|f| f.image.clone()).collect());
     problem.picture_rects = fitted.iter().map(|f| f.rect).collect();
     problem.pictures = fitted.into_iter().map(|f| f.picture).collect();
