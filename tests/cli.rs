@@ -68,6 +68,18 @@ fn scratchart_exit_codes() {
         "--elevation 95",
     );
     expect(
+        &run("scratchart", &["design", "--gamma", "0", "--out", out]),
+        2,
+        "--gamma",
+        "--gamma 0",
+    );
+    expect(
+        &run("scratchart", &["design", "--fit", "stretch", "--out", out]),
+        2,
+        "contain, frame, cover or printed",
+        "--fit stretch",
+    );
+    expect(
         &run("scratchart", &["design", "--init-alpha", "1.5", "--out", out]),
         2,
         "--init-alpha",

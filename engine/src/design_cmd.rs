@@ -225,20 +225,21 @@ pub fn problem(args: &DesignArgs, info: &DeviceInfo) -> anyhow::Result<Problem> 
         scratches,
     };
     scene.validate()?;
-    if args.targets.is_empty() {
-        let targets = scratchart::optim::targets::builtin_targets(&scene);
-        return Ok(Problem::new(scene, targets));
-    }
     ensure_flag!(
         (0.0..=1.0).contains(&args.background),
         "--background must lie between 0 (black) and 1 (white) (it is {})",
         args.background
     );
+
     ensure_flag!(
         args.gamma > 0.0 && args.gamma.is_finite(),
         "--gamma must be > 0 (it is {})",
         args.gamma
     );
+    if args.targets.is_empty() {
+        let targets = scratchart::optim::targets::builtin_targets(&scene);
+        return Ok(Problem::new(scene, targets));
+    }
     let mut fitted = scratchart::optim::targets::load_fitted_targets(&args.targets, &scene, args.fit, args.background)?;
     if args.gamma != 1.0 {
         for f in &mut fitted {
