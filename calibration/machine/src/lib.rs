@@ -1,11 +1,19 @@
-//! `scratchart-machine`: the machine driver of the chain design -> calibration -> carving. It
-//! will hold the G-code writer (a design's scratches as tool paths, for GRBL and Marlin
-//! controllers) and the serial streaming of a plan to the controller, with resumable jobs; both
-//! are built by later issues. Today it holds what they start from: reading a design.
+//! `scratchart-machine`: the machine driver of the chain design -> calibration -> carving.
+//!
+//! - [`plan`]: machine profiles (GRBL router, Marlin printer), the cut order (nearest neighbour
+//!   with reversal, then 2-opt), travel, bounds and the job time with acceleration.
+//! - [`gcode`]: the one G-code writer (GRBL and Marlin flavours).
+//! - [`depths`]: one commanded depth per scratch from the tool profile.
+//!
+//! The serial streaming of a plan to the controller, with resumable jobs, is built later.
 //!
 //! It depends on the scene model (`scratchart-model`) only, never on the engine, so it builds and
 //! tests without Vulkan, shaderc or a GPU: `cargo build -p scratchart-machine` pulls no Vulkan
 //! crate (check with `cargo tree -p scratchart-machine`).
+
+pub mod depths;
+pub mod gcode;
+pub mod plan;
 
 use std::path::Path;
 
