@@ -28,13 +28,25 @@ pub fn write(cuts: &[Cut], m: &MachineProfile, plate_mm: f64, summary: &[String]
     let _ = writeln!(g, "; work zero: X0 Y0 at the plate centre, Z0 on the plate surface");
     let _ = writeln!(
         g,
-        "; plate {} mm square, +x edge marked; {} cuts",
+        "; plate {} mm square, its +x edge along machine +X; {} cuts",
         num(plate_mm, 1),
         cuts.len()
     );
     for s in summary {
-        for chunk in s.as_bytes().chunks(74) {
-            let _ = writeln!(g, "; {}", String::from_utf8_lossy(chunk));
+        // Folded at spaces so every line stays under 80 characters.
+        let mut line = String::new();
+        for word in s.split(' ') {
+            if !line.is_empty() && line.len() + 1 + word.len() > 74 {
+                let _ = writeln!(g, "; {line}");
+                line.clear();
+            }
+            if !line.is_empty() {
+                line.push(' ');
+            }
+            line.push_str(&word[..word.len().min(74)]);
+        }
+        if !line.is_empty() {
+            let _ = writeln!(g, "; {line}");
         }
     }
     let safe = num(m.safe_z_mm, 3);
