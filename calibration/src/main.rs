@@ -95,23 +95,9 @@ enum Cmd {
 }
 
 fn main() -> ExitCode {
-    let cli = match Cli::try_parse() {
-        Ok(c) => c,
-        Err(e) => {
-            let _ = e.print();
-            return if e.use_stderr() {
-                ExitCode::from(2)
-            } else {
-                ExitCode::SUCCESS
-            };
-        }
-    };
-    match run(cli) {
-        Ok(()) => ExitCode::SUCCESS,
-        Err(e) => {
-            eprintln!("error: {e:#}");
-            ExitCode::from(scratchart::exit::code_of(&e))
-        }
+    match scratchart::exit::parse_args::<Cli>() {
+        Ok(cli) => scratchart::exit::finish(run(cli)),
+        Err(code) => code,
     }
 }
 

@@ -86,3 +86,27 @@ fn known(e: &(dyn Error + 'static)) -> Option<u8> {
 pub fn code_of(err: &anyhow::Error) -> u8 {
     code(err.as_ref())
 }
+
+/// Parses the command line of a binary: a clap error (or `--help`, `--version`) is printed and
+/// becomes the exit code (2, or success for help) in `Err`.
+pub fn parse_args<P: clap::Parser>() -> Result<P, std::process::ExitCode> {
+    P::try_parse().map_err(|e| {
+        let _ = e.print();
+        if e.use_stderr() {
+            std::process::ExitCode::from(USAGE)
+        } else {
+            std::process::ExitCode::SUCCESS
+        }
+    })
+}
+
+/// The end of a binary's `main`: success, or the error printed (with its causes) and its code.
+pub fn finish(result: anyhow::Result<()>) -> std::process::ExitCode {
+    match result {
+        Ok(()) => std::process::ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e:#}");
+            std::process::ExitCode::from(code_of(&e))
+        }
+    }
+}

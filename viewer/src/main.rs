@@ -162,16 +162,9 @@ fn shader_dir(opts: &Opts) -> Option<PathBuf> {
 }
 
 fn main() -> ExitCode {
-    let opts = match Opts::try_parse() {
+    let opts = match scratchart::exit::parse_args::<Opts>() {
         Ok(o) => o,
-        Err(e) => {
-            let _ = e.print();
-            return if e.use_stderr() {
-                ExitCode::from(2)
-            } else {
-                ExitCode::SUCCESS
-            };
-        }
+        Err(code) => return code,
     };
     let log = std::cell::RefCell::new(None);
     let r = run(&opts, &log);

@@ -208,6 +208,17 @@ pub fn compare_png(path: &Path, w: u32, h: u32, display: &[f32], target: &[f32])
     crate::io::write_png_gray(path, cw, h, &px)
 }
 
+/// Writes an RGB plot buffer as a PNG, atomically.
+pub(crate) fn write_rgb_png(path: &Path, w: u32, h: u32, buf: Vec<u8>) -> Result<(), OptimError> {
+    let img = image::RgbImage::from_raw(w, h, buf).expect("plot buffer size");
+    let mut png = Vec::new();
+    image::DynamicImage::ImageRgb8(img)
+        .write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png)
+        .map_err(|e| OptimError::Report(format!("cannot encode {}: {e}", path.display())))?;
+    crate::io::write_atomic(path, &png)?;
+    Ok(())
+}
+
 /// A sans-serif font from the system for plot text (Debian: fonts-dejavu-core), registered with
 /// plotters once; None when no font is found, and the plot is drawn without text.
 pub(crate) fn plot_font() -> Option<&'static str> {
@@ -347,13 +358,7 @@ pub fn loss_curve_png(path: &Path, report: &DesignReport) -> Result<(), OptimErr
         }
         root.present().map_err(pe)?;
     }
-    let img = image::RgbImage::from_raw(wpx, hpx, buf).expect("plot buffer size");
-    let mut png = Vec::new();
-    image::DynamicImage::ImageRgb8(img)
-        .write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png)
-        .map_err(|e| OptimError::Report(format!("cannot encode {}: {e}", path.display())))?;
-    crate::io::write_atomic(path, &png)?;
-    Ok(())
+    write_rgb_png(path, wpx, hpx, buf)
 }
 
 /// Writes design.json + scratches.csv, NAME_compare.png and NAME_target.png per view, loss_curve.png and

@@ -447,13 +447,7 @@ pub fn setup_png(path: &Path, scene: &Scene, base: &[f64], rows: &[Moved]) -> Re
         }
         root.present().map_err(pe)?;
     }
-    let img = image::RgbImage::from_raw(wpx, hpx, buf).expect("plot buffer size");
-    let mut png = Vec::new();
-    image::DynamicImage::ImageRgb8(img)
-        .write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png)
-        .map_err(|e| OptimError::Report(format!("cannot encode {}: {e}", path.display())))?;
-    crate::io::write_atomic(path, &png)?;
-    Ok(())
+    super::report::write_rgb_png(path, wpx, hpx, buf)
 }
 
 /// Writes `setup.txt` and `setup.png` into `out` and returns the `setup` and `sensitivity`
