@@ -9,7 +9,7 @@
 //!
 //! Reduced resolution: the engine renders at an internal size (see [`internal_size`]) and the
 //! present pass upsamples, or, in a window without a target, a blit does (`upscale.rs`). One [`GpuScene`] is kept per internal size, so moving the camera only
-//! rewrites the views buffer (`Renderer::update_views`) and changing the level re-uploads nothing.
+//! rewrites the views buffer (`GpuScene::update_views`) and changing the level re-uploads nothing.
 use std::sync::Arc;
 use std::time::Instant;
 
