@@ -32,8 +32,7 @@ impl Section {
                 angle_deg,
                 ..
             } => {
-                let half = 0.5 * angle_deg.to_radians();
-                let (u_t, h_t) = (r * half.cos(), r * (1.0 - half.sin()));
+                let (half, u_t, h_t) = tangent(*r, *angle_deg);
                 if depth <= h_t {
                     2.0 * (2.0 * r * depth - depth * depth).sqrt()
                 } else {
@@ -68,8 +67,7 @@ impl Section {
                 angle_deg,
                 ..
             } => {
-                let half = 0.5 * angle_deg.to_radians();
-                let (u_t, h_t) = (r * half.cos(), r * (1.0 - half.sin()));
+                let (half, u_t, h_t) = tangent(*r, *angle_deg);
                 if u <= u_t {
                     self.depth - (r - (r * r - u * u).sqrt())
                 } else {
@@ -85,6 +83,13 @@ impl Section {
             d.max(0.0)
         }
     }
+}
+
+/// Where a tapered ball's sphere meets its cone: (half angle in radians, lateral offset u_t,
+/// height above the tip h_t).
+fn tangent(r: f64, angle_deg: f64) -> (f64, f64, f64) {
+    let half = 0.5 * angle_deg.to_radians();
+    (half, r * half.cos(), r * (1.0 - half.sin()))
 }
 
 /// Width at commanded depth `z` by linear interpolation of `points` ([z, W]), extrapolated

@@ -273,11 +273,11 @@ impl Renderer {
             rec.begin()?;
             record(rec, gs);
             let timings = rec.submit_and_wait()?;
-            let stats = gs.stats()?;
-            if gs.complete(&stats)? {
-                return Ok((stats, timings));
+            let raw = gs.raw_stats()?;
+            if gs.complete(&raw) {
+                return Ok((GpuScene::counters(&raw), timings));
             }
-            gs.adapt(&self.ctx, &stats)?;
+            gs.adapt(&self.ctx, &raw)?;
         }
     }
 

@@ -198,27 +198,35 @@ impl GpuScene {
 
     /// The counters of the last render (`stats` is host-visible: a small read, no copy).
     pub fn stats(&self) -> Result<RenderStats, GpuError> {
-        let st: Vec<u32> = self.stats.read()?;
-        Ok(RenderStats {
+        Ok(Self::counters(&self.stats.read()?))
+    }
+
+    /// The counters in the raw words of `stats` (layout: `shaders/inc/limits.glsl`).
+    pub(super) fn counters(st: &[u32]) -> RenderStats {
+        RenderStats {
             candidates: (st[8] as u64) << 32 | st[0] as u64,
             pairs: (st[10] as u64) << 32 | st[1] as u64,
             entries: st[2] as u64,
             max_tile_chunks: st[4] as u64,
-        })
+        }
+    }
+
+    /// The raw words of the render counters and flags (one read of a small host-visible buffer).
+    pub(super) fn raw_stats(&self) -> Result<Vec<u32>, GpuError> {
+        self.stats.read()
     }
 
     /// Whether the last render (and the backward pass recorded with it) did all its work: the
     /// tile lists held every entry, and no kernel hit a capacity (`shaders/inc/limits.glsl`).
-    pub(super) fn complete(&self, stats: &RenderStats) -> Result<bool, GpuError> {
-        let raw: Vec<u32> = self.stats.read()?;
-        Ok(stats.entries <= self.capacity as u64 && raw[5] == 0 && raw[STAT_ENTRIES_WRAPPED as usize] == 0)
+    pub(super) fn complete(&self, raw: &[u32]) -> bool {
+        raw[2] as u64 <= self.capacity as u64 && raw[5] == 0 && raw[STAT_ENTRIES_WRAPPED as usize] == 0
     }
 
     /// After an incomplete render: grows the tile lists, splits binning into smaller groups or
     /// the shading into more passes, as the counters say. Errors when a limit cannot be met by
     /// splitting (one scratch, or one chunk, already over it).
-    pub(super) fn adapt(&mut self, ctx: &std::sync::Arc<Context>, stats: &RenderStats) -> Result<(), GpuError> {
-        let raw: Vec<u32> = self.stats.read()?;
+    pub(super) fn adapt(&mut self, ctx: &std::sync::Arc<Context>, raw: &[u32]) -> Result<(), GpuError> {
+        let stats = Self::counters(raw);
         let limit_err = |what: &str| {
             GpuError::Capacity(format!(
                 "{what} needs more loop iterations in one shader invocation than this device allows \
