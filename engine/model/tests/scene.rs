@@ -496,3 +496,58 @@ fn byte_order_marks_are_accepted() {
     assert_eq!(scene.scratches.len(), 1);
     let _ = std::fs::remove_dir_all(&d);
 }
+
+#[test]
+fn extra_named_columns_are_read_kept_and_checked() {
+    // `z_mm` after the seven: Scene::load skips it, load_extra returns it, save_extra keeps it.
+    let csv = "x0,y0,x1,y1,w,d,alpha,z_mm,band\n0,0,1,1,0.1,0.1,0.5,0.031,2\n-3,1,4,2,0.2,0.05,0.3,0.012,1\n";
+    let mut v = base();
+    set(&mut v, "/scratches", json!("extra.csv"));
+    let (r, p) = load_value("extra", &v, Some(csv));
+    let plain = r.unwrap();
+    assert_eq!(plain.scratches.len(), 2);
+    let (scene, extra) = Scene::load_extra(&p).unwrap();
+    assert_eq!(scene, plain);
+    assert_eq!(extra.names, vec!["z_mm", "band"]);
+    assert_eq!(extra.column("z_mm").unwrap(), vec![0.031, 0.012]);
+    assert_eq!(extra.column("band").unwrap(), vec![2.0, 1.0]);
+    assert!(extra.column("nope").is_none());
+    let d = p.parent().unwrap();
+    scene.save_extra(&d.join("again.json"), "again.csv", &extra).unwrap();
+    let (back, extra_back) = Scene::load_extra(&d.join("again.json")).unwrap();
+    assert_eq!(back, scene);
+    assert_eq!(extra_back, extra);
+    // Selecting rows keeps each scratch's values; set_column adds or replaces.
+    let mut sel = extra.select(&[1]);
+    assert_eq!(sel.rows, vec![vec![0.012, 1.0]]);
+    sel.set_column("band", &[7.0]);
+    sel.set_column("w_cut", &[0.3]);
+    assert_eq!(sel.names, vec!["z_mm", "band", "w_cut"]);
+    assert_eq!(sel.rows, vec![vec![0.012, 7.0, 0.3]]);
+    // A file without extras gives none, and a plain save writes the seven only.
+    scene.save(&d.join("plain.json"), "plain.csv").unwrap();
+    let (_, none) = Scene::load_extra(&d.join("plain.json")).unwrap();
+    assert!(none.names.is_empty() && none.rows.is_empty());
+
+    let h = "x0,y0,x1,y1,w,d,alpha,z_mm\n";
+    expect_csv_err(
+        "extrashort",
+        &format!("{h}0,0,1,1,0.1,0.1,0.5\n"),
+        &["data row 1", "7 columns", "expected 8", "z_mm"],
+    );
+    expect_csv_err(
+        "extranan",
+        &format!("{h}0,0,1,1,0.1,0.1,0.5,nan\n"),
+        &["data row 1", "column z_mm", "not a finite"],
+    );
+    expect_csv_err(
+        "noheader",
+        "0,0,1,1,0.1,0.1,0.5,0.02\n",
+        &["8 columns", "need a header"],
+    );
+    expect_csv_err(
+        "dupname",
+        "x0,y0,x1,y1,w,d,alpha,z_mm,z_mm\n0,0,1,1,0.1,0.1,0.5,0.02,0.03\n",
+        &["header", "z_mm"],
+    );
+}

@@ -1,5 +1,11 @@
 //! The scratch CSV file (MODEL.md section 6): header `x0,y0,x1,y1,w,d,alpha`, one scratch per
 //! row, numbers in millimetres.
+//!
+//! Extra named columns may follow the seven (for example `z_mm`, the commanded carve depth that
+//! `scratchart design --tool` writes). They need the header to name them, hold finite numbers,
+//! and are kept: [`read_scratches_csv_table`] returns them as an [`Extra`], and
+//! [`Scene::save_extra`](super::Scene::save_extra) writes them back. Readers that only need the
+//! seven ([`read_scratches_csv`], [`Scene::load`](super::Scene::load)) accept and skip them.
 
 use std::path::Path;
 
@@ -14,8 +20,61 @@ pub fn read_scratches_csv(path: &Path) -> Result<Vec<Scratch>, SceneError> {
     Ok(list.into_iter().map(|(s, _)| s).collect())
 }
 
+/// Extra named columns of a scratch CSV, after the seven of MODEL.md: `rows[k]` belongs to
+/// scratch k and has one value per name.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Extra {
+    pub names: Vec<String>,
+    pub rows: Vec<Vec<f64>>,
+}
+
+impl Extra {
+    /// The values of column `name`, one per scratch, if the file has it.
+    pub fn column(&self, name: &str) -> Option<Vec<f64>> {
+        let c = self.names.iter().position(|n| n == name)?;
+        Some(self.rows.iter().map(|r| r[c]).collect())
+    }
+
+    /// Adds or replaces column `name` (one value per scratch).
+    pub fn set_column(&mut self, name: &str, values: &[f64]) {
+        let c = match self.names.iter().position(|n| n == name) {
+            Some(c) => c,
+            None => {
+                self.names.push(name.to_string());
+                for r in &mut self.rows {
+                    r.push(0.0);
+                }
+                self.names.len() - 1
+            }
+        };
+        if self.rows.len() < values.len() {
+            self.rows.resize(values.len(), vec![0.0; self.names.len()]);
+        }
+        for (r, &v) in self.rows.iter_mut().zip(values) {
+            r[c] = v;
+        }
+    }
+
+    /// Keeps the rows of the scratches in `keep` (indices into the old list, in the new order).
+    pub fn select(&self, keep: &[usize]) -> Extra {
+        Extra {
+            names: self.names.clone(),
+            rows: if self.names.is_empty() {
+                Vec::new()
+            } else {
+                keep.iter().map(|&k| self.rows[k].clone()).collect()
+            },
+        }
+    }
+}
+
 /// As [`read_scratches_csv`], with each scratch's 1-based line number.
 pub fn read_scratches_csv_lines(path: &Path) -> Result<Vec<(Scratch, usize)>, SceneError> {
+    Ok(read_scratches_csv_table(path)?.0)
+}
+
+/// As [`read_scratches_csv_lines`], also returning the extra named columns after the seven.
+pub fn read_scratches_csv_table(path: &Path) -> Result<(Vec<(Scratch, usize)>, Extra), SceneError> {
     let text = std::fs::read_to_string(path).map_err(|source| SceneError::Read {
         what: "scratch CSV file",
         path: path.to_path_buf(),
@@ -25,6 +84,7 @@ pub fn read_scratches_csv_lines(path: &Path) -> Result<Vec<(Scratch, usize)>, Sc
     // Spreadsheets often write a UTF-8 byte-order mark first: it is not part of the header.
     let text = text.strip_prefix('\u{feff}').unwrap_or(&text);
     let mut out = Vec::new();
+    let mut extra = Extra::default();
     let mut header_seen = false;
     let mut row = 0usize;
     for (ln, raw) in text.lines().enumerate() {
@@ -38,12 +98,26 @@ pub fn read_scratches_csv_lines(path: &Path) -> Result<Vec<(Scratch, usize)>, Sc
         if !header_seen && out.is_empty() && !numeric {
             header_seen = true;
             let norm: Vec<String> = cells.iter().map(|c| c.to_ascii_lowercase()).collect();
-            if norm != COLS {
+            if norm.len() < COLS.len() || norm[..COLS.len()] != COLS {
                 return Err(invalid(
                     &file,
                     format!("header (line {line_no})"),
-                    format!("found `{line}`, expected `{CSV_HEADER}`"),
+                    format!("found `{line}`, expected `{CSV_HEADER}` (extra named columns may follow the seven)"),
                 ));
+            }
+            for name in &cells[COLS.len()..] {
+                let ok = !name.is_empty()
+                    && name.chars().all(|c| c.is_ascii_alphanumeric() || c == '_')
+                    && !COLS.contains(&name.to_ascii_lowercase().as_str())
+                    && !extra.names.iter().any(|n| n == name);
+                if !ok {
+                    return Err(invalid(
+                        &file,
+                        format!("header (line {line_no})"),
+                        format!("extra column name `{name}` must be a new, non-empty name of letters, digits and `_`"),
+                    ));
+                }
+                extra.names.push(name.to_string());
             }
             continue;
         }
@@ -54,36 +128,59 @@ pub fn read_scratches_csv_lines(path: &Path) -> Result<Vec<(Scratch, usize)>, Sc
             line: line_no,
             msg,
         };
-        if cells.len() != 7 {
-            return Err(err(format!("found {} columns, expected 7 ({CSV_HEADER})", cells.len())));
+        let ncols = 7 + extra.names.len();
+        if cells.len() != ncols {
+            let hint = if cells.len() > 7 && !header_seen {
+                " (extra columns after the seven need a header line that names them)".to_string()
+            } else if extra.names.is_empty() {
+                format!(" ({CSV_HEADER})")
+            } else {
+                format!(" ({CSV_HEADER},{})", extra.names.join(","))
+            };
+            return Err(err(format!("found {} columns, expected {ncols}{hint}", cells.len())));
         }
         let mut r = [0.0; 7];
+        let mut ex = Vec::with_capacity(extra.names.len());
         for (c, cell) in cells.iter().enumerate() {
+            let name = if c < 7 { COLS[c] } else { extra.names[c - 7].as_str() };
             let x: f64 = cell
                 .parse()
-                .map_err(|_| err(format!("column {} `{cell}` is not a number", COLS[c])))?;
+                .map_err(|_| err(format!("column {name} `{cell}` is not a number")))?;
             if !x.is_finite() {
                 return Err(err(format!(
-                    "column {} `{cell}` is not a finite number (NaN and infinity are not allowed)",
-                    COLS[c]
+                    "column {name} `{cell}` is not a finite number (NaN and infinity are not allowed)"
                 )));
             }
-            r[c] = x;
+            if c < 7 {
+                r[c] = x;
+            } else {
+                ex.push(x);
+            }
+        }
+        if !extra.names.is_empty() {
+            extra.rows.push(ex);
         }
         out.push((Scratch::from_row(r), line_no));
     }
-    Ok(out)
+    Ok((out, extra))
 }
 
 /// The CSV text of `scratches`: the header, then one row per scratch with every number in
 /// shortest round-trip form, so reading it back gives exactly the same values.
-pub(super) fn scratches_csv_text(scratches: &[Scratch]) -> String {
+pub(super) fn scratches_csv_text(scratches: &[Scratch], extra: &Extra) -> String {
     let mut csv = String::with_capacity(32 + scratches.len() * 80);
     csv.push_str(CSV_HEADER);
+    for n in &extra.names {
+        csv.push(',');
+        csv.push_str(n);
+    }
     csv.push('\n');
-    for s in scratches {
+    for (k, s) in scratches.iter().enumerate() {
         let r = s.to_row();
-        let cells: Vec<String> = r.iter().map(|x| format!("{x}")).collect();
+        let mut cells: Vec<String> = r.iter().map(|x| format!("{x}")).collect();
+        if let Some(ex) = extra.rows.get(k) {
+            cells.extend(ex.iter().map(|x| format!("{x}")));
+        }
         csv.push_str(&cells.join(","));
         csv.push('\n');
     }

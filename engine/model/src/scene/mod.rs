@@ -20,7 +20,7 @@ pub use read::unknown_key_warnings;
 mod validate;
 mod write;
 
-pub use csv::{read_scratches_csv, read_scratches_csv_lines};
+pub use csv::{read_scratches_csv, read_scratches_csv_lines, read_scratches_csv_table, Extra};
 pub use validate::camera_sees_plate;
 
 /// Default plate roughness alpha_s (MODEL.md section 6).

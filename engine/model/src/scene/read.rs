@@ -5,7 +5,7 @@ use std::path::{Path, PathBuf};
 
 use serde_json::{Map, Value};
 
-use super::csv::read_scratches_csv_lines;
+use super::csv::{read_scratches_csv_table, Extra};
 use super::validate::{check_scratch, validate_header};
 use super::{
     invalid, norm3, Camera, Light, LightKind, Plate, Scene, SceneError, Scratch, View, COLS, CSV_HEADER, DEFAULT_F0,
@@ -94,6 +94,12 @@ impl Scene {
 
     /// Load and validate a scene file (JSON; scratches inline or in a CSV file next to it).
     pub fn load(path: &Path) -> Result<Scene, SceneError> {
+        Ok(Scene::load_extra(path)?.0)
+    }
+
+    /// [`Scene::load`], also returning the scratch CSV's extra named columns (such as `z_mm`);
+    /// empty for inline scratches or a CSV with only the seven.
+    pub fn load_extra(path: &Path) -> Result<(Scene, Extra), SceneError> {
         let text = std::fs::read_to_string(path).map_err(|source| SceneError::Read {
             what: "scene file",
             path: path.to_path_buf(),
@@ -103,12 +109,18 @@ impl Scene {
             Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
             _ => PathBuf::from("."),
         };
-        Scene::from_json_str(&text, &base, &path.display().to_string())
+        Scene::from_json_str_extra(&text, &base, &path.display().to_string())
     }
 
     /// Parse and validate a scene from JSON text. A scratch CSV path is resolved against
     /// `base_dir`; `source_name` names the JSON text in error messages.
     pub fn from_json_str(text: &str, base_dir: &Path, source_name: &str) -> Result<Scene, SceneError> {
+        Ok(Scene::from_json_str_extra(text, base_dir, source_name)?.0)
+    }
+
+    /// As [`Scene::from_json_str`], also returning the scratch CSV's extra named columns.
+    pub fn from_json_str_extra(text: &str, base_dir: &Path, source_name: &str) -> Result<(Scene, Extra), SceneError> {
+        let mut extra = Extra::default();
         let file = source_name;
         // (a spreadsheet or editor may put a UTF-8 byte-order mark first)
         let text = text.strip_prefix('\u{feff}').unwrap_or(text);
@@ -159,7 +171,8 @@ impl Scene {
         let scratches = match sv {
             Value::String(rel) => {
                 let path = base_dir.join(rel);
-                let list = read_scratches_csv_lines(&path)?;
+                let (list, ex) = read_scratches_csv_table(&path)?;
+                extra = ex;
                 let csv_name = path.display().to_string();
                 for (k, (s, line)) in list.iter().enumerate() {
                     check_scratch(s, plate.size_mm).map_err(|msg| SceneError::Csv {
@@ -198,11 +211,14 @@ impl Scene {
                 ))
             }
         };
-        Ok(Scene {
-            plate,
-            views,
-            scratches,
-        })
+        Ok((
+            Scene {
+                plate,
+                views,
+                scratches,
+            },
+            extra,
+        ))
     }
 }
 

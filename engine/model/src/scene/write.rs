@@ -6,7 +6,7 @@ use std::path::{Path, PathBuf};
 
 use serde_json::{json, Value};
 
-use super::csv::scratches_csv_text;
+use super::csv::{scratches_csv_text, Extra};
 use super::{LightKind, Scene, SceneError};
 
 impl Scene {
@@ -53,11 +53,22 @@ impl Scene {
     /// both atomically; the CSV first, so the JSON never points to a missing or partial CSV.
     /// Numbers are written in shortest round-trip form, so `load` gives back exactly `self`.
     pub fn save(&self, json_path: &Path, csv_name: &str) -> Result<(), SceneError> {
+        self.save_extra(json_path, csv_name, &Extra::default())
+    }
+
+    /// As [`Scene::save`], with extra named CSV columns after the seven (one row per scratch).
+    pub fn save_extra(&self, json_path: &Path, csv_name: &str, extra: &Extra) -> Result<(), SceneError> {
+        assert!(
+            extra.names.is_empty() || extra.rows.len() == self.scratches.len(),
+            "extra columns: {} rows for {} scratches",
+            extra.rows.len(),
+            self.scratches.len()
+        );
         let dir = match json_path.parent() {
             Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
             _ => PathBuf::from("."),
         };
-        let csv = scratches_csv_text(&self.scratches);
+        let csv = scratches_csv_text(&self.scratches, extra);
         crate::fsio::write_atomic(&dir.join(csv_name), csv.as_bytes())?;
         let mut text =
             serde_json::to_string_pretty(&self.to_value(Value::String(csv_name.to_string()))).expect("serialize scene");
