@@ -13,6 +13,7 @@
 
 pub mod depths;
 pub mod gcode;
+pub mod level;
 pub mod plan;
 
 use std::path::Path;
