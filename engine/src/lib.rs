@@ -22,4 +22,5 @@ pub mod observe;
 pub mod optim;
 pub mod render;
 pub mod scenes;
+pub mod term;
 pub mod vulkan;

@@ -6,7 +6,7 @@ use anyhow::{Context as _, Result};
 use clap::{Parser, Subcommand};
 
 mod design_cmd;
-mod term;
+use scratchart::term;
 
 use scratchart::bench;
 use scratchart::model::scene::Scene;

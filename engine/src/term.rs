@@ -1,4 +1,4 @@
-//! The terminal side of [`scratchart::observe::Observer`] for the `scratchart` binary: a progress
+//! The terminal side of [`crate::observe::Observer`] for the `scratchart` binary: a progress
 //! bar when stderr is a terminal, otherwise a plain progress line every few seconds (so logs and
 //! CI show how far a job is); warnings and notes on stderr.
 use std::io::IsTerminal;
@@ -6,7 +6,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Mutex;
 use std::time::{Duration, Instant};
 
-use scratchart::observe::{Observer, Progress};
+use crate::observe::{Observer, Progress};
 
 /// How often a plain progress line is printed when stderr is not a terminal.
 const LOG_EVERY: Duration = Duration::from_secs(5);
@@ -20,7 +20,7 @@ pub fn install_interrupt_handler() {
     let _ = ctrlc::set_handler(|| {
         if INTERRUPTED.swap(true, Ordering::SeqCst) {
             eprintln!("\ninterrupted again: exiting without saving");
-            std::process::exit(scratchart::exit::INTERRUPTED as i32);
+            std::process::exit(crate::exit::INTERRUPTED as i32);
         }
         eprintln!("\ninterrupt: stopping after this iteration and saving a checkpoint (Ctrl-C again to quit at once)");
     });

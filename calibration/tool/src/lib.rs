@@ -52,6 +52,15 @@ pub enum Tool {
     },
 }
 
+/// What a calibration fit adds to `tool.json` beside the tool.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Fitted {
+    /// Roughness of the groove walls (MODEL.md alpha), fitted from the card's photos.
+    pub alpha: Option<f64>,
+    /// The fit's record: uncertainties, residual, parameters it could not identify.
+    pub fit: Option<serde_json::Value>,
+}
+
 /// A `tool.json` that cannot be used; the message names the file and the field.
 #[derive(Debug, thiserror::Error)]
 pub enum ToolError {
@@ -133,22 +142,53 @@ impl Tool {
         Ok(())
     }
 
-    /// Reads and checks a `tool.json`.
+    /// Reads and checks a `tool.json` (the calibration's extra keys `alpha` and `fit` are
+    /// allowed and skipped; [`Tool::load_fitted`] returns them).
     pub fn load(path: &Path) -> Result<Tool, ToolError> {
+        Ok(Tool::load_fitted(path)?.0)
+    }
+
+    /// Reads a `tool.json` with what the calibration fit wrote beside the tool: the groove
+    /// walls' roughness `alpha` (fabrication mode holds it fixed) and the `fit` record
+    /// (uncertainties, residual, what could not be identified).
+    pub fn load_fitted(path: &Path) -> Result<(Tool, Fitted), ToolError> {
         let p = path.display().to_string();
         let text = std::fs::read_to_string(path).map_err(|cause| ToolError::Read { path: p.clone(), cause })?;
         let text = text.strip_prefix('\u{feff}').unwrap_or(&text);
-        let tool: Tool = serde_json::from_str(text).map_err(|e| ToolError::Invalid {
-            path: p.clone(),
-            msg: e.to_string(),
-        })?;
-        tool.validate().map_err(|msg| ToolError::Invalid { path: p, msg })?;
-        Ok(tool)
+        let bad = |msg: String| ToolError::Invalid { path: p.clone(), msg };
+        let mut v: serde_json::Value = serde_json::from_str(text).map_err(|e| bad(e.to_string()))?;
+        let mut fitted = Fitted::default();
+        if let Some(o) = v.as_object_mut() {
+            if let Some(a) = o.remove("alpha") {
+                let a = a
+                    .as_f64()
+                    .filter(|a| *a > 0.0 && *a < 1.0)
+                    .ok_or_else(|| bad(format!("alpha = {a} must be a number between 0 and 1")))?;
+                fitted.alpha = Some(a);
+            }
+            fitted.fit = o.remove("fit");
+        }
+        let tool: Tool = serde_json::from_value(v).map_err(|e| bad(e.to_string()))?;
+        tool.validate().map_err(bad)?;
+        Ok((tool, fitted))
     }
 
     /// The JSON text of `tool.json` (exact numbers: it reads back equal).
     pub fn to_json(&self) -> String {
         serde_json::to_string_pretty(self).expect("a tool always serializes")
+    }
+
+    /// The JSON text of `tool.json` with the fit's extra keys (see [`Tool::load_fitted`]).
+    pub fn to_json_fitted(&self, fitted: &Fitted) -> String {
+        let mut v = serde_json::to_value(self).expect("a tool always serializes");
+        let o = v.as_object_mut().expect("a tool is an object");
+        if let Some(a) = fitted.alpha {
+            o.insert("alpha".into(), serde_json::json!(a));
+        }
+        if let Some(f) = &fitted.fit {
+            o.insert("fit".into(), f.clone());
+        }
+        serde_json::to_string_pretty(&v).expect("a tool always serializes")
     }
 
     /// The groove cut at commanded depth `z_mm`; `None` when the tool does not reach the plate.
@@ -216,6 +256,20 @@ mod tests {
         )
         .unwrap();
         assert!(matches!(Tool::load(&p).unwrap(), Tool::Profile { .. }));
+        // The fit's extra keys read back and do not disturb the tool.
+        let fitted = Fitted {
+            alpha: Some(0.12),
+            fit: Some(serde_json::json!({"uncertainty": {"angle_deg": 0.3}})),
+        };
+        std::fs::write(&p, tools[0].to_json_fitted(&fitted)).unwrap();
+        assert_eq!(Tool::load(&p).unwrap(), tools[0]);
+        assert_eq!(Tool::load_fitted(&p).unwrap(), (tools[0].clone(), fitted));
+        std::fs::write(
+            &p,
+            r#"{ "kind": "ball", "radius_mm": 0.1, "z_offset_mm": 0, "alpha": 1.5 }"#,
+        )
+        .unwrap();
+        assert!(Tool::load(&p).unwrap_err().to_string().contains("alpha"));
         for (text, needle) in [
             (
                 r#"{ "kind": "v-bit", "angle_deg": 200, "tip_flat_mm": 0, "z_offset_mm": 0 }"#,
