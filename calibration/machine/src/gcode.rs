@@ -1,10 +1,11 @@
-//! The one G-code writer (used by `plan`, and later by the calibration card): a plan's cuts as
+//! The one G-code writer (used by `plan` and by the calibration card): a program's blocks as
 //! GRBL- or Marlin-flavoured G-code. The first line names the firmware (`carve` refuses a plan
-//! made for the other one); the header says where the work zero is. Lines stay under 80
+//! made for the other one); the header says where the work zero is; each block opens with its
+//! comment (`; scratch N`, or `; mark +x edge` for the orientation mark). Lines stay under 80
 //! characters and end in `\n` only.
 use std::fmt::Write as _;
 
-use super::plan::{Cut, Firmware, MachineProfile};
+use super::plan::{Block, Cut, Firmware, MachineProfile};
 
 /// Numbers as G-code wants them: fixed decimals, no exponent, no negative zero.
 fn num(x: f64, decimals: usize) -> String {
@@ -16,73 +17,152 @@ fn num(x: f64, decimals: usize) -> String {
     }
 }
 
+/// How the program starts: whether it homes (Marlin: `--home`).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Options {
+    /// Marlin only: raise Z by the safe height (relative move), home X and Y (`G28 X Y`) and set
+    /// the work zero at the centre of the bed (`G92`, with the bed as the profile's X/Y travel):
+    /// for printers whose X/Y home is the bed's (0, 0) corner and a plate centred on the bed. Z is
+    /// never homed (a printer homes Z by lowering the head onto the bed) and keeps its zero.
+    pub home: bool,
+}
+
 /// The G-code of `cuts` (in order) for machine `m`. `summary` lines go into the header as
 /// comments (travel, time, the tool).
 pub fn write(cuts: &[Cut], m: &MachineProfile, plate_mm: f64, summary: &[String]) -> String {
+    let blocks: Vec<Block> = cuts.iter().map(Block::flat).collect();
+    write_blocks(&blocks, m, plate_mm, summary, &Options::default())
+}
+
+/// Header comment lines, folded at spaces so that every line stays under 80 characters.
+fn comment(g: &mut String, s: &str) {
+    let mut line = String::new();
+    for word in s.split(' ') {
+        if !line.is_empty() && line.len() + 1 + word.len() > 74 {
+            let _ = writeln!(g, "; {line}");
+            line.clear();
+        }
+        if !line.is_empty() {
+            line.push(' ');
+        }
+        line.push_str(&word[..word.len().min(74)]);
+    }
+    if !line.is_empty() {
+        let _ = writeln!(g, "; {line}");
+    }
+}
+
+/// The G-code of a program of blocks (in order) for machine `m`.
+///
+/// GRBL: `G21 G90 G94`, `G54` (the work offset the user set), rapids (`G0`) at safe Z, plunges
+/// at the plunge feed, cuts at the cut feed, the spindle on (`M3`, with a dwell) and off (`M5`),
+/// `M2` at the end. Marlin: `G21`, `G90`, homing only with [`Options::home`], no spindle
+/// commands, a feed on every move (Marlin's G0 and G1 share one modal feed), every Z move at the
+/// printer's Z feed (`plunge_mm_min`), `M400` (wait for the moves to finish) at the end.
+///
+/// Every block ends with its retract `G0 Z<safe>`; the orientation mark comes after the last
+/// scratch, so a streamer that splits the plan at `; scratch N` comments keeps it with the last
+/// scratch and never replays it with the preamble.
+pub fn write_blocks(blocks: &[Block], m: &MachineProfile, plate_mm: f64, summary: &[String], opt: &Options) -> String {
     let mut g = String::new();
     let fw = match m.firmware {
         Firmware::Grbl => "grbl",
         Firmware::Marlin => "marlin",
     };
+    let marlin = m.firmware == Firmware::Marlin;
     let _ = writeln!(g, "; scratchart plan machine={fw}");
     let _ = writeln!(g, "; work zero: X0 Y0 at the plate centre, Z0 on the plate surface");
+    if marlin && opt.home {
+        comment(
+            &mut g,
+            &format!(
+                "homes X and Y (G28 X Y) and puts X0 Y0 at the centre of the {} x {} mm bed: \
+                 the plate must lie centred on the bed; Z is not homed: touch the tip on the plate \
+                 and set Z0 (G92 Z0) first",
+                num(m.travel_mm[0], 1),
+                num(m.travel_mm[1], 1)
+            ),
+        );
+    } else if marlin {
+        comment(
+            &mut g,
+            "no homing: set the zero with the tip on the plate centre (G92 X0 Y0 Z0)",
+        );
+    }
     let _ = writeln!(
         g,
-        "; plate {} mm square, its +x edge along machine +X; {} cuts",
+        "; plate {} mm square, its +x edge along machine +X; {} blocks",
         num(plate_mm, 1),
-        cuts.len()
+        blocks.len()
     );
     for s in summary {
-        // Folded at spaces so every line stays under 80 characters.
-        let mut line = String::new();
-        for word in s.split(' ') {
-            if !line.is_empty() && line.len() + 1 + word.len() > 74 {
-                let _ = writeln!(g, "; {line}");
-                line.clear();
-            }
-            if !line.is_empty() {
-                line.push(' ');
-            }
-            line.push_str(&word[..word.len().min(74)]);
-        }
-        if !line.is_empty() {
-            let _ = writeln!(g, "; {line}");
-        }
+        comment(&mut g, s);
     }
     let safe = num(m.safe_z_mm, 3);
+    let zf = num(m.plunge_mm_min, 0);
+    let cf = num(m.cut_mm_min, 0);
+    let rf = num(m.rapid_mm_min, 0);
     match m.firmware {
         Firmware::Grbl => {
             let _ = writeln!(g, "G21 G90 G94");
             let _ = writeln!(g, "G54");
+            let _ = writeln!(g, "G0 Z{safe}");
         }
         Firmware::Marlin => {
             let _ = writeln!(g, "G21");
             let _ = writeln!(g, "G90");
+            if opt.home {
+                let _ = writeln!(g, "G91");
+                let _ = writeln!(g, "G1 Z{safe} F{zf}");
+                let _ = writeln!(g, "G90");
+                let _ = writeln!(g, "G28 X Y");
+                let _ = writeln!(
+                    g,
+                    "G92 X{} Y{}",
+                    num(-0.5 * m.travel_mm[0], 4),
+                    num(-0.5 * m.travel_mm[1], 4)
+                );
+            }
+            let _ = writeln!(g, "G0 Z{safe} F{zf}");
         }
     }
-    let _ = writeln!(g, "G0 Z{safe}");
-    if let Some(rpm) = m.spindle_rpm {
+    if let (Firmware::Grbl, Some(rpm)) = (m.firmware, m.spindle_rpm) {
         let _ = writeln!(g, "M3 S{}", num(rpm, 0));
         let _ = writeln!(g, "G4 P2");
     }
-    let zf = num(m.plunge_mm_min, 0);
-    let cf = num(m.cut_mm_min, 0);
-    for c in cuts {
-        let _ = writeln!(g, "; scratch {}", c.scratch + 1);
-        let _ = writeln!(g, "G0 X{} Y{}", num(c.a[0], 4), num(c.a[1], 4));
-        let _ = writeln!(g, "G1 Z{} F{zf}", num(-c.z, 4));
-        let _ = writeln!(g, "G1 X{} Y{} F{cf}", num(c.b[0], 4), num(c.b[1], 4));
-        let _ = writeln!(g, "G0 Z{safe}");
+    let xy = |p: &[f64; 3]| format!("X{} Y{}", num(p[0], 4), num(p[1], 4));
+    for b in blocks {
+        let _ = writeln!(g, "; {}", b.label);
+        let first = &b.path[0];
+        let _ = match m.firmware {
+            Firmware::Grbl => writeln!(g, "G0 {}", xy(first)),
+            Firmware::Marlin => writeln!(g, "G0 {} F{rf}", xy(first)),
+        };
+        let _ = writeln!(g, "G1 Z{} F{zf}", num(first[2], 4));
+        let mut z = first[2];
+        for p in &b.path[1..] {
+            if num(p[2], 4) == num(z, 4) {
+                let _ = writeln!(g, "G1 {} F{cf}", xy(p));
+            } else {
+                let _ = writeln!(g, "G1 {} Z{} F{cf}", xy(p), num(p[2], 4));
+            }
+            z = p[2];
+        }
+        let _ = match m.firmware {
+            Firmware::Grbl => writeln!(g, "G0 Z{safe}"),
+            Firmware::Marlin => writeln!(g, "G0 Z{safe} F{zf}"),
+        };
     }
-    if m.spindle_rpm.is_some() {
-        let _ = writeln!(g, "M5");
-    }
-    let _ = writeln!(g, "G0 X0 Y0");
     match m.firmware {
         Firmware::Grbl => {
+            if m.spindle_rpm.is_some() {
+                let _ = writeln!(g, "M5");
+            }
+            let _ = writeln!(g, "G0 X0 Y0");
             let _ = writeln!(g, "M2");
         }
         Firmware::Marlin => {
+            let _ = writeln!(g, "G0 X0 Y0 F{rf}");
             let _ = writeln!(g, "M400");
         }
     }

@@ -12,6 +12,7 @@
 //! crate (check with `cargo tree -p scratchart-machine`).
 
 pub mod depths;
+pub mod export;
 pub mod gcode;
 pub mod level;
 pub mod plan;

@@ -172,25 +172,55 @@ pub fn move_time(d: f64, v_mm_min: f64, a: f64) -> f64 {
 
 /// The job's time, s: for every cut a rapid to its start, a plunge, the cut and a retract.
 pub fn job_time(cuts: &[Cut], m: &MachineProfile) -> f64 {
+    let blocks: Vec<Block> = cuts.iter().map(Block::flat).collect();
+    program_time(&blocks, m)
+}
+
+/// The time of a program of blocks, s: for every block a rapid to its start, a plunge from safe
+/// height, each of its G1 moves at the cut feed, and a retract (at the rapid feed on GRBL, at the
+/// Z feed `plunge_mm_min` on Marlin, where every Z move is made at the printer's Z feed).
+pub fn program_time(blocks: &[Block], m: &MachineProfile) -> f64 {
+    let retract = match m.firmware {
+        Firmware::Grbl => m.rapid_mm_min,
+        Firmware::Marlin => m.plunge_mm_min,
+    };
     let mut at = [0.0, 0.0];
     let mut t = 0.0;
-    for c in cuts {
-        t += move_time(dist(at, c.a), m.rapid_mm_min, m.accel_mm_s2);
-        t += move_time(m.safe_z_mm + c.z, m.plunge_mm_min, m.accel_mm_s2);
-        t += move_time(dist(c.a, c.b), m.cut_mm_min, m.accel_mm_s2);
-        t += move_time(m.safe_z_mm + c.z, m.rapid_mm_min, m.accel_mm_s2);
-        at = c.b;
+    for b in blocks {
+        let (first, last) = (b.path[0], b.path[b.path.len() - 1]);
+        t += move_time(dist(at, [first[0], first[1]]), m.rapid_mm_min, m.accel_mm_s2);
+        t += move_time(m.safe_z_mm - first[2], m.plunge_mm_min, m.accel_mm_s2);
+        for w in b.path.windows(2) {
+            let d = ((w[1][0] - w[0][0]).powi(2) + (w[1][1] - w[0][1]).powi(2) + (w[1][2] - w[0][2]).powi(2)).sqrt();
+            t += move_time(d, m.cut_mm_min, m.accel_mm_s2);
+        }
+        t += move_time(m.safe_z_mm - last[2], retract, m.accel_mm_s2);
+        at = [last[0], last[1]];
     }
     t + move_time(dist(at, [0.0, 0.0]), m.rapid_mm_min, m.accel_mm_s2)
 }
 
-/// Checks a plan against the plate and the machine: every cut on the plate, no deeper than the
-/// machine's Z travel, and the plate (with the tool at safe height) inside the machine's travel.
-pub fn check_bounds(cuts: &[Cut], plate_mm: f64, m: &MachineProfile) -> Result<(), String> {
+/// Rapid travel of a program starting and ending at the work zero, mm.
+pub fn program_travel(blocks: &[Block]) -> f64 {
+    let mut at = [0.0, 0.0];
+    let mut t = 0.0;
+    for b in blocks {
+        let (first, last) = (b.path[0], b.path[b.path.len() - 1]);
+        t += dist(at, [first[0], first[1]]);
+        at = [last[0], last[1]];
+    }
+    t + dist(at, [0.0, 0.0])
+}
+
+/// Checks a plan against the plate and the machine: every cut on the plate, no shallower than
+/// `min_depth_mm` (0 for a design: grooves are cut into the plate, never above it; the
+/// calibration card passes a negative value, for its rungs above commanded zero), no deeper than
+/// the machine's Z travel, and the plate inside the machine's X/Y travel.
+pub fn check_cuts(cuts: &[Cut], plate_mm: f64, m: &MachineProfile, min_depth_mm: f64) -> Result<(), String> {
     let h = 0.5 * plate_mm;
     for c in cuts {
         for p in [c.a, c.b] {
-            if p[0].abs() > h + 1e-9 || p[1].abs() > h + 1e-9 {
+            if !(p[0].abs() <= h + 1e-9 && p[1].abs() <= h + 1e-9) {
                 return Err(format!(
                     "scratch {} reaches ({:.3}, {:.3}) mm, off the {plate_mm} mm plate",
                     c.scratch + 1,
@@ -199,9 +229,14 @@ pub fn check_bounds(cuts: &[Cut], plate_mm: f64, m: &MachineProfile) -> Result<(
                 ));
             }
         }
-        if !(c.z >= 0.0) || c.z + m.safe_z_mm > m.travel_mm[2] {
+        if !(c.z >= min_depth_mm) || c.z + m.safe_z_mm > m.travel_mm[2] {
+            let least = if min_depth_mm == 0.0 {
+                "a design's depths must be >= 0 mm".to_string()
+            } else {
+                format!("depths must be >= {min_depth_mm} mm")
+            };
             return Err(format!(
-                "scratch {}: depth {:.4} mm is outside the machine's Z travel ({} mm with {} mm safe height)",
+                "scratch {}: depth {:.4} mm is outside the machine's Z travel ({} mm with {} mm safe height; {least})",
                 c.scratch + 1,
                 c.z,
                 m.travel_mm[2],
@@ -216,4 +251,149 @@ pub fn check_bounds(cuts: &[Cut], plate_mm: f64, m: &MachineProfile) -> Result<(
         ));
     }
     Ok(())
+}
+
+/// [`check_cuts`] for a design: depths >= 0.
+pub fn check_bounds(cuts: &[Cut], plate_mm: f64, m: &MachineProfile) -> Result<(), String> {
+    check_cuts(cuts, plate_mm, m, 0.0)
+}
+
+/// Checks every move of a program (rapids from and back to the work zero, plunges, cuts, retracts)
+/// against the machine's travel, taken as a box centred on the work zero (the plate centre):
+/// |X| <= travel_x / 2, |Y| <= travel_y / 2, and Z between the deepest point and safe height
+/// within travel_z. With `--bed WxH` the bed is that box: the plate lies centred on the bed.
+pub fn check_moves(blocks: &[Block], m: &MachineProfile) -> Result<(), String> {
+    let (hx, hy) = (0.5 * m.travel_mm[0], 0.5 * m.travel_mm[1]);
+    for b in blocks {
+        if b.path.is_empty() {
+            return Err(format!("{} has no moves", b.label));
+        }
+        for p in &b.path {
+            if !(p[0].abs() <= hx + 1e-9 && p[1].abs() <= hy + 1e-9) {
+                return Err(format!(
+                    "{}: the move to ({:.3}, {:.3}) mm leaves the {} x {} mm bed centred on the work zero",
+                    b.label, p[0], p[1], m.travel_mm[0], m.travel_mm[1]
+                ));
+            }
+            if !(p[2].is_finite() && m.safe_z_mm - p[2] <= m.travel_mm[2] && p[2] < m.safe_z_mm) {
+                return Err(format!(
+                    "{}: the move to Z {:.4} mm is outside the machine's Z travel ({} mm below the {} mm safe height)",
+                    b.label, p[2], m.travel_mm[2], m.safe_z_mm
+                ));
+            }
+        }
+    }
+    Ok(())
+}
+
+/// What a block of the program cuts: a scratch of the design (or a cut of the calibration card),
+/// or the orientation mark. The G-code comment that opens the block is `; scratch N` (N from 1)
+/// or `; mark +x edge`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Label {
+    Scratch(usize),
+    Mark,
+}
+
+impl std::fmt::Display for Label {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Label::Scratch(k) => write!(f, "scratch {}", k + 1),
+            Label::Mark => f.write_str("mark +x edge"),
+        }
+    }
+}
+
+/// One block of the program: the tool plunges at the path's first point and follows it with G1
+/// moves; points are commanded (X, Y, Z) in work coordinates, Z < 0 below commanded zero.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Block {
+    pub label: Label,
+    pub path: Vec<[f64; 3]>,
+}
+
+impl Block {
+    /// A cut on a flat plate: one G1 line at Z = -depth.
+    pub fn flat(c: &Cut) -> Block {
+        Block {
+            label: Label::Scratch(c.scratch),
+            path: vec![[c.a[0], c.a[1], -c.z], [c.b[0], c.b[1], -c.z]],
+        }
+    }
+}
+
+/// The orientation mark's rule. One straight cut along +x, `len` = min(3 mm, plate / 10) long,
+/// ending `edge` = min(1 mm, plate / 30) inside the plate's +x edge. Its y is the one nearest the
+/// edge's middle (y = 0, then alternately above and below in steps of `len` / 4, keeping `edge`
+/// from the plate's corners) at which the mark stays `clear_mm` plus half each groove's visible
+/// width away from every scratch; when no such place exists (the scratches fill the edge), it goes
+/// at y = 0 across them, and `clear` is false.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Mark {
+    pub a: [f64; 2],
+    pub b: [f64; 2],
+    /// Depth below the surface, mm.
+    pub z: f64,
+    pub clear: bool,
+}
+
+impl Mark {
+    /// The mark's block on a flat plate.
+    pub fn block(&self) -> Block {
+        Block {
+            label: Label::Mark,
+            path: vec![[self.a[0], self.a[1], -self.z], [self.b[0], self.b[1], -self.z]],
+        }
+    }
+}
+
+fn seg_dist(a: [f64; 2], b: [f64; 2], c: [f64; 2], d: [f64; 2]) -> f64 {
+    let cross = |o: [f64; 2], p: [f64; 2], q: [f64; 2]| (p[0] - o[0]) * (q[1] - o[1]) - (p[1] - o[1]) * (q[0] - o[0]);
+    let (d1, d2, d3, d4) = (cross(c, d, a), cross(c, d, b), cross(a, b, c), cross(a, b, d));
+    if ((d1 > 0.0 && d2 < 0.0) || (d1 < 0.0 && d2 > 0.0)) && ((d3 > 0.0 && d4 < 0.0) || (d3 < 0.0 && d4 > 0.0)) {
+        return 0.0;
+    }
+    let pt = |p: [f64; 2], a: [f64; 2], b: [f64; 2]| {
+        let (vx, vy) = (b[0] - a[0], b[1] - a[1]);
+        let l2 = vx * vx + vy * vy;
+        let t = if l2 > 0.0 {
+            (((p[0] - a[0]) * vx + (p[1] - a[1]) * vy) / l2).clamp(0.0, 1.0)
+        } else {
+            0.0
+        };
+        dist(p, [a[0] + t * vx, a[1] + t * vy])
+    };
+    pt(a, c, d).min(pt(b, c, d)).min(pt(c, a, b)).min(pt(d, a, b))
+}
+
+/// Places the orientation mark (see [`Mark`]) among `scratches` (endpoints and visible width, mm)
+/// on a plate of `plate_mm`, cut `depth` deep.
+pub fn orientation_mark(scratches: &[([f64; 2], [f64; 2], f64)], plate_mm: f64, depth: f64, clear_mm: f64) -> Mark {
+    let h = 0.5 * plate_mm;
+    let len = (plate_mm / 10.0).min(3.0);
+    let edge = (plate_mm / 30.0).min(1.0);
+    let (x0, x1) = (h - edge - len, h - edge);
+    let near: Vec<_> = scratches
+        .iter()
+        .filter(|(a, b, w)| a[0].max(b[0]) + 0.5 * w + clear_mm >= x0)
+        .collect();
+    let at = |y: f64, clear: bool| Mark {
+        a: [x0, y],
+        b: [x1, y],
+        z: depth,
+        clear,
+    };
+    let step = 0.25 * len;
+    let n = ((h - edge) / step).floor() as i64;
+    for k in 0..=2 * n {
+        let y = if k % 2 == 1 { (k + 1) / 2 } else { -(k / 2) } as f64 * step;
+        let c = at(y, true);
+        if near
+            .iter()
+            .all(|(a, b, w)| seg_dist(c.a, c.b, *a, *b) >= clear_mm + 0.5 * w)
+        {
+            return c;
+        }
+    }
+    at(0.0, false)
 }

@@ -1,0 +1,201 @@
+//! The vector export read back by independent parsers (roxmltree for SVG, the `dxf` crate for
+//! DXF) and compared with the design endpoint by endpoint.
+use scratchart_machine::export::{drawing, dxf, svg, visible_width, BandBy, Drawing, MAX_BANDS};
+use scratchart_model::scene::{Camera, Light, LightKind, Plate, Scene, Scratch, View};
+
+const TOL: f64 = 1e-6;
+
+struct Xs(u64);
+impl Xs {
+    fn f(&mut self) -> f64 {
+        self.0 ^= self.0 << 13;
+        self.0 ^= self.0 >> 7;
+        self.0 ^= self.0 << 17;
+        (self.0 >> 11) as f64 / (1u64 << 53) as f64
+    }
+}
+
+fn design(n: usize, plate: f64) -> Scene {
+    let mut r = Xs(0x2545_F491_4F6C_DD1D);
+    let h = 0.45 * plate;
+    let scratches = (0..n)
+        .map(|_| {
+            let a = [(2.0 * r.f() - 1.0) * h, (2.0 * r.f() - 1.0) * h];
+            let t = r.f() * std::f64::consts::TAU;
+            let l = 0.5 + 3.0 * r.f();
+            Scratch {
+                p0: a,
+                p1: [(a[0] + l * t.cos()).clamp(-h, h), (a[1] + l * t.sin()).clamp(-h, h)],
+                w: 0.03 + 0.1 * r.f(),
+                d: 0.005 + 0.05 * r.f(),
+                alpha: 0.1,
+            }
+        })
+        .collect();
+    Scene {
+        plate: Plate {
+            size_mm: plate,
+            roughness: 0.02,
+            f0: 0.91,
+        },
+        views: vec![View {
+            name: "v0".into(),
+            camera: Camera {
+                eye: [0.0, -250.0, 250.0],
+                target: [0.0, 0.0, 0.0],
+                up: [0.0, 0.0, 1.0],
+                fov_y_deg: 28.0,
+                width: 16,
+                height: 16,
+            },
+            light: Light {
+                kind: LightKind::Point {
+                    position: [0.0, 250.0, 250.0],
+                },
+                intensity: 1.0,
+            },
+        }],
+        scratches,
+    }
+}
+
+fn close(a: [f64; 2], b: [f64; 2]) -> bool {
+    (a[0] - b[0]).abs() <= TOL && (a[1] - b[1]).abs() <= TOL
+}
+
+/// Every scratch's band holds its value, and bands are at most MAX_BANDS.
+fn bands_hold(d: &Drawing, values: &[f64]) {
+    assert!(!d.bands.is_empty() && d.bands.len() <= MAX_BANDS);
+    for (ln, v) in d.lines.iter().zip(values) {
+        let b = &d.bands[ln.band];
+        assert!(*v >= b.lo - 1e-12 && *v <= b.hi + 1e-12, "{v} outside {b:?}");
+    }
+}
+
+fn check_svg(scene: &Scene, d: &Drawing) {
+    let text = svg(d);
+    let doc = roxmltree::Document::parse(&text).expect("the SVG parses");
+    let root = doc.root_element();
+    assert_eq!(root.tag_name().name(), "svg");
+    let l = scene.plate.size_mm;
+    assert_eq!(root.attribute("width"), Some(format!("{l}mm").as_str()));
+    assert_eq!(root.attribute("height"), Some(format!("{l}mm").as_str()));
+    let vb: Vec<f64> = root
+        .attribute("viewBox")
+        .unwrap()
+        .split_whitespace()
+        .map(|s| s.parse().unwrap())
+        .collect();
+    assert_eq!(vb, vec![0.0, 0.0, l, l], "1 user unit = 1 mm");
+    let num = |n: roxmltree::Node, a: &str| -> f64 { n.attribute(a).unwrap().parse().unwrap() };
+    // The plate outline in its own group.
+    let plate = root
+        .children()
+        .find(|n| n.attribute("id") == Some("plate"))
+        .expect("a plate group");
+    let rect = plate.children().find(|n| n.has_tag_name("rect")).unwrap();
+    assert_eq!((num(rect, "width"), num(rect, "height")), (l, l));
+    assert_eq!(plate.descendants().filter(|n| n.has_tag_name("line")).count(), 0);
+    // Every scratch once, in the group of its band, endpoints and width as designed.
+    let mut seen = vec![false; scene.scratches.len()];
+    for line in root.descendants().filter(|n| n.has_tag_name("line")) {
+        let k: usize = line.attribute("id").unwrap()[1..].parse::<usize>().unwrap() - 1;
+        assert!(!seen[k], "scratch {} twice", k + 1);
+        seen[k] = true;
+        let s = &scene.scratches[k];
+        let back = |x: f64, y: f64| [x - 0.5 * l, 0.5 * l - y];
+        let p0 = back(num(line, "x1"), num(line, "y1"));
+        let p1 = back(num(line, "x2"), num(line, "y2"));
+        assert!(
+            close(p0, s.p0) && close(p1, s.p1),
+            "scratch {}: {p0:?} {p1:?} vs {s:?}",
+            k + 1
+        );
+        assert!((num(line, "stroke-width") - visible_width(s.w, s.d)).abs() <= TOL);
+        let group = line.parent().unwrap();
+        assert_eq!(group.attribute("id"), Some(d.bands[d.lines[k].band].name.as_str()));
+        assert_eq!(group.attribute("stroke-linecap"), Some("butt"));
+    }
+    assert!(seen.iter().all(|s| *s), "every scratch is drawn");
+}
+
+fn check_dxf(scene: &Scene, d: &Drawing, tag: &str) {
+    let path = std::env::temp_dir().join(format!("scratchart_export_{}_{tag}.dxf", std::process::id()));
+    std::fs::write(&path, dxf(d)).unwrap();
+    let back = dxf::Drawing::load_file(&path).expect("the DXF parses");
+    let _ = std::fs::remove_file(&path);
+    assert_eq!(back.header.version, dxf::enums::AcadVersion::R2000);
+    assert_eq!(back.header.default_drawing_units, dxf::enums::Units::Millimeters);
+    let layers: Vec<String> = back.layers().map(|l| l.name.clone()).collect();
+    assert!(layers.contains(&"plate".to_string()), "{layers:?}");
+    for b in &d.bands {
+        assert!(layers.contains(&b.name), "no layer {} in {layers:?}", b.name);
+    }
+    let mut plate = Vec::new();
+    let mut scratches = Vec::new();
+    for e in back.entities() {
+        match &e.specific {
+            dxf::entities::EntityType::Line(ln) => {
+                let seg = ([ln.p1.x, ln.p1.y], [ln.p2.x, ln.p2.y]);
+                if e.common.layer == "plate" {
+                    plate.push(seg);
+                } else {
+                    scratches.push((e.common.layer.clone(), seg));
+                }
+            }
+            other => panic!("only LINE entities are written, found {other:?}"),
+        }
+    }
+    let h = 0.5 * scene.plate.size_mm;
+    assert_eq!(plate.len(), 4);
+    for (a, _) in &plate {
+        assert!(
+            (a[0].abs() - h).abs() <= TOL && (a[1].abs() - h).abs() <= TOL,
+            "plate corner {a:?}"
+        );
+    }
+    assert_eq!(scratches.len(), scene.scratches.len());
+    for (k, ((layer, (a, b)), s)) in scratches.iter().zip(&scene.scratches).enumerate() {
+        assert!(
+            close(*a, s.p0) && close(*b, s.p1),
+            "scratch {}: {a:?} {b:?} vs {s:?}",
+            k + 1
+        );
+        assert_eq!(layer, &d.bands[d.lines[k].band].name);
+    }
+}
+
+#[test]
+fn svg_and_dxf_read_back_banded_by_width() {
+    let scene = design(300, 100.0);
+    let d = drawing(&scene, None).unwrap();
+    assert_eq!(d.by, BandBy::Width);
+    let widths: Vec<f64> = scene.scratches.iter().map(|s| visible_width(s.w, s.d)).collect();
+    bands_hold(&d, &widths);
+    assert_eq!(d.bands.len(), MAX_BANDS, "300 random widths fill every band");
+    check_svg(&scene, &d);
+    check_dxf(&scene, &d, "width");
+}
+
+#[test]
+fn svg_and_dxf_read_back_banded_by_depth() {
+    let scene = design(120, 70.0);
+    // Three commanded depths only: three bands, named by depth.
+    let z: Vec<f64> = (0..120).map(|k| [0.02, 0.03, 0.05][k % 3]).collect();
+    let d = drawing(&scene, Some(&z)).unwrap();
+    assert_eq!(d.by, BandBy::Depth);
+    assert_eq!(d.bands.len(), 3, "{:?}", d.bands);
+    assert_eq!(d.bands[0].name, "band1_depth_20um");
+    assert_eq!(d.bands[2].name, "band3_depth_50um");
+    bands_hold(&d, &z);
+    check_svg(&scene, &d);
+    check_dxf(&scene, &d, "depth");
+    // One depth for all: one band.
+    let one = drawing(&scene, Some(&vec![0.04; 120])).unwrap();
+    assert_eq!(one.bands.len(), 1);
+    check_dxf(&scene, &one, "one");
+    // A depth list of the wrong length is refused.
+    assert!(drawing(&scene, Some(&z[..10]))
+        .unwrap_err()
+        .contains("10 depths for 120 scratches"));
+}
