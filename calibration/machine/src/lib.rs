@@ -5,17 +5,36 @@
 //! - [`gcode`]: the one G-code writer (GRBL and Marlin flavours).
 //! - [`depths`]: one commanded depth per scratch from the tool profile.
 //!
-//! The serial streaming of a plan to the controller, with resumable jobs, is built later.
+//! Streaming a plan to the controller (`scratchart-cal carve`):
+//! - [`program`]: a plan read back: firmware, preamble, one block per scratch, postamble.
+//! - [`transport`]: the serial port (`serialport`; a pty's path works too), read by lines.
+//! - [`controller`]: the one machine interface; [`grbl`] (with [`grbl_codes`]) and [`marlin`]
+//!   implement it; [`detect`] asks the port which one answers.
+//! - [`stream`]: the streaming engine (receive-buffer flow control, resends, hold, progress);
+//!   [`job`]: a whole job (settings check, check mode, resume and re-zero, stopping safely);
+//!   [`journal`]: the resumable job's record beside the plan.
+//! - [`fake`]: fake GRBL and Marlin controllers on pseudo-terminals, for tests.
 //!
 //! It depends on the scene model (`scratchart-model`) only, never on the engine, so it builds and
 //! tests without Vulkan, shaderc or a GPU: `cargo build -p scratchart-machine` pulls no Vulkan
 //! crate (check with `cargo tree -p scratchart-machine`).
 
+pub mod controller;
 pub mod depths;
+pub mod detect;
 pub mod export;
+pub mod fake;
 pub mod gcode;
+pub mod grbl;
+pub mod grbl_codes;
+pub mod job;
+pub mod journal;
 pub mod level;
+pub mod marlin;
 pub mod plan;
+pub mod program;
+pub mod stream;
+pub mod transport;
 
 use std::path::Path;
 

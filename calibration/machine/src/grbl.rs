@@ -1,0 +1,434 @@
+//! GRBL 1.1: character counting (at most 127 of the 128-byte receive buffer unanswered), `?`
+//! status reports, `!` hold, `~` resume, soft reset (0x18), `$C` check mode, `$I` and `$$` read
+//! at the start.
+use std::collections::BTreeMap;
+use std::time::{Duration, Instant};
+
+use crate::controller::{command, Controller, Fault, Reply, Rezero, Status};
+use crate::grbl_codes;
+use crate::plan::{Firmware, MachineProfile};
+use crate::program::Program;
+use crate::transport::Link;
+
+pub struct Grbl {
+    version: String,
+    rx: usize,
+    /// Work coordinate offset from the last report that had one (`WCO:`).
+    wco: Option<[f64; 3]>,
+    last: Status,
+}
+
+fn nums(s: &str) -> Option<[f64; 3]> {
+    let v: Vec<f64> = s.split(',').filter_map(|x| x.parse().ok()).collect();
+    (v.len() >= 3).then(|| [v[0], v[1], v[2]])
+}
+
+/// Parses a status report `<State|MPos:x,y,z|...|WCO:x,y,z>` into the state, the work position
+/// when it can be known, and the WCO field when present.
+pub fn parse_status(line: &str) -> Option<(Status, Option<[f64; 3]>, Option<[f64; 3]>)> {
+    let body = line.strip_prefix('<')?.strip_suffix('>')?;
+    let mut fields = body.split('|');
+    let state = fields.next()?.to_string();
+    let (mut mpos, mut wpos, mut wco) = (None, None, None);
+    for f in fields {
+        if let Some(v) = f.strip_prefix("MPos:") {
+            mpos = nums(v);
+        } else if let Some(v) = f.strip_prefix("WPos:") {
+            wpos = nums(v);
+        } else if let Some(v) = f.strip_prefix("WCO:") {
+            wco = nums(v);
+        }
+    }
+    Some((Status { state, pos: wpos }, mpos, wco))
+}
+
+impl Grbl {
+    /// A GRBL controller that answered `$I` with these lines.
+    pub fn new(info: &[String]) -> Grbl {
+        let mut g = Grbl {
+            version: "GRBL".into(),
+            rx: 128,
+            wco: None,
+            last: Status::default(),
+        };
+        for l in info {
+            if let Some(v) = l.strip_prefix("[VER:") {
+                g.version = format!("GRBL {}", v.split(':').next().unwrap_or(""));
+            } else if let Some(v) = l.strip_prefix("[OPT:") {
+                if let Some(n) = v.trim_end_matches(']').split(',').nth(2).and_then(|s| s.parse().ok()) {
+                    g.rx = n;
+                }
+            } else if l.starts_with("Grbl ") {
+                g.version = l.split('[').next().unwrap_or(l).trim().to_string();
+            }
+        }
+        g
+    }
+
+    /// Asks for a status report and waits for it (at most `timeout`).
+    pub fn status(&mut self, link: &mut Link, timeout: Duration) -> Result<Status, Fault> {
+        link.send(b"?")?;
+        let t0 = Instant::now();
+        while t0.elapsed() < timeout {
+            if let Some(l) = link.line(Duration::from_millis(20))? {
+                if let Reply::Status(s) = self.classify(&l) {
+                    return Ok(s);
+                }
+            }
+        }
+        Err(Fault::Machine(format!(
+            "{} sent no status report within {:.0} s",
+            link.name(),
+            timeout.as_secs_f64()
+        )))
+    }
+
+    /// Polls the status until `done(state)` holds, at most `timeout`.
+    fn wait_for(
+        &mut self,
+        link: &mut Link,
+        what: &str,
+        timeout: Duration,
+        done: impl Fn(&str) -> bool,
+    ) -> Result<Status, Fault> {
+        let t0 = Instant::now();
+        loop {
+            let s = self.status(link, Duration::from_secs(2))?;
+            if done(&s.state) {
+                return Ok(s);
+            }
+            if t0.elapsed() > timeout {
+                return Err(Fault::Machine(format!(
+                    "the controller did not reach {what} within {:.0} s (state {})",
+                    timeout.as_secs_f64(),
+                    s.state
+                )));
+            }
+            std::thread::sleep(Duration::from_millis(50));
+        }
+    }
+
+    /// Soft reset (0x18), then waits for the start-up banner.
+    fn soft_reset(&mut self, link: &mut Link) -> Result<(), Fault> {
+        link.send(&[0x18])?;
+        let t0 = Instant::now();
+        while t0.elapsed() < Duration::from_secs(3) {
+            if let Some(l) = link.line(Duration::from_millis(50))? {
+                if l.starts_with("Grbl ") {
+                    return Ok(());
+                }
+            }
+        }
+        Err(Fault::Machine(
+            "no start-up banner within 3 s after a soft reset".into(),
+        ))
+    }
+
+    fn settings(&mut self, link: &mut Link) -> Result<BTreeMap<u32, f64>, Fault> {
+        let lines = command(self, link, "$$", Duration::from_secs(3))?;
+        let mut s = BTreeMap::new();
+        for l in lines {
+            if let Some((k, v)) = l.strip_prefix('$').and_then(|r| r.split_once('=')) {
+                if let (Ok(k), Ok(v)) = (k.trim().parse(), v.trim().parse()) {
+                    s.insert(k, v);
+                }
+            }
+        }
+        Ok(s)
+    }
+}
+
+impl Controller for Grbl {
+    fn firmware(&self) -> Firmware {
+        Firmware::Grbl
+    }
+
+    fn describe(&self) -> String {
+        self.version.clone()
+    }
+
+    fn window(&self) -> usize {
+        self.rx.saturating_sub(1).min(127)
+    }
+
+    fn check_settings(
+        &mut self,
+        link: &mut Link,
+        program: &Program,
+        profile: Option<&MachineProfile>,
+    ) -> Result<Vec<String>, Fault> {
+        let s = self.settings(link)?;
+        let get = |k: u32| s.get(&k).copied();
+        let mut bad = Vec::new();
+        let mut notes = Vec::new();
+        if get(32) == Some(1.0) {
+            bad.push(
+                "laser mode is on ($32=1): GRBL would stop the spindle on every rapid move; set $32=0".to_string(),
+            );
+        }
+        if get(13) == Some(1.0) {
+            bad.push("reports are in inches ($13=1); set $13=0".to_string());
+        }
+        let plate = program.plate_mm.unwrap_or(2.0 * program.max_xy);
+        for (k, axis) in [(130, "X"), (131, "Y")] {
+            if let Some(t) = get(k) {
+                if t + 1e-9 < plate {
+                    bad.push(format!(
+                        "{axis} travel ${k}={t} mm is smaller than the {plate} mm plate"
+                    ));
+                }
+            }
+        }
+        let z_need = program.max_z - program.min_z;
+        if let Some(t) = get(132) {
+            if t + 1e-9 < z_need {
+                bad.push(format!(
+                    "Z travel $132={t} mm is smaller than the plan's {z_need} mm of Z"
+                ));
+            }
+        }
+        if let Some(m) = profile {
+            if m.firmware != Firmware::Grbl {
+                bad.push("the machine profile is for marlin, the controller is GRBL".into());
+            }
+            for (i, k) in [130u32, 131, 132].iter().enumerate() {
+                if let Some(t) = get(*k) {
+                    if t + 1e-9 < m.travel_mm[i] {
+                        bad.push(format!(
+                            "the profile's {} mm travel on {} is more than the controller's ${k}={t}",
+                            m.travel_mm[i],
+                            ["X", "Y", "Z"][i]
+                        ));
+                    }
+                }
+            }
+            if let (Some(rpm), Some(max)) = (m.spindle_rpm, get(30)) {
+                if rpm > max + 1e-9 {
+                    bad.push(format!(
+                        "the profile's spindle {rpm} rpm is above the controller's $30={max}"
+                    ));
+                }
+            }
+            for (k, axis) in [(110u32, "X"), (111, "Y")] {
+                if let Some(v) = get(k) {
+                    if m.cut_mm_min > v + 1e-9 {
+                        bad.push(format!(
+                            "the profile's cut feed {} mm/min is above the controller's {axis} rate ${k}={v}",
+                            m.cut_mm_min
+                        ));
+                    }
+                }
+            }
+        }
+        if get(22) == Some(0.0) {
+            notes.push("homing is off ($22=0): `--rezero home` will not work on this machine".into());
+        }
+        if bad.is_empty() {
+            Ok(notes)
+        } else {
+            Err(Fault::Input(format!(
+                "the controller's settings contradict the plan or the machine profile: {}",
+                bad.join("; ")
+            )))
+        }
+    }
+
+    fn begin(&mut self, link: &mut Link, unlock: bool) -> Result<(), Fault> {
+        let s = self.status(link, Duration::from_secs(2))?;
+        if s.state.starts_with("Alarm") {
+            if !unlock {
+                return Err(Fault::Machine(
+                    "the controller is in alarm (position unknown): home it ($H) or unlock it ($X) \
+                     and set the work zero before carving"
+                        .into(),
+                ));
+            }
+            command(self, link, "$X", Duration::from_secs(2))?;
+        } else if s.state == "Check" {
+            self.check_mode(link, false)?;
+        } else if s.state.starts_with("Hold") || s.state.starts_with("Door") {
+            return Err(Fault::Machine(format!(
+                "the controller is in {}: resume or reset it first",
+                s.state
+            )));
+        }
+        Ok(())
+    }
+
+    fn frame(&mut self, _seq: usize, line: &str) -> Vec<u8> {
+        format!("{line}\n").into_bytes()
+    }
+
+    fn resend_index(&self, _n: u64) -> Option<usize> {
+        None
+    }
+
+    fn classify(&mut self, line: &str) -> Reply {
+        if line == "ok" {
+            Reply::Ok
+        } else if let Some(n) = line.strip_prefix("error:") {
+            let n: u32 = n.trim().parse().unwrap_or(0);
+            Reply::Error(format!("error:{n} ({})", grbl_codes::error(n)))
+        } else if let Some(n) = line.strip_prefix("ALARM:") {
+            let n: u32 = n.trim().parse().unwrap_or(0);
+            Reply::Stopped(format!("ALARM:{n} ({})", grbl_codes::alarm(n)))
+        } else if line.starts_with('<') {
+            match parse_status(line) {
+                Some((mut s, mpos, wco)) => {
+                    if wco.is_some() {
+                        self.wco = wco;
+                    }
+                    if s.pos.is_none() {
+                        if let (Some(m), Some(o)) = (mpos, self.wco) {
+                            s.pos = Some([m[0] - o[0], m[1] - o[1], m[2] - o[2]]);
+                        }
+                    }
+                    self.last = s.clone();
+                    Reply::Status(s)
+                }
+                None => Reply::Info(line.to_string()),
+            }
+        } else if line.starts_with("Grbl ") {
+            Reply::Stopped(format!(
+                "the controller reset itself (`{line}`): the position may be lost"
+            ))
+        } else if line.starts_with('[') || line.starts_with('$') {
+            Reply::Info(line.to_string())
+        } else {
+            Reply::Info(line.to_string())
+        }
+    }
+
+    fn status_request(&self) -> Option<u8> {
+        Some(b'?')
+    }
+
+    fn hold(&mut self, link: &mut Link) -> Result<(), Fault> {
+        link.send(b"!")?;
+        Ok(())
+    }
+
+    fn resume(&mut self, link: &mut Link) -> Result<(), Fault> {
+        link.send(b"~")?;
+        Ok(())
+    }
+
+    fn stop_and_raise(
+        &mut self,
+        link: &mut Link,
+        _pending: usize,
+        safe_z: f64,
+        _emergency: bool,
+    ) -> Result<String, Fault> {
+        link.send(b"!")?;
+        let s = self.wait_for(link, "Hold:0", Duration::from_secs(20), |st| {
+            st == "Hold:0" || st == "Idle" || st.starts_with("Alarm") || st == "Check"
+        })?;
+        self.soft_reset(link)?;
+        let mut did = format!("feed hold ({}), soft reset", s.state);
+        let after = self.status(link, Duration::from_secs(2))?;
+        if after.state.starts_with("Alarm") {
+            command(self, link, "$X", Duration::from_secs(2))?;
+            did.push_str(", unlocked ($X) to raise the tool");
+        }
+        let high = after.pos.or(self.last.pos).is_some_and(|p| p[2] >= safe_z);
+        if !high {
+            command(self, link, &format!("G21 G90 G0 Z{safe_z:.3}"), Duration::from_secs(5))?;
+            self.wait_idle(link)?;
+            did.push_str(&format!(", tool raised to Z{safe_z:.3}"));
+        } else {
+            did.push_str(", the tool was already above the safe height");
+        }
+        Ok(did)
+    }
+
+    fn wait_idle(&mut self, link: &mut Link) -> Result<(), Fault> {
+        let s = self.wait_for(link, "Idle", Duration::from_secs(3600), |st| {
+            st == "Idle" || st.starts_with("Alarm") || st == "Check"
+        })?;
+        if s.state.starts_with("Alarm") {
+            return Err(Fault::Machine(format!("the controller went into {}", s.state)));
+        }
+        Ok(())
+    }
+
+    fn rezero(&mut self, link: &mut Link, how: Rezero, safe_z: f64, plunge: f64) -> Result<String, Fault> {
+        let s = self.status(link, Duration::from_secs(2))?;
+        let said = match how {
+            Rezero::Home => {
+                command(self, link, "$H", Duration::from_secs(120))?;
+                "homed ($H); the work offset (G54) is kept by the controller".to_string()
+            }
+            Rezero::Keep | Rezero::Probe => {
+                if s.state.starts_with("Alarm") {
+                    command(self, link, "$X", Duration::from_secs(2))?;
+                }
+                "unlocked".to_string()
+            }
+        };
+        command(self, link, &format!("G21 G90 G0 Z{safe_z:.3}"), Duration::from_secs(5))?;
+        let said = if how == Rezero::Probe {
+            let z = self.probe_z(link, safe_z + 5.0, plunge)?;
+            command(self, link, &format!("G10 L20 P1 Z{:.4}", 0.0), Duration::from_secs(2))?;
+            command(self, link, &format!("G0 Z{safe_z:.3}"), Duration::from_secs(5))?;
+            format!("touched the plate at work Z {z:.4} and set Z0 there")
+        } else {
+            said
+        };
+        self.wait_idle(link)?;
+        Ok(said)
+    }
+
+    fn check_mode(&mut self, link: &mut Link, on: bool) -> Result<(), Fault> {
+        command(self, link, "$C", Duration::from_secs(3))?;
+        if !on {
+            // Leaving check mode soft-resets GRBL: its banner follows the `ok`.
+            let t0 = Instant::now();
+            while t0.elapsed() < Duration::from_secs(2) {
+                if let Some(l) = link.line(Duration::from_millis(50))? {
+                    if l.starts_with("Grbl ") {
+                        break;
+                    }
+                }
+            }
+        }
+        let s = self.status(link, Duration::from_secs(2))?;
+        if (s.state == "Check") != on {
+            return Err(Fault::Machine(format!(
+                "the controller is in state {} after `$C`",
+                s.state
+            )));
+        }
+        Ok(())
+    }
+
+    fn probe_z(&mut self, link: &mut Link, depth: f64, feed: f64) -> Result<f64, Fault> {
+        let lines = command(
+            self,
+            link,
+            &format!("G38.2 Z{:.3} F{feed:.0}", -depth),
+            Duration::from_secs(120),
+        )?;
+        let prb = lines
+            .iter()
+            .find_map(|l| l.strip_prefix("[PRB:"))
+            .ok_or_else(|| Fault::Machine("G38.2 answered without a [PRB:...] report".into()))?;
+        let (xyz, ok) = prb.trim_end_matches(']').rsplit_once(':').unwrap_or((prb, "0"));
+        let m = nums(xyz).ok_or_else(|| Fault::Machine(format!("cannot read [PRB:{prb}")))?;
+        if ok != "1" {
+            return Err(Fault::Machine("the probe did not touch the plate".into()));
+        }
+        // PRB is in machine coordinates: subtract the G54 and G92 offsets.
+        let mut off = [0.0; 3];
+        for l in command(self, link, "$#", Duration::from_secs(2))? {
+            for key in ["[G54:", "[G92:"] {
+                if let Some(v) = l.strip_prefix(key).and_then(|v| nums(v.trim_end_matches(']'))) {
+                    for i in 0..3 {
+                        off[i] += v[i];
+                    }
+                }
+            }
+        }
+        Ok(m[2] - off[2])
+    }
+}

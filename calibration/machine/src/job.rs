@@ -1,0 +1,369 @@
+//! A carving job from start to end: read the plan, open the port, ask what answers, refuse a
+//! plan for the other firmware or settings that contradict it, re-establish the position on
+//! resume, run check mode when asked, stream with the journal, and leave the machine stopped with
+//! the tool raised whenever the job ends early.
+use std::path::PathBuf;
+use std::sync::atomic::Ordering;
+use std::time::{Duration, Instant};
+
+use crate::controller::{Controller, Fault, Rezero};
+use crate::journal::{Journal, RESUME_OVERLAP};
+use crate::plan::MachineProfile;
+use crate::program::Program;
+use crate::stream::{stream, Control, End, Observer, Progress};
+use crate::transport::{Link, LinkError};
+
+pub struct Options {
+    pub plan: PathBuf,
+    pub port: String,
+    pub baud: u32,
+    pub journal: PathBuf,
+    /// Run the plan in GRBL's check mode (`$C`) first.
+    pub check: bool,
+    pub resume: bool,
+    pub rezero: Rezero,
+    /// The machine profile to check the controller against (`--machine-file`).
+    pub profile: Option<MachineProfile>,
+    /// Ctrl-C sends Marlin's M112 emergency stop instead of M410.
+    pub emergency: bool,
+    /// How long firmware detection waits in all.
+    pub detect_timeout: Duration,
+    /// The command that continues this job, printed when it stops.
+    pub resume_command: String,
+}
+
+/// Why `carve` failed, with the exit code DECISIONS.md gives it.
+#[derive(Debug, Clone, PartialEq)]
+pub enum CarveError {
+    /// 2: a flag that cannot work.
+    Usage(String),
+    /// 3: a bad plan, profile or journal, or a plan that does not fit the controller.
+    Input(String),
+    /// 1: the machine stopped the job or the link was lost; the message has the resume command.
+    Stopped(String),
+    /// 130: Ctrl-C; the machine is stopped with the tool raised.
+    Interrupted(String),
+}
+
+impl CarveError {
+    pub fn exit_code(&self) -> u8 {
+        match self {
+            CarveError::Usage(_) => 2,
+            CarveError::Input(_) => 3,
+            CarveError::Stopped(_) => 1,
+            CarveError::Interrupted(_) => 130,
+        }
+    }
+}
+
+impl std::fmt::Display for CarveError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            CarveError::Usage(m) | CarveError::Input(m) | CarveError::Stopped(m) | CarveError::Interrupted(m) => {
+                f.write_str(m)
+            }
+        }
+    }
+}
+
+impl std::error::Error for CarveError {}
+
+/// What a finished job did.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Summary {
+    pub controller: String,
+    /// The block (in plan order) this run started at, and the blocks in the plan.
+    pub from: usize,
+    pub total: usize,
+    pub lines: usize,
+    pub seconds: f64,
+}
+
+fn feed_of(program: &Program) -> f64 {
+    program
+        .blocks
+        .iter()
+        .flat_map(|b| &b.lines)
+        .find(|l| l.starts_with("G1 Z"))
+        .and_then(|l| l.split_whitespace().find_map(|w| w.strip_prefix('F')?.parse().ok()))
+        .unwrap_or(100.0)
+}
+
+/// Runs a carving job.
+pub fn carve(opts: &Options, control: &Control, obs: &dyn Observer) -> Result<Summary, CarveError> {
+    let program = Program::load(&opts.plan).map_err(CarveError::Input)?;
+    let fw = Program::firmware_name(program.firmware);
+    let total = program.blocks.len();
+    let mut journal = if opts.resume {
+        let j = Journal::load(&opts.journal).map_err(CarveError::Usage)?;
+        if j.plan_checksum != program.checksum {
+            return Err(CarveError::Input(format!(
+                "{} changed since the job in {} started (checksum {} then, {} now): a changed plan \
+                 cannot be resumed; carve it anew without --resume",
+                opts.plan.display(),
+                opts.journal.display(),
+                j.plan_checksum,
+                program.checksum
+            )));
+        }
+        if j.state == "done" {
+            obs.note(&format!(
+                "the journal {} says the job is finished: nothing to do",
+                opts.journal.display()
+            ));
+            return Ok(Summary {
+                controller: String::new(),
+                from: total,
+                total,
+                lines: 0,
+                seconds: 0.0,
+            });
+        }
+        j
+    } else {
+        if let Ok(j) = Journal::load(&opts.journal) {
+            if j.state != "done" && j.plan_checksum == program.checksum {
+                obs.note(&format!(
+                    "an unfinished job of this plan is recorded in {} ({} of {} scratches); \
+                     starting over (to continue it instead: {})",
+                    opts.journal.display(),
+                    j.last_acked.map_or(0, |k| k + 1),
+                    j.total,
+                    opts.resume_command
+                ));
+            }
+        }
+        Journal {
+            plan: opts.plan.display().to_string(),
+            plan_checksum: program.checksum.clone(),
+            firmware: fw.into(),
+            total,
+            last_acked: None,
+            last_acked_scratch: None,
+            state: "running".into(),
+            message: String::new(),
+        }
+    };
+    let from = if opts.resume { journal.resume_from() } else { 0 };
+
+    let mut link = Link::open(&opts.port, opts.baud).map_err(|e| match e {
+        LinkError::Open(m) if !std::path::Path::new(&opts.port).exists() => {
+            CarveError::Usage(format!("{m} (no such port: check --port)"))
+        }
+        e => CarveError::Stopped(e.to_string()),
+    })?;
+    let stopped = |m: String| CarveError::Stopped(m);
+    let mut ctl = crate::detect::detect(&mut link, opts.detect_timeout).map_err(|f| match f {
+        Fault::Input(m) | Fault::Machine(m) => stopped(m),
+    })?;
+    obs.note(&format!("{} answers on {}", ctl.describe(), opts.port));
+    if ctl.firmware() != program.firmware {
+        return Err(CarveError::Input(format!(
+            "{} was planned for {fw} (its first line), but {} answers on {}: plan it again with \
+             `scratchart-cal plan ... --machine {}`",
+            opts.plan.display(),
+            ctl.describe(),
+            opts.port,
+            Program::firmware_name(ctl.firmware())
+        )));
+    }
+    let fault = |f: Fault| match f {
+        Fault::Input(m) => CarveError::Input(m),
+        Fault::Machine(m) => CarveError::Stopped(m),
+    };
+    for n in ctl
+        .check_settings(&mut link, &program, opts.profile.as_ref())
+        .map_err(fault)?
+    {
+        obs.note(&n);
+    }
+    if opts.check && opts.resume {
+        return Err(CarveError::Usage(
+            "--check and --resume together: check the plan in a run of its own".into(),
+        ));
+    }
+    ctl.begin(&mut link, opts.resume).map_err(fault)?;
+    let safe_z = program.max_z;
+    if opts.check {
+        check_run(&mut link, ctl.as_mut(), &program, control, obs)?;
+    }
+    let question = if opts.resume {
+        format!(
+            "resume {} at scratch {} of {total} on {}?",
+            opts.plan.display(),
+            from + 1,
+            opts.port
+        )
+    } else {
+        format!(
+            "carve {} ({total} scratches) on {}? The work zero must be set: X0 Y0 at the plate \
+             centre, Z0 on its surface",
+            opts.plan.display(),
+            opts.port
+        )
+    };
+    if !obs.confirm(&question) {
+        return Err(CarveError::Stopped("not started: the answer was no".into()));
+    }
+    if opts.resume {
+        let did = ctl
+            .rezero(&mut link, opts.rezero, safe_z, feed_of(&program))
+            .map_err(fault)?;
+        obs.note(&format!("re-established the position: {did}"));
+        if opts.rezero == Rezero::Keep {
+            obs.note(&format!(
+                "--rezero keep: trusting the controller's work offset. If the machine lost its \
+                 position (reset, power cut, quickstop), stop now (Ctrl-C) and run: {} --rezero home",
+                opts.resume_command
+            ));
+        }
+        obs.note(&format!(
+            "resuming at scratch {} of {total} (the last acknowledged was {}; up to {RESUME_OVERLAP} \
+             before it are cut again so that none is skipped)",
+            from + 1,
+            journal.last_acked.map_or(0, |k| k + 1)
+        ));
+    }
+
+    let lines = program.lines_from(from);
+    journal.state = "running".into();
+    journal.message.clear();
+    journal.save(&opts.journal).map_err(stopped)?;
+    let t0 = Instant::now();
+    let mut last_save = Instant::now();
+    let mut save_err: Option<String> = None;
+    let (end, pending) = {
+        let journal = &mut journal;
+        let blocks = &program.blocks;
+        let jpath = &opts.journal;
+        let mut on_block = |b: usize, state: &str, pos: Option<[f64; 3]>| {
+            journal.last_acked = Some(b);
+            journal.last_acked_scratch = blocks[b].scratch;
+            if last_save.elapsed() > Duration::from_millis(200) {
+                if let Err(e) = journal.save(jpath) {
+                    save_err.get_or_insert(e);
+                }
+                last_save = Instant::now();
+            }
+            let run = (b + 1 - from) as f64;
+            obs.progress(&Progress {
+                done: b + 1,
+                total,
+                eta_s: Some(t0.elapsed().as_secs_f64() / run * (total - b - 1) as f64),
+                state: state.to_string(),
+                pos,
+            });
+        };
+        stream(&mut link, ctl.as_mut(), &lines, control, obs, &mut on_block)
+    };
+    let where_ = |j: &Journal| {
+        format!(
+            "{} of {total} scratches acknowledged (journal {})",
+            j.last_acked.map_or(0, |k| k + 1),
+            opts.journal.display()
+        )
+    };
+    let resume_hint = format!("to continue: {}", opts.resume_command);
+    let outcome = match end {
+        End::Done => match ctl.wait_idle(&mut link) {
+            Ok(()) => None,
+            Err(f) => Some(CarveError::Stopped(format!("at the end of the job: {f:?}"))),
+        },
+        End::Abort => {
+            let did = ctl
+                .stop_and_raise(&mut link, pending, safe_z, opts.emergency)
+                .unwrap_or_else(|f| format!("the stop sequence failed: {f:?}: stop the machine by hand"));
+            journal.state = "interrupted".into();
+            Some(CarveError::Interrupted(format!(
+                "interrupted: {did}; {}; {resume_hint}",
+                where_(&journal)
+            )))
+        }
+        End::Refused(e) => {
+            let did = ctl
+                .stop_and_raise(&mut link, pending, safe_z, false)
+                .unwrap_or_else(|f| format!("the stop sequence failed ({f:?}): stop the machine by hand"));
+            Some(CarveError::Stopped(format!(
+                "{} refused {e}; stopped: {did}; {}; {resume_hint}",
+                ctl.describe(),
+                where_(&journal)
+            )))
+        }
+        End::Stopped(e) => Some(CarveError::Stopped(format!(
+            "the machine stopped the job: {e}; the tool may still be down: clear the cause, \
+             raise it, then {}; {}; {resume_hint}",
+            if ctl.firmware() == crate::plan::Firmware::Grbl {
+                "unlock ($X) or home ($H)"
+            } else {
+                "reset the printer"
+            },
+            where_(&journal)
+        ))),
+        End::Lost(e) => Some(CarveError::Stopped(format!(
+            "{e}; {}; reconnect, then {resume_hint}",
+            where_(&journal)
+        ))),
+        End::Input(e) => Some(CarveError::Input(e)),
+    };
+    if let Some(e) = save_err {
+        obs.note(&format!("warning: the journal could not be written: {e}"));
+    }
+    match outcome {
+        None => {
+            journal.state = "done".into();
+            journal.save(&opts.journal).map_err(stopped)?;
+            Ok(Summary {
+                controller: ctl.describe(),
+                from,
+                total,
+                lines: lines.len(),
+                seconds: t0.elapsed().as_secs_f64(),
+            })
+        }
+        Some(e) => {
+            if journal.state == "running" {
+                journal.state = "stopped".into();
+            }
+            journal.message = e.to_string();
+            let _ = journal.save(&opts.journal);
+            Err(e)
+        }
+    }
+}
+
+/// The whole plan in GRBL's check mode: every line parsed, nothing moves.
+fn check_run(
+    link: &mut Link,
+    ctl: &mut dyn Controller,
+    program: &Program,
+    control: &Control,
+    obs: &dyn Observer,
+) -> Result<(), CarveError> {
+    let fault = |f: Fault| match f {
+        Fault::Input(m) => CarveError::Usage(m),
+        Fault::Machine(m) => CarveError::Stopped(m),
+    };
+    ctl.check_mode(link, true).map_err(fault)?;
+    let lines = program.lines_from(0);
+    let (end, _) = stream(link, ctl, &lines, control, obs, &mut |_, _, _| {});
+    let leave = ctl.check_mode(link, false);
+    match end {
+        End::Done => {
+            leave.map_err(fault)?;
+            obs.note(&format!("check mode: all {} lines accepted", lines.len()));
+            Ok(())
+        }
+        End::Refused(e) => Err(CarveError::Stopped(format!(
+            "check mode: {} refused {e}; nothing was cut",
+            ctl.describe()
+        ))),
+        End::Abort => {
+            control.abort.store(false, Ordering::SeqCst);
+            Err(CarveError::Interrupted(
+                "interrupted in check mode; nothing was cut".into(),
+            ))
+        }
+        End::Input(e) => Err(CarveError::Input(e)),
+        End::Stopped(e) | End::Lost(e) => Err(CarveError::Stopped(format!("check mode: {e}"))),
+    }
+}

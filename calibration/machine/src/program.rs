@@ -1,0 +1,217 @@
+//! A plan read back for streaming: the firmware named on its first line, the lines before the
+//! first scratch (units, offsets, spindle), one block of lines per scratch (from each
+//! `; scratch N` comment to the next), and the lines after the last one. Comments and blank lines
+//! are never sent.
+use crate::plan::Firmware;
+
+/// One block of the plan: what its opening comment says (`scratch N`, `mark +x edge`), the
+/// scratch number in the design when it is a scratch, and its G-code lines.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Block {
+    pub label: String,
+    pub scratch: Option<usize>,
+    pub lines: Vec<String>,
+}
+
+/// A plan ready to stream.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Program {
+    pub firmware: Firmware,
+    /// Plate size from the header (`; plate 100.0 mm square`), when the plan states it.
+    pub plate_mm: Option<f64>,
+    /// The deepest plunge (mm below Z0) and the highest Z of the plan, mm.
+    pub min_z: f64,
+    pub max_z: f64,
+    /// Largest |X| and |Y| the plan reaches, mm (work coordinates).
+    pub max_xy: f64,
+    pub preamble: Vec<String>,
+    pub blocks: Vec<Block>,
+    pub postamble: Vec<String>,
+    /// FNV-1a 64 of the plan's bytes: a changed plan is refused on resume.
+    pub checksum: String,
+}
+
+/// Longest line a controller takes: GRBL's line buffer is 80 characters, and Marlin's framing
+/// (`N<n> ` and `*<checksum>`) must still fit in its 96.
+pub const MAX_LINE: usize = 79;
+
+/// FNV-1a, 64 bits, as 16 hex digits.
+pub fn checksum(bytes: &[u8]) -> String {
+    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
+    for &b in bytes {
+        h ^= b as u64;
+        h = h.wrapping_mul(0x0100_0000_01b3);
+    }
+    format!("{h:016x}")
+}
+
+fn word(line: &str, letter: char) -> Option<f64> {
+    line.split_whitespace()
+        .find(|w| w.starts_with(letter))
+        .and_then(|w| w[1..].parse().ok())
+}
+
+impl Program {
+    /// Parses a plan written by `scratchart-cal plan`. Errors say which line and what is wrong.
+    pub fn parse(text: &str) -> Result<Program, String> {
+        let first = text.lines().next().unwrap_or("");
+        let firmware = match first.trim() {
+            "; scratchart plan machine=grbl" => Firmware::Grbl,
+            "; scratchart plan machine=marlin" => Firmware::Marlin,
+            _ => {
+                return Err(format!(
+                    "line 1 is `{}`, not `; scratchart plan machine=grbl` or `machine=marlin`: \
+                     carve streams plans written by `scratchart-cal plan`",
+                    first.chars().take(60).collect::<String>()
+                ))
+            }
+        };
+        let mut p = Program {
+            firmware,
+            plate_mm: None,
+            min_z: 0.0,
+            max_z: 0.0,
+            max_xy: 0.0,
+            preamble: Vec::new(),
+            blocks: Vec::new(),
+            postamble: Vec::new(),
+            checksum: checksum(text.as_bytes()),
+        };
+        for (k, raw) in text.lines().enumerate() {
+            let line = raw.trim();
+            if let Some(c) = line.strip_prefix(';') {
+                let c = c.trim();
+                if let Some(n) = c.strip_prefix("scratch ") {
+                    let n: usize = n
+                        .trim()
+                        .parse()
+                        .map_err(|_| format!("line {}: `{line}` has no scratch number", k + 1))?;
+                    // A block ends where the next begins; the lines after the last block's
+                    // retract belong to the postamble (see below).
+                    p.blocks.push(Block {
+                        label: c.to_string(),
+                        scratch: Some(n),
+                        lines: Vec::new(),
+                    });
+                } else if c.starts_with("mark ") {
+                    p.blocks.push(Block {
+                        label: c.to_string(),
+                        scratch: None,
+                        lines: Vec::new(),
+                    });
+                } else if let Some(rest) = c.strip_prefix("plate ") {
+                    p.plate_mm = rest.split_whitespace().next().and_then(|s| s.parse().ok());
+                }
+                continue;
+            }
+            if line.is_empty() {
+                continue;
+            }
+            if line.contains(';') || line.contains('(') {
+                return Err(format!("line {}: an inline comment in `{line}`", k + 1));
+            }
+            if line.len() > MAX_LINE || !line.is_ascii() {
+                return Err(format!(
+                    "line {}: {} characters (or not ASCII); controllers take at most {MAX_LINE}",
+                    k + 1,
+                    line.len()
+                ));
+            }
+            for (letter, is_xy) in [('X', true), ('Y', true), ('Z', false)] {
+                if let Some(v) = word(line, letter) {
+                    if is_xy {
+                        p.max_xy = p.max_xy.max(v.abs());
+                    } else {
+                        p.min_z = p.min_z.min(v);
+                        p.max_z = p.max_z.max(v);
+                    }
+                }
+            }
+            match p.blocks.last_mut() {
+                Some(b) => b.lines.push(line.to_string()),
+                None => p.preamble.push(line.to_string()),
+            }
+        }
+        // The last block ends with its retract (`G0 Z..`); what follows it is the postamble.
+        if let Some(b) = p.blocks.last_mut() {
+            let end = b
+                .lines
+                .iter()
+                .rposition(|l| l.starts_with("G0 Z"))
+                .map_or(b.lines.len(), |i| i + 1);
+            p.postamble = b.lines.split_off(end);
+        }
+        if let Some(b) = p.blocks.iter().find(|b| b.lines.is_empty()) {
+            return Err(format!("`{}` has no G-code lines", b.label));
+        }
+        Ok(p)
+    }
+
+    /// Reads and parses a plan file.
+    pub fn load(path: &std::path::Path) -> Result<Program, String> {
+        let text = std::fs::read_to_string(path).map_err(|e| format!("cannot read plan {}: {e}", path.display()))?;
+        Program::parse(&text).map_err(|e| format!("plan {}: {e}", path.display()))
+    }
+
+    /// The lines to send for a job that starts at block `from` (0 = the whole plan): the
+    /// preamble, blocks `from..`, the postamble; each with the block it belongs to.
+    pub fn lines_from(&self, from: usize) -> Vec<(String, Option<usize>)> {
+        let mut out: Vec<(String, Option<usize>)> = self.preamble.iter().map(|l| (l.clone(), None)).collect();
+        for (i, b) in self.blocks.iter().enumerate().skip(from) {
+            out.extend(b.lines.iter().map(|l| (l.clone(), Some(i))));
+        }
+        out.extend(self.postamble.iter().map(|l| (l.clone(), None)));
+        out
+    }
+
+    /// The firmware's name as the plan writes it.
+    pub fn firmware_name(f: Firmware) -> &'static str {
+        match f {
+            Firmware::Grbl => "grbl",
+            Firmware::Marlin => "marlin",
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::plan::{Cut, MachineProfile};
+
+    #[test]
+    fn blocks_follow_the_scratch_comments() {
+        let cuts = [
+            Cut {
+                a: [0.0, 0.0],
+                b: [1.0, 0.0],
+                z: 0.02,
+                scratch: 4,
+            },
+            Cut {
+                a: [2.0, 1.0],
+                b: [-3.0, 1.0],
+                z: 0.05,
+                scratch: 0,
+            },
+        ];
+        let g = crate::gcode::write(&cuts, &MachineProfile::grbl(), 50.0, &["a note".into()]);
+        let p = Program::parse(&g).unwrap();
+        assert_eq!(p.firmware, Firmware::Grbl);
+        assert_eq!(p.plate_mm, Some(50.0));
+        assert_eq!(p.blocks.len(), 2);
+        assert_eq!(p.blocks[0].scratch, Some(5));
+        assert_eq!(p.blocks[1].label, "scratch 1");
+        assert_eq!(p.blocks[1].lines.len(), 4);
+        assert_eq!(p.blocks[1].lines[3], "G0 Z2.000");
+        assert_eq!(p.postamble, vec!["M5", "G0 X0 Y0", "M2"]);
+        assert!(p.preamble.contains(&"M3 S10000".to_string()));
+        assert!((p.min_z + 0.05).abs() < 1e-12 && p.max_xy == 3.0);
+        assert!(p.lines_from(0).iter().all(|(l, _)| !l.starts_with(';')));
+        assert_eq!(p.lines_from(1).iter().filter(|l| l.1 == Some(1)).count(), 4);
+        assert!(p.lines_from(1).iter().all(|l| l.1 != Some(0)));
+        let m = crate::gcode::write(&cuts, &MachineProfile::marlin(), 50.0, &[]);
+        assert_eq!(Program::parse(&m).unwrap().firmware, Firmware::Marlin);
+        assert_ne!(Program::parse(&m).unwrap().checksum, p.checksum);
+        assert!(Program::parse("G0 X1\n").unwrap_err().contains("line 1"));
+    }
+}

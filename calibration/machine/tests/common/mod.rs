@@ -1,0 +1,104 @@
+//! Helpers shared by the streaming tests: plans, options, an observer that keeps what it is told.
+#![allow(dead_code)]
+use std::path::{Path, PathBuf};
+use std::sync::Mutex;
+use std::time::Duration;
+
+use scratchart_machine::controller::Rezero;
+use scratchart_machine::job::Options;
+use scratchart_machine::plan::{Cut, MachineProfile};
+use scratchart_machine::program::Program;
+use scratchart_machine::stream::{Observer, Progress};
+
+pub fn tmpdir(tag: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("scratchart_stream_{}_{tag}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+/// `n` cuts spread over a 100 mm plate, in a fixed pseudo-random order.
+pub fn cuts(n: usize) -> Vec<Cut> {
+    let mut s: u64 = 12345;
+    let mut r = move || {
+        s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+        ((s >> 11) as f64 / (1u64 << 53) as f64) * 80.0 - 40.0
+    };
+    (0..n)
+        .map(|k| Cut {
+            a: [r(), r()],
+            b: [r(), r()],
+            z: 0.01 + 0.0001 * k as f64,
+            scratch: k,
+        })
+        .collect()
+}
+
+/// Writes a plan of `n` cuts for `m` into `dir/name`, returns its path.
+pub fn plan(dir: &Path, name: &str, n: usize, m: &MachineProfile) -> PathBuf {
+    let g = scratchart_machine::gcode::write(&cuts(n), m, 100.0, &["test plan".into()]);
+    let p = dir.join(name);
+    std::fs::write(&p, g).unwrap();
+    p
+}
+
+pub fn options(plan: &Path, port: &str) -> Options {
+    Options {
+        plan: plan.to_path_buf(),
+        port: port.to_string(),
+        baud: 115200,
+        journal: scratchart_machine::journal::default_path(plan),
+        check: false,
+        resume: false,
+        rezero: Rezero::Keep,
+        profile: None,
+        emergency: false,
+        detect_timeout: Duration::from_secs(3),
+        resume_command: format!("scratchart-cal carve {} --port {port} --resume", plan.display()),
+    }
+}
+
+/// The cut lines (`G1 X.. Y..`) of a plan, in order.
+pub fn cut_lines(plan: &Path) -> Vec<String> {
+    let p = Program::load(plan).unwrap();
+    p.blocks.iter().map(|b| b.lines[2].clone()).collect()
+}
+
+#[derive(Default)]
+pub struct Log {
+    pub notes: Mutex<Vec<String>>,
+    pub progress: Mutex<Vec<Progress>>,
+}
+
+impl Observer for Log {
+    fn progress(&self, p: &Progress) {
+        self.progress.lock().unwrap().push(p.clone());
+    }
+    fn note(&self, msg: &str) {
+        self.notes.lock().unwrap().push(msg.to_string());
+    }
+}
+
+impl Log {
+    pub fn says(&self, what: &str) -> bool {
+        self.notes.lock().unwrap().iter().any(|n| n.contains(what))
+    }
+}
+
+/// Every plan cut executed, in plan order, each at least once; returns the most times any was.
+pub fn assert_all_cut(plan: &Path, executed: &[String]) -> usize {
+    let cuts = cut_lines(plan);
+    let mut worst = 0;
+    for c in &cuts {
+        let k = executed.iter().filter(|e| *e == c).count();
+        assert!(k >= 1, "cut `{c}` was never executed");
+        worst = worst.max(k);
+    }
+    // In order: the first execution of each cut follows the one before.
+    let firsts: Vec<usize> = cuts
+        .iter()
+        .map(|c| executed.iter().position(|e| e == c).unwrap())
+        .collect();
+    assert!(firsts.windows(2).all(|w| w[0] < w[1]), "cuts executed out of order");
+    worst
+}
