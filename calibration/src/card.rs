@@ -9,6 +9,8 @@
 use std::path::Path;
 
 use scratchart::model::scene::{Camera, Light, LightKind, Plate, Scene, View};
+use scratchart_machine::gcode::{write_blocks, Options};
+use scratchart_machine::plan::{self as machine_plan, Block, MachineProfile};
 use serde::{Deserialize, Serialize};
 use serde_json::{json, Value};
 
@@ -44,6 +46,11 @@ pub struct Card {
     pub alpha: f64,
     pub cuts: Vec<Cut>,
 }
+
+/// How far above commanded zero a card's rung may sit, mm. A design's depths must be >= 0 (its
+/// grooves are cut into the plate); the card's rungs above zero are commanded at negative depth,
+/// so the tool stays above Z0 there and shows where the real surface is.
+pub const MAX_ABOVE_ZERO_MM: f64 = 0.5;
 
 /// How a card is laid out.
 #[derive(Clone, Debug)]
@@ -174,6 +181,46 @@ impl Card {
         let mut v: Value = serde_json::from_str(&scene.to_json_inline()).expect("a scene serializes");
         v["card"] = json!(self);
         v
+    }
+
+    /// The card's G-code (`card.nc`, or `card.gcode` for Marlin) through the one G-code writer:
+    /// every cut at its commanded depth (rungs above commanded zero at negative depth: the tool
+    /// stays above Z0), in the plan's order (nearest neighbour, then 2-opt). Each cut is a block
+    /// `; scratch N`, N its place (from 1) in `cuts` of card.json. Refused when a cut leaves the
+    /// card or the machine's travel.
+    pub fn gcode(&self, m: &MachineProfile) -> Result<String, String> {
+        let cuts: Vec<machine_plan::Cut> = self
+            .cuts
+            .iter()
+            .enumerate()
+            .map(|(k, c)| machine_plan::Cut {
+                a: c.p0,
+                b: c.p1,
+                z: c.z_mm,
+                scratch: k,
+            })
+            .collect();
+        machine_plan::check_cuts(&cuts, self.plate_mm, m, -MAX_ABOVE_ZERO_MM)?;
+        let ordered = machine_plan::two_opt(machine_plan::nearest_neighbour(&cuts), 200);
+        let blocks: Vec<Block> = ordered.iter().map(Block::flat).collect();
+        machine_plan::check_moves(&blocks, m)?;
+        let above = self.cuts.iter().filter(|c| c.z_mm < 0.0).count();
+        let summary = vec![
+            format!(
+                "calibration card: {} ladder cuts ({} depths from {} to {} mm), {} fiducial cuts",
+                self.cuts.iter().filter(|c| c.role == CutRole::Ladder).count(),
+                self.depths_mm.len(),
+                self.depths_mm[0],
+                self.depths_mm[self.depths_mm.len() - 1],
+                self.cuts.iter().filter(|c| c.role == CutRole::Fiducial).count()
+            ),
+            format!(
+                "{above} cuts are above commanded zero (negative depth): the tool stays above Z0 there; \
+                 the first rung that leaves a groove shows the tool's z offset"
+            ),
+            format!("estimated {:.1} min", machine_plan::program_time(&blocks, m) / 60.0),
+        ];
+        Ok(write_blocks(&blocks, m, self.plate_mm, &summary, &Options::default()))
     }
 
     /// Reads the card of a card.json (and its capture views).

@@ -10,6 +10,8 @@ use scratchart_calibration::card::{Card, CardSpec};
 use scratchart_calibration::simulate::{photos, Camera};
 use scratchart_tool::Tool;
 
+mod plan_cmd;
+
 #[derive(Parser)]
 #[command(
     name = "scratchart-cal",
@@ -18,7 +20,8 @@ use scratchart_tool::Tool;
     long_about = "Calibrate the carving tool before a carving session, in this order:\n\n\
   1. scratchart-cal card --out DIR       writes DIR/card.json: the test card (a ladder of commanded depths\n\
                                          straddling the plate surface, at several orientations, with corner\n\
-                                         fiducials) and where the camera and the lamp go to photograph it.\n\
+                                         fiducials) and where the camera and the lamp go to photograph it,\n\
+                                         and its G-code DIR/card.nc (card.gcode with --machine marlin).\n\
   2. cut the card on the machine, and photograph it from each capture view of card.json.\n\
   3. scratchart-cal simulate --card DIR/card.json --tool tool.json --out IMGDIR\n\
                                          renders the card as a known tool would cut it, as the camera would\n\
@@ -47,27 +50,18 @@ enum Cmd {
         /// Resolution of the capture views (square), pixels
         #[arg(long, default_value_t = 256)]
         res: u32,
+        /// The machine the card's G-code (card.nc, or card.gcode for Marlin) is written for
+        #[command(flatten)]
+        machine: plan_cmd::MachineArgs,
     },
-    /// Plan the carving of a design: one commanded depth per scratch from the tool's profile,
-    /// the cut order (nearest neighbour, then 2-opt), bounds against the plate and the machine,
-    /// the job time with acceleration; writes G-code (PLAN.nc) and a preview PNG beside it.
-    Plan {
-        /// The design (design.json from `scratchart design`)
-        design: PathBuf,
-        /// The tool (tool.json)
-        #[arg(long)]
-        tool: PathBuf,
-        /// Output G-code file
-        #[arg(long, default_value = "plan.nc")]
-        out: PathBuf,
-        /// Firmware of the machine: grbl (a router) or marlin (a printer with an engraving bit)
-        #[arg(long, default_value = "grbl", value_parser = ["grbl", "marlin"])]
-        machine: String,
-        /// Machine profile (JSON: firmware, travel_mm, feeds, accel_mm_s2, safe_z_mm, spindle_rpm);
-        /// default: the built-in profile of --machine
-        #[arg(long)]
-        machine_file: Option<PathBuf>,
-    },
+    /// Plan the carving of a design: one commanded depth per scratch (the design's z_mm column, or
+    /// the tool's profile), the cut order (nearest neighbour, then 2-opt), the +x orientation mark,
+    /// levelling by a height map, bounds against the plate and the machine, the job time with
+    /// acceleration; writes G-code (PLAN.nc) and a preview PNG beside it.
+    Plan(plan_cmd::PlanArgs),
+    /// Export a design as a drawing for other toolchains: SVG and/or DXF, true size in mm, one
+    /// group or layer per depth band, the plate outline on its own.
+    Export(plan_cmd::ExportArgs),
     /// Render the card as TOOL cuts it, from every capture view, as PNG photos named after the views.
     Simulate {
         /// The card (card.json from `scratchart-cal card`)
@@ -103,7 +97,12 @@ fn main() -> ExitCode {
 
 fn run(cli: Cli) -> Result<()> {
     match &cli.cmd {
-        Cmd::Card { out, plate, res } => {
+        Cmd::Card {
+            out,
+            plate,
+            res,
+            machine,
+        } => {
             if !(*plate > 0.0) {
                 return Err(scratchart::exit::UsageError("--plate must be > 0 mm".into()).into());
             }
@@ -127,6 +126,7 @@ fn run(cli: Cli) -> Result<()> {
                 card.orientations_deg.len(),
                 card.repeats
             );
+            println!("wrote {}", plan_cmd::write_card_gcode(&card, out, machine)?.display());
             for v in card.views(*res) {
                 println!(
                     "  capture view {}: camera at ({:.0}, {:.0}, {:.0}) mm, lamp at {:?} mm, both from the card's centre",
@@ -138,13 +138,8 @@ fn run(cli: Cli) -> Result<()> {
             }
             Ok(())
         }
-        Cmd::Plan {
-            design,
-            tool,
-            out,
-            machine,
-            machine_file,
-        } => plan(design, tool, out, machine, machine_file.as_deref()),
+        Cmd::Plan(args) => plan_cmd::plan(args),
+        Cmd::Export(args) => plan_cmd::export(args),
         Cmd::Simulate {
             card,
             tool,
@@ -179,115 +174,4 @@ fn run(cli: Cli) -> Result<()> {
             Ok(())
         }
     }
-}
-
-fn plan(
-    design: &std::path::Path,
-    tool: &std::path::Path,
-    out: &std::path::Path,
-    machine: &str,
-    machine_file: Option<&std::path::Path>,
-) -> Result<()> {
-    use scratchart_machine::plan::{check_bounds, job_time, nearest_neighbour, travel, two_opt, Cut, MachineProfile};
-    let scene = scratchart_machine::load_design(design)?;
-    let tool = Tool::load(tool).map_err(|e| scratchart::exit::InputError(e.to_string()))?;
-    let mut m = match machine {
-        "marlin" => MachineProfile::marlin(),
-        _ => MachineProfile::grbl(),
-    };
-    if let Some(f) = machine_file {
-        let text =
-            std::fs::read_to_string(f).with_context(|| format!("cannot read machine profile {}", f.display()))?;
-        m = serde_json::from_str(&text)
-            .map_err(|e| scratchart::exit::InputError(format!("machine profile {} is not valid: {e}", f.display())))?;
-    }
-    let depths = scratchart_machine::depths::depths(&scene.scratches, &tool, 0.5);
-    let worst = depths.iter().map(|d| d.1).fold(0.0f64, f64::max);
-    let cuts: Vec<Cut> = scene
-        .scratches
-        .iter()
-        .zip(&depths)
-        .enumerate()
-        .map(|(k, (s, (z, _)))| Cut {
-            a: s.p0,
-            b: s.p1,
-            z: *z,
-            scratch: k,
-        })
-        .collect();
-    check_bounds(&cuts, scene.plate.size_mm, &m)
-        .map_err(|e| scratchart::exit::InputError(format!("the plan leaves its bounds: {e}")))?;
-    let t0 = travel(&cuts);
-    let ordered = two_opt(nearest_neighbour(&cuts), 200);
-    let t1 = travel(&ordered);
-    let secs = job_time(&ordered, &m);
-    let summary = vec![
-        format!("tool {}", serde_json::to_string(&tool)?),
-        format!(
-            "travel {t0:.0} mm in design order, {t1:.0} mm ordered; estimated {:.1} min",
-            secs / 60.0
-        ),
-        format!(
-            "worst groove mismatch to the tool's curve: {:.1}% (|dw|/w + |dd|/d)",
-            100.0 * worst
-        ),
-        "groove ends: each cut plunges at its start and lifts at its end; the tapered ends (about half a groove width) are not compensated: cuts keep the designed length".to_string(),
-    ];
-    let g = scratchart_machine::gcode::write(&ordered, &m, scene.plate.size_mm, &summary);
-    if let Some(dir) = out.parent().filter(|p| !p.as_os_str().is_empty()) {
-        std::fs::create_dir_all(dir).with_context(|| format!("cannot create output directory {}", dir.display()))?;
-    }
-    scratchart::io::write_atomic(out, g.as_bytes())?;
-    let preview = out.with_extension("png");
-    write_preview(&preview, &ordered, scene.plate.size_mm)?;
-    println!(
-        "wrote {} ({} cuts) and {}",
-        out.display(),
-        ordered.len(),
-        preview.display()
-    );
-    println!(
-        "  travel: {t0:.0} mm in design order -> {t1:.0} mm ordered; estimated job time {:.1} min",
-        secs / 60.0
-    );
-    println!(
-        "  worst mismatch between a designed groove and the tool's: {:.1}%",
-        100.0 * worst
-    );
-    Ok(())
-}
-
-/// The tool path from above: cuts black, rapid moves gray, on a white plate (512 px).
-fn write_preview(path: &std::path::Path, cuts: &[scratchart_machine::plan::Cut], plate_mm: f64) -> Result<()> {
-    let n = 512usize;
-    let mut px = vec![255u8; n * n];
-    let to = |p: [f64; 2]| {
-        (
-            (p[0] / plate_mm + 0.5) * (n - 1) as f64,
-            (0.5 - p[1] / plate_mm) * (n - 1) as f64,
-        )
-    };
-    let mut line = |a: [f64; 2], b: [f64; 2], v: u8| {
-        let ((x0, y0), (x1, y1)) = (to(a), to(b));
-        let steps = ((x1 - x0).abs().max((y1 - y0).abs()).ceil() as usize).max(1);
-        for k in 0..=steps {
-            let t = k as f64 / steps as f64;
-            let (x, y) = (x0 + t * (x1 - x0), y0 + t * (y1 - y0));
-            if x >= 0.0 && y >= 0.0 && (x as usize) < n && (y as usize) < n {
-                let i = y as usize * n + x as usize;
-                px[i] = px[i].min(v);
-            }
-        }
-    };
-    let mut at = [0.0, 0.0];
-    for c in cuts {
-        line(at, c.a, 190);
-        at = c.b;
-    }
-    line(at, [0.0, 0.0], 190);
-    for c in cuts {
-        line(c.a, c.b, 0);
-    }
-    scratchart::io::write_png_gray(path, n as u32, n as u32, &px)?;
-    Ok(())
 }

@@ -88,3 +88,66 @@ fn simulated_photos_depend_on_the_tool() {
     assert_ne!(c1[0], a[0]);
     assert_no_validation(&ctx);
 }
+
+/// `card --out DIR` writes the card's G-code through the plan's writer: every cut of card.json
+/// once, at its commanded depth (the rungs above zero with the tool above Z0), for GRBL and Marlin.
+#[test]
+fn the_card_gcode_cuts_the_card() {
+    let bin = scratchart_tests::workspace_bin("scratchart-calibration", "scratchart-cal");
+    let dir = std::env::temp_dir().join(format!("scratchart-cardnc-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let run = |args: &[&str]| {
+        std::process::Command::new(&bin)
+            .current_dir(&dir)
+            .args(args)
+            .output()
+            .unwrap()
+    };
+    let o = run(&["card", "--out", "g", "--res", "32"]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let o = run(&["card", "--out", "m", "--res", "32", "--machine", "marlin"]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    for (file, fw) in [("g/card.nc", "grbl"), ("m/card.gcode", "marlin")] {
+        let (card, _) = Card::load(&dir.join(file).with_file_name("card.json")).unwrap();
+        let g = std::fs::read_to_string(dir.join(file)).unwrap();
+        assert!(g.starts_with(&format!("; scratchart plan machine={fw}\n")));
+        assert!(g.lines().all(|l| l.len() < 80) && !g.contains('\r'));
+        // Blocks: `; scratch N`, then G0 to the start, G1 Z down, G1 to the end.
+        let mut seen = vec![false; card.cuts.len()];
+        let mut above = 0;
+        let lines: Vec<&str> = g.lines().collect();
+        let word = |l: &str, c: char| -> f64 {
+            l.split_whitespace().find(|w| w.starts_with(c)).unwrap()[1..]
+                .parse()
+                .unwrap()
+        };
+        for (i, l) in lines.iter().enumerate() {
+            let Some(n) = l.strip_prefix("; scratch ") else {
+                continue;
+            };
+            let k: usize = n.parse::<usize>().unwrap() - 1;
+            assert!(!seen[k], "cut {} twice", k + 1);
+            seen[k] = true;
+            let (start, plunge, end) = (lines[i + 1], lines[i + 2], lines[i + 3]);
+            let a = [word(start, 'X'), word(start, 'Y')];
+            let b = [word(end, 'X'), word(end, 'Y')];
+            let c = &card.cuts[k];
+            let near = |p: [f64; 2], q: [f64; 2]| (p[0] - q[0]).abs() < 5.1e-5 && (p[1] - q[1]).abs() < 5.1e-5;
+            assert!(
+                (near(a, c.p0) && near(b, c.p1)) || (near(a, c.p1) && near(b, c.p0)),
+                "cut {}: {a:?} {b:?} vs {c:?}",
+                k + 1
+            );
+            let z = word(plunge, 'Z');
+            assert!((z + c.z_mm).abs() < 5.1e-5, "cut {}: Z {z} for depth {}", k + 1, c.z_mm);
+            if c.z_mm < 0.0 {
+                assert!(z > 0.0, "a rung above zero keeps the tool above Z0");
+                above += 1;
+            }
+        }
+        assert!(seen.iter().all(|s| *s), "every card cut is in {file}");
+        assert!(above > 0);
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -93,3 +93,216 @@ fn plan_writes_gcode_and_a_preview() {
     );
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+fn setup(tag: &str) -> (std::path::PathBuf, std::path::PathBuf) {
+    let bin = scratchart_tests::workspace_bin("scratchart-calibration", "scratchart-cal");
+    let dir = std::env::temp_dir().join(format!("scratchart-plan-{tag}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    std::fs::write(
+        dir.join("tool.json"),
+        r#"{ "kind": "v-bit", "angle_deg": 60.0, "tip_flat_mm": 0.01, "z_offset_mm": 0.0 }"#,
+    )
+    .unwrap();
+    (bin, dir)
+}
+
+/// Each block of a plan: its comment and the (X, Y, Z) after each move below safe height.
+fn blocks_of(g: &str) -> Vec<(String, Vec<[f64; 3]>)> {
+    let mut out: Vec<(String, Vec<[f64; 3]>)> = Vec::new();
+    let mut pos = [0.0f64; 3];
+    for line in g.lines() {
+        if let Some(c) = line.strip_prefix("; ") {
+            if c.starts_with("scratch ") || c.starts_with("mark ") {
+                out.push((c.to_string(), Vec::new()));
+            }
+            continue;
+        }
+        if !(line.starts_with("G0 ") || line.starts_with("G1 ")) {
+            continue;
+        }
+        for w in line.split_whitespace() {
+            let i = match w.as_bytes()[0] {
+                b'X' => 0,
+                b'Y' => 1,
+                b'Z' => 2,
+                _ => continue,
+            };
+            pos[i] = w[1..].parse().unwrap();
+        }
+        if line.starts_with("G1") && pos[2] < 1.0 {
+            if let Some(b) = out.last_mut() {
+                b.1.push(pos);
+            }
+        }
+    }
+    out
+}
+
+#[test]
+fn marlin_plan_homes_only_when_asked_and_keeps_to_the_bed() {
+    let (bin, dir) = setup("marlin");
+    design(100.0).save(&dir.join("design.json"), "s.csv").unwrap();
+    let run = |args: &[&str]| Command::new(&bin).current_dir(&dir).args(args).output().unwrap();
+    let base = ["plan", "design.json", "--tool", "tool.json", "--machine", "marlin"];
+    let o = run(&base);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let g = std::fs::read_to_string(dir.join("plan.gcode")).expect("plan.gcode by default for Marlin");
+    assert!(g.starts_with("; scratchart plan machine=marlin\n") && !g.contains('\r'));
+    assert!(g.lines().all(|l| l.len() < 80));
+    assert_eq!(g.lines().last(), Some("M400"));
+    let codes: Vec<&str> = g.lines().filter(|l| !l.starts_with(';')).collect();
+    assert!(codes.contains(&"G21") && codes.contains(&"G90"));
+    assert!(!codes.iter().any(|l| l.starts_with("G28")), "no homing unless asked");
+    for l in &codes {
+        let w: Vec<&str> = l.split_whitespace().collect();
+        assert!(
+            !w.iter().any(|w| ["M3", "M4", "M5"].contains(w) || w.starts_with('S')),
+            "{l}"
+        );
+    }
+    assert!(g.contains("groove ends: cuts are not shortened"));
+    // --home: G28 X Y, never Z.
+    let mut home = base.to_vec();
+    home.extend(["--home", "--out", "home.gcode"]);
+    let o = run(&home);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let g = std::fs::read_to_string(dir.join("home.gcode")).unwrap();
+    assert_eq!(
+        g.lines().filter(|l| l.starts_with("G28")).collect::<Vec<_>>(),
+        vec!["G28 X Y"]
+    );
+    // A bed smaller than the plate: refused (3), nothing written.
+    let mut small = base.to_vec();
+    small.extend(["--bed", "80x300", "--out", "small.gcode"]);
+    let o = run(&small);
+    assert_eq!(o.status.code(), Some(3), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("80 x 300"));
+    assert!(!dir.join("small.gcode").exists());
+    // A bed that fits: fine.
+    let mut fits = base.to_vec();
+    fits.extend(["--bed", "120x110", "--out", "fits.gcode"]);
+    assert!(run(&fits).status.success());
+    // Malformed --bed, and --home for GRBL: 2.
+    let mut bad = base.to_vec();
+    bad.extend(["--bed", "120"]);
+    assert_eq!(run(&bad).status.code(), Some(2));
+    let o = run(&["plan", "design.json", "--tool", "tool.json", "--home"]);
+    assert_eq!(o.status.code(), Some(2), "{}", String::from_utf8_lossy(&o.stderr));
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn the_mark_is_cut_at_the_plus_x_edge_unless_turned_off() {
+    let (bin, dir) = setup("mark");
+    let scene = design(100.0);
+    scene.save(&dir.join("design.json"), "s.csv").unwrap();
+    let run = |args: &[&str]| Command::new(&bin).current_dir(&dir).args(args).output().unwrap();
+    let o = run(&["plan", "design.json", "--tool", "tool.json", "--out", "m.nc"]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let g = std::fs::read_to_string(dir.join("m.nc")).unwrap();
+    let blocks = blocks_of(&g);
+    let marks: Vec<_> = blocks.iter().filter(|b| b.0 == "mark +x edge").collect();
+    assert_eq!(marks.len(), 1, "one mark block");
+    assert_eq!(blocks.iter().filter(|b| b.0.starts_with("scratch ")).count(), 40);
+    let pts = &marks[0].1;
+    assert_eq!(pts.len(), 2, "{pts:?}");
+    let (a, b) = (pts[0], pts[1]);
+    let h = 0.5 * scene.plate.size_mm;
+    assert!(b[0] > a[0] && a[1] == b[1], "it points +x: {pts:?}");
+    assert!(
+        a[0] > 0.4 * h && b[0] < h && a[1].abs() < h,
+        "on the plate at the +x edge: {pts:?}"
+    );
+    let right = scene
+        .scratches
+        .iter()
+        .map(|s| s.p0[0].max(s.p1[0]))
+        .fold(f64::MIN, f64::max);
+    assert!(a[0] > right, "outside the scratched area: {} vs {right}", a[0]);
+    assert!(a[2] < 0.0, "cut below the surface");
+    assert!(dir.join("m.png").exists());
+    let o = run(&[
+        "plan",
+        "design.json",
+        "--tool",
+        "tool.json",
+        "--out",
+        "n.nc",
+        "--no-mark",
+    ]);
+    assert!(o.status.success());
+    let g = std::fs::read_to_string(dir.join("n.nc")).unwrap();
+    assert!(!g.contains("; mark"));
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn depths_come_from_the_z_mm_column_and_follow_a_height_map() {
+    use scratchart::model::scene::Extra;
+    let (bin, dir) = setup("zmm");
+    let scene = design(100.0);
+    let z: Vec<f64> = (0..scene.scratches.len()).map(|k| 0.01 + 0.001 * k as f64).collect();
+    let extra = Extra {
+        names: vec!["z_mm".into()],
+        rows: z.iter().map(|z| vec![*z]).collect(),
+    };
+    scene.save_extra(&dir.join("design.json"), "s.csv", &extra).unwrap();
+    let run = |args: &[&str]| Command::new(&bin).current_dir(&dir).args(args).output().unwrap();
+    // No tool needed.
+    let o = run(&["plan", "design.json", "--out", "z.nc", "--no-mark"]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let g = std::fs::read_to_string(dir.join("z.nc")).unwrap();
+    assert!(g.contains("depths: the design's z_mm column"));
+    let blocks = blocks_of(&g);
+    assert_eq!(blocks.len(), 40);
+    for (label, pts) in &blocks {
+        let k: usize = label["scratch ".len()..].parse::<usize>().unwrap() - 1;
+        assert!(
+            pts.iter().all(|p| (p[2] + z[k]).abs() < 1e-4),
+            "{label}: {pts:?} vs {}",
+            z[k]
+        );
+    }
+    // A tilted plate: every point of every cut is its depth below the measured surface.
+    let xs: Vec<f64> = (0..5).map(|i| -50.0 + 25.0 * i as f64).collect();
+    let plane = |x: f64, y: f64| 0.1 + 0.002 * x + 0.001 * y;
+    let rows: Vec<Vec<f64>> = xs.iter().map(|&y| xs.iter().map(|&x| plane(x, y)).collect()).collect();
+    let map = serde_json::json!({ "x_mm": xs, "y_mm": xs, "z_mm": rows });
+    std::fs::write(dir.join("heightmap.json"), map.to_string()).unwrap();
+    let o = run(&["plan", "design.json", "--out", "l.nc", "--heightmap", "heightmap.json"]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(String::from_utf8_lossy(&o.stdout).contains("levelling: correction from"));
+    let g = std::fs::read_to_string(dir.join("l.nc")).unwrap();
+    let blocks = blocks_of(&g);
+    assert_eq!(blocks.len(), 41);
+    for (label, pts) in &blocks {
+        if let Some(k) = label.strip_prefix("scratch ") {
+            let k: usize = k.parse::<usize>().unwrap() - 1;
+            for p in pts {
+                let depth = plane(p[0], p[1]) - p[2];
+                // Z is written to 0.1 um (rounding 5e-5 mm), X and Y too (5e-5 mm x slope 0.003).
+                assert!((depth - z[k]).abs() < 5.1e-5, "{label}: depth {depth} vs {}", z[k]);
+            }
+        }
+    }
+    // A malformed height map: 3, saying what is wrong.
+    std::fs::write(
+        dir.join("bad.json"),
+        r#"{"x_mm":[0,10],"y_mm":[5,5],"z_mm":[[0,0],[0,0]]}"#,
+    )
+    .unwrap();
+    let o = run(&["plan", "design.json", "--out", "b.nc", "--heightmap", "bad.json"]);
+    assert_eq!(o.status.code(), Some(3));
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        e.contains("bad.json") && e.contains("y_mm must increase strictly"),
+        "{e}"
+    );
+    // Neither z_mm nor a tool: 2.
+    design(100.0).save(&dir.join("plain.json"), "p.csv").unwrap();
+    let o = run(&["plan", "plain.json"]);
+    assert_eq!(o.status.code(), Some(2), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("--tool"));
+    let _ = std::fs::remove_dir_all(&dir);
+}

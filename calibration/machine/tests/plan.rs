@@ -1,8 +1,11 @@
-//! The carving plan without hardware: order, travel, bounds, time and the G-code text.
+//! The carving plan without hardware: order, travel, bounds, time, the G-code text (GRBL and
+//! Marlin), the orientation mark and levelling by a height map.
 use scratchart_machine::depths::depths;
-use scratchart_machine::gcode;
+use scratchart_machine::gcode::{self, write_blocks, Options};
+use scratchart_machine::level::{compensate, HeightMap};
 use scratchart_machine::plan::{
-    check_bounds, job_time, move_time, nearest_neighbour, travel, two_opt, Cut, MachineProfile,
+    check_bounds, check_cuts, check_moves, job_time, move_time, nearest_neighbour, orientation_mark, travel, two_opt,
+    Block, Cut, Label, MachineProfile,
 };
 use scratchart_model::scene::Scratch;
 use scratchart_tool::Tool;
@@ -146,4 +149,253 @@ fn depths_come_from_the_tool_curve() {
     for ((z, e), want) in depths(&scratches, &tool, 0.2).into_iter().zip(zs) {
         assert!((z - want).abs() < 1e-5 && e < 1e-4, "{z} vs {want} (mismatch {e})");
     }
+}
+
+/// The blocks of a G-code text: each block's comment and the (X, Y, Z) after each of its moves
+/// below safe height (the plunge point, then every G1), from the modal position.
+fn blocks_of(g: &str) -> Vec<(String, Vec<[f64; 3]>)> {
+    let mut out: Vec<(String, Vec<[f64; 3]>)> = Vec::new();
+    let mut pos = [0.0f64; 3];
+    for line in g.lines() {
+        if let Some(c) = line.strip_prefix("; ") {
+            if c.starts_with("scratch ") || c.starts_with("mark ") {
+                out.push((c.to_string(), Vec::new()));
+            }
+            continue;
+        }
+        if !(line.starts_with("G0 ") || line.starts_with("G1 ")) {
+            continue;
+        }
+        let mut moved = false;
+        for w in line.split_whitespace() {
+            let v = |w: &str| w[1..].parse::<f64>().unwrap();
+            match w.as_bytes()[0] {
+                b'X' => (pos[0], moved) = (v(w), true),
+                b'Y' => (pos[1], moved) = (v(w), true),
+                b'Z' => (pos[2], moved) = (v(w), true),
+                _ => {}
+            }
+        }
+        if moved && line.starts_with("G1") && pos[2] < 1.0 {
+            if let Some(b) = out.last_mut() {
+                b.1.push(pos);
+            }
+        }
+    }
+    out
+}
+
+#[test]
+fn marlin_gcode_has_no_spindle_and_homes_only_when_asked() {
+    let cuts = two_opt(nearest_neighbour(&random_cuts(30, 100.0)), 200);
+    let blocks: Vec<Block> = cuts.iter().map(Block::flat).collect();
+    let m = MachineProfile::marlin();
+    for home in [false, true] {
+        let g = write_blocks(&blocks, &m, 100.0, &[], &Options { home });
+        assert!(g.starts_with("; scratchart plan machine=marlin\n"));
+        assert!(g.lines().any(|l| l == "G21") && g.lines().any(|l| l == "G90"));
+        assert_eq!(g.lines().last(), Some("M400"), "M400 ends the plan");
+        let codes: Vec<&str> = g.lines().filter(|l| !l.starts_with(';')).collect();
+        for l in &codes {
+            let words: Vec<&str> = l.split_whitespace().collect();
+            assert!(
+                !words
+                    .iter()
+                    .any(|w| ["M3", "M4", "M5"].contains(w) || w.starts_with('S')),
+                "a spindle command in a Marlin plan: {l}"
+            );
+            // Every move carries its feed; every pure Z move runs at the printer's Z feed.
+            if l.starts_with("G0") || l.starts_with("G1") {
+                assert!(l.contains(" F"), "no feed: {l}");
+                if !l.contains('X') && !l.contains('Y') {
+                    assert!(l.ends_with(" F300"), "a Z move not at the Z feed: {l}");
+                }
+            }
+        }
+        assert_eq!(codes.iter().any(|l| l.starts_with("G28")), home, "G28 only with --home");
+        if home {
+            assert!(codes.contains(&"G28 X Y") && codes.contains(&"G92 X-110.0000 Y-110.0000"), "{g}");
+        }
+        assert!(g.lines().all(|l| l.len() < 80));
+        // The cuts read back as planned.
+        let back = blocks_of(&g);
+        assert_eq!(back.len(), 30);
+        for ((label, pts), c) in back.iter().zip(&cuts) {
+            assert_eq!(label, &format!("scratch {}", c.scratch + 1));
+            assert_eq!(pts.len(), 2, "{label}: {pts:?}");
+            assert!((pts[0][0] - c.a[0]).abs() < 1e-4 && (pts[1][1] - c.b[1]).abs() < 1e-4);
+            assert!((pts[0][2] + c.z).abs() < 1e-4);
+        }
+    }
+}
+
+#[test]
+fn every_move_is_checked_against_the_bed() {
+    let mut m = MachineProfile::marlin();
+    let blocks: Vec<Block> = random_cuts(20, 100.0).iter().map(Block::flat).collect();
+    assert!(check_moves(&blocks, &m).is_ok());
+    m.travel_mm = [80.0, 220.0, 250.0];
+    let e = check_moves(&blocks, &m).unwrap_err();
+    assert!(e.contains("leaves the 80 x 220 mm bed"), "{e}");
+    // Too deep for the Z travel.
+    let mut deep = blocks.clone();
+    deep[0].path[0][2] = -300.0;
+    assert!(check_moves(&deep, &MachineProfile::marlin())
+        .unwrap_err()
+        .contains("Z travel"));
+}
+
+#[test]
+fn card_depths_above_zero_are_allowed_only_where_asked() {
+    let m = MachineProfile::grbl();
+    let mut cuts = random_cuts(5, 100.0);
+    cuts[2].z = -0.02;
+    let e = check_bounds(&cuts, 100.0, &m).unwrap_err();
+    assert!(e.contains("scratch 3") && e.contains(">= 0"), "{e}");
+    assert!(check_cuts(&cuts, 100.0, &m, -0.5).is_ok());
+    cuts[2].z = -0.6;
+    assert!(check_cuts(&cuts, 100.0, &m, -0.5).is_err());
+}
+
+#[test]
+fn the_mark_points_plus_x_on_the_plate_clear_of_the_scratches() {
+    let plate = 100.0;
+    // Scratches with room at the +x edge: the mark sits at y = 0, clear of them.
+    let sc: Vec<_> = random_cuts(400, 80.0).iter().map(|c| (c.a, c.b, 0.08)).collect();
+    let mk = orientation_mark(&sc, plate, 0.05, 0.5);
+    assert!(mk.clear);
+    assert_eq!((mk.a[1], mk.b[1]), (0.0, 0.0));
+    assert!(mk.b[0] > mk.a[0], "it points +x");
+    assert!(
+        mk.b[0] < 0.5 * plate && mk.b[0] > 0.45 * plate,
+        "at the +x edge, on the plate: {mk:?}"
+    );
+    // A scratch across the middle of the edge: the mark moves along the edge to clear it.
+    let blocking = vec![([45.0, -1.0], [49.5, 1.0], 0.1)];
+    let mk = orientation_mark(&blocking, plate, 0.05, 0.5);
+    assert!(mk.clear && mk.a[1] != 0.0, "{mk:?}");
+    assert!(mk.a[1].abs() < 0.5 * plate && mk.b[0] < 0.5 * plate);
+    // Scratches filling the whole edge: it goes at y = 0 across them, and says so.
+    let full: Vec<_> = (0..200)
+        .map(|k| {
+            let y = -49.5 + 0.5 * k as f64;
+            ([40.0, y], [49.9, y], 0.1)
+        })
+        .collect();
+    let mk = orientation_mark(&full, plate, 0.05, 0.5);
+    assert!(!mk.clear && mk.a[1] == 0.0);
+    let b = mk.block();
+    assert_eq!(b.label, Label::Mark);
+    let g = write_blocks(&[b], &MachineProfile::grbl(), plate, &[], &Options::default());
+    assert!(g.contains("\n; mark +x edge\n") && !g.contains("; scratch "));
+}
+
+fn tilted_map() -> HeightMap {
+    let xs: Vec<f64> = (0..6).map(|i| -50.0 + 20.0 * i as f64).collect();
+    let ys: Vec<f64> = (0..6).map(|j| -50.0 + 20.0 * j as f64).collect();
+    let z = ys
+        .iter()
+        .map(|&y| xs.iter().map(|&x| 0.05 + 0.003 * x - 0.002 * y).collect())
+        .collect();
+    HeightMap::new(xs, ys, z).unwrap()
+}
+
+#[test]
+fn levelling_keeps_the_depth_below_a_tilted_surface() {
+    let map = tilted_map();
+    let plane = |x: f64, y: f64| 0.05 + 0.003 * x - 0.002 * y;
+    for c in random_cuts(200, 100.0) {
+        let path = compensate(&map, c.a, c.b, c.z, 0.001).unwrap();
+        assert_eq!(path.len(), 2, "a plane needs no split");
+        // Every point of every segment: depth below the surface = the designed depth.
+        for w in path.windows(2) {
+            for k in 0..=10 {
+                let t = k as f64 / 10.0;
+                let p: Vec<f64> = (0..3).map(|i| w[0][i] + t * (w[1][i] - w[0][i])).collect();
+                let depth = plane(p[0], p[1]) - p[2];
+                assert!((depth - c.z).abs() < 1e-12, "depth {depth} vs {}", c.z);
+            }
+        }
+        assert!(close2(path[0], c.a) && close2(path[1], c.b));
+    }
+}
+
+fn close2(p: [f64; 3], q: [f64; 2]) -> bool {
+    (p[0] - q[0]).abs() < 1e-12 && (p[1] - q[1]).abs() < 1e-12
+}
+
+#[test]
+fn levelling_splits_cuts_over_a_bent_surface() {
+    // A saddle z = 0.0004 x y between probes 10 mm apart: bilinear, bent along a diagonal cut.
+    let xs: Vec<f64> = (0..11).map(|i| -50.0 + 10.0 * i as f64).collect();
+    let z = xs
+        .iter()
+        .map(|&y| xs.iter().map(|&x| 0.0004 * x * y).collect())
+        .collect();
+    let map = HeightMap::new(xs.clone(), xs, z).unwrap();
+    let tol = 0.001;
+    let (a, b, depth) = ([-45.0, -40.0], [42.0, 44.0], 0.03);
+    let path = compensate(&map, a, b, depth, tol).unwrap();
+    assert!(path.len() > 10, "a bent surface is split: {} points", path.len());
+    let mut worst = 0.0f64;
+    for w in path.windows(2) {
+        for k in 0..=50 {
+            let t = k as f64 / 50.0;
+            let p: Vec<f64> = (0..3).map(|i| w[0][i] + t * (w[1][i] - w[0][i])).collect();
+            worst = worst.max((map.at(p[0], p[1]) - p[2] - depth).abs());
+        }
+        // Each segment's ends are exactly the designed depth below the surface.
+        assert!((map.at(w[0][0], w[0][1]) - w[0][2] - depth).abs() < 1e-12);
+    }
+    assert!(worst <= tol + 1e-12, "the surface departs {worst} mm from a segment");
+    assert!(worst > 0.2 * tol, "the split is not wastefully fine: {worst}");
+}
+
+#[test]
+fn malformed_height_maps_are_refused_clearly() {
+    let dir = std::env::temp_dir().join(format!("scratchart_level_{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let cases = [
+        (r#"{"x_mm":[0,10],"y_mm":[0,10],"z_mm":[[0,0],[0,0]]}"#, None),
+        (
+            r#"{"x_mm":[10,0],"y_mm":[0,10],"z_mm":[[0,0],[0,0]]}"#,
+            Some("x_mm must increase strictly"),
+        ),
+        (
+            r#"{"x_mm":[0,10],"y_mm":[0,10],"z_mm":[[0,0]]}"#,
+            Some("z_mm has 1 rows but y_mm has 2"),
+        ),
+        (
+            r#"{"x_mm":[0,10],"y_mm":[0,10],"z_mm":[[0,0],[0]]}"#,
+            Some("z_mm row 1 has 1 heights"),
+        ),
+        (r#"{"x_mm":[],"y_mm":[0],"z_mm":[[]]}"#, Some("x_mm is empty")),
+        (
+            r#"{"x_mm":[0,10],"y_mm":[0,10],"z_mm":[[0,0],[0,1e999]]}"#,
+            Some("height map"),
+        ),
+        (
+            r#"{"x_mm":[0,10],"y_mm":[0,10],"z":[[0,0],[0,0]]}"#,
+            Some("unknown field"),
+        ),
+    ];
+    for (k, (text, want)) in cases.iter().enumerate() {
+        let p = dir.join(format!("h{k}.json"));
+        std::fs::write(&p, text).unwrap();
+        match (HeightMap::load(&p), want) {
+            (Ok(m), None) => assert_eq!(HeightMap::load(&p).unwrap(), m),
+            (Err(e), Some(w)) => {
+                let e = e.to_string();
+                assert!(e.contains(w) && e.contains(&format!("h{k}.json")), "{e} (wanted {w})");
+            }
+            (r, w) => panic!("case {k}: {r:?}, wanted {w:?}"),
+        }
+    }
+    let nan = HeightMap::new(vec![0.0], vec![0.0], vec![vec![f64::NAN]]).unwrap_err();
+    assert!(nan.to_string().contains("z_mm[0][0] is not a finite number"));
+    // A saved map reads back equal.
+    let m = tilted_map();
+    std::fs::write(dir.join("ok.json"), m.to_json()).unwrap();
+    assert_eq!(HeightMap::load(&dir.join("ok.json")).unwrap(), m);
+    let _ = std::fs::remove_dir_all(&dir);
 }

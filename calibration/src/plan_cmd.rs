@@ -1,0 +1,442 @@
+//! `scratchart-cal plan`: a design in, G-code and a preview PNG out; and the machine profile the
+//! `plan` and `card` commands share (`--machine`, `--machine-file`, `--bed`).
+use std::path::{Path, PathBuf};
+
+use anyhow::{Context as _, Result};
+
+use scratchart::exit::{InputError, UsageError};
+use scratchart::model::scene::Scene;
+use scratchart_machine::gcode::{write_blocks, Options};
+use scratchart_machine::level::{compensate, HeightMap};
+use scratchart_machine::plan::{
+    check_bounds, check_moves, nearest_neighbour, orientation_mark, program_time, program_travel, travel, two_opt,
+    Block, Cut, Label, MachineProfile,
+};
+use scratchart_tool::Tool;
+
+/// The levelling tolerance: the measured surface stays within this of every G1 segment, mm.
+pub const LEVEL_TOL_MM: f64 = 0.001;
+/// The orientation mark keeps this much more than half a groove's visible width from every
+/// scratch, mm.
+pub const MARK_CLEAR_MM: f64 = 0.5;
+
+/// How the groove ends are handled, stated in every plan's header.
+pub const GROOVE_ENDS: &str = "groove ends: cuts are not shortened. The tool plunges at one designed endpoint \
+     and lifts at the other, so the full-depth groove (its side walls, which make the picture) has \
+     the designed length; the tool's own shape adds a tapered end about half a groove width long \
+     beyond each endpoint, whose walls face along the groove and send little light the designed \
+     way. Shortening the cuts by that much would shorten the side walls instead.";
+
+/// The machine flags `plan` and `card` share.
+#[derive(clap::Args, Debug)]
+pub struct MachineArgs {
+    /// Firmware of the machine: grbl (a router) or marlin (a printer with an engraving bit)
+    #[arg(long, default_value = "grbl", value_parser = ["grbl", "marlin"])]
+    pub machine: String,
+    /// Machine profile (JSON: firmware, travel_mm, feeds, accel_mm_s2, safe_z_mm, spindle_rpm);
+    /// default: the built-in profile of --machine
+    #[arg(long)]
+    pub machine_file: Option<PathBuf>,
+}
+
+/// `scratchart-cal plan`'s flags.
+#[derive(clap::Args, Debug)]
+pub struct PlanArgs {
+    /// The design (design.json from `scratchart design`)
+    pub design: PathBuf,
+    /// The tool (tool.json); needed unless the design's scratch CSV has a z_mm column
+    #[arg(long)]
+    pub tool: Option<PathBuf>,
+    /// Output G-code file (default: plan.nc, or plan.gcode with --machine marlin)
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    #[command(flatten)]
+    pub machine: MachineArgs,
+    /// Bed (X/Y travel) WxH in mm, replacing the profile's; every move is checked against it
+    #[arg(long)]
+    pub bed: Option<String>,
+    /// Marlin: home X and Y first (G28 X Y) and put X0 Y0 at the bed's centre (never homes Z)
+    #[arg(long)]
+    pub home: bool,
+    /// Leave out the orientation mark at the plate's +x edge
+    #[arg(long)]
+    pub no_mark: bool,
+    /// Height map of the plate surface (heightmap.json): each cut follows the measured surface
+    #[arg(long)]
+    pub heightmap: Option<PathBuf>,
+}
+
+/// `--bed WxH` in mm.
+pub fn parse_bed(s: &str) -> Result<[f64; 2]> {
+    let bad = || UsageError(format!("--bed {s}: expected WxH in mm, both > 0 (for example 220x220)"));
+    let (w, h) = s.split_once(['x', 'X']).ok_or_else(bad)?;
+    let (w, h): (f64, f64) = (
+        w.trim().parse().map_err(|_| bad())?,
+        h.trim().parse().map_err(|_| bad())?,
+    );
+    if !(w > 0.0 && h > 0.0 && w.is_finite() && h.is_finite()) {
+        return Err(bad().into());
+    }
+    Ok([w, h])
+}
+
+/// The machine profile: the built-in one of `--machine`, or `--machine-file`; `--bed` replaces its
+/// X/Y travel. The profile's firmware must agree with `--machine` when both are given.
+pub fn machine_profile(machine: &str, machine_file: Option<&Path>, bed: Option<&str>) -> Result<MachineProfile> {
+    let mut m = match machine {
+        "marlin" => MachineProfile::marlin(),
+        "grbl" => MachineProfile::grbl(),
+        other => return Err(UsageError(format!("--machine {other}: expected grbl or marlin")).into()),
+    };
+    if let Some(f) = machine_file {
+        let text = std::fs::read_to_string(f)
+            .map_err(|e| InputError(format!("cannot read machine profile {}: {e}", f.display())))?;
+        m = serde_json::from_str(&text)
+            .map_err(|e| InputError(format!("machine profile {} is not valid: {e}", f.display())))?;
+        let ok = m.travel_mm.iter().all(|t| *t > 0.0)
+            && [
+                m.rapid_mm_min,
+                m.cut_mm_min,
+                m.plunge_mm_min,
+                m.accel_mm_s2,
+                m.safe_z_mm,
+            ]
+            .iter()
+            .all(|v| *v > 0.0 && v.is_finite());
+        if !ok {
+            return Err(InputError(format!(
+                "machine profile {}: travel, feeds, acceleration and safe height must all be > 0",
+                f.display()
+            ))
+            .into());
+        }
+    }
+    if let Some(b) = bed {
+        let [w, h] = parse_bed(b)?;
+        m.travel_mm[0] = w;
+        m.travel_mm[1] = h;
+    }
+    Ok(m)
+}
+
+/// Visible width of a scratch (MODEL.md section 2): W = w sqrt(1 - exp(-2d/w)).
+fn visible_width(w: f64, d: f64) -> f64 {
+    w * (1.0 - (-2.0 * d / w).exp()).sqrt()
+}
+
+/// `scratchart-cal plan`.
+pub fn plan(a: &PlanArgs) -> Result<()> {
+    let m = machine_profile(&a.machine.machine, a.machine.machine_file.as_deref(), a.bed.as_deref())?;
+    let out = a.out.clone().unwrap_or_else(|| {
+        PathBuf::from(match m.firmware {
+            scratchart_machine::plan::Firmware::Marlin => "plan.gcode",
+            scratchart_machine::plan::Firmware::Grbl => "plan.nc",
+        })
+    });
+    let out = out.as_path();
+    let (scene, extra) = Scene::load_extra(&a.design)?;
+    if a.home && m.firmware != scratchart_machine::plan::Firmware::Marlin {
+        return Err(UsageError("--home is for Marlin printers (GRBL uses its own work offsets)".into()).into());
+    }
+    let tool = match &a.tool {
+        Some(t) => Some(Tool::load(t).map_err(|e| InputError(e.to_string()))?),
+        None => None,
+    };
+    let map = match &a.heightmap {
+        Some(p) => Some(HeightMap::load(p).map_err(|e| InputError(e.to_string()))?),
+        None => None,
+    };
+    let mut summary = Vec::new();
+    // Depths: the design's z_mm column when it has one, else the tool's curve.
+    let depths: Vec<f64> = match extra.column("z_mm") {
+        Some(z) => {
+            if let Some(k) = z.iter().position(|z| !(*z >= 0.0)) {
+                return Err(InputError(format!(
+                    "{}: scratch {} has z_mm = {}: a design's depths must be >= 0 mm",
+                    a.design.display(),
+                    k + 1,
+                    z[k]
+                ))
+                .into());
+            }
+            let mut line = format!("depths: the design's z_mm column ({} scratches)", z.len());
+            if let Some(t) = &tool {
+                let worst = scene
+                    .scratches
+                    .iter()
+                    .zip(&z)
+                    .map(|(s, &z)| {
+                        t.model(z)
+                            .map_or(f64::INFINITY, |g| (g.w - s.w).abs() / s.w + (g.d - s.d).abs() / s.d)
+                    })
+                    .fold(0.0f64, f64::max);
+                line += &format!("; worst mismatch of the tool's groove at z_mm: {:.1}%", 100.0 * worst);
+            }
+            summary.push(line);
+            z
+        }
+        None => {
+            let t = tool.as_ref().ok_or_else(|| {
+                UsageError(format!(
+                    "{} has no z_mm column: give the tool (--tool tool.json) to map each scratch to a depth",
+                    a.design.display()
+                ))
+            })?;
+            let d = scratchart_machine::depths::depths(&scene.scratches, t, 0.5);
+            let worst = d.iter().map(|d| d.1).fold(0.0f64, f64::max);
+            summary.push(format!(
+                "depths: the tool's curve; worst groove mismatch {:.1}% (|dw|/w + |dd|/d)",
+                100.0 * worst
+            ));
+            d.into_iter().map(|d| d.0).collect()
+        }
+    };
+    if let Some(t) = &tool {
+        summary.insert(0, format!("tool {}", serde_json::to_string(t)?));
+    }
+    let cuts: Vec<Cut> = scene
+        .scratches
+        .iter()
+        .zip(&depths)
+        .enumerate()
+        .map(|(k, (s, z))| Cut {
+            a: s.p0,
+            b: s.p1,
+            z: *z,
+            scratch: k,
+        })
+        .collect();
+    let plate = scene.plate.size_mm;
+    check_bounds(&cuts, plate, &m).map_err(|e| InputError(format!("the plan leaves its bounds: {e}")))?;
+    let t0 = travel(&cuts);
+    let ordered = two_opt(nearest_neighbour(&cuts), 200);
+    let mut blocks: Vec<Block> = ordered.iter().map(Block::flat).collect();
+    let mark = (!a.no_mark).then(|| {
+        let sc: Vec<_> = scene
+            .scratches
+            .iter()
+            .map(|s| (s.p0, s.p1, visible_width(s.w, s.d)))
+            .collect();
+        let deepest = depths.iter().cloned().fold(0.0f64, f64::max);
+        orientation_mark(&sc, plate, deepest, MARK_CLEAR_MM)
+    });
+    if let Some(mk) = &mark {
+        blocks.push(mk.block());
+        summary.push(format!(
+            "mark: one cut at the +x edge from ({:.3}, {:.3}) to ({:.3}, {:.3}) mm, {:.4} mm deep, pointing +x; {}",
+            mk.a[0],
+            mk.a[1],
+            mk.b[0],
+            mk.b[1],
+            mk.z,
+            if mk.clear {
+                "clear of every scratch"
+            } else {
+                "the scratches fill the edge: it crosses them"
+            }
+        ));
+        if !mk.clear {
+            eprintln!("warning: the design leaves no room at the +x edge: the orientation mark crosses scratches");
+        }
+    }
+    if let Some(map) = &map {
+        let (mut lo, mut hi, mut outside, mut segs) = (f64::INFINITY, f64::NEG_INFINITY, 0usize, 0usize);
+        for b in &mut blocks {
+            let (p, q) = (b.path[0], b.path[b.path.len() - 1]);
+            let depth = -p[2];
+            let path = compensate(map, [p[0], p[1]], [q[0], q[1]], depth, LEVEL_TOL_MM)
+                .map_err(|e| InputError(format!("{}: {e}", b.label)))?;
+            for v in &path {
+                lo = lo.min(v[2] + depth);
+                hi = hi.max(v[2] + depth);
+                if !map.covers(v[0], v[1]) {
+                    outside += 1;
+                }
+            }
+            segs += path.len() - 1;
+            b.path = path;
+        }
+        summary.push(format!(
+            "levelled by {}: surface correction {:+.4} to {:+.4} mm, {segs} G1 segments for {} cuts, \
+             within {LEVEL_TOL_MM} mm of the probed surface",
+            a.heightmap.as_ref().unwrap().display(),
+            lo,
+            hi,
+            blocks.len()
+        ));
+        println!(
+            "  levelling: correction from {lo:+.4} to {hi:+.4} mm ({segs} segments for {} cuts)",
+            blocks.len()
+        );
+        if outside > 0 {
+            eprintln!("warning: {outside} cut points lie outside the probed area; their height is the nearest edge's");
+        }
+    }
+    check_moves(&blocks, &m).map_err(|e| InputError(format!("the plan leaves its bounds: {e}")))?;
+    let t1 = program_travel(&blocks);
+    let secs = program_time(&blocks, &m);
+    summary.push(format!(
+        "travel {t0:.0} mm in design order, {t1:.0} mm ordered; estimated {:.1} min",
+        secs / 60.0
+    ));
+    summary.push(GROOVE_ENDS.to_string());
+    let g = write_blocks(&blocks, &m, plate, &summary, &Options { home: a.home });
+    if let Some(dir) = out.parent().filter(|p| !p.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir).with_context(|| format!("cannot create output directory {}", dir.display()))?;
+    }
+    scratchart::io::write_atomic(out, g.as_bytes())?;
+    let preview = out.with_extension("png");
+    write_preview(&preview, &blocks, plate)?;
+    println!(
+        "wrote {} ({} cuts{}) and {}",
+        out.display(),
+        ordered.len(),
+        if mark.is_some() { " and the +x mark" } else { "" },
+        preview.display()
+    );
+    println!(
+        "  travel: {t0:.0} mm in design order -> {t1:.0} mm ordered; estimated job time {:.1} min",
+        secs / 60.0
+    );
+    for s in &summary {
+        if s.starts_with("depths") {
+            println!("  {s}");
+        }
+    }
+    Ok(())
+}
+
+/// The tool path from above (512 px): the plate outline light gray, rapid moves gray, cuts black,
+/// the orientation mark black, thick and with an arrow head pointing +x.
+pub fn write_preview(path: &Path, blocks: &[Block], plate_mm: f64) -> Result<()> {
+    let n = 512usize;
+    let mut px = vec![255u8; n * n];
+    let to = |p: [f64; 2]| {
+        (
+            (p[0] / plate_mm + 0.5) * (n - 1) as f64,
+            (0.5 - p[1] / plate_mm) * (n - 1) as f64,
+        )
+    };
+    let mut line = |a: [f64; 2], b: [f64; 2], v: u8, thick: i64| {
+        let ((x0, y0), (x1, y1)) = (to(a), to(b));
+        let steps = ((x1 - x0).abs().max((y1 - y0).abs()).ceil() as usize).max(1);
+        for k in 0..=steps {
+            let t = k as f64 / steps as f64;
+            let (x, y) = (x0 + t * (x1 - x0), y0 + t * (y1 - y0));
+            for dy in -thick..=thick {
+                for dx in -thick..=thick {
+                    let (x, y) = (x.round() as i64 + dx, y.round() as i64 + dy);
+                    if x >= 0 && y >= 0 && (x as usize) < n && (y as usize) < n {
+                        let i = y as usize * n + x as usize;
+                        px[i] = px[i].min(v);
+                    }
+                }
+            }
+        }
+    };
+    let h = 0.5 * plate_mm;
+    for (a, b) in [
+        ([-h, -h], [h, -h]),
+        ([h, -h], [h, h]),
+        ([h, h], [-h, h]),
+        ([-h, h], [-h, -h]),
+    ] {
+        line(a, b, 220, 0);
+    }
+    let xy = |p: &[f64; 3]| [p[0], p[1]];
+    let mut at = [0.0, 0.0];
+    for b in blocks {
+        line(at, xy(&b.path[0]), 190, 0);
+        at = xy(&b.path[b.path.len() - 1]);
+    }
+    line(at, [0.0, 0.0], 190, 0);
+    for b in blocks {
+        let thick = if b.label == Label::Mark { 1 } else { 0 };
+        for w in b.path.windows(2) {
+            line(xy(&w[0]), xy(&w[1]), 0, thick);
+        }
+        if b.label == Label::Mark {
+            let tip = xy(&b.path[b.path.len() - 1]);
+            let s = 0.012 * plate_mm;
+            line(tip, [tip[0] - s, tip[1] + s], 0, 1);
+            line(tip, [tip[0] - s, tip[1] - s], 0, 1);
+        }
+    }
+    scratchart::io::write_png_gray(path, n as u32, n as u32, &px)?;
+    Ok(())
+}
+
+/// `scratchart-cal card`'s G-code: `DIR/card.nc` (GRBL) or `DIR/card.gcode` (Marlin), written
+/// atomically; returns its path.
+pub fn write_card_gcode(card: &scratchart_calibration::card::Card, dir: &Path, a: &MachineArgs) -> Result<PathBuf> {
+    let m = machine_profile(&a.machine, a.machine_file.as_deref(), None)?;
+    let g = card
+        .gcode(&m)
+        .map_err(|e| InputError(format!("the card does not fit the machine: {e}")))?;
+    let path = dir.join(match m.firmware {
+        scratchart_machine::plan::Firmware::Marlin => "card.gcode",
+        scratchart_machine::plan::Firmware::Grbl => "card.nc",
+    });
+    scratchart::io::write_atomic(&path, g.as_bytes())?;
+    Ok(path)
+}
+
+/// `scratchart-cal export`'s flags.
+#[derive(clap::Args, Debug)]
+pub struct ExportArgs {
+    /// The design (design.json from `scratchart design`)
+    pub design: PathBuf,
+    /// Write an SVG drawing (mm, +y up, one group per depth band, stroke = visible groove width)
+    #[arg(long)]
+    pub svg: Option<PathBuf>,
+    /// Write a DXF drawing (AutoCAD 2000 ASCII, mm, one layer per depth band)
+    #[arg(long)]
+    pub dxf: Option<PathBuf>,
+    /// The tool (tool.json): band by commanded depth when the design has no z_mm column
+    #[arg(long)]
+    pub tool: Option<PathBuf>,
+}
+
+/// `scratchart-cal export`.
+pub fn export(a: &ExportArgs) -> Result<()> {
+    use scratchart_machine::export::{drawing, dxf, svg, BandBy};
+    if a.svg.is_none() && a.dxf.is_none() {
+        return Err(UsageError("export needs --svg FILE.svg and/or --dxf FILE.dxf".into()).into());
+    }
+    let (scene, extra) = Scene::load_extra(&a.design)?;
+    let depths = match (extra.column("z_mm"), &a.tool) {
+        (Some(z), _) => Some(z),
+        (None, Some(t)) => {
+            let tool = Tool::load(t).map_err(|e| InputError(e.to_string()))?;
+            let d = scratchart_machine::depths::depths(&scene.scratches, &tool, 0.5);
+            Some(d.into_iter().map(|d| d.0).collect())
+        }
+        (None, None) => None,
+    };
+    let d = drawing(&scene, depths.as_deref()).map_err(|e| InputError(format!("{}: {e}", a.design.display())))?;
+    let by = match d.by {
+        BandBy::Depth => "commanded depth",
+        BandBy::Width => "visible width",
+    };
+    for (path, text) in [
+        (&a.svg, a.svg.as_ref().map(|_| svg(&d))),
+        (&a.dxf, a.dxf.as_ref().map(|_| dxf(&d))),
+    ] {
+        if let (Some(p), Some(t)) = (path, text) {
+            if let Some(dir) = p.parent().filter(|p| !p.as_os_str().is_empty()) {
+                std::fs::create_dir_all(dir)
+                    .with_context(|| format!("cannot create output directory {}", dir.display()))?;
+            }
+            scratchart::io::write_atomic(p, t.as_bytes())?;
+            println!("wrote {}", p.display());
+        }
+    }
+    println!(
+        "  {} scratches at true size on a {} mm plate, {} bands by {by}: {}",
+        d.lines.len(),
+        d.plate_mm,
+        d.bands.len(),
+        d.bands.iter().map(|b| b.name.as_str()).collect::<Vec<_>>().join(", ")
+    );
+    Ok(())
+}
