@@ -215,11 +215,19 @@ impl Controller for Marlin {
     ) -> Result<String, Fault> {
         if emergency {
             link.send(b"M112\n")?;
-            return Ok(
-                "M112 emergency stop: the printer is halted with the tool where it was; \
-                       reset the printer"
-                    .into(),
-            );
+            let t0 = Instant::now();
+            while t0.elapsed() < Duration::from_secs(5) {
+                if let Some(l) = link.line(Duration::from_millis(50))? {
+                    if let Reply::Stopped(_) = self.classify(&l) {
+                        return Ok("M112 emergency stop: the printer halted with the tool where it \
+                                   was; reset the printer"
+                            .into());
+                    }
+                }
+            }
+            return Ok("M112 emergency stop sent, but the printer did not confirm the halt: \
+                       switch it off"
+                .into());
         }
         link.send(b"M410\n")?;
         self.wait_oks(link, pending + 1, Duration::from_secs(30))?;

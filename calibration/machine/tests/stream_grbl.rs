@@ -43,3 +43,257 @@ fn streams_every_line_in_order_without_overflow() {
     let j = scratchart_machine::journal::Journal::load(&options(&plan, "").journal).unwrap();
     assert_eq!((j.state.as_str(), j.last_acked), ("done", Some(59)));
 }
+
+fn slow() -> GrblConfig {
+    GrblConfig {
+        line_delay: Duration::from_millis(2),
+        ..GrblConfig::default()
+    }
+}
+
+#[test]
+fn error_stops_the_stream_and_says_what_it_means() {
+    let dir = tmpdir("grbl_error");
+    let plan = plan(&dir, "p.nc", 30, &MachineProfile::grbl());
+    let fake = FakeGrbl::start(GrblConfig {
+        error_at: Some((40, 20)),
+        ..slow()
+    })
+    .unwrap();
+    let e = carve(&options(&plan, fake.path()), &Control::default(), &Log::default()).unwrap_err();
+    let msg = e.to_string();
+    assert_eq!(e.exit_code(), 1, "{msg}");
+    assert!(
+        msg.contains("error:20") && msg.contains("unsupported or invalid G-code"),
+        "{msg}"
+    );
+    assert!(msg.contains("--resume"), "{msg}");
+    let r = fake.record();
+    // The 40th G-code line was refused; nothing after the in-flight lines was executed, the
+    // buffer was flushed by a soft reset after a hold, and the tool went up.
+    assert_eq!(r.holds, 1);
+    assert_eq!(r.resets, 1);
+    assert!(r.executed.len() < 39 + 127 / 10, "{} lines ran", r.executed.len());
+    assert_eq!(r.executed.last().unwrap(), "G21 G90 G0 Z2.000");
+    let j = scratchart_machine::journal::Journal::load(&options(&plan, "").journal).unwrap();
+    assert_eq!(j.state, "stopped");
+    assert!(j.last_acked.unwrap() < 10);
+}
+
+#[test]
+fn alarm_stops_the_stream() {
+    let dir = tmpdir("grbl_alarm");
+    let plan = plan(&dir, "p.nc", 30, &MachineProfile::grbl());
+    let fake = FakeGrbl::start(GrblConfig {
+        alarm_after: Some((25, 1)),
+        ..slow()
+    })
+    .unwrap();
+    let e = carve(&options(&plan, fake.path()), &Control::default(), &Log::default()).unwrap_err();
+    let msg = e.to_string();
+    assert_eq!(e.exit_code(), 1, "{msg}");
+    assert!(msg.contains("ALARM:1") && msg.contains("hard limit"), "{msg}");
+    assert_eq!(fake.record().executed.len(), 25);
+}
+
+#[test]
+fn hold_stops_motion_and_resume_finishes() {
+    let dir = tmpdir("grbl_hold");
+    let plan = plan(&dir, "p.nc", 40, &MachineProfile::grbl());
+    let fake = FakeGrbl::start(slow()).unwrap();
+    let control = Control::default();
+    let opts = options(&plan, fake.path());
+    std::thread::scope(|s| {
+        let job = s.spawn(|| carve(&opts, &control, &Log::default()));
+        while fake.record().executed.len() < 20 {
+            std::thread::sleep(Duration::from_millis(5));
+        }
+        control.hold.store(true, Ordering::SeqCst);
+        std::thread::sleep(Duration::from_millis(100));
+        let during = fake.record().executed.len();
+        std::thread::sleep(Duration::from_millis(150));
+        assert_eq!(fake.record().executed.len(), during, "motion during a hold");
+        assert_eq!(fake.record().holds, 1);
+        control.resume.store(true, Ordering::SeqCst);
+        job.join().unwrap().unwrap();
+    });
+    let r = fake.record();
+    assert_eq!(r.resumes, 1);
+    assert_eq!(assert_all_cut(&plan, &r.executed), 1);
+}
+
+#[test]
+fn abort_holds_resets_and_raises_the_tool() {
+    let dir = tmpdir("grbl_abort");
+    let plan = plan(&dir, "p.nc", 40, &MachineProfile::grbl());
+    let fake = FakeGrbl::start(slow()).unwrap();
+    let control = Control::default();
+    let opts = options(&plan, fake.path());
+    let e = std::thread::scope(|s| {
+        let job = s.spawn(|| carve(&opts, &control, &Log::default()));
+        while fake.record().executed.len() < 30 {
+            std::thread::sleep(Duration::from_millis(5));
+        }
+        control.abort.store(true, Ordering::SeqCst);
+        job.join().unwrap().unwrap_err()
+    });
+    assert!(matches!(e, CarveError::Interrupted(_)), "{e:?}");
+    assert_eq!(e.exit_code(), 130);
+    assert!(e.to_string().contains("--resume"), "{e}");
+    let r = fake.record();
+    assert_eq!((r.holds, r.resets), (1, 1));
+    assert_eq!(r.pos[2], 2.0, "the tool ends at the safe height");
+    let j = scratchart_machine::journal::Journal::load(&opts.journal).unwrap();
+    assert_eq!(j.state, "interrupted");
+}
+
+#[test]
+fn check_mode_runs_the_whole_plan_first() {
+    let dir = tmpdir("grbl_check");
+    let plan = plan(&dir, "p.nc", 20, &MachineProfile::grbl());
+    let fake = FakeGrbl::start(GrblConfig::default()).unwrap();
+    let mut opts = options(&plan, fake.path());
+    opts.check = true;
+    let log = Log::default();
+    carve(&opts, &Control::default(), &log).unwrap();
+    let r = fake.record();
+    let lines = scratchart_machine::program::Program::load(&plan).unwrap().lines_from(0);
+    assert_eq!(r.checked.len(), lines.len());
+    assert_eq!(assert_all_cut(&plan, &r.executed), 1);
+    assert!(log.says("check mode: all"));
+    // A line GRBL refuses in check mode: nothing moves at all.
+    let fake = FakeGrbl::start(GrblConfig {
+        error_at: Some((30, 33)),
+        ..GrblConfig::default()
+    })
+    .unwrap();
+    opts.port = fake.path().to_string();
+    let e = carve(&opts, &Control::default(), &Log::default()).unwrap_err();
+    assert!(
+        e.to_string().contains("check mode") && e.to_string().contains("error:33"),
+        "{e}"
+    );
+    assert_eq!(e.exit_code(), 1);
+    assert!(fake.record().executed.is_empty());
+}
+
+#[test]
+fn disconnect_then_resume_skips_nothing() {
+    let dir = tmpdir("grbl_resume");
+    let plan = plan(&dir, "p.nc", 50, &MachineProfile::grbl());
+    let fake = FakeGrbl::start(GrblConfig {
+        disconnect_after: Some(90),
+        ..GrblConfig::default()
+    })
+    .unwrap();
+    let opts = options(&plan, fake.path());
+    let e = carve(&opts, &Control::default(), &Log::default()).unwrap_err();
+    assert_eq!(e.exit_code(), 1, "{e}");
+    assert!(
+        e.to_string().contains("lost the connection") && e.to_string().contains("--resume"),
+        "{e}"
+    );
+    assert!(fake.record().disconnected);
+    let shared = fake.shared();
+    drop(fake);
+    let fake = FakeGrbl::start_with(GrblConfig::default(), shared).unwrap();
+    let mut opts = options(&plan, fake.path());
+    opts.resume = true;
+    let log = Log::default();
+    let s = carve(&opts, &Control::default(), &log).unwrap();
+    assert!(s.from > 0 && s.from <= 22, "resumed at {}", s.from);
+    assert!(log.says("--rezero keep") && log.says("--rezero home"));
+    let r = fake.record();
+    assert!(r.overflows.is_empty());
+    assert!(assert_all_cut(&plan, &r.executed) <= 2);
+    let twice = cut_lines(&plan)
+        .iter()
+        .filter(|c| r.executed.iter().filter(|e| e == c).count() == 2)
+        .count();
+    assert!(
+        twice <= scratchart_machine::journal::RESUME_OVERLAP + 1,
+        "{twice} cut twice"
+    );
+    // A changed plan is refused on resume (exit 3).
+    std::fs::write(&plan, std::fs::read_to_string(&plan).unwrap() + "G0 X0 Y0\n").unwrap();
+    let e = carve(&opts, &Control::default(), &Log::default()).unwrap_err();
+    assert_eq!(e.exit_code(), 3, "{e}");
+    assert!(e.to_string().contains("changed"), "{e}");
+}
+
+#[test]
+fn settings_that_contradict_the_plan_are_refused() {
+    let dir = tmpdir("grbl_settings");
+    let plan = plan(&dir, "p.nc", 5, &MachineProfile::grbl());
+    for (k, v, what) in [(131, "80.000", "$131=80"), (32, "1", "laser mode")] {
+        let mut cfg = GrblConfig::default();
+        cfg.settings.insert(k, v.into());
+        let fake = FakeGrbl::start(cfg).unwrap();
+        let e = carve(&options(&plan, fake.path()), &Control::default(), &Log::default()).unwrap_err();
+        assert_eq!(e.exit_code(), 3, "{e}");
+        assert!(e.to_string().contains(what), "{e}");
+        assert!(fake.record().executed.is_empty());
+    }
+    // A profile with more travel than the controller has.
+    let fake = FakeGrbl::start(GrblConfig::default()).unwrap();
+    let mut opts = options(&plan, fake.path());
+    let mut m = MachineProfile::grbl();
+    m.travel_mm[0] = 400.0;
+    opts.profile = Some(m);
+    let e = carve(&opts, &Control::default(), &Log::default()).unwrap_err();
+    assert!(e.to_string().contains("$130"), "{e}");
+}
+
+#[test]
+fn a_plan_for_marlin_is_refused() {
+    let dir = tmpdir("grbl_refuse");
+    let plan = plan(&dir, "p.gcode", 5, &MachineProfile::marlin());
+    let fake = FakeGrbl::start(GrblConfig::default()).unwrap();
+    let e = carve(&options(&plan, fake.path()), &Control::default(), &Log::default()).unwrap_err();
+    assert_eq!(e.exit_code(), 3, "{e}");
+    assert!(
+        e.to_string().contains("planned for marlin") && e.to_string().contains("--machine grbl"),
+        "{e}"
+    );
+    assert!(fake.record().executed.is_empty());
+}
+
+#[test]
+fn a_silent_port_gives_a_clear_error_within_seconds() {
+    let dir = tmpdir("silent");
+    let plan = plan(&dir, "p.nc", 5, &MachineProfile::grbl());
+    let (_master, slave) = serialport::TTYPort::pair().unwrap();
+    let path = serialport::SerialPort::name(&slave).unwrap();
+    let t0 = Instant::now();
+    let e = carve(&options(&plan, &path), &Control::default(), &Log::default()).unwrap_err();
+    let took = t0.elapsed();
+    assert_eq!(e.exit_code(), 1, "{e}");
+    assert!(e.to_string().contains("no GRBL or Marlin controller answered"), "{e}");
+    assert!(took < Duration::from_secs(5), "took {took:?}");
+    // A port that does not exist is a bad flag.
+    let e = carve(
+        &options(&plan, "/dev/nonexistent-port"),
+        &Control::default(),
+        &Log::default(),
+    )
+    .unwrap_err();
+    assert_eq!(e.exit_code(), 2, "{e}");
+}
+
+#[test]
+fn the_fake_records_an_overflow() {
+    // The overflow check of the fake itself: a sender that ignores the buffer is caught.
+    use std::io::Write;
+    let fake = FakeGrbl::start(GrblConfig {
+        line_delay: Duration::from_secs(1),
+        ..GrblConfig::default()
+    })
+    .unwrap();
+    let mut port = serialport::new(fake.path(), 115200).open_native().unwrap();
+    let line = format!("G1 X{} Y1 F100\n", "1".repeat(50));
+    for _ in 0..3 {
+        port.write_all(line.as_bytes()).unwrap();
+    }
+    std::thread::sleep(Duration::from_millis(100));
+    assert!(!fake.record().overflows.is_empty());
+}

@@ -195,8 +195,10 @@ pub(crate) fn word(line: &str, letter: char) -> Option<f64> {
 
 /// Applies a G0/G1 line to the position; true when it is a motion line.
 pub(crate) fn apply_motion(line: &str, pos: &mut [f64; 3]) -> bool {
-    let first = line.split_whitespace().next().unwrap_or("");
-    if !(first == "G0" || first == "G1" || first == "G00" || first == "G01") {
+    let motion = line
+        .split_whitespace()
+        .any(|w| matches!(w, "G0" | "G1" | "G00" | "G01"));
+    if !motion {
         return false;
     }
     for (i, c) in ['X', 'Y', 'Z'].iter().enumerate() {
