@@ -42,7 +42,11 @@ impl Marlin {
         for l in info {
             if let Some(i) = l.find("FIRMWARE_NAME:") {
                 let rest = &l[i + 14..];
-                let end = rest.find(" SOURCE_CODE_URL").or(rest.find(" (")).unwrap_or(rest.len());
+                let end = [rest.find(" SOURCE_CODE_URL"), rest.find(" (")]
+                    .into_iter()
+                    .flatten()
+                    .min()
+                    .unwrap_or(rest.len());
                 name = rest[..end].trim().to_string();
             }
         }
