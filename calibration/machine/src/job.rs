@@ -367,3 +367,21 @@ fn check_run(
         End::Stopped(e) | End::Lost(e) => Err(CarveError::Stopped(format!("check mode: {e}"))),
     }
 }
+
+/// Makes Ctrl-C (and SIGTERM where available) ask the running job to stop the machine and raise
+/// the tool. Pressing it three times gives up waiting and exits with 130 at once (the machine
+/// may then still be moving: use its stop button).
+pub fn stop_on_ctrl_c(control: std::sync::Arc<Control>) -> Result<(), String> {
+    let presses = std::sync::atomic::AtomicUsize::new(0);
+    ctrlc::set_handler(move || {
+        let n = presses.fetch_add(1, Ordering::SeqCst) + 1;
+        control.abort.store(true, Ordering::SeqCst);
+        if n == 1 {
+            eprintln!("\ninterrupt: stopping the machine and raising the tool (press Ctrl-C twice more to quit without waiting)");
+        } else if n >= 3 {
+            eprintln!("\nquitting without waiting: the machine may still be moving; use its stop button");
+            std::process::exit(130);
+        }
+    })
+    .map_err(|e| format!("cannot install the Ctrl-C handler: {e}"))
+}
