@@ -10,6 +10,7 @@ use scratchart_calibration::card::{Card, CardSpec};
 use scratchart_calibration::simulate::{photos, Camera};
 use scratchart_tool::Tool;
 
+mod carve;
 mod plan_cmd;
 
 #[derive(Parser)]
@@ -39,6 +40,10 @@ struct Cli {
 
 #[derive(Subcommand)]
 enum Cmd {
+    /// Stream a plan to the machine (GRBL 1.1 or Marlin, asked on the port) with a journal beside
+    /// the plan; --resume continues a stopped job. Exit 1 when the machine stops the job (with the
+    /// --resume command), 130 after Ctrl-C (machine stopped, tool raised).
+    Carve(carve::CarveArgs),
     /// Write the calibration card (card.json) into DIR.
     Card {
         /// Output directory
@@ -97,6 +102,7 @@ fn main() -> ExitCode {
 
 fn run(cli: Cli) -> Result<()> {
     match &cli.cmd {
+        Cmd::Carve(args) => carve::run(args),
         Cmd::Card {
             out,
             plate,

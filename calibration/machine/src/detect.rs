@@ -34,6 +34,8 @@ pub fn detect(link: &mut Link, timeout: Duration) -> Result<Box<dyn Controller>,
         };
         if l.starts_with("ok") || l.starts_with("error:") {
             answered += 1;
+            // An answer that did not say what answers: ask the other question now.
+            next_ask = next_ask.min(t0.elapsed());
         }
         seen.push(l.clone());
         if found.is_none() {

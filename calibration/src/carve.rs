@@ -1,0 +1,237 @@
+//! `scratchart-cal carve PLAN --port PORT`: streams a plan to a GRBL 1.1 router or a Marlin
+//! printer (the firmware is asked, and must be the one the plan names), with a journal beside
+//! the plan so `--resume` continues a stopped job. Exit codes: 0 done; 1 the machine stopped the
+//! job (the message says what happened and gives the `--resume` command); 2 bad flags; 3 bad
+//! plan, profile or journal, or a plan that does not fit the machine; 130 after Ctrl-C, with the
+//! machine stopped and the tool raised.
+use std::io::{BufRead, IsTerminal, Write};
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::mpsc::{channel, Receiver};
+use std::sync::{Arc, Mutex};
+use std::time::Duration;
+
+use anyhow::Result;
+use scratchart::exit::{InputError, UsageError};
+use scratchart::observe::Observer as _;
+use scratchart_machine::controller::Rezero;
+use scratchart_machine::job::{carve, CarveError, Options};
+use scratchart_machine::plan::MachineProfile;
+use scratchart_machine::stream::{Control, Observer, Progress};
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum RezeroArg {
+    /// Run the homing cycle ($H; Marlin G28 X Y)
+    Home,
+    /// Touch the plate with the tool (G38.2) and set Z0 there
+    Probe,
+    /// Trust the controller's work offset as it is
+    Keep,
+}
+
+#[derive(clap::Args, Debug)]
+pub struct CarveArgs {
+    /// The plan (G-code written by `scratchart-cal plan`; its first line names the firmware)
+    pub plan: PathBuf,
+    /// Serial port of the controller (/dev/ttyUSB0, /dev/ttyACM0, or a pseudo-terminal's path)
+    #[arg(long)]
+    pub port: String,
+    /// Baud rate
+    #[arg(long, default_value_t = 115200)]
+    pub baud: u32,
+    /// Ask nothing (there are no questions either when standard input is not a terminal)
+    #[arg(long)]
+    pub yes: bool,
+    /// Run the whole plan in GRBL's check mode ($C) first: every line parsed, nothing moves
+    #[arg(long)]
+    pub check: bool,
+    /// Continue the job recorded in the journal, a few scratches before the last acknowledged one
+    #[arg(long)]
+    pub resume: bool,
+    /// With --resume: how to re-establish the position first (default keep)
+    #[arg(long, value_enum)]
+    pub rezero: Option<RezeroArg>,
+    /// The job journal (default: PLAN.journal.json beside the plan)
+    #[arg(long)]
+    pub journal: Option<PathBuf>,
+    /// Machine profile (JSON) to check against the controller's settings ($$, M211)
+    #[arg(long)]
+    pub machine_file: Option<PathBuf>,
+    /// Marlin: Ctrl-C sends M112 (emergency stop: the printer halts where it is and must be
+    /// reset) instead of M410 quickstop and a raise
+    #[arg(long)]
+    pub emergency_stop: bool,
+}
+
+fn quote(s: &str) -> String {
+    if !s.is_empty() && s.chars().all(|c| c.is_ascii_alphanumeric() || "/._-+:=,".contains(c)) {
+        s.to_string()
+    } else {
+        format!("'{}'", s.replace('\'', r"'\''"))
+    }
+}
+
+/// The command that continues this job.
+fn resume_command(a: &CarveArgs) -> String {
+    let mut c = format!(
+        "scratchart-cal carve {} --port {} --resume",
+        quote(&a.plan.display().to_string()),
+        quote(&a.port)
+    );
+    if a.baud != 115200 {
+        c.push_str(&format!(" --baud {}", a.baud));
+    }
+    if let Some(j) = &a.journal {
+        c.push_str(&format!(" --journal {}", quote(&j.display().to_string())));
+    }
+    if let Some(m) = &a.machine_file {
+        c.push_str(&format!(" --machine-file {}", quote(&m.display().to_string())));
+    }
+    if a.yes {
+        c.push_str(" --yes");
+    }
+    c
+}
+
+/// Progress on a bar (or a line every few seconds in a log), notes on stderr, questions on the
+/// terminal.
+struct Term {
+    out: scratchart::term::Terminal,
+    ask: bool,
+    answers: Option<Mutex<Receiver<String>>>,
+    asking: Arc<AtomicBool>,
+}
+
+fn eta(s: f64) -> String {
+    let s = s.max(0.0).round() as u64;
+    format!("{}:{:02}:{:02}", s / 3600, s / 60 % 60, s % 60)
+}
+
+impl Observer for Term {
+    fn progress(&self, p: &Progress) {
+        let mut msg = format!("ETA {} | {}", p.eta_s.map_or("?".into(), eta), p.state);
+        if let Some(q) = p.pos {
+            msg.push_str(&format!(" X{:.2} Y{:.2} Z{:.3}", q[0], q[1], q[2]));
+        }
+        self.out.progress(&scratchart::observe::Progress {
+            task: "carve",
+            done: p.done as u64,
+            total: p.total as u64,
+            message: msg,
+        });
+    }
+
+    fn note(&self, msg: &str) {
+        self.out.info(msg);
+    }
+
+    fn confirm(&self, question: &str) -> bool {
+        let Some(rx) = self.answers.as_ref().filter(|_| self.ask) else {
+            return true;
+        };
+        eprint!("{question} [y/N] ");
+        let _ = std::io::stderr().flush();
+        self.asking.store(true, Ordering::SeqCst);
+        let answer = rx.lock().unwrap().recv().unwrap_or_default();
+        self.asking.store(false, Ordering::SeqCst);
+        matches!(answer.trim(), "y" | "Y" | "yes" | "Yes")
+    }
+}
+
+/// Reads the terminal: answers to questions, and keys (each followed by Enter) for hold,
+/// resume and abort while the job runs.
+fn keys(control: Arc<Control>, asking: Arc<AtomicBool>) -> Receiver<String> {
+    let (tx, rx) = channel();
+    std::thread::spawn(move || {
+        for line in std::io::stdin().lock().lines() {
+            let Ok(line) = line else { break };
+            if asking.load(Ordering::SeqCst) {
+                let _ = tx.send(line);
+                continue;
+            }
+            match line.trim() {
+                "!" | "h" => control.hold.store(true, Ordering::SeqCst),
+                "~" | "r" => control.resume.store(true, Ordering::SeqCst),
+                "a" | "q" => control.abort.store(true, Ordering::SeqCst),
+                _ => eprintln!("keys: `!` or `h` hold, `~` or `r` resume, `a` abort (then Enter); Ctrl-C aborts too"),
+            }
+        }
+    });
+    rx
+}
+
+fn load_profile(path: &Path) -> Result<MachineProfile> {
+    let text = std::fs::read_to_string(path)
+        .map_err(|e| InputError(format!("cannot read machine profile {}: {e}", path.display())))?;
+    Ok(serde_json::from_str(&text)
+        .map_err(|e| InputError(format!("machine profile {} is not valid: {e}", path.display())))?)
+}
+
+pub fn run(a: &CarveArgs) -> Result<()> {
+    if a.rezero.is_some() && !a.resume {
+        return Err(UsageError("--rezero applies to --resume only".into()).into());
+    }
+    if a.baud == 0 {
+        return Err(UsageError("--baud must be > 0".into()).into());
+    }
+    let profile = a.machine_file.as_deref().map(load_profile).transpose()?;
+    let opts = Options {
+        plan: a.plan.clone(),
+        port: a.port.clone(),
+        baud: a.baud,
+        journal: a
+            .journal
+            .clone()
+            .unwrap_or_else(|| scratchart_machine::journal::default_path(&a.plan)),
+        check: a.check,
+        resume: a.resume,
+        rezero: match a.rezero.unwrap_or(RezeroArg::Keep) {
+            RezeroArg::Home => Rezero::Home,
+            RezeroArg::Probe => Rezero::Probe,
+            RezeroArg::Keep => Rezero::Keep,
+        },
+        profile,
+        emergency: a.emergency_stop,
+        detect_timeout: Duration::from_secs(4),
+        resume_command: resume_command(a),
+    };
+    let control = Arc::new(Control::default());
+    scratchart_machine::job::stop_on_ctrl_c(control.clone()).map_err(anyhow::Error::msg)?;
+    let tty = std::io::stdin().is_terminal();
+    let asking = Arc::new(AtomicBool::new(false));
+    let answers = tty.then(|| Mutex::new(keys(control.clone(), asking.clone())));
+    if tty {
+        eprintln!(
+            "while carving: `!` + Enter holds, `~` + Enter resumes, Ctrl-C stops the machine and raises the tool"
+        );
+    }
+    let term = Term {
+        out: scratchart::term::Terminal::new(false),
+        ask: tty && !a.yes,
+        answers,
+        asking,
+    };
+    let result = carve(&opts, &control, &term);
+    term.out.finish("carve");
+    match result {
+        Ok(s) => {
+            println!(
+                "done: {} scratches of {} carved on {} ({} lines in {:.1} s); journal {}",
+                s.total - s.from,
+                a.plan.display(),
+                if s.controller.is_empty() { "-" } else { &s.controller },
+                s.lines,
+                s.seconds,
+                opts.journal.display()
+            );
+            Ok(())
+        }
+        Err(CarveError::Usage(m)) => Err(UsageError(m).into()),
+        Err(CarveError::Input(m)) => Err(InputError(m).into()),
+        Err(CarveError::Stopped(m)) => Err(anyhow::Error::msg(m)),
+        Err(CarveError::Interrupted(m)) => {
+            eprintln!("error: {m}");
+            std::process::exit(130);
+        }
+    }
+}

@@ -1,0 +1,175 @@
+//! `scratchart-cal carve` end to end: a plan from `scratchart-cal plan` streams to a fake GRBL and
+//! to a fake Marlin on a pseudo-terminal; a disconnect gives exit 1 with the `--resume` command,
+//! and that command (on the reconnected port) finishes the job without skipping a scratch.
+use std::path::Path;
+use std::process::{Command, Output, Stdio};
+
+use scratchart::model::scene::{Camera, Light, LightKind, Plate, Scene, Scratch, View};
+use scratchart_machine::fake::{FakeGrbl, FakeMarlin, GrblConfig, MarlinConfig};
+use scratchart_machine::program::Program;
+
+fn design(plate: f64, n: usize) -> Scene {
+    let h = 0.4 * plate;
+    Scene {
+        plate: Plate {
+            size_mm: plate,
+            roughness: 0.02,
+            f0: 0.91,
+        },
+        views: vec![View {
+            name: "v".into(),
+            camera: Camera {
+                eye: [0.0, -3.0 * plate, 3.0 * plate],
+                target: [0.0; 3],
+                up: [0.0, 0.0, 1.0],
+                fov_y_deg: 30.0,
+                width: 8,
+                height: 8,
+            },
+            light: Light {
+                kind: LightKind::Point {
+                    position: [0.0, 3.0 * plate, 3.0 * plate],
+                },
+                intensity: 1.0,
+            },
+        }],
+        scratches: (0..n)
+            .map(|k| {
+                let t = k as f64 / n as f64;
+                Scratch {
+                    p0: [-h + 2.0 * h * t, -h],
+                    p1: [-h + 2.0 * h * t, h * t],
+                    w: 0.05,
+                    d: 0.05,
+                    alpha: 0.1,
+                }
+            })
+            .collect(),
+    }
+}
+
+fn run(bin: &Path, dir: &Path, args: &[&str]) -> Output {
+    Command::new(bin)
+        .current_dir(dir)
+        .args(args)
+        .stdin(Stdio::null())
+        .output()
+        .unwrap()
+}
+
+/// Each block's cut lines (`G1 X.. Y..`) executed at least once, in plan order; returns the most
+/// times any one was executed.
+fn all_cut(plan: &Path, executed: &[String]) -> usize {
+    let p = Program::load(plan).unwrap();
+    let mut worst = 0;
+    let mut last = 0;
+    for b in &p.blocks {
+        for c in b.lines.iter().filter(|l| l.starts_with("G1 X")) {
+            let c = c.split(" F").next().unwrap();
+            let hits: Vec<usize> = (0..executed.len()).filter(|&i| executed[i].starts_with(c)).collect();
+            assert!(!hits.is_empty(), "`{c}` ({}) was never cut", b.label);
+            assert!(hits[0] >= last, "`{c}` cut out of order");
+            last = hits[0];
+            worst = worst.max(hits.len());
+        }
+    }
+    worst
+}
+
+#[test]
+fn carve_streams_a_plan_to_grbl_and_marlin_and_resumes_after_a_disconnect() {
+    let bin = scratchart_tests::workspace_bin("scratchart-calibration", "scratchart-cal");
+    let dir = std::env::temp_dir().join(format!("scratchart-carve-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    design(100.0, 40).save(&dir.join("design.json"), "s.csv").unwrap();
+    std::fs::write(
+        dir.join("tool.json"),
+        r#"{ "kind": "v-bit", "angle_deg": 60.0, "tip_flat_mm": 0.01, "z_offset_mm": 0.0 }"#,
+    )
+    .unwrap();
+    for (out, machine) in [("plan.nc", "grbl"), ("plan.gcode", "marlin")] {
+        let o = run(
+            &bin,
+            &dir,
+            &[
+                "plan",
+                "design.json",
+                "--tool",
+                "tool.json",
+                "--out",
+                out,
+                "--machine",
+                machine,
+            ],
+        );
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    }
+
+    // GRBL, with check mode first.
+    let fake = FakeGrbl::start(GrblConfig::default()).unwrap();
+    let o = run(&bin, &dir, &["carve", "plan.nc", "--port", fake.path(), "--check"]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(0), "{err}");
+    assert!(String::from_utf8_lossy(&o.stdout).contains("done"));
+    let r = fake.record();
+    assert!(r.overflows.is_empty() && !r.checked.is_empty());
+    assert_eq!(all_cut(&dir.join("plan.nc"), &r.executed), 1);
+
+    // Marlin.
+    let fake = FakeMarlin::start(MarlinConfig::default()).unwrap();
+    let o = run(&bin, &dir, &["carve", "plan.gcode", "--port", fake.path(), "--yes"]);
+    assert_eq!(o.status.code(), Some(0), "{}", String::from_utf8_lossy(&o.stderr));
+    assert_eq!(all_cut(&dir.join("plan.gcode"), &fake.record().executed), 1);
+
+    // The other firmware's plan: 3.
+    let o = run(&bin, &dir, &["carve", "plan.nc", "--port", fake.path()]);
+    assert_eq!(o.status.code(), Some(3), "{}", String::from_utf8_lossy(&o.stderr));
+    drop(fake);
+
+    // A disconnect: 1 and the resume command; that command on the new port finishes the job.
+    let fake = FakeGrbl::start(GrblConfig {
+        disconnect_after: Some(70),
+        ..GrblConfig::default()
+    })
+    .unwrap();
+    let o = run(&bin, &dir, &["carve", "plan.nc", "--port", fake.path()]);
+    let err = String::from_utf8_lossy(&o.stderr).to_string();
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    let cmd = err
+        .split("to continue: ")
+        .nth(1)
+        .unwrap_or_else(|| panic!("no resume command in: {err}"))
+        .lines()
+        .next()
+        .unwrap()
+        .to_string();
+    assert!(
+        cmd.starts_with("scratchart-cal carve plan.nc --port ") && cmd.contains("--resume"),
+        "{cmd}"
+    );
+    let shared = fake.shared();
+    let old = fake.path().to_string();
+    drop(fake);
+    let fake = FakeGrbl::start_with(GrblConfig::default(), shared).unwrap();
+    let args: Vec<String> = cmd
+        .split_whitespace()
+        .skip(1)
+        .map(|a| {
+            if a == old {
+                fake.path().to_string()
+            } else {
+                a.to_string()
+            }
+        })
+        .collect();
+    let args: Vec<&str> = args.iter().map(|s| s.as_str()).collect();
+    let o = run(&bin, &dir, &args);
+    assert_eq!(o.status.code(), Some(0), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("--rezero home"));
+    assert!(all_cut(&dir.join("plan.nc"), &fake.record().executed) <= 2);
+    // Bad flags: 2.
+    let o = run(&bin, &dir, &["carve", "plan.nc", "--port", "/dev/nonexistent-port"]);
+    assert_eq!(o.status.code(), Some(2), "{}", String::from_utf8_lossy(&o.stderr));
+    let _ = std::fs::remove_dir_all(&dir);
+}
