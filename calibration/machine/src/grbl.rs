@@ -129,7 +129,9 @@ impl Grbl {
         let mut s = BTreeMap::new();
         for l in lines {
             if let Some((k, v)) = l.strip_prefix('$').and_then(|r| r.split_once('=')) {
-                if let (Ok(k), Ok(v)) = (k.trim().parse(), v.trim().parse()) {
+                // `$130=300.000` (GRBL 1.1) or `$130=300.000 (x max travel, mm)` (older).
+                let v = v.split_whitespace().next().unwrap_or("");
+                if let (Ok(k), Ok(v)) = (k.trim().parse(), v.parse()) {
                     s.insert(k, v);
                 }
             }

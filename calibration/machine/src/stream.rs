@@ -176,9 +176,12 @@ pub fn stream(
                 link_try!(link.send(&[q]));
                 last_poll = Instant::now();
             }
-            if last_status.elapsed() > Duration::from_secs(5) {
+            if last_status.elapsed() > Duration::from_secs(10) && last_rx.elapsed() > Duration::from_secs(10) {
                 return (
-                    End::Lost(format!("{} sent no status report for 5 s", link.name())),
+                    End::Lost(format!(
+                        "{} answered nothing, not even a status report, for 10 s",
+                        link.name()
+                    )),
                     fl.len(),
                 );
             }
