@@ -129,9 +129,9 @@ impl Observer for Term {
         let Some(rx) = self.answers.as_ref().filter(|_| self.ask) else {
             return true;
         };
+        self.asking.store(true, Ordering::SeqCst);
         eprint!("{question} [y/N] ");
         let _ = std::io::stderr().flush();
-        self.asking.store(true, Ordering::SeqCst);
         let answer = rx.lock().unwrap().recv().unwrap_or_default();
         self.asking.store(false, Ordering::SeqCst);
         matches!(answer.trim(), "y" | "Y" | "yes" | "Yes")
@@ -234,4 +234,110 @@ pub fn run(a: &CarveArgs) -> Result<()> {
             std::process::exit(130);
         }
     }
+}
+
+#[derive(clap::Args, Debug)]
+pub struct ProbeArgs {
+    /// Serial port of the controller
+    #[arg(long)]
+    pub port: String,
+    /// Baud rate
+    #[arg(long, default_value_t = 115200)]
+    pub baud: u32,
+    /// Probes along X and Y, as NxM
+    #[arg(long, default_value = "5x5")]
+    pub grid: String,
+    /// Distance of the outer probes from the plate's edges, mm
+    #[arg(long, default_value_t = 5.0)]
+    pub margin: f64,
+    /// Plate side, mm (or give --plan)
+    #[arg(long)]
+    pub plate: Option<f64>,
+    /// A plan whose header gives the plate size
+    #[arg(long)]
+    pub plan: Option<PathBuf>,
+    /// Height of the moves between probes, mm above Z0
+    #[arg(long, default_value_t = 2.0)]
+    pub safe_z: f64,
+    /// How far below Z0 each probe searches before it fails, mm
+    #[arg(long, default_value_t = 1.0)]
+    pub depth: f64,
+    /// Probe feed, mm/min
+    #[arg(long, default_value_t = 50.0)]
+    pub feed: f64,
+    /// Output height map (for `plan --heightmap`)
+    #[arg(long, default_value = "heightmap.json")]
+    pub out: PathBuf,
+    /// Ask nothing
+    #[arg(long)]
+    pub yes: bool,
+}
+
+/// `scratchart-cal probe`: the plate's height on a grid, written as `heightmap.json`.
+pub fn probe(a: &ProbeArgs) -> Result<()> {
+    use scratchart_machine::probe::{parse_grid, probe_grid, ProbeOptions};
+    let grid = parse_grid(&a.grid).map_err(UsageError)?;
+    let plate = match (a.plate, &a.plan) {
+        (Some(p), _) => p,
+        (None, Some(plan)) => scratchart_machine::program::Program::load(plan)
+            .map_err(InputError)?
+            .plate_mm
+            .ok_or_else(|| InputError(format!("{} does not state its plate size", plan.display())))?,
+        (None, None) => return Err(UsageError("give the plate size: --plate MM or --plan PLAN".into()).into()),
+    };
+    for (name, v) in [("--safe-z", a.safe_z), ("--depth", a.depth), ("--feed", a.feed)] {
+        if !(v > 0.0 && v.is_finite()) {
+            return Err(UsageError(format!("{name} must be > 0")).into());
+        }
+    }
+    let control = Arc::new(Control::default());
+    scratchart_machine::job::stop_on_ctrl_c(control.clone()).map_err(anyhow::Error::msg)?;
+    let tty = std::io::stdin().is_terminal();
+    let asking = Arc::new(AtomicBool::new(false));
+    let term = Term {
+        out: scratchart::term::Terminal::new(false),
+        ask: tty && !a.yes,
+        answers: tty.then(|| Mutex::new(keys(control.clone(), asking.clone()))),
+        asking,
+    };
+    let question = format!(
+        "probe {} x {} points on the {plate} mm plate with G38.2? The probe must be wired, X0 Y0 at \
+         the plate centre and Z0 near its surface",
+        grid.0, grid.1
+    );
+    if !term.confirm(&question) {
+        return Err(anyhow::Error::msg("not started: the answer was no"));
+    }
+    let o = ProbeOptions {
+        port: a.port.clone(),
+        baud: a.baud,
+        plate_mm: plate,
+        grid,
+        margin_mm: a.margin,
+        safe_z_mm: a.safe_z,
+        depth_mm: a.depth,
+        feed_mm_min: a.feed,
+        detect_timeout: Duration::from_secs(4),
+    };
+    let result = probe_grid(&o, &control, &term);
+    term.out.finish("carve");
+    let map = match result {
+        Ok(m) => m,
+        Err(CarveError::Usage(m)) => return Err(UsageError(m).into()),
+        Err(CarveError::Input(m)) => return Err(InputError(m).into()),
+        Err(CarveError::Stopped(m)) => return Err(anyhow::Error::msg(m)),
+        Err(CarveError::Interrupted(m)) => {
+            eprintln!("error: {m}");
+            std::process::exit(130);
+        }
+    };
+    scratchart::io::write_atomic(&a.out, map.to_json().as_bytes())?;
+    let (lo, hi) = map.range();
+    println!(
+        "wrote {}: {} x {} probes, heights {lo:.4} to {hi:.4} mm (use it with `plan --heightmap`)",
+        a.out.display(),
+        grid.0,
+        grid.1
+    );
+    Ok(())
 }

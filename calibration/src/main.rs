@@ -44,6 +44,9 @@ enum Cmd {
     /// the plan; --resume continues a stopped job. Exit 1 when the machine stops the job (with the
     /// --resume command), 130 after Ctrl-C (machine stopped, tool raised).
     Carve(carve::CarveArgs),
+    /// Probe the plate's height on a grid with the tool (G38.2; Marlin G38.2 or G30) and write
+    /// heightmap.json for `plan --heightmap`.
+    Probe(carve::ProbeArgs),
     /// Write the calibration card (card.json) into DIR.
     Card {
         /// Output directory
@@ -103,6 +106,7 @@ fn main() -> ExitCode {
 fn run(cli: Cli) -> Result<()> {
     match &cli.cmd {
         Cmd::Carve(args) => carve::run(args),
+        Cmd::Probe(args) => carve::probe(args),
         Cmd::Card {
             out,
             plate,

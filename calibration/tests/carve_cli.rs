@@ -173,3 +173,50 @@ fn carve_streams_a_plan_to_grbl_and_marlin_and_resumes_after_a_disconnect() {
     assert_eq!(o.status.code(), Some(2), "{}", String::from_utf8_lossy(&o.stderr));
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn probe_writes_the_height_map_of_a_tilted_plate() {
+    use scratchart_machine::fake::Plane;
+    let bin = scratchart_tests::workspace_bin("scratchart-calibration", "scratchart-cal");
+    let dir = std::env::temp_dir().join(format!("scratchart-probe-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let plane = Plane {
+        z0: -0.02,
+        dzdx: 0.001,
+        dzdy: 0.0025,
+    };
+    let fake = FakeGrbl::start(GrblConfig {
+        plane: Some(plane),
+        ..GrblConfig::default()
+    })
+    .unwrap();
+    let o = run(
+        &bin,
+        &dir,
+        &[
+            "probe",
+            "--port",
+            fake.path(),
+            "--grid",
+            "3x4",
+            "--plate",
+            "80",
+            "--margin",
+            "4",
+            "--out",
+            "hm.json",
+        ],
+    );
+    assert_eq!(o.status.code(), Some(0), "{}", String::from_utf8_lossy(&o.stderr));
+    let map = scratchart_machine::level::HeightMap::load(&dir.join("hm.json")).unwrap();
+    assert_eq!(map.x_mm, vec![-36.0, 0.0, 36.0]);
+    assert_eq!(map.y_mm.len(), 4);
+    for (x, y) in [(-36.0, -36.0), (10.0, 5.0), (36.0, 36.0)] {
+        assert!((map.at(x, y) - plane.at(x, y)).abs() < 1e-4, "({x}, {y})");
+    }
+    // Without a plate size: a bad command line.
+    let o = run(&bin, &dir, &["probe", "--port", fake.path()]);
+    assert_eq!(o.status.code(), Some(2));
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -14,6 +14,7 @@
 //!   [`job`]: a whole job (settings check, check mode, resume and re-zero, stopping safely);
 //!   [`journal`]: the resumable job's record beside the plan.
 //! - [`fake`]: fake GRBL and Marlin controllers on pseudo-terminals, for tests.
+//! - [`probe`]: levelling: the plate probed on a grid with the tool, as a [`level::HeightMap`].
 //!
 //! It depends on the scene model (`scratchart-model`) only, never on the engine, so it builds and
 //! tests without Vulkan, shaderc or a GPU: `cargo build -p scratchart-machine` pulls no Vulkan
@@ -32,6 +33,7 @@ pub mod journal;
 pub mod level;
 pub mod marlin;
 pub mod plan;
+pub mod probe;
 pub mod program;
 pub mod stream;
 pub mod transport;
