@@ -220,3 +220,54 @@ fn probe_writes_the_height_map_of_a_tilted_plate() {
     assert_eq!(o.status.code(), Some(2));
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn ctrl_c_stops_the_machine_raises_the_tool_and_exits_130() {
+    let bin = scratchart_tests::workspace_bin("scratchart-calibration", "scratchart-cal");
+    let dir = std::env::temp_dir().join(format!("scratchart-carve-int-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    design(100.0, 40).save(&dir.join("design.json"), "s.csv").unwrap();
+    std::fs::write(
+        dir.join("tool.json"),
+        r#"{ "kind": "v-bit", "angle_deg": 60.0, "tip_flat_mm": 0.01, "z_offset_mm": 0.0 }"#,
+    )
+    .unwrap();
+    let o = run(
+        &bin,
+        &dir,
+        &["plan", "design.json", "--tool", "tool.json", "--out", "plan.nc"],
+    );
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let fake = FakeGrbl::start(GrblConfig {
+        line_delay: std::time::Duration::from_millis(5),
+        ..GrblConfig::default()
+    })
+    .unwrap();
+    let child = Command::new(&bin)
+        .current_dir(&dir)
+        .args(["carve", "plan.nc", "--port", fake.path()])
+        .stdin(Stdio::null())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let t0 = std::time::Instant::now();
+    while fake.record().executed.len() < 40 {
+        assert!(t0.elapsed().as_secs() < 20, "the job did not start");
+        std::thread::sleep(std::time::Duration::from_millis(5));
+    }
+    let st = Command::new("kill")
+        .args(["-INT", &child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(st.success());
+    let o = child.wait_with_output().unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(130), "{err}");
+    assert!(err.contains("--resume"), "{err}");
+    let r = fake.record();
+    assert_eq!((r.holds, r.resets), (1, 1));
+    assert_eq!(r.pos[2], 2.0, "the tool ends at the safe height");
+    let _ = std::fs::remove_dir_all(&dir);
+}
