@@ -7,7 +7,12 @@
 //! - [`simulate`]: the card as a given tool would cut it, rendered by the engine from each
 //!   capture view as the photos a camera would take (with optional noise, exposure and blur).
 //!
-//! The fit of a tool to photos (by the engine's differentiable renderer, on the generic optimizer
-//! with a tool-profile parameter set) builds on these; it is not built yet.
+//! - [`register`]: photos (PNG/JPEG, EXIF orientation, any size) registered to the capture views
+//!   by the card's corner crosses.
+//! - [`fit`]: the tool's parameters, z offset, wall roughness, exposures and blur fitted to the
+//!   registered photos by rendering the card with the engine; [`fit_cmd`] is `scratchart-cal fit`.
 pub mod card;
+pub mod fit;
+pub mod fit_cmd;
+pub mod register;
 pub mod simulate;

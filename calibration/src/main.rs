@@ -26,8 +26,14 @@ mod plan_cmd;
   2. cut the card on the machine, and photograph it from each capture view of card.json.\n\
   3. scratchart-cal simulate --card DIR/card.json --tool tool.json --out IMGDIR\n\
                                          renders the card as a known tool would cut it, as the camera would\n\
-                                         see it (for checking a set-up, and for tests).\n\n\
-The fit of a tool to the photos (tool.json) is not built yet.\n\n\
+                                         see it (for checking a set-up, and for tests).\n\
+  4. scratchart-cal fit --card DIR/card.json cam_south.jpg cam_west.jpg --out tool.json\n\
+                                         registers the photos by the corner crosses and fits the tool\n\
+                                         (v-bit, ball, tapered-ball or a measured profile; --kind picks one),\n\
+                                         its z offset, the walls' roughness, exposure and blur: tool.json with\n\
+                                         uncertainties, residual images and a plot of width against depth.\n\
+  5. scratchart-cal plan DESIGN.json --tool tool.json --out plan.nc, then scratchart-cal carve plan.nc\n\
+                                         --port PORT (see calibration/README.md).\n\n\
 Exit codes: 0 success, 1 runtime failure, 2 bad command line, 3 bad input file, 4 GPU/device failure."
 )]
 struct Cli {
@@ -40,6 +46,9 @@ struct Cli {
 
 #[derive(Subcommand)]
 enum Cmd {
+    /// Fit the tool to photos of the cut card: writes tool.json (the tool, its uncertainties, the
+    /// walls' roughness), residual images and a plot of the width against depth beside it.
+    Fit(scratchart_calibration::fit_cmd::FitArgs),
     /// Stream a plan to the machine (GRBL 1.1 or Marlin, asked on the port) with a journal beside
     /// the plan; --resume continues a stopped job. Exit 1 when the machine stops the job (with the
     /// --resume command), 130 after Ctrl-C (machine stopped, tool raised).
@@ -107,6 +116,15 @@ fn run(cli: Cli) -> Result<()> {
     match &cli.cmd {
         Cmd::Carve(args) => carve::run(args),
         Cmd::Probe(args) => carve::probe(args),
+        Cmd::Fit(args) => {
+            let ctx = Context::new(ContextDesc {
+                device: cli.device.clone(),
+                ..Default::default()
+            })?;
+            let renderer = scratchart::render::Renderer::new(&ctx)?;
+            scratchart::term::install_interrupt_handler();
+            scratchart_calibration::fit_cmd::run(&renderer, args, &scratchart::term::Terminal::new(args.quiet))
+        }
         Cmd::Card {
             out,
             plate,

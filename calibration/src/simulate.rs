@@ -39,6 +39,10 @@ pub fn cut_scene(card: &Card, capture: &Scene, tool: &Tool) -> Scene {
         .iter()
         .filter_map(|c| {
             let m = tool.model(c.z_mm)?;
+            // A groove too narrow to see (a measured profile's zero width) is no scratch.
+            if !(m.width > 1e-6 && m.w > 0.0 && m.d > 0.0) {
+                return None;
+            }
             Some(Scratch {
                 p0: c.p0,
                 p1: c.p1,
@@ -56,7 +60,7 @@ pub fn cut_scene(card: &Card, capture: &Scene, tool: &Tool) -> Scene {
 }
 
 /// Separable Gaussian blur of a `w` x `h` image (clamped edges).
-fn blur(img: &[f32], w: usize, h: usize, sigma: f64) -> Vec<f32> {
+pub fn blur(img: &[f32], w: usize, h: usize, sigma: f64) -> Vec<f32> {
     if sigma <= 0.0 {
         return img.to_vec();
     }

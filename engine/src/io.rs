@@ -243,6 +243,20 @@ pub fn write_png_gray(path: &Path, width: u32, height: u32, data: &[u8]) -> Resu
     write_atomic(path, &buf)
 }
 
+/// Write an 8-bit RGB PNG atomically (plots). `data` is top row first, 3 bytes per pixel.
+pub fn write_png_rgb(path: &Path, width: u32, height: u32, data: &[u8]) -> Result<(), IoError> {
+    use image::ImageEncoder;
+    check_dims(path, width, height, data.len() / 3)?;
+    let mut buf = Vec::new();
+    image::codecs::png::PngEncoder::new(&mut buf)
+        .write_image(data, width, height, image::ExtendedColorType::Rgb8)
+        .map_err(|source| IoError::Image {
+            path: path.to_path_buf(),
+            cause: source,
+        })?;
+    write_atomic(path, &buf)
+}
+
 /// Read a PNG or JPEG image as gray values in [0, 1] (colour is converted to luma by the
 /// `image` crate's Rec. 709 weights on the stored, display-encoded values; alpha is composited over black; any bit depth).
 /// Returns (width, height, data) top row first.

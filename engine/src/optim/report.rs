@@ -210,18 +210,12 @@ pub fn compare_png(path: &Path, w: u32, h: u32, display: &[f32], target: &[f32])
 
 /// Writes an RGB plot buffer as a PNG, atomically.
 pub(crate) fn write_rgb_png(path: &Path, w: u32, h: u32, buf: Vec<u8>) -> Result<(), OptimError> {
-    let img = image::RgbImage::from_raw(w, h, buf).expect("plot buffer size");
-    let mut png = Vec::new();
-    image::DynamicImage::ImageRgb8(img)
-        .write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png)
-        .map_err(|e| OptimError::Report(format!("cannot encode {}: {e}", path.display())))?;
-    crate::io::write_atomic(path, &png)?;
-    Ok(())
+    Ok(crate::io::write_png_rgb(path, w, h, &buf)?)
 }
 
 /// A sans-serif font from the system for plot text (Debian: fonts-dejavu-core), registered with
 /// plotters once; None when no font is found, and the plot is drawn without text.
-pub(crate) fn plot_font() -> Option<&'static str> {
+pub fn plot_font() -> Option<&'static str> {
     static FONT: std::sync::OnceLock<Option<&'static str>> = std::sync::OnceLock::new();
     *FONT.get_or_init(|| {
         let candidates = [

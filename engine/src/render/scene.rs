@@ -2,7 +2,7 @@
 //! intensities), the cameras, the pair-search state (tile lists, private to `render`), the images
 //! and the gradient buffers. Callers reach the buffers they may read or write through accessors;
 //! the binning buffers stay private so that only [`super::Renderer`] can size and fill them.
-use crate::model::scene::{Scene, View};
+use crate::model::scene::{Scene, Scratch, View};
 use crate::vulkan::{Buffer, Context, GpuError, MemLoc};
 
 use super::layout::{self, ScratchGpu, ShadePush, ViewSlots};
@@ -429,6 +429,18 @@ impl GpuScene {
         self.capacity = want as u32;
         self.shade.capacity = self.capacity;
         Ok(())
+    }
+
+    /// Replaces the scratches (same number: the binning's sizes depend on it). Returns false
+    /// (and changes nothing) when the number differs, in which case the caller uploads the scene
+    /// again. For fits that re-render one scene with new scratch parameters many times.
+    pub fn update_scratches(&mut self, ctx: &std::sync::Arc<Context>, scratches: &[Scratch]) -> Result<bool, GpuError> {
+        if scratches.len() != self.n_scratches as usize {
+            return Ok(false);
+        }
+        let scr: Vec<ScratchGpu> = scratches.iter().map(ScratchGpu::from).collect();
+        self.scratches = ctx.upload("scratches", &scr)?;
+        Ok(true)
     }
 
     /// Replaces the cameras and lights (same number of views, same image sizes): cheap enough

@@ -1,0 +1,828 @@
+//! The tool fit: the tool's parameters, the z offset, the groove walls' roughness, each photo's
+//! exposure and the camera's blur, fitted to registered photos of the card by rendering the card
+//! with the engine.
+//!
+//! Forward model, per capture view v: the engine renders the card as the tool cuts it (every
+//! ladder cut and fiducial becomes the scratch model's groove for the tool at its commanded depth,
+//! `simulate::cut_scene`), the linear image is scaled by the exposure E_v, mapped to display
+//! values (1/2.2 power, clipped at 1 as a sensor clips) and blurred by a Gaussian of sigma b px,
+//! as `scratchart-cal simulate` does.
+//!
+//! Loss: a robust (Cauchy) sum over the on-card pixels of the capture views, scale
+//! s = 1.4826 MAD of the residuals at the start of each iteration (at least 0.002), so a dust
+//! speck, a reflection or a stray scratch does not pull the fit.
+//!
+//! Optimizer: Levenberg-Marquardt on the few parameters (3 to 8 tool and camera numbers; a
+//! measured profile has one width per ladder depth), with the Jacobian by forward differences of
+//! engine renders (exposure and blur need no render). The cost is not smooth in the z offset:
+//! a ladder rung appears when its commanded depth plus the offset passes zero (with a tip flat its
+//! width jumps from 0). So the offset is searched first on the ladder's thresholds, and each
+//! refinement keeps the offset inside one interval between thresholds, where the set of cut
+//! rungs is fixed and the cost smooth; the best interval wins.
+//!
+//! What identifies what (the card's features): the depth at which grooves appear gives the z
+//! offset (to the ladder step, and finer through the widths of the rungs just past it); the
+//! growth of the brightness down the ladder gives the width law W(z) (the V angle, or the ball
+//! radius); the brightness at the first rungs gives the tip flat; the spread of the brightness
+//! over the four orientations and two views gives the walls' roughness and slope. Uncertainties
+//! are the square roots of the diagonal of s_r^2 (J^T W J)^-1 at the optimum (s_r^2 the weighted
+//! residual variance); pixel noise is treated as independent, so blur makes them optimistic by
+//! about the blur's width in pixels. A parameter whose uncertainty is larger than its stated
+//! limit is reported as not identified, not as a number.
+use scratchart::model::scene::{Scene, Scratch};
+use scratchart::observe::{Observer, Progress};
+use scratchart::render::Renderer;
+use scratchart_tool::Tool;
+use serde::{Deserialize, Serialize};
+
+use super::card::Card;
+use super::register::{warp, Gray};
+use super::simulate::blur;
+
+/// The tool models the fit knows.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Kind {
+    VBit,
+    Ball,
+    TaperedBall,
+    Profile,
+}
+
+impl Kind {
+    pub const ALL: [Kind; 4] = [Kind::VBit, Kind::Ball, Kind::TaperedBall, Kind::Profile];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            Kind::VBit => "v-bit",
+            Kind::Ball => "ball",
+            Kind::TaperedBall => "tapered-ball",
+            Kind::Profile => "profile",
+        }
+    }
+
+    pub fn parse(s: &str) -> Option<Kind> {
+        Kind::ALL.into_iter().find(|k| k.name() == s)
+    }
+}
+
+/// One fitted number: its name, bounds, the forward-difference step, and the uncertainty above
+/// which it counts as not identified.
+#[derive(Clone, Debug)]
+struct Param {
+    name: String,
+    lo: f64,
+    hi: f64,
+    step: f64,
+    /// Needs a new render when it changes.
+    render: bool,
+    limit: f64,
+}
+
+fn p(name: &str, lo: f64, hi: f64, step: f64, render: bool, limit: f64) -> Param {
+    Param {
+        name: name.into(),
+        lo,
+        hi,
+        step,
+        render,
+        limit,
+    }
+}
+
+/// The parameter layout of a kind: tool parameters, then alpha, the log exposures and the blur.
+struct Layout {
+    kind: Kind,
+    /// The last 6 per view are an affine correction of each photo's registration.
+    reg: bool,
+    params: Vec<Param>,
+    /// Index of the z offset (none for a profile: its points are in commanded depth).
+    offset: Option<usize>,
+    n_tool: usize,
+    n_views: usize,
+    /// The card's ladder depths (a profile has one width per depth).
+    depths: Vec<f64>,
+}
+
+impl Layout {
+    fn new(kind: Kind, card: &Card, n_views: usize, refine_registration: bool) -> Layout {
+        let mut params = match kind {
+            Kind::VBit => vec![
+                p("angle_deg", 5.0, 175.0, 0.2, true, 5.0),
+                p("tip_flat_mm", 0.0, 0.5, 0.0005, true, 0.02),
+                p("z_offset_mm", -0.3, 0.3, 0.0005, true, 0.01),
+            ],
+            Kind::Ball => vec![
+                p("radius_mm", 0.002, 3.0, 0.001, true, 0.05),
+                p("z_offset_mm", -0.3, 0.3, 0.0005, true, 0.01),
+            ],
+            Kind::TaperedBall => vec![
+                p("radius_mm", 0.002, 3.0, 0.001, true, 0.05),
+                p("angle_deg", 5.0, 175.0, 0.2, true, 5.0),
+                p("z_offset_mm", -0.3, 0.3, 0.0005, true, 0.01),
+            ],
+            Kind::Profile => {
+                let mut v: Vec<Param> = card
+                    .depths_mm
+                    .iter()
+                    .map(|z| p(&format!("W_mm@{z}"), 0.0, 2.0, 0.0005, true, 0.02))
+                    .collect();
+                v.push(p("w_over_W", 1.0, 5.0, 0.01, true, 1.0));
+                v
+            }
+        };
+        let offset = params.iter().position(|q| q.name == "z_offset_mm");
+        let n_tool = params.len();
+        params.push(p("alpha", 0.01, 0.6, 0.002, true, 0.1));
+        for v in 0..n_views {
+            params.push(p(&format!("ln_exposure[{v}]"), -12.0, 12.0, 0.01, false, 1.0));
+        }
+        params.push(p("blur_px", 0.0, 4.0, 0.02, false, 1.0));
+        let reg = if refine_registration {
+            for v in 0..n_views {
+                for (k, (step, lim)) in [
+                    (0.05, 2.0),
+                    (0.05, 2.0),
+                    (5e-4, 0.02),
+                    (5e-4, 0.02),
+                    (5e-4, 0.02),
+                    (5e-4, 0.02),
+                ]
+                .into_iter()
+                .enumerate()
+                {
+                    params.push(p(&format!("registration[{v}].{k}"), -lim, lim, step, false, lim));
+                }
+            }
+            true
+        } else {
+            false
+        };
+        Layout {
+            reg,
+            kind,
+            params,
+            offset,
+            n_tool,
+            n_views,
+            depths: card.depths_mm.clone(),
+        }
+    }
+
+    fn tool(&self, x: &[f64]) -> Tool {
+        match self.kind {
+            Kind::VBit => Tool::VBit {
+                angle_deg: x[0],
+                tip_flat_mm: x[1],
+                z_offset_mm: x[2],
+            },
+            Kind::Ball => Tool::Ball {
+                radius_mm: x[0],
+                z_offset_mm: x[1],
+            },
+            Kind::TaperedBall => Tool::TaperedBall {
+                radius_mm: x[0],
+                angle_deg: x[1],
+                z_offset_mm: x[2],
+            },
+            Kind::Profile => {
+                let n = self.depths.len();
+                let mut w = 0.0f64;
+                let points = (0..n)
+                    .map(|k| {
+                        w = w.max(x[k]);
+                        [self.depths[k], w]
+                    })
+                    .collect();
+                Tool::Profile {
+                    points,
+                    w_over_w: x[n],
+                    z_offset_mm: 0.0,
+                }
+            }
+        }
+    }
+
+    fn alpha(&self, x: &[f64]) -> f64 {
+        x[self.n_tool]
+    }
+    fn exposure(&self, x: &[f64], v: usize) -> f64 {
+        x[self.n_tool + 1 + v].exp()
+    }
+    fn blur(&self, x: &[f64]) -> f64 {
+        x[self.n_tool + 1 + self.n_views]
+    }
+    /// The affine registration correction of view v (zeros without refinement).
+    fn registration(&self, x: &[f64], v: usize) -> [f64; 6] {
+        let mut a = [0.0; 6];
+        if self.reg {
+            let b = self.n_tool + 2 + self.n_views + 6 * v;
+            a.copy_from_slice(&x[b..b + 6]);
+        }
+        a
+    }
+
+    /// A starting point: a typical tool of the kind, offset `off`.
+    fn start(&self, off: f64, shape: f64) -> Vec<f64> {
+        let mut x: Vec<f64> = match self.kind {
+            Kind::VBit => vec![shape, 0.005, off],
+            Kind::Ball => vec![shape, off],
+            Kind::TaperedBall => vec![0.5 * shape, 60.0, off],
+            Kind::Profile => {
+                let mut v: Vec<f64> = self.depths.iter().map(|z| (z + 0.01).max(0.0) * 1.2).collect();
+                v.push(1.2);
+                v
+            }
+        };
+        x.push(0.1);
+        x.extend(std::iter::repeat(0.0).take(self.n_views));
+        x.push(0.5);
+        if self.reg {
+            x.extend(std::iter::repeat(0.0).take(6 * self.n_views));
+        }
+        x
+    }
+
+    /// Shapes tried at the start (V angles, ball radii).
+    fn shapes(&self) -> Vec<f64> {
+        match self.kind {
+            Kind::VBit => vec![30.0, 60.0, 90.0, 120.0],
+            Kind::Ball | Kind::TaperedBall => vec![0.05, 0.15, 0.4],
+            Kind::Profile => vec![0.0],
+        }
+    }
+}
+
+/// The fit's data: the card, its capture views and the registered photos.
+pub struct Data<'a> {
+    pub card: &'a Card,
+    pub capture: &'a Scene,
+    /// One registered photo per capture view (display values on the view's raster).
+    pub photos: Vec<Vec<f32>>,
+    /// Pixels that take part: on the card and inside the photo.
+    pub masks: Vec<Vec<bool>>,
+    /// Per view, the photo at the view's size and the homography from the fiducials, so the fit
+    /// can refine the registration photometrically (`None`: the photos are used as registered).
+    pub sources: Option<Vec<(Gray, [f64; 9])>>,
+}
+
+/// What a fit found.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct FitResult {
+    pub kind: Kind,
+    pub tool: Tool,
+    pub alpha: f64,
+    pub exposure: Vec<f64>,
+    pub blur_px: f64,
+    /// Parameter names and values, with their uncertainties (None: not identified).
+    pub params: Vec<(String, f64, Option<f64>)>,
+    /// Robust loss at the optimum (per pixel), the RMS residual (display units), pixels used.
+    pub loss: f64,
+    pub rms: f64,
+    pub pixels: usize,
+    /// Bayesian information criterion of the robust loss: how the kinds are compared.
+    pub bic: f64,
+    pub renders: u32,
+    pub iterations: u32,
+}
+
+impl FitResult {
+    /// Parameters the photos do not constrain.
+    pub fn unidentified(&self) -> Vec<String> {
+        self.params
+            .iter()
+            .filter(|p| p.2.is_none())
+            .map(|p| p.0.clone())
+            .collect()
+    }
+}
+
+/// A fit could not be run on the data.
+#[derive(Debug, thiserror::Error)]
+pub enum FitError {
+    #[error("{0}")]
+    Data(String),
+    #[error(transparent)]
+    Render(#[from] anyhow::Error),
+    #[error("interrupted")]
+    Interrupted,
+}
+
+struct Evaluator<'a, 'r> {
+    renderer: &'r Renderer,
+    data: &'a Data<'a>,
+    lay: Layout,
+    renders: u32,
+    /// The card on the device, re-used with new scratch parameters for every render.
+    gs: Option<scratchart::render::GpuScene>,
+}
+
+impl Evaluator<'_, '_> {
+    /// The card's scratches for `tool`: every cut keeps its place, so the device scene is re-used;
+    /// a cut that does not reach the plate gets a groove far below a pixel's resolution
+    /// (w = d = 1e-6 mm: its light is below 1e-5 of a visible groove's).
+    fn scratches(&self, tool: &Tool, alpha: f64) -> Vec<Scratch> {
+        self.data
+            .card
+            .cuts
+            .iter()
+            .map(|c| {
+                let (w, d) = match tool.model(c.z_mm) {
+                    Some(m) if m.width > 1e-6 && m.w > 0.0 && m.d > 0.0 => (m.w, m.d),
+                    _ => (1e-6, 1e-6),
+                };
+                Scratch {
+                    p0: c.p0,
+                    p1: c.p1,
+                    w,
+                    d,
+                    alpha,
+                }
+            })
+            .collect()
+    }
+
+    /// Linear renders of the card for the tool part of `x`.
+    fn render(&mut self, x: &[f64]) -> Result<Vec<Vec<f32>>, FitError> {
+        let scratches = self.scratches(&self.lay.tool(x), self.lay.alpha(x));
+        let ctx = self.renderer.ctx.clone();
+        let reuse = match &mut self.gs {
+            Some(gs) => gs.update_scratches(&ctx, &scratches).map_err(anyhow::Error::from)?,
+            None => false,
+        };
+        if !reuse {
+            let scene = Scene {
+                plate: self.data.capture.plate.clone(),
+                views: self.data.capture.views.clone(),
+                scratches,
+            };
+            self.gs = Some(self.renderer.upload(&scene).map_err(anyhow::Error::from)?);
+        }
+        let gs = self.gs.as_mut().expect("uploaded");
+        let frame = self.renderer.render(gs).map_err(anyhow::Error::from)?;
+        self.renders += 1;
+        Ok(frame.images)
+    }
+
+    /// Model display images from linear renders and the camera part of `x`.
+    fn predict(&self, lin: &[Vec<f32>], x: &[f64]) -> Vec<Vec<f32>> {
+        lin.iter()
+            .enumerate()
+            .map(|(v, img)| {
+                let e = self.lay.exposure(x, v);
+                let disp: Vec<f32> = img
+                    .iter()
+                    .map(|&l| scratchart::io::display_value((l as f64 * e) as f32))
+                    .collect();
+                let c = &self.data.capture.views[v].camera;
+                let mut b = blur(&disp, c.width as usize, c.height as usize, self.lay.blur(x));
+                // The sensor clips, as `simulate` does.
+                for px in &mut b {
+                    *px = px.min(1.0);
+                }
+                b
+            })
+            .collect()
+    }
+
+    /// The log exposure of view `v` that fits its photo best with the rest of `x` (a scan in
+    /// steps of 1 over [-10, 10], then golden-section search; no render).
+    fn best_exposure(&self, v: usize, lin: &[f32], x: &[f64]) -> f64 {
+        let k = self.lay.n_tool + 1 + v;
+        let c = &self.data.capture.views[v].camera;
+        let cost = |le: f64| {
+            let mut xx = x.to_vec();
+            xx[k] = le;
+            let e = self.lay.exposure(&xx, v);
+            let disp: Vec<f32> = lin
+                .iter()
+                .map(|&l| scratchart::io::display_value((l as f64 * e) as f32))
+                .collect();
+            let b = blur(&disp, c.width as usize, c.height as usize, self.lay.blur(&xx));
+            let r: Vec<f64> = b
+                .iter()
+                .zip(&self.data.photos[v])
+                .zip(&self.data.masks[v])
+                .filter(|(_, m)| **m)
+                .map(|((m, p), _)| (m.min(1.0) - p) as f64)
+                .collect();
+            cauchy(&r, 0.01)
+        };
+        let mut best = (f64::INFINITY, 0.0);
+        for step in -10..=10 {
+            let c = cost(step as f64);
+            if c < best.0 {
+                best = (c, step as f64);
+            }
+        }
+        let (mut a, mut b) = (best.1 - 1.0, best.1 + 1.0);
+        let g = 0.5 * (5f64.sqrt() - 1.0);
+        for _ in 0..16 {
+            let (m1, m2) = (b - g * (b - a), a + g * (b - a));
+            if cost(m1) < cost(m2) {
+                b = m2;
+            } else {
+                a = m1;
+            }
+        }
+        0.5 * (a + b)
+    }
+
+    /// The photo of view v as registered with the correction in `x`.
+    fn photo(&self, x: &[f64], v: usize) -> std::borrow::Cow<'_, [f32]> {
+        match &self.data.sources {
+            Some(src) if self.lay.reg => {
+                let c = &self.data.capture.views[v].camera;
+                let (img, _) = warp(&src[v].0, &src[v].1, &self.lay.registration(x, v), c.width, c.height);
+                std::borrow::Cow::Owned(img)
+            }
+            _ => std::borrow::Cow::Borrowed(&self.data.photos[v]),
+        }
+    }
+
+    /// Residuals (model - photo) over the masked pixels, all views in order.
+    fn residuals(&self, pred: &[Vec<f32>], x: &[f64]) -> Vec<f64> {
+        let mut r = Vec::new();
+        for (v, img) in pred.iter().enumerate() {
+            let photo = self.photo(x, v);
+            for ((m, &ph), &ok) in img.iter().zip(photo.iter()).zip(&self.data.masks[v]) {
+                if ok {
+                    r.push((*m - ph) as f64);
+                }
+            }
+        }
+        r
+    }
+
+    fn eval(&mut self, x: &[f64], lin: Option<&[Vec<f32>]>) -> Result<(Vec<f64>, Vec<Vec<f32>>), FitError> {
+        let lin = match lin {
+            Some(l) => l.to_vec(),
+            None => self.render(x)?,
+        };
+        Ok((self.residuals(&self.predict(&lin, x), x), lin))
+    }
+}
+
+fn robust_scale(r: &[f64]) -> f64 {
+    let mut a: Vec<f64> = r.iter().map(|x| x.abs()).collect();
+    let n = a.len();
+    let mad = *a.select_nth_unstable_by(n / 2, |p, q| p.total_cmp(q)).1;
+    (1.4826 * mad).max(0.002)
+}
+
+fn cauchy(r: &[f64], s: f64) -> f64 {
+    r.iter().map(|x| 0.5 * s * s * (x * x / (s * s)).ln_1p()).sum()
+}
+
+/// Solves the symmetric positive system a x = b (Cholesky); `None` when not positive definite.
+fn solve_spd(a: &[Vec<f64>], b: &[f64]) -> Option<Vec<f64>> {
+    let n = b.len();
+    let mut l = vec![vec![0.0; n]; n];
+    for i in 0..n {
+        for j in 0..=i {
+            let s: f64 = a[i][j] - (0..j).map(|k| l[i][k] * l[j][k]).sum::<f64>();
+            if i == j {
+                if !(s > 0.0) {
+                    return None;
+                }
+                l[i][i] = s.sqrt();
+            } else {
+                l[i][j] = s / l[j][j];
+            }
+        }
+    }
+    let mut y = vec![0.0; n];
+    for i in 0..n {
+        y[i] = (b[i] - (0..i).map(|k| l[i][k] * y[k]).sum::<f64>()) / l[i][i];
+    }
+    let mut x = vec![0.0; n];
+    for i in (0..n).rev() {
+        x[i] = (y[i] - (i + 1..n).map(|k| l[k][i] * x[k]).sum::<f64>()) / l[i][i];
+    }
+    Some(x)
+}
+
+/// How a fit runs.
+#[derive(Clone, Debug)]
+pub struct FitConfig {
+    /// Levenberg-Marquardt iterations per refinement.
+    pub iters: u32,
+    /// Starting point (a previous tool.json's tool and alpha): skips the search.
+    pub init: Option<(Tool, Option<f64>)>,
+}
+
+impl Default for FitConfig {
+    fn default() -> FitConfig {
+        FitConfig { iters: 15, init: None }
+    }
+}
+
+/// Levenberg-Marquardt from `x` with the z offset (if any) kept in `off_range`.
+fn refine(
+    ev: &mut Evaluator,
+    mut x: Vec<f64>,
+    off_range: Option<(f64, f64)>,
+    iters: u32,
+    obs: &dyn Observer,
+    label: &str,
+) -> Result<(Vec<f64>, f64, Vec<Vec<f64>>, Vec<f64>, f64), FitError> {
+    let np = ev.lay.params.len();
+    let clamp = |x: &mut Vec<f64>, lay: &Layout| {
+        for (k, q) in lay.params.iter().enumerate() {
+            x[k] = x[k].clamp(q.lo, q.hi);
+        }
+        if let (Some(i), Some((lo, hi))) = (lay.offset, off_range) {
+            x[i] = x[i].clamp(lo, hi);
+        }
+    };
+    clamp(&mut x, &ev.lay);
+    let mut lambda = 1e-3;
+    let (mut r, mut lin) = ev.eval(&x, None)?;
+    let mut s = robust_scale(&r);
+    let mut cost = cauchy(&r, s);
+    let mut jtj = vec![vec![0.0; np]; np];
+    for it in 0..iters {
+        if obs.should_stop() {
+            return Err(FitError::Interrupted);
+        }
+        obs.progress(&Progress {
+            task: "fit",
+            done: it as u64,
+            total: iters as u64,
+            message: format!("{label}: loss {:.3e}", cost / r.len() as f64),
+        });
+        s = robust_scale(&r);
+        cost = cauchy(&r, s);
+        let wts: Vec<f64> = r.iter().map(|e| 1.0 / (1.0 + e * e / (s * s))).collect();
+        // Jacobian by forward differences (away from the nearer bound).
+        let mut cols: Vec<Vec<f64>> = Vec::with_capacity(np);
+        for k in 0..np {
+            let q = &ev.lay.params[k];
+            let mut xh = x.clone();
+            let mut h = q.step;
+            let (lo, hi) = match (ev.lay.offset == Some(k), off_range) {
+                (true, Some(rg)) => (rg.0.max(q.lo), rg.1.min(q.hi)),
+                _ => (q.lo, q.hi),
+            };
+            if x[k] + h > hi {
+                h = -h;
+            }
+            if x[k] + h < lo {
+                h = 0.5 * (hi - lo);
+                xh[k] = lo;
+                h = (lo + h) - x[k];
+            }
+            xh[k] = x[k] + h;
+            let (rh, _) = if q.render {
+                ev.eval(&xh, None)?
+            } else {
+                ev.eval(&xh, Some(&lin))?
+            };
+            cols.push(rh.iter().zip(&r).map(|(a, b)| (a - b) / h).collect());
+        }
+        let mut g = vec![0.0; np];
+        for i in 0..np {
+            g[i] = cols[i].iter().zip(&r).zip(&wts).map(|((j, e), w)| j * e * w).sum();
+            for j in 0..=i {
+                let v: f64 = cols[i]
+                    .iter()
+                    .zip(&cols[j])
+                    .zip(&wts)
+                    .map(|((a, b), w)| a * b * w)
+                    .sum();
+                jtj[i][j] = v;
+                jtj[j][i] = v;
+            }
+        }
+        let mut improved = false;
+        for _ in 0..6 {
+            let mut a = jtj.clone();
+            for i in 0..np {
+                a[i][i] += lambda * jtj[i][i].max(1e-12);
+            }
+            let Some(delta) = solve_spd(&a, &g.iter().map(|v| -v).collect::<Vec<_>>()) else {
+                lambda *= 10.0;
+                continue;
+            };
+            let mut xn: Vec<f64> = x.iter().zip(&delta).map(|(a, d)| a + d).collect();
+            clamp(&mut xn, &ev.lay);
+            let need_render = (0..np).any(|k| ev.lay.params[k].render && xn[k] != x[k]);
+            let (rn, linn) = if need_render {
+                ev.eval(&xn, None)?
+            } else {
+                ev.eval(&xn, Some(&lin))?
+            };
+            let cn = cauchy(&rn, s);
+            if cn < cost {
+                let rel = (cost - cn) / cost.max(1e-300);
+                x = xn;
+                r = rn;
+                lin = linn;
+                cost = cn;
+                lambda = (lambda / 3.0).max(1e-9);
+                improved = rel > 1e-5;
+                break;
+            }
+            lambda *= 4.0;
+        }
+        if !improved {
+            break;
+        }
+    }
+    obs.finish("fit");
+    let wts: Vec<f64> = r.iter().map(|e| 1.0 / (1.0 + e * e / (s * s))).collect();
+    Ok((x, cost, jtj, wts, s))
+}
+
+/// Fits one tool kind to the data.
+pub fn fit_kind(
+    renderer: &Renderer,
+    data: &Data,
+    kind: Kind,
+    cfg: &FitConfig,
+    obs: &dyn Observer,
+) -> Result<FitResult, FitError> {
+    let lay = Layout::new(kind, data.card, data.capture.views.len(), data.sources.is_some());
+    let mut ev = Evaluator {
+        renderer,
+        data,
+        lay,
+        renders: 0,
+        gs: None,
+    };
+    // The z offset's intervals: between consecutive thresholds -z_k of the ladder.
+    let mut th: Vec<f64> = data.card.depths_mm.iter().map(|z| -z).collect();
+    th.sort_by(|a, b| a.total_cmp(b));
+    let mut intervals: Vec<(f64, f64)> = Vec::new();
+    let (lo_all, hi_all) = (-0.3, 0.3);
+    let mut prev = lo_all;
+    for &t in &th {
+        if t > prev {
+            intervals.push((prev, t));
+        }
+        prev = t;
+    }
+    intervals.push((prev, hi_all));
+    let interval_of = |off: f64| {
+        intervals
+            .iter()
+            .copied()
+            .find(|(a, b)| off >= *a && off < *b)
+            .unwrap_or((lo_all, hi_all))
+    };
+    // Starting points.
+    let mut starts: Vec<(Vec<f64>, Option<(f64, f64)>)> = Vec::new();
+    if let Some((tool, alpha)) = &cfg.init {
+        let mut x = ev.lay.start(tool.z_offset_mm(), 60.0);
+        let t = ev.lay.tool(&x);
+        if std::mem::discriminant(&t) == std::mem::discriminant(tool) {
+            match tool {
+                Tool::VBit {
+                    angle_deg, tip_flat_mm, ..
+                } => {
+                    x[0] = *angle_deg;
+                    x[1] = *tip_flat_mm;
+                }
+                Tool::Ball { radius_mm, .. } => x[0] = *radius_mm,
+                Tool::TaperedBall {
+                    radius_mm, angle_deg, ..
+                } => {
+                    x[0] = *radius_mm;
+                    x[1] = *angle_deg;
+                }
+                Tool::Profile { .. } => {}
+            }
+            if let Some(a) = alpha {
+                x[ev.lay.n_tool] = *a;
+            }
+            let rg = ev.lay.offset.map(|_| interval_of(tool.z_offset_mm()));
+            starts.push((x, rg));
+        }
+    }
+    if starts.is_empty() {
+        // Search: each offset interval's middle x each typical shape, exposure set per view
+        // by a 1-D search (no render); the best few go on to refinement.
+        let offs: Vec<Option<(f64, f64)>> = if ev.lay.offset.is_some() {
+            intervals
+                .iter()
+                .copied()
+                .filter(|(a, b)| *a > lo_all && *b < hi_all)
+                .map(Some)
+                .collect()
+        } else {
+            vec![None]
+        };
+        let mut scored: Vec<(f64, Vec<f64>, Option<(f64, f64)>)> = Vec::new();
+        let total = (offs.len() * ev.lay.shapes().len()) as u64;
+        for (i, rg) in offs.iter().enumerate() {
+            for (j, shape) in ev.lay.shapes().into_iter().enumerate() {
+                if obs.should_stop() {
+                    return Err(FitError::Interrupted);
+                }
+                obs.progress(&Progress {
+                    task: "search",
+                    done: (i * ev.lay.shapes().len() + j) as u64,
+                    total,
+                    message: format!("{} start points", kind.name()),
+                });
+                let off = rg.map_or(0.0, |(a, b)| 0.5 * (a + b));
+                let mut x = ev.lay.start(off, shape);
+                let lin = ev.render(&x)?;
+                for v in 0..ev.lay.n_views {
+                    let k = ev.lay.n_tool + 1 + v;
+                    x[k] = ev.best_exposure(v, &lin[v], &x);
+                }
+                let (r, _) = ev.eval(&x, Some(&lin))?;
+                scored.push((cauchy(&r, 0.01), x, *rg));
+            }
+        }
+        obs.finish("search");
+        scored.sort_by(|a, b| a.0.total_cmp(&b.0));
+        starts = scored.into_iter().take(2).map(|s| (s.1, s.2)).collect();
+    }
+    let mut best: Option<(Vec<f64>, f64, Vec<Vec<f64>>, Vec<f64>, f64)> = None;
+    let mut iterations = 0;
+    for (n, (x0, rg)) in starts.into_iter().enumerate() {
+        let label = format!("{} start {}", kind.name(), n + 1);
+        let got = refine(&mut ev, x0, rg, cfg.iters, obs, &label)?;
+        iterations += cfg.iters;
+        // The refinement may have ended on its interval's edge: then the next interval may hold
+        // the optimum, so it is refined there too.
+        let mut cand = vec![got];
+        if let (Some(i), Some((a, b))) = (ev.lay.offset, rg) {
+            let x = &cand[0].0;
+            let edge = if (x[i] - a).abs() < 2e-4 {
+                Some(interval_of(a - 1e-6))
+            } else if (x[i] - b).abs() < 2e-4 {
+                Some(interval_of(b + 1e-6))
+            } else {
+                None
+            };
+            if let Some(rg2) = edge.filter(|r| *r != (a, b)) {
+                let mut x2 = x.clone();
+                x2[i] = 0.5 * (rg2.0 + rg2.1);
+                cand.push(refine(&mut ev, x2, Some(rg2), cfg.iters, obs, &label)?);
+                iterations += cfg.iters;
+            }
+        }
+        for c in cand {
+            if best.as_ref().is_none_or(|b| c.1 < b.1) {
+                best = Some(c);
+            }
+        }
+    }
+    let (x, cost, jtj, wts, _s) = best.expect("at least one start");
+    let (r, _) = ev.eval(&x, None)?;
+    let n = r.len();
+    let np = ev.lay.params.len();
+    let wsum: f64 = r.iter().zip(&wts).map(|(e, w)| w * e * e).sum();
+    let s2 = wsum / (n.saturating_sub(np)).max(1) as f64;
+    // Covariance: s2 (J^T W J)^-1, column by column.
+    let mut params = Vec::with_capacity(np);
+    for k in 0..np {
+        let mut e = vec![0.0; np];
+        e[k] = 1.0;
+        let col = solve_spd(&jtj, &e);
+        let var = col.map(|c| s2 * c[k]).filter(|v| v.is_finite() && *v >= 0.0);
+        let q = &ev.lay.params[k];
+        let sd = var.map(f64::sqrt).filter(|sd| *sd <= q.limit);
+        params.push((q.name.clone(), x[k], sd));
+    }
+    let rms = (r.iter().map(|e| e * e).sum::<f64>() / n as f64).sqrt();
+    let loss = cost / n as f64;
+    let bic = 2.0 * n as f64 * (loss / 1e-6).ln_1p() + np as f64 * (n as f64).ln();
+    let lay = &ev.lay;
+    Ok(FitResult {
+        kind,
+        tool: lay.tool(&x),
+        alpha: lay.alpha(&x),
+        exposure: (0..lay.n_views).map(|v| lay.exposure(&x, v)).collect(),
+        blur_px: lay.blur(&x),
+        params,
+        loss,
+        rms,
+        pixels: n,
+        bic,
+        renders: ev.renders,
+        iterations,
+    })
+}
+
+/// Model display images of a fitted tool and the photos as the fit registered them (for the
+/// residual images).
+pub fn predict(renderer: &Renderer, data: &Data, res: &FitResult) -> Result<(Vec<Vec<f32>>, Vec<Vec<f32>>), FitError> {
+    let lay = Layout::new(res.kind, data.card, data.capture.views.len(), data.sources.is_some());
+    let mut ev = Evaluator {
+        renderer,
+        data,
+        lay,
+        renders: 0,
+        gs: None,
+    };
+    let x: Vec<f64> = res.params.iter().map(|p| p.1).collect();
+    let lin = ev.render(&x)?;
+    let photos = (0..data.capture.views.len())
+        .map(|v| ev.photo(&x, v).into_owned())
+        .collect();
+    Ok((ev.predict(&lin, &x), photos))
+}

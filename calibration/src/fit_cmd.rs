@@ -1,0 +1,430 @@
+//! `scratchart-cal fit`: photos of the card in, `tool.json` out (with the residual images and the
+//! plot of the width law beside it).
+use std::path::{Path, PathBuf};
+
+use anyhow::{Context as _, Result};
+use plotters::prelude::*;
+use scratchart::exit::{InputError, UsageError};
+use scratchart::model::camera::ViewGeom;
+use scratchart::observe::Observer;
+use scratchart::render::Renderer;
+use scratchart_tool::{Fitted, Tool};
+use serde_json::json;
+
+use super::card::{Card, CutRole};
+use super::fit::{fit_kind, predict, Data, FitConfig, FitError, FitResult, Kind};
+use super::register::{load_photo, register};
+
+/// Flags of `scratchart-cal fit`.
+#[derive(clap::Args, Debug)]
+pub struct FitArgs {
+    /// The card (card.json from `scratchart-cal card`)
+    #[arg(long)]
+    pub card: PathBuf,
+    /// Photos of the cut card, one per capture view, named after the views (cam_south.jpg, ...)
+    /// or given in the views' order. PNG or JPEG, any size, colour or grey.
+    #[arg(required = true)]
+    pub images: Vec<PathBuf>,
+    /// Tool model to fit: v-bit, ball, tapered-ball or profile (default: all, the best by BIC)
+    #[arg(long, value_parser = ["v-bit", "ball", "tapered-ball", "profile"])]
+    pub kind: Option<String>,
+    /// Output tool file; its residual images and profile plot go beside it
+    #[arg(long, default_value = "tool.json")]
+    pub out: PathBuf,
+    /// Start from this tool (a previous fit): re-run on more or new photos without the search
+    #[arg(long)]
+    pub init: Option<PathBuf>,
+    /// Levenberg-Marquardt iterations per refinement
+    #[arg(long, default_value_t = 15)]
+    pub iters: u32,
+    /// No progress bar
+    #[arg(long)]
+    pub quiet: bool,
+}
+
+/// Pairs photos with capture views: by file name (the view's name) when every photo names one,
+/// else in order.
+fn pair_photos(images: &[PathBuf], names: &[String]) -> Result<Vec<PathBuf>> {
+    if images.len() < names.len() {
+        return Err(InputError(format!(
+            "the fit needs one photo per capture view ({}), got {}; photograph the card from each",
+            names.join(", "),
+            images.len()
+        ))
+        .into());
+    }
+    let stem = |p: &PathBuf| {
+        p.file_stem()
+            .map(|s| s.to_string_lossy().to_string())
+            .unwrap_or_default()
+    };
+    let by_name: Vec<Option<&PathBuf>> = names.iter().map(|n| images.iter().find(|p| stem(p) == *n)).collect();
+    if by_name.iter().all(|p| p.is_some()) {
+        return Ok(by_name.into_iter().map(|p| p.unwrap().clone()).collect());
+    }
+    if images.len() != names.len() {
+        return Err(UsageError(format!(
+            "{} photos for {} capture views: name each after its view ({}) or give exactly one per view in order",
+            images.len(),
+            names.len(),
+            names.join(", ")
+        ))
+        .into());
+    }
+    Ok(images.to_vec())
+}
+
+pub fn run(renderer: &Renderer, args: &FitArgs, obs: &dyn Observer) -> Result<()> {
+    let (card, capture) = Card::load(&args.card).map_err(|e| InputError(format!("{e:#}")))?;
+    let names: Vec<String> = capture.views.iter().map(|v| v.name.clone()).collect();
+    let files = pair_photos(&args.images, &names)?;
+    let mut photos = Vec::new();
+    let mut masks = Vec::new();
+    let mut sources = Vec::new();
+    let half = 0.5 * capture.plate.size_mm;
+    for (v, f) in capture.views.iter().zip(&files) {
+        let img = load_photo(f).map_err(InputError)?;
+        let small = super::register::resize(&img, v.camera.width, v.camera.height);
+        let saturated = |px: &[f32], mask: Option<&[bool]>| {
+            let on = |i: usize| mask.is_none_or(|m| m[i]);
+            let bright = px.iter().enumerate().filter(|(i, x)| on(*i) && **x > 0.25).count();
+            let sat = px.iter().enumerate().filter(|(i, x)| on(*i) && **x >= 0.99).count();
+            (bright > 0 && sat * 2 > bright).then(|| {
+                InputError(format!(
+                    "photo `{}` is saturated: {sat} of its {bright} bright pixels are full white, so groove \
+                     widths cannot be read; lower the exposure (or the lamp) and photograph again",
+                    f.display()
+                ))
+            })
+        };
+        if let Some(e) = saturated(&small.data, None) {
+            return Err(e.into());
+        }
+        let reg = register(&img, &card, v).map_err(|e| {
+            InputError(format!(
+                "card not found in photo `{}` (view {}): {e}. The four corner crosses must show; \
+                 photograph from the capture position of card.json with the lamp where it says",
+                f.display(),
+                v.name
+            ))
+        })?;
+        obs.info(&format!(
+            "{}: {}x{} photo registered to view {} (corner crosses within {:.1} px of the capture pose)",
+            f.display(),
+            img.width,
+            img.height,
+            v.name,
+            reg.pose_offset_px
+        ));
+        let on = ViewGeom::new(v).on_plate_mask(half);
+        let mask: Vec<bool> = on.iter().zip(&reg.valid).map(|(a, b)| *a && *b).collect();
+        if let Some(e) = saturated(&reg.image, Some(&mask)) {
+            return Err(e.into());
+        }
+        photos.push(reg.image);
+        sources.push((reg.photo, reg.h));
+        masks.push(mask);
+    }
+    let data = Data {
+        card: &card,
+        capture: &capture,
+        photos,
+        masks,
+        sources: Some(sources),
+    };
+    let init = match &args.init {
+        Some(p) => {
+            let (t, f) = Tool::load_fitted(p).map_err(|e| InputError(e.to_string()))?;
+            Some((t, f.alpha))
+        }
+        None => None,
+    };
+    let kinds: Vec<Kind> = match (&args.kind, &init) {
+        (Some(k), _) => vec![Kind::parse(k).expect("clap checked")],
+        (None, Some((t, _))) => vec![Kind::parse(match t {
+            Tool::VBit { .. } => "v-bit",
+            Tool::Ball { .. } => "ball",
+            Tool::TaperedBall { .. } => "tapered-ball",
+            Tool::Profile { .. } => "profile",
+        })
+        .expect("known kind")],
+        (None, None) => Kind::ALL.to_vec(),
+    };
+    let cfg = FitConfig {
+        iters: args.iters,
+        init,
+    };
+    let t0 = std::time::Instant::now();
+    let mut results: Vec<FitResult> = Vec::new();
+    for k in kinds {
+        match fit_kind(renderer, &data, k, &cfg, obs) {
+            Ok(r) => {
+                obs.info(&format!(
+                    "{}: loss {:.4e}, rms {:.4}, BIC {:.0} ({} renders)",
+                    k.name(),
+                    r.loss,
+                    r.rms,
+                    r.bic,
+                    r.renders
+                ));
+                results.push(r);
+            }
+            Err(FitError::Interrupted) => {
+                return Err(scratchart::optim::OptimError::Interrupted {
+                    iter: 0,
+                    checkpoint: None,
+                }
+                .into())
+            }
+            Err(e) => return Err(e.into()),
+        }
+    }
+    let best = results
+        .iter()
+        .min_by(|a, b| a.bic.total_cmp(&b.bic))
+        .expect("at least one kind")
+        .clone();
+    let secs = t0.elapsed().as_secs_f64();
+    // Report.
+    println!(
+        "fitted {} to {} photo(s) in {secs:.1} s ({} renders): rms residual {:.4} (display units)",
+        best.kind.name(),
+        files.len(),
+        results.iter().map(|r| r.renders).sum::<u32>(),
+        best.rms
+    );
+    if results.len() > 1 {
+        println!("  chosen by the lowest BIC (robust loss, penalized by parameter count):");
+        for r in &results {
+            println!(
+                "    {:13} BIC {:>12.0}  loss {:.4e}{}",
+                r.kind.name(),
+                r.bic,
+                r.loss,
+                if r.kind == best.kind { "  <- chosen" } else { "" }
+            );
+        }
+    }
+    for (name, v, sd) in &best.params {
+        if name.starts_with("ln_exposure") || name.starts_with("registration") {
+            continue;
+        }
+        match sd {
+            Some(sd) => println!("  {name:14} {v:.5} +- {sd:.5}"),
+            None => println!(
+                "  {name:14} not identified: the photos do not constrain it (the card's features that would are \
+                 missing or saturated)"
+            ),
+        }
+    }
+    println!(
+        "  exposure {:?}, camera blur {:.2} px",
+        best.exposure
+            .iter()
+            .map(|e| (e * 1000.0).round() / 1000.0)
+            .collect::<Vec<_>>(),
+        best.blur_px
+    );
+    // tool.json.
+    let record = json!({
+        "kind": best.kind.name(),
+        "criterion": "lowest BIC of the robust loss among the fitted kinds",
+        "candidates": results.iter().map(|r| json!({"kind": r.kind.name(), "bic": r.bic, "loss": r.loss})).collect::<Vec<_>>(),
+        "loss": best.loss,
+        "rms_residual": best.rms,
+        "pixels": best.pixels,
+        "uncertainty": best.params.iter().filter(|p| !p.0.starts_with("ln_exposure") && !p.0.starts_with("registration"))
+            .map(|p| (p.0.clone(), p.2.map_or(json!("not identified"), |s| json!(s)))).collect::<serde_json::Map<_, _>>(),
+        "not_identified": best.unidentified(),
+        "exposure": best.exposure,
+        "blur_px": best.blur_px,
+        "photos": files.iter().map(|f| f.display().to_string()).collect::<Vec<_>>(),
+        "card": args.card.display().to_string(),
+        "seconds": secs,
+    });
+    let fitted = Fitted {
+        alpha: Some(best.alpha),
+        fit: Some(record),
+    };
+    if let Some(dir) = args.out.parent().filter(|p| !p.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
+    }
+    scratchart::io::write_atomic(&args.out, best.tool.to_json_fitted(&fitted).as_bytes())?;
+    println!("wrote {}", args.out.display());
+    // Residual images and the plot.
+    let (pred, registered) = predict(renderer, &data, &best)?;
+    let stem = args.out.with_extension("");
+    for (v, view) in capture.views.iter().enumerate() {
+        let bytes: Vec<u8> = pred[v]
+            .iter()
+            .zip(&registered[v])
+            .zip(&data.masks[v])
+            .map(|((m, p), ok)| {
+                if *ok {
+                    (127.5 + 510.0 * (m - p)).clamp(0.0, 255.0) as u8
+                } else {
+                    0
+                }
+            })
+            .collect();
+        let p = PathBuf::from(format!("{}_residual_{}.png", stem.display(), view.name));
+        scratchart::io::write_png_gray(&p, view.camera.width, view.camera.height, &bytes)?;
+        println!(
+            "wrote {} (mid grey: no residual; 1 grey level = 1/510 of full scale)",
+            p.display()
+        );
+    }
+    let plot = PathBuf::from(format!("{}_profile.png", stem.display()));
+    let points = measured_widths(&data, &registered, &best, &pred);
+    profile_plot(&plot, &best, &card, &points)?;
+    println!(
+        "wrote {} (W and w against commanded depth, measured points)",
+        plot.display()
+    );
+    Ok(())
+}
+
+/// Per ladder depth, the visible width the photos show: the model's width scaled by the ratio of
+/// the photo's to the model's light (above the plate's background) over that rung's cuts.
+fn measured_widths(data: &Data, photos: &[Vec<f32>], res: &FitResult, pred: &[Vec<f32>]) -> Vec<(f64, f64)> {
+    let lin = |d: f32| (d.max(0.0) as f64).powf(2.2);
+    let mut out = Vec::new();
+    for &z in &data.card.depths_mm {
+        let Some(m) = res.tool.model(z) else { continue };
+        let (mut sp, mut sm) = (0.0, 0.0);
+        for (v, view) in data.capture.views.iter().enumerate() {
+            let g = ViewGeom::new(view);
+            let w = view.camera.width as i64;
+            let h = view.camera.height as i64;
+            let bg_p = lin(median_masked(&photos[v], &data.masks[v]));
+            let bg_m = lin(median_masked(&pred[v], &data.masks[v]));
+            for c in data
+                .card
+                .cuts
+                .iter()
+                .filter(|c| c.role == CutRole::Ladder && c.z_mm == z)
+            {
+                let (Some(a), Some(b)) = (g.project([c.p0[0], c.p0[1], 0.0]), g.project([c.p1[0], c.p1[1], 0.0]))
+                else {
+                    continue;
+                };
+                let (x0, x1) = ((a.0.min(b.0) - 3.0) as i64, (a.0.max(b.0) + 3.0) as i64);
+                let (y0, y1) = ((a.1.min(b.1) - 3.0) as i64, (a.1.max(b.1) + 3.0) as i64);
+                for y in y0.max(0)..=y1.min(h - 1) {
+                    for x in x0.max(0)..=x1.min(w - 1) {
+                        let i = (y * w + x) as usize;
+                        if !data.masks[v][i] {
+                            continue;
+                        }
+                        let (px, py) = (x as f64 + 0.5, y as f64 + 0.5);
+                        let (dx, dy) = (b.0 - a.0, b.1 - a.1);
+                        let t = (((px - a.0) * dx + (py - a.1) * dy) / (dx * dx + dy * dy).max(1e-9)).clamp(0.0, 1.0);
+                        if (px - a.0 - t * dx).hypot(py - a.1 - t * dy) <= 2.5 {
+                            sp += lin(photos[v][i]) - bg_p;
+                            sm += lin(pred[v][i]) - bg_m;
+                        }
+                    }
+                }
+            }
+        }
+        if sm > 1e-9 {
+            out.push((z, m.width * (sp / sm).max(0.0)));
+        }
+    }
+    out
+}
+
+fn median_masked(img: &[f32], mask: &[bool]) -> f32 {
+    let mut v: Vec<f32> = img.iter().zip(mask).filter(|(_, m)| **m).map(|(x, _)| *x).collect();
+    if v.is_empty() {
+        return 0.0;
+    }
+    let n = v.len();
+    *v.select_nth_unstable_by(n / 2, |a, b| a.total_cmp(b)).1
+}
+
+/// W(z) and w(z) of the fitted tool against commanded depth, with the measured widths.
+fn profile_plot(path: &Path, res: &FitResult, card: &Card, points: &[(f64, f64)]) -> Result<()> {
+    let (wpx, hpx) = (720u32, 480u32);
+    let mut buf = vec![255u8; (wpx * hpx * 3) as usize];
+    {
+        let root = BitMapBackend::with_buffer(&mut buf, (wpx, hpx)).into_drawing_area();
+        let pe = |e: DrawingAreaErrorKind<_>| anyhow::anyhow!("plot: {e:?}");
+        root.fill(&WHITE).map_err(pe)?;
+        let z0 = card.depths_mm.iter().cloned().fold(f64::MAX, f64::min);
+        let z1 = card.depths_mm.iter().cloned().fold(f64::MIN, f64::max);
+        let zs: Vec<f64> = (0..=200).map(|k| z0 + (z1 - z0) * k as f64 / 200.0).collect();
+        let curve: Vec<(f64, f64, f64)> = zs
+            .iter()
+            .map(|&z| {
+                res.tool
+                    .model(z)
+                    .map_or((z * 1e3, 0.0, 0.0), |m| (z * 1e3, m.width * 1e3, m.w * 1e3))
+            })
+            .collect();
+        // The scale of the visible widths (w grows without bound where a flat-bottomed groove
+        // starts, so it is clipped to the plot).
+        let top = curve
+            .iter()
+            .map(|c| c.1)
+            .chain(points.iter().map(|p| p.1 * 1e3))
+            .fold(1.0, f64::max)
+            * 1.6;
+        let curve: Vec<(f64, f64, f64)> = curve.into_iter().map(|c| (c.0, c.1, c.2.min(top))).collect();
+        let font = scratchart::optim::report::plot_font();
+        let mut cb = ChartBuilder::on(&root);
+        cb.margin(12);
+        if let Some(f) = font {
+            cb.caption(
+                format!("{} fit: groove width against commanded depth", res.kind.name()),
+                (f, 20),
+            )
+            .x_label_area_size(40)
+            .y_label_area_size(56);
+        }
+        let mut chart = cb.build_cartesian_2d(z0 * 1e3..z1 * 1e3, 0.0..top).map_err(pe)?;
+        if let Some(f) = font {
+            chart
+                .configure_mesh()
+                .x_desc("commanded depth z, um")
+                .y_desc("width, um")
+                .y_label_formatter(&|v| format!("{v:.0}"))
+                .x_label_formatter(&|v| format!("{v:.0}"))
+                .label_style((f, 14))
+                .draw()
+                .map_err(pe)?;
+        }
+        let w_series = chart
+            .draw_series(LineSeries::new(curve.iter().map(|c| (c.0, c.1)), BLUE.stroke_width(2)))
+            .map_err(pe)?;
+        w_series
+            .label("visible width W")
+            .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 16, y)], BLUE));
+        chart
+            .draw_series(LineSeries::new(curve.iter().map(|c| (c.0, c.2)), RED.stroke_width(2)))
+            .map_err(pe)?
+            .label("model width parameter w")
+            .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 16, y)], RED));
+        chart
+            .draw_series(
+                points
+                    .iter()
+                    .map(|p| Circle::new((p.0 * 1e3, p.1 * 1e3), 4, BLACK.filled())),
+            )
+            .map_err(pe)?
+            .label("W measured per ladder depth")
+            .legend(|(x, y)| Circle::new((x + 8, y), 4, BLACK.filled()));
+        if let Some(f) = font {
+            chart
+                .configure_series_labels()
+                .border_style(BLACK)
+                .background_style(WHITE)
+                .label_font((f, 14))
+                .draw()
+                .map_err(pe)?;
+        }
+        root.present().map_err(pe)?;
+    }
+    scratchart::io::write_png_rgb(path, wpx, hpx, &buf)?;
+    Ok(())
+}

@@ -1,0 +1,273 @@
+//! The tool fit recovers known tools from synthetic photos of the card (rendered by the engine,
+//! then degraded as a camera would: exposure, blur, noise, and a photo pose off the capture
+//! position), and refuses input it cannot use with a clear message.
+use std::path::{Path, PathBuf};
+
+use scratchart::model::scene::{Plate, Scene, View};
+use scratchart::observe::Silent;
+use scratchart::render::Renderer;
+use scratchart_calibration::card::{Card, CardSpec};
+use scratchart_calibration::fit_cmd::{run, FitArgs};
+use scratchart_calibration::simulate::{photos, Camera};
+use scratchart_tests::{assert_no_validation, gpu};
+use scratchart_tool::Tool;
+
+fn tmp(tag: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("scratchart-fit-{}-{tag}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+/// Writes card.json (256 px capture views) into `dir`.
+fn card(dir: &Path) -> (Card, Scene, PathBuf) {
+    let card = Card::new(&CardSpec::default());
+    let p = dir.join("card.json");
+    std::fs::write(&p, serde_json::to_string_pretty(&card.to_json(256)).unwrap()).unwrap();
+    let (card, capture) = Card::load(&p).unwrap();
+    (card, capture, p)
+}
+
+/// The capture views as a hand-held camera would take them: moved `shift_mm` sideways and up,
+/// aimed a little off centre, zoomed by `zoom`.
+fn posed(views: &[View], shift_mm: f64, zoom: f64) -> Vec<View> {
+    views
+        .iter()
+        .map(|v| {
+            let mut v = v.clone();
+            let e = v.camera.eye;
+            v.camera.eye = [e[0] + shift_mm, e[1] - 0.6 * shift_mm, e[2] + 0.8 * shift_mm];
+            v.camera.target = [0.02 * shift_mm, -0.03 * shift_mm, 0.0];
+            v.camera.fov_y_deg /= zoom;
+            v
+        })
+        .collect()
+}
+
+/// Photos of the card cut by `tool`, taken from `views`, written as PNGs named after the views.
+fn shoot(
+    r: &Renderer,
+    card: &Card,
+    capture: &Scene,
+    views: Vec<View>,
+    tool: &Tool,
+    cam: &Camera,
+    dir: &Path,
+) -> Vec<PathBuf> {
+    let scene = Scene {
+        plate: Plate {
+            ..capture.plate.clone()
+        },
+        views,
+        scratches: vec![],
+    };
+    let imgs = photos(r, card, &scene, tool, cam).unwrap();
+    scene
+        .views
+        .iter()
+        .zip(&imgs)
+        .map(|(v, img)| {
+            let bytes: Vec<u8> = img.iter().map(|&x| (255.0 * x).round() as u8).collect();
+            let p = dir.join(format!("{}.png", v.name));
+            scratchart::io::write_png_gray(&p, v.camera.width, v.camera.height, &bytes).unwrap();
+            p
+        })
+        .collect()
+}
+
+fn fit(
+    r: &Renderer,
+    card: &Path,
+    images: Vec<PathBuf>,
+    kind: &str,
+    out: &Path,
+) -> anyhow::Result<(Tool, serde_json::Value)> {
+    let args = FitArgs {
+        card: card.to_path_buf(),
+        images,
+        kind: Some(kind.into()),
+        out: out.to_path_buf(),
+        init: None,
+        iters: 15,
+        quiet: true,
+    };
+    run(r, &args, &Silent)?;
+    let (tool, fitted) = Tool::load_fitted(out).unwrap();
+    Ok((tool, fitted.fit.unwrap()))
+}
+
+/// A photo taken off the capture pose (moved 6 mm, aimed off centre, zoomed 4%) is registered:
+/// the corner crosses are found within 0.35 px of where that camera really sees them (the fit then
+/// refines the registration photometrically), and the
+/// registered photo matches a photo taken from the capture pose.
+#[test]
+fn registers_off_pose_photos_to_the_capture_views() {
+    use scratchart::model::camera::ViewGeom;
+    use scratchart_calibration::register::{load_photo, nominal_fiducials, register};
+    let ctx = gpu();
+    let r = Renderer::new(&ctx).unwrap();
+    let dir = tmp("register");
+    let (card, capture, _) = card(&dir);
+    let tool = Tool::VBit {
+        angle_deg: 60.0,
+        tip_flat_mm: 0.01,
+        z_offset_mm: 0.0,
+    };
+    let cam = Camera {
+        exposure: 3.0,
+        noise: 0.005,
+        ..Camera::default()
+    };
+    let posed_views = posed(&capture.views, 6.0, 1.04);
+    let off = shoot(&r, &card, &capture, posed_views.clone(), &tool, &cam, &dir);
+    let on_dir = dir.join("on");
+    std::fs::create_dir_all(&on_dir).unwrap();
+    let on = shoot(&r, &card, &capture, capture.views.clone(), &tool, &cam, &on_dir);
+    for (v, view) in capture.views.iter().enumerate() {
+        let reg = register(&load_photo(&off[v]).unwrap(), &card, view).unwrap();
+        // Where the posed camera sees the crosses (the photo has the view's size).
+        let (truth, _) = nominal_fiducials(&card, &posed_views[v]);
+        for k in 0..4 {
+            let e = (reg.fiducials[k][0] - truth[k][0]).hypot(reg.fiducials[k][1] - truth[k][1]);
+            eprintln!(
+                "view {v} cross {k}: found {:?}, truly {:?}, error {e:.3} px",
+                reg.fiducials[k], truth[k]
+            );
+            assert!(
+                e < 0.35,
+                "view {v} cross {k}: found {:?}, truly {:?}",
+                reg.fiducials[k],
+                truth[k]
+            );
+        }
+        assert!(
+            reg.pose_offset_px > 3.0,
+            "the pose really was off: {}",
+            reg.pose_offset_px
+        );
+        // The registered photo against the one from the capture pose, on the card.
+        let straight = load_photo(&on[v]).unwrap();
+        let mask = ViewGeom::new(view).on_plate_mask(0.5 * card.plate_mm);
+        let (mut num, mut den) = (0.0f64, 0.0f64);
+        for i in 0..mask.len() {
+            if mask[i] && reg.valid[i] {
+                num += ((reg.image[i] - straight.data[i]) as f64).powi(2);
+                den += 1.0;
+            }
+        }
+        let rms = (num / den).sqrt();
+        assert!(
+            rms < 0.02,
+            "view {v}: registered photo differs from the straight one by rms {rms}"
+        );
+    }
+    assert_no_validation(&ctx);
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// A V-bit photographed with another exposure, blur and noise: the fit reaches the photos' noise
+/// floor (rms residual below the noise's 0.008), finds the exposure within 3%, and writes
+/// tool.json with its record, the residual images and the plot. (The fitted blur also takes in
+/// the registration's resampling, so it is not compared with the camera's.)
+/// (The tool's own numbers are reported, not asserted: see calibration/README.md, "what the card
+/// identifies", for the recovery figures and what limits them.)
+#[test]
+fn fits_a_v_bit_to_the_noise_floor_and_writes_its_outputs() {
+    let ctx = gpu();
+    let r = Renderer::new(&ctx).unwrap();
+    let dir = tmp("vbit");
+    let (card, capture, card_path) = card(&dir);
+    let truth = Tool::VBit {
+        angle_deg: 75.0,
+        tip_flat_mm: 0.012,
+        z_offset_mm: 0.0035,
+    };
+    let cam = Camera {
+        exposure: 3.0,
+        blur_px: 0.6,
+        noise: 0.008,
+        seed: 7,
+    };
+    let imgs = shoot(&r, &card, &capture, capture.views.clone(), &truth, &cam, &dir);
+    let out = dir.join("fit/tool.json");
+    let (tool, record) = fit(&r, &card_path, imgs, "v-bit", &out).unwrap();
+    eprintln!("fitted {tool:?}; record {record}");
+    assert!(matches!(tool, Tool::VBit { .. }), "{tool:?}");
+    let rms = record["rms_residual"].as_f64().unwrap();
+    assert!(rms < 0.008, "rms residual {rms}");
+    for v in 0..2 {
+        let e = record["exposure"][v].as_f64().unwrap();
+        assert!((e / 3.0 - 1.0).abs() < 0.03, "exposure {e}");
+    }
+    assert!(record["uncertainty"]["angle_deg"].is_number(), "{record}");
+    for f in [
+        "tool_residual_cam_south.png",
+        "tool_residual_cam_west.png",
+        "tool_profile.png",
+    ] {
+        assert!(dir.join("fit").join(f).is_file(), "{f} missing");
+    }
+    assert_no_validation(&ctx);
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// Too few photos, a photo without the card, saturated photos: clear errors, nothing written.
+#[test]
+fn refuses_what_it_cannot_fit() {
+    let ctx = gpu();
+    let r = Renderer::new(&ctx).unwrap();
+    let dir = tmp("bad");
+    let (card, capture, card_path) = card(&dir);
+    let tool = Tool::VBit {
+        angle_deg: 60.0,
+        tip_flat_mm: 0.01,
+        z_offset_mm: 0.0,
+    };
+    let out = dir.join("tool.json");
+    let good = shoot(
+        &r,
+        &card,
+        &capture,
+        capture.views.clone(),
+        &tool,
+        &Camera {
+            exposure: 3.0,
+            ..Camera::default()
+        },
+        &dir,
+    );
+    let msg = |e: anyhow::Error| format!("{e:#}");
+    // One photo for two capture views.
+    let e = msg(fit(&r, &card_path, vec![good[0].clone()], "v-bit", &out).unwrap_err());
+    assert!(
+        e.contains("one photo per capture view") && e.contains("cam_west"),
+        "{e}"
+    );
+    assert_eq!(
+        scratchart::exit::code(&*fit(&r, &card_path, vec![good[0].clone()], "v-bit", &out).unwrap_err()),
+        3
+    );
+    // A photo of nothing: uniform grey.
+    let blank = dir.join("cam_west.png");
+    scratchart::io::write_png_gray(&blank, 256, 256, &vec![40u8; 256 * 256]).unwrap();
+    let e = msg(fit(&r, &card_path, vec![good[0].clone(), blank], "v-bit", &out).unwrap_err());
+    assert!(e.contains("card not found") && e.contains("cam_west.png"), "{e}");
+    // Saturated: a huge exposure.
+    let sat = shoot(
+        &r,
+        &card,
+        &capture,
+        capture.views.clone(),
+        &tool,
+        &Camera {
+            exposure: 1e6,
+            ..Camera::default()
+        },
+        &dir,
+    );
+    let e = msg(fit(&r, &card_path, sat, "v-bit", &out).unwrap_err());
+    assert!(e.contains("saturated"), "{e}");
+    assert!(!out.exists(), "a failed fit wrote {}", out.display());
+    assert_no_validation(&ctx);
+    let _ = std::fs::remove_dir_all(&dir);
+}
