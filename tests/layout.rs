@@ -5,13 +5,15 @@
 //!   (inc/common.glsl) and ShadePush (inc/shade_push.glsl).
 //! - `push_constant_layouts_agree` (test/layout_push.comp): BinPush (inc/bin_push.glsl),
 //!   ScanPush (inc/scan_push.glsl), LossPush and LossSeg (inc/loss_push.glsl) and the viewer's
-//!   PresentPush (inc/present_push.glsl).
+//!   PresentPush (inc/present_push.glsl), and the optimizer's AdamPush, AdamGroupGpu,
+//!   ProjectPush, CheckPush and ToolMapPush (inc/tool_map_push.glsl).
 use std::sync::Arc;
 
 use scratchart::optim::adam::{AdamGroupGpu, AdamPush};
 use scratchart::optim::check::CheckPush;
 use scratchart::optim::loss::{LossPush, LossSeg};
 use scratchart::optim::scene_params::ProjectPush;
+use scratchart::optim::tool_params::ToolMapPush;
 use scratchart::render::layout::{BinPush, ReducePush, ScanPush, ScratchGpu, ShadePush, ViewGpu, ViewGpu64};
 use scratchart::render::present::PresentPush;
 use scratchart::vulkan::{Buffer, ComputePipeline, Context, MemLoc, Recorder, ShaderCompiler};
@@ -259,6 +261,17 @@ fn push_constant_layouts_agree() {
     assert_eq!(std::mem::size_of::<AdamGroupGpu>(), 32);
     assert_eq!(std::mem::size_of::<ProjectPush>(), 16);
     assert_eq!(std::mem::size_of::<CheckPush>(), 16);
+    let tool_map = ToolMapPush {
+        n_scratches: u(),
+        n_table: u(),
+        mode: u(),
+        pad0: u(),
+        z_first: u() as f32,
+        s_lo: u() as f32,
+        inv_ds: u() as f32,
+        alpha: u() as f32,
+    };
+    assert_eq!(std::mem::size_of::<ToolMapPush>(), 32);
     check_push(&ctx, "BIN", bytemuck::bytes_of(&bin), &[]);
     check_push(&ctx, "SCAN", bytemuck::bytes_of(&scan), &[]);
     check_push(&ctx, "LOSS", bytemuck::bytes_of(&loss), bytemuck::cast_slice(&segs));
@@ -267,5 +280,6 @@ fn push_constant_layouts_agree() {
     check_push(&ctx, "ADAM", bytemuck::bytes_of(&adam), bytemuck::cast_slice(&groups));
     check_push(&ctx, "PROJECT", bytemuck::bytes_of(&project), &[]);
     check_push(&ctx, "CHECK", bytemuck::bytes_of(&check), &[]);
+    check_push(&ctx, "TOOLMAP", bytemuck::bytes_of(&tool_map), &[]);
     assert_no_validation(&ctx);
 }

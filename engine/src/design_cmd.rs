@@ -127,6 +127,12 @@ pub struct DesignArgs {
     /// Pruning: forward evaluations spent on trial batches
     #[arg(long, default_value_t = 8)]
     pub prune_trials: u32,
+    /// Fabrication mode: the calibrated tool (tool.json from `scratchart-cal fit`). Each scratch
+    /// then has one commanded carve depth z (learning rate --lr-d) in place of w, d and alpha;
+    /// its groove is the tool's cut at z, with alpha fixed at the file's `alpha` (else
+    /// --init-alpha). scratches.csv gets the column z_mm
+    #[arg(long, conflicts_with_all = ["lr_w", "lr_alpha"])]
+    pub tool: Option<PathBuf>,
     /// No progress bar
     #[arg(long)]
     pub quiet: bool,
@@ -345,7 +351,18 @@ pub fn run(ctx: &Arc<Context>, args: &DesignArgs, obs: &dyn Observer) -> anyhow:
             names.join(", ")
         ));
     }
-    let cfg = config(args);
+    let mut cfg = config(args);
+    if let Some(path) = &args.tool {
+        let fab = scratchart::optim::tool_params::Fabrication::load(
+            path,
+            args.init_alpha,
+            "--init-alpha (the design's default scratch alpha; the tool file has no `alpha`)",
+            cfg.adam.lr_d,
+            &cfg.adam,
+        )
+        .map_err(scratchart::exit::InputError)?;
+        cfg.tool = Some(fab);
+    }
     let report = match run_design(ctx, &problem, &cfg, obs) {
         Ok(r) => r,
         Err(
@@ -359,6 +376,22 @@ pub fn run(ctx: &Arc<Context>, args: &DesignArgs, obs: &dyn Observer) -> anyhow:
     };
     if let Some(s) = &report.summary {
         print!("{}", scratchart::optim::report::summary_text(s, &cfg.out));
+        if let Some(f) = s.get("fabrication") {
+            let n = |v: &serde_json::Value| v.as_f64().unwrap_or(f64::NAN);
+            println!(
+                "  fabrication: tool {} ({}), alpha {} from {}; commanded depths z_mm {:.4} .. {:.4} mm (range {:.4} .. {:.4} mm; table error w {:.1e}, d {:.1e}) in scratches.csv",
+                f["tool_file"].as_str().unwrap_or("?"),
+                f["tool"]["kind"].as_str().unwrap_or("?"),
+                n(&f["alpha"]),
+                f["alpha_from"].as_str().unwrap_or("?"),
+                n(&f["z_written_mm"][0]),
+                n(&f["z_written_mm"][1]),
+                n(&f["z_range_mm"][0]),
+                n(&f["z_range_mm"][1]),
+                n(&f["table_max_rel_err_w"]),
+                n(&f["table_max_rel_err_d"]),
+            );
+        }
     }
     Ok(())
 }

@@ -10,6 +10,7 @@
 //   ADAM     inc/adam_push.glsl     (adam.comp)          Rust: optim::adam::{AdamPush, AdamGroupGpu}
 //   PROJECT  inc/project_push.glsl  (scratch_project.comp) Rust: optim::scene_params::ProjectPush
 //   CHECK    inc/check_push.glsl    (check_loss.comp)    Rust: optim::check::CheckPush
+//   TOOLMAP  inc/tool_map_push.glsl (tool_map.comp)      Rust: optim::tool_params::ToolMapPush
 // LOSS (ADAM) also reads two LossSeg (AdamGroupGPU) from binding 1 and writes them after the
 // push constants.
 #extension GL_GOOGLE_include_directive : require
@@ -33,8 +34,10 @@ layout(std430, binding = 1) readonly buffer Groups { AdamGroupGPU groups[]; };
 #include "inc/project_push.glsl"
 #elif defined(CHECK)
 #include "inc/check_push.glsl"
+#elif defined(TOOLMAP)
+#include "inc/tool_map_push.glsl"
 #else
-#error "define BIN, SCAN, LOSS, PRESENT, REDUCE, ADAM, PROJECT or CHECK"
+#error "define BIN, SCAN, LOSS, PRESENT, REDUCE, ADAM, PROJECT, CHECK or TOOLMAP"
 #endif
 
 uint o = 0u;
@@ -68,5 +71,8 @@ void main() {
     put(pc.n_scratches); put(pc.half_plate); put(pc.min_len); put(pc.pad0);
 #elif defined(CHECK)
     put(pc.n_views); put(pc.n_pixels); put(pc.pad0); put(pc.pad1);
+#elif defined(TOOLMAP)
+    put(pc.n_scratches); put(pc.n_table); put(pc.mode); put(pc.pad0);
+    put(pc.z_first); put(pc.s_lo); put(pc.inv_ds); put(pc.alpha);
 #endif
 }

@@ -1,6 +1,7 @@
 //! The design job (`scratchart design`): the generic [`Driver`] with the design loss
-//! ([`Loss`]) as objective and the scene's scratches and lights ([`SceneParams`]) as parameters,
-//! then pruning, a final evaluation and the reports.
+//! ([`Loss`]) as objective and the scene's scratches and lights ([`SceneParams`]) as parameters
+//! (or, in fabrication mode, one carve depth per scratch: [`ToolParams`]), then pruning, a final
+//! evaluation and the reports.
 use std::path::PathBuf;
 use std::sync::Arc;
 
@@ -14,6 +15,7 @@ use super::error::OptimError;
 use super::loss::{Loss, LossConfig, LossValues};
 use super::prune::{PruneConfig, PruneStats};
 use super::scene_params::SceneParams;
+use super::tool_params::{depths_of_kept, Fabrication, ToolParams};
 use crate::model::scene::{Scene, Scratch};
 use crate::observe::Observer;
 use crate::render::layout::{ScratchGpu, ViewGpu};
@@ -69,6 +71,8 @@ pub struct DesignConfig {
     pub max_rollbacks: u32,
     /// Write the output files (design, images, plot, summary).
     pub write_outputs: bool,
+    /// Fabrication mode: one carve depth per scratch through this tool (`design --tool`).
+    pub tool: Option<Fabrication>,
 }
 
 impl DesignConfig {
@@ -86,6 +90,7 @@ impl DesignConfig {
             calibrate_lights: true,
             max_rollbacks: 30,
             write_outputs: true,
+            tool: None,
         }
     }
 }
@@ -133,6 +138,8 @@ pub struct DesignReport {
     pub resumed_from: Option<u32>,
     /// What `summary.json` holds, when the outputs were written.
     pub summary: Option<serde_json::Value>,
+    /// Fabrication mode: the commanded depth of every written scratch, mm.
+    pub depths: Option<Vec<f64>>,
 }
 
 /// The design optimizer: the driver over the design loss and the scene parameters.
@@ -140,6 +147,8 @@ pub struct Optimizer<'r> {
     renderer: &'r Renderer,
     pub driver: Driver<'r>,
     cfg: DesignConfig,
+    /// Fabrication mode's parameter set (the depths live there).
+    pub tool: Option<Arc<ToolParams>>,
 }
 
 impl<'r> Optimizer<'r> {
@@ -153,7 +162,19 @@ impl<'r> Optimizer<'r> {
     ) -> Result<Optimizer<'r>, GpuError> {
         let ctx = renderer.ctx.clone();
         let gs = renderer.upload(&problem.scene)?;
-        let params = SceneParams::new(&ctx, &cfg.adam)?;
+        let tool = match &cfg.tool {
+            Some(fab) => Some(Arc::new(ToolParams::new(
+                &ctx,
+                &cfg.adam,
+                fab,
+                &problem.scene.scratches,
+            )?)),
+            None => None,
+        };
+        let params: Box<dyn super::driver::ParamSet> = match &tool {
+            Some(t) => Box::new(t.clone()),
+            None => Box::new(SceneParams::new(&ctx, &cfg.adam)?),
+        };
         let mut tbytes = Vec::new();
         for t in &problem.targets {
             tbytes.extend_from_slice(bytemuck::cast_slice(t));
@@ -164,7 +185,7 @@ impl<'r> Optimizer<'r> {
             .iter()
             .map(|v| json!(bytemuck::cast_slice::<ViewGpu, u32>(&[*v])))
             .collect();
-        let fingerprint = json!({
+        let mut fingerprint = json!({
             "n_scratches": gs.n_scratches(),
             "views": views,
             "plate": [problem.scene.plate.size_mm, problem.scene.plate.roughness, problem.scene.plate.f0],
@@ -173,6 +194,9 @@ impl<'r> Optimizer<'r> {
             "adam": format!("{:?}", cfg.adam),
             "seed": cfg.seed,
         });
+        if let Some(fab) = &cfg.tool {
+            fingerprint["fabrication"] = fab.fingerprint();
+        }
         let dcfg = DriverConfig {
             iters: cfg.iters,
             hyper: cfg.adam.hyper(),
@@ -182,16 +206,20 @@ impl<'r> Optimizer<'r> {
             hooks: cfg.hooks,
             task: "design",
         };
-        let driver = Driver::new(renderer, gs, Box::new(loss), Box::new(params), dcfg, fingerprint)?;
+        let driver = Driver::new(renderer, gs, Box::new(loss), params, dcfg, fingerprint)?;
         Ok(Optimizer {
             renderer,
             driver,
             cfg: cfg.clone(),
+            tool,
         })
     }
 
     /// Renders the current state and returns the display images (and the linear ones).
     pub fn render(&mut self) -> Result<(Vec<Vec<f32>>, Vec<Vec<f32>>), GpuError> {
+        if let Some(t) = &self.tool {
+            t.apply(&self.renderer.ctx, &self.driver.gs)?;
+        }
         let frame = self.renderer.render(&mut self.driver.gs)?;
         let disp = frame
             .images
@@ -325,6 +353,10 @@ pub fn run_design(
     let (initial_images, _) = opt.render()?;
     let (loop_seconds, iters_run) = opt.run(obs)?;
     let unpruned = opt.scene(&problem.scene)?;
+    let depths = match &opt.tool {
+        Some(t) => Some(t.depths(ctx)?.iter().map(|&z| z as f64).collect::<Vec<f64>>()),
+        None => None,
+    };
     let st = &opt.driver.stats;
     let evals = st.evals.max(1) as f64;
     let mean_pairs = st.pairs_sum / evals;
@@ -339,6 +371,7 @@ pub fn run_design(
     } else {
         (unpruned.clone(), None)
     };
+    let depths = depths.map(|z| depths_of_kept(&unpruned.scratches, &z, &scene.scratches));
     // Final evaluation and images of the written design.
     let mut gs: GpuScene = renderer.upload(&scene)?;
     let frame = renderer.render(&mut gs)?;
@@ -363,9 +396,20 @@ pub fn run_design(
         initial_images,
         resumed_from,
         summary: None,
+        depths,
     };
     if cfg.write_outputs {
         let mut summary = super::report::write_outputs(&cfg.out, problem, cfg, &report)?;
+        if let (Some(fab), Some(z)) = (&cfg.tool, &report.depths) {
+            // The design again, with each scratch's commanded depth as the CSV's column `z_mm`.
+            let mut extra = crate::model::scene::Extra::default();
+            extra.set_column("z_mm", z);
+            report
+                .scene
+                .save_extra(&cfg.out.join("design.json"), "scratches.csv", &extra)
+                .map_err(|e| OptimError::Report(e.to_string()))?;
+            summary["fabrication"] = fab.summary(z);
+        }
         // Where the lamp and the viewers go, and how precisely (setup.txt, setup.png).
         let (setup, sensitivity, advice) = super::setup::write_setup(
             &cfg.out,

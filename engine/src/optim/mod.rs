@@ -10,6 +10,8 @@
 //!   twin for tests. It is the design's objective.
 //! - [`check`]: the check loss E_lin of MODEL.md section 8 as an objective on the GPU.
 //! - [`scene_params`]: the design's parameter set (scratches and lights) and its projection.
+//! - [`tool_params`]: fabrication mode's parameter set: one carve depth per scratch through a
+//!   calibrated tool's curve (`design --tool`).
 //! - [`design`]: the design job: the driver with those two, then pruning and the reports.
 //! - [`prune`]: removal of scratches that barely matter, checked by true forward evaluations.
 //! - [`targets`]: target images (files, or the built-in circle / triangle / star).
@@ -35,6 +37,7 @@ pub mod report;
 pub mod scene_params;
 pub mod setup;
 pub mod targets;
+pub mod tool_params;
 
 pub use adam::AdamConfig;
 pub use design::{DesignConfig, DesignReport, Problem};

@@ -1,0 +1,595 @@
+//! Fabrication mode (`scratchart design --tool tool.json`, MODEL.md section 7): every scratch
+//! gets one commanded carve depth z in place of (w, d, alpha); its groove is what the calibrated
+//! tool cuts at z (`scratchart_tool::Tool::model`), with alpha fixed.
+//!
+//! The parameter set's blocks: the scratches (endpoints optimized as in [`SceneParams`]; w, d
+//! and alpha frozen in Adam, since the map writes them), the depths (one f32 per scratch, its own
+//! buffer and checkpoint chunk `depths`, bounded to [z_lo, z_hi]) and the lights (as in
+//! [`SceneParams`]). `record_to_scene` runs `shaders/tool_map.comp`, which writes each scratch's
+//! (w, d, alpha) from its z; `record_grad` runs it in its second mode, the chain rule
+//! dE/dz = dE/dw dw/dz + dE/dd dd/dz with the slopes of the table segment used (the exact
+//! derivative of the piecewise-linear map). After each step the minimum-length projection of
+//! [`SceneParams`] runs, and the map again, so the scene always holds the grooves of the current
+//! depths.
+//!
+//! **The depth range.** z_first is where the tool first reaches the plate (found by bisection on
+//! `Tool::model`, to 1e-15 mm, then rounded to f32); z_lo = z_first + 1 um; z_hi is where the
+//! groove's visible width W reaches the design's largest w (0.2 mm), or the real depth reaches the
+//! design's largest d (0.2 mm), whichever comes first (for a measured profile, at most its last
+//! point: beyond it the width no longer changes).
+//!
+//! **The table.** `Tool::model` is a least-squares fit (about 1 ms on a CPU core), so the curve is
+//! sampled once on the host at [`TABLE_SAMPLES`] points equally spaced in s = sqrt(z - z_first)
+//! (dense near first contact, where a ball's width grows like sqrt(z) and a flat-tipped V-bit's
+//! fitted w changes fastest) and interpolated linearly in s. Its error against `Tool::model` is
+//! measured when the table is built, at the midpoint of every segment, and reported
+//! ([`ToolTable::max_rel_err`], in `summary.json`). Measured, relative to `Tool::model`'s w and d:
+//! V-bit 60 degrees with a 0.02 mm flat: w 3.3e-4, d 1.2e-4; V-bit 90 degrees, no flat, offset
+//! -0.01 mm: 7.6e-5 (w and d); ball of radius 0.1 mm: w 6.7e-7, d 7.6e-5; tapered ball 0.03 mm,
+//! 30 degrees: w 1.4e-5, d 1.6e-4. The GPU evaluates the same interpolation in f32 (relative
+//! rounding about 1e-6). A uniform grid in z was worse near first contact (1.5e-2 for the
+//! flat-tipped V-bit).
+use std::path::Path;
+use std::sync::Arc;
+
+use bytemuck::{Pod, Zeroable};
+use serde_json::{json, Value};
+
+pub use scratchart_tool::{Fitted, Tool, ToolError};
+
+use super::adam::{AdamConfig, AdamGroup, ParamBlock};
+use super::driver::{Evaluation, Objective, ParamSet};
+use super::scene_params::SceneParams;
+use crate::model::scene::Scratch;
+use crate::render::{GpuScene, Renderer};
+use crate::vulkan::{Buffer, ComputePipeline, Context, GpuError, Recorder, ShaderCompiler};
+
+/// Samples of the tool's curve in the table.
+pub const TABLE_SAMPLES: usize = 512;
+/// z_lo - z_first: the shallowest cut used, mm (1 um).
+pub const FIRST_CUT_MM: f64 = 1e-3;
+
+/// `#[repr(C)]` twin of the push block in `shaders/inc/tool_map_push.glsl`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
+pub struct ToolMapPush {
+    pub n_scratches: u32,
+    pub n_table: u32,
+    pub mode: u32,
+    pub pad0: u32,
+    pub z_first: f32,
+    pub s_lo: f32,
+    pub inv_ds: f32,
+    pub alpha: f32,
+}
+
+/// The tool's curve z -> (w, d) on [z_lo, z_hi], sampled for linear interpolation in
+/// s = sqrt(z - z_first) (see the module doc).
+#[derive(Clone, Debug, PartialEq)]
+pub struct ToolTable {
+    /// Where the tool first reaches the plate (an f32 value, as the GPU sees it), mm.
+    pub z_first: f64,
+    pub z_lo: f64,
+    pub z_hi: f64,
+    s_lo: f64,
+    ds: f64,
+    /// (w, d) at the samples, mm.
+    pub samples: Vec<[f64; 2]>,
+    /// Largest relative error of the interpolated w and d against `Tool::model`, measured at
+    /// every segment's midpoint.
+    pub max_rel_err: [f64; 2],
+}
+
+/// Finds the boundary of a monotone predicate between `a` (false) and `b` (true).
+fn bisect(mut a: f64, mut b: f64, pred: impl Fn(f64) -> bool) -> (f64, f64) {
+    for _ in 0..200 {
+        let m = 0.5 * (a + b);
+        if m <= a || m >= b {
+            break;
+        }
+        if pred(m) {
+            b = m;
+        } else {
+            a = m;
+        }
+    }
+    (a, b)
+}
+
+/// `Tool::model` at every z, in parallel on the host's cores (order kept).
+fn models(tool: &Tool, zs: &[f64]) -> Vec<Option<[f64; 2]>> {
+    let threads = std::thread::available_parallelism().map_or(1, |n| n.get()).min(8);
+    let chunk = zs.len().div_ceil(threads).max(1);
+    std::thread::scope(|sc| {
+        let handles: Vec<_> = zs
+            .chunks(chunk)
+            .map(|part| {
+                sc.spawn(move || {
+                    part.iter()
+                        .map(|&z| tool.model(z).map(|g| [g.w, g.d]))
+                        .collect::<Vec<_>>()
+                })
+            })
+            .collect();
+        handles
+            .into_iter()
+            .flat_map(|h| h.join().expect("tool model thread"))
+            .collect()
+    })
+}
+
+impl ToolTable {
+    /// Samples `tool` over its useful range: up to where the groove's visible width reaches
+    /// `w_max` or its real depth `depth_max` (mm). An error names what makes the tool unusable.
+    pub fn new(tool: &Tool, w_max: f64, depth_max: f64, n: usize) -> Result<ToolTable, String> {
+        assert!(n >= 2, "a table needs at least 2 samples");
+        let cuts = |z: f64| tool.model(z).is_some();
+        let z0 = -tool.z_offset_mm();
+        let mut b = z0 + 1e-3;
+        while !cuts(b) {
+            if b - z0 > 20.0 {
+                return Err(format!(
+                    "the tool cuts no groove down to a commanded depth of {b:.1} mm (z_offset_mm = {})",
+                    tool.z_offset_mm()
+                ));
+            }
+            b = z0 + 2.0 * (b - z0);
+        }
+        let (_, first) = bisect(z0, b, cuts);
+        let z_first = first as f32 as f64;
+        let z_lo = z_first + FIRST_CUT_MM;
+        let deep = |z: f64| {
+            tool.section(z)
+                .map_or(false, |s| s.width >= w_max || s.depth >= depth_max)
+        };
+        if deep(z_lo) {
+            let w = tool.section(z_lo).map_or(f64::NAN, |s| s.width);
+            return Err(format!(
+                "its shallowest cut (commanded depth {z_lo:.4} mm) is already {w:.4} mm wide or {depth_max} mm deep: \
+                 beyond the design's widest groove ({w_max} mm)"
+            ));
+        }
+        let mut step = 1e-3;
+        while !deep(z_lo + step) {
+            step *= 2.0;
+        }
+        let (mut z_hi, _) = bisect(z_lo, z_lo + step, deep);
+        if let Tool::Profile { points, .. } = tool {
+            z_hi = z_hi.min(points[points.len() - 1][0]);
+        }
+        if !(z_hi > z_lo + 1e-6) {
+            return Err(format!(
+                "its useful depth range [{z_lo:.4}, {z_hi:.4}] mm is empty (the profile ends where the tool first cuts)"
+            ));
+        }
+        let (s_lo, s_hi) = ((z_lo - z_first).sqrt(), (z_hi - z_first).sqrt());
+        let ds = (s_hi - s_lo) / (n - 1) as f64;
+        let z_of = |s: f64| z_first + s * s;
+        let mut zs: Vec<f64> = (0..n).map(|k| z_of(s_lo + k as f64 * ds)).collect();
+        zs[0] = z_lo;
+        zs[n - 1] = z_hi;
+        zs.extend((0..n - 1).map(|k| z_of(s_lo + (k as f64 + 0.5) * ds)));
+        let all = models(tool, &zs);
+        let mut got = Vec::with_capacity(all.len());
+        for (z, m) in zs.iter().zip(all) {
+            match m {
+                Some(g) if g[0] > 0.0 && g[1] > 0.0 && g[0].is_finite() && g[1].is_finite() => got.push(g),
+                _ => {
+                    return Err(format!(
+                        "the tool's groove at commanded depth {z} mm has no valid (w, d)"
+                    ))
+                }
+            }
+        }
+        let samples = got[..n].to_vec();
+        let mut max_rel_err = [0.0f64; 2];
+        for (k, truth) in got[n..].iter().enumerate() {
+            for c in 0..2 {
+                let mid = 0.5 * (samples[k][c] + samples[k + 1][c]);
+                max_rel_err[c] = max_rel_err[c].max((mid - truth[c]).abs() / truth[c]);
+            }
+        }
+        Ok(ToolTable {
+            z_first,
+            z_lo,
+            z_hi,
+            s_lo,
+            ds,
+            samples,
+            max_rel_err,
+        })
+    }
+
+    /// The segment and the fraction along it of depth `z` (clamped to the end segments).
+    fn locate(&self, z: f64) -> (usize, f64, f64) {
+        let s = (z - self.z_first).max(0.0).sqrt();
+        let u = (s - self.s_lo) / self.ds;
+        let k = u.floor().clamp(0.0, (self.samples.len() - 2) as f64);
+        (k as usize, u - k, s)
+    }
+
+    /// The interpolated (w, d) at commanded depth `z` (f64 twin of `tool_map.comp`).
+    pub fn eval(&self, z: f64) -> [f64; 2] {
+        let (k, f, _) = self.locate(z);
+        let (a, b) = (self.samples[k], self.samples[k + 1]);
+        [a[0] + f * (b[0] - a[0]), a[1] + f * (b[1] - a[1])]
+    }
+
+    /// (dw/dz, dd/dz) of the interpolation at `z` (the derivative `tool_map.comp` uses).
+    pub fn slope(&self, z: f64) -> [f64; 2] {
+        let (k, _, s) = self.locate(z);
+        let (a, b) = (self.samples[k], self.samples[k + 1]);
+        let c = 1.0 / (self.ds * 2.0 * s);
+        [(b[0] - a[0]) * c, (b[1] - a[1]) * c]
+    }
+
+    /// The commanded depth of sample `k`.
+    pub fn sample_z(&self, k: usize) -> f64 {
+        let s = self.s_lo + k as f64 * self.ds;
+        (self.z_first + s * s).clamp(self.z_lo, self.z_hi)
+    }
+
+    /// The depth whose groove is nearest to (w, d) by the relative error |dw|/w + |dd|/d: the
+    /// best sample, refined on the segments beside it (64 steps each).
+    pub fn nearest_depth(&self, w: f64, d: f64) -> f64 {
+        let err = |g: [f64; 2]| (g[0] - w).abs() / w + (g[1] - d).abs() / d;
+        let n = self.samples.len();
+        let best = (0..n)
+            .min_by(|&a, &b| err(self.samples[a]).total_cmp(&err(self.samples[b])))
+            .expect("a table has samples");
+        let (lo, hi) = (
+            self.sample_z(best.saturating_sub(1)),
+            self.sample_z((best + 1).min(n - 1)),
+        );
+        let (mut zb, mut eb) = (self.sample_z(best), err(self.samples[best]));
+        let (slo, shi) = ((lo - self.z_first).sqrt(), (hi - self.z_first).sqrt());
+        for i in 0..=128 {
+            let s = slo + (shi - slo) * i as f64 / 128.0;
+            let z = (self.z_first + s * s).clamp(self.z_lo, self.z_hi);
+            let e = err(self.eval(z));
+            if e < eb {
+                (zb, eb) = (z, e);
+            }
+        }
+        zb
+    }
+}
+
+/// What fabrication mode needs: the tool, where it came from, the fixed alpha, the depth's
+/// learning rate and the sampled curve.
+#[derive(Clone, Debug)]
+pub struct Fabrication {
+    pub tool: Tool,
+    /// The tool file, as given.
+    pub source: String,
+    pub alpha: f64,
+    /// Where alpha came from (for the summary).
+    pub alpha_from: String,
+    /// Learning rate of z, mm per step.
+    pub lr_z: f32,
+    pub table: ToolTable,
+}
+
+impl Fabrication {
+    /// Samples `tool` for a design whose scratch bounds are `adam`'s (largest w and d).
+    pub fn new(
+        tool: Tool,
+        source: &str,
+        alpha: f64,
+        alpha_from: &str,
+        lr_z: f32,
+        adam: &AdamConfig,
+    ) -> Result<Fabrication, String> {
+        if !(alpha > 0.0 && alpha < 1.0) {
+            return Err(format!(
+                "the groove roughness alpha = {alpha} must lie strictly between 0 and 1"
+            ));
+        }
+        let table = ToolTable::new(&tool, adam.w_bounds.1 as f64, adam.d_bounds.1 as f64, TABLE_SAMPLES)?;
+        Ok(Fabrication {
+            tool,
+            source: source.to_string(),
+            alpha,
+            alpha_from: alpha_from.to_string(),
+            lr_z,
+            table,
+        })
+    }
+
+    /// Reads `tool.json` and samples it; alpha is the file's `alpha` when it has one, else
+    /// `default_alpha` (named by `default_from`). The error names the file.
+    pub fn load(
+        path: &Path,
+        default_alpha: f64,
+        default_from: &str,
+        lr_z: f32,
+        adam: &AdamConfig,
+    ) -> Result<Fabrication, String> {
+        let (tool, fitted) = Tool::load_fitted(path).map_err(|e| e.to_string())?;
+        let (alpha, from) = match fitted.alpha {
+            Some(a) => (a, format!("{} (fitted)", path.display())),
+            None => (default_alpha, default_from.to_string()),
+        };
+        Fabrication::new(tool, &path.display().to_string(), alpha, &from, lr_z, adam)
+            .map_err(|e| format!("tool file `{}` cannot be used: {e}", path.display()))
+    }
+
+    /// What a checkpoint must agree with.
+    pub fn fingerprint(&self) -> Value {
+        json!({
+            "tool": self.tool.to_json(), "alpha": self.alpha, "lr_z": self.lr_z,
+            "z_range": [self.table.z_lo, self.table.z_hi], "samples": self.table.samples.len(),
+        })
+    }
+
+    /// The `fabrication` entry of `summary.json`; `depths` are the written scratches' z.
+    pub fn summary(&self, depths: &[f64]) -> Value {
+        let (lo, hi) = depths
+            .iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &z| (a.min(z), b.max(z)));
+        json!({
+            "tool_file": self.source,
+            "tool": serde_json::from_str::<Value>(&self.tool.to_json()).unwrap_or(Value::Null),
+            "alpha": self.alpha,
+            "alpha_from": self.alpha_from,
+            "z_first_contact_mm": self.table.z_first,
+            "z_range_mm": [self.table.z_lo, self.table.z_hi],
+            "z_written_mm": [lo, hi],
+            "lr_z_mm": self.lr_z,
+            "table_samples": self.table.samples.len(),
+            "table_max_rel_err_w": self.table.max_rel_err[0],
+            "table_max_rel_err_d": self.table.max_rel_err[1],
+        })
+    }
+}
+
+/// Scratches with one carve depth each, and lights, as a parameter set (see the module doc).
+pub struct ToolParams {
+    scene: SceneParams,
+    cfg: AdamConfig,
+    fab: Fabrication,
+    map: ComputePipeline,
+    table: Buffer,
+    depths: Buffer,
+    depth_grad: Buffer,
+    n: u32,
+}
+
+impl ToolParams {
+    /// Uploads the table and the initial depths: each scratch's (w, d) mapped to the nearest
+    /// point of the curve ([`ToolTable::nearest_depth`]).
+    pub fn new(
+        ctx: &Arc<Context>,
+        cfg: &AdamConfig,
+        fab: &Fabrication,
+        scratches: &[Scratch],
+    ) -> Result<ToolParams, GpuError> {
+        let mut cache: Vec<([u64; 2], f32)> = Vec::new();
+        let mut z = Vec::with_capacity(scratches.len());
+        for s in scratches {
+            let key = [s.w.to_bits(), s.d.to_bits()];
+            let v = match cache.iter().find(|c| c.0 == key) {
+                Some(c) => c.1,
+                None => {
+                    let v = fab.table.nearest_depth(s.w, s.d) as f32;
+                    if cache.len() < 64 {
+                        cache.push((key, v));
+                    }
+                    v
+                }
+            };
+            z.push(v);
+        }
+        Self::with_depths(ctx, cfg, fab, &z)
+    }
+
+    /// As [`new`](Self::new) with the given initial depths (mm).
+    pub fn with_depths(
+        ctx: &Arc<Context>,
+        cfg: &AdamConfig,
+        fab: &Fabrication,
+        depths: &[f32],
+    ) -> Result<ToolParams, GpuError> {
+        let n = depths.len() as u32;
+        let tab: Vec<[f32; 2]> = fab.table.samples.iter().map(|g| [g[0] as f32, g[1] as f32]).collect();
+        let push = std::mem::size_of::<ToolMapPush>() as u32;
+        let sc = ShaderCompiler::embedded()?;
+        let zeros = vec![0f32; depths.len().max(1)];
+        let mut z = depths.to_vec();
+        z.resize(depths.len().max(1), fab.table.z_lo as f32);
+        Ok(ToolParams {
+            scene: SceneParams::new(ctx, cfg)?,
+            cfg: *cfg,
+            fab: fab.clone(),
+            map: ComputePipeline::new(ctx, &sc, "tool_map.comp", &[], 5, push)?,
+            table: ctx.upload("tool table", &tab)?,
+            depths: ctx.upload("depths", &z)?,
+            depth_grad: ctx.upload("depth gradient", &zeros)?,
+            n,
+        })
+    }
+
+    pub fn fabrication(&self) -> &Fabrication {
+        &self.fab
+    }
+
+    pub fn depths_buffer(&self) -> &Buffer {
+        &self.depths
+    }
+
+    /// The current depths (mm), one per scratch.
+    pub fn depths(&self, ctx: &Arc<Context>) -> Result<Vec<f32>, GpuError> {
+        let mut z: Vec<f32> = ctx.download(&self.depths)?;
+        z.truncate(self.n as usize);
+        Ok(z)
+    }
+
+    /// Replaces the depths (mm), one per scratch.
+    pub fn set_depths(&self, ctx: &Arc<Context>, z: &[f32]) -> Result<(), GpuError> {
+        assert_eq!(z.len(), self.n as usize, "one depth per scratch");
+        let tmp = ctx.upload("depths (new)", z)?;
+        let mut rec = Recorder::new(ctx)?;
+        rec.begin()?;
+        rec.copy(&tmp, &self.depths, tmp.size());
+        rec.barrier();
+        rec.submit_and_wait()?;
+        Ok(())
+    }
+
+    fn push(&self, mode: u32) -> ToolMapPush {
+        let t = &self.fab.table;
+        ToolMapPush {
+            n_scratches: self.n,
+            n_table: t.samples.len() as u32,
+            mode,
+            pad0: 0,
+            z_first: t.z_first as f32,
+            s_lo: t.s_lo as f32,
+            inv_ds: (1.0 / t.ds) as f32,
+            alpha: self.fab.alpha as f32,
+        }
+    }
+
+    fn record_map(&self, rec: &mut Recorder, gs: &GpuScene, mode: u32) {
+        assert_eq!(gs.n_scratches(), self.n, "the depths belong to another scene");
+        let bufs = [
+            gs.scratches(),
+            &self.depths,
+            &self.table,
+            gs.scratch_grad(),
+            &self.depth_grad,
+        ];
+        rec.dispatch_1d(
+            &self.map,
+            &bufs,
+            bytemuck::bytes_of(&self.push(mode)),
+            self.n.div_ceil(256),
+        );
+        rec.barrier();
+    }
+
+    /// Writes the grooves of the current depths into `gs` (one submission).
+    pub fn apply(&self, ctx: &Arc<Context>, gs: &GpuScene) -> Result<(), GpuError> {
+        let mut rec = Recorder::new(ctx)?;
+        rec.begin()?;
+        self.record_map(&mut rec, gs, 0);
+        rec.submit_and_wait()?;
+        Ok(())
+    }
+
+    /// Maps the depths, renders `gs` and evaluates `objective`; with `grad`, also dE/dz per
+    /// scratch (the renderer's backward and the chain rule), downloaded.
+    pub fn evaluate(
+        &self,
+        renderer: &Renderer,
+        gs: &mut GpuScene,
+        objective: &dyn Objective,
+        grad: bool,
+    ) -> Result<(Evaluation, Option<Vec<f32>>), GpuError> {
+        renderer.prepare_backward()?;
+        let mut rec = Recorder::new(&renderer.ctx)?;
+        renderer.submit(&mut rec, gs, |rec, gs| {
+            self.record_map(rec, gs, 0);
+            renderer.record_render(rec, gs);
+            objective.record_forward(rec, gs);
+            if grad {
+                objective.record_backward(rec, gs);
+                renderer.record_backward(rec, gs);
+                self.record_map(rec, gs, 1);
+            }
+        })?;
+        let ev = objective.read()?;
+        let g = if grad {
+            let mut g: Vec<f32> = renderer.ctx.download(&self.depth_grad)?;
+            g.truncate(self.n as usize);
+            Some(g)
+        } else {
+            None
+        };
+        Ok((ev, g))
+    }
+}
+
+impl ParamSet for ToolParams {
+    fn blocks<'a>(&'a self, gs: &'a GpuScene) -> Vec<ParamBlock<'a>> {
+        let mut groups = SceneParams::scratch_groups(&self.cfg, gs.half_plate());
+        for g in &mut groups[4..7] {
+            *g = AdamGroup::frozen();
+        }
+        let (lo, hi) = (self.fab.table.z_lo as f32, self.fab.table.z_hi as f32);
+        vec![
+            ParamBlock {
+                name: "scratches",
+                params: gs.scratches(),
+                grad: gs.scratch_grad(),
+                len: 8 * gs.n_scratches(),
+                groups,
+            },
+            ParamBlock {
+                name: "depths",
+                params: &self.depths,
+                grad: &self.depth_grad,
+                len: self.n,
+                groups: vec![AdamGroup::linear(self.fab.lr_z, (lo, hi))],
+            },
+            ParamBlock {
+                name: "lights",
+                params: gs.lights(),
+                grad: gs.light_grad(),
+                len: gs.n_views(),
+                groups: vec![SceneParams::light_group(&self.cfg)],
+            },
+        ]
+    }
+
+    fn record_to_scene(&self, rec: &mut Recorder, gs: &GpuScene) {
+        self.record_map(rec, gs, 0);
+    }
+
+    fn record_grad(&self, rec: &mut Recorder, gs: &GpuScene) {
+        self.record_map(rec, gs, 1);
+    }
+
+    fn record_project(&self, rec: &mut Recorder, gs: &GpuScene, before: &[&Buffer], flags: &Buffer) {
+        self.scene.record_projection(rec, gs, before[0], flags);
+        // The scene keeps the grooves of the depths just stepped to (a refused step rewrites
+        // the same values), so every saved state is consistent.
+        self.record_map(rec, gs, 0);
+    }
+}
+
+/// A shared parameter set is a parameter set (the design keeps it to read the depths after the
+/// run).
+impl ParamSet for Arc<ToolParams> {
+    fn blocks<'a>(&'a self, gs: &'a GpuScene) -> Vec<ParamBlock<'a>> {
+        (**self).blocks(gs)
+    }
+    fn record_to_scene(&self, rec: &mut Recorder, gs: &GpuScene) {
+        (**self).record_to_scene(rec, gs)
+    }
+    fn record_grad(&self, rec: &mut Recorder, gs: &GpuScene) {
+        (**self).record_grad(rec, gs)
+    }
+    fn record_project(&self, rec: &mut Recorder, gs: &GpuScene, before: &[&Buffer], flags: &Buffer) {
+        (**self).record_project(rec, gs, before, flags)
+    }
+}
+
+/// The depth of each scratch of `kept` (a subsequence of `all`, in order, as pruning leaves
+/// it), from `depths` (one per scratch of `all`).
+pub fn depths_of_kept(all: &[Scratch], depths: &[f64], kept: &[Scratch]) -> Vec<f64> {
+    let mut out = Vec::with_capacity(kept.len());
+    let mut i = 0;
+    for s in kept {
+        while all.get(i).is_some_and(|a| a != s) {
+            i += 1;
+        }
+        assert!(
+            i < all.len(),
+            "the kept scratches are not a subsequence of the optimized ones"
+        );
+        out.push(depths[i]);
+        i += 1;
+    }
+    out
+}
