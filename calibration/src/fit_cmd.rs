@@ -417,6 +417,7 @@ fn profile_plot(path: &Path, res: &FitResult, card: &Card, points: &[(f64, f64)]
         if let Some(f) = font {
             chart
                 .configure_series_labels()
+                .position(SeriesLabelPosition::UpperLeft)
                 .border_style(BLACK)
                 .background_style(WHITE)
                 .label_font((f, 14))
