@@ -264,6 +264,71 @@ fn depth_gradient_matches_central_differences() {
     assert_no_validation(&ctx);
 }
 
+/// The table of every tool kind against `Tool::model` (its own measurement at segment midpoints,
+/// and an independent one at other points: thirds of every 7th segment), and its slopes against
+/// differences of the interpolation.
+#[test]
+fn table_error_of_every_tool_kind() {
+    let adam = AdamConfig::for_plate(100.0);
+    let tools = [
+        v_bit(),
+        Tool::VBit {
+            angle_deg: 90.0,
+            tip_flat_mm: 0.0,
+            z_offset_mm: -0.01,
+        },
+        ball(),
+        Tool::TaperedBall {
+            radius_mm: 0.03,
+            angle_deg: 30.0,
+            z_offset_mm: 0.0,
+        },
+        Tool::Profile {
+            points: vec![[0.01, 0.03], [0.03, 0.08], [0.06, 0.12]],
+            w_over_w: 1.3,
+            z_offset_mm: 0.0,
+        },
+    ];
+    for tool in tools {
+        let fab = Fabrication::new(tool.clone(), "t", 0.1, "test", 1e-3, &adam).unwrap();
+        let t = &fab.table;
+        let mut worst = [0.0f64; 2];
+        for k in (0..t.samples.len() - 1).step_by(7) {
+            let (za, zb) = (t.sample_z(k), t.sample_z(k + 1));
+            let z = za + (zb - za) / 3.0;
+            let (g, e) = (tool.model(z).unwrap(), t.eval(z));
+            worst[0] = worst[0].max((e[0] - g.w).abs() / g.w);
+            worst[1] = worst[1].max((e[1] - g.d).abs() / g.d);
+            let h = 1e-3 * (zb - za);
+            let (sp, fd) = (
+                t.slope(z),
+                [
+                    (t.eval(z + h)[0] - t.eval(z - h)[0]) / (2.0 * h),
+                    (t.eval(z + h)[1] - t.eval(z - h)[1]) / (2.0 * h),
+                ],
+            );
+            for c in 0..2 {
+                assert!(
+                    (sp[c] - fd[c]).abs() <= 1e-6 * fd[c].abs().max(1e-9),
+                    "{tool:?} z {z}: slope {sp:?} vs {fd:?}"
+                );
+            }
+        }
+        eprintln!(
+            "{tool:?}: z in [{:.5}, {:.5}] mm; measured table error w {:.2e} d {:.2e}, at thirds w {:.2e} d {:.2e}",
+            t.z_lo, t.z_hi, t.max_rel_err[0], t.max_rel_err[1], worst[0], worst[1]
+        );
+        for c in 0..2 {
+            assert!(t.max_rel_err[c] < 1e-3, "{tool:?}: table error {:?}", t.max_rel_err);
+            assert!(
+                worst[c] <= t.max_rel_err[c] * 1.01 + 1e-9,
+                "{tool:?}: {worst:?} beyond the stated {:?}",
+                t.max_rel_err
+            );
+        }
+    }
+}
+
 fn run_bin(args: &[&str]) -> std::process::Output {
     Command::new(workspace_bin("scratchart", "scratchart"))
         .args(args)

@@ -22,13 +22,16 @@
 //! sampled once on the host at [`TABLE_SAMPLES`] points equally spaced in s = sqrt(z - z_first)
 //! (dense near first contact, where a ball's width grows like sqrt(z) and a flat-tipped V-bit's
 //! fitted w changes fastest) and interpolated linearly in s. Its error against `Tool::model` is
-//! measured when the table is built, at the midpoint of every segment, and reported
-//! ([`ToolTable::max_rel_err`], in `summary.json`). Measured, relative to `Tool::model`'s w and d:
-//! V-bit 60 degrees with a 0.02 mm flat: w 3.3e-4, d 1.2e-4; V-bit 90 degrees, no flat, offset
-//! -0.01 mm: 7.6e-5 (w and d); ball of radius 0.1 mm: w 6.7e-7, d 7.6e-5; tapered ball 0.03 mm,
-//! 30 degrees: w 1.4e-5, d 1.6e-4. The GPU evaluates the same interpolation in f32 (relative
-//! rounding about 1e-6). A uniform grid in z was worse near first contact (1.5e-2 for the
-//! flat-tipped V-bit).
+//! measured when the table is built, at the midpoint of every segment (and at a measured
+//! profile's corners, where a segment's error peaks), and reported
+//! ([`ToolTable::max_rel_err`], in `summary.json`). Measured (`tests/fabrication.rs`,
+//! `table_error_of_every_tool_kind`, which also checks other points against it), relative to
+//! `Tool::model`'s w and d: V-bit 60 degrees with a 0.02 mm flat: w 3.3e-4, d 1.2e-4; V-bit 90
+//! degrees, no flat, offset -0.01 mm: 7.6e-5 (w and d); ball of radius 0.1 mm: w 4.1e-6, d 1.6e-4;
+//! tapered ball 0.03 mm, 30 degrees: w 1.4e-5, d 1.6e-4; a 3-point measured profile: 2.6e-4 (at
+//! a corner). The GPU evaluates the same interpolation in f32 (the tests allow 1e-5 relative
+//! for its rounding on top of the bound). A grid uniform in z was worse near first contact
+//! (1.5e-2 for the flat-tipped V-bit).
 use std::path::Path;
 use std::sync::Arc;
 
@@ -169,6 +172,10 @@ impl ToolTable {
         zs[0] = z_lo;
         zs[n - 1] = z_hi;
         zs.extend((0..n - 1).map(|k| z_of(s_lo + (k as f64 + 0.5) * ds)));
+        // A measured profile's corners: there, not at the midpoint, a segment's error peaks.
+        if let Tool::Profile { points, .. } = tool {
+            zs.extend(points.iter().map(|p| p[0]).filter(|&z| z > z_lo && z < z_hi));
+        }
         let all = models(tool, &zs);
         let mut got = Vec::with_capacity(all.len());
         for (z, m) in zs.iter().zip(all) {
@@ -181,23 +188,22 @@ impl ToolTable {
                 }
             }
         }
-        let samples = got[..n].to_vec();
-        let mut max_rel_err = [0.0f64; 2];
-        for (k, truth) in got[n..].iter().enumerate() {
-            for c in 0..2 {
-                let mid = 0.5 * (samples[k][c] + samples[k + 1][c]);
-                max_rel_err[c] = max_rel_err[c].max((mid - truth[c]).abs() / truth[c]);
-            }
-        }
-        Ok(ToolTable {
+        let mut table = ToolTable {
             z_first,
             z_lo,
             z_hi,
             s_lo,
             ds,
-            samples,
-            max_rel_err,
-        })
+            samples: got[..n].to_vec(),
+            max_rel_err: [0.0; 2],
+        };
+        for (z, truth) in zs[n..].iter().zip(&got[n..]) {
+            let e = table.eval(*z);
+            for c in 0..2 {
+                table.max_rel_err[c] = table.max_rel_err[c].max((e[c] - truth[c]).abs() / truth[c]);
+            }
+        }
+        Ok(table)
     }
 
     /// The segment and the fraction along it of depth `z` (clamped to the end segments).
