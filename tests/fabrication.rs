@@ -265,8 +265,8 @@ fn depth_gradient_matches_central_differences() {
 }
 
 /// The table of every tool kind against `Tool::model` (its own measurement at segment midpoints,
-/// and an independent one at other points: thirds of every 7th segment), and its slopes against
-/// differences of the interpolation.
+/// and an independent one at other points: thirds of every 7th segment), its slopes against
+/// differences of the interpolation, and the nearest-depth search of the initial depths.
 #[test]
 fn table_error_of_every_tool_kind() {
     let adam = AdamConfig::for_plate(100.0);
@@ -306,6 +306,13 @@ fn table_error_of_every_tool_kind() {
                     (t.eval(z + h)[0] - t.eval(z - h)[0]) / (2.0 * h),
                     (t.eval(z + h)[1] - t.eval(z - h)[1]) / (2.0 * h),
                 ],
+            );
+            // The initial depths: a groove on the curve maps back to its own depth.
+            let [w, d] = t.eval(z);
+            let back = t.nearest_depth(w, d);
+            assert!(
+                (back - z).abs() <= (zb - za) / 32.0,
+                "{tool:?}: ({w}, {d}) of z = {z} maps to {back}"
             );
             for c in 0..2 {
                 assert!(
