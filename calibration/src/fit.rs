@@ -246,8 +246,8 @@ impl Layout {
     /// Shapes tried at the start (V angles, ball radii).
     fn shapes(&self) -> Vec<f64> {
         match self.kind {
-            Kind::VBit => vec![30.0, 60.0, 90.0, 120.0],
-            Kind::Ball | Kind::TaperedBall => vec![0.05, 0.15, 0.4],
+            Kind::VBit => vec![35.0, 60.0, 85.0, 110.0],
+            Kind::Ball | Kind::TaperedBall => vec![0.02, 0.04, 0.08, 0.16, 0.32, 0.64],
             Kind::Profile => vec![0.0],
         }
     }

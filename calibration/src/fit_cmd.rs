@@ -13,7 +13,7 @@ use serde_json::json;
 
 use super::card::{Card, CutRole};
 use super::fit::{fit_kind, predict, Data, FitConfig, FitError, FitResult, Kind};
-use super::register::{load_photo, register};
+use super::register::{camera_from_homography, load_photo, plate_homography, register};
 
 /// Flags of `scratchart-cal fit`.
 #[derive(clap::Args, Debug)]
@@ -81,9 +81,13 @@ pub fn run(renderer: &Renderer, args: &FitArgs, obs: &dyn Observer) -> Result<()
     let mut photos = Vec::new();
     let mut masks = Vec::new();
     let mut sources = Vec::new();
+    let mut fit_views = Vec::new();
     let half = 0.5 * capture.plate.size_mm;
     for (v, f) in capture.views.iter().zip(&files) {
         let img = load_photo(f).map_err(InputError)?;
+        // The photo at the capture view's height, its own aspect kept (square pixels).
+        let mut v = v.clone();
+        v.camera.width = ((v.camera.height as f64 * img.width as f64 / img.height as f64).round() as u32).max(16);
         let small = super::register::resize(&img, v.camera.width, v.camera.height);
         let saturated = |px: &[f32], mask: Option<&[bool]>| {
             let on = |i: usize| mask.is_none_or(|m| m[i]);
@@ -100,31 +104,55 @@ pub fn run(renderer: &Renderer, args: &FitArgs, obs: &dyn Observer) -> Result<()
         if let Some(e) = saturated(&small.data, None) {
             return Err(e.into());
         }
-        let reg = register(&img, &card, v).map_err(|e| {
+        let not_found = |e: String| {
             InputError(format!(
                 "card not found in photo `{}` (view {}): {e}. The four corner crosses must show; \
                  photograph from the capture position of card.json with the lamp where it says",
                 f.display(),
                 v.name
             ))
-        })?;
+        };
+        let reg = register(&img, &card, &v).map_err(not_found)?;
+        // The camera that took the photo, from the crosses: the card is rendered as that camera
+        // saw it (the light on the grooves depends on where the camera stood), and the photo is
+        // used as taken, without resampling.
+        let camera = plate_homography(&card, &reg.fiducials)
+            .and_then(|g| camera_from_homography(&g, v.camera.width, v.camera.height))
+            .ok_or_else(|| {
+                not_found("the corner crosses are not where a camera looking at the card would see them".into())
+            })?;
+        let e = v.camera.eye;
+        let moved =
+            ((camera.eye[0] - e[0]).powi(2) + (camera.eye[1] - e[1]).powi(2) + (camera.eye[2] - e[2]).powi(2)).sqrt();
         obs.info(&format!(
-            "{}: {}x{} photo registered to view {} (corner crosses within {:.1} px of the capture pose)",
+            "{}: {}x{} photo of view {}: taken from ({:.0}, {:.0}, {:.0}) mm, {moved:.1} mm from the capture position",
             f.display(),
             img.width,
             img.height,
             v.name,
-            reg.pose_offset_px
+            camera.eye[0],
+            camera.eye[1],
+            camera.eye[2]
         ));
-        let on = ViewGeom::new(v).on_plate_mask(half);
-        let mask: Vec<bool> = on.iter().zip(&reg.valid).map(|(a, b)| *a && *b).collect();
-        if let Some(e) = saturated(&reg.image, Some(&mask)) {
+        let fv = scratchart::model::scene::View { camera, ..v.clone() };
+        let mask = ViewGeom::new(&fv).on_plate_mask(half);
+        if let Some(e) = saturated(&small.data, Some(&mask)) {
             return Err(e.into());
         }
-        photos.push(reg.image);
-        sources.push((reg.photo, reg.h));
+        photos.push(small.data.clone());
+        sources.push((small, [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0]));
         masks.push(mask);
+        fit_views.push(fv);
     }
+    let fit_scene = scratchart::model::scene::Scene {
+        plate: capture.plate.clone(),
+        views: fit_views,
+        scratches: vec![],
+    };
+    fit_scene
+        .validate()
+        .map_err(|e| InputError(format!("the photos' cameras do not make a valid scene: {e}")))?;
+    let capture = fit_scene;
     let data = Data {
         card: &card,
         capture: &capture,

@@ -11,7 +11,8 @@
 //!    noise is estimated robustly (median, MAD), and connected pixels above both 5 noise sigmas
 //!    and 3% of the brightest mark form marks (at least 2.5 arm lengths of pixels each).
 //!    Marks that are not point-symmetric (the corner of the card's glow, stray light) are dropped.
-//! 2. Corners: the crosses are the card's outermost marks, so for each diagonal direction the mark
+//! 2. Corners: the mark nearest each cross's place in the capture view, within a tenth of the
+//!    frame (a photo taken near the capture pose); failing that, the crosses are the card's outermost marks, so for each diagonal direction the mark
 //!    farthest along it is taken, and matched to the fiducial the capture view shows in that
 //!    direction (a photo may be turned by less than 45 degrees).
 //! 3. Centres: the centroid of the top-hat above its local level (the median in a ring around
@@ -55,6 +56,40 @@ impl Gray {
         let top = self.at(x0, y0) * (1.0 - fx) + self.at(x0 + 1, y0) * fx;
         let bot = self.at(x0, y0 + 1) * (1.0 - fx) + self.at(x0 + 1, y0 + 1) * fx;
         Some(top * (1.0 - fy) + bot * fy)
+    }
+}
+
+impl Gray {
+    /// Catmull-Rom (cubic) sample at image point (sx, sy): it smooths far less than bilinear
+    /// sampling, whose blur changes with the sub-pixel phase and would bias the fit's groove
+    /// shapes. `None` outside the image.
+    pub fn sample_cubic(&self, sx: f64, sy: f64) -> Option<f32> {
+        if !(sx >= 0.0 && sy >= 0.0 && sx <= self.width as f64 && sy <= self.height as f64) {
+            return None;
+        }
+        let (x, y) = (sx - 0.5, sy - 0.5);
+        let (x0, y0) = (x.floor(), y.floor());
+        let (fx, fy) = (x - x0, y - y0);
+        let k = |t: f64| {
+            let (t2, t3) = (t * t, t * t * t);
+            [
+                -0.5 * t3 + t2 - 0.5 * t,
+                1.5 * t3 - 2.5 * t2 + 1.0,
+                -1.5 * t3 + 2.0 * t2 + 0.5 * t,
+                0.5 * t3 - 0.5 * t2,
+            ]
+        };
+        let (kx, ky) = (k(fx), k(fy));
+        let (x0, y0) = (x0 as i64, y0 as i64);
+        let mut acc = 0.0f64;
+        for (j, wy) in ky.iter().enumerate() {
+            let mut row = 0.0f64;
+            for (i, wx) in kx.iter().enumerate() {
+                row += wx * self.at(x0 - 1 + i as i64, y0 - 1 + j as i64) as f64;
+            }
+            acc += wy * row;
+        }
+        Some(acc as f32)
     }
 }
 
@@ -334,12 +369,20 @@ pub fn find_fiducials(
     let mut levels = [0f32; 4];
     for k in 0..4 {
         let d = [(nominal[k][0] - cn[0]).signum(), (nominal[k][1] - cn[1]).signum()];
+        // A photo near the capture pose has the cross near its nominal place: the nearest mark
+        // within a tenth of the frame; otherwise the corner-most mark along the diagonal.
+        let near = 0.1 * w.min(h) as f64;
+        let dist = |m: &([f64; 2], usize)| (m.0[0] - nominal[k][0]).hypot(m.0[1] - nominal[k][1]);
         let best = marks
             .iter()
-            .max_by(|a, b| {
-                let fa = d[0] * (a.0[0] - cf[0]) + d[1] * (a.0[1] - cf[1]);
-                let fb = d[0] * (b.0[0] - cf[0]) + d[1] * (b.0[1] - cf[1]);
-                fa.total_cmp(&fb)
+            .filter(|m| dist(m) <= near)
+            .min_by(|a, b| dist(a).total_cmp(&dist(b)))
+            .or_else(|| {
+                marks.iter().max_by(|a, b| {
+                    let fa = d[0] * (a.0[0] - cf[0]) + d[1] * (a.0[1] - cf[1]);
+                    let fb = d[0] * (b.0[0] - cf[0]) + d[1] * (b.0[1] - cf[1]);
+                    fa.total_cmp(&fb)
+                })
             })
             .expect("at least 4 marks");
         // Refine: centroid of the top-hat above its local level (the median in a ring around
@@ -553,7 +596,7 @@ pub fn warp(photo: &Gray, hm: &[f64; 9], a: &[f64; 6], w: u32, h: u32) -> (Vec<f
                 y + a[1] + a[4] * (x - cx) + a[5] * (y - cy),
             ];
             let q = apply(hm, p);
-            match photo.sample(q[0], q[1]) {
+            match photo.sample_cubic(q[0], q[1]) {
                 Some(v) => {
                     image.push(v);
                     valid.push(true);
@@ -566,6 +609,99 @@ pub fn warp(photo: &Gray, hm: &[f64; 9], a: &[f64; 6], w: u32, h: u32) -> (Vec<f
         }
     }
     (image, valid)
+}
+
+/// The camera that took a photo of `w` x `h` pixels (square pixels, principal point at the
+/// centre, MODEL.md's pinhole) from the homography `g` that maps plate points (x, y) in mm to
+/// its image points: with u = sx - w/2, v = h/2 - sy, g ~ K [r1 r2 t] with K = diag(f, f, 1),
+/// and the two rotation columns r1, r2 being orthogonal and of equal length gives f (least
+/// squares over both conditions); the rest follows. `None` when the homography is not that of
+/// a camera looking down at the plate.
+pub fn camera_from_homography(g: &[f64; 9], w: u32, h: u32) -> Option<scratchart::model::scene::Camera> {
+    // M = diag(1, -1, 1) T^-1 g: plate -> (u, v, 1).
+    let (cx, cy) = (0.5 * w as f64, 0.5 * h as f64);
+    let row = |r: usize| [g[3 * r], g[3 * r + 1], g[3 * r + 2]];
+    let (r0, r1, r2) = (row(0), row(1), row(2));
+    let m0: [f64; 3] = std::array::from_fn(|c| r0[c] - cx * r2[c]);
+    let m1: [f64; 3] = std::array::from_fn(|c| -(r1[c] - cy * r2[c]));
+    let m = [m0, m1, r2]; // rows of M
+    let col = |c: usize| [m[0][c], m[1][c], m[2][c]];
+    let (a, b, t) = (col(0), col(1), col(2));
+    // Orthogonality: (a0 b0 + a1 b1) q + a2 b2 = 0; equal norms:
+    // (a0^2 + a1^2 - b0^2 - b1^2) q + a2^2 - b2^2 = 0, with q = 1 / f^2.
+    let (p1, s1) = (a[0] * b[0] + a[1] * b[1], a[2] * b[2]);
+    let (p2, s2) = (
+        a[0] * a[0] + a[1] * a[1] - b[0] * b[0] - b[1] * b[1],
+        a[2] * a[2] - b[2] * b[2],
+    );
+    let q = -(p1 * s1 + p2 * s2) / (p1 * p1 + p2 * p2);
+    if !(q > 0.0 && q.is_finite()) {
+        return None;
+    }
+    let f = 1.0 / q.sqrt();
+    let kinv = |v: [f64; 3]| [v[0] / f, v[1] / f, v[2]];
+    let norm = |v: [f64; 3]| (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
+    let (ka, kb, kt) = (kinv(a), kinv(b), kinv(t));
+    let mut lambda = 2.0 / (norm(ka) + norm(kb));
+    if kt[2] * lambda < 0.0 {
+        lambda = -lambda; // the plate lies in front of the camera
+    }
+    let c0: Vec<f64> = ka.iter().map(|x| x * lambda).collect();
+    let c1: Vec<f64> = kb.iter().map(|x| x * lambda).collect();
+    let tt: Vec<f64> = kt.iter().map(|x| x * lambda).collect();
+    // Gram-Schmidt on the two columns, the third by the cross product.
+    let n0 = norm([c0[0], c0[1], c0[2]]);
+    let e0 = [c0[0] / n0, c0[1] / n0, c0[2] / n0];
+    let d = c1[0] * e0[0] + c1[1] * e0[1] + c1[2] * e0[2];
+    let c1o = [c1[0] - d * e0[0], c1[1] - d * e0[1], c1[2] - d * e0[2]];
+    let n1 = norm(c1o);
+    let e1 = [c1o[0] / n1, c1o[1] / n1, c1o[2] / n1];
+    // MODEL.md's frame (right = forward x up) is left-handed as rows, so det R = -1 and the
+    // third column is -(e0 x e1).
+    let e2 = [
+        -(e0[1] * e1[2] - e0[2] * e1[1]),
+        -(e0[2] * e1[0] - e0[0] * e1[2]),
+        -(e0[0] * e1[1] - e0[1] * e1[0]),
+    ];
+    // R has columns e0, e1, e2; its rows are the camera's right, up and forward in world axes.
+    let right = [e0[0], e1[0], e2[0]];
+    let up = [e0[1], e1[1], e2[1]];
+    let forward = [e0[2], e1[2], e2[2]];
+    // MODEL.md's camera: right = forward x up. A mirrored solution is not a camera.
+    let fx = [
+        forward[1] * up[2] - forward[2] * up[1],
+        forward[2] * up[0] - forward[0] * up[2],
+        forward[0] * up[1] - forward[1] * up[0],
+    ];
+    if fx[0] * right[0] + fx[1] * right[1] + fx[2] * right[2] < 0.5 {
+        return None;
+    }
+    // eye = -R^T t
+    let eye: [f64; 3] = std::array::from_fn(|i| -(right[i] * tt[0] + up[i] * tt[1] + forward[i] * tt[2]));
+    if !(eye[2] > 0.0) {
+        return None;
+    }
+    let dist = tt[2];
+    Some(scratchart::model::scene::Camera {
+        eye,
+        target: std::array::from_fn(|i| eye[i] + dist * forward[i]),
+        up,
+        fov_y_deg: 2.0 * (0.5 * h as f64 / f).atan().to_degrees(),
+        width: w,
+        height: h,
+    })
+}
+
+/// The homography from plate points (mm) to the photo's image points, from the fiducials found
+/// in it.
+pub fn plate_homography(card: &Card, found: &[[f64; 2]; 4]) -> Option<[f64; 9]> {
+    let fid: Vec<_> = card.cuts.iter().filter(|c| c.role == CutRole::Fiducial).collect();
+    let mut plate = [[0.0; 2]; 4];
+    for (k, pair) in fid.chunks(2).take(4).enumerate() {
+        let c = pair[0];
+        plate[k] = [0.5 * (c.p0[0] + c.p1[0]), 0.5 * (c.p0[1] + c.p1[1])];
+    }
+    homography(&plate, found)
 }
 
 /// Registers `photo` to capture view `view` of `card`.
@@ -624,5 +760,41 @@ mod tests {
         assert_eq!(g.sample(1.5, 0.5), Some(1.0));
         assert_eq!(g.sample(1.0, 0.5), Some(0.5));
         assert_eq!(g.sample(2.5, 0.5), None);
+    }
+}
+
+#[cfg(test)]
+mod camera_tests {
+    use super::*;
+    use crate::card::CardSpec;
+
+    /// The camera of a capture view comes back from the homography of its own projections.
+    #[test]
+    fn a_camera_is_recovered_from_its_plate_homography() {
+        let card = Card::new(&CardSpec::default());
+        for view in card.views(256) {
+            let g = ViewGeom::new(&view);
+            let (nominal, _) = nominal_fiducials(&card, &view);
+            let hp = plate_homography(&card, &nominal).unwrap();
+            let cam = camera_from_homography(&hp, 256, 256).expect("a camera");
+            for k in 0..3 {
+                assert!(
+                    (cam.eye[k] - view.camera.eye[k]).abs() < 1e-6,
+                    "{:?} vs {:?}",
+                    cam.eye,
+                    view.camera.eye
+                );
+            }
+            assert!((cam.fov_y_deg - view.camera.fov_y_deg).abs() < 1e-9);
+            // It projects plate points where the view does.
+            let back = ViewGeom::new(&View {
+                camera: cam,
+                ..view.clone()
+            });
+            for p in [[10.0, -7.0, 0.0], [-30.0, 25.0, 0.0]] {
+                let (a, b) = (g.project(p).unwrap(), back.project(p).unwrap());
+                assert!((a.0 - b.0).abs() < 1e-6 && (a.1 - b.1).abs() < 1e-6, "{a:?} vs {b:?}");
+            }
+        }
     }
 }
