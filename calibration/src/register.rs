@@ -798,3 +798,63 @@ mod camera_tests {
         }
     }
 }
+
+#[cfg(test)]
+mod photo_tests {
+    use super::*;
+
+    /// A colour JPEG straight from a phone: stored turned, with the EXIF orientation tag saying
+    /// how to show it. It reads back upright and grey.
+    #[test]
+    fn a_turned_colour_jpeg_reads_back_upright() {
+        use image::ImageEncoder as _;
+        // Upright: 64 x 32, bright (red) top-left quadrant on a dark background.
+        let upright = image::RgbImage::from_fn(64, 32, |x, y| {
+            if x < 32 && y < 16 {
+                image::Rgb([250, 40, 40])
+            } else {
+                image::Rgb([20, 20, 20])
+            }
+        });
+        // Stored turned a quarter counter-clockwise; orientation 6 tells a viewer to turn it back.
+        let stored = image::imageops::rotate270(&upright);
+        // EXIF (TIFF, big-endian): one IFD entry, Orientation (0x0112), SHORT, 1, value 6.
+        let exif: Vec<u8> = vec![
+            b'M', b'M', 0, 42, 0, 0, 0, 8, // header, IFD at 8
+            0, 1, // one entry
+            0x01, 0x12, 0, 3, 0, 0, 0, 1, 0, 6, 0, 0, // Orientation = 6
+            0, 0, 0, 0, // no next IFD
+        ];
+        let mut buf = Vec::new();
+        let mut enc = image::codecs::jpeg::JpegEncoder::new_with_quality(&mut buf, 95);
+        enc.set_exif_metadata(exif).unwrap();
+        enc.write_image(
+            stored.as_raw(),
+            stored.width(),
+            stored.height(),
+            image::ExtendedColorType::Rgb8,
+        )
+        .unwrap();
+        let dir = std::env::temp_dir().join(format!("scratchart-photo-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let p = dir.join("phone.jpg");
+        std::fs::write(&p, &buf).unwrap();
+        let g = load_photo(&p).unwrap();
+        assert_eq!((g.width, g.height), (64, 32), "the orientation was not applied");
+        let mean = |x0: u32, y0: u32| {
+            let mut s = 0.0;
+            for y in y0 + 4..y0 + 12 {
+                for x in x0 + 8..x0 + 24 {
+                    s += g.data[(y * 64 + x) as usize];
+                }
+            }
+            s / (8.0 * 16.0)
+        };
+        let (tl, tr, bl) = (mean(0, 0), mean(32, 0), mean(0, 16));
+        assert!(
+            tl > 0.25 && tr < 0.12 && bl < 0.12,
+            "top-left {tl}, top-right {tr}, bottom-left {bl}"
+        );
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+}
