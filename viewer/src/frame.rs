@@ -20,6 +20,8 @@ use scratchart::render::{GpuScene, RenderStats, Renderer};
 use scratchart::vulkan::{Buffer, ComputePipeline, Context, GpuError, MemLoc, Recorder, ShaderCompiler, Timings};
 
 use crate::design::Target;
+use crate::overlay::{self, Mark};
+use crate::setup::SetupInfo;
 use crate::upscale::{blit_supported, record_blit, StagingImage};
 
 /// The swapchain image a frame goes to.
@@ -87,6 +89,8 @@ pub struct FrameInfo {
     /// Host time of the whole frame: recording, submission and the wait.
     pub wall_ms: f64,
     pub stats: RenderStats,
+    /// Where the set-up overlay put each lamp and eye (empty without the overlay).
+    pub marks: Vec<Mark>,
 }
 
 /// How to draw one frame.
@@ -98,6 +102,8 @@ pub struct FrameParams<'a> {
     pub nearest: bool,
     /// The target to show (must match the layout's target rectangle being non-empty).
     pub show_target: bool,
+    /// Draw the set-up overlay (lamp, eyes, +x edge, numbers) over the render.
+    pub setup: Option<&'a SetupInfo>,
 }
 
 struct Pipelines {
@@ -137,6 +143,8 @@ pub struct FrameRenderer {
     staging: Vec<StagingImage>,
     /// Whether a swapchain format supports the blit path (asked once per format).
     blit_ok: Vec<(vk::Format, bool)>,
+    /// The set-up overlay's pixels, written by the host and copied into the output (grows).
+    overlay: Option<Buffer>,
 }
 
 /// Uploaded scenes kept at once (each holds the scratches and the binning buffers).
@@ -155,6 +163,7 @@ impl FrameRenderer {
             rec: Recorder::new(ctx)?,
             staging: Vec::new(),
             blit_ok: Vec::new(),
+            overlay: None,
         })
     }
 
@@ -269,6 +278,32 @@ impl FrameRenderer {
         if self.out.as_ref().is_none_or(|b| b.size() < need) {
             self.out = Some(Buffer::new(&self.ctx, "view output", need, MemLoc::GpuOnly)?);
         }
+        // The set-up overlay, drawn for the render's rectangle of the output actually written
+        // (the reduced image on the blit path), in the swapchain's byte order.
+        let mut marks = Vec::new();
+        let mut regions = Vec::new();
+        if let Some(info) = p.setup {
+            let [rx, ry, rw, rh] = layout.view_rect;
+            let mut cam = p.view.camera.clone();
+            (cam.width, cam.height) = (rw, rh);
+            let ov = overlay::draw(info, &cam);
+            let bgra = swap.is_some_and(|s| is_bgra(s.format));
+            let (data, runs) = ov.pack(out_w, (rx, ry), bgra);
+            let bytes = (data.len().max(1) * 4) as u64;
+            if self.overlay.as_ref().is_none_or(|b| b.size() < bytes) {
+                self.overlay = Some(Buffer::new(&self.ctx, "set-up overlay", bytes, MemLoc::CpuToGpu)?);
+            }
+            self.overlay.as_ref().unwrap().write(0, &data)?;
+            regions = runs
+                .into_iter()
+                .map(|(dst, src, n)| vk::BufferCopy {
+                    src_offset: 4 * src,
+                    dst_offset: 4 * dst,
+                    size: 4 * n,
+                })
+                .collect::<Vec<_>>();
+            marks = ov.marks;
+        }
         let (tw, th) = self.target_dims.unwrap_or((0, 0));
         let gs = &mut self.cache[idx].1;
         let ok = gs.update_views(std::slice::from_ref(p.view))?;
@@ -282,6 +317,7 @@ impl FrameRenderer {
         };
         let out = self.out.as_ref().unwrap();
         let (pipes, ctx, target, staging) = (&self.pipes, &self.ctx, &self.target, &self.staging);
+        let overlay_buf = self.overlay.as_ref();
         // Pair search, shading, present and the copy to the window in one submission; redone
         // (with larger tile lists) when a view sees more scratches per tile than the first guess.
         let (stats, timings) = pipes.renderer.submit(&mut self.rec, gs, |rec, gs| {
@@ -294,6 +330,15 @@ impl FrameRenderer {
             );
             rec.barrier();
             rec.timestamp("present");
+            if let (false, Some(src)) = (regions.is_empty(), overlay_buf) {
+                // Over the present pass's bytes; the barrier above ordered the two writes.
+                unsafe {
+                    ctx.device
+                        .cmd_copy_buffer(rec.raw_cmd(), src.raw(), out.raw(), &regions)
+                };
+                rec.barrier();
+                rec.timestamp("overlay");
+            }
             match (swap, blit, staging_idx) {
                 (Some(s), Some(_), Some(i)) => {
                     record_blit(ctx, rec.raw_cmd(), out.raw(), &staging[i], s.image, s.extent, p.nearest);
@@ -316,6 +361,7 @@ impl FrameRenderer {
             timings,
             wall_ms: t0.elapsed().as_secs_f64() * 1e3,
             stats,
+            marks,
         })
     }
 
@@ -326,6 +372,27 @@ impl FrameRenderer {
         let n = out.0 as usize * out.1 as usize;
         Ok(px[..n].iter().map(|p| (p & 0xff) as u8).collect())
     }
+}
+
+impl FrameRenderer {
+    /// The last frame as RGB bytes, top row first (for a screenshot with the coloured overlay).
+    pub fn read_output_rgb(&self, out: (u32, u32)) -> Result<Vec<u8>, GpuError> {
+        let buf = self.out.as_ref().expect("read_output_rgb before any frame");
+        let px: Vec<u32> = self.ctx.download(buf)?;
+        let n = out.0 as usize * out.1 as usize;
+        Ok(px[..n]
+            .iter()
+            .flat_map(|p| [(p & 0xff) as u8, (p >> 8) as u8, (p >> 16) as u8])
+            .collect())
+    }
+}
+
+/// Swapchain formats that store blue in the lowest byte.
+fn is_bgra(f: vk::Format) -> bool {
+    matches!(
+        f,
+        vk::Format::B8G8R8A8_UNORM | vk::Format::B8G8R8A8_SRGB | vk::Format::B8G8R8A8_SNORM
+    )
 }
 
 fn single_view_template(scene: &Scene) -> Scene {

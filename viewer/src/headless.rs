@@ -118,6 +118,7 @@ pub fn screenshot(
         eprintln!("warning: view '{}' has no target image", base.name);
     }
     fr.set_target(target.filter(|_| show_target))?;
+    let setup = opts.setup.then(|| crate::setup::SetupInfo::of(&design.scene));
     // With the target the output doubles in width so the render keeps its resolution.
     let layout = if show_target {
         Layout::new((2 * w, h), fr.target_dims())
@@ -131,11 +132,19 @@ pub fn screenshot(
             exposure: opts.exposure as f32,
             nearest: false,
             show_target,
+            setup: setup.as_ref(),
         },
         None,
     )?;
-    let bytes = fr.read_output_gray(layout.out)?;
-    scratchart::io::write_png_gray(path, layout.out.0, layout.out.1, &bytes)?;
+    if let Some(s) = &setup {
+        println!("{}", s.report());
+        print_marks(&info.marks);
+        let rgb = fr.read_output_rgb(layout.out)?;
+        scratchart::io::write_png_rgb(path, layout.out.0, layout.out.1, &rgb)?;
+    } else {
+        let bytes = fr.read_output_gray(layout.out)?;
+        scratchart::io::write_png_gray(path, layout.out.0, layout.out.1, &bytes)?;
+    }
     eprintln!(
         "wrote {} ({}x{}, view '{}', {:.1} ms on the GPU, {} overlapping pairs)",
         path.display(),
@@ -146,6 +155,22 @@ pub fn screenshot(
         info.stats.pairs
     );
     Ok(())
+}
+
+/// Where the overlay drew each lamp and eye, one stdout line each (pixel coordinates of the
+/// render's rectangle, x to the right and y down from its top-left corner).
+pub fn print_marks(marks: &[crate::overlay::Mark]) {
+    use crate::overlay::Placed;
+    for m in marks {
+        match m.placed {
+            Placed::Marker { x, y } => println!("set-up overlay {}: marker at pixel {x:.4} {y:.4}", m.label),
+            Placed::Edge { x, y, dx, dy } => println!(
+                "set-up overlay {}: arrow at the frame edge, tip at pixel {x:.4} {y:.4}, pointing {dx:.4} {dy:.4}",
+                m.label
+            ),
+            Placed::AtCamera => println!("set-up overlay {}: at this camera", m.label),
+        }
+    }
 }
 
 /// One row of the benchmark table.
@@ -247,6 +272,7 @@ pub fn benchmark(
                         exposure: opts.exposure as f32,
                         nearest: false,
                         show_target: false,
+                        setup: None,
                     },
                     None,
                 )

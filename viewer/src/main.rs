@@ -9,10 +9,15 @@
 //! - [`state`]: the orbit camera and the light rig.
 //! - [`design`]: design files, target images, file watching.
 //! - [`upscale`]: the blit path that upsamples reduced frames onto the swapchain image.
+//! - [`setup`], [`overlay`], [`font`]: the set-up overlay (key S): the lamp and eye positions
+//!   with their numbers, drawn over the plate.
 mod app;
 mod design;
+mod font;
 mod frame;
 mod headless;
+mod overlay;
+mod setup;
 mod state;
 mod swapchain;
 mod upscale;
@@ -35,6 +40,10 @@ macro_rules! keys_text {
   + / -              light orbit speed x1.5 / /1.5
   1 .. 9             jump to design view N's camera and light
   T                  show/hide that view's target image beside the render
+  S                  set-up overlay on/off: the lamp and every designed eye drawn over the
+                     plate (an arrow at the frame's edge when off-screen or behind), the
+                     plate's +x edge (orientation mark), their azimuth, elevation, distance
+                     and x, y, z in mm (also printed to stdout and shown in the title)
   E / shift+E        exposure x1.25 / /1.25
   N                  upscaling while moving: bilinear / nearest
   A                  adaptive resolution while moving: on/off
@@ -86,6 +95,10 @@ pub struct Opts {
     /// Show the view's target image beside the render (key T)
     #[arg(long)]
     pub show_target: bool,
+    /// Show the set-up overlay (key S): the lamp and eye positions over the plate with their
+    /// numbers, which are also printed to stdout. With --screenshot the PNG is RGB
+    #[arg(long)]
+    pub setup: bool,
     /// Start with the light orbiting (key L)
     #[arg(long)]
     pub light_orbit: bool,

@@ -100,6 +100,7 @@ impl App {
                 exposure: self.exposure as f32,
                 nearest: self.nearest,
                 show_target: self.show_target,
+                setup: self.setup.as_ref(),
             },
             Some(SwapImage { image, format, extent }),
         )?;
@@ -202,6 +203,9 @@ impl App {
                 self.exposure,
                 if self.light_orbit { " | light orbiting" } else { "" }
             );
+            if let Some(s) = &self.setup {
+                title += &format!(" | {}", s.title());
+            }
             if let Some(e) = &self.reload_error {
                 title += &format!(" | RELOAD ERROR: {}", e.lines().next().unwrap_or(""));
             }

@@ -9,6 +9,7 @@ use winit::keyboard::{Key, NamedKey};
 
 use super::App;
 use crate::headless;
+use crate::setup::SetupInfo;
 use crate::state::{LightRig, OrbitCamera};
 
 impl App {
@@ -32,6 +33,19 @@ impl App {
         }
         self.bump();
         Ok(())
+    }
+
+    /// Key S: the set-up overlay on or off; turning it on prints the numbers to stdout.
+    pub(super) fn toggle_setup(&mut self) {
+        if self.setup.take().is_none() {
+            let s = SetupInfo::of(&self.design.scene);
+            println!("{}", s.report());
+            self.setup = Some(s);
+        } else {
+            println!("set-up overlay off");
+        }
+        self.last_title = None;
+        self.bump();
     }
 
     fn jump_to_view(&mut self, idx: usize) -> Result<()> {
@@ -99,6 +113,7 @@ impl App {
                 eprintln!("light orbit speed {:.1} deg/s", self.light_speed);
             }
             "t" => self.toggle_target()?,
+            "s" => self.toggle_setup(),
             "e" => {
                 if self.shift {
                     self.exposure /= 1.25;

@@ -24,6 +24,7 @@ use winit::window::Window;
 use crate::design::{dir_fingerprint, mtimes, Design};
 use crate::frame::{FrameRenderer, DIVISORS};
 use crate::headless::{self, BenchRow, BENCH_LEVELS};
+use crate::setup::SetupInfo;
 use crate::state::{LightRig, OrbitCamera};
 use crate::swapchain::Presenter;
 use crate::Opts;
@@ -98,6 +99,8 @@ struct App {
     view_idx: usize,
     exposure: f64,
     show_target: bool,
+    /// The set-up overlay (key S) when on.
+    setup: Option<SetupInfo>,
     light_orbit: bool,
     light_speed: f64,
     nearest: bool,
@@ -156,6 +159,7 @@ impl App {
             shader_fp: shaders.as_deref().map(dir_fingerprint).unwrap_or_default(),
             exposure: opts.exposure,
             show_target: false,
+            setup: None,
             light_orbit: opts.light_orbit,
             light_speed: opts.light_speed,
             nearest: false,
@@ -190,6 +194,9 @@ impl App {
         };
         if app.opts.show_target {
             app.toggle_target()?;
+        }
+        if app.opts.setup {
+            app.toggle_setup();
         }
         Ok(app)
     }

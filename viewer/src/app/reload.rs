@@ -33,6 +33,10 @@ impl App {
                     self.design_mtimes = mtimes(&d.watched);
                     self.design = d;
                     self.view_idx = self.view_idx.min(self.design.scene.views.len() - 1);
+                    if self.setup.is_some() {
+                        self.setup = None;
+                        self.toggle_setup();
+                    }
                     if self.show_target {
                         self.show_target = false;
                         self.fr.set_target(None)?;
