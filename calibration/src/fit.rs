@@ -5,8 +5,12 @@
 //! Forward model, per capture view v: the engine renders the card as the tool cuts it (every
 //! ladder cut and fiducial becomes the scratch model's groove for the tool at its commanded depth,
 //! `simulate::cut_scene`), the linear image is scaled by the exposure E_v, mapped to display
-//! values (1/2.2 power, clipped at 1 as a sensor clips) and blurred by a Gaussian of sigma b px,
-//! as `scratchart-cal simulate` does.
+//! values (1/2.2 power), blurred by a Gaussian of sigma b px and clipped at 1 as a sensor clips,
+//! as `scratchart-cal simulate` does. The Gaussian's centre is moved by a fitted sub-pixel shift
+//! per view: the photometric registration, with no resampling of anything (resampling blurs by an
+//! amount that changes with the sub-pixel phase and biased the groove shapes). Each view is the
+//! camera that took its photo (`fit_cmd`: the capture view, or the camera recovered from the
+//! corner crosses when the photo was taken elsewhere).
 //!
 //! Loss: a robust (Cauchy) sum over the on-card pixels of the capture views, scale
 //! s = 1.4826 MAD of the residuals at the start of each iteration (at least 0.002), so a dust
@@ -36,8 +40,7 @@ use scratchart_tool::Tool;
 use serde::{Deserialize, Serialize};
 
 use super::card::Card;
-use super::register::{warp, Gray};
-use super::simulate::blur;
+use super::simulate::blur_shifted;
 
 /// The tool models the fit knows.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
@@ -93,7 +96,7 @@ fn p(name: &str, lo: f64, hi: f64, step: f64, render: bool, limit: f64) -> Param
 /// The parameter layout of a kind: tool parameters, then alpha, the log exposures and the blur.
 struct Layout {
     kind: Kind,
-    /// The last 6 per view are an affine correction of each photo's registration.
+    /// The last 2 per view are a sub-pixel shift of each view's model (registration).
     reg: bool,
     params: Vec<Param>,
     /// Index of the z offset (none for a profile: its points are in commanded depth).
@@ -137,21 +140,13 @@ impl Layout {
         for v in 0..n_views {
             params.push(p(&format!("ln_exposure[{v}]"), -12.0, 12.0, 0.01, false, 1.0));
         }
-        params.push(p("blur_px", 0.0, 4.0, 0.02, false, 1.0));
+        // At least a quarter pixel: every camera blurs that much (optics, demosaicing), and the
+        // registration shift needs a kernel it can move.
+        params.push(p("blur_px", 0.25, 4.0, 0.02, false, 1.0));
         let reg = if refine_registration {
             for v in 0..n_views {
-                for (k, (step, lim)) in [
-                    (0.05, 2.0),
-                    (0.05, 2.0),
-                    (5e-4, 0.02),
-                    (5e-4, 0.02),
-                    (5e-4, 0.02),
-                    (5e-4, 0.02),
-                ]
-                .into_iter()
-                .enumerate()
-                {
-                    params.push(p(&format!("registration[{v}].{k}"), -lim, lim, step, false, lim));
+                for axis in ["dx", "dy"] {
+                    params.push(p(&format!("registration[{v}].{axis}"), -2.0, 2.0, 0.05, false, 2.0));
                 }
             }
             true
@@ -212,14 +207,14 @@ impl Layout {
     fn blur(&self, x: &[f64]) -> f64 {
         x[self.n_tool + 1 + self.n_views]
     }
-    /// The affine registration correction of view v (zeros without refinement).
-    fn registration(&self, x: &[f64], v: usize) -> [f64; 6] {
-        let mut a = [0.0; 6];
+    /// The registration shift of view v, pixels (zero without refinement).
+    fn shift(&self, x: &[f64], v: usize) -> (f64, f64) {
         if self.reg {
-            let b = self.n_tool + 2 + self.n_views + 6 * v;
-            a.copy_from_slice(&x[b..b + 6]);
+            let b = self.n_tool + 2 + self.n_views + 2 * v;
+            (x[b], x[b + 1])
+        } else {
+            (0.0, 0.0)
         }
-        a
     }
 
     /// A starting point: a typical tool of the kind, offset `off`.
@@ -238,7 +233,7 @@ impl Layout {
         x.extend(std::iter::repeat(0.0).take(self.n_views));
         x.push(0.5);
         if self.reg {
-            x.extend(std::iter::repeat(0.0).take(6 * self.n_views));
+            x.extend(std::iter::repeat(0.0).take(2 * self.n_views));
         }
         x
     }
@@ -261,9 +256,9 @@ pub struct Data<'a> {
     pub photos: Vec<Vec<f32>>,
     /// Pixels that take part: on the card and inside the photo.
     pub masks: Vec<Vec<bool>>,
-    /// Per view, the photo at the view's size and the homography from the fiducials, so the fit
-    /// can refine the registration photometrically (`None`: the photos are used as registered).
-    pub sources: Option<Vec<(Gray, [f64; 9])>>,
+    /// Refine the registration photometrically: a sub-pixel shift of each view's model, fitted
+    /// with the rest (applied as a shifted blur kernel, so nothing is resampled).
+    pub refine_shift: bool,
 }
 
 /// What a fit found.
@@ -375,7 +370,8 @@ impl Evaluator<'_, '_> {
                     .map(|&l| scratchart::io::display_value((l as f64 * e) as f32))
                     .collect();
                 let c = &self.data.capture.views[v].camera;
-                let mut b = blur(&disp, c.width as usize, c.height as usize, self.lay.blur(x));
+                let (dx, dy) = self.lay.shift(x, v);
+                let mut b = blur_shifted(&disp, c.width as usize, c.height as usize, self.lay.blur(x), dx, dy);
                 // The sensor clips, as `simulate` does.
                 for px in &mut b {
                     *px = px.min(1.0);
@@ -398,7 +394,8 @@ impl Evaluator<'_, '_> {
                 .iter()
                 .map(|&l| scratchart::io::display_value((l as f64 * e) as f32))
                 .collect();
-            let b = blur(&disp, c.width as usize, c.height as usize, self.lay.blur(&xx));
+            let (dx, dy) = self.lay.shift(&xx, v);
+            let b = blur_shifted(&disp, c.width as usize, c.height as usize, self.lay.blur(&xx), dx, dy);
             let r: Vec<f64> = b
                 .iter()
                 .zip(&self.data.photos[v])
@@ -428,16 +425,9 @@ impl Evaluator<'_, '_> {
         0.5 * (a + b)
     }
 
-    /// The photo of view v as registered with the correction in `x`.
-    fn photo(&self, x: &[f64], v: usize) -> std::borrow::Cow<'_, [f32]> {
-        match &self.data.sources {
-            Some(src) if self.lay.reg => {
-                let c = &self.data.capture.views[v].camera;
-                let (img, _) = warp(&src[v].0, &src[v].1, &self.lay.registration(x, v), c.width, c.height);
-                std::borrow::Cow::Owned(img)
-            }
-            _ => std::borrow::Cow::Borrowed(&self.data.photos[v]),
-        }
+    /// The photo of view v.
+    fn photo(&self, _x: &[f64], v: usize) -> std::borrow::Cow<'_, [f32]> {
+        std::borrow::Cow::Borrowed(&self.data.photos[v])
     }
 
     /// Residuals (model - photo) over the masked pixels, all views in order.
@@ -642,7 +632,7 @@ pub fn fit_kind(
     cfg: &FitConfig,
     obs: &dyn Observer,
 ) -> Result<FitResult, FitError> {
-    let lay = Layout::new(kind, data.card, data.capture.views.len(), data.sources.is_some());
+    let lay = Layout::new(kind, data.card, data.capture.views.len(), data.refine_shift);
     let mut ev = Evaluator {
         renderer,
         data,
@@ -811,7 +801,7 @@ pub fn fit_kind(
 /// Model display images of a fitted tool and the photos as the fit registered them (for the
 /// residual images).
 pub fn predict(renderer: &Renderer, data: &Data, res: &FitResult) -> Result<(Vec<Vec<f32>>, Vec<Vec<f32>>), FitError> {
-    let lay = Layout::new(res.kind, data.card, data.capture.views.len(), data.sources.is_some());
+    let lay = Layout::new(res.kind, data.card, data.capture.views.len(), data.refine_shift);
     let mut ev = Evaluator {
         renderer,
         data,

@@ -61,15 +61,28 @@ pub fn cut_scene(card: &Card, capture: &Scene, tool: &Tool) -> Scene {
 
 /// Separable Gaussian blur of a `w` x `h` image (clamped edges).
 pub fn blur(img: &[f32], w: usize, h: usize, sigma: f64) -> Vec<f32> {
-    if sigma <= 0.0 {
+    blur_shifted(img, w, h, sigma, 0.0, 0.0)
+}
+
+/// Gaussian blur whose kernel is centred at (dx, dy) pixels: the blurred image moved by a
+/// sub-pixel amount with no interpolation (the fit's registration shift; a resampled photo
+/// would be blurred by an amount that changes with the sub-pixel phase). out(p) =
+/// sum_o k(o - d) img(p + o) / sum_o k(o - d). Sigma below 0.25 px is taken as 0.25 when shifted.
+pub fn blur_shifted(img: &[f32], w: usize, h: usize, sigma: f64, dx: f64, dy: f64) -> Vec<f32> {
+    if sigma <= 0.0 && dx == 0.0 && dy == 0.0 {
         return img.to_vec();
     }
-    let r = (3.0 * sigma).ceil() as i64;
-    let k: Vec<f64> = (-r..=r)
-        .map(|x| (-(x * x) as f64 / (2.0 * sigma * sigma)).exp())
-        .collect();
-    let s: f64 = k.iter().sum();
-    let pass = |src: &[f32], horizontal: bool| -> Vec<f32> {
+    let sigma = if dx == 0.0 && dy == 0.0 { sigma } else { sigma.max(0.25) };
+    let kernel = |d: f64| {
+        let r = (3.0 * sigma + d.abs()).ceil() as i64;
+        let k: Vec<f64> = (-r..=r)
+            .map(|x| (-((x as f64 - d) * (x as f64 - d)) / (2.0 * sigma * sigma)).exp())
+            .collect();
+        let s: f64 = k.iter().sum();
+        (r, k, s)
+    };
+    let pass = |src: &[f32], horizontal: bool, d: f64| -> Vec<f32> {
+        let (r, k, s) = kernel(d);
         let mut out = vec![0f32; src.len()];
         for y in 0..h as i64 {
             for x in 0..w as i64 {
@@ -88,7 +101,7 @@ pub fn blur(img: &[f32], w: usize, h: usize, sigma: f64) -> Vec<f32> {
         }
         out
     };
-    pass(&pass(img, true), false)
+    pass(&pass(img, true, dx), false, dy)
 }
 
 /// Renders the card cut by `tool` from every capture view: display images in [0, 1], one per
