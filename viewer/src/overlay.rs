@@ -191,29 +191,38 @@ impl Overlay {
     fn label(&mut self, x: f64, y: f64, lines: &[String; 2], scale: u32) {
         let (w0, lh) = Self::text_size(&lines[0], scale);
         let (w1, _) = Self::text_size(&lines[1], scale);
-        let tw = w0.max(w1);
+        let (tw, bh) = (w0.max(w1), 2.0 * lh);
+        let (fw, fh) = (self.w as f64, self.h as f64);
+        let fit = |(lx, ly): (f64, f64)| {
+            (
+                lx.clamp(2.0, (fw - 2.0 - tw).max(2.0)),
+                ly.clamp(2.0, (fh - 2.0 - bh).max(2.0)),
+            )
+        };
+        let hits = |(lx, ly): (f64, f64), r: &[f64; 4]| {
+            lx < r[0] + r[2] && r[0] < lx + tw && ly < r[1] + r[3] && r[1] < ly + bh + 2.0
+        };
         let gap = MARKER_R + 4.0;
-        let mut lx = if x + gap + tw <= self.w as f64 - 2.0 {
-            x + gap
-        } else {
-            x - gap - tw
-        };
-        lx = lx.clamp(2.0, (self.w as f64 - 2.0 - tw).max(2.0));
-        let fit = |v: f64| v.clamp(2.0, (self.h as f64 - 2.0 - 2.0 * lh).max(2.0));
-        let free = |ly: f64| {
-            !self
-                .taken
-                .iter()
-                .any(|r| lx < r[0] + r[2] && r[0] < lx + tw && ly < r[1] + r[3] && r[1] < ly + 2.0 * lh + 2.0)
-        };
-        // The nearest free place beside the point, alternately above and below (else beside it).
-        let y0 = fit(y - lh);
-        let step = 2.0 * lh + 3.0;
-        let ly = (0..2 * (self.h as i64 / step as i64 + 1))
-            .map(|k| y0 + if k % 2 == 0 { 1.0 } else { -1.0 } * ((k + 1) / 2) as f64 * step)
-            .filter(|&v| v == fit(v))
-            .find(|&v| free(v))
-            .unwrap_or(y0);
+        let marker = [x - gap + 2.0, y - gap + 2.0, 2.0 * gap - 4.0, 2.0 * gap - 4.0];
+        let free = |p: (f64, f64)| !hits(p, &marker) && !self.taken.iter().any(|r| hits(p, r));
+        // Right of the point, left, below, above; then each of those moved away by one, two, ...
+        // label heights, alternately up and down, until one is free (else right of the point).
+        let cands = [
+            (x + gap, y - lh),
+            (x - gap - tw, y - lh),
+            (x - 0.5 * tw, y + gap),
+            (x - 0.5 * tw, y - gap - bh),
+        ]
+        .map(fit);
+        let step = bh + 3.0;
+        let n = (fh / step) as i64 + 1;
+        let (lx, ly) = (0..2 * n)
+            .flat_map(|k| {
+                let dy = if k % 2 == 0 { 1.0 } else { -1.0 } * ((k + 1) / 2) as f64 * step;
+                cands.iter().map(move |&(cx, cy)| (cx, cy + dy))
+            })
+            .find(|&p| p == fit(p) && free(p))
+            .unwrap_or(cands[0]);
         self.text(lx, ly, &lines[0], scale);
         self.text(lx, ly + lh, &lines[1], scale);
     }
@@ -346,26 +355,6 @@ pub fn draw(info: &SetupInfo, camera: &Camera) -> Overlay {
     let cam = Cam::new(camera);
     let mut o = Overlay::new(camera.width, camera.height);
     let scale = (camera.height / 500).clamp(1, 4);
-    // The +x edge of the plate, clipped to the space in front of the camera.
-    let hp = info.half_plate_mm;
-    let (a, b) = (cam.local([hp, -hp, 0.0]), cam.local([hp, hp, 0.0]));
-    if a[2] >= NEAR_MM || b[2] >= NEAR_MM {
-        let cut = |p: [f64; 3], q: [f64; 3]| {
-            if p[2] >= NEAR_MM {
-                p
-            } else {
-                let t = (NEAR_MM - p[2]) / (q[2] - p[2]);
-                [p[0] + t * (q[0] - p[0]), p[1] + t * (q[1] - p[1]), NEAR_MM]
-            }
-        };
-        o.line(cam.pixel(cut(a, b)), cam.pixel(cut(b, a)), 1.5, MARK);
-        let tag = cam.local([1.2 * hp, 0.0, 0.0]);
-        if tag[2] >= NEAR_MM {
-            let (x, y) = cam.pixel(tag);
-            let (tw, th) = Overlay::text_size("+X", scale);
-            o.text(x - 0.5 * tw, y - 0.5 * th, "+X", scale);
-        }
-    }
     let marks: Vec<Mark> = info
         .points
         .iter()
@@ -392,13 +381,9 @@ pub fn draw(info: &SetupInfo, camera: &Camera) -> Overlay {
     for (m, p) in marks.iter().zip(&info.points) {
         if m.placed == Placed::AtCamera {
             let lines = SetupInfo::label_lines(p);
-            o.text(
-                4.0,
-                legend_y,
-                &format!("{} (THIS CAMERA): {}", lines[0], lines[1]),
-                scale,
-            );
-            legend_y += lh + 2.0;
+            o.text(4.0, legend_y, &format!("{} (THIS CAMERA)", lines[0]), scale);
+            o.text(4.0 + 2.0 * lh, legend_y + lh, &lines[1], scale);
+            legend_y += 2.0 * lh + 2.0;
         }
     }
     for (m, p) in marks.iter().zip(&info.points) {
@@ -408,6 +393,34 @@ pub fn draw(info: &SetupInfo, camera: &Camera) -> Overlay {
             Placed::Edge { x, y, dx, dy } => o.label(x - 24.0 * dx, y - 24.0 * dy, &lines, scale),
             Placed::AtCamera => {}
         }
+    }
+    // The +x edge of the plate (over the labels), clipped to the space in front of the camera,
+    // with "+X" beside its middle, on the side away from the plate.
+    let hp = info.half_plate_mm;
+    let (a, b) = (cam.local([hp, -hp, 0.0]), cam.local([hp, hp, 0.0]));
+    let (mid, out) = (cam.local([hp, 0.0, 0.0]), cam.local([1.1 * hp, 0.0, 0.0]));
+    if mid[2] >= NEAR_MM && out[2] >= NEAR_MM {
+        let ((mx, my), (ox, oy)) = (cam.pixel(mid), cam.pixel(out));
+        let n = (ox - mx).hypot(oy - my).max(1e-9);
+        let (tw, th) = Overlay::text_size("+X", scale);
+        let d = 6.0 + 0.5 * tw.hypot(th);
+        o.text(
+            mx + d * (ox - mx) / n - 0.5 * tw,
+            my + d * (oy - my) / n - 0.5 * th,
+            "+X",
+            scale,
+        );
+    }
+    if a[2] >= NEAR_MM || b[2] >= NEAR_MM {
+        let cut = |p: [f64; 3], q: [f64; 3]| {
+            if p[2] >= NEAR_MM {
+                p
+            } else {
+                let t = (NEAR_MM - p[2]) / (q[2] - p[2]);
+                [p[0] + t * (q[0] - p[0]), p[1] + t * (q[1] - p[1]), NEAR_MM]
+            }
+        };
+        o.line(cam.pixel(cut(a, b)), cam.pixel(cut(b, a)), 1.5, MARK);
     }
     for m in &marks {
         match m.placed {
