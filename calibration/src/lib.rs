@@ -12,7 +12,9 @@
 //! - [`fit`]: the tool's parameters, z offset, wall roughness, exposures and blur fitted to the
 //!   registered photos by rendering the card with the engine; [`fit_cmd`] is `scratchart-cal fit`.
 pub mod card;
+pub mod fiducials;
 pub mod fit;
 pub mod fit_cmd;
+pub mod photo;
 pub mod register;
 pub mod simulate;

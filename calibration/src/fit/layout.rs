@@ -1,0 +1,185 @@
+//! The fitted numbers of each tool kind: names, bounds, difference steps, limits of
+//! identifiability, and the map from the parameter vector to the tool and the camera terms.
+use scratchart_tool::Tool;
+
+use super::super::card::Card;
+use super::Kind;
+
+/// One fitted number: its name, bounds, the forward-difference step, and the uncertainty above
+/// which it counts as not identified.
+#[derive(Clone, Debug)]
+pub(super) struct Param {
+    pub(super) name: String,
+    pub(super) lo: f64,
+    pub(super) hi: f64,
+    pub(super) step: f64,
+    /// Needs a new render when it changes.
+    pub(super) render: bool,
+    pub(super) limit: f64,
+}
+
+fn p(name: &str, lo: f64, hi: f64, step: f64, render: bool, limit: f64) -> Param {
+    Param {
+        name: name.into(),
+        lo,
+        hi,
+        step,
+        render,
+        limit,
+    }
+}
+
+/// The parameter layout of a kind: tool parameters, then alpha, the log exposures and the blur.
+pub(super) struct Layout {
+    pub(super) kind: Kind,
+    /// The last 2 per view are a sub-pixel shift of each view's model (registration).
+    pub(super) reg: bool,
+    pub(super) params: Vec<Param>,
+    /// Index of the z offset (none for a profile: its points are in commanded depth).
+    pub(super) offset: Option<usize>,
+    pub(super) n_tool: usize,
+    pub(super) n_views: usize,
+    /// The card's ladder depths (a profile has one width per depth).
+    pub(super) depths: Vec<f64>,
+}
+
+impl Layout {
+    pub(super) fn new(kind: Kind, card: &Card, n_views: usize, refine_registration: bool) -> Layout {
+        let mut params = match kind {
+            Kind::VBit => vec![
+                p("angle_deg", 5.0, 175.0, 0.2, true, 5.0),
+                p("tip_flat_mm", 0.0, 0.5, 0.0005, true, 0.02),
+                p("z_offset_mm", -0.3, 0.3, 0.0005, true, 0.01),
+            ],
+            Kind::Ball => vec![
+                p("radius_mm", 0.002, 3.0, 0.001, true, 0.05),
+                p("z_offset_mm", -0.3, 0.3, 0.0005, true, 0.01),
+            ],
+            Kind::TaperedBall => vec![
+                p("radius_mm", 0.002, 3.0, 0.001, true, 0.05),
+                p("angle_deg", 5.0, 175.0, 0.2, true, 5.0),
+                p("z_offset_mm", -0.3, 0.3, 0.0005, true, 0.01),
+            ],
+            Kind::Profile => {
+                let mut v: Vec<Param> = card
+                    .depths_mm
+                    .iter()
+                    .map(|z| p(&format!("W_mm@{z}"), 0.0, 2.0, 0.0005, true, 0.02))
+                    .collect();
+                v.push(p("w_over_W", 1.0, 5.0, 0.01, true, 1.0));
+                v
+            }
+        };
+        let offset = params.iter().position(|q| q.name == "z_offset_mm");
+        let n_tool = params.len();
+        params.push(p("alpha", 0.01, 0.6, 0.002, true, 0.1));
+        for v in 0..n_views {
+            params.push(p(&format!("ln_exposure[{v}]"), -12.0, 12.0, 0.01, false, 1.0));
+        }
+        // At least a quarter pixel: every camera blurs that much (optics, demosaicing), and the
+        // registration shift needs a kernel it can move.
+        params.push(p("blur_px", 0.25, 4.0, 0.02, false, 1.0));
+        let reg = if refine_registration {
+            for v in 0..n_views {
+                for axis in ["dx", "dy"] {
+                    params.push(p(&format!("registration[{v}].{axis}"), -2.0, 2.0, 0.05, false, 2.0));
+                }
+            }
+            true
+        } else {
+            false
+        };
+        Layout {
+            reg,
+            kind,
+            params,
+            offset,
+            n_tool,
+            n_views,
+            depths: card.depths_mm.clone(),
+        }
+    }
+
+    pub(super) fn tool(&self, x: &[f64]) -> Tool {
+        match self.kind {
+            Kind::VBit => Tool::VBit {
+                angle_deg: x[0],
+                tip_flat_mm: x[1],
+                z_offset_mm: x[2],
+            },
+            Kind::Ball => Tool::Ball {
+                radius_mm: x[0],
+                z_offset_mm: x[1],
+            },
+            Kind::TaperedBall => Tool::TaperedBall {
+                radius_mm: x[0],
+                angle_deg: x[1],
+                z_offset_mm: x[2],
+            },
+            Kind::Profile => {
+                let n = self.depths.len();
+                let mut w = 0.0f64;
+                let points = (0..n)
+                    .map(|k| {
+                        w = w.max(x[k]);
+                        [self.depths[k], w]
+                    })
+                    .collect();
+                Tool::Profile {
+                    points,
+                    w_over_w: x[n],
+                    z_offset_mm: 0.0,
+                }
+            }
+        }
+    }
+
+    pub(super) fn alpha(&self, x: &[f64]) -> f64 {
+        x[self.n_tool]
+    }
+    pub(super) fn exposure(&self, x: &[f64], v: usize) -> f64 {
+        x[self.n_tool + 1 + v].exp()
+    }
+    pub(super) fn blur(&self, x: &[f64]) -> f64 {
+        x[self.n_tool + 1 + self.n_views]
+    }
+    /// The registration shift of view v, pixels (zero without refinement).
+    pub(super) fn shift(&self, x: &[f64], v: usize) -> (f64, f64) {
+        if self.reg {
+            let b = self.n_tool + 2 + self.n_views + 2 * v;
+            (x[b], x[b + 1])
+        } else {
+            (0.0, 0.0)
+        }
+    }
+
+    /// A starting point: a typical tool of the kind, offset `off`.
+    pub(super) fn start(&self, off: f64, shape: f64) -> Vec<f64> {
+        let mut x: Vec<f64> = match self.kind {
+            Kind::VBit => vec![shape, 0.005, off],
+            Kind::Ball => vec![shape, off],
+            Kind::TaperedBall => vec![0.5 * shape, 60.0, off],
+            Kind::Profile => {
+                let mut v: Vec<f64> = self.depths.iter().map(|z| (z + 0.01).max(0.0) * 1.2).collect();
+                v.push(1.2);
+                v
+            }
+        };
+        x.push(0.1);
+        x.extend(std::iter::repeat(0.0).take(self.n_views));
+        x.push(0.5);
+        if self.reg {
+            x.extend(std::iter::repeat(0.0).take(2 * self.n_views));
+        }
+        x
+    }
+
+    /// Shapes tried at the start (V angles, ball radii).
+    pub(super) fn shapes(&self) -> Vec<f64> {
+        match self.kind {
+            Kind::VBit => vec![35.0, 60.0, 85.0, 110.0],
+            Kind::Ball | Kind::TaperedBall => vec![0.02, 0.04, 0.08, 0.16, 0.32, 0.64],
+            Kind::Profile => vec![0.0],
+        }
+    }
+}

@@ -1,0 +1,176 @@
+//! Photos of the card: PNG or JPEG straight from a phone (any size, colour or grey, EXIF
+//! orientation applied) as grey display values in [0, 1].
+use std::path::Path;
+
+/// A grey image, display values in [0, 1], row-major, top row first.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Gray {
+    pub width: u32,
+    pub height: u32,
+    pub data: Vec<f32>,
+}
+
+impl Gray {
+    pub(crate) fn at(&self, x: i64, y: i64) -> f32 {
+        let xx = x.clamp(0, self.width as i64 - 1) as usize;
+        let yy = y.clamp(0, self.height as i64 - 1) as usize;
+        self.data[yy * self.width as usize + xx]
+    }
+
+    /// Bilinear sample at image point (sx, sy) (pixel (i, j) covers [i, i+1] x [j, j+1]);
+    /// `None` outside the image.
+    pub fn sample(&self, sx: f64, sy: f64) -> Option<f32> {
+        if !(sx >= 0.0 && sy >= 0.0 && sx <= self.width as f64 && sy <= self.height as f64) {
+            return None;
+        }
+        let (x, y) = (sx - 0.5, sy - 0.5);
+        let (x0, y0) = (x.floor(), y.floor());
+        let (fx, fy) = ((x - x0) as f32, (y - y0) as f32);
+        let (x0, y0) = (x0 as i64, y0 as i64);
+        let top = self.at(x0, y0) * (1.0 - fx) + self.at(x0 + 1, y0) * fx;
+        let bot = self.at(x0, y0 + 1) * (1.0 - fx) + self.at(x0 + 1, y0 + 1) * fx;
+        Some(top * (1.0 - fy) + bot * fy)
+    }
+}
+
+impl Gray {
+    /// Catmull-Rom (cubic) sample at image point (sx, sy): it smooths far less than bilinear
+    /// sampling, whose blur changes with the sub-pixel phase and would bias the fit's groove
+    /// shapes. `None` outside the image.
+    pub fn sample_cubic(&self, sx: f64, sy: f64) -> Option<f32> {
+        if !(sx >= 0.0 && sy >= 0.0 && sx <= self.width as f64 && sy <= self.height as f64) {
+            return None;
+        }
+        let (x, y) = (sx - 0.5, sy - 0.5);
+        let (x0, y0) = (x.floor(), y.floor());
+        let (fx, fy) = (x - x0, y - y0);
+        let k = |t: f64| {
+            let (t2, t3) = (t * t, t * t * t);
+            [
+                -0.5 * t3 + t2 - 0.5 * t,
+                1.5 * t3 - 2.5 * t2 + 1.0,
+                -1.5 * t3 + 2.0 * t2 + 0.5 * t,
+                0.5 * t3 - 0.5 * t2,
+            ]
+        };
+        let (kx, ky) = (k(fx), k(fy));
+        let (x0, y0) = (x0 as i64, y0 as i64);
+        let mut acc = 0.0f64;
+        for (j, wy) in ky.iter().enumerate() {
+            let mut row = 0.0f64;
+            for (i, wx) in kx.iter().enumerate() {
+                row += wx * self.at(x0 - 1 + i as i64, y0 - 1 + j as i64) as f64;
+            }
+            acc += wy * row;
+        }
+        Some(acc as f32)
+    }
+}
+
+/// Reads a photo as grey display values: PNG or JPEG, 8 or 16 bit, colour or grey, with the
+/// EXIF orientation applied (a phone stores portrait shots turned).
+pub fn load_photo(path: &Path) -> Result<Gray, String> {
+    use image::ImageDecoder as _;
+    let name = path.display();
+    let reader = image::ImageReader::open(path)
+        .map_err(|e| format!("cannot read photo `{name}`: {e}"))?
+        .with_guessed_format()
+        .map_err(|e| format!("cannot read photo `{name}`: {e}"))?;
+    let mut decoder = reader
+        .into_decoder()
+        .map_err(|e| format!("photo `{name}` is not a PNG or JPEG image I can read: {e}"))?;
+    let orientation = decoder
+        .orientation()
+        .unwrap_or(image::metadata::Orientation::NoTransforms);
+    let mut img =
+        image::DynamicImage::from_decoder(decoder).map_err(|e| format!("photo `{name}` cannot be decoded: {e}"))?;
+    img.apply_orientation(orientation);
+    let g = img.to_luma32f();
+    if g.width() < 16 || g.height() < 16 {
+        return Err(format!(
+            "photo `{name}` is {}x{} pixels: too small to show the card",
+            g.width(),
+            g.height()
+        ));
+    }
+    Ok(Gray {
+        width: g.width(),
+        height: g.height(),
+        data: g.into_raw(),
+    })
+}
+
+/// The photo resampled to `w` x `h` (area-weighted when shrinking).
+pub fn resize(img: &Gray, w: u32, h: u32) -> Gray {
+    if img.width == w && img.height == h {
+        return img.clone();
+    }
+    let buf = image::ImageBuffer::<image::Luma<f32>, Vec<f32>>::from_raw(img.width, img.height, img.data.clone())
+        .expect("sizes match");
+    let out = image::imageops::resize(&buf, w, h, image::imageops::FilterType::Triangle);
+    Gray {
+        width: w,
+        height: h,
+        data: out.into_raw(),
+    }
+}
+
+#[cfg(test)]
+mod photo_tests {
+    use super::*;
+
+    /// A colour JPEG straight from a phone: stored turned, with the EXIF orientation tag saying
+    /// how to show it. It reads back upright and grey.
+    #[test]
+    fn a_turned_colour_jpeg_reads_back_upright() {
+        use image::ImageEncoder as _;
+        // Upright: 64 x 32, bright (red) top-left quadrant on a dark background.
+        let upright = image::RgbImage::from_fn(64, 32, |x, y| {
+            if x < 32 && y < 16 {
+                image::Rgb([250, 40, 40])
+            } else {
+                image::Rgb([20, 20, 20])
+            }
+        });
+        // Stored turned a quarter counter-clockwise; orientation 6 tells a viewer to turn it back.
+        let stored = image::imageops::rotate270(&upright);
+        // EXIF (TIFF, big-endian): one IFD entry, Orientation (0x0112), SHORT, 1, value 6.
+        let exif: Vec<u8> = vec![
+            b'M', b'M', 0, 42, 0, 0, 0, 8, // header, IFD at 8
+            0, 1, // one entry
+            0x01, 0x12, 0, 3, 0, 0, 0, 1, 0, 6, 0, 0, // Orientation = 6
+            0, 0, 0, 0, // no next IFD
+        ];
+        let mut buf = Vec::new();
+        let mut enc = image::codecs::jpeg::JpegEncoder::new_with_quality(&mut buf, 95);
+        enc.set_exif_metadata(exif).unwrap();
+        enc.write_image(
+            stored.as_raw(),
+            stored.width(),
+            stored.height(),
+            image::ExtendedColorType::Rgb8,
+        )
+        .unwrap();
+        let dir = std::env::temp_dir().join(format!("scratchart-photo-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let p = dir.join("phone.jpg");
+        std::fs::write(&p, &buf).unwrap();
+        let g = load_photo(&p).unwrap();
+        assert_eq!((g.width, g.height), (64, 32), "the orientation was not applied");
+        let mean = |x0: u32, y0: u32| {
+            let mut s = 0.0;
+            for y in y0 + 4..y0 + 12 {
+                for x in x0 + 8..x0 + 24 {
+                    s += g.data[(y * 64 + x) as usize];
+                }
+            }
+            s / (8.0 * 16.0)
+        };
+        let (tl, tr, bl) = (mean(0, 0), mean(32, 0), mean(0, 16));
+        assert!(
+            tl > 0.25 && tr < 0.12 && bl < 0.12,
+            "top-left {tl}, top-right {tr}, bottom-left {bl}"
+        );
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+}
