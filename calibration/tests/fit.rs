@@ -165,16 +165,32 @@ fn registers_off_pose_photos_to_the_capture_views() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
+/// Photographs the card cut by `truth` (from the capture views, or off them when `off_pose`) as
+/// `cam` would, and fits `kind` to the photos: the fitted tool, the fit record, the directory
+/// (tool.json in `DIR/fit/`). Every test checks validation messages.
+fn recover(tag: &str, truth: &Tool, cam: &Camera, off_pose: bool, kind: &str) -> (Tool, serde_json::Value, PathBuf) {
+    let ctx = gpu();
+    let r = Renderer::new(&ctx).unwrap();
+    let dir = tmp(tag);
+    let (card, capture, card_path) = card(&dir);
+    let views = if off_pose {
+        posed(&capture.views, 6.0, 1.04)
+    } else {
+        capture.views.clone()
+    };
+    let imgs = shoot(&r, &card, &capture, views, truth, cam, &dir);
+    let (tool, record) = fit(&r, &card_path, imgs, kind, &dir.join("fit/tool.json")).unwrap();
+    eprintln!("fitted {tool:?}; record {record}");
+    assert_no_validation(&ctx);
+    (tool, record, dir)
+}
+
 /// A V-bit photographed off the capture pose (moved 6 mm, aimed off centre, zoomed 4%) with
 /// another exposure, blur and noise: angle within 1 degree, tip flat within 5 um, z offset within
 /// 3 um, exposure within 3%; the fit reaches the noise floor and writes tool.json with its
 /// record, the residual images and the plot.
 #[test]
 fn recovers_a_v_bit_from_degraded_off_pose_photos() {
-    let ctx = gpu();
-    let r = Renderer::new(&ctx).unwrap();
-    let dir = tmp("vbit");
-    let (card, capture, card_path) = card(&dir);
     let truth = Tool::VBit {
         angle_deg: 75.0,
         tip_flat_mm: 0.012,
@@ -186,18 +202,7 @@ fn recovers_a_v_bit_from_degraded_off_pose_photos() {
         noise: 0.008,
         seed: 7,
     };
-    let imgs = shoot(
-        &r,
-        &card,
-        &capture,
-        posed(&capture.views, 6.0, 1.04),
-        &truth,
-        &cam,
-        &dir,
-    );
-    let out = dir.join("fit/tool.json");
-    let (tool, record) = fit(&r, &card_path, imgs, "v-bit", &out).unwrap();
-    eprintln!("fitted {tool:?}; record {record}");
+    let (tool, record, dir) = recover("vbit", &truth, &cam, true, "v-bit");
     let Tool::VBit {
         angle_deg,
         tip_flat_mm,
@@ -223,17 +228,12 @@ fn recovers_a_v_bit_from_degraded_off_pose_photos() {
     ] {
         assert!(dir.join("fit").join(f).is_file(), "{f} missing");
     }
-    assert_no_validation(&ctx);
     let _ = std::fs::remove_dir_all(&dir);
 }
 
 /// A ball cutter below commanded zero: radius within 5 um, z offset within 3 um.
 #[test]
 fn recovers_a_ball_cutter() {
-    let ctx = gpu();
-    let r = Renderer::new(&ctx).unwrap();
-    let dir = tmp("ball");
-    let (card, capture, card_path) = card(&dir);
     let truth = Tool::Ball {
         radius_mm: 0.08,
         z_offset_mm: -0.002,
@@ -244,15 +244,12 @@ fn recovers_a_ball_cutter() {
         noise: 0.006,
         seed: 3,
     };
-    let imgs = shoot(&r, &card, &capture, capture.views.clone(), &truth, &cam, &dir);
-    let (tool, _) = fit(&r, &card_path, imgs, "ball", &dir.join("tool.json")).unwrap();
-    eprintln!("fitted {tool:?}");
+    let (tool, _, dir) = recover("ball", &truth, &cam, false, "ball");
     let Tool::Ball { radius_mm, z_offset_mm } = tool else {
         panic!("{tool:?}")
     };
     assert!((radius_mm - 0.08).abs() < 0.005, "radius {radius_mm}");
     assert!((z_offset_mm + 0.002).abs() < 0.003, "z offset {z_offset_mm}");
-    assert_no_validation(&ctx);
     let _ = std::fs::remove_dir_all(&dir);
 }
 
@@ -260,10 +257,6 @@ fn recovers_a_ball_cutter() {
 /// within 3 um. (The issue sets no bar for its cone angle; it is printed.)
 #[test]
 fn recovers_a_tapered_ball() {
-    let ctx = gpu();
-    let r = Renderer::new(&ctx).unwrap();
-    let dir = tmp("tapered");
-    let (card, capture, card_path) = card(&dir);
     let truth = Tool::TaperedBall {
         radius_mm: 0.03,
         angle_deg: 40.0,
@@ -275,9 +268,7 @@ fn recovers_a_tapered_ball() {
         noise: 0.006,
         seed: 11,
     };
-    let imgs = shoot(&r, &card, &capture, capture.views.clone(), &truth, &cam, &dir);
-    let (tool, _) = fit(&r, &card_path, imgs, "tapered-ball", &dir.join("tool.json")).unwrap();
-    eprintln!("fitted {tool:?}");
+    let (tool, _, dir) = recover("tapered", &truth, &cam, false, "tapered-ball");
     let Tool::TaperedBall {
         radius_mm, z_offset_mm, ..
     } = tool
@@ -286,7 +277,6 @@ fn recovers_a_tapered_ball() {
     };
     assert!((radius_mm - 0.03).abs() < 0.005, "radius {radius_mm}");
     assert!((z_offset_mm - 0.002).abs() < 0.003, "z offset {z_offset_mm}");
-    assert_no_validation(&ctx);
     let _ = std::fs::remove_dir_all(&dir);
 }
 
