@@ -3,14 +3,15 @@
 //! with the engine.
 //!
 //! Forward model, per capture view v: the engine renders the card as the tool cuts it (every
-//! ladder cut and fiducial becomes the scratch model's groove for the tool at its commanded depth,
-//! `simulate::cut_scene`), the linear image is scaled by the exposure E_v, mapped to display
-//! values (1/2.2 power), blurred by a Gaussian of sigma b px and clipped at 1 as a sensor clips,
-//! as `scratchart-cal simulate` does. The Gaussian's centre is moved by a fitted sub-pixel shift
-//! per view: the photometric registration, with no resampling of anything (resampling blurs by an
-//! amount that changes with the sub-pixel phase and biased the groove shapes). Each view is the
-//! camera that took its photo (`fit_cmd`: the capture view, or the camera recovered from the
-//! corner crosses when the photo was taken elsewhere).
+//! ladder cut and fiducial becomes the scratch model's groove for the tool at its commanded depth),
+//! the linear image is blurred by a Gaussian of sigma b px (the optics blur light, before the
+//! sensor), scaled by the exposure E_v, mapped to display values (1/2.2 power) and clipped at 1 as
+//! a sensor clips, as `scratchart-cal simulate` does. The Gaussian's centre is moved by a fitted
+//! sub-pixel shift per view: the photometric registration, with no resampling of anything
+//! (resampling blurs by an amount that changes with the sub-pixel phase and biased the groove
+//! shapes). Each view is the camera that took its photo (`fit_cmd`: the capture view, or the
+//! camera recovered from the corner crosses when the photo was taken elsewhere), at the photo's
+//! size after shrinking in linear light.
 //!
 //! Loss: a robust (Cauchy) sum over the on-card pixels of the capture views, scale
 //! s = 1.4826 MAD of the residuals at the start of each iteration (at least 0.002), so a dust
@@ -186,24 +187,20 @@ impl Evaluator<'_, '_> {
         Ok(frame.images)
     }
 
-    /// Model display images from linear renders and the camera part of `x`.
+    /// Model display images from linear renders and the camera part of `x`: the optics blur
+    /// light (a Gaussian on the linear image, moved by the registration shift), the exposure
+    /// scales it, the display transform encodes it and the sensor clips, as `simulate` does.
     fn predict(&self, lin: &[Vec<f32>], x: &[f64]) -> Vec<Vec<f32>> {
         lin.iter()
             .enumerate()
             .map(|(v, img)| {
                 let e = self.lay.exposure(x, v);
-                let disp: Vec<f32> = img
-                    .iter()
-                    .map(|&l| scratchart::io::display_value((l as f64 * e) as f32))
-                    .collect();
                 let c = &self.data.capture.views[v].camera;
                 let (dx, dy) = self.lay.shift(x, v);
-                let mut b = blur_shifted(&disp, c.width as usize, c.height as usize, self.lay.blur(x), dx, dy);
-                // The sensor clips, as `simulate` does.
-                for px in &mut b {
-                    *px = px.min(1.0);
-                }
-                b
+                let b = blur_shifted(img, c.width as usize, c.height as usize, self.lay.blur(x), dx, dy);
+                b.iter()
+                    .map(|&l| scratchart::io::display_value((l as f64 * e) as f32).min(1.0))
+                    .collect()
             })
             .collect()
     }
@@ -211,24 +208,17 @@ impl Evaluator<'_, '_> {
     /// The log exposure of view `v` that fits its photo best with the rest of `x` (a scan in
     /// steps of 1 over [-10, 10], then golden-section search; no render).
     fn best_exposure(&self, v: usize, lin: &[f32], x: &[f64]) -> f64 {
-        let k = self.lay.n_tool + 1 + v;
         let c = &self.data.capture.views[v].camera;
+        let (dx, dy) = self.lay.shift(x, v);
+        let b = blur_shifted(lin, c.width as usize, c.height as usize, self.lay.blur(x), dx, dy);
         let cost = |le: f64| {
-            let mut xx = x.to_vec();
-            xx[k] = le;
-            let e = self.lay.exposure(&xx, v);
-            let disp: Vec<f32> = lin
-                .iter()
-                .map(|&l| scratchart::io::display_value((l as f64 * e) as f32))
-                .collect();
-            let (dx, dy) = self.lay.shift(&xx, v);
-            let b = blur_shifted(&disp, c.width as usize, c.height as usize, self.lay.blur(&xx), dx, dy);
+            let e = le.exp();
             let r: Vec<f64> = b
                 .iter()
                 .zip(&self.data.photos[v])
                 .zip(&self.data.masks[v])
                 .filter(|(_, m)| **m)
-                .map(|((m, p), _)| (m.min(1.0) - p) as f64)
+                .map(|((l, p), _)| (scratchart::io::display_value((*l as f64 * e) as f32).min(1.0) - p) as f64)
                 .collect();
             cauchy(&r, 0.01)
         };

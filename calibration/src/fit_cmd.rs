@@ -84,8 +84,11 @@ pub fn run(renderer: &Renderer, args: &FitArgs, obs: &dyn Observer) -> Result<()
     let half = 0.5 * capture.plate.size_mm;
     for (v, f) in capture.views.iter().zip(&files) {
         let img = load_photo(f).map_err(InputError)?;
-        // The photo at the capture view's height, its own aspect kept (square pixels).
+        // The photo at the capture view's height (or its own, if smaller: it is never enlarged),
+        // its own aspect kept (square pixels); shrunk in linear light, as the render's pixels add
+        // light up.
         let mut v = v.clone();
+        v.camera.height = v.camera.height.min(img.height);
         v.camera.width = ((v.camera.height as f64 * img.width as f64 / img.height as f64).round() as u32).max(16);
         let small = super::register::resize(&img, v.camera.width, v.camera.height);
         let saturated = |px: &[f32], mask: Option<&[bool]>| {

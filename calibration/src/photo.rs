@@ -100,18 +100,56 @@ pub fn load_photo(path: &Path) -> Result<Gray, String> {
     })
 }
 
-/// The photo resampled to `w` x `h` (area-weighted when shrinking).
+/// The photo resampled to `w` x `h` as the engine's pixels would see it: each output pixel is the
+/// exact area average of the input pixels it covers, taken in linear light (display values are
+/// raised to 2.2, averaged, and encoded again), because a pixel of the render integrates light
+/// over its footprint. Averaging display values instead would dim thin bright grooves and bias
+/// the fit. Enlarging (a photo smaller than the view) uses the same rule: each output pixel takes
+/// the input pixels under it.
 pub fn resize(img: &Gray, w: u32, h: u32) -> Gray {
     if img.width == w && img.height == h {
         return img.clone();
     }
-    let buf = image::ImageBuffer::<image::Luma<f32>, Vec<f32>>::from_raw(img.width, img.height, img.data.clone())
-        .expect("sizes match");
-    let out = image::imageops::resize(&buf, w, h, image::imageops::FilterType::Triangle);
+    let (sx, sy) = (img.width as f64 / w as f64, img.height as f64 / h as f64);
+    // Per output column (row): the input columns (rows) it covers and their overlap weights.
+    let spans = |n_out: u32, scale: f64, n_in: u32| -> Vec<Vec<(usize, f64)>> {
+        (0..n_out)
+            .map(|o| {
+                let (a, b) = (o as f64 * scale, (o + 1) as f64 * scale);
+                let mut v = Vec::new();
+                let mut i = a.floor() as i64;
+                while (i as f64) < b && i < n_in as i64 {
+                    let lo = a.max(i as f64);
+                    let hi = b.min(i as f64 + 1.0);
+                    if hi > lo && i >= 0 {
+                        v.push((i as usize, (hi - lo) / (b - a)));
+                    }
+                    i += 1;
+                }
+                v
+            })
+            .collect()
+    };
+    let (cols, rows) = (spans(w, sx, img.width), spans(h, sy, img.height));
+    let lin: Vec<f64> = img.data.iter().map(|&d| (d.max(0.0) as f64).powf(2.2)).collect();
+    let iw = img.width as usize;
+    let mut tmp = vec![0.0f64; w as usize * img.height as usize];
+    for y in 0..img.height as usize {
+        for (x, span) in cols.iter().enumerate() {
+            tmp[y * w as usize + x] = span.iter().map(|&(i, wt)| wt * lin[y * iw + i]).sum();
+        }
+    }
+    let mut data = vec![0f32; (w * h) as usize];
+    for (y, span) in rows.iter().enumerate() {
+        for x in 0..w as usize {
+            let l: f64 = span.iter().map(|&(j, wt)| wt * tmp[j * w as usize + x]).sum();
+            data[y * w as usize + x] = l.powf(1.0 / 2.2) as f32;
+        }
+    }
     Gray {
         width: w,
         height: h,
-        data: out.into_raw(),
+        data,
     }
 }
 
@@ -172,5 +210,31 @@ mod photo_tests {
             "top-left {tl}, top-right {tr}, bottom-left {bl}"
         );
         let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    /// Shrinking keeps the light (area average in linear light): a one-pixel bright line in a
+    /// 4x image keeps its total light in the 1x image.
+    #[test]
+    fn shrinking_averages_light_not_display_values() {
+        let mut data = vec![0.0f32; 16 * 16];
+        for y in 0..16 {
+            data[y * 16 + 5] = 1.0; // a bright column
+        }
+        let g = Gray {
+            width: 16,
+            height: 16,
+            data,
+        };
+        let s = resize(&g, 4, 4);
+        // Column 5 falls in output column 1 and covers a quarter of it: linear 0.25.
+        let expect = 0.25f64.powf(1.0 / 2.2) as f32;
+        for y in 0..4 {
+            assert!((s.data[y * 4 + 1] - expect).abs() < 1e-6, "{}", s.data[y * 4 + 1]);
+            assert_eq!(s.data[y * 4], 0.0);
+        }
+        // A non-integer factor keeps the total light too.
+        let t = resize(&g, 6, 6);
+        let total: f64 = t.data.iter().map(|&d| (d as f64).powf(2.2)).sum::<f64>() * (16.0 * 16.0) / 36.0;
+        assert!((total - 16.0).abs() < 1e-6, "{total}");
     }
 }

@@ -1,7 +1,8 @@
 //! The card as a tool would cut it, photographed from each capture view: every cut becomes the
 //! scratch model's groove for that tool at its commanded depth (`scratchart_tool::Tool::model`),
 //! the engine renders each capture view, and the display image is degraded as a camera would:
-//! an exposure factor, a small Gaussian blur and Gaussian noise (seeded, so reproducible).
+//! a Gaussian blur of the light (optics, before the sensor), an exposure factor, the display
+//! encoding and Gaussian noise on the encoded values (seeded, so reproducible).
 use scratchart::model::scene::{Scene, Scratch};
 use scratchart::render::Renderer;
 use scratchart::scenes::Rng;
@@ -122,12 +123,10 @@ pub fn photos(
         .iter()
         .zip(&scene.views)
         .map(|(img, v)| {
-            let disp: Vec<f32> = img
-                .iter()
-                .map(|&l| scratchart::io::display_value((l as f64 * camera.exposure) as f32))
-                .collect();
-            let b = blur(&disp, v.camera.width as usize, v.camera.height as usize, camera.blur_px);
+            // The optics blur light (linear), then the exposure and the display encoding.
+            let b = blur(img, v.camera.width as usize, v.camera.height as usize, camera.blur_px);
             b.into_iter()
+                .map(|l| scratchart::io::display_value((l as f64 * camera.exposure) as f32))
                 .map(|x| {
                     // Box-Muller from the project's generator (reproducible).
                     let n = if camera.noise > 0.0 {
