@@ -87,6 +87,9 @@ pub struct Data<'a> {
     /// Refine the registration photometrically: a sub-pixel shift of each view's model, fitted
     /// with the rest (applied as a shifted blur kernel, so nothing is resampled).
     pub refine_shift: bool,
+    /// Per view: fit its eye position (a photo taken off the capture pose, whose camera came from
+    /// the corner crosses).
+    pub refine_pose: Vec<bool>,
 }
 
 /// What a fit found.
@@ -169,14 +172,32 @@ impl Evaluator<'_, '_> {
     fn render(&mut self, x: &[f64]) -> Result<Vec<Vec<f32>>, FitError> {
         let scratches = self.scratches(&self.lay.tool(x), self.lay.alpha(x));
         let ctx = self.renderer.ctx.clone();
+        let views: Vec<_> = self
+            .data
+            .capture
+            .views
+            .iter()
+            .enumerate()
+            .map(|(v, view)| {
+                let mut view = view.clone();
+                let d = self.lay.eye(x, v);
+                for k in 0..3 {
+                    view.camera.eye[k] += d[k];
+                }
+                view
+            })
+            .collect();
         let reuse = match &mut self.gs {
-            Some(gs) => gs.update_scratches(&ctx, &scratches).map_err(anyhow::Error::from)?,
+            Some(gs) => {
+                gs.update_scratches(&ctx, &scratches).map_err(anyhow::Error::from)?
+                    && gs.update_views(&views).map_err(anyhow::Error::from)?
+            }
             None => false,
         };
         if !reuse {
             let scene = Scene {
                 plate: self.data.capture.plate.clone(),
-                views: self.data.capture.views.clone(),
+                views,
                 scratches,
             };
             self.gs = Some(self.renderer.upload(&scene).map_err(anyhow::Error::from)?);
@@ -293,7 +314,13 @@ pub fn fit_kind(
     cfg: &FitConfig,
     obs: &dyn Observer,
 ) -> Result<FitResult, FitError> {
-    let lay = Layout::new(kind, data.card, data.capture.views.len(), data.refine_shift);
+    let lay = Layout::new(
+        kind,
+        data.card,
+        data.capture.views.len(),
+        data.refine_shift,
+        &data.refine_pose,
+    );
     let mut ev = Evaluator {
         renderer,
         data,
@@ -462,7 +489,13 @@ pub fn fit_kind(
 /// Model display images of a fitted tool and the photos as the fit registered them (for the
 /// residual images).
 pub fn predict(renderer: &Renderer, data: &Data, res: &FitResult) -> Result<(Vec<Vec<f32>>, Vec<Vec<f32>>), FitError> {
-    let lay = Layout::new(res.kind, data.card, data.capture.views.len(), data.refine_shift);
+    let lay = Layout::new(
+        res.kind,
+        data.card,
+        data.capture.views.len(),
+        data.refine_shift,
+        &data.refine_pose,
+    );
     let mut ev = Evaluator {
         renderer,
         data,

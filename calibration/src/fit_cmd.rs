@@ -81,6 +81,7 @@ pub fn run(renderer: &Renderer, args: &FitArgs, obs: &dyn Observer) -> Result<()
     let mut photos = Vec::new();
     let mut masks = Vec::new();
     let mut fit_views = Vec::new();
+    let mut refine_pose = Vec::new();
     let half = 0.5 * capture.plate.size_mm;
     for (v, f) in capture.views.iter().zip(&files) {
         let img = load_photo(f).map_err(InputError)?;
@@ -151,6 +152,7 @@ pub fn run(renderer: &Renderer, args: &FitArgs, obs: &dyn Observer) -> Result<()
         photos.push(small.data.clone());
         masks.push(mask);
         fit_views.push(fv);
+        refine_pose.push(reg.pose_offset_px > 2.0);
     }
     let fit_scene = scratchart::model::scene::Scene {
         plate: capture.plate.clone(),
@@ -167,6 +169,7 @@ pub fn run(renderer: &Renderer, args: &FitArgs, obs: &dyn Observer) -> Result<()
         photos,
         masks,
         refine_shift: true,
+        refine_pose,
     };
     let init = match &args.init {
         Some(p) => {
@@ -242,7 +245,7 @@ pub fn run(renderer: &Renderer, args: &FitArgs, obs: &dyn Observer) -> Result<()
         }
     }
     for (name, v, sd) in &best.params {
-        if name.starts_with("ln_exposure") || name.starts_with("registration") {
+        if name.starts_with("ln_exposure") || name.starts_with("registration") || name.starts_with("eye[") {
             continue;
         }
         match sd {
@@ -269,7 +272,7 @@ pub fn run(renderer: &Renderer, args: &FitArgs, obs: &dyn Observer) -> Result<()
         "loss": best.loss,
         "rms_residual": best.rms,
         "pixels": best.pixels,
-        "uncertainty": best.params.iter().filter(|p| !p.0.starts_with("ln_exposure") && !p.0.starts_with("registration"))
+        "uncertainty": best.params.iter().filter(|p| !p.0.starts_with("ln_exposure") && !p.0.starts_with("registration") && !p.0.starts_with("eye["))
             .map(|p| (p.0.clone(), p.2.map_or(json!("not identified"), |s| json!(s)))).collect::<serde_json::Map<_, _>>(),
         "not_identified": best.unidentified(),
         "exposure": best.exposure,

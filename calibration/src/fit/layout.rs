@@ -34,6 +34,8 @@ pub(super) struct Layout {
     pub(super) kind: Kind,
     /// The last 2 per view are a sub-pixel shift of each view's model (registration).
     pub(super) reg: bool,
+    /// Per view, the index of its eye correction (x, y, z in mm), if it is fitted.
+    pub(super) pose_at: Vec<Option<usize>>,
     pub(super) params: Vec<Param>,
     /// Index of the z offset (none for a profile: its points are in commanded depth).
     pub(super) offset: Option<usize>,
@@ -44,7 +46,7 @@ pub(super) struct Layout {
 }
 
 impl Layout {
-    pub(super) fn new(kind: Kind, card: &Card, n_views: usize, refine_registration: bool) -> Layout {
+    pub(super) fn new(kind: Kind, card: &Card, n_views: usize, refine_registration: bool, pose: &[bool]) -> Layout {
         let mut params = match kind {
             Kind::VBit => vec![
                 p("angle_deg", 5.0, 175.0, 0.2, true, 5.0),
@@ -89,7 +91,19 @@ impl Layout {
         } else {
             false
         };
+        // The eye of a photo taken off the capture pose: its camera comes from four crosses, whose
+        // focal length and distance trade; the light on the grooves tells where the eye was.
+        let mut pose_at = vec![None; n_views];
+        for (v, &on) in pose.iter().enumerate().take(n_views) {
+            if on {
+                pose_at[v] = Some(params.len());
+                for axis in ["x", "y", "z"] {
+                    params.push(p(&format!("eye[{v}].{axis}_mm"), -20.0, 20.0, 0.5, true, 20.0));
+                }
+            }
+        }
         Layout {
+            pose_at,
             reg,
             kind,
             params,
@@ -171,7 +185,16 @@ impl Layout {
         if self.reg {
             x.extend(std::iter::repeat(0.0).take(2 * self.n_views));
         }
+        x.extend(std::iter::repeat(0.0).take(3 * self.pose_at.iter().flatten().count()));
         x
+    }
+
+    /// The eye correction of view v, mm (zero when its eye is not fitted).
+    pub(super) fn eye(&self, x: &[f64], v: usize) -> [f64; 3] {
+        match self.pose_at[v] {
+            Some(i) => [x[i], x[i + 1], x[i + 2]],
+            None => [0.0; 3],
+        }
     }
 
     /// Shapes tried at the start (V angles, ball radii).
