@@ -455,15 +455,27 @@ pub fn fit_kind(
     let np = ev.lay.params.len();
     let wsum: f64 = r.iter().zip(&wts).map(|(e, w)| w * e * e).sum();
     let s2 = wsum / (n.saturating_sub(np)).max(1) as f64;
-    // Covariance: s2 (J^T W J)^-1, column by column.
+    // Covariance: s2 (J^T W J)^-1, column by column, over the parameters the photos see at all
+    // (a zero column, such as a profile width above the surface, is not identified and would
+    // make the whole matrix singular).
+    let max_diag = (0..np).map(|i| jtj[i][i]).fold(0.0f64, f64::max);
+    let seen: Vec<usize> = (0..np).filter(|&i| jtj[i][i] > 1e-12 * max_diag).collect();
+    let reduced: Vec<Vec<f64>> = seen
+        .iter()
+        .map(|&i| seen.iter().map(|&j| jtj[i][j]).collect())
+        .collect();
     let mut params = Vec::with_capacity(np);
     for k in 0..np {
-        let mut e = vec![0.0; np];
-        e[k] = 1.0;
-        let col = solve_spd(&jtj, &e);
-        let var = col.map(|c| s2 * c[k]).filter(|v| v.is_finite() && *v >= 0.0);
         let q = &ev.lay.params[k];
-        let sd = var.map(f64::sqrt).filter(|sd| *sd <= q.limit);
+        let sd = seen.iter().position(|&i| i == k).and_then(|pos| {
+            let mut e = vec![0.0; seen.len()];
+            e[pos] = 1.0;
+            let col = solve_spd(&reduced, &e)?;
+            let var = s2 * col[pos];
+            (var.is_finite() && var >= 0.0)
+                .then(|| var.sqrt())
+                .filter(|sd| *sd <= q.limit)
+        });
         params.push((q.name.clone(), x[k], sd));
     }
     let rms = (r.iter().map(|e| e * e).sum::<f64>() / n as f64).sqrt();

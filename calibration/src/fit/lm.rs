@@ -121,11 +121,14 @@ pub(super) fn refine(
                 jtj[j][i] = v;
             }
         }
+        let max_diag = (0..np).map(|i| jtj[i][i]).fold(0.0f64, f64::max);
         let mut improved = false;
         for _ in 0..6 {
             let mut a = jtj.clone();
             for i in 0..np {
-                a[i][i] += lambda * jtj[i][i].max(1e-12);
+                // (a parameter the photos do not see, such as a profile width above the surface,
+                // has a zero column: the floor keeps the system solvable and leaves it in place)
+                a[i][i] += lambda * jtj[i][i].max(1e-9 * max_diag).max(1e-300);
             }
             let Some(delta) = solve_spd(&a, &g.iter().map(|v| -v).collect::<Vec<_>>()) else {
                 lambda *= 10.0;
