@@ -263,16 +263,11 @@ impl Evaluator<'_, '_> {
         0.5 * (a + b)
     }
 
-    /// The photo of view v.
-    fn photo(&self, _x: &[f64], v: usize) -> std::borrow::Cow<'_, [f32]> {
-        std::borrow::Cow::Borrowed(&self.data.photos[v])
-    }
-
     /// Residuals (model - photo) over the masked pixels, all views in order.
-    fn residuals(&self, pred: &[Vec<f32>], x: &[f64]) -> Vec<f64> {
+    fn residuals(&self, pred: &[Vec<f32>]) -> Vec<f64> {
         let mut r = Vec::new();
         for (v, img) in pred.iter().enumerate() {
-            let photo = self.photo(x, v);
+            let photo = &self.data.photos[v];
             for ((m, &ph), &ok) in img.iter().zip(photo.iter()).zip(&self.data.masks[v]) {
                 if ok {
                     r.push((*m - ph) as f64);
@@ -287,7 +282,7 @@ impl Evaluator<'_, '_> {
             Some(l) => l.to_vec(),
             None => self.render(x)?,
         };
-        Ok((self.residuals(&self.predict(&lin, x), x), lin))
+        Ok((self.residuals(&self.predict(&lin, x)), lin))
     }
 }
 
@@ -517,8 +512,6 @@ pub fn predict(renderer: &Renderer, data: &Data, res: &FitResult) -> Result<(Vec
     };
     let x: Vec<f64> = res.params.iter().map(|p| p.1).collect();
     let lin = ev.render(&x)?;
-    let photos = (0..data.capture.views.len())
-        .map(|v| ev.photo(&x, v).into_owned())
-        .collect();
+    let photos = (0..data.capture.views.len()).map(|v| data.photos[v].clone()).collect();
     Ok((ev.predict(&lin, &x), photos))
 }

@@ -115,7 +115,8 @@ pub fn run(renderer: &Renderer, args: &FitArgs, obs: &dyn Observer) -> Result<()
                 v.name
             ))
         };
-        let reg = register(&img, &card, &v).map_err(not_found)?;
+        // (`small` is already at the view's size: registration does not shrink it again)
+        let reg = register(&small, &card, &v).map_err(not_found)?;
         // The camera that took the photo, from the crosses: the card is rendered as that camera
         // saw it (the light on the grooves depends on where the camera stood), and the photo is
         // used as taken, without resampling.

@@ -107,17 +107,6 @@ pub fn warp(photo: &Gray, hm: &[f64; 9], a: &[f64; 6], w: u32, h: u32) -> (Vec<f
 /// squares over both conditions); the rest follows. `None` when the homography is not that of
 /// a camera looking down at the plate.
 pub fn camera_from_homography(g: &[f64; 9], w: u32, h: u32) -> Option<scratchart::model::scene::Camera> {
-    camera_from_homography_f(g, w, h, None)
-}
-
-/// As [`camera_from_homography`], with the focal length (pixels) given when it is known: four
-/// crosses found to 0.3 px leave the focal length and the distance trading against each other.
-pub fn camera_from_homography_f(
-    g: &[f64; 9],
-    w: u32,
-    h: u32,
-    focal_px: Option<f64>,
-) -> Option<scratchart::model::scene::Camera> {
     // M = diag(1, -1, 1) T^-1 g: plate -> (u, v, 1).
     let (cx, cy) = (0.5 * w as f64, 0.5 * h as f64);
     let row = |r: usize| [g[3 * r], g[3 * r + 1], g[3 * r + 2]];
@@ -134,10 +123,7 @@ pub fn camera_from_homography_f(
         a[0] * a[0] + a[1] * a[1] - b[0] * b[0] - b[1] * b[1],
         a[2] * a[2] - b[2] * b[2],
     );
-    let q = match focal_px {
-        Some(f) => 1.0 / (f * f),
-        None => -(p1 * s1 + p2 * s2) / (p1 * p1 + p2 * p2),
-    };
+    let q = -(p1 * s1 + p2 * s2) / (p1 * p1 + p2 * p2);
     if !(q > 0.0 && q.is_finite()) {
         return None;
     }

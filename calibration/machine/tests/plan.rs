@@ -214,7 +214,10 @@ fn marlin_gcode_has_no_spindle_and_homes_only_when_asked() {
         }
         assert_eq!(codes.iter().any(|l| l.starts_with("G28")), home, "G28 only with --home");
         if home {
-            assert!(codes.contains(&"G28 X Y") && codes.contains(&"G92 X-110.0000 Y-110.0000"), "{g}");
+            assert!(
+                codes.contains(&"G28 X Y") && codes.contains(&"G92 X-110.0000 Y-110.0000"),
+                "{g}"
+            );
         }
         assert!(g.lines().all(|l| l.len() < 80));
         // The cuts read back as planned.
