@@ -180,6 +180,10 @@ fn tolerance(rows: &[Moved], view: &str, moved: &str, axis: &str, base: f64) -> 
     ok
 }
 
+/// Below this correlation with its picture a view does not show its picture yet, and how far
+/// the lamp may move "to keep 90% of it" says nothing useful (90% of about nothing).
+pub const ADVICE_MIN_CORR: f64 = 0.3;
+
 /// One sentence per view: how precisely the lamp must stand to keep 90% of the correlation.
 pub fn advice(scene: &Scene, base: &[f64], rows: &[Moved]) -> Vec<String> {
     scene
@@ -188,23 +192,32 @@ pub fn advice(scene: &Scene, base: &[f64], rows: &[Moved]) -> Vec<String> {
         .enumerate()
         .map(|(j, v)| {
             let t = |axis: &str| tolerance(rows, &v.name, "light", axis, base[j]);
-            let say = |x: f64, unit: &str, smallest: &str| {
-                if x > 0.0 {
-                    format!("within {x}{unit}")
-                } else {
-                    format!("within less than {smallest}")
-                }
-            };
-            format!(
-                "{}: to keep 90% of its correlation ({:.2}), the lamp must stand {} in azimuth, {} in elevation and {} in distance.",
-                v.name,
-                base[j],
-                say(t("azimuth"), " degrees", "2 degrees"),
-                say(t("elevation"), " degrees", "2 degrees"),
-                say(100.0 * t("distance"), "%", "10%")
-            )
+            advice_sentence(&v.name, base[j], [t("azimuth"), t("elevation"), t("distance")])
         })
         .collect()
+}
+
+/// The sentence for one view with correlation `base` and lamp tolerances (azimuth and elevation
+/// in degrees, distance as a fraction; 0 when even the smallest tested move loses 10%).
+pub fn advice_sentence(name: &str, base: f64, tol: [f64; 3]) -> String {
+    if !(base >= ADVICE_MIN_CORR) {
+        return format!(
+            "{name}: does not show its picture yet (correlation {base:.2}), so lamp tolerances are not meaningful for it."
+        );
+    }
+    let say = |x: f64, unit: &str, smallest: &str| {
+        if x > 0.0 {
+            format!("within {x}{unit}")
+        } else {
+            format!("within less than {smallest}")
+        }
+    };
+    format!(
+        "{name}: to keep 90% of its correlation ({base:.2}), the lamp must stand {} in azimuth, {} in elevation and {} in distance.",
+        say(tol[0], " degrees", "2 degrees"),
+        say(tol[1], " degrees", "2 degrees"),
+        say(100.0 * tol[2], "%", "10%")
+    )
 }
 
 /// `summary.json`'s `setup`: the light and every eye in the plate's frame, and the mark.
@@ -464,4 +477,34 @@ pub fn write_setup(
     crate::io::write_atomic(&out.join("setup.txt"), setup_text(scene, &base, &rows).as_bytes())?;
     setup_png(&out.join("setup.png"), scene, &base, &rows)?;
     Ok((setup_json(scene), sensitivity_json(&rows), advice(scene, &base, &rows)))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn advice_gives_tolerances_for_a_view_that_shows_its_picture() {
+        let s = advice_sentence("v0", 0.93, [5.0, 2.0, 0.1]);
+        assert_eq!(
+            s,
+            "v0: to keep 90% of its correlation (0.93), the lamp must stand within 5 degrees in azimuth, \
+             within 2 degrees in elevation and within 10% in distance."
+        );
+        let s = advice_sentence("v1", 0.5, [0.0, 0.0, 0.0]);
+        assert!(s.contains("within less than 2 degrees in azimuth"), "{s}");
+        assert!(s.contains("within less than 10% in distance"), "{s}");
+    }
+
+    #[test]
+    fn advice_says_a_view_near_zero_or_negative_does_not_show_its_picture() {
+        for (base, shown) in [(-0.02, "-0.02"), (0.0, "0.00"), (0.29, "0.29"), (f64::NAN, "NaN")] {
+            let s = advice_sentence("v2", base, [5.0, 5.0, 0.1]);
+            assert!(s.starts_with("v2: does not show its picture yet"), "{s}");
+            assert!(s.contains(&format!("(correlation {shown})")), "{s}");
+            assert!(s.contains("not meaningful"), "{s}");
+            assert!(!s.contains("keep 90%"), "{s}");
+        }
+        assert!(advice_sentence("v2", ADVICE_MIN_CORR, [5.0, 5.0, 0.1]).contains("keep 90%"));
+    }
 }
