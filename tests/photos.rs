@@ -134,7 +134,8 @@ fn off_plate_pixels_have_no_effect() {
 
 /// A photo design end to end on the real engine: three photographs (tests/data), framed, and the
 /// correlation of the blurred render with each fitted picture rises by at least 0.3 to at least
-/// 0.6 in every view, with cross-talk of at most 0.2.
+/// 0.6 and to at least 85% of what a render equal to the picture would reach, in every view, with
+/// cross-talk of at most 0.2.
 #[test]
 fn a_photo_design_improves_every_view() {
     let ctx = gpu();
@@ -162,8 +163,16 @@ fn a_photo_design_improves_every_view() {
             v["corr_final"].as_f64().unwrap(),
             v["crosstalk_final"].as_f64().unwrap(),
         );
-        eprintln!("{}: correlation {c0:.3} -> {c1:.3}, cross-talk {x:.3}", v["name"]);
+        // A render equal to its picture loses only what the blur removes: each view's ceiling
+        // (at this test's 48 px the cat's fur is pixel-scale detail, and its ceiling is about 0.69).
+        let perfect = v["corr_perfect"].as_f64().unwrap();
+        eprintln!(
+            "{}: correlation {c0:.3} -> {c1:.3} (a perfect render: {perfect:.3}), cross-talk {x:.3}",
+            v["name"]
+        );
+        assert!((0.5..=1.0).contains(&perfect), "{}: perfect {perfect}", v["name"]);
         assert!(c1 >= c0 + 0.3 && c1 >= 0.6, "{}: {c0} -> {c1}", v["name"]);
+        assert!(c1 >= 0.85 * perfect, "{}: {c1} of a reachable {perfect}", v["name"]);
         assert!(x <= 0.2, "{}: cross-talk {x}", v["name"]);
     }
     assert!(out.join("contact_sheet.png").exists());

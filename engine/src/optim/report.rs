@@ -383,6 +383,15 @@ pub fn write_outputs(
         &problem.pictures,
         cfg.loss.sigma,
     );
+    // What a render equal to its picture (the pixel term's own optimum) would score: pictures with
+    // detail at the scale of one pixel lose correlation to the blur alone.
+    let q_perfect = quality(
+        scene,
+        &problem.targets,
+        &problem.targets,
+        &problem.pictures,
+        cfg.loss.sigma,
+    );
     contact_sheet_png(&out.join("contact_sheet.png"), scene, &r.final_images, &problem.targets)?;
     for (v, view) in scene.views.iter().enumerate() {
         let (w, h) = (view.camera.width, view.camera.height);
@@ -412,6 +421,7 @@ pub fn write_outputs(
             "ssim_final": ssim_final,
             "corr_initial": q_initial[v].corr,
             "corr_final": q_final[v].corr,
+            "corr_perfect": q_perfect[v].corr,
             "crosstalk_final": q_final[v].crosstalk.iter().map(|c| c.1).fold(f64::NEG_INFINITY, f64::max).max(0.0),
             "crosstalk": q_final[v].crosstalk.iter().map(|&(k, x, raw)| json!({"other_view": scene.views[k].name, "crosstalk": x, "raw_correlation": raw})).collect::<Vec<_>>(),
             "picture_pixels": problem.pictures[v].iter().filter(|p| **p).count(),
@@ -524,12 +534,13 @@ pub fn summary_text(s: &serde_json::Value, out: &Path) -> String {
         if let Some(r) = v["picture_rect_px"].as_array() {
             let _ = writeln!(
                 text,
-                "  {}: picture {:.0} x {:.0} px ({} pixels), plate fills {:.0}% of the frame",
+                "  {}: picture {:.0} x {:.0} px ({} pixels), plate fills {:.0}% of the frame; a render equal to the picture would correlate {:.3}",
                 v["name"].as_str().unwrap_or("?"),
                 r[2].as_f64().unwrap_or(0.0),
                 r[3].as_f64().unwrap_or(0.0),
                 v["picture_pixels"],
-                100.0 * v["plate_fills_frame"].as_f64().unwrap_or(f64::NAN)
+                100.0 * v["plate_fills_frame"].as_f64().unwrap_or(f64::NAN),
+                f(&v["corr_perfect"])
             );
         }
     }
