@@ -1,27 +1,37 @@
 #version 450
 // Backward pass of forward.comp: gradients of a loss E with respect to every scratch's
-// (x0, y0, x1, y1, w, d, alpha), given dE/dL per pixel. Built with SA_DUAL (the descriptor's
-// Mode::BackwardDual, engine/src/render/kernels.rs).
+// (x0, y0, x1, y1, w, d, alpha), given dE/dL per pixel. Two builds (engine/src/render/kernels.rs):
+//   SA_EDGE_ADJOINT (Mode::Backward, the default): reverse mode, inc/pair_adjoint.glsl;
+//   SA_DUAL (Mode::BackwardDual, and integrators without an adjoint): forward-mode dual numbers
+//   through the forward's own code, the test oracle of the first.
 //
 // Per pixel, L = scale (D_P + (1 - min(1, cov)) D_flat) with D_P = sum_k I_k / S_P and
 // cov = sum_k A_k / S_P, so for scratch k
 //   dL/dθ = scale / S_P (dI_k/dθ - [cov < 1] D_flat dA_k/dθ).
-// I_k and A_k and their derivatives come from the very code of the forward pass (the pair set-up
-// and integral of inc/patch_ndf.glsl) evaluated with forward-mode dual numbers (inc/real.glsl):
-// the clipping of footprint and carved rectangle moves with the endpoints, width and depth, and
-// is differentiated with it.
+// Only gI dI_k/dθ + gA dA_k/dθ is needed (gI = dE/dL scale / S_P, gA = -[cov < 1] gI D_flat), a
+// scalar per pair: reverse mode gets all 7 derivatives from one forward and one reverse sweep of
+// the pair (the clipping of footprint and carved rectangle moves with the endpoints, width and
+// depth, and is differentiated with it); dual numbers carry 7 tangents through every operation.
 //
 // Work layout and order are forward.comp's (the tile loop of inc/tile_loop.glsl). For each
-// chunk, thread k < 64 adds scratch k's per-pair contributions in queue order and writes one
+// chunk, thread k < 64 adds scratch k's per-pair contributions in queue order (a per-round list
+// of its entries, see round_accumulate) and writes one
 // partial gradient per tile-list entry; grad_reduce.comp then adds a scratch's partials in
 // enumeration order. No float atomics: gradients are bit-reproducible.
 #extension GL_GOOGLE_include_directive : require
-#ifndef SA_DUAL
-#error grad.comp needs SA_DUAL (dual-number scalars), see engine/src/render/kernels.rs
+#if !defined(SA_DUAL) && !defined(SA_EDGE_ADJOINT)
+#error grad.comp needs SA_EDGE_ADJOINT (reverse mode) or SA_DUAL (dual numbers), see engine/src/render/kernels.rs
 #endif
 #include "inc/common.glsl"
 #include "inc/pixel.glsl"
 #include "inc/patch_ndf.glsl"
+// Reverse mode where the integrator has an adjoint edge integral (closed form), else dual numbers.
+#if defined(SA_HAS_EDGE_ADJ) && !defined(SA_DUAL)
+#define SA_REVERSE
+#include "inc/pair_adjoint.glsl"
+#elif !defined(SA_DUAL)
+#error this integrator has no reverse-mode edge integral: build grad.comp with SA_DUAL
+#endif
 
 layout(local_size_x = 16, local_size_y = 16) in;
 layout(std430, binding = 0) readonly buffer Views { ViewGPU views[]; };
@@ -50,6 +60,8 @@ shared vec4 sh_shape[CHUNK];
 shared float sh_ga[256];           // per pixel: coefficient of dA (sh_h[px].w: of dI)
 shared vec4 sh_c0[QCAP];           // per-pair contribution d/d(x0, y0, x1, y1)
 shared vec4 sh_c1[QCAP];           // d/d(w, d, alpha), 0
+shared uint sh_next[QCAP];         // per queue entry: the next entry of the same scratch
+shared uint sh_head[CHUNK];        // per chunk scratch: its first entry in the round
 shared vec4 sh_acc0[CHUNK];        // per chunk scratch: its contributions so far
 shared vec4 sh_acc1[CHUNK];
 
@@ -70,21 +82,41 @@ void pair_eval(uint i, uint px, uint k, bool fast) {
     vec2 fp[4];
     pixel_footprint(px, fp);
     vec4 hh = sh_h[px];
+    float ga = sh_ga[px];
+#ifdef SA_REVERSE
+    vec4 r0;
+    vec3 r1;
+    pair_adjoint(E, S, fp, hh.xyz, hh.w, ga, fast, r0, r1);
+    sh_c0[i] = r0;
+    sh_c1[i] = vec4(r1, 0.0);
+#else
     Dual I, A;
     pair_from_params(seed(E.x, 0), seed(E.y, 1), seed(E.z, 2), seed(E.w, 3), seed(S.x, 4), seed(S.y, 5), seed(S.z, 6),
                      fp, hh.xyz, fast, I, A);
-    float ga = sh_ga[px];
     sh_c0[i] = hh.w * I.g0 + ga * A.g0;
     sh_c1[i] = vec4(hh.w * I.g1 + ga * A.g1, 0.0);
+#endif
 }
 
 // Scratch k's contributions of this round, in queue order (sh_acc is written and read by the
-// same thread, so the next chunk's first barrier is all it needs).
+// same thread, so the next chunk's first barrier is all it needs). Thread 0 first links each
+// scratch's entries into a list in queue order (one pass over the round, backwards); thread k
+// then walks only its own entries, instead of every thread testing every entry.
 void round_accumulate(uint lid, uint r0, uint n, uint cnt, uvec2 fmask, uint fbase, uvec2 gmask, uint gbase) {
+    if (lid == 0u) {
+        for (uint k = 0u; k < CHUNK; ++k) sh_head[k] = 0xFFFFFFFFu;
+        for (uint i = n; i-- > 0u;) {
+            uint k = sh_queue[i] & 255u;
+            sh_next[i] = sh_head[k];
+            sh_head[k] = i;
+        }
+    }
+    barrier();
     if (lid < cnt) {
         vec4 a0 = sh_acc0[lid], a1 = sh_acc1[lid];
-        for (uint i = 0u; i < n; ++i) {
-            if ((sh_queue[i] & 255u) == lid) { a0 += sh_c0[i]; a1 += sh_c1[i]; }
+        for (uint i = sh_head[lid]; i != 0xFFFFFFFFu; i = sh_next[i]) {
+            a0 += sh_c0[i];
+            a1 += sh_c1[i];
         }
         sh_acc0[lid] = a0;
         sh_acc1[lid] = a1;

@@ -32,6 +32,9 @@ pub struct ForwardRow {
     /// backward pass (all views) for dE/dL of the check loss against the scene's own render
     /// perturbed by a fixed pattern
     pub backward_ms: f64,
+    /// the same backward with the all-dual-number kernel (`Mode::BackwardDual`), timed in the
+    /// same submissions (`--compare-backward`), else NaN
+    pub backward_dual_ms: f64,
 }
 
 /// Median of benchmark samples (NaN for none).
@@ -49,14 +52,25 @@ pub fn median(mut v: Vec<f64>) -> f64 {
 }
 
 /// Times binning and shading of each scene: `warmup` untimed runs, then the median of `repeats`.
+/// With `compare_backward`, every submission also runs the all-dual-number backward kernel
+/// (the oracle of the default one) after the default backward, so the two are timed side by side.
 pub fn run_forward(
     ctx: &Arc<Context>,
     scenes: &[(String, Scene)],
     warmup: usize,
     repeats: usize,
+    compare_backward: bool,
 ) -> Result<Vec<ForwardRow>, GpuError> {
+    use crate::render::kernels::{Integrator, KernelSet, Mode};
     let renderer = Renderer::new(ctx)?;
     renderer.prepare_backward()?;
+    let oracle = if compare_backward {
+        let r = Renderer::with_kernels(ctx, KernelSet::with_modes(Integrator::ClosedForm, Mode::BackwardDual))?;
+        r.prepare_backward()?;
+        Some(r)
+    } else {
+        None
+    };
     let mut rows = Vec::new();
     for (name, scene) in scenes {
         let mut gs = renderer.upload(scene)?;
@@ -65,19 +79,24 @@ pub fn run_forward(
         let first = renderer.render(&mut gs)?;
         let dl = perturbed_target_dl(&first.images);
         renderer.upload_dl(&mut gs, &dl)?;
-        let (mut bins, mut shades, mut backs) = (Vec::new(), Vec::new(), Vec::new());
+        let (mut bins, mut shades, mut backs, mut duals) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
         let mut last = first.stats;
         for i in 0..warmup + repeats {
             let (st, t) = renderer.submit(&mut rec, &mut gs, |rec, gs| {
                 renderer.record_render(rec, gs);
                 renderer.record_backward(rec, gs);
                 rec.timestamp("backward");
+                if let Some(o) = &oracle {
+                    o.record_backward(rec, gs);
+                    rec.timestamp("backward dual");
+                }
             })?;
             last = st;
             if i >= warmup {
                 bins.push(t.get("binning").unwrap_or(f64::NAN));
                 shades.push(t.get("forward").unwrap_or(f64::NAN));
                 backs.push(t.get("backward").unwrap_or(f64::NAN));
+                duals.push(t.get("backward dual").unwrap_or(f64::NAN));
             }
         }
         rows.push(ForwardRow {
@@ -91,6 +110,7 @@ pub fn run_forward(
             bin_ms: median(bins),
             shade_ms: median(shades),
             backward_ms: median(backs),
+            backward_dual_ms: if oracle.is_some() { median(duals) } else { f64::NAN },
         });
     }
     Ok(rows)
@@ -125,8 +145,21 @@ pub fn forward_table(ctx: &Context, rows: &[ForwardRow]) -> String {
         "| scene | scratches | views x pixels | tile entries | candidates | pairs | pair search ms/view | shading ms/view | backward ms/view | forward Mpairs/s | forward GFLOP/s |"
     );
     let _ = writeln!(s, "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
+    let mut ratios = String::new();
     for r in rows {
         let v = r.views as f64;
+        if r.backward_dual_ms.is_finite() {
+            let _ = writeln!(
+                ratios,
+                "| {} | {:.2} | {:.2} | {:.2} | {:.2} | {:.2} |",
+                r.name,
+                r.shade_ms / v,
+                r.backward_ms / v,
+                r.backward_dual_ms / v,
+                r.backward_ms / r.shade_ms,
+                r.backward_dual_ms / r.backward_ms
+            );
+        }
         let secs = r.shade_ms * 1e-3;
         let flops = r.pairs as f64 * FLOPS_PER_PAIR + (r.candidates - r.pairs) as f64 * FLOPS_PER_CANDIDATE;
         let _ = writeln!(
@@ -145,6 +178,15 @@ pub fn forward_table(ctx: &Context, rows: &[ForwardRow]) -> String {
             r.pairs as f64 / secs * 1e-6,
             flops / secs * 1e-9
         );
+    }
+    if !ratios.is_empty() {
+        let _ = writeln!(s, "\nbackward kernels, timed in the same submissions (ms per view):\n");
+        let _ = writeln!(
+            s,
+            "| scene | forward shading | backward (reverse mode) | backward (dual numbers) | backward / forward | dual / reverse |"
+        );
+        let _ = writeln!(s, "|---|---:|---:|---:|---:|---:|");
+        s.push_str(&ratios);
     }
     s
 }

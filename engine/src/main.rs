@@ -99,6 +99,10 @@ enum Cmd {
         /// perturbed by 10% in a fixed pattern)
         #[arg(long, requires = "scene")]
         targets: Option<PathBuf>,
+        /// Also time the all-dual-number backward kernel (the default backward's test oracle)
+        /// in the same submissions, and print the ratios
+        #[arg(long)]
+        compare_backward: bool,
     },
 }
 
@@ -187,6 +191,7 @@ fn run(cli: Cli) -> Result<()> {
             warmup,
             iters,
             targets,
+            compare_backward,
         } => {
             let ctx = context(&cli)?;
             let scenes: Vec<(String, Scene)> = match scene {
@@ -205,7 +210,7 @@ fn run(cli: Cli) -> Result<()> {
                     })
                     .collect::<Result<_>>()?,
             };
-            let rows = bench::run_forward(&ctx, &scenes, *warmup, (*repeats).max(1))?;
+            let rows = bench::run_forward(&ctx, &scenes, *warmup, (*repeats).max(1), *compare_backward)?;
             print!("{}", bench::forward_table(&ctx, &rows));
             if *iters > 0 {
                 let mut it_rows = Vec::new();

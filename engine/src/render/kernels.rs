@@ -47,8 +47,14 @@ pub enum Mode {
     /// Pixel values and coverage (`forward.comp`).
     Forward,
     /// Per-(tile, scratch) partial gradients by forward-mode dual numbers through the pair
-    /// integral (`grad.comp` with `SA_DUAL`).
+    /// integral (`grad.comp` with `SA_DUAL`). The test oracle of [`Mode::Backward`].
     BackwardDual,
+    /// The default backward: `grad.comp` in reverse mode (`SA_EDGE_ADJOINT`): per pair, one
+    /// float forward sweep and one hand-written reverse sweep through the scratch frame, the
+    /// clipping and the edge integrals give all 7 gradients at once (`inc/pair_adjoint.glsl`,
+    /// `inc/integrators/closed_form_adjoint.glsl`). Integrators without an adjoint edge
+    /// integral (Gauss panels) build the dual-number kernel under this mode.
+    Backward,
 }
 
 /// One shading kernel: a pass and the pair integral it runs.
@@ -63,7 +69,7 @@ impl ShadeKernel {
     pub fn file(&self) -> &'static str {
         match self.mode {
             Mode::Forward => "forward.comp",
-            Mode::BackwardDual => "grad.comp",
+            Mode::BackwardDual | Mode::Backward => "grad.comp",
         }
     }
 
@@ -74,14 +80,22 @@ impl ShadeKernel {
 
     /// The pipeline's name (validation messages and debug tools show it).
     pub fn name(&self) -> String {
-        format!("{} [{}]", self.file(), self.integrator.name())
+        match self.mode {
+            Mode::Backward => format!("{} [{}, reverse mode]", self.file(), self.integrator.name()),
+            _ => format!("{} [{}]", self.file(), self.integrator.name()),
+        }
     }
 
     /// The defines to compile [`file`](Self::file) with on a device described by `info`.
     pub fn defines(&self, info: &DeviceInfo) -> Vec<(&'static str, &'static str)> {
         let mut defs = vec![(self.integrator.define(), "1")];
-        if let Mode::BackwardDual = self.mode {
-            defs.push(("SA_DUAL", "1"));
+        if self.is_backward() {
+            // Reverse mode needs the integrator's adjoint edge integral; others run dual numbers.
+            if self.mode == Mode::Backward && self.integrator == Integrator::ClosedForm {
+                defs.push(("SA_EDGE_ADJOINT", "1"));
+            } else {
+                defs.push(("SA_DUAL", "1"));
+            }
             // grad.comp needs ~30 KiB of shared memory with a 256-entry queue, ~39 KiB with 512.
             let qcap = if info.max_shared_memory >= 48 * 1024 {
                 "512"
@@ -106,8 +120,13 @@ pub struct KernelSet {
 }
 
 impl KernelSet {
-    /// Forward and dual-number backward kernels over `integrator`.
+    /// Forward and the default backward kernels over `integrator`.
     pub fn with_integrator(integrator: Integrator) -> KernelSet {
+        KernelSet::with_modes(integrator, Mode::Backward)
+    }
+
+    /// Forward and the backward kernel of mode `backward` over `integrator`.
+    pub fn with_modes(integrator: Integrator, backward: Mode) -> KernelSet {
         KernelSet {
             forward: ShadeKernel {
                 integrator,
@@ -115,14 +134,14 @@ impl KernelSet {
             },
             backward: ShadeKernel {
                 integrator,
-                mode: Mode::BackwardDual,
+                mode: backward,
             },
         }
     }
 }
 
 impl Default for KernelSet {
-    /// What [`super::Renderer::new`] builds: the closed form, dual-number backward.
+    /// What [`super::Renderer::new`] builds: the closed form, the reverse-mode backward.
     fn default() -> KernelSet {
         KernelSet::with_integrator(Integrator::ClosedForm)
     }

@@ -9,11 +9,12 @@
 //!
 //! The shading kernels are described by [`kernels::KernelSet`]: a forward and a backward
 //! [`kernels::ShadeKernel`], each an integrator and a mode that become a shader file and its
-//! defines. [`Renderer::new`] builds the default set (closed-form pair integral, dual-number
+//! defines. [`Renderer::new`] builds the default set (closed-form pair integral, reverse-mode
 //! backward); [`Renderer::with_kernels`] any other, e.g. for comparisons. On the GLSL side both
 //! kernels run one tile loop (`shaders/inc/tile_loop.glsl`) and one pair set-up
 //! (`pair_integrate` in `shaders/inc/patch_ndf.glsl`), differing only in their hooks: the forward
-//! kernel sums per pixel in float, the backward one per scratch in dual numbers.
+//! kernel sums per pixel in float, the backward one per scratch (reverse mode, or dual numbers
+//! for the oracle).
 pub mod grad;
 pub mod kernels;
 pub mod layout;

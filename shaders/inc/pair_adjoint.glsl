@@ -1,0 +1,436 @@
+// Reverse mode for one (pixel, scratch) pair: the backward kernel's contribution of the pair is
+// the gradient of gI I + gA A (I, A: the pair's integral and area, patch_ndf.glsl) with respect
+// to the scratch's 7 parameters. One float forward sweep of exactly what the forward kernel
+// computes (pair_from_params, then patch_fast or the Green walk of patch_integral, green.glsl)
+// and one hand-written reverse sweep give all 7 in one pass; the edge integrals' reverse sweep
+// is edge_adj (integrators/closed_form_adjoint.glsl). The general walk visits its up to six
+// boundary pieces in one loop that is not unrolled, so edge_adj appears twice in the kernel
+// (fast path, general walk) instead of once per piece.
+//
+// Ties and clamps are differentiated as the dual-number kernel does (d_min / d_max in
+// real.glsl: the first argument on a tie); that kernel (Mode::BackwardDual) is the test oracle.
+#ifndef SA_PAIR_ADJOINT_GLSL
+#define SA_PAIR_ADJOINT_GLSL
+#extension GL_EXT_control_flow_attributes : require
+
+// pair_geom (patch_ndf.glsl) in float.
+GeomF geom_f(float hb, float ht, float hz, float alpha) {
+    GeomF G;
+    G.alpha = alpha; G.hb = hb; G.ht = ht; G.hz = hz;
+    float a2 = alpha * alpha;
+    G.beta = sqrt(max(1.0 - a2, 0.0));
+    float A = 1.0 + G.beta * hz;
+    float iA = 1.0 / A;
+    float iA2 = iA * iA;
+    G.s0 = -((G.beta * hb) * iA);
+    G.g2 = (a2 + (ht * ht) * (1.0 - a2)) * iA2;
+    G.g = sqrt(G.g2);
+    float s0sq = G.s0 * G.s0;
+    float q = (1.0 + s0sq) - G.g2;
+    float r = q * q - 4.0 * (s0sq * G.g2);
+    G.c0 = iA + iA2;
+    G.c1 = 2.0 * (G.s0 * iA) + 4.0 * (G.s0 * iA2);
+    G.c2 = q * iA + (2.0 * q + 4.0 * s0sq) * iA2;
+    G.c3 = 4.0 * ((G.s0 * q) * iA2);
+    G.c4 = r * iA2;
+    float rho = sqrt(hb * hb + hz * hz);
+    float sp = (hb >= 0.0) ? hz / (rho + hb) : (rho - hb) / hz;
+    G.chi_hi = sp;
+    G.chi_lo = -(1.0 / sp);
+    return G;
+}
+
+// The reverse sweep of geom_f: the adjoints aG of the pair constants pushed back to hb, ht and
+// alpha (aG's own hb, ht and alpha entries, the direct uses, are included).
+void geom_adj(GeomF G, GAdj aG, out float a_hb, out float a_ht, out float a_alpha) {
+    float hb = G.hb, ht = G.ht, hz = G.hz, alpha = G.alpha;
+    float a2 = alpha * alpha;
+    float beta = G.beta;
+    float iA = 1.0 / (1.0 + beta * hz);
+    float iA2 = iA * iA;
+    float s0 = G.s0, g2 = G.g2, s0sq = s0 * s0;
+    float q = (1.0 + s0sq) - g2;
+    float r = q * q - 4.0 * (s0sq * g2);
+    a_hb = aG.hb; a_ht = aG.ht; a_alpha = aG.alpha;
+    float a_beta = aG.beta, a_s0 = aG.s0, a_g2 = aG.g2;
+    // chi_hi = sp, chi_lo = -1/sp
+    float sp = G.chi_hi;
+    float a_sp = aG.chi_hi + aG.chi_lo / (sp * sp);
+    float rho = sqrt(hb * hb + hz * hz);
+    float a_rho;
+    if (hb >= 0.0) {
+        float k = -a_sp * sp / (rho + hb);
+        a_rho = k;
+        a_hb += k;
+    } else {
+        a_rho = a_sp / hz;
+        a_hb -= a_sp / hz;
+    }
+    if (rho > 0.0) a_hb += a_rho * hb / rho;
+    // c0..c4
+    float a_iA = aG.c0 + aG.c1 * 2.0 * s0 + aG.c2 * q;
+    float a_iA2 = aG.c0 + aG.c1 * 4.0 * s0 + aG.c2 * (2.0 * q + 4.0 * s0sq) + aG.c3 * 4.0 * s0 * q + aG.c4 * r;
+    float a_r = aG.c4 * iA2;
+    float a_q = aG.c3 * 4.0 * s0 * iA2 + aG.c2 * (iA + 2.0 * iA2) + a_r * 2.0 * q;
+    a_s0 += aG.c3 * 4.0 * q * iA2 + aG.c1 * (2.0 * iA + 4.0 * iA2);
+    float a_s0sq = aG.c2 * 4.0 * iA2 - a_r * 4.0 * g2 + a_q;
+    a_g2 += -a_r * 4.0 * s0sq - a_q;
+    a_s0 += a_s0sq * 2.0 * s0;
+    // g = sqrt(g2)
+    if (G.g > 0.0) a_g2 += aG.g * 0.5 / G.g;
+    // g2 = (a2 + ht^2 (1 - a2)) iA2
+    float num = a2 + (ht * ht) * (1.0 - a2);
+    float a_num = a_g2 * iA2;
+    a_iA2 += a_g2 * num;
+    float a_a2 = a_num * (1.0 - ht * ht);
+    a_ht += a_num * 2.0 * ht * (1.0 - a2);
+    // s0 = -beta hb iA
+    a_beta -= a_s0 * hb * iA;
+    a_hb -= a_s0 * beta * iA;
+    a_iA -= a_s0 * beta * hb;
+    // iA2 = iA^2, iA = 1 / (1 + beta hz)
+    a_iA += a_iA2 * 2.0 * iA;
+    a_beta += -a_iA * iA * iA * hz;
+    // beta = sqrt(1 - a2)
+    if (beta > 0.0) a_a2 -= a_beta * 0.5 / beta;
+    a_alpha += a_a2 * 2.0 * alpha;
+}
+
+// carved_se (common.glsl) in float and its partials in w and d.
+float carved_se_grad(float w, float d, out float d_w, out float d_d) {
+    float x = 2.0 * d / w;
+    float u = exp(-x);
+    float om = (u == 1.0) ? x : ((1.0 - u) * x) / -log(u);
+    float se = sqrt(om);
+    // d se / d x = exp(-x) / (2 se); x = 2d/w
+    float k = se > 0.0 ? u / (2.0 * se) : 0.0;
+    d_d = k * 2.0 / w;
+    d_w = -k * x / w;
+    return se;
+}
+
+
+// The pair's forward quantities that the reverse sweep needs.
+struct PairF {
+    float tx, ty, len, se, se_w, se_d, k2w, half_w;
+    vec4 fs, fv;  // footprint corners in (s, v)
+    vec4 rx, ry;  // corners relative to p0 on the plate
+    GeomF G;
+};
+
+PairF pair_f(vec4 E, vec4 S, vec2 fp[4], vec3 h) {
+    PairF F;
+    float dxs = E.z - E.x, dys = E.w - E.y;
+    F.len = sqrt(dxs * dxs + dys * dys);
+    F.tx = dxs / F.len;
+    F.ty = dys / F.len;
+    F.se = carved_se_grad(S.x, S.y, F.se_w, F.se_d);
+    F.k2w = 2.0 / S.x;
+    F.half_w = 0.5 * S.x;
+    float bx = -F.ty, by = F.tx;
+    for (int c = 0; c < 4; ++c) {
+        float rx = fp[c].x - E.x, ry = fp[c].y - E.y;
+        F.rx[c] = rx;
+        F.ry[c] = ry;
+        F.fs[c] = dot(vec2(rx, ry), vec2(bx, by)) * F.k2w;
+        F.fv[c] = dot(vec2(rx, ry), vec2(F.tx, F.ty));
+    }
+    F.G = geom_f(dot(h.xy, vec2(bx, by)), dot(h.xy, vec2(F.tx, F.ty)), h.z, S.z);
+    return F;
+}
+
+// One-hot mask of component i of a vec4 (dynamic indices without local arrays).
+vec4 onehot(int i) { return vec4(equal(ivec4(0, 1, 2, 3), ivec4(i))); }
+
+// patch_fast (green.glsl) forward and reverse. Returns false, with nothing added, when the pair
+// is not a fast-path pair.
+bool fast_adj(PairF F, float gI, float gA, inout vec4 a_fs, inout vec4 a_fv, inout float a_se, inout float a_half,
+              inout GAdj aG) {
+    float se = F.se;
+    float lo0 = 1e30, hi0 = -1e30, lo1 = 1e30, hi1 = -1e30;
+    int elo0 = 0, ehi0 = 0, elo1 = 0, ehi1 = 0;
+    int n0 = 0, n1 = 0;
+    for (int e = 0; e < 4; ++e) {
+        float a = F.fs[e], b = F.fs[(e + 1) & 3];
+        float av = F.fv[e], bv = F.fv[(e + 1) & 3];
+        if (abs(a) < se || a == b) return false;
+        if ((a < -se) != (b < -se) && a != -se && b != -se) {
+            float v = av + ((bv - av) / (b - a)) * (-se - a);
+            if (v < lo0) { lo0 = v; elo0 = e; }
+            if (v > hi0) { hi0 = v; ehi0 = e; }
+            ++n0;
+        }
+        if ((a > se) != (b > se) && a != se && b != se) {
+            float v = av + ((bv - av) / (b - a)) * (se - a);
+            if (v < lo1) { lo1 = v; elo1 = e; }
+            if (v > hi1) { hi1 = v; ehi1 = e; }
+            ++n1;
+        }
+    }
+    if (!(n0 == 2 && n1 == 2 && lo0 > 0.0 && lo1 > 0.0 && hi0 < F.len && hi1 < F.len)) return false;
+    GeomF G = F.G;
+    float half_w = F.half_w;
+    float c0 = hi0 - lo0, c1 = hi1 - lo1;
+    float clo = max(-se, G.chi_lo), chi = min(se, G.chi_hi);
+    // Reverse sweep, seeded with aI = gI, aA = gA. A = se (c0 + c1) half_w.
+    a_se += gA * (c0 + c1) * half_w;
+    float a_c0 = gA * se * half_w, a_c1 = a_c0;
+    a_half += gA * se * (c0 + c1);
+    if (clo < chi) {
+        float k = (c1 - c0) / (2.0 * se);
+        float Vlo = c0 + k * (clo + se), Vhi = c0 + k * (chi + se);
+        float a_lo, a_hi, a_Vlo, a_Vhi;
+        float J = edge_adj(G, clo, chi, Vlo, Vhi, gI * half_w, aG, a_lo, a_hi, a_Vlo, a_Vhi);
+        a_half += gI * J;
+        // Vlo = c0 + k (clo + se), Vhi = c0 + k (chi + se), k = (c1 - c0) / (2 se)
+        a_c0 += a_Vlo + a_Vhi;
+        float a_k = a_Vlo * (clo + se) + a_Vhi * (chi + se);
+        a_lo += a_Vlo * k;
+        a_hi += a_Vhi * k;
+        a_se += (a_Vlo + a_Vhi) * k;
+        a_c1 += a_k / (2.0 * se);
+        a_c0 -= a_k / (2.0 * se);
+        a_se -= a_k * k / se;
+        // clo = max(-se, chi_lo), chi = min(se, chi_hi)
+        if (-se >= G.chi_lo) a_se -= a_lo; else aG.chi_lo += a_lo;
+        if (se <= G.chi_hi) a_se += a_hi; else aG.chi_hi += a_hi;
+    }
+    // c0 = hi0 - lo0, c1 = hi1 - lo1: each crossing v = av + (bv - av) q, q = (S - a) / (b - a)
+    for (int e = 0; e < 4; ++e) {
+        int e1 = (e + 1) & 3;
+        float av_s0 = (e == ehi0 ? a_c0 : 0.0) - (e == elo0 ? a_c0 : 0.0);
+        float av_s1 = (e == ehi1 ? a_c1 : 0.0) - (e == elo1 ? a_c1 : 0.0);
+        float a = F.fs[e], b = F.fs[e1];
+        float av = F.fv[e], bv = F.fv[e1];
+        float ib = 1.0 / (b - a);
+        for (int side = 0; side < 2; ++side) {
+            float a_v = side == 0 ? av_s0 : av_s1;
+            if (a_v == 0.0) continue;
+            float Sl = side == 0 ? -se : se;
+            float q = (Sl - a) * ib;
+            a_fv[e] += a_v * (1.0 - q);
+            a_fv[e1] += a_v * q;
+            float a_q = a_v * (bv - av);
+            a_se += (side == 0 ? -a_q : a_q) * ib;
+            a_fs[e] += a_q * (q - 1.0) * ib;
+            a_fs[e1] -= a_q * q * ib;
+        }
+    }
+    return true;
+}
+
+// ref_v (green.glsl) in float.
+float ref_v_f(vec4 fs, vec4 fv, float se, float len) {
+    for (int e = 0; e < 4; ++e) {
+        float as = fs[e], av = fv[e];
+        float ds = fs[(e + 1) & 3] - as, dvv = fv[(e + 1) & 3] - av;
+        float t0 = 0.0, t1 = 1.0;
+        vec4 ps = vec4(-ds, ds, -dvv, dvv);
+        vec4 qs = vec4(as + se, se - as, av, len - av);
+        bool keep = true;
+        for (int i = 0; i < 4; ++i) {
+            if (ps[i] == 0.0) { if (qs[i] < 0.0) keep = false; }
+            else if (ps[i] < 0.0) t0 = max(t0, qs[i] / ps[i]);
+            else t1 = min(t1, qs[i] / ps[i]);
+        }
+        if (keep && t0 < t1) return clamp(av + t0 * dvv, 0.0, len);
+    }
+    float vc = 0.25 * (fv[0] + fv[1] + fv[2] + fv[3]);
+    return vc < 0.5 * len ? 0.0 : len;
+}
+
+// clamp as d_min(d_max(x, lo), hi) and which argument it returned: 0 x, 1 lo, 2 hi.
+float clamp_which(float x, float lo, float hi, out int which) {
+    float m = x;
+    which = 0;
+    if (!(x >= lo)) { m = lo; which = 1; }
+    if (!(m <= hi)) { m = hi; which = 2; }
+    return m;
+}
+
+// The Green walk of patch_integral (green.glsl) forward and reverse: the four footprint edges
+// clipped to the carved rectangle, then its two across-edges clipped to the footprint, one piece
+// per iteration of a loop that is not unrolled.
+void general_adj(PairF F, float gI, float gA, inout vec4 a_fs, inout vec4 a_fv, inout float a_se, inout float a_len,
+                 inout float a_half, inout GAdj aG) {
+    float se = F.se, len = F.len;
+    vec4 fs = F.fs, fv = F.fv;
+    GeomF G = F.G;
+    float vref = ref_v_f(fs, fv, se, len);
+    float Iraw = 0.0, Araw = 0.0;
+    float aJ = gI * F.half_w, aA = gA * F.half_w;  // adjoints of the raw sums (before * half_w)
+    [[dont_unroll]] for (int j = 0; j < 6; ++j) {
+        // The piece: a segment (as, av) -> (bs, bv) and what it was clipped by.
+        float as, av, bs, bv;
+        bool keep = true;
+        float t0 = 0.0, t1 = 1.0;
+        // footprint edge (j < 4)
+        int e = j & 3, e1 = (j + 1) & 3;
+        vec4 me = onehot(e), me1 = onehot(e1);
+        float as0 = dot(me, fs), av0 = dot(me, fv);
+        float ds = dot(me1, fs) - as0, dvv = dot(me1, fv) - av0;
+        int wa_s, wa_v, wb_s, wb_v;
+        float pt0 = 1.0, qt0 = 0.0, pt1 = 1.0, qt1 = 0.0;  // active constraint of t0 and t1 (p, q)
+        int it0 = -1, it1 = -1;
+        // across-edge (j >= 4)
+        int side = j - 4;
+        float xs = 0.0, xv = 0.0, xd = 0.0;
+        if (j < 4) {
+            vec4 ps = vec4(-ds, ds, -dvv, dvv);
+            vec4 qs = vec4(as0 + se, se - as0, av0, len - av0);
+            for (int i = 0; i < 4; ++i) {
+                float p = ps[i], q = qs[i];
+                if (p == 0.0) { if (q < 0.0 || (q == 0.0 && i >= 2)) keep = false; }
+                else {
+                    float r = q / p;
+                    if (p < 0.0) { if (r > t0) { t0 = r; it0 = i; pt0 = p; qt0 = q; } }
+                    else if (r < t1) { t1 = r; it1 = i; pt1 = p; qt1 = q; }
+                }
+            }
+            if (!keep || t0 >= t1) continue;
+            as = clamp_which(as0 + t0 * ds, -se, se, wa_s);
+            av = clamp_which(av0 + t0 * dvv, 0.0, len, wa_v);
+            bs = clamp_which(as0 + t1 * ds, -se, se, wb_s);
+            bv = clamp_which(av0 + t1 * dvv, 0.0, len, wb_v);
+        } else {
+            xs = side == 0 ? -se : se;
+            xv = side == 0 ? 0.0 : len;
+            xd = side == 0 ? 2.0 * se : -2.0 * se;
+            for (int c = 0; c < 4; ++c) {
+                float cs = fs[c], cv = fv[c];
+                float fds = fs[(c + 1) & 3] - cs, fdv = fv[(c + 1) & 3] - cv;
+                float q = fds * (xv - cv) - fdv * (xs - cs);
+                float p = -(fdv * xd);
+                if (p == 0.0) { if (q < 0.0 || (q == 0.0 && fds * xd < 0.0)) keep = false; }
+                else {
+                    float r = -(q / p);
+                    if (p > 0.0) { if (r > t0) { t0 = r; it0 = c; pt0 = p; qt0 = q; } }
+                    else if (r < t1) { t1 = r; it1 = c; pt1 = p; qt1 = q; }
+                }
+            }
+            if (!keep || t0 >= t1) continue;
+            as = xs + t0 * xd;
+            bs = xs + t1 * xd;
+            av = xv;
+            bv = xv;
+        }
+        // add_segment, forward and reverse.
+        if (as == bs) continue;
+        float dsg = bs - as;
+        float k = (bv - av) / dsg;
+        float vsum = av + bv - 2.0 * vref;
+        Araw -= 0.5 * dsg * vsum;
+        float a_as = 0.5 * vsum * aA, a_bs = -0.5 * vsum * aA;
+        float a_av = -0.5 * dsg * aA, a_bv = a_av;
+        float lo = min(as, bs), hi = max(as, bs);
+        float clo = max(lo, G.chi_lo), chi = min(hi, G.chi_hi);
+        if (clo < chi) {
+            float a0 = av - vref;
+            float vlo = a0 + k * (clo - as), vhi = a0 + k * (chi - as);
+            float sgn = bs > as ? -1.0 : 1.0;
+            float a_clo, a_chi, a_vlo, a_vhi;
+            Iraw += sgn * edge_adj(G, clo, chi, vlo, vhi, sgn * aJ, aG, a_clo, a_chi, a_vlo, a_vhi);
+            a_av += a_vlo + a_vhi;
+            float a_k = a_vlo * (clo - as) + a_vhi * (chi - as);
+            a_clo += a_vlo * k;
+            a_chi += a_vhi * k;
+            a_as -= (a_vlo + a_vhi) * k;
+            a_bv += a_k / dsg;
+            a_av -= a_k / dsg;
+            a_bs -= a_k * k / dsg;
+            a_as += a_k * k / dsg;
+            // clo = d_max(lo, chi_lo), chi = d_min(hi, chi_hi); lo = d_min(as, bs), hi = d_max(as, bs)
+            float a_lo = 0.0, a_hi = 0.0;
+            if (lo >= G.chi_lo) a_lo = a_clo; else aG.chi_lo += a_clo;
+            if (hi <= G.chi_hi) a_hi = a_chi; else aG.chi_hi += a_chi;
+            if (as <= bs) a_as += a_lo; else a_bs += a_lo;
+            if (as >= bs) a_as += a_hi; else a_bs += a_hi;
+        }
+        // The clipping's reverse: segment ends -> t0, t1 and the piece's inputs.
+        if (j < 4) {
+            // as = clamp(as0 + t0 ds, -se, se), av = clamp(av0 + t0 dvv, 0, len); b with t1
+            float a_xa = 0.0, a_ya = 0.0, a_xb = 0.0, a_yb = 0.0;
+            if (wa_s == 0) a_xa = a_as; else a_se += wa_s == 1 ? -a_as : a_as;
+            if (wa_v == 0) a_ya = a_av; else if (wa_v == 2) a_len += a_av;
+            if (wb_s == 0) a_xb = a_bs; else a_se += wb_s == 1 ? -a_bs : a_bs;
+            if (wb_v == 0) a_yb = a_bv; else if (wb_v == 2) a_len += a_bv;
+            float a_as0 = a_xa + a_xb, a_av0 = a_ya + a_yb;
+            float a_ds = a_xa * t0 + a_xb * t1, a_dvv = a_ya * t0 + a_yb * t1;
+            float a_t0 = a_xa * ds + a_ya * dvv, a_t1 = a_xb * ds + a_yb * dvv;
+            // t = q / p of the active constraint: p = (-ds, ds, -dvv, dvv), q = (as0 + se, se - as0, av0, len - av0)
+            vec4 a_p = vec4(0.0), a_q = vec4(0.0);
+            if (it0 >= 0) { a_q += onehot(it0) * (a_t0 / pt0); a_p -= onehot(it0) * (a_t0 * qt0 / (pt0 * pt0)); }
+            if (it1 >= 0) { a_q += onehot(it1) * (a_t1 / pt1); a_p -= onehot(it1) * (a_t1 * qt1 / (pt1 * pt1)); }
+            a_ds += a_p.y - a_p.x;
+            a_dvv += a_p.w - a_p.z;
+            a_as0 += a_q.x - a_q.y;
+            a_se += a_q.x + a_q.y;
+            a_av0 += a_q.z - a_q.w;
+            a_len += a_q.w;
+            // as0 = fs[e], ds = fs[e1] - fs[e] (v likewise)
+            a_fs += me * (a_as0 - a_ds) + me1 * a_ds;
+            a_fv += me * (a_av0 - a_dvv) + me1 * a_dvv;
+        } else {
+            // as = xs + t0 xd, bs = xs + t1 xd, av = bv = xv
+            float a_xs = a_as + a_bs, a_xv = a_av + a_bv;
+            float a_xd = a_as * t0 + a_bs * t1;
+            float a_t0 = a_as * xd, a_t1 = a_bs * xd;
+            for (int w = 0; w < 2; ++w) {
+                int c = w == 0 ? it0 : it1;
+                if (c < 0) continue;
+                float a_r = w == 0 ? a_t0 : a_t1, p = w == 0 ? pt0 : pt1, q = w == 0 ? qt0 : qt1;
+                // r = -q / p, q = fds (xv - cv) - fdv (xs - cs), p = -fdv xd
+                float a_qq = -a_r / p, a_pp = a_r * q / (p * p);
+                vec4 mc = onehot(c), mc1 = onehot((c + 1) & 3);
+                float cs = dot(mc, fs), cv = dot(mc, fv);
+                float fds = dot(mc1, fs) - cs, fdv = dot(mc1, fv) - cv;
+                float a_fds = a_qq * (xv - cv);
+                a_xv += a_qq * fds;
+                float a_cv = -a_qq * fds;
+                float a_fdv = -a_qq * (xs - cs) - a_pp * xd;
+                a_xs -= a_qq * fdv;
+                float a_cs = a_qq * fdv;
+                a_xd -= a_pp * fdv;
+                a_fs += mc * (a_cs - a_fds) + mc1 * a_fds;
+                a_fv += mc * (a_cv - a_fdv) + mc1 * a_fdv;
+            }
+            // xs = -se or se, xv = 0 or len, xd = 2 se or -2 se
+            a_se += side == 0 ? -a_xs + 2.0 * a_xd : a_xs - 2.0 * a_xd;
+            if (side == 1) a_len += a_xv;
+        }
+    }
+    a_half += gI * Iraw + gA * Araw;
+}
+
+// The gradient of gI I + gA A for one pair: d0 = d/d(x0, y0, x1, y1), d1 = d/d(w, d, alpha).
+// E = (x0, y0, x1, y1), S = (w, d, alpha, -); fp the footprint corners as stored by store_pixel,
+// h the half vector; try_fast as for pair_integral (patch_ndf.glsl).
+void pair_adjoint(vec4 E, vec4 S, vec2 fp[4], vec3 h, float gI, float gA, bool try_fast, out vec4 d0, out vec3 d1) {
+    PairF F = pair_f(E, S, fp, h);
+    GAdj aG = gadj_zero();
+    vec4 a_fs = vec4(0.0), a_fv = vec4(0.0);
+    float a_se = 0.0, a_len = 0.0, a_half = 0.0;
+    if (!(try_fast && fast_adj(F, gI, gA, a_fs, a_fv, a_se, a_half, aG)))
+        general_adj(F, gI, gA, a_fs, a_fv, a_se, a_len, a_half, aG);
+    float a_hb, a_ht, a_alpha;
+    geom_adj(F.G, aG, a_hb, a_ht, a_alpha);
+    // fs = (r . b) 2/w, fv = r . t, r = fp - p0; hb = h . b, ht = h . t; b = (-ty, tx)
+    float tx = F.tx, ty = F.ty, bx = -ty, by = tx;
+    vec4 as = a_fs * F.k2w;
+    float a_x0 = -dot(as, vec4(bx)) - dot(a_fv, vec4(tx));
+    float a_y0 = -dot(as, vec4(by)) - dot(a_fv, vec4(ty));
+    float a_bx = a_hb * h.x + dot(as, F.rx), a_by = a_hb * h.y + dot(as, F.ry);
+    float a_tx = a_ht * h.x + dot(a_fv, F.rx), a_ty = a_ht * h.y + dot(a_fv, F.ry);
+    float a_k2w = dot(a_fs, F.fs) / F.k2w;
+    a_ty -= a_bx;
+    a_tx += a_by;
+    // t = (x1 - x0, y1 - y0) / len, len = |(x1 - x0, y1 - y0)|
+    float tdot = a_tx * tx + a_ty * ty;
+    float a_dx = (a_tx - tx * tdot) / F.len + a_len * tx, a_dy = (a_ty - ty * tdot) / F.len + a_len * ty;
+    d0 = vec4(a_x0 - a_dx, a_y0 - a_dy, a_dx, a_dy);
+    // w: k2w = 2/w, half_w = w/2, se(w, d); d: se; alpha
+    float w = S.x;
+    d1 = vec3(-a_k2w * F.k2w / w + 0.5 * a_half + a_se * F.se_w, a_se * F.se_d, a_alpha);
+}
+
+#endif
