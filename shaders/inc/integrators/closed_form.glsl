@@ -22,12 +22,11 @@ R tail_T(R x) {
     return mul(dv(z, x), p);
 }
 
-// SA_EDGE_ADJOINT: the reverse sweep of the edge integral (edge_adj) for the backward kernel;
-// with SA_DUAL as well, the dual-number edge_integral is built on it (preaccumulation).
+// SA_EDGE_ADJOINT: the reverse sweep of the edge integral (edge_adj) for the backward kernel.
 #ifdef SA_EDGE_ADJOINT
 #include "closed_form_adjoint.glsl"
 #endif
-#if !(defined(SA_DUAL) && defined(SA_EDGE_ADJOINT))
+
 // ∫_lo^hi D(s) V(s) ds with V linear, V(lo) = Vlo, V(hi) = Vhi, chi_lo <= lo < hi <= chi_hi.
 R edge_integral(PairGeom G, R lo, R hi, R Vlo, R Vhi) {
     R dy = sub(hi, lo);
@@ -76,7 +75,6 @@ R edge_integral(PairGeom G, R lo, R hi, R Vlo, R Vhi) {
     J2 = mul(J2, hw);
     return mul(mul(mul(G.alpha, G.alpha), 0.25 / PI), add(J1, J2));
 }
-#endif
 
 #include "green.glsl"
 

@@ -2,10 +2,7 @@
 // the integral with the same float arithmetic and returns its partial derivatives with respect
 // to the interval's ends, the end values of V and the pair constants (s0, g, g2, c0..c4, alpha,
 // beta, hb, ht; hz is a per-pixel constant), scaled by the caller's adjoint. The backward kernel
-// (grad.comp) runs it inside the whole pair's reverse sweep (inc/pair_adjoint.glsl). With SA_DUAL
-// too, edge_integral for dual numbers is built on it: the partials are folded into the tangents,
-// J' = Σ_i (∂J/∂x_i) x_i' (preaccumulation), so a dual-number kernel pays one float forward and
-// one float reverse sweep per edge integral instead of 8-wide dual arithmetic.
+// (grad.comp) runs it inside the whole pair's reverse sweep (inc/pair_adjoint.glsl).
 //
 // The partials are those of the mathematical function the forward evaluates: for the far-tail
 // branch (tail_T) and the two atan forms the derivative is taken of F(x) = atan x + x/(1+x^2)
@@ -246,43 +243,5 @@ float edge_adj(GeomF G, float lo, float hi, float Vlo, float Vhi, float aJ, inou
     aG.alpha += a_alpha;
     return J;
 }
-
-GeomF geom_values(PairGeom G) {
-    return GeomF(val(G.alpha), val(G.beta), val(G.hb), val(G.ht), val(G.hz), val(G.s0), val(G.g), val(G.g2),
-                 val(G.c0), val(G.c1), val(G.c2), val(G.c3), val(G.c4), val(G.chi_lo), val(G.chi_hi));
-}
-
-#ifdef SA_DUAL
-// J' += a x'
-void fold(inout Dual J, float a, Dual x) {
-    J.g0 += a * x.g0;
-    J.g1 += a * x.g1;
-}
-
-// The edge integral of the dual-number kernel: value and partials from edge_adj, folded into
-// the tangents of its dual inputs (lo, hi, Vlo, Vhi and the pair constants).
-Dual edge_integral(PairGeom G, Dual lo, Dual hi, Dual Vlo, Dual Vhi) {
-    GAdj aG = gadj_zero();
-    float a_lo, a_hi, a_Vlo, a_Vhi;
-    Dual J = rc(edge_adj(geom_values(G), lo.v, hi.v, Vlo.v, Vhi.v, 1.0, aG, a_lo, a_hi, a_Vlo, a_Vhi));
-    fold(J, a_lo, lo);
-    fold(J, a_hi, hi);
-    fold(J, a_Vlo, Vlo);
-    fold(J, a_Vhi, Vhi);
-    fold(J, aG.s0, G.s0);
-    fold(J, aG.g, G.g);
-    fold(J, aG.g2, G.g2);
-    fold(J, aG.c0, G.c0);
-    fold(J, aG.c1, G.c1);
-    fold(J, aG.c2, G.c2);
-    fold(J, aG.c3, G.c3);
-    fold(J, aG.c4, G.c4);
-    fold(J, aG.beta, G.beta);
-    fold(J, aG.hb, G.hb);
-    fold(J, aG.ht, G.ht);
-    fold(J, aG.alpha, G.alpha);
-    return J;
-}
-#endif
 
 #endif
