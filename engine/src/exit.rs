@@ -89,7 +89,19 @@ pub fn code_of(err: &anyhow::Error) -> u8 {
 
 /// Parses the command line of a binary: a clap error (or `--help`, `--version`) is printed and
 /// becomes the exit code (2, or success for help) in `Err`.
+/// When the binary started (the first thing every binary's `main` does is [`parse_args`]); for
+/// wall-time reports that include start-up.
+static PROCESS_START: std::sync::OnceLock<std::time::Instant> = std::sync::OnceLock::new();
+
+/// The start of this process as recorded by [`parse_args`] (or the first call, when a library
+/// user never called it).
+pub fn process_start() -> std::time::Instant {
+    *PROCESS_START.get_or_init(std::time::Instant::now)
+}
+
+/// Parses the command line (see the contract above) and records the start time.
 pub fn parse_args<P: clap::Parser>() -> Result<P, std::process::ExitCode> {
+    let _ = PROCESS_START.set(std::time::Instant::now());
     P::try_parse().map_err(|e| {
         let _ = e.print();
         if e.use_stderr() {

@@ -114,6 +114,32 @@ impl From<&Evaluation> for IterRecord {
     }
 }
 
+/// Wall-clock seconds of a design run's phases.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct WallTimes {
+    /// From the process start (device, kernels, uploads, light calibration, the first render)
+    /// to the first iteration.
+    pub start_up: f64,
+    /// The optimization loop.
+    pub iterations: f64,
+    /// Pruning trials.
+    pub pruning: f64,
+    /// The final render, the quality report, images, plots and the set-up sheet (0 until written).
+    pub reports: f64,
+}
+
+impl WallTimes {
+    pub fn to_json(&self) -> serde_json::Value {
+        json!({
+            "start_up": self.start_up,
+            "iterations": self.iterations,
+            "pruning": self.pruning,
+            "final_render_and_reports": self.reports,
+            "total": self.start_up + self.iterations + self.pruning + self.reports,
+        })
+    }
+}
+
 /// What a design run produced.
 #[derive(Clone, Debug)]
 pub struct DesignReport {
@@ -140,6 +166,8 @@ pub struct DesignReport {
     pub summary: Option<serde_json::Value>,
     /// Fabrication mode: the commanded depth of every written scratch, mm.
     pub depths: Option<Vec<f64>>,
+    /// Wall time by phase.
+    pub wall: WallTimes,
 }
 
 /// The design optimizer: the driver over the design loss and the scene parameters.
@@ -351,7 +379,9 @@ pub fn run_design(
         None
     };
     let (initial_images, _) = opt.render()?;
+    let t_loop = std::time::Instant::now();
     let (loop_seconds, iters_run) = opt.run(obs)?;
+    let t_loop_end = std::time::Instant::now();
     let unpruned = opt.scene(&problem.scene)?;
     let depths = match &opt.tool {
         Some(t) => Some(t.depths(ctx)?.iter().map(|&z| z as f64).collect::<Vec<f64>>()),
@@ -371,6 +401,7 @@ pub fn run_design(
     } else {
         (unpruned.clone(), None)
     };
+    let t_pruned = std::time::Instant::now();
     let depths = depths.map(|z| depths_of_kept(&unpruned.scratches, &z, &scene.scratches));
     // Final evaluation and images of the written design.
     let mut gs: GpuScene = renderer.upload(&scene)?;
@@ -397,6 +428,12 @@ pub fn run_design(
         resumed_from,
         summary: None,
         depths,
+        wall: WallTimes {
+            start_up: t_loop.duration_since(crate::exit::process_start()).as_secs_f64(),
+            iterations: t_loop_end.duration_since(t_loop).as_secs_f64(),
+            pruning: t_pruned.duration_since(t_loop_end).as_secs_f64(),
+            reports: 0.0,
+        },
     };
     if cfg.write_outputs {
         let mut summary = super::report::write_outputs(&cfg.out, problem, cfg, &report)?;
@@ -422,6 +459,8 @@ pub fn run_design(
         summary["setup"] = setup;
         summary["sensitivity"] = sensitivity;
         summary["setup_advice"] = json!(advice);
+        report.wall.reports = t_pruned.elapsed().as_secs_f64();
+        summary["wall_s"] = report.wall.to_json();
         crate::io::write_atomic(
             &cfg.out.join("summary.json"),
             serde_json::to_string_pretty(&summary)

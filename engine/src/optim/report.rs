@@ -494,6 +494,18 @@ pub fn summary_text(s: &serde_json::Value, out: &Path) -> String {
             .collect();
         let _ = writeln!(text, "  GPU ms per iteration: {}", p.join(", "));
     }
+    if s["wall_s"].is_object() {
+        let w = &s["wall_s"];
+        let _ = writeln!(
+            text,
+            "  wall time {:.1} s: start-up {:.1} s (device, kernels, uploads, first render), iterations {:.1} s, pruning {:.1} s, final render and reports {:.1} s",
+            f(&w["total"]),
+            f(&w["start_up"]),
+            f(&w["iterations"]),
+            f(&w["pruning"]),
+            f(&w["final_render_and_reports"])
+        );
+    }
     let _ = writeln!(
         text,
         "  loss {:.5} -> {:.5}",

@@ -1,21 +1,32 @@
-//! [`ShaderCompiler`]: GLSL compute shaders -> SPIR-V with shaderc, at run time.
+//! [`ShaderCompiler`]: GLSL compute shaders -> SPIR-V.
 //!
 //! Sources come either from the copy embedded at build time (`build.rs` writes
 //! `EMBEDDED_SHADERS`, so binaries run from any directory) or from a directory on disk (the
-//! viewer's hot reload). Paths are relative to the shaders root, e.g. `"forward.comp"`;
+//! viewer's hot reload). The kernel variants the engine and viewer use are compiled by
+//! `build.rs` too (`scratchart_glsl::PRECOMPILED`): from the built-in sources they are not
+//! compiled again, any other variant is compiled at run time with the same options. Paths are relative to the shaders root, e.g. `"forward.comp"`;
 //! `#include "inc/x.glsl"` resolves against the root first, then the including file's folder.
-use std::path::{Path, PathBuf};
-use std::sync::Mutex;
+use std::path::PathBuf;
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::{Mutex, OnceLock};
 
 use super::error::GpuError;
+use scratchart_glsl::{normalize, shaderc};
 
 mod embedded {
     include!(concat!(env!("OUT_DIR"), "/embedded_shaders.rs"));
 }
 
+mod precompiled {
+    include!(concat!(env!("OUT_DIR"), "/precompiled_shaders.rs"));
+}
+
 /// Set by [`ShaderCompiler::override_embedded`]: when `Some`, [`ShaderCompiler::embedded`] reads
 /// from this directory instead of the built-in copy.
 static EMBEDDED_OVERRIDE: Mutex<Option<PathBuf>> = Mutex::new(None);
+
+/// GLSL compilations done at run time in this process (see [`ShaderCompiler::runtime_compiles`]).
+static RUNTIME_COMPILES: AtomicUsize = AtomicUsize::new(0);
 
 enum Source {
     Embedded,
@@ -23,32 +34,24 @@ enum Source {
 }
 
 pub struct ShaderCompiler {
-    compiler: shaderc::Compiler,
+    /// Created on the first compilation that needs it (precompiled kernels need none).
+    compiler: OnceLock<Option<shaderc::Compiler>>,
     source: Source,
-}
-
-/// Normalises `a/./b/../c` to `a/c` with forward slashes; `None` if it escapes the root.
-fn normalize(path: &str) -> Option<String> {
-    let mut parts: Vec<&str> = Vec::new();
-    for p in path.split(['/', '\\']) {
-        match p {
-            "" | "." => {}
-            ".." => {
-                parts.pop()?;
-            }
-            p => parts.push(p),
-        }
-    }
-    Some(parts.join("/"))
 }
 
 impl ShaderCompiler {
     fn with_source(source: Source) -> Result<Self, GpuError> {
-        let compiler = shaderc::Compiler::new().ok_or_else(|| GpuError::Shader {
-            path: String::new(),
-            log: "cannot initialise the shaderc compiler".into(),
-        })?;
-        Ok(ShaderCompiler { compiler, source })
+        Ok(ShaderCompiler {
+            compiler: OnceLock::new(),
+            source,
+        })
+    }
+
+    /// How many GLSL compilations this process has done at run time: variants that were not
+    /// compiled at build time (`scratchart_glsl::PRECOMPILED`), and every compilation from a
+    /// directory (the viewer's hot reload).
+    pub fn runtime_compiles() -> usize {
+        RUNTIME_COMPILES.load(Ordering::Relaxed)
     }
 
     /// Compiles the sources embedded in the binary at build time (or, after
@@ -86,63 +89,36 @@ impl ShaderCompiler {
         }
     }
 
-    /// Compiles the compute shader at `path` with `#define NAME VALUE` for each of `defines`.
-    /// Target: Vulkan 1.1 / SPIR-V 1.3, entry point `main`, optimised, warnings are errors.
+    /// Compiles the compute shader at `path` with `#define NAME VALUE` for each of `defines`
+    /// (see `scratchart_glsl::compile` for the options). Built-in sources of a variant compiled at
+    /// build time are not compiled again: its SPIR-V is returned as built.
     pub fn compile(&self, path: &str, defines: &[(&str, &str)]) -> Result<Vec<u32>, GpuError> {
         let err = |log: String| GpuError::Shader {
             path: path.to_string(),
             log,
         };
         let rel = normalize(path).ok_or_else(|| err("path escapes the shaders root".into()))?;
+        if let Source::Embedded = self.source {
+            let key = scratchart_glsl::variant_key(&rel, defines);
+            if let Some((_, bytes)) = precompiled::PRECOMPILED_SPIRV.iter().find(|(k, _)| *k == key) {
+                return Ok(bytes
+                    .chunks_exact(4)
+                    .map(|w| u32::from_le_bytes([w[0], w[1], w[2], w[3]]))
+                    .collect());
+            }
+        }
         let src = self.load(&rel).ok_or_else(|| {
             err(match &self.source {
                 Source::Embedded => "no such embedded shader (is it under shaders/ at build time?)".into(),
                 Source::Dir(d) => format!("cannot read {}", d.join(&rel).display()),
             })
         })?;
-
-        let mut opts = shaderc::CompileOptions::new().ok_or_else(|| err("cannot create shaderc options".into()))?;
-        opts.set_source_language(shaderc::SourceLanguage::GLSL);
-        opts.set_target_env(shaderc::TargetEnv::Vulkan, shaderc::EnvVersion::Vulkan1_1 as u32);
-        opts.set_target_spirv(shaderc::SpirvVersion::V1_3);
-        opts.set_optimization_level(shaderc::OptimizationLevel::Performance);
-        opts.set_warnings_as_errors();
-        for (k, v) in defines {
-            opts.add_macro_definition(k, Some(v));
-        }
-        // The resolved name is the root-relative path: it shows up in error messages and is
-        // what nested relative includes are resolved against.
-        opts.set_include_callback(|requested, _ty, includer, _depth| {
-            let includer_dir = Path::new(includer).parent().map(|p| p.to_string_lossy().into_owned());
-            let mut tries = vec![requested.to_string()];
-            if let Some(d) = includer_dir.filter(|d| !d.is_empty()) {
-                tries.push(format!("{d}/{requested}"));
-            }
-            for t in &tries {
-                if let Some(n) = normalize(t) {
-                    if let Some(content) = self.load(&n) {
-                        return Ok(shaderc::ResolvedInclude {
-                            resolved_name: n,
-                            content,
-                        });
-                    }
-                }
-            }
-            Err(format!(
-                "cannot find include \"{requested}\" (tried {})",
-                tries.join(", ")
-            ))
-        });
-
-        let artifact = self
+        let compiler = self
             .compiler
-            .compile_into_spirv(&src, shaderc::ShaderKind::Compute, &rel, "main", Some(&opts))
-            .map_err(|e| {
-                err(match e {
-                    shaderc::Error::CompilationError(_, log) => log,
-                    e => e.to_string(),
-                })
-            })?;
-        Ok(artifact.as_binary().to_vec())
+            .get_or_init(shaderc::Compiler::new)
+            .as_ref()
+            .ok_or_else(|| err("cannot initialise the shaderc compiler".into()))?;
+        RUNTIME_COMPILES.fetch_add(1, Ordering::Relaxed);
+        scratchart_glsl::compile(compiler, &|n| self.load(n), &rel, &src, defines).map_err(err)
     }
 }
