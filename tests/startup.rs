@@ -45,3 +45,57 @@ fn a_design_iteration_compiles_no_glsl_and_prebuilt_spirv_matches() {
     );
     assert_no_validation(&ctx);
 }
+
+/// The persistent pipeline cache: written when a context that built pipelines is dropped, with a
+/// header for this device; read back by the next context; a damaged file is ignored and replaced.
+#[test]
+fn the_pipeline_cache_persists_and_survives_a_damaged_file() {
+    use scratchart::vulkan::{Context, ContextDesc, PipelineCacheDir};
+    let dir = std::env::temp_dir().join(format!("scratchart-pipeline-cache-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    let make = || {
+        Context::new(ContextDesc {
+            validation: true,
+            quiet: true,
+            pipeline_cache: PipelineCacheDir::Dir(dir.clone()),
+            ..Default::default()
+        })
+        .unwrap()
+    };
+    let file;
+    {
+        let ctx = make();
+        file = ctx.pipeline_cache_file().expect("a cache file in the given directory");
+        assert!(file.starts_with(&dir));
+        assert!(!file.exists(), "nothing is written before the context is dropped");
+        let _r = scratchart::render::Renderer::new(&ctx).unwrap();
+        assert_no_validation(&ctx);
+    }
+    let first = std::fs::read(&file).expect("the cache is written when the context is dropped");
+    assert!(
+        first.len() >= 32,
+        "a Vulkan pipeline cache starts with a 32-byte header"
+    );
+    let u = |i: usize| u32::from_le_bytes(first[i..i + 4].try_into().unwrap());
+    assert_eq!(u(4), 1, "header version one");
+    {
+        let ctx = make();
+        let _r = scratchart::render::Renderer::new(&ctx).unwrap();
+        assert_no_validation(&ctx);
+    }
+    // A damaged file: garbage, then a truncated header. Neither stops a context.
+    for junk in [vec![0xAB; 100], first[..20].to_vec()] {
+        std::fs::write(&file, &junk).unwrap();
+        {
+            let ctx = make();
+            let _r = scratchart::render::Renderer::new(&ctx).unwrap();
+            assert_no_validation(&ctx);
+        }
+        let again = std::fs::read(&file).unwrap();
+        assert!(
+            again.len() >= 32 && again[4..8] == first[4..8],
+            "the damaged cache was not replaced"
+        );
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -15,7 +15,9 @@ use super::{
     error::{vk_err, GpuError},
     instance::{has_ext, Instance, ValidationLog},
     physical_device::{self, DeviceInfo},
+    pipeline_cache::{PersistentCache, PipelineCacheDir},
 };
+use std::path::{Path, PathBuf};
 
 /// How long one-off and recorded submissions may run before we report [`GpuError::Timeout`].
 pub(crate) const SUBMIT_TIMEOUT_S: u64 = 60;
@@ -35,6 +37,8 @@ pub struct ContextDesc {
     pub device_extensions: Vec<&'static CStr>,
     /// When false, print `device: NAME (kind)` to stderr once at creation.
     pub quiet: bool,
+    /// Where the persistent pipeline cache lives (see `vulkan::pipeline_cache`).
+    pub pipeline_cache: PipelineCacheDir,
 }
 
 /// The Vulkan context every GPU object is made from (through an `Arc`, so it outlives them).
@@ -58,6 +62,8 @@ pub struct Context {
     log: ValidationLog,
     validation: bool,
     info: DeviceInfo,
+    /// Pipelines of earlier runs (written back at drop).
+    pipelines: Mutex<PersistentCache>,
 }
 
 impl Context {
@@ -89,6 +95,27 @@ impl Context {
             validation,
         } = inst;
         let queue = unsafe { device.get_device_queue(queue_family, 0) };
+        let props = unsafe { instance.get_physical_device_properties(physical_device) };
+        let pipelines = match PersistentCache::new(&device, &props, &desc.pipeline_cache) {
+            Ok(c) => c,
+            Err(e) => {
+                drop(allocator);
+                unsafe {
+                    device.destroy_device(None);
+                    Instance {
+                        entry,
+                        instance,
+                        debug_utils,
+                        debug_instance,
+                        messenger,
+                        log,
+                        validation,
+                    }
+                    .destroy()
+                };
+                return Err(vk_err("vkCreatePipelineCache")(e));
+            }
+        };
         let debug_device = debug_utils.then(|| ash::ext::debug_utils::Device::new(&instance, &device));
         if !desc.quiet {
             eprintln!("device: {} ({})", info.name, info.kind);
@@ -108,7 +135,22 @@ impl Context {
             log,
             validation,
             info,
+            pipelines: Mutex::new(pipelines),
         }))
+    }
+
+    /// The pipeline cache every pipeline of this context is built with.
+    pub fn pipeline_cache(&self) -> vk::PipelineCache {
+        self.pipelines.lock().unwrap_or_else(|e| e.into_inner()).cache
+    }
+
+    /// The file of the persistent pipeline cache, if it has one.
+    pub fn pipeline_cache_file(&self) -> Option<PathBuf> {
+        self.pipelines
+            .lock()
+            .unwrap_or_else(|e| e.into_inner())
+            .path()
+            .map(Path::to_path_buf)
     }
 
     /// Picks the physical device, creates the logical device and allocator.
@@ -319,6 +361,10 @@ impl Drop for Context {
     fn drop(&mut self) {
         unsafe {
             let _ = self.device.device_wait_idle();
+            self.pipelines
+                .get_mut()
+                .unwrap_or_else(|e| e.into_inner())
+                .save_and_destroy(&self.device);
             // The allocator frees its device memory blocks: it must go before the device.
             ManuallyDrop::drop(&mut self.allocator);
             self.device.destroy_device(None);

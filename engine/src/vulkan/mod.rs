@@ -7,8 +7,10 @@
 //!   it owns the instance and destroys everything in the right order.
 //! - [`transfer`]: one-off uploads and read-backs through staging buffers.
 //! - [`buffer`]: storage buffers backed by `gpu-allocator`.
-//! - [`shader`]: GLSL -> SPIR-V via shaderc, from embedded sources or a directory.
+//! - [`shader`]: GLSL -> SPIR-V: built in at build time for the kernels in use, else via shaderc
+//!   from embedded sources or a directory.
 //! - [`pipeline`]: compute pipelines with a fixed "N storage buffers + push constants" layout.
+//! - [`pipeline_cache`]: the persistent `VkPipelineCache` every pipeline is built with.
 //! - [`recorder`]: command recording, descriptor sets, barriers, submission, GPU timestamps.
 //! - [`error`]: the [`GpuError`] type every fallible call returns.
 //!
@@ -20,6 +22,7 @@ pub mod error;
 pub mod instance;
 pub mod physical_device;
 pub mod pipeline;
+pub mod pipeline_cache;
 pub mod recorder;
 pub mod shader;
 pub mod transfer;
@@ -30,5 +33,6 @@ pub use error::GpuError;
 pub use instance::ValidationLog;
 pub use physical_device::{list_devices, DeviceInfo, DeviceSummary};
 pub use pipeline::ComputePipeline;
+pub use pipeline_cache::PipelineCacheDir;
 pub use recorder::{Recorder, Timings};
 pub use shader::ShaderCompiler;

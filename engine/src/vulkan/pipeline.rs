@@ -88,7 +88,7 @@ impl ComputePipeline {
                 .module(module)
                 .name(c"main");
             let ci = [vk::ComputePipelineCreateInfo::default().stage(stage).layout(layout)];
-            let r = unsafe { d.create_compute_pipelines(vk::PipelineCache::null(), &ci, None) };
+            let r = unsafe { d.create_compute_pipelines(ctx.pipeline_cache(), &ci, None) };
             // The module is only needed during pipeline creation.
             unsafe { d.destroy_shader_module(module, None) };
             r.map(|p| p[0]).map_err(|(_, e)| vk_err("vkCreateComputePipelines")(e))
