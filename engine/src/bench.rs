@@ -16,6 +16,13 @@ pub const FLOPS_PER_CANDIDATE: f64 = 12.0;
 /// edge integral with its 5-point Gauss part 155 (atan, log and sqrt counted as 1 each),
 /// accumulation 3. Sum 279, rounded to 300; pairs on the general path cost more.
 pub const FLOPS_PER_PAIR: f64 = 300.0;
+/// Floating-point operations per overlapping pair of the backward kernel (`grad.comp` in reverse
+/// mode, `inc/pair_adjoint.glsl`), counted on the same fast path: the scratch frame with the
+/// carved half-width and its partials 75, the pair constants 45, the strip's crossings forward
+/// and reverse 120, the edge integral's forward sweep 155 and reverse sweep 200, the reverse of
+/// the pair constants 70, the frame's reverse 60, the per-scratch sum 8. Sum 733, rounded to 750
+/// (sqrt, atan, log and divisions counted as 1 each, as for the forward).
+pub const FLOPS_PER_PAIR_BACKWARD: f64 = 750.0;
 
 /// One benchmark row.
 #[derive(Clone, Debug)]
@@ -142,9 +149,9 @@ pub fn forward_table(ctx: &Context, rows: &[ForwardRow]) -> String {
     let _ = writeln!(s, "device: {} ({})", ctx.info().name, ctx.info().kind);
     let _ = writeln!(
         s,
-        "| scene | scratches | views x pixels | tile entries | candidates | pairs | pair search ms/view | shading ms/view | backward ms/view | forward Mpairs/s | forward GFLOP/s |"
+        "| scene | scratches | views x pixels | tile entries | candidates | pairs | pair search ms/view | shading ms/view | backward ms/view | forward Mpairs/s | forward GFLOP/s | backward Mpairs/s | backward GFLOP/s |"
     );
-    let _ = writeln!(s, "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
+    let _ = writeln!(s, "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
     let mut ratios = String::new();
     for r in rows {
         let v = r.views as f64;
@@ -164,7 +171,7 @@ pub fn forward_table(ctx: &Context, rows: &[ForwardRow]) -> String {
         let flops = r.pairs as f64 * FLOPS_PER_PAIR + (r.candidates - r.pairs) as f64 * FLOPS_PER_CANDIDATE;
         let _ = writeln!(
             s,
-            "| {} | {} | {} x {} | {} | {} | {} | {:.2} | {:.2} | {:.2} | {:.1} | {:.1} |",
+            "| {} | {} | {} x {} | {} | {} | {} | {:.2} | {:.2} | {:.2} | {:.1} | {:.1} | {:.1} | {:.1} |",
             r.name,
             r.scratches,
             r.views,
@@ -176,7 +183,9 @@ pub fn forward_table(ctx: &Context, rows: &[ForwardRow]) -> String {
             r.shade_ms / v,
             r.backward_ms / v,
             r.pairs as f64 / secs * 1e-6,
-            flops / secs * 1e-9
+            flops / secs * 1e-9,
+            r.pairs as f64 / (r.backward_ms * 1e-3) * 1e-6,
+            r.pairs as f64 * FLOPS_PER_PAIR_BACKWARD / (r.backward_ms * 1e-3) * 1e-9
         );
     }
     if !ratios.is_empty() {

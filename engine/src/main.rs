@@ -79,7 +79,9 @@ enum Cmd {
     Devices,
     /// Benchmark the GPU pipeline on the standard scenes (S, M, P) or on a scene file.
     Bench {
-        /// Standard scenes to run: S (4,000 scratches, 2x128^2), M (40,000, 3x256^2), P (40,000, 3x512^2)
+        /// Standard scenes to run: S (4,000 scratches, 2x128^2), M (40,000, 3x256^2), P (40,000,
+        /// 3x512^2, the paper's scale), L (160,000, 3x1024^2, to fill a big GPU), or NxVxR (N
+        /// scratches, V views of R x R pixels, e.g. 20000x3x256, for scaling tables)
         #[arg(long, value_delimiter = ',', default_value = "S,M")]
         sizes: Vec<String>,
         /// Time this scene file instead of the standard scenes
@@ -200,10 +202,10 @@ fn run(cli: Cli) -> Result<()> {
                     .iter()
                     .map(|s| {
                         scratchart::scenes::bench_scene(s)
-                            .map(|sc| (s.to_uppercase(), sc))
+                            .map(|sc| (if s.len() == 1 { s.to_uppercase() } else { s.clone() }, sc))
                             .ok_or_else(|| {
                                 scratchart::exit::UsageError(format!(
-                                    "--sizes: unknown standard scene '{s}' (choose S, M or P)"
+                                    "--sizes: unknown standard scene '{s}' (choose S, M, P, L or NxVxR such as 20000x3x256)"
                                 ))
                                 .into()
                             })

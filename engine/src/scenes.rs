@@ -169,7 +169,9 @@ pub fn frame_plate(view: &mut View, plate_mm: f64, fill: f64) {
 }
 
 /// Standard benchmark scenes. S: 4,000 scratches, 2 views of 128x128. M: 40,000 scratches,
-/// 3 views of 256x256. P (paper scale): 40,000 scratches, 3 views of 512x512. All: random
+/// 3 views of 256x256. P (paper scale): 40,000 scratches, 3 views of 512x512. L (to fill a big
+/// GPU): 160,000 scratches, 3 views of 1024x1024. `NxVxR`: N scratches, V views of R x R (for
+/// scaling tables). All: random
 /// endpoints over a 100 mm plate, lengths 5-30 mm, w = d = 0.05 mm, alpha 0.04, views at 45
 /// degrees elevation and azimuths 0/120/240 (0/180 for S), one point light at 45 degrees.
 pub fn bench_scene(name: &str) -> Option<Scene> {
@@ -177,7 +179,15 @@ pub fn bench_scene(name: &str) -> Option<Scene> {
         "S" | "s" => (4_000, 2, 128),
         "M" | "m" => (40_000, 3, 256),
         "P" | "p" => (40_000, 3, 512),
-        _ => return None,
+        "L" | "l" => (160_000, 3, 1024),
+        _ => {
+            // NxVxR: N scratches, V views (1 to 3) of R x R pixels (for scaling tables)
+            let p: Vec<u32> = name.split(['x', 'X']).map(|t| t.parse().ok()).collect::<Option<_>>()?;
+            match p[..] {
+                [n, v, r] if n > 0 && (1..=3).contains(&v) && (16..=8192).contains(&r) => (n as usize, v as usize, r),
+                _ => return None,
+            }
+        }
     };
     let plate = 100.0;
     let mut rng = Rng::new(0x5C2A7C4 + n as u64);
