@@ -33,6 +33,7 @@ pub fn make_context(
         instance_extensions,
         device_extensions,
         quiet: false,
+        ..Default::default()
     })?;
     log.replace(Some(ctx.validation_log()));
     Ok(ctx)
