@@ -7,6 +7,7 @@
 // Defines pair_integral (see patch_ndf.glsl): the fast path when it applies, else the boundary walk.
 #ifndef SA_GREEN_GLSL
 #define SA_GREEN_GLSL
+#extension GL_EXT_control_flow_attributes : require
 
 R edge_integral(PairGeom G, R lo, R hi, R Vlo, R Vhi);
 
@@ -154,8 +155,73 @@ bool patch_fast(R fs[4], R fv[4], R se, R len, R half_w, PairGeom G, out R I, ou
     return true;
 }
 
+#ifndef SA_DUAL
+// patch_integral for float kernels: the same pieces, arithmetic and order, visited by one loop
+// that is not unrolled, so the kernel holds one copy of edge_integral for the walk instead of six
+// (on CPU drivers a shading kernel's size costs as much as its arithmetic). The pieces'
+// inputs are picked from vec4s by one-hot masks, not from local arrays (which become memory).
+void patch_integral_loop(R fs_[4], R fv_[4], R se, R len, R half_w, PairGeom G, out R I, out R A) {
+    I = 0.0;
+    A = 0.0;
+    vec4 fs = vec4(fs_[0], fs_[1], fs_[2], fs_[3]), fv = vec4(fv_[0], fv_[1], fv_[2], fv_[3]);
+    float vref = ref_v(fs_, fv_, se, len);
+    [[dont_unroll]] for (int j = 0; j < 6; ++j) {
+        float as, av, bs, bv;
+        float t0 = 0.0, t1 = 1.0;
+        bool keep = true;
+        if (j < 4) {
+            vec4 me = vec4(equal(ivec4(0, 1, 2, 3), ivec4(j))), me1 = vec4(equal(ivec4(0, 1, 2, 3), ivec4((j + 1) & 3)));
+            float as0 = dot(me, fs), av0 = dot(me, fv);
+            float ds = dot(me1, fs) - as0, dvv = dot(me1, fv) - av0;
+            vec4 ps = vec4(-ds, ds, -dvv, dvv);
+            vec4 qs = vec4(as0 + se, se - as0, av0, len - av0);
+            for (int i = 0; i < 4; ++i) {
+                float p = ps[i], q = qs[i];
+                if (p == 0.0) { if (q < 0.0 || (q == 0.0 && i >= 2)) keep = false; }
+                else {
+                    float r = q / p;
+                    if (p < 0.0) t0 = max(t0, r); else t1 = min(t1, r);
+                }
+            }
+            if (!keep || t0 >= t1) continue;
+            as = min(max(as0 + t0 * ds, -se), se);
+            av = min(max(av0 + t0 * dvv, 0.0), len);
+            bs = min(max(as0 + t1 * ds, -se), se);
+            bv = min(max(av0 + t1 * dvv, 0.0), len);
+        } else {
+            bool bottom = j == 4;
+            float xs = bottom ? -se : se, xv = bottom ? 0.0 : len, xd = bottom ? 2.0 * se : -2.0 * se;
+            for (int c = 0; c < 4; ++c) {
+                float cs = fs[c], cv = fv[c];
+                float fds = fs[(c + 1) & 3] - cs, fdv = fv[(c + 1) & 3] - cv;
+                float q = fds * (xv - cv) - fdv * (xs - cs);
+                float p = -(fdv * xd);
+                if (p == 0.0) { if (q < 0.0 || (q == 0.0 && fds * xd < 0.0)) keep = false; }
+                else {
+                    float r = -(q / p);
+                    if (p > 0.0) t0 = max(t0, r); else t1 = min(t1, r);
+                }
+            }
+            if (!keep || t0 >= t1) continue;
+            as = xs + t0 * xd;
+            bs = xs + t1 * xd;
+            av = xv;
+            bv = xv;
+        }
+        add_segment(G, as, av, bs, bv, vref, I, A);
+    }
+    I = I * half_w;
+    A = A * half_w;
+}
+#endif
+
 void pair_integral(R fs[4], R fv[4], R se, R len, R half_w, PairGeom G, bool try_fast, out R I, out R A) {
-    if (!(try_fast && patch_fast(fs, fv, se, len, half_w, G, I, A))) patch_integral(fs, fv, se, len, half_w, G, I, A);
+    if (try_fast && patch_fast(fs, fv, se, len, half_w, G, I, A)) return;
+#ifndef SA_DUAL
+    patch_integral_loop(fs, fv, se, len, half_w, G, I, A);
+#else
+    patch_integral(fs, fv, se, len, half_w, G, I, A);
+#endif
 }
 
 #endif
