@@ -142,13 +142,18 @@ PairF pair_f(vec4 E, vec4 S, vec2 fp[4], vec3 h) {
 // One-hot mask of component i of a vec4 (dynamic indices without local arrays).
 vec4 onehot(int i) { return vec4(equal(ivec4(0, 1, 2, 3), ivec4(i))); }
 
-// patch_fast (green.glsl) forward and reverse. Returns false, with nothing added, when the pair
-// is not a fast-path pair.
-bool fast_adj(PairF F, float gI, float gA, inout vec4 a_fs, inout vec4 a_fv, inout float a_se, inout float a_half,
-              inout GAdj aG) {
+// patch_fast (green.glsl), forward: whether the pair is a fast-path pair, and the strip's
+// chords c0 (at s = -se) and c1 (at s = +se) with the edges that gave their ends.
+struct FastRec {
+    float c0, c1, clo, chi;
+    int elo0, ehi0, elo1, ehi1;
+};
+
+bool fast_fwd(PairF F, out FastRec FR) {
     float se = F.se;
     float lo0 = 1e30, hi0 = -1e30, lo1 = 1e30, hi1 = -1e30;
-    int elo0 = 0, ehi0 = 0, elo1 = 0, ehi1 = 0;
+    FR.elo0 = 0; FR.ehi0 = 0; FR.elo1 = 0; FR.ehi1 = 0;
+    FR.c0 = 0.0; FR.c1 = 0.0; FR.clo = 0.0; FR.chi = 0.0;
     int n0 = 0, n1 = 0;
     for (int e = 0; e < 4; ++e) {
         float a = F.fs[e], b = F.fs[(e + 1) & 3];
@@ -156,31 +161,36 @@ bool fast_adj(PairF F, float gI, float gA, inout vec4 a_fs, inout vec4 a_fv, ino
         if (abs(a) < se || a == b) return false;
         if ((a < -se) != (b < -se) && a != -se && b != -se) {
             float v = av + ((bv - av) / (b - a)) * (-se - a);
-            if (v < lo0) { lo0 = v; elo0 = e; }
-            if (v > hi0) { hi0 = v; ehi0 = e; }
+            if (v < lo0) { lo0 = v; FR.elo0 = e; }
+            if (v > hi0) { hi0 = v; FR.ehi0 = e; }
             ++n0;
         }
         if ((a > se) != (b > se) && a != se && b != se) {
             float v = av + ((bv - av) / (b - a)) * (se - a);
-            if (v < lo1) { lo1 = v; elo1 = e; }
-            if (v > hi1) { hi1 = v; ehi1 = e; }
+            if (v < lo1) { lo1 = v; FR.elo1 = e; }
+            if (v > hi1) { hi1 = v; FR.ehi1 = e; }
             ++n1;
         }
     }
     if (!(n0 == 2 && n1 == 2 && lo0 > 0.0 && lo1 > 0.0 && hi0 < F.len && hi1 < F.len)) return false;
-    GeomF G = F.G;
-    float half_w = F.half_w;
-    float c0 = hi0 - lo0, c1 = hi1 - lo1;
-    float clo = max(-se, G.chi_lo), chi = min(se, G.chi_hi);
-    // Reverse sweep, seeded with aI = gI, aA = gA. A = se (c0 + c1) half_w.
+    FR.c0 = hi0 - lo0;
+    FR.c1 = hi1 - lo1;
+    FR.clo = max(-se, F.G.chi_lo);
+    FR.chi = min(se, F.G.chi_hi);
+    return true;
+}
+
+// patch_fast, reverse, seeded with aI = gI, aA = gA: J is the strip's edge integral (0 when
+// clo >= chi) and a_lo .. a_Vhi what edge_adj returned for it.
+void fast_rev(PairF F, FastRec FR, float gI, float gA, float J, float a_lo, float a_hi, float a_Vlo, float a_Vhi,
+              inout vec4 a_fs, inout vec4 a_fv, inout float a_se, inout float a_half, inout GAdj aG) {
+    float se = F.se, half_w = F.half_w, c0 = FR.c0, c1 = FR.c1, clo = FR.clo, chi = FR.chi;
+    // A = se (c0 + c1) half_w
     a_se += gA * (c0 + c1) * half_w;
     float a_c0 = gA * se * half_w, a_c1 = a_c0;
     a_half += gA * se * (c0 + c1);
     if (clo < chi) {
         float k = (c1 - c0) / (2.0 * se);
-        float Vlo = c0 + k * (clo + se), Vhi = c0 + k * (chi + se);
-        float a_lo, a_hi, a_Vlo, a_Vhi;
-        float J = edge_adj(G, clo, chi, Vlo, Vhi, gI * half_w, aG, a_lo, a_hi, a_Vlo, a_Vhi);
         a_half += gI * J;
         // Vlo = c0 + k (clo + se), Vhi = c0 + k (chi + se), k = (c1 - c0) / (2 se)
         a_c0 += a_Vlo + a_Vhi;
@@ -192,14 +202,14 @@ bool fast_adj(PairF F, float gI, float gA, inout vec4 a_fs, inout vec4 a_fv, ino
         a_c0 -= a_k / (2.0 * se);
         a_se -= a_k * k / se;
         // clo = max(-se, chi_lo), chi = min(se, chi_hi)
-        if (-se >= G.chi_lo) a_se -= a_lo; else aG.chi_lo += a_lo;
-        if (se <= G.chi_hi) a_se += a_hi; else aG.chi_hi += a_hi;
+        if (-se >= F.G.chi_lo) a_se -= a_lo; else aG.chi_lo += a_lo;
+        if (se <= F.G.chi_hi) a_se += a_hi; else aG.chi_hi += a_hi;
     }
     // c0 = hi0 - lo0, c1 = hi1 - lo1: each crossing v = av + (bv - av) q, q = (S - a) / (b - a)
     for (int e = 0; e < 4; ++e) {
         int e1 = (e + 1) & 3;
-        float av_s0 = (e == ehi0 ? a_c0 : 0.0) - (e == elo0 ? a_c0 : 0.0);
-        float av_s1 = (e == ehi1 ? a_c1 : 0.0) - (e == elo1 ? a_c1 : 0.0);
+        float av_s0 = (e == FR.ehi0 ? a_c0 : 0.0) - (e == FR.elo0 ? a_c0 : 0.0);
+        float av_s1 = (e == FR.ehi1 ? a_c1 : 0.0) - (e == FR.elo1 ? a_c1 : 0.0);
         float a = F.fs[e], b = F.fs[e1];
         float av = F.fv[e], bv = F.fv[e1];
         float ib = 1.0 / (b - a);
@@ -216,7 +226,6 @@ bool fast_adj(PairF F, float gI, float gA, inout vec4 a_fs, inout vec4 a_fv, ino
             a_fs[e1] -= a_q * q * ib;
         }
     }
-    return true;
 }
 
 // ref_v (green.glsl) in float.
@@ -248,20 +257,25 @@ float clamp_which(float x, float lo, float hi, out int which) {
     return m;
 }
 
-// The Green walk of patch_integral (green.glsl) forward and reverse: the four footprint edges
-// clipped to the carved rectangle, then its two across-edges clipped to the footprint, one piece
-// per iteration of a loop that is not unrolled.
-void general_adj(PairF F, float gI, float gA, inout vec4 a_fs, inout vec4 a_fv, inout float a_se, inout float a_len,
-                 inout float a_half, inout GAdj aG) {
+// The pair's integral forward and reverse, one piece per iteration of a loop that is not unrolled,
+// so that edge_adj appears once in the kernel: for a fast-path pair the strip (j = 6), else the
+// Green walk of patch_integral (green.glsl): the four footprint edges clipped to the carved
+// rectangle, then its two across-edges clipped to the footprint.
+void pieces_adj(PairF F, bool fast, FastRec FR, float gI, float gA, inout vec4 a_fs, inout vec4 a_fv, inout float a_se,
+                inout float a_len, inout float a_half, inout GAdj aG) {
     float se = F.se, len = F.len;
     vec4 fs = F.fs, fv = F.fv;
     GeomF G = F.G;
     float vref = ref_v_f(fs, fv, se, len);
     float Iraw = 0.0, Araw = 0.0;
     float aJ = gI * F.half_w, aA = gA * F.half_w;  // adjoints of the raw sums (before * half_w)
-    [[dont_unroll]] for (int j = 0; j < 6; ++j) {
+    int j0 = fast ? 6 : 0, j1 = fast ? 7 : 6;
+    [[dont_unroll]] for (int j = j0; j < j1; ++j) {
+        // The edge integral of this iteration, set up by either kind of piece below.
+        bool is_fast = j == 6, integ = false;
+        float ilo = 0.0, ihi = 0.0, ivlo = 0.0, ivhi = 0.0, iseed = 0.0;
         // The piece: a segment (as, av) -> (bs, bv) and what it was clipped by.
-        float as, av, bs, bv;
+        float as = 0.0, av = 0.0, bs = 0.0, bv = 0.0;
         bool keep = true;
         float t0 = 0.0, t1 = 1.0;
         // footprint edge (j < 4)
@@ -275,7 +289,16 @@ void general_adj(PairF F, float gI, float gA, inout vec4 a_fs, inout vec4 a_fv, 
         // across-edge (j >= 4)
         int side = j - 4;
         float xs = 0.0, xv = 0.0, xd = 0.0;
-        if (j < 4) {
+        if (is_fast) {
+            // The fast path's strip: one edge integral of the chord (fast_fwd, fast_rev).
+            float k6 = (FR.c1 - FR.c0) / (2.0 * se);
+            ilo = FR.clo;
+            ihi = FR.chi;
+            ivlo = FR.c0 + k6 * (FR.clo + se);
+            ivhi = FR.c0 + k6 * (FR.chi + se);
+            iseed = aJ;
+            integ = FR.clo < FR.chi;
+        } else if (j < 4) {
             vec4 ps = vec4(-ds, ds, -dvv, dvv);
             vec4 qs = vec4(as0 + se, se - as0, av0, len - av0);
             for (int i = 0; i < 4; ++i) {
@@ -314,22 +337,45 @@ void general_adj(PairF F, float gI, float gA, inout vec4 a_fs, inout vec4 a_fv, 
             av = xv;
             bv = xv;
         }
-        // add_segment, forward and reverse.
-        if (as == bs) continue;
-        float dsg = bs - as;
-        float k = (bv - av) / dsg;
-        float vsum = av + bv - 2.0 * vref;
-        Araw -= 0.5 * dsg * vsum;
-        float a_as = 0.5 * vsum * aA, a_bs = -0.5 * vsum * aA;
-        float a_av = -0.5 * dsg * aA, a_bv = a_av;
-        float lo = min(as, bs), hi = max(as, bs);
-        float clo = max(lo, G.chi_lo), chi = min(hi, G.chi_hi);
-        if (clo < chi) {
-            float a0 = av - vref;
-            float vlo = a0 + k * (clo - as), vhi = a0 + k * (chi - as);
-            float sgn = bs > as ? -1.0 : 1.0;
-            float a_clo, a_chi, a_vlo, a_vhi;
-            Iraw += sgn * edge_adj(G, clo, chi, vlo, vhi, sgn * aJ, aG, a_clo, a_chi, a_vlo, a_vhi);
+        // add_segment, forward.
+        float dsg = 1.0, k = 0.0, sgn = 1.0, lo = 0.0, hi = 0.0, clo = 0.0, chi = 0.0;
+        float a_as = 0.0, a_bs = 0.0, a_av = 0.0, a_bv = 0.0;
+        if (!is_fast) {
+            if (as == bs) continue;
+            dsg = bs - as;
+            k = (bv - av) / dsg;
+            float vsum = av + bv - 2.0 * vref;
+            Araw -= 0.5 * dsg * vsum;
+            a_as = 0.5 * vsum * aA;
+            a_bs = -0.5 * vsum * aA;
+            a_av = -0.5 * dsg * aA;
+            a_bv = a_av;
+            lo = min(as, bs);
+            hi = max(as, bs);
+            clo = max(lo, G.chi_lo);
+            chi = min(hi, G.chi_hi);
+            integ = clo < chi;
+            if (integ) {
+                float a0 = av - vref;
+                sgn = bs > as ? -1.0 : 1.0;
+                ilo = clo;
+                ihi = chi;
+                ivlo = a0 + k * (clo - as);
+                ivhi = a0 + k * (chi - as);
+                iseed = sgn * aJ;
+            }
+        }
+        // The one edge integral of the kernel's reverse sweep.
+        float J = 0.0, a_ilo = 0.0, a_ihi = 0.0, a_ivlo = 0.0, a_ivhi = 0.0;
+        if (integ) J = edge_adj(G, ilo, ihi, ivlo, ivhi, iseed, aG, a_ilo, a_ihi, a_ivlo, a_ivhi);
+        if (is_fast) {
+            fast_rev(F, FR, gI, gA, J, a_ilo, a_ihi, a_ivlo, a_ivhi, a_fs, a_fv, a_se, a_half, aG);
+            continue;
+        }
+        // add_segment, reverse.
+        if (integ) {
+            Iraw += sgn * J;
+            float a_clo = a_ilo, a_chi = a_ihi, a_vlo = a_ivlo, a_vhi = a_ivhi;
             a_av += a_vlo + a_vhi;
             float a_k = a_vlo * (clo - as) + a_vhi * (chi - as);
             a_clo += a_vlo * k;
@@ -399,7 +445,7 @@ void general_adj(PairF F, float gI, float gA, inout vec4 a_fs, inout vec4 a_fv, 
             if (side == 1) a_len += a_xv;
         }
     }
-    a_half += gI * Iraw + gA * Araw;
+    if (!fast) a_half += gI * Iraw + gA * Araw;
 }
 
 // The gradient of gI I + gA A for one pair: d0 = d/d(x0, y0, x1, y1), d1 = d/d(w, d, alpha).
@@ -410,8 +456,9 @@ void pair_adjoint(vec4 E, vec4 S, vec2 fp[4], vec3 h, float gI, float gA, bool t
     GAdj aG = gadj_zero();
     vec4 a_fs = vec4(0.0), a_fv = vec4(0.0);
     float a_se = 0.0, a_len = 0.0, a_half = 0.0;
-    if (!(try_fast && fast_adj(F, gI, gA, a_fs, a_fv, a_se, a_half, aG)))
-        general_adj(F, gI, gA, a_fs, a_fv, a_se, a_len, a_half, aG);
+    FastRec FR;
+    bool fast = try_fast && fast_fwd(F, FR);
+    pieces_adj(F, fast, FR, gI, gA, a_fs, a_fv, a_se, a_len, a_half, aG);
     float a_hb, a_ht, a_alpha;
     geom_adj(F.G, aG, a_hb, a_ht, a_alpha);
     // fs = (r . b) 2/w, fv = r . t, r = fp - p0; hb = h . b, ht = h . t; b = (-ty, tx)
