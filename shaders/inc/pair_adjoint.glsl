@@ -3,9 +3,10 @@
 // to the scratch's 7 parameters. One float forward sweep of exactly what the forward kernel
 // computes (pair_from_params, then patch_fast or the Green walk of patch_integral, green.glsl)
 // and one hand-written reverse sweep give all 7 in one pass; the edge integrals' reverse sweep
-// is edge_adj (integrators/closed_form_adjoint.glsl). The general walk visits its up to six
-// boundary pieces in one loop that is not unrolled, so edge_adj appears twice in the kernel
-// (fast path, general walk) instead of once per piece.
+// is edge_adj (integrators/closed_form_adjoint.glsl). The fast path's strip or the general
+// walk's up to six boundary pieces are visited by one loop that is not unrolled, so edge_adj
+// appears once in the kernel instead of once per piece (on CPU drivers a kernel's size costs
+// time even where the code does not run).
 //
 // Ties and clamps are differentiated as the dual-number kernel does (d_min / d_max in
 // real.glsl: the first argument on a tie); that kernel (Mode::BackwardDual) is the test oracle.
