@@ -14,36 +14,9 @@
 #define SA_PAIR_ADJOINT_GLSL
 #extension GL_EXT_control_flow_attributes : require
 
-// pair_geom (patch_ndf.glsl) in float.
-GeomF geom_f(float hb, float ht, float hz, float alpha) {
-    GeomF G;
-    G.alpha = alpha; G.hb = hb; G.ht = ht; G.hz = hz;
-    float a2 = alpha * alpha;
-    G.beta = sqrt(max(1.0 - a2, 0.0));
-    float A = 1.0 + G.beta * hz;
-    float iA = 1.0 / A;
-    float iA2 = iA * iA;
-    G.s0 = -((G.beta * hb) * iA);
-    G.g2 = (a2 + (ht * ht) * (1.0 - a2)) * iA2;
-    G.g = sqrt(G.g2);
-    float s0sq = G.s0 * G.s0;
-    float q = (1.0 + s0sq) - G.g2;
-    float r = q * q - 4.0 * (s0sq * G.g2);
-    G.c0 = iA + iA2;
-    G.c1 = 2.0 * (G.s0 * iA) + 4.0 * (G.s0 * iA2);
-    G.c2 = q * iA + (2.0 * q + 4.0 * s0sq) * iA2;
-    G.c3 = 4.0 * ((G.s0 * q) * iA2);
-    G.c4 = r * iA2;
-    float rho = sqrt(hb * hb + hz * hz);
-    float sp = (hb >= 0.0) ? hz / (rho + hb) : (rho - hb) / hz;
-    G.chi_hi = sp;
-    G.chi_lo = -(1.0 / sp);
-    return G;
-}
-
-// The reverse sweep of geom_f: the adjoints aG of the pair constants pushed back to hb, ht and
+// The reverse sweep of pair_geom (patch_ndf.glsl): the adjoints aG of the pair constants pushed back to hb, ht and
 // alpha (aG's own hb, ht and alpha entries, the direct uses, are included).
-void geom_adj(GeomF G, GAdj aG, out float a_hb, out float a_ht, out float a_alpha) {
+void geom_adj(PairGeom G, GAdj aG, out float a_hb, out float a_ht, out float a_alpha) {
     float hb = G.hb, ht = G.ht, hz = G.hz, alpha = G.alpha;
     float a2 = alpha * alpha;
     float beta = G.beta;
@@ -116,7 +89,7 @@ struct PairF {
     float tx, ty, len, se, se_w, se_d, k2w, half_w;
     vec4 fs, fv;  // footprint corners in (s, v)
     vec4 rx, ry;  // corners relative to p0 on the plate
-    GeomF G;
+    PairGeom G;
 };
 
 PairF pair_f(vec4 E, vec4 S, vec2 fp[4], vec3 h) {
@@ -136,7 +109,7 @@ PairF pair_f(vec4 E, vec4 S, vec2 fp[4], vec3 h) {
         F.fs[c] = dot(vec2(rx, ry), vec2(bx, by)) * F.k2w;
         F.fv[c] = dot(vec2(rx, ry), vec2(F.tx, F.ty));
     }
-    F.G = geom_f(dot(h.xy, vec2(bx, by)), dot(h.xy, vec2(F.tx, F.ty)), h.z, S.z);
+    F.G = pair_geom(dot(h.xy, vec2(bx, by)), dot(h.xy, vec2(F.tx, F.ty)), h.z, S.z);
     return F;
 }
 
@@ -229,26 +202,6 @@ void fast_rev(PairF F, FastRec FR, float gI, float gA, float J, float a_lo, floa
     }
 }
 
-// ref_v (green.glsl) in float.
-float ref_v_f(vec4 fs, vec4 fv, float se, float len) {
-    for (int e = 0; e < 4; ++e) {
-        float as = fs[e], av = fv[e];
-        float ds = fs[(e + 1) & 3] - as, dvv = fv[(e + 1) & 3] - av;
-        float t0 = 0.0, t1 = 1.0;
-        vec4 ps = vec4(-ds, ds, -dvv, dvv);
-        vec4 qs = vec4(as + se, se - as, av, len - av);
-        bool keep = true;
-        for (int i = 0; i < 4; ++i) {
-            if (ps[i] == 0.0) { if (qs[i] < 0.0) keep = false; }
-            else if (ps[i] < 0.0) t0 = max(t0, qs[i] / ps[i]);
-            else t1 = min(t1, qs[i] / ps[i]);
-        }
-        if (keep && t0 < t1) return clamp(av + t0 * dvv, 0.0, len);
-    }
-    float vc = 0.25 * (fv[0] + fv[1] + fv[2] + fv[3]);
-    return vc < 0.5 * len ? 0.0 : len;
-}
-
 // clamp as d_min(d_max(x, lo), hi) and which argument it returned: 0 x, 1 lo, 2 hi.
 float clamp_which(float x, float lo, float hi, out int which) {
     float m = x;
@@ -266,8 +219,8 @@ void pieces_adj(PairF F, bool fast, FastRec FR, float gI, float gA, inout vec4 a
                 inout float a_len, inout float a_half, inout GAdj aG) {
     float se = F.se, len = F.len;
     vec4 fs = F.fs, fv = F.fv;
-    GeomF G = F.G;
-    float vref = ref_v_f(fs, fv, se, len);
+    PairGeom G = F.G;
+    float vref = ref_v(float[](fs.x, fs.y, fs.z, fs.w), float[](fv.x, fv.y, fv.z, fv.w), se, len);
     float Iraw = 0.0, Araw = 0.0;
     float aJ = gI * F.half_w, aA = gA * F.half_w;  // adjoints of the raw sums (before * half_w)
     int j0 = fast ? 6 : 0, j1 = fast ? 7 : 6;

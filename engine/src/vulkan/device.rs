@@ -85,6 +85,18 @@ impl Context {
                 return Err(e);
             }
         };
+        let props = unsafe { inst.instance.get_physical_device_properties(physical_device) };
+        let pipelines = match PersistentCache::new(&device, &props, &desc.pipeline_cache) {
+            Ok(c) => c,
+            Err(e) => {
+                drop(allocator);
+                unsafe {
+                    device.destroy_device(None);
+                    inst.destroy();
+                }
+                return Err(vk_err("vkCreatePipelineCache")(e));
+            }
+        };
         let Instance {
             entry,
             instance,
@@ -95,27 +107,6 @@ impl Context {
             validation,
         } = inst;
         let queue = unsafe { device.get_device_queue(queue_family, 0) };
-        let props = unsafe { instance.get_physical_device_properties(physical_device) };
-        let pipelines = match PersistentCache::new(&device, &props, &desc.pipeline_cache) {
-            Ok(c) => c,
-            Err(e) => {
-                drop(allocator);
-                unsafe {
-                    device.destroy_device(None);
-                    Instance {
-                        entry,
-                        instance,
-                        debug_utils,
-                        debug_instance,
-                        messenger,
-                        log,
-                        validation,
-                    }
-                    .destroy()
-                };
-                return Err(vk_err("vkCreatePipelineCache")(e));
-            }
-        };
         let debug_device = debug_utils.then(|| ash::ext::debug_utils::Device::new(&instance, &device));
         if !desc.quiet {
             eprintln!("device: {} ({})", info.name, info.kind);

@@ -9,18 +9,10 @@
 // (F' = 2/(1+x^2)^2) and of atan itself, so every branch has the same, exact, derivative.
 #ifndef SA_CLOSED_FORM_ADJOINT_GLSL
 #define SA_CLOSED_FORM_ADJOINT_GLSL
+#ifdef SA_DUAL
+#error the reverse sweep runs in float kernels only (R = float): build without SA_DUAL
+#endif
 #define SA_HAS_EDGE_ADJ  // grad.comp can then run in reverse mode (inc/pair_adjoint.glsl)
-
-// Far-tail form T(x) = atan(1/x) - x/(1+x^2) for x >= 4, in float (tail_T of closed_form.glsl).
-float tail_Tf(float x) {
-    float z = 1.0 / (x * x);
-    float p = 10.0 / 11.0 - z * (12.0 / 13.0);
-    p = 8.0 / 9.0 - z * p;
-    p = 6.0 / 7.0 - z * p;
-    p = 4.0 / 5.0 - z * p;
-    p = 2.0 / 3.0 - z * p;
-    return (z / x) * p;
-}
 
 // D(n(s) . h; alpha) as ndf_at (patch_ndf.glsl) and its partials in s, hb, ht, alpha.
 float ndf_partials(float s, float hz, float hb, float ht, float alpha, out float d_s, out float d_hb, out float d_ht,
@@ -43,13 +35,7 @@ float ndf_partials(float s, float hz, float hb, float ht, float alpha, out float
     return N;
 }
 
-// The pair constants of PairGeom (patch_ndf.glsl) as plain floats, and adjoints of them.
-struct GeomF {
-    float alpha, beta, hb, ht, hz;
-    float s0, g, g2;
-    float c0, c1, c2, c3, c4;
-    float chi_lo, chi_hi;
-};
+// Adjoints of the pair constants of PairGeom (patch_ndf.glsl).
 struct GAdj {
     float alpha, beta, hb, ht;
     float s0, g, g2;
@@ -62,7 +48,7 @@ GAdj gadj_zero() { return GAdj(0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
 // ∫_lo^hi D(s) V(s) ds exactly as closed_form.glsl's edge_integral computes it in float, and the
 // reverse sweep: with aJ the adjoint of the result, adds aJ ∂J/∂x to aG for the pair constants
 // and returns those of the ends and of V in a_lo, a_hi, a_Vlo, a_Vhi.
-float edge_adj(GeomF G, float lo, float hi, float Vlo, float Vhi, float aJ, inout GAdj aG, out float a_lo,
+float edge_adj(PairGeom G, float lo, float hi, float Vlo, float Vhi, float aJ, inout GAdj aG, out float a_lo,
                out float a_hi, out float a_Vlo, out float a_Vhi) {
     float s0 = G.s0, g = G.g, g2 = G.g2, alpha = G.alpha, hb = G.hb, ht = G.ht, hz = G.hz;
     float dy = hi - lo;
@@ -110,8 +96,8 @@ float edge_adj(GeomF G, float lo, float hi, float Vlo, float Vhi, float aJ, inou
         float K2 = B0 - g2 * K0;
         float pl = 1.0 + xl * xl, ph = 1.0 + xh * xh;
         float dF;
-        if (xl >= 4.0) dF = tail_Tf(xl) - tail_Tf(xh);
-        else if (xh <= -4.0) dF = tail_Tf(-xh) - tail_Tf(-xl);
+        if (xl >= 4.0) dF = tail_T(xl) - tail_T(xh);
+        else if (xh <= -4.0) dF = tail_T(-xh) - tail_T(-xl);
         else dF = datan + ((xh - xl) * (1.0 - xl * xh)) / (pl * ph);
         float M0 = dF / (2.0 * (g * g2));
         float M1 = (hw * (yh + yl)) / (ql * qh);
