@@ -1,6 +1,6 @@
 //! CPU time of the forward and of each backward kernel on a CPU Vulkan driver (lavapipe), for
 //! comparing kernels on a machine that is busy with other work: the process's own CPU time
-//! (user + system, all threads, from /proc/self/stat) does not count time spent waiting for the
+//! (user + system, all threads, from getrusage) does not count time spent waiting for the
 //! cores, which GPU timestamps (wall time) do. Run:
 //!   cargo run --release -p scratchart --example backward_cpu -- M 3 [--no-dual]
 use scratchart::bench::{median, perturbed_target_dl};
@@ -8,15 +8,13 @@ use scratchart::render::kernels::{Integrator, KernelSet, Mode};
 use scratchart::render::Renderer;
 use scratchart::vulkan::{Context, ContextDesc, Recorder};
 
-/// Process CPU time in seconds (utime + stime; 10 ms ticks).
+/// Process CPU time in seconds (user + system, all threads; getrusage's microseconds).
 fn cpu_s() -> f64 {
-    let s = std::fs::read_to_string("/proc/self/stat").unwrap();
-    let rest = &s[s.rfind(')').unwrap() + 2..];
-    let f: Vec<&str> = rest.split_whitespace().collect();
-    // fields after ')' start at field 3 (state); utime is field 14, stime 15
-    let ut: f64 = f[11].parse().unwrap();
-    let st: f64 = f[12].parse().unwrap();
-    (ut + st) / 100.0
+    // SAFETY: getrusage only writes the struct it is given.
+    let mut ru: libc::rusage = unsafe { std::mem::zeroed() };
+    unsafe { libc::getrusage(libc::RUSAGE_SELF, &mut ru) };
+    let t = |tv: libc::timeval| tv.tv_sec as f64 + tv.tv_usec as f64 * 1e-6;
+    t(ru.ru_utime) + t(ru.ru_stime)
 }
 
 fn main() -> anyhow::Result<()> {
@@ -24,7 +22,7 @@ fn main() -> anyhow::Result<()> {
     let size = args.get(1).map(String::as_str).unwrap_or("S");
     let reps: usize = args.get(2).map(|s| s.parse().unwrap()).unwrap_or(3);
     let with_dual = args.get(3).map(String::as_str) != Some("--no-dual");
-    let scene = scratchart::scenes::bench_scene(size).expect("size S, M or P");
+    let scene = scratchart::scenes::bench_scene(size).expect("size S, M, P, L or NxVxR");
     let ctx = Context::new(ContextDesc::default())?;
     let reverse = Renderer::new(&ctx)?;
     reverse.prepare_backward()?;
@@ -67,7 +65,7 @@ fn main() -> anyhow::Result<()> {
     }
     let (f, r, d, b) = (median(f), median(r), median(d), median(b));
     println!(
-        "{size}: CPU s per pass (median of {reps}): render {f:.2}, backward alone {b:.2}, backward (with render) {r:.2}, backward dual {d:.2}; backward/render {:.2}, dual/backward {:.2}",
+        "{size}: CPU s per pass (median of {reps}): render {f:.3}, backward alone {b:.3}, backward (with render) {r:.3}, backward dual {d:.3}; backward/render {:.3}, dual/backward {:.3}",
         b / f,
         d / r
     );

@@ -156,59 +156,139 @@ bool patch_fast(R fs[4], R fv[4], R se, R len, R half_w, PairGeom G, out R I, ou
 }
 
 #ifndef SA_DUAL
-// patch_integral for float kernels: the same pieces, arithmetic and order, visited by one loop
-// that is not unrolled, so the kernel holds one copy of edge_integral for the walk instead of six
-// (on CPU drivers a shading kernel's size costs as much as its arithmetic). The pieces'
-// inputs are picked from vec4s by one-hot masks, not from local arrays (which become memory).
-void patch_integral_loop(R fs_[4], R fv_[4], R se, R len, R half_w, PairGeom G, out R I, out R A) {
+// The float kernels' walk. On CPU drivers a GLSL `if` is a lane mask, not a branch: both sides
+// always run, and a loop runs as long as any lane needs it. So the float walk is written for
+// that: it first finds which pieces are non-empty (clipping only, cheap), then visits only those,
+// the fast path's strip being one more piece, in one loop that is not unrolled and holds the one
+// edge_integral of the kernel (a kernel's size costs time even where its code does not run). The
+// loop tests at the bottom: a test at the top would run the body once more with every lane off.
+// Pieces, arithmetic and order are patch_fast's and patch_integral's, so results are the same.
+
+// Piece j of patch_integral's walk (0-3: footprint edge j clipped to the carved rectangle, 4-5:
+// the rectangle's bottom and top edges clipped to the footprint) as a segment (as, av) -> (bs, bv);
+// false where the piece is empty. The footprint as vec4s (no local arrays: they become memory).
+bool walk_piece(int j, vec4 fs, vec4 fv, float se, float len, out float as, out float av, out float bs, out float bv) {
+    float t0 = 0.0, t1 = 1.0;
+    bool keep = true;
+    as = 0.0; av = 0.0; bs = 0.0; bv = 0.0;
+    if (j < 4) {
+        vec4 me = vec4(equal(ivec4(0, 1, 2, 3), ivec4(j))), me1 = vec4(equal(ivec4(0, 1, 2, 3), ivec4((j + 1) & 3)));
+        float as0 = dot(me, fs), av0 = dot(me, fv);
+        float ds = dot(me1, fs) - as0, dvv = dot(me1, fv) - av0;
+        vec4 ps = vec4(-ds, ds, -dvv, dvv);
+        vec4 qs = vec4(as0 + se, se - as0, av0, len - av0);
+        for (int i = 0; i < 4; ++i) {
+            float p = ps[i], q = qs[i];
+            // An edge lying on R's across-edge line is left to R's own edge (see patch_integral).
+            if (p == 0.0) { if (q < 0.0 || (q == 0.0 && i >= 2)) keep = false; }
+            else {
+                float r = q / p;
+                if (p < 0.0) t0 = max(t0, r); else t1 = min(t1, r);
+            }
+        }
+        if (!keep || t0 >= t1) return false;
+        as = min(max(as0 + t0 * ds, -se), se);
+        av = min(max(av0 + t0 * dvv, 0.0), len);
+        bs = min(max(as0 + t1 * ds, -se), se);
+        bv = min(max(av0 + t1 * dvv, 0.0), len);
+    } else {
+        bool bottom = j == 4;
+        float xs = bottom ? -se : se, xv = bottom ? 0.0 : len, xd = bottom ? 2.0 * se : -2.0 * se;
+        for (int c = 0; c < 4; ++c) {
+            float cs = fs[c], cv = fv[c];
+            float fds = fs[(c + 1) & 3] - cs, fdv = fv[(c + 1) & 3] - cv;
+            float q = fds * (xv - cv) - fdv * (xs - cs);
+            float p = -(fdv * xd);
+            if (p == 0.0) { if (q < 0.0 || (q == 0.0 && fds * xd < 0.0)) keep = false; }
+            else {
+                float r = -(q / p);
+                if (p > 0.0) t0 = max(t0, r); else t1 = min(t1, r);
+            }
+        }
+        if (!keep || t0 >= t1) return false;
+        as = xs + t0 * xd;
+        bs = xs + t1 * xd;
+        av = xv;
+        bv = xv;
+    }
+    return true;
+}
+
+// The non-empty pieces of the walk (bit j: walk_piece j with as != bs, which add_segment skips).
+// Unrolled: with j constant each copy holds only its own kind of clipping.
+uint walk_pieces(vec4 fs, vec4 fv, float se, float len) {
+    uint m = 0u;
+    [[unroll]] for (int j = 0; j < 6; ++j) {
+        float as, av, bs, bv;
+        if (walk_piece(j, fs, fv, se, len, as, av, bs, bv) && as != bs) m |= 1u << j;
+    }
+    return m;
+}
+
+// patch_fast's test and chords in float: the strip crosses the footprint from side to side;
+// c0 and c1 are its chords at s = -se and s = +se.
+bool fast_strip(vec4 fs, vec4 fv, float se, float len, out float c0, out float c1) {
+    float lo0 = 1e30, hi0 = -1e30, lo1 = 1e30, hi1 = -1e30;
+    int n0 = 0, n1 = 0;
+    c0 = 0.0; c1 = 0.0;
+    bool ok = true;
+    for (int e = 0; e < 4; ++e) {
+        float a = fs[e], b = fs[(e + 1) & 3], av = fv[e], bv = fv[(e + 1) & 3];
+        if (abs(a) < se || a == b) ok = false;
+        if ((a < -se) != (b < -se) && a != -se && b != -se) {
+            float v = av + ((bv - av) / (b - a)) * (-se - a);
+            lo0 = min(lo0, v); hi0 = max(hi0, v); ++n0;
+        }
+        if ((a > se) != (b > se) && a != se && b != se) {
+            float v = av + ((bv - av) / (b - a)) * (se - a);
+            lo1 = min(lo1, v); hi1 = max(hi1, v); ++n1;
+        }
+    }
+    if (!(ok && n0 == 2 && n1 == 2 && lo0 > 0.0 && lo1 > 0.0 && hi0 < len && hi1 < len)) return false;
+    c0 = hi0 - lo0;
+    c1 = hi1 - lo1;
+    return true;
+}
+
+void patch_walk(R fs_[4], R fv_[4], R se, R len, R half_w, PairGeom G, bool try_fast, out R I, out R A) {
     I = 0.0;
     A = 0.0;
     vec4 fs = vec4(fs_[0], fs_[1], fs_[2], fs_[3]), fv = vec4(fv_[0], fv_[1], fv_[2], fv_[3]);
-    float vref = ref_v(fs_, fv_, se, len);
-    [[dont_unroll]] for (int j = 0; j < 6; ++j) {
-        float as, av, bs, bv;
-        float t0 = 0.0, t1 = 1.0;
-        bool keep = true;
-        if (j < 4) {
-            vec4 me = vec4(equal(ivec4(0, 1, 2, 3), ivec4(j))), me1 = vec4(equal(ivec4(0, 1, 2, 3), ivec4((j + 1) & 3)));
-            float as0 = dot(me, fs), av0 = dot(me, fv);
-            float ds = dot(me1, fs) - as0, dvv = dot(me1, fv) - av0;
-            vec4 ps = vec4(-ds, ds, -dvv, dvv);
-            vec4 qs = vec4(as0 + se, se - as0, av0, len - av0);
-            for (int i = 0; i < 4; ++i) {
-                float p = ps[i], q = qs[i];
-                if (p == 0.0) { if (q < 0.0 || (q == 0.0 && i >= 2)) keep = false; }
-                else {
-                    float r = q / p;
-                    if (p < 0.0) t0 = max(t0, r); else t1 = min(t1, r);
-                }
+    float c0, c1;
+    bool fast = try_fast && fast_strip(fs, fv, se, len, c0, c1);
+    uint todo = fast ? 1u << 6 : walk_pieces(fs, fv, se, len);
+    float vref = fast ? 0.0 : ref_v(fs_, fv_, se, len);
+    if (fast) A = se * (c0 + c1);
+    if (todo != 0u) {
+        [[dont_unroll]] do {
+            int j = findLSB(todo);
+            todo &= todo - 1u;
+            // This piece's edge integral: (lo, hi, V(lo), V(hi)) and the sign it enters I with.
+            float lo, hi, vlo, vhi, sgn = 1.0;
+            bool integ;
+            if (j == 6) {  // the strip: V is the chord, linear from c0 at -se to c1 at +se
+                float k = (c1 - c0) / (2.0 * se);
+                lo = max(-se, G.chi_lo);
+                hi = min(se, G.chi_hi);
+                vlo = c0 + k * (lo + se);
+                vhi = c0 + k * (hi + se);
+                integ = lo < hi;
+            } else {  // add_segment of one walk piece
+                float as, av, bs, bv;
+                walk_piece(j, fs, fv, se, len, as, av, bs, bv);
+                float ds = bs - as;
+                float k = (bv - av) / ds;
+                A = A - 0.5 * ds * (av + bv - 2.0 * vref);
+                lo = max(min(as, bs), G.chi_lo);
+                hi = min(max(as, bs), G.chi_hi);
+                float a0 = av - vref;
+                vlo = a0 + k * (lo - as);
+                vhi = a0 + k * (hi - as);
+                sgn = bs > as ? -1.0 : 1.0;
+                integ = lo < hi;
             }
-            if (!keep || t0 >= t1) continue;
-            as = min(max(as0 + t0 * ds, -se), se);
-            av = min(max(av0 + t0 * dvv, 0.0), len);
-            bs = min(max(as0 + t1 * ds, -se), se);
-            bv = min(max(av0 + t1 * dvv, 0.0), len);
-        } else {
-            bool bottom = j == 4;
-            float xs = bottom ? -se : se, xv = bottom ? 0.0 : len, xd = bottom ? 2.0 * se : -2.0 * se;
-            for (int c = 0; c < 4; ++c) {
-                float cs = fs[c], cv = fv[c];
-                float fds = fs[(c + 1) & 3] - cs, fdv = fv[(c + 1) & 3] - cv;
-                float q = fds * (xv - cv) - fdv * (xs - cs);
-                float p = -(fdv * xd);
-                if (p == 0.0) { if (q < 0.0 || (q == 0.0 && fds * xd < 0.0)) keep = false; }
-                else {
-                    float r = -(q / p);
-                    if (p > 0.0) t0 = max(t0, r); else t1 = min(t1, r);
-                }
-            }
-            if (!keep || t0 >= t1) continue;
-            as = xs + t0 * xd;
-            bs = xs + t1 * xd;
-            av = xv;
-            bv = xv;
-        }
-        add_segment(G, as, av, bs, bv, vref, I, A);
+            if (integ) I = I + sgn * edge_integral(G, lo, hi, vlo, vhi);
+        } while (todo != 0u);
     }
     I = I * half_w;
     A = A * half_w;
@@ -216,10 +296,10 @@ void patch_integral_loop(R fs_[4], R fv_[4], R se, R len, R half_w, PairGeom G, 
 #endif
 
 void pair_integral(R fs[4], R fv[4], R se, R len, R half_w, PairGeom G, bool try_fast, out R I, out R A) {
-    if (try_fast && patch_fast(fs, fv, se, len, half_w, G, I, A)) return;
 #ifndef SA_DUAL
-    patch_integral_loop(fs, fv, se, len, half_w, G, I, A);
+    patch_walk(fs, fv, se, len, half_w, G, try_fast, I, A);
 #else
+    if (try_fast && patch_fast(fs, fv, se, len, half_w, G, I, A)) return;
     patch_integral(fs, fv, se, len, half_w, G, I, A);
 #endif
 }
