@@ -139,17 +139,25 @@ void queue_slots(uint lid, uvec2 fmask, uvec2 gmask, out uint nfast, out uint to
     gbase = nfast + (sh_base[lid] >> 16);
 }
 
-// Step 4 (each round): this pixel's queue entries that fall in [r0, r0 + QCAP).
+// Step 4 (each round): this pixel's queue entries that fall in [r0, r0 + QCAP). Its entries of
+// one kind are the slots [base, base + count) in scratch order; the entries of earlier rounds are
+// dropped from the mask first (cheap bit clears), so a round stores only its own entries instead
+// of testing all of them (on CPU drivers a store under a false condition costs as much as one
+// that happens).
 void enqueue(uint lid, uvec2 mask, uint base, uint r0) {
-    uint idx = base;
-    for (uint wd = 0u; wd < 2u; ++wd) {
-        uint m = mask[wd];
-        while (m != 0u) {
-            uint k = uint(findLSB(m)) + 32u * wd;
-            m &= m - 1u;
-            if (idx >= r0 && idx < r0 + QCAP) sh_queue[idx - r0] = (lid << 8) | k;
-            ++idx;
-        }
+    uint count = uint(bitCount(mask.x) + bitCount(mask.y));
+    uint lo = max(base, r0), hi = min(base + count, r0 + QCAP);
+    if (lo >= hi) return;
+    uint m0 = mask.x, m1 = mask.y;
+    for (uint s = lo - base; s > 0u; --s) {
+        if (m0 != 0u) m0 &= m0 - 1u;
+        else m1 &= m1 - 1u;
+    }
+    for (uint idx = lo; idx < hi; ++idx) {
+        uint k;
+        if (m0 != 0u) { k = uint(findLSB(m0)); m0 &= m0 - 1u; }
+        else { k = uint(findLSB(m1)) + 32u; m1 &= m1 - 1u; }
+        sh_queue[idx - r0] = (lid << 8) | k;
     }
 }
 

@@ -54,6 +54,9 @@ pub struct Renderer {
 }
 
 /// The pipeline of a shading kernel (forward or backward; both take 10 buffers and `ShadePush`).
+/// Compute shared memory the shading kernels need (lavapipe and desktop GPUs have 32 KiB or more).
+pub const MIN_SHARED_MEMORY: u32 = 32 * 1024;
+
 fn shade_pipeline(ctx: &Arc<Context>, sc: &ShaderCompiler, k: &ShadeKernel) -> Result<ComputePipeline, GpuError> {
     let spirv = sc.compile(k.file(), &k.defines(ctx.info()))?;
     ComputePipeline::from_spirv(ctx, &k.name(), &spirv, 10, std::mem::size_of::<ShadePush>() as u32)
@@ -81,6 +84,16 @@ impl Renderer {
             !kernels.forward.is_backward() && kernels.backward.is_backward(),
             "KernelSet needs a forward and a backward kernel, got {kernels:?}"
         );
+        // The shading kernels keep a tile's pixels, a chunk of scratches and a round of pairs in
+        // workgroup memory: about 28 KiB (forward.comp) and 30 KiB (grad.comp, 256-entry rounds).
+        let shared = ctx.info().max_shared_memory;
+        if shared < MIN_SHARED_MEMORY {
+            return Err(GpuError::Capacity(format!(
+                "the shading kernels need {} KiB of compute shared memory per workgroup, this device has {} KiB                  (maxComputeSharedMemorySize); use another device (--device)",
+                MIN_SHARED_MEMORY / 1024,
+                shared / 1024
+            )));
+        }
         let sc = ShaderCompiler::embedded()?;
         let bin_push = std::mem::size_of::<BinPush>() as u32;
         let scan_push = std::mem::size_of::<ScanPush>() as u32;
