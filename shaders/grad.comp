@@ -59,17 +59,14 @@ shared vec4 sh_ends[CHUNK];        // raw scratch parameters
 shared vec4 sh_shape[CHUNK];
 shared float sh_ga[256];           // per pixel: coefficient of dA (sh_h[px].w: of dI)
 shared vec4 sh_c0[QCAP];           // per-pair contribution d/d(x0, y0, x1, y1)
-shared vec4 sh_c1[QCAP];           // d/d(w, d, alpha), 0
-shared uint sh_next[QCAP];         // per queue entry: the next entry of the same scratch
+shared vec4 sh_c1[QCAP];           // d/d(w, d, alpha); w: the next entry of the same scratch (bits)
 shared uint sh_head[CHUNK];        // per chunk scratch: its first entry in the round
-shared vec4 sh_acc0[CHUNK];        // per chunk scratch: its contributions so far
-shared vec4 sh_acc1[CHUNK];
+// Thread k < CHUNK: chunk scratch k's contributions so far (private: only thread k touches them).
+vec4 acc0 = vec4(0.0), acc1 = vec4(0.0);
 
 void chunk_begin(uint lid) {
-    if (lid < CHUNK) {
-        sh_acc0[lid] = vec4(0.0);
-        sh_acc1[lid] = vec4(0.0);
-    }
+    acc0 = vec4(0.0);
+    acc1 = vec4(0.0);
 }
 
 void scratch_loaded(uint k, ScratchGPU S) {
@@ -98,35 +95,34 @@ void pair_eval(uint i, uint px, uint k, bool fast) {
 #endif
 }
 
-// Scratch k's contributions of this round, in queue order (sh_acc is written and read by the
-// same thread, so the next chunk's first barrier is all it needs). Thread 0 first links each
-// scratch's entries into a list in queue order (one pass over the round, backwards); thread k
-// then walks only its own entries, instead of every thread testing every entry.
+// Scratch k's contributions of this round, in queue order, into thread k's private acc0/acc1.
+// Thread 0 first links each scratch's entries into a list in queue order (one pass over the
+// round, backwards; the link sits in the unused 4th float of sh_c1); thread k then walks only its
+// own entries, instead of every thread testing every entry.
 void round_accumulate(uint lid, uint r0, uint n, uint cnt, uvec2 fmask, uint fbase, uvec2 gmask, uint gbase) {
     if (lid == 0u) {
         for (uint k = 0u; k < CHUNK; ++k) sh_head[k] = 0xFFFFFFFFu;
         for (uint i = n; i-- > 0u;) {
             uint k = sh_queue[i] & 255u;
-            sh_next[i] = sh_head[k];
+            sh_c1[i].w = uintBitsToFloat(sh_head[k]);
             sh_head[k] = i;
         }
     }
     barrier();
     if (lid < cnt) {
-        vec4 a0 = sh_acc0[lid], a1 = sh_acc1[lid];
-        for (uint i = sh_head[lid]; i != 0xFFFFFFFFu; i = sh_next[i]) {
-            a0 += sh_c0[i];
-            a1 += sh_c1[i];
+        for (uint i = sh_head[lid]; i != 0xFFFFFFFFu;) {
+            vec4 c1 = sh_c1[i];
+            acc0 += sh_c0[i];
+            acc1 += vec4(c1.xyz, 0.0);
+            i = floatBitsToUint(c1.w);
         }
-        sh_acc0[lid] = a0;
-        sh_acc1[lid] = a1;
     }
 }
 
 void chunk_end(uint lid, uint c0, uint cnt) {
     if (lid < cnt) {
-        partial[2u * (c0 + lid)] = sh_acc0[lid];
-        partial[2u * (c0 + lid) + 1u] = sh_acc1[lid];
+        partial[2u * (c0 + lid)] = acc0;
+        partial[2u * (c0 + lid) + 1u] = acc1;
     }
 }
 
