@@ -18,6 +18,8 @@
 // and a definition of QCAP.
 #ifndef SA_TILE_QUEUE_GLSL
 #define SA_TILE_QUEUE_GLSL
+#extension GL_KHR_shader_subgroup_basic : require
+#extension GL_KHR_shader_subgroup_arithmetic : require
 
 const uint CHUNK = 64u;            // scratches per chunk: one bit each in two 32-bit words
 
@@ -27,8 +29,7 @@ shared vec4 sh_blk01[16];          // plate-space corners of the tile's 4x4-pixe
 shared vec4 sh_blk23[16];
 shared bool sh_blk_all[16];        // a block whose corner rays miss the plate: test every scratch
 shared uint sh_blk_hits[32];       // per block, two words: chunk scratches that may meet it
-shared uint sh_base[256];          // per pixel: packed counts, then their exclusive scan
-shared uint sh_total;
+shared uint sh_base[256];          // queue_slots: per subgroup, its packed counts; free after it
 shared uint sh_queue[QCAP];        // (pixel << 8) | scratch-in-chunk
 
 // The view that holds `tile`, and the tile's first pixel.
@@ -120,23 +121,31 @@ void pixel_masks(bool live, uint myblk, vec2 fp[4], vec2 centre, float radius,
 }
 
 // Step 3: queue slots. Both counts are scanned at once, packed in 16-bit halves (at most
-// 256 x 64 = 16384 each). Contains barriers: call from uniform control flow.
+// 256 x 64 = 16384 each, so no carry crosses the halves): a scan within each subgroup, one
+// barrier, then each subgroup adds the totals of the subgroups before it. Integer sums: the
+// slots do not depend on the subgroup size or on timing. Contains a barrier: call from uniform
+// control flow.
 void queue_slots(uint lid, uvec2 fmask, uvec2 gmask, out uint nfast, out uint total, out uint fbase, out uint gbase) {
-    sh_base[lid] = uint(bitCount(fmask.x) + bitCount(fmask.y)) | (uint(bitCount(gmask.x) + bitCount(gmask.y)) << 16);
-    barrier();
-    if (lid == 0u) {
-        uint run = 0u;
-        for (uint i = 0u; i < 256u; ++i) { uint c = sh_base[i]; sh_base[i] = run; run += c; }
-        sh_total = run;
-    }
-    // Every pixel has read the block masks (pixel_masks, before the barrier above): clear them
+    uint c = uint(bitCount(fmask.x) + bitCount(fmask.y)) | (uint(bitCount(gmask.x) + bitCount(gmask.y)) << 16);
+    uint incl = subgroupInclusiveAdd(c);
+    if (gl_SubgroupInvocationID == gl_SubgroupSize - 1u) sh_base[gl_SubgroupID] = incl;
+    // Every pixel has read the block masks (pixel_masks, before the barrier below): clear them
     // for the next chunk here, so that chunk needs no extra barrier before its block tests.
     if (lid >= 224u) sh_blk_hits[lid - 224u] = 0u;
     barrier();
-    nfast = sh_total & 0xFFFFu;
-    total = nfast + (sh_total >> 16);
-    fbase = sh_base[lid] & 0xFFFFu;
-    gbase = nfast + (sh_base[lid] >> 16);
+    uint before = 0u, all = 0u;
+    for (uint sg = gl_SubgroupInvocationID; sg < gl_NumSubgroups; sg += gl_SubgroupSize) {
+        uint v = sh_base[sg];
+        all += v;
+        if (sg < gl_SubgroupID) before += v;
+    }
+    before = subgroupAdd(before);
+    all = subgroupAdd(all);
+    uint base = before + incl - c;
+    nfast = all & 0xFFFFu;
+    total = nfast + (all >> 16);
+    fbase = base & 0xFFFFu;
+    gbase = nfast + (base >> 16);
 }
 
 // Step 4 (each round): this pixel's queue entries that fall in [r0, r0 + QCAP). Its entries of

@@ -94,6 +94,13 @@ impl Renderer {
                 shared / 1024
             )));
         }
+        if !ctx.info().subgroup_arithmetic {
+            return Err(GpuError::Capacity(
+                "the shading kernels need subgroup arithmetic in compute shaders (VK_SUBGROUP_FEATURE_ARITHMETIC_BIT), \
+                 which this device does not offer; use another device (--device)"
+                    .into(),
+            ));
+        }
         let sc = ShaderCompiler::embedded()?;
         let bin_push = std::mem::size_of::<BinPush>() as u32;
         let scan_push = std::mem::size_of::<ScanPush>() as u32;

@@ -178,6 +178,7 @@ impl Context {
             sup.sup1x,
             sup.atomic_float,
             sup.subgroup_size,
+            sup.subgroup_arithmetic,
             ext_names,
         )
     }
@@ -196,6 +197,7 @@ impl Context {
         )>,
         atomic_float: Option<vk::PhysicalDeviceShaderAtomicFloatFeaturesEXT<'static>>,
         subgroup_size: u32,
+        subgroup_arithmetic: bool,
         mut ext_names: Vec<&CStr>,
     ) -> Result<(vk::PhysicalDevice, ash::Device, u32, DeviceInfo, Allocator), GpuError> {
         // ---- choose features: only what exists and what shaders may use ----
@@ -274,7 +276,14 @@ impl Context {
             }
         };
 
-        let info = DeviceInfo::new(&props, &family_props, subgroup_size, &en_core, &en_af);
+        let info = DeviceInfo::new(
+            &props,
+            &family_props,
+            subgroup_size,
+            subgroup_arithmetic,
+            &en_core,
+            &en_af,
+        );
         Ok((pd, device, queue_family, info, allocator))
     }
 

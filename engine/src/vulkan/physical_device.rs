@@ -22,6 +22,9 @@ pub struct DeviceInfo {
     pub timestamps: bool,
     pub timestamp_valid_bits: u32,
     pub subgroup_size: u32,
+    /// Subgroup arithmetic (`subgroupAdd`, scans) in compute shaders: the shading kernels' queue
+    /// scan needs it.
+    pub subgroup_arithmetic: bool,
     /// `shaderFloat64` enabled.
     pub float64: bool,
     /// `shaderInt64` enabled.
@@ -222,6 +225,7 @@ pub(super) struct Supported {
     /// `VK_EXT_shader_atomic_float`, when it offers `shaderBufferFloat32AtomicAdd`.
     pub atomic_float: Option<vk::PhysicalDeviceShaderAtomicFloatFeaturesEXT<'static>>,
     pub subgroup_size: u32,
+    pub subgroup_arithmetic: bool,
 }
 
 /// Queries the supported features of `pd`. `has_atomic_float`: the device lists
@@ -259,6 +263,10 @@ pub(super) fn query_features(
         sup1x: api12.then_some((sup11, sup12)),
         atomic_float: atomic_float.then_some(sup_af),
         subgroup_size: sup_sub.subgroup_size,
+        subgroup_arithmetic: sup_sub.supported_stages.contains(vk::ShaderStageFlags::COMPUTE)
+            && sup_sub
+                .supported_operations
+                .contains(vk::SubgroupFeatureFlags::BASIC | vk::SubgroupFeatureFlags::ARITHMETIC),
     }
 }
 
@@ -268,6 +276,7 @@ impl DeviceInfo {
         props: &vk::PhysicalDeviceProperties,
         family_props: &vk::QueueFamilyProperties,
         subgroup_size: u32,
+        subgroup_arithmetic: bool,
         en_core: &vk::PhysicalDeviceFeatures,
         en_af: &vk::PhysicalDeviceShaderAtomicFloatFeaturesEXT<'_>,
     ) -> DeviceInfo {
@@ -294,6 +303,7 @@ impl DeviceInfo {
             timestamps: family_props.timestamp_valid_bits > 0 && l.timestamp_period > 0.0,
             timestamp_valid_bits: family_props.timestamp_valid_bits,
             subgroup_size,
+            subgroup_arithmetic,
             float64: en_core.shader_float64 == vk::TRUE,
             int64: en_core.shader_int64 == vk::TRUE,
             float32_atomic_add: en_af.shader_buffer_float32_atomic_add == vk::TRUE,
