@@ -85,7 +85,7 @@ void main() {
     uvec2 t0;
     uint vi = tile_view(tile, t0);
     ViewGPU V = views[vi];
-    uvec2 ij = t0 + gl_LocalInvocationID.xy;
+    uvec2 ij = t0 + tile_pixel(gl_LocalInvocationIndex);
     bool inside = ij.x < V.dims.x && ij.y < V.dims.y;
     uint pix = V.base.y + ij.y * V.dims.x + ij.x;
     if (lid == 0u) sh_pairs = 0u;

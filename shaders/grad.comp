@@ -140,7 +140,7 @@ void main() {
     uvec2 t0;
     uint vi = tile_view(tile, t0);
     ViewGPU V = views[vi];
-    uvec2 ij = t0 + gl_LocalInvocationID.xy;
+    uvec2 ij = t0 + tile_pixel(gl_LocalInvocationIndex);
     bool inside = ij.x < V.dims.x && ij.y < V.dims.y;
     uint lid = gl_LocalInvocationIndex;
 

@@ -84,7 +84,7 @@ bool pass_range(uint start, uint end, uint pass, uint chunks_per_pass, out uint 
 // (this pass's share, see pass_range); cand counts this pixel's candidates (for the counters).
 void tile_loop(uint begin, uint end, ViewGPU V, uvec2 t0, uint lid, bool live, PixelSetup P, inout uint cand) {
     setup_blocks(V, t0, lid);
-    uint myblk = (gl_LocalInvocationID.x >> 2) + 4u * (gl_LocalInvocationID.y >> 2);
+    uint myblk = lid >> 4;  // tile_pixel's block of this thread
     for (uint c0 = begin; c0 < end; c0 += CHUNK) {
         barrier();
         chunk_begin(lid);

@@ -32,6 +32,14 @@ shared uint sh_blk_hits[32];       // per block, two words: chunk scratches that
 shared uint sh_base[256];          // queue_slots: per subgroup, its packed counts; free after it
 shared uint sh_queue[QCAP];        // (pixel << 8) | scratch-in-chunk
 
+// The tile pixel of thread lid, block by block: lid bits 0-1 are x and bits 2-3 are y within a
+// 4x4-pixel block, bits 4-7 the block (4 x 4 blocks). So neighbouring threads (a SIMD batch on a
+// CPU, most of a GPU subgroup) share a block and its candidate list, and the per-pixel candidate
+// loops of a batch run no longer than their block needs.
+uvec2 tile_pixel(uint lid) {
+    return uvec2((lid & 3u) | ((lid >> 2) & 12u), ((lid >> 2) & 3u) | ((lid >> 4) & 12u));
+}
+
 // The view that holds `tile`, and the tile's first pixel.
 uint tile_view(uint tile, out uvec2 t0) {
     uint vi = 0u;
