@@ -22,5 +22,6 @@ pub mod observe;
 pub mod optim;
 pub mod render;
 pub mod scenes;
+pub mod study;
 pub mod term;
 pub mod vulkan;

@@ -106,6 +106,36 @@ enum Cmd {
         #[arg(long)]
         compare_backward: bool,
     },
+    /// Speed against accuracy of the per-pair integral: every method (closed form, Gauss
+    /// panels, plain Gauss-Legendre with 2 to 32 nodes per edge, the "average" approximation,
+    /// Monte Carlo with 16 to 256 points) renders a small scene per regime (moderate, sharp and
+    /// wide lobes, grazing views, footprints much smaller and much larger than a scratch, the half
+    /// vector along the scratches, many scratches per footprint); each render is compared with the
+    /// float64 reference and timed. Writes DIR/study.csv (method, regime, err_max, err_p99,
+    /// err_median, ns_per_pair, ...), DIR/study.png (error against time per regime, log axes)
+    /// and DIR/verdict.txt (per regime the cheapest method within MODEL.md's bar). About two
+    /// minutes on a 2-core CPU driver with the defaults.
+    Study {
+        /// Output directory (created if missing)
+        #[arg(long, default_value = "study")]
+        out: PathBuf,
+        /// View resolution of the regime scenes (square; the footprint is about 30 mm / RES)
+        #[arg(long, default_value_t = 48)]
+        res: u32,
+        /// View resolution of the timed renders (the same regimes drawn finer)
+        #[arg(long, default_value_t = 160)]
+        time_res: u32,
+        /// Timed renders per method and regime (median reported), after one warm-up render
+        #[arg(long, default_value_t = 5)]
+        repeats: usize,
+        /// Methods to compare (default: all), e.g. closed-form,gauss-legendre-8,monte-carlo-64
+        #[arg(long, value_delimiter = ',')]
+        methods: Vec<String>,
+        /// Regimes to run (default: all): moderate, sharp, wide, grazing, small-footprint,
+        /// large-footprint, along-axis, dense
+        #[arg(long, value_delimiter = ',')]
+        regimes: Vec<String>,
+    },
 }
 
 fn main() -> ExitCode {
@@ -184,6 +214,69 @@ fn run(cli: Cli) -> Result<()> {
             warn_about(&scene);
             let ctx = context(&cli)?;
             grad_command(&ctx, &scene, targets, out)?;
+            check_validation(&ctx)
+        }
+        Cmd::Study {
+            out,
+            res,
+            time_res,
+            repeats,
+            methods,
+            regimes,
+        } => {
+            use scratchart::render::kernels::Integrator;
+            let methods: Vec<Integrator> = if methods.is_empty() {
+                Integrator::STUDY.to_vec()
+            } else {
+                methods
+                    .iter()
+                    .map(|m| {
+                        Integrator::from_name(m).ok_or_else(|| {
+                            let names: Vec<String> = Integrator::STUDY.iter().map(|i| i.name()).collect();
+                            scratchart::exit::UsageError(format!(
+                                "--methods: unknown method '{m}' (choose from {})",
+                                names.join(", ")
+                            ))
+                            .into()
+                        })
+                    })
+                    .collect::<Result<_>>()?
+            };
+            let known: Vec<&str> = scratchart::study::regimes(16, 1).iter().map(|r| r.name).collect();
+            if let Some(bad) = regimes.iter().find(|r| !known.contains(&r.as_str())) {
+                return Err(scratchart::exit::UsageError(format!(
+                    "--regimes: unknown regime '{bad}' (choose from {})",
+                    known.join(", ")
+                ))
+                .into());
+            }
+            for (flag, v) in [("--res", res), ("--time-res", time_res)] {
+                if !(16..=1024).contains(v) {
+                    return Err(scratchart::exit::UsageError(format!("{flag} {v}: choose 16 to 1024")).into());
+                }
+            }
+            let ctx = context(&cli)?;
+            std::fs::create_dir_all(out)
+                .map_err(|e| scratchart::exit::InputError(format!("{}: {e}", out.display())))?;
+            let opt = scratchart::study::StudyOptions {
+                res: *res,
+                time_res: *time_res,
+                repeats: *repeats,
+                methods,
+                regimes: (!regimes.is_empty()).then(|| regimes.clone()),
+            };
+            let rows = scratchart::study::run(&ctx, &opt, &mut |line| eprintln!("{line}"))?;
+            scratchart::io::write_atomic(&out.join("study.csv"), scratchart::study::csv(&rows).as_bytes())?;
+            let verdict = scratchart::study::verdict(&rows);
+            scratchart::io::write_atomic(&out.join("verdict.txt"), verdict.as_bytes())?;
+            scratchart::study::chart(&rows, &out.join("study.png"))?;
+            print!("{verdict}");
+            eprintln!(
+                "wrote {}, {} and {}",
+                out.join("study.csv").display(),
+                out.join("study.png").display(),
+                out.join("verdict.txt").display()
+            );
             check_validation(&ctx)
         }
         Cmd::Bench {

@@ -75,6 +75,12 @@ R ndf_at(PairGeom G, R s) {
 
 #if defined(SA_INTEGRATOR_GAUSS_PANELS)
 #include "integrators/gauss_panels.glsl"
+#elif defined(SA_INTEGRATOR_GAUSS_LEGENDRE)
+#include "integrators/gauss_legendre.glsl"
+#elif defined(SA_INTEGRATOR_AVERAGE)
+#include "integrators/average.glsl"
+#elif defined(SA_INTEGRATOR_MONTE_CARLO)
+#include "integrators/monte_carlo.glsl"
 #else
 #include "integrators/closed_form.glsl"
 #endif

@@ -20,24 +20,97 @@ pub enum Integrator {
     /// lobe (`inc/integrators/gauss_panels.glsl`): a numeric cross-check of the closed form,
     /// tens of times slower.
     GaussPanels,
+    /// Green's theorem with every edge integral by plain Gauss-Legendre with this many nodes (2,
+    /// 4, 8, 16 or 32) over the whole edge (`inc/integrators/gauss_legendre.glsl`). For the
+    /// speed-against-accuracy study; forward only (its backward would be the dual-number kernel).
+    GaussLegendre(u8),
+    /// The "average" approximation: the GGX integral over the clipped across-range times the
+    /// clipped area (`inc/integrators/average.glsl`). For the study; forward only.
+    Average,
+    /// Stratified Monte Carlo sampling of the footprint with this many points (16, 64 or 256;
+    /// `inc/integrators/monte_carlo.glsl`), what a generic renderer does. For the study; forward only.
+    MonteCarlo(u16),
 }
 
 impl Integrator {
+    /// The integrators a shading kernel is built with for rendering and gradients.
     pub const ALL: [Integrator; 2] = [Integrator::ClosedForm, Integrator::GaussPanels];
+
+    /// Every method the speed-against-accuracy study (`scratchart study`) compares.
+    pub const STUDY: [Integrator; 11] = [
+        Integrator::ClosedForm,
+        Integrator::GaussPanels,
+        Integrator::GaussLegendre(2),
+        Integrator::GaussLegendre(4),
+        Integrator::GaussLegendre(8),
+        Integrator::GaussLegendre(16),
+        Integrator::GaussLegendre(32),
+        Integrator::Average,
+        Integrator::MonteCarlo(16),
+        Integrator::MonteCarlo(64),
+        Integrator::MonteCarlo(256),
+    ];
 
     /// The define that selects it in `shaders/inc/patch_ndf.glsl`.
     pub fn define(self) -> &'static str {
         match self {
             Integrator::ClosedForm => "SA_INTEGRATOR_CLOSED_FORM",
             Integrator::GaussPanels => "SA_INTEGRATOR_GAUSS_PANELS",
+            Integrator::GaussLegendre(_) => "SA_INTEGRATOR_GAUSS_LEGENDRE",
+            Integrator::Average => "SA_INTEGRATOR_AVERAGE",
+            Integrator::MonteCarlo(_) => "SA_INTEGRATOR_MONTE_CARLO",
         }
     }
 
-    pub fn name(self) -> &'static str {
+    /// Its parameter's define, if it has one (node or point count).
+    fn param_define(self) -> Option<(&'static str, &'static str)> {
         match self {
-            Integrator::ClosedForm => "closed-form",
-            Integrator::GaussPanels => "gauss-panels",
+            Integrator::GaussLegendre(n) => Some(("SA_GL_NODES", count_str(n as u16))),
+            Integrator::MonteCarlo(n) => Some(("SA_MC_POINTS", count_str(n))),
+            _ => None,
         }
+    }
+
+    /// Whether the kernels can be built with it (the parameterized ones take listed counts).
+    pub fn is_valid(self) -> bool {
+        match self {
+            Integrator::GaussLegendre(n) => [2, 4, 8, 16, 32].contains(&n),
+            Integrator::MonteCarlo(n) => [16, 64, 256].contains(&n),
+            _ => true,
+        }
+    }
+
+    /// Whether a backward kernel exists over it (the study's methods are forward only).
+    pub fn has_backward(self) -> bool {
+        matches!(self, Integrator::ClosedForm | Integrator::GaussPanels)
+    }
+
+    pub fn name(self) -> String {
+        match self {
+            Integrator::ClosedForm => "closed-form".into(),
+            Integrator::GaussPanels => "gauss-panels".into(),
+            Integrator::GaussLegendre(n) => format!("gauss-legendre-{n}"),
+            Integrator::Average => "average".into(),
+            Integrator::MonteCarlo(n) => format!("monte-carlo-{n}"),
+        }
+    }
+
+    /// The integrator `name` names (as [`name`](Self::name) writes it).
+    pub fn from_name(name: &str) -> Option<Integrator> {
+        Integrator::STUDY.into_iter().find(|m| m.name() == name)
+    }
+}
+
+fn count_str(n: u16) -> &'static str {
+    match n {
+        2 => "2",
+        4 => "4",
+        8 => "8",
+        16 => "16",
+        32 => "32",
+        64 => "64",
+        256 => "256",
+        _ => "0", // refused by is_valid before any build
     }
 }
 
@@ -89,6 +162,9 @@ impl ShadeKernel {
     /// The defines to compile [`file`](Self::file) with on a device described by `info`.
     pub fn defines(&self, info: &DeviceInfo) -> Vec<(&'static str, &'static str)> {
         let mut defs = vec![(self.integrator.define(), "1")];
+        if let Some(d) = self.integrator.param_define() {
+            defs.push(d);
+        }
         if self.is_backward() {
             // Reverse mode needs the integrator's adjoint edge integral; others run dual numbers.
             if self.mode == Mode::Backward && self.integrator == Integrator::ClosedForm {
