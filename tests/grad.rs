@@ -210,13 +210,7 @@ fn grad_command_matches_reference() {
         )
         .unwrap();
     }
-    let bin = std::env::current_exe()
-        .unwrap()
-        .parent()
-        .unwrap()
-        .parent()
-        .unwrap()
-        .join("scratchart");
+    let bin = workspace_bin("scratchart", "scratchart");
     let out = std::process::Command::new(&bin)
         .arg("grad")
         .arg(dir.join("scene.json"))

@@ -61,9 +61,7 @@ fn too_many_scratches_is_a_clear_error() {
 }
 
 fn scratchart_bin() -> std::path::PathBuf {
-    // target/<profile>/deps/limits-xxxx -> target/<profile>/scratchart
-    let exe = std::env::current_exe().unwrap();
-    exe.parent().unwrap().parent().unwrap().join("scratchart")
+    workspace_bin("scratchart", "scratchart")
 }
 
 #[test]

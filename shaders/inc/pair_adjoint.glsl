@@ -74,7 +74,8 @@ void geom_adj(PairGeom G, GAdj aG, out float a_hb, out float a_ht, out float a_a
 float carved_se_grad(float w, float d, out float d_w, out float d_d) {
     float x = 2.0 * d / w;
     float u = exp(-x);
-    float om = (u == 1.0) ? x : ((1.0 - u) * x) / -log(u);
+    // 1 - exp(-x) as carved_se computes it (series below x = 0.1)
+    float om = x < 0.1 ? x * (1.0 - x * (0.5 - x * (1.0 / 6.0 - x * (1.0 / 24.0 - x * (1.0 / 120.0))))) : 1.0 - u;
     float se = sqrt(om);
     // d se / d x = exp(-x) / (2 se); x = 2d/w
     float k = se > 0.0 ? u / (2.0 * se) : 0.0;
