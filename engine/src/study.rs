@@ -516,7 +516,8 @@ pub fn chart(rows: &[Row], path: &Path) -> Result<()> {
                 x0 = x0.min(p.ns_per_pair);
                 x1 = x1.max(p.ns_per_pair);
             }
-            let (x0, x1) = ((x0 / 1.5).max(1e-3), (x1 * 1.5).max(x0 * 2.0));
+            // Room on the right for the rightmost mark's label.
+            let (x0, x1) = ((x0 / 1.5).max(1e-3), (x1 * 3.0).max(x0 * 2.0));
             let mut cb = ChartBuilder::on(area);
             cb.margin(8);
             if text {

@@ -24,6 +24,10 @@ pub enum Integrator {
     /// 4, 8, 16 or 32) over the whole edge (`inc/integrators/gauss_legendre.glsl`). For the
     /// speed-against-accuracy study; forward only (its backward would be the dual-number kernel).
     GaussLegendre(u8),
+    /// Globally adaptive quadrature of every edge integral: 5-point Gauss-Legendre panels,
+    /// bisected where their error estimate fails (`inc/integrators/adaptive.glsl`), what a
+    /// generic integrator does without knowing where the lobe is. For the study; forward only.
+    AdaptiveQuadrature,
     /// The "average" approximation: the GGX integral over the clipped across-range times the
     /// clipped area (`inc/integrators/average.glsl`). For the study; forward only.
     Average,
@@ -37,7 +41,7 @@ impl Integrator {
     pub const ALL: [Integrator; 2] = [Integrator::ClosedForm, Integrator::GaussPanels];
 
     /// Every method the speed-against-accuracy study (`scratchart study`) compares.
-    pub const STUDY: [Integrator; 11] = [
+    pub const STUDY: [Integrator; 12] = [
         Integrator::ClosedForm,
         Integrator::GaussPanels,
         Integrator::GaussLegendre(2),
@@ -45,6 +49,7 @@ impl Integrator {
         Integrator::GaussLegendre(8),
         Integrator::GaussLegendre(16),
         Integrator::GaussLegendre(32),
+        Integrator::AdaptiveQuadrature,
         Integrator::Average,
         Integrator::MonteCarlo(16),
         Integrator::MonteCarlo(64),
@@ -57,6 +62,7 @@ impl Integrator {
             Integrator::ClosedForm => "SA_INTEGRATOR_CLOSED_FORM",
             Integrator::GaussPanels => "SA_INTEGRATOR_GAUSS_PANELS",
             Integrator::GaussLegendre(_) => "SA_INTEGRATOR_GAUSS_LEGENDRE",
+            Integrator::AdaptiveQuadrature => "SA_INTEGRATOR_ADAPTIVE",
             Integrator::Average => "SA_INTEGRATOR_AVERAGE",
             Integrator::MonteCarlo(_) => "SA_INTEGRATOR_MONTE_CARLO",
         }
@@ -90,6 +96,7 @@ impl Integrator {
             Integrator::ClosedForm => "closed-form".into(),
             Integrator::GaussPanels => "gauss-panels".into(),
             Integrator::GaussLegendre(n) => format!("gauss-legendre-{n}"),
+            Integrator::AdaptiveQuadrature => "adaptive-quadrature".into(),
             Integrator::Average => "average".into(),
             Integrator::MonteCarlo(n) => format!("monte-carlo-{n}"),
         }
