@@ -38,7 +38,7 @@ float dp = 0.0, cov = 0.0;
 uint pairs = 0u;
 
 void chunk_begin(uint lid) {}
-void scratch_loaded(uint k, ScratchGPU S) {}
+void scratch_loaded(uint k, uint index, ScratchGPU S) {}
 void chunk_end(uint lid, uint c0, uint cnt) {}
 
 void pair_eval(uint i, uint px, uint k, bool fast) {

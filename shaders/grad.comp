@@ -69,7 +69,7 @@ void chunk_begin(uint lid) {
     acc1 = vec4(0.0);
 }
 
-void scratch_loaded(uint k, ScratchGPU S) {
+void scratch_loaded(uint k, uint index, ScratchGPU S) {
     sh_ends[k] = S.ends;
     sh_shape[k] = S.shape;
 }

@@ -18,8 +18,13 @@
 //! speck, a reflection or a stray scratch does not pull the fit.
 //!
 //! Optimizer: Levenberg-Marquardt on the few parameters (3 to 8 tool and camera numbers; a
-//! measured profile has one width per ladder depth), with the Jacobian by forward differences of
-//! engine renders (exposure and blur need no render). The cost is not smooth in the z offset:
+//! measured profile has one width per ladder depth). The Jacobian is differentiable rendering:
+//! the columns of the parameters that move the grooves (the tool's, the z offset, alpha) are the
+//! engine's derivatives of every pixel along up to 7 of them per pass (`Renderer::tangents`,
+//! forward-mode dual numbers through the pair integral and the clipping), seeded with each
+//! groove's d(w, d, alpha) through the tool model; the camera terms (exposure, blur, shift) need
+//! no render, and the eyes of photos taken off the capture pose, which move the camera rather
+//! than the grooves, are differenced over renders. The cost is not smooth in the z offset:
 //! a ladder rung appears when its commanded depth plus the offset passes zero (with a tip flat its
 //! width jumps from 0). So the offset is searched first on the ladder's thresholds, and each
 //! refinement keeps the offset inside one interval between thresholds, where the set of cut
@@ -36,6 +41,7 @@
 //! limit is reported as not identified, not as a number.
 use scratchart::model::scene::{Scene, Scratch};
 use scratchart::observe::{Observer, Progress};
+use scratchart::render::tangent::{ScratchTangent, TANGENT_DIRECTIONS};
 use scratchart::render::Renderer;
 use scratchart_tool::Tool;
 use serde::{Deserialize, Serialize};
@@ -108,7 +114,11 @@ pub struct FitResult {
     pub pixels: usize,
     /// Bayesian information criterion of the robust loss: how the kinds are compared.
     pub bic: f64,
+    /// Renders of the card, and tangent passes (each gives the derivatives of every pixel along
+    /// up to 7 parameters: the Jacobian's columns for the tool, its offset and alpha).
     pub renders: u32,
+    #[serde(default)]
+    pub tangent_passes: u32,
     pub iterations: u32,
 }
 
@@ -139,6 +149,8 @@ struct Evaluator<'a, 'r> {
     data: &'a Data<'a>,
     lay: Layout,
     renders: u32,
+    /// Tangent passes (`Renderer::tangents`) run for Jacobians.
+    tangent_passes: u32,
     /// The card on the device, re-used with new scratch parameters for every render.
     gs: Option<scratchart::render::GpuScene>,
 }
@@ -168,8 +180,9 @@ impl Evaluator<'_, '_> {
             .collect()
     }
 
-    /// Linear renders of the card for the tool part of `x`.
-    fn render(&mut self, x: &[f64]) -> Result<Vec<Vec<f32>>, FitError> {
+    /// Puts the card for `x` on the device (its grooves, and the eyes of photos taken off the
+    /// capture pose), uploading it the first time.
+    fn sync(&mut self, x: &[f64]) -> Result<(), FitError> {
         let scratches = self.scratches(&self.lay.tool(x), self.lay.alpha(x));
         let ctx = self.renderer.ctx.clone();
         let views: Vec<_> = self
@@ -202,10 +215,78 @@ impl Evaluator<'_, '_> {
             };
             self.gs = Some(self.renderer.upload(&scene).map_err(anyhow::Error::from)?);
         }
+        Ok(())
+    }
+
+    /// Linear renders of the card for the tool part of `x`.
+    fn render(&mut self, x: &[f64]) -> Result<Vec<Vec<f32>>, FitError> {
+        self.sync(x)?;
         let gs = self.gs.as_mut().expect("uploaded");
         let frame = self.renderer.render(gs).map_err(anyhow::Error::from)?;
         self.renders += 1;
         Ok(frame.images)
+    }
+
+    /// The Jacobian columns (d residual / d x_k) of the parameters `ks`, each of which moves only
+    /// the grooves' (w, d, alpha): the tool's parameters, its z offset, alpha. Differentiable
+    /// rendering: the engine gives the pixel values' derivatives along up to 7 parameters per
+    /// pass (`Renderer::tangents`, forward-mode dual numbers through the pair integral), seeded
+    /// with each groove's d(w, d, alpha)/dx_k (central differences of the tool model on the host,
+    /// no render); the camera model (blur, exposure, display encoding, clipping) is then
+    /// differenced around that linearized render, over the parameter's own step.
+    fn tangent_columns(&mut self, x: &[f64], ks: &[usize]) -> Result<Vec<Vec<f64>>, FitError> {
+        // A cut that does not reach the plate is a placeholder groove (see `scratches`).
+        let reaches = |s: &Scratch| !(s.w == 1e-6 && s.d == 1e-6);
+        let base = self.scratches(&self.lay.tool(x), self.lay.alpha(x));
+        let mut cols = Vec::with_capacity(ks.len());
+        for group in ks.chunks(TANGENT_DIRECTIONS) {
+            let mut seeds: Vec<ScratchTangent> = vec![[[0.0; 3]; TANGENT_DIRECTIONS]; base.len()];
+            for (j, &k) in group.iter().enumerate() {
+                let q = &self.lay.params[k];
+                let (up, dn) = ((x[k] + q.step).min(q.hi), (x[k] - q.step).max(q.lo));
+                let at = |v: f64| {
+                    let mut xx = x.to_vec();
+                    xx[k] = v;
+                    self.scratches(&self.lay.tool(&xx), self.lay.alpha(&xx))
+                };
+                let (sp, sm) = (at(up), at(dn));
+                for (c, t) in seeds.iter_mut().enumerate() {
+                    // A groove that starts or stops cutting within the step jumps there: take the
+                    // side that keeps its state.
+                    let state = reaches(&base[c]);
+                    let (a, b, span) = match (reaches(&sp[c]) == state, reaches(&sm[c]) == state) {
+                        (true, true) => (&sp[c], &sm[c], up - dn),
+                        (true, false) => (&sp[c], &base[c], up - x[k]),
+                        (false, true) => (&base[c], &sm[c], x[k] - dn),
+                        (false, false) => continue,
+                    };
+                    if span > 0.0 {
+                        t[j] = [
+                            ((a.w - b.w) / span) as f32,
+                            ((a.d - b.d) / span) as f32,
+                            ((a.alpha - b.alpha) / span) as f32,
+                        ];
+                    }
+                }
+            }
+            self.sync(x)?;
+            let gs = self.gs.as_mut().expect("uploaded");
+            let (lin, tang) = self.renderer.tangents(gs, &seeds).map_err(anyhow::Error::from)?;
+            self.tangent_passes += 1;
+            for (j, &k) in group.iter().enumerate() {
+                let h = self.lay.params[k].step;
+                let moved = |sign: f64| -> Vec<Vec<f32>> {
+                    lin.iter()
+                        .zip(&tang)
+                        .map(|(l, t)| l.iter().zip(t).map(|(a, d)| a + (sign * h) as f32 * d[j]).collect())
+                        .collect()
+                };
+                let rp = self.residuals(&self.predict(&moved(1.0), x));
+                let rm = self.residuals(&self.predict(&moved(-1.0), x));
+                cols.push(rp.iter().zip(&rm).map(|(a, b)| (a - b) / (2.0 * h)).collect());
+            }
+        }
+        Ok(cols)
     }
 
     /// Model display images from linear renders and the camera part of `x`: the optics blur
@@ -321,6 +402,7 @@ pub fn fit_kind(
         data,
         lay,
         renders: 0,
+        tangent_passes: 0,
         gs: None,
     };
     // The z offset's intervals: between consecutive thresholds -z_k of the ladder.
@@ -489,6 +571,7 @@ pub fn fit_kind(
         pixels: n,
         bic,
         renders: ev.renders,
+        tangent_passes: ev.tangent_passes,
         iterations,
     })
 }
@@ -508,6 +591,7 @@ pub fn predict(renderer: &Renderer, data: &Data, res: &FitResult) -> Result<(Vec
         data,
         lay,
         renders: 0,
+        tangent_passes: 0,
         gs: None,
     };
     let x: Vec<f64> = res.params.iter().map(|p| p.1).collect();

@@ -200,12 +200,13 @@ pub fn run(renderer: &Renderer, args: &FitArgs, obs: &dyn Observer) -> Result<()
         match fit_kind(renderer, &data, k, &cfg, obs) {
             Ok(r) => {
                 obs.info(&format!(
-                    "{}: loss {:.4e}, rms {:.4}, BIC {:.0} ({} renders)",
+                    "{}: loss {:.4e}, rms {:.4}, BIC {:.0} ({} renders, {} tangent passes)",
                     k.name(),
                     r.loss,
                     r.rms,
                     r.bic,
-                    r.renders
+                    r.renders,
+                    r.tangent_passes
                 ));
                 results.push(r);
             }
@@ -227,10 +228,11 @@ pub fn run(renderer: &Renderer, args: &FitArgs, obs: &dyn Observer) -> Result<()
     let secs = t0.elapsed().as_secs_f64();
     // Report.
     println!(
-        "fitted {} to {} photo(s) in {secs:.1} s ({} renders): rms residual {:.4} (display units)",
+        "fitted {} to {} photo(s) in {secs:.1} s ({} renders, {} tangent passes): rms residual {:.4} (display units)",
         best.kind.name(),
         files.len(),
         results.iter().map(|r| r.renders).sum::<u32>(),
+        results.iter().map(|r| r.tangent_passes).sum::<u32>(),
         best.rms
     );
     if results.len() > 1 {
@@ -281,6 +283,9 @@ pub fn run(renderer: &Renderer, args: &FitArgs, obs: &dyn Observer) -> Result<()
         "photos": files.iter().map(|f| f.display().to_string()).collect::<Vec<_>>(),
         "card": args.card.display().to_string(),
         "seconds": secs,
+        "renders": results.iter().map(|r| r.renders).sum::<u32>(),
+        "tangent_passes": results.iter().map(|r| r.tangent_passes).sum::<u32>(),
+        "jacobian": "engine derivatives (tangent passes) for the tool, z offset and alpha; differences for eyes and camera terms",
     });
     let fitted = Fitted {
         alpha: Some(best.alpha),

@@ -7,7 +7,8 @@
 // after including this file:
 //   chunk_begin(lid)          every thread, at the start of a chunk (after its first barrier):
 //                             per-chunk state, e.g. clearing per-scratch accumulators
-//   scratch_loaded(k, S)      thread k < CHUNK that loads the chunk's scratch k: S as stored
+//   scratch_loaded(k, i, S)   thread k < CHUNK that loads the chunk's scratch k: its index i
+//                             in the scene and S as stored
 //   pair_eval(i, px, k, fast) queue entry i of the round (pixel px of the tile, chunk scratch k;
 //                             fast: queued as a likely fast-path pair): integrate, keep result i
 //   round_accumulate(lid, r0, n, cnt, fmask, fbase, gmask, gbase)
@@ -33,7 +34,7 @@ shared vec4 sh_fp23[256];
 shared vec4 sh_h[256];             // xyz half vector; w is the kernel's (store_pixel)
 
 void chunk_begin(uint lid);
-void scratch_loaded(uint k, ScratchGPU S);
+void scratch_loaded(uint k, uint index, ScratchGPU S);
 void pair_eval(uint i, uint px, uint k, bool fast);
 void round_accumulate(uint lid, uint r0, uint n, uint cnt, uvec2 fmask, uint fbase, uvec2 gmask, uint gbase);
 void chunk_end(uint lid, uint c0, uint cnt);
@@ -89,8 +90,9 @@ void tile_loop(uint begin, uint end, ViewGPU V, uvec2 t0, uint lid, bool live, P
         barrier();
         chunk_begin(lid);
         if (lid < CHUNK && c0 + lid < end) {
-            ScratchGPU S = scr[list[c0 + lid]];
-            scratch_loaded(lid, S);
+            uint si = list[c0 + lid];
+            ScratchGPU S = scr[si];
+            scratch_loaded(lid, si, S);
             load_cull(lid, S);
             block_tests(lid);
         }

@@ -1,5 +1,8 @@
-//! Levenberg-Marquardt on the fit's robust (Cauchy) loss, with the Jacobian by forward
-//! differences (a render only for the parameters that change the card's grooves).
+//! Levenberg-Marquardt on the fit's robust (Cauchy) loss. The Jacobian: the columns of the
+//! parameters that move the grooves (tool, z offset, alpha) from the engine's directional
+//! derivatives (`Evaluator::tangent_columns`, one pass per 7 parameters); the eyes of photos
+//! taken off the capture pose (they move the camera, not the grooves) by forward differences of
+//! renders; exposure, blur and registration by forward differences of the camera model alone.
 use scratchart::observe::{Observer, Progress};
 
 use super::layout::Layout;
@@ -81,9 +84,19 @@ pub(super) fn refine(
         s = robust_scale(&r);
         cost = cauchy(&r, s);
         let wts: Vec<f64> = r.iter().map(|e| 1.0 / (1.0 + e * e / (s * s))).collect();
-        // Jacobian by forward differences (away from the nearer bound).
+        // The grooves' parameters: derivatives from the engine.
+        let eyes: Vec<usize> = ev.lay.pose_at.iter().flatten().flat_map(|&i| i..i + 3).collect();
+        let grooves: Vec<usize> = (0..np)
+            .filter(|k| ev.lay.params[*k].render && !eyes.contains(k))
+            .collect();
+        let mut tangent = ev.tangent_columns(&x, &grooves)?.into_iter();
+        // The rest by forward differences (away from the nearer bound).
         let mut cols: Vec<Vec<f64>> = Vec::with_capacity(np);
         for k in 0..np {
+            if grooves.contains(&k) {
+                cols.push(tangent.next().expect("one column per groove parameter"));
+                continue;
+            }
             let q = &ev.lay.params[k];
             let mut xh = x.clone();
             let mut h = q.step;

@@ -55,6 +55,11 @@ pub const PRECOMPILED: &[(&str, &[(&str, &str)])] = &[
             ("SA_NO_F64", "1"),
         ],
     ),
+    ("tangent.comp", &[("SA_INTEGRATOR_CLOSED_FORM", "1"), ("SA_DUAL", "1")]),
+    (
+        "tangent.comp",
+        &[("SA_INTEGRATOR_CLOSED_FORM", "1"), ("SA_DUAL", "1"), ("SA_NO_F64", "1")],
+    ),
     ("loss_fwd.comp", &[("DISPLAY", "1")]),
     ("loss_fwd.comp", &[("POOL", "1")]),
     ("loss_fwd.comp", &[("FEAT", "1")]),

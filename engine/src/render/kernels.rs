@@ -135,6 +135,11 @@ pub enum Mode {
     /// `inc/integrators/closed_form_adjoint.glsl`). Integrators without an adjoint edge
     /// integral (Gauss panels) build the dual-number kernel under this mode.
     Backward,
+    /// Directional derivatives of the pixel values along up to 7 directions in the scratches'
+    /// (w, d, alpha) (`tangent.comp`, dual numbers through the forward's pair integral): the
+    /// Jacobian columns of a fit over a few parameters that move many scratches (the tool
+    /// calibration). Not part of a [`KernelSet`]: [`super::Renderer::tangents`] builds it.
+    Tangent,
 }
 
 /// One shading kernel: a pass and the pair integral it runs.
@@ -150,12 +155,13 @@ impl ShadeKernel {
         match self.mode {
             Mode::Forward => "forward.comp",
             Mode::BackwardDual | Mode::Backward => "grad.comp",
+            Mode::Tangent => "tangent.comp",
         }
     }
 
     /// Whether this is a backward kernel (reads dE/dL, writes partial gradients).
     pub fn is_backward(&self) -> bool {
-        !matches!(self.mode, Mode::Forward)
+        matches!(self.mode, Mode::BackwardDual | Mode::Backward)
     }
 
     /// The pipeline's name (validation messages and debug tools show it).
@@ -186,6 +192,9 @@ impl ShadeKernel {
                 "256"
             };
             defs.push(("GRAD_QCAP", qcap));
+        }
+        if self.mode == Mode::Tangent {
+            defs.push(("SA_DUAL", "1"));
         }
         // Ray hits in float64 where the device has it (see ViewGPU64 in shaders/inc/common.glsl).
         if !info.float64 {

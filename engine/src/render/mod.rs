@@ -20,6 +20,7 @@ pub mod kernels;
 pub mod layout;
 pub mod present;
 mod scene;
+pub mod tangent;
 
 pub use scene::{GpuScene, RenderStats};
 
@@ -51,6 +52,8 @@ pub struct Renderer {
     grad: std::sync::OnceLock<ComputePipeline>,
     grad_reduce: ComputePipeline,
     grad_light: ComputePipeline,
+    /// The tangent kernel (`tangent.comp`), compiled on first use ([`Renderer::tangents`]).
+    tangent: std::sync::OnceLock<ComputePipeline>,
 }
 
 /// The pipeline of a shading kernel (forward or backward; both take 10 buffers and `ShadePush`).
@@ -116,6 +119,7 @@ impl Renderer {
             grad: std::sync::OnceLock::new(),
             grad_reduce: ComputePipeline::new(ctx, &sc, "grad_reduce.comp", &[], 4, scan_push)?,
             grad_light: ComputePipeline::new(ctx, &sc, "grad_light.comp", &[], 5, 0)?,
+            tangent: std::sync::OnceLock::new(),
         })
     }
 

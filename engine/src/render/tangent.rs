@@ -1,0 +1,111 @@
+//! Directional derivatives of the pixel values (`tangent.comp`): a Jacobian-vector product in
+//! forward mode, for up to 7 directions in the space of every scratch's (w, d, alpha) at once.
+//! The tool calibration fits a handful of tool parameters that move every groove of its card;
+//! its least-squares Jacobian is these directional derivatives (one pass of the engine), where
+//! finite differences would need one render per parameter.
+use super::kernels::{Integrator, Mode, ShadeKernel};
+use super::layout::ShadePush;
+use super::{GpuScene, Renderer};
+use crate::vulkan::{Buffer, GpuError, MemLoc, Recorder, ShaderCompiler};
+
+/// Directions one tangent pass carries (the dual numbers' partials).
+pub const TANGENT_DIRECTIONS: usize = 7;
+
+/// Per scratch, the tangents of (w, d, alpha) along each direction: `[j]` = (dw, dd, dalpha) / dθ_j.
+pub type ScratchTangent = [[f32; 3]; TANGENT_DIRECTIONS];
+
+impl Renderer {
+    /// Compiles the tangent kernel (the closed form in dual numbers) if it is not compiled yet.
+    fn prepare_tangent(&self) -> Result<(), GpuError> {
+        if self.tangent.get().is_some() {
+            return Ok(());
+        }
+        let k = ShadeKernel {
+            integrator: Integrator::ClosedForm,
+            mode: Mode::Tangent,
+        };
+        let p = super::shade_pipeline(&self.ctx, &ShaderCompiler::embedded()?, &k)?;
+        let _ = self.tangent.set(p);
+        Ok(())
+    }
+
+    /// Renders `gs` and the derivatives of every pixel value along the directions of `seeds`
+    /// (one entry per scratch, in scene order): the images (one per view) and, per view, per
+    /// pixel, dL/dθ_j for the 7 directions. One submission: an incomplete render is redone
+    /// with its derivatives.
+    #[allow(clippy::type_complexity)]
+    pub fn tangents(
+        &self,
+        gs: &mut GpuScene,
+        seeds: &[ScratchTangent],
+    ) -> Result<(Vec<Vec<f32>>, Vec<Vec<[f32; TANGENT_DIRECTIONS]>>), GpuError> {
+        assert_eq!(
+            seeds.len(),
+            gs.n_scratches as usize,
+            "one tangent per scratch of the uploaded scene"
+        );
+        self.prepare_tangent()?;
+        let mut flat = Vec::with_capacity(seeds.len() * 24);
+        for s in seeds {
+            for q in 0..3 {
+                for j in 0..8 {
+                    flat.push(if j < TANGENT_DIRECTIONS { s[j][q] } else { 0.0 });
+                }
+            }
+        }
+        let seed_buf = self.ctx.upload("tangent seeds (6 vec4 per scratch)", &flat)?;
+        let tang = Buffer::new(
+            &self.ctx,
+            "tangents (4 vec4 per pixel of every view)",
+            gs.slots.n_pixels * 64,
+            MemLoc::GpuOnly,
+        )?;
+        let mut rec = Recorder::new(&self.ctx)?;
+        let kernel = self.tangent.get().expect("prepared");
+        self.submit(&mut rec, gs, |rec, gs| {
+            self.record_render(rec, gs);
+            let plan = gs.bwd_plan;
+            for pass in 0..plan.passes {
+                let push = ShadePush {
+                    chunks_per_pass: plan.chunks_per_pass,
+                    pass,
+                    n_passes: plan.passes,
+                    ..gs.shade
+                };
+                rec.dispatch_1d(
+                    kernel,
+                    &[
+                        &gs.views,
+                        &gs.scratches,
+                        &gs.hist,
+                        &gs.list,
+                        &seed_buf,
+                        &gs.cov_raw,
+                        &tang,
+                        &gs.views64,
+                        &gs.lights,
+                        &gs.stats,
+                    ],
+                    bytemuck::bytes_of(&push),
+                    gs.slots.n_tiles,
+                );
+                rec.barrier();
+            }
+        })?;
+        let images = self.download_images(gs)?;
+        let all: Vec<[f32; 16]> = self.ctx.download(&tang)?;
+        let per_view = gs
+            .slots
+            .views
+            .iter()
+            .map(|v| {
+                let n = v.dims[0] as usize * v.dims[1] as usize;
+                all[v.base[1] as usize..v.base[1] as usize + n]
+                    .iter()
+                    .map(|t| [t[0], t[1], t[2], t[3], t[4], t[5], t[6]])
+                    .collect()
+            })
+            .collect();
+        Ok((images, per_view))
+    }
+}

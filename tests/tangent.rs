@@ -1,0 +1,119 @@
+//! Directional derivatives of the pixel values (`Renderer::tangents`, `shaders/tangent.comp`)
+//! against central differences of the float64 reference: for each of 7 directions in the
+//! scratches' (w, d, alpha) (each scratch's own w, each d, each alpha, a random mix, half the
+//! scratches, w against d, and the zero direction), per view,
+//! ||dL - dL_ref|| / ||dL_ref|| <= 1e-2 (MODEL.md section 8's gradient bar, here per direction);
+//! the zero direction is exactly zero; the images are the forward's; two runs are bit-identical.
+use scratchart::model::reference::render_view;
+use scratchart::model::scene::Scene;
+use scratchart::render::tangent::{ScratchTangent, TANGENT_DIRECTIONS};
+use scratchart::render::Renderer;
+use scratchart::scenes::Rng;
+use scratchart_tests::*;
+
+fn seeds(scene: &Scene) -> Vec<ScratchTangent> {
+    let mut rng = Rng::new(5);
+    scene
+        .scratches
+        .iter()
+        .enumerate()
+        .map(|(k, s)| {
+            let (w, d, a) = (s.w as f32, s.d as f32, s.alpha as f32);
+            let r = |rng: &mut Rng| (2.0 * rng.f64() - 1.0) as f32;
+            [
+                [w, 0.0, 0.0],
+                [0.0, d, 0.0],
+                [0.0, 0.0, a],
+                [r(&mut rng) * w, r(&mut rng) * d, r(&mut rng) * a],
+                if k % 2 == 0 { [w, 0.0, 0.0] } else { [0.0; 3] },
+                [w, -d, 0.0],
+                [0.0; 3],
+            ]
+        })
+        .collect()
+}
+
+/// The scene moved by `h` along direction `j` of `seeds`.
+fn moved(scene: &Scene, seeds: &[ScratchTangent], j: usize, h: f64) -> Scene {
+    let mut s = scene.clone();
+    for (sc, t) in s.scratches.iter_mut().zip(seeds) {
+        sc.w += h * t[j][0] as f64;
+        sc.d += h * t[j][1] as f64;
+        sc.alpha += h * t[j][2] as f64;
+    }
+    s
+}
+
+fn check(label: &str, scene: &Scene) {
+    scene.validate().expect("valid test scene");
+    let ctx = gpu();
+    let r = Renderer::new(&ctx).unwrap();
+    let sd = seeds(scene);
+    let mut gs = r.upload(scene).unwrap();
+    let (images, tang) = r.tangents(&mut gs, &sd).unwrap();
+    let plain = r.render(&mut gs).unwrap().images;
+    assert_eq!(images, plain, "{label}: the tangent pass changed the images");
+    let (_, again) = r.tangents(&mut gs, &sd).unwrap();
+    assert!(
+        tang.iter()
+            .flatten()
+            .zip(again.iter().flatten())
+            .all(|(a, b)| a.iter().zip(b).all(|(x, y)| x.to_bits() == y.to_bits())),
+        "{label}: two runs differ"
+    );
+    let h = 1e-4;
+    for j in 0..TANGENT_DIRECTIONS {
+        let (plus, minus) = (moved(scene, &sd, j, h), moved(scene, &sd, j, -h));
+        for v in 0..scene.views.len() {
+            let got: Vec<f64> = tang[v].iter().map(|t| t[j] as f64).collect();
+            if j == 6 {
+                assert!(
+                    got.iter().all(|g| *g == 0.0),
+                    "{label}: the zero direction moved a pixel"
+                );
+                continue;
+            }
+            let (lp, lm) = (render_view(&plus, v), render_view(&minus, v));
+            let want: Vec<f64> = lp.iter().zip(&lm).map(|(a, b)| (a - b) / (2.0 * h)).collect();
+            let num: f64 = got
+                .iter()
+                .zip(&want)
+                .map(|(a, b)| (a - b) * (a - b))
+                .sum::<f64>()
+                .sqrt();
+            let den: f64 = want.iter().map(|b| b * b).sum::<f64>().sqrt();
+            eprintln!(
+                "{label}: direction {j}, view {v}: relative error {:.2e} (|dL| {den:.3e})",
+                num / den
+            );
+            assert!(den > 0.0, "{label}: direction {j} moves nothing in view {v}");
+            assert!(
+                num <= 1e-2 * den,
+                "{label}: direction {j}, view {v}: ||dL - dL_ref|| / ||dL_ref|| = {:.3e}",
+                num / den
+            );
+        }
+    }
+    assert_no_validation(&ctx);
+}
+
+#[test]
+fn directional_derivatives_match_the_reference() {
+    let mut scene = random_scene(
+        21,
+        200,
+        20.0,
+        0.2,
+        0.1,
+        0.05,
+        vec![
+            orbit_view("a", 32, 45.0, 0.0, 45.0, 180.0, 20.0),
+            orbit_view("b", 32, 60.0, 120.0, 30.0, 300.0, 20.0),
+        ],
+    );
+    for (k, s) in scene.scratches.iter_mut().enumerate() {
+        s.alpha = [0.01, 0.05, 0.3][k % 3];
+        s.d = s.w * [0.05, 0.5, 2.0][(k / 3) % 3];
+    }
+    check("random", &scene);
+}
