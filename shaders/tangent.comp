@@ -1,26 +1,28 @@
 #version 450
-// Directional derivatives of the pixel values (a Jacobian-vector product, forward mode): for up to
-// 7 directions j in the space of every scratch's (w, d, alpha), given per scratch the tangents
-// (dw/dθ_j, dd/dθ_j, dalpha/dθ_j), writes dL/dθ_j for every pixel. The tool calibration fits a few
-// tool parameters that move every groove of the card at once; this gives the Jacobian columns of
-// its least-squares fit from one pass of the engine, where finite differences need one render per
-// parameter.
+// Directional derivatives of the pixel values (a Jacobian-vector product): for up to 7
+// directions j in the space of every scratch's (w, d, alpha), given per scratch the tangents
+// (dw/dθ_j, dd/dθ_j, dalpha/dθ_j), writes dL/dθ_j for every pixel. The tool calibration fits a
+// few tool parameters that move every groove of the card at once; this gives the Jacobian
+// columns of its least-squares fit from one pass of the engine, where finite differences need
+// one render per parameter.
 //
-// The pair integral is the forward's own code in dual numbers (SA_DUAL, inc/real.glsl), its 7
-// partials used as the 7 directions: each scratch's w, d and alpha enter as dual numbers whose
-// partials are their tangents (the endpoints are constants). Per pixel, with the forward's
-// coverage (cov_raw, read after the forward pass of the same submission),
-//   dL/dθ = scale / S_P (sum_k dI_k/dθ - [cov < 1] D_flat sum_k dA_k/dθ)
-// (see grad.comp). Work layout, order and passes are the forward's (inc/tile_loop.glsl); the
-// per-pixel sums carry across passes in the output buffer, which the last pass overwrites with
-// dL/dθ. No atomics on floats: results are bit-reproducible.
+// Per pixel, L = scale (D_P + (1 - min(1, cov)) D_flat) with D_P = sum_k I_k / S_P and
+// cov = sum_k A_k / S_P (the forward's coverage, cov_raw, read after the forward pass of the same
+// submission), so dL/dθ = sum_k (gI dI_k/dθ + gA dA_k/dθ) with gI = scale / S_P and
+// gA = -[cov < 1] gI D_flat. Per pair, the backward's reverse sweep (inc/pair_adjoint.glsl, the
+// closed form's hand-written adjoint, through the clipping) gives g_k = gI dI_k/d(w, d, alpha) +
+// gA dA_k/d(w, d, alpha) at once; each direction is then a dot product with the scratch's
+// tangents. So any number of directions costs one reverse sweep per pair (7 per pass here).
+// Work layout, order and passes are the forward's (inc/tile_loop.glsl); the per-pixel sums carry
+// across passes in the output buffer. No atomics on floats: results are bit-reproducible.
 #extension GL_GOOGLE_include_directive : require
-#ifndef SA_DUAL
-#error tangent.comp is built with SA_DUAL (engine/src/render/kernels.rs)
+#ifndef SA_EDGE_ADJOINT
+#error tangent.comp is built with SA_EDGE_ADJOINT (engine/src/render/kernels.rs)
 #endif
 #include "inc/common.glsl"
 #include "inc/pixel.glsl"
 #include "inc/patch_ndf.glsl"
+#include "inc/pair_adjoint.glsl"
 
 layout(local_size_x = 16, local_size_y = 16) in;
 layout(std430, binding = 0) readonly buffer Views { ViewGPU views[]; };
@@ -30,8 +32,7 @@ layout(std430, binding = 3) readonly buffer List { uint list[]; };
 // Per scratch 6 vec4: the tangents of w (directions 0-3, 4-6), of d, of alpha.
 layout(std430, binding = 4) readonly buffer Seeds { vec4 seeds[]; };
 layout(std430, binding = 5) readonly buffer Coverage { float cov_raw[]; };
-// Per pixel 4 vec4: between passes sum dI (0-3, 4-6) and sum dA (0-3, 4-6); after the last pass
-// dL/dθ (0-3, 4-6) in the first two.
+// Per pixel 2 vec4: dL/dθ_j (0-3, 4-6), summed over the passes.
 layout(std430, binding = 6) buffer Tangents { vec4 tang[]; };
 layout(std430, binding = 7) readonly buffer Views64 { ViewGPU64 views64[]; };
 layout(std430, binding = 8) readonly buffer Lights { float intensity[]; };
@@ -39,18 +40,19 @@ layout(std430, binding = 9) buffer Stats { uint stats[]; };  // [5], [6] (inc/li
 
 #include "inc/shade_push.glsl"
 
-// Queue entries per round: 64 bytes of results each; 128 keeps the kernel within 32 KiB of
+// Queue entries per round: 32 bytes of results each; 256 keeps the kernel within 32 KiB of
 // shared memory.
-const uint QCAP = 128u;
+const uint QCAP = 256u;
 #include "inc/tile_loop.glsl"
 
 shared vec4 sh_ends[CHUNK];
 shared vec4 sh_shape[CHUNK];
 shared uint sh_idx[CHUNK];
-shared vec4 sh_r[4u * QCAP];       // per entry: dI (0-3, 4-6), dA (0-3, 4-6)
+shared vec4 sh_r[2u * QCAP];       // per entry: dL/dθ_j (0-3, 4-6)
+shared float sh_ga[256];           // per pixel: gA (sh_h[px].w: gI)
 
 // This pixel's sums.
-vec4 dI0 = vec4(0.0), dI1 = vec4(0.0), dA0 = vec4(0.0), dA1 = vec4(0.0);
+vec4 acc0 = vec4(0.0), acc1 = vec4(0.0);
 
 void chunk_begin(uint lid) {}
 void chunk_end(uint lid, uint c0, uint cnt) {}
@@ -62,28 +64,22 @@ void scratch_loaded(uint k, uint index, ScratchGPU S) {
 }
 
 void pair_eval(uint i, uint px, uint k, bool fast) {
-    vec4 E = sh_ends[k], S = sh_shape[k];
-    uint b = 6u * sh_idx[k];
+    vec4 hh = sh_h[px];
     vec2 fp[4];
     pixel_footprint(px, fp);
-    Dual w = Dual(S.x, seeds[b], seeds[b + 1u].xyz);
-    Dual d = Dual(S.y, seeds[b + 2u], seeds[b + 3u].xyz);
-    Dual a = Dual(S.z, seeds[b + 4u], seeds[b + 5u].xyz);
-    Dual I, A;
-    pair_from_params(rc(E.x), rc(E.y), rc(E.z), rc(E.w), w, d, a, fp, sh_h[px].xyz, fast, I, A);
-    sh_r[4u * i] = I.g0;
-    sh_r[4u * i + 1u] = vec4(I.g1, 0.0);
-    sh_r[4u * i + 2u] = A.g0;
-    sh_r[4u * i + 3u] = vec4(A.g1, 0.0);
+    vec4 d0;
+    vec3 g;
+    pair_adjoint(sh_ends[k], sh_shape[k], fp, hh.xyz, hh.w, sh_ga[px], fast, d0, g);
+    uint b = 6u * sh_idx[k];
+    // dL/dθ_j = g . (dw, dd, dalpha)/dθ_j
+    sh_r[2u * i] = g.x * seeds[b] + g.y * seeds[b + 2u] + g.z * seeds[b + 4u];
+    sh_r[2u * i + 1u] = g.x * seeds[b + 1u] + g.y * seeds[b + 3u] + g.z * seeds[b + 5u];
 }
 
 void add_entries(uint lo, uint hi, uint r0) {
     for (uint j = lo; j < hi; ++j) {
-        uint e = 4u * (j - r0);
-        dI0 += sh_r[e];
-        dI1 += sh_r[e + 1u];
-        dA0 += sh_r[e + 2u];
-        dA1 += sh_r[e + 3u];
+        acc0 += sh_r[2u * (j - r0)];
+        acc1 += sh_r[2u * (j - r0) + 1u];
     }
 }
 
@@ -115,30 +111,21 @@ void main() {
 
     PixelSetup P = pixel_setup(V, views64[vi], intensity[vi], ij, pc.half_plate, pc.alpha_s, pc.f0);
     bool live = inside && P.on_plate && P.scale > 0.0;
-    store_pixel(lid, P, 0.0);
+    float gI = 0.0, gA = 0.0;
+    if (live) {
+        gI = P.scale * P.inv_sp;
+        gA = cov_raw[pix] < 1.0 ? -gI * P.d_flat : 0.0;
+    }
+    store_pixel(lid, P, gI);
+    sh_ga[lid] = gA;
     if (begin > start && inside) {  // an earlier pass did the chunks before `begin`
-        dI0 = tang[4u * pix];
-        dI1 = tang[4u * pix + 1u];
-        dA0 = tang[4u * pix + 2u];
-        dA1 = tang[4u * pix + 3u];
+        acc0 = tang[2u * pix];
+        acc1 = tang[2u * pix + 1u];
     }
     uint cand = 0u;
     tile_loop(begin, stop, V, t0, lid, live, P, cand);
     if (loop_limit_hit(pc.sentinel)) { atomicOr(stats[6], 1u); atomicOr(stats[5], 1u); }
     if (!inside) return;
-    if (stop < end) {  // a later pass goes on from here (uniform)
-        tang[4u * pix] = dI0;
-        tang[4u * pix + 1u] = dI1;
-        tang[4u * pix + 2u] = dA0;
-        tang[4u * pix + 3u] = dA1;
-        return;
-    }
-    vec4 g0 = vec4(0.0), g1 = vec4(0.0);
-    if (live) {
-        float fa = cov_raw[pix] < 1.0 ? P.d_flat : 0.0;
-        g0 = P.scale * P.inv_sp * (dI0 - fa * dA0);
-        g1 = P.scale * P.inv_sp * (dI1 - fa * dA1);
-    }
-    tang[4u * pix] = g0;
-    tang[4u * pix + 1u] = vec4(g1.xyz, 0.0);
+    tang[2u * pix] = acc0;
+    tang[2u * pix + 1u] = vec4(acc1.xyz, 0.0);
 }

@@ -160,14 +160,24 @@ impl Evaluator<'_, '_> {
     /// a cut that does not reach the plate gets a groove far below a pixel's resolution
     /// (w = d = 1e-6 mm: its light is below 1e-5 of a visible groove's).
     fn scratches(&self, tool: &Tool, alpha: f64) -> Vec<Scratch> {
+        // The tool model is a small least-squares fit: once per commanded depth, not per cut
+        // (the ladder's cuts share a few depths).
+        let mut models: Vec<(f64, (f64, f64))> = Vec::new();
         self.data
             .card
             .cuts
             .iter()
             .map(|c| {
-                let (w, d) = match tool.model(c.z_mm) {
-                    Some(m) if m.width > 1e-6 && m.w > 0.0 && m.d > 0.0 => (m.w, m.d),
-                    _ => (1e-6, 1e-6),
+                let (w, d) = match models.iter().find(|m| m.0 == c.z_mm) {
+                    Some(m) => m.1,
+                    None => {
+                        let wd = match tool.model(c.z_mm) {
+                            Some(m) if m.width > 1e-6 && m.w > 0.0 && m.d > 0.0 => (m.w, m.d),
+                            _ => (1e-6, 1e-6),
+                        };
+                        models.push((c.z_mm, wd));
+                        wd
+                    }
                 };
                 Scratch {
                     p0: c.p0,
@@ -272,6 +282,7 @@ impl Evaluator<'_, '_> {
             self.sync(x)?;
             let gs = self.gs.as_mut().expect("uploaded");
             let (lin, tang) = self.renderer.tangents(gs, &seeds).map_err(anyhow::Error::from)?;
+
             self.tangent_passes += 1;
             for (j, &k) in group.iter().enumerate() {
                 let h = self.lay.params[k].step;

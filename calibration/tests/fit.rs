@@ -104,7 +104,8 @@ fn fit(
     let args = FitArgs {
         card: card.to_path_buf(),
         images,
-        kind: Some(kind.into()),
+        // "auto": no --kind, every kind fitted and the best chosen
+        kind: (kind != "auto").then(|| kind.into()),
         out: out.to_path_buf(),
         init: None,
         iters: 15,
@@ -406,5 +407,108 @@ fn refuses_what_it_cannot_fit() {
     assert!(e.contains("saturated"), "{e}");
     assert!(!out.exists(), "a failed fit wrote {}", out.display());
     assert_no_validation(&ctx);
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// The widths W(z) that `tool` cuts at the card's commanded depths, mm (None: no cut).
+fn widths(tool: &Tool, depths: &[f64]) -> Vec<Option<f64>> {
+    depths
+        .iter()
+        .map(|&z| tool.model(z).map(|m| m.width).filter(|w| *w > 1e-6))
+        .collect()
+}
+
+/// The largest difference of the cut widths of two tools over the depths where `truth` cuts at
+/// least `min_depth_mm` deep (commanded depth plus its offset), mm; prints both.
+fn width_error(fitted: &Tool, truth: &Tool, depths: &[f64], offset_mm: f64, min_depth_mm: f64) -> f64 {
+    let (f, t) = (widths(fitted, depths), widths(truth, depths));
+    let mut worst = 0.0f64;
+    for ((z, a), b) in depths.iter().zip(&f).zip(&t) {
+        eprintln!("z {z:+.4} mm: fitted W {a:?}, true W {b:?}");
+        if z + offset_mm >= min_depth_mm {
+            let (a, b) = (a.unwrap_or(0.0), b.unwrap_or(0.0));
+            worst = worst.max((a - b).abs());
+        }
+    }
+    worst
+}
+
+/// A tool that matches no formula (a measured profile, one width per ladder depth, fitted to
+/// photos of a V-bit's card): wherever the groove is at least 5 um deep, every recovered width is
+/// within 3 of its stated uncertainties of the true width, and those are at most 15%. (The profile's free
+/// w/W ratio trades against the widths: a groove 10% wider with flatter walls sends nearly the
+/// same light, so its widths carry uncertainties of about 10%, and the fit says so. Shallower
+/// rungs are a few pixels' worth of light; the profile has no z offset, so they are reported
+/// as not identified.)
+#[test]
+fn recovers_a_measured_profile() {
+    let truth = Tool::VBit {
+        angle_deg: 60.0,
+        tip_flat_mm: 0.01,
+        z_offset_mm: 0.004,
+    };
+    let cam = Camera {
+        exposure: 4.0,
+        blur_px: 0.7,
+        noise: 0.01,
+        seed: 9,
+    };
+    let (tool, record, dir) = recover("profile", &truth, &cam, false, false, "profile");
+    assert!(matches!(tool, Tool::Profile { .. }), "{tool:?}");
+    let depths = Card::new(&CardSpec::default()).depths_mm;
+    let (fit_w, true_w) = (widths(&tool, &depths), widths(&truth, &depths));
+    let mut checked = 0;
+    for ((z, f), t) in depths.iter().zip(&fit_w).zip(&true_w) {
+        if z + 0.004 < 0.005 {
+            continue;
+        }
+        let (f, t) = (f.expect("a width where the tool cuts"), t.unwrap());
+        let sigma = record["uncertainty"][format!("W_mm@{z}")]
+            .as_f64()
+            .unwrap_or_else(|| panic!("no uncertainty for W at {z}: {record}"));
+        eprintln!(
+            "z {z} mm: W {:.1} um, true {:.1} um, stated +- {:.1} um",
+            1e3 * f,
+            1e3 * t,
+            1e3 * sigma
+        );
+        assert!(
+            (f - t).abs() <= 3.0 * sigma,
+            "W at {z} mm: {f} against {t} (+- {sigma})"
+        );
+        assert!(sigma <= 0.15 * f, "W at {z} mm: stated uncertainty {sigma} of {f}");
+        checked += 1;
+    }
+    assert!(checked >= 8, "only {checked} rungs checked");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// Without --kind every kind is fitted and the lowest BIC chosen; whichever wins, it cuts the
+/// true tool's grooves: widths within 3 um wherever the groove is at least 3 um deep, and every
+/// kind is listed among the candidates.
+#[test]
+fn chooses_a_kind_that_cuts_the_true_grooves() {
+    let truth = Tool::Ball {
+        radius_mm: 0.06,
+        z_offset_mm: 0.003,
+    };
+    let cam = Camera {
+        exposure: 3.0,
+        blur_px: 0.6,
+        noise: 0.008,
+        seed: 13,
+    };
+    let (tool, record, dir) = recover("auto", &truth, &cam, false, false, "auto");
+    let depths = Card::new(&CardSpec::default()).depths_mm;
+    let err = width_error(&tool, &truth, &depths, 0.003, 0.003);
+    eprintln!("auto: chose {}, worst width error {:.2} um", record["kind"], 1e3 * err);
+    assert!(err < 0.003, "chose {tool:?}: widths off by {:.2} um", 1e3 * err);
+    let kinds: Vec<&str> = record["candidates"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|c| c["kind"].as_str().unwrap())
+        .collect();
+    assert_eq!(kinds, ["v-bit", "ball", "tapered-ball", "profile"], "{record}");
     let _ = std::fs::remove_dir_all(&dir);
 }

@@ -55,10 +55,17 @@ pub const PRECOMPILED: &[(&str, &[(&str, &str)])] = &[
             ("SA_NO_F64", "1"),
         ],
     ),
-    ("tangent.comp", &[("SA_INTEGRATOR_CLOSED_FORM", "1"), ("SA_DUAL", "1")]),
     (
         "tangent.comp",
-        &[("SA_INTEGRATOR_CLOSED_FORM", "1"), ("SA_DUAL", "1"), ("SA_NO_F64", "1")],
+        &[("SA_INTEGRATOR_CLOSED_FORM", "1"), ("SA_EDGE_ADJOINT", "1")],
+    ),
+    (
+        "tangent.comp",
+        &[
+            ("SA_INTEGRATOR_CLOSED_FORM", "1"),
+            ("SA_EDGE_ADJOINT", "1"),
+            ("SA_NO_F64", "1"),
+        ],
     ),
     ("loss_fwd.comp", &[("DISPLAY", "1")]),
     ("loss_fwd.comp", &[("POOL", "1")]),

@@ -136,7 +136,7 @@ pub enum Mode {
     /// integral (Gauss panels) build the dual-number kernel under this mode.
     Backward,
     /// Directional derivatives of the pixel values along up to 7 directions in the scratches'
-    /// (w, d, alpha) (`tangent.comp`, dual numbers through the forward's pair integral): the
+    /// (w, d, alpha) (`tangent.comp`, the backward's per-pair reverse sweep): the
     /// Jacobian columns of a fit over a few parameters that move many scratches (the tool
     /// calibration). Not part of a [`KernelSet`]: [`super::Renderer::tangents`] builds it.
     Tangent,
@@ -194,7 +194,8 @@ impl ShadeKernel {
             defs.push(("GRAD_QCAP", qcap));
         }
         if self.mode == Mode::Tangent {
-            defs.push(("SA_DUAL", "1"));
+            // The per-pair reverse sweep of the backward, contracted with the directions.
+            defs.push(("SA_EDGE_ADJOINT", "1"));
         }
         // Ray hits in float64 where the device has it (see ViewGPU64 in shaders/inc/common.glsl).
         if !info.float64 {

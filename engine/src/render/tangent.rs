@@ -1,5 +1,7 @@
-//! Directional derivatives of the pixel values (`tangent.comp`): a Jacobian-vector product in
-//! forward mode, for up to 7 directions in the space of every scratch's (w, d, alpha) at once.
+//! Directional derivatives of the pixel values (`tangent.comp`): Jacobian-vector products for up
+//! to 7 directions in the space of every scratch's (w, d, alpha) at once, from one reverse sweep
+//! per (pixel, scratch) pair (the backward's hand-written adjoint) contracted with each scratch's
+//! tangents.
 //! The tool calibration fits a handful of tool parameters that move every groove of its card;
 //! its least-squares Jacobian is these directional derivatives (one pass of the engine), where
 //! finite differences would need one render per parameter.
@@ -15,7 +17,7 @@ pub const TANGENT_DIRECTIONS: usize = 7;
 pub type ScratchTangent = [[f32; 3]; TANGENT_DIRECTIONS];
 
 impl Renderer {
-    /// Compiles the tangent kernel (the closed form in dual numbers) if it is not compiled yet.
+    /// Compiles the tangent kernel (over the closed form's adjoint) if it is not compiled yet.
     fn prepare_tangent(&self) -> Result<(), GpuError> {
         if self.tangent.get().is_some() {
             return Ok(());
@@ -56,8 +58,8 @@ impl Renderer {
         let seed_buf = self.ctx.upload("tangent seeds (6 vec4 per scratch)", &flat)?;
         let tang = Buffer::new(
             &self.ctx,
-            "tangents (4 vec4 per pixel of every view)",
-            gs.slots.n_pixels * 64,
+            "tangents (2 vec4 per pixel of every view)",
+            gs.slots.n_pixels * 32,
             MemLoc::GpuOnly,
         )?;
         let mut rec = Recorder::new(&self.ctx)?;
@@ -93,7 +95,7 @@ impl Renderer {
             }
         })?;
         let images = self.download_images(gs)?;
-        let all: Vec<[f32; 16]> = self.ctx.download(&tang)?;
+        let all: Vec<[f32; 8]> = self.ctx.download(&tang)?;
         let per_view = gs
             .slots
             .views
