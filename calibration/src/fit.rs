@@ -378,6 +378,9 @@ impl Evaluator<'_, '_> {
     }
 }
 
+/// A refinement's starting point: the parameter vector and the z offset's interval (if any).
+pub type Start = (Vec<f64>, Option<(f64, f64)>);
+
 /// How a fit runs.
 #[derive(Clone, Debug)]
 pub struct FitConfig {
@@ -385,21 +388,31 @@ pub struct FitConfig {
     pub iters: u32,
     /// Starting point (a previous tool.json's tool and alpha): skips the search.
     pub init: Option<(Tool, Option<f64>)>,
+    /// The starting points an interrupted fit of this kind had found (its resume file): skips
+    /// the search.
+    pub starts: Option<Vec<Start>>,
 }
 
 impl Default for FitConfig {
     fn default() -> FitConfig {
-        FitConfig { iters: 15, init: None }
+        FitConfig {
+            iters: 15,
+            init: None,
+            starts: None,
+        }
     }
 }
 
 /// Fits one tool kind to the data.
+/// `on_starts` gets the starting points once they are known (after the search), so a caller
+/// can keep them for a resumed run ([`FitConfig::starts`]).
 pub fn fit_kind(
     renderer: &Renderer,
     data: &Data,
     kind: Kind,
     cfg: &FitConfig,
     obs: &dyn Observer,
+    on_starts: &mut dyn FnMut(&[Start]),
 ) -> Result<FitResult, FitError> {
     let lay = Layout::new(
         kind,
@@ -437,8 +450,10 @@ pub fn fit_kind(
             .unwrap_or((lo_all, hi_all))
     };
     // Starting points.
-    let mut starts: Vec<(Vec<f64>, Option<(f64, f64)>)> = Vec::new();
-    if let Some((tool, alpha)) = &cfg.init {
+    let mut starts: Vec<Start> = cfg.starts.clone().unwrap_or_default();
+    if !starts.is_empty() {
+        // resumed: the search was done
+    } else if let Some((tool, alpha)) = &cfg.init {
         let mut x = ev.lay.start(tool.z_offset_mm(), 60.0);
         let t = ev.lay.tool(&x);
         if std::mem::discriminant(&t) == std::mem::discriminant(tool) {
@@ -506,6 +521,7 @@ pub fn fit_kind(
         scored.sort_by(|a, b| a.0.total_cmp(&b.0));
         starts = scored.into_iter().take(2).map(|s| (s.1, s.2)).collect();
     }
+    on_starts(&starts);
     let mut best: Option<(Vec<f64>, f64, Vec<Vec<f64>>, Vec<f64>, f64)> = None;
     let mut iterations = 0;
     for (n, (x0, rg)) in starts.into_iter().enumerate() {

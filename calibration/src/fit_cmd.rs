@@ -12,7 +12,7 @@ use scratchart_tool::{Fitted, Tool};
 use serde_json::json;
 
 use super::card::{Card, CutRole};
-use super::fit::{fit_kind, predict, Data, FitConfig, FitError, FitResult, Kind};
+use super::fit::{fit_kind, predict, Data, FitConfig, FitError, FitResult, Kind, Start};
 use super::register::{camera_from_homography, load_photo, plate_homography, register};
 
 /// Flags of `scratchart-cal fit`.
@@ -37,6 +37,12 @@ pub struct FitArgs {
     /// Levenberg-Marquardt iterations per refinement
     #[arg(long, default_value_t = 15)]
     pub iters: u32,
+    /// Go on with an interrupted fit (Ctrl-C, a crash): the kinds it finished and the start
+    /// points it had searched are read from OUT's resume file (OUT with `.resume.json`, written
+    /// atomically as the fit goes, removed when it ends), so only the rest is done. The photos,
+    /// card and options must be the same
+    #[arg(long)]
+    pub resume: bool,
     /// No progress bar
     #[arg(long)]
     pub quiet: bool,
@@ -190,15 +196,78 @@ pub fn run(renderer: &Renderer, args: &FitArgs, obs: &dyn Observer) -> Result<()
         .expect("known kind")],
         (None, None) => Kind::ALL.to_vec(),
     };
-    let cfg = FitConfig {
-        iters: args.iters,
-        init,
+    // The resume file: what this fit has done so far, for `--resume`.
+    let state_path = resume_path(&args.out);
+    let key = resume_key(args, &files)?;
+    let mut state = ResumeState {
+        key: key.clone(),
+        done: Vec::new(),
+        current: None,
+    };
+    if args.resume {
+        match std::fs::read(&state_path) {
+            Ok(bytes) => {
+                let old: ResumeState = serde_json::from_slice(&bytes).map_err(|e| {
+                    InputError(format!(
+                        "resume file `{}` is unreadable ({e}); remove it and run without --resume",
+                        state_path.display()
+                    ))
+                })?;
+                if old.key != key {
+                    return Err(InputError(format!(
+                        "resume file `{}` is from a fit of other photos, another card or other options; \
+                         run with the same ones, or remove it and run without --resume",
+                        state_path.display()
+                    ))
+                    .into());
+                }
+                obs.info(&format!(
+                    "resuming: {} kind(s) done{}",
+                    old.done.len(),
+                    old.current
+                        .as_ref()
+                        .map_or(String::new(), |c| format!(", {} searched", c.0))
+                ));
+                state = old;
+            }
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
+                obs.info(&format!(
+                    "no interrupted fit at `{}`: starting afresh",
+                    state_path.display()
+                ));
+            }
+            Err(e) => return Err(anyhow::anyhow!("cannot read `{}`: {e}", state_path.display())),
+        }
+    }
+    if let Some(dir) = state_path.parent().filter(|p| !p.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
+    }
+    let save = |st: &ResumeState| -> Result<()> {
+        scratchart::io::write_atomic(&state_path, serde_json::to_string(st)?.as_bytes())?;
+        Ok(())
     };
     let t0 = std::time::Instant::now();
-    let mut results: Vec<FitResult> = Vec::new();
+    let mut results: Vec<FitResult> = state.done.clone();
     for k in kinds {
-        match fit_kind(renderer, &data, k, &cfg, obs) {
+        if results.iter().any(|r| r.kind == k) {
+            continue;
+        }
+        let cfg = FitConfig {
+            iters: args.iters,
+            init: init.clone(),
+            starts: state.current.as_ref().filter(|c| c.0 == k.name()).map(|c| c.1.clone()),
+        };
+        let mut saved: Result<()> = Ok(());
+        let got = fit_kind(renderer, &data, k, &cfg, obs, &mut |starts: &[Start]| {
+            state.current = Some((k.name().to_string(), starts.to_vec()));
+            saved = save(&state);
+        });
+        saved?;
+        match got {
             Ok(r) => {
+                state.done.push(r.clone());
+                state.current = None;
+                save(&state)?;
                 obs.info(&format!(
                     "{}: loss {:.4e}, rms {:.4}, BIC {:.0} ({} renders, {} tangent passes)",
                     k.name(),
@@ -211,11 +280,15 @@ pub fn run(renderer: &Renderer, args: &FitArgs, obs: &dyn Observer) -> Result<()
                 results.push(r);
             }
             Err(FitError::Interrupted) => {
+                obs.info(&format!(
+                    "stopped; `{}` keeps what is done: run the same command with --resume to go on",
+                    state_path.display()
+                ));
                 return Err(scratchart::optim::OptimError::Interrupted {
                     iter: 0,
-                    checkpoint: None,
+                    checkpoint: Some(state_path.clone()),
                 }
-                .into())
+                .into());
             }
             Err(e) => return Err(e.into()),
         }
@@ -326,7 +399,46 @@ pub fn run(renderer: &Renderer, args: &FitArgs, obs: &dyn Observer) -> Result<()
         "wrote {} (W and w against commanded depth, measured points)",
         plot.display()
     );
+    let _ = std::fs::remove_file(&state_path);
     Ok(())
+}
+
+/// What an interrupted fit had done (`--resume`): the kinds it finished, and the start points of
+/// the kind it was refining. `key` ties it to the photos, the card and the options.
+#[derive(serde::Serialize, serde::Deserialize)]
+struct ResumeState {
+    key: String,
+    done: Vec<FitResult>,
+    current: Option<(String, Vec<Start>)>,
+}
+
+/// The resume file of a fit writing `out`: `out` with the extension `.resume.json`.
+pub fn resume_path(out: &std::path::Path) -> PathBuf {
+    out.with_extension("resume.json")
+}
+
+/// A digest (FNV-1a, 64 bits) of what decides a fit: the card file, every photo's bytes, the
+/// kind, the start tool and the iterations.
+fn resume_key(args: &FitArgs, files: &[PathBuf]) -> Result<String> {
+    let mut h: u64 = 0xcbf29ce484222325;
+    let mut eat = |bytes: &[u8]| {
+        for &b in bytes {
+            h ^= b as u64;
+            h = h.wrapping_mul(0x100000001b3);
+        }
+        // a separator, so concatenations differ
+        h ^= 0xff;
+        h = h.wrapping_mul(0x100000001b3);
+    };
+    eat(&std::fs::read(&args.card).with_context(|| format!("cannot read {}", args.card.display()))?);
+    for f in files {
+        eat(&std::fs::read(f).with_context(|| format!("cannot read {}", f.display()))?);
+    }
+    eat(format!("{:?}|{}", args.kind, args.iters).as_bytes());
+    if let Some(p) = &args.init {
+        eat(&std::fs::read(p).with_context(|| format!("cannot read {}", p.display()))?);
+    }
+    Ok(format!("{h:016x}"))
 }
 
 /// Per ladder depth, the visible width the photos show: the model's width scaled by the ratio of

@@ -31,7 +31,8 @@ mod plan_cmd;
                                          registers the photos by the corner crosses and fits the tool\n\
                                          (v-bit, ball, tapered-ball or a measured profile; --kind picks one),\n\
                                          its z offset, the walls' roughness, exposure and blur: tool.json with\n\
-                                         uncertainties, residual images and a plot of width against depth.\n\
+                                         uncertainties, residual images and a plot of width against depth;\n\
+                                         after Ctrl-C, the same command with --resume goes on.\n\
   5. scratchart-cal plan DESIGN.json --tool tool.json --out plan.nc, then scratchart-cal carve plan.nc\n\
                                          --port PORT (see calibration/README.md).\n\n\
 Exit codes: 0 success, 1 runtime failure, 2 bad command line, 3 bad input file, 4 GPU/device failure."

@@ -109,6 +109,7 @@ fn fit(
         out: out.to_path_buf(),
         init: None,
         iters: 15,
+        resume: false,
         quiet: true,
     };
     run(r, &args, &Silent)?;
@@ -510,5 +511,102 @@ fn chooses_a_kind_that_cuts_the_true_grooves() {
         .map(|c| c["kind"].as_str().unwrap())
         .collect();
     assert_eq!(kinds, ["v-bit", "ball", "tapered-ball", "profile"], "{record}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// Stops the fit (as Ctrl-C does) at the first refinement progress, and records every task seen.
+struct StopAtRefine {
+    seen: std::sync::Mutex<Vec<String>>,
+    stop: bool,
+}
+
+impl scratchart::observe::Observer for StopAtRefine {
+    fn progress(&self, p: &scratchart::observe::Progress) {
+        self.seen.lock().unwrap().push(format!("{}: {}", p.task, p.message));
+    }
+    fn should_stop(&self) -> bool {
+        self.stop && self.seen.lock().unwrap().iter().any(|t| t.starts_with("fit:"))
+    }
+}
+
+/// A fit stopped after its search (Ctrl-C) leaves its resume file; `--resume` then skips the
+/// search and ends with exactly the uninterrupted fit's tool, and removes the file; a resume file
+/// from other photos is refused.
+#[test]
+fn an_interrupted_fit_resumes_where_it_stopped() {
+    let ctx = gpu();
+    let r = Renderer::new(&ctx).unwrap();
+    let dir = tmp("resume");
+    let (card, capture, card_path) = card(&dir);
+    let truth = Tool::Ball {
+        radius_mm: 0.08,
+        z_offset_mm: -0.002,
+    };
+    let cam = Camera {
+        exposure: 2.0,
+        blur_px: 0.5,
+        noise: 0.006,
+        seed: 3,
+    };
+    let imgs = shoot(&r, &card, &capture, capture.views.clone(), &truth, &cam, &dir);
+    let args = |out: &str, resume: bool| FitArgs {
+        card: card_path.clone(),
+        images: imgs.clone(),
+        kind: Some("ball".into()),
+        out: dir.join(out),
+        init: None,
+        iters: 15,
+        resume,
+        quiet: true,
+    };
+    // Uninterrupted.
+    run(&r, &args("whole/tool.json", false), &Silent).unwrap();
+    let (whole, _) = Tool::load_fitted(&dir.join("whole/tool.json")).unwrap();
+    assert!(!dir.join("whole/tool.resume.json").exists(), "resume file left behind");
+    // Stopped after the search.
+    let stopper = StopAtRefine {
+        seen: Default::default(),
+        stop: true,
+    };
+    let e = run(&r, &args("cut/tool.json", false), &stopper).unwrap_err();
+    assert_eq!(scratchart::exit::code(&*e), 130, "{e:#}");
+    assert!(dir.join("cut/tool.resume.json").is_file(), "no resume file");
+    assert!(!dir.join("cut/tool.json").exists());
+    // Resumed: no search, the same tool.
+    let watcher = StopAtRefine {
+        seen: Default::default(),
+        stop: false,
+    };
+    run(&r, &args("cut/tool.json", true), &watcher).unwrap();
+    let seen = watcher.seen.lock().unwrap().clone();
+    assert!(
+        !seen.iter().any(|t| t.starts_with("search")),
+        "the search ran again: {seen:?}"
+    );
+    let (resumed, _) = Tool::load_fitted(&dir.join("cut/tool.json")).unwrap();
+    assert_eq!(format!("{resumed:?}"), format!("{whole:?}"));
+    assert!(!dir.join("cut/tool.resume.json").exists(), "resume file left behind");
+    // A resume file from other photos is refused.
+    let stopper = StopAtRefine {
+        seen: Default::default(),
+        stop: true,
+    };
+    run(&r, &args("other/tool.json", false), &stopper).unwrap_err();
+    assert!(dir.join("other/tool.resume.json").is_file());
+    let mut other = args("other/tool.json", true);
+    std::fs::create_dir_all(dir.join("changed")).unwrap();
+    other.images = imgs
+        .iter()
+        .map(|p| {
+            let mut g = image::open(p).unwrap().to_luma8();
+            g.get_pixel_mut(3, 3).0[0] ^= 1; // one grey level in a corner
+            let q = dir.join("changed").join(p.file_name().unwrap());
+            g.save(&q).unwrap();
+            q
+        })
+        .collect();
+    let e = format!("{:#}", run(&r, &other, &Silent).unwrap_err());
+    assert!(e.contains("other photos"), "{e}");
+    assert_no_validation(&ctx);
     let _ = std::fs::remove_dir_all(&dir);
 }
