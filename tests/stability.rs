@@ -68,6 +68,19 @@ struct Px {
     h: [f64; 3],
 }
 
+/// A targeted case of one view.
+fn case(name: &str, view: View, scratches: Vec<Scratch>, targets: Vec<(u32, u32)>) -> Case {
+    Case {
+        name: name.into(),
+        scene: Scene {
+            plate: plate(),
+            views: vec![view],
+            scratches,
+        },
+        targets,
+    }
+}
+
 fn pixels(v: &View, stride: u32) -> Vec<Px> {
     let g = ViewGeom::new(v);
     let half = 0.5 * PLATE;
@@ -177,15 +190,7 @@ fn cases() -> Vec<Case> {
             ));
             targets.push((p.i, p.j));
         }
-        out.push(Case {
-            name: "lobe peak on the carved edge".into(),
-            scene: Scene {
-                plate: plate(),
-                views: vec![tilted.clone()],
-                scratches: sc,
-            },
-            targets,
-        });
+        out.push(case("lobe peak on the carved edge", tilted.clone(), sc, targets));
     }
 
     // 2. The chi+ cut inside the groove.
@@ -207,15 +212,7 @@ fn cases() -> Vec<Case> {
             sc.push(through(q, a, u0, 1.5 * p.size, 3.0 * p.size, w, d, alpha));
             targets.push((p.i, p.j));
         }
-        out.push(Case {
-            name: "chi+ cut inside the groove".into(),
-            scene: Scene {
-                plate: plate(),
-                views: vec![tilted.clone()],
-                scratches: sc,
-            },
-            targets,
-        });
+        out.push(case("chi+ cut inside the groove", tilted.clone(), sc, targets));
     }
 
     // 3. h along the scratch axis, at a grazing view (eye and lamp 6 degrees up, lamp beside the eye).
@@ -232,15 +229,7 @@ fn cases() -> Vec<Case> {
             sc.push(through(p.x, a, 0.1 * w, 0.5 * p.size, 2.0 * p.size, w, 0.5 * w, alpha));
             targets.push((p.i, p.j));
         }
-        out.push(Case {
-            name: "half vector along the scratch".into(),
-            scene: Scene {
-                plate: plate(),
-                views: vec![grazing],
-                scratches: sc,
-            },
-            targets,
-        });
+        out.push(case("half vector along the scratch", grazing, sc, targets));
     }
 
     // 4. e -> 0.
@@ -256,15 +245,7 @@ fn cases() -> Vec<Case> {
             sc.push(through(p.x, a, 0.0, 1.0 * p.size, 2.0 * p.size, w, d, alpha));
             targets.push((p.i, p.j));
         }
-        out.push(Case {
-            name: "e -> 0".into(),
-            scene: Scene {
-                plate: plate(),
-                views: vec![tilted.clone()],
-                scratches: sc,
-            },
-            targets,
-        });
+        out.push(case("e -> 0", tilted.clone(), sc, targets));
     }
 
     // 5. Zero-area and sliver clips: a long edge or an end on a footprint edge.
@@ -314,15 +295,7 @@ fn cases() -> Vec<Case> {
             }
             targets.push((p.i, p.j));
         }
-        out.push(Case {
-            name: "zero-area and sliver clips".into(),
-            scene: Scene {
-                plate: plate(),
-                views: vec![tilted.clone()],
-                scratches: sc,
-            },
-            targets,
-        });
+        out.push(case("zero-area and sliver clips", tilted.clone(), sc, targets));
     }
 
     // 6. Footprint corners exactly on a scratch's long edge, end edge or corner.
@@ -346,15 +319,7 @@ fn cases() -> Vec<Case> {
             sc.push(s);
             targets.push((p.i, p.j));
         }
-        out.push(Case {
-            name: "footprint corner on a scratch edge".into(),
-            scene: Scene {
-                plate: plate(),
-                views: vec![tilted],
-                scratches: sc,
-            },
-            targets,
-        });
+        out.push(case("footprint corner on a scratch edge", tilted, sc, targets));
     }
     out
 }

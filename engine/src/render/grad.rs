@@ -35,33 +35,24 @@ impl Renderer {
             .grad
             .get()
             .expect("Renderer::prepare_backward() must be called before record_backward");
-        let plan = gs.bwd_plan;
-        for pass in 0..plan.passes {
-            let push = super::layout::ShadePush {
-                chunks_per_pass: plan.chunks_per_pass,
-                pass,
-                n_passes: plan.passes,
-                ..gs.shade
-            };
-            rec.dispatch_1d(
-                grad,
-                &[
-                    &gs.views,
-                    &gs.scratches,
-                    &gs.hist,
-                    &gs.list,
-                    &gs.dl,
-                    &gs.cov_raw,
-                    &gs.partials,
-                    &gs.views64,
-                    &gs.lights,
-                    &gs.stats,
-                ],
-                bytemuck::bytes_of(&push),
-                gs.slots.n_tiles,
-            );
-            rec.barrier();
-        }
+        super::record_passes(
+            rec,
+            grad,
+            gs.bwd_plan,
+            gs,
+            &[
+                &gs.views,
+                &gs.scratches,
+                &gs.hist,
+                &gs.list,
+                &gs.dl,
+                &gs.cov_raw,
+                &gs.partials,
+                &gs.views64,
+                &gs.lights,
+                &gs.stats,
+            ],
+        );
         let push = ReducePush {
             n_scratches: gs.n_scratches,
             capacity: gs.capacity,

@@ -237,33 +237,24 @@ impl Renderer {
 
     /// Records the shading kernel (writes the image, the coverage and the counters).
     fn record_shading(&self, rec: &mut Recorder, gs: &GpuScene) {
-        let plan = gs.fwd_plan;
-        for pass in 0..plan.passes {
-            let push = ShadePush {
-                chunks_per_pass: plan.chunks_per_pass,
-                pass,
-                n_passes: plan.passes,
-                ..gs.shade
-            };
-            rec.dispatch_1d(
-                &self.forward,
-                &[
-                    &gs.views,
-                    &gs.scratches,
-                    &gs.hist,
-                    &gs.list,
-                    &gs.image,
-                    &gs.stats,
-                    &gs.cov_raw,
-                    &gs.views64,
-                    &gs.lights,
-                    &gs.carry,
-                ],
-                bytemuck::bytes_of(&push),
-                gs.slots.n_tiles,
-            );
-            rec.barrier();
-        }
+        record_passes(
+            rec,
+            &self.forward,
+            gs.fwd_plan,
+            gs,
+            &[
+                &gs.views,
+                &gs.scratches,
+                &gs.hist,
+                &gs.list,
+                &gs.image,
+                &gs.stats,
+                &gs.cov_raw,
+                &gs.views64,
+                &gs.lights,
+                &gs.carry,
+            ],
+        );
     }
 
     /// Records one render of `gs` (counters cleared, pair search, shading), with the timestamps
@@ -331,5 +322,26 @@ impl Renderer {
                 all[v.base[1] as usize..v.base[1] as usize + n].to_vec()
             })
             .collect())
+    }
+}
+
+/// Records a shading kernel (forward, backward or tangent: one workgroup per tile, `ShadePush`)
+/// once per pass of `plan`, each followed by a barrier.
+fn record_passes(
+    rec: &mut Recorder,
+    kernel: &ComputePipeline,
+    plan: scene::PassPlan,
+    gs: &GpuScene,
+    buffers: &[&Buffer],
+) {
+    for pass in 0..plan.passes {
+        let push = ShadePush {
+            chunks_per_pass: plan.chunks_per_pass,
+            pass,
+            n_passes: plan.passes,
+            ..gs.shade
+        };
+        rec.dispatch_1d(kernel, buffers, bytemuck::bytes_of(&push), gs.slots.n_tiles);
+        rec.barrier();
     }
 }

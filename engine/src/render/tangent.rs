@@ -6,7 +6,6 @@
 //! its least-squares Jacobian is these directional derivatives (one pass of the engine), where
 //! finite differences would need one render per parameter.
 use super::kernels::{Integrator, Mode, ShadeKernel};
-use super::layout::ShadePush;
 use super::{GpuScene, Renderer};
 use crate::vulkan::{Buffer, GpuError, MemLoc, Recorder, ShaderCompiler};
 
@@ -66,33 +65,24 @@ impl Renderer {
         let kernel = self.tangent.get().expect("prepared");
         self.submit(&mut rec, gs, |rec, gs| {
             self.record_render(rec, gs);
-            let plan = gs.bwd_plan;
-            for pass in 0..plan.passes {
-                let push = ShadePush {
-                    chunks_per_pass: plan.chunks_per_pass,
-                    pass,
-                    n_passes: plan.passes,
-                    ..gs.shade
-                };
-                rec.dispatch_1d(
-                    kernel,
-                    &[
-                        &gs.views,
-                        &gs.scratches,
-                        &gs.hist,
-                        &gs.list,
-                        &seed_buf,
-                        &gs.cov_raw,
-                        &tang,
-                        &gs.views64,
-                        &gs.lights,
-                        &gs.stats,
-                    ],
-                    bytemuck::bytes_of(&push),
-                    gs.slots.n_tiles,
-                );
-                rec.barrier();
-            }
+            super::record_passes(
+                rec,
+                kernel,
+                gs.bwd_plan,
+                gs,
+                &[
+                    &gs.views,
+                    &gs.scratches,
+                    &gs.hist,
+                    &gs.list,
+                    &seed_buf,
+                    &gs.cov_raw,
+                    &tang,
+                    &gs.views64,
+                    &gs.lights,
+                    &gs.stats,
+                ],
+            );
         })?;
         let images = self.download_images(gs)?;
         let all: Vec<[f32; 8]> = self.ctx.download(&tang)?;
