@@ -117,3 +117,43 @@ fn directional_derivatives_match_the_reference() {
     }
     check("random", &scene);
 }
+
+/// Splitting tiles into passes (as llvmpipe's loop limit makes the engine do on dense tiles)
+/// changes no bit of the derivatives: the per-pixel sums carry from pass to pass.
+#[test]
+fn passes_change_no_bit() {
+    let ctx = gpu();
+    let scene = random_scene(
+        3,
+        1500,
+        20.0,
+        0.2,
+        0.15,
+        0.1,
+        vec![
+            orbit_view("a", 40, 45.0, 0.0, 45.0, 180.0, 20.0),
+            orbit_view("b", 33, 60.0, 120.0, 45.0, 180.0, 20.0),
+        ],
+    );
+    let r = Renderer::new(&ctx).unwrap();
+    let sd = seeds(&scene);
+    let mut gs = r.upload(&scene).unwrap();
+    let (_, one) = r.tangents(&mut gs, &sd).unwrap();
+    assert_eq!(gs.shading_passes(), (1, 1));
+    let max_chunks = r.render(&mut gs).unwrap().stats.max_tile_chunks as u32;
+    assert!(max_chunks >= 2, "{max_chunks}");
+    for m in [1, 2] {
+        let mut g2 = r.upload(&scene).unwrap();
+        g2.force_chunks_per_pass(&ctx, m, max_chunks).unwrap();
+        let (_, split) = r.tangents(&mut g2, &sd).unwrap();
+        assert!(g2.shading_passes().1 > 1);
+        let same = one
+            .iter()
+            .flatten()
+            .zip(split.iter().flatten())
+            .all(|(a, b)| a.iter().zip(b).all(|(x, y)| x.to_bits() == y.to_bits()));
+        assert!(same, "{m} chunks per pass: the derivatives differ");
+        assert!(one.iter().flatten().any(|t| t[0] != 0.0), "nothing moved");
+    }
+    assert_no_validation(&ctx);
+}
