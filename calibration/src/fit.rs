@@ -80,7 +80,8 @@ mod layout;
 mod lm;
 
 use layout::Layout;
-use lm::{cauchy, refine, solve_spd};
+use lm::refine;
+use scratchart::optim::least_squares::{cauchy, solve_spd, Solution};
 
 /// The fit's data: the card, its capture views and the registered photos.
 pub struct Data<'a> {
@@ -522,7 +523,7 @@ pub fn fit_kind(
         starts = scored.into_iter().take(2).map(|s| (s.1, s.2)).collect();
     }
     on_starts(&starts);
-    let mut best: Option<(Vec<f64>, f64, Vec<Vec<f64>>, Vec<f64>, f64)> = None;
+    let mut best: Option<Solution> = None;
     let mut iterations = 0;
     for (n, (x0, rg)) in starts.into_iter().enumerate() {
         let label = format!("{} start {}", kind.name(), n + 1);
@@ -532,7 +533,7 @@ pub fn fit_kind(
         // the optimum, so it is refined there too.
         let mut cand = vec![got];
         if let (Some(i), Some((a, b))) = (ev.lay.offset, rg) {
-            let x = &cand[0].0;
+            let x = &cand[0].x;
             let edge = if (x[i] - a).abs() < 2e-4 {
                 Some(interval_of(a - 1e-6))
             } else if (x[i] - b).abs() < 2e-4 {
@@ -548,12 +549,18 @@ pub fn fit_kind(
             }
         }
         for c in cand {
-            if best.as_ref().is_none_or(|b| c.1 < b.1) {
+            if best.as_ref().is_none_or(|b| c.cost < b.cost) {
                 best = Some(c);
             }
         }
     }
-    let (x, cost, jtj, wts, _s) = best.expect("at least one start");
+    let Solution {
+        x,
+        cost,
+        jtj,
+        weights: wts,
+        ..
+    } = best.expect("at least one start");
     let (r, _) = ev.eval(&x, None)?;
     let n = r.len();
     let np = ev.lay.params.len();

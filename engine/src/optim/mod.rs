@@ -3,6 +3,9 @@
 //!
 //! - [`driver`]: the generic optimizer: iterate, roll back, checkpoint, resume, over any
 //!   [`driver::Objective`] and any [`driver::ParamSet`].
+//! - [`least_squares`]: the generic optimizer for a few parameters and many residuals: robust
+//!   Levenberg-Marquardt within bounds over any [`least_squares::LeastSquares`] problem (the
+//!   tool calibration; its Jacobian from the engine's tangents).
 //! - [`adam`]: Adam on flat parameter buffers with learning-rate groups (`shaders/adam.comp`).
 //! - [`checkpoint`]: the checkpoint file (serde header, named chunks).
 //! - [`loss`]: the design loss on the GPU (display transform, blurred squared error, Gram
@@ -31,6 +34,7 @@ pub mod design;
 pub mod driver;
 pub mod error;
 pub mod framing;
+pub mod least_squares;
 pub mod loss;
 pub mod prune;
 pub mod report;

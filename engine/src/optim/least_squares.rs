@@ -1,0 +1,302 @@
+//! The generic optimizer for fits of a few parameters to many residuals (the tool calibration,
+//! `scratchart-cal fit`): robust Levenberg-Marquardt within bounds. The problem supplies the
+//! residuals and their Jacobian ([`LeastSquares`]); with the engine, its columns come from
+//! [`crate::render::Renderer::tangents`] (the derivatives of every pixel along the parameters
+//! that move the scratches) and from differences where a parameter is cheap to vary.
+//!
+//! [`super::Driver`] is its first-order, GPU-resident counterpart for thousands to millions of
+//! parameters (the design). Here the parameters are few, so the solver works on the host with
+//! the Jacobian itself: Gauss-Newton steps converge in tens of evaluations where Adam needs
+//! hundreds, and J^T W J at the optimum gives the parameters' uncertainties.
+//!
+//! Loss: the Cauchy loss sum 0.5 s^2 ln(1 + r^2 / s^2), with the scale s = 1.4826 MAD of the
+//! residuals (at least `min_scale`) set at each iteration's start, by iteratively reweighted
+//! least squares (weights 1 / (1 + r^2 / s^2)); outliers (a dust speck, a stray reflection) pull
+//! little. Steps are clamped to the bounds; the damping is multiplied by 4 after a failed step
+//! and divided by 3 after a good one; a run ends after `iters` iterations or when a step gains
+//! less than 1e-5 of the loss.
+use crate::observe::{Observer, Progress};
+
+/// The user asked the run to stop (the observer's `should_stop`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Interrupted;
+
+/// A least-squares problem for [`solve`].
+pub trait LeastSquares {
+    /// What can stop an evaluation (it must be able to say "interrupted").
+    type Error: From<Interrupted>;
+    /// Lower and upper bound of each parameter; the solution stays within them.
+    fn bounds(&self) -> Vec<(f64, f64)>;
+    /// The residuals at `x`.
+    fn residuals(&mut self, x: &[f64]) -> Result<Vec<f64>, Self::Error>;
+    /// The Jacobian at `x` (where the residuals are `r`), column by column: d r / d x_k.
+    fn jacobian(&mut self, x: &[f64], r: &[f64]) -> Result<Vec<Vec<f64>>, Self::Error>;
+}
+
+/// The end of a run.
+#[derive(Clone, Debug)]
+pub struct Solution {
+    pub x: Vec<f64>,
+    /// Robust loss at `x` (scale `scale`).
+    pub cost: f64,
+    /// J^T W J of the last iteration (for uncertainties), and the weights W and scale.
+    pub jtj: Vec<Vec<f64>>,
+    pub weights: Vec<f64>,
+    pub scale: f64,
+    pub iterations: u32,
+}
+
+/// Robust scale of residuals: 1.4826 times their median absolute value, at least `floor`.
+pub fn robust_scale(r: &[f64], floor: f64) -> f64 {
+    if r.is_empty() {
+        return floor;
+    }
+    let mut a: Vec<f64> = r.iter().map(|x| x.abs()).collect();
+    let n = a.len();
+    let mad = *a.select_nth_unstable_by(n / 2, |p, q| p.total_cmp(q)).1;
+    (1.4826 * mad).max(floor)
+}
+
+/// The Cauchy loss of residuals `r` at scale `s`.
+pub fn cauchy(r: &[f64], s: f64) -> f64 {
+    r.iter().map(|x| 0.5 * s * s * (x * x / (s * s)).ln_1p()).sum()
+}
+
+/// Solves the symmetric positive definite system a x = b (Cholesky); `None` when it is not.
+pub fn solve_spd(a: &[Vec<f64>], b: &[f64]) -> Option<Vec<f64>> {
+    let n = b.len();
+    let mut l = vec![vec![0.0; n]; n];
+    for i in 0..n {
+        for j in 0..=i {
+            let s: f64 = a[i][j] - (0..j).map(|k| l[i][k] * l[j][k]).sum::<f64>();
+            if i == j {
+                if !(s > 0.0) {
+                    return None;
+                }
+                l[i][i] = s.sqrt();
+            } else {
+                l[i][j] = s / l[j][j];
+            }
+        }
+    }
+    let mut y = vec![0.0; n];
+    for i in 0..n {
+        y[i] = (b[i] - (0..i).map(|k| l[i][k] * y[k]).sum::<f64>()) / l[i][i];
+    }
+    let mut x = vec![0.0; n];
+    for i in (0..n).rev() {
+        x[i] = (y[i] - (i + 1..n).map(|k| l[k][i] * x[k]).sum::<f64>()) / l[i][i];
+    }
+    Some(x)
+}
+
+/// How a run goes.
+#[derive(Clone, Debug)]
+pub struct Config {
+    /// Iterations at most.
+    pub iters: u32,
+    /// Smallest robust scale (residual units).
+    pub min_scale: f64,
+    /// The progress bar's task and label.
+    pub task: &'static str,
+    pub label: String,
+}
+
+/// Robust Levenberg-Marquardt from `x` (clamped to the bounds first). Polls `obs.should_stop()`
+/// once per iteration and reports progress (the loss per residual).
+pub fn solve<P: LeastSquares>(
+    p: &mut P,
+    mut x: Vec<f64>,
+    cfg: &Config,
+    obs: &dyn Observer,
+) -> Result<Solution, P::Error> {
+    let bounds = p.bounds();
+    let np = bounds.len();
+    let clamp = |x: &mut Vec<f64>| {
+        for (v, (lo, hi)) in x.iter_mut().zip(&bounds) {
+            *v = v.clamp(*lo, *hi);
+        }
+    };
+    clamp(&mut x);
+    let mut lambda = 1e-3;
+    let mut r = p.residuals(&x)?;
+    let mut s = robust_scale(&r, cfg.min_scale);
+    let mut cost = cauchy(&r, s);
+    let mut jtj = vec![vec![0.0; np]; np];
+    let mut iterations = 0;
+    for it in 0..cfg.iters {
+        if obs.should_stop() {
+            return Err(Interrupted.into());
+        }
+        obs.progress(&Progress {
+            task: cfg.task,
+            done: it as u64,
+            total: cfg.iters as u64,
+            message: format!("{}: loss {:.3e}", cfg.label, cost / r.len().max(1) as f64),
+        });
+        iterations = it + 1;
+        s = robust_scale(&r, cfg.min_scale);
+        cost = cauchy(&r, s);
+        let wts: Vec<f64> = r.iter().map(|e| 1.0 / (1.0 + e * e / (s * s))).collect();
+        let cols = p.jacobian(&x, &r)?;
+        assert_eq!(cols.len(), np, "one Jacobian column per parameter");
+        let mut g = vec![0.0; np];
+        for i in 0..np {
+            g[i] = cols[i].iter().zip(&r).zip(&wts).map(|((j, e), w)| j * e * w).sum();
+            for j in 0..=i {
+                let v: f64 = cols[i]
+                    .iter()
+                    .zip(&cols[j])
+                    .zip(&wts)
+                    .map(|((a, b), w)| a * b * w)
+                    .sum();
+                jtj[i][j] = v;
+                jtj[j][i] = v;
+            }
+        }
+        let max_diag = (0..np).map(|i| jtj[i][i]).fold(0.0f64, f64::max);
+        let mut improved = false;
+        for _ in 0..6 {
+            let mut a = jtj.clone();
+            for i in 0..np {
+                // (a parameter the residuals do not see has a zero column: the floor keeps the
+                // system solvable and leaves it in place)
+                a[i][i] += lambda * jtj[i][i].max(1e-9 * max_diag).max(1e-300);
+            }
+            let Some(delta) = solve_spd(&a, &g.iter().map(|v| -v).collect::<Vec<_>>()) else {
+                lambda *= 10.0;
+                continue;
+            };
+            let mut xn: Vec<f64> = x.iter().zip(&delta).map(|(a, d)| a + d).collect();
+            clamp(&mut xn);
+            let rn = p.residuals(&xn)?;
+            let cn = cauchy(&rn, s);
+            if cn < cost {
+                let rel = (cost - cn) / cost.max(1e-300);
+                x = xn;
+                r = rn;
+                cost = cn;
+                lambda = (lambda / 3.0).max(1e-9);
+                improved = rel > 1e-5;
+                break;
+            }
+            lambda *= 4.0;
+        }
+        if !improved {
+            break;
+        }
+    }
+    obs.finish(cfg.task);
+    let weights: Vec<f64> = r.iter().map(|e| 1.0 / (1.0 + e * e / (s * s))).collect();
+    Ok(Solution {
+        x,
+        cost,
+        jtj,
+        weights,
+        scale: s,
+        iterations,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::observe::Silent;
+
+    /// y = a exp(-b t) + c with a few gross outliers, b bounded.
+    struct Decay {
+        t: Vec<f64>,
+        y: Vec<f64>,
+        evals: u32,
+    }
+
+    impl LeastSquares for Decay {
+        type Error = Interrupted;
+        fn bounds(&self) -> Vec<(f64, f64)> {
+            vec![(-10.0, 10.0), (0.0, 0.5), (-10.0, 10.0)]
+        }
+        fn residuals(&mut self, x: &[f64]) -> Result<Vec<f64>, Interrupted> {
+            self.evals += 1;
+            Ok(self
+                .t
+                .iter()
+                .zip(&self.y)
+                .map(|(t, y)| x[0] * (-x[1] * t).exp() + x[2] - y)
+                .collect())
+        }
+        fn jacobian(&mut self, x: &[f64], _r: &[f64]) -> Result<Vec<Vec<f64>>, Interrupted> {
+            Ok(vec![
+                self.t.iter().map(|t| (-x[1] * t).exp()).collect(),
+                self.t.iter().map(|t| -x[0] * t * (-x[1] * t).exp()).collect(),
+                vec![1.0; self.t.len()],
+            ])
+        }
+    }
+
+    fn decay(b: f64) -> Decay {
+        let t: Vec<f64> = (0..200).map(|i| i as f64 * 0.05).collect();
+        let mut y: Vec<f64> = t
+            .iter()
+            .enumerate()
+            .map(|(i, t)| 2.0 * (-b * t).exp() + 0.5 + 1e-3 * ((i * 7919 % 101) as f64 / 50.0 - 1.0))
+            .collect();
+        for i in [10, 50, 120, 180] {
+            y[i] += 3.0; // outliers
+        }
+        Decay { t, y, evals: 0 }
+    }
+
+    fn cfg() -> Config {
+        Config {
+            iters: 50,
+            min_scale: 1e-6,
+            task: "test",
+            label: "decay".into(),
+        }
+    }
+
+    #[test]
+    fn recovers_a_decay_despite_outliers() {
+        let mut p = decay(0.7);
+        let s = solve(&mut p, vec![1.0, 0.2, 0.0], &cfg(), &Silent).unwrap();
+        // b = 0.7 is outside its bounds: the solution stops at the bound 0.5.
+        assert_eq!(s.x[1], 0.5, "{:?}", s.x);
+        let mut p = decay(0.3);
+        let s = solve(&mut p, vec![1.0, 0.1, 0.0], &cfg(), &Silent).unwrap();
+        assert!(
+            (s.x[0] - 2.0).abs() < 5e-3 && (s.x[1] - 0.3).abs() < 2e-3 && (s.x[2] - 0.5).abs() < 5e-3,
+            "{:?}",
+            s.x
+        );
+        assert!(p.evals < 60, "{} evaluations", p.evals);
+        // A plain least-squares fit would be pulled by the outliers: the robust weights of
+        // those points are small.
+        for i in [10, 50, 120, 180] {
+            assert!(s.weights[i] < 1e-3, "outlier {i} weight {}", s.weights[i]);
+        }
+    }
+
+    struct Stop;
+    impl Observer for Stop {
+        fn should_stop(&self) -> bool {
+            true
+        }
+    }
+
+    #[test]
+    fn stops_when_asked() {
+        let mut p = decay(0.3);
+        assert_eq!(
+            solve(&mut p, vec![1.0, 0.1, 0.0], &cfg(), &Stop).unwrap_err(),
+            Interrupted
+        );
+    }
+
+    #[test]
+    fn solves_spd_systems_and_refuses_others() {
+        let a = vec![vec![4.0, 2.0], vec![2.0, 3.0]];
+        let x = solve_spd(&a, &[2.0, 1.0]).unwrap();
+        assert!((4.0 * x[0] + 2.0 * x[1] - 2.0).abs() < 1e-12 && (2.0 * x[0] + 3.0 * x[1] - 1.0).abs() < 1e-12);
+        assert!(solve_spd(&[vec![1.0, 2.0], vec![2.0, 1.0]], &[1.0, 1.0]).is_none());
+    }
+}
