@@ -1,6 +1,9 @@
 #version 450
-// Tile binning, deterministic. Scratches are split into groups of `group_size`; thread g owns
-// group g. Pass COUNT: hist[t * n_groups + g] = number of (tile t, scratch of group g) pairs.
+// Tile binning, deterministic. Scratches are split into groups of `group_size`; a thread owns
+// group g in every view (n_bands = 0: CPU drivers, where threads are few and each does more), or
+// group g in one band of tile rows of one view (n_bands > 0, a "part": GPUs, which need tens of
+// thousands of threads). Pass COUNT: hist[t * n_groups + g] = number of (tile t, scratch of
+// group g) pairs; a tile belongs to one part, so one thread writes each entry either way.
 // After an exclusive scan of hist (tile-major), pass SCATTER re-enumerates in the same order and
 // writes scratch indices to list[cursor[t * n_groups + g]++]: every tile's list is then sorted by
 // scratch index, whatever the thread timing, so pixel sums are bit-reproducible.
@@ -15,8 +18,9 @@ layout(std430, binding = 0) readonly buffer Views { ViewGPU views[]; };
 layout(std430, binding = 1) readonly buffer Scratches { ScratchGPU scr[]; };
 layout(std430, binding = 2) buffer Hist { uint hist[]; };
 layout(std430, binding = 3) buffer List { uint list[]; };
-// Per scratch: COUNT writes its number of entries; after a scan, SCATTER reads it as the first
-// slot of the scratch's entries in `inv`, which maps them (in enumeration order) to list positions.
+// Per (scratch, part): COUNT writes its number of entries; after a scan, SCATTER reads it as the
+// first slot of those entries in `inv`, which maps them (in enumeration order: view, tile row,
+// tile column, whatever the parts) to list positions.
 // The backward pass uses it to add a scratch's per-tile partial gradients in a fixed order.
 layout(std430, binding = 4) buffer ScratchBase { uint sbase[]; };
 layout(std430, binding = 5) buffer Inverse { uint inv[]; };
@@ -41,14 +45,23 @@ bool quad_meets_rect(vec2 q[4], float orient, vec2 lo, vec2 hi) {
 }
 
 void main() {
-    uint g = gl_GlobalInvocationID.x + gl_GlobalInvocationID.y * gl_NumWorkGroups.x * gl_WorkGroupSize.x;
-    if (g >= pc.n_groups) return;
+    uint id = gl_GlobalInvocationID.x + gl_GlobalInvocationID.y * gl_NumWorkGroups.x * gl_WorkGroupSize.x;
+    uint n_parts = pc.n_bands == 0u ? 1u : pc.n_views * pc.n_bands;
+    if (id >= pc.n_groups * n_parts) return;
+    uint g = id % pc.n_groups, part = id / pc.n_groups;
+    // This thread's views and band (n_bands = 0: every view, every row).
+    uint v_lo = 0u, v_hi = pc.n_views, band = 0u;
+    if (pc.n_bands != 0u) {
+        v_lo = part / pc.n_bands;
+        v_hi = v_lo + 1u;
+        band = part % pc.n_bands;
+    }
     uint k0 = g * pc.group_size;
     uint k1 = min(k0 + pc.group_size, pc.n_scratches);
     for (uint k = k0; k < k1; ++k) {
         uint nk = 0u;
 #ifndef COUNT
-        uint sb = sbase[k];
+        uint sb = sbase[k * n_parts + part];
 #endif
         ScratchGPU S = scr[k];
         vec2 p0 = S.ends.xy, p1 = S.ends.zw;
@@ -59,8 +72,15 @@ void main() {
         vec2 b = vec2(-t.y, t.x);
         float e = 0.5 * S.shape.x * carved_se(S.shape.x, S.shape.y);
         vec2 rc[4] = vec2[](p0 - e * b, p1 - e * b, p1 + e * b, p0 + e * b);
-        for (uint vi = 0; vi < pc.n_views; ++vi) {
+        for (uint vi = v_lo; vi < v_hi; ++vi) {
             ViewGPU V = views[vi];
+            // The band's tile rows, [r_lo, r_hi): contiguous, so the enumeration order is the
+            // same with or without bands.
+            uint r_lo = 0u, r_hi = V.dims.w;
+            if (pc.n_bands != 0u) {
+                r_lo = (band * V.dims.w) / pc.n_bands;
+                r_hi = ((band + 1u) * V.dims.w) / pc.n_bands;
+            }
             vec2 q[4];
             bool all_ok = true;
             for (int c = 0; c < 4; ++c) {
@@ -83,6 +103,9 @@ void main() {
                 orient = a2 > 0.0 ? 1.0 : -1.0;  // CCW (a2 > 0): outward normal of a->b is (dy, -dx)
                 if (a2 == 0.0) orient = 0.0;
             }
+            if (r_hi <= r_lo) continue;  // more bands than tile rows
+            ty0 = max(ty0, r_lo);
+            ty1 = min(ty1, r_hi - 1u);
             for (uint ty = ty0; ty <= ty1; ++ty) {
                 for (uint tx = tx0; tx <= tx1; ++tx) {
                     if (orient != 0.0) {
@@ -105,7 +128,7 @@ void main() {
             }
         }
 #ifdef COUNT
-        sbase[k] = nk;
+        sbase[k * n_parts + part] = nk;
 #endif
     }
     // A thread walks the tiles of its group's scratches in every view: with long scratches over

@@ -3,7 +3,9 @@
 // `inv` map), so the result does not depend on thread timing.
 layout(local_size_x = 64) in;
 layout(std430, binding = 0) readonly buffer Partials { vec4 partial[]; };
-layout(std430, binding = 1) readonly buffer ScratchBase { uint sbase[]; };  // scanned, n + 1
+// scanned per (scratch, binning part), n * n_parts + 1: scratch k's entries are
+// [sbase[k * n_parts], sbase[(k + 1) * n_parts])
+layout(std430, binding = 1) readonly buffer ScratchBase { uint sbase[]; };
 layout(std430, binding = 2) readonly buffer Inverse { uint inv[]; };
 layout(std430, binding = 3) writeonly buffer Grad { vec4 grad[]; };        // 2 per scratch
 #extension GL_GOOGLE_include_directive : require
@@ -13,8 +15,8 @@ void main() {
     uint k = gl_GlobalInvocationID.x + gl_GlobalInvocationID.y * gl_NumWorkGroups.x * gl_WorkGroupSize.x;
     if (k >= pc.n_scratches) return;
     vec4 a0 = vec4(0.0), a1 = vec4(0.0);
-    uint hi = min(sbase[k + 1u], pc.capacity);
-    for (uint i = sbase[k]; i < hi; ++i) {
+    uint hi = min(sbase[(k + 1u) * pc.n_parts], pc.capacity);
+    for (uint i = sbase[k * pc.n_parts]; i < hi; ++i) {
         uint pos = inv[i];
         a0 += partial[2u * pos];
         a1 += partial[2u * pos + 1u];

@@ -174,7 +174,8 @@ fn push_constant_layouts_agree() {
         group_size: u(),
         capacity: u(),
         sentinel: u(),
-        pad: [u(), u()],
+        n_bands: u(),
+        pad: u(),
     };
     let scan = ScanPush {
         n: u(),
@@ -223,7 +224,8 @@ fn push_constant_layouts_agree() {
     let reduce = ReducePush {
         n_scratches: u(),
         capacity: u(),
-        pad: [u(), u()],
+        n_parts: u(),
+        pad: u(),
     };
     let adam = AdamPush {
         n: u(),

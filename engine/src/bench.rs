@@ -35,6 +35,8 @@ pub struct ForwardRow {
     pub candidates: u64,
     pub pairs: u64,
     pub bin_ms: f64,
+    /// bands of tile rows per view in the pair search (0: none; `GpuScene::binning_bands`)
+    pub bands: u32,
     pub shade_ms: f64,
     /// backward pass (all views) for dE/dL of the check loss against the scene's own render
     /// perturbed by a fixed pattern
@@ -61,12 +63,14 @@ pub fn median(mut v: Vec<f64>) -> f64 {
 /// Times binning and shading of each scene: `warmup` untimed runs, then the median of `repeats`.
 /// With `compare_backward`, every submission also runs the all-dual-number backward kernel
 /// (the oracle of the default one) after the default backward, so the two are timed side by side.
+/// `binning_bands` overrides the device's choice of bands of tile rows in the pair search.
 pub fn run_forward(
     ctx: &Arc<Context>,
     scenes: &[(String, Scene)],
     warmup: usize,
     repeats: usize,
     compare_backward: bool,
+    binning_bands: Option<u32>,
 ) -> Result<Vec<ForwardRow>, GpuError> {
     use crate::render::kernels::{Integrator, KernelSet, Mode};
     let renderer = Renderer::new(ctx)?;
@@ -81,6 +85,9 @@ pub fn run_forward(
     let mut rows = Vec::new();
     for (name, scene) in scenes {
         let mut gs = renderer.upload(scene)?;
+        if let Some(b) = binning_bands {
+            gs.force_binning_bands(ctx, b)?;
+        }
         let mut rec = Recorder::new(ctx)?;
         // Size the tile lists, then make dE/dL of E_lin against a perturbed copy of the render.
         let first = renderer.render(&mut gs)?;
@@ -115,6 +122,7 @@ pub fn run_forward(
             candidates: last.candidates,
             pairs: last.pairs,
             bin_ms: median(bins),
+            bands: gs.binning_bands(),
             shade_ms: median(shades),
             backward_ms: median(backs),
             backward_dual_ms: if oracle.is_some() { median(duals) } else { f64::NAN },
@@ -149,7 +157,7 @@ pub fn forward_table(ctx: &Context, rows: &[ForwardRow]) -> String {
     let _ = writeln!(s, "device: {} ({})", ctx.info().name, ctx.info().kind);
     let _ = writeln!(
         s,
-        "| scene | scratches | views x pixels | tile entries | candidates | pairs | pair search ms/view | shading ms/view | backward ms/view | forward Mpairs/s | forward GFLOP/s | backward Mpairs/s | backward GFLOP/s |"
+        "| scene | scratches | views x pixels | tile entries | candidates | pairs | pair search ms/view (bands) | shading ms/view | backward ms/view | forward Mpairs/s | forward GFLOP/s | backward Mpairs/s | backward GFLOP/s |"
     );
     let _ = writeln!(s, "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
     let mut ratios = String::new();
@@ -171,7 +179,7 @@ pub fn forward_table(ctx: &Context, rows: &[ForwardRow]) -> String {
         let flops = r.pairs as f64 * FLOPS_PER_PAIR + (r.candidates - r.pairs) as f64 * FLOPS_PER_CANDIDATE;
         let _ = writeln!(
             s,
-            "| {} | {} | {} x {} | {} | {} | {} | {:.2} | {:.2} | {:.2} | {:.1} | {:.1} | {:.1} | {:.1} |",
+            "| {} | {} | {} x {} | {} | {} | {} | {:.2} ({}) | {:.2} | {:.2} | {:.1} | {:.1} | {:.1} | {:.1} |",
             r.name,
             r.scratches,
             r.views,
@@ -180,6 +188,7 @@ pub fn forward_table(ctx: &Context, rows: &[ForwardRow]) -> String {
             r.candidates,
             r.pairs,
             r.bin_ms / v,
+            r.bands,
             r.shade_ms / v,
             r.backward_ms / v,
             r.pairs as f64 / secs * 1e-6,

@@ -105,9 +105,15 @@ enum Cmd {
         /// in the same submissions, and print the ratios
         #[arg(long)]
         compare_backward: bool,
+        /// Bands of tile rows per view for the pair search of the forward table (0: none, one
+        /// thread per scratch group does every view). Default: the device's choice (none on a CPU
+        /// driver; on a GPU, enough for about 64k binning threads). For comparing the two
+        #[arg(long)]
+        binning_bands: Option<u32>,
     },
     /// Speed against accuracy of the per-pair integral: every method (closed form, Gauss
-    /// panels, plain Gauss-Legendre with 2 to 32 nodes per edge, the "average" approximation,
+    /// panels, plain Gauss-Legendre with 2 to 32 nodes per edge, adaptive quadrature, the
+    /// "average" approximation,
     /// Monte Carlo with 16 to 256 points) renders a small scene per regime (moderate, sharp and
     /// wide lobes, grazing views, footprints much smaller and much larger than a scratch, the half
     /// vector along the scratches, many scratches per footprint); each render is compared with the
@@ -287,6 +293,7 @@ fn run(cli: Cli) -> Result<()> {
             iters,
             targets,
             compare_backward,
+            binning_bands,
         } => {
             let ctx = context(&cli)?;
             let scenes: Vec<(String, Scene)> = match scene {
@@ -305,7 +312,14 @@ fn run(cli: Cli) -> Result<()> {
                     })
                     .collect::<Result<_>>()?,
             };
-            let rows = bench::run_forward(&ctx, &scenes, *warmup, (*repeats).max(1), *compare_backward)?;
+            let rows = bench::run_forward(
+                &ctx,
+                &scenes,
+                *warmup,
+                (*repeats).max(1),
+                *compare_backward,
+                *binning_bands,
+            )?;
             print!("{}", bench::forward_table(&ctx, &rows));
             if *iters > 0 {
                 let mut it_rows = Vec::new();

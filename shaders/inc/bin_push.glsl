@@ -9,6 +9,7 @@ layout(push_constant) uniform Push {
     uint group_size;
     uint capacity;   // length of list[]
     uint sentinel;   // 2 (loop_limit_hit, inc/limits.glsl)
-    uint pad1, pad2;
+    uint n_bands;    // 0: a thread bins its group in every view; else per (group, view, band of tile rows)
+    uint pad2;
 } pc;
 #endif

@@ -5,6 +5,7 @@
 layout(push_constant) uniform Push {
     uint n_scratches;
     uint capacity;  // tile-list capacity (entries past it were not listed)
-    uint pad0, pad1;
+    uint n_parts;   // binning parts per scratch (sbase has n_scratches * n_parts + 1 entries)
+    uint pad1;
 } pc;
 #endif

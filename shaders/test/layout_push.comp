@@ -49,7 +49,7 @@ void put4(uvec4 v) { put(v.x); put(v.y); put(v.z); put(v.w); }
 void main() {
 #if defined(BIN)
     put(pc.n_scratches); put(pc.n_views); put(pc.n_groups); put(pc.group_size); put(pc.capacity);
-    put(pc.sentinel); put(pc.pad1); put(pc.pad2);
+    put(pc.sentinel); put(pc.n_bands); put(pc.pad2);
 #elif defined(SCAN)
     put(pc.n); put(pc.n_blocks); put(pc.flag_index); put(pc.pad1);
 #elif defined(LOSS)
@@ -62,7 +62,7 @@ void main() {
 #elif defined(PRESENT)
     put4(pc.dims); put4(pc.view_rect); put4(pc.tgt_rect); put4(pc.misc); put4(pc.params);
 #elif defined(REDUCE)
-    put(pc.n_scratches); put(pc.capacity); put(pc.pad0); put(pc.pad1);
+    put(pc.n_scratches); put(pc.capacity); put(pc.n_parts); put(pc.pad1);
 #elif defined(ADAM)
     put(pc.n); put(pc.stride); put(pc.check_objective); put(pc.objective_index); put(pc.capacity);
     put(pc.beta1); put(pc.beta2); put(pc.eps); put(pc.bc1); put(pc.bc2); put(pc.loss_limit); put(pc.pad0);

@@ -56,7 +56,8 @@ impl Renderer {
         let push = ReducePush {
             n_scratches: gs.n_scratches,
             capacity: gs.capacity,
-            pad: [0; 2],
+            n_parts: gs.n_parts(),
+            pad: 0,
         };
         rec.dispatch_1d(
             &self.grad_reduce,

@@ -72,7 +72,10 @@ pub struct BinPush {
     pub capacity: u32,
     /// 2 (the loop-limit sentinel of `shaders/inc/limits.glsl`)
     pub sentinel: u32,
-    pub pad: [u32; 2],
+    /// 0: one thread bins its scratch group in every view; n > 0: one thread per (group, view,
+    /// band of tile rows), n bands per view (GPUs: many more threads)
+    pub n_bands: u32,
+    pub pad: u32,
 }
 
 /// Push constants of `scan.comp`.
@@ -93,7 +96,9 @@ pub struct ReducePush {
     pub n_scratches: u32,
     /// tile-list capacity (entries past it were not listed)
     pub capacity: u32,
-    pub pad: [u32; 2],
+    /// binning parts per scratch (`BinPush::n_bands` x views, or 1)
+    pub n_parts: u32,
+    pub pad: u32,
 }
 
 /// Push constants of `forward.comp` (and the backward kernels).

@@ -154,9 +154,10 @@ impl Renderer {
             group_size: gs.group_size,
             capacity: gs.capacity,
             sentinel: 2,
-            pad: [0; 2],
+            n_bands: gs.n_bands,
+            pad: 0,
         };
-        let groups = gs.n_groups.div_ceil(64);
+        let groups = (gs.n_groups * gs.n_parts()).div_ceil(64);
         rec.fill(&gs.hist, 0);
         rec.fill(&gs.sbase, 0);
         rec.barrier();
@@ -173,7 +174,13 @@ impl Renderer {
         rec.barrier();
         let n_hist = gs.slots.n_tiles as u64 * gs.n_groups as u64 + 1;
         self.record_scan(rec, &gs.hist, &gs.sums, &gs.stats, n_hist);
-        self.record_scan(rec, &gs.sbase, &gs.sbase_sums, &gs.stats, gs.n_scratches as u64 + 1);
+        self.record_scan(
+            rec,
+            &gs.sbase,
+            &gs.sbase_sums,
+            &gs.stats,
+            gs.n_scratches as u64 * gs.n_parts() as u64 + 1,
+        );
         rec.copy(&gs.hist, &gs.cursor, gs.hist.size());
         rec.barrier();
         let bufs = [

@@ -81,8 +81,12 @@ pub struct GpuScene {
     /// tile lists of scratch indices
     pub(super) list: Buffer,
     pub(super) capacity: u32,
-    /// per scratch: entry count, scanned into the first slot of its entries in `inv`; n + 1 entries
+    /// per (scratch, binning part): entry count, scanned into the first slot of those entries in
+    /// `inv`; n * parts + 1 entries
     pub(super) sbase: Buffer,
+    /// bands of tile rows per view in binning (0: one binning thread per group does every view;
+    /// see `shaders/bin.comp` and [`binning_bands`])
+    pub(super) n_bands: u32,
     pub(super) sbase_sums: Buffer,
     /// scratch-major entry -> tile-list position (for deterministic gradient sums)
     pub(super) inv: Buffer,
@@ -132,6 +136,14 @@ impl GpuScene {
         let slots = layout::view_slots(scene);
         let n_scratches = scene.scratches.len() as u32;
         let n_groups = n_scratches.div_ceil(GROUP_SIZE).max(1);
+        let max_rows = slots.views.iter().map(|v| v.dims[3]).max().unwrap_or(1);
+        let n_bands = binning_bands(ctx.info(), n_scratches, n_groups, scene.views.len() as u32, max_rows);
+        let n_parts = if n_bands == 0 {
+            1
+        } else {
+            scene.views.len() as u64 * n_bands as u64
+        };
+        let sbase_len = n_scratches as u64 * n_parts + 1;
         let scr: Vec<ScratchGpu> = scene.scratches.iter().map(ScratchGpu::from).collect();
         let phi: Vec<f32> = scene.views.iter().map(|v| v.light.intensity as f32).collect();
         let hist_len = slots.n_tiles as u64 * n_groups as u64 + 1;
@@ -173,11 +185,9 @@ impl GpuScene {
             sums: gpu_only("scan block sums", n_blocks * 4)?,
             list: gpu_only("tile lists", capacity as u64 * 4)?,
             capacity,
-            sbase: gpu_only("scratch entry bases", (n_scratches as u64 + 1) * 4)?,
-            sbase_sums: gpu_only(
-                "scan block sums (scratches)",
-                (n_scratches as u64 + 1).div_ceil(SCAN_BLOCK as u64) * 4,
-            )?,
+            sbase: gpu_only("scratch entry bases", sbase_len * 4)?,
+            sbase_sums: gpu_only("scan block sums (scratches)", sbase_len.div_ceil(SCAN_BLOCK as u64) * 4)?,
+            n_bands,
             inv: gpu_only("entry inverse map", capacity as u64 * 4)?,
             partials: gpu_only("partial gradients", capacity as u64 * 32)?,
             cov_raw: gpu_only("coverage", slots.n_pixels * 4)?,
@@ -342,6 +352,37 @@ impl GpuScene {
         self.group_size
     }
 
+    /// Bands of tile rows per view that binning splits its work into (0: none, one thread per
+    /// scratch group does every view: CPU drivers).
+    pub fn binning_bands(&self) -> u32 {
+        self.n_bands
+    }
+
+    /// Binning parts per scratch: `binning_bands` x views, or 1.
+    pub(super) fn n_parts(&self) -> u32 {
+        if self.n_bands == 0 {
+            1
+        } else {
+            self.shade.n_views * self.n_bands
+        }
+    }
+
+    /// Test hook: bin with `n_bands` bands of tile rows per view (0: none), as a GPU would.
+    /// Tile lists, images and gradients must not change.
+    #[doc(hidden)]
+    pub fn force_binning_bands(&mut self, ctx: &std::sync::Arc<Context>, n_bands: u32) -> Result<(), GpuError> {
+        self.n_bands = n_bands;
+        let len = self.n_scratches as u64 * self.n_parts() as u64 + 1;
+        self.sbase = Buffer::new(ctx, "scratch entry bases", len * 4, MemLoc::GpuOnly)?;
+        self.sbase_sums = Buffer::new(
+            ctx,
+            "scan block sums (scratches)",
+            len.div_ceil(SCAN_BLOCK as u64) * 4,
+            MemLoc::GpuOnly,
+        )?;
+        Ok(())
+    }
+
     pub fn n_scratches(&self) -> u32 {
         self.n_scratches
     }
@@ -466,4 +507,24 @@ impl GpuScene {
         self.slots.views64 = new64;
         Ok(true)
     }
+}
+
+/// Bands of tile rows per view for binning on this device: none on a CPU driver (its threads
+/// are few, and each band would project its scratches again); on a GPU enough for about 64k
+/// binning threads (scratch groups x views x bands), at most the views' tile rows, and at most
+/// 16 M (scratch, part) bases (64 MiB).
+fn binning_bands(
+    info: &crate::vulkan::DeviceInfo,
+    n_scratches: u32,
+    n_groups: u32,
+    n_views: u32,
+    max_rows: u32,
+) -> u32 {
+    if info.kind == "cpu" {
+        return 0;
+    }
+    let jobs = (n_groups as u64 * n_views.max(1) as u64).max(1);
+    let want = 65_536u64.div_ceil(jobs);
+    let fit = ((16u64 << 20) / (n_scratches.max(1) as u64 * n_views.max(1) as u64)).max(1);
+    want.min(max_rows.max(1) as u64).min(fit).max(1) as u32
 }
