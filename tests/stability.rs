@@ -123,6 +123,7 @@ fn frame(a: f64) -> ([f64; 2], [f64; 2]) {
 }
 
 /// A scratch of axis angle `a` and length `l` whose line u = `u` passes through `q` at v = `v`.
+#[allow(clippy::too_many_arguments)]
 fn through(q: [f64; 2], a: f64, u: f64, v: f64, l: f64, w: f64, d: f64, alpha: f64) -> Scratch {
     let (t, b) = frame(a);
     let p0 = [q[0] - u * b[0] - v * t[0], q[1] - u * b[1] - v * t[1]];

@@ -64,8 +64,8 @@ fn check(label: &str, scene: &Scene) {
     let h = 1e-4;
     for j in 0..TANGENT_DIRECTIONS {
         let (plus, minus) = (moved(scene, &sd, j, h), moved(scene, &sd, j, -h));
-        for v in 0..scene.views.len() {
-            let got: Vec<f64> = tang[v].iter().map(|t| t[j] as f64).collect();
+        for (v, tv) in tang.iter().enumerate() {
+            let got: Vec<f64> = tv.iter().map(|t| t[j] as f64).collect();
             if j == 6 {
                 assert!(
                     got.iter().all(|g| *g == 0.0),

@@ -70,6 +70,8 @@ pub fn solve_spd(a: &[Vec<f64>], b: &[f64]) -> Option<Vec<f64>> {
         for j in 0..=i {
             let s: f64 = a[i][j] - (0..j).map(|k| l[i][k] * l[j][k]).sum::<f64>();
             if i == j {
+                // (also refuses NaN)
+                #[allow(clippy::neg_cmp_op_on_partial_ord)]
                 if !(s > 0.0) {
                     return None;
                 }

@@ -46,12 +46,12 @@ impl Renderer {
             "one tangent per scratch of the uploaded scene"
         );
         self.prepare_tangent()?;
+        // Per scratch 6 vec4: the 7 directions' tangents of w (and a zero), of d, of alpha.
         let mut flat = Vec::with_capacity(seeds.len() * 24);
         for s in seeds {
             for q in 0..3 {
-                for j in 0..8 {
-                    flat.push(if j < TANGENT_DIRECTIONS { s[j][q] } else { 0.0 });
-                }
+                flat.extend(s.iter().map(|dir| dir[q]));
+                flat.push(0.0);
             }
         }
         let seed_buf = self.ctx.upload("tangent seeds (6 vec4 per scratch)", &flat)?;
