@@ -43,6 +43,11 @@ pub struct FitArgs {
     /// card and options must be the same
     #[arg(long)]
     pub resume: bool,
+    /// Also estimate the uncertainties by a block bootstrap with N refits (about 1 s each here):
+    /// they see what the curvature's miss (neighbouring pixels share the blur; parameters that
+    /// trade). Printed beside the curvature's and kept in tool.json (`fit.bootstrap`)
+    #[arg(long, default_value_t = 0)]
+    pub bootstrap: u32,
     /// No progress bar
     #[arg(long)]
     pub quiet: bool,
@@ -256,6 +261,7 @@ pub fn run(renderer: &Renderer, args: &FitArgs, obs: &dyn Observer) -> Result<()
             iters: args.iters,
             init: init.clone(),
             starts: state.current.as_ref().filter(|c| c.0 == k.name()).map(|c| c.1.clone()),
+            bootstrap: args.bootstrap,
         };
         let mut saved: Result<()> = Ok(());
         let got = fit_kind(renderer, &data, k, &cfg, obs, &mut |starts: &[Start]| {
@@ -320,12 +326,16 @@ pub fn run(renderer: &Renderer, args: &FitArgs, obs: &dyn Observer) -> Result<()
             );
         }
     }
-    for (name, v, sd) in &best.params {
+    for (k, (name, v, sd)) in best.params.iter().enumerate() {
         if name.starts_with("ln_exposure") || name.starts_with("registration") || name.starts_with("eye[") {
             continue;
         }
+        let boot = best
+            .bootstrap
+            .as_ref()
+            .map_or(String::new(), |b| format!(" (bootstrap +- {:.5})", b[k]));
         match sd {
-            Some(sd) => println!("  {name:14} {v:.5} +- {sd:.5}"),
+            Some(sd) => println!("  {name:14} {v:.5} +- {sd:.5}{boot}"),
             None => println!(
                 "  {name:14} not identified: the photos do not constrain it (the card's features that would are \
                  missing or saturated)"
@@ -356,6 +366,11 @@ pub fn run(renderer: &Renderer, args: &FitArgs, obs: &dyn Observer) -> Result<()
         "photos": files.iter().map(|f| f.display().to_string()).collect::<Vec<_>>(),
         "card": args.card.display().to_string(),
         "seconds": secs,
+        "bootstrap": best.bootstrap.as_ref().map(|b| json!({
+            "replicates": args.bootstrap,
+            "std": best.params.iter().zip(b).filter(|(p, _)| !p.0.starts_with("ln_exposure") && !p.0.starts_with("registration") && !p.0.starts_with("eye["))
+                .map(|(p, s)| (p.0.clone(), json!(s))).collect::<serde_json::Map<_, _>>(),
+        })),
         "renders": results.iter().map(|r| r.renders).sum::<u32>(),
         "tangent_passes": results.iter().map(|r| r.tangent_passes).sum::<u32>(),
         "jacobian": "engine derivatives (tangent passes) for the tool, z offset and alpha; differences for eyes and camera terms",
@@ -434,7 +449,7 @@ fn resume_key(args: &FitArgs, files: &[PathBuf]) -> Result<String> {
     for f in files {
         eat(&std::fs::read(f).with_context(|| format!("cannot read {}", f.display()))?);
     }
-    eat(format!("{:?}|{}", args.kind, args.iters).as_bytes());
+    eat(format!("{:?}|{}|{}", args.kind, args.iters, args.bootstrap).as_bytes());
     if let Some(p) = &args.init {
         eat(&std::fs::read(p).with_context(|| format!("cannot read {}", p.display()))?);
     }

@@ -110,6 +110,7 @@ fn fit(
         init: None,
         iters: 15,
         resume: false,
+        bootstrap: 0,
         quiet: true,
     };
     run(r, &args, &Silent)?;
@@ -557,6 +558,7 @@ fn an_interrupted_fit_resumes_where_it_stopped() {
         init: None,
         iters: 15,
         resume,
+        bootstrap: 0,
         quiet: true,
     };
     // Uninterrupted.
@@ -607,6 +609,63 @@ fn an_interrupted_fit_resumes_where_it_stopped() {
         .collect();
     let e = format!("{:#}", run(&r, &other, &Silent).unwrap_err());
     assert!(e.contains("other photos"), "{e}");
+    assert_no_validation(&ctx);
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// `--bootstrap N`: block-bootstrap uncertainties beside the curvature's, kept in tool.json; on a
+/// ball cutter they are within a factor 4 of the curvature's, and the true radius and offset lie
+/// within 4 of them.
+#[test]
+fn bootstrap_uncertainties_are_recorded_and_cover_the_truth() {
+    let ctx = gpu();
+    let r = Renderer::new(&ctx).unwrap();
+    let dir = tmp("bootstrap");
+    let (card, capture, card_path) = card(&dir);
+    let truth = Tool::Ball {
+        radius_mm: 0.08,
+        z_offset_mm: -0.002,
+    };
+    let cam = Camera {
+        exposure: 2.0,
+        blur_px: 0.5,
+        noise: 0.006,
+        seed: 3,
+    };
+    let imgs = shoot(&r, &card, &capture, capture.views.clone(), &truth, &cam, &dir);
+    let out = dir.join("fit/tool.json");
+    let args = FitArgs {
+        card: card_path.clone(),
+        images: imgs,
+        kind: Some("ball".into()),
+        out: out.clone(),
+        init: None,
+        iters: 15,
+        resume: false,
+        bootstrap: 12,
+        quiet: true,
+    };
+    run(&r, &args, &Silent).unwrap();
+    let (tool, fitted) = Tool::load_fitted(&out).unwrap();
+    let record = fitted.fit.unwrap();
+    let Tool::Ball { radius_mm, z_offset_mm } = tool else {
+        panic!("{tool:?}")
+    };
+    assert_eq!(record["bootstrap"]["replicates"], 12, "{record}");
+    for (name, value, truth) in [("radius_mm", radius_mm, 0.08), ("z_offset_mm", z_offset_mm, -0.002)] {
+        let boot = record["bootstrap"]["std"][name].as_f64().unwrap();
+        let curv = record["uncertainty"][name].as_f64().unwrap();
+        eprintln!("{name}: {value} (true {truth}); curvature +- {curv:.2e}, bootstrap +- {boot:.2e}");
+        assert!(boot > 0.0 && boot.is_finite(), "{name}: {boot}");
+        assert!(
+            boot < 4.0 * curv && curv < 4.0 * boot,
+            "{name}: curvature {curv} against bootstrap {boot}"
+        );
+        assert!(
+            (value - truth).abs() <= 4.0 * boot.max(curv),
+            "{name}: {value} against {truth}"
+        );
+    }
     assert_no_validation(&ctx);
     let _ = std::fs::remove_dir_all(&dir);
 }
