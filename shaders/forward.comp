@@ -37,6 +37,11 @@ shared uint sh_pairs;
 float dp = 0.0, cov = 0.0;
 uint pairs = 0u;
 
+#ifdef SA_CULL_PAIRS
+float cull_kept() { return dp; }
+shared uint sh_culled;
+#endif
+
 void chunk_begin(uint lid) {}
 void scratch_loaded(uint k, uint index, ScratchGPU S) {}
 void chunk_end(uint lid, uint c0, uint cnt) {}
@@ -89,6 +94,9 @@ void main() {
     bool inside = ij.x < V.dims.x && ij.y < V.dims.y;
     uint pix = V.base.y + ij.y * V.dims.x + ij.x;
     if (lid == 0u) sh_pairs = 0u;
+#ifdef SA_CULL_PAIRS
+    if (lid == 0u) sh_culled = 0u;
+#endif
 
     PixelSetup P = pixel_setup(V, views64[vi], intensity[vi], ij, pc.half_plate, pc.alpha_s, pc.f0);
     bool live = inside && P.on_plate && P.scale > 0.0;
@@ -109,10 +117,17 @@ void main() {
     }
 
     if (live) atomicAdd(sh_pairs, pairs);
+#ifdef SA_CULL_PAIRS
+    if (cull_count > 0u) atomicAdd(sh_culled, cull_count);
+#endif
     barrier();
     if (lid == 0u) {  // 64-bit counters: a carry into the high word (inc/limits.glsl)
         uint old = atomicAdd(stats[1], sh_pairs);
         if (old + sh_pairs < old) atomicAdd(stats[10], 1u);
+#ifdef SA_CULL_PAIRS
+        old = atomicAdd(stats[11], sh_culled);
+        if (old + sh_culled < old) atomicAdd(stats[12], 1u);
+#endif
     }
     // candidates: one atomic per live thread would serialize; reduce through sh_base
     sh_base[lid] = live ? cand : 0u;

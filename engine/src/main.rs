@@ -113,12 +113,13 @@ enum Cmd {
     },
     /// Speed against accuracy of the per-pair integral: every method (closed form, Gauss
     /// panels, plain Gauss-Legendre with 2 to 32 nodes per edge, adaptive quadrature, the
-    /// "average" approximation,
+    /// "average" approximation, `adaptive` (the closed form, pairs bounded below 5e-4 of their
+    /// pixel left out),
     /// Monte Carlo with 16 to 256 points) renders a small scene per regime (moderate, sharp and
     /// wide lobes, grazing views, footprints much smaller and much larger than a scratch, the half
     /// vector along the scratches, many scratches per footprint); each render is compared with the
     /// float64 reference and timed. Writes DIR/study.csv (method, regime, err_max, err_p99,
-    /// err_median, ns_per_pair, ...), DIR/study.png (error against time per regime, log axes)
+    /// err_median, ns_per_pair, pairs, culled, ...), DIR/study.png (error against time per regime, log axes)
     /// and DIR/verdict.txt (per regime the cheapest method within MODEL.md's bar). About two
     /// minutes on a 2-core CPU driver with the defaults.
     Study {

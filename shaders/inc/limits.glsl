@@ -10,6 +10,8 @@
 //   [7] binning hit the device's loop limit
 //   [8] high word of [0], [9] the (tile, scratch) entries passed 2^32 - 1 (scan.comp), [10] high
 //       word of [1]: the 64-bit counters are (hi << 32) | lo
+//   [11] pairs the forward of the integrator `adaptive` dropped by their bound (SA_CULL_PAIRS in
+//       tile_queue.glsl), [12] its high word
 //
 // The loop limit: Mesa's llvmpipe (lavapipe) ends every loop of a shader invocation once the
 // invocation has run 65535 loop iterations in all (LP_MAX_TGSI_LOOP_ITERATIONS, counted per

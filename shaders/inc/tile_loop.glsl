@@ -99,7 +99,7 @@ void tile_loop(uint begin, uint end, ViewGPU V, uvec2 t0, uint lid, bool live, P
         barrier();
         uint cnt = min(CHUNK, end - c0);
         uvec2 fmask, gmask;
-        pixel_masks(live, myblk, P.fp, P.centre, P.radius, fmask, gmask, cand);
+        pixel_masks(live, myblk, P, fmask, gmask, cand);
         uint nfast, total, fbase, gbase;
         queue_slots(lid, fmask, gmask, nfast, total, fbase, gbase);
         for (uint r0 = 0u; r0 < total; r0 += QCAP) {

@@ -19,6 +19,9 @@ pub struct RenderStats {
     pub pairs: u64,
     /// The longest tile list, in chunks of 64 scratches.
     pub max_tile_chunks: u64,
+    /// Pairs the forward left out by their error bound (the integrator `adaptive`; 0 for the
+    /// others): not in `pairs`, so `pairs + culled` are the pairs the scene has.
+    pub culled: u64,
 }
 
 /// The `stats` slot the scans set when the (tile, scratch) entries pass `u32::MAX`.
@@ -218,6 +221,7 @@ impl GpuScene {
             pairs: (st[10] as u64) << 32 | st[1] as u64,
             entries: st[2] as u64,
             max_tile_chunks: st[4] as u64,
+            culled: (st[12] as u64) << 32 | st[11] as u64,
         }
     }
 
