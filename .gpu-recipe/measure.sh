@@ -2,7 +2,7 @@
 # Issue 12's GPU figures in one device call. The machine set-up (Vulkan loader, binaries in
 # .gpu/bin, `carry: [".gl", ".gpu"]`) is ../shared/DEVICE.md's recipe; copy this script into
 # .gpu/ with the binaries and call `bash .gpu/measure.sh` after its first lines. Everything goes
-# to $OUT (at most 8 files come back): one log per step, then summary.md.
+# to $OUT (at most 8 files come back): one log per step, then summary.md (8 files).
 #   bash measure.sh [BIN_DIR] [quick]      (quick: the S scene only, to try the script anywhere)
 set -u
 BIN=${1:-.gpu/bin}
@@ -27,6 +27,14 @@ for run in 1 2; do
 done
 # 4. The viewer, headless (no display there).
 "$BIN/scratchart-view" --benchmark --size 1920x1080 > "$OUT/viewer.md" 2>&1
+# 5. Issue 11 on the GPU: the study (its verdict) and what `adaptive` gains over the closed form
+#    on whole scenes (target/release/examples/adaptive_gain, copied into BIN with the others).
+"$BIN/scratchart" study --out /tmp/study > /dev/null 2>&1 && cp /tmp/study/verdict.txt "$OUT/study_verdict.txt"
+AGB="$BIN/adaptive_gain"; [ -x "$AGB" ] || AGB="$BIN/examples/adaptive_gain"
+if [ -x "$AGB" ]; then
+  if [ "$QUICK" = quick ]; then AG="S"; else AG="S M P"; fi
+  "$AGB" $AG --repeats 7 > "$OUT/adaptive.md" 2>&1
+fi
 
 {
   echo "# GPU measurements ($(date -u +%F))"
@@ -34,5 +42,7 @@ done
   echo; echo "## bench, pair search without bands"; grep -E '^\| [A-Z]' "$OUT/bench_nobands.md" | head -8
   echo; echo "## design $DESIGN"; cat "$OUT/design1.log" "$OUT/design2.log" | grep -E 'wall'
   echo; echo "## viewer 1920x1080"; tail -n 12 "$OUT/viewer.md"
+  echo; echo "## adaptive against the closed form"; cat "$OUT/adaptive.md" 2>/dev/null
+  echo; echo "## study verdict"; tail -n 4 "$OUT/study_verdict.txt" 2>/dev/null
 } > "$OUT/summary.md"
 cat "$OUT/summary.md"
