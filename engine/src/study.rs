@@ -593,17 +593,32 @@ pub fn chart(rows: &[Row], path: &Path) -> Result<()> {
                 4,
                 BLACK.stroke_width(1),
             ))?;
+            // Labels beside their marks, moved up or down in steps of a line where they would
+            // cover a label already placed (methods with the same cost and error, such as the
+            // closed form and `adaptive`, sit on one spot).
+            let mut placed: Vec<(i32, i32, i32)> = Vec::new(); // (x, y, width) in pixels
             for p in pts {
                 let k = methods.iter().position(|m| m == &p.method).unwrap_or(0);
                 let c = palette[k % palette.len()];
                 let at = (p.ns_per_pair, clampe(p.err_p99));
                 chart.draw_series(std::iter::once(Circle::new(at, 4, c.filled())))?;
                 if text {
-                    chart.draw_series(std::iter::once(Text::new(
-                        p.method.clone(),
-                        at,
-                        (font, 11).into_font().color(&c),
-                    )))?;
+                    let (x, y) = chart.backend_coord(&at);
+                    let width = 6 * p.method.len() as i32;
+                    let overlaps = |dy: i32| {
+                        placed
+                            .iter()
+                            .any(|&(px, py, pw)| x + 6 < px + pw && px < x + 6 + width && (y + dy - py).abs() < 11)
+                    };
+                    let dy = [0, 11, 22, -11, 33, -22, 44]
+                        .into_iter()
+                        .find(|&d| !overlaps(d))
+                        .unwrap_or(0);
+                    placed.push((x + 6, y + dy, width));
+                    chart.draw_series(std::iter::once(
+                        EmptyElement::at(at)
+                            + Text::new(p.method.clone(), (6, dy - 5), (font, 11).into_font().color(&c)),
+                    ))?;
                 }
             }
         }
