@@ -173,18 +173,7 @@ fn dense_tile_gradients_are_complete() {
 #[test]
 fn passes_change_no_bit() {
     let ctx = gpu();
-    let scene = random_scene(
-        3,
-        1500,
-        20.0,
-        0.2,
-        0.15,
-        0.1,
-        vec![
-            orbit_view("a", 40, 45.0, 0.0, 45.0, 180.0, 20.0),
-            orbit_view("b", 33, 60.0, 120.0, 45.0, 180.0, 20.0),
-        ],
-    );
+    let scene = two_view_scene(3, 1500, 40, 33);
     let r = Renderer::new(&ctx).unwrap();
     let mut gs = r.upload(&scene).unwrap();
     let n = gs.n_pixels() as usize;
@@ -364,18 +353,7 @@ fn views_over_the_loop_limit_are_refused_where_loops_are_capped() {
 #[test]
 fn binning_bands_change_no_bit() {
     let ctx = gpu();
-    let scene = random_scene(
-        4,
-        1200,
-        20.0,
-        0.2,
-        0.15,
-        0.1,
-        vec![
-            orbit_view("a", 70, 45.0, 0.0, 45.0, 180.0, 20.0),
-            orbit_view("b", 45, 60.0, 120.0, 45.0, 180.0, 20.0),
-        ],
-    );
+    let scene = two_view_scene(4, 1200, 70, 45);
     let r = Renderer::new(&ctx).unwrap();
     let mut gs = r.upload(&scene).unwrap();
     assert_eq!(gs.binning_bands(), 0, "a CPU driver bins without bands");

@@ -182,6 +182,24 @@ pub fn random_scene(seed: u64, n: usize, plate_mm: f64, w: f64, d: f64, alpha: f
     }
 }
 
+/// `n` random scratches (w 0.2, d 0.15, alpha 0.1) on a 20 mm plate seen from two orbit views of
+/// `res_a` and `res_b` pixels: the scene of the tests that split work (passes, binning bands) and
+/// compare bits.
+pub fn two_view_scene(seed: u64, n: usize, res_a: u32, res_b: u32) -> Scene {
+    random_scene(
+        seed,
+        n,
+        20.0,
+        0.2,
+        0.15,
+        0.1,
+        vec![
+            orbit_view("a", res_a, 45.0, 0.0, 45.0, 180.0, 20.0),
+            orbit_view("b", res_b, 60.0, 120.0, 45.0, 180.0, 20.0),
+        ],
+    )
+}
+
 /// A camera `elev` degrees above the plate with a narrow field of view, so that a grazing view
 /// still puts many pixels on the plate.
 pub fn grazing_view(name: &str, res: u32, elev: f64, az: f64, light_elev: f64, light_az: f64, plate_mm: f64) -> View {

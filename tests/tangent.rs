@@ -123,18 +123,7 @@ fn directional_derivatives_match_the_reference() {
 #[test]
 fn passes_change_no_bit() {
     let ctx = gpu();
-    let scene = random_scene(
-        3,
-        1500,
-        20.0,
-        0.2,
-        0.15,
-        0.1,
-        vec![
-            orbit_view("a", 40, 45.0, 0.0, 45.0, 180.0, 20.0),
-            orbit_view("b", 33, 60.0, 120.0, 45.0, 180.0, 20.0),
-        ],
-    );
+    let scene = two_view_scene(3, 1500, 40, 33);
     let r = Renderer::new(&ctx).unwrap();
     let sd = seeds(&scene);
     let mut gs = r.upload(&scene).unwrap();

@@ -20,8 +20,8 @@
 //! Optimizer: Levenberg-Marquardt on the few parameters (3 to 8 tool and camera numbers; a
 //! measured profile has one width per ladder depth). The Jacobian is differentiable rendering:
 //! the columns of the parameters that move the grooves (the tool's, the z offset, alpha) are the
-//! engine's derivatives of every pixel along up to 7 of them per pass (`Renderer::tangents`,
-//! forward-mode dual numbers through the pair integral and the clipping), seeded with each
+//! engine's derivatives of every pixel along up to 7 of them per pass (`Renderer::tangents`:
+//! the backward's reverse sweep through the pair integral and the clipping), seeded with each
 //! groove's d(w, d, alpha) through the tool model; the camera terms (exposure, blur, shift) need
 //! no render, and the eyes of photos taken off the capture pose, which move the camera rather
 //! than the grooves, are differenced over renders. The cost is not smooth in the z offset:
@@ -246,7 +246,7 @@ impl Evaluator<'_, '_> {
     /// The Jacobian columns (d residual / d x_k) of the parameters `ks`, each of which moves only
     /// the grooves' (w, d, alpha): the tool's parameters, its z offset, alpha. Differentiable
     /// rendering: the engine gives the pixel values' derivatives along up to 7 parameters per
-    /// pass (`Renderer::tangents`, forward-mode dual numbers through the pair integral), seeded
+    /// pass (`Renderer::tangents`, the reverse sweep of the pair integral), seeded
     /// with each groove's d(w, d, alpha)/dx_k (central differences of the tool model on the host,
     /// no render); the camera model (blur, exposure, display encoding, clipping) is then
     /// differenced around that linearized render, over the parameter's own step.
@@ -397,12 +397,15 @@ impl Evaluator<'_, '_> {
         b
     }
 
-    fn eval(&mut self, x: &[f64], lin: Option<&[Vec<f32>]>) -> Result<(Vec<f64>, Vec<Vec<f32>>), FitError> {
-        let lin = match lin {
-            Some(l) => l.to_vec(),
-            None => self.render(x)?,
-        };
-        Ok((self.residuals(&self.predict(&lin, x)), lin))
+    /// Residuals at `x` from linear renders `lin` already made for its tool part.
+    fn residuals_at(&self, x: &[f64], lin: &[Vec<f32>]) -> Vec<f64> {
+        self.residuals(&self.predict(lin, x))
+    }
+
+    /// Renders for `x`: the residuals and the linear renders.
+    fn eval(&mut self, x: &[f64]) -> Result<(Vec<f64>, Vec<Vec<f32>>), FitError> {
+        let lin = self.render(x)?;
+        Ok((self.residuals_at(x, &lin), lin))
     }
 }
 
@@ -545,7 +548,7 @@ pub fn fit_kind(
                     let k = ev.lay.n_tool + 1 + v;
                     x[k] = ev.best_exposure(v, &lin[v], &x);
                 }
-                let (r, _) = ev.eval(&x, Some(&lin))?;
+                let r = ev.residuals_at(&x, &lin);
                 scored.push((cauchy(&r, 0.01), x, *rg));
             }
         }
@@ -595,7 +598,7 @@ pub fn fit_kind(
         },
         best_rg,
     ) = best.expect("at least one start");
-    let (r, _) = ev.eval(&x, None)?;
+    let (r, _) = ev.eval(&x)?;
     let n = r.len();
     let np = ev.lay.params.len();
     let wsum: f64 = r.iter().zip(&wts).map(|(e, w)| w * e * e).sum();
@@ -667,18 +670,10 @@ fn bootstrap(
     let mut ids: Vec<u64> = blocks.clone();
     ids.sort_unstable();
     ids.dedup();
-    let mut state = 0x9e3779b97f4a7c15u64;
-    let mut uniform = || {
-        // splitmix64
-        state = state.wrapping_add(0x9e3779b97f4a7c15);
-        let mut z = state;
-        z = (z ^ (z >> 30)).wrapping_mul(0xbf58476d1ce4e5b9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94d049bb133111eb);
-        ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64
-    };
+    let mut rng = scratchart::scenes::Rng::new(0);
     let mut fits: Vec<Vec<f64>> = Vec::new();
     for b in 0..reps {
-        let wb: Vec<f64> = ids.iter().map(|_| -(1.0 - uniform()).ln()).collect();
+        let wb: Vec<f64> = ids.iter().map(|_| -(1.0 - rng.f64()).ln()).collect();
         ev.weights = Some(blocks.iter().map(|id| wb[ids.binary_search(id).unwrap()]).collect());
         let label = format!("bootstrap {}/{reps}", b + 1);
         let got = refine(ev, x.to_vec(), rg, 6, obs, &label);

@@ -327,7 +327,7 @@ pub fn run(renderer: &Renderer, args: &FitArgs, obs: &dyn Observer) -> Result<()
         }
     }
     for (k, (name, v, sd)) in best.params.iter().enumerate() {
-        if name.starts_with("ln_exposure") || name.starts_with("registration") || name.starts_with("eye[") {
+        if !is_tool_param(name) {
             continue;
         }
         let boot = best
@@ -358,7 +358,7 @@ pub fn run(renderer: &Renderer, args: &FitArgs, obs: &dyn Observer) -> Result<()
         "loss": best.loss,
         "rms_residual": best.rms,
         "pixels": best.pixels,
-        "uncertainty": best.params.iter().filter(|p| !p.0.starts_with("ln_exposure") && !p.0.starts_with("registration") && !p.0.starts_with("eye["))
+        "uncertainty": best.params.iter().filter(|p| is_tool_param(&p.0))
             .map(|p| (p.0.clone(), p.2.map_or(json!("not identified"), |s| json!(s)))).collect::<serde_json::Map<_, _>>(),
         "not_identified": best.unidentified(),
         "exposure": best.exposure,
@@ -368,7 +368,7 @@ pub fn run(renderer: &Renderer, args: &FitArgs, obs: &dyn Observer) -> Result<()
         "seconds": secs,
         "bootstrap": best.bootstrap.as_ref().map(|b| json!({
             "replicates": args.bootstrap,
-            "std": best.params.iter().zip(b).filter(|(p, _)| !p.0.starts_with("ln_exposure") && !p.0.starts_with("registration") && !p.0.starts_with("eye["))
+            "std": best.params.iter().zip(b).filter(|(p, _)| is_tool_param(&p.0))
                 .map(|(p, s)| (p.0.clone(), json!(s))).collect::<serde_json::Map<_, _>>(),
         })),
         "renders": results.iter().map(|r| r.renders).sum::<u32>(),
@@ -432,28 +432,29 @@ pub fn resume_path(out: &std::path::Path) -> PathBuf {
     out.with_extension("resume.json")
 }
 
-/// A digest (FNV-1a, 64 bits) of what decides a fit: the card file, every photo's bytes, the
-/// kind, the start tool and the iterations.
+/// A digest of what decides a fit: the card file, every photo's bytes, the kind, the start tool
+/// and the options (FNV-1a 64 of each part's FNV-1a 64, so concatenations differ).
 fn resume_key(args: &FitArgs, files: &[PathBuf]) -> Result<String> {
-    let mut h: u64 = 0xcbf29ce484222325;
-    let mut eat = |bytes: &[u8]| {
-        for &b in bytes {
-            h ^= b as u64;
-            h = h.wrapping_mul(0x100000001b3);
-        }
-        // a separator, so concatenations differ
-        h ^= 0xff;
-        h = h.wrapping_mul(0x100000001b3);
-    };
-    eat(&std::fs::read(&args.card).with_context(|| format!("cannot read {}", args.card.display()))?);
+    use scratchart::optim::checkpoint::fnv;
+    let read = |p: &std::path::Path| std::fs::read(p).with_context(|| format!("cannot read {}", p.display()));
+    let mut parts = vec![fnv(&read(&args.card)?)];
     for f in files {
-        eat(&std::fs::read(f).with_context(|| format!("cannot read {}", f.display()))?);
+        parts.push(fnv(&read(f)?));
     }
-    eat(format!("{:?}|{}|{}", args.kind, args.iters, args.bootstrap).as_bytes());
+    parts.push(fnv(
+        format!("{:?}|{}|{}", args.kind, args.iters, args.bootstrap).as_bytes()
+    ));
     if let Some(p) = &args.init {
-        eat(&std::fs::read(p).with_context(|| format!("cannot read {}", p.display()))?);
+        parts.push(fnv(&read(p)?));
     }
-    Ok(format!("{h:016x}"))
+    let bytes: Vec<u8> = parts.iter().flat_map(|h| h.to_le_bytes()).collect();
+    Ok(format!("{:016x}", fnv(&bytes)))
+}
+
+/// Whether a fitted parameter is the tool's (or alpha) rather than the camera's (exposure,
+/// registration shift, an off-pose photo's eye): what the report and tool.json show.
+fn is_tool_param(name: &str) -> bool {
+    !(name.starts_with("ln_exposure") || name.starts_with("registration") || name.starts_with("eye["))
 }
 
 /// Per ladder depth, the visible width the photos show: the model's width scaled by the ratio of

@@ -302,9 +302,9 @@ fn recovers_a_v_bit_from_larger_colour_jpegs() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
-/// A ball cutter below commanded zero: radius within 5 um, z offset within 3 um.
-#[test]
-fn recovers_a_ball_cutter() {
+/// The ball cutter of the ball tests (below commanded zero) and its camera: another exposure,
+/// a small blur, noise.
+fn ball_case() -> (Tool, Camera) {
     let truth = Tool::Ball {
         radius_mm: 0.08,
         z_offset_mm: -0.002,
@@ -315,6 +315,13 @@ fn recovers_a_ball_cutter() {
         noise: 0.006,
         seed: 3,
     };
+    (truth, cam)
+}
+
+/// A ball cutter below commanded zero: radius within 5 um, z offset within 3 um.
+#[test]
+fn recovers_a_ball_cutter() {
+    let (truth, cam) = ball_case();
     let (tool, _, dir) = recover("ball", &truth, &cam, false, false, "ball");
     let Tool::Ball { radius_mm, z_offset_mm } = tool else {
         panic!("{tool:?}")
@@ -539,16 +546,7 @@ fn an_interrupted_fit_resumes_where_it_stopped() {
     let r = Renderer::new(&ctx).unwrap();
     let dir = tmp("resume");
     let (card, capture, card_path) = card(&dir);
-    let truth = Tool::Ball {
-        radius_mm: 0.08,
-        z_offset_mm: -0.002,
-    };
-    let cam = Camera {
-        exposure: 2.0,
-        blur_px: 0.5,
-        noise: 0.006,
-        seed: 3,
-    };
+    let (truth, cam) = ball_case();
     let imgs = shoot(&r, &card, &capture, capture.views.clone(), &truth, &cam, &dir);
     let args = |out: &str, resume: bool| FitArgs {
         card: card_path.clone(),
@@ -622,16 +620,7 @@ fn bootstrap_uncertainties_are_recorded_and_cover_the_truth() {
     let r = Renderer::new(&ctx).unwrap();
     let dir = tmp("bootstrap");
     let (card, capture, card_path) = card(&dir);
-    let truth = Tool::Ball {
-        radius_mm: 0.08,
-        z_offset_mm: -0.002,
-    };
-    let cam = Camera {
-        exposure: 2.0,
-        blur_px: 0.5,
-        noise: 0.006,
-        seed: 3,
-    };
+    let (truth, cam) = ball_case();
     let imgs = shoot(&r, &card, &capture, capture.views.clone(), &truth, &cam, &dir);
     let out = dir.join("fit/tool.json");
     let args = FitArgs {

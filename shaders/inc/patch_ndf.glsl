@@ -79,8 +79,8 @@ R ndf_at(PairGeom G, R s) {
 #include "integrators/gauss_legendre.glsl"
 #elif defined(SA_INTEGRATOR_AVERAGE)
 #include "integrators/average.glsl"
-#elif defined(SA_INTEGRATOR_ADAPTIVE)
-#include "integrators/adaptive.glsl"
+#elif defined(SA_INTEGRATOR_ADAPTIVE_QUADRATURE)
+#include "integrators/adaptive_quadrature.glsl"
 #elif defined(SA_INTEGRATOR_MONTE_CARLO)
 #include "integrators/monte_carlo.glsl"
 #else

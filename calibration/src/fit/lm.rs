@@ -45,10 +45,9 @@ impl Refinement<'_, '_, '_> {
     fn eval(&mut self, x: &[f64]) -> Result<Vec<f64>, FitError> {
         let key = self.render_key(x);
         if let Some((_, lin)) = self.renders.iter().find(|(k, _)| *k == key) {
-            let lin = lin.clone();
-            return Ok(self.ev.eval(x, Some(&lin))?.0);
+            return Ok(self.ev.residuals_at(x, lin));
         }
-        let (r, lin) = self.ev.eval(x, None)?;
+        let (r, lin) = self.ev.eval(x)?;
         if self.renders.len() == 2 {
             self.renders.remove(0);
         }
@@ -100,9 +99,8 @@ impl LeastSquares for Refinement<'_, '_, '_> {
                 h = -h;
             }
             if x[k] + h < lo {
-                h = 0.5 * (hi - lo);
-                xh[k] = lo;
-                h = (lo + h) - x[k];
+                // no room either way: the middle of the bounds
+                h = lo + 0.5 * (hi - lo) - x[k];
             }
             xh[k] = x[k] + h;
             let rh = self.eval(&xh)?;

@@ -40,18 +40,7 @@ impl Renderer {
             grad,
             gs.bwd_plan,
             gs,
-            &[
-                &gs.views,
-                &gs.scratches,
-                &gs.hist,
-                &gs.list,
-                &gs.dl,
-                &gs.cov_raw,
-                &gs.partials,
-                &gs.views64,
-                &gs.lights,
-                &gs.stats,
-            ],
+            &super::backward_bindings(gs, &gs.dl, &gs.partials),
         );
         let push = ReducePush {
             n_scratches: gs.n_scratches,

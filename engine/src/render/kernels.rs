@@ -25,7 +25,7 @@ pub enum Integrator {
     /// speed-against-accuracy study; forward only (its backward would be the dual-number kernel).
     GaussLegendre(u8),
     /// Globally adaptive quadrature of every edge integral: 5-point Gauss-Legendre panels,
-    /// bisected where their error estimate fails (`inc/integrators/adaptive.glsl`), what a
+    /// bisected where their error estimate fails (`inc/integrators/adaptive_quadrature.glsl`), what a
     /// generic integrator does without knowing where the lobe is. For the study; forward only.
     AdaptiveQuadrature,
     /// The closed form on the pairs that matter: a pair whose contribution is bounded below
@@ -69,14 +69,15 @@ impl Integrator {
             Integrator::ClosedForm | Integrator::Adaptive => "SA_INTEGRATOR_CLOSED_FORM",
             Integrator::GaussPanels => "SA_INTEGRATOR_GAUSS_PANELS",
             Integrator::GaussLegendre(_) => "SA_INTEGRATOR_GAUSS_LEGENDRE",
-            Integrator::AdaptiveQuadrature => "SA_INTEGRATOR_ADAPTIVE",
+            Integrator::AdaptiveQuadrature => "SA_INTEGRATOR_ADAPTIVE_QUADRATURE",
             Integrator::Average => "SA_INTEGRATOR_AVERAGE",
             Integrator::MonteCarlo(_) => "SA_INTEGRATOR_MONTE_CARLO",
         }
     }
 
-    /// Its parameter's define, if it has one (node or point count).
-    fn param_define(self) -> Option<(&'static str, &'static str)> {
+    /// Its second define, if it has one: the node or point count, or the pair culling of `adaptive`
+    /// (which otherwise compiles as the closed form).
+    fn extra_define(self) -> Option<(&'static str, &'static str)> {
         match self {
             Integrator::GaussLegendre(n) => Some(("SA_GL_NODES", count_str(n as u16))),
             Integrator::MonteCarlo(n) => Some(("SA_MC_POINTS", count_str(n))),
@@ -184,7 +185,7 @@ impl ShadeKernel {
     /// The defines to compile [`file`](Self::file) with on a device described by `info`.
     pub fn defines(&self, info: &DeviceInfo) -> Vec<(&'static str, &'static str)> {
         let mut defs = vec![(self.integrator.define(), "1")];
-        if let Some(d) = self.integrator.param_define() {
+        if let Some(d) = self.integrator.extra_define() {
             defs.push(d);
         }
         if self.is_backward() {

@@ -174,13 +174,7 @@ impl Renderer {
         rec.barrier();
         let n_hist = gs.slots.n_tiles as u64 * gs.n_groups as u64 + 1;
         self.record_scan(rec, &gs.hist, &gs.sums, &gs.stats, n_hist);
-        self.record_scan(
-            rec,
-            &gs.sbase,
-            &gs.sbase_sums,
-            &gs.stats,
-            gs.n_scratches as u64 * gs.n_parts() as u64 + 1,
-        );
+        self.record_scan(rec, &gs.sbase, &gs.sbase_sums, &gs.stats, gs.sbase_len());
         rec.copy(&gs.hist, &gs.cursor, gs.hist.size());
         rec.barrier();
         let bufs = [
@@ -330,6 +324,25 @@ impl Renderer {
             })
             .collect())
     }
+}
+
+/// The bindings of the kernels with `grad.comp`'s layout (`grad.comp`, `tangent.comp`): the
+/// scene, the tile lists, a per-pixel `input` (dE/dL, or the tangent seeds), the forward's
+/// coverage, the `output` (partial gradients, or tangents), the float64 cameras, the lights and
+/// the counters.
+fn backward_bindings<'a>(gs: &'a GpuScene, input: &'a Buffer, output: &'a Buffer) -> [&'a Buffer; 10] {
+    [
+        &gs.views,
+        &gs.scratches,
+        &gs.hist,
+        &gs.list,
+        input,
+        &gs.cov_raw,
+        output,
+        &gs.views64,
+        &gs.lights,
+        &gs.stats,
+    ]
 }
 
 /// Records a shading kernel (forward, backward or tangent: one workgroup per tile, `ShadePush`)

@@ -141,12 +141,8 @@ impl GpuScene {
         let n_groups = n_scratches.div_ceil(GROUP_SIZE).max(1);
         let max_rows = slots.views.iter().map(|v| v.dims[3]).max().unwrap_or(1);
         let n_bands = binning_bands(ctx.info(), n_scratches, n_groups, scene.views.len() as u32, max_rows);
-        let n_parts = if n_bands == 0 {
-            1
-        } else {
-            scene.views.len() as u64 * n_bands as u64
-        };
-        let sbase_len = n_scratches as u64 * n_parts + 1;
+        let (sbase, sbase_sums) =
+            scratch_base_buffers(ctx, n_scratches, binning_parts(n_bands, scene.views.len() as u32))?;
         let scr: Vec<ScratchGpu> = scene.scratches.iter().map(ScratchGpu::from).collect();
         let phi: Vec<f32> = scene.views.iter().map(|v| v.light.intensity as f32).collect();
         let hist_len = slots.n_tiles as u64 * n_groups as u64 + 1;
@@ -188,8 +184,8 @@ impl GpuScene {
             sums: gpu_only("scan block sums", n_blocks * 4)?,
             list: gpu_only("tile lists", capacity as u64 * 4)?,
             capacity,
-            sbase: gpu_only("scratch entry bases", sbase_len * 4)?,
-            sbase_sums: gpu_only("scan block sums (scratches)", sbase_len.div_ceil(SCAN_BLOCK as u64) * 4)?,
+            sbase,
+            sbase_sums,
             n_bands,
             inv: gpu_only("entry inverse map", capacity as u64 * 4)?,
             partials: gpu_only("partial gradients", capacity as u64 * 32)?,
@@ -364,11 +360,12 @@ impl GpuScene {
 
     /// Binning parts per scratch: `binning_bands` x views, or 1.
     pub(super) fn n_parts(&self) -> u32 {
-        if self.n_bands == 0 {
-            1
-        } else {
-            self.shade.n_views * self.n_bands
-        }
+        binning_parts(self.n_bands, self.shade.n_views)
+    }
+
+    /// Entries of `sbase` (per scratch and binning part, plus the total).
+    pub(super) fn sbase_len(&self) -> u64 {
+        self.n_scratches as u64 * self.n_parts() as u64 + 1
     }
 
     /// Test hook: bin with `n_bands` bands of tile rows per view (0: none), as a GPU would.
@@ -376,14 +373,7 @@ impl GpuScene {
     #[doc(hidden)]
     pub fn force_binning_bands(&mut self, ctx: &std::sync::Arc<Context>, n_bands: u32) -> Result<(), GpuError> {
         self.n_bands = n_bands;
-        let len = self.n_scratches as u64 * self.n_parts() as u64 + 1;
-        self.sbase = Buffer::new(ctx, "scratch entry bases", len * 4, MemLoc::GpuOnly)?;
-        self.sbase_sums = Buffer::new(
-            ctx,
-            "scan block sums (scratches)",
-            len.div_ceil(SCAN_BLOCK as u64) * 4,
-            MemLoc::GpuOnly,
-        )?;
+        (self.sbase, self.sbase_sums) = scratch_base_buffers(ctx, self.n_scratches, self.n_parts())?;
         Ok(())
     }
 
@@ -531,4 +521,32 @@ fn binning_bands(
     let want = 65_536u64.div_ceil(jobs);
     let fit = ((16u64 << 20) / (n_scratches.max(1) as u64 * n_views.max(1) as u64)).max(1);
     want.min(max_rows.max(1) as u64).min(fit).max(1) as u32
+}
+
+/// Binning parts per scratch with `n_bands` bands of tile rows per view: one per band and view,
+/// or 1 without bands.
+fn binning_parts(n_bands: u32, n_views: u32) -> u32 {
+    if n_bands == 0 {
+        1
+    } else {
+        n_views * n_bands
+    }
+}
+
+/// `sbase` (per scratch and binning part, plus the total) and its scan's block sums.
+fn scratch_base_buffers(
+    ctx: &std::sync::Arc<Context>,
+    n_scratches: u32,
+    parts: u32,
+) -> Result<(Buffer, Buffer), GpuError> {
+    let len = n_scratches as u64 * parts as u64 + 1;
+    Ok((
+        Buffer::new(ctx, "scratch entry bases", len * 4, MemLoc::GpuOnly)?,
+        Buffer::new(
+            ctx,
+            "scan block sums (scratches)",
+            len.div_ceil(SCAN_BLOCK as u64) * 4,
+            MemLoc::GpuOnly,
+        )?,
+    ))
 }

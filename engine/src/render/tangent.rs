@@ -9,7 +9,7 @@ use super::kernels::{Integrator, Mode, ShadeKernel};
 use super::{GpuScene, Renderer};
 use crate::vulkan::{Buffer, GpuError, MemLoc, Recorder, ShaderCompiler};
 
-/// Directions one tangent pass carries (the dual numbers' partials).
+/// Directions one tangent pass carries (`tangent.comp` sums 7 per pixel).
 pub const TANGENT_DIRECTIONS: usize = 7;
 
 /// Per scratch, the tangents of (w, d, alpha) along each direction: `[j]` = (dw, dd, dalpha) / dθ_j.
@@ -70,18 +70,7 @@ impl Renderer {
                 kernel,
                 gs.bwd_plan,
                 gs,
-                &[
-                    &gs.views,
-                    &gs.scratches,
-                    &gs.hist,
-                    &gs.list,
-                    &seed_buf,
-                    &gs.cov_raw,
-                    &tang,
-                    &gs.views64,
-                    &gs.lights,
-                    &gs.stats,
-                ],
+                &super::backward_bindings(gs, &seed_buf, &tang),
             );
         })?;
         let images = self.download_images(gs)?;

@@ -1,4 +1,4 @@
-// SA_INTEGRATOR_ADAPTIVE: the same Green's theorem walk as the default (green.glsl), every edge
+// SA_INTEGRATOR_ADAPTIVE_QUADRATURE: the same Green's theorem walk as the default (green.glsl), every edge
 // integral ∫ D(s) V(s) ds by globally adaptive quadrature: 5-point Gauss-Legendre on 4 equal
 // panels, then the panel with a failing error estimate is bisected (estimate |G(left) + G(right)
 // - G(panel)|, accepted below AQ_TOL x |running total| x the panel's share of the edge) until
@@ -8,8 +8,8 @@
 // classic one: a lobe narrower than a panel that no node of the first panels sees is never
 // refined (the estimate agrees with itself), and the evaluation budget runs out on long edges
 // with a sharp lobe.
-#ifndef SA_INTEGRATOR_ADAPTIVE_GLSL
-#define SA_INTEGRATOR_ADAPTIVE_GLSL
+#ifndef SA_INTEGRATOR_ADAPTIVE_QUADRATURE_GLSL
+#define SA_INTEGRATOR_ADAPTIVE_QUADRATURE_GLSL
 
 #define AQ_STACK 16
 #define AQ_EVALS 48
