@@ -47,9 +47,10 @@ pub struct Card {
     pub cuts: Vec<Cut>,
 }
 
-/// How far above commanded zero a card's rung may sit, mm. A design's depths must be >= 0 (its
-/// grooves are cut into the plate); the card's rungs above zero are commanded at negative depth,
-/// so the tool stays above Z0 there and shows where the real surface is.
+/// How far above commanded zero a card's rung may sit, mm. A design's commanded depths start at
+/// the plate's surface (`surface_depth_mm`: its grooves are cut into the plate); the card's rungs
+/// above zero are commanded at negative depth, so the tool stays above Z0 there and shows where
+/// the real surface is.
 pub const MAX_ABOVE_ZERO_MM: f64 = 0.5;
 
 /// How a card is laid out.

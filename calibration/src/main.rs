@@ -18,24 +18,26 @@ mod plan_cmd;
     name = "scratchart-cal",
     version,
     about = "Calibrate the carving tool: cut a test card, photograph it, fit the tool's profile.",
-    long_about = "Calibrate the carving tool before a carving session, in this order:\n\n\
-  1. scratchart-cal card --out DIR       writes DIR/card.json: the test card (a ladder of commanded depths\n\
-                                         straddling the plate surface, at several orientations, with corner\n\
-                                         fiducials) and where the camera and the lamp go to photograph it,\n\
-                                         and its G-code DIR/card.nc (card.gcode with --machine marlin).\n\
-  2. cut the card on the machine, and photograph it from each capture view of card.json.\n\
-  3. scratchart-cal simulate --card DIR/card.json --tool tool.json --out IMGDIR\n\
-                                         renders the card as a known tool would cut it, as the camera would\n\
-                                         see it (for checking a set-up, and for tests).\n\
-  4. scratchart-cal fit --card DIR/card.json cam_south.jpg cam_west.jpg --out tool.json\n\
-                                         registers the photos by the corner crosses and fits the tool\n\
-                                         (v-bit, ball, tapered-ball or a measured profile; --kind picks one),\n\
-                                         its z offset, the walls' roughness, exposure and blur: tool.json with\n\
-                                         uncertainties, residual images and a plot of width against depth;\n\
-                                         after Ctrl-C, the same command with --resume goes on.\n\
-  5. scratchart-cal plan DESIGN.json --tool tool.json --out plan.nc, then scratchart-cal carve plan.nc\n\
-                                         --port PORT (see calibration/README.md).\n\n\
-Exit codes: 0 success, 1 runtime failure, 2 bad command line, 3 bad input file, 4 GPU/device failure."
+    long_about = r#"Calibrate the carving tool before a carving session, in this order:
+
+  1. scratchart-cal card --out DIR       writes DIR/card.json: the test card (a ladder of commanded depths
+                                         straddling the plate surface, at several orientations, with corner
+                                         fiducials) and where the camera and the lamp go to photograph it,
+                                         and its G-code DIR/card.nc (card.gcode with --machine marlin).
+  2. cut the card on the machine, and photograph it from each capture view of card.json.
+  3. scratchart-cal simulate --card DIR/card.json --tool tool.json --out IMGDIR
+                                         renders the card as a known tool would cut it, as the camera would
+                                         see it (for checking a set-up, and for tests).
+  4. scratchart-cal fit --card DIR/card.json cam_south.jpg cam_west.jpg --out tool.json
+                                         registers the photos by the corner crosses and fits the tool
+                                         (v-bit, ball, tapered-ball or a measured profile; --kind picks one),
+                                         its z offset, the walls' roughness, exposure and blur: tool.json with
+                                         uncertainties, residual images and a plot of width against depth;
+                                         after Ctrl-C, the same command with --resume goes on.
+  5. scratchart-cal plan DESIGN.json --tool tool.json --out plan.nc, then scratchart-cal carve plan.nc
+                                         --port PORT (see calibration/README.md).
+
+Exit codes: 0 success, 1 runtime failure, 2 bad command line, 3 bad input file, 4 GPU/device failure."#
 )]
 struct Cli {
     /// Vulkan device to use: index or part of the name (default: best available)

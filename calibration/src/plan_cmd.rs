@@ -9,8 +9,8 @@ use scratchart::model::scene::Scene;
 use scratchart_machine::gcode::{write_blocks, Options};
 use scratchart_machine::level::{compensate, HeightMap};
 use scratchart_machine::plan::{
-    check_bounds, check_moves, nearest_neighbour, orientation_mark, program_time, program_travel, travel, two_opt,
-    Block, Cut, Label, MachineProfile,
+    check_bounds, check_moves, nearest_neighbour, orientation_mark, program_time, program_travel, surface_depth_mm,
+    travel, two_opt, Block, Cut, Label, MachineProfile,
 };
 use scratchart_tool::Tool;
 
@@ -147,12 +147,21 @@ pub fn plan(a: &PlanArgs) -> Result<()> {
         None => None,
     };
     let mut summary = Vec::new();
+    let surface = surface_depth_mm(tool.as_ref().map(|t| t.z_offset_mm()));
     // Depths: the design's z_mm column when it has one, else the tool's curve.
     let depths: Vec<f64> = match extra.column("z_mm") {
         Some(z) => {
-            if let Some(k) = z.iter().position(|z| !(*z >= 0.0)) {
+            if let Some(k) = z.iter().position(|z| !(*z >= surface)) {
+                let why = match &tool {
+                    Some(_) => format!(
+                        "above the plate's surface, which the tool's z offset puts at commanded depth {surface} mm"
+                    ),
+                    None => "above the plate's surface at commanded zero; a design made with `design --tool` \
+                             needs the same --tool here (its z offset moves the surface)"
+                        .to_string(),
+                };
                 return Err(InputError(format!(
-                    "{}: scratch {} has z_mm = {}: a design's depths must be >= 0 mm",
+                    "{}: scratch {} has z_mm = {}: {why}",
                     a.design.display(),
                     k + 1,
                     z[k]
@@ -207,7 +216,7 @@ pub fn plan(a: &PlanArgs) -> Result<()> {
         })
         .collect();
     let plate = scene.plate.size_mm;
-    check_bounds(&cuts, plate, &m).map_err(|e| InputError(format!("the plan leaves its bounds: {e}")))?;
+    check_bounds(&cuts, plate, &m, surface).map_err(|e| InputError(format!("the plan leaves its bounds: {e}")))?;
     let t0 = travel(&cuts);
     let ordered = two_opt(nearest_neighbour(&cuts), 200);
     let mut blocks: Vec<Block> = ordered.iter().map(Block::flat).collect();

@@ -306,3 +306,61 @@ fn depths_come_from_the_z_mm_column_and_follow_a_height_map() {
     assert!(String::from_utf8_lossy(&o.stderr).contains("--tool"));
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// A tool whose z offset puts the plate's surface above commanded zero (tool.json
+/// `z_offset_mm` > 0): `design --tool` then writes shallow grooves at negative commanded depths.
+/// `plan` with that tool cuts them (at Z = -z_mm, into the plate); a depth above the surface, or
+/// the same design without the tool, is refused with exit 3, saying why.
+#[test]
+fn commanded_depths_start_at_the_tools_surface() {
+    use scratchart::model::scene::Extra;
+    let (bin, dir) = setup("surface");
+    std::fs::write(
+        dir.join("raised.json"),
+        r#"{ "kind": "v-bit", "angle_deg": 60.0, "tip_flat_mm": 0.01, "z_offset_mm": 0.004 }"#,
+    )
+    .unwrap();
+    let scene = design(100.0);
+    let save = |name: &str, z: &[f64]| {
+        let extra = Extra {
+            names: vec!["z_mm".into()],
+            rows: z.iter().map(|z| vec![*z]).collect(),
+        };
+        scene
+            .save_extra(&dir.join(name), &format!("{name}.csv"), &extra)
+            .unwrap();
+    };
+    let z: Vec<f64> = (0..scene.scratches.len()).map(|k| -0.003 + 0.001 * k as f64).collect();
+    save("shallow.json", &z);
+    let run = |args: &[&str]| Command::new(&bin).current_dir(&dir).args(args).output().unwrap();
+    let o = run(&[
+        "plan",
+        "shallow.json",
+        "--tool",
+        "raised.json",
+        "--out",
+        "s.nc",
+        "--no-mark",
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let blocks = blocks_of(&std::fs::read_to_string(dir.join("s.nc")).unwrap());
+    assert_eq!(blocks.len(), 40);
+    for (label, pts) in &blocks {
+        let k: usize = label["scratch ".len()..].parse::<usize>().unwrap() - 1;
+        assert!(pts.iter().all(|p| (p[2] + z[k]).abs() < 1e-4), "{label}: {pts:?}");
+    }
+    // Without the tool, the surface is at commanded zero: refused, naming the cure.
+    let o = run(&["plan", "shallow.json", "--out", "n.nc"]);
+    assert_eq!(o.status.code(), Some(3), "{}", String::from_utf8_lossy(&o.stderr));
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert!(e.contains("scratch 1 has z_mm = -0.003") && e.contains("--tool"), "{e}");
+    // Above the raised surface (-0.004 mm): refused with the tool too.
+    let mut above = z.clone();
+    above[5] = -0.005;
+    save("above.json", &above);
+    let o = run(&["plan", "above.json", "--tool", "raised.json", "--out", "a.nc"]);
+    assert_eq!(o.status.code(), Some(3), "{}", String::from_utf8_lossy(&o.stderr));
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert!(e.contains("scratch 6") && e.contains("-0.004"), "{e}");
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -111,8 +111,10 @@ enum Cmd {
         #[arg(long)]
         binning_bands: Option<u32>,
     },
-    /// Speed against accuracy of the per-pair integral: every method (closed form, Gauss
-    /// panels, plain Gauss-Legendre with 2 to 32 nodes per edge, adaptive quadrature, the
+    /// Speed against accuracy of the per-pair integral: writes DIR/study.csv, DIR/study.png and
+    /// DIR/verdict.txt.
+    ///
+    /// Every method (closed form, Gauss panels, plain Gauss-Legendre with 2 to 32 nodes per edge, adaptive quadrature, the
     /// "average" approximation, `adaptive` (the closed form, pairs bounded below 5e-4 of their
     /// pixel left out),
     /// Monte Carlo with 16 to 256 points) renders a small scene per regime (moderate, sharp and

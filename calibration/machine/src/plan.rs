@@ -213,8 +213,9 @@ pub fn program_travel(blocks: &[Block]) -> f64 {
 }
 
 /// Checks a plan against the plate and the machine: every cut on the plate, no shallower than
-/// `min_depth_mm` (0 for a design: grooves are cut into the plate, never above it; the
-/// calibration card passes a negative value, for its rungs above commanded zero), no deeper than
+/// `min_depth_mm` (for a design the plate's surface, [`check_bounds`]: grooves are cut into the
+/// plate, never above it; the calibration card passes a lower value, for its rungs above the
+/// surface), no deeper than
 /// the machine's Z travel, and the plate inside the machine's X/Y travel.
 pub fn check_cuts(cuts: &[Cut], plate_mm: f64, m: &MachineProfile, min_depth_mm: f64) -> Result<(), String> {
     let h = 0.5 * plate_mm;
@@ -230,11 +231,7 @@ pub fn check_cuts(cuts: &[Cut], plate_mm: f64, m: &MachineProfile, min_depth_mm:
             }
         }
         if !(c.z >= min_depth_mm) || c.z + m.safe_z_mm > m.travel_mm[2] {
-            let least = if min_depth_mm == 0.0 {
-                "a design's depths must be >= 0 mm".to_string()
-            } else {
-                format!("depths must be >= {min_depth_mm} mm")
-            };
+            let least = format!("depths must be >= {min_depth_mm} mm");
             return Err(format!(
                 "scratch {}: depth {:.4} mm is outside the machine's Z travel ({} mm with {} mm safe height; {least})",
                 c.scratch + 1,
@@ -253,9 +250,17 @@ pub fn check_cuts(cuts: &[Cut], plate_mm: f64, m: &MachineProfile, min_depth_mm:
     Ok(())
 }
 
-/// [`check_cuts`] for a design: depths >= 0.
-pub fn check_bounds(cuts: &[Cut], plate_mm: f64, m: &MachineProfile) -> Result<(), String> {
-    check_cuts(cuts, plate_mm, m, 0.0)
+/// [`check_cuts`] for a design: every cut reaches the plate, whose surface lies at the commanded
+/// depth `surface_mm` ([`surface_depth_mm`]).
+pub fn check_bounds(cuts: &[Cut], plate_mm: f64, m: &MachineProfile, surface_mm: f64) -> Result<(), String> {
+    check_cuts(cuts, plate_mm, m, surface_mm)
+}
+
+/// The commanded depth of the plate's surface: a cut commanded to depth z reaches z + z_offset_mm
+/// (tool.json), so the surface is at -z_offset_mm; at commanded zero without a calibrated tool.
+/// A design's commanded depths (`design --tool` writes them) start there.
+pub fn surface_depth_mm(z_offset_mm: Option<f64>) -> f64 {
+    z_offset_mm.map_or(0.0, |o| -o)
 }
 
 /// Checks every move of a program (rapids from and back to the work zero, plunges, cuts, retracts)

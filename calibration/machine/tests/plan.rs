@@ -64,11 +64,11 @@ fn ordering_cuts_travel_and_keeps_every_cut() {
 fn bounds_are_refused_with_the_scratch_named() {
     let m = MachineProfile::grbl();
     let mut cuts = random_cuts(10, 100.0);
-    assert!(check_bounds(&cuts, 100.0, &m).is_ok());
+    assert!(check_bounds(&cuts, 100.0, &m, 0.0).is_ok());
     cuts[3].b = [60.0, 0.0];
-    let e = check_bounds(&cuts, 100.0, &m).unwrap_err();
+    let e = check_bounds(&cuts, 100.0, &m, 0.0).unwrap_err();
     assert!(e.contains("scratch 4") && e.contains("off the 100 mm plate"), "{e}");
-    let e = check_bounds(&random_cuts(10, 100.0), 400.0, &m).unwrap_err();
+    let e = check_bounds(&random_cuts(10, 100.0), 400.0, &m, 0.0).unwrap_err();
     assert!(e.contains("does not fit"), "{e}");
 }
 
@@ -253,7 +253,7 @@ fn card_depths_above_zero_are_allowed_only_where_asked() {
     let m = MachineProfile::grbl();
     let mut cuts = random_cuts(5, 100.0);
     cuts[2].z = -0.02;
-    let e = check_bounds(&cuts, 100.0, &m).unwrap_err();
+    let e = check_bounds(&cuts, 100.0, &m, 0.0).unwrap_err();
     assert!(e.contains("scratch 3") && e.contains(">= 0"), "{e}");
     assert!(check_cuts(&cuts, 100.0, &m, -0.5).is_ok());
     cuts[2].z = -0.6;
