@@ -21,6 +21,9 @@ layout(std430, binding = 7) readonly buffer Views64 { ViewGPU64 views64[]; };  /
 layout(std430, binding = 8) readonly buffer Lights { float intensity[]; };     // Phi per view
 // Per pixel, between passes (see inc/limits.glsl): sum I, sum A, pairs, candidates so far.
 layout(std430, binding = 9) buffer Carry { vec4 carry[]; };
+// The queue of every chunk, for the backward to replay (inc/tile_queue.glsl, SA_STORE_PAIRS).
+layout(std430, binding = 10) writeonly buffer PairStore { uint pstore[]; };
+#define SA_STORE_PAIRS
 
 #include "inc/shade_push.glsl"
 

@@ -13,7 +13,10 @@
 // the pair (the clipping of footprint and carved rectangle moves with the endpoints, width and
 // depth, and is differentiated with it); dual numbers carry 7 tangents through every operation.
 //
-// Work layout and order are forward.comp's (the tile loop of inc/tile_loop.glsl). For each
+// Work layout and order are forward.comp's (the tile loop of inc/tile_loop.glsl). With SA_REPLAY
+// (the default once a scene's forward stores its queues, see KernelSet::replay) the pairs are
+// not searched again: tile_replay walks the queues the forward stored, in the same order, so the
+// gradients are bit-identical to the search's (tests/replay.rs). For each
 // chunk, thread k < 64 adds scratch k's per-pair contributions in queue order (a per-round list
 // of its entries, see round_accumulate) and writes one
 // partial gradient per tile-list entry; grad_reduce.comp then adds a scratch's partials in
@@ -44,6 +47,9 @@ layout(std430, binding = 6) writeonly buffer Partials { vec4 partial[]; };  // 2
 layout(std430, binding = 7) readonly buffer Views64 { ViewGPU64 views64[]; };  // float64 cameras
 layout(std430, binding = 8) readonly buffer Lights { float intensity[]; };     // Phi per view
 layout(std430, binding = 9) buffer Stats { uint stats[]; };                    // [5], [6] (inc/limits.glsl)
+// SA_REPLAY: the forward's stored queues (inc/tile_queue.glsl), replayed instead of searching the
+// pairs again (tile_replay in inc/tile_loop.glsl).
+layout(std430, binding = 10) readonly buffer PairStore { uint pstore[]; };
 
 #include "inc/shade_push.glsl"
 
@@ -80,19 +86,25 @@ void pair_eval(uint i, uint px, uint k, bool fast) {
     pixel_footprint(px, fp);
     vec4 hh = sh_h[px];
     float ga = sh_ga[px];
-#ifdef SA_REVERSE
     vec4 r0;
     vec3 r1;
+#ifdef SA_REVERSE
     pair_adjoint(E, S, fp, hh.xyz, hh.w, ga, fast, r0, r1);
-    sh_c0[i] = r0;
-    sh_c1[i] = vec4(r1, 0.0);
 #else
     Dual I, A;
     pair_from_params(seed(E.x, 0), seed(E.y, 1), seed(E.z, 2), seed(E.w, 3), seed(S.x, 4), seed(S.y, 5), seed(S.z, 6),
                      fp, hh.xyz, fast, I, A);
-    sh_c0[i] = hh.w * I.g0 + ga * A.g0;
-    sh_c1[i] = vec4(hh.w * I.g1 + ga * A.g1, 0.0);
+    r0 = hh.w * I.g0 + ga * A.g0;
+    r1 = hh.w * I.g1 + ga * A.g1;
 #endif
+#ifdef SA_REPLAY
+    // A pixel with a zero seed (gI = 0, so gA = 0) has no pairs in tile_loop's queue; here it
+    // adds exact zeros, so sums (and bits) are the same (never -0: a sum that starts at +0 and
+    // adds +0 stays +0).
+    if (hh.w == 0.0) { r0 = vec4(0.0); r1 = vec3(0.0); }
+#endif
+    sh_c0[i] = r0;
+    sh_c1[i] = vec4(r1, 0.0);
 }
 
 // Scratch k's contributions of this round, in queue order, into thread k's private acc0/acc1.
@@ -156,7 +168,11 @@ void main() {
     }
     store_pixel(lid, P, gI);
     sh_ga[lid] = gA;
+#ifdef SA_REPLAY
+    tile_replay(begin, stop, lid);
+#else
     uint cand = 0u;
     tile_loop(begin, stop, V, t0, lid, live, P, cand);
+#endif
     if (loop_limit_hit(pc.sentinel)) { atomicOr(stats[6], 1u); atomicOr(stats[5], 1u); }
 }

@@ -71,7 +71,7 @@ fn rust_and_glsl_struct_layouts_agree() {
         pass: f() as u32,
         n_passes: f() as u32,
         sentinel: f() as u32,
-        pad0: f() as u32,
+        store_cap: f() as u32,
     };
     // Expected words: the Rust structs' own bytes, in field order.
     let mut expected: Vec<u32> = Vec::new();

@@ -14,6 +14,6 @@ layout(push_constant) uniform Push {
     uint pass;             // this pass: chunks [pass * chunks_per_pass, ...) of every tile
     uint n_passes;         // passes recorded (a tile with more chunks marks the render incomplete)
     uint sentinel;         // 2 (see loop_limit_hit in inc/limits.glsl)
-    uint pad0;
+    uint store_cap;        // entries the pair store holds (0: no store; see tile_queue.glsl)
 } pc;
 #endif

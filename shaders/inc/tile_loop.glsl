@@ -20,8 +20,8 @@
 //                             tile-list entry)
 // Call tile_loop from uniform control flow (it has barriers) after store_pixel.
 //
-// Include after the buffer bindings `views`, `scr`, `offs`, `list`, the push constants `pc`,
-// and a definition of QCAP.
+// Include after the buffer bindings `views`, `scr`, `offs`, `list` (and `pstore`, `stats` with
+// SA_STORE_PAIRS or SA_REPLAY), the push constants `pc`, and a definition of QCAP.
 #ifndef SA_TILE_LOOP_GLSL
 #define SA_TILE_LOOP_GLSL
 
@@ -102,6 +102,9 @@ void tile_loop(uint begin, uint end, ViewGPU V, uvec2 t0, uint lid, bool live, P
         pixel_masks(live, myblk, P, fmask, gmask, cand);
         uint nfast, total, fbase, gbase;
         queue_slots(lid, fmask, gmask, nfast, total, fbase, gbase);
+#ifdef SA_STORE_PAIRS
+        if (lid == 0u) store_chunk(c0, nfast, total);  // sh_store_base: seen after the round's barrier
+#endif
         for (uint r0 = 0u; r0 < total; r0 += QCAP) {
             enqueue(lid, fmask, fbase, r0);
             enqueue(lid, gmask, gbase, r0);
@@ -109,6 +112,9 @@ void tile_loop(uint begin, uint end, ViewGPU V, uvec2 t0, uint lid, bool live, P
             uint n = min(QCAP, total - r0);
             for (uint i = lid; i < n; i += 256u) {
                 uint e = sh_queue[i];
+#ifdef SA_STORE_PAIRS
+                if (sh_store_base != STORE_MISSING) pstore[2u * pc.capacity + sh_store_base + r0 + i] = e;
+#endif
                 pair_eval(i, e >> 8, e & 255u, r0 + i < nfast);
             }
             barrier();
@@ -120,5 +126,49 @@ void tile_loop(uint begin, uint end, ViewGPU V, uvec2 t0, uint lid, bool live, P
         chunk_end(lid, c0, cnt);
     }
 }
+
+#ifdef SA_REPLAY
+// The backward's replay of the forward's queue (see SA_STORE_PAIRS in tile_queue.glsl): the
+// chunks of [begin, end) with the queue entries the forward stored for them, in the forward's
+// order, so the block tests, the per-pixel candidate tests and the queue slots are not done
+// again. The hooks run as in tile_loop (round_accumulate gets no masks: the backward needs
+// none). A chunk the forward could not store marks the pass incomplete (stats[5], and bit 0 of
+// stats[14]): the host then grows the store and redoes the work. Pixels whose seed is zero are
+// in the forward's queue but not in tile_loop's (their pairs must add exact zeros: pair_eval's
+// job).
+void tile_replay(uint begin, uint end, uint lid) {
+    // A wrapped counter gave later chunks bases that overlap earlier ones: nothing is trusted.
+    if (lid == 0u && (stats[STAT_STORE_FLAGS] & 2u) != 0u) atomicOr(stats[5], 1u);
+    for (uint c0 = begin; c0 < end; c0 += CHUNK) {
+        barrier();
+        chunk_begin(lid);
+        if (lid < CHUNK && c0 + lid < end) {
+            uint si = list[c0 + lid];
+            scratch_loaded(lid, si, scr[si]);
+        }
+        uint base = pstore[2u * c0], packed = pstore[2u * c0 + 1u];
+        uint cnt = min(CHUNK, end - c0);
+        barrier();
+        if (base == STORE_MISSING) {  // uniform: every thread read the same words
+            if (lid == 0u) { atomicOr(stats[5], 1u); atomicOr(stats[STAT_STORE_FLAGS], 1u); }
+            continue;
+        }
+        uint nfast = packed & 0xFFFFu, total = packed >> 16;
+        uint off = 2u * pc.capacity + base;
+        for (uint r0 = 0u; r0 < total; r0 += QCAP) {
+            uint n = min(QCAP, total - r0);
+            for (uint i = lid; i < n; i += 256u) {
+                uint e = pstore[off + r0 + i];
+                sh_queue[i] = e;
+                pair_eval(i, e >> 8, e & 255u, r0 + i < nfast);
+            }
+            barrier();
+            round_accumulate(lid, r0, n, cnt, uvec2(0u), 0u, uvec2(0u), 0u);
+            if (r0 + QCAP < total) barrier();
+        }
+        chunk_end(lid, c0, cnt);
+    }
+}
+#endif
 
 #endif

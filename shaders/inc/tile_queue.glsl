@@ -14,8 +14,8 @@
 // Everything is in a fixed order: results do not depend on thread timing. The loop that drives
 // these steps is tile_loop.glsl.
 //
-// Include after the buffer bindings `views`, `scr`, `offs`, `list`, the push constants `pc`,
-// and a definition of QCAP.
+// Include after the buffer bindings `views`, `scr`, `offs`, `list` (and `pstore`, `stats` with
+// SA_STORE_PAIRS or SA_REPLAY), the push constants `pc`, and a definition of QCAP.
 #ifndef SA_TILE_QUEUE_GLSL
 #define SA_TILE_QUEUE_GLSL
 #extension GL_KHR_shader_subgroup_basic : require
@@ -129,6 +129,37 @@ float cull_bound(float area, float hb, float hz, float se, float alpha, float d_
     float den = max(1.0 - (1.0 - a2) * c2, a2 * a2);  // >= alpha^2 (c <= 1) up to rounding
     float dmax = (inside || ca > 0.0) ? a2 / (PI * den * den) : 0.0;
     return 1.01 * area * max(dmax, d_flat);
+}
+#endif
+
+#if defined(SA_STORE_PAIRS) || defined(SA_REPLAY)
+// The pair store (binding `pstore`, written by the forward with SA_STORE_PAIRS, read by the
+// backward's replay, tile_loop.glsl): words [0, 2 capacity) hold per chunk, at 2 c0 (c0: the
+// chunk's first tile-list entry), the base of its entries (STORE_MISSING: not stored) and
+// nfast | total << 16 (both at most 256 x 64 = 16384); the entries, each (pixel << 8) | scratch
+// as in sh_queue, follow from word 2 capacity, each chunk's contiguous and in queue order.
+// Bases come from a counter (stats[13]: the entries every chunk needed, so the host can size the
+// store); where a chunk's entries land depends on timing, what the backward reads does not.
+const uint STORE_MISSING = 0xFFFFFFFFu;
+const uint STAT_STORE_NEEDED = 13u;
+const uint STAT_STORE_FLAGS = 14u;  // bit 0: replay found a chunk not stored; bit 1: counter wrapped
+#endif
+
+#ifdef SA_STORE_PAIRS
+shared uint sh_store_base;         // this chunk's first entry in the store, or STORE_MISSING
+
+// Thread 0, once per chunk after queue_slots: a place for the chunk's `total` entries, if the
+// store (pc.store_cap entries; 0: no store) has room.
+void store_chunk(uint c0, uint nfast, uint total) {
+    uint b = atomicAdd(stats[STAT_STORE_NEEDED], total);
+    bool wrapped = b + total < b;
+    if (wrapped) atomicOr(stats[STAT_STORE_FLAGS], 2u);
+    bool ok = pc.store_cap != 0u && !wrapped && b + total <= pc.store_cap;
+    sh_store_base = ok ? b : STORE_MISSING;
+    if (pc.store_cap != 0u) {
+        pstore[2u * c0] = sh_store_base;
+        pstore[2u * c0 + 1u] = nfast | (total << 16);
+    }
 }
 #endif
 

@@ -26,5 +26,5 @@ void main() {
     }
     for (int k = 0; k < 2; ++k) { put4(scr[k].ends); put4(scr[k].shape); }
     for (int k = 0; k < 2; ++k) { put4d(views64[k].eye); put4d(views64[k].fwd); put4d(views64[k].right); put4d(views64[k].up); }
-    put(pc.half_plate); put(pc.alpha_s); put(pc.f0); put(pc.n_views); put(pc.n_groups); put(pc.n_tiles); put(pc.capacity); put(pc.chunks_per_pass); put(pc.pass); put(pc.n_passes); put(pc.sentinel); put(pc.pad0);
+    put(pc.half_plate); put(pc.alpha_s); put(pc.f0); put(pc.n_views); put(pc.n_groups); put(pc.n_tiles); put(pc.capacity); put(pc.chunks_per_pass); put(pc.pass); put(pc.n_passes); put(pc.sentinel); put(pc.store_cap);
 }

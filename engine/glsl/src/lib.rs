@@ -56,6 +56,44 @@ pub const PRECOMPILED: &[(&str, &[(&str, &str)])] = &[
         ],
     ),
     (
+        "grad.comp",
+        &[
+            ("SA_INTEGRATOR_CLOSED_FORM", "1"),
+            ("SA_EDGE_ADJOINT", "1"),
+            ("GRAD_QCAP", "256"),
+            ("SA_REPLAY", "1"),
+        ],
+    ),
+    (
+        "grad.comp",
+        &[
+            ("SA_INTEGRATOR_CLOSED_FORM", "1"),
+            ("SA_EDGE_ADJOINT", "1"),
+            ("GRAD_QCAP", "256"),
+            ("SA_NO_F64", "1"),
+            ("SA_REPLAY", "1"),
+        ],
+    ),
+    (
+        "grad.comp",
+        &[
+            ("SA_INTEGRATOR_CLOSED_FORM", "1"),
+            ("SA_EDGE_ADJOINT", "1"),
+            ("GRAD_QCAP", "512"),
+            ("SA_REPLAY", "1"),
+        ],
+    ),
+    (
+        "grad.comp",
+        &[
+            ("SA_INTEGRATOR_CLOSED_FORM", "1"),
+            ("SA_EDGE_ADJOINT", "1"),
+            ("GRAD_QCAP", "512"),
+            ("SA_NO_F64", "1"),
+            ("SA_REPLAY", "1"),
+        ],
+    ),
+    (
         "tangent.comp",
         &[("SA_INTEGRATOR_CLOSED_FORM", "1"), ("SA_EDGE_ADJOINT", "1")],
     ),

@@ -1,7 +1,8 @@
 //! The backward pass: gradients of a loss with respect to every scratch's parameters and every
-//! view's light intensity, from dE/dL per pixel. Kernels: `grad.comp` (per tile-list entry,
-//! dual-number differentiation of the forward pair integral), `grad_reduce.comp` (per scratch, in
-//! a fixed order) and `grad_light.comp`. Reuses the tile lists of the forward pass.
+//! view's light intensity, from dE/dL per pixel. Kernels: `grad.comp` (per tile-list entry, the
+//! pair's reverse sweep; over the pair queues the forward stored when the scene has a pair
+//! store, see [`super::kernels::KernelSet::replay`]), `grad_reduce.comp` (per scratch, in a fixed
+//! order) and `grad_light.comp`. Reuses the tile lists of the forward pass.
 use super::layout::ReducePush;
 use super::{GpuScene, Renderer};
 use crate::vulkan::{GpuError, Recorder};
@@ -35,12 +36,23 @@ impl Renderer {
             .grad
             .get()
             .expect("Renderer::prepare_backward() must be called before record_backward");
+        // Replay the forward's pair queues where the scene has them; else search the pairs (and,
+        // if the kernels replay, have the next complete submission size the store).
+        let kernel = match self.grad_replay.get() {
+            Some(replay) if gs.replay_ready() => replay,
+            Some(_) => {
+                gs.want_store();
+                grad
+            }
+            None => grad,
+        };
+        let [a, b, c, d, e, f, g, h, i, j] = super::backward_bindings(gs, &gs.dl, &gs.partials);
         super::record_passes(
             rec,
-            grad,
+            kernel,
             gs.bwd_plan,
             gs,
-            &super::backward_bindings(gs, &gs.dl, &gs.partials),
+            &[a, b, c, d, e, f, g, h, i, j, &gs.pair_store],
         );
         let push = ReducePush {
             n_scratches: gs.n_scratches,

@@ -174,12 +174,36 @@ impl ShadeKernel {
         matches!(self.mode, Mode::BackwardDual | Mode::Backward)
     }
 
+    /// Storage buffers the kernel binds: the forward and backward kernels 11 (the last is the
+    /// pair store the forward writes and the backward's replay reads, see [`KernelSet::replay`]),
+    /// the tangent kernel 10.
+    pub fn n_buffers(&self) -> u32 {
+        if self.mode == Mode::Tangent {
+            10
+        } else {
+            11
+        }
+    }
+
     /// The pipeline's name (validation messages and debug tools show it).
     pub fn name(&self) -> String {
         match self.mode {
             Mode::Backward => format!("{} [{}, reverse mode]", self.file(), self.integrator.name()),
             _ => format!("{} [{}]", self.file(), self.integrator.name()),
         }
+    }
+
+    /// The name of the replay build of this backward kernel (see [`KernelSet::replay`]).
+    pub fn replay_name(&self) -> String {
+        format!("{} [{}, replay]", self.file(), self.integrator.name())
+    }
+
+    /// The defines of the replay build of this backward kernel: [`defines`](Self::defines) and
+    /// `SA_REPLAY` (`tile_replay` in `shaders/inc/tile_loop.glsl`).
+    pub fn replay_defines(&self, info: &DeviceInfo) -> Vec<(&'static str, &'static str)> {
+        let mut defs = self.defines(info);
+        defs.push(("SA_REPLAY", "1"));
+        defs
     }
 
     /// The defines to compile [`file`](Self::file) with on a device described by `info`.
@@ -220,6 +244,13 @@ impl ShadeKernel {
 pub struct KernelSet {
     pub forward: ShadeKernel,
     pub backward: ShadeKernel,
+    /// Whether the backward replays the forward's pair queues (true for [`Mode::Backward`]):
+    /// the forward stores every chunk's queue, and the backward integrates the stored entries
+    /// instead of searching the pairs again (block tests, per-pixel candidate tests, queue
+    /// slots). Gradients are bit-identical either way (`tests/replay.rs`). The first backward on
+    /// a scene searches (it sizes the store); so does any backward whose scene's store does not
+    /// fit the device. The dual-number oracle ([`Mode::BackwardDual`]) always searches.
+    pub replay: bool,
 }
 
 impl KernelSet {
@@ -239,7 +270,13 @@ impl KernelSet {
                 integrator,
                 mode: backward,
             },
+            replay: backward == Mode::Backward,
         }
+    }
+
+    /// The same kernels with the backward searching the pairs itself every time (no replay).
+    pub fn without_replay(self) -> KernelSet {
+        KernelSet { replay: false, ..self }
     }
 }
 

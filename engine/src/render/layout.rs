@@ -120,7 +120,8 @@ pub struct ShadePush {
     pub n_passes: u32,
     /// 2 (the loop-limit sentinel of `shaders/inc/limits.glsl`)
     pub sentinel: u32,
-    pub pad0: u32,
+    /// entries the pair store holds (0: none; see `shaders/inc/tile_queue.glsl`)
+    pub store_cap: u32,
 }
 
 /// Where each view's tiles and pixels sit in the concatenated buffers.

@@ -50,19 +50,41 @@ pub struct Renderer {
     /// The backward kernel, compiled on first use (`prepare_backward`): it is the largest
     /// pipeline, and rendering or viewing never needs it.
     grad: std::sync::OnceLock<ComputePipeline>,
+    /// The backward kernel's replay build (`SA_REPLAY`), compiled with `grad` when
+    /// `kernels.replay`.
+    grad_replay: std::sync::OnceLock<ComputePipeline>,
     grad_reduce: ComputePipeline,
     grad_light: ComputePipeline,
     /// The tangent kernel (`tangent.comp`), compiled on first use ([`Renderer::tangents`]).
     tangent: std::sync::OnceLock<ComputePipeline>,
 }
 
-/// The pipeline of a shading kernel (forward or backward; both take 10 buffers and `ShadePush`).
 /// Compute shared memory the shading kernels need (lavapipe and desktop GPUs have 32 KiB or more).
 pub const MIN_SHARED_MEMORY: u32 = 32 * 1024;
 
+/// The pipeline of a shading kernel (forward, backward or tangent: `k.n_buffers()` buffers and
+/// `ShadePush`).
 fn shade_pipeline(ctx: &Arc<Context>, sc: &ShaderCompiler, k: &ShadeKernel) -> Result<ComputePipeline, GpuError> {
     let spirv = sc.compile(k.file(), &k.defines(ctx.info()))?;
-    ComputePipeline::from_spirv(ctx, &k.name(), &spirv, 10, std::mem::size_of::<ShadePush>() as u32)
+    ComputePipeline::from_spirv(
+        ctx,
+        &k.name(),
+        &spirv,
+        k.n_buffers(),
+        std::mem::size_of::<ShadePush>() as u32,
+    )
+}
+
+/// The replay build of a backward kernel (see [`KernelSet::replay`]).
+fn replay_pipeline(ctx: &Arc<Context>, sc: &ShaderCompiler, k: &ShadeKernel) -> Result<ComputePipeline, GpuError> {
+    let spirv = sc.compile(k.file(), &k.replay_defines(ctx.info()))?;
+    ComputePipeline::from_spirv(
+        ctx,
+        &k.replay_name(),
+        &spirv,
+        k.n_buffers(),
+        std::mem::size_of::<ShadePush>() as u32,
+    )
 }
 
 /// Output of a render: one image per view (row-major, top row first).
@@ -117,6 +139,7 @@ impl Renderer {
             kernels,
             forward: shade_pipeline(ctx, &sc, &kernels.forward)?,
             grad: std::sync::OnceLock::new(),
+            grad_replay: std::sync::OnceLock::new(),
             grad_reduce: ComputePipeline::new(ctx, &sc, "grad_reduce.comp", &[], 4, scan_push)?,
             grad_light: ComputePipeline::new(ctx, &sc, "grad_light.comp", &[], 5, 0)?,
             tangent: std::sync::OnceLock::new(),
@@ -128,13 +151,19 @@ impl Renderer {
         self.kernels
     }
 
-    /// Compiles the backward kernel if it is not compiled yet. Call before `record_backward`
-    /// (`gradients` and the design job do).
+    /// Compiles the backward kernel (and its replay build) if it is not compiled yet. Call
+    /// before `record_backward` (`gradients` and the design job do).
     pub fn prepare_backward(&self) -> Result<(), GpuError> {
         if self.grad.get().is_some() {
             return Ok(());
         }
-        let p = shade_pipeline(&self.ctx, &ShaderCompiler::embedded()?, &self.kernels.backward)?;
+        let sc = ShaderCompiler::embedded()?;
+        if self.kernels.replay {
+            let _ = self
+                .grad_replay
+                .set(replay_pipeline(&self.ctx, &sc, &self.kernels.backward)?);
+        }
+        let p = shade_pipeline(&self.ctx, &sc, &self.kernels.backward)?;
         let _ = self.grad.set(p);
         Ok(())
     }
@@ -254,6 +283,7 @@ impl Renderer {
                 &gs.views64,
                 &gs.lights,
                 &gs.carry,
+                &gs.pair_store,
             ],
         );
     }
@@ -292,6 +322,7 @@ impl Renderer {
             let timings = rec.submit_and_wait()?;
             let raw = gs.raw_stats()?;
             if gs.complete(&raw) {
+                gs.after_complete(&self.ctx, &raw)?;
                 return Ok((GpuScene::counters(&raw), timings));
             }
             gs.adapt(&self.ctx, &raw)?;

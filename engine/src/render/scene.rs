@@ -114,7 +114,21 @@ pub struct GpuScene {
     pub(super) bwd_plan: PassPlan,
     /// per pixel: the forward kernel's sums between passes (a placeholder until needed)
     pub(super) carry: Buffer,
+    /// The forward's pair queues for the backward's replay (`shaders/inc/tile_queue.glsl`):
+    /// 2 words per tile-list entry (the chunk records), then `shade.store_cap` entries. A
+    /// placeholder while `shade.store_cap` is 0.
+    pub(super) pair_store: Buffer,
+    /// A backward without replay was recorded although the kernels replay: size the store after
+    /// the next complete submission ([`after_complete`](Self::after_complete)).
+    store_wanted: std::sync::atomic::AtomicBool,
+    /// The store does not fit the device (or its counter wrapped): backward passes search.
+    store_off: bool,
 }
+
+/// Stats words of the pair store (`shaders/inc/tile_queue.glsl`): entries the forward's chunks
+/// needed, and flags (bit 0: the replay found a chunk not stored; bit 1: the counter wrapped).
+const STAT_STORE_NEEDED: usize = 13;
+const STAT_STORE_FLAGS: usize = 14;
 
 impl GpuScene {
     /// Uploads a (validated) scene. Fails with a clear error when a buffer would exceed the
@@ -172,7 +186,7 @@ impl GpuScene {
                 pass: 0,
                 n_passes: 1,
                 sentinel: 2,
-                pad0: 0,
+                store_cap: 0,
             },
             views: host("views", bytemuck::cast_slice(&slots.views))?,
             views64: host("views (float64 cameras)", bytemuck::cast_slice(&slots.views64))?,
@@ -199,6 +213,9 @@ impl GpuScene {
             fwd_plan: PassPlan::ONE,
             bwd_plan: PassPlan::ONE,
             carry: gpu_only("shading carry (unused: one pass)", 16)?,
+            pair_store: gpu_only("pair store (unused: no replay yet)", 16)?,
+            store_wanted: std::sync::atomic::AtomicBool::new(false),
+            store_off: false,
             n_scratches,
             n_groups,
             slots,
@@ -284,7 +301,82 @@ impl GpuScene {
         if !self.bwd_plan.covers(max_chunks) {
             self.bwd_plan = PassPlan::covering(self.bwd_plan.chunks_per_pass, max_chunks);
         }
+        if raw[STAT_STORE_FLAGS] & 2 != 0 {
+            self.drop_store(ctx, true)?;
+        } else if raw[STAT_STORE_FLAGS] & 1 != 0 {
+            // The replay met a chunk the forward could not store: a store for all of them.
+            self.size_store(ctx, raw[STAT_STORE_NEEDED] as u64)?;
+        }
         self.ensure_carry(ctx)
+    }
+
+    /// After a complete submission: the pair store, if a backward asked for one
+    /// ([`want_store`](Self::want_store)), sized by what this render's forward needed.
+    pub(super) fn after_complete(&mut self, ctx: &std::sync::Arc<Context>, raw: &[u32]) -> Result<(), GpuError> {
+        if self.store_wanted.swap(false, std::sync::atomic::Ordering::Relaxed)
+            && self.shade.store_cap == 0
+            && !self.store_off
+        {
+            if raw[STAT_STORE_FLAGS] & 2 != 0 {
+                return self.drop_store(ctx, true);
+            }
+            self.size_store(ctx, raw[STAT_STORE_NEEDED] as u64)?;
+        }
+        Ok(())
+    }
+
+    /// Records that a backward searched the pairs although it could replay them: the next
+    /// complete submission sizes the store.
+    pub(super) fn want_store(&self) {
+        self.store_wanted.store(true, std::sync::atomic::Ordering::Relaxed);
+    }
+
+    /// Whether the forward stores its pair queues, so the backward can replay them.
+    pub fn replay_ready(&self) -> bool {
+        self.shade.store_cap > 0
+    }
+
+    /// Entries the pair store holds (0: none).
+    pub fn store_capacity(&self) -> u32 {
+        self.shade.store_cap
+    }
+
+    /// Test hook: a pair store of `entries` entries, whatever the scene needs (a forward that
+    /// needs more leaves chunks out, and a replay that meets one must not be trusted).
+    #[doc(hidden)]
+    pub fn force_store_capacity(&mut self, ctx: &std::sync::Arc<Context>, entries: u32) -> Result<(), GpuError> {
+        let words = 2 * self.capacity as u64 + entries as u64;
+        self.pair_store = Buffer::new(ctx, "pair store", words * 4, MemLoc::GpuOnly)?;
+        self.shade.store_cap = entries;
+        Ok(())
+    }
+
+    /// A pair store for `needed` entries (plus slack), or none when it would pass the device's
+    /// storage-buffer limit (backward passes then search the pairs: slower, same results).
+    fn size_store(&mut self, ctx: &std::sync::Arc<Context>, needed: u64) -> Result<(), GpuError> {
+        let cap = needed + needed / 4 + 4096;
+        let words = 2 * self.capacity as u64 + cap;
+        if cap > u32::MAX as u64 || words * 4 > ctx.info().max_storage_buffer_range {
+            return self.drop_store(ctx, true);
+        }
+        match Buffer::new(ctx, "pair store", words * 4, MemLoc::GpuOnly) {
+            Ok(b) => {
+                self.pair_store = b;
+                self.shade.store_cap = cap as u32;
+                Ok(())
+            }
+            // Out of device memory: the replay is an optimization, go on without it.
+            Err(GpuError::OutOfMemory { .. } | GpuError::Allocation { .. }) => self.drop_store(ctx, true),
+            Err(e) => Err(e),
+        }
+    }
+
+    /// No pair store (`off`: not again for this scene; else until a backward asks for one).
+    fn drop_store(&mut self, ctx: &std::sync::Arc<Context>, off: bool) -> Result<(), GpuError> {
+        self.store_off |= off;
+        self.shade.store_cap = 0;
+        self.pair_store = Buffer::new(ctx, "pair store (unused)", 16, MemLoc::GpuOnly)?;
+        Ok(())
     }
 
     /// The buffer of per-pixel sums between forward passes, once there is more than one.
@@ -463,7 +555,11 @@ impl GpuScene {
         self.partials = Buffer::new(ctx, "partial gradients", want * 32, MemLoc::GpuOnly)?;
         self.capacity = want as u32;
         self.shade.capacity = self.capacity;
-        Ok(())
+        // The store's chunk records are laid out by list position: a new store when asked.
+        if self.shade.store_cap > 0 {
+            self.want_store();
+        }
+        self.drop_store(ctx, false)
     }
 
     /// Replaces the scratches (same number: the binning's sizes depend on it). Returns false
