@@ -31,9 +31,15 @@ done
 #    on whole scenes (target/release/examples/adaptive_gain, copied into BIN with the others).
 "$BIN/scratchart" study --out /tmp/study > /dev/null 2>&1 && cp /tmp/study/verdict.txt "$OUT/study_verdict.txt"
 AGB="$BIN/adaptive_gain"; [ -x "$AGB" ] || AGB="$BIN/examples/adaptive_gain"
+if [ "$QUICK" = quick ]; then AG="S"; else AG="S M P"; fi
 if [ -x "$AGB" ]; then
-  if [ "$QUICK" = quick ]; then AG="S"; else AG="S M P"; fi
   "$AGB" $AG --repeats 7 > "$OUT/adaptive.md" 2>&1
+fi
+# 6. What the backward's replay of the forward's pair queues gains over searching the pairs again
+#    (target/release/examples/replay_gain; its table goes into adaptive.md: 8 files at most).
+RGB="$BIN/replay_gain"; [ -x "$RGB" ] || RGB="$BIN/examples/replay_gain"
+if [ -x "$RGB" ]; then
+  { echo; echo "### replay against search"; "$RGB" $AG --repeats 7; } >> "$OUT/adaptive.md" 2>&1
 fi
 
 {
@@ -42,7 +48,7 @@ fi
   echo; echo "## bench, pair search without bands"; grep -E '^\| [A-Z]' "$OUT/bench_nobands.md" | head -8
   echo; echo "## design $DESIGN"; cat "$OUT/design1.log" "$OUT/design2.log" | grep -E 'wall'
   echo; echo "## viewer 1920x1080"; tail -n 12 "$OUT/viewer.md"
-  echo; echo "## adaptive against the closed form"; cat "$OUT/adaptive.md" 2>/dev/null
+  echo; echo "## adaptive against the closed form; the backward's replay against search"; cat "$OUT/adaptive.md" 2>/dev/null
   echo; echo "## study verdict"; tail -n 4 "$OUT/study_verdict.txt" 2>/dev/null
 } > "$OUT/summary.md"
 cat "$OUT/summary.md"
