@@ -7,28 +7,12 @@
 //!   cargo run --release -p scratchart --example adaptive_gain -- [SCENE ...] [--repeats N]
 //! SCENE: a bench size (S, M, P) or a scene file (a design's `design.json`); default S M.
 use scratchart::bench::median;
-use scratchart::model::scene::Scene;
 use scratchart::render::kernels::{Integrator, KernelSet};
 use scratchart::render::Renderer;
 use scratchart::vulkan::{Context, ContextDesc};
 
 fn main() -> anyhow::Result<()> {
-    let mut names = Vec::new();
-    let mut reps = 7usize;
-    let mut args = std::env::args().skip(1);
-    while let Some(a) = args.next() {
-        if a == "--repeats" {
-            reps = args
-                .next()
-                .ok_or_else(|| anyhow::anyhow!("--repeats needs a number"))?
-                .parse()?;
-        } else {
-            names.push(a);
-        }
-    }
-    if names.is_empty() {
-        names = vec!["S".into(), "M".into()];
-    }
+    let (names, reps) = scratchart::bench::example_args(7)?;
     let ctx = Context::new(ContextDesc::default())?;
     println!("device: {}", ctx.info().name);
     let cf = Renderer::with_kernels(&ctx, KernelSet::with_integrator(Integrator::ClosedForm))?;
@@ -38,10 +22,7 @@ fn main() -> anyhow::Result<()> {
     );
     println!("|---|---:|---:|---:|---:|---:|---:|");
     for name in &names {
-        let scene = match scratchart::scenes::bench_scene(name) {
-            Some(s) => s,
-            None => Scene::load(std::path::Path::new(name))?,
-        };
+        let scene = scratchart::bench::scene_named(name)?;
         let mut gc = cf.upload(&scene)?;
         let mut ga = ad.upload(&scene)?;
         let fc = cf.render(&mut gc)?;

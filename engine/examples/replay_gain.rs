@@ -6,28 +6,12 @@
 //!   cargo run --release -p scratchart --example replay_gain -- [SCENE ...] [--repeats N]
 //! SCENE: a bench size (S, M, P) or a scene file (a design's `design.json`); default S M.
 use scratchart::bench::{median, perturbed_target_dl};
-use scratchart::model::scene::Scene;
 use scratchart::render::kernels::KernelSet;
 use scratchart::render::Renderer;
 use scratchart::vulkan::{Context, ContextDesc, Recorder};
 
 fn main() -> anyhow::Result<()> {
-    let mut names = Vec::new();
-    let mut reps = 5usize;
-    let mut args = std::env::args().skip(1);
-    while let Some(a) = args.next() {
-        if a == "--repeats" {
-            reps = args
-                .next()
-                .ok_or_else(|| anyhow::anyhow!("--repeats needs a number"))?
-                .parse()?;
-        } else {
-            names.push(a);
-        }
-    }
-    if names.is_empty() {
-        names = vec!["S".into(), "M".into()];
-    }
+    let (names, reps) = scratchart::bench::example_args(5)?;
     let ctx = Context::new(ContextDesc::default())?;
     println!("device: {}", ctx.info().name);
     let replay = Renderer::new(&ctx)?;
@@ -37,10 +21,7 @@ fn main() -> anyhow::Result<()> {
     println!("| scene | pairs | forward ms: search / replay | backward ms: search / replay | backward: search / replay | forward + backward: search / replay | bits |");
     println!("|---|---:|---:|---:|---:|---:|---|");
     for name in &names {
-        let scene = match scratchart::scenes::bench_scene(name) {
-            Some(s) => s,
-            None => Scene::load(std::path::Path::new(name))?,
-        };
+        let scene = scratchart::bench::scene_named(name)?;
         let mut gr = replay.upload(&scene)?;
         let mut gs = search.upload(&scene)?;
         let first = search.render(&mut gs)?;

@@ -151,6 +151,36 @@ pub fn perturbed_target_dl(images: &[Vec<f32>]) -> Vec<f32> {
         .collect()
 }
 
+/// The arguments of the side-by-side examples (`examples/adaptive_gain.rs`,
+/// `examples/replay_gain.rs`): scene names and `--repeats N` (default `repeats`); no names give
+/// S and M.
+pub fn example_args(repeats: usize) -> anyhow::Result<(Vec<String>, usize)> {
+    let (mut names, mut reps) = (Vec::new(), repeats);
+    let mut args = std::env::args().skip(1);
+    while let Some(a) = args.next() {
+        if a == "--repeats" {
+            reps = args
+                .next()
+                .ok_or_else(|| anyhow::anyhow!("--repeats needs a number"))?
+                .parse()?;
+        } else {
+            names.push(a);
+        }
+    }
+    if names.is_empty() {
+        names = vec!["S".into(), "M".into()];
+    }
+    Ok((names, reps))
+}
+
+/// A bench size (`S`, `M`, `P`, `L`, `NxVxR`) or a scene file (a design's `design.json`).
+pub fn scene_named(name: &str) -> anyhow::Result<Scene> {
+    match crate::scenes::bench_scene(name) {
+        Some(s) => Ok(s),
+        None => Ok(Scene::load(std::path::Path::new(name))?),
+    }
+}
+
 /// Markdown table of forward rows.
 pub fn forward_table(ctx: &Context, rows: &[ForwardRow]) -> String {
     let mut s = String::new();
