@@ -13,7 +13,7 @@
 //   [11] pairs the forward of the integrator `adaptive` dropped by their bound (SA_CULL_PAIRS in
 //       tile_queue.glsl), [12] its high word
 //   [13] queue entries the forward's chunks needed in the pair store (SA_STORE_PAIRS in
-//       tile_queue.glsl), [14] pair-store flags: bit 0 the backward's replay met a chunk that
+//       tile_queue.glsl; counted while the scene has a store), [14] pair-store flags: bit 0 the backward's replay met a chunk that
 //       was not stored (it also sets [5]), bit 1 the counter [13] wrapped
 //
 // The loop limit: Mesa's llvmpipe (lavapipe) ends every loop of a shader invocation once the

@@ -138,7 +138,7 @@ float cull_bound(float area, float hb, float hz, float se, float alpha, float d_
 // chunk's first tile-list entry), the base of its entries (STORE_MISSING: not stored) and
 // nfast | total << 16 (both at most 256 x 64 = 16384); the entries, each (pixel << 8) | scratch
 // as in sh_queue, follow from word 2 capacity, each chunk's contiguous and in queue order.
-// Bases come from a counter (stats[13]: the entries every chunk needed, so the host can size the
+// Bases come from a counter (stats[13]: the entries every chunk needed, so the host can grow the
 // store); where a chunk's entries land depends on timing, what the backward reads does not.
 const uint STORE_MISSING = 0xFFFFFFFFu;
 const uint STAT_STORE_NEEDED = 13u;
@@ -149,17 +149,17 @@ const uint STAT_STORE_FLAGS = 14u;  // bit 0: replay found a chunk not stored; b
 shared uint sh_store_base;         // this chunk's first entry in the store, or STORE_MISSING
 
 // Thread 0, once per chunk after queue_slots: a place for the chunk's `total` entries, if the
-// store (pc.store_cap entries; 0: no store) has room.
+// store (pc.store_cap entries; 0: no store, and no counting: a render for display pays nothing)
+// has room.
 void store_chunk(uint c0, uint nfast, uint total) {
+    sh_store_base = STORE_MISSING;
+    if (pc.store_cap == 0u) return;
     uint b = atomicAdd(stats[STAT_STORE_NEEDED], total);
     bool wrapped = b + total < b;
     if (wrapped) atomicOr(stats[STAT_STORE_FLAGS], 2u);
-    bool ok = pc.store_cap != 0u && !wrapped && b + total <= pc.store_cap;
-    sh_store_base = ok ? b : STORE_MISSING;
-    if (pc.store_cap != 0u) {
-        pstore[2u * c0] = sh_store_base;
-        pstore[2u * c0 + 1u] = nfast | (total << 16);
-    }
+    if (!wrapped && b + total <= pc.store_cap) sh_store_base = b;
+    pstore[2u * c0] = sh_store_base;
+    pstore[2u * c0 + 1u] = nfast | (total << 16);
 }
 #endif
 

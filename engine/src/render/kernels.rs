@@ -248,8 +248,8 @@ pub struct KernelSet {
     /// the forward stores every chunk's queue, and the backward integrates the stored entries
     /// instead of searching the pairs again (block tests, per-pixel candidate tests, queue
     /// slots). Gradients are bit-identical either way (`tests/replay.rs`). The first backward on
-    /// a scene searches (it sizes the store); so does any backward whose scene's store does not
-    /// fit the device. The dual-number oracle ([`Mode::BackwardDual`]) always searches.
+    /// a scene searches (the store is sized after it); so does any backward whose scene's store
+    /// does not fit the device. The dual-number oracle ([`Mode::BackwardDual`]) always searches.
     pub replay: bool,
 }
 

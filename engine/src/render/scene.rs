@@ -311,16 +311,15 @@ impl GpuScene {
     }
 
     /// After a complete submission: the pair store, if a backward asked for one
-    /// ([`want_store`](Self::want_store)), sized by what this render's forward needed.
+    /// ([`want_store`](Self::want_store)), sized by this render's pairs (its queues hold a few
+    /// more, pairs whose boxes overlap but not their areas: the slack covers them, and a store
+    /// still too small is grown by the replay's check).
     pub(super) fn after_complete(&mut self, ctx: &std::sync::Arc<Context>, raw: &[u32]) -> Result<(), GpuError> {
         if self.store_wanted.swap(false, std::sync::atomic::Ordering::Relaxed)
             && self.shade.store_cap == 0
             && !self.store_off
         {
-            if raw[STAT_STORE_FLAGS] & 2 != 0 {
-                return self.drop_store(ctx, true);
-            }
-            self.size_store(ctx, raw[STAT_STORE_NEEDED] as u64)?;
+            self.size_store(ctx, Self::counters(raw).pairs)?;
         }
         Ok(())
     }
