@@ -375,9 +375,7 @@ fn resume_is_bit_identical() {
     let mut cfg_b = quiet_config(out_b.clone(), iters);
     cfg_b.checkpoint_every = 4;
     cfg_b.hooks.stop_at = Some(10);
-    let err = run_design(&ctx, &p, &cfg_b, &Silent)
-        .err()
-        .expect("the hook stops the run");
+    let err = run_design(&ctx, &p, &cfg_b, &Silent).expect_err("the hook stops the run");
     assert!(err.to_string().contains("stopped"), "{err}");
     cfg_b.hooks.stop_at = None;
     cfg_b.resume = true;
@@ -414,9 +412,7 @@ fn resume_is_bit_identical() {
     let mut cfg_d = quiet_config(out_a.clone(), iters);
     cfg_d.resume = true;
     cfg_d.loss.lambda_g = 0.5;
-    let err = run_design(&ctx, &p, &cfg_d, &Silent)
-        .err()
-        .expect("mismatched resume must fail");
+    let err = run_design(&ctx, &p, &cfg_d, &Silent).expect_err("mismatched resume must fail");
     assert!(
         err.to_string().contains("different settings") && err.to_string().contains("loss"),
         "{err}"

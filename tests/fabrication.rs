@@ -174,9 +174,7 @@ fn v_bit_design_stays_on_the_tool_curve_and_resumes_bit_exactly() {
     cfg_b.checkpoint_every = 3;
     cfg_b.prune = cfg.prune;
     cfg_b.hooks.stop_at = Some(7);
-    let err = run_design(&ctx, &p, &cfg_b, &Silent)
-        .err()
-        .expect("the hook stops the run");
+    let err = run_design(&ctx, &p, &cfg_b, &Silent).expect_err("the hook stops the run");
     assert!(err.to_string().contains("stopped"), "{err}");
     cfg_b.hooks.stop_at = None;
     cfg_b.resume = true;

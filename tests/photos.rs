@@ -43,7 +43,7 @@ fn framing_in_every_view_of_the_ring() {
         let b = silhouette_box(&v, 100.0).unwrap();
         let fill = ((b[2] - b[0]) / 112.0).max((b[3] - b[1]) / 112.0);
         eprintln!("view {}: silhouette fills {:.1}% of the frame", v.name, 100.0 * fill);
-        assert!(fill >= 0.9 && fill <= 1.0 + 1e-9, "view {}: fill {fill}", v.name);
+        assert!((0.9..=1.0 + 1e-9).contains(&fill), "view {}: fill {fill}", v.name);
         let q = silhouette(&v, 100.0).unwrap();
         for aspect in [1.0, 1.6, 0.625] {
             let r = largest_rect(&q, aspect, 112.0, 112.0).unwrap();
@@ -256,7 +256,7 @@ fn awkward_target_files() {
         .unwrap();
     // RGBA: white, half transparent -> 0.5
     let rgba = dir.join("rgba.png");
-    image::RgbaImage::from_raw(2, 2, vec![255, 255, 255, 128].repeat(4))
+    image::RgbaImage::from_raw(2, 2, [255, 255, 255, 128].repeat(4))
         .unwrap()
         .save(&rgba)
         .unwrap();

@@ -95,10 +95,7 @@ fn px(img: &image::RgbImage, x: f64, y: f64) -> [u8; 3] {
 
 /// The numbers after `key` in `line` (e.g. "x" -> the value after " x ").
 fn num_after(line: &str, key: &str) -> f64 {
-    let toks: Vec<&str> = line
-        .split(|c: char| c == ' ' || c == ',')
-        .filter(|t| !t.is_empty())
-        .collect();
+    let toks: Vec<&str> = line.split([' ', ',']).filter(|t| !t.is_empty()).collect();
     let i = toks
         .iter()
         .position(|t| *t == key)

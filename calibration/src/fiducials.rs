@@ -392,7 +392,8 @@ pub fn find_fiducials(
     });
     let distinct =
         (0..4).all(|i| (i + 1..4).all(|j| (found[i][0] - found[j][0]).hypot(found[i][1] - found[j][1]) > 2.0 * arm));
-    if !convex || !distinct || !(af / an > 0.3 && af / an < 3.0) {
+    let plausible_area = af / an > 0.3 && af / an < 3.0; // false for NaN too
+    if !convex || !distinct || !plausible_area {
         return Err(format!(
             "the corner crosses do not form the card's quadrilateral (found at {:?}, expected near {:?})",
             found.map(|p| [p[0].round(), p[1].round()]),

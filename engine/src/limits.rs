@@ -74,7 +74,7 @@ impl SceneDims {
             let pyr = self.pixels + self.pixels / 3 + self.views;
             b.push(("loss filter responses (5 per pyramid pixel)", pyr * 5 * 4));
         }
-        b.sort_by(|a, b| b.1.cmp(&a.1));
+        b.sort_by_key(|b| std::cmp::Reverse(b.1));
         b
     }
 

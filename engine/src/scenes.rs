@@ -71,6 +71,7 @@ pub fn orbit_light(distance: f64, elevation_deg: f64, azimuth_deg: f64, intensit
 
 /// `n` random scratches over a square plate of side `plate_mm`: uniform first endpoint, uniform
 /// direction, length uniform in [len_lo, len_hi]; redrawn until both ends are on the plate.
+#[allow(clippy::too_many_arguments)] // the scratch family's parameters, named at every call
 pub fn random_scratches(
     rng: &mut Rng,
     n: usize,

@@ -64,6 +64,7 @@ impl Row {
     }
 }
 
+#[allow(clippy::too_many_arguments)] // a regime's camera and lamp, named at every call
 fn view(
     name: &str,
     res: u32,

@@ -294,9 +294,8 @@ impl Controller for Grbl {
             Reply::Stopped(format!(
                 "the controller reset itself (`{line}`): the position may be lost"
             ))
-        } else if line.starts_with('[') || line.starts_with('$') {
-            Reply::Info(line.to_string())
         } else {
+            // `[...]` and `$...` reports, and anything else: shown, never acted on.
             Reply::Info(line.to_string())
         }
     }

@@ -189,9 +189,13 @@ impl Controller for Marlin {
             } else {
                 Reply::Info(l.to_string())
             }
-        } else if l.starts_with("echo:busy") || l.starts_with("busy:") {
-            Reply::Ignore
-        } else if l.starts_with("T:") || l.contains(" T:") || l.starts_with("B:") {
+        } else if l.starts_with("echo:busy")
+            || l.starts_with("busy:")
+            || l.starts_with("T:")
+            || l.contains(" T:")
+            || l.starts_with("B:")
+        {
+            // Busy keep-alives and temperature reports.
             Reply::Ignore
         } else if l == "start" {
             Reply::Stopped("the printer restarted (`start`): the position may be lost".into())

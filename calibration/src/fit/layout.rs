@@ -180,12 +180,12 @@ impl Layout {
             }
         };
         x.push(0.1);
-        x.extend(std::iter::repeat(0.0).take(self.n_views));
+        x.extend(std::iter::repeat_n(0.0, self.n_views));
         x.push(0.5);
         if self.reg {
-            x.extend(std::iter::repeat(0.0).take(2 * self.n_views));
+            x.extend(std::iter::repeat_n(0.0, 2 * self.n_views));
         }
-        x.extend(std::iter::repeat(0.0).take(3 * self.pose_at.iter().flatten().count()));
+        x.extend(std::iter::repeat_n(0.0, 3 * self.pose_at.iter().flatten().count()));
         x
     }
 

@@ -22,6 +22,9 @@ use crate::render::layout::{ScratchGpu, ViewGpu};
 use crate::render::{GpuScene, Renderer};
 use crate::vulkan::{Context, GpuError};
 
+/// One image per view (row-major f32, top row first).
+pub type Images = Vec<Vec<f32>>;
+
 /// A design problem: plate, views (with their lights), initial scratches, one target per view
 /// (display values in [0, 1], W x H, top row first).
 #[derive(Clone, Debug)]
@@ -243,8 +246,9 @@ impl<'r> Optimizer<'r> {
         })
     }
 
-    /// Renders the current state and returns the display images (and the linear ones).
-    pub fn render(&mut self) -> Result<(Vec<Vec<f32>>, Vec<Vec<f32>>), GpuError> {
+    /// Renders the current state and returns the display images (and the linear ones), one
+    /// per view.
+    pub fn render(&mut self) -> Result<(Images, Images), GpuError> {
         if let Some(t) = &self.tool {
             t.apply(&self.renderer.ctx, &self.driver.gs)?;
         }

@@ -143,7 +143,7 @@ impl ToolTable {
         let z_lo = z_first + FIRST_CUT_MM;
         let deep = |z: f64| {
             tool.section(z)
-                .map_or(false, |s| s.width >= w_max || s.depth >= depth_max)
+                .is_some_and(|s| s.width >= w_max || s.depth >= depth_max)
         };
         if deep(z_lo) {
             let w = tool.section(z_lo).map_or(f64::NAN, |s| s.width);

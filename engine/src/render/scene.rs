@@ -61,7 +61,7 @@ impl PassPlan {
     /// After the loop limit was hit: half the chunks per pass (of what the largest tile needs).
     fn split(&self, max_chunks: u32) -> Option<u32> {
         let cur = self.chunks_per_pass.min(max_chunks.max(1));
-        (cur > 1).then(|| cur / 2)
+        (cur > 1).then_some(cur / 2)
     }
 }
 

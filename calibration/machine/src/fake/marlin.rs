@@ -127,7 +127,12 @@ impl FakeMarlin {
                         continue;
                     }
                     let star = star.unwrap();
-                    let body = line[..star].splitn(2, ' ').nth(1).unwrap_or("").trim().to_string();
+                    let body = line[..star]
+                        .split_once(' ')
+                        .map(|x| x.1)
+                        .unwrap_or("")
+                        .trim()
+                        .to_string();
                     last_n = n.unwrap();
                     line = body;
                 } else if line.contains('*') {
