@@ -262,3 +262,68 @@ pub fn workspace_bin(package: &str, name: &str) -> std::path::PathBuf {
 pub fn viewer_bin() -> std::path::PathBuf {
     workspace_bin("scratchart-view", "scratchart-view")
 }
+
+/// An X server for the window tests: $DISPLAY when set, else a private Xvfb, killed on drop.
+/// Xvfb picks a free display itself and reports it (`-displayfd`), so tests that start servers
+/// at the same time never share one (a test that took another's server lost its windows when
+/// that test ended), and stale lock files of killed servers are Xvfb's to clear.
+pub struct XServer {
+    pub display: String,
+    xvfb: Option<std::process::Child>,
+}
+
+impl XServer {
+    pub fn start() -> XServer {
+        use std::io::{BufRead, Read};
+        if let Some(d) = std::env::var("DISPLAY").ok().filter(|d| !d.is_empty()) {
+            return XServer { display: d, xvfb: None };
+        }
+        let mut child = std::process::Command::new("Xvfb")
+            .args(["-displayfd", "1", "-screen", "0", "1280x1024x24", "-nolisten", "tcp"])
+            .stdout(std::process::Stdio::piped())
+            .stderr(std::process::Stdio::null())
+            .spawn()
+            .expect("Xvfb is needed for the window tests (apt install xvfb)");
+        let out = child.stdout.take().expect("piped stdout");
+        let (tx, rx) = std::sync::mpsc::channel();
+        // The first line is the display number, written once the server accepts connections;
+        // the pipe is then read to its end, so the server never writes into a closed pipe.
+        std::thread::spawn(move || {
+            let mut reader = std::io::BufReader::new(out);
+            let mut line = String::new();
+            let _ = reader.read_line(&mut line);
+            let _ = tx.send(line);
+            let _ = reader.read_to_end(&mut Vec::new());
+        });
+        let mut server = XServer {
+            display: String::new(),
+            xvfb: Some(child),
+        };
+        let line = rx.recv_timeout(std::time::Duration::from_secs(30)).unwrap_or_default();
+        match line.trim().parse::<u32>() {
+            Ok(n) => server.display = format!(":{n}"),
+            Err(_) => panic!("Xvfb did not report a display within 30 s (-displayfd): {line:?}"),
+        }
+        server
+    }
+
+    /// Runs `prog args` on this display; panics unless it succeeds. Returns its stdout, trimmed.
+    pub fn run(&self, prog: &str, args: &[&str]) -> String {
+        let out = std::process::Command::new(prog)
+            .args(args)
+            .env("DISPLAY", &self.display)
+            .output()
+            .unwrap_or_else(|e| panic!("{prog}: {e}"));
+        assert!(out.status.success(), "{prog} {args:?} failed");
+        String::from_utf8_lossy(&out.stdout).trim().to_string()
+    }
+}
+
+impl Drop for XServer {
+    fn drop(&mut self) {
+        if let Some(c) = self.xvfb.as_mut() {
+            let _ = c.kill();
+            let _ = c.wait();
+        }
+    }
+}

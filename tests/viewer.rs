@@ -19,7 +19,7 @@ use std::time::{Duration, Instant};
 
 use scratchart::render::Renderer;
 use scratchart::vulkan::{Context, ContextDesc};
-use scratchart_tests::{viewer_bin, workspace_root};
+use scratchart_tests::{viewer_bin, workspace_root, XServer};
 
 fn tmp_dir(name: &str) -> PathBuf {
     let d = std::env::temp_dir().join(format!("scratchart-view-test-{}-{name}", std::process::id()));
@@ -154,66 +154,6 @@ fn frames_flag_exits_on_a_still_scene() {
         took < Duration::from_secs(100),
         "--frames 6 took {took:?}: it waited for --exit-after"
     );
-}
-
-/// An X server for the window tests: $DISPLAY when set, else our own Xvfb (killed on drop).
-struct XServer {
-    display: String,
-    xvfb: Option<Child>,
-}
-
-impl XServer {
-    fn start() -> XServer {
-        if let Ok(d) = std::env::var("DISPLAY") {
-            if !d.is_empty() {
-                return XServer { display: d, xvfb: None };
-            }
-        }
-        for n in 90..200 {
-            let sock = PathBuf::from(format!("/tmp/.X11-unix/X{n}"));
-            let lock = PathBuf::from(format!("/tmp/.X{n}-lock"));
-            if sock.exists() || lock.exists() {
-                continue;
-            }
-            let child = Command::new("Xvfb")
-                .args([
-                    format!(":{n}").as_str(),
-                    "-screen",
-                    "0",
-                    "1280x1024x24",
-                    "-nolisten",
-                    "tcp",
-                ])
-                .stdout(Stdio::null())
-                .stderr(Stdio::null())
-                .spawn()
-                .expect("Xvfb is needed for the window tests (apt install xvfb)");
-            let mut server = XServer {
-                display: format!(":{n}"),
-                xvfb: Some(child),
-            };
-            let t0 = Instant::now();
-            while t0.elapsed() < Duration::from_secs(10) {
-                if sock.exists() {
-                    return server;
-                }
-                if let Ok(Some(_)) = server.xvfb.as_mut().unwrap().try_wait() {
-                    break; // lost a race for this display number: try the next
-                }
-                std::thread::sleep(Duration::from_millis(50));
-            }
-        }
-        panic!("could not start Xvfb on any display :90..:199");
-    }
-}
-
-impl Drop for XServer {
-    fn drop(&mut self) {
-        if let Some(c) = self.xvfb.as_mut() {
-            let _ = c.kill();
-            let _ = c.wait();
-        }
-    }
 }
 
 /// A running viewer window whose stdout lines (`--log-frames`) and stderr lines arrive on channels.

@@ -11,7 +11,7 @@ use std::time::{Duration, Instant};
 
 use scratchart::model::scene::{Camera, LightKind, Scene};
 use scratchart::render::Renderer;
-use scratchart_tests::{assert_no_validation, gpu, viewer_bin, workspace_bin};
+use scratchart_tests::{assert_no_validation, gpu, viewer_bin, workspace_bin, XServer};
 
 const LAMP: [u8; 3] = [255, 170, 0];
 const EYE: [u8; 3] = [60, 190, 255];
@@ -371,66 +371,6 @@ fn overlay_marks_setup_points_and_numbers_match_the_sheet() {
     assert!(count_near(&v1, tip, 14.0, EYE) >= 40, "arrow near {tip:?}");
     line_with(&out, "set-up overlay eye v1: at this camera");
     let _ = std::fs::remove_dir_all(&tmp);
-}
-
-/// An X server: $DISPLAY when set, else our own Xvfb (killed on drop).
-struct XServer {
-    display: String,
-    xvfb: Option<Child>,
-}
-
-impl XServer {
-    fn start() -> XServer {
-        if let Some(d) = std::env::var("DISPLAY").ok().filter(|d| !d.is_empty()) {
-            return XServer { display: d, xvfb: None };
-        }
-        for n in 200..300 {
-            let sock = PathBuf::from(format!("/tmp/.X11-unix/X{n}"));
-            if sock.exists() || Path::new(&format!("/tmp/.X{n}-lock")).exists() {
-                continue;
-            }
-            let child = Command::new("Xvfb")
-                .args([&format!(":{n}"), "-screen", "0", "1280x1024x24", "-nolisten", "tcp"])
-                .stdout(Stdio::null())
-                .stderr(Stdio::null())
-                .spawn()
-                .expect("Xvfb is needed for the window test (apt install xvfb)");
-            let mut x = XServer {
-                display: format!(":{n}"),
-                xvfb: Some(child),
-            };
-            let t0 = Instant::now();
-            while t0.elapsed() < Duration::from_secs(10) {
-                if sock.exists() {
-                    return x;
-                }
-                if let Ok(Some(_)) = x.xvfb.as_mut().unwrap().try_wait() {
-                    break; // lost a race for this display number
-                }
-                std::thread::sleep(Duration::from_millis(50));
-            }
-        }
-        panic!("could not start Xvfb on any display :200..:299");
-    }
-
-    fn run(&self, prog: &str, args: &[&str]) -> String {
-        let out = Command::new(prog)
-            .args(args)
-            .env("DISPLAY", &self.display)
-            .output()
-            .unwrap_or_else(|e| panic!("{prog}: {e}"));
-        assert!(out.status.success(), "{prog} {args:?} failed");
-        String::from_utf8_lossy(&out.stdout).trim().to_string()
-    }
-}
-
-impl Drop for XServer {
-    fn drop(&mut self) {
-        if let Some(c) = self.xvfb.as_mut() {
-            let _ = c.kill();
-            let _ = c.wait();
-        }
-    }
 }
 
 /// stdout lines of `child` (whose stderr goes to a file) on a channel.
