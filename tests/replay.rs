@@ -21,9 +21,10 @@ fn seeds(n: usize) -> Vec<f32> {
         .collect()
 }
 
-type Result3 = (Vec<Vec<f32>>, scratchart::render::grad::Gradients);
+/// Images (one per view) and gradients of one forward + backward.
+type Run = (Vec<Vec<f32>>, scratchart::render::grad::Gradients);
 
-fn assert_same_bits(label: &str, a: &Result3, b: &Result3) {
+fn assert_same_bits(label: &str, a: &Run, b: &Run) {
     for (v, (x, y)) in a.0.iter().zip(&b.0).enumerate() {
         assert!(
             x.iter().zip(y).all(|(p, q)| p.to_bits() == q.to_bits()),
@@ -51,7 +52,7 @@ fn assert_same_bits(label: &str, a: &Result3, b: &Result3) {
 }
 
 /// Gradients through the replay (a backward first sizes the store; the second replays).
-fn replayed(r: &Renderer, gs: &mut GpuScene, dl: &[f32]) -> Result3 {
+fn replayed(r: &Renderer, gs: &mut GpuScene, dl: &[f32]) -> Run {
     r.gradients(gs, dl).unwrap();
     assert!(gs.replay_ready(), "the first backward did not size the pair store");
     r.gradients(gs, dl).unwrap()

@@ -18,8 +18,8 @@ fn main() -> anyhow::Result<()> {
     let search = Renderer::with_kernels(&ctx, KernelSet::default().without_replay())?;
     replay.prepare_backward()?;
     search.prepare_backward()?;
-    println!("| scene | pairs | forward ms: search / replay | backward ms: search / replay | backward: search / replay | forward + backward: search / replay | bits |");
-    println!("|---|---:|---:|---:|---:|---:|---|");
+    println!("| scene | pairs | store MB | forward ms: search / replay | backward ms: search / replay | backward: search / replay | forward + backward: search / replay | bits |");
+    println!("|---|---:|---:|---:|---:|---:|---:|---|");
     for name in &names {
         let scene = scratchart::bench::scene_named(name)?;
         let mut gr = replay.upload(&scene)?;
@@ -60,8 +60,9 @@ fn main() -> anyhow::Result<()> {
         }
         let m = |x: &Vec<f64>| median(x.clone());
         println!(
-            "| {name} | {} | {:.1} / {:.1} | {:.1} / {:.1} | {:.3} | {:.3} | {} |",
+            "| {name} | {} | {:.1} | {:.1} / {:.1} | {:.1} / {:.1} | {:.3} | {:.3} | {} |",
             first.stats.pairs,
+            gr.store_size() as f64 / 1e6,
             m(&t[0][0]),
             m(&t[1][0]),
             m(&t[0][1]),

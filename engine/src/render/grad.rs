@@ -46,13 +46,12 @@ impl Renderer {
             }
             None => grad,
         };
-        let [a, b, c, d, e, f, g, h, i, j] = super::backward_bindings(gs, &gs.dl, &gs.partials);
         super::record_passes(
             rec,
             kernel,
             gs.bwd_plan,
             gs,
-            &[a, b, c, d, e, f, g, h, i, j, &gs.pair_store],
+            &super::backward_bindings(gs, &gs.dl, &gs.partials),
         );
         let push = ReducePush {
             n_scratches: gs.n_scratches,

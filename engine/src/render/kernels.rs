@@ -174,17 +174,6 @@ impl ShadeKernel {
         matches!(self.mode, Mode::BackwardDual | Mode::Backward)
     }
 
-    /// Storage buffers the kernel binds: the forward and backward kernels 11 (the last is the
-    /// pair store the forward writes and the backward's replay reads, see [`KernelSet::replay`]),
-    /// the tangent kernel 10.
-    pub fn n_buffers(&self) -> u32 {
-        if self.mode == Mode::Tangent {
-            10
-        } else {
-            11
-        }
-    }
-
     /// The pipeline's name (validation messages and debug tools show it).
     pub fn name(&self) -> String {
         match self.mode {

@@ -62,27 +62,29 @@ pub struct Renderer {
 /// Compute shared memory the shading kernels need (lavapipe and desktop GPUs have 32 KiB or more).
 pub const MIN_SHARED_MEMORY: u32 = 32 * 1024;
 
-/// The pipeline of a shading kernel (forward, backward or tangent: `k.n_buffers()` buffers and
-/// `ShadePush`).
-fn shade_pipeline(ctx: &Arc<Context>, sc: &ShaderCompiler, k: &ShadeKernel) -> Result<ComputePipeline, GpuError> {
-    let spirv = sc.compile(k.file(), &k.defines(ctx.info()))?;
-    ComputePipeline::from_spirv(
-        ctx,
-        &k.name(),
-        &spirv,
-        k.n_buffers(),
-        std::mem::size_of::<ShadePush>() as u32,
-    )
-}
+/// Storage buffers every shading kernel's pipeline binds (forward, backward, tangent); the last
+/// is the pair store, which the forward writes and the backward's replay reads.
+const SHADE_BUFFERS: u32 = 11;
 
-/// The replay build of a backward kernel (see [`KernelSet::replay`]).
-fn replay_pipeline(ctx: &Arc<Context>, sc: &ShaderCompiler, k: &ShadeKernel) -> Result<ComputePipeline, GpuError> {
-    let spirv = sc.compile(k.file(), &k.replay_defines(ctx.info()))?;
+/// The pipeline of a shading kernel (`SHADE_BUFFERS` buffers and `ShadePush`); `replay`: the
+/// backward's replay build (see [`KernelSet::replay`]).
+fn shade_pipeline(
+    ctx: &Arc<Context>,
+    sc: &ShaderCompiler,
+    k: &ShadeKernel,
+    replay: bool,
+) -> Result<ComputePipeline, GpuError> {
+    let (name, defines) = if replay {
+        (k.replay_name(), k.replay_defines(ctx.info()))
+    } else {
+        (k.name(), k.defines(ctx.info()))
+    };
+    let spirv = sc.compile(k.file(), &defines)?;
     ComputePipeline::from_spirv(
         ctx,
-        &k.replay_name(),
+        &name,
         &spirv,
-        k.n_buffers(),
+        SHADE_BUFFERS,
         std::mem::size_of::<ShadePush>() as u32,
     )
 }
@@ -137,7 +139,7 @@ impl Renderer {
             scan_sums: ComputePipeline::new(ctx, &sc, "scan.comp", &[("SUMS", "1")], 3, scan_push)?,
             scan_apply: ComputePipeline::new(ctx, &sc, "scan.comp", &[("APPLY", "1")], 3, scan_push)?,
             kernels,
-            forward: shade_pipeline(ctx, &sc, &kernels.forward)?,
+            forward: shade_pipeline(ctx, &sc, &kernels.forward, false)?,
             grad: std::sync::OnceLock::new(),
             grad_replay: std::sync::OnceLock::new(),
             grad_reduce: ComputePipeline::new(ctx, &sc, "grad_reduce.comp", &[], 4, scan_push)?,
@@ -161,9 +163,9 @@ impl Renderer {
         if self.kernels.replay {
             let _ = self
                 .grad_replay
-                .set(replay_pipeline(&self.ctx, &sc, &self.kernels.backward)?);
+                .set(shade_pipeline(&self.ctx, &sc, &self.kernels.backward, true)?);
         }
-        let p = shade_pipeline(&self.ctx, &sc, &self.kernels.backward)?;
+        let p = shade_pipeline(&self.ctx, &sc, &self.kernels.backward, false)?;
         let _ = self.grad.set(p);
         Ok(())
     }
@@ -359,9 +361,9 @@ impl Renderer {
 
 /// The bindings of the kernels with `grad.comp`'s layout (`grad.comp`, `tangent.comp`): the
 /// scene, the tile lists, a per-pixel `input` (dE/dL, or the tangent seeds), the forward's
-/// coverage, the `output` (partial gradients, or tangents), the float64 cameras, the lights and
-/// the counters.
-fn backward_bindings<'a>(gs: &'a GpuScene, input: &'a Buffer, output: &'a Buffer) -> [&'a Buffer; 10] {
+/// coverage, the `output` (partial gradients, or tangents), the float64 cameras, the lights, the
+/// counters and the pair store (read by the backward's replay; `tangent.comp` leaves it unbound).
+fn backward_bindings<'a>(gs: &'a GpuScene, input: &'a Buffer, output: &'a Buffer) -> [&'a Buffer; 11] {
     [
         &gs.views,
         &gs.scratches,
@@ -373,6 +375,7 @@ fn backward_bindings<'a>(gs: &'a GpuScene, input: &'a Buffer, output: &'a Buffer
         &gs.views64,
         &gs.lights,
         &gs.stats,
+        &gs.pair_store,
     ]
 }
 

@@ -344,26 +344,36 @@ impl GpuScene {
     /// needs more leaves chunks out, and a replay that meets one must not be trusted).
     #[doc(hidden)]
     pub fn force_store_capacity(&mut self, ctx: &std::sync::Arc<Context>, entries: u32) -> Result<(), GpuError> {
-        let words = 2 * self.capacity as u64 + entries as u64;
-        self.pair_store = Buffer::new(ctx, "pair store", words * 4, MemLoc::GpuOnly)?;
+        self.alloc_store(ctx, entries)
+    }
+
+    /// Bytes of the pair store: 2 words per tile-list entry, then `entries` entries.
+    fn store_bytes(&self, entries: u64) -> u64 {
+        (2 * self.capacity as u64 + entries) * 4
+    }
+
+    /// A pair store of `entries` entries (the forward stores from the next render).
+    fn alloc_store(&mut self, ctx: &std::sync::Arc<Context>, entries: u32) -> Result<(), GpuError> {
+        let bytes = self.store_bytes(entries as u64);
+        self.pair_store = Buffer::new(ctx, "pair store", bytes, MemLoc::GpuOnly)?;
         self.shade.store_cap = entries;
         Ok(())
+    }
+
+    /// Bytes the pair store takes on the device (a 16-byte placeholder without a store).
+    pub fn store_size(&self) -> u64 {
+        self.pair_store.size()
     }
 
     /// A pair store for `needed` entries (plus slack), or none when it would pass the device's
     /// storage-buffer limit (backward passes then search the pairs: slower, same results).
     fn size_store(&mut self, ctx: &std::sync::Arc<Context>, needed: u64) -> Result<(), GpuError> {
         let cap = needed + needed / 4 + 4096;
-        let words = 2 * self.capacity as u64 + cap;
-        if cap > u32::MAX as u64 || words * 4 > ctx.info().max_storage_buffer_range {
+        if cap > u32::MAX as u64 || self.store_bytes(cap) > ctx.info().max_storage_buffer_range {
             return self.drop_store(ctx, true);
         }
-        match Buffer::new(ctx, "pair store", words * 4, MemLoc::GpuOnly) {
-            Ok(b) => {
-                self.pair_store = b;
-                self.shade.store_cap = cap as u32;
-                Ok(())
-            }
+        match self.alloc_store(ctx, cap as u32) {
+            Ok(()) => Ok(()),
             // Out of device memory: the replay is an optimization, go on without it.
             Err(GpuError::OutOfMemory { .. } | GpuError::Allocation { .. }) => self.drop_store(ctx, true),
             Err(e) => Err(e),

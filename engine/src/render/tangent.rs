@@ -25,7 +25,7 @@ impl Renderer {
             integrator: Integrator::ClosedForm,
             mode: Mode::Tangent,
         };
-        let p = super::shade_pipeline(&self.ctx, &ShaderCompiler::embedded()?, &k)?;
+        let p = super::shade_pipeline(&self.ctx, &ShaderCompiler::embedded()?, &k, false)?;
         let _ = self.tangent.set(p);
         Ok(())
     }
