@@ -46,11 +46,11 @@ shared uint sh_culled;
 #endif
 
 void chunk_begin(uint lid) {}
-void scratch_loaded(uint k, uint index, ScratchGPU S) {}
 void chunk_end(uint lid, uint c0, uint cnt) {}
 
 void pair_eval(uint i, uint px, uint k, bool fast) {
-    vec4 ca = sh_cull_a[k], cb = sh_cull_b[k];  // p0, t; len, w, s_e, alpha (load_cull)
+    uint si = sh_si[k];
+    vec4 ca = rec_cull_a(si), cb = rec_cull_b(si);  // p0, t; len, w, s_e, alpha
     vec2 fp[4];
     pixel_footprint(px, fp);
     float I, A;

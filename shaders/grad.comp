@@ -61,8 +61,6 @@ layout(std430, binding = 10) readonly buffer PairStore { uint pstore[]; };
 const uint QCAP = GRAD_QCAP;
 #include "inc/tile_loop.glsl"
 
-shared vec4 sh_ends[CHUNK];        // raw scratch parameters
-shared vec4 sh_shape[CHUNK];
 shared float sh_ga[256];           // per pixel: coefficient of dA (sh_h[px].w: of dI)
 shared vec4 sh_c0[QCAP];           // per-pair contribution d/d(x0, y0, x1, y1)
 shared vec4 sh_c1[QCAP];           // d/d(w, d, alpha); w: the next entry of the same scratch (bits)
@@ -75,13 +73,9 @@ void chunk_begin(uint lid) {
     acc1 = vec4(0.0);
 }
 
-void scratch_loaded(uint k, uint index, ScratchGPU S) {
-    sh_ends[k] = S.ends;
-    sh_shape[k] = S.shape;
-}
-
 void pair_eval(uint i, uint px, uint k, bool fast) {
-    vec4 E = sh_ends[k], S = sh_shape[k];
+    uint si = sh_si[k];
+    vec4 E = rec_ends(si), S = rec_shape(si);  // raw scratch parameters
     vec2 fp[4];
     pixel_footprint(px, fp);
     vec4 hh = sh_h[px];

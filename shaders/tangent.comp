@@ -45,9 +45,6 @@ layout(std430, binding = 9) buffer Stats { uint stats[]; };  // [5], [6] (inc/li
 const uint QCAP = 256u;
 #include "inc/tile_loop.glsl"
 
-shared vec4 sh_ends[CHUNK];
-shared vec4 sh_shape[CHUNK];
-shared uint sh_idx[CHUNK];
 shared vec4 sh_r[2u * QCAP];       // per entry: dL/dθ_j (0-3, 4-6)
 shared float sh_ga[256];           // per pixel: gA (sh_h[px].w: gI)
 
@@ -57,20 +54,15 @@ vec4 acc0 = vec4(0.0), acc1 = vec4(0.0);
 void chunk_begin(uint lid) {}
 void chunk_end(uint lid, uint c0, uint cnt) {}
 
-void scratch_loaded(uint k, uint index, ScratchGPU S) {
-    sh_ends[k] = S.ends;
-    sh_shape[k] = S.shape;
-    sh_idx[k] = index;
-}
-
 void pair_eval(uint i, uint px, uint k, bool fast) {
     vec4 hh = sh_h[px];
     vec2 fp[4];
     pixel_footprint(px, fp);
     vec4 d0;
     vec3 g;
-    pair_adjoint(sh_ends[k], sh_shape[k], fp, hh.xyz, hh.w, sh_ga[px], fast, d0, g);
-    uint b = 6u * sh_idx[k];
+    uint si = sh_si[k];
+    pair_adjoint(rec_ends(si), rec_shape(si), fp, hh.xyz, hh.w, sh_ga[px], fast, d0, g);
+    uint b = 6u * si;
     // dL/dθ_j = g . (dw, dd, dalpha)/dθ_j
     sh_r[2u * i] = g.x * seeds[b] + g.y * seeds[b + 2u] + g.z * seeds[b + 4u];
     sh_r[2u * i + 1u] = g.x * seeds[b + 1u] + g.y * seeds[b + 3u] + g.z * seeds[b + 5u];

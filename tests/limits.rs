@@ -52,11 +52,13 @@ fn too_many_scratches_is_a_clear_error() {
     let limit = ctx.info().max_storage_buffer_range;
     let mut scene = small_scene();
     let s = scene.scratches[0];
-    // 32 bytes of parameters per scratch on the device.
-    scene.scratches = vec![s; (limit / 32) as usize + 1000];
+    // 64 bytes of records per scratch for the shading kernels (a storage and a texel buffer),
+    // the largest per-scratch buffer of a one-view scene.
+    scene.scratches = vec![s; (limit / 64) as usize + 1000];
     let r = Renderer::new(&ctx).unwrap();
     let err = r.upload(&scene).err().expect("over the limit");
     assert!(matches!(err, GpuError::BufferTooLarge { .. }), "got {err}");
+    assert!(err.to_string().contains("scratch records"), "names the buffer: {err}");
     assert_no_validation(&ctx);
 }
 

@@ -34,6 +34,9 @@ pub fn caps_loops(info: &DeviceInfo) -> bool {
     info.name.contains("llvmpipe")
 }
 
+/// The per-scratch records buffer of the shading kernels (a storage and a texel buffer).
+const RECORDS: &str = "scratch records of the shading kernels (4 texels each)";
+
 impl SceneDims {
     /// `views` of W x H pixels each.
     pub fn new(view_sizes: &[(u32, u32)], scratches: u64, with_loss: bool) -> SceneDims {
@@ -62,6 +65,7 @@ impl SceneDims {
                 (self.tiles * groups + 1) * 4,
             ),
             ("scratch parameters and gradients, each", self.scratches.max(1) * 32),
+            (RECORDS, self.scratches.max(1) * 64),
             // A lower bound: every visible scratch is listed in at least one tile per view; the
             // lists grow with the scene's pairs (and are checked again then).
             (
@@ -81,10 +85,12 @@ impl SceneDims {
     /// The first buffer over the device's per-buffer limit, if any: (what, bytes, limit).
     pub fn over_device_limit(&self, info: &DeviceInfo) -> Option<(&'static str, u64, u64)> {
         let limit = info.max_storage_buffer_range;
-        self.buffers()
-            .into_iter()
-            .find(|(_, b)| *b > limit)
-            .map(|(n, b)| (n, b, limit))
+        // The records are also a texel buffer: 16-byte texels, at most maxTexelBufferElements.
+        let texel_limit = info.max_texel_buffer_elements.saturating_mul(16);
+        self.buffers().into_iter().find_map(|(n, b)| {
+            let limit = if n == RECORDS { limit.min(texel_limit) } else { limit };
+            (b > limit).then_some((n, b, limit))
+        })
     }
 
     /// Host memory the job needs at least (targets, images read back, reports): a lower bound.

@@ -92,7 +92,7 @@ R ndf_at(PairGeom G, R s) {
 // length; w its width parameter, se the carved half-width in s units (carved_se). fp are the
 // footprint corners on the plate, ordered so that they are counter-clockwise in (s, v), h the
 // half vector (both per-pixel constants).
-// The forward kernel passes its culling record (load_cull in tile_queue.glsl: float axis and
+// The forward kernel passes its culling record (scratch_records.comp: float axis and
 // length); the backward kernel passes dual numbers built from the raw parameters
 // (pair_from_params). dot2 is GLSL's dot in float and a sum of two products in dual numbers, so
 // each kernel performs the float operations it performed when it had its own copy of this code.

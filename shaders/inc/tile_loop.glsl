@@ -7,10 +7,10 @@
 // after including this file:
 //   chunk_begin(lid)          every thread, at the start of a chunk (after its first barrier):
 //                             per-chunk state, e.g. clearing per-scratch accumulators
-//   scratch_loaded(k, i, S)   thread k < CHUNK that loads the chunk's scratch k: its index i
-//                             in the scene and S as stored
-//   pair_eval(i, px, k, fast) queue entry i of the round (pixel px of the tile, chunk scratch k;
-//                             fast: queued as a likely fast-path pair): integrate, keep result i
+//   pair_eval(i, px, k, fast) queue entry i of the round (pixel px of the tile, chunk scratch k,
+//                             whose scene index is sh_si[k] and whose data are its records,
+//                             scratch_records.glsl; fast: queued as a likely fast-path pair):
+//                             integrate, keep result i
 //   round_accumulate(lid, r0, n, cnt, fmask, fbase, gmask, gbase)
 //                             every thread, after the round's results are all written: fold
 //                             them in, in a fixed order (r0: first queue slot of the round,
@@ -20,8 +20,9 @@
 //                             tile-list entry)
 // Call tile_loop from uniform control flow (it has barriers) after store_pixel.
 //
-// Include after the buffer bindings `views`, `scr`, `offs`, `list` (and `pstore`, `stats` with
-// SA_STORE_PAIRS or SA_REPLAY), the push constants `pc`, and a definition of QCAP.
+// Include after the buffer bindings `views`, `offs`, `list` (and `pstore`, `stats` with
+// SA_STORE_PAIRS or SA_REPLAY), the push constants `pc`, and a definition of QCAP; the records
+// texel buffer `recs` is declared here (scratch_records.glsl).
 #ifndef SA_TILE_LOOP_GLSL
 #define SA_TILE_LOOP_GLSL
 
@@ -34,7 +35,6 @@ shared vec4 sh_fp23[256];
 shared vec4 sh_h[256];             // xyz half vector; w is the kernel's (store_pixel)
 
 void chunk_begin(uint lid);
-void scratch_loaded(uint k, uint index, ScratchGPU S);
 void pair_eval(uint i, uint px, uint k, bool fast);
 void round_accumulate(uint lid, uint r0, uint n, uint cnt, uvec2 fmask, uint fbase, uvec2 gmask, uint gbase);
 void chunk_end(uint lid, uint c0, uint cnt);
@@ -89,13 +89,7 @@ void tile_loop(uint begin, uint end, ViewGPU V, uvec2 t0, uint lid, bool live, P
     for (uint c0 = begin; c0 < end; c0 += CHUNK) {
         barrier();
         chunk_begin(lid);
-        if (lid < CHUNK && c0 + lid < end) {
-            uint si = list[c0 + lid];
-            ScratchGPU S = scr[si];
-            scratch_loaded(lid, si, S);
-            load_cull(lid, S);
-            block_tests(lid);
-        }
+        if (lid < CHUNK && c0 + lid < end) block_tests(lid, list[c0 + lid]);
         barrier();
         uint cnt = min(CHUNK, end - c0);
         uvec2 fmask, gmask;
@@ -142,10 +136,7 @@ void tile_replay(uint begin, uint end, uint lid) {
     for (uint c0 = begin; c0 < end; c0 += CHUNK) {
         barrier();
         chunk_begin(lid);
-        if (lid < CHUNK && c0 + lid < end) {
-            uint si = list[c0 + lid];
-            scratch_loaded(lid, si, scr[si]);
-        }
+        if (lid < CHUNK && c0 + lid < end) sh_si[lid] = list[c0 + lid];
         uint base = pstore[2u * c0], packed = pstore[2u * c0 + 1u];
         uint cnt = min(CHUNK, end - c0);
         barrier();

@@ -3,7 +3,7 @@
 // streams through shared memory in chunks of CHUNK scratches. Per chunk:
 //   1. scratch x 4x4-pixel-block tests (bounding box of the block's plate quad in the scratch
 //      frame), by the thread that loads the scratch, give each block a mask of scratches that
-//      may meet it;
+//      may meet it (scratch data come from the per-scratch records, scratch_records.glsl);
 //   2. every pixel tests its block's scratches (footprint bounding circle, then the footprint's
 //      bounding box in the scratch frame) and keeps masks of overlapping ones, split into
 //      likely fast-path pairs (strip crossing the footprint, see patch_fast) and the others;
@@ -14,17 +14,17 @@
 // Everything is in a fixed order: results do not depend on thread timing. The loop that drives
 // these steps is tile_loop.glsl.
 //
-// Include after the buffer bindings `views`, `scr`, `offs`, `list` (and `pstore`, `stats` with
+// Include after the buffer bindings `views`, `offs`, `list` (and `pstore`, `stats` with
 // SA_STORE_PAIRS or SA_REPLAY), the push constants `pc`, and a definition of QCAP.
 #ifndef SA_TILE_QUEUE_GLSL
 #define SA_TILE_QUEUE_GLSL
 #extension GL_KHR_shader_subgroup_basic : require
 #extension GL_KHR_shader_subgroup_arithmetic : require
+#include "scratch_records.glsl"
 
 const uint CHUNK = 64u;            // scratches per chunk: one bit each in two 32-bit words
 
-shared vec4 sh_cull_a[CHUNK];      // p0.xy, t.xy
-shared vec4 sh_cull_b[CHUNK];      // len, w, s_e, alpha
+shared uint sh_si[CHUNK];          // chunk scratch k's index in the scene (its records: scratch_records.glsl)
 shared vec4 sh_blk01[16];          // plate-space corners of the tile's 4x4-pixel blocks
 shared vec4 sh_blk23[16];
 shared bool sh_blk_all[16];        // a block whose corner rays miss the plate: test every scratch
@@ -64,23 +64,14 @@ void setup_blocks(ViewGPU V, uvec2 t0, uint lid) {
     if (lid < 32u) sh_blk_hits[lid] = 0u;
 }
 
-// Thread lid < CHUNK: the culling record of scratch S.
-// A scratch shorter than float32 resolves at its position (p1 rounds onto p0) gets length 0 and
-// overlaps nothing (pixel_masks skips it): no NaN direction reaches the integrals or gradients.
-void load_cull(uint lid, ScratchGPU S) {
-    vec2 d = S.ends.zw - S.ends.xy;
-    float len = length(d);
-    sh_cull_a[lid] = vec4(S.ends.xy, len > 0.0 ? d / len : vec2(1.0, 0.0));
-    // carved_se is written over R; in float val and rc are the identity, in the backward kernel
-    // the dual version's value is the float value (see common.glsl).
-    sh_cull_b[lid] = vec4(len, S.shape.x, val(carved_se(rc(S.shape.x), rc(S.shape.y))), S.shape.z);
-}
-
-// Step 1, by the thread that loaded scratch k (right after load_cull): its tests against the
-// 16 blocks. The masks were cleared in queue_slots of the previous chunk (or before the loop).
-void block_tests(uint k) {
-    vec2 p0 = sh_cull_a[k].xy, t = sh_cull_a[k].zw, b = vec2(-t.y, t.x);
-    float len = sh_cull_b[k].x, e = 0.5 * sh_cull_b[k].y * sh_cull_b[k].z;
+// Step 1, by the thread that loads chunk scratch k (scene index si): its tests against the 16
+// blocks, from its culling record (rec_cull_a, rec_cull_b: p0, t; len, w, s_e, alpha). The masks
+// were cleared in queue_slots of the previous chunk (or before the loop).
+void block_tests(uint k, uint si) {
+    sh_si[k] = si;
+    vec4 ca = rec_cull_a(si), cb = rec_cull_b(si);
+    vec2 p0 = ca.xy, t = ca.zw, b = vec2(-t.y, t.x);
+    float len = cb.x, e = 0.5 * cb.y * cb.z;
     for (uint blk = 0u; blk < 16u; ++blk) {
         bool hit = sh_blk_all[blk];
         if (!hit) {
@@ -184,8 +175,10 @@ void pixel_masks(bool live, uint myblk, PixelSetup P, out uvec2 fmask, out uvec2
         while (bm != 0u) {
             uint k = uint(findLSB(bm)) + 32u * wd;
             bm &= bm - 1u;
-            vec2 p0 = sh_cull_a[k].xy, t = sh_cull_a[k].zw, b = vec2(-t.y, t.x);
-            float len = sh_cull_b[k].x, e = 0.5 * sh_cull_b[k].y * sh_cull_b[k].z;
+            uint si = sh_si[k];
+            vec4 ca = rec_cull_a(si), cb = rec_cull_b(si);
+            vec2 p0 = ca.xy, t = ca.zw, b = vec2(-t.y, t.x);
+            float len = cb.x, e = 0.5 * cb.y * cb.z;
             if (len <= 0.0) continue;
             vec2 q = centre - p0;
             float u = dot(q, b), v = dot(q, t);
@@ -201,7 +194,7 @@ void pixel_masks(bool live, uint myblk, PixelSetup P, out uvec2 fmask, out uvec2
 #ifdef SA_CULL_PAIRS
             if (budget > 0.0) {
                 float area = min(sp, (min(umax, e) - max(umin, -e)) * (min(vmax, len) - max(vmin, 0.0)));
-                float bk = cull_bound(area, dot(P.h.xy, b), P.h.z, sh_cull_b[k].z, sh_cull_b[k].w, P.d_flat);
+                float bk = cull_bound(area, dot(P.h.xy, b), P.h.z, cb.z, cb.w, P.d_flat);
                 if (cull_dropped + bk <= budget) {
                     cull_dropped += bk;
                     ++cull_count;

@@ -15,6 +15,7 @@ pub const PRECOMPILED: &[(&str, &[(&str, &str)])] = &[
     ("scan.comp", &[("SUMS", "1")]),
     ("scan.comp", &[("APPLY", "1")]),
     ("grad_reduce.comp", &[]),
+    ("scratch_records.comp", &[]),
     ("grad_light.comp", &[]),
     ("forward.comp", &[("SA_INTEGRATOR_CLOSED_FORM", "1")]),
     (

@@ -44,6 +44,8 @@ pub struct Renderer {
     scan_reduce: ComputePipeline,
     scan_sums: ComputePipeline,
     scan_apply: ComputePipeline,
+    /// The per-scratch records of the shading kernels (`scratch_records.comp`).
+    records: ComputePipeline,
     /// The shading kernels this renderer builds (`forward` at once, the backward on first use).
     kernels: KernelSet,
     forward: ComputePipeline,
@@ -63,11 +65,13 @@ pub struct Renderer {
 pub const MIN_SHARED_MEMORY: u32 = 32 * 1024;
 
 /// Storage buffers every shading kernel's pipeline binds (forward, backward, tangent); the last
-/// is the pair store, which the forward writes and the backward's replay reads.
+/// is the pair store, which the forward writes and the backward's replay reads. After them comes
+/// one uniform texel buffer, the scene's per-scratch records (`GpuScene::records`, binding
+/// `SA_RECORDS_BINDING` of `shaders/inc/scratch_records.glsl`).
 const SHADE_BUFFERS: u32 = 11;
 
-/// The pipeline of a shading kernel (`SHADE_BUFFERS` buffers and `ShadePush`); `replay`: the
-/// backward's replay build (see [`KernelSet::replay`]).
+/// The pipeline of a shading kernel (`SHADE_BUFFERS` buffers, the records, and `ShadePush`);
+/// `replay`: the backward's replay build (see [`KernelSet::replay`]).
 fn shade_pipeline(
     ctx: &Arc<Context>,
     sc: &ShaderCompiler,
@@ -80,11 +84,12 @@ fn shade_pipeline(
         (k.name(), k.defines(ctx.info()))
     };
     let spirv = sc.compile(k.file(), &defines)?;
-    ComputePipeline::from_spirv(
+    ComputePipeline::with_texels(
         ctx,
         &name,
         &spirv,
         SHADE_BUFFERS,
+        1,
         std::mem::size_of::<ShadePush>() as u32,
     )
 }
@@ -138,6 +143,7 @@ impl Renderer {
             scan_reduce: ComputePipeline::new(ctx, &sc, "scan.comp", &[("REDUCE", "1")], 3, scan_push)?,
             scan_sums: ComputePipeline::new(ctx, &sc, "scan.comp", &[("SUMS", "1")], 3, scan_push)?,
             scan_apply: ComputePipeline::new(ctx, &sc, "scan.comp", &[("APPLY", "1")], 3, scan_push)?,
+            records: ComputePipeline::new(ctx, &sc, "scratch_records.comp", &[], 2, 16)?,
             kernels,
             forward: shade_pipeline(ctx, &sc, &kernels.forward, false)?,
             grad: std::sync::OnceLock::new(),
@@ -286,6 +292,7 @@ impl Renderer {
                 &gs.lights,
                 &gs.carry,
                 &gs.pair_store,
+                &gs.records,
             ],
         );
     }
@@ -295,6 +302,13 @@ impl Renderer {
     /// [`submit`](Self::submit), which checks that the render was complete.
     pub fn record_render(&self, rec: &mut Recorder, gs: &GpuScene) {
         rec.fill(&gs.stats, 0);
+        let push = [gs.n_scratches, 0, 0, 0];
+        rec.dispatch_1d(
+            &self.records,
+            &[&gs.scratches, &gs.records],
+            bytemuck::cast_slice(&push),
+            gs.n_scratches.div_ceil(64),
+        );
         rec.barrier();
         self.record_binning(rec, gs);
         rec.timestamp("binning");
@@ -362,8 +376,9 @@ impl Renderer {
 /// The bindings of the kernels with `grad.comp`'s layout (`grad.comp`, `tangent.comp`): the
 /// scene, the tile lists, a per-pixel `input` (dE/dL, or the tangent seeds), the forward's
 /// coverage, the `output` (partial gradients, or tangents), the float64 cameras, the lights, the
-/// counters and the pair store (read by the backward's replay; `tangent.comp` leaves it unbound).
-fn backward_bindings<'a>(gs: &'a GpuScene, input: &'a Buffer, output: &'a Buffer) -> [&'a Buffer; 11] {
+/// counters, the pair store (read by the backward's replay; `tangent.comp` leaves it unbound) and
+/// the per-scratch records (a texel buffer, written by the render before).
+fn backward_bindings<'a>(gs: &'a GpuScene, input: &'a Buffer, output: &'a Buffer) -> [&'a Buffer; 12] {
     [
         &gs.views,
         &gs.scratches,
@@ -376,6 +391,7 @@ fn backward_bindings<'a>(gs: &'a GpuScene, input: &'a Buffer, output: &'a Buffer
         &gs.lights,
         &gs.stats,
         &gs.pair_store,
+        &gs.records,
     ]
 }
 

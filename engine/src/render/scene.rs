@@ -75,6 +75,9 @@ pub struct GpuScene {
     /// the same cameras in float64 (`ViewGPU64`)
     pub(super) views64: Buffer,
     pub(super) scratches: Buffer,
+    /// Four RGBA32F texels per scratch for the shading kernels, written at the start of every
+    /// render (`scratch_records.comp`, `shaders/inc/scratch_records.glsl`).
+    pub(super) records: Buffer,
     /// per view: the light's intensity Phi (f32): optimized state, apart from the cameras
     pub(super) lights: Buffer,
     /// per (tile, group) counts, scanned in place into list offsets; n_tiles * n_groups + 1 entries
@@ -191,6 +194,7 @@ impl GpuScene {
             views: host("views", bytemuck::cast_slice(&slots.views))?,
             views64: host("views (float64 cameras)", bytemuck::cast_slice(&slots.views64))?,
             scratches: ctx.upload("scratches", &scr)?,
+            records: Buffer::new_texel(ctx, "scratch records", n_scratches.max(1) as u64 * 64, MemLoc::GpuOnly)?,
             // Host-visible too (the viewer's light slider); Adam writes it on the device.
             lights: host("light intensities", bytemuck::cast_slice(&phi))?,
             hist: gpu_only("bin offsets", hist_len * 4)?,

@@ -1,6 +1,9 @@
 //! [`Buffer`]: a storage buffer with its `gpu-allocator` memory. Every buffer is usable as a
 //! storage buffer and as a transfer source/destination, so any buffer can be bound to any
-//! compute pipeline, filled, copied or read back.
+//! compute pipeline, filled, copied or read back. A buffer made with [`Buffer::new_texel`] can
+//! also be bound as a uniform texel buffer (`samplerBuffer`, RGBA32F texels): read through
+//! `texelFetch`, which CPU drivers (llvmpipe) compile to vector gathers where a storage-buffer or
+//! shared-memory load with a per-lane index becomes a scalar loop over the lanes.
 use std::sync::Arc;
 
 use ash::vk;
@@ -33,11 +36,53 @@ pub struct Buffer {
     size: u64,
     loc: MemLoc,
     name: String,
+    /// The RGBA32F view of [`Buffer::new_texel`] buffers.
+    texel_view: Option<vk::BufferView>,
 }
 
 impl Buffer {
+    /// A buffer that is also a uniform texel buffer of RGBA32F texels (16 bytes each) over its
+    /// whole size: bind it to a pipeline's texel bindings (see [`super::ComputePipeline`]).
+    /// Fails with a clear error past the device's texel-buffer limit.
+    pub fn new_texel(ctx: &Arc<Context>, name: &str, size: u64, loc: MemLoc) -> Result<Buffer, GpuError> {
+        let size = size.max(16).next_multiple_of(16);
+        let limit = ctx.info().max_texel_buffer_elements * 16;
+        if size > limit {
+            return Err(GpuError::BufferTooLarge {
+                name: format!("{name} (a texel buffer: {} texels)", size / 16),
+                size,
+                limit,
+            });
+        }
+        let mut b = Self::create(ctx, name, size, loc, vk::BufferUsageFlags::UNIFORM_TEXEL_BUFFER)?;
+        let ci = vk::BufferViewCreateInfo::default()
+            .buffer(b.raw)
+            .format(vk::Format::R32G32B32A32_SFLOAT)
+            .offset(0)
+            .range(vk::WHOLE_SIZE);
+        let view = unsafe { ctx.device.create_buffer_view(&ci, None) }.map_err(vk_err("vkCreateBufferView"))?;
+        ctx.set_object_name(view, name);
+        b.texel_view = Some(view);
+        Ok(b)
+    }
+
+    /// The RGBA32F texel view (buffers made with [`Buffer::new_texel`]).
+    pub fn texel_view(&self) -> Option<vk::BufferView> {
+        self.texel_view
+    }
+
     /// Creates a buffer of `size` bytes (0 becomes 16: Vulkan forbids empty buffers).
     pub fn new(ctx: &Arc<Context>, name: &str, size: u64, loc: MemLoc) -> Result<Buffer, GpuError> {
+        Self::create(ctx, name, size, loc, vk::BufferUsageFlags::empty())
+    }
+
+    fn create(
+        ctx: &Arc<Context>,
+        name: &str,
+        size: u64,
+        loc: MemLoc,
+        extra_usage: vk::BufferUsageFlags,
+    ) -> Result<Buffer, GpuError> {
         let size = size.max(16);
         let limit = ctx.info().max_storage_buffer_range;
         if size > limit {
@@ -53,7 +98,8 @@ impl Buffer {
             .usage(
                 vk::BufferUsageFlags::STORAGE_BUFFER
                     | vk::BufferUsageFlags::TRANSFER_SRC
-                    | vk::BufferUsageFlags::TRANSFER_DST,
+                    | vk::BufferUsageFlags::TRANSFER_DST
+                    | extra_usage,
             )
             .sharing_mode(vk::SharingMode::EXCLUSIVE);
         let raw = unsafe { d.create_buffer(&ci, None) }.map_err(|e| match e {
@@ -105,6 +151,7 @@ impl Buffer {
             size,
             loc,
             name: name.into(),
+            texel_view: None,
         })
     }
 
@@ -177,6 +224,9 @@ impl Drop for Buffer {
     fn drop(&mut self) {
         // Hazard: the GPU must be done with the buffer. Recorder::submit_and_wait and the
         // one-off transfers wait for completion, so this holds unless a submission timed out.
+        if let Some(v) = self.texel_view.take() {
+            unsafe { self.ctx.device.destroy_buffer_view(v, None) };
+        }
         if let Some(a) = self.allocation.take() {
             let _ = self.ctx.allocator().free(a);
         }

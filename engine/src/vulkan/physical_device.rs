@@ -13,6 +13,8 @@ pub struct DeviceInfo {
     pub kind: String,
     pub api_version: String,
     pub max_storage_buffer_range: u64,
+    /// Texels of one texel-buffer view ([`super::Buffer::new_texel`]).
+    pub max_texel_buffer_elements: u64,
     pub max_workgroup_count: [u32; 3],
     pub max_workgroup_invocations: u32,
     pub max_shared_memory: u32,
@@ -295,6 +297,7 @@ impl DeviceInfo {
                 vk::api_version_patch(v)
             ),
             max_storage_buffer_range: l.max_storage_buffer_range as u64,
+            max_texel_buffer_elements: l.max_texel_buffer_elements as u64,
             max_workgroup_count: l.max_compute_work_group_count,
             max_workgroup_invocations: l.max_compute_work_group_invocations,
             max_shared_memory: l.max_compute_shared_memory_size,

@@ -1,6 +1,8 @@
 //! [`ComputePipeline`]: one compute shader with the engine's fixed binding convention:
-//! set 0, bindings `0..num_buffers`, all storage buffers; plus one push-constant range of
-//! `push_constant_bytes` at offset 0. The shader must declare exactly that interface
+//! set 0, bindings `0..num_buffers` storage buffers, then `num_texels` uniform texel buffers
+//! (RGBA32F views, see [`super::Buffer::new_texel`]; none unless built with
+//! [`ComputePipeline::with_texels`]); plus one push-constant range of `push_constant_bytes` at
+//! offset 0. The shader must declare exactly that interface
 //! (validation reports a mismatch, naming the pipeline).
 use std::sync::Arc;
 
@@ -18,6 +20,7 @@ pub struct ComputePipeline {
     layout: vk::PipelineLayout,
     set_layout: vk::DescriptorSetLayout,
     num_buffers: u32,
+    num_texels: u32,
     push_bytes: u32,
     name: String,
 }
@@ -43,17 +46,34 @@ impl ComputePipeline {
         num_buffers: u32,
         push_constant_bytes: u32,
     ) -> Result<ComputePipeline, GpuError> {
+        Self::with_texels(ctx, name, spirv, num_buffers, 0, push_constant_bytes)
+    }
+
+    /// As [`from_spirv`](Self::from_spirv), with `num_texels` uniform texel buffers bound after
+    /// the storage buffers (bindings `num_buffers..num_buffers + num_texels`).
+    pub fn with_texels(
+        ctx: &Arc<Context>,
+        name: &str,
+        spirv: &[u32],
+        num_buffers: u32,
+        num_texels: u32,
+        push_constant_bytes: u32,
+    ) -> Result<ComputePipeline, GpuError> {
         assert!(
             push_constant_bytes & 3 == 0 && push_constant_bytes <= ctx.info().max_push_constants_size,
             "pipeline '{name}': push constants must be a multiple of 4 bytes and at most {} (got {push_constant_bytes})",
             ctx.info().max_push_constants_size
         );
         let d = &ctx.device;
-        let bindings: Vec<_> = (0..num_buffers)
+        let bindings: Vec<_> = (0..num_buffers + num_texels)
             .map(|i| {
                 vk::DescriptorSetLayoutBinding::default()
                     .binding(i)
-                    .descriptor_type(vk::DescriptorType::STORAGE_BUFFER)
+                    .descriptor_type(if i < num_buffers {
+                        vk::DescriptorType::STORAGE_BUFFER
+                    } else {
+                        vk::DescriptorType::UNIFORM_TEXEL_BUFFER
+                    })
                     .descriptor_count(1)
                     .stage_flags(vk::ShaderStageFlags::COMPUTE)
             })
@@ -112,6 +132,7 @@ impl ComputePipeline {
             layout,
             set_layout,
             num_buffers,
+            num_texels,
             push_bytes: push_constant_bytes,
             name: name.into(),
         })
@@ -120,8 +141,13 @@ impl ComputePipeline {
     pub fn name(&self) -> &str {
         &self.name
     }
+    /// Storage-buffer bindings (the first ones).
     pub fn num_buffers(&self) -> u32 {
         self.num_buffers
+    }
+    /// Uniform texel-buffer bindings (after the storage buffers).
+    pub fn num_texels(&self) -> u32 {
+        self.num_texels
     }
     pub fn push_constant_bytes(&self) -> u32 {
         self.push_bytes

@@ -116,9 +116,14 @@ impl Recorder {
     }
 
     fn add_desc_pool(&mut self) -> Result<(), GpuError> {
-        let sizes = [vk::DescriptorPoolSize::default()
-            .ty(vk::DescriptorType::STORAGE_BUFFER)
-            .descriptor_count(DESCRIPTORS_PER_POOL)];
+        let sizes = [
+            vk::DescriptorPoolSize::default()
+                .ty(vk::DescriptorType::STORAGE_BUFFER)
+                .descriptor_count(DESCRIPTORS_PER_POOL),
+            vk::DescriptorPoolSize::default()
+                .ty(vk::DescriptorType::UNIFORM_TEXEL_BUFFER)
+                .descriptor_count(SETS_PER_POOL),
+        ];
         let p = unsafe {
             self.ctx.device.create_descriptor_pool(
                 &vk::DescriptorPoolCreateInfo::default()
@@ -219,12 +224,25 @@ impl Recorder {
     pub fn dispatch(&mut self, p: &ComputePipeline, buffers: &[&Buffer], push: &[u8], groups: [u32; 3]) {
         self.assert_recording("dispatch");
         let name = p.name();
+        let n_storage = p.num_buffers() as usize;
         assert!(
-            buffers.len() == p.num_buffers() as usize,
-            "pipeline '{name}' takes {} buffers, got {}",
-            p.num_buffers(),
+            buffers.len() == n_storage + p.num_texels() as usize,
+            "pipeline '{name}' takes {} buffers ({} of them texel buffers), got {}",
+            n_storage + p.num_texels() as usize,
+            p.num_texels(),
             buffers.len()
         );
+        let views: Vec<vk::BufferView> = buffers[n_storage..]
+            .iter()
+            .map(|b| {
+                b.texel_view().unwrap_or_else(|| {
+                    panic!(
+                        "pipeline '{name}': buffer '{}' has no texel view (Buffer::new_texel)",
+                        b.name()
+                    )
+                })
+            })
+            .collect();
         assert!(
             push.len() == p.push_constant_bytes() as usize,
             "pipeline '{name}' takes {} push-constant bytes, got {}",
@@ -258,7 +276,7 @@ impl Recorder {
                         .range(vk::WHOLE_SIZE)]
                 })
                 .collect();
-            let writes: Vec<_> = infos
+            let mut writes: Vec<_> = infos[..n_storage]
                 .iter()
                 .enumerate()
                 .map(|(i, info)| {
@@ -269,6 +287,15 @@ impl Recorder {
                         .buffer_info(info)
                 })
                 .collect();
+            for (i, v) in views.iter().enumerate() {
+                writes.push(
+                    vk::WriteDescriptorSet::default()
+                        .dst_set(set)
+                        .dst_binding((n_storage + i) as u32)
+                        .descriptor_type(vk::DescriptorType::UNIFORM_TEXEL_BUFFER)
+                        .texel_buffer_view(std::slice::from_ref(v)),
+                );
+            }
             unsafe { d.update_descriptor_sets(&writes, &[]) };
         }
         unsafe {

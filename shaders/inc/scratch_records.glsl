@@ -1,0 +1,18 @@
+// The per-scratch records of scratch_records.comp, bound to the shading kernels as a uniform
+// texel buffer after their storage buffers (binding SA_RECORDS_BINDING, engine/src/render): four
+// RGBA32F texels per scratch, fetched by scene index. A texel fetch with a per-lane index is a
+// vector gather on CPU drivers (llvmpipe), where a shared-memory or storage-buffer load with a
+// per-lane index is a scalar loop over the lanes: the candidate tests and the pair integrals
+// read a scratch's data through these, not through shared memory.
+#ifndef SA_SCRATCH_RECORDS_GLSL
+#define SA_SCRATCH_RECORDS_GLSL
+
+#define SA_RECORDS_BINDING 11
+layout(binding = SA_RECORDS_BINDING) uniform samplerBuffer recs;
+
+vec4 rec_ends(uint si) { return texelFetch(recs, int(4u * si)); }        // p0.xy, p1.xy (ScratchGPU.ends)
+vec4 rec_shape(uint si) { return texelFetch(recs, int(4u * si + 1u)); }  // w, d, alpha, - (ScratchGPU.shape)
+vec4 rec_cull_a(uint si) { return texelFetch(recs, int(4u * si + 2u)); } // p0.xy, unit direction t.xy
+vec4 rec_cull_b(uint si) { return texelFetch(recs, int(4u * si + 3u)); } // len, w, s_e, alpha
+
+#endif
