@@ -52,9 +52,10 @@ void pair_eval(uint i, uint px, uint k, bool fast) {
     uint si = sh_si[k];
     vec4 ca = rec_cull_a(si), cb = rec_cull_b(si);  // p0, t; len, w, s_e, alpha
     vec2 fp[4];
-    pixel_footprint(px, fp);
+    vec3 h;
+    pixel_pair_data(px, fp, h);
     float I, A;
-    pair_integrate(ca.x, ca.y, ca.z, ca.w, cb.x, cb.y, cb.z, cb.w, fp, sh_h[px].xyz, fast, I, A);
+    pair_integrate(ca.x, ca.y, ca.z, ca.w, cb.x, cb.y, cb.z, cb.w, fp, h, fast, I, A);
     sh_res[i] = vec2(I, A);
 }
 
@@ -103,7 +104,7 @@ void main() {
 
     PixelSetup P = pixel_setup(V, views64[vi], intensity[vi], ij, pc.half_plate, pc.alpha_s, pc.f0);
     bool live = inside && P.on_plate && P.scale > 0.0;
-    store_pixel(lid, P, 0.0);
+    store_pixel(lid, V, t0, vec2(0.0));
     uint cand = 0u;
     if (begin > start && inside) {  // an earlier pass did the chunks before `begin`
         vec4 c = carry[pix];

@@ -61,7 +61,6 @@ layout(std430, binding = 10) readonly buffer PairStore { uint pstore[]; };
 const uint QCAP = GRAD_QCAP;
 #include "inc/tile_loop.glsl"
 
-shared float sh_ga[256];           // per pixel: coefficient of dA (sh_h[px].w: of dI)
 shared vec4 sh_c0[QCAP];           // per-pair contribution d/d(x0, y0, x1, y1)
 shared vec4 sh_c1[QCAP];           // d/d(w, d, alpha); w: the next entry of the same scratch (bits)
 shared uint sh_head[CHUNK];        // per chunk scratch: its first entry in the round
@@ -77,25 +76,25 @@ void pair_eval(uint i, uint px, uint k, bool fast) {
     uint si = sh_si[k];
     vec4 E = rec_ends(si), S = rec_shape(si);  // raw scratch parameters
     vec2 fp[4];
-    pixel_footprint(px, fp);
-    vec4 hh = sh_h[px];
-    float ga = sh_ga[px];
+    vec3 h;
+    pixel_pair_data(px, fp, h);
+    vec2 g = sh_pv[px];  // gI, gA: coefficients of dI and dA
     vec4 r0;
     vec3 r1;
 #ifdef SA_REVERSE
-    pair_adjoint(E, S, fp, hh.xyz, hh.w, ga, fast, r0, r1);
+    pair_adjoint(E, S, fp, h, g.x, g.y, fast, r0, r1);
 #else
     Dual I, A;
     pair_from_params(seed(E.x, 0), seed(E.y, 1), seed(E.z, 2), seed(E.w, 3), seed(S.x, 4), seed(S.y, 5), seed(S.z, 6),
-                     fp, hh.xyz, fast, I, A);
-    r0 = hh.w * I.g0 + ga * A.g0;
-    r1 = hh.w * I.g1 + ga * A.g1;
+                     fp, h, fast, I, A);
+    r0 = g.x * I.g0 + g.y * A.g0;
+    r1 = g.x * I.g1 + g.y * A.g1;
 #endif
 #ifdef SA_REPLAY
     // A pixel with a zero seed (gI = 0, so gA = 0) has no pairs in tile_loop's queue; here it
     // adds exact zeros, so sums (and bits) are the same (never -0: a sum that starts at +0 and
     // adds +0 stays +0).
-    if (hh.w == 0.0) { r0 = vec4(0.0); r1 = vec3(0.0); }
+    if (g.x == 0.0) { r0 = vec4(0.0); r1 = vec3(0.0); }
 #endif
     sh_c0[i] = r0;
     sh_c1[i] = vec4(r1, 0.0);
@@ -160,8 +159,7 @@ void main() {
         gA = cov_raw[pix] < 1.0 ? -g * P.d_flat : 0.0;
         live = g != 0.0;
     }
-    store_pixel(lid, P, gI);
-    sh_ga[lid] = gA;
+    store_pixel(lid, V, t0, vec2(gI, gA));
 #ifdef SA_REPLAY
     tile_replay(begin, stop, lid);
 #else

@@ -46,7 +46,6 @@ const uint QCAP = 256u;
 #include "inc/tile_loop.glsl"
 
 shared vec4 sh_r[2u * QCAP];       // per entry: dL/dθ_j (0-3, 4-6)
-shared float sh_ga[256];           // per pixel: gA (sh_h[px].w: gI)
 
 // This pixel's sums.
 vec4 acc0 = vec4(0.0), acc1 = vec4(0.0);
@@ -55,13 +54,14 @@ void chunk_begin(uint lid) {}
 void chunk_end(uint lid, uint c0, uint cnt) {}
 
 void pair_eval(uint i, uint px, uint k, bool fast) {
-    vec4 hh = sh_h[px];
     vec2 fp[4];
-    pixel_footprint(px, fp);
+    vec3 h;
+    pixel_pair_data(px, fp, h);
+    vec2 gp = sh_pv[px];  // gI, gA
     vec4 d0;
     vec3 g;
     uint si = sh_si[k];
-    pair_adjoint(rec_ends(si), rec_shape(si), fp, hh.xyz, hh.w, sh_ga[px], fast, d0, g);
+    pair_adjoint(rec_ends(si), rec_shape(si), fp, h, gp.x, gp.y, fast, d0, g);
     uint b = 6u * si;
     // dL/dθ_j = g . (dw, dd, dalpha)/dθ_j
     sh_r[2u * i] = g.x * seeds[b] + g.y * seeds[b + 2u] + g.z * seeds[b + 4u];
@@ -108,8 +108,7 @@ void main() {
         gI = P.scale * P.inv_sp;
         gA = cov_raw[pix] < 1.0 ? -gI * P.d_flat : 0.0;
     }
-    store_pixel(lid, P, gI);
-    sh_ga[lid] = gA;
+    store_pixel(lid, V, t0, vec2(gI, gA));
     if (begin > start && inside) {  // an earlier pass did the chunks before `begin`
         acc0 = tang[2u * pix];
         acc1 = tang[2u * pix + 1u];

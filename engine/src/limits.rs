@@ -36,6 +36,9 @@ pub fn caps_loops(info: &DeviceInfo) -> bool {
 
 /// The per-scratch records buffer of the shading kernels (a storage and a texel buffer).
 const RECORDS: &str = "scratch records of the shading kernels (4 texels each)";
+/// The per-pixel records of the shading kernels (a texel buffer only: bounded by the device's
+/// texel count, not by its storage-buffer range).
+const PIXEL_RECORDS: &str = "pixel records of the shading kernels (3 texels per pixel)";
 
 impl SceneDims {
     /// `views` of W x H pixels each.
@@ -85,12 +88,20 @@ impl SceneDims {
     /// The first buffer over the device's per-buffer limit, if any: (what, bytes, limit).
     pub fn over_device_limit(&self, info: &DeviceInfo) -> Option<(&'static str, u64, u64)> {
         let limit = info.max_storage_buffer_range;
-        // The records are also a texel buffer: 16-byte texels, at most maxTexelBufferElements.
+        // The records are also texel buffers: 16-byte texels, at most maxTexelBufferElements.
         let texel_limit = info.max_texel_buffer_elements.saturating_mul(16);
-        self.buffers().into_iter().find_map(|(n, b)| {
-            let limit = if n == RECORDS { limit.min(texel_limit) } else { limit };
-            (b > limit).then_some((n, b, limit))
-        })
+        let texels = [(PIXEL_RECORDS, self.pixels.max(1) * 48)];
+        self.buffers()
+            .into_iter()
+            .find_map(|(n, b)| {
+                let limit = if n == RECORDS { limit.min(texel_limit) } else { limit };
+                (b > limit).then_some((n, b, limit))
+            })
+            .or_else(|| {
+                texels
+                    .into_iter()
+                    .find_map(|(n, b)| (b > texel_limit).then_some((n, b, texel_limit)))
+            })
     }
 
     /// Host memory the job needs at least (targets, images read back, reports): a lower bound.

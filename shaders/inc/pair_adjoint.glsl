@@ -404,7 +404,7 @@ void pieces_adj(PairF F, bool fast, FastRec FR, float gI, float gA, inout vec4 a
 }
 
 // The gradient of gI I + gA A for one pair: d0 = d/d(x0, y0, x1, y1), d1 = d/d(w, d, alpha).
-// E = (x0, y0, x1, y1), S = (w, d, alpha, -); fp the footprint corners as stored by store_pixel,
+// E = (x0, y0, x1, y1), S = (w, d, alpha, -); fp the footprint corners as pixel_records.comp stores them,
 // h the half vector; try_fast as for pair_integral (patch_ndf.glsl).
 void pair_adjoint(vec4 E, vec4 S, vec2 fp[4], vec3 h, float gI, float gA, bool try_fast, out vec4 d0, out vec3 d1) {
     PairF F = pair_f(E, S, fp, h);

@@ -1,6 +1,7 @@
 // The per-scratch records of scratch_records.comp, bound to the shading kernels as a uniform
 // texel buffer after their storage buffers (binding SA_RECORDS_BINDING, engine/src/render): four
-// RGBA32F texels per scratch, fetched by scene index. A texel fetch with a per-lane index is a
+// RGBA32F texels per scratch, fetched by scene index; and the per-pixel records of
+// pixel_records.comp after them. A texel fetch with a per-lane index is a
 // vector gather on CPU drivers (llvmpipe), where a shared-memory or storage-buffer load with a
 // per-lane index is a scalar loop over the lanes: the candidate tests and the pair integrals
 // read a scratch's data through these, not through shared memory.
@@ -14,5 +15,19 @@ vec4 rec_ends(uint si) { return texelFetch(recs, int(4u * si)); }        // p0.x
 vec4 rec_shape(uint si) { return texelFetch(recs, int(4u * si + 1u)); }  // w, d, alpha, - (ScratchGPU.shape)
 vec4 rec_cull_a(uint si) { return texelFetch(recs, int(4u * si + 2u)); } // p0.xy, unit direction t.xy
 vec4 rec_cull_b(uint si) { return texelFetch(recs, int(4u * si + 3u)); } // len, w, s_e, alpha
+
+// The per-pixel records of pixel_records.comp (binding SA_PIXEL_RECORDS_BINDING, after the
+// scratch records): three texels per pixel of the views' concatenated images, the footprint
+// corners as the pair integrals take them and the half vector.
+#define SA_PIXEL_RECORDS_BINDING 12
+layout(binding = SA_PIXEL_RECORDS_BINDING) uniform samplerBuffer precs;
+
+// Pixel `pix` (its index in the concatenated images): footprint corners and half vector.
+void pixel_record(uint pix, out vec2 fp[4], out vec3 h) {
+    int b = int(3u * pix);
+    vec4 a = texelFetch(precs, b), c = texelFetch(precs, b + 1);
+    fp = vec2[](a.xy, a.zw, c.xy, c.zw);
+    h = texelFetch(precs, b + 2).xyz;
+}
 
 #endif

@@ -30,30 +30,29 @@
 #include "tile_queue.glsl"
 #include "limits.glsl"
 
-shared vec4 sh_fp01[256];          // pixel footprint corners, ordered CCW in scratch (s, v) frames
-shared vec4 sh_fp23[256];
-shared vec4 sh_h[256];             // xyz half vector; w is the kernel's (store_pixel)
+shared vec2 sh_pv[256];            // the kernel's two per-pixel values (store_pixel)
+// This tile's first pixel in the views' concatenated images, and its view's row length: the
+// index of a tile pixel's record (pixel_records.comp, scratch_records.glsl).
+uint g_tile_pix = 0u, g_row = 0u;
 
 void chunk_begin(uint lid);
 void pair_eval(uint i, uint px, uint k, bool fast);
 void round_accumulate(uint lid, uint r0, uint n, uint cnt, uvec2 fmask, uint fbase, uvec2 gmask, uint gbase);
 void chunk_end(uint lid, uint c0, uint cnt);
 
-// This pixel's constants for the pairs: footprint corners and half vector (hw: the kernel's
-// per-pixel value in sh_h[lid].w).
-void store_pixel(uint lid, PixelSetup P, float hw) {
-    // The map to (s, v) = (2 (q-p0).b / w, (q-p0).t) has determinant -2/w < 0: a footprint that
-    // is counter-clockwise on the plate is clockwise in (s, v), so store it reversed.
-    vec2 f0 = P.fp[P.ccw ? 3 : 0], f1 = P.fp[P.ccw ? 2 : 1], f2 = P.fp[P.ccw ? 1 : 2], f3 = P.fp[P.ccw ? 0 : 3];
-    sh_fp01[lid] = vec4(f0, f1);
-    sh_fp23[lid] = vec4(f2, f3);
-    sh_h[lid] = vec4(P.h, hw);
+// The tile (view V, first pixel t0) and this pixel's two values for the kernel's pair_eval (pv,
+// read as sh_pv[px]: the backward's gI and gA). Call before tile_loop or tile_replay.
+void store_pixel(uint lid, ViewGPU V, uvec2 t0, vec2 pv) {
+    g_tile_pix = V.base.y + t0.y * V.dims.x + t0.x;
+    g_row = V.dims.x;
+    sh_pv[lid] = pv;
 }
 
-// Pixel px's footprint corners as stored by store_pixel (for pair_integrate).
-void pixel_footprint(uint px, out vec2 fp[4]) {
-    vec4 fa = sh_fp01[px], fb = sh_fp23[px];
-    fp = vec2[](fa.xy, fa.zw, fb.xy, fb.zw);
+// Tile pixel px's footprint corners, ordered as the pair integrals take them, and half vector:
+// its record (pixel_records.comp).
+void pixel_pair_data(uint px, out vec2 fp[4], out vec3 h) {
+    uvec2 q = tile_pixel(px);
+    pixel_record(g_tile_pix + q.y * g_row + q.x, fp, h);
 }
 
 // The tile's list: [start, end) of `list` (clamped to the list's capacity; an overflowing render

@@ -21,6 +21,7 @@
 #extension GL_KHR_shader_subgroup_basic : require
 #extension GL_KHR_shader_subgroup_arithmetic : require
 #include "scratch_records.glsl"
+#include "tiles.glsl"
 
 const uint CHUNK = 64u;            // scratches per chunk: one bit each in two 32-bit words
 
@@ -31,23 +32,6 @@ shared bool sh_blk_all[16];        // a block whose corner rays miss the plate: 
 shared uint sh_blk_hits[32];       // per block, two words: chunk scratches that may meet it
 shared uint sh_base[256];          // queue_slots: per subgroup, its packed counts; free after it
 shared uint sh_queue[QCAP];        // (pixel << 8) | scratch-in-chunk
-
-// The tile pixel of thread lid, block by block: lid bits 0-1 are x and bits 2-3 are y within a
-// 4x4-pixel block, bits 4-7 the block (4 x 4 blocks). So neighbouring threads (a SIMD batch on a
-// CPU, most of a GPU subgroup) share a block and its candidate list, and the per-pixel candidate
-// loops of a batch run no longer than their block needs.
-uvec2 tile_pixel(uint lid) {
-    return uvec2((lid & 3u) | ((lid >> 2) & 12u), ((lid >> 2) & 3u) | ((lid >> 4) & 12u));
-}
-
-// The view that holds `tile`, and the tile's first pixel.
-uint tile_view(uint tile, out uvec2 t0) {
-    uint vi = 0u;
-    for (uint v = 1u; v < pc.n_views; ++v) if (tile >= views[v].base.x) vi = v;
-    uint lt = tile - views[vi].base.x;
-    t0 = uvec2((lt % views[vi].dims.z) * TILE, (lt / views[vi].dims.z) * TILE);
-    return vi;
-}
 
 // Threads 0..15: plate quads of the 16 blocks; threads 0..31 clear the block masks (both
 // visible after the chunk loop's first barrier).

@@ -16,6 +16,7 @@ pub const PRECOMPILED: &[(&str, &[(&str, &str)])] = &[
     ("scan.comp", &[("APPLY", "1")]),
     ("grad_reduce.comp", &[]),
     ("scratch_records.comp", &[]),
+    ("pixel_records.comp", &[]),
     ("grad_light.comp", &[]),
     ("forward.comp", &[("SA_INTEGRATOR_CLOSED_FORM", "1")]),
     (

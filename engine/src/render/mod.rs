@@ -27,7 +27,7 @@ pub use scene::{GpuScene, RenderStats};
 use std::sync::Arc;
 
 use crate::model::scene::Scene;
-use crate::vulkan::{Buffer, ComputePipeline, Context, GpuError, Recorder, ShaderCompiler, Timings};
+use crate::vulkan::{Buffer, ComputePipeline, Context, GpuError, Recorder, ShaderCompiler, Texel, Timings};
 use kernels::{KernelSet, ShadeKernel};
 use layout::{BinPush, ScanPush, ShadePush};
 
@@ -44,8 +44,10 @@ pub struct Renderer {
     scan_reduce: ComputePipeline,
     scan_sums: ComputePipeline,
     scan_apply: ComputePipeline,
-    /// The per-scratch records of the shading kernels (`scratch_records.comp`).
+    /// The per-scratch and per-pixel records of the shading kernels (`scratch_records.comp`,
+    /// `pixel_records.comp`).
     records: ComputePipeline,
+    pixel_records: ComputePipeline,
     /// The shading kernels this renderer builds (`forward` at once, the backward on first use).
     kernels: KernelSet,
     forward: ComputePipeline,
@@ -65,9 +67,10 @@ pub struct Renderer {
 pub const MIN_SHARED_MEMORY: u32 = 32 * 1024;
 
 /// Storage buffers every shading kernel's pipeline binds (forward, backward, tangent); the last
-/// is the pair store, which the forward writes and the backward's replay reads. After them comes
-/// one uniform texel buffer, the scene's per-scratch records (`GpuScene::records`, binding
-/// `SA_RECORDS_BINDING` of `shaders/inc/scratch_records.glsl`).
+/// is the pair store, which the forward writes and the backward's replay reads. After them come
+/// two texel buffers, the scene's per-scratch and per-pixel records (`GpuScene::records` and
+/// `GpuScene::pixel_records`, bindings `SA_RECORDS_BINDING` and `SA_PIXEL_RECORDS_BINDING` of
+/// `shaders/inc/scratch_records.glsl`).
 const SHADE_BUFFERS: u32 = 11;
 
 /// The pipeline of a shading kernel (`SHADE_BUFFERS` buffers, the records, and `ShadePush`);
@@ -89,7 +92,7 @@ fn shade_pipeline(
         &name,
         &spirv,
         SHADE_BUFFERS,
-        1,
+        &[Texel::Read, Texel::Read],
         std::mem::size_of::<ShadePush>() as u32,
     )
 }
@@ -144,6 +147,14 @@ impl Renderer {
             scan_sums: ComputePipeline::new(ctx, &sc, "scan.comp", &[("SUMS", "1")], 3, scan_push)?,
             scan_apply: ComputePipeline::new(ctx, &sc, "scan.comp", &[("APPLY", "1")], 3, scan_push)?,
             records: ComputePipeline::new(ctx, &sc, "scratch_records.comp", &[], 2, 16)?,
+            pixel_records: ComputePipeline::with_texels(
+                ctx,
+                "pixel_records.comp",
+                &sc.compile("pixel_records.comp", &[])?,
+                3,
+                &[Texel::Write],
+                std::mem::size_of::<ShadePush>() as u32,
+            )?,
             kernels,
             forward: shade_pipeline(ctx, &sc, &kernels.forward, false)?,
             grad: std::sync::OnceLock::new(),
@@ -293,6 +304,7 @@ impl Renderer {
                 &gs.carry,
                 &gs.pair_store,
                 &gs.records,
+                &gs.pixel_records,
             ],
         );
     }
@@ -308,6 +320,12 @@ impl Renderer {
             &[&gs.scratches, &gs.records],
             bytemuck::cast_slice(&push),
             gs.n_scratches.div_ceil(64),
+        );
+        rec.dispatch_1d(
+            &self.pixel_records,
+            &[&gs.views, &gs.views64, &gs.lights, &gs.pixel_records],
+            bytemuck::bytes_of(&gs.shade),
+            gs.slots.n_tiles,
         );
         rec.barrier();
         self.record_binning(rec, gs);
@@ -377,8 +395,8 @@ impl Renderer {
 /// scene, the tile lists, a per-pixel `input` (dE/dL, or the tangent seeds), the forward's
 /// coverage, the `output` (partial gradients, or tangents), the float64 cameras, the lights, the
 /// counters, the pair store (read by the backward's replay; `tangent.comp` leaves it unbound) and
-/// the per-scratch records (a texel buffer, written by the render before).
-fn backward_bindings<'a>(gs: &'a GpuScene, input: &'a Buffer, output: &'a Buffer) -> [&'a Buffer; 12] {
+/// the per-scratch and per-pixel records (texel buffers, written by the render before).
+fn backward_bindings<'a>(gs: &'a GpuScene, input: &'a Buffer, output: &'a Buffer) -> [&'a Buffer; 13] {
     [
         &gs.views,
         &gs.scratches,
@@ -392,6 +410,7 @@ fn backward_bindings<'a>(gs: &'a GpuScene, input: &'a Buffer, output: &'a Buffer
         &gs.stats,
         &gs.pair_store,
         &gs.records,
+        &gs.pixel_records,
     ]
 }
 

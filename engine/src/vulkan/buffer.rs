@@ -41,9 +41,11 @@ pub struct Buffer {
 }
 
 impl Buffer {
-    /// A buffer that is also a uniform texel buffer of RGBA32F texels (16 bytes each) over its
-    /// whole size: bind it to a pipeline's texel bindings (see [`super::ComputePipeline`]).
-    /// Fails with a clear error past the device's texel-buffer limit.
+    /// A buffer that is also a texel buffer of RGBA32F texels (16 bytes each) over its whole
+    /// size, to read (uniform texel buffer) or write (storage texel buffer): bind it to a
+    /// pipeline's texel bindings (see [`super::ComputePipeline`]). Its size is bounded by the
+    /// device's texel count, not by its storage-buffer range (bound as a storage buffer, such a
+    /// buffer must fit that range too). Fails with a clear error past the texel limit.
     pub fn new_texel(ctx: &Arc<Context>, name: &str, size: u64, loc: MemLoc) -> Result<Buffer, GpuError> {
         let size = size.max(16).next_multiple_of(16);
         let limit = ctx.info().max_texel_buffer_elements * 16;
@@ -54,7 +56,8 @@ impl Buffer {
                 limit,
             });
         }
-        let mut b = Self::create(ctx, name, size, loc, vk::BufferUsageFlags::UNIFORM_TEXEL_BUFFER)?;
+        let usage = vk::BufferUsageFlags::UNIFORM_TEXEL_BUFFER | vk::BufferUsageFlags::STORAGE_TEXEL_BUFFER;
+        let mut b = Self::create(ctx, name, size, loc, usage, false)?;
         let ci = vk::BufferViewCreateInfo::default()
             .buffer(b.raw)
             .format(vk::Format::R32G32B32A32_SFLOAT)
@@ -73,7 +76,7 @@ impl Buffer {
 
     /// Creates a buffer of `size` bytes (0 becomes 16: Vulkan forbids empty buffers).
     pub fn new(ctx: &Arc<Context>, name: &str, size: u64, loc: MemLoc) -> Result<Buffer, GpuError> {
-        Self::create(ctx, name, size, loc, vk::BufferUsageFlags::empty())
+        Self::create(ctx, name, size, loc, vk::BufferUsageFlags::empty(), true)
     }
 
     fn create(
@@ -82,10 +85,11 @@ impl Buffer {
         size: u64,
         loc: MemLoc,
         extra_usage: vk::BufferUsageFlags,
+        storage_range: bool,
     ) -> Result<Buffer, GpuError> {
         let size = size.max(16);
         let limit = ctx.info().max_storage_buffer_range;
-        if size > limit {
+        if storage_range && size > limit {
             return Err(GpuError::BufferTooLarge {
                 name: name.into(),
                 size,

@@ -32,7 +32,7 @@ pub use device::{Context, ContextDesc};
 pub use error::GpuError;
 pub use instance::ValidationLog;
 pub use physical_device::{list_devices, DeviceInfo, DeviceSummary};
-pub use pipeline::ComputePipeline;
+pub use pipeline::{ComputePipeline, Texel};
 pub use pipeline_cache::PipelineCacheDir;
 pub use recorder::{Recorder, Timings};
 pub use shader::ShaderCompiler;

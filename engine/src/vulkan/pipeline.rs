@@ -1,8 +1,8 @@
 //! [`ComputePipeline`]: one compute shader with the engine's fixed binding convention:
-//! set 0, bindings `0..num_buffers` storage buffers, then `num_texels` uniform texel buffers
-//! (RGBA32F views, see [`super::Buffer::new_texel`]; none unless built with
-//! [`ComputePipeline::with_texels`]); plus one push-constant range of `push_constant_bytes` at
-//! offset 0. The shader must declare exactly that interface
+//! set 0, bindings `0..num_buffers` storage buffers, then texel buffers (RGBA32F views, see
+//! [`super::Buffer::new_texel`]; none unless built with [`ComputePipeline::with_texels`]), each
+//! read (a uniform texel buffer, `samplerBuffer`) or written (a storage texel buffer,
+//! `imageBuffer`); plus one push-constant range of `push_constant_bytes` at offset 0. The shader must declare exactly that interface
 //! (validation reports a mismatch, naming the pipeline).
 use std::sync::Arc;
 
@@ -14,13 +14,31 @@ use super::{
     shader::ShaderCompiler,
 };
 
+/// A texel-buffer binding of a [`ComputePipeline`] (after its storage buffers).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Texel {
+    /// Read with `texelFetch` (`uniform samplerBuffer`): a uniform texel buffer.
+    Read,
+    /// Written with `imageStore` (`uniform imageBuffer`, rgba32f): a storage texel buffer.
+    Write,
+}
+
+impl Texel {
+    pub fn descriptor_type(self) -> vk::DescriptorType {
+        match self {
+            Texel::Read => vk::DescriptorType::UNIFORM_TEXEL_BUFFER,
+            Texel::Write => vk::DescriptorType::STORAGE_TEXEL_BUFFER,
+        }
+    }
+}
+
 pub struct ComputePipeline {
     ctx: Arc<Context>,
     pipeline: vk::Pipeline,
     layout: vk::PipelineLayout,
     set_layout: vk::DescriptorSetLayout,
     num_buffers: u32,
-    num_texels: u32,
+    texels: Vec<Texel>,
     push_bytes: u32,
     name: String,
 }
@@ -46,17 +64,17 @@ impl ComputePipeline {
         num_buffers: u32,
         push_constant_bytes: u32,
     ) -> Result<ComputePipeline, GpuError> {
-        Self::with_texels(ctx, name, spirv, num_buffers, 0, push_constant_bytes)
+        Self::with_texels(ctx, name, spirv, num_buffers, &[], push_constant_bytes)
     }
 
-    /// As [`from_spirv`](Self::from_spirv), with `num_texels` uniform texel buffers bound after
-    /// the storage buffers (bindings `num_buffers..num_buffers + num_texels`).
+    /// As [`from_spirv`](Self::from_spirv), with the texel buffers `texels` bound after the
+    /// storage buffers (bindings `num_buffers..num_buffers + texels.len()`).
     pub fn with_texels(
         ctx: &Arc<Context>,
         name: &str,
         spirv: &[u32],
         num_buffers: u32,
-        num_texels: u32,
+        texels: &[Texel],
         push_constant_bytes: u32,
     ) -> Result<ComputePipeline, GpuError> {
         assert!(
@@ -65,14 +83,14 @@ impl ComputePipeline {
             ctx.info().max_push_constants_size
         );
         let d = &ctx.device;
-        let bindings: Vec<_> = (0..num_buffers + num_texels)
+        let bindings: Vec<_> = (0..num_buffers + texels.len() as u32)
             .map(|i| {
                 vk::DescriptorSetLayoutBinding::default()
                     .binding(i)
                     .descriptor_type(if i < num_buffers {
                         vk::DescriptorType::STORAGE_BUFFER
                     } else {
-                        vk::DescriptorType::UNIFORM_TEXEL_BUFFER
+                        texels[(i - num_buffers) as usize].descriptor_type()
                     })
                     .descriptor_count(1)
                     .stage_flags(vk::ShaderStageFlags::COMPUTE)
@@ -132,7 +150,7 @@ impl ComputePipeline {
             layout,
             set_layout,
             num_buffers,
-            num_texels,
+            texels: texels.to_vec(),
             push_bytes: push_constant_bytes,
             name: name.into(),
         })
@@ -145,9 +163,9 @@ impl ComputePipeline {
     pub fn num_buffers(&self) -> u32 {
         self.num_buffers
     }
-    /// Uniform texel-buffer bindings (after the storage buffers).
-    pub fn num_texels(&self) -> u32 {
-        self.num_texels
+    /// Texel-buffer bindings (after the storage buffers).
+    pub fn texels(&self) -> &[Texel] {
+        &self.texels
     }
     pub fn push_constant_bytes(&self) -> u32 {
         self.push_bytes

@@ -122,6 +122,9 @@ impl Recorder {
                 .descriptor_count(DESCRIPTORS_PER_POOL),
             vk::DescriptorPoolSize::default()
                 .ty(vk::DescriptorType::UNIFORM_TEXEL_BUFFER)
+                .descriptor_count(2 * SETS_PER_POOL),
+            vk::DescriptorPoolSize::default()
+                .ty(vk::DescriptorType::STORAGE_TEXEL_BUFFER)
                 .descriptor_count(SETS_PER_POOL),
         ];
         let p = unsafe {
@@ -226,10 +229,10 @@ impl Recorder {
         let name = p.name();
         let n_storage = p.num_buffers() as usize;
         assert!(
-            buffers.len() == n_storage + p.num_texels() as usize,
+            buffers.len() == n_storage + p.texels().len(),
             "pipeline '{name}' takes {} buffers ({} of them texel buffers), got {}",
-            n_storage + p.num_texels() as usize,
-            p.num_texels(),
+            n_storage + p.texels().len(),
+            p.texels().len(),
             buffers.len()
         );
         let views: Vec<vk::BufferView> = buffers[n_storage..]
@@ -287,12 +290,12 @@ impl Recorder {
                         .buffer_info(info)
                 })
                 .collect();
-            for (i, v) in views.iter().enumerate() {
+            for (i, (v, t)) in views.iter().zip(p.texels()).enumerate() {
                 writes.push(
                     vk::WriteDescriptorSet::default()
                         .dst_set(set)
                         .dst_binding((n_storage + i) as u32)
-                        .descriptor_type(vk::DescriptorType::UNIFORM_TEXEL_BUFFER)
+                        .descriptor_type(t.descriptor_type())
                         .texel_buffer_view(std::slice::from_ref(v)),
                 );
             }
