@@ -102,7 +102,7 @@ void main() {
     if (lid == 0u) sh_culled = 0u;
 #endif
 
-    PixelSetup P = pixel_setup(V, views64[vi], intensity[vi], ij, pc.half_plate, pc.alpha_s, pc.f0);
+    PixelSetup P = pixel_from_record(V, ij);
     bool live = inside && P.on_plate && P.scale > 0.0;
     store_pixel(lid, V, t0, vec2(0.0));
     uint cand = 0u;

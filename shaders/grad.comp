@@ -149,7 +149,7 @@ void main() {
     bool inside = ij.x < V.dims.x && ij.y < V.dims.y;
     uint lid = gl_LocalInvocationIndex;
 
-    PixelSetup P = pixel_setup(V, views64[vi], intensity[vi], ij, pc.half_plate, pc.alpha_s, pc.f0);
+    PixelSetup P = pixel_from_record(V, ij);
     bool live = inside && P.on_plate && P.scale > 0.0;
     float gI = 0.0, gA = 0.0;
     if (live) {

@@ -1,8 +1,10 @@
 #version 450
-// Per-pixel records for the shading kernels, once per render before them: three RGBA32F texels
+// Per-pixel records for the shading kernels, once per render before them: five RGBA32F texels
 // per pixel (its footprint corners, ordered counter-clockwise in the scratch frames as the pair
-// integrals take them, and its half vector), read through a uniform texel buffer (`precs`, see
-// inc/scratch_records.glsl) where a queue entry needs another pixel's data. Written through a
+// integrals take them, its half vector, and the rest of its set-up that the kernels use), read
+// through a uniform texel buffer (`precs`, see inc/scratch_records.glsl): by the pair integrals
+// where a queue entry needs another pixel's data, and by every kernel for its own pixel, so the
+// float64 set-up runs once per render instead of once per kernel. Written through a
 // storage texel buffer, so its size is bounded by the device's texel count, not by its
 // storage-buffer range. One workgroup per 16x16 tile, laid out as the shading kernels'.
 #extension GL_GOOGLE_include_directive : require
@@ -29,8 +31,10 @@ void main() {
     // The map to (s, v) = (2 (q-p0).b / w, (q-p0).t) has determinant -2/w < 0: a footprint that
     // is counter-clockwise on the plate is clockwise in (s, v), so store it reversed.
     vec2 f0 = P.fp[P.ccw ? 3 : 0], f1 = P.fp[P.ccw ? 2 : 1], f2 = P.fp[P.ccw ? 1 : 2], f3 = P.fp[P.ccw ? 0 : 3];
-    int b = int(3u * (V.base.y + ij.y * V.dims.x + ij.x));
+    int b = int(SA_PIXEL_TEXELS * (V.base.y + ij.y * V.dims.x + ij.x));
     imageStore(out_recs, b, vec4(f0, f1));
     imageStore(out_recs, b + 1, vec4(f2, f3));
-    imageStore(out_recs, b + 2, vec4(P.h, 0.0));
+    imageStore(out_recs, b + 2, vec4(P.h, P.d_flat));
+    imageStore(out_recs, b + 3, vec4(P.centre, P.radius, P.inv_sp));
+    imageStore(out_recs, b + 4, vec4(P.scale, P.on_plate ? 1.0 : 0.0, 0.0, 0.0));
 }

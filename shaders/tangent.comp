@@ -101,7 +101,7 @@ void main() {
     uint lid = gl_LocalInvocationIndex;
     uint pix = V.base.y + ij.y * V.dims.x + ij.x;
 
-    PixelSetup P = pixel_setup(V, views64[vi], intensity[vi], ij, pc.half_plate, pc.alpha_s, pc.f0);
+    PixelSetup P = pixel_from_record(V, ij);
     bool live = inside && P.on_plate && P.scale > 0.0;
     float gI = 0.0, gA = 0.0;
     if (live) {

@@ -38,7 +38,7 @@ pub fn caps_loops(info: &DeviceInfo) -> bool {
 const RECORDS: &str = "scratch records of the shading kernels (4 texels each)";
 /// The per-pixel records of the shading kernels (a texel buffer only: bounded by the device's
 /// texel count, not by its storage-buffer range).
-const PIXEL_RECORDS: &str = "pixel records of the shading kernels (3 texels per pixel)";
+const PIXEL_RECORDS: &str = "pixel records of the shading kernels (5 texels per pixel)";
 
 impl SceneDims {
     /// `views` of W x H pixels each.
@@ -90,7 +90,7 @@ impl SceneDims {
         let limit = info.max_storage_buffer_range;
         // The records are also texel buffers: 16-byte texels, at most maxTexelBufferElements.
         let texel_limit = info.max_texel_buffer_elements.saturating_mul(16);
-        let texels = [(PIXEL_RECORDS, self.pixels.max(1) * 48)];
+        let texels = [(PIXEL_RECORDS, self.pixels.max(1) * 80)];
         self.buffers()
             .into_iter()
             .find_map(|(n, b)| {

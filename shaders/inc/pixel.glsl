@@ -3,6 +3,9 @@
 #define SA_PIXEL_GLSL
 #include "common.glsl"
 
+// Texels per pixel of pixel_records.comp's records (inc/scratch_records.glsl reads them).
+#define SA_PIXEL_TEXELS 5u
+
 struct PixelSetup {
     bool on_plate;     // MODEL.md section 4; off-plate pixels are exactly 0 with no gradient
     vec2 fp[4];        // footprint corners on the plate: (i,j), (i+1,j), (i+1,j+1), (i,j+1)

@@ -17,14 +17,15 @@ vec4 rec_cull_a(uint si) { return texelFetch(recs, int(4u * si + 2u)); } // p0.x
 vec4 rec_cull_b(uint si) { return texelFetch(recs, int(4u * si + 3u)); } // len, w, s_e, alpha
 
 // The per-pixel records of pixel_records.comp (binding SA_PIXEL_RECORDS_BINDING, after the
-// scratch records): three texels per pixel of the views' concatenated images, the footprint
-// corners as the pair integrals take them and the half vector.
+// scratch records): SA_PIXEL_TEXELS (pixel.glsl) texels per pixel of the views' concatenated images: the
+// footprint corners as the pair integrals take them, (h, d_flat), (centre, radius, inv_sp),
+// (scale, on_plate, -, -).
 #define SA_PIXEL_RECORDS_BINDING 12
 layout(binding = SA_PIXEL_RECORDS_BINDING) uniform samplerBuffer precs;
 
 // Pixel `pix` (its index in the concatenated images): footprint corners and half vector.
 void pixel_record(uint pix, out vec2 fp[4], out vec3 h) {
-    int b = int(3u * pix);
+    int b = int(SA_PIXEL_TEXELS * pix);
     vec4 a = texelFetch(precs, b), c = texelFetch(precs, b + 1);
     fp = vec2[](a.xy, a.zw, c.xy, c.zw);
     h = texelFetch(precs, b + 2).xyz;

@@ -48,6 +48,29 @@ void store_pixel(uint lid, ViewGPU V, uvec2 t0, vec2 pv) {
     sh_pv[lid] = pv;
 }
 
+// The set-up of tile pixel ij of view V as pixel_records.comp computed it: the fields the
+// shading kernels use (fp in the pair integrals' order; e_irr and ccw are not kept). A pixel of
+// a partial tile outside the view reads its view's last pixel's record: such a pixel is never
+// live and writes nothing.
+PixelSetup pixel_from_record(ViewGPU V, uvec2 ij) {
+    PixelSetup P;
+    uint pix = V.base.y + min(ij.y, V.dims.y - 1u) * V.dims.x + min(ij.x, V.dims.x - 1u);
+    int b = int(SA_PIXEL_TEXELS * pix);
+    vec4 a = texelFetch(precs, b), c = texelFetch(precs, b + 1), hd = texelFetch(precs, b + 2);
+    vec4 cr = texelFetch(precs, b + 3), so = texelFetch(precs, b + 4);
+    P.fp = vec2[](a.xy, a.zw, c.xy, c.zw);
+    P.h = hd.xyz;
+    P.d_flat = hd.w;
+    P.centre = cr.xy;
+    P.radius = cr.z;
+    P.inv_sp = cr.w;
+    P.scale = so.x;
+    P.on_plate = so.y != 0.0;
+    P.ccw = false;
+    P.e_irr = 0.0;
+    return P;
+}
+
 // Tile pixel px's footprint corners, ordered as the pair integrals take them, and half vector:
 // its record (pixel_records.comp).
 void pixel_pair_data(uint px, out vec2 fp[4], out vec3 h) {

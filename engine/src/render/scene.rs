@@ -78,8 +78,9 @@ pub struct GpuScene {
     /// Four RGBA32F texels per scratch for the shading kernels, written at the start of every
     /// render (`scratch_records.comp`, `shaders/inc/scratch_records.glsl`).
     pub(super) records: Buffer,
-    /// Three RGBA32F texels per pixel of every view (footprint corners and half vector), written
-    /// at the start of every render (`pixel_records.comp`).
+    /// Five RGBA32F texels per pixel of every view (its set-up: footprint corners, half vector,
+    /// the rest the shading kernels use), written at the start of every render
+    /// (`pixel_records.comp`).
     pub(super) pixel_records: Buffer,
     /// per view: the light's intensity Phi (f32): optimized state, apart from the cameras
     pub(super) lights: Buffer,
@@ -198,7 +199,7 @@ impl GpuScene {
             views64: host("views (float64 cameras)", bytemuck::cast_slice(&slots.views64))?,
             scratches: ctx.upload("scratches", &scr)?,
             records: Buffer::new_texel(ctx, "scratch records", n_scratches.max(1) as u64 * 64, MemLoc::GpuOnly)?,
-            pixel_records: Buffer::new_texel(ctx, "pixel records", dims.pixels.max(1) * 48, MemLoc::GpuOnly)?,
+            pixel_records: Buffer::new_texel(ctx, "pixel records", dims.pixels.max(1) * 80, MemLoc::GpuOnly)?,
             // Host-visible too (the viewer's light slider); Adam writes it on the device.
             lights: host("light intensities", bytemuck::cast_slice(&phi))?,
             hist: gpu_only("bin offsets", hist_len * 4)?,
