@@ -11,14 +11,14 @@
 
 layout(local_size_x = 16, local_size_y = 16) in;
 layout(std430, binding = 0) readonly buffer Views { ViewGPU views[]; };
-layout(std430, binding = 1) readonly buffer Scratches { ScratchGPU scr[]; };
+// Bindings 1, 7 and 8 (scratches, float64 cameras, lights) are in every shading kernel's binding
+// list (engine/src/render) but read only by the records passes before it (scratch_records.comp,
+// pixel_records.comp): this kernel reads their records (inc/scratch_records.glsl).
 layout(std430, binding = 2) readonly buffer Offsets { uint offs[]; };  // scanned hist, n_tiles * n_groups + 1
 layout(std430, binding = 3) readonly buffer List { uint list[]; };
 layout(std430, binding = 4) writeonly buffer Image { float img[]; };  // L of every view, concatenated
 layout(std430, binding = 5) buffer Stats { uint stats[]; };            // render counters and flags (inc/limits.glsl)
 layout(std430, binding = 6) writeonly buffer Coverage { float cov_raw[]; };  // sum_k area(F ∩ R_k) / S_P, for the backward pass
-layout(std430, binding = 7) readonly buffer Views64 { ViewGPU64 views64[]; };  // float64 cameras
-layout(std430, binding = 8) readonly buffer Lights { float intensity[]; };     // Phi per view
 // Per pixel, between passes (see inc/limits.glsl): sum I, sum A, pairs, candidates so far.
 layout(std430, binding = 9) buffer Carry { vec4 carry[]; };
 // The queue of every chunk, for the backward to replay (inc/tile_queue.glsl, SA_STORE_PAIRS).

@@ -38,14 +38,14 @@
 
 layout(local_size_x = 16, local_size_y = 16) in;
 layout(std430, binding = 0) readonly buffer Views { ViewGPU views[]; };
-layout(std430, binding = 1) readonly buffer Scratches { ScratchGPU scr[]; };
+// Bindings 1, 7 and 8 (scratches, float64 cameras, lights) are in every shading kernel's binding
+// list (engine/src/render) but read only by the records passes before it (scratch_records.comp,
+// pixel_records.comp): this kernel reads their records (inc/scratch_records.glsl).
 layout(std430, binding = 2) readonly buffer Offsets { uint offs[]; };
 layout(std430, binding = 3) readonly buffer List { uint list[]; };
 layout(std430, binding = 4) readonly buffer DL { float dl[]; };          // dE/dL per pixel
 layout(std430, binding = 5) readonly buffer Coverage { float cov_raw[]; };
 layout(std430, binding = 6) writeonly buffer Partials { vec4 partial[]; };  // 2 per list entry
-layout(std430, binding = 7) readonly buffer Views64 { ViewGPU64 views64[]; };  // float64 cameras
-layout(std430, binding = 8) readonly buffer Lights { float intensity[]; };     // Phi per view
 layout(std430, binding = 9) buffer Stats { uint stats[]; };                    // [5], [6] (inc/limits.glsl)
 // SA_REPLAY: the forward's stored queues (inc/tile_queue.glsl), replayed instead of searching the
 // pairs again (tile_replay in inc/tile_loop.glsl).

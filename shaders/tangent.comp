@@ -26,7 +26,9 @@
 
 layout(local_size_x = 16, local_size_y = 16) in;
 layout(std430, binding = 0) readonly buffer Views { ViewGPU views[]; };
-layout(std430, binding = 1) readonly buffer Scratches { ScratchGPU scr[]; };
+// Bindings 1, 7 and 8 (scratches, float64 cameras, lights) are in every shading kernel's binding
+// list (engine/src/render) but read only by the records passes before it (scratch_records.comp,
+// pixel_records.comp): this kernel reads their records (inc/scratch_records.glsl).
 layout(std430, binding = 2) readonly buffer Offsets { uint offs[]; };
 layout(std430, binding = 3) readonly buffer List { uint list[]; };
 // Per scratch 6 vec4: the tangents of w (directions 0-3, 4-6), of d, of alpha.
@@ -34,8 +36,6 @@ layout(std430, binding = 4) readonly buffer Seeds { vec4 seeds[]; };
 layout(std430, binding = 5) readonly buffer Coverage { float cov_raw[]; };
 // Per pixel 2 vec4: dL/dθ_j (0-3, 4-6), summed over the passes.
 layout(std430, binding = 6) buffer Tangents { vec4 tang[]; };
-layout(std430, binding = 7) readonly buffer Views64 { ViewGPU64 views64[]; };
-layout(std430, binding = 8) readonly buffer Lights { float intensity[]; };
 layout(std430, binding = 9) buffer Stats { uint stats[]; };  // [5], [6] (inc/limits.glsl)
 
 #include "inc/shade_push.glsl"
