@@ -215,35 +215,73 @@ float clamp_which(float x, float lo, float hi, out int which) {
 // The pair's integral forward and reverse, one piece per iteration of a loop that is not unrolled,
 // so that edge_adj appears once in the kernel: for a fast-path pair the strip (j = 6), else the
 // Green walk of patch_integral (green.glsl): the four footprint edges clipped to the carved
-// rectangle, then its two across-edges clipped to the footprint.
+// rectangle, then its two across-edges clipped to the footprint, both kinds by one clip of a
+// segment o + t d by four constraints p_i t <= q_i (walk_piece in green.glsl) and one reverse.
+// On CPU drivers both sides of an `if` run and a loop's body runs at least once: a fast-path
+// pair pays for every line here, so the general pieces share their code, the loop tests at the
+// bottom, and the strip's reverse (fast_rev) runs once after it.
 void pieces_adj(PairF F, bool fast, FastRec FR, float gI, float gA, inout vec4 a_fs, inout vec4 a_fv, inout float a_se,
                 inout float a_len, inout float a_half, inout GAdj aG) {
     float se = F.se, len = F.len;
     vec4 fs = F.fs, fv = F.fv;
     PairGeom G = F.G;
-    float vref = ref_v(float[](fs.x, fs.y, fs.z, fs.w), float[](fv.x, fv.y, fv.z, fv.w), se, len);
+    // vref (ref_v in green.glsl) is found on the way, as the forward's walk finds it.
+    float vref = 0.0;
+    bool have_vref = fast;
     float Iraw = 0.0, Araw = 0.0;
     float aJ = gI * F.half_w, aA = gA * F.half_w;  // adjoints of the raw sums (before * half_w)
-    int j0 = fast ? 6 : 0, j1 = fast ? 7 : 6;
-    [[dont_unroll]] for (int j = j0; j < j1; ++j) {
+    // The strip's edge integral and its partials, for fast_rev after the loop.
+    float Jf = 0.0, af_lo = 0.0, af_hi = 0.0, af_vlo = 0.0, af_vhi = 0.0;
+    vec4 fds = fs.yzwx - fs, fdv = fv.yzwx - fv;  // footprint edges (across-edge clipping)
+    int j = fast ? 6 : 0, jend = fast ? 7 : 6;
+    [[dont_unroll]] do {
+        bool is_fast = j == 6, edge = j < 4;
+        int side = j - 4;
         // The edge integral of this iteration, set up by either kind of piece below.
-        bool is_fast = j == 6, integ = false;
+        bool integ = false;
         float ilo = 0.0, ihi = 0.0, ivlo = 0.0, ivhi = 0.0, iseed = 0.0;
-        // The piece: a segment (as, av) -> (bs, bv) and what it was clipped by.
-        float as = 0.0, av = 0.0, bs = 0.0, bv = 0.0;
-        bool keep = true;
-        float t0 = 0.0, t1 = 1.0;
-        // footprint edge (j < 4)
-        int e = j & 3, e1 = (j + 1) & 3;
-        vec4 me = onehot(e), me1 = onehot(e1);
+        // The piece: o + t d for t in [t0, t1], snapped to the box for a footprint edge.
+        vec4 me = onehot(j & 3), me1 = onehot((j + 1) & 3);
         float as0 = dot(me, fs), av0 = dot(me, fv);
-        float ds = dot(me1, fs) - as0, dvv = dot(me1, fv) - av0;
-        int wa_s, wa_v, wb_s, wb_v;
+        float os = edge ? as0 : (side == 0 ? -se : se);
+        float ov = edge ? av0 : (side == 0 ? 0.0 : len);
+        float ds = edge ? dot(me1, fs) - as0 : (side == 0 ? 2.0 * se : -2.0 * se);
+        float dvv = edge ? dot(me1, fv) - av0 : 0.0;
+        vec4 ps = edge ? vec4(-ds, ds, -dvv, dvv) : fdv * ds;
+        vec4 qs = edge ? vec4(os + se, se - os, ov, len - ov) : fds * (ov - fv) - fdv * (os - fs);
+        bvec4 strict = edge ? bvec4(false, false, true, true) : lessThan(fds * ds, vec4(0.0));
+        float t0 = 0.0, t1 = 1.0;
         float pt0 = 1.0, qt0 = 0.0, pt1 = 1.0, qt1 = 0.0;  // active constraint of t0 and t1 (p, q)
         int it0 = -1, it1 = -1;
-        // across-edge (j >= 4)
-        int side = j - 4;
-        float xs = 0.0, xv = 0.0, xd = 0.0;
+        bool keep = true;
+        for (int i = 0; i < 4; ++i) {
+            float p = ps[i], q = qs[i];
+            if (p == 0.0) { if (q < 0.0 || (q == 0.0 && strict[i])) keep = false; }
+            else {
+                float r = q / p;
+                if (p < 0.0) { if (r > t0) { t0 = r; it0 = i; pt0 = p; qt0 = q; } }
+                else if (r < t1) { t1 = r; it1 = i; pt1 = p; qt1 = q; }
+            }
+        }
+        int wa_s = 0, wa_v = 0, wb_s = 0, wb_v = 0;
+        float as = os + t0 * ds, av = ov + t0 * dvv, bs = os + t1 * ds, bv = ov + t1 * dvv;
+        if (edge) {
+            as = clamp_which(as, -se, se, wa_s);
+            av = clamp_which(av, 0.0, len, wa_v);
+            bs = clamp_which(bs, -se, se, wb_s);
+            bv = clamp_which(bv, 0.0, len, wb_v);
+        }
+        bool inside = !is_fast && keep && t0 < t1;
+        if (!have_vref && (inside || j == 4)) {
+            float vc = 0.25 * (((fv.x + fv.y) + fv.z) + fv.w);
+            vref = inside && edge ? av : (vc < 0.5 * len ? 0.0 : len);
+            have_vref = true;
+        }
+        inside = inside && as != bs;
+        // add_segment, forward.
+        float dsg = 1.0, k = 0.0, sgn = 1.0, clo = 0.0, chi = 0.0;
+        bool lo_a = true, hi_a = true, clo_c = true, chi_c = true;  // which arguments the min / max took
+        float a_as = 0.0, a_bs = 0.0, a_av = 0.0, a_bv = 0.0;
         if (is_fast) {
             // The fast path's strip: one edge integral of the chord (fast_fwd, fast_rev).
             float k6 = (FR.c1 - FR.c0) / (2.0 * se);
@@ -253,154 +291,97 @@ void pieces_adj(PairF F, bool fast, FastRec FR, float gI, float gA, inout vec4 a
             ivhi = FR.c0 + k6 * (FR.chi + se);
             iseed = aJ;
             integ = FR.clo < FR.chi;
-        } else if (j < 4) {
-            vec4 ps = vec4(-ds, ds, -dvv, dvv);
-            vec4 qs = vec4(as0 + se, se - as0, av0, len - av0);
-            for (int i = 0; i < 4; ++i) {
-                float p = ps[i], q = qs[i];
-                if (p == 0.0) { if (q < 0.0 || (q == 0.0 && i >= 2)) keep = false; }
-                else {
-                    float r = q / p;
-                    if (p < 0.0) { if (r > t0) { t0 = r; it0 = i; pt0 = p; qt0 = q; } }
-                    else if (r < t1) { t1 = r; it1 = i; pt1 = p; qt1 = q; }
-                }
-            }
-            if (!keep || t0 >= t1) continue;
-            as = clamp_which(as0 + t0 * ds, -se, se, wa_s);
-            av = clamp_which(av0 + t0 * dvv, 0.0, len, wa_v);
-            bs = clamp_which(as0 + t1 * ds, -se, se, wb_s);
-            bv = clamp_which(av0 + t1 * dvv, 0.0, len, wb_v);
         } else {
-            xs = side == 0 ? -se : se;
-            xv = side == 0 ? 0.0 : len;
-            xd = side == 0 ? 2.0 * se : -2.0 * se;
-            for (int c = 0; c < 4; ++c) {
-                float cs = fs[c], cv = fv[c];
-                float fds = fs[(c + 1) & 3] - cs, fdv = fv[(c + 1) & 3] - cv;
-                float q = fds * (xv - cv) - fdv * (xs - cs);
-                float p = -(fdv * xd);
-                if (p == 0.0) { if (q < 0.0 || (q == 0.0 && fds * xd < 0.0)) keep = false; }
-                else {
-                    float r = -(q / p);
-                    if (p > 0.0) { if (r > t0) { t0 = r; it0 = c; pt0 = p; qt0 = q; } }
-                    else if (r < t1) { t1 = r; it1 = c; pt1 = p; qt1 = q; }
-                }
-            }
-            if (!keep || t0 >= t1) continue;
-            as = xs + t0 * xd;
-            bs = xs + t1 * xd;
-            av = xv;
-            bv = xv;
-        }
-        // add_segment, forward.
-        float dsg = 1.0, k = 0.0, sgn = 1.0, lo = 0.0, hi = 0.0, clo = 0.0, chi = 0.0;
-        float a_as = 0.0, a_bs = 0.0, a_av = 0.0, a_bv = 0.0;
-        if (!is_fast) {
-            if (as == bs) continue;
             dsg = bs - as;
             k = (bv - av) / dsg;
             float vsum = av + bv - 2.0 * vref;
-            Araw -= 0.5 * dsg * vsum;
+            if (inside) Araw -= 0.5 * dsg * vsum;
             a_as = 0.5 * vsum * aA;
             a_bs = -0.5 * vsum * aA;
             a_av = -0.5 * dsg * aA;
             a_bv = a_av;
-            lo = min(as, bs);
-            hi = max(as, bs);
-            clo = max(lo, G.chi_lo);
-            chi = min(hi, G.chi_hi);
-            integ = clo < chi;
-            if (integ) {
-                float a0 = av - vref;
-                sgn = bs > as ? -1.0 : 1.0;
-                ilo = clo;
-                ihi = chi;
-                ivlo = a0 + k * (clo - as);
-                ivhi = a0 + k * (chi - as);
-                iseed = sgn * aJ;
-            }
+            lo_a = as <= bs;
+            hi_a = as >= bs;
+            float lo = lo_a ? as : bs, hi = hi_a ? as : bs;
+            clo_c = lo >= G.chi_lo;
+            chi_c = hi <= G.chi_hi;
+            clo = clo_c ? lo : G.chi_lo;
+            chi = chi_c ? hi : G.chi_hi;
+            integ = inside && clo < chi;
+            float a0 = av - vref;
+            sgn = bs > as ? -1.0 : 1.0;
+            ilo = clo;
+            ihi = chi;
+            ivlo = a0 + k * (clo - as);
+            ivhi = a0 + k * (chi - as);
+            iseed = sgn * aJ;
         }
         // The one edge integral of the kernel's reverse sweep.
         float J = 0.0, a_ilo = 0.0, a_ihi = 0.0, a_ivlo = 0.0, a_ivhi = 0.0;
         if (integ) J = edge_adj(G, ilo, ihi, ivlo, ivhi, iseed, aG, a_ilo, a_ihi, a_ivlo, a_ivhi);
-        if (is_fast) {
-            fast_rev(F, FR, gI, gA, J, a_ilo, a_ihi, a_ivlo, a_ivhi, a_fs, a_fv, a_se, a_half, aG);
-            continue;
-        }
+        if (is_fast) { Jf = J; af_lo = a_ilo; af_hi = a_ihi; af_vlo = a_ivlo; af_vhi = a_ivhi; }
         // add_segment, reverse.
-        if (integ) {
+        if (integ && !is_fast) {
             Iraw += sgn * J;
-            float a_clo = a_ilo, a_chi = a_ihi, a_vlo = a_ivlo, a_vhi = a_ivhi;
-            a_av += a_vlo + a_vhi;
-            float a_k = a_vlo * (clo - as) + a_vhi * (chi - as);
-            a_clo += a_vlo * k;
-            a_chi += a_vhi * k;
-            a_as -= (a_vlo + a_vhi) * k;
+            a_av += a_ivlo + a_ivhi;
+            float a_k = a_ivlo * (clo - as) + a_ivhi * (chi - as);
+            float a_clo = a_ivlo * k + a_ilo, a_chi = a_ivhi * k + a_ihi;
+            a_as -= (a_ivlo + a_ivhi) * k;
             a_bv += a_k / dsg;
             a_av -= a_k / dsg;
             a_bs -= a_k * k / dsg;
             a_as += a_k * k / dsg;
             // clo = d_max(lo, chi_lo), chi = d_min(hi, chi_hi); lo = d_min(as, bs), hi = d_max(as, bs)
             float a_lo = 0.0, a_hi = 0.0;
-            if (lo >= G.chi_lo) a_lo = a_clo; else aG.chi_lo += a_clo;
-            if (hi <= G.chi_hi) a_hi = a_chi; else aG.chi_hi += a_chi;
-            if (as <= bs) a_as += a_lo; else a_bs += a_lo;
-            if (as >= bs) a_as += a_hi; else a_bs += a_hi;
+            if (clo_c) a_lo = a_clo; else aG.chi_lo += a_clo;
+            if (chi_c) a_hi = a_chi; else aG.chi_hi += a_chi;
+            if (lo_a) a_as += a_lo; else a_bs += a_lo;
+            if (hi_a) a_as += a_hi; else a_bs += a_hi;
         }
-        // The clipping's reverse: segment ends -> t0, t1 and the piece's inputs.
-        if (j < 4) {
-            // as = clamp(as0 + t0 ds, -se, se), av = clamp(av0 + t0 dvv, 0, len); b with t1
-            float a_xa = 0.0, a_ya = 0.0, a_xb = 0.0, a_yb = 0.0;
-            if (wa_s == 0) a_xa = a_as; else a_se += wa_s == 1 ? -a_as : a_as;
-            if (wa_v == 0) a_ya = a_av; else if (wa_v == 2) a_len += a_av;
-            if (wb_s == 0) a_xb = a_bs; else a_se += wb_s == 1 ? -a_bs : a_bs;
-            if (wb_v == 0) a_yb = a_bv; else if (wb_v == 2) a_len += a_bv;
-            float a_as0 = a_xa + a_xb, a_av0 = a_ya + a_yb;
-            float a_ds = a_xa * t0 + a_xb * t1, a_dvv = a_ya * t0 + a_yb * t1;
-            float a_t0 = a_xa * ds + a_ya * dvv, a_t1 = a_xb * ds + a_yb * dvv;
-            // t = q / p of the active constraint: p = (-ds, ds, -dvv, dvv), q = (as0 + se, se - as0, av0, len - av0)
+        if (inside) {
+            // The clipping's reverse: the snapped ends -> o, d, t0, t1.
+            if (wa_s != 0) { a_se += wa_s == 1 ? -a_as : a_as; a_as = 0.0; }
+            if (wa_v != 0) { if (wa_v == 2) a_len += a_av; a_av = 0.0; }
+            if (wb_s != 0) { a_se += wb_s == 1 ? -a_bs : a_bs; a_bs = 0.0; }
+            if (wb_v != 0) { if (wb_v == 2) a_len += a_bv; a_bv = 0.0; }
+            float a_os = a_as + a_bs, a_ov = a_av + a_bv;
+            float a_ds = a_as * t0 + a_bs * t1, a_dvv = a_av * t0 + a_bv * t1;
+            float a_t0 = a_as * ds + a_av * dvv, a_t1 = a_bs * ds + a_bv * dvv;
+            // t = q / p of the active constraints
             vec4 a_p = vec4(0.0), a_q = vec4(0.0);
             if (it0 >= 0) { a_q += onehot(it0) * (a_t0 / pt0); a_p -= onehot(it0) * (a_t0 * qt0 / (pt0 * pt0)); }
             if (it1 >= 0) { a_q += onehot(it1) * (a_t1 / pt1); a_p -= onehot(it1) * (a_t1 * qt1 / (pt1 * pt1)); }
-            a_ds += a_p.y - a_p.x;
-            a_dvv += a_p.w - a_p.z;
-            a_as0 += a_q.x - a_q.y;
-            a_se += a_q.x + a_q.y;
-            a_av0 += a_q.z - a_q.w;
-            a_len += a_q.w;
-            // as0 = fs[e], ds = fs[e1] - fs[e] (v likewise)
-            a_fs += me * (a_as0 - a_ds) + me1 * a_ds;
-            a_fv += me * (a_av0 - a_dvv) + me1 * a_dvv;
-        } else {
-            // as = xs + t0 xd, bs = xs + t1 xd, av = bv = xv
-            float a_xs = a_as + a_bs, a_xv = a_av + a_bv;
-            float a_xd = a_as * t0 + a_bs * t1;
-            float a_t0 = a_as * xd, a_t1 = a_bs * xd;
-            for (int w = 0; w < 2; ++w) {
-                int c = w == 0 ? it0 : it1;
-                if (c < 0) continue;
-                float a_r = w == 0 ? a_t0 : a_t1, p = w == 0 ? pt0 : pt1, q = w == 0 ? qt0 : qt1;
-                // r = -q / p, q = fds (xv - cv) - fdv (xs - cs), p = -fdv xd
-                float a_qq = -a_r / p, a_pp = a_r * q / (p * p);
-                vec4 mc = onehot(c), mc1 = onehot((c + 1) & 3);
-                float cs = dot(mc, fs), cv = dot(mc, fv);
-                float fds = dot(mc1, fs) - cs, fdv = dot(mc1, fv) - cv;
-                float a_fds = a_qq * (xv - cv);
-                a_xv += a_qq * fds;
-                float a_cv = -a_qq * fds;
-                float a_fdv = -a_qq * (xs - cs) - a_pp * xd;
-                a_xs -= a_qq * fdv;
-                float a_cs = a_qq * fdv;
-                a_xd -= a_pp * fdv;
-                a_fs += mc * (a_cs - a_fds) + mc1 * a_fds;
-                a_fv += mc * (a_cv - a_fdv) + mc1 * a_fdv;
+            if (edge) {
+                // p = (-ds, ds, -dvv, dvv), q = (os + se, se - os, ov, len - ov); os = fs[e], ds = fs[e1] - fs[e] (v likewise)
+                a_ds += a_p.y - a_p.x;
+                a_dvv += a_p.w - a_p.z;
+                a_os += a_q.x - a_q.y;
+                a_se += a_q.x + a_q.y;
+                a_ov += a_q.z - a_q.w;
+                a_len += a_q.w;
+                a_fs += me * (a_os - a_ds) + me1 * a_ds;
+                a_fv += me * (a_ov - a_dvv) + me1 * a_dvv;
+            } else {
+                // p = fdv ds, q = fds (ov - fv) - fdv (os - fs); fds = fs.yzwx - fs (fdv likewise);
+                // os = -se or se, ov = 0 or len, ds = 2 se or -2 se
+                vec4 a_fds = a_q * (ov - fv);
+                vec4 a_fdv = a_p * ds - a_q * (os - fs);
+                a_ds += dot(a_p, fdv);
+                a_ov += dot(a_q, fds);
+                a_os -= dot(a_q, fdv);
+                a_fv -= a_q * fds;
+                a_fs += a_q * fdv;
+                a_fs += a_fds.wxyz - a_fds;
+                a_fv += a_fdv.wxyz - a_fdv;
+                a_se += side == 0 ? 2.0 * a_ds - a_os : a_os - 2.0 * a_ds;
+                if (side == 1) a_len += a_ov;
             }
-            // xs = -se or se, xv = 0 or len, xd = 2 se or -2 se
-            a_se += side == 0 ? -a_xs + 2.0 * a_xd : a_xs - 2.0 * a_xd;
-            if (side == 1) a_len += a_xv;
         }
-    }
-    if (!fast) a_half += gI * Iraw + gA * Araw;
+        ++j;
+    } while (j < jend);
+    // The strip's reverse, once per pair.
+    if (fast) fast_rev(F, FR, gI, gA, Jf, af_lo, af_hi, af_vlo, af_vhi, a_fs, a_fv, a_se, a_half, aG);
+    else a_half += gI * Iraw + gA * Araw;
 }
 
 // The gradient of gI I + gA A for one pair: d0 = d/d(x0, y0, x1, y1), d1 = d/d(w, d, alpha).

@@ -157,72 +157,59 @@ bool patch_fast(R fs[4], R fv[4], R se, R len, R half_w, PairGeom G, out R I, ou
 
 #ifndef SA_DUAL
 // The float kernels' walk. On CPU drivers a GLSL `if` is a lane mask, not a branch: both sides
-// always run, and a loop runs as long as any lane needs it. So the float walk is written for
-// that: it first finds which pieces are non-empty (clipping only, cheap), then visits only those,
-// the fast path's strip being one more piece, in one loop that is not unrolled and holds the one
-// edge_integral of the kernel (a kernel's size costs time even where its code does not run). The
-// loop tests at the bottom: a test at the top would run the body once more with every lane off.
-// Pieces, arithmetic and order are patch_fast's and patch_integral's, so results are the same.
+// always run, and a loop runs as long as any lane needs it (at least once). So the float walk is
+// written for that: a fast-path pair's loop runs once, on its strip; a general pair's visits the
+// six pieces in order, with one clip for both kinds (walk_piece) and the one edge_integral of the
+// kernel (a kernel's size costs time even where its code does not run). Pairs of the general
+// kind are few, and a lane of them makes its SIMD group run six times, so nothing is spent ahead
+// of the loop on finding which pieces are empty. The loop tests at the bottom: a test at the top
+// would run the body once more with every lane off. Pieces, arithmetic and order are
+// patch_fast's and patch_integral's, so results are the same.
 
 // Piece j of patch_integral's walk (0-3: footprint edge j clipped to the carved rectangle, 4-5:
 // the rectangle's bottom and top edges clipped to the footprint) as a segment (as, av) -> (bs, bv);
 // false where the piece is empty. The footprint as vec4s (no local arrays: they become memory).
+// Both kinds are one clip of a segment o + t d (t in [0, 1]) by four constraints p_i t <= q_i:
+// Liang-Barsky against the rectangle's sides for a footprint edge, Cyrus-Beck against the
+// footprint's edges for an across-edge (there p_i = fdv_i xd and q_i the edge's cross product,
+// the same floats patch_integral computes, with p's sign flipped). One clip instead of one per
+// kind: on CPU drivers both sides of an `if` run, so a fast-path pair would pay for both.
 bool walk_piece(int j, vec4 fs, vec4 fv, float se, float len, out float as, out float av, out float bs, out float bv) {
+    bool edge = j < 4;
+    vec4 me = vec4(equal(ivec4(0, 1, 2, 3), ivec4(j & 3))), me1 = vec4(equal(ivec4(0, 1, 2, 3), ivec4((j + 1) & 3)));
+    float as0 = dot(me, fs), av0 = dot(me, fv);
+    float os = edge ? as0 : (j == 4 ? -se : se);
+    float ov = edge ? av0 : (j == 4 ? 0.0 : len);
+    float ds = edge ? dot(me1, fs) - as0 : (j == 4 ? 2.0 * se : -2.0 * se);
+    float dvv = edge ? dot(me1, fv) - av0 : 0.0;
+    vec4 fds = fs.yzwx - fs, fdv = fv.yzwx - fv;
+    vec4 ps = edge ? vec4(-ds, ds, -dvv, dvv) : fdv * ds;
+    vec4 qs = edge ? vec4(os + se, se - os, ov, len - ov) : fds * (ov - fv) - fdv * (os - fs);
+    // A footprint edge lying on R's across-edge line is left to R's own edge (see
+    // patch_integral); an across-edge collinear with a footprint edge counts only where both
+    // boundaries run the same way.
+    bvec4 strict = edge ? bvec4(false, false, true, true) : lessThan(fds * ds, vec4(0.0));
     float t0 = 0.0, t1 = 1.0;
     bool keep = true;
-    as = 0.0; av = 0.0; bs = 0.0; bv = 0.0;
-    if (j < 4) {
-        vec4 me = vec4(equal(ivec4(0, 1, 2, 3), ivec4(j))), me1 = vec4(equal(ivec4(0, 1, 2, 3), ivec4((j + 1) & 3)));
-        float as0 = dot(me, fs), av0 = dot(me, fv);
-        float ds = dot(me1, fs) - as0, dvv = dot(me1, fv) - av0;
-        vec4 ps = vec4(-ds, ds, -dvv, dvv);
-        vec4 qs = vec4(as0 + se, se - as0, av0, len - av0);
-        for (int i = 0; i < 4; ++i) {
-            float p = ps[i], q = qs[i];
-            // An edge lying on R's across-edge line is left to R's own edge (see patch_integral).
-            if (p == 0.0) { if (q < 0.0 || (q == 0.0 && i >= 2)) keep = false; }
-            else {
-                float r = q / p;
-                if (p < 0.0) t0 = max(t0, r); else t1 = min(t1, r);
-            }
+    for (int i = 0; i < 4; ++i) {
+        float p = ps[i], q = qs[i];
+        if (p == 0.0) { if (q < 0.0 || (q == 0.0 && strict[i])) keep = false; }
+        else {
+            float r = q / p;
+            if (p < 0.0) t0 = max(t0, r); else t1 = min(t1, r);
         }
-        if (!keep || t0 >= t1) return false;
-        as = min(max(as0 + t0 * ds, -se), se);
-        av = min(max(av0 + t0 * dvv, 0.0), len);
-        bs = min(max(as0 + t1 * ds, -se), se);
-        bv = min(max(av0 + t1 * dvv, 0.0), len);
-    } else {
-        bool bottom = j == 4;
-        float xs = bottom ? -se : se, xv = bottom ? 0.0 : len, xd = bottom ? 2.0 * se : -2.0 * se;
-        for (int c = 0; c < 4; ++c) {
-            float cs = fs[c], cv = fv[c];
-            float fds = fs[(c + 1) & 3] - cs, fdv = fv[(c + 1) & 3] - cv;
-            float q = fds * (xv - cv) - fdv * (xs - cs);
-            float p = -(fdv * xd);
-            if (p == 0.0) { if (q < 0.0 || (q == 0.0 && fds * xd < 0.0)) keep = false; }
-            else {
-                float r = -(q / p);
-                if (p > 0.0) t0 = max(t0, r); else t1 = min(t1, r);
-            }
-        }
-        if (!keep || t0 >= t1) return false;
-        as = xs + t0 * xd;
-        bs = xs + t1 * xd;
-        av = xv;
-        bv = xv;
     }
-    return true;
-}
-
-// The non-empty pieces of the walk (bit j: walk_piece j with as != bs, which add_segment skips).
-// Unrolled: with j constant each copy holds only its own kind of clipping.
-uint walk_pieces(vec4 fs, vec4 fv, float se, float len) {
-    uint m = 0u;
-    [[unroll]] for (int j = 0; j < 6; ++j) {
-        float as, av, bs, bv;
-        if (walk_piece(j, fs, fv, se, len, as, av, bs, bv) && as != bs) m |= 1u << j;
+    as = os + t0 * ds;
+    av = ov + t0 * dvv;
+    bs = os + t1 * ds;
+    bv = ov + t1 * dvv;
+    if (edge) {  // snap to the box so pieces meet R's edges exactly
+        as = min(max(as, -se), se);
+        av = min(max(av, 0.0), len);
+        bs = min(max(bs, -se), se);
+        bv = min(max(bv, 0.0), len);
     }
-    return m;
+    return keep && t0 < t1;
 }
 
 // patch_fast's test and chords in float: the strip crosses the footprint from side to side;
@@ -256,40 +243,46 @@ void patch_walk(R fs_[4], R fv_[4], R se, R len, R half_w, PairGeom G, bool try_
     vec4 fs = vec4(fs_[0], fs_[1], fs_[2], fs_[3]), fv = vec4(fv_[0], fv_[1], fv_[2], fv_[3]);
     float c0, c1;
     bool fast = try_fast && fast_strip(fs, fv, se, len, c0, c1);
-    uint todo = fast ? 1u << 6 : walk_pieces(fs, fv, se, len);
-    float vref = fast ? 0.0 : ref_v(fs_, fv_, se, len);
+    // vref (ref_v) is found on the way: the first footprint edge with a piece inside R gives it
+    // before its piece is added, else R's own v at the first across-edge.
+    float vref = 0.0;
+    bool have_vref = fast;
     if (fast) A = se * (c0 + c1);
-    if (todo != 0u) {
-        [[dont_unroll]] do {
-            int j = findLSB(todo);
-            todo &= todo - 1u;
-            // This piece's edge integral: (lo, hi, V(lo), V(hi)) and the sign it enters I with.
-            float lo, hi, vlo, vhi, sgn = 1.0;
-            bool integ;
-            if (j == 6) {  // the strip: V is the chord, linear from c0 at -se to c1 at +se
-                float k = (c1 - c0) / (2.0 * se);
-                lo = max(-se, G.chi_lo);
-                hi = min(se, G.chi_hi);
-                vlo = c0 + k * (lo + se);
-                vhi = c0 + k * (hi + se);
-                integ = lo < hi;
-            } else {  // add_segment of one walk piece
-                float as, av, bs, bv;
-                walk_piece(j, fs, fv, se, len, as, av, bs, bv);
-                float ds = bs - as;
-                float k = (bv - av) / ds;
-                A = A - 0.5 * ds * (av + bv - 2.0 * vref);
-                lo = max(min(as, bs), G.chi_lo);
-                hi = min(max(as, bs), G.chi_hi);
-                float a0 = av - vref;
-                vlo = a0 + k * (lo - as);
-                vhi = a0 + k * (hi - as);
-                sgn = bs > as ? -1.0 : 1.0;
-                integ = lo < hi;
+    int j = fast ? 6 : 0, jend = fast ? 7 : 6;
+    [[dont_unroll]] do {
+        // This piece's edge integral: (lo, hi, V(lo), V(hi)) and the sign it enters I with.
+        float lo, hi, vlo, vhi, sgn = 1.0;
+        bool integ;
+        if (j == 6) {  // the strip: V is the chord, linear from c0 at -se to c1 at +se
+            float k = (c1 - c0) / (2.0 * se);
+            lo = max(-se, G.chi_lo);
+            hi = min(se, G.chi_hi);
+            vlo = c0 + k * (lo + se);
+            vhi = c0 + k * (hi + se);
+            integ = lo < hi;
+        } else {  // add_segment of one walk piece
+            float as, av, bs, bv;
+            bool inside = walk_piece(j, fs, fv, se, len, as, av, bs, bv);
+            if (!have_vref && (inside || j == 4)) {
+                float vc = 0.25 * (((fv.x + fv.y) + fv.z) + fv.w);
+                vref = inside && j < 4 ? av : (vc < 0.5 * len ? 0.0 : len);
+                have_vref = true;
             }
-            if (integ) I = I + sgn * edge_integral(G, lo, hi, vlo, vhi);
-        } while (todo != 0u);
-    }
+            inside = inside && as != bs;
+            float ds = bs - as;
+            float k = (bv - av) / ds;
+            if (inside) A = A - 0.5 * ds * (av + bv - 2.0 * vref);
+            lo = max(min(as, bs), G.chi_lo);
+            hi = min(max(as, bs), G.chi_hi);
+            float a0 = av - vref;
+            vlo = a0 + k * (lo - as);
+            vhi = a0 + k * (hi - as);
+            sgn = bs > as ? -1.0 : 1.0;
+            integ = inside && lo < hi;
+        }
+        if (integ) I = I + sgn * edge_integral(G, lo, hi, vlo, vhi);
+        ++j;
+    } while (j < jend);
     I = I * half_w;
     A = A * half_w;
 }
