@@ -44,17 +44,21 @@ R edge_integral(PairGeom G, R lo, R hi, R Vlo, R Vhi) {
     // Q1 part, closed form.
     R g = G.g, g2 = G.g2;
     R xl = dv(yl, g), xh = dv(yh, g);
-    R datan = (val(xl) * val(xh) > 0.0) ? d_atan(dv(sub(xh, xl), add(1.0, mul(xl, xh))))
-                                        : sub(d_atan(xh), d_atan(xl));
+    // Two atans, not three (both sides of a condition run on CPU drivers): atan of the
+    // difference quotient where xl, xh have one sign, else atan(xh) - atan(xl).
+    bool same = val(xl) * val(xh) > 0.0;
+    R at1 = d_atan(same ? dv(sub(xh, xl), add(1.0, mul(xl, xh))) : xh);
+    R datan = same ? at1 : sub(at1, d_atan(xl));
     R ql = add(mul(yl, yl), g2), qh = add(mul(yh, yh), g2);
     R B0 = dy, B1 = mul(hw, add(yh, yl));
     R K0 = dv(datan, g);
     R K1 = mul(0.5, d_log(dv(qh, ql)));
     R K2 = sub(B0, mul(g2, K0));
-    R dF;
-    if (val(xl) >= 4.0) dF = sub(tail_T(xl), tail_T(xh));
-    else if (val(xh) <= -4.0) dF = sub(tail_T(neg(xh)), tail_T(neg(xl)));
-    else dF = add(datan, dv(mul(sub(xh, xl), sub(1.0, mul(xl, xh))), mul(add(1.0, mul(xl, xl)), add(1.0, mul(xh, xh)))));
+    // The far tail on either side (xl >= 4, or xh <= -4 mirrored) with two tail_T, not four.
+    bool tail_pos = val(xl) >= 4.0;
+    R dT = sub(tail_T(tail_pos ? xl : neg(xh)), tail_T(tail_pos ? xh : neg(xl)));
+    R dF = (tail_pos || val(xh) <= -4.0) ? dT
+         : add(datan, dv(mul(sub(xh, xl), sub(1.0, mul(xl, xh))), mul(add(1.0, mul(xl, xl)), add(1.0, mul(xh, xh)))));
     R M0 = dv(dF, mul(2.0, mul(g, g2)));
     R M1 = dv(mul(hw, add(yh, yl)), mul(ql, qh));
     R M2 = sub(K0, mul(g2, M0));

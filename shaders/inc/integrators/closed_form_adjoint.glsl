@@ -88,17 +88,18 @@ float edge_adj(PairGeom G, float lo, float hi, float Vlo, float Vhi, float aJ, i
         float c0 = G.c0, c1 = G.c1, c2 = G.c2, c3 = G.c3, c4 = G.c4, beta = G.beta;
         // Forward sweep: the Q1 part in closed form (closed_form.glsl's edge_integral in float).
         float xl = yl / g, xh = yh / g;
-        float datan = (xl * xh > 0.0) ? atan((xh - xl) / (1.0 + xl * xh)) : atan(xh) - atan(xl);
+        bool same = xl * xh > 0.0;  // two atans, not three (see closed_form.glsl)
+        float at1 = atan(same ? (xh - xl) / (1.0 + xl * xh) : xh);
+        float datan = same ? at1 : at1 - atan(xl);
         float ql = yl * yl + g2, qh = yh * yh + g2;
         float B0 = dy, B1 = hw * (yh + yl);
         float K0 = datan / g;
         float K1 = 0.5 * log(qh / ql);
         float K2 = B0 - g2 * K0;
         float pl = 1.0 + xl * xl, ph = 1.0 + xh * xh;
-        float dF;
-        if (xl >= 4.0) dF = tail_T(xl) - tail_T(xh);
-        else if (xh <= -4.0) dF = tail_T(-xh) - tail_T(-xl);
-        else dF = datan + ((xh - xl) * (1.0 - xl * xh)) / (pl * ph);
+        bool tail_pos = xl >= 4.0;  // two tail_T, not four
+        float dT = tail_T(tail_pos ? xl : -xh) - tail_T(tail_pos ? xh : -xl);
+        float dF = (tail_pos || xh <= -4.0) ? dT : datan + ((xh - xl) * (1.0 - xl * xh)) / (pl * ph);
         float M0 = dF / (2.0 * (g * g2));
         float M1 = (hw * (yh + yl)) / (ql * qh);
         float M2 = K0 - g2 * M0;
