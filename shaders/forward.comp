@@ -49,7 +49,7 @@ void chunk_begin(uint lid) {}
 void chunk_end(uint lid, uint c0, uint cnt) {}
 
 void pair_eval(uint i, uint px, uint k, bool fast) {
-    uint si = sh_si[k];
+    uint si = chunk_scratch(k);
     vec4 ca = rec_cull_a(si), cb = rec_cull_b(si);  // p0, t; len, w, s_e, alpha
     vec2 fp[4];
     vec3 h;

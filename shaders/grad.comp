@@ -73,7 +73,7 @@ void chunk_begin(uint lid) {
 }
 
 void pair_eval(uint i, uint px, uint k, bool fast) {
-    uint si = sh_si[k];
+    uint si = chunk_scratch(k);
     vec4 E = rec_ends(si), S = rec_shape(si);  // raw scratch parameters
     vec2 fp[4];
     vec3 h;

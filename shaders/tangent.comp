@@ -60,7 +60,7 @@ void pair_eval(uint i, uint px, uint k, bool fast) {
     vec2 gp = sh_pv[px];  // gI, gA
     vec4 d0;
     vec3 g;
-    uint si = sh_si[k];
+    uint si = chunk_scratch(k);
     pair_adjoint(rec_ends(si), rec_shape(si), fp, h, gp.x, gp.y, fast, d0, g);
     uint b = 6u * si;
     // dL/dθ_j = g . (dw, dd, dalpha)/dθ_j

@@ -8,7 +8,7 @@
 //   chunk_begin(lid)          every thread, at the start of a chunk (after its first barrier):
 //                             per-chunk state, e.g. clearing per-scratch accumulators
 //   pair_eval(i, px, k, fast) queue entry i of the round (pixel px of the tile, chunk scratch k,
-//                             whose scene index is sh_si[k] and whose data are its records,
+//                             whose scene index is chunk_scratch(k) and whose data are its records,
 //                             scratch_records.glsl; fast: queued as a likely fast-path pair):
 //                             integrate, keep result i
 //   round_accumulate(lid, r0, n, cnt, fmask, fbase, gmask, gbase)
@@ -109,6 +109,7 @@ void tile_loop(uint begin, uint end, ViewGPU V, uvec2 t0, uint lid, bool live, P
     setup_blocks(V, t0, lid);
     uint myblk = lid >> 4;  // tile_pixel's block of this thread
     for (uint c0 = begin; c0 < end; c0 += CHUNK) {
+        g_chunk = c0;
         barrier();
         chunk_begin(lid);
         if (lid < CHUNK && c0 + lid < end) block_tests(lid, list[c0 + lid]);
@@ -144,6 +145,10 @@ void tile_loop(uint begin, uint end, ViewGPU V, uvec2 t0, uint lid, bool live, P
 }
 
 #ifdef SA_REPLAY
+// The pair store through its R32_UINT texel view (binding 14, the same buffer as `pstore`): the
+// entries are gathered, not loaded lane by lane.
+layout(binding = 14) uniform usamplerBuffer store_tex;
+
 // The backward's replay of the forward's queue (see SA_STORE_PAIRS in tile_queue.glsl): the
 // chunks of [begin, end) with the queue entries the forward stored for them, in the forward's
 // order, so the block tests, the per-pixel candidate tests and the queue slots are not done
@@ -156,9 +161,9 @@ void tile_replay(uint begin, uint end, uint lid) {
     // A wrapped counter gave later chunks bases that overlap earlier ones: nothing is trusted.
     if (lid == 0u && (stats[STAT_STORE_FLAGS] & 2u) != 0u) atomicOr(stats[5], 1u);
     for (uint c0 = begin; c0 < end; c0 += CHUNK) {
+        g_chunk = c0;
         barrier();
         chunk_begin(lid);
-        if (lid < CHUNK && c0 + lid < end) sh_si[lid] = list[c0 + lid];
         uint base = pstore[2u * c0], packed = pstore[2u * c0 + 1u];
         uint cnt = min(CHUNK, end - c0);
         barrier();
@@ -171,7 +176,7 @@ void tile_replay(uint begin, uint end, uint lid) {
         for (uint r0 = 0u; r0 < total; r0 += QCAP) {
             uint n = min(QCAP, total - r0);
             for (uint i = lid; i < n; i += 256u) {
-                uint e = pstore[off + r0 + i];
+                uint e = texelFetch(store_tex, int(off + r0 + i)).x;
                 sh_queue[i] = e;
                 pair_eval(i, e >> 8, e & 255u, r0 + i < nfast);
             }

@@ -25,7 +25,13 @@
 
 const uint CHUNK = 64u;            // scratches per chunk: one bit each in two 32-bit words
 
-shared uint sh_si[CHUNK];          // chunk scratch k's index in the scene (its records: scratch_records.glsl)
+// The tile lists through their R32_UINT texel view (binding 13, after the records: the same
+// buffer as `list`, engine/src/render): chunk scratch k's index in the scene (its records:
+// scratch_records.glsl) is a gather, where a load from `list` or from shared memory with a
+// per-lane index is a scalar loop over the lanes on CPU drivers.
+layout(binding = 13) uniform usamplerBuffer list_tex;
+uint g_chunk = 0u;                 // the chunk's first tile-list entry (set by the tile loops)
+uint chunk_scratch(uint k) { return texelFetch(list_tex, int(g_chunk + k)).x; }
 shared vec4 sh_blk01[16];          // plate-space corners of the tile's 4x4-pixel blocks
 shared vec4 sh_blk23[16];
 shared bool sh_blk_all[16];        // a block whose corner rays miss the plate: test every scratch
@@ -52,7 +58,6 @@ void setup_blocks(ViewGPU V, uvec2 t0, uint lid) {
 // blocks, from its culling record (rec_cull_a, rec_cull_b: p0, t; len, w, s_e, alpha). The masks
 // were cleared in queue_slots of the previous chunk (or before the loop).
 void block_tests(uint k, uint si) {
-    sh_si[k] = si;
     vec4 ca = rec_cull_a(si), cb = rec_cull_b(si);
     vec2 p0 = ca.xy, t = ca.zw, b = vec2(-t.y, t.x);
     float len = cb.x, e = 0.5 * cb.y * cb.z;
@@ -159,7 +164,7 @@ void pixel_masks(bool live, uint myblk, PixelSetup P, out uvec2 fmask, out uvec2
         while (bm != 0u) {
             uint k = uint(findLSB(bm)) + 32u * wd;
             bm &= bm - 1u;
-            uint si = sh_si[k];
+            uint si = chunk_scratch(k);
             vec4 ca = rec_cull_a(si), cb = rec_cull_b(si);
             vec2 p0 = ca.xy, t = ca.zw, b = vec2(-t.y, t.x);
             float len = cb.x, e = 0.5 * cb.y * cb.z;

@@ -68,9 +68,9 @@ pub const MIN_SHARED_MEMORY: u32 = 32 * 1024;
 
 /// Storage buffers every shading kernel's pipeline binds (forward, backward, tangent); the last
 /// is the pair store, which the forward writes and the backward's replay reads. After them come
-/// two texel buffers, the scene's per-scratch and per-pixel records (`GpuScene::records` and
-/// `GpuScene::pixel_records`, bindings `SA_RECORDS_BINDING` and `SA_PIXEL_RECORDS_BINDING` of
-/// `shaders/inc/scratch_records.glsl`).
+/// four texel buffers: the scene's per-scratch and per-pixel records (`GpuScene::records` and
+/// `GpuScene::pixel_records`), then the tile lists and the pair store again, read through their
+/// R32_UINT views (bindings 11 to 14 of `shaders/inc/scratch_records.glsl`).
 const SHADE_BUFFERS: u32 = 11;
 
 /// The pipeline of a shading kernel (`SHADE_BUFFERS` buffers, the records, and `ShadePush`);
@@ -92,7 +92,7 @@ fn shade_pipeline(
         &name,
         &spirv,
         SHADE_BUFFERS,
-        &[Texel::Read, Texel::Read],
+        &[Texel::Read, Texel::Read, Texel::Read, Texel::Read],
         std::mem::size_of::<ShadePush>() as u32,
     )
 }
@@ -305,6 +305,8 @@ impl Renderer {
                 &gs.pair_store,
                 &gs.records,
                 &gs.pixel_records,
+                &gs.list,
+                &gs.pair_store,
             ],
         );
     }
@@ -396,7 +398,7 @@ impl Renderer {
 /// coverage, the `output` (partial gradients, or tangents), the float64 cameras, the lights, the
 /// counters, the pair store (read by the backward's replay; `tangent.comp` leaves it unbound) and
 /// the per-scratch and per-pixel records (texel buffers, written by the render before).
-fn backward_bindings<'a>(gs: &'a GpuScene, input: &'a Buffer, output: &'a Buffer) -> [&'a Buffer; 13] {
+fn backward_bindings<'a>(gs: &'a GpuScene, input: &'a Buffer, output: &'a Buffer) -> [&'a Buffer; 15] {
     [
         &gs.views,
         &gs.scratches,
@@ -411,6 +413,8 @@ fn backward_bindings<'a>(gs: &'a GpuScene, input: &'a Buffer, output: &'a Buffer
         &gs.pair_store,
         &gs.records,
         &gs.pixel_records,
+        &gs.list,
+        &gs.pair_store,
     ]
 }
 

@@ -205,7 +205,7 @@ impl GpuScene {
             hist: gpu_only("bin offsets", hist_len * 4)?,
             cursor: gpu_only("bin cursors", hist_len * 4)?,
             sums: gpu_only("scan block sums", n_blocks * 4)?,
-            list: gpu_only("tile lists", capacity as u64 * 4)?,
+            list: Buffer::new_u32_texel(ctx, "tile lists", capacity as u64 * 4, MemLoc::GpuOnly)?,
             capacity,
             sbase,
             sbase_sums,
@@ -222,7 +222,7 @@ impl GpuScene {
             fwd_plan: PassPlan::ONE,
             bwd_plan: PassPlan::ONE,
             carry: gpu_only("shading carry (unused: one pass)", 16)?,
-            pair_store: gpu_only("pair store (unused: no replay yet)", 16)?,
+            pair_store: Buffer::new_u32_texel(ctx, "pair store (unused: no replay yet)", 16, MemLoc::GpuOnly)?,
             store_wanted: std::sync::atomic::AtomicBool::new(false),
             store_off: false,
             n_scratches,
@@ -364,7 +364,7 @@ impl GpuScene {
     /// A pair store of `entries` entries (the forward stores from the next render).
     fn alloc_store(&mut self, ctx: &std::sync::Arc<Context>, entries: u32) -> Result<(), GpuError> {
         let bytes = self.store_bytes(entries as u64);
-        self.pair_store = Buffer::new(ctx, "pair store", bytes, MemLoc::GpuOnly)?;
+        self.pair_store = Buffer::new_u32_texel(ctx, "pair store", bytes, MemLoc::GpuOnly)?;
         self.shade.store_cap = entries;
         Ok(())
     }
@@ -378,7 +378,9 @@ impl GpuScene {
     /// storage-buffer limit (backward passes then search the pairs: slower, same results).
     fn size_store(&mut self, ctx: &std::sync::Arc<Context>, needed: u64) -> Result<(), GpuError> {
         let cap = needed + needed / 4 + 4096;
-        if cap > u32::MAX as u64 || self.store_bytes(cap) > ctx.info().max_storage_buffer_range {
+        // The replay reads it through a texel view too (4-byte texels).
+        let limit = ctx.info().max_storage_buffer_range.min(ctx.info().max_texel_buffer_elements.saturating_mul(4));
+        if cap > u32::MAX as u64 || self.store_bytes(cap) > limit {
             return self.drop_store(ctx, true);
         }
         match self.alloc_store(ctx, cap as u32) {
@@ -393,7 +395,7 @@ impl GpuScene {
     fn drop_store(&mut self, ctx: &std::sync::Arc<Context>, off: bool) -> Result<(), GpuError> {
         self.store_off |= off;
         self.shade.store_cap = 0;
-        self.pair_store = Buffer::new(ctx, "pair store (unused)", 16, MemLoc::GpuOnly)?;
+        self.pair_store = Buffer::new_u32_texel(ctx, "pair store (unused)", 16, MemLoc::GpuOnly)?;
         Ok(())
     }
 
@@ -568,7 +570,8 @@ impl GpuScene {
                 limit: ctx.info().max_storage_buffer_range,
             });
         }
-        self.list = Buffer::new(ctx, "tile lists", want * 4, MemLoc::GpuOnly)?;
+        // The shading kernels gather the lists through a texel view (`Buffer::new_u32_texel`).
+        self.list = Buffer::new_u32_texel(ctx, "tile lists", want * 4, MemLoc::GpuOnly)?;
         self.inv = Buffer::new(ctx, "entry inverse map", want * 4, MemLoc::GpuOnly)?;
         self.partials = Buffer::new(ctx, "partial gradients", want * 32, MemLoc::GpuOnly)?;
         self.capacity = want as u32;

@@ -36,7 +36,8 @@ pub struct Buffer {
     size: u64,
     loc: MemLoc,
     name: String,
-    /// The RGBA32F view of [`Buffer::new_texel`] buffers.
+    /// The texel view of [`Buffer::new_texel`] (RGBA32F) and [`Buffer::new_u32_texel`] (R32_UINT)
+    /// buffers.
     texel_view: Option<vk::BufferView>,
 }
 
@@ -47,20 +48,41 @@ impl Buffer {
     /// device's texel count, not by its storage-buffer range (bound as a storage buffer, such a
     /// buffer must fit that range too). Fails with a clear error past the texel limit.
     pub fn new_texel(ctx: &Arc<Context>, name: &str, size: u64, loc: MemLoc) -> Result<Buffer, GpuError> {
+        Self::with_view(ctx, name, size, loc, vk::Format::R32G32B32A32_SFLOAT, 16, false)
+    }
+
+    /// A storage buffer that can also be read as a uniform texel buffer of 32-bit unsigned
+    /// texels (`usamplerBuffer`, R32_UINT) over its whole size: a kernel writes it as a storage
+    /// buffer and a later one gathers from it with `texelFetch` (on CPU drivers a vector gather,
+    /// where a storage-buffer load with a per-lane index is a scalar loop). Bounded by both the
+    /// storage-buffer range and the texel count; fails with a clear error past either.
+    pub fn new_u32_texel(ctx: &Arc<Context>, name: &str, size: u64, loc: MemLoc) -> Result<Buffer, GpuError> {
+        Self::with_view(ctx, name, size, loc, vk::Format::R32_UINT, 4, true)
+    }
+
+    fn with_view(
+        ctx: &Arc<Context>,
+        name: &str,
+        size: u64,
+        loc: MemLoc,
+        format: vk::Format,
+        texel_bytes: u64,
+        storage_range: bool,
+    ) -> Result<Buffer, GpuError> {
         let size = size.max(16).next_multiple_of(16);
-        let limit = ctx.info().max_texel_buffer_elements * 16;
+        let limit = ctx.info().max_texel_buffer_elements * texel_bytes;
         if size > limit {
             return Err(GpuError::BufferTooLarge {
-                name: format!("{name} (a texel buffer: {} texels)", size / 16),
+                name: format!("{name} (a texel buffer: {} texels)", size / texel_bytes),
                 size,
                 limit,
             });
         }
         let usage = vk::BufferUsageFlags::UNIFORM_TEXEL_BUFFER | vk::BufferUsageFlags::STORAGE_TEXEL_BUFFER;
-        let mut b = Self::create(ctx, name, size, loc, usage, false)?;
+        let mut b = Self::create(ctx, name, size, loc, usage, storage_range)?;
         let ci = vk::BufferViewCreateInfo::default()
             .buffer(b.raw)
-            .format(vk::Format::R32G32B32A32_SFLOAT)
+            .format(format)
             .offset(0)
             .range(vk::WHOLE_SIZE);
         let view = unsafe { ctx.device.create_buffer_view(&ci, None) }.map_err(vk_err("vkCreateBufferView"))?;
@@ -69,7 +91,7 @@ impl Buffer {
         Ok(b)
     }
 
-    /// The RGBA32F texel view (buffers made with [`Buffer::new_texel`]).
+    /// The texel view (buffers made with [`Buffer::new_texel`] or [`Buffer::new_u32_texel`]).
     pub fn texel_view(&self) -> Option<vk::BufferView> {
         self.texel_view
     }
