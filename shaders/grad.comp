@@ -97,18 +97,18 @@ void pair_eval(uint i, uint px, uint k, bool fast) {
     if (g.x == 0.0) { r0 = vec4(0.0); r1 = vec3(0.0); }
 #endif
     sh_c0[i] = r0;
-    sh_c1[i] = vec4(r1, 0.0);
+    sh_c1[i] = vec4(r1, uintBitsToFloat(k));  // w: the chunk scratch, replaced by the list link
 }
 
 // Scratch k's contributions of this round, in queue order, into thread k's private acc0/acc1.
 // Thread 0 first links each scratch's entries into a list in queue order (one pass over the
-// round, backwards; the link sits in the unused 4th float of sh_c1); thread k then walks only its
-// own entries, instead of every thread testing every entry.
+// round, backwards; the link replaces the chunk scratch pair_eval left in the 4th float of
+// sh_c1); thread k then walks only its own entries, instead of every thread testing every entry.
 void round_accumulate(uint lid, uint r0, uint n, uint cnt, uvec2 fmask, uint fbase, uvec2 gmask, uint gbase) {
     if (lid == 0u) {
         for (uint k = 0u; k < CHUNK; ++k) sh_head[k] = 0xFFFFFFFFu;
         for (uint i = n; i-- > 0u;) {
-            uint k = sh_queue[i] & 255u;
+            uint k = floatBitsToUint(sh_c1[i].w);
             sh_c1[i].w = uintBitsToFloat(sh_head[k]);
             sh_head[k] = i;
         }

@@ -152,8 +152,8 @@ layout(binding = 14) uniform usamplerBuffer store_tex;
 // The backward's replay of the forward's queue (see SA_STORE_PAIRS in tile_queue.glsl): the
 // chunks of [begin, end) with the queue entries the forward stored for them, in the forward's
 // order, so the block tests, the per-pixel candidate tests and the queue slots are not done
-// again. The hooks run as in tile_loop (round_accumulate gets no masks: the backward needs
-// none). A chunk the forward could not store marks the pass incomplete (stats[5], and bit 0 of
+// again. The hooks run as in tile_loop (round_accumulate gets no masks and sh_queue is not
+// filled: the backward needs neither). A chunk the forward could not store marks the pass incomplete (stats[5], and bit 0 of
 // stats[14]): the host then grows the store and redoes the work. Pixels whose seed is zero are
 // in the forward's queue but not in tile_loop's (their pairs must add exact zeros: pair_eval's
 // job).
@@ -177,7 +177,6 @@ void tile_replay(uint begin, uint end, uint lid) {
             uint n = min(QCAP, total - r0);
             for (uint i = lid; i < n; i += 256u) {
                 uint e = texelFetch(store_tex, int(off + r0 + i)).x;
-                sh_queue[i] = e;
                 pair_eval(i, e >> 8, e & 255u, r0 + i < nfast);
             }
             barrier();
