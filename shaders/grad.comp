@@ -15,8 +15,9 @@
 //
 // Work layout and order are forward.comp's (the tile loop of inc/tile_loop.glsl). With SA_REPLAY
 // (the default once a scene's forward stores its queues, see KernelSet::replay) the pairs are
-// not searched again: tile_replay walks the queues the forward stored, in the same order, so the
-// gradients are bit-identical to the search's (tests/replay.rs). For each
+// not searched again: replay_stream walks the queues the forward stored, in the same order (a
+// scratch's entries in the same order: rounds may hold the end of one chunk and the start of the
+// next), so the gradients are bit-identical to the search's (tests/replay.rs). For each
 // chunk, thread k < 64 adds scratch k's per-pair contributions in queue order (a per-round list
 // of its entries, see round_accumulate) and writes one
 // partial gradient per tile-list entry; grad_reduce.comp then adds a scratch's partials in
@@ -48,7 +49,7 @@ layout(std430, binding = 5) readonly buffer Coverage { float cov_raw[]; };
 layout(std430, binding = 6) writeonly buffer Partials { vec4 partial[]; };  // 2 per list entry
 layout(std430, binding = 9) buffer Stats { uint stats[]; };                    // [5], [6] (inc/limits.glsl)
 // SA_REPLAY: the forward's stored queues (inc/tile_queue.glsl), replayed instead of searching the
-// pairs again (tile_replay in inc/tile_loop.glsl).
+// pairs again (replay_stream below).
 layout(std430, binding = 10) readonly buffer PairStore { uint pstore[]; };
 
 #include "inc/shade_push.glsl"
@@ -63,8 +64,15 @@ const uint QCAP = GRAD_QCAP;
 
 shared vec4 sh_c0[QCAP];           // per-pair contribution d/d(x0, y0, x1, y1)
 shared vec4 sh_c1[QCAP];           // d/d(w, d, alpha); w: the next entry of the same scratch (bits)
-shared uint sh_head[CHUNK];        // per chunk scratch: its first entry in the round
-// Thread k < CHUNK: chunk scratch k's contributions so far (private: only thread k touches them).
+// Scratches a round can hold: one chunk's in the search; in the replay the end of one chunk and
+// the start of the next, the second's scratches numbered k + CHUNK (chunk_scratch).
+#ifdef SA_REPLAY
+const uint NK = 2u * CHUNK;
+#else
+const uint NK = CHUNK;
+#endif
+shared uint sh_head[NK];           // per scratch of the round: its first entry in the round
+// Thread k < NK: scratch k's contributions so far (private: only thread k touches them).
 vec4 acc0 = vec4(0.0), acc1 = vec4(0.0);
 
 void chunk_begin(uint lid) {
@@ -106,7 +114,7 @@ void pair_eval(uint i, uint px, uint k, bool fast) {
 // sh_c1); thread k then walks only its own entries, instead of every thread testing every entry.
 void round_accumulate(uint lid, uint r0, uint n, uint cnt, uvec2 fmask, uint fbase, uvec2 gmask, uint gbase) {
     if (lid == 0u) {
-        for (uint k = 0u; k < CHUNK; ++k) sh_head[k] = 0xFFFFFFFFu;
+        for (uint k = 0u; k < NK; ++k) sh_head[k] = 0xFFFFFFFFu;
         for (uint i = n; i-- > 0u;) {
             uint k = floatBitsToUint(sh_c1[i].w);
             sh_c1[i].w = uintBitsToFloat(sh_head[k]);
@@ -114,7 +122,7 @@ void round_accumulate(uint lid, uint r0, uint n, uint cnt, uvec2 fmask, uint fba
         }
     }
     barrier();
-    if (lid < cnt) {
+    if (lid < NK) {  // a scratch with no entries has an empty list
         for (uint i = sh_head[lid]; i != 0xFFFFFFFFu;) {
             vec4 c1 = sh_c1[i];
             acc0 += sh_c0[i];
@@ -130,6 +138,92 @@ void chunk_end(uint lid, uint c0, uint cnt) {
         partial[2u * (c0 + lid) + 1u] = acc1;
     }
 }
+
+#ifdef SA_REPLAY
+// The pair store through its R32_UINT texel view (binding 14, the same buffer as `pstore`): the
+// entries are gathered, not loaded lane by lane.
+layout(binding = 14) uniform usamplerBuffer store_tex;
+
+// The stored record of the chunk at tile-list entry c0: where its entries start, how many, how
+// many of them fast. A chunk the forward could not store counts as empty and marks the pass
+// incomplete (stats[5], and bit 0 of stats[14]): the host then grows the store and redoes it.
+uint chunk_record(uint c0, out uint base, out uint nfast) {
+    base = pstore[2u * c0];
+    uint packed = pstore[2u * c0 + 1u];
+    nfast = packed & 0xFFFFu;
+    if (base == STORE_MISSING) {  // uniform: every thread read the same words
+        if (gl_LocalInvocationIndex == 0u) { atomicOr(stats[5], 1u); atomicOr(stats[STAT_STORE_FLAGS], 1u); }
+        return 0u;
+    }
+    return packed >> 16;
+}
+
+// Chunk c0 of the pass [begin, end) is done: its scratches' threads (CHUNK of them, the even or
+// the odd chunks' half of threads 0..NK) write its partial gradients and start afresh.
+void close_chunk(uint lid, uint begin, uint end, uint c0) {
+    uint par = ((c0 - begin) / CHUNK) & 1u, k = lid & (CHUNK - 1u);
+    if (lid < NK && (lid / CHUNK) == par) {
+        if (k < min(CHUNK, end - c0)) {
+            partial[2u * (c0 + k)] = acc0;
+            partial[2u * (c0 + k) + 1u] = acc1;
+        }
+        acc0 = vec4(0.0);
+        acc1 = vec4(0.0);
+    }
+}
+
+// The replay of the forward's queues over the chunks [begin, end) of a tile's list, as one stream:
+// a round takes QCAP entries, the rest of one chunk and then the start of the next, so the
+// rounds stay full (on CPU drivers every SIMD group runs a round's code, full or not). Each
+// scratch's entries are visited in the forward's order, chunk by chunk, so its sum is the one
+// a chunk-by-chunk walk gives. Pixels whose seed is zero are in the forward's queue but not in
+// tile_loop's (their pairs add exact zeros: pair_eval's job).
+void replay_stream(uint begin, uint end, uint lid) {
+    // A wrapped counter gave later chunks bases that overlap earlier ones: nothing is trusted.
+    if (lid == 0u && (stats[STAT_STORE_FLAGS] & 2u) != 0u) atomicOr(stats[5], 1u);
+    uint ca = begin, pa = 0u;  // the chunk being replayed and its entries done
+    uint base_a, fast_a, total_a = chunk_record(ca, base_a, fast_a);
+    // Empty chunks at the start are done already.
+    while (ca < end && pa >= total_a) {
+        close_chunk(lid, begin, end, ca);
+        ca += CHUNK;
+        if (ca < end) total_a = chunk_record(ca, base_a, fast_a);
+    }
+    while (ca < end) {
+        uint na = min(QCAP, total_a - pa);
+        uint cb = ca + CHUNK, base_b = 0u, fast_b = 0u, nb = 0u;
+        if (na < QCAP && cb < end) nb = min(QCAP - na, chunk_record(cb, base_b, fast_b));
+        bool odd = (((ca - begin) / CHUNK) & 1u) != 0u;
+        g_chunk = odd ? cb : ca;
+        g_chunk_hi = odd ? ca : cb;
+        uint n = na + nb;
+        barrier();  // the previous round's walk is done with the shared arrays
+        for (uint i = lid; i < n; i += 256u) {
+            bool in_a = i < na;
+            uint idx = in_a ? pa + i : i - na;
+            uint e = texelFetch(store_tex, int(2u * pc.capacity + (in_a ? base_a : base_b) + idx)).x;
+            uint k = (e & 255u) + ((in_a != odd) ? 0u : CHUNK);  // the odd chunk's scratches: k + CHUNK
+            pair_eval(i, e >> 8, k, idx < (in_a ? fast_a : fast_b));
+        }
+        barrier();
+        round_accumulate(lid, 0u, n, NK, uvec2(0u), 0u, uvec2(0u), 0u);
+        pa += na;
+        if (nb > 0u) {  // chunk ca ended within the round: go on with cb
+            close_chunk(lid, begin, end, ca);
+            ca = cb;
+            pa = nb;
+            total_a = chunk_record(ca, base_a, fast_a);
+        }
+        // Close chunk ca if it is done, and any empty chunks after it.
+        while (ca < end && pa >= total_a) {
+            close_chunk(lid, begin, end, ca);
+            ca += CHUNK;
+            pa = 0u;
+            if (ca < end) total_a = chunk_record(ca, base_a, fast_a);
+        }
+    }
+}
+#endif
 
 void main() {
     uint tile = gl_WorkGroupID.x + gl_WorkGroupID.y * gl_NumWorkGroups.x;
@@ -161,7 +255,7 @@ void main() {
     }
     store_pixel(lid, V, t0, vec2(gI, gA));
 #ifdef SA_REPLAY
-    tile_replay(begin, stop, lid);
+    replay_stream(begin, stop, lid);
 #else
     uint cand = 0u;
     tile_loop(begin, stop, V, t0, lid, live, P, cand);

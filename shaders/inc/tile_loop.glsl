@@ -22,7 +22,8 @@
 //
 // Include after the buffer bindings `views`, `offs`, `list` (and `pstore`, `stats` with
 // SA_STORE_PAIRS or SA_REPLAY), the push constants `pc`, and a definition of QCAP; the records
-// texel buffer `recs` is declared here (scratch_records.glsl).
+// texel buffer `recs` is declared here (scratch_records.glsl). The backward's replay of the
+// forward's queues is grad.comp's own loop (replay_stream).
 #ifndef SA_TILE_LOOP_GLSL
 #define SA_TILE_LOOP_GLSL
 
@@ -41,7 +42,7 @@ void round_accumulate(uint lid, uint r0, uint n, uint cnt, uvec2 fmask, uint fba
 void chunk_end(uint lid, uint c0, uint cnt);
 
 // The tile (view V, first pixel t0) and this pixel's two values for the kernel's pair_eval (pv,
-// read as sh_pv[px]: the backward's gI and gA). Call before tile_loop or tile_replay.
+// read as sh_pv[px]: the backward's gI and gA). Call before tile_loop (or grad.comp's replay).
 void store_pixel(uint lid, ViewGPU V, uvec2 t0, vec2 pv) {
     g_tile_pix = V.base.y + t0.y * V.dims.x + t0.x;
     g_row = V.dims.x;
@@ -144,48 +145,5 @@ void tile_loop(uint begin, uint end, ViewGPU V, uvec2 t0, uint lid, bool live, P
     }
 }
 
-#ifdef SA_REPLAY
-// The pair store through its R32_UINT texel view (binding 14, the same buffer as `pstore`): the
-// entries are gathered, not loaded lane by lane.
-layout(binding = 14) uniform usamplerBuffer store_tex;
-
-// The backward's replay of the forward's queue (see SA_STORE_PAIRS in tile_queue.glsl): the
-// chunks of [begin, end) with the queue entries the forward stored for them, in the forward's
-// order, so the block tests, the per-pixel candidate tests and the queue slots are not done
-// again. The hooks run as in tile_loop (round_accumulate gets no masks and sh_queue is not
-// filled: the backward needs neither). A chunk the forward could not store marks the pass incomplete (stats[5], and bit 0 of
-// stats[14]): the host then grows the store and redoes the work. Pixels whose seed is zero are
-// in the forward's queue but not in tile_loop's (their pairs must add exact zeros: pair_eval's
-// job).
-void tile_replay(uint begin, uint end, uint lid) {
-    // A wrapped counter gave later chunks bases that overlap earlier ones: nothing is trusted.
-    if (lid == 0u && (stats[STAT_STORE_FLAGS] & 2u) != 0u) atomicOr(stats[5], 1u);
-    for (uint c0 = begin; c0 < end; c0 += CHUNK) {
-        g_chunk = c0;
-        barrier();
-        chunk_begin(lid);
-        uint base = pstore[2u * c0], packed = pstore[2u * c0 + 1u];
-        uint cnt = min(CHUNK, end - c0);
-        barrier();
-        if (base == STORE_MISSING) {  // uniform: every thread read the same words
-            if (lid == 0u) { atomicOr(stats[5], 1u); atomicOr(stats[STAT_STORE_FLAGS], 1u); }
-            continue;
-        }
-        uint nfast = packed & 0xFFFFu, total = packed >> 16;
-        uint off = 2u * pc.capacity + base;
-        for (uint r0 = 0u; r0 < total; r0 += QCAP) {
-            uint n = min(QCAP, total - r0);
-            for (uint i = lid; i < n; i += 256u) {
-                uint e = texelFetch(store_tex, int(off + r0 + i)).x;
-                pair_eval(i, e >> 8, e & 255u, r0 + i < nfast);
-            }
-            barrier();
-            round_accumulate(lid, r0, n, cnt, uvec2(0u), 0u, uvec2(0u), 0u);
-            if (r0 + QCAP < total) barrier();
-        }
-        chunk_end(lid, c0, cnt);
-    }
-}
-#endif
 
 #endif

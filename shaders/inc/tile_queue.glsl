@@ -31,7 +31,10 @@ const uint CHUNK = 64u;            // scratches per chunk: one bit each in two 3
 // per-lane index is a scalar loop over the lanes on CPU drivers.
 layout(binding = 13) uniform usamplerBuffer list_tex;
 uint g_chunk = 0u;                 // the chunk's first tile-list entry (set by the tile loops)
-uint chunk_scratch(uint k) { return texelFetch(list_tex, int(g_chunk + k)).x; }
+// The backward's replay (grad.comp) takes a round's entries from two chunks in turn: those of the
+// second are numbered k + CHUNK, and g_chunk_hi is its first entry.
+uint g_chunk_hi = 0u;
+uint chunk_scratch(uint k) { return texelFetch(list_tex, int((k < CHUNK ? g_chunk : g_chunk_hi - CHUNK) + k)).x; }
 shared vec4 sh_blk01[16];          // plate-space corners of the tile's 4x4-pixel blocks
 shared vec4 sh_blk23[16];
 shared bool sh_blk_all[16];        // a block whose corner rays miss the plate: test every scratch
