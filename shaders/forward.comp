@@ -59,18 +59,20 @@ void pair_eval(uint i, uint px, uint k, bool fast) {
     sh_res[i] = vec2(I, A);
 }
 
+// My results of slots [lo, hi) (a loop tested at the bottom, see tile_loop.glsl).
+void add_results(uint lo, uint hi, uint r0) {
+    uint j = lo;
+    if (j < hi) do {
+        vec2 ra = sh_res[j - r0];
+        if (ra.y > 0.0) { ++pairs; dp += ra.x; cov += ra.y; }
+        ++j;
+    } while (j < hi);
+}
+
 // My results: fast entries, then the others (a fixed order).
 void round_accumulate(uint lid, uint r0, uint n, uint cnt, uvec2 fmask, uint fbase, uvec2 gmask, uint gbase) {
-    uint lo = max(fbase, r0), hi = min(fbase + uint(bitCount(fmask.x) + bitCount(fmask.y)), r0 + QCAP);
-    for (uint j = lo; j < hi; ++j) {
-        vec2 ra = sh_res[j - r0];
-        if (ra.y > 0.0) { ++pairs; dp += ra.x; cov += ra.y; }
-    }
-    lo = max(gbase, r0); hi = min(gbase + uint(bitCount(gmask.x) + bitCount(gmask.y)), r0 + QCAP);
-    for (uint j = lo; j < hi; ++j) {
-        vec2 ra = sh_res[j - r0];
-        if (ra.y > 0.0) { ++pairs; dp += ra.x; cov += ra.y; }
-    }
+    add_results(max(fbase, r0), min(fbase + uint(bitCount(fmask.x) + bitCount(fmask.y)), r0 + QCAP), r0);
+    add_results(max(gbase, r0), min(gbase + uint(bitCount(gmask.x) + bitCount(gmask.y)), r0 + QCAP), r0);
 }
 
 void main() {

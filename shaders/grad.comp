@@ -112,23 +112,29 @@ void pair_eval(uint i, uint px, uint k, bool fast) {
 // Thread 0 first links each scratch's entries into a list in queue order (one pass over the
 // round, backwards; the link replaces the chunk scratch pair_eval left in the 4th float of
 // sh_c1); thread k then walks only its own entries, instead of every thread testing every entry.
+// The loops test at the bottom: on CPU drivers one that tests at the top runs its body once more
+// with every lane off.
 void round_accumulate(uint lid, uint r0, uint n, uint cnt, uvec2 fmask, uint fbase, uvec2 gmask, uint gbase) {
     if (lid == 0u) {
-        for (uint k = 0u; k < NK; ++k) sh_head[k] = 0xFFFFFFFFu;
-        for (uint i = n; i-- > 0u;) {
-            uint k = floatBitsToUint(sh_c1[i].w);
-            sh_c1[i].w = uintBitsToFloat(sh_head[k]);
-            sh_head[k] = i;
-        }
+        uint k = 0u;
+        do { sh_head[k] = 0xFFFFFFFFu; ++k; } while (k < NK);
+        uint i = n;
+        if (i > 0u) do {
+            --i;
+            uint kk = floatBitsToUint(sh_c1[i].w);
+            sh_c1[i].w = uintBitsToFloat(sh_head[kk]);
+            sh_head[kk] = i;
+        } while (i > 0u);
     }
     barrier();
     if (lid < NK) {  // a scratch with no entries has an empty list
-        for (uint i = sh_head[lid]; i != 0xFFFFFFFFu;) {
+        uint i = sh_head[lid];
+        if (i != 0xFFFFFFFFu) do {
             vec4 c1 = sh_c1[i];
             acc0 += sh_c0[i];
             acc1 += vec4(c1.xyz, 0.0);
             i = floatBitsToUint(c1.w);
-        }
+        } while (i != 0xFFFFFFFFu);
     }
 }
 
@@ -183,13 +189,14 @@ void replay_stream(uint begin, uint end, uint lid) {
     if (lid == 0u && (stats[STAT_STORE_FLAGS] & 2u) != 0u) atomicOr(stats[5], 1u);
     uint ca = begin, pa = 0u;  // the chunk being replayed and its entries done
     uint base_a, fast_a, total_a = chunk_record(ca, base_a, fast_a);
-    // Empty chunks at the start are done already.
-    while (ca < end && pa >= total_a) {
+    // Empty chunks at the start are done already. (The loops test at the bottom, behind an `if`:
+    // see tile_loop in inc/tile_loop.glsl.)
+    if (pa >= total_a) do {
         close_chunk(lid, begin, end, ca);
         ca += CHUNK;
         if (ca < end) total_a = chunk_record(ca, base_a, fast_a);
-    }
-    while (ca < end) {
+    } while (ca < end && pa >= total_a);
+    if (ca < end) do {
         uint na = min(QCAP, total_a - pa);
         uint cb = ca + CHUNK, base_b = 0u, fast_b = 0u, nb = 0u;
         if (na < QCAP && cb < end) nb = min(QCAP - na, chunk_record(cb, base_b, fast_b));
@@ -198,13 +205,15 @@ void replay_stream(uint begin, uint end, uint lid) {
         g_chunk_hi = odd ? ca : cb;
         uint n = na + nb;
         barrier();  // the previous round's walk is done with the shared arrays
-        for (uint i = lid; i < n; i += 256u) {
+        uint i = lid;
+        if (i < n) do {
             bool in_a = i < na;
             uint idx = in_a ? pa + i : i - na;
             uint e = texelFetch(store_tex, int(2u * pc.capacity + (in_a ? base_a : base_b) + idx)).x;
             uint k = (e & 255u) + ((in_a != odd) ? 0u : CHUNK);  // the odd chunk's scratches: k + CHUNK
             pair_eval(i, e >> 8, k, idx < (in_a ? fast_a : fast_b));
-        }
+            i += 256u;
+        } while (i < n);
         barrier();
         round_accumulate(lid, 0u, n, NK, uvec2(0u), 0u, uvec2(0u), 0u);
         pa += na;
@@ -215,13 +224,13 @@ void replay_stream(uint begin, uint end, uint lid) {
             total_a = chunk_record(ca, base_a, fast_a);
         }
         // Close chunk ca if it is done, and any empty chunks after it.
-        while (ca < end && pa >= total_a) {
+        if (pa >= total_a) do {
             close_chunk(lid, begin, end, ca);
             ca += CHUNK;
             pa = 0u;
             if (ca < end) total_a = chunk_record(ca, base_a, fast_a);
-        }
-    }
+        } while (ca < end && pa >= total_a);
+    } while (ca < end);
 }
 #endif
 

@@ -68,11 +68,14 @@ void pair_eval(uint i, uint px, uint k, bool fast) {
     sh_r[2u * i + 1u] = g.x * seeds[b + 1u] + g.y * seeds[b + 3u] + g.z * seeds[b + 5u];
 }
 
+// (Tested at the bottom: see tile_loop in inc/tile_loop.glsl.)
 void add_entries(uint lo, uint hi, uint r0) {
-    for (uint j = lo; j < hi; ++j) {
+    uint j = lo;
+    if (j < hi) do {
         acc0 += sh_r[2u * (j - r0)];
         acc1 += sh_r[2u * (j - r0) + 1u];
-    }
+        ++j;
+    } while (j < hi);
 }
 
 // My results: fast entries, then the others (the forward's order).

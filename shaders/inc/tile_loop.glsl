@@ -106,10 +106,14 @@ bool pass_range(uint start, uint end, uint pass, uint chunks_per_pass, out uint 
 
 // The chunk loop and the queue rounds over the entries [begin, end) of the tile's scratch list
 // (this pass's share, see pass_range); cand counts this pixel's candidates (for the counters).
+// Every loop here tests at the bottom, behind an `if` for the first test: on CPU drivers a loop
+// that tests at the top runs its body once more with every lane off (a whole pair integral per
+// round, a whole round per chunk, a whole chunk per tile), while the `if` is only a mask.
 void tile_loop(uint begin, uint end, ViewGPU V, uvec2 t0, uint lid, bool live, PixelSetup P, inout uint cand) {
     setup_blocks(V, t0, lid);
     uint myblk = lid >> 4;  // tile_pixel's block of this thread
-    for (uint c0 = begin; c0 < end; c0 += CHUNK) {
+    uint c0 = begin;
+    if (c0 < end) do {
         g_chunk = c0;
         barrier();
         chunk_begin(lid);
@@ -123,26 +127,31 @@ void tile_loop(uint begin, uint end, ViewGPU V, uvec2 t0, uint lid, bool live, P
 #ifdef SA_STORE_PAIRS
         if (lid == 0u) store_chunk(c0, nfast, total);  // sh_store_base: seen after the round's barrier
 #endif
-        for (uint r0 = 0u; r0 < total; r0 += QCAP) {
+        uint r0 = 0u;
+        if (r0 < total) do {
             enqueue(lid, fmask, fbase, r0);
             enqueue(lid, gmask, gbase, r0);
             barrier();
             uint n = min(QCAP, total - r0);
-            for (uint i = lid; i < n; i += 256u) {
+            uint i = lid;
+            if (i < n) do {
                 uint e = sh_queue[i];
 #ifdef SA_STORE_PAIRS
                 if (sh_store_base != STORE_MISSING) pstore[2u * pc.capacity + sh_store_base + r0 + i] = e;
 #endif
                 pair_eval(i, e >> 8, e & 255u, r0 + i < nfast);
-            }
+                i += 256u;
+            } while (i < n);
             barrier();
             round_accumulate(lid, r0, n, cnt, fmask, fbase, gmask, gbase);
             // Another round overwrites the queue and the results; after the last one the next
             // chunk's first barrier is enough.
             if (r0 + QCAP < total) barrier();
-        }
+            r0 += QCAP;
+        } while (r0 < total);
         chunk_end(lid, c0, cnt);
-    }
+        c0 += CHUNK;
+    } while (c0 < end);
 }
 
 

@@ -162,42 +162,43 @@ void pixel_masks(bool live, uint myblk, PixelSetup P, out uvec2 fmask, out uvec2
 #endif
     uvec2 bm2 = uvec2(sh_blk_hits[2u * myblk], sh_blk_hits[2u * myblk + 1u]);
     cand += uint(bitCount(bm2.x) + bitCount(bm2.y));
-    for (uint wd = 0u; wd < 2u; ++wd) {
-        uint bm = bm2[wd];
-        while (bm != 0u) {
-            uint k = uint(findLSB(bm)) + 32u * wd;
-            bm &= bm - 1u;
-            uint si = chunk_scratch(k);
-            vec4 ca = rec_cull_a(si), cb = rec_cull_b(si);
-            vec2 p0 = ca.xy, t = ca.zw, b = vec2(-t.y, t.x);
-            float len = cb.x, e = 0.5 * cb.y * cb.z;
-            if (len <= 0.0) continue;
-            vec2 q = centre - p0;
-            float u = dot(q, b), v = dot(q, t);
-            if (abs(u) > e + radius || v < -radius || v > len + radius) continue;
-            float umin = 1e30, umax = -1e30, vmin = 1e30, vmax = -1e30, uabs = 1e30;
-            for (int c = 0; c < 4; ++c) {
-                vec2 r = fp[c] - p0;
-                float uu = dot(r, b), vv = dot(r, t);
-                umin = min(umin, uu); umax = max(umax, uu); vmin = min(vmin, vv); vmax = max(vmax, vv);
-                uabs = min(uabs, abs(uu));
-            }
-            if (umin >= e || umax <= -e || vmin >= len || vmax <= 0.0) continue;
-#ifdef SA_CULL_PAIRS
-            if (budget > 0.0) {
-                float area = min(sp, (min(umax, e) - max(umin, -e)) * (min(vmax, len) - max(vmin, 0.0)));
-                float bk = cull_bound(area, dot(P.h.xy, b), P.h.z, cb.z, cb.w, P.d_flat);
-                if (cull_dropped + bk <= budget) {
-                    cull_dropped += bk;
-                    ++cull_count;
-                    continue;
-                }
-            }
-#endif
-            if (uabs > e && vmin > 0.0 && vmax < len) fmask[wd] |= 1u << (k & 31u);
-            else gmask[wd] |= 1u << (k & 31u);
+    // One loop over both words, tested at the bottom (see tile_loop): scratch order as before.
+    uvec2 bm = bm2;
+    if ((bm.x | bm.y) != 0u) do {
+        uint k;
+        if (bm.x != 0u) { k = uint(findLSB(bm.x)); bm.x &= bm.x - 1u; }
+        else { k = uint(findLSB(bm.y)) + 32u; bm.y &= bm.y - 1u; }
+        uint wd = k >> 5;
+        uint si = chunk_scratch(k);
+        vec4 ca = rec_cull_a(si), cb = rec_cull_b(si);
+        vec2 p0 = ca.xy, t = ca.zw, b = vec2(-t.y, t.x);
+        float len = cb.x, e = 0.5 * cb.y * cb.z;
+        if (len <= 0.0) continue;
+        vec2 q = centre - p0;
+        float u = dot(q, b), v = dot(q, t);
+        if (abs(u) > e + radius || v < -radius || v > len + radius) continue;
+        float umin = 1e30, umax = -1e30, vmin = 1e30, vmax = -1e30, uabs = 1e30;
+        for (int c = 0; c < 4; ++c) {
+            vec2 r = fp[c] - p0;
+            float uu = dot(r, b), vv = dot(r, t);
+            umin = min(umin, uu); umax = max(umax, uu); vmin = min(vmin, vv); vmax = max(vmax, vv);
+            uabs = min(uabs, abs(uu));
         }
-    }
+        if (umin >= e || umax <= -e || vmin >= len || vmax <= 0.0) continue;
+#ifdef SA_CULL_PAIRS
+        if (budget > 0.0) {
+            float area = min(sp, (min(umax, e) - max(umin, -e)) * (min(vmax, len) - max(vmin, 0.0)));
+            float bk = cull_bound(area, dot(P.h.xy, b), P.h.z, cb.z, cb.w, P.d_flat);
+            if (cull_dropped + bk <= budget) {
+                cull_dropped += bk;
+                ++cull_count;
+                continue;
+            }
+        }
+#endif
+        if (uabs > e && vmin > 0.0 && vmax < len) fmask[wd] |= 1u << (k & 31u);
+        else gmask[wd] |= 1u << (k & 31u);
+    } while ((bm.x | bm.y) != 0u);
 }
 
 // Step 3: queue slots. Both counts are scanned at once, packed in 16-bit halves (at most
@@ -238,16 +239,21 @@ void enqueue(uint lid, uvec2 mask, uint base, uint r0) {
     uint lo = max(base, r0), hi = min(base + count, r0 + QCAP);
     if (lo >= hi) return;
     uint m0 = mask.x, m1 = mask.y;
-    for (uint s = lo - base; s > 0u; --s) {
+    // Both loops test at the bottom (see tile_loop).
+    uint s = lo - base;
+    if (s > 0u) do {
         if (m0 != 0u) m0 &= m0 - 1u;
         else m1 &= m1 - 1u;
-    }
-    for (uint idx = lo; idx < hi; ++idx) {
+        --s;
+    } while (s > 0u);
+    uint idx = lo;
+    do {
         uint k;
         if (m0 != 0u) { k = uint(findLSB(m0)); m0 &= m0 - 1u; }
         else { k = uint(findLSB(m1)) + 32u; m1 &= m1 - 1u; }
         sh_queue[idx - r0] = (lid << 8) | k;
-    }
+        ++idx;
+    } while (idx < hi);
 }
 
 #endif
