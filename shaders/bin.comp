@@ -58,7 +58,10 @@ void main() {
     }
     uint k0 = g * pc.group_size;
     uint k1 = min(k0 + pc.group_size, pc.n_scratches);
-    for (uint k = k0; k < k1; ++k) {
+    // The loops test at the bottom, behind an `if` for the first test: on CPU drivers a loop that
+    // tests at the top runs its body once more with every lane off.
+    uint k = k0;
+    if (k < k1) do {
         uint nk = 0u;
 #ifndef COUNT
         uint sb = sbase[k * n_parts + part];
@@ -72,7 +75,8 @@ void main() {
         vec2 b = vec2(-t.y, t.x);
         float e = 0.5 * S.shape.x * carved_se(S.shape.x, S.shape.y);
         vec2 rc[4] = vec2[](p0 - e * b, p1 - e * b, p1 + e * b, p0 + e * b);
-        for (uint vi = v_lo; vi < v_hi; ++vi) {
+        uint vi = v_lo;
+        if (vi < v_hi) do {
             ViewGPU V = views[vi];
             // The band's tile rows, [r_lo, r_hi): contiguous, so the enumeration order is the
             // same with or without bands.
@@ -106,8 +110,10 @@ void main() {
             if (r_hi <= r_lo) continue;  // more bands than tile rows
             ty0 = max(ty0, r_lo);
             ty1 = min(ty1, r_hi - 1u);
-            for (uint ty = ty0; ty <= ty1; ++ty) {
-                for (uint tx = tx0; tx <= tx1; ++tx) {
+            uint ty = ty0;
+            if (ty <= ty1) do {
+                uint tx = tx0;
+                if (tx <= tx1) do {
                     if (orient != 0.0) {
                         vec2 lo = vec2(float(tx * TILE), float(ty * TILE)) - 0.5;
                         vec2 hi = vec2(float((tx + 1u) * TILE), float((ty + 1u) * TILE)) + 0.5;
@@ -124,13 +130,13 @@ void main() {
                     if (sb + nk < pc.capacity) inv[sb + nk] = pos;
 #endif
                     ++nk;
-                }
-            }
-        }
+                } while (++tx <= tx1);
+            } while (++ty <= ty1);
+        } while (++vi < v_hi);
 #ifdef COUNT
         sbase[k * n_parts + part] = nk;
 #endif
-    }
+    } while (++k < k1);
     // A thread walks the tiles of its group's scratches in every view: with long scratches over
     // large views that can exceed a device's loop limit; the host then uses smaller groups.
     if (loop_limit_hit(pc.sentinel)) { atomicOr(stats[7], 1u); atomicOr(stats[5], 1u); }

@@ -16,11 +16,12 @@ void main() {
     if (k >= pc.n_scratches) return;
     vec4 a0 = vec4(0.0), a1 = vec4(0.0);
     uint hi = min(sbase[(k + 1u) * pc.n_parts], pc.capacity);
-    for (uint i = sbase[k * pc.n_parts]; i < hi; ++i) {
+    uint i = sbase[k * pc.n_parts];
+    if (i < hi) do {  // tested at the bottom (a top test runs the body once more, masked, on CPU drivers)
         uint pos = inv[i];
         a0 += partial[2u * pos];
         a1 += partial[2u * pos + 1u];
-    }
+    } while (++i < hi);
     grad[2u * k] = a0;
     grad[2u * k + 1u] = a1;
 }
