@@ -60,24 +60,32 @@ void main() {
     // packed in 4 bits as (p - x + 1) * 4 + (o + 1). Looping over the two short lists, instead of testing all 81
     // combinations of the 3 x 3 outputs and offsets, is the same sum in the same order inside the
     // image (on CPU drivers a skipped combination cost as much as a used one).
+    // The loops test at the bottom (every pixel is read by at least one tap per axis): on CPU
+    // drivers a loop that tests at the top runs its body once more with every lane off.
     uint tx = 0u, nx = 0u, ty = 0u, ny = 0u;
-    for (int px = max(x - 1, 0); px <= min(x + 1, W - 1); ++px)
+    int px = max(x - 1, 0), px_end = min(x + 1, W - 1);
+    do {
         for (int ox = -1; ox <= 1; ++ox)
             if (clampi(px + ox, W) == x) { tx |= uint((px - x + 1) * 4 + ox + 1) << (nx * 4u); ++nx; }
-    for (int py = max(y - 1, 0); py <= min(y + 1, H - 1); ++py)
+    } while (++px <= px_end);
+    int py = max(y - 1, 0), py_end = min(y + 1, H - 1);
+    do {
         for (int oy = -1; oy <= 1; ++oy)
             if (clampi(py + oy, H) == y) { ty |= uint((py - y + 1) * 4 + oy + 1) << (ny * 4u); ++ny; }
-    for (uint b = 0u; b < ny; ++b) {
+    } while (++py <= py_end);
+    uint b = 0u;
+    do {
         uint ey = (ty >> (b * 4u)) & 15u;
-        int py = y - 1 + int(ey >> 2), oy = int(ey & 3u) - 1;
-        for (uint a = 0u; a < nx; ++a) {
+        int qy = y - 1 + int(ey >> 2), oy = int(ey & 3u) - 1;
+        uint a = 0u;
+        do {
             uint ex = (tx >> (a * 4u)) & 15u;
-            int px = x - 1 + int(ex >> 2), ox = int(ex & 3u) - 1;
-            uint p = S.off + uint(py) * S.w + uint(px);
+            int qx = x - 1 + int(ex >> 2), ox = int(ex & 3u) - 1;
+            uint p = S.off + uint(qy) * S.w + uint(qx);
             for (uint k = 0u; k < NPRE; ++k) acc += bank_w(k, ox, oy) * pre[p * NPRE + k];
             if (S.level == 0u) accp += g1[ox + 1] * g1[oy + 1] * bbuf[p];
-        }
-    }
+        } while (++a < nx);
+    } while (++b < ny);
     if (S.level + 1u < pc.n_levels) {
         LossSeg U = segs[sg + pc.n_views];  // same view, level above
         uint ux = uint(x) / 2u, uy = uint(y) / 2u;

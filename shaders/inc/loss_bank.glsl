@@ -29,8 +29,10 @@
 
 // The segment that holds pyramid pixel i (segments are sorted by offset).
 uint seg_of(uint i) {
-    uint s = 0u;
-    for (uint k = 1u; k < pc.n_segs; ++k) if (i >= segs[k].off) s = k;
+    uint s = 0u, k = 1u;
+    if (k < pc.n_segs) do {  // tested at the bottom (see loss_bwd.comp)
+        if (i >= segs[k].off) s = k;
+    } while (++k < pc.n_segs);
     return s;
 }
 
