@@ -1,6 +1,6 @@
 //! The backward's replay of the forward's pair queues (`KernelSet::replay`, the default): the
 //! forward stores every chunk's queue and the backward integrates the stored entries instead of
-//! searching the pairs again (`tile_replay` in `shaders/inc/tile_loop.glsl`). It must change no
+//! searching the pairs again (`replay_stream` in `shaders/grad.comp`). It must change no
 //! bit of the gradients against the backward that searches, whatever the store holds: sized by
 //! the host, too small for the scene, left over from other scratches, or split into passes.
 use scratchart::render::kernels::KernelSet;

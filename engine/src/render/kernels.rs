@@ -188,7 +188,7 @@ impl ShadeKernel {
     }
 
     /// The defines of the replay build of this backward kernel: [`defines`](Self::defines) and
-    /// `SA_REPLAY` (`tile_replay` in `shaders/inc/tile_loop.glsl`).
+    /// `SA_REPLAY` (`replay_stream` in `shaders/grad.comp`).
     pub fn replay_defines(&self, info: &DeviceInfo) -> Vec<(&'static str, &'static str)> {
         let mut defs = self.defines(info);
         defs.push(("SA_REPLAY", "1"));

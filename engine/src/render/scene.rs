@@ -379,7 +379,10 @@ impl GpuScene {
     fn size_store(&mut self, ctx: &std::sync::Arc<Context>, needed: u64) -> Result<(), GpuError> {
         let cap = needed + needed / 4 + 4096;
         // The replay reads it through a texel view too (4-byte texels).
-        let limit = ctx.info().max_storage_buffer_range.min(ctx.info().max_texel_buffer_elements.saturating_mul(4));
+        let limit = ctx
+            .info()
+            .max_storage_buffer_range
+            .min(ctx.info().max_texel_buffer_elements.saturating_mul(4));
         if cap > u32::MAX as u64 || self.store_bytes(cap) > limit {
             return self.drop_store(ctx, true);
         }
