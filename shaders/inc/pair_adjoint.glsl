@@ -242,14 +242,10 @@ void pieces_adj(PairF F, bool fast, FastRec FR, float gI, float gA, inout vec4 a
         float ilo = 0.0, ihi = 0.0, ivlo = 0.0, ivhi = 0.0, iseed = 0.0;
         // The piece: o + t d for t in [t0, t1], snapped to the box for a footprint edge.
         vec4 me = onehot(j & 3), me1 = onehot((j + 1) & 3);
-        float as0 = dot(me, fs), av0 = dot(me, fv);
-        float os = edge ? as0 : (side == 0 ? -se : se);
-        float ov = edge ? av0 : (side == 0 ? 0.0 : len);
-        float ds = edge ? dot(me1, fs) - as0 : (side == 0 ? 2.0 * se : -2.0 * se);
-        float dvv = edge ? dot(me1, fv) - av0 : 0.0;
-        vec4 ps = edge ? vec4(-ds, ds, -dvv, dvv) : fdv * ds;
-        vec4 qs = edge ? vec4(os + se, se - os, ov, len - ov) : fds * (ov - fv) - fdv * (os - fs);
-        bvec4 strict = edge ? bvec4(false, false, true, true) : lessThan(fds * ds, vec4(0.0));
+        float os, ov, ds, dvv;
+        vec4 ps, qs;
+        bvec4 strict;
+        piece_setup(j, fs, fv, se, len, fds, fdv, os, ov, ds, dvv, ps, qs, strict);
         float t0 = 0.0, t1 = 1.0;
         float pt0 = 1.0, qt0 = 0.0, pt1 = 1.0, qt1 = 0.0;  // active constraint of t0 and t1 (p, q)
         int it0 = -1, it1 = -1;

@@ -166,6 +166,27 @@ bool patch_fast(R fs[4], R fv[4], R se, R len, R half_w, PairGeom G, out R I, ou
 // would run the body once more with every lane off. Pieces, arithmetic and order are
 // patch_fast's and patch_integral's, so results are the same.
 
+// Piece j's segment o + t d, t in [0, 1] ((os, ov) + t (ds, dvv)), and its four constraints
+// p_i t <= q_i (strict_i: a constraint met with p_i = 0 and q_i = 0 drops the piece); fds, fdv:
+// the footprint's edge vectors (fs.yzwx - fs, fv.yzwx - fv). Shared with the reverse sweep
+// (pair_adjoint.glsl), so both clip the same floats.
+void piece_setup(int j, vec4 fs, vec4 fv, float se, float len, vec4 fds, vec4 fdv, out float os, out float ov,
+                 out float ds, out float dvv, out vec4 ps, out vec4 qs, out bvec4 strict) {
+    bool edge = j < 4;
+    vec4 me = vec4(equal(ivec4(0, 1, 2, 3), ivec4(j & 3))), me1 = vec4(equal(ivec4(0, 1, 2, 3), ivec4((j + 1) & 3)));
+    float as0 = dot(me, fs), av0 = dot(me, fv);
+    os = edge ? as0 : (j == 4 ? -se : se);
+    ov = edge ? av0 : (j == 4 ? 0.0 : len);
+    ds = edge ? dot(me1, fs) - as0 : (j == 4 ? 2.0 * se : -2.0 * se);
+    dvv = edge ? dot(me1, fv) - av0 : 0.0;
+    ps = edge ? vec4(-ds, ds, -dvv, dvv) : fdv * ds;
+    qs = edge ? vec4(os + se, se - os, ov, len - ov) : fds * (ov - fv) - fdv * (os - fs);
+    // A footprint edge lying on R's across-edge line is left to R's own edge (see
+    // patch_integral); an across-edge collinear with a footprint edge counts only where both
+    // boundaries run the same way.
+    strict = edge ? bvec4(false, false, true, true) : lessThan(fds * ds, vec4(0.0));
+}
+
 // Piece j of patch_integral's walk (0-3: footprint edge j clipped to the carved rectangle, 4-5:
 // the rectangle's bottom and top edges clipped to the footprint) as a segment (as, av) -> (bs, bv);
 // false where the piece is empty. The footprint as vec4s (no local arrays: they become memory).
@@ -176,19 +197,10 @@ bool patch_fast(R fs[4], R fv[4], R se, R len, R half_w, PairGeom G, out R I, ou
 // kind: on CPU drivers both sides of an `if` run, so a fast-path pair would pay for both.
 bool walk_piece(int j, vec4 fs, vec4 fv, float se, float len, out float as, out float av, out float bs, out float bv) {
     bool edge = j < 4;
-    vec4 me = vec4(equal(ivec4(0, 1, 2, 3), ivec4(j & 3))), me1 = vec4(equal(ivec4(0, 1, 2, 3), ivec4((j + 1) & 3)));
-    float as0 = dot(me, fs), av0 = dot(me, fv);
-    float os = edge ? as0 : (j == 4 ? -se : se);
-    float ov = edge ? av0 : (j == 4 ? 0.0 : len);
-    float ds = edge ? dot(me1, fs) - as0 : (j == 4 ? 2.0 * se : -2.0 * se);
-    float dvv = edge ? dot(me1, fv) - av0 : 0.0;
-    vec4 fds = fs.yzwx - fs, fdv = fv.yzwx - fv;
-    vec4 ps = edge ? vec4(-ds, ds, -dvv, dvv) : fdv * ds;
-    vec4 qs = edge ? vec4(os + se, se - os, ov, len - ov) : fds * (ov - fv) - fdv * (os - fs);
-    // A footprint edge lying on R's across-edge line is left to R's own edge (see
-    // patch_integral); an across-edge collinear with a footprint edge counts only where both
-    // boundaries run the same way.
-    bvec4 strict = edge ? bvec4(false, false, true, true) : lessThan(fds * ds, vec4(0.0));
+    float os, ov, ds, dvv;
+    vec4 ps, qs;
+    bvec4 strict;
+    piece_setup(j, fs, fv, se, len, fs.yzwx - fs, fv.yzwx - fv, os, ov, ds, dvv, ps, qs, strict);
     float t0 = 0.0, t1 = 1.0;
     bool keep = true;
     for (int i = 0; i < 4; ++i) {
