@@ -63,7 +63,7 @@ const uint QCAP = GRAD_QCAP;
 #include "inc/tile_loop.glsl"
 
 shared vec4 sh_c0[QCAP];           // per-pair contribution d/d(x0, y0, x1, y1)
-shared vec4 sh_c1[QCAP];           // d/d(w, d, alpha); w: the next entry of the same scratch (bits)
+shared vec4 sh_c1[QCAP];           // d/d(w, d, alpha); w (bits): the chunk scratch, then the list link
 // Scratches a round can hold: one chunk's in the search; in the replay the end of one chunk and
 // the start of the next, the second's scratches numbered k + CHUNK (chunk_scratch).
 #ifdef SA_REPLAY
@@ -72,6 +72,7 @@ const uint NK = 2u * CHUNK;
 const uint NK = CHUNK;
 #endif
 shared uint sh_head[NK];           // per scratch of the round: its first entry in the round
+const uint LIST_END = 0xFFFFFFFFu;  // the end of a scratch's list (sh_head, the links)
 // Thread k < NK: scratch k's contributions so far (private: only thread k touches them).
 vec4 acc0 = vec4(0.0), acc1 = vec4(0.0);
 
@@ -117,7 +118,7 @@ void pair_eval(uint i, uint px, uint k, bool fast) {
 void round_accumulate(uint lid, uint r0, uint n, uint cnt, uvec2 fmask, uint fbase, uvec2 gmask, uint gbase) {
     if (lid == 0u) {
         uint k = 0u;
-        do { sh_head[k] = 0xFFFFFFFFu; ++k; } while (k < NK);
+        do { sh_head[k] = LIST_END; ++k; } while (k < NK);
         uint i = n;
         if (i > 0u) do {
             --i;
@@ -129,12 +130,12 @@ void round_accumulate(uint lid, uint r0, uint n, uint cnt, uvec2 fmask, uint fba
     barrier();
     if (lid < NK) {  // a scratch with no entries has an empty list
         uint i = sh_head[lid];
-        if (i != 0xFFFFFFFFu) do {
+        if (i != LIST_END) do {
             vec4 c1 = sh_c1[i];
             acc0 += sh_c0[i];
             acc1 += vec4(c1.xyz, 0.0);
             i = floatBitsToUint(c1.w);
-        } while (i != 0xFFFFFFFFu);
+        } while (i != LIST_END);
     }
 }
 

@@ -5,7 +5,7 @@
 //! The sizes are those of [`crate::render::GpuScene`] and [`crate::optim::loss::Loss`]; the
 //! functions here mirror their allocations (a test checks that the largest buffer of a real
 //! upload is within the estimate).
-use crate::render::layout::TILE;
+use crate::render::layout::{PIXEL_RECORD_BYTES, SCRATCH_RECORD_BYTES, TILE};
 use crate::vulkan::DeviceInfo;
 
 /// The quantities that decide how large the device buffers are.
@@ -68,7 +68,7 @@ impl SceneDims {
                 (self.tiles * groups + 1) * 4,
             ),
             ("scratch parameters and gradients, each", self.scratches.max(1) * 32),
-            (RECORDS, self.scratches.max(1) * 64),
+            (RECORDS, self.scratches.max(1) * SCRATCH_RECORD_BYTES),
             // A lower bound: every visible scratch is listed in at least one tile per view; the
             // lists grow with the scene's pairs (and are checked again then).
             (
@@ -90,7 +90,7 @@ impl SceneDims {
         let limit = info.max_storage_buffer_range;
         // The records are also texel buffers: 16-byte texels, at most maxTexelBufferElements.
         let texel_limit = info.max_texel_buffer_elements.saturating_mul(16);
-        let texels = [(PIXEL_RECORDS, self.pixels.max(1) * 80)];
+        let texels = [(PIXEL_RECORDS, self.pixels.max(1) * PIXEL_RECORD_BYTES)];
         self.buffers()
             .into_iter()
             .find_map(|(n, b)| {

@@ -9,6 +9,13 @@ use crate::model::scene::{LightKind, Scene, Scratch, View};
 
 pub const TILE: u32 = 16;
 
+/// Bytes of one scratch's records for the shading kernels: four RGBA32F texels
+/// (`shaders/scratch_records.comp`, `shaders/inc/scratch_records.glsl`).
+pub const SCRATCH_RECORD_BYTES: u64 = 4 * 16;
+/// Bytes of one pixel's records: `SA_PIXEL_TEXELS` (5, `shaders/inc/pixel.glsl`) RGBA32F texels
+/// (`shaders/pixel_records.comp`).
+pub const PIXEL_RECORD_BYTES: u64 = 5 * 16;
+
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
 pub struct ViewGpu {

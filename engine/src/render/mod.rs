@@ -69,8 +69,9 @@ pub const MIN_SHARED_MEMORY: u32 = 32 * 1024;
 /// Storage buffers every shading kernel's pipeline binds (forward, backward, tangent); the last
 /// is the pair store, which the forward writes and the backward's replay reads. After them come
 /// four texel buffers: the scene's per-scratch and per-pixel records (`GpuScene::records` and
-/// `GpuScene::pixel_records`), then the tile lists and the pair store again, read through their
-/// R32_UINT views (bindings 11 to 14 of `shaders/inc/scratch_records.glsl`).
+/// `GpuScene::pixel_records`, bindings 11 and 12 of `shaders/inc/scratch_records.glsl`), then
+/// the tile lists and the pair store again, read through their R32_UINT views (binding 13,
+/// `list_tex` in `shaders/inc/tile_queue.glsl`; binding 14, `store_tex` in `shaders/grad.comp`).
 const SHADE_BUFFERS: u32 = 11;
 
 /// The pipeline of a shading kernel (`SHADE_BUFFERS` buffers, the records, and `ShadePush`);

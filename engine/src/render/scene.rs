@@ -198,8 +198,18 @@ impl GpuScene {
             views: host("views", bytemuck::cast_slice(&slots.views))?,
             views64: host("views (float64 cameras)", bytemuck::cast_slice(&slots.views64))?,
             scratches: ctx.upload("scratches", &scr)?,
-            records: Buffer::new_texel(ctx, "scratch records", n_scratches.max(1) as u64 * 64, MemLoc::GpuOnly)?,
-            pixel_records: Buffer::new_texel(ctx, "pixel records", dims.pixels.max(1) * 80, MemLoc::GpuOnly)?,
+            records: Buffer::new_texel(
+                ctx,
+                "scratch records",
+                n_scratches.max(1) as u64 * layout::SCRATCH_RECORD_BYTES,
+                MemLoc::GpuOnly,
+            )?,
+            pixel_records: Buffer::new_texel(
+                ctx,
+                "pixel records",
+                dims.pixels.max(1) * layout::PIXEL_RECORD_BYTES,
+                MemLoc::GpuOnly,
+            )?,
             // Host-visible too (the viewer's light slider); Adam writes it on the device.
             lights: host("light intensities", bytemuck::cast_slice(&phi))?,
             hist: gpu_only("bin offsets", hist_len * 4)?,

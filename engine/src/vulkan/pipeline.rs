@@ -1,6 +1,7 @@
 //! [`ComputePipeline`]: one compute shader with the engine's fixed binding convention:
-//! set 0, bindings `0..num_buffers` storage buffers, then texel buffers (RGBA32F views, see
-//! [`super::Buffer::new_texel`]; none unless built with [`ComputePipeline::with_texels`]), each
+//! set 0, bindings `0..num_buffers` storage buffers, then texel buffers (the views of
+//! [`super::Buffer::new_texel`] and [`super::Buffer::new_u32_texel`]; none unless built with
+//! [`ComputePipeline::with_texels`]), each
 //! read (a uniform texel buffer, `samplerBuffer`) or written (a storage texel buffer,
 //! `imageBuffer`); plus one push-constant range of `push_constant_bytes` at offset 0. The shader must declare exactly that interface
 //! (validation reports a mismatch, naming the pipeline).
@@ -13,6 +14,10 @@ use super::{
     error::{vk_err, GpuError},
     shader::ShaderCompiler,
 };
+
+/// Texel-buffer bindings a pipeline may have (the shading kernels have four); the recorder's
+/// descriptor pools are sized for it.
+pub const MAX_TEXEL_BINDINGS: usize = 4;
 
 /// A texel-buffer binding of a [`ComputePipeline`] (after its storage buffers).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -81,6 +86,11 @@ impl ComputePipeline {
             push_constant_bytes & 3 == 0 && push_constant_bytes <= ctx.info().max_push_constants_size,
             "pipeline '{name}': push constants must be a multiple of 4 bytes and at most {} (got {push_constant_bytes})",
             ctx.info().max_push_constants_size
+        );
+        assert!(
+            texels.len() <= MAX_TEXEL_BINDINGS,
+            "pipeline '{name}': {} texel bindings, at most MAX_TEXEL_BINDINGS = {MAX_TEXEL_BINDINGS}",
+            texels.len()
         );
         let d = &ctx.device;
         let bindings: Vec<_> = (0..num_buffers + texels.len() as u32)

@@ -16,7 +16,7 @@ use super::{
     buffer::Buffer,
     device::Context,
     error::{vk_err, GpuError},
-    pipeline::ComputePipeline,
+    pipeline::{ComputePipeline, MAX_TEXEL_BINDINGS},
 };
 
 const MAX_QUERIES: u32 = 256;
@@ -122,10 +122,10 @@ impl Recorder {
                 .descriptor_count(DESCRIPTORS_PER_POOL),
             vk::DescriptorPoolSize::default()
                 .ty(vk::DescriptorType::UNIFORM_TEXEL_BUFFER)
-                .descriptor_count(2 * SETS_PER_POOL),
+                .descriptor_count(MAX_TEXEL_BINDINGS as u32 * SETS_PER_POOL),
             vk::DescriptorPoolSize::default()
                 .ty(vk::DescriptorType::STORAGE_TEXEL_BUFFER)
-                .descriptor_count(SETS_PER_POOL),
+                .descriptor_count(MAX_TEXEL_BINDINGS as u32 * SETS_PER_POOL),
         ];
         let p = unsafe {
             self.ctx.device.create_descriptor_pool(
@@ -240,7 +240,7 @@ impl Recorder {
             .map(|b| {
                 b.texel_view().unwrap_or_else(|| {
                     panic!(
-                        "pipeline '{name}': buffer '{}' has no texel view (Buffer::new_texel)",
+                        "pipeline '{name}': buffer '{}' has no texel view (Buffer::new_texel, new_u32_texel)",
                         b.name()
                     )
                 })
