@@ -217,8 +217,8 @@ float clamp_which(float x, float lo, float hi, out int which) {
 // Green walk of patch_integral (green.glsl): the four footprint edges clipped to the carved
 // rectangle, then its two across-edges clipped to the footprint, both kinds by one clip of a
 // segment o + t d by four constraints p_i t <= q_i (walk_piece in green.glsl) and one reverse.
-// On CPU drivers both sides of an `if` run and a loop's body runs at least once: a fast-path
-// pair pays for every line here, so the general pieces share their code, the loop tests at the
+// On CPU drivers both sides of an `if` run where a batch's lanes disagree, and a loop's body runs
+// at least once: a fast-path pair pays for every line here, so the general pieces share their code, the loop tests at the
 // bottom, and the strip's reverse (fast_rev) runs once after it.
 void pieces_adj(PairF F, bool fast, FastRec FR, float gI, float gA, inout vec4 a_fs, inout vec4 a_fv, inout float a_se,
                 inout float a_len, inout float a_half, inout GAdj aG) {

@@ -108,7 +108,8 @@ bool pass_range(uint start, uint end, uint pass, uint chunks_per_pass, out uint 
 // (this pass's share, see pass_range); cand counts this pixel's candidates (for the counters).
 // Every loop here tests at the bottom, behind an `if` for the first test: on CPU drivers a loop
 // that tests at the top runs its body once more with every lane off (a whole pair integral per
-// round, a whole round per chunk, a whole chunk per tile), while the `if` is only a mask.
+// round, a whole round per chunk, a whole chunk per tile), while an `if` that no lane of the
+// batch enters is jumped over.
 void tile_loop(uint begin, uint end, ViewGPU V, uvec2 t0, uint lid, bool live, PixelSetup P, inout uint cand) {
     setup_blocks(V, t0, lid);
     uint myblk = lid >> 4;  // tile_pixel's block of this thread

@@ -156,8 +156,8 @@ bool patch_fast(R fs[4], R fv[4], R se, R len, R half_w, PairGeom G, out R I, ou
 }
 
 #ifndef SA_DUAL
-// The float kernels' walk. On CPU drivers a GLSL `if` is a lane mask, not a branch: both sides
-// always run, and a loop runs as long as any lane needs it (at least once). So the float walk is
+// The float kernels' walk. On CPU drivers a GLSL `if` is a lane mask: where the lanes of a batch
+// disagree both sides run, and a loop runs as long as any lane needs it (at least once). So the float walk is
 // written for that: a fast-path pair's loop runs once, on its strip; a general pair's visits the
 // six pieces in order, with one clip for both kinds (walk_piece) and the one edge_integral of the
 // kernel (a kernel's size costs time even where its code does not run). Pairs of the general
@@ -194,7 +194,8 @@ void piece_setup(int j, vec4 fs, vec4 fv, float se, float len, vec4 fds, vec4 fd
 // Liang-Barsky against the rectangle's sides for a footprint edge, Cyrus-Beck against the
 // footprint's edges for an across-edge (there p_i = fdv_i xd and q_i the edge's cross product,
 // the same floats patch_integral computes, with p's sign flipped). One clip instead of one per
-// kind: on CPU drivers both sides of an `if` run, so a fast-path pair would pay for both.
+// kind: on CPU drivers both sides of an `if` run in a batch of mixed lanes, so a fast-path pair
+// there would pay for both.
 bool walk_piece(int j, vec4 fs, vec4 fv, float se, float len, out float as, out float av, out float bs, out float bv) {
     bool edge = j < 4;
     float os, ov, ds, dvv;
