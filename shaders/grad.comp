@@ -179,6 +179,19 @@ void close_chunk(uint lid, uint begin, uint end, uint c0) {
     }
 }
 
+// Closes chunk ca of [begin, end) if its `total` entries are all done (pa of them) and every empty
+// chunk after it, and reads the record of the chunk the stream goes on with (ca >= end: none
+// left). Tested at the bottom, behind an `if` (see tile_loop in inc/tile_loop.glsl).
+void close_done(uint lid, uint begin, uint end, inout uint ca, inout uint pa, inout uint total, inout uint base,
+                inout uint nfast) {
+    if (pa >= total) do {
+        close_chunk(lid, begin, end, ca);
+        ca += CHUNK;
+        pa = 0u;
+        if (ca < end) total = chunk_record(ca, base, nfast);
+    } while (ca < end && pa >= total);
+}
+
 // The replay of the forward's queues over the chunks [begin, end) of a tile's list, as one stream:
 // a round takes QCAP entries, the rest of one chunk and then the start of the next, so the
 // rounds stay full (on CPU drivers every SIMD group runs a round's code, full or not). Each
@@ -190,14 +203,8 @@ void replay_stream(uint begin, uint end, uint lid) {
     if (lid == 0u && (stats[STAT_STORE_FLAGS] & 2u) != 0u) atomicOr(stats[5], 1u);
     uint ca = begin, pa = 0u;  // the chunk being replayed and its entries done
     uint base_a, fast_a, total_a = chunk_record(ca, base_a, fast_a);
-    // Empty chunks at the start are done already. (The loops test at the bottom, behind an `if`:
-    // see tile_loop in inc/tile_loop.glsl.)
-    if (pa >= total_a) do {
-        close_chunk(lid, begin, end, ca);
-        ca += CHUNK;
-        if (ca < end) total_a = chunk_record(ca, base_a, fast_a);
-    } while (ca < end && pa >= total_a);
-    if (ca < end) do {
+    close_done(lid, begin, end, ca, pa, total_a, base_a, fast_a);  // empty chunks at the start
+    if (ca < end) do {  // tested at the bottom (see tile_loop)
         uint na = min(QCAP, total_a - pa);
         uint cb = ca + CHUNK, base_b = 0u, fast_b = 0u, nb = 0u;
         if (na < QCAP && cb < end) nb = min(QCAP - na, chunk_record(cb, base_b, fast_b));
@@ -224,13 +231,7 @@ void replay_stream(uint begin, uint end, uint lid) {
             pa = nb;
             total_a = chunk_record(ca, base_a, fast_a);
         }
-        // Close chunk ca if it is done, and any empty chunks after it.
-        if (pa >= total_a) do {
-            close_chunk(lid, begin, end, ca);
-            ca += CHUNK;
-            pa = 0u;
-            if (ca < end) total_a = chunk_record(ca, base_a, fast_a);
-        } while (ca < end && pa >= total_a);
+        close_done(lid, begin, end, ca, pa, total_a, base_a, fast_a);
     } while (ca < end);
 }
 #endif

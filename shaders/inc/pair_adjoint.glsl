@@ -216,10 +216,11 @@ float clamp_which(float x, float lo, float hi, out int which) {
 // so that edge_adj appears once in the kernel: for a fast-path pair the strip (j = 6), else the
 // Green walk of patch_integral (green.glsl): the four footprint edges clipped to the carved
 // rectangle, then its two across-edges clipped to the footprint, both kinds by one clip of a
-// segment o + t d by four constraints p_i t <= q_i (walk_piece in green.glsl) and one reverse.
-// On CPU drivers both sides of an `if` run where a batch's lanes disagree, and a loop's body runs
-// at least once: a fast-path pair pays for every line here, so the general pieces share their code, the loop tests at the
-// bottom, and the strip's reverse (fast_rev) runs once after it.
+// segment o + t d by four constraints p_i t <= q_i (clip_piece in green.glsl, the forward walk's
+// own) and one reverse. On CPU drivers both sides of an `if` run where a batch's lanes disagree,
+// and a loop's body runs at least once: a fast-path pair pays for every line here, so the
+// general pieces share their code, the loop tests at the bottom, and the strip's reverse
+// (fast_rev) runs once after it.
 void pieces_adj(PairF F, bool fast, FastRec FR, float gI, float gA, inout vec4 a_fs, inout vec4 a_fv, inout float a_se,
                 inout float a_len, inout float a_half, inout GAdj aG) {
     float se = F.se, len = F.len;
@@ -242,23 +243,10 @@ void pieces_adj(PairF F, bool fast, FastRec FR, float gI, float gA, inout vec4 a
         float ilo = 0.0, ihi = 0.0, ivlo = 0.0, ivhi = 0.0, iseed = 0.0;
         // The piece: o + t d for t in [t0, t1], snapped to the box for a footprint edge.
         vec4 me = onehot(j & 3), me1 = onehot((j + 1) & 3);
-        float os, ov, ds, dvv;
-        vec4 ps, qs;
-        bvec4 strict;
-        piece_setup(j, fs, fv, se, len, fds, fdv, os, ov, ds, dvv, ps, qs, strict);
-        float t0 = 0.0, t1 = 1.0;
-        float pt0 = 1.0, qt0 = 0.0, pt1 = 1.0, qt1 = 0.0;  // active constraint of t0 and t1 (p, q)
-        int it0 = -1, it1 = -1;
-        bool keep = true;
-        for (int i = 0; i < 4; ++i) {
-            float p = ps[i], q = qs[i];
-            if (p == 0.0) { if (q < 0.0 || (q == 0.0 && strict[i])) keep = false; }
-            else {
-                float r = q / p;
-                if (p < 0.0) { if (r > t0) { t0 = r; it0 = i; pt0 = p; qt0 = q; } }
-                else if (r < t1) { t1 = r; it1 = i; pt1 = p; qt1 = q; }
-            }
-        }
+        float os, ov, ds, dvv, t0, t1;
+        ivec2 act;  // the constraints that set t0 and t1, and their (p, q): pq
+        vec4 pq;
+        bool keep = clip_piece(j, fs, fv, se, len, fds, fdv, os, ov, ds, dvv, t0, t1, act, pq);
         int wa_s = 0, wa_v = 0, wb_s = 0, wb_v = 0;
         float as = os + t0 * ds, av = ov + t0 * dvv, bs = os + t1 * ds, bv = ov + t1 * dvv;
         if (edge) {
@@ -345,8 +333,8 @@ void pieces_adj(PairF F, bool fast, FastRec FR, float gI, float gA, inout vec4 a
             float a_t0 = a_as * ds + a_av * dvv, a_t1 = a_bs * ds + a_bv * dvv;
             // t = q / p of the active constraints
             vec4 a_p = vec4(0.0), a_q = vec4(0.0);
-            if (it0 >= 0) { a_q += onehot(it0) * (a_t0 / pt0); a_p -= onehot(it0) * (a_t0 * qt0 / (pt0 * pt0)); }
-            if (it1 >= 0) { a_q += onehot(it1) * (a_t1 / pt1); a_p -= onehot(it1) * (a_t1 * qt1 / (pt1 * pt1)); }
+            if (act.x >= 0) { a_q += onehot(act.x) * (a_t0 / pq.x); a_p -= onehot(act.x) * (a_t0 * pq.y / (pq.x * pq.x)); }
+            if (act.y >= 0) { a_q += onehot(act.y) * (a_t1 / pq.z); a_p -= onehot(act.y) * (a_t1 * pq.w / (pq.z * pq.z)); }
             if (edge) {
                 // p = (-ds, ds, -dvv, dvv), q = (os + se, se - os, ov, len - ov); os = fs[e], ds = fs[e1] - fs[e] (v likewise)
                 a_ds += a_p.y - a_p.x;

@@ -56,12 +56,10 @@ void store_pixel(uint lid, ViewGPU V, uvec2 t0, vec2 pv) {
 PixelSetup pixel_from_record(ViewGPU V, uvec2 ij) {
     PixelSetup P;
     uint pix = V.base.y + min(ij.y, V.dims.y - 1u) * V.dims.x + min(ij.x, V.dims.x - 1u);
+    pixel_record(pix, P.fp, P.h);
     int b = int(SA_PIXEL_TEXELS * pix);
-    vec4 a = texelFetch(precs, b), c = texelFetch(precs, b + 1), hd = texelFetch(precs, b + 2);
     vec4 cr = texelFetch(precs, b + 3), so = texelFetch(precs, b + 4);
-    P.fp = vec2[](a.xy, a.zw, c.xy, c.zw);
-    P.h = hd.xyz;
-    P.d_flat = hd.w;
+    P.d_flat = texelFetch(precs, b + 2).w;
     P.centre = cr.xy;
     P.radius = cr.z;
     P.inv_sp = cr.w;

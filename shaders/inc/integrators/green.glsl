@@ -168,8 +168,7 @@ bool patch_fast(R fs[4], R fv[4], R se, R len, R half_w, PairGeom G, out R I, ou
 
 // Piece j's segment o + t d, t in [0, 1] ((os, ov) + t (ds, dvv)), and its four constraints
 // p_i t <= q_i (strict_i: a constraint met with p_i = 0 and q_i = 0 drops the piece); fds, fdv:
-// the footprint's edge vectors (fs.yzwx - fs, fv.yzwx - fv). Shared with the reverse sweep
-// (pair_adjoint.glsl), so both clip the same floats.
+// the footprint's edge vectors (fs.yzwx - fs, fv.yzwx - fv). Called by clip_piece.
 void piece_setup(int j, vec4 fs, vec4 fv, float se, float len, vec4 fds, vec4 fdv, out float os, out float ov,
                  out float ds, out float dvv, out vec4 ps, out vec4 qs, out bvec4 strict) {
     bool edge = j < 4;
@@ -187,6 +186,38 @@ void piece_setup(int j, vec4 fs, vec4 fv, float se, float len, vec4 fds, vec4 fd
     strict = edge ? bvec4(false, false, true, true) : lessThan(fds * ds, vec4(0.0));
 }
 
+// Piece j's segment (piece_setup) clipped to t in [t0, t1] within [0, 1] by its constraints;
+// false where a constraint with p_i = 0 drops it (t0 >= t1 is left to the caller). act: the
+// constraints that set t0 and t1 (-1: the segment's own end) and pq their (p, q) pairs, which
+// the reverse sweep (pair_adjoint.glsl) differentiates through; the forward ignores them (and
+// its compiler drops them). One clip for both sweeps, so both clip the same floats.
+bool clip_piece(int j, vec4 fs, vec4 fv, float se, float len, vec4 fds, vec4 fdv, out float os, out float ov,
+                out float ds, out float dvv, out float t0, out float t1, out ivec2 act, out vec4 pq) {
+    vec4 ps, qs;
+    bvec4 strict;
+    piece_setup(j, fs, fv, se, len, fds, fdv, os, ov, ds, dvv, ps, qs, strict);
+    t0 = 0.0;
+    t1 = 1.0;
+    act = ivec2(-1);
+    pq = vec4(1.0, 0.0, 1.0, 0.0);
+    bool keep = true;
+    for (int i = 0; i < 4; ++i) {
+        float p = ps[i], q = qs[i];
+        if (p == 0.0) { if (q < 0.0 || (q == 0.0 && strict[i])) keep = false; }
+        else {
+            float r = q / p;
+            if (p < 0.0) {
+                if (r > t0) { act.x = i; pq.xy = vec2(p, q); }
+                t0 = max(t0, r);
+            } else {
+                if (r < t1) { act.y = i; pq.zw = vec2(p, q); }
+                t1 = min(t1, r);
+            }
+        }
+    }
+    return keep;
+}
+
 // Piece j of patch_integral's walk (0-3: footprint edge j clipped to the carved rectangle, 4-5:
 // the rectangle's bottom and top edges clipped to the footprint) as a segment (as, av) -> (bs, bv);
 // false where the piece is empty. The footprint as vec4s (no local arrays: they become memory).
@@ -198,20 +229,10 @@ void piece_setup(int j, vec4 fs, vec4 fv, float se, float len, vec4 fds, vec4 fd
 // there would pay for both.
 bool walk_piece(int j, vec4 fs, vec4 fv, float se, float len, out float as, out float av, out float bs, out float bv) {
     bool edge = j < 4;
-    float os, ov, ds, dvv;
-    vec4 ps, qs;
-    bvec4 strict;
-    piece_setup(j, fs, fv, se, len, fs.yzwx - fs, fv.yzwx - fv, os, ov, ds, dvv, ps, qs, strict);
-    float t0 = 0.0, t1 = 1.0;
-    bool keep = true;
-    for (int i = 0; i < 4; ++i) {
-        float p = ps[i], q = qs[i];
-        if (p == 0.0) { if (q < 0.0 || (q == 0.0 && strict[i])) keep = false; }
-        else {
-            float r = q / p;
-            if (p < 0.0) t0 = max(t0, r); else t1 = min(t1, r);
-        }
-    }
+    float os, ov, ds, dvv, t0, t1;
+    ivec2 act;
+    vec4 pq;
+    bool keep = clip_piece(j, fs, fv, se, len, fs.yzwx - fs, fv.yzwx - fv, os, ov, ds, dvv, t0, t1, act, pq);
     as = os + t0 * ds;
     av = ov + t0 * dvv;
     bs = os + t1 * ds;
