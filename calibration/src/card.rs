@@ -4,8 +4,10 @@
 //! each cell holds one straight cut through its centre. The depth ladder starts above commanded
 //! zero and steps finely near it, so the z offset shows as the first depth at which grooves
 //! appear, and the tip flat as their width there; deeper rungs then show how the width grows
-//! (the tool's angle or radius). Four fiducial crosses, cut deep, mark the corners for
-//! registering a photo that is not square-on.
+//! (the tool's angle or radius). Odd repeats sit at the point mirror of the even ones, so every
+//! depth is seen on both sides of the card. Six fiducial marks (hatched squares, cut deep, see
+//! [`Mark`]) in the margin register a photo taken from anywhere near a capture view, turned by
+//! any angle, with one mark covered.
 use std::path::Path;
 
 use scratchart::model::scene::{Camera, Light, LightKind, Plate, Scene, View};
@@ -45,6 +47,150 @@ pub struct Card {
     /// Roughness of the cut walls assumed when rendering (the fit estimates it).
     pub alpha: f64,
     pub cuts: Vec<Cut>,
+    /// The fiducial marks the fit registers photos by (their cuts are the `fiducial` cuts).
+    /// Empty in a card.json written before marks were listed: [`Card::load`] then takes the
+    /// corner crosses of its fiducial cuts as marks.
+    #[serde(default)]
+    pub marks: Vec<Mark>,
+}
+
+/// A fiducial mark: a square of the plate, `half_mm` either side of `centre`, densely hatched
+/// with parallel cuts at the orientations that glint under the capture lamps. In the dark-field
+/// capture views the flat plate is dark and a cut shows only where its walls face the
+/// half-vector; a single cross (the first cards' marks) then shows one faint arm or nothing. A
+/// hatched square shows a bright filled square in every capture view, also with the camera 20
+/// degrees off (the hatches cover the glinting orientation +- 15 degrees), bright enough to be
+/// found through blur, noise and JPEG, and its centre is the centroid of its light. Six marks
+/// (four corners and two in the margin at places no rotation of the card maps onto another mark)
+/// fix the card's orientation, and any four of them still give the camera when one is covered.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Mark {
+    pub label: String,
+    pub centre: [f64; 2],
+    pub half_mm: f64,
+}
+
+/// Half the side of a mark, as a fraction of the plate (2.1 mm on the 70 mm card).
+const MARK_HALF: f64 = 0.03;
+/// Hatch lines across a mark per orientation (0.42 mm apart on the 70 mm card).
+const MARK_LINES: f64 = 10.0;
+
+impl Mark {
+    /// The six marks of a card of `plate_mm` whose margin (outside the ladder) is `margin_mm`
+    /// wide: four corners, one on the top edge left of centre and one on the right edge below
+    /// centre. Turned by 90, 180 or 270 degrees, the two keys land at least 0.3 of the marks'
+    /// spacing from any mark, so a wrong rotation matches at most four of the six.
+    pub fn layout(plate_mm: f64, margin_mm: f64) -> Vec<Mark> {
+        let f = 0.5 * plate_mm - 0.5 * margin_mm;
+        let half = MARK_HALF * plate_mm;
+        let m = |label: &str, x: f64, y: f64| Mark {
+            label: label.into(),
+            centre: [x * f, y * f],
+            half_mm: half,
+        };
+        vec![
+            m("corner -x -y", -1.0, -1.0),
+            m("corner +x -y", 1.0, -1.0),
+            m("corner +x +y", 1.0, 1.0),
+            m("corner -x +y", -1.0, 1.0),
+            m("key top edge", -0.7, 1.0),
+            m("key right edge", 1.0, -0.35),
+        ]
+    }
+
+    /// The mark's hatch: for each orientation (degrees), parallel cuts across the square
+    /// `MARK_LINES` to a side, clipped to it, at commanded depth `z_mm`.
+    pub fn hatch(&self, orientations_deg: &[f64], z_mm: f64) -> Vec<Cut> {
+        let h = self.half_mm;
+        let spacing = 2.0 * h / MARK_LINES;
+        let mut cuts = Vec::new();
+        for &deg in orientations_deg {
+            let a = deg.to_radians();
+            let (t, n) = ([a.cos(), a.sin()], [-a.sin(), a.cos()]);
+            // Offsets along n that cross the square: |c| < h (|n.x| + |n.y|).
+            let reach = h * (n[0].abs() + n[1].abs());
+            let k_max = (reach / spacing).floor() as i64;
+            for k in -k_max..=k_max {
+                let c = k as f64 * spacing;
+                // Points c n + s t inside the square: intersect the s-intervals of both axes.
+                let (mut lo, mut hi) = (f64::NEG_INFINITY, f64::INFINITY);
+                for ax in 0..2 {
+                    let base = c * n[ax];
+                    if t[ax].abs() < 1e-12 {
+                        if base.abs() > h {
+                            lo = f64::INFINITY;
+                        }
+                        continue;
+                    }
+                    let (s0, s1) = ((-h - base) / t[ax], (h - base) / t[ax]);
+                    lo = lo.max(s0.min(s1));
+                    hi = hi.min(s0.max(s1));
+                }
+                if hi - lo < 0.3 * h {
+                    continue;
+                }
+                let p = |s: f64| {
+                    [
+                        self.centre[0] + c * n[0] + s * t[0],
+                        self.centre[1] + c * n[1] + s * t[1],
+                    ]
+                };
+                cuts.push(Cut {
+                    p0: p(lo),
+                    p1: p(hi),
+                    z_mm,
+                    role: CutRole::Fiducial,
+                });
+            }
+        }
+        cuts
+    }
+
+    /// Whether plate point `q` lies within `pad_mm` of the mark's square.
+    pub fn covers(&self, q: [f64; 2], pad_mm: f64) -> bool {
+        let r = self.half_mm + pad_mm;
+        (q[0] - self.centre[0]).abs() <= r && (q[1] - self.centre[1]).abs() <= r
+    }
+}
+
+/// The cut orientations (degrees, in [0, 180)) that glint at the card's centre in the capture
+/// views, +- 15 degrees each: a cut shows where its walls face the half-vector h of the camera
+/// and the lamp, i.e. when it runs across h's horizontal direction.
+pub fn glint_orientations(plate_mm: f64) -> Vec<f64> {
+    let probe = Card {
+        plate_mm,
+        depths_mm: vec![],
+        orientations_deg: vec![],
+        repeats: 0,
+        cut_mm: 0.0,
+        alpha: 0.1,
+        cuts: vec![],
+        marks: vec![],
+    };
+    let mut out: Vec<f64> = Vec::new();
+    for v in probe.views(64) {
+        let norm = |p: [f64; 3]| {
+            let l = (p[0] * p[0] + p[1] * p[1] + p[2] * p[2]).sqrt();
+            [p[0] / l, p[1] / l, p[2] / l]
+        };
+        let o = norm(v.camera.eye);
+        let i = match v.light.kind {
+            LightKind::Point { position } => norm(position),
+            LightKind::Directional { direction } => norm(direction),
+        };
+        let h = [o[0] + i[0], o[1] + i[1]];
+        let across = h[1].atan2(h[0]).to_degrees() + 90.0;
+        for d in [-15.0, 0.0, 15.0] {
+            let a = (across + d).rem_euclid(180.0);
+            if !out.iter().any(|b| {
+                let diff = (a - b).rem_euclid(180.0);
+                diff.min(180.0 - diff) < 5.0
+            }) {
+                out.push((a * 10.0).round() / 10.0);
+            }
+        }
+    }
+    out
 }
 
 /// How far above commanded zero a card's rung may sit, mm. A design's commanded depths start at
@@ -92,10 +238,20 @@ impl Card {
         let cut_mm = 0.7 * cell;
         let (x0, y0) = (-0.5 * cell * cols as f64, 0.5 * cell * rows as f64);
         let mut cuts = Vec::new();
+        let n_or = spec.orientations_deg.len();
         for (r, &z) in spec.depths_mm.iter().enumerate() {
             for c in 0..cols {
-                let a = spec.orientations_deg[c % spec.orientations_deg.len()].to_radians();
-                let centre = [x0 + (c as f64 + 0.5) * cell, y0 - (r as f64 + 0.5) * cell];
+                let a = spec.orientations_deg[c % n_or].to_radians();
+                // Odd repeats sit at the point mirror of the even ones (through the card's
+                // centre, same orientation): each depth then appears both above and below the
+                // centre, and on both sides, so a brightness gradient across the photo
+                // (vignetting, uneven light) cannot pass for a change of width with depth.
+                let (row, col) = if (c / n_or) % 2 == 1 {
+                    (rows - 1 - r, (c / n_or) * n_or + (n_or - 1 - c % n_or))
+                } else {
+                    (r, c)
+                };
+                let centre = [x0 + (col as f64 + 0.5) * cell, y0 - (row as f64 + 0.5) * cell];
                 let h = [0.5 * cut_mm * a.cos(), 0.5 * cut_mm * a.sin()];
                 cuts.push(Cut {
                     p0: [centre[0] - h[0], centre[1] - h[1]],
@@ -105,24 +261,12 @@ impl Card {
                 });
             }
         }
-        // Fiducial crosses in the corners, cut to the deepest rung.
+        // Fiducial marks in the margin, cut to the deepest rung: hatched squares (see `Mark`).
         let deep = spec.depths_mm.iter().cloned().fold(0.0, f64::max);
-        let f = 0.5 * spec.plate_mm - 0.5 * margin;
-        let arm = 0.3 * margin;
-        for (sx, sy) in [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)] {
-            let c = [sx * f, sy * f];
-            cuts.push(Cut {
-                p0: [c[0] - arm, c[1]],
-                p1: [c[0] + arm, c[1]],
-                z_mm: deep,
-                role: CutRole::Fiducial,
-            });
-            cuts.push(Cut {
-                p0: [c[0], c[1] - arm],
-                p1: [c[0], c[1] + arm],
-                z_mm: deep,
-                role: CutRole::Fiducial,
-            });
+        let marks = Mark::layout(spec.plate_mm, margin);
+        let orientations = glint_orientations(spec.plate_mm);
+        for m in &marks {
+            cuts.extend(m.hatch(&orientations, deep));
         }
         Card {
             plate_mm: spec.plate_mm,
@@ -132,6 +276,7 @@ impl Card {
             cut_mm,
             alpha: 0.1,
             cuts,
+            marks,
         }
     }
 
@@ -230,12 +375,41 @@ impl Card {
         let scene = Scene::load(path)?;
         let text = std::fs::read_to_string(path)?;
         let v: Value = serde_json::from_str(&text)?;
-        let card: Card = serde_json::from_value(v["card"].clone()).with_context(|| {
+        let mut card: Card = serde_json::from_value(v["card"].clone()).with_context(|| {
             format!(
                 "`{}` has no valid `card` fields (write one with `scratchart-cal card`)",
                 path.display()
             )
         })?;
+        if card.marks.is_empty() {
+            // A card written before marks were listed: its fiducials are corner crosses, two
+            // cuts each (the arms), in the corners' order.
+            let fid: Vec<&Cut> = card.cuts.iter().filter(|c| c.role == CutRole::Fiducial).collect();
+            card.marks = fid
+                .chunks(2)
+                .enumerate()
+                .map(|(k, arms)| {
+                    let c = arms[0];
+                    let centre = [0.5 * (c.p0[0] + c.p1[0]), 0.5 * (c.p0[1] + c.p1[1])];
+                    let half = arms
+                        .iter()
+                        .map(|a| 0.5 * (a.p1[0] - a.p0[0]).hypot(a.p1[1] - a.p0[1]))
+                        .fold(0.0, f64::max);
+                    Mark {
+                        label: format!("cross {}", k + 1),
+                        centre,
+                        half_mm: half,
+                    }
+                })
+                .collect();
+        }
+        if card.marks.len() < 4 {
+            anyhow::bail!(
+                "`{}` lists {} fiducial mark(s); the fit needs at least 4 (write a new card with `scratchart-cal card`)",
+                path.display(),
+                card.marks.len()
+            );
+        }
         Ok((card, scene))
     }
 }

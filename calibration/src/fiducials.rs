@@ -1,404 +1,812 @@
-//! The card's four corner crosses in a photo (see [`crate::register`] for how they are used):
+//! The card's fiducial marks in a photo (see [`crate::card::Mark`]; [`crate::register`] uses
+//! what is found here).
 //!
-//! 1. Bright marks: the image is smoothed (Gaussian, 1 px) and its white top-hat taken (less its
-//!    opening by a 7 x 7 square: thin bright cuts stay, the plate's glow and its edges go); the
-//!    noise is estimated robustly (median, MAD), and connected pixels above both 5 noise sigmas
-//!    and 3% of the brightest mark form marks (at least 2.5 arm lengths of pixels each).
-//!    Marks that are not point-symmetric (the corner of the card's glow, stray light) are dropped.
-//! 2. Corners: the mark nearest each cross's place in the capture view, within a tenth of the
-//!    frame (a photo taken near the capture pose); failing that, the crosses are the card's
-//!    outermost marks, so for each diagonal direction the mark farthest along it is taken, and
-//!    matched to the fiducial the capture view shows in that direction (a photo may be turned by
-//!    less than 45 degrees).
-//! 3. Centres: the centroid of the top-hat above its local level (the median in a ring around
-//!    the cross) over a disc of 1.15 arm lengths, iterated (no threshold, so no truncation bias),
-//!    then the intersection of the two arms' fitted lines: a brightness gradient along an arm
-//!    moves its centroid along its line, not the line. About 0.3 px on simulated photos.
+//! 1. **Candidates.** The marks are bright filled squares on a dark card. A scale space of
+//!    differences of Gaussians (scales from 0.4 to 2.5 times the mark's size in the capture view,
+//!    factor 1.26 apart) finds bright blobs of any size in that range: a thin lit cut of the
+//!    ladder answers a blob-sized kernel far more weakly than a filled square of the same
+//!    brightness. Local maxima over position and scale above 4 noise sigmas (the response's MAD)
+//!    and above a tenth of the strongest are candidates, the 30 strongest kept.
+//! 2. **Which candidate is which mark.** Every ordered triple of candidates is matched to every
+//!    triple of marks; the affine map of the triple (a photo taken near a capture view, turned by
+//!    any angle, is near-affine over the card) must keep orientation (a camera does not mirror)
+//!    and be of plausible scale and shear. The hypothesis whose map brings the most other marks
+//!    within a mark's size of a candidate wins (ties: the stronger candidates). The marks are laid
+//!    out so that no rotation maps the card onto itself, so the winner also fixes the
+//!    orientation. This is a robust fit: a covered mark, a stray glint, a dust speck or a
+//!    wrongly placed candidate does not enter it, where taking the first four found would.
+//! 3. **The homography** of the plate to the photo is then fitted to the matched marks (at
+//!    least 4, least squares), the marks are re-matched through it with a tighter tolerance, and
+//!    refitted, three times.
+//! 4. **Centres.** Each matched mark's centre is the centroid of its light above the local level
+//!    (the median of a ring around it) over its square as the homography projects it, widened by
+//!    the blur; the centroid of a uniformly lit projected square differs from the projection of
+//!    its centre (perspective), and that known difference is taken off.
+//!
+//! Each mark found gets a confidence in [0, 1]: its contrast against the photo's noise and its
+//! distance from where the homography of the other marks puts it.
 use scratchart::model::camera::ViewGeom;
 use scratchart::model::scene::View;
 
-use super::card::{Card, CutRole};
+use super::card::Card;
 use super::photo::Gray;
 
-/// Where the card's four fiducial crosses appear in capture view `view` (image points), in the
-/// card's order, and half the length of a cross's arm there, pixels.
-pub fn nominal_fiducials(card: &Card, view: &View) -> ([[f64; 2]; 4], f64) {
+/// Where the card's marks appear in view `view` (image points, in `card.marks` order) and the
+/// side of a mark there, pixels (the mean over marks).
+pub fn nominal_marks(card: &Card, view: &View) -> (Vec<[f64; 2]>, f64) {
     let g = ViewGeom::new(view);
-    let fid: Vec<_> = card.cuts.iter().filter(|c| c.role == CutRole::Fiducial).collect();
-    let mut out = [[0.0; 2]; 4];
-    let mut arm = 0.0f64;
-    for (k, pair) in fid.chunks(2).take(4).enumerate() {
-        let c = pair[0];
-        let centre = [0.5 * (c.p0[0] + c.p1[0]), 0.5 * (c.p0[1] + c.p1[1]), 0.0];
-        let (sx, sy) = g.project(centre).unwrap_or((f64::NAN, f64::NAN));
-        out[k] = [sx, sy];
-        for cut in pair {
-            if let (Some(a), Some(b)) = (
-                g.project([cut.p0[0], cut.p0[1], 0.0]),
-                g.project([cut.p1[0], cut.p1[1], 0.0]),
-            ) {
-                arm = arm.max(0.5 * (a.0 - b.0).hypot(a.1 - b.1));
-            }
-        }
-    }
-    (out, arm)
+    let mut side = 0.0;
+    let pts = card
+        .marks
+        .iter()
+        .map(|m| {
+            let (sx, sy) = g
+                .project([m.centre[0], m.centre[1], 0.0])
+                .unwrap_or((f64::NAN, f64::NAN));
+            let corner = |dx: f64, dy: f64| {
+                g.project([m.centre[0] + dx * m.half_mm, m.centre[1] + dy * m.half_mm, 0.0])
+                    .unwrap_or((f64::NAN, f64::NAN))
+            };
+            let (a, b) = (corner(-1.0, -1.0), corner(1.0, 1.0));
+            let (c, d) = (corner(1.0, -1.0), corner(-1.0, 1.0));
+            side += 0.5 * ((a.0 - b.0).hypot(a.1 - b.1) + (c.0 - d.0).hypot(c.1 - d.1)) / 2f64.sqrt();
+            [sx, sy]
+        })
+        .collect();
+    (pts, side / card.marks.len().max(1) as f64)
 }
 
-/// The image directions of the two arms of each fiducial cross in capture view `view` (unit
-/// vectors, in the card's order).
-pub fn arm_directions(card: &Card, view: &View) -> [[[f64; 2]; 2]; 4] {
-    let g = ViewGeom::new(view);
-    let fid: Vec<_> = card.cuts.iter().filter(|c| c.role == CutRole::Fiducial).collect();
-    let mut out = [[[1.0, 0.0], [0.0, 1.0]]; 4];
-    for (k, pair) in fid.chunks(2).take(4).enumerate() {
-        for (a, cut) in pair.iter().enumerate() {
-            if let (Some(p), Some(q)) = (
-                g.project([cut.p0[0], cut.p0[1], 0.0]),
-                g.project([cut.p1[0], cut.p1[1], 0.0]),
-            ) {
-                let l = (q.0 - p.0).hypot(q.1 - p.1).max(1e-12);
-                out[k][a] = [(q.0 - p.0) / l, (q.1 - p.1) / l];
+/// A bright blob: a candidate for a mark.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Blob {
+    pub at: [f64; 2],
+    /// The Gaussian scale it answered most at, pixels.
+    pub sigma: f64,
+    /// Its response in noise sigmas of that scale.
+    pub snr: f64,
+}
+
+/// What was found of the card's marks in a photo.
+#[derive(Clone, Debug)]
+pub struct Found {
+    /// Per mark of the card (its order): the centre in the photo, or `None` (covered, not lit).
+    pub points: Vec<Option<[f64; 2]>>,
+    /// Per mark: how sure the detection is, 0 (not found) to 1.
+    pub confidence: Vec<f64>,
+    /// The homography from plate points (mm) to the photo's image points.
+    pub plate_to_image: [f64; 9],
+    /// RMS distance of the found centres from the homography's projections, pixels.
+    pub rms_px: f64,
+    /// How many candidates the photo offered.
+    pub candidates: usize,
+}
+
+impl Found {
+    pub fn count(&self) -> usize {
+        self.points.iter().flatten().count()
+    }
+}
+
+fn median(v: &mut [f32]) -> f32 {
+    if v.is_empty() {
+        return 0.0;
+    }
+    let n = v.len();
+    *v.select_nth_unstable_by(n / 2, |a, b| a.total_cmp(b)).1
+}
+
+/// Separable Gaussian blur (clamped edges), kernel to 3 sigma.
+pub(crate) fn gauss(img: &[f32], w: usize, h: usize, sigma: f64) -> Vec<f32> {
+    if sigma <= 0.0 {
+        return img.to_vec();
+    }
+    let r = (3.0 * sigma).ceil() as i64;
+    let k: Vec<f32> = (-r..=r)
+        .map(|x| (-((x * x) as f64) / (2.0 * sigma * sigma)).exp() as f32)
+        .collect();
+    let s: f32 = k.iter().sum();
+    let k: Vec<f32> = k.iter().map(|v| v / s).collect();
+    let mut tmp = vec![0f32; img.len()];
+    for y in 0..h {
+        let row = &img[y * w..(y + 1) * w];
+        for x in 0..w {
+            let mut acc = 0.0;
+            for (i, kv) in k.iter().enumerate() {
+                let xx = (x as i64 + i as i64 - r).clamp(0, w as i64 - 1) as usize;
+                acc += kv * row[xx];
+            }
+            tmp[y * w + x] = acc;
+        }
+    }
+    let mut out = vec![0f32; img.len()];
+    for y in 0..h {
+        for (i, kv) in k.iter().enumerate() {
+            let yy = (y as i64 + i as i64 - r).clamp(0, h as i64 - 1) as usize;
+            let src = &tmp[yy * w..(yy + 1) * w];
+            let dst = &mut out[y * w..(y + 1) * w];
+            for x in 0..w {
+                dst[x] += kv * src[x];
             }
         }
     }
     out
 }
 
-fn median(v: &mut [f32]) -> f32 {
-    let n = v.len();
-    *v.select_nth_unstable_by(n / 2, |a, b| a.total_cmp(b)).1
-}
-
-/// Gaussian smoothing with sigma 1 px (5-tap binomial-like kernel), clamped edges.
-fn smooth(img: &Gray) -> Gray {
-    let k = [0.054, 0.244, 0.403, 0.244, 0.054];
-    let (w, h) = (img.width as i64, img.height as i64);
-    let mut tmp = vec![0f32; img.data.len()];
-    for y in 0..h {
-        for x in 0..w {
-            let s: f32 = (0..5).map(|i| k[i] * img.at(x + i as i64 - 2, y)).sum();
-            tmp[(y * w + x) as usize] = s;
-        }
+/// Bright blobs of Gaussian scale `sigma_lo` to `sigma_hi` in `img` (display values).
+pub fn blobs(img: &Gray, sigma_lo: f64, sigma_hi: f64) -> Vec<Blob> {
+    let (w, h) = (img.width as usize, img.height as usize);
+    let step = 1.26f64;
+    let n = ((sigma_hi / sigma_lo).ln() / step.ln()).ceil().max(1.0) as usize + 1;
+    let sigmas: Vec<f64> = (0..=n + 1).map(|k| sigma_lo * step.powi(k as i32 - 1)).collect();
+    let g: Vec<Vec<f32>> = sigmas.iter().map(|&s| gauss(&img.data, w, h, s)).collect();
+    // Scale-normalized difference of Gaussians, and its noise (MAD over the image).
+    let mut dog: Vec<Vec<f32>> = Vec::with_capacity(g.len() - 1);
+    let mut noise = Vec::with_capacity(g.len() - 1);
+    // The response's noise: its robust spread over the image, and at least what the photo's
+    // pixel noise (or 8-bit quantization) gives through the kernel: for independent pixel
+    // noise s, var(G1 - G2) = s^2 (1/(4 pi s1^2) + 1/(4 pi s2^2) - 1/(pi (s1^2 + s2^2))).
+    let pn = pixel_noise(img).max(0.5 / 255.0);
+    for k in 0..g.len() - 1 {
+        let d: Vec<f32> = g[k].iter().zip(&g[k + 1]).map(|(a, b)| a - b).collect();
+        let mut sample: Vec<f32> = d.iter().step_by(3).map(|v| v.abs()).collect();
+        let (s1, s2) = (sigmas[k] * sigmas[k], sigmas[k + 1] * sigmas[k + 1]);
+        let pi = std::f64::consts::PI;
+        let floor = pn
+            * (1.0 / (4.0 * pi * s1) + 1.0 / (4.0 * pi * s2) - 1.0 / (pi * (s1 + s2)))
+                .max(0.0)
+                .sqrt();
+        noise.push((1.4826 * median(&mut sample)).max(floor as f32).max(1e-6));
+        dog.push(d);
     }
-    let t = Gray {
-        width: img.width,
-        height: img.height,
-        data: tmp,
-    };
-    let mut out = vec![0f32; img.data.len()];
-    for y in 0..h {
-        for x in 0..w {
-            out[(y * w + x) as usize] = (0..5).map(|i| k[i] * t.at(x, y + i as i64 - 2)).sum();
-        }
-    }
-    Gray {
-        width: img.width,
-        height: img.height,
-        data: out,
-    }
-}
-
-/// Separable square min or max filter of radius `r` (clamped edges).
-fn filter(img: &Gray, r: i64, f: fn(f32, f32) -> f32) -> Gray {
-    let (w, h) = (img.width as i64, img.height as i64);
-    let mut tmp = vec![0f32; img.data.len()];
-    for y in 0..h {
-        for x in 0..w {
-            tmp[(y * w + x) as usize] = (-r..=r).map(|o| img.at(x + o, y)).reduce(f).unwrap();
-        }
-    }
-    let t = Gray {
-        width: img.width,
-        height: img.height,
-        data: tmp,
-    };
-    let mut out = vec![0f32; img.data.len()];
-    for y in 0..h {
-        for x in 0..w {
-            out[(y * w + x) as usize] = (-r..=r).map(|o| t.at(x, y + o)).reduce(f).unwrap();
-        }
-    }
-    Gray {
-        width: img.width,
-        height: img.height,
-        data: out,
-    }
-}
-
-/// Finds the four corner crosses in `img` (already at the capture view's size): image points in
-/// the order of `nominal` (the capture view's), `arm` the arm's half length there, px.
-pub fn find_fiducials(
-    img: &Gray,
-    nominal: &[[f64; 2]; 4],
-    dirs: &[[[f64; 2]; 2]; 4],
-    arm: f64,
-) -> Result<[[f64; 2]; 4], String> {
-    let sm = smooth(img);
-    // White top-hat: the smoothed image less its opening by a 7 x 7 square, which keeps thin
-    // bright lines (the cuts) and removes the plate's even glow and the steps at its edges.
-    let open = filter(&filter(&sm, 3, f32::min), 3, f32::max);
-    let s = Gray {
-        width: sm.width,
-        height: sm.height,
-        data: sm.data.iter().zip(&open.data).map(|(a, b)| a - b).collect(),
-    };
-    let (w, h) = (s.width as usize, s.height as usize);
-    let bg = median(&mut s.data.clone());
-    let mut dev: Vec<f32> = s.data.iter().map(|v| (v - bg).abs()).collect();
-    let sigma = 1.4826 * median(&mut dev);
-    let peak = s.data.iter().cloned().fold(bg, f32::max);
-    let thr = bg + (5.0 * sigma).max(0.03 * (peak - bg));
-    if !(peak - bg > 5.0 * sigma.max(1e-4)) {
-        return Err("no bright marks at all: the photo is uniform (is the lamp on, and the card in view?)".into());
-    }
-    // Connected marks (4-neighbour flood fill).
-    let mut label = vec![u32::MAX; w * h];
-    let mut marks: Vec<([f64; 2], usize)> = Vec::new();
-    for start in 0..w * h {
-        if label[start] != u32::MAX || s.data[start] <= thr {
-            continue;
-        }
-        let id = marks.len() as u32;
-        let mut stack = vec![start];
-        label[start] = id;
-        let (mut sw, mut sx, mut sy, mut n) = (0.0f64, 0.0f64, 0.0f64, 0usize);
-        while let Some(p) = stack.pop() {
-            let (x, y) = (p % w, p / w);
-            let wt = (s.data[p] - bg) as f64;
-            sw += wt;
-            sx += wt * (x as f64 + 0.5);
-            sy += wt * (y as f64 + 0.5);
-            n += 1;
-            let mut push = |q: usize| {
-                if label[q] == u32::MAX && s.data[q] > thr {
-                    label[q] = id;
-                    stack.push(q);
-                }
-            };
-            if x > 0 {
-                push(p - 1);
-            }
-            if x + 1 < w {
-                push(p + 1);
-            }
-            if y > 0 {
-                push(p - w);
-            }
-            if y + 1 < h {
-                push(p + w);
-            }
-        }
-        marks.push(([sx / sw, sy / sw], n));
-    }
-    // A cross shows at least one whole arm: 2.5 arm lengths of pixels (one arm of two
-    // arm lengths, over a pixel wide after smoothing).
-    marks.retain(|m| m.1 as f64 >= (2.5 * arm).max(3.0));
-    // Crosses are point-symmetric about their centre; the corner of the card's glow (an L where
-    // two edges meet) and other stray marks are not: keep marks whose top-hat, mirrored through
-    // their centroid, overlaps itself by at least 40%.
-    let rad = (1.15 * arm).max(3.0);
-    let value = |x: f64, y: f64| -> f32 {
-        let (xi, yi) = (x.floor() as i64, y.floor() as i64);
-        if xi < 0 || yi < 0 || xi >= w as i64 || yi >= h as i64 {
-            0.0
-        } else {
-            s.data[yi as usize * w + xi as usize]
-        }
-    };
-    marks.retain(|m| {
-        let c = m.0;
-        let (mut both, mut all) = (0.0f64, 0.0f64);
-        let n = rad.ceil() as i64;
-        for dy in -n..=n {
-            for dx in -n..=n {
-                let (ox, oy) = (dx as f64, dy as f64);
-                if ox.hypot(oy) > rad {
+    let strongest = (1..dog.len() - 1)
+        .map(|k| dog[k].iter().cloned().fold(0.0f32, f32::max) / noise[k])
+        .fold(0.0f32, f32::max);
+    let mut out = Vec::new();
+    for k in 1..dog.len() - 1 {
+        let thr = (4.0f32).max(0.1 * strongest);
+        for y in 1..h - 1 {
+            for x in 1..w - 1 {
+                let v = dog[k][y * w + x];
+                if v / noise[k] < thr {
                     continue;
                 }
-                let a = (value(c[0] + ox, c[1] + oy) - thr).max(0.0) as f64;
-                let b = (value(c[0] - ox, c[1] - oy) - thr).max(0.0) as f64;
-                both += a.min(b);
-                all += a;
+                // A maximum over its own scale's neighbours (not over the next scales: two
+                // marks close together merge at a larger scale, whose response can then exceed
+                // each mark's own; the same blob at several scales is merged below).
+                let mut is_max = true;
+                'nb: for dy in -1i64..=1 {
+                    for dx in -1i64..=1 {
+                        if dx == 0 && dy == 0 {
+                            continue;
+                        }
+                        let q = ((y as i64 + dy) as usize) * w + (x as i64 + dx) as usize;
+                        if dog[k][q] > v {
+                            is_max = false;
+                            break 'nb;
+                        }
+                    }
+                }
+                if is_max {
+                    // Sub-pixel: the parabola through the neighbours on each axis.
+                    let c = |q: usize| dog[k][q] as f64;
+                    let i = y * w + x;
+                    let fx = {
+                        let (a, b, cc) = (c(i - 1), c(i), c(i + 1));
+                        let den = a - 2.0 * b + cc;
+                        if den < 0.0 {
+                            (0.5 * (a - cc) / den).clamp(-0.5, 0.5)
+                        } else {
+                            0.0
+                        }
+                    };
+                    let fy = {
+                        let (a, b, cc) = (c(i - w), c(i), c(i + w));
+                        let den = a - 2.0 * b + cc;
+                        if den < 0.0 {
+                            (0.5 * (a - cc) / den).clamp(-0.5, 0.5)
+                        } else {
+                            0.0
+                        }
+                    };
+                    out.push(Blob {
+                        at: [x as f64 + 0.5 + fx, y as f64 + 0.5 + fy],
+                        sigma: sigmas[k] * step.sqrt(),
+                        snr: (v / noise[k]) as f64,
+                    });
+                }
             }
         }
-        all > 0.0 && both >= 0.4 * all
-    });
-    if std::env::var_os("SCRATCHART_DEBUG_MARKS").is_some() {
-        eprintln!("marks (centroid, pixels): {marks:?}");
     }
-    if marks.len() < 4 {
+    // The same blob answers at neighbouring scales: keep the strongest within its own size.
+    out.sort_by(|a, b| b.snr.total_cmp(&a.snr));
+    let mut kept: Vec<Blob> = Vec::new();
+    for b in out {
+        if kept
+            .iter()
+            .all(|k| (k.at[0] - b.at[0]).hypot(k.at[1] - b.at[1]) > 1.5 * k.sigma.min(b.sigma))
+        {
+            kept.push(b);
+        }
+    }
+    kept
+}
+
+/// The homography H (row-major 3x3, H[8] = 1) with H src[k] ~ dst[k], least squares over all
+/// pairs (at least 4), after moving each point set to its centroid and unit spread (Hartley's
+/// normalization).
+pub fn homography_lsq(src: &[[f64; 2]], dst: &[[f64; 2]]) -> Option<[f64; 9]> {
+    if src.len() < 4 || src.len() != dst.len() {
+        return None;
+    }
+    let norm = |p: &[[f64; 2]]| {
+        let n = p.len() as f64;
+        let (mx, my) = (
+            p.iter().map(|q| q[0]).sum::<f64>() / n,
+            p.iter().map(|q| q[1]).sum::<f64>() / n,
+        );
+        let d = p.iter().map(|q| (q[0] - mx).hypot(q[1] - my)).sum::<f64>() / n;
+        let s = if d > 0.0 { 2f64.sqrt() / d } else { 1.0 };
+        (s, mx, my)
+    };
+    let (ss, sx, sy) = norm(src);
+    let (ds, dx, dy) = norm(dst);
+    // Normal equations of the 2n x 8 system with h33 = 1.
+    let mut ata = [[0.0f64; 8]; 8];
+    let mut atb = [0.0f64; 8];
+    for (a, b) in src.iter().zip(dst) {
+        let (x, y) = ((a[0] - sx) * ss, (a[1] - sy) * ss);
+        let (u, v) = ((b[0] - dx) * ds, (b[1] - dy) * ds);
+        for (row, rhs) in [
+            ([x, y, 1.0, 0.0, 0.0, 0.0, -u * x, -u * y], u),
+            ([0.0, 0.0, 0.0, x, y, 1.0, -v * x, -v * y], v),
+        ] {
+            for i in 0..8 {
+                atb[i] += row[i] * rhs;
+                for j in 0..8 {
+                    ata[i][j] += row[i] * row[j];
+                }
+            }
+        }
+    }
+    let a: Vec<Vec<f64>> = ata.iter().map(|r| r.to_vec()).collect();
+    let hn = scratchart::optim::least_squares::solve_spd(&a, &atb)?;
+    let hn = [hn[0], hn[1], hn[2], hn[3], hn[4], hn[5], hn[6], hn[7], 1.0];
+    // H = Td^-1 Hn Ts.
+    let ts = [ss, 0.0, -ss * sx, 0.0, ss, -ss * sy, 0.0, 0.0, 1.0];
+    let td_inv = [1.0 / ds, 0.0, dx, 0.0, 1.0 / ds, dy, 0.0, 0.0, 1.0];
+    let h = mul3(&td_inv, &mul3(&hn, &ts));
+    if !(h[8].abs() > 1e-15) || h.iter().any(|v| !v.is_finite()) {
+        return None;
+    }
+    Some(h.map(|v| v / h[8]))
+}
+
+fn mul3(a: &[f64; 9], b: &[f64; 9]) -> [f64; 9] {
+    let mut c = [0.0; 9];
+    for i in 0..3 {
+        for j in 0..3 {
+            c[3 * i + j] = (0..3).map(|k| a[3 * i + k] * b[3 * k + j]).sum();
+        }
+    }
+    c
+}
+
+/// Applies H to the point p.
+pub fn apply(h: &[f64; 9], p: [f64; 2]) -> [f64; 2] {
+    let z = h[6] * p[0] + h[7] * p[1] + h[8];
+    [
+        (h[0] * p[0] + h[1] * p[1] + h[2]) / z,
+        (h[3] * p[0] + h[4] * p[1] + h[5]) / z,
+    ]
+}
+
+/// The affine map [a b c; d e f] with A src[k] = dst[k] for three pairs.
+fn affine3(src: [[f64; 2]; 3], dst: [[f64; 2]; 3]) -> Option<[f64; 6]> {
+    let (p, q, r) = (src[0], src[1], src[2]);
+    let (ux, uy, vx, vy) = (q[0] - p[0], q[1] - p[1], r[0] - p[0], r[1] - p[1]);
+    let det = ux * vy - uy * vx;
+    if det.abs() < 1e-9 {
+        return None;
+    }
+    let (p2, q2, r2) = (dst[0], dst[1], dst[2]);
+    let (sx, sy, tx, ty) = (q2[0] - p2[0], q2[1] - p2[1], r2[0] - p2[0], r2[1] - p2[1]);
+    // M [u v] = [s t]  =>  M = [s t] [u v]^-1.
+    let inv = [vy / det, -vx / det, -uy / det, ux / det];
+    let a = sx * inv[0] + tx * inv[2];
+    let b = sx * inv[1] + tx * inv[3];
+    let d = sy * inv[0] + ty * inv[2];
+    let e = sy * inv[1] + ty * inv[3];
+    Some([a, b, p2[0] - a * p[0] - b * p[1], d, e, p2[1] - d * p[0] - e * p[1]])
+}
+
+/// Finds the card's marks in `img`, a photo of view `view` (any size: the capture view's
+/// image points are taken about the photo's centre, in proportion to its height).
+pub fn find_marks(img: &Gray, card: &Card, view: &View) -> Result<Found, String> {
+    let (w, h) = (img.width as f64, img.height as f64);
+    let (nominal, side) = nominal_marks(card, view);
+    // The capture view's points on this photo's raster (same height scale, centred).
+    let k = h / view.camera.height as f64;
+    let (cw, ch) = (view.camera.width as f64, view.camera.height as f64);
+    let nom: Vec<[f64; 2]> = nominal
+        .iter()
+        .map(|p| [0.5 * w + k * (p[0] - 0.5 * cw), 0.5 * h + k * (p[1] - 0.5 * ch)])
+        .collect();
+    let side = side * k;
+    if !(side > 1.5) {
         return Err(format!(
-            "found {} bright mark(s), expected at least the 4 corner crosses",
-            marks.len()
+            "the photo is too small to show the card's marks ({side:.1} px across at this size)"
         ));
     }
-    // The corner-most mark along each nominal fiducial's diagonal.
-    let cn = [
-        0.25 * nominal.iter().map(|p| p[0]).sum::<f64>(),
-        0.25 * nominal.iter().map(|p| p[1]).sum::<f64>(),
-    ];
-    let (lo, hi) = marks.iter().fold(([f64::MAX; 2], [f64::MIN; 2]), |(lo, hi), m| {
-        (
-            [lo[0].min(m.0[0]), lo[1].min(m.0[1])],
-            [hi[0].max(m.0[0]), hi[1].max(m.0[1])],
-        )
-    });
-    let cf = [0.5 * (lo[0] + hi[0]), 0.5 * (lo[1] + hi[1])];
-    let mut found = [[0.0; 2]; 4];
-    let mut levels = [0f32; 4];
-    for k in 0..4 {
-        let d = [(nominal[k][0] - cn[0]).signum(), (nominal[k][1] - cn[1]).signum()];
-        // A photo near the capture pose has the cross near its nominal place: the nearest mark
-        // within a tenth of the frame; otherwise the corner-most mark along the diagonal.
-        let near = 0.1 * w.min(h) as f64;
-        let dist = |m: &([f64; 2], usize)| (m.0[0] - nominal[k][0]).hypot(m.0[1] - nominal[k][1]);
-        let best = marks
+    // A filled square of side a answers a difference of Gaussians most at sigma ~ 0.4 a.
+    let mut cands = blobs(img, (0.4 * 0.4 * side).max(0.8), 0.4 * 2.5 * side);
+    let n_blobs = cands.len();
+    cands.truncate(30);
+    let m = card.marks.len();
+    if cands.len() < 4 {
+        return Err(format!(
+            "{} bright mark(s) found where the card's {m} hatched marks should glint",
+            cands.len()
+        ));
+    }
+    // Hypotheses: triples of marks x ordered triples of candidates, by affine maps, scored by
+    // how many other marks they bring near a candidate of the right size (each counted by its
+    // closeness); the best go on to a homography.
+    let nc = cands.len();
+    let tol = 0.7 * side;
+    // Four points fit any homography exactly, so four marks prove nothing: at least five must
+    // agree (a card of four marks, the first cards' crosses, can only ask for four).
+    let need = m.min(5);
+    let mut hyps: Vec<(f64, usize, [f64; 6])> = Vec::new();
+    for i in 0..m {
+        for j in i + 1..m {
+            for l in j + 1..m {
+                let src = [nom[i], nom[j], nom[l]];
+                for a in 0..nc {
+                    for b in 0..nc {
+                        if b == a {
+                            continue;
+                        }
+                        for c in 0..nc {
+                            if c == a || c == b {
+                                continue;
+                            }
+                            let Some(af) = affine3(src, [cands[a].at, cands[b].at, cands[c].at]) else {
+                                continue;
+                            };
+                            // Orientation kept, scale 0.3-3, shear and foreshortening below 2.5:1.
+                            let det = af[0] * af[4] - af[1] * af[3];
+                            if !(det > 0.09 && det < 9.0) {
+                                continue;
+                            }
+                            let fro = af[0] * af[0] + af[1] * af[1] + af[3] * af[3] + af[4] * af[4];
+                            // Ratio of singular values s1/s2 from fro = s1^2 + s2^2, det = s1 s2.
+                            let disc = (fro * fro - 4.0 * det * det).max(0.0).sqrt();
+                            let ratio = ((fro + disc) / (fro - disc).max(1e-12)).sqrt();
+                            if ratio > 2.5 {
+                                continue;
+                            }
+                            let scale = det.sqrt();
+                            // Blob sizes roughly agree with the map's scale (a mark's blob answers
+                            // at about 0.4 of its side; blur, the card's glow and the coarse scale
+                            // steps move that, so only what is far off is left out).
+                            let fits_size = |b: &Blob| {
+                                let s = b.sigma / (0.4 * side * scale);
+                                (0.25..4.0).contains(&s)
+                            };
+                            if !(fits_size(&cands[a]) && fits_size(&cands[b]) && fits_size(&cands[c])) {
+                                continue;
+                            }
+                            let (mut count, mut score) = (3, 3.0);
+                            for (q, p) in nom.iter().enumerate() {
+                                if q == i || q == j || q == l {
+                                    continue;
+                                }
+                                let pr = [af[0] * p[0] + af[1] * p[1] + af[2], af[3] * p[0] + af[4] * p[1] + af[5]];
+                                let t = tol * scale;
+                                let near = cands
+                                    .iter()
+                                    .enumerate()
+                                    .filter(|(z, bl)| *z != a && *z != b && *z != c && fits_size(bl))
+                                    .map(|(_, bl)| (bl.at[0] - pr[0]).hypot(bl.at[1] - pr[1]))
+                                    .filter(|d| *d < t)
+                                    .fold(f64::INFINITY, f64::min);
+                                if near.is_finite() {
+                                    count += 1;
+                                    score += 1.0 - (near / t).powi(2);
+                                }
+                            }
+                            if count >= need {
+                                hyps.push((score, count, af));
+                            }
+                        }
+                    }
+                }
+            }
+        }
+    }
+    if hyps.is_empty() {
+        return Err(format!(
+            "no {need} of the {n_blobs} bright spots found lie as the card's {m} marks do"
+        ));
+    }
+    hyps.sort_by(|x, y| y.0.total_cmp(&x.0));
+    let plate: Vec<[f64; 2]> = card.marks.iter().map(|mk| mk.centre).collect();
+    // Each of the best hypotheses refined through homographies (matches from the plate, closer
+    // each round); the one with the most marks, then the smallest misfit, wins.
+    let rematch = |hm: &[f64; 9], t: f64| -> Vec<Option<usize>> {
+        let mut used = vec![false; nc];
+        plate
             .iter()
-            .filter(|m| dist(m) <= near)
-            .min_by(|a, b| dist(a).total_cmp(&dist(b)))
-            .or_else(|| {
-                marks.iter().max_by(|a, b| {
-                    let fa = d[0] * (a.0[0] - cf[0]) + d[1] * (a.0[1] - cf[1]);
-                    let fb = d[0] * (b.0[0] - cf[0]) + d[1] * (b.0[1] - cf[1]);
-                    fa.total_cmp(&fb)
-                })
+            .map(|p| {
+                let pr = apply(hm, *p);
+                let got = (0..nc)
+                    .filter(|&z| !used[z])
+                    .map(|z| (z, (cands[z].at[0] - pr[0]).hypot(cands[z].at[1] - pr[1])))
+                    .filter(|(_, d)| *d < t)
+                    .min_by(|x, y| x.1.total_cmp(&y.1))
+                    .map(|(z, _)| z);
+                if let Some(z) = got {
+                    used[z] = true;
+                }
+                got
             })
-            .expect("at least 4 marks");
-        // Refine: centroid of the top-hat above its local level (the median in a ring around
-        // the cross), over every pixel of the disc: no threshold, so no truncation bias.
-        // (The disc and ring stay inside 1.45 arm lengths: the card's edge is 1.67 arm lengths
-        // from a cross's centre, and its corner would pull the centroid.)
-        let mut c = best.0;
-        let (r, r2) = ((1.15 * arm).max(3.0), (1.45 * arm).max(4.0));
-        for _ in 0..5 {
+            .collect()
+    };
+    let noise = pixel_noise(img).max(0.5 / 255.0);
+    let mut best: Option<(usize, f64, Vec<Option<[f64; 2]>>, Vec<f64>, f64)> = None;
+    for (_, _, af) in hyps.iter().take(40) {
+        let scale = (af[0] * af[4] - af[1] * af[3]).sqrt();
+        let map = |p: [f64; 2]| [af[0] * p[0] + af[1] * p[1] + af[2], af[3] * p[0] + af[4] * p[1] + af[5]];
+        // Start: the affine map from the plate through the capture view's points.
+        let (s0, d0): (Vec<[f64; 2]>, Vec<[f64; 2]>) = plate.iter().zip(&nom).map(|(p, n)| (*p, map(*n))).unzip();
+        let Some(mut hm) = homography_lsq(&s0, &d0) else {
+            continue;
+        };
+        let mut assign = rematch(&hm, tol * scale);
+        let mut ok = true;
+        for t in [0.5, 0.3, 0.3] {
+            let (s, d): (Vec<[f64; 2]>, Vec<[f64; 2]>) = assign
+                .iter()
+                .enumerate()
+                .filter_map(|(q, z)| z.map(|z| (plate[q], cands[z].at)))
+                .unzip();
+            match homography_lsq(&s, &d) {
+                Some(h) => hm = h,
+                None => {
+                    ok = false;
+                    break;
+                }
+            }
+            assign = rematch(&hm, t * side * scale);
+        }
+        if !ok || assign.iter().flatten().count() < need {
+            continue;
+        }
+        // Sub-pixel centres of the matched marks; a mark no brighter than its surroundings is
+        // not there (covered, or a spot beside it).
+        let (mut points, contrast) = centres(img, card, &hm, &assign, noise);
+        // Outliers: while a centre lies off the homography of the others (a glint beside a
+        // covered mark, a stray spot), the worst goes, down to `need`.
+        loop {
+            let pairs: Vec<(usize, [f64; 2], [f64; 2])> = points
+                .iter()
+                .enumerate()
+                .filter_map(|(q, p)| p.map(|p| (q, plate[q], p)))
+                .collect();
+            if pairs.len() <= need {
+                break;
+            }
+            let worst = pairs
+                .iter()
+                .map(|(q, p, c)| (*q, loo_error(&pairs, *q, *p, *c)))
+                .max_by(|x, y| x.1.total_cmp(&y.1))
+                .expect("pairs");
+            if worst.1 <= (0.15 * side * scale).max(1.5) {
+                break;
+            }
+            points[worst.0] = None;
+        }
+        let (s, d): (Vec<[f64; 2]>, Vec<[f64; 2]>) = points
+            .iter()
+            .enumerate()
+            .filter_map(|(q, p)| p.map(|p| (plate[q], p)))
+            .unzip();
+        let n = s.len();
+        if n < need {
+            continue;
+        }
+        let Some(h2) = homography_lsq(&s, &d) else { continue };
+        // Only a camera looking at the card from near the capture view can have taken it.
+        if plausible_camera(&h2, img.width, img.height, view).is_err() {
+            continue;
+        }
+        let misfit = (s
+            .iter()
+            .zip(&d)
+            .map(|(p, c)| {
+                let pr = apply(&h2, *p);
+                (pr[0] - c[0]).powi(2) + (pr[1] - c[1]).powi(2)
+            })
+            .sum::<f64>()
+            / n as f64)
+            .sqrt();
+        // The marks' centres fit one homography to about a tenth of a pixel (measured over 120
+        // random phone shots: at most 0.05 px rms with five marks, 0.11 px with six); five
+        // spots of something else that happen to lie near the pattern fit to half a pixel and
+        // more (0.58 px on a circuit board, where the pads are a tenth of a mark apart).
+        if misfit > (0.03 * side * scale).max(0.25) {
+            continue;
+        }
+        if best.as_ref().is_none_or(|b| n > b.0 || (n == b.0 && misfit < b.1)) {
+            best = Some((n, misfit, points, contrast, scale));
+        }
+    }
+    let Some((_, rms_px, points, contrast, scale)) = best else {
+        return Err(format!(
+            "no {need} of the {n_blobs} bright spots found fit one view of the flat card's {m} marks \
+             from near capture view {}",
+            view.name
+        ));
+    };
+    let pairs: Vec<(usize, [f64; 2], [f64; 2])> = points
+        .iter()
+        .enumerate()
+        .filter_map(|(q, p)| p.map(|p| (q, plate[q], p)))
+        .collect();
+    let (s, d): (Vec<[f64; 2]>, Vec<[f64; 2]>) = pairs.iter().map(|x| (x.1, x.2)).unzip();
+    let hm = homography_lsq(&s, &d).ok_or("the marks found are degenerate (collinear)")?;
+    // Confidence: contrast against the noise, and agreement with the other marks' homography.
+    let mut confidence = vec![0.0; m];
+    for &(q, p, c) in &pairs {
+        // Agreement: where the others put it. With only `need` marks, four of the others can
+        // be nearly collinear (a key lies on the line of two corners) and their homography
+        // says little of the fifth: the misfit of all of them to one homography is used.
+        let off = if pairs.len() > need {
+            loo_error(&pairs, q, p, c)
+        } else {
+            rms_px
+        };
+        let snr = contrast[q] / noise;
+        confidence[q] = (1.0 - (-snr / 2.0).exp()) * (-(off / (0.15 * side * scale).max(1.0)).powi(2)).exp();
+    }
+    Ok(Found {
+        points,
+        confidence,
+        plate_to_image: hm,
+        rms_px,
+        candidates: n_blobs,
+    })
+}
+
+/// The centres of the marks matched in `assign` (by candidate; the card's order): the centroid
+/// of each mark's light above the local level (the median of a ring around it) over its square
+/// as the homography `hm` projects it, widened by the blur, less the perspective bias of a
+/// uniformly lit projected square's centroid. Marks no brighter than their ring by half the
+/// pixel noise are `None`. Also each mark's mean contrast.
+fn centres(
+    img: &Gray,
+    card: &Card,
+    hm: &[f64; 9],
+    assign: &[Option<usize>],
+    noise: f64,
+) -> (Vec<Option<[f64; 2]>>, Vec<f64>) {
+    let m = card.marks.len();
+    let (wi, hi) = (img.width as usize, img.height as usize);
+    let mut points: Vec<Option<[f64; 2]>> = vec![None; m];
+    let mut contrast = vec![0.0f64; m];
+    for (q, z) in assign.iter().enumerate() {
+        if z.is_none() {
+            continue;
+        }
+        let mk = &card.marks[q];
+        let corners: Vec<[f64; 2]> = [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)]
+            .iter()
+            .map(|(sx, sy)| apply(hm, [mk.centre[0] + sx * mk.half_mm, mk.centre[1] + sy * mk.half_mm]))
+            .collect();
+        let centre = apply(hm, mk.centre);
+        let (mut ax, mut ay, mut aa) = (0.0, 0.0, 0.0);
+        for e in 0..4 {
+            let (p, r) = (corners[e], corners[(e + 1) % 4]);
+            let cr = p[0] * r[1] - r[0] * p[1];
+            aa += cr;
+            ax += (p[0] + r[0]) * cr;
+            ay += (p[1] + r[1]) * cr;
+        }
+        let bias = [ax / (3.0 * aa) - centre[0], ay / (3.0 * aa) - centre[1]];
+        let half_px = 0.5 * (0.5 * aa.abs()).sqrt();
+        let pad = (0.5 * half_px).max(2.0);
+        let (r_in, r_out) = (half_px * 2f64.sqrt() + pad, half_px * 2f64.sqrt() + 2.0 * pad + 2.0);
+        let mut c = centre;
+        let mut ok = true;
+        for _ in 0..3 {
             let (x0, x1) = (
-                (c[0] - r2).floor().max(0.0) as usize,
-                ((c[0] + r2).ceil() as usize).min(w),
+                (c[0] - r_out).floor().max(0.0) as usize,
+                ((c[0] + r_out).ceil().max(0.0) as usize).min(wi),
             );
             let (y0, y1) = (
-                (c[1] - r2).floor().max(0.0) as usize,
-                ((c[1] + r2).ceil() as usize).min(h),
+                (c[1] - r_out).floor().max(0.0) as usize,
+                ((c[1] + r_out).ceil().max(0.0) as usize).min(hi),
             );
             let mut ring = Vec::new();
-            let mut disc = Vec::new();
+            let mut inside = Vec::new();
             for y in y0..y1 {
                 for x in x0..x1 {
                     let (px, py) = (x as f64 + 0.5, y as f64 + 0.5);
-                    let dist = (px - c[0]).hypot(py - c[1]);
-                    let v = s.data[y * w + x];
-                    if dist <= r {
-                        disc.push((px, py, v));
-                    } else if dist <= r2 {
+                    let (dx, dy) = ((px - c[0]).abs(), (py - c[1]).abs());
+                    let v = img.data[y * wi + x];
+                    if dx.max(dy) <= half_px + pad {
+                        inside.push((px, py, v));
+                    } else if dx.hypot(dy) >= r_in && dx.hypot(dy) <= r_out {
                         ring.push(v);
                     }
                 }
             }
-            let level = if ring.is_empty() { 0.0 } else { median(&mut ring) };
-            levels[k] = level;
+            if inside.is_empty() || ring.is_empty() {
+                ok = false;
+                break;
+            }
+            let level = median(&mut ring);
+            contrast[q] = inside.iter().map(|p| (p.2 - level) as f64).sum::<f64>() / inside.len() as f64;
             let (mut sw, mut sx, mut sy) = (0.0f64, 0.0f64, 0.0f64);
-            for (px, py, v) in disc {
+            for (px, py, v) in &inside {
                 let wt = (v - level).max(0.0) as f64;
                 sw += wt;
                 sx += wt * px;
                 sy += wt * py;
             }
-            if sw > 0.0 {
-                c = [sx / sw, sy / sw];
-            }
-        }
-        // Then the intersection of the two arms' lines: each arm's pixels (within 25 degrees of
-        // its axis as the capture view shows it) get a weighted total-least-squares line. A
-        // brightness gradient along an arm (the lamp's angle changes across the card) moves an
-        // arm's centroid along its line, not the line, so the intersection is unbiased.
-        for _ in 0..3 {
-            let mut lines = Vec::new();
-            for d in dirs[k] {
-                let (mut sw, mut mx, mut my) = (0.0f64, 0.0f64, 0.0f64);
-                let mut pts = Vec::new();
-                let (x0, x1) = (
-                    (c[0] - r).floor().max(0.0) as usize,
-                    ((c[0] + r).ceil() as usize).min(w),
-                );
-                let (y0, y1) = (
-                    (c[1] - r).floor().max(0.0) as usize,
-                    ((c[1] + r).ceil() as usize).min(h),
-                );
-                for y in y0..y1 {
-                    for x in x0..x1 {
-                        let (px, py) = (x as f64 + 0.5, y as f64 + 0.5);
-                        let (dx, dy) = (px - c[0], py - c[1]);
-                        let dist = dx.hypot(dy);
-                        if dist > r || dist < 1.0 {
-                            continue;
-                        }
-                        let along = (dx * d[0] + dy * d[1]).abs() / dist;
-                        if along < 25f64.to_radians().cos() {
-                            continue;
-                        }
-                        let wt = (s.data[y * w + x] - levels[k]).max(0.0) as f64;
-                        sw += wt;
-                        mx += wt * px;
-                        my += wt * py;
-                        pts.push((px, py, wt));
-                    }
-                }
-                if sw <= 0.0 {
-                    break;
-                }
-                let (mx, my) = (mx / sw, my / sw);
-                let (mut sxx, mut sxy, mut syy) = (0.0, 0.0, 0.0);
-                for (px, py, wt) in pts {
-                    sxx += wt * (px - mx) * (px - mx);
-                    sxy += wt * (px - mx) * (py - my);
-                    syy += wt * (py - my) * (py - my);
-                }
-                // Principal direction of the 2x2 scatter matrix.
-                let ang = 0.5 * (2.0 * sxy).atan2(sxx - syy);
-                lines.push(([mx, my], [ang.cos(), ang.sin()], sw));
-            }
-            if lines.len() < 2 || lines[0].2.min(lines[1].2) < 0.2 * lines[0].2.max(lines[1].2) {
+            if sw <= 0.0 {
+                ok = false;
                 break;
             }
-            let ((p, u), (q, v)) = ((lines[0].0, lines[0].1), (lines[1].0, lines[1].1));
-            let det = u[0] * (-v[1]) - u[1] * (-v[0]);
-            if det.abs() < 0.2 {
-                break;
-            }
-            // p + t u = q + s v
-            let (bx, by) = (q[0] - p[0], q[1] - p[1]);
-            let t = (bx * (-v[1]) - by * (-v[0])) / det;
-            let next = [p[0] + t * u[0], p[1] + t * u[1]];
-            if (next[0] - c[0]).hypot(next[1] - c[1]) > 0.5 * r {
+            let next = [sx / sw - bias[0], sy / sw - bias[1]];
+            if (next[0] - centre[0]).hypot(next[1] - centre[1]) > half_px + pad {
+                ok = false;
                 break;
             }
             c = next;
         }
-        found[k] = c;
+        if ok && contrast[q] > 0.5 * noise {
+            points[q] = Some(c);
+        }
     }
-    // Sanity: a convex quadrilateral in the nominal orientation, of a plausible size.
-    let area = |q: &[[f64; 2]; 4]| {
-        0.5 * (0..4)
-            .map(|i| {
-                let (a, b) = (q[i], q[(i + 1) % 4]);
-                a[0] * b[1] - a[1] * b[0]
-            })
-            .sum::<f64>()
+    (points, contrast)
+}
+
+/// How far the found point `c` of mark `q` (plate point `p`) lies from where the homography of
+/// the other pairs puts it, pixels.
+fn loo_error(pairs: &[(usize, [f64; 2], [f64; 2])], q: usize, p: [f64; 2], c: [f64; 2]) -> f64 {
+    let (s2, d2): (Vec<[f64; 2]>, Vec<[f64; 2]>) = pairs.iter().filter(|x| x.0 != q).map(|x| (x.1, x.2)).unzip();
+    homography_lsq(&s2, &d2).map_or(f64::INFINITY, |h2| {
+        let pr = apply(&h2, p);
+        (pr[0] - c[0]).hypot(pr[1] - c[1])
+    })
+}
+
+/// Whether the homography `hm` from plate points to the image points of a `w` x `h` photo is
+/// that of a camera near capture view `view`: a camera (square pixels, centred principal point)
+/// above the card, its direction from the card within 35 degrees of the capture view's, its
+/// distance within a factor 1.6 of it and its field of view within a factor 3. Says what is
+/// wrong otherwise.
+pub fn plausible_camera(
+    hm: &[f64; 9],
+    w: u32,
+    h: u32,
+    view: &View,
+) -> Result<scratchart::model::scene::Camera, String> {
+    let c = &view.camera;
+    // The capture view's focal length on this photo's raster (same height scale).
+    let f_hint = 0.5 * h as f64 / (0.5 * c.fov_y_deg).to_radians().tan();
+    let e = c.eye;
+    let d_hint = (e[0] * e[0] + e[1] * e[1] + e[2] * e[2]).sqrt();
+    let f = super::register::focal_near(hm, w, h, f_hint, d_hint);
+    let cam = super::register::camera_with_focal(hm, w, h, f)
+        .ok_or("the marks do not lie as a camera above the card would see them")?;
+    let dir = |e: [f64; 3], t: [f64; 3]| {
+        let d = [e[0] - t[0], e[1] - t[1], e[2] - t[2]];
+        let l = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+        ([d[0] / l, d[1] / l, d[2] / l], l)
     };
-    let (an, af) = (area(nominal), area(&found));
-    let convex = (0..4).all(|i| {
-        let (a, b, c) = (found[i], found[(i + 1) % 4], found[(i + 2) % 4]);
-        let cross = (b[0] - a[0]) * (c[1] - b[1]) - (b[1] - a[1]) * (c[0] - b[0]);
-        cross * an > 0.0
-    });
-    let distinct =
-        (0..4).all(|i| (i + 1..4).all(|j| (found[i][0] - found[j][0]).hypot(found[i][1] - found[j][1]) > 2.0 * arm));
-    let plausible_area = af / an > 0.3 && af / an < 3.0; // false for NaN too
-    if !convex || !distinct || !plausible_area {
+    let (d0, l0) = dir(c.eye, [0.0; 3]);
+    let (d1, l1) = dir(cam.eye, [0.0; 3]);
+    let angle = (d0[0] * d1[0] + d0[1] * d1[1] + d0[2] * d1[2])
+        .clamp(-1.0, 1.0)
+        .acos()
+        .to_degrees();
+    if angle > 35.0 {
         return Err(format!(
-            "the corner crosses do not form the card's quadrilateral (found at {:?}, expected near {:?})",
-            found.map(|p| [p[0].round(), p[1].round()]),
-            nominal.map(|p| [p[0].round(), p[1].round()])
+            "the camera would have been {angle:.0} degrees away from the capture view's direction (at most 35)"
         ));
     }
-    Ok(found)
+    if !(l1 / l0 > 1.0 / 1.6 && l1 / l0 < 1.6) {
+        return Err(format!(
+            "the camera would have been {l1:.0} mm from the card where the capture view is {l0:.0} mm"
+        ));
+    }
+    let t = |fov: f64| (0.5 * fov).to_radians().tan();
+    let fr = t(cam.fov_y_deg) / t(c.fov_y_deg) * c.height as f64 / h as f64;
+    if !(fr > 1.0 / 3.0 && fr < 3.0) {
+        return Err(format!(
+            "the camera's field of view would have been {:.0} degrees (the capture view's is {:.0})",
+            cam.fov_y_deg, c.fov_y_deg
+        ));
+    }
+    Ok(cam)
+}
+
+/// The photo's own pixel noise (display units): the robust spread of each pixel less the mean
+/// of its four neighbours (sqrt(5/4) sigma for independent noise), over the image.
+pub fn pixel_noise(img: &Gray) -> f64 {
+    pixel_noise_in(img, None)
+}
+
+/// [`pixel_noise`] over the pixels of `mask` only (all when `None`): a photo's dark background
+/// clips its noise at black.
+pub fn pixel_noise_in(img: &Gray, mask: Option<&[bool]>) -> f64 {
+    let (w, h) = (img.width as usize, img.height as usize);
+    let mut d = Vec::with_capacity(w * h / 4);
+    for y in (1..h.saturating_sub(1)).step_by(2) {
+        for x in (1..w.saturating_sub(1)).step_by(2) {
+            let i = y * w + x;
+            if mask.is_some_and(|m| !m[i]) {
+                continue;
+            }
+            let m = 0.25 * (img.data[i - 1] + img.data[i + 1] + img.data[i - w] + img.data[i + w]);
+            d.push((img.data[i] - m).abs());
+        }
+    }
+    1.4826 * median(&mut d) as f64 / 1.25f64.sqrt()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn least_squares_homography_maps_the_points() {
+        let h0 = [1.2, 0.1, 30.0, -0.05, 0.9, 12.0, 1e-4, -2e-4, 1.0];
+        let src = [
+            [0.0, 0.0],
+            [100.0, 5.0],
+            [95.0, 80.0],
+            [-3.0, 90.0],
+            [50.0, 40.0],
+            [20.0, 70.0],
+        ];
+        let dst: Vec<[f64; 2]> = src.iter().map(|p| apply(&h0, *p)).collect();
+        let h = homography_lsq(&src, &dst).unwrap();
+        for (p, q) in src.iter().zip(&dst) {
+            let r = apply(&h, *p);
+            assert!(
+                (r[0] - q[0]).abs() < 1e-7 && (r[1] - q[1]).abs() < 1e-7,
+                "{r:?} vs {q:?}"
+            );
+        }
+        // Collinear points have none.
+        let line = [[0.0, 0.0], [1.0, 1.0], [2.0, 2.0], [3.0, 3.0]];
+        assert!(homography_lsq(&line, &line.map(|p| [p[0] + 1.0, p[1]])).is_none());
+    }
+
+    #[test]
+    fn a_blob_is_found_at_its_centre_and_size() {
+        let (w, h) = (96u32, 80u32);
+        let mut data = vec![0.05f32; (w * h) as usize];
+        for y in 30..40 {
+            for x in 50..60 {
+                data[(y * w + x) as usize] = 0.8;
+            }
+        }
+        let img = Gray {
+            width: w,
+            height: h,
+            data,
+        };
+        let b = blobs(&img, 1.5, 10.0);
+        assert!(!b.is_empty());
+        let top = b[0];
+        assert!(
+            (top.at[0] - 55.0).abs() < 0.6 && (top.at[1] - 35.0).abs() < 0.6,
+            "{top:?}"
+        );
+        assert!(top.sigma > 2.5 && top.sigma < 6.5, "{top:?}");
+    }
 }

@@ -10,7 +10,7 @@
 //! sub-pixel shift per view: the photometric registration, with no resampling of anything
 //! (resampling blurs by an amount that changes with the sub-pixel phase and biased the groove
 //! shapes). Each view is the camera that took its photo (`fit_cmd`: the capture view, or the
-//! camera recovered from the corner crosses when the photo was taken elsewhere), at the photo's
+//! camera recovered from the card's hatched marks when the photo was taken elsewhere), at the photo's
 //! size after shrinking in linear light.
 //!
 //! Loss: a robust (Cauchy) sum over the on-card pixels of the capture views, scale
@@ -39,6 +39,7 @@
 //! residual variance); pixel noise is treated as independent, so blur makes them optimistic by
 //! about the blur's width in pixels. A parameter whose uncertainty is larger than its stated
 //! limit is reported as not identified, not as a number.
+use scratchart::model::camera::ViewGeom;
 use scratchart::model::scene::{Scene, Scratch};
 use scratchart::observe::{Observer, Progress};
 use scratchart::render::tangent::{ScratchTangent, TANGENT_DIRECTIONS};
@@ -46,8 +47,12 @@ use scratchart::render::Renderer;
 use scratchart_tool::Tool;
 use serde::{Deserialize, Serialize};
 
-use super::card::Card;
+use super::card::{Card, CutRole};
 use super::simulate::blur_shifted;
+
+/// The fit renders the card at this many times the photos' resolution (each way) and lets the
+/// optics blur and the pixels add up the light as a camera does (see `Evaluator::sensor`).
+pub const SUPERSAMPLE: u32 = 2;
 
 /// The tool models the fit knows.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
@@ -77,6 +82,7 @@ impl Kind {
 }
 
 mod layout;
+pub use layout::{ANGLE_TOL_DEG, LENGTH_TOL_MM, OFFSET_TOL_MM};
 mod lm;
 
 use layout::Layout;
@@ -94,9 +100,20 @@ pub struct Data<'a> {
     /// Refine the registration photometrically: a sub-pixel shift of each view's model, fitted
     /// with the rest (applied as a shifted blur kernel, so nothing is resampled).
     pub refine_shift: bool,
-    /// Per view: fit its eye position (a photo taken off the capture pose, whose camera came from
-    /// the corner crosses).
+    /// Per view: fit its camera (a photo taken off the capture pose, whose camera came from the
+    /// card's marks).
     pub refine_pose: Vec<bool>,
+    /// Per view: the JPEG quality of a photo compared on its own pixel grid (`photo::jpeg_quality`;
+    /// `None` for a PNG, or a photo shrunk to the view, whose JPEG blocks are averaged away).
+    /// JPEG's quantization moves a thin groove's light in a way no parameter can (a quality-90
+    /// photo moved a V angle by 1.2 degrees), so the fit corrects for it: after a first
+    /// refinement, the model's own JPEG round trip at that quality (its change to the model
+    /// image) is added to the model and the refinement runs again, twice (a fixed point of
+    /// model + JPEG(model) - model = photo).
+    pub jpeg: Vec<Option<u8>>,
+    /// Per view: the photo's own pixel noise (display units, `fiducials::pixel_noise`), for the
+    /// check of what noise, 8-bit steps and JPEG do to the fit (see `fit_kind`).
+    pub noise: Vec<f64>,
 }
 
 /// What a fit found.
@@ -124,14 +141,33 @@ pub struct FitResult {
     /// Bootstrap standard deviations of every parameter (`--bootstrap N`), in `params`' order.
     #[serde(default)]
     pub bootstrap: Option<Vec<f64>>,
+    /// The curvature's standard deviations (s^2 (J^T W J)^-1, pixels taken as independent), in
+    /// `params`' order: beside the sandwich's in `params`, for comparison.
+    #[serde(default)]
+    pub curvature: Vec<Option<f64>>,
+    /// The sandwich's standard deviations before the limits (`params` holds `None` above them).
+    #[serde(default)]
+    pub sd: Vec<Option<f64>>,
+    /// Each parameter's limit of identification (its standard deviation at most this).
+    #[serde(default)]
+    pub limits: Vec<f64>,
+    /// Parameters the photos do not see at all (a zero Jacobian column: a measured profile's
+    /// width at a depth where the tool does not reach the plate).
+    #[serde(default)]
+    pub unseen: Vec<String>,
+    /// Parameters of the grooves (tool, z offset, alpha, eyes) that ended at a bound of their
+    /// range: the optimum may lie beyond it.
+    #[serde(default)]
+    pub at_bound: Vec<String>,
 }
 
 impl FitResult {
-    /// Parameters the photos do not constrain.
+    /// Parameters the photos do not constrain well enough (their uncertainty is above the
+    /// parameter's limit, or undefined), less those they do not see at all.
     pub fn unidentified(&self) -> Vec<String> {
         self.params
             .iter()
-            .filter(|p| p.2.is_none())
+            .filter(|p| p.2.is_none() && !self.unseen.contains(&p.0))
             .map(|p| p.0.clone())
             .collect()
     }
@@ -159,10 +195,18 @@ struct Evaluator<'a, 'r> {
     weights: Option<Vec<f64>>,
     /// The card on the device, re-used with new scratch parameters for every render.
     gs: Option<scratchart::render::GpuScene>,
+    /// Renders at this many times the photos' resolution (`SUPERSAMPLE`; more for the check
+    /// of the model's own error).
+    ss: u32,
+    /// Per view: what JPEG does to the model image (see `Data::jpeg`), added to the model.
+    jpeg_shift: Vec<Option<Vec<f32>>>,
 }
 
 impl Evaluator<'_, '_> {
-    /// The card's scratches for `tool`: every cut keeps its place, so the device scene is re-used;
+    /// The card's ladder as `tool` cuts it (the fiducial marks are left out of the render and
+    /// their squares out of the loss: they are for registration, and their crossing hatches are
+    /// what the scratch model represents least well): every cut keeps its place, so the device
+    /// scene is re-used;
     /// a cut that does not reach the plate gets a groove far below a pixel's resolution
     /// (w = d = 1e-6 mm: its light is below 1e-5 of a visible groove's).
     fn scratches(&self, tool: &Tool, alpha: f64) -> Vec<Scratch> {
@@ -173,6 +217,7 @@ impl Evaluator<'_, '_> {
             .card
             .cuts
             .iter()
+            .filter(|c| c.role == CutRole::Ladder)
             .map(|c| {
                 let (w, d) = match models.iter().find(|m| m.0 == c.z_mm) {
                     Some(m) => m.1,
@@ -196,25 +241,97 @@ impl Evaluator<'_, '_> {
             .collect()
     }
 
+    /// View v as the fit renders it for `x`: its camera corrected by the pose terms (for a photo
+    /// taken off the capture pose), at `SUPERSAMPLE` times the photo's resolution.
+    fn render_view(&self, x: &[f64], v: usize) -> scratchart::model::scene::View {
+        let mut view = self.data.capture.views[v].clone();
+        view.camera.width *= self.ss;
+        view.camera.height *= self.ss;
+        let d = self.lay.pose(x, v);
+        if d != [0.0; layout::POSE_PARAMS] {
+            let c = &mut view.camera;
+            for k in 0..3 {
+                c.eye[k] += d[k];
+            }
+            // Turn the up vector about the (new) axis, and scale the field of view.
+            let f = [c.target[0] - c.eye[0], c.target[1] - c.eye[1], c.target[2] - c.eye[2]];
+            let n = (f[0] * f[0] + f[1] * f[1] + f[2] * f[2]).sqrt();
+            let k = [f[0] / n, f[1] / n, f[2] / n];
+            let u = c.up;
+            let (sn, cs) = d[3].to_radians().sin_cos();
+            let kxu = [
+                k[1] * u[2] - k[2] * u[1],
+                k[2] * u[0] - k[0] * u[2],
+                k[0] * u[1] - k[1] * u[0],
+            ];
+            let ku = k[0] * u[0] + k[1] * u[1] + k[2] * u[2];
+            c.up = std::array::from_fn(|i| u[i] * cs + kxu[i] * sn + k[i] * ku * (1.0 - cs));
+            c.fov_y_deg = 2.0
+                * ((0.5 * c.fov_y_deg).to_radians().tan() * d[4].exp())
+                    .atan()
+                    .to_degrees();
+        }
+        view
+    }
+
+    /// The Jacobian columns (d residual / d x_k) of the camera terms `ks` of photos taken off
+    /// the capture pose, from the image's motion rather than new renders: moving the camera by
+    /// dx_k moves the light of each plate point from pixel p to p + F_k(p) dx_k (F_k from the
+    /// two cameras' projections), so the blurred supersampled image changes by
+    /// -grad(B) . F_k dx_k, which the pixels then add up. What the move does to the light itself
+    /// (the half-vector turns by a fraction of a degree per millimetre) is left out of the
+    /// derivative; every step is still judged on a real render.
+    fn motion_columns(&self, x: &[f64], lin: &[Vec<f32>], ks: &[usize]) -> Vec<Vec<f64>> {
+        let k_ss = self.ss as usize;
+        let mut cols = Vec::with_capacity(ks.len());
+        // The blurred supersampled images (their gradients move them), per view.
+        let blurred: Vec<Vec<f32>> = (0..lin.len()).map(|v| self.blurred(&lin[v], v, x)).collect();
+        let pred0: Vec<Vec<f32>> = (0..lin.len()).map(|v| self.expose(&blurred[v], v, x)).collect();
+        let base = self.residuals(&pred0);
+        for &k in ks {
+            let v = (0..lin.len())
+                .find(|&v| self.lay.pose_at[v].is_some_and(|i| (i..i + layout::POSE_PARAMS).contains(&k)))
+                .expect("a camera term of an off-pose photo");
+            let h = self.lay.params[k].step;
+            let mut xh = x.to_vec();
+            xh[k] += h;
+            let (g0, g1) = (
+                ViewGeom::new(&self.render_view(x, v)),
+                ViewGeom::new(&self.render_view(&xh, v)),
+            );
+            let c = &self.data.capture.views[v].camera;
+            let (w, hh) = (k_ss * c.width as usize, k_ss * c.height as usize);
+            let b = &blurred[v];
+            let mut moved = b.clone();
+            for yy in 1..hh - 1 {
+                for xx in 1..w - 1 {
+                    let (sx, sy) = (xx as f64 + 0.5, yy as f64 + 0.5);
+                    let Some(q) = g0.hit(sx, sy) else { continue };
+                    let Some(p1) = g1.project([q[0], q[1], 0.0]) else {
+                        continue;
+                    };
+                    let (fx, fy) = (p1.0 - sx, p1.1 - sy);
+                    let i = yy * w + xx;
+                    let gx = 0.5 * (b[i + 1] - b[i - 1]) as f64;
+                    let gy = 0.5 * (b[i + w] - b[i - w]) as f64;
+                    moved[i] = (b[i] as f64 - (gx * fx + gy * fy)) as f32;
+                }
+            }
+            let mut pred = pred0.clone();
+            pred[v] = self.expose(&moved, v, x);
+            let r1 = self.residuals(&pred);
+            cols.push(r1.iter().zip(&base).map(|(a, b)| (a - b) / h).collect());
+        }
+        cols
+    }
+
     /// Puts the card for `x` on the device (its grooves, and the eyes of photos taken off the
     /// capture pose), uploading it the first time.
     fn sync(&mut self, x: &[f64]) -> Result<(), FitError> {
         let scratches = self.scratches(&self.lay.tool(x), self.lay.alpha(x));
         let ctx = self.renderer.ctx.clone();
-        let views: Vec<_> = self
-            .data
-            .capture
-            .views
-            .iter()
-            .enumerate()
-            .map(|(v, view)| {
-                let mut view = view.clone();
-                let d = self.lay.eye(x, v);
-                for k in 0..3 {
-                    view.camera.eye[k] += d[k];
-                }
-                view
-            })
+        let views: Vec<_> = (0..self.data.capture.views.len())
+            .map(|v| self.render_view(x, v))
             .collect();
         let reuse = match &mut self.gs {
             Some(gs) => {
@@ -306,38 +423,104 @@ impl Evaluator<'_, '_> {
         Ok(cols)
     }
 
-    /// Model display images from linear renders and the camera part of `x`: the optics blur
-    /// light (a Gaussian on the linear image, moved by the registration shift), the exposure
-    /// scales it, the display transform encodes it and the sensor clips, as `simulate` does.
+    /// Model display images from linear renders and the camera part of `x` (see `blurred` and
+    /// `expose`), as `simulate` makes photos.
     fn predict(&self, lin: &[Vec<f32>], x: &[f64]) -> Vec<Vec<f32>> {
         lin.iter()
             .enumerate()
-            .map(|(v, img)| {
-                let e = self.lay.exposure(x, v);
-                let c = &self.data.capture.views[v].camera;
-                let (dx, dy) = self.lay.shift(x, v);
-                let b = blur_shifted(img, c.width as usize, c.height as usize, self.lay.blur(x), dx, dy);
-                b.iter()
-                    .map(|&l| scratchart::io::display_value((l as f64 * e) as f32).min(1.0))
-                    .collect()
-            })
+            .map(|(v, img)| self.expose(&self.blurred(img, v, x), v, x))
             .collect()
+    }
+
+    /// The light the optics bring to the sensor of view v, from a linear render at `ss` times
+    /// the photo's resolution: a Gaussian blur, moved by the registration shift (both in the
+    /// photo's pixels), at that resolution. Blurring the render at the photo's own resolution
+    /// instead would blur light that the render has already added up over whole pixels, which
+    /// is not what a camera does with a groove a pixel wide: against a photo rendered at 4 times
+    /// the resolution (a camera's continuous optics) that gave residuals up to 0.08 and biased a
+    /// V angle by 4 degrees; twice the resolution leaves 0.016 (examples/cmp_probe).
+    fn blurred(&self, img: &[f32], v: usize, x: &[f64]) -> Vec<f32> {
+        let c = &self.data.capture.views[v].camera;
+        let k = self.ss as usize;
+        let (w, h) = (c.width as usize, c.height as usize);
+        let (dx, dy) = self.lay.shift(x, v);
+        let kf = k as f64;
+        blur_shifted(img, k * w, k * h, kf * self.lay.blur(x), kf * dx, kf * dy)
+    }
+
+    /// What the sensor of view v makes of the light `b` (at `ss` times its resolution): the
+    /// exposure and the shading across the frame scale it, the sensor clips it at full scale
+    /// where it falls (at its own fine pixels: a bright groove clips inside a photo's pixel that
+    /// the fit then averages, so clipping after the averaging would leave the fit's pixel
+    /// brighter than the photo's and bias the widths low), each of the fit's pixels adds up its
+    /// subpixels, and the display transform encodes the result.
+    fn expose(&self, b: &[f32], v: usize, x: &[f64]) -> Vec<f32> {
+        let e = self.lay.exposure(x, v);
+        let c = &self.data.capture.views[v].camera;
+        let [gx, gy, q] = self.lay.shade(x, v);
+        let k = self.ss as usize;
+        let (w, hh) = (c.width as usize, c.height as f64);
+        let ws = k * w;
+        let (cx, cy, s) = (0.5 * w as f64, 0.5 * hh, 2.0 / hh);
+        let kf = k as f64;
+        let lit: Vec<f32> = b
+            .iter()
+            .enumerate()
+            .map(|(i, &l)| {
+                let (px, py) = (
+                    (((i % ws) as f64 + 0.5) / kf - cx) * s,
+                    (((i / ws) as f64 + 0.5) / kf - cy) * s,
+                );
+                let f = (gx * px + gy * py + q * (px * px + py * py)).exp();
+                ((l as f64 * e * f) as f32).min(1.0)
+            })
+            .collect();
+        self.reduce(&lit, v)
+            .into_iter()
+            .map(|l| scratchart::io::display_value(l).min(1.0))
+            .collect()
+    }
+
+    /// Each pixel of view v adds up the light of its `SUPERSAMPLE` x `SUPERSAMPLE` subpixels.
+    fn reduce(&self, b: &[f32], v: usize) -> Vec<f32> {
+        let c = &self.data.capture.views[v].camera;
+        let k = self.ss as usize;
+        let (w, h) = (c.width as usize, c.height as usize);
+        if k == 1 {
+            return b.to_vec();
+        }
+        let norm = 1.0 / (k * k) as f32;
+        let mut out = vec![0f32; w * h];
+        for y in 0..h {
+            for sy in 0..k {
+                let row = &b[(y * k + sy) * k * w..(y * k + sy + 1) * k * w];
+                for xo in 0..w {
+                    let mut acc = 0.0;
+                    for sx in 0..k {
+                        acc += row[xo * k + sx];
+                    }
+                    out[y * w + xo] += acc * norm;
+                }
+            }
+        }
+        out
     }
 
     /// The log exposure of view `v` that fits its photo best with the rest of `x` (a scan in
     /// steps of 1 over [-10, 10], then golden-section search; no render).
     fn best_exposure(&self, v: usize, lin: &[f32], x: &[f64]) -> f64 {
-        let c = &self.data.capture.views[v].camera;
-        let (dx, dy) = self.lay.shift(x, v);
-        let b = blur_shifted(lin, c.width as usize, c.height as usize, self.lay.blur(x), dx, dy);
+        let b = self.blurred(lin, v, x);
+        let k = self.lay.n_tool + 1 + v;
         let cost = |le: f64| {
-            let e = le.exp();
-            let r: Vec<f64> = b
+            let mut xe = x.to_vec();
+            xe[k] = le;
+            let r: Vec<f64> = self
+                .expose(&b, v, &xe)
                 .iter()
                 .zip(&self.data.photos[v])
                 .zip(&self.data.masks[v])
                 .filter(|(_, m)| **m)
-                .map(|((l, p), _)| (scratchart::io::display_value((*l as f64 * e) as f32).min(1.0) - p) as f64)
+                .map(|((m, p), _)| (m - p) as f64)
                 .collect();
             cauchy(&r, 0.01)
         };
@@ -367,9 +550,11 @@ impl Evaluator<'_, '_> {
         let mut r = Vec::new();
         for (v, img) in pred.iter().enumerate() {
             let photo = &self.data.photos[v];
-            for ((m, &ph), &ok) in img.iter().zip(photo.iter()).zip(&self.data.masks[v]) {
+            let shift = self.jpeg_shift.get(v).and_then(|s| s.as_deref());
+            for (i, ((m, &ph), &ok)) in img.iter().zip(photo.iter()).zip(&self.data.masks[v]).enumerate() {
                 if ok {
-                    r.push((*m - ph) as f64);
+                    let j = shift.map_or(0.0, |s| s[i]);
+                    r.push((*m + j - ph) as f64);
                 }
             }
         }
@@ -383,13 +568,13 @@ impl Evaluator<'_, '_> {
 
     /// The block (view, 8 x 8 pixels) of every residual, in the residuals' order: neighbouring
     /// pixels share the camera's blur, so the bootstrap resamples blocks, not pixels.
-    fn residual_blocks(&self) -> Vec<u64> {
+    fn residual_blocks(&self, size: usize) -> Vec<u64> {
         let mut b = Vec::new();
         for (v, mask) in self.data.masks.iter().enumerate() {
             let w = self.data.capture.views[v].camera.width as usize;
             for (i, &ok) in mask.iter().enumerate() {
                 if ok {
-                    let (x, y) = ((i % w) / 8, (i / w) / 8);
+                    let (x, y) = ((i % w) / size, (i / w) / size);
                     b.push(((v as u64) << 40) | ((y as u64) << 20) | x as u64);
                 }
             }
@@ -463,6 +648,8 @@ pub fn fit_kind(
         tangent_passes: 0,
         weights: None,
         gs: None,
+        ss: SUPERSAMPLE,
+        jpeg_shift: vec![None; data.capture.views.len()],
     };
     // The z offset's intervals: between consecutive thresholds -z_k of the ladder.
     let mut th: Vec<f64> = data.card.depths_mm.iter().map(|z| -z).collect();
@@ -517,7 +704,10 @@ pub fn fit_kind(
     }
     if starts.is_empty() {
         // Search: each offset interval's middle x each typical shape, exposure set per view
-        // by a 1-D search (no render); the best few go on to refinement.
+        // by a 1-D search (no render); the best few go on to refinement. Coarse, so rendered
+        // at the photos' own resolution (a quarter of the refinement's pixels).
+        ev.ss = 1;
+        ev.gs = None;
         let offs: Vec<Option<(f64, f64)>> = if ev.lay.offset.is_some() {
             intervals
                 .iter()
@@ -553,6 +743,8 @@ pub fn fit_kind(
             }
         }
         obs.finish("search");
+        ev.ss = SUPERSAMPLE;
+        ev.gs = None;
         scored.sort_by(|a, b| a.0.total_cmp(&b.0));
         starts = scored.into_iter().take(2).map(|s| (s.1, s.2)).collect();
     }
@@ -588,44 +780,229 @@ pub fn fit_kind(
             }
         }
     }
-    let (
-        Solution {
-            x,
-            cost,
-            jtj,
-            weights: wts,
-            ..
-        },
-        best_rg,
-    ) = best.expect("at least one start");
-    let (r, _) = ev.eval(&x)?;
+    let (Solution { mut x, mut cost, .. }, best_rg) = best.expect("at least one start");
+    // JPEG photos compared on their own pixel grid: the model takes the JPEG's change to it
+    // (see `Data::jpeg`) and is refined again from where it stands.
+    if data.jpeg.iter().any(|q| q.is_some()) {
+        for pass in 0..2 {
+            let lin = ev.render(&x)?;
+            let pred = ev.predict(&lin, &x);
+            for (v, q) in data.jpeg.iter().enumerate() {
+                ev.jpeg_shift[v] = q.map(|q| {
+                    let c = &data.capture.views[v].camera;
+                    let back = super::photo::jpeg_round_trip(&pred[v], c.width, c.height, q);
+                    back.iter().zip(&pred[v]).map(|(b, p)| b - p).collect()
+                });
+            }
+            let label = format!("{} JPEG pass {}", kind.name(), pass + 1);
+            let got = refine(&mut ev, x, best_rg, cfg.iters.min(8), obs, &label)?;
+            iterations += cfg.iters.min(8);
+            x = got.x;
+            cost = got.cost;
+        }
+    }
+    // Uncertainties: the block sandwich (cluster-robust) covariance A^-1 B A^-1 at the optimum,
+    // A = J^T W J and B = sum over blocks of g_b g_b^T, g_b = sum over the block's pixels of
+    // w r J (W the robust weights). Unlike the curvature's s^2 A^-1 it holds where neighbouring
+    // pixels are not independent (the camera's blur, JPEG's 8 x 8 blocks, a phone's
+    // demosaicing: blocks of 16 x 16 pixels at the fit's scale) and where the model misses
+    // something the photo has; both are given, the sandwich is the one used.
+    let (r, cols) = lm::jacobian_at(&mut ev, &x, best_rg)?;
     let n = r.len();
     let np = ev.lay.params.len();
+    let s_r = scratchart::optim::least_squares::robust_scale(&r, lm::MIN_SCALE);
+    let wts: Vec<f64> = r.iter().map(|e| 1.0 / (1.0 + e * e / (s_r * s_r))).collect();
+    let mut jtj = vec![vec![0.0; np]; np];
+    for i in 0..np {
+        for j in 0..=i {
+            let v: f64 = cols[i]
+                .iter()
+                .zip(&cols[j])
+                .zip(&wts)
+                .map(|((a, b), w)| a * b * w)
+                .sum();
+            jtj[i][j] = v;
+            jtj[j][i] = v;
+        }
+    }
     let wsum: f64 = r.iter().zip(&wts).map(|(e, w)| w * e * e).sum();
     let s2 = wsum / (n.saturating_sub(np)).max(1) as f64;
-    // Covariance: s2 (J^T W J)^-1, column by column, over the parameters the photos see at all
-    // (a zero column, such as a profile width above the surface, is not identified and would
-    // make the whole matrix singular).
+    // Covariance over the parameters the photos see at all (a zero column, such as a profile
+    // width above the surface, is not identified and would make the whole matrix singular).
     let max_diag = (0..np).map(|i| jtj[i][i]).fold(0.0f64, f64::max);
     let seen: Vec<usize> = (0..np).filter(|&i| jtj[i][i] > 1e-12 * max_diag).collect();
+    let ns = seen.len();
     let reduced: Vec<Vec<f64>> = seen
         .iter()
         .map(|&i| seen.iter().map(|&j| jtj[i][j]).collect())
         .collect();
+    let blocks = ev.residual_blocks(16);
+    let mut ids: Vec<u64> = blocks.clone();
+    ids.sort_unstable();
+    ids.dedup();
+    let mut g = vec![vec![0.0f64; ns]; ids.len()];
+    for (i, b) in blocks.iter().enumerate() {
+        let k = ids.binary_search(b).expect("block listed");
+        let wr = wts[i] * r[i];
+        for (a, &p) in seen.iter().enumerate() {
+            g[k][a] += wr * cols[p][i];
+        }
+    }
+    let nb = ids.len() as f64;
+    let corr = if nb > 1.0 {
+        nb / (nb - 1.0) * (n as f64 - 1.0) / (n as f64 - ns as f64).max(1.0)
+    } else {
+        1.0
+    };
+    let mut bmat = vec![vec![0.0f64; ns]; ns];
+    for gb in &g {
+        for a in 0..ns {
+            for c in 0..ns {
+                bmat[a][c] += corr * gb[a] * gb[c];
+            }
+        }
+    }
+    // A^-1, column by column.
+    let ainv: Option<Vec<Vec<f64>>> = (0..ns)
+        .map(|a| {
+            let mut e = vec![0.0; ns];
+            e[a] = 1.0;
+            solve_spd(&reduced, &e)
+        })
+        .collect();
+    // The model's own error: the fit renders at SUPERSAMPLE times the photos' resolution, which
+    // is not the camera's continuous optics. The shift of the parameters that the residual
+    // change to a render at twice that resolution asks for, A^-1 J^T W (r_fine - r), is added in
+    // quadrature to each standard deviation (it is a bias no pixel noise shows).
+    let model_shift: Option<Vec<f64>> = {
+        ev.ss = 2 * SUPERSAMPLE;
+        ev.gs = None;
+        let fine = ev.eval(&x);
+        ev.ss = SUPERSAMPLE;
+        ev.gs = None;
+        let (rf, _) = fine?;
+        let g: Vec<f64> = seen
+            .iter()
+            .map(|&p| {
+                cols[p]
+                    .iter()
+                    .zip(&rf)
+                    .zip(&r)
+                    .zip(&wts)
+                    .map(|(((j, a), b), w)| j * (a - b) * w)
+                    .sum()
+            })
+            .collect();
+        solve_spd(&reduced, &g)
+    };
+    // What the photo's own degradations do to the fit beyond the noise the sandwich sees: the
+    // model image at the optimum, given the photo's noise, clipped to black and white, stepped to
+    // 8 bits and (a JPEG on its own grid) through the same JPEG, four times; the mean parameter
+    // shift A^-1 J^T W (degraded - model) is a bias of these steps (noise clipped at black lifts
+    // a dark plate; JPEG's quantization of a noisy groove is not JPEG's quantization of the
+    // groove), added in quadrature like the model's own error (it also holds half the noise's
+    // own spread over four draws: the sum errs large).
+    let degrade_shift: Option<Vec<f64>> = {
+        let lin = ev.render(&x)?;
+        let pred = ev.predict(&lin, &x);
+        let base = ev.residuals(&pred);
+        let mut rng = scratchart::scenes::Rng::new(0x5eed);
+        let reps = 4;
+        let mut mean = vec![0.0; ns];
+        let mut ok = true;
+        for _ in 0..reps {
+            let deg: Vec<Vec<f32>> = pred
+                .iter()
+                .enumerate()
+                .map(|(v, img)| {
+                    let sigma = data.noise.get(v).copied().unwrap_or(0.0);
+                    let noisy: Vec<f32> = img
+                        .iter()
+                        .map(|&m| {
+                            // Box-Muller
+                            let (u1, u2) = (rng.f64().max(1e-300), rng.f64());
+                            let n = (-2.0 * u1.ln()).sqrt() * (2.0 * std::f64::consts::PI * u2).cos();
+                            (((m as f64 + sigma * n).clamp(0.0, 1.0) * 255.0).round() / 255.0) as f32
+                        })
+                        .collect();
+                    match data.jpeg.get(v).copied().flatten() {
+                        // Against the model with its JPEG change (what the fit compares).
+                        Some(q) => {
+                            let c = &data.capture.views[v].camera;
+                            let back = super::photo::jpeg_round_trip(&noisy, c.width, c.height, q);
+                            match &ev.jpeg_shift[v] {
+                                Some(sh) => back.iter().zip(sh).map(|(b, s)| b - s).collect(),
+                                None => back,
+                            }
+                        }
+                        None => noisy,
+                    }
+                })
+                .collect();
+            let rd = ev.residuals(&deg);
+            let g: Vec<f64> = seen
+                .iter()
+                .map(|&p| {
+                    cols[p]
+                        .iter()
+                        .zip(&rd)
+                        .zip(&base)
+                        .zip(&wts)
+                        .map(|(((j, a), b), w)| j * (b - a) * w)
+                        .sum()
+                })
+                .collect();
+            match solve_spd(&reduced, &g) {
+                Some(d) => mean.iter_mut().zip(&d).for_each(|(m, d)| *m += d / reps as f64),
+                None => ok = false,
+            }
+        }
+        ok.then_some(mean)
+    };
     let mut params = Vec::with_capacity(np);
+    let mut curvature = Vec::with_capacity(np);
+    let mut raw_sd = Vec::with_capacity(np);
     for k in 0..np {
         let q = &ev.lay.params[k];
-        let sd = seen.iter().position(|&i| i == k).and_then(|pos| {
-            let mut e = vec![0.0; seen.len()];
-            e[pos] = 1.0;
-            let col = solve_spd(&reduced, &e)?;
-            let var = s2 * col[pos];
-            (var.is_finite() && var >= 0.0)
-                .then(|| var.sqrt())
-                .filter(|sd| *sd <= q.limit)
-        });
-        params.push((q.name.clone(), x[k], sd));
+        let pos = seen.iter().position(|&i| i == k);
+        let (sd, sd_curv) = match (pos, &ainv) {
+            (Some(a), Some(ai)) => {
+                // (A^-1 B A^-1)_aa = sum_bc Ai_ab B_bc Ai_ca (A^-1 symmetric)
+                let mut var = 0.0;
+                for b in 0..ns {
+                    for c in 0..ns {
+                        var += ai[b][a] * bmat[b][c] * ai[c][a];
+                    }
+                }
+                let vc = s2 * ai[a][a];
+                let m = model_shift.as_ref().map_or(0.0, |d| d[a]);
+                let dg = degrade_shift.as_ref().map_or(0.0, |d| d[a]);
+                let var = var + m * m + dg * dg;
+                (
+                    (var.is_finite() && var >= 0.0).then(|| var.sqrt()),
+                    (vc.is_finite() && vc >= 0.0).then(|| vc.sqrt()),
+                )
+            }
+            _ => (None, None),
+        };
+        curvature.push(sd_curv);
+        raw_sd.push(sd);
+        params.push((q.name.clone(), x[k], sd.filter(|sd| *sd <= q.limit)));
     }
+    let unseen: Vec<String> = (0..np)
+        .filter(|k| !seen.contains(k))
+        .map(|k| ev.lay.params[k].name.clone())
+        .collect();
+    let at_bound: Vec<String> = (0..np)
+        .filter(|&k| {
+            let q = &ev.lay.params[k];
+            let span = q.hi - q.lo;
+            // (A measured profile's width of 0 is a rung the tool does not reach, not a limit.)
+            let no_cut = q.name.starts_with("W_mm@") && x[k] - q.lo < 1e-3 * span;
+            q.render && !no_cut && (x[k] - q.lo < 1e-3 * span || q.hi - x[k] < 1e-3 * span)
+        })
+        .map(|k| ev.lay.params[k].name.clone())
+        .collect();
     let bootstrap = if cfg.bootstrap > 0 {
         Some(bootstrap(&mut ev, &x, best_rg, cfg.bootstrap, obs)?)
     } else {
@@ -650,6 +1027,11 @@ pub fn fit_kind(
         tangent_passes: ev.tangent_passes,
         iterations,
         bootstrap,
+        curvature,
+        sd: raw_sd,
+        limits: ev.lay.params.iter().map(|q| q.limit).collect(),
+        unseen,
+        at_bound,
     })
 }
 
@@ -666,7 +1048,7 @@ fn bootstrap(
     reps: u32,
     obs: &dyn Observer,
 ) -> Result<Vec<f64>, FitError> {
-    let blocks = ev.residual_blocks();
+    let blocks = ev.residual_blocks(8);
     let mut ids: Vec<u64> = blocks.clone();
     ids.sort_unstable();
     ids.dedup();
@@ -707,6 +1089,8 @@ pub fn predict(renderer: &Renderer, data: &Data, res: &FitResult) -> Result<(Vec
         tangent_passes: 0,
         weights: None,
         gs: None,
+        ss: SUPERSAMPLE,
+        jpeg_shift: vec![None; data.capture.views.len()],
     };
     let x: Vec<f64> = res.params.iter().map(|p| p.1).collect();
     let lin = ev.render(&x)?;

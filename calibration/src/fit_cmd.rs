@@ -13,7 +13,7 @@ use serde_json::json;
 
 use super::card::{Card, CutRole};
 use super::fit::{fit_kind, predict, Data, FitConfig, FitError, FitResult, Kind, Start};
-use super::register::{camera_from_homography, load_photo, plate_homography, register};
+use super::register::{load_photo, register};
 
 /// Flags of `scratchart-cal fit`.
 #[derive(clap::Args, Debug)]
@@ -48,9 +48,316 @@ pub struct FitArgs {
     /// trade). Printed beside the curvature's and kept in tool.json (`fit.bootstrap`)
     #[arg(long, default_value_t = 0)]
     pub bootstrap: u32,
+    /// Write tool.json even when a parameter of the tool is not identified (its uncertainty
+    /// is above what a plate needs: 0.5 degrees, 2.5 um of length, 1.5 um of z offset); the
+    /// file then lists them under `fit.written_with_unidentified`
+    #[arg(long)]
+    pub allow_unidentified: bool,
+    /// Only say of each photo whether the fit can use it (card found, marks and their
+    /// confidence, the camera, saturation, noise), in seconds, without fitting
+    #[arg(long)]
+    pub check: bool,
     /// No progress bar
     #[arg(long)]
     pub quiet: bool,
+}
+
+/// What the fit's checks found: reasons to refuse (no tool.json, exit 3), the unidentified
+/// parameters written anyway (`--allow-unidentified`), and the tool parameters not identified.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Verdict {
+    pub reasons: Vec<String>,
+    pub allowed: Vec<String>,
+    pub unidentified: Vec<String>,
+}
+
+/// The checks that keep a wrong tool.json from being written: each photo's residual against
+/// its own noise (`residual`: per photo, the RMS residual and the noise; `photos`: how to name
+/// each), a parameter of the grooves at a bound of its range, and a tool parameter whose
+/// uncertainty is above what a plate needs (refused unless `allow_unidentified`).
+pub fn verdict(best: &FitResult, residual: &[(f64, f64)], photos: &[String], allow_unidentified: bool) -> Verdict {
+    let mut reasons: Vec<String> = Vec::new();
+    for (v, (rms, nz)) in residual.iter().enumerate() {
+        let floor = nz.max(RESIDUAL_FLOOR);
+        if !(rms / floor <= RESIDUAL_MAX) {
+            reasons.push(format!(
+                "{}: the fit leaves a residual of rms {rms:.4}, {:.1} times what the photo's own noise ({nz:.4}) \
+                 explains (at most {RESIDUAL_MAX}): this is not the card as a {} cuts it (another tool, another \
+                 card, not a card), or the photo has what the model lacks (glare, a smudge, a card that is not \
+                 flat); see the residual image",
+                photos[v],
+                rms / floor,
+                best.kind.name()
+            ));
+        }
+    }
+    for name in &best.at_bound {
+        let k = best.params.iter().position(|p| &p.0 == name).expect("a parameter");
+        reasons.push(format!(
+            "{name} ended at a bound of its range ({:.5}): the tool that fits best lies outside what this kind of \
+             tool can be; try another --kind or check the photos",
+            best.params[k].1
+        ));
+    }
+    let unidentified: Vec<String> = best
+        .unidentified()
+        .into_iter()
+        .filter(|n| is_tool_param(n) && n != "alpha")
+        .collect();
+    let mut allowed = Vec::new();
+    for name in &unidentified {
+        let k = best.params.iter().position(|p| &p.0 == name).expect("a parameter");
+        let msg = format!(
+            "{name} is not identified: +- {} where a plate needs at most {:.5}: the grooves that tell it are too \
+             dim, saturated, noisy or compressed in the photos, or missing. Photograph again with the lamp and \
+             exposure of the capture guide, the phone steady (less noise), saved at full size as PNG or the \
+             highest JPEG quality",
+            best.sd
+                .get(k)
+                .copied()
+                .flatten()
+                .map_or("undefined".to_string(), |s| format!("{s:.5}")),
+            best.limits.get(k).copied().unwrap_or(f64::NAN)
+        );
+        if allow_unidentified {
+            allowed.push(msg);
+        } else {
+            reasons.push(msg);
+        }
+    }
+    Verdict {
+        reasons,
+        allowed,
+        unidentified,
+    }
+}
+
+/// The residual's RMS may be at most this many times the photo's own pixel noise (or
+/// `RESIDUAL_FLOOR`, whichever is larger): beyond it the model does not explain the photo.
+pub const RESIDUAL_MAX: f64 = 3.0;
+/// The smallest noise the residual is compared with (display units): 8-bit quantization and
+/// JPEG leave about this much even in a clean photo.
+pub const RESIDUAL_FLOOR: f64 = 0.004;
+
+/// One photo as the fit will use it: shrunk to the capture view's scale, registered by the
+/// card's marks, its camera recovered, the pixels the fit compares, its own noise.
+pub struct Inspection {
+    pub file: PathBuf,
+    /// The photo's size as taken.
+    pub taken: (u32, u32),
+    /// Its JPEG quality, when it is a JPEG the fit compares on its own pixel grid.
+    pub jpeg: Option<u8>,
+    /// The photo at the capture view's height (its own aspect kept), display values.
+    pub image: super::photo::Gray,
+    /// The camera that took it, at `image`'s size, with the capture view's name and lamp.
+    pub view: scratchart::model::scene::View,
+    /// The marks found, with confidences.
+    pub found: super::fiducials::Found,
+    /// Taken off the capture pose (its camera from the marks, its eye refined by the fit).
+    pub off_pose: bool,
+    /// How far the camera stood from the capture position, mm.
+    pub moved_mm: f64,
+    /// Pixels the fit compares.
+    pub mask: Vec<bool>,
+    /// The photo's own pixel noise at `image`'s size (display units).
+    pub noise: f64,
+    /// Of the bright pixels the fit compares, the fraction at full white.
+    pub saturated: f64,
+}
+
+impl Inspection {
+    /// One line on the photo: size, marks found and their confidence, the camera, the noise.
+    pub fn summary(&self) -> String {
+        let c = &self.view.camera;
+        let conf: Vec<String> = self
+            .found
+            .confidence
+            .iter()
+            .zip(&self.found.points)
+            .map(|(k, p)| if p.is_some() { format!("{k:.2}") } else { "-".into() })
+            .collect();
+        format!(
+            "{}: {}x{} photo of view {}: {} of {} marks (confidence {}; {:.2} px rms), taken from ({:.0}, {:.0}, {:.0}) mm, \
+             {:.1} mm from the capture position; noise {:.4}",
+            self.file.display(),
+            self.taken.0,
+            self.taken.1,
+            self.view.name,
+            self.found.count(),
+            self.found.points.len(),
+            conf.join(" "),
+            self.found.rms_px,
+            c.eye[0],
+            c.eye[1],
+            c.eye[2],
+            self.moved_mm,
+            self.noise
+        )
+    }
+}
+
+/// Loads, registers and checks the photo `file` of capture view `v`: refused (exit 3, naming the
+/// photo and the reason) when it cannot be read, the card's marks are not found in it, the
+/// camera they give is not one near the capture view, or it is saturated.
+pub fn inspect_photo(
+    card: &Card,
+    capture: &scratchart::model::scene::Scene,
+    v: &scratchart::model::scene::View,
+    f: &Path,
+) -> Result<Inspection> {
+    let half = 0.5 * capture.plate.size_mm;
+    let img = load_photo(f).map_err(InputError)?;
+    // The photo shrunk by a whole factor k to at most the capture view's height (never
+    // enlarged), its own aspect kept (square pixels): each pixel the mean light of k x k of the
+    // photo's, as the model's pixels add up their subpixels. A fractional factor (640 x 480 to
+    // 256 high: 1.875) mixes pixels with weights that change with the sub-pixel phase, a blur
+    // the model cannot follow: it put a 75 degree V-bit at 73.9 with a stated +- 0.12. The rows
+    // and columns left over are cropped evenly from both sides (the field of view with them).
+    let mut v = v.clone();
+    let k = img.height.div_ceil(v.camera.height).max(1);
+    let (w, h) = ((img.width / k).max(16), (img.height / k).max(16));
+    let cropped = super::photo::crop_centre(&img, (w * k).min(img.width), (h * k).min(img.height));
+    let t = (0.5 * v.camera.fov_y_deg).to_radians().tan() * cropped.height as f64 / img.height as f64;
+    v.camera.fov_y_deg = 2.0 * t.atan().to_degrees();
+    (v.camera.width, v.camera.height) = (w, h);
+    let small = super::register::resize(&cropped, w, h);
+    // A photo mostly white is saturated before anything can be found in it (the marks alone
+    // may be white: they are a small part of the frame).
+    let white = small.data.iter().filter(|x| **x >= 0.99).count();
+    if white * 6 > small.data.len() {
+        return Err(InputError(format!(
+            "photo `{}` is saturated: {:.0}% of it is full white, so neither the card's marks nor its grooves \
+             can be read; lower the exposure (or the lamp) and photograph again",
+            f.display(),
+            100.0 * white as f64 / small.data.len() as f64
+        ))
+        .into());
+    }
+    let not_found = |e: String| {
+        InputError(format!(
+            "card not found in photo `{}` (view {}): {e}. At least {} of the card's {} hatched marks must \
+             glint; photograph from the capture position of card.json with the lamp where it says (see \
+             capture_guide.png beside card.json)",
+            f.display(),
+            v.name,
+            card.marks.len().min(5),
+            card.marks.len()
+        ))
+    };
+    let reg = register(&small, card, &v).map_err(not_found)?;
+    // The camera that took the photo, from the marks: the card is rendered as that camera saw it
+    // (the light on the grooves depends on where the camera stood), and the photo is used as
+    // taken, without resampling. Within 2 px of the capture view everywhere, the capture camera
+    // explains the photo better than a camera from a few marks found to about 0.3 px (its focal
+    // length and distance trade against each other); the fit's shift takes up the rest.
+    let off_pose = reg.pose_offset_px > 2.0;
+    let camera = if off_pose {
+        super::fiducials::plausible_camera(&reg.found.plate_to_image, v.camera.width, v.camera.height, &v).map_err(
+            |e| {
+                InputError(format!(
+                    "photo `{}` (view {}): the camera recovered from the card's marks is implausible: {e}. \
+                     Photograph from the capture position of card.json",
+                    f.display(),
+                    v.name
+                ))
+            },
+        )?
+    } else {
+        v.camera.clone()
+    };
+    let e = v.camera.eye;
+    let moved_mm =
+        ((camera.eye[0] - e[0]).powi(2) + (camera.eye[1] - e[1]).powi(2) + (camera.eye[2] - e[2]).powi(2)).sqrt();
+    let fv = scratchart::model::scene::View { camera, ..v.clone() };
+    let mask = fit_mask(card, &fv, half);
+    // Saturation, over the pixels the fit compares (the marks glint brightest and are left out).
+    let bright = small.data.iter().zip(&mask).filter(|(x, m)| **m && **x > 0.25).count();
+    let sat = small.data.iter().zip(&mask).filter(|(x, m)| **m && **x >= 0.99).count();
+    let saturated = if bright > 0 { sat as f64 / bright as f64 } else { 0.0 };
+    if saturated > 0.5 {
+        return Err(InputError(format!(
+            "photo `{}` is saturated: {sat} of its {bright} bright pixels on the ladder are full white, so groove \
+             widths cannot be read; lower the exposure (or the lamp) and photograph again",
+            f.display()
+        ))
+        .into());
+    }
+    let noise = super::fiducials::pixel_noise_in(&small, Some(&mask));
+    // A JPEG compared on its own pixel grid: the fit puts the same JPEG on its model.
+    let jpeg = if (small.width, small.height) == (img.width, img.height) {
+        super::photo::jpeg_quality(f)
+    } else {
+        None
+    };
+    Ok(Inspection {
+        file: f.to_path_buf(),
+        taken: (img.width, img.height),
+        jpeg,
+        image: small,
+        view: fv,
+        found: reg.found,
+        off_pose,
+        moved_mm,
+        mask,
+        noise,
+        saturated,
+    })
+}
+
+/// `fit --check`: says of each photo whether the fit can use it, without fitting. A photo named
+/// after a capture view is checked against it, others against the views in order. Exit 3 when
+/// any is unusable.
+fn check_photos(card: &Card, capture: &scratchart::model::scene::Scene, images: &[PathBuf]) -> Result<()> {
+    let mut bad = Vec::new();
+    for (i, f) in images.iter().enumerate() {
+        let stem = f
+            .file_stem()
+            .map(|s| s.to_string_lossy().to_string())
+            .unwrap_or_default();
+        let v = capture
+            .views
+            .iter()
+            .find(|v| v.name == stem)
+            .unwrap_or(&capture.views[i % capture.views.len()]);
+        let t = std::time::Instant::now();
+        match inspect_photo(card, capture, v, f) {
+            Ok(insp) => {
+                let weak: Vec<&str> = insp
+                    .found
+                    .confidence
+                    .iter()
+                    .zip(&card.marks)
+                    .filter(|(c, _)| **c < 0.5)
+                    .map(|(_, m)| m.label.as_str())
+                    .collect();
+                println!("usable   {} ({:.1} s)", insp.summary(), t.elapsed().as_secs_f64());
+                if !weak.is_empty() {
+                    println!("         marks not found or weak: {}", weak.join(", "));
+                }
+                if insp.saturated > 0.1 {
+                    println!(
+                        "         {:.0}% of the ladder's bright pixels are full white: a lower exposure reads the widths better",
+                        100.0 * insp.saturated
+                    );
+                }
+            }
+            Err(e) => {
+                println!("UNUSABLE {}: {e:#}", f.display());
+                bad.push(f.display().to_string());
+            }
+        }
+    }
+    if bad.is_empty() {
+        Ok(())
+    } else {
+        Err(InputError(format!(
+            "{} of {} photo(s) cannot be used: {}",
+            bad.len(),
+            images.len(),
+            bad.join(", ")
+        ))
+        .into())
+    }
 }
 
 /// Pairs photos with capture views: by file name (the view's name) when every photo names one,
@@ -88,83 +395,33 @@ fn pair_photos(images: &[PathBuf], names: &[String]) -> Result<Vec<PathBuf>> {
 pub fn run(renderer: &Renderer, args: &FitArgs, obs: &dyn Observer) -> Result<()> {
     let (card, capture) = Card::load(&args.card).map_err(|e| InputError(format!("{e:#}")))?;
     let names: Vec<String> = capture.views.iter().map(|v| v.name.clone()).collect();
+    if args.check {
+        return check_photos(&card, &capture, &args.images);
+    }
     let files = pair_photos(&args.images, &names)?;
     let mut photos = Vec::new();
     let mut masks = Vec::new();
     let mut fit_views = Vec::new();
     let mut refine_pose = Vec::new();
-    let half = 0.5 * capture.plate.size_mm;
+    let mut noise = Vec::new();
+    let mut jpeg = Vec::new();
+    let mut inspections = Vec::new();
     for (v, f) in capture.views.iter().zip(&files) {
-        let img = load_photo(f).map_err(InputError)?;
-        // The photo at the capture view's height (or its own, if smaller: it is never enlarged),
-        // its own aspect kept (square pixels); shrunk in linear light, as the render's pixels add
-        // light up.
-        let mut v = v.clone();
-        v.camera.height = v.camera.height.min(img.height);
-        v.camera.width = ((v.camera.height as f64 * img.width as f64 / img.height as f64).round() as u32).max(16);
-        let small = super::register::resize(&img, v.camera.width, v.camera.height);
-        let saturated = |px: &[f32], mask: Option<&[bool]>| {
-            let on = |i: usize| mask.is_none_or(|m| m[i]);
-            let bright = px.iter().enumerate().filter(|(i, x)| on(*i) && **x > 0.25).count();
-            let sat = px.iter().enumerate().filter(|(i, x)| on(*i) && **x >= 0.99).count();
-            (bright > 0 && sat * 2 > bright).then(|| {
-                InputError(format!(
-                    "photo `{}` is saturated: {sat} of its {bright} bright pixels are full white, so groove \
-                     widths cannot be read; lower the exposure (or the lamp) and photograph again",
-                    f.display()
-                ))
-            })
-        };
-        if let Some(e) = saturated(&small.data, None) {
-            return Err(e.into());
-        }
-        let not_found = |e: String| {
-            InputError(format!(
-                "card not found in photo `{}` (view {}): {e}. The four corner crosses must show; \
-                 photograph from the capture position of card.json with the lamp where it says",
-                f.display(),
-                v.name
-            ))
-        };
-        // (`small` is already at the view's size: registration does not shrink it again)
-        let reg = register(&small, &card, &v).map_err(not_found)?;
-        // The camera that took the photo, from the crosses: the card is rendered as that camera
-        // saw it (the light on the grooves depends on where the camera stood), and the photo is
-        // used as taken, without resampling.
-        // Within 2 px of the capture view everywhere, the capture camera explains the photo better
-        // than a camera from four crosses found to about 0.3 px (its focal length and distance
-        // trade against each other); the fit's affine term takes up the rest.
-        let camera = if reg.pose_offset_px <= 2.0 {
-            v.camera.clone()
-        } else {
-            plate_homography(&card, &reg.fiducials)
-                .and_then(|g| camera_from_homography(&g, v.camera.width, v.camera.height))
-                .ok_or_else(|| {
-                    not_found("the corner crosses are not where a camera looking at the card would see them".into())
-                })?
-        };
-        let e = v.camera.eye;
-        let moved =
-            ((camera.eye[0] - e[0]).powi(2) + (camera.eye[1] - e[1]).powi(2) + (camera.eye[2] - e[2]).powi(2)).sqrt();
-        obs.info(&format!(
-            "{}: {}x{} photo of view {}: taken from ({:.0}, {:.0}, {:.0}) mm, {moved:.1} mm from the capture position",
-            f.display(),
-            img.width,
-            img.height,
-            v.name,
-            camera.eye[0],
-            camera.eye[1],
-            camera.eye[2]
+        let insp = inspect_photo(&card, &capture, v, f)?;
+        obs.info(&insp.summary());
+        photos.push(insp.image.data.clone());
+        masks.push(insp.mask);
+        refine_pose.push(insp.off_pose);
+        jpeg.push(insp.jpeg);
+        noise.push(insp.noise);
+        inspections.push((
+            insp.taken,
+            insp.found.count(),
+            insp.found.confidence.clone(),
+            insp.view.camera.eye,
+            insp.moved_mm,
         ));
-        let fv = scratchart::model::scene::View { camera, ..v.clone() };
-        let mask = ViewGeom::new(&fv).on_plate_mask(half);
-        if let Some(e) = saturated(&small.data, Some(&mask)) {
-            return Err(e.into());
-        }
-        photos.push(small.data.clone());
-        masks.push(mask);
-        fit_views.push(fv);
-        refine_pose.push(reg.pose_offset_px > 2.0);
+        fit_views.push(insp.view);
     }
     let fit_scene = scratchart::model::scene::Scene {
         plate: capture.plate.clone(),
@@ -182,6 +439,8 @@ pub fn run(renderer: &Renderer, args: &FitArgs, obs: &dyn Observer) -> Result<()
         masks,
         refine_shift: true,
         refine_pose,
+        jpeg,
+        noise: noise.clone(),
     };
     let init = match &args.init {
         Some(p) => {
@@ -305,6 +564,7 @@ pub fn run(renderer: &Renderer, args: &FitArgs, obs: &dyn Observer) -> Result<()
         .expect("at least one kind")
         .clone();
     let secs = t0.elapsed().as_secs_f64();
+    let (pred, registered) = predict(renderer, &data, &best)?;
     // Report.
     println!(
         "fitted {} to {} photo(s) in {secs:.1} s ({} renders, {} tangent passes): rms residual {:.4} (display units)",
@@ -334,12 +594,15 @@ pub fn run(renderer: &Renderer, args: &FitArgs, obs: &dyn Observer) -> Result<()
             .bootstrap
             .as_ref()
             .map_or(String::new(), |b| format!(" (bootstrap +- {:.5})", b[k]));
-        match sd {
-            Some(sd) => println!("  {name:14} {v:.5} +- {sd:.5}{boot}"),
-            None => println!(
-                "  {name:14} not identified: the photos do not constrain it (the card's features that would are \
-                 missing or saturated)"
+        let raw = best.sd.get(k).copied().flatten();
+        match (sd, raw) {
+            (Some(sd), _) => println!("  {name:14} {v:.5} +- {sd:.5}{boot}"),
+            _ if best.unseen.contains(name) => println!("  {name:14} no groove at this depth"),
+            (None, Some(raw)) => println!(
+                "  {name:14} {v:.5} +- {raw:.5}: not identified (more than {:.5}){boot}",
+                best.limits[k]
             ),
+            (None, None) => println!("  {name:14} not identified: the photos do not constrain it"),
         }
     }
     println!(
@@ -350,43 +613,41 @@ pub fn run(renderer: &Renderer, args: &FitArgs, obs: &dyn Observer) -> Result<()
             .collect::<Vec<_>>(),
         best.blur_px
     );
-    // tool.json.
-    let record = json!({
-        "kind": best.kind.name(),
-        "criterion": "lowest BIC of the robust loss among the fitted kinds",
-        "candidates": results.iter().map(|r| json!({"kind": r.kind.name(), "bic": r.bic, "loss": r.loss})).collect::<Vec<_>>(),
-        "loss": best.loss,
-        "rms_residual": best.rms,
-        "pixels": best.pixels,
-        "uncertainty": best.params.iter().filter(|p| is_tool_param(&p.0))
-            .map(|p| (p.0.clone(), p.2.map_or(json!("not identified"), |s| json!(s)))).collect::<serde_json::Map<_, _>>(),
-        "not_identified": best.unidentified(),
-        "exposure": best.exposure,
-        "blur_px": best.blur_px,
-        "photos": files.iter().map(|f| f.display().to_string()).collect::<Vec<_>>(),
-        "card": args.card.display().to_string(),
-        "seconds": secs,
-        "bootstrap": best.bootstrap.as_ref().map(|b| json!({
-            "replicates": args.bootstrap,
-            "std": best.params.iter().zip(b).filter(|(p, _)| is_tool_param(&p.0))
-                .map(|(p, s)| (p.0.clone(), json!(s))).collect::<serde_json::Map<_, _>>(),
-        })),
-        "renders": results.iter().map(|r| r.renders).sum::<u32>(),
-        "tangent_passes": results.iter().map(|r| r.tangent_passes).sum::<u32>(),
-        "jacobian": "engine derivatives (tangent passes) for the tool, z offset and alpha; differences for eyes and camera terms",
-    });
-    let fitted = Fitted {
-        alpha: Some(best.alpha),
-        fit: Some(record),
-    };
+    // The verdict: what would make tool.json wrong.
+    let residual: Vec<(f64, f64)> = (0..capture.views.len())
+        .map(|v| {
+            let (mut sum, mut n) = (0.0f64, 0usize);
+            for ((m, p), ok) in pred[v].iter().zip(&registered[v]).zip(&data.masks[v]) {
+                if *ok {
+                    sum += ((m - p) as f64).powi(2);
+                    n += 1;
+                }
+            }
+            ((sum / n.max(1) as f64).sqrt(), noise[v])
+        })
+        .collect();
+    for (v, (rms, nz)) in residual.iter().enumerate() {
+        println!(
+            "  photo {}: residual rms {rms:.4}, its own noise {nz:.4} ({:.1} times)",
+            files[v].display(),
+            rms / nz.max(RESIDUAL_FLOOR)
+        );
+    }
+    let photo_names: Vec<String> = files
+        .iter()
+        .zip(&capture.views)
+        .map(|(f, v)| format!("photo `{}` (view {})", f.display(), v.name))
+        .collect();
+    let Verdict {
+        reasons,
+        allowed,
+        unidentified,
+    } = verdict(&best, &residual, &photo_names, args.allow_unidentified);
+    // Residual images, the plot and the report, whatever the verdict.
+    let stem = args.out.with_extension("");
     if let Some(dir) = args.out.parent().filter(|p| !p.as_os_str().is_empty()) {
         std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
     }
-    scratchart::io::write_atomic(&args.out, best.tool.to_json_fitted(&fitted).as_bytes())?;
-    println!("wrote {}", args.out.display());
-    // Residual images and the plot.
-    let (pred, registered) = predict(renderer, &data, &best)?;
-    let stem = args.out.with_extension("");
     for (v, view) in capture.views.iter().enumerate() {
         let bytes: Vec<u8> = pred[v]
             .iter()
@@ -414,8 +675,99 @@ pub fn run(renderer: &Renderer, args: &FitArgs, obs: &dyn Observer) -> Result<()
         "wrote {} (W and w against commanded depth, measured points)",
         plot.display()
     );
+    let record = json!({
+        "kind": best.kind.name(),
+        "criterion": "lowest BIC of the robust loss among the fitted kinds",
+        "candidates": results.iter().map(|r| json!({"kind": r.kind.name(), "bic": r.bic, "loss": r.loss})).collect::<Vec<_>>(),
+        "loss": best.loss,
+        "rms_residual": best.rms,
+        "pixels": best.pixels,
+        "uncertainty": best.params.iter().filter(|p| is_tool_param(&p.0))
+            .map(|p| (p.0.clone(), p.2.map_or(json!("not identified"), |s| json!(s)))).collect::<serde_json::Map<_, _>>(),
+        "uncertainty_method": "block sandwich (16 x 16 pixel blocks) at the optimum",
+        "curvature_uncertainty": best.params.iter().zip(&best.curvature).filter(|(p, _)| is_tool_param(&p.0))
+            .map(|(p, s)| (p.0.clone(), json!(s))).collect::<serde_json::Map<_, _>>(),
+        "not_identified": unidentified,
+        "no_groove": best.unseen,
+        "exposure": best.exposure,
+        "blur_px": best.blur_px,
+        "photos": files.iter().zip(&inspections).zip(&residual).map(|((f, insp), (rms, nz))| json!({
+            "file": f.display().to_string(),
+            "size": [insp.0.0, insp.0.1],
+            "marks_found": insp.1,
+            "mark_confidence": insp.2,
+            "camera_eye_mm": insp.3,
+            "moved_mm": insp.4,
+            "noise": nz,
+            "residual_rms": rms,
+        })).collect::<Vec<_>>(),
+        "card": args.card.display().to_string(),
+        "seconds": secs,
+        "bootstrap": best.bootstrap.as_ref().map(|b| json!({
+            "replicates": args.bootstrap,
+            "std": best.params.iter().zip(b).filter(|(p, _)| is_tool_param(&p.0))
+                .map(|(p, s)| (p.0.clone(), json!(s))).collect::<serde_json::Map<_, _>>(),
+        })),
+        "renders": results.iter().map(|r| r.renders).sum::<u32>(),
+        "tangent_passes": results.iter().map(|r| r.tangent_passes).sum::<u32>(),
+        "jacobian": "engine derivatives (tangent passes) for the tool, z offset and alpha; differences for eyes and camera terms",
+    });
+    let report_path = PathBuf::from(format!("{}_report.json", stem.display()));
+    let report = json!({
+        "verdict": if reasons.is_empty() { "accepted" } else { "refused" },
+        "reasons": reasons,
+        "allowed_unidentified": allowed,
+        "tool": serde_json::from_str::<serde_json::Value>(&best.tool.to_json_fitted(&Fitted { alpha: Some(best.alpha), fit: None }))?,
+        "fit": record,
+        "params": best.params.iter().enumerate().map(|(k, p)| json!({
+            "name": p.0, "value": p.1, "sd": best.sd.get(k).copied().flatten(),
+            "curvature_sd": best.curvature.get(k).copied().flatten(), "limit": best.limits.get(k),
+        })).collect::<Vec<_>>(),
+    });
+    scratchart::io::write_atomic(&report_path, serde_json::to_string_pretty(&report)?.as_bytes())?;
+    println!("wrote {} (the fit, its checks and its verdict)", report_path.display());
     let _ = std::fs::remove_file(&state_path);
+    if !reasons.is_empty() {
+        return Err(InputError(format!(
+            "the fit is refused and no {} was written:\n  - {}",
+            args.out.display(),
+            reasons.join("\n  - ")
+        ))
+        .into());
+    }
+    let mut record = record;
+    if !allowed.is_empty() {
+        record["written_with_unidentified"] = json!(allowed);
+    }
+    let fitted = Fitted {
+        alpha: Some(best.alpha),
+        fit: Some(record),
+    };
+    scratchart::io::write_atomic(&args.out, best.tool.to_json_fitted(&fitted).as_bytes())?;
+    println!("wrote {}", args.out.display());
+    for a in &allowed {
+        println!("  warning (--allow-unidentified): {a}");
+    }
     Ok(())
+}
+
+/// The pixels of view `view` the fit compares: on the card, and away from the fiducial marks
+/// (their squares widened by 1.5 times their half side, past the blur of their light).
+pub fn fit_mask(card: &Card, view: &scratchart::model::scene::View, half_plate: f64) -> Vec<bool> {
+    let g = ViewGeom::new(view);
+    let mut mask = g.on_plate_mask(half_plate);
+    let w = view.camera.width;
+    for (i, m) in mask.iter_mut().enumerate() {
+        if *m {
+            let (x, y) = (i as u32 % w, i as u32 / w);
+            if let Some(q) = g.shading_point(x, y) {
+                if card.marks.iter().any(|mk| mk.covers(q, 1.5 * mk.half_mm)) {
+                    *m = false;
+                }
+            }
+        }
+    }
+    mask
 }
 
 /// What an interrupted fit had done (`--resume`): the kinds it finished, and the start points of
@@ -454,7 +806,10 @@ fn resume_key(args: &FitArgs, files: &[PathBuf]) -> Result<String> {
 /// Whether a fitted parameter is the tool's (or alpha) rather than the camera's (exposure,
 /// registration shift, an off-pose photo's eye): what the report and tool.json show.
 fn is_tool_param(name: &str) -> bool {
-    !(name.starts_with("ln_exposure") || name.starts_with("registration") || name.starts_with("eye["))
+    !(name.starts_with("ln_exposure")
+        || name.starts_with("registration")
+        || name.starts_with("eye[")
+        || name.starts_with("shade["))
 }
 
 /// Per ladder depth, the visible width the photos show: the model's width scaled by the ratio of
@@ -601,4 +956,140 @@ fn profile_plot(path: &Path, res: &FitResult, card: &Card, points: &[(f64, f64)]
     }
     scratchart::io::write_png_rgb(path, wpx, hpx, &buf)?;
     Ok(())
+}
+
+#[cfg(test)]
+mod verdict_tests {
+    use super::*;
+    use crate::fit::Kind;
+
+    /// A V-bit fit whose tool parameters have the given standard deviations.
+    fn result(sd: [f64; 3], at_bound: &[&str]) -> FitResult {
+        let names = ["angle_deg", "tip_flat_mm", "z_offset_mm", "alpha", "blur_px"];
+        let values = [75.0, 0.015, 0.007, 0.1, 0.6];
+        let limits = [0.5, 0.0025, 0.0015, 0.1, 1.0];
+        let sds = [sd[0], sd[1], sd[2], 0.001, 0.01];
+        FitResult {
+            kind: Kind::VBit,
+            tool: Tool::VBit {
+                angle_deg: 75.0,
+                tip_flat_mm: 0.015,
+                z_offset_mm: 0.007,
+            },
+            alpha: 0.1,
+            exposure: vec![1.0, 1.0],
+            blur_px: 0.6,
+            params: (0..5)
+                .map(|k| (names[k].to_string(), values[k], (sds[k] <= limits[k]).then_some(sds[k])))
+                .collect(),
+            loss: 1e-6,
+            rms: 0.004,
+            pixels: 50_000,
+            bic: 0.0,
+            renders: 0,
+            tangent_passes: 0,
+            iterations: 0,
+            bootstrap: None,
+            curvature: vec![None; 5],
+            sd: sds.iter().map(|s| Some(*s)).collect(),
+            limits: limits.to_vec(),
+            unseen: vec![],
+            at_bound: at_bound.iter().map(|s| s.to_string()).collect(),
+        }
+    }
+
+    fn photos() -> Vec<String> {
+        vec![
+            "photo `a.jpg` (view cam_south)".into(),
+            "photo `b.jpg` (view cam_west)".into(),
+        ]
+    }
+
+    #[test]
+    fn a_good_fit_is_accepted() {
+        let v = verdict(
+            &result([0.1, 0.001, 0.0005], &[]),
+            &[(0.006, 0.005), (0.004, 0.0)],
+            &photos(),
+            false,
+        );
+        assert_eq!(v, Verdict::default());
+    }
+
+    #[test]
+    fn a_residual_the_noise_does_not_explain_is_refused_naming_the_photo() {
+        // 0.03 against noise 0.005: 6 times.
+        let v = verdict(
+            &result([0.1, 0.001, 0.0005], &[]),
+            &[(0.006, 0.005), (0.03, 0.005)],
+            &photos(),
+            false,
+        );
+        assert_eq!(v.reasons.len(), 1, "{v:?}");
+        assert!(
+            v.reasons[0].contains("b.jpg") && v.reasons[0].contains("6.0 times"),
+            "{v:?}"
+        );
+        // A clean photo's noise is floored (quantization, JPEG): 0.01 against 0 is 2.5 times.
+        let v = verdict(
+            &result([0.1, 0.001, 0.0005], &[]),
+            &[(0.01, 0.0), (0.004, 0.0)],
+            &photos(),
+            false,
+        );
+        assert!(v.reasons.is_empty(), "{v:?}");
+        // NaN is refused, not passed.
+        let v = verdict(
+            &result([0.1, 0.001, 0.0005], &[]),
+            &[(f64::NAN, 0.005), (0.004, 0.0)],
+            &photos(),
+            false,
+        );
+        assert_eq!(v.reasons.len(), 1, "{v:?}");
+    }
+
+    #[test]
+    fn a_parameter_at_its_bound_is_refused() {
+        let v = verdict(
+            &result([0.1, 0.001, 0.0005], &["tip_flat_mm"]),
+            &[(0.004, 0.004); 2],
+            &photos(),
+            false,
+        );
+        assert_eq!(v.reasons.len(), 1, "{v:?}");
+        assert!(v.reasons[0].starts_with("tip_flat_mm ended at a bound"), "{v:?}");
+        // --allow-unidentified does not let a parameter at its bound through.
+        let v = verdict(
+            &result([0.1, 0.001, 0.0005], &["angle_deg"]),
+            &[(0.004, 0.004); 2],
+            &photos(),
+            true,
+        );
+        assert_eq!(v.reasons.len(), 1, "{v:?}");
+    }
+
+    #[test]
+    fn an_unidentified_tool_parameter_is_refused_unless_allowed() {
+        // The angle +- 0.8 degrees where a plate needs 0.5.
+        let v = verdict(
+            &result([0.8, 0.001, 0.0005], &[]),
+            &[(0.004, 0.004); 2],
+            &photos(),
+            false,
+        );
+        assert_eq!(v.unidentified, vec!["angle_deg".to_string()]);
+        assert_eq!(v.reasons.len(), 1, "{v:?}");
+        assert!(
+            v.reasons[0].contains("angle_deg is not identified: +- 0.80000"),
+            "{v:?}"
+        );
+        let v = verdict(
+            &result([0.8, 0.001, 0.0005], &[]),
+            &[(0.004, 0.004); 2],
+            &photos(),
+            true,
+        );
+        assert!(v.reasons.is_empty(), "{v:?}");
+        assert_eq!(v.allowed.len(), 1, "{v:?}");
+    }
 }

@@ -7,14 +7,20 @@
 //! - [`simulate`]: the card as a given tool would cut it, rendered by the engine from each
 //!   capture view as the photos a camera would take (with optional noise, exposure and blur).
 //!
-//! - [`register`]: photos (PNG/JPEG, EXIF orientation, any size) registered to the capture views
-//!   by the card's corner crosses.
+//! - [`register`] and [`fiducials`]: photos (PNG/JPEG, EXIF orientation, any size) registered
+//!   to the capture views by the card's hatched marks, found robustly with a confidence each.
+//! - [`phone`]: photos of the card as a phone takes them (pose, blur, exposure, vignetting,
+//!   cast, noise, size, JPEG, EXIF, a covered mark), for the tests and [`study`], the recovery
+//!   study of the fit.
 //! - [`fit`]: the tool's parameters, z offset, wall roughness, exposures and blur fitted to the
 //!   registered photos by rendering the card with the engine; [`fit_cmd`] is `scratchart-cal fit`.
 pub mod card;
 pub mod fiducials;
 pub mod fit;
 pub mod fit_cmd;
+pub mod guide;
+pub mod phone;
 pub mod photo;
 pub mod register;
 pub mod simulate;
+pub mod study;

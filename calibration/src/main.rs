@@ -29,7 +29,7 @@ mod plan_cmd;
                                          renders the card as a known tool would cut it, as the camera would
                                          see it (for checking a set-up, and for tests).
   4. scratchart-cal fit --card DIR/card.json cam_south.jpg cam_west.jpg --out tool.json
-                                         registers the photos by the corner crosses and fits the tool
+                                         registers the photos by the card's hatched marks and fits the tool
                                          (v-bit, ball, tapered-ball or a measured profile; --kind picks one),
                                          its z offset, the walls' roughness, exposure and blur: tool.json with
                                          uncertainties, residual images and a plot of width against depth;
@@ -59,6 +59,12 @@ enum Cmd {
     /// Probe the plate's height on a grid with the tool (G38.2; Marlin G38.2 or G30) and write
     /// heightmap.json for `plan --heightmap`.
     Probe(carve::ProbeArgs),
+    /// The recovery study of the fit: random tools of all four kinds cut into the card,
+    /// photographed as a phone would (pose, blur, exposure, vignetting, cast, noise, size, JPEG,
+    /// EXIF, a covered mark, drawn at random) and fitted; writes study.md and study.csv:
+    /// recovered, refused and wrong-but-accepted counts, errors, times, and how often the
+    /// stated uncertainties cover the truth. About a minute or two per trial on a CPU.
+    Study(scratchart_calibration::study::StudyArgs),
     /// Write the calibration card (card.json) into DIR.
     Card {
         /// Output directory
@@ -148,25 +154,99 @@ fn run(cli: Cli) -> Result<()> {
             let text = serde_json::to_string_pretty(&card.to_json(*res))?;
             scratchart::io::write_atomic(&path, text.as_bytes())?;
             println!(
-                "wrote {}: {} ladder cuts ({} depths from {} to {} mm, {} orientations x {} repeats) and 4 fiducial crosses",
+                "wrote {}: {} ladder cuts ({} depths from {} to {} mm, {} orientations x {} repeats) and {} fiducial marks ({} cuts)",
                 path.display(),
-                card.cuts.len() - 8,
+                card.cuts.iter().filter(|c| c.role == scratchart_calibration::card::CutRole::Ladder).count(),
                 card.depths_mm.len(),
                 card.depths_mm[0],
                 card.depths_mm[card.depths_mm.len() - 1],
                 card.orientations_deg.len(),
-                card.repeats
+                card.repeats,
+                card.marks.len(),
+                card.cuts.iter().filter(|c| c.role == scratchart_calibration::card::CutRole::Fiducial).count()
             );
             println!("wrote {}", plan_cmd::write_card_gcode(&card, out, machine)?.display());
+            // The capture guide, with each view as a good photo of a typical V-bit's card looks.
+            let (card, capture) = Card::load(&path)?;
+            let ctx = Context::new(ContextDesc {
+                device: cli.device.clone(),
+                ..Default::default()
+            })?;
+            let renderer = scratchart::render::Renderer::new(&ctx)?;
+            let typical = Tool::VBit {
+                angle_deg: 60.0,
+                tip_flat_mm: 0.01,
+                z_offset_mm: 0.0,
+            };
+            let lin = photos(&renderer, &card, &capture, &typical, &Camera::default())?;
+            // Exposed so the brightest ladder rungs sit near 0.8 of full scale.
+            let mut peak = 1e-6f64;
+            for (v, img) in capture.views.iter().zip(&lin) {
+                let mask = scratchart_calibration::fit_cmd::fit_mask(&card, v, 0.5 * card.plate_mm);
+                let mut on: Vec<f64> = img
+                    .iter()
+                    .zip(&mask)
+                    .filter(|(_, m)| **m)
+                    .map(|(x, _)| (*x as f64).powf(2.2))
+                    .collect();
+                on.sort_by(|a, b| a.total_cmp(b));
+                peak = peak.max(on.get(on.len() * 998 / 1000).copied().unwrap_or(1e-6));
+            }
+            let cam = Camera {
+                exposure: 0.8f64.powf(2.2) / peak,
+                blur_px: 0.5,
+                noise: 0.004,
+                seed: 1,
+            };
+            let examples = photos(&renderer, &card, &capture, &typical, &cam)?;
+            let gp = out.join("capture_guide.png");
+            scratchart_calibration::guide::write_guide_png(&gp, &card, &capture, &examples)?;
+            let gt = out.join("capture_guide.txt");
+            scratchart::io::write_atomic(
+                &gt,
+                scratchart_calibration::guide::guide_text(&card, &capture).as_bytes(),
+            )?;
+            println!(
+                "wrote {} and {} (where the camera and the lamp go, and a good photo)",
+                gp.display(),
+                gt.display()
+            );
             for v in card.views(*res) {
-                println!(
-                    "  capture view {}: camera at ({:.0}, {:.0}, {:.0}) mm, lamp at {:?} mm, both from the card's centre",
-                    v.name, v.camera.eye[0], v.camera.eye[1], v.camera.eye[2], match v.light.kind {
-                        scratchart::model::scene::LightKind::Point { position } => position.map(|x| x.round()),
-                        scratchart::model::scene::LightKind::Directional { direction } => direction,
+                let lamp = match v.light.kind {
+                    scratchart::model::scene::LightKind::Point { position } => {
+                        format!(
+                            "lamp at ({:.0}, {:.0}, {:.0}) mm",
+                            position[0], position[1], position[2]
+                        )
                     }
+                    scratchart::model::scene::LightKind::Directional { direction } => format!(
+                        "lamp far away towards ({:.2}, {:.2}, {:.2})",
+                        direction[0], direction[1], direction[2]
+                    ),
+                };
+                let e = v.camera.eye;
+                println!(
+                    "  capture view {}: camera at ({:.0}, {:.0}, {:.0}) mm, {lamp}, both from the card's centre",
+                    v.name, e[0], e[1], e[2]
                 );
             }
+            Ok(())
+        }
+        Cmd::Study(args) => {
+            let ctx = Context::new(ContextDesc {
+                device: cli.device.clone(),
+                ..Default::default()
+            })?;
+            let renderer = scratchart::render::Renderer::new(&ctx)?;
+            scratchart::term::install_interrupt_handler();
+            let trials = scratchart_calibration::study::run(&renderer, args, &scratchart::term::Terminal::new(false))?;
+            let summary = std::fs::read_to_string(args.out.join("study.md"))?;
+            println!("{}", summary.lines().next().unwrap_or(""));
+            println!(
+                "wrote {} and study.csv ({} trials)",
+                args.out.join("study.md").display(),
+                trials.len()
+            );
             Ok(())
         }
         Cmd::Plan(args) => plan_cmd::plan(args),

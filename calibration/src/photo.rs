@@ -100,6 +100,122 @@ pub fn load_photo(path: &Path) -> Result<Gray, String> {
     })
 }
 
+/// The middle `w` x `h` pixels of `img` (what is left over split evenly between the sides, the
+/// odd one at the right and bottom).
+pub fn crop_centre(img: &Gray, w: u32, h: u32) -> Gray {
+    let (w, h) = (w.min(img.width), h.min(img.height));
+    if (w, h) == (img.width, img.height) {
+        return img.clone();
+    }
+    let (x0, y0) = ((img.width - w) / 2, (img.height - h) / 2);
+    let mut data = Vec::with_capacity((w * h) as usize);
+    for y in y0..y0 + h {
+        let row = (y * img.width) as usize;
+        data.extend_from_slice(&img.data[row + x0 as usize..row + (x0 + w) as usize]);
+    }
+    Gray {
+        width: w,
+        height: h,
+        data,
+    }
+}
+
+/// The JPEG quality (IJG scale, 1 to 100) that the photo at `path` was saved with, when it is a
+/// JPEG whose pixels are stored as shown (no EXIF turn): the quality whose standard luminance
+/// table is nearest the file's first quantization table. `None` for a PNG, a turned JPEG or a
+/// file without a table. The fit uses it to put the same JPEG round trip on its model where the
+/// photo is compared on its own pixel grid (`fit::Data::jpeg`).
+pub fn jpeg_quality(path: &Path) -> Option<u8> {
+    let bytes = std::fs::read(path).ok()?;
+    if bytes.len() < 4 || bytes[0] != 0xFF || bytes[1] != 0xD8 {
+        return None;
+    }
+    let turned = image::ImageReader::open(path)
+        .ok()?
+        .with_guessed_format()
+        .ok()?
+        .into_decoder()
+        .ok()
+        .and_then(|mut d| {
+            use image::ImageDecoder as _;
+            d.orientation().ok()
+        })
+        .is_some_and(|o| o != image::metadata::Orientation::NoTransforms);
+    if turned {
+        return None;
+    }
+    let table = luma_table(&bytes)?;
+    (1..=100u8).min_by_key(|&q| {
+        ijg_luma_table(q)
+            .iter()
+            .zip(&table)
+            .map(|(a, b)| (*a as i64 - *b as i64).abs())
+            .sum::<i64>()
+    })
+}
+
+/// The first quantization table of a JPEG file (the luminance one), in zigzag order.
+fn luma_table(b: &[u8]) -> Option<[u16; 64]> {
+    let mut i = 2;
+    while i + 4 <= b.len() {
+        if b[i] != 0xFF {
+            return None;
+        }
+        let marker = b[i + 1];
+        if marker == 0xD8 || (0xD0..=0xD7).contains(&marker) || marker == 0x01 {
+            i += 2;
+            continue;
+        }
+        let len = u16::from_be_bytes([b[i + 2], b[i + 3]]) as usize;
+        if marker == 0xDB {
+            let seg = b.get(i + 4..i + 2 + len)?;
+            let (pq, body) = (seg.first()? >> 4, &seg[1..]);
+            let mut t = [0u16; 64];
+            for (k, v) in t.iter_mut().enumerate() {
+                *v = if pq == 0 {
+                    *body.get(k)? as u16
+                } else {
+                    u16::from_be_bytes([*body.get(2 * k)?, *body.get(2 * k + 1)?])
+                };
+            }
+            return Some(t);
+        }
+        if marker == 0xDA {
+            return None;
+        }
+        i += 2 + len;
+    }
+    None
+}
+
+/// The IJG (libjpeg) luminance table at quality `q`, in zigzag order, as the `image` crate and
+/// most encoders write it.
+fn ijg_luma_table(q: u8) -> [u16; 64] {
+    const BASE: [u16; 64] = [
+        16, 11, 12, 14, 12, 10, 16, 14, 13, 14, 18, 17, 16, 19, 24, 40, 26, 24, 22, 22, 24, 49, 35, 37, 29, 40, 58, 51,
+        61, 60, 57, 51, 56, 55, 64, 72, 92, 78, 64, 68, 87, 69, 55, 56, 80, 109, 81, 87, 95, 98, 103, 104, 103, 62, 77,
+        113, 121, 112, 100, 120, 92, 101, 103, 99,
+    ];
+    let q = q.clamp(1, 100) as u32;
+    let scale = if q < 50 { 5000 / q } else { 200 - 2 * q };
+    BASE.map(|b| ((b as u32 * scale + 50) / 100).clamp(1, 255) as u16)
+}
+
+/// `img` (display values, `w` x `h`) through a grey JPEG at quality `q` and back: what a
+/// camera's JPEG does to a picture of the card, for the model to do the same.
+pub fn jpeg_round_trip(img: &[f32], w: u32, h: u32, q: u8) -> Vec<f32> {
+    let bytes: Vec<u8> = img.iter().map(|x| (x.clamp(0.0, 1.0) * 255.0).round() as u8).collect();
+    let mut buf = Vec::new();
+    let enc = image::codecs::jpeg::JpegEncoder::new_with_quality(&mut buf, q);
+    if image::ImageEncoder::write_image(enc, &bytes, w, h, image::ExtendedColorType::L8).is_err() {
+        return img.to_vec();
+    }
+    match image::load_from_memory_with_format(&buf, image::ImageFormat::Jpeg) {
+        Ok(d) => d.to_luma8().into_raw().into_iter().map(|x| x as f32 / 255.0).collect(),
+        Err(_) => img.to_vec(),
+    }
+}
+
 /// The photo resampled to `w` x `h` as the engine's pixels would see it: each output pixel is the
 /// exact area average of the input pixels it covers, taken in linear light (display values are
 /// raised to 2.2, averaged, and encoded again), because a pixel of the render integrates light
@@ -156,6 +272,33 @@ pub fn resize(img: &Gray, w: u32, h: u32) -> Gray {
 #[cfg(test)]
 mod photo_tests {
     use super::*;
+
+    /// The quality a JPEG was saved at is read back from its table, for any quality; a PNG has none.
+    #[test]
+    fn reads_the_jpeg_quality_back() {
+        let dir = std::env::temp_dir().join(format!("scratchart-jpegq-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let img = image::RgbImage::from_fn(40, 24, |x, y| image::Rgb([(x * 6) as u8, (y * 9) as u8, 128]));
+        for q in [35u8, 70, 90, 97] {
+            let p = dir.join(format!("q{q}.jpg"));
+            let mut f = std::fs::File::create(&p).unwrap();
+            image::codecs::jpeg::JpegEncoder::new_with_quality(&mut f, q)
+                .encode_image(&img)
+                .unwrap();
+            drop(f);
+            assert_eq!(jpeg_quality(&p), Some(q));
+        }
+        let p = dir.join("a.png");
+        img.save(&p).unwrap();
+        assert_eq!(jpeg_quality(&p), None);
+        // The round trip changes a sharp edge, and leaves a flat grey as it is.
+        let edge: Vec<f32> = (0..16 * 16).map(|i| if i % 16 < 7 { 0.1 } else { 0.9 }).collect();
+        let back = jpeg_round_trip(&edge, 16, 16, 50);
+        assert!(back.iter().zip(&edge).any(|(a, b)| (a - b).abs() > 0.01));
+        let flat = vec![0.5f32; 64];
+        assert!(jpeg_round_trip(&flat, 8, 8, 50).iter().all(|x| (x - 0.5).abs() < 0.01));
+        let _ = std::fs::remove_dir_all(&dir);
+    }
 
     /// A colour JPEG straight from a phone: stored turned, with the EXIF orientation tag saying
     /// how to show it. It reads back upright and grey.

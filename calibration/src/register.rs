@@ -1,57 +1,17 @@
 //! Photos of the card, registered to its capture views.
 //!
 //! The card is flat, so a photo taken from near (not exactly at) the capture position is related
-//! to the capture view by a homography of the plate plane, found from the card's four corner
-//! crosses ([`crate::fiducials`]). A quadrilateral of crosses that is not convex, or much smaller
-//! than expected, means the card was not found, and says so. From the homography of the plate
-//! itself, [`camera_from_homography`] recovers the camera that took the photo.
+//! to the capture view by a homography of the plate plane, fitted to the card's fiducial marks
+//! ([`crate::fiducials`]: a robust match of bright blobs to the marks' layout, each mark with a
+//! confidence). Fewer than four marks that fit one view of a flat card means the card was not
+//! found, and says so. From the homography of the plate itself, [`camera_from_homography`]
+//! recovers the camera that took the photo.
 use scratchart::model::scene::View;
 
-pub use super::fiducials::{arm_directions, find_fiducials, nominal_fiducials};
+pub use super::fiducials::{apply, find_marks, homography_lsq, nominal_marks, Found};
 pub use super::photo::{load_photo, resize, Gray};
 
-use super::card::{Card, CutRole};
-
-/// The homography H (row-major 3x3, H[8] = 1) with H src[k] ~ dst[k] for the four pairs.
-pub fn homography(src: &[[f64; 2]; 4], dst: &[[f64; 2]; 4]) -> Option<[f64; 9]> {
-    let mut a = [[0.0f64; 9]; 8];
-    for k in 0..4 {
-        let ([x, y], [u, v]) = (src[k], dst[k]);
-        a[2 * k] = [x, y, 1.0, 0.0, 0.0, 0.0, -u * x, -u * y, u];
-        a[2 * k + 1] = [0.0, 0.0, 0.0, x, y, 1.0, -v * x, -v * y, v];
-    }
-    // Gaussian elimination with partial pivoting on the 8x8 system (last column: right side).
-    for col in 0..8 {
-        let piv = (col..8).max_by(|&i, &j| a[i][col].abs().total_cmp(&a[j][col].abs()))?;
-        if a[piv][col].abs() < 1e-12 {
-            return None;
-        }
-        a.swap(col, piv);
-        for r in 0..8 {
-            if r != col {
-                let f = a[r][col] / a[col][col];
-                for c in col..9 {
-                    a[r][c] -= f * a[col][c];
-                }
-            }
-        }
-    }
-    let mut h = [0.0; 9];
-    for k in 0..8 {
-        h[k] = a[k][8] / a[k][k];
-    }
-    h[8] = 1.0;
-    Some(h)
-}
-
-/// Applies H to the image point p.
-pub fn apply(h: &[f64; 9], p: [f64; 2]) -> [f64; 2] {
-    let z = h[6] * p[0] + h[7] * p[1] + h[8];
-    [
-        (h[0] * p[0] + h[1] * p[1] + h[2]) / z,
-        (h[3] * p[0] + h[4] * p[1] + h[5]) / z,
-    ]
-}
+use super::card::Card;
 
 /// A photo registered to a capture view: its values on the view's raster and where they are
 /// valid (inside the photo).
@@ -63,9 +23,10 @@ pub struct Registered {
     pub h: [f64; 9],
     pub image: Vec<f32>,
     pub valid: Vec<bool>,
-    /// The fiducials found in the (resized) photo.
-    pub fiducials: [[f64; 2]; 4],
-    /// Largest distance between a found fiducial and the capture view's, pixels (how far the
+    /// The card's marks found in the (resized) photo, in the card's order (`None`: not found),
+    /// with their confidences and the plate-to-photo homography.
+    pub found: Found,
+    /// Largest distance between a found mark and the capture view's, pixels (how far the
     /// photo's pose was from the capture position).
     pub pose_offset_px: f64,
 }
@@ -115,7 +76,7 @@ pub fn camera_from_homography(g: &[f64; 9], w: u32, h: u32) -> Option<scratchart
     let m1: [f64; 3] = std::array::from_fn(|c| -(r1[c] - cy * r2[c]));
     let m = [m0, m1, r2]; // rows of M
     let col = |c: usize| [m[0][c], m[1][c], m[2][c]];
-    let (a, b, t) = (col(0), col(1), col(2));
+    let (a, b) = (col(0), col(1));
     // Orthogonality: (a0 b0 + a1 b1) q + a2 b2 = 0; equal norms:
     // (a0^2 + a1^2 - b0^2 - b1^2) q + a2^2 - b2^2 = 0, with q = 1 / f^2.
     let (p1, s1) = (a[0] * b[0] + a[1] * b[1], a[2] * b[2]);
@@ -127,7 +88,75 @@ pub fn camera_from_homography(g: &[f64; 9], w: u32, h: u32) -> Option<scratchart
     if !(q > 0.0 && q.is_finite()) {
         return None;
     }
-    let f = 1.0 / q.sqrt();
+    camera_with_focal(g, w, h, 1.0 / q.sqrt())
+}
+
+/// The focal length (pixels), within a factor 3 of `f_hint`, that makes the homography `g` most
+/// nearly a camera's (its two rotation columns orthogonal and of equal length), with a weak
+/// prior that the camera stood `dist_hint` from the card (the capture guide's distance; a
+/// phone's focal length is unknown): a homography fitted to a few marks on a card small
+/// against its distance leaves f poorly determined (it trades with the distance), and the
+/// closed form of [`camera_from_homography`] can then be far off or fail.
+pub fn focal_near(g: &[f64; 9], w: u32, h: u32, f_hint: f64, dist_hint: f64) -> f64 {
+    // The weight of the prior on the distance (a factor 1.25 at one unit), against the defect
+    // (which is 0 for an exact camera homography). Over random phone shots (examples/
+    // detect_probe) 1e-3 gave the smallest eye errors: median 2.6 mm, 90% within 8 mm; 1e-4
+    // 2.7 and 6.8 but more distances off by half; 1e-2 3.7 and 12.7.
+    let prior = 1e-3;
+    let (cx, cy) = (0.5 * w as f64, 0.5 * h as f64);
+    let m0: [f64; 3] = std::array::from_fn(|c| g[c] - cx * g[6 + c]);
+    let m1: [f64; 3] = std::array::from_fn(|c| -(g[3 + c] - cy * g[6 + c]));
+    let (a, b) = ([m0[0], m1[0], g[6]], [m0[1], m1[1], g[7]]);
+    let defect = |f: f64| {
+        let (ka, kb) = ([a[0] / f, a[1] / f, a[2]], [b[0] / f, b[1] / f, b[2]]);
+        let (aa, bb) = (
+            ka[0] * ka[0] + ka[1] * ka[1] + ka[2] * ka[2],
+            kb[0] * kb[0] + kb[1] * kb[1] + kb[2] * kb[2],
+        );
+        let ab = ka[0] * kb[0] + ka[1] * kb[1] + ka[2] * kb[2];
+        (ab * ab + 0.25 * (aa - bb) * (aa - bb)) / (aa * bb)
+    };
+    // A weak prior at the hint (log-normal, a factor 2 at one sigma): where the card is small
+    // against its distance (weak perspective) the homography hardly tells f, and the defect is
+    // flat; where it does, the defect's minimum is sharp and wins.
+    let dist = |f: f64| {
+        camera_with_focal(g, w, h, f).map_or(f64::INFINITY, |c| {
+            (c.eye[0] * c.eye[0] + c.eye[1] * c.eye[1] + c.eye[2] * c.eye[2]).sqrt()
+        })
+    };
+    let defect = |f: f64| defect(f) + prior * ((dist(f) / dist_hint).ln() / 1.25f64.ln()).powi(2);
+    // A log grid over [f/3, 3f], then golden section around its best.
+    let (lo, hi) = ((f_hint / 3.0).ln(), (3.0 * f_hint).ln());
+    let n = 60;
+    let best = (0..=n)
+        .map(|k| lo + (hi - lo) * k as f64 / n as f64)
+        .min_by(|x, y| defect(x.exp()).total_cmp(&defect(y.exp())))
+        .unwrap_or(f_hint.ln());
+    let step = (hi - lo) / n as f64;
+    let (mut x0, mut x1) = (best - step, best + step);
+    let gr = 0.5 * (5f64.sqrt() - 1.0);
+    for _ in 0..40 {
+        let (m1, m2) = (x1 - gr * (x1 - x0), x0 + gr * (x1 - x0));
+        if defect(m1.exp()) < defect(m2.exp()) {
+            x1 = m2;
+        } else {
+            x0 = m1;
+        }
+    }
+    (0.5 * (x0 + x1)).exp()
+}
+
+/// The camera of focal length `f` pixels whose plate homography is (nearest) `g`, for a `w` x
+/// `h` photo (see [`camera_from_homography`]).
+pub fn camera_with_focal(g: &[f64; 9], w: u32, h: u32, f: f64) -> Option<scratchart::model::scene::Camera> {
+    let (cx, cy) = (0.5 * w as f64, 0.5 * h as f64);
+    let row = |r: usize| [g[3 * r], g[3 * r + 1], g[3 * r + 2]];
+    let (r0, r1, r2) = (row(0), row(1), row(2));
+    let m0: [f64; 3] = std::array::from_fn(|c| r0[c] - cx * r2[c]);
+    let m1: [f64; 3] = std::array::from_fn(|c| -(r1[c] - cy * r2[c]));
+    let m = [m0, m1, r2];
+    let col = |c: usize| [m[0][c], m[1][c], m[2][c]];
+    let (a, b, t) = (col(0), col(1), col(2));
     let kinv = |v: [f64; 3]| [v[0] / f, v[1] / f, v[2]];
     let norm = |v: [f64; 3]| (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
     let (ka, kb, kt) = (kinv(a), kinv(b), kinv(t));
@@ -181,35 +210,32 @@ pub fn camera_from_homography(g: &[f64; 9], w: u32, h: u32) -> Option<scratchart
     })
 }
 
-/// The homography from plate points (mm) to the photo's image points, from the fiducials found
-/// in it.
-pub fn plate_homography(card: &Card, found: &[[f64; 2]; 4]) -> Option<[f64; 9]> {
-    let fid: Vec<_> = card.cuts.iter().filter(|c| c.role == CutRole::Fiducial).collect();
-    let mut plate = [[0.0; 2]; 4];
-    for (k, pair) in fid.chunks(2).take(4).enumerate() {
-        let c = pair[0];
-        plate[k] = [0.5 * (c.p0[0] + c.p1[0]), 0.5 * (c.p0[1] + c.p1[1])];
-    }
-    homography(&plate, found)
-}
-
-/// Registers `photo` to capture view `view` of `card`.
+/// Registers `photo` to capture view `view` of `card` (the photo is resized to the view's raster
+/// first).
 pub fn register(photo: &Gray, card: &Card, view: &View) -> Result<Registered, String> {
     let (w, h) = (view.camera.width, view.camera.height);
     let img = resize(photo, w, h);
-    let (nominal, arm) = nominal_fiducials(card, view);
-    let found = find_fiducials(&img, &nominal, &arm_directions(card, view), arm)?;
-    let hm = homography(&nominal, &found).ok_or("the corner crosses are degenerate (collinear)")?;
+    let found = find_marks(&img, card, view)?;
+    let (nominal, _) = nominal_marks(card, view);
+    let (s, d): (Vec<[f64; 2]>, Vec<[f64; 2]>) = found
+        .points
+        .iter()
+        .zip(&nominal)
+        .filter_map(|(p, n)| p.map(|p| (*n, p)))
+        .unzip();
+    let hm = homography_lsq(&s, &d).ok_or("the marks found are degenerate (collinear)")?;
     let (image, valid) = warp(&img, &hm, &[0.0; 6], w, h);
-    let pose_offset_px = (0..4)
-        .map(|k| (found[k][0] - nominal[k][0]).hypot(found[k][1] - nominal[k][1]))
+    let pose_offset_px = s
+        .iter()
+        .zip(&d)
+        .map(|(n, p)| (p[0] - n[0]).hypot(p[1] - n[1]))
         .fold(0.0, f64::max);
     Ok(Registered {
         photo: img,
         h: hm,
         image,
         valid,
-        fiducials: found,
+        found,
         pose_offset_px,
     })
 }
@@ -222,7 +248,7 @@ mod tests {
     fn homography_maps_the_four_points_and_between() {
         let src = [[10.0, 10.0], [200.0, 12.0], [210.0, 190.0], [5.0, 180.0]];
         let dst = [[20.0, 30.0], [190.0, 25.0], [230.0, 210.0], [15.0, 170.0]];
-        let h = homography(&src, &dst).unwrap();
+        let h = homography_lsq(&src, &dst).unwrap();
         for k in 0..4 {
             let q = apply(&h, src[k]);
             assert!(
@@ -231,11 +257,11 @@ mod tests {
             );
         }
         // The identity maps to itself.
-        let id = homography(&src, &src).unwrap();
+        let id = homography_lsq(&src, &src).unwrap();
         let q = apply(&id, [77.0, 33.0]);
         assert!((q[0] - 77.0).abs() < 1e-9 && (q[1] - 33.0).abs() < 1e-9);
         // Collinear points have none.
-        assert!(homography(&[[0.0, 0.0], [1.0, 1.0], [2.0, 2.0], [3.0, 3.0]], &dst).is_none());
+        assert!(homography_lsq(&[[0.0, 0.0], [1.0, 1.0], [2.0, 2.0], [3.0, 3.0]], &dst).is_none());
     }
 
     #[test]
@@ -264,8 +290,9 @@ mod camera_tests {
         let card = Card::new(&CardSpec::default());
         for view in card.views(256) {
             let g = ViewGeom::new(&view);
-            let (nominal, _) = nominal_fiducials(&card, &view);
-            let hp = plate_homography(&card, &nominal).unwrap();
+            let (nominal, _) = nominal_marks(&card, &view);
+            let plate: Vec<[f64; 2]> = card.marks.iter().map(|m| m.centre).collect();
+            let hp = homography_lsq(&plate, &nominal).unwrap();
             let cam = camera_from_homography(&hp, 256, 256).expect("a camera");
             for k in 0..3 {
                 assert!(

@@ -1,8 +1,10 @@
 //! The card as a tool would cut it, photographed from each capture view: every cut becomes the
 //! scratch model's groove for that tool at its commanded depth (`scratchart_tool::Tool::model`),
-//! the engine renders each capture view, and the display image is degraded as a camera would:
-//! a Gaussian blur of the light (optics, before the sensor), an exposure factor, the display
-//! encoding and Gaussian noise on the encoded values (seeded, so reproducible).
+//! the engine renders each capture view (at 4 times its resolution: a camera's optics are
+//! continuous), and the image is degraded as a camera would: a Gaussian blur of the light
+//! (optics, before the sensor), the pixels adding up the light over their area, an exposure
+//! factor, the display encoding and Gaussian noise on the encoded values (seeded, so
+//! reproducible). `crate::phone` goes further: a hand-held phone's pose, size, JPEG and more.
 use scratchart::model::scene::{Scene, Scratch};
 use scratchart::render::Renderer;
 use scratchart::scenes::Rng;
@@ -114,18 +116,36 @@ pub fn photos(
     tool: &Tool,
     camera: &Camera,
 ) -> anyhow::Result<Vec<Vec<f32>>> {
-    let scene = cut_scene(card, capture, tool);
+    // Rendered at RENDER_SCALE times each view's resolution, blurred there and each pixel's
+    // light added up over its area: a camera's optics are continuous, and a render at the
+    // photo's own resolution has already added up the light of a groove a pixel wide before the
+    // blur (the fit models that at twice the resolution; photos made at its own would flatter it).
+    let k = super::phone::RENDER_SCALE;
+    let mut scene = cut_scene(card, capture, tool);
+    for v in &mut scene.views {
+        v.camera.width *= k;
+        v.camera.height *= k;
+    }
     let mut gs = renderer.upload(&scene)?;
     let frame = renderer.render(&mut gs)?;
     let mut rng = Rng::new(camera.seed);
     Ok(frame
         .images
         .iter()
-        .zip(&scene.views)
+        .zip(&capture.views)
         .map(|(img, v)| {
-            // The optics blur light (linear), then the exposure and the display encoding.
-            let b = blur(img, v.camera.width as usize, v.camera.height as usize, camera.blur_px);
-            b.into_iter()
+            let (w, h) = (v.camera.width as usize, v.camera.height as usize);
+            let ku = k as usize;
+            // The optics blur light (linear), the pixels add it up, then the exposure and the
+            // display encoding.
+            let b = blur(img, ku * w, ku * h, k as f64 * camera.blur_px);
+            let mut small = vec![0f32; w * h];
+            for (i, l) in b.iter().enumerate() {
+                let (x, y) = ((i % (ku * w)) / ku, (i / (ku * w)) / ku);
+                small[y * w + x] += l / (ku * ku) as f32;
+            }
+            small
+                .into_iter()
                 .map(|l| scratchart::io::display_value((l as f64 * camera.exposure) as f32))
                 .map(|x| {
                     // Box-Muller from the project's generator (reproducible).

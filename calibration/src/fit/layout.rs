@@ -29,6 +29,21 @@ fn p(name: &str, lo: f64, hi: f64, step: f64, render: bool, limit: f64) -> Param
     }
 }
 
+/// What a plate needs of the fit: the tool's angle within 1 degree, its lengths (tip flat,
+/// radius, a profile's widths) within 5 um and its z offset within 3 um. A parameter counts as
+/// identified when its (block sandwich) standard deviation is at most half of that, so that an
+/// accepted tool is within it at about two standard deviations; otherwise the fit refuses
+/// (`--allow-unidentified` writes it anyway, marked).
+pub const ANGLE_TOL_DEG: f64 = 1.0;
+pub const LENGTH_TOL_MM: f64 = 0.005;
+pub const OFFSET_TOL_MM: f64 = 0.003;
+const ANGLE_LIMIT: f64 = 0.5 * ANGLE_TOL_DEG;
+const LENGTH_LIMIT: f64 = 0.5 * LENGTH_TOL_MM;
+const OFFSET_LIMIT: f64 = 0.5 * OFFSET_TOL_MM;
+
+/// Camera terms per photo taken off the capture pose (eye x, y, z; roll; log field of view).
+pub(super) const POSE_PARAMS: usize = 5;
+
 /// The parameter layout of a kind: tool parameters, then alpha, the log exposures and the blur.
 pub(super) struct Layout {
     pub(super) kind: Kind,
@@ -36,6 +51,8 @@ pub(super) struct Layout {
     pub(super) reg: bool,
     /// Per view, the index of its eye correction (x, y, z in mm), if it is fitted.
     pub(super) pose_at: Vec<Option<usize>>,
+    /// Index of the first shading term (3 per view: see [`Layout::shade`]).
+    pub(super) shade_at: usize,
     pub(super) params: Vec<Param>,
     /// Index of the z offset (none for a profile: its points are in commanded depth).
     pub(super) offset: Option<usize>,
@@ -49,24 +66,24 @@ impl Layout {
     pub(super) fn new(kind: Kind, card: &Card, n_views: usize, refine_registration: bool, pose: &[bool]) -> Layout {
         let mut params = match kind {
             Kind::VBit => vec![
-                p("angle_deg", 5.0, 175.0, 0.2, true, 5.0),
-                p("tip_flat_mm", 0.0, 0.5, 0.0005, true, 0.02),
-                p("z_offset_mm", -0.3, 0.3, 0.0005, true, 0.01),
+                p("angle_deg", 5.0, 175.0, 0.2, true, ANGLE_LIMIT),
+                p("tip_flat_mm", 0.0, 0.5, 0.0005, true, LENGTH_LIMIT),
+                p("z_offset_mm", -0.3, 0.3, 0.0005, true, OFFSET_LIMIT),
             ],
             Kind::Ball => vec![
-                p("radius_mm", 0.002, 3.0, 0.001, true, 0.05),
-                p("z_offset_mm", -0.3, 0.3, 0.0005, true, 0.01),
+                p("radius_mm", 0.002, 3.0, 0.001, true, LENGTH_LIMIT),
+                p("z_offset_mm", -0.3, 0.3, 0.0005, true, OFFSET_LIMIT),
             ],
             Kind::TaperedBall => vec![
-                p("radius_mm", 0.002, 3.0, 0.001, true, 0.05),
-                p("angle_deg", 5.0, 175.0, 0.2, true, 5.0),
-                p("z_offset_mm", -0.3, 0.3, 0.0005, true, 0.01),
+                p("radius_mm", 0.002, 3.0, 0.001, true, LENGTH_LIMIT),
+                p("angle_deg", 5.0, 175.0, 0.2, true, ANGLE_LIMIT),
+                p("z_offset_mm", -0.3, 0.3, 0.0005, true, OFFSET_LIMIT),
             ],
             Kind::Profile => {
                 let mut v: Vec<Param> = card
                     .depths_mm
                     .iter()
-                    .map(|z| p(&format!("W_mm@{z}"), 0.0, 2.0, 0.0005, true, 0.02))
+                    .map(|z| p(&format!("W_mm@{z}"), 0.0, 2.0, 0.0005, true, LENGTH_LIMIT))
                     .collect();
                 v.push(p("w_over_W", 1.0, 5.0, 0.01, true, 1.0));
                 v
@@ -91,19 +108,35 @@ impl Layout {
         } else {
             false
         };
-        // The eye of a photo taken off the capture pose: its camera comes from four crosses, whose
-        // focal length and distance trade; the light on the grooves tells where the eye was.
+        // The camera of a photo taken off the capture pose comes from the card's marks, found to
+        // a tenth or two of a pixel: that leaves the grooves up to half a pixel from where the
+        // camera saw them, and a groove is a pixel or two wide, so the fit refines the camera
+        // with the rest: its eye (the light on the grooves also tells where it was), its turn
+        // about its axis and its field of view (the registration shift moves the image).
         let mut pose_at = vec![None; n_views];
         for (v, &on) in pose.iter().enumerate().take(n_views) {
             if on {
                 pose_at[v] = Some(params.len());
                 for axis in ["x", "y", "z"] {
-                    params.push(p(&format!("eye[{v}].{axis}_mm"), -20.0, 20.0, 0.5, true, 20.0));
+                    params.push(p(&format!("eye[{v}].{axis}_mm"), -20.0, 20.0, 0.2, true, 20.0));
                 }
+                params.push(p(&format!("eye[{v}].roll_deg"), -2.0, 2.0, 0.03, true, 2.0));
+                params.push(p(&format!("eye[{v}].ln_fov"), -0.05, 0.05, 0.001, true, 0.05));
+            }
+        }
+        // The light across each photo: vignetting and uneven light, a smooth factor
+        // exp(gx x + gy y + q (x^2 + y^2)) on the exposure, x and y from the frame's centre in
+        // half heights. The card repeats every depth at its point mirror, so these do not pass
+        // for a change of width with depth.
+        let shade_at = params.len();
+        for v in 0..n_views {
+            for term in ["gx", "gy", "q"] {
+                params.push(p(&format!("shade[{v}].{term}"), -1.5, 1.5, 0.01, false, 1.5));
             }
         }
         Layout {
             pose_at,
+            shade_at,
             reg,
             kind,
             params,
@@ -185,15 +218,26 @@ impl Layout {
         if self.reg {
             x.extend(std::iter::repeat_n(0.0, 2 * self.n_views));
         }
-        x.extend(std::iter::repeat_n(0.0, 3 * self.pose_at.iter().flatten().count()));
+        x.extend(std::iter::repeat_n(
+            0.0,
+            POSE_PARAMS * self.pose_at.iter().flatten().count(),
+        ));
+        x.extend(std::iter::repeat_n(0.0, 3 * self.n_views));
         x
     }
 
-    /// The eye correction of view v, mm (zero when its eye is not fitted).
-    pub(super) fn eye(&self, x: &[f64], v: usize) -> [f64; 3] {
+    /// The shading terms (gx, gy, q) of view v.
+    pub(super) fn shade(&self, x: &[f64], v: usize) -> [f64; 3] {
+        let b = self.shade_at + 3 * v;
+        [x[b], x[b + 1], x[b + 2]]
+    }
+
+    /// The camera correction of view v: eye (x, y, z in mm), turn about its axis (degrees) and
+    /// log field of view (zero when its camera is not fitted).
+    pub(super) fn pose(&self, x: &[f64], v: usize) -> [f64; POSE_PARAMS] {
         match self.pose_at[v] {
-            Some(i) => [x[i], x[i + 1], x[i + 2]],
-            None => [0.0; 3],
+            Some(i) => std::array::from_fn(|k| x[i + k]),
+            None => [0.0; POSE_PARAMS],
         }
     }
 

@@ -80,16 +80,33 @@ impl LeastSquares for Refinement<'_, '_, '_> {
         let np = self.ev.lay.params.len();
         let bounds = self.bounds();
         // The grooves' parameters: derivatives from the engine.
-        let eyes: Vec<usize> = self.ev.lay.pose_at.iter().flatten().flat_map(|&i| i..i + 3).collect();
+        let eyes: Vec<usize> = self
+            .ev
+            .lay
+            .pose_at
+            .iter()
+            .flatten()
+            .flat_map(|&i| i..i + super::layout::POSE_PARAMS)
+            .collect();
         let grooves: Vec<usize> = (0..np)
             .filter(|k| self.ev.lay.params[*k].render && !eyes.contains(k))
             .collect();
         let mut tangent = self.ev.tangent_columns(x, &grooves)?.into_iter();
+        // The camera terms of off-pose photos: from the image's motion (no render).
+        let lin = match self.renders.iter().find(|(k, _)| *k == self.render_key(x)) {
+            Some((_, lin)) => lin.clone(),
+            None => self.ev.render(x)?,
+        };
+        let mut motion = self.ev.motion_columns(x, &lin, &eyes).into_iter();
         // The rest by forward differences (away from the nearer bound).
         let mut cols: Vec<Vec<f64>> = Vec::with_capacity(np);
         for k in 0..np {
             if grooves.contains(&k) {
                 cols.push(tangent.next().expect("one column per groove parameter"));
+                continue;
+            }
+            if eyes.contains(&k) {
+                cols.push(motion.next().expect("one column per camera term"));
                 continue;
             }
             let (lo, hi) = bounds[k];
@@ -131,4 +148,21 @@ pub(super) fn refine(
         label: label.to_string(),
     };
     least_squares::solve(&mut p, x, &cfg, obs)
+}
+
+/// The residuals at `x` and the Jacobian there, column by column (as the refinement computes
+/// them), with the z offset (if any) kept in `off_range`.
+pub(super) fn jacobian_at(
+    ev: &mut Evaluator,
+    x: &[f64],
+    off_range: Option<(f64, f64)>,
+) -> Result<(Vec<f64>, Vec<Vec<f64>>), FitError> {
+    let mut p = Refinement {
+        ev,
+        off_range,
+        renders: Vec::new(),
+    };
+    let r = p.eval(x)?;
+    let cols = p.jacobian(x, &r)?;
+    Ok((r, cols))
 }

@@ -1,0 +1,122 @@
+//! Detection of the card's marks on random phone shots, against the truth: `cargo run --release -p scratchart-calibration --example detect_probe -- 20` (20 shots × 3 views).
+use scratchart::model::camera::ViewGeom;
+use scratchart::render::Renderer;
+use scratchart::scenes::Rng;
+use scratchart::vulkan::{Context, ContextDesc};
+use scratchart_calibration::card::{Card, CardSpec};
+use scratchart_calibration::phone::{random_shot, take};
+use scratchart_calibration::register::{find_marks, load_photo, resize};
+use scratchart_tool::Tool;
+
+fn main() -> anyhow::Result<()> {
+    let n: usize = std::env::args().nth(1).map_or(10, |s| s.parse().unwrap());
+    let ctx = Context::new(ContextDesc::default())?;
+    let r = Renderer::new(&ctx)?;
+    let card = Card::new(&CardSpec::default());
+    let dir = std::env::temp_dir().join("detect_probe");
+    let p = dir.join("card.json");
+    std::fs::create_dir_all(&dir)?;
+    std::fs::write(&p, serde_json::to_string(&card.to_json(256))?)?;
+    let (card, capture) = Card::load(&p)?;
+    let tool = Tool::VBit {
+        angle_deg: 70.0,
+        tip_flat_mm: 0.01,
+        z_offset_mm: 0.003,
+    };
+    let mut rng = Rng::new(7);
+    let (mut ok, mut worst) = (0, 0.0f64);
+    for t in 0..n {
+        let shot = random_shot(&mut rng, card.marks.len(), 20.0);
+        for v in 0..capture.views.len() {
+            let (path, pv) = take(&r, &card, &capture, v, &tool, &shot, &dir.join(format!("t{t}")))?;
+            let img = load_photo(&path).map_err(anyhow::Error::msg)?;
+            let mut view = capture.views[v].clone();
+            view.camera.height = view.camera.height.min(img.height);
+            view.camera.width =
+                ((view.camera.height as f64 * img.width as f64 / img.height as f64).round() as u32).max(16);
+            let small = resize(&img, view.camera.width, view.camera.height);
+            let t0 = std::time::Instant::now();
+            let got = find_marks(&small, &card, &view);
+            let dt = t0.elapsed().as_secs_f64();
+            // truth: the posed camera at the small image's resolution
+            let mut tv = pv.clone();
+            let k = view.camera.height as f64 / pv.camera.height as f64;
+            tv.camera.height = view.camera.height;
+            tv.camera.width = view.camera.width;
+            let g = ViewGeom::new(&tv);
+            let truth: Vec<(f64, f64)> = card
+                .marks
+                .iter()
+                .map(|m| g.project([m.centre[0], m.centre[1], 0.0]).unwrap())
+                .collect();
+            let truth: Vec<[f64; 2]> = truth
+                .iter()
+                .map(|t| [(t.0 * 10.0).round() / 10.0, (t.1 * 10.0).round() / 10.0])
+                .collect();
+            if std::env::var_os("ONLY").is_some_and(|o| o.to_string_lossy() == format!("t{t}v{v}")) {
+                println!("truth {truth:?}");
+                let plate: Vec<[f64; 2]> = card.marks.iter().map(|m| m.centre).collect();
+                let ht = scratchart_calibration::register::homography_lsq(&plate, &truth).unwrap();
+                println!(
+                    "camera from truth: {:?}",
+                    scratchart_calibration::fiducials::plausible_camera(&ht, small.width, small.height, &view)
+                );
+                let sub: Vec<usize> = vec![0, 2, 3, 4, 5];
+                let ht = scratchart_calibration::register::homography_lsq(
+                    &sub.iter().map(|&i| plate[i]).collect::<Vec<_>>(),
+                    &sub.iter().map(|&i| truth[i]).collect::<Vec<_>>(),
+                )
+                .unwrap();
+                println!(
+                    "camera from 5 truths: {:?}",
+                    scratchart_calibration::fiducials::plausible_camera(&ht, small.width, small.height, &view)
+                );
+                println!("true camera {:?}", tv.camera);
+                std::env::set_var("SCRATCHART_DEBUG_MARKS", "1");
+                let _ = find_marks(&small, &card, &view);
+                std::env::remove_var("SCRATCHART_DEBUG_MARKS");
+            }
+            match got {
+                Ok(f) => {
+                    let mut e = 0.0f64;
+                    for (q, p) in f.points.iter().enumerate() {
+                        if let Some(p) = p {
+                            let m = card.marks[q].centre;
+                            let tr = g.project([m[0], m[1], 0.0]).unwrap();
+                            e = e.max((p[0] - tr.0).hypot(p[1] - tr.1));
+                        }
+                    }
+                    let cam = scratchart_calibration::fiducials::plausible_camera(
+                        &f.plate_to_image,
+                        small.width,
+                        small.height,
+                        &view,
+                    );
+                    let ce = match &cam {
+                        Ok(c) => format!(
+                            "eye err {:.1} mm (truth {:?} got {:?})",
+                            (0..3)
+                                .map(|i| (c.eye[i] - pv.camera.eye[i]).powi(2))
+                                .sum::<f64>()
+                                .sqrt(),
+                            pv.camera.eye.map(|x| x.round()),
+                            c.eye.map(|x| x.round())
+                        ),
+                        Err(e) => e.clone(),
+                    };
+                    println!("   camera: {ce}");
+                    let good = e < 1.0;
+                    if good {
+                        ok += 1;
+                    }
+                    worst = worst.max(e);
+                    println!("t{t} v{v}: {} marks, max err {e:.2} px, rms {:.2}, conf {:?}, cands {}, {dt:.2}s {} (k {k:.2}) {:?}", f.count(), f.rms_px,
+                        f.confidence.iter().map(|c| (c * 100.0).round() / 100.0).collect::<Vec<_>>(), f.candidates, if good {""} else {"WRONG"}, shot);
+                }
+                Err(e) => println!("t{t} v{v}: NOT FOUND {e} {dt:.2}s {:?}", shot),
+            }
+        }
+    }
+    println!("{ok} of {} within 1 px; worst {worst:.2}", 2 * n);
+    Ok(())
+}

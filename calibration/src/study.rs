@@ -1,0 +1,465 @@
+//! `scratchart-cal study`: the recovery study of the tool fit. Random tools of all four kinds
+//! are "cut" into the card, photographed as a phone would (`crate::phone`: every degradation the
+//! fit must take, drawn at random), and fitted as a maker would (`fit --kind` of the tool in the
+//! spindle). Each trial ends in one of three ways: recovered (within 1 degree, 5 um of length
+//! and 3 um of z offset: what a plate needs), refused (exit 3, with its reason), or wrong but
+//! accepted (a tool.json that would ruin a plate: the number that must be 0). It also checks the
+//! stated uncertainties: how often the truth lies within one stated standard deviation (about
+//! 68% if they mean something).
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use anyhow::{Context as _, Result};
+use scratchart::observe::{Observer, Silent};
+use scratchart::render::Renderer;
+use scratchart::scenes::Rng;
+use scratchart_tool::Tool;
+use serde_json::json;
+
+use super::card::{Card, CardSpec};
+use super::fit::{Kind, ANGLE_TOL_DEG, LENGTH_TOL_MM, OFFSET_TOL_MM};
+use super::fit_cmd::{run as fit, FitArgs};
+use super::phone::{random_shot, take, Shot};
+
+/// Flags of `scratchart-cal study`.
+#[derive(clap::Args, Debug)]
+pub struct StudyArgs {
+    /// Number of random tools (kinds in turn: v-bit, ball, tapered-ball, profile)
+    #[arg(long, default_value_t = 24)]
+    pub trials: usize,
+    /// Seed of the draws (the same seed gives the same tools and photos)
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Largest angle between a photo's camera and its capture view, degrees
+    #[arg(long, default_value_t = 20.0)]
+    pub max_tilt: f64,
+    /// Output directory: study.csv, study.md, and each trial's photos and fit
+    #[arg(long, default_value = "study")]
+    pub out: PathBuf,
+}
+
+/// How a trial ended.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Outcome {
+    Recovered,
+    Refused(String),
+    WrongButAccepted,
+}
+
+impl Outcome {
+    pub fn label(&self) -> &'static str {
+        match self {
+            Outcome::Recovered => "recovered",
+            Outcome::Refused(_) => "refused",
+            Outcome::WrongButAccepted => "WRONG but accepted",
+        }
+    }
+}
+
+/// One trial: the truth, the photos' degradations, the fit and how it ended.
+#[derive(Clone, Debug)]
+pub struct Trial {
+    pub kind: Kind,
+    pub truth: Tool,
+    pub shots: Vec<Shot>,
+    pub fitted: Option<Tool>,
+    /// Errors: angle (degrees), length (mm: tip flat, radius or worst profile width), z offset
+    /// (mm); None where the kind has none.
+    pub errors: [Option<f64>; 3],
+    /// (fitted - true) / stated standard deviation, per tool parameter the fit stated one for.
+    pub z: Vec<(String, f64)>,
+    pub outcome: Outcome,
+    pub seconds: f64,
+}
+
+/// A random tool of `kind`, in the range a maker's tools span.
+pub fn random_tool(rng: &mut Rng, kind: Kind, card: &Card) -> Tool {
+    let off = rng.range(-0.008, 0.012);
+    match kind {
+        Kind::VBit => Tool::VBit {
+            angle_deg: rng.range(40.0, 110.0),
+            tip_flat_mm: rng.range(0.0, 0.025),
+            z_offset_mm: off,
+        },
+        Kind::Ball => Tool::Ball {
+            radius_mm: rng.range(0.03, 0.25),
+            z_offset_mm: off,
+        },
+        Kind::TaperedBall => Tool::TaperedBall {
+            radius_mm: rng.range(0.015, 0.08),
+            angle_deg: rng.range(30.0, 90.0),
+            z_offset_mm: off,
+        },
+        Kind::Profile => {
+            // A measured profile: the widths some V-bit cuts at the card's depths (its z offset is
+            // in them: a profile is given in commanded depth).
+            let v = Tool::VBit {
+                angle_deg: rng.range(50.0, 100.0),
+                tip_flat_mm: rng.range(0.0, 0.02),
+                z_offset_mm: off,
+            };
+            let mut w = 0.0f64;
+            let points = card
+                .depths_mm
+                .iter()
+                .map(|&z| {
+                    w = w.max(v.section(z).map_or(0.0, |s| s.width));
+                    [z, w]
+                })
+                .collect();
+            Tool::Profile {
+                points,
+                w_over_w: rng.range(1.2, 2.0),
+                z_offset_mm: 0.0,
+            }
+        }
+    }
+}
+
+/// The errors of `fitted` against `truth` (same kind): angle, length, offset.
+pub fn errors(fitted: &Tool, truth: &Tool, card: &Card) -> [Option<f64>; 3] {
+    match (fitted, truth) {
+        (
+            Tool::VBit {
+                angle_deg: a,
+                tip_flat_mm: f,
+                z_offset_mm: o,
+            },
+            Tool::VBit {
+                angle_deg: ta,
+                tip_flat_mm: tf,
+                z_offset_mm: to,
+            },
+        ) => [Some((a - ta).abs()), Some((f - tf).abs()), Some((o - to).abs())],
+        (
+            Tool::Ball {
+                radius_mm: r,
+                z_offset_mm: o,
+            },
+            Tool::Ball {
+                radius_mm: tr,
+                z_offset_mm: to,
+            },
+        ) => [None, Some((r - tr).abs()), Some((o - to).abs())],
+        (
+            Tool::TaperedBall {
+                radius_mm: r,
+                angle_deg: a,
+                z_offset_mm: o,
+            },
+            Tool::TaperedBall {
+                radius_mm: tr,
+                angle_deg: ta,
+                z_offset_mm: to,
+            },
+        ) => [Some((a - ta).abs()), Some((r - tr).abs()), Some((o - to).abs())],
+        (Tool::Profile { .. }, Tool::Profile { .. }) => {
+            // The widths it cuts at the card's depths where the true tool leaves a groove.
+            let worst = card
+                .depths_mm
+                .iter()
+                .filter_map(|&z| {
+                    let t = truth.section(z).map_or(0.0, |s| s.width);
+                    (t > 0.0).then(|| (fitted.section(z).map_or(0.0, |s| s.width) - t).abs())
+                })
+                .fold(0.0, f64::max);
+            [None, Some(worst), None]
+        }
+        _ => [Some(f64::INFINITY), Some(f64::INFINITY), Some(f64::INFINITY)],
+    }
+}
+
+/// Whether errors are within what a plate needs.
+pub fn within(e: &[Option<f64>; 3]) -> bool {
+    e[0].is_none_or(|a| a <= ANGLE_TOL_DEG)
+        && e[1].is_none_or(|l| l <= LENGTH_TOL_MM)
+        && e[2].is_none_or(|o| o <= OFFSET_TOL_MM)
+}
+
+/// The true value of a fitted tool parameter, by the fit's name.
+fn true_param(truth: &Tool, name: &str) -> Option<f64> {
+    match (truth, name) {
+        (Tool::VBit { angle_deg, .. }, "angle_deg") | (Tool::TaperedBall { angle_deg, .. }, "angle_deg") => {
+            Some(*angle_deg)
+        }
+        (Tool::VBit { tip_flat_mm, .. }, "tip_flat_mm") => Some(*tip_flat_mm),
+        (Tool::Ball { radius_mm, .. }, "radius_mm") | (Tool::TaperedBall { radius_mm, .. }, "radius_mm") => {
+            Some(*radius_mm)
+        }
+        (t, "z_offset_mm") if !matches!(t, Tool::Profile { .. }) => Some(t.z_offset_mm()),
+        _ => None,
+    }
+}
+
+/// Runs the study; writes `study.csv` and `study.md` into `args.out`.
+pub fn run(renderer: &Renderer, args: &StudyArgs, obs: &dyn Observer) -> Result<Vec<Trial>> {
+    std::fs::create_dir_all(&args.out).with_context(|| format!("cannot create {}", args.out.display()))?;
+    let card = Card::new(&CardSpec::default());
+    let card_path = args.out.join("card.json");
+    scratchart::io::write_atomic(&card_path, serde_json::to_string_pretty(&card.to_json(256))?.as_bytes())?;
+    let (card, capture) = Card::load(&card_path)?;
+    let mut rng = Rng::new(args.seed);
+    let mut trials = Vec::new();
+    for t in 0..args.trials {
+        if obs.should_stop() {
+            break;
+        }
+        let kind = Kind::ALL[t % Kind::ALL.len()];
+        let truth = random_tool(&mut rng, kind, &card);
+        let dir = args.out.join(format!("trial{t:02}"));
+        let mut shots = Vec::new();
+        let mut images = Vec::new();
+        for v in 0..capture.views.len() {
+            let shot = random_shot(&mut rng, card.marks.len(), args.max_tilt);
+            let (p, _) = take(renderer, &card, &capture, v, &truth, &shot, &dir)?;
+            images.push(p);
+            shots.push(shot);
+        }
+        let out = dir.join("fit").join("tool.json");
+        let fa = FitArgs {
+            card: card_path.clone(),
+            images,
+            kind: Some(kind.name().into()),
+            out: out.clone(),
+            init: None,
+            iters: 15,
+            resume: false,
+            bootstrap: 0,
+            quiet: true,
+            allow_unidentified: false,
+            check: false,
+        };
+        let t0 = Instant::now();
+        let got = fit(renderer, &fa, &Silent);
+        let seconds = t0.elapsed().as_secs_f64();
+        let (outcome, fitted, errs) = match got {
+            Ok(()) => {
+                let (tool, _) = Tool::load_fitted(&out).map_err(|e| anyhow::anyhow!("{e}"))?;
+                let e = errors(&tool, &truth, &card);
+                let o = if within(&e) {
+                    Outcome::Recovered
+                } else {
+                    Outcome::WrongButAccepted
+                };
+                (o, Some(tool), e)
+            }
+            Err(e) if scratchart::exit::code_of(&e) == 3 => {
+                let msg = format!("{e:#}");
+                let first = msg
+                    .lines()
+                    .find(|l| l.trim_start().starts_with("- "))
+                    .unwrap_or(msg.lines().next().unwrap_or(""))
+                    .trim()
+                    .trim_start_matches("- ")
+                    .to_string();
+                // What the refused fit had found, from its report (when it got that far).
+                let report = PathBuf::from(format!("{}_report.json", out.with_extension("").display()));
+                let fitted = read_report_tool(&report);
+                let e = fitted.as_ref().map_or([None; 3], |f| errors(f, &truth, &card));
+                (Outcome::Refused(first), fitted, e)
+            }
+            Err(e) => return Err(e.context(format!("trial {t}"))),
+        };
+        let z = read_z(
+            &PathBuf::from(format!("{}_report.json", out.with_extension("").display())),
+            &truth,
+        );
+        obs.info(&format!(
+            "trial {t:2} {:13} {:>18} in {seconds:5.1} s: {}",
+            kind.name(),
+            outcome.label(),
+            describe(&truth)
+        ));
+        trials.push(Trial {
+            kind,
+            truth,
+            shots,
+            fitted,
+            errors: errs,
+            z,
+            outcome,
+            seconds,
+        });
+        write_tables(&args.out, &trials, args)?;
+    }
+    Ok(trials)
+}
+
+fn read_report_tool(report: &Path) -> Option<Tool> {
+    let v: serde_json::Value = serde_json::from_slice(&std::fs::read(report).ok()?).ok()?;
+    serde_json::from_value(v["tool"].clone()).ok()
+}
+
+/// (fitted - true) / sd for the tool parameters the report states an sd for.
+fn read_z(report: &Path, truth: &Tool) -> Vec<(String, f64)> {
+    let Some(v) = std::fs::read(report)
+        .ok()
+        .and_then(|b| serde_json::from_slice::<serde_json::Value>(&b).ok())
+    else {
+        return vec![];
+    };
+    v["params"]
+        .as_array()
+        .into_iter()
+        .flatten()
+        .filter_map(|p| {
+            let name = p["name"].as_str()?;
+            let (val, sd) = (p["value"].as_f64()?, p["sd"].as_f64()?);
+            let t = true_param(truth, name)?;
+            (sd > 0.0).then(|| (name.to_string(), (val - t) / sd))
+        })
+        .collect()
+}
+
+fn describe(t: &Tool) -> String {
+    match t {
+        Tool::VBit {
+            angle_deg,
+            tip_flat_mm,
+            z_offset_mm,
+        } => format!(
+            "V {angle_deg:.1} deg, flat {:.1} um, offset {:+.1} um",
+            tip_flat_mm * 1e3,
+            z_offset_mm * 1e3
+        ),
+        Tool::Ball { radius_mm, z_offset_mm } => {
+            format!("ball r {:.1} um, offset {:+.1} um", radius_mm * 1e3, z_offset_mm * 1e3)
+        }
+        Tool::TaperedBall {
+            radius_mm,
+            angle_deg,
+            z_offset_mm,
+        } => format!(
+            "tapered ball r {:.1} um, {angle_deg:.1} deg, offset {:+.1} um",
+            radius_mm * 1e3,
+            z_offset_mm * 1e3
+        ),
+        Tool::Profile { points, w_over_w, .. } => format!(
+            "profile, {} widths up to {:.1} um, w/W {w_over_w:.2}",
+            points.len(),
+            points.iter().map(|p| p[1]).fold(0.0, f64::max) * 1e3
+        ),
+    }
+}
+
+fn describe_shots(shots: &[Shot]) -> String {
+    shots
+        .iter()
+        .map(|s| {
+            format!(
+                "{:.1} MP {}, tilt {:.0} deg, roll {:.0}, exp {:.2}, blur {:.1} px, noise {:.1}%, vign {:.0}%{}",
+                s.megapixels,
+                s.jpeg_quality.map_or("PNG".to_string(), |q| format!("JPEG {q}")),
+                s.pose.tilt_deg,
+                s.pose.roll_deg,
+                s.exposure,
+                s.blur_px,
+                100.0 * s.noise,
+                100.0 * s.vignetting,
+                s.cover.map_or(String::new(), |k| format!(", mark {k} covered"))
+            )
+        })
+        .collect::<Vec<_>>()
+        .join(" / ")
+}
+
+fn fmt_err(e: Option<f64>, scale: f64, digits: usize) -> String {
+    e.map_or("-".into(), |v| {
+        if v.is_finite() {
+            format!("{:.*}", digits, v * scale)
+        } else {
+            "kind".into()
+        }
+    })
+}
+
+/// study.csv (one row per trial) and study.md (the table and the summary).
+fn write_tables(dir: &Path, trials: &[Trial], args: &StudyArgs) -> Result<()> {
+    let mut csv =
+        String::from("trial,kind,truth,outcome,reason,angle_err_deg,length_err_um,offset_err_um,seconds,photos\n");
+    let mut md = String::new();
+    md.push_str("| # | tool | photos (per view) | outcome | angle err | length err | offset err | time |\n");
+    md.push_str("|---|---|---|---|---|---|---|---|\n");
+    for (t, tr) in trials.iter().enumerate() {
+        let reason = match &tr.outcome {
+            Outcome::Refused(r) => r.clone(),
+            _ => String::new(),
+        };
+        csv.push_str(&format!(
+            "{t},{},\"{}\",{},\"{}\",{},{},{},{:.1},\"{}\"\n",
+            tr.kind.name(),
+            describe(&tr.truth),
+            tr.outcome.label(),
+            reason.replace('"', "'"),
+            fmt_err(tr.errors[0], 1.0, 2),
+            fmt_err(tr.errors[1], 1e3, 2),
+            fmt_err(tr.errors[2], 1e3, 2),
+            tr.seconds,
+            describe_shots(&tr.shots)
+        ));
+        md.push_str(&format!(
+            "| {t} | {} | {} | {}{} | {} | {} | {} | {:.0} s |\n",
+            describe(&tr.truth),
+            describe_shots(&tr.shots),
+            tr.outcome.label(),
+            if reason.is_empty() {
+                String::new()
+            } else {
+                format!(": {}", reason.chars().take(90).collect::<String>())
+            },
+            fmt_err(tr.errors[0], 1.0, 2) + " deg",
+            fmt_err(tr.errors[1], 1e3, 2) + " um",
+            fmt_err(tr.errors[2], 1e3, 2) + " um",
+            tr.seconds
+        ));
+    }
+    let n = trials.len();
+    let count = |f: &dyn Fn(&Outcome) -> bool| trials.iter().filter(|t| f(&t.outcome)).count();
+    let rec = count(&|o| *o == Outcome::Recovered);
+    let wrong = count(&|o| *o == Outcome::WrongButAccepted);
+    let refused = n - rec - wrong;
+    let zs: Vec<f64> = trials.iter().flat_map(|t| t.z.iter().map(|z| z.1)).collect();
+    let zs_acc: Vec<f64> = trials
+        .iter()
+        .filter(|t| t.outcome != Outcome::WrongButAccepted && !matches!(t.outcome, Outcome::Refused(_)))
+        .flat_map(|t| t.z.iter().map(|z| z.1))
+        .collect();
+    let cover = |v: &[f64]| {
+        if v.is_empty() {
+            f64::NAN
+        } else {
+            v.iter().filter(|z| z.abs() <= 1.0).count() as f64 / v.len() as f64
+        }
+    };
+    let mut times: Vec<f64> = trials.iter().map(|t| t.seconds).collect();
+    times.sort_by(|a, b| a.total_cmp(b));
+    let summary = format!(
+        "{n} random tools (seed {}, photos up to {} degrees off the capture pose): {rec} recovered within {ANGLE_TOL_DEG} \
+         degree, {:.0} um and {:.0} um; {refused} refused; {wrong} wrong but accepted. Fit time: median {:.0} s, \
+         longest {:.0} s. The truth lies within the stated one-sigma in {:.0}% of {} parameter estimates ({:.0}% of {} \
+         on accepted fits).\n",
+        args.seed,
+        args.max_tilt,
+        LENGTH_TOL_MM * 1e3,
+        OFFSET_TOL_MM * 1e3,
+        times.get(n / 2).copied().unwrap_or(0.0),
+        times.last().copied().unwrap_or(0.0),
+        100.0 * cover(&zs),
+        zs.len(),
+        100.0 * cover(&zs_acc),
+        zs_acc.len()
+    );
+    let md = format!("{summary}\n{md}");
+    scratchart::io::write_atomic(&dir.join("study.csv"), csv.as_bytes())?;
+    scratchart::io::write_atomic(&dir.join("study.md"), md.as_bytes())?;
+    scratchart::io::write_atomic(
+        &dir.join("study.json"),
+        serde_json::to_string_pretty(&json!({
+            "trials": n, "recovered": rec, "refused": refused, "wrong_but_accepted": wrong,
+            "coverage_1sigma": cover(&zs), "estimates": zs.len(),
+            "z": trials.iter().map(|t| t.z.iter().map(|z| json!([z.0, z.1])).collect::<Vec<_>>()).collect::<Vec<_>>(),
+        }))?
+        .as_bytes(),
+    )?;
+    Ok(())
+}
