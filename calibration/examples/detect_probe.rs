@@ -53,29 +53,6 @@ fn main() -> anyhow::Result<()> {
                 .iter()
                 .map(|t| [(t.0 * 10.0).round() / 10.0, (t.1 * 10.0).round() / 10.0])
                 .collect();
-            if std::env::var_os("ONLY").is_some_and(|o| o.to_string_lossy() == format!("t{t}v{v}")) {
-                println!("truth {truth:?}");
-                let plate: Vec<[f64; 2]> = card.marks.iter().map(|m| m.centre).collect();
-                let ht = scratchart_calibration::register::homography_lsq(&plate, &truth).unwrap();
-                println!(
-                    "camera from truth: {:?}",
-                    scratchart_calibration::fiducials::plausible_camera(&ht, small.width, small.height, &view)
-                );
-                let sub: Vec<usize> = vec![0, 2, 3, 4, 5];
-                let ht = scratchart_calibration::register::homography_lsq(
-                    &sub.iter().map(|&i| plate[i]).collect::<Vec<_>>(),
-                    &sub.iter().map(|&i| truth[i]).collect::<Vec<_>>(),
-                )
-                .unwrap();
-                println!(
-                    "camera from 5 truths: {:?}",
-                    scratchart_calibration::fiducials::plausible_camera(&ht, small.width, small.height, &view)
-                );
-                println!("true camera {:?}", tv.camera);
-                std::env::set_var("SCRATCHART_DEBUG_MARKS", "1");
-                let _ = find_marks(&small, &card, &view);
-                std::env::remove_var("SCRATCHART_DEBUG_MARKS");
-            }
             match got {
                 Ok(f) => {
                     let mut e = 0.0f64;

@@ -232,16 +232,24 @@ pub fn take(
             (l as f64 * shot.exposure * (1.0 - shot.vignetting * (x * x + y * y) / r2max)) as f32
         })
         .collect();
-    // A covered mark: a dark patch (a thumb in shadow) over its square and some way around.
+    // A covered mark: a black patch (a thumb in shadow, a clamp) over its square and beyond it
+    // towards the card's edge, so that nothing of the mark shows and the patch is not centred
+    // on it.
     if let Some(k) = shot.cover {
         let g = ViewGeom::new(&pv);
         let mk = &card.marks[k % card.marks.len()];
-        let pad = 1.6 * mk.half_mm;
+        let pad = 1.3 * mk.half_mm;
+        let out = [mk.centre[0].signum(), mk.centre[1].signum()];
+        let c = [
+            mk.centre[0] + out[0] * 1.5 * mk.half_mm,
+            mk.centre[1] + out[1] * 1.5 * mk.half_mm,
+        ];
+        let reach = pad + 1.5 * mk.half_mm;
         for (i, l) in lin.iter_mut().enumerate() {
             let (x, y) = ((i % rw) as u32, (i / rw) as u32);
             if let Some(q) = g.shading_point(x, y) {
-                if (q[0] - mk.centre[0]).abs() <= pad && (q[1] - mk.centre[1]).abs() <= pad {
-                    *l = 0.002;
+                if (q[0] - c[0]).abs() <= reach && (q[1] - c[1]).abs() <= reach {
+                    *l = 0.0;
                 }
             }
         }
