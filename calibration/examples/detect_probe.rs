@@ -44,15 +44,6 @@ fn main() -> anyhow::Result<()> {
             tv.camera.height = view.camera.height;
             tv.camera.width = view.camera.width;
             let g = ViewGeom::new(&tv);
-            let truth: Vec<(f64, f64)> = card
-                .marks
-                .iter()
-                .map(|m| g.project([m.centre[0], m.centre[1], 0.0]).unwrap())
-                .collect();
-            let truth: Vec<[f64; 2]> = truth
-                .iter()
-                .map(|t| [(t.0 * 10.0).round() / 10.0, (t.1 * 10.0).round() / 10.0])
-                .collect();
             match got {
                 Ok(f) => {
                     let mut e = 0.0f64;
