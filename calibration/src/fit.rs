@@ -39,7 +39,6 @@
 //! residual variance); pixel noise is treated as independent, so blur makes them optimistic by
 //! about the blur's width in pixels. A parameter whose uncertainty is larger than its stated
 //! limit is reported as not identified, not as a number.
-use scratchart::model::camera::ViewGeom;
 use scratchart::model::scene::{Scene, Scratch};
 use scratchart::observe::{Observer, Progress};
 use scratchart::render::tangent::{ScratchTangent, TANGENT_DIRECTIONS};
@@ -48,7 +47,6 @@ use scratchart_tool::Tool;
 use serde::{Deserialize, Serialize};
 
 use super::card::{Card, CutRole};
-use super::simulate::blur_shifted;
 
 /// The fit renders the card at this many times the photos' resolution (each way) and lets the
 /// optics blur and the pixels add up the light as a camera does (see `Evaluator::sensor`).
@@ -83,6 +81,7 @@ impl Kind {
 
 mod layout;
 pub use layout::{ANGLE_TOL_DEG, LENGTH_TOL_MM, OFFSET_TOL_MM};
+mod camera;
 mod lm;
 
 use layout::Layout;
@@ -274,57 +273,6 @@ impl Evaluator<'_, '_> {
         view
     }
 
-    /// The Jacobian columns (d residual / d x_k) of the camera terms `ks` of photos taken off
-    /// the capture pose, from the image's motion rather than new renders: moving the camera by
-    /// dx_k moves the light of each plate point from pixel p to p + F_k(p) dx_k (F_k from the
-    /// two cameras' projections), so the blurred supersampled image changes by
-    /// -grad(B) . F_k dx_k, which the pixels then add up. What the move does to the light itself
-    /// (the half-vector turns by a fraction of a degree per millimetre) is left out of the
-    /// derivative; every step is still judged on a real render.
-    fn motion_columns(&self, x: &[f64], lin: &[Vec<f32>], ks: &[usize]) -> Vec<Vec<f64>> {
-        let k_ss = self.ss as usize;
-        let mut cols = Vec::with_capacity(ks.len());
-        // The blurred supersampled images (their gradients move them), per view.
-        let blurred: Vec<Vec<f32>> = (0..lin.len()).map(|v| self.blurred(&lin[v], v, x)).collect();
-        let pred0: Vec<Vec<f32>> = (0..lin.len()).map(|v| self.expose(&blurred[v], v, x)).collect();
-        let base = self.residuals(&pred0);
-        for &k in ks {
-            let v = (0..lin.len())
-                .find(|&v| self.lay.pose_at[v].is_some_and(|i| (i..i + layout::POSE_PARAMS).contains(&k)))
-                .expect("a camera term of an off-pose photo");
-            let h = self.lay.params[k].step;
-            let mut xh = x.to_vec();
-            xh[k] += h;
-            let (g0, g1) = (
-                ViewGeom::new(&self.render_view(x, v)),
-                ViewGeom::new(&self.render_view(&xh, v)),
-            );
-            let c = &self.data.capture.views[v].camera;
-            let (w, hh) = (k_ss * c.width as usize, k_ss * c.height as usize);
-            let b = &blurred[v];
-            let mut moved = b.clone();
-            for yy in 1..hh - 1 {
-                for xx in 1..w - 1 {
-                    let (sx, sy) = (xx as f64 + 0.5, yy as f64 + 0.5);
-                    let Some(q) = g0.hit(sx, sy) else { continue };
-                    let Some(p1) = g1.project([q[0], q[1], 0.0]) else {
-                        continue;
-                    };
-                    let (fx, fy) = (p1.0 - sx, p1.1 - sy);
-                    let i = yy * w + xx;
-                    let gx = 0.5 * (b[i + 1] - b[i - 1]) as f64;
-                    let gy = 0.5 * (b[i + w] - b[i - w]) as f64;
-                    moved[i] = (b[i] as f64 - (gx * fx + gy * fy)) as f32;
-                }
-            }
-            let mut pred = pred0.clone();
-            pred[v] = self.expose(&moved, v, x);
-            let r1 = self.residuals(&pred);
-            cols.push(r1.iter().zip(&base).map(|(a, b)| (a - b) / h).collect());
-        }
-        cols
-    }
-
     /// Puts the card for `x` on the device (its grooves, and the eyes of photos taken off the
     /// capture pose), uploading it the first time.
     fn sync(&mut self, x: &[f64]) -> Result<(), FitError> {
@@ -421,127 +369,6 @@ impl Evaluator<'_, '_> {
             }
         }
         Ok(cols)
-    }
-
-    /// Model display images from linear renders and the camera part of `x` (see `blurred` and
-    /// `expose`), as `simulate` makes photos.
-    fn predict(&self, lin: &[Vec<f32>], x: &[f64]) -> Vec<Vec<f32>> {
-        lin.iter()
-            .enumerate()
-            .map(|(v, img)| self.expose(&self.blurred(img, v, x), v, x))
-            .collect()
-    }
-
-    /// The light the optics bring to the sensor of view v, from a linear render at `ss` times
-    /// the photo's resolution: a Gaussian blur, moved by the registration shift (both in the
-    /// photo's pixels), at that resolution. Blurring the render at the photo's own resolution
-    /// instead would blur light that the render has already added up over whole pixels, which
-    /// is not what a camera does with a groove a pixel wide: against a photo rendered at 4 times
-    /// the resolution (a camera's continuous optics) that gave residuals up to 0.08 and biased a
-    /// V angle by 4 degrees; twice the resolution leaves 0.016 (examples/cmp_probe).
-    fn blurred(&self, img: &[f32], v: usize, x: &[f64]) -> Vec<f32> {
-        let c = &self.data.capture.views[v].camera;
-        let k = self.ss as usize;
-        let (w, h) = (c.width as usize, c.height as usize);
-        let (dx, dy) = self.lay.shift(x, v);
-        let kf = k as f64;
-        blur_shifted(img, k * w, k * h, kf * self.lay.blur(x), kf * dx, kf * dy)
-    }
-
-    /// What the sensor of view v makes of the light `b` (at `ss` times its resolution): the
-    /// exposure and the shading across the frame scale it, the sensor clips it at full scale
-    /// where it falls (at its own fine pixels: a bright groove clips inside a photo's pixel that
-    /// the fit then averages, so clipping after the averaging would leave the fit's pixel
-    /// brighter than the photo's and bias the widths low), each of the fit's pixels adds up its
-    /// subpixels, and the display transform encodes the result.
-    fn expose(&self, b: &[f32], v: usize, x: &[f64]) -> Vec<f32> {
-        let e = self.lay.exposure(x, v);
-        let c = &self.data.capture.views[v].camera;
-        let [gx, gy, q] = self.lay.shade(x, v);
-        let k = self.ss as usize;
-        let (w, hh) = (c.width as usize, c.height as f64);
-        let ws = k * w;
-        let (cx, cy, s) = (0.5 * w as f64, 0.5 * hh, 2.0 / hh);
-        let kf = k as f64;
-        let lit: Vec<f32> = b
-            .iter()
-            .enumerate()
-            .map(|(i, &l)| {
-                let (px, py) = (
-                    (((i % ws) as f64 + 0.5) / kf - cx) * s,
-                    (((i / ws) as f64 + 0.5) / kf - cy) * s,
-                );
-                let f = (gx * px + gy * py + q * (px * px + py * py)).exp();
-                ((l as f64 * e * f) as f32).min(1.0)
-            })
-            .collect();
-        self.reduce(&lit, v)
-            .into_iter()
-            .map(|l| scratchart::io::display_value(l).min(1.0))
-            .collect()
-    }
-
-    /// Each pixel of view v adds up the light of its `SUPERSAMPLE` x `SUPERSAMPLE` subpixels.
-    fn reduce(&self, b: &[f32], v: usize) -> Vec<f32> {
-        let c = &self.data.capture.views[v].camera;
-        let k = self.ss as usize;
-        let (w, h) = (c.width as usize, c.height as usize);
-        if k == 1 {
-            return b.to_vec();
-        }
-        let norm = 1.0 / (k * k) as f32;
-        let mut out = vec![0f32; w * h];
-        for y in 0..h {
-            for sy in 0..k {
-                let row = &b[(y * k + sy) * k * w..(y * k + sy + 1) * k * w];
-                for xo in 0..w {
-                    let mut acc = 0.0;
-                    for sx in 0..k {
-                        acc += row[xo * k + sx];
-                    }
-                    out[y * w + xo] += acc * norm;
-                }
-            }
-        }
-        out
-    }
-
-    /// The log exposure of view `v` that fits its photo best with the rest of `x` (a scan in
-    /// steps of 1 over [-10, 10], then golden-section search; no render).
-    fn best_exposure(&self, v: usize, lin: &[f32], x: &[f64]) -> f64 {
-        let b = self.blurred(lin, v, x);
-        let k = self.lay.n_tool + 1 + v;
-        let cost = |le: f64| {
-            let mut xe = x.to_vec();
-            xe[k] = le;
-            let r: Vec<f64> = self
-                .expose(&b, v, &xe)
-                .iter()
-                .zip(&self.data.photos[v])
-                .zip(&self.data.masks[v])
-                .filter(|(_, m)| **m)
-                .map(|((m, p), _)| (m - p) as f64)
-                .collect();
-            cauchy(&r, 0.01)
-        };
-        let mut best = (f64::INFINITY, 0.0);
-        for step in -10..=10 {
-            let c = cost(step as f64);
-            if c < best.0 {
-                best = (c, step as f64);
-            }
-        }
-        let (mut a, mut b) = (best.1 - 1.0, best.1 + 1.0);
-        let g = 0.5 * (5f64.sqrt() - 1.0);
-        for _ in 0..16 {
-            let (m1, m2) = (b - g * (b - a), a + g * (b - a));
-            if cost(m1) < cost(m2) {
-                b = m2;
-            } else {
-                a = m1;
-            }
-        }
-        0.5 * (a + b)
     }
 
     /// Residuals (model - photo) over the masked pixels, all views in order (times the square
@@ -812,19 +639,7 @@ pub fn fit_kind(
     let np = ev.lay.params.len();
     let s_r = scratchart::optim::least_squares::robust_scale(&r, lm::MIN_SCALE);
     let wts: Vec<f64> = r.iter().map(|e| 1.0 / (1.0 + e * e / (s_r * s_r))).collect();
-    let mut jtj = vec![vec![0.0; np]; np];
-    for i in 0..np {
-        for j in 0..=i {
-            let v: f64 = cols[i]
-                .iter()
-                .zip(&cols[j])
-                .zip(&wts)
-                .map(|((a, b), w)| a * b * w)
-                .sum();
-            jtj[i][j] = v;
-            jtj[j][i] = v;
-        }
-    }
+    let jtj = scratchart::optim::least_squares::weighted_gram(&cols, &wts);
     let wsum: f64 = r.iter().zip(&wts).map(|(e, w)| w * e * e).sum();
     let s2 = wsum / (n.saturating_sub(np)).max(1) as f64;
     // Covariance over the parameters the photos see at all (a zero column, such as a profile
@@ -918,12 +733,7 @@ pub fn fit_kind(
                     let sigma = data.noise.get(v).copied().unwrap_or(0.0);
                     let noisy: Vec<f32> = img
                         .iter()
-                        .map(|&m| {
-                            // Box-Muller
-                            let (u1, u2) = (rng.f64().max(1e-300), rng.f64());
-                            let n = (-2.0 * u1.ln()).sqrt() * (2.0 * std::f64::consts::PI * u2).cos();
-                            (((m as f64 + sigma * n).clamp(0.0, 1.0) * 255.0).round() / 255.0) as f32
-                        })
+                        .map(|&m| (((m as f64 + sigma * rng.normal()).clamp(0.0, 1.0) * 255.0).round() / 255.0) as f32)
                         .collect();
                     match data.jpeg.get(v).copied().flatten() {
                         // Against the model with its JPEG change (what the fit compares).

@@ -260,10 +260,7 @@ pub fn take(
     let pw = ((ph as f64 * aspect).round() as u32).max(32);
     let big = scratchart::io::resize_bilinear(&lin, rw as u32, rh as u32, pw, ph);
     let mut rng = Rng::new(shot.seed);
-    let mut gauss = move || {
-        let (u1, u2) = (rng.range(1e-12, 1.0), rng.range(0.0, 1.0));
-        (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos()
-    };
+    let mut gauss = move || rng.normal();
     let mut rgb = Vec::with_capacity(big.len() * 3);
     for &l in &big {
         for c in 0..3 {

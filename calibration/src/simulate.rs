@@ -148,13 +148,8 @@ pub fn photos(
                 .into_iter()
                 .map(|l| scratchart::io::display_value((l as f64 * camera.exposure) as f32))
                 .map(|x| {
-                    // Box-Muller from the project's generator (reproducible).
-                    let n = if camera.noise > 0.0 {
-                        let (u1, u2) = (rng.range(1e-12, 1.0), rng.range(0.0, 1.0));
-                        (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos()
-                    } else {
-                        0.0
-                    };
+                    // The project's generator (reproducible).
+                    let n = if camera.noise > 0.0 { rng.normal() } else { 0.0 };
                     (x as f64 + camera.noise * n).clamp(0.0, 1.0) as f32
                 })
                 .collect()

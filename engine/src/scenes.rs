@@ -25,6 +25,11 @@ impl Rng {
     pub fn range(&mut self, lo: f64, hi: f64) -> f64 {
         lo + (hi - lo) * self.f64()
     }
+    /// Standard normal (Box-Muller, the cosine branch: two uniforms per draw).
+    pub fn normal(&mut self) -> f64 {
+        let (u1, u2) = (self.range(1e-12, 1.0), self.range(0.0, 1.0));
+        (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos()
+    }
 }
 
 /// A camera on a sphere around the plate centre, looking at it, with the plate filling the view.

@@ -62,6 +62,20 @@ pub fn cauchy(r: &[f64], s: f64) -> f64 {
     r.iter().map(|x| 0.5 * s * s * (x * x / (s * s)).ln_1p()).sum()
 }
 
+/// J^T W J for the Jacobian's columns `cols` and the residuals' weights `wts` (W diagonal).
+pub fn weighted_gram(cols: &[Vec<f64>], wts: &[f64]) -> Vec<Vec<f64>> {
+    let np = cols.len();
+    let mut a = vec![vec![0.0; np]; np];
+    for i in 0..np {
+        for j in 0..=i {
+            let v: f64 = cols[i].iter().zip(&cols[j]).zip(wts).map(|((a, b), w)| a * b * w).sum();
+            a[i][j] = v;
+            a[j][i] = v;
+        }
+    }
+    a
+}
+
 /// Solves the symmetric positive definite system a x = b (Cholesky); `None` when it is not.
 pub fn solve_spd(a: &[Vec<f64>], b: &[f64]) -> Option<Vec<f64>> {
     let n = b.len();
@@ -142,20 +156,11 @@ pub fn solve<P: LeastSquares>(
         let wts: Vec<f64> = r.iter().map(|e| 1.0 / (1.0 + e * e / (s * s))).collect();
         let cols = p.jacobian(&x, &r)?;
         assert_eq!(cols.len(), np, "one Jacobian column per parameter");
-        let mut g = vec![0.0; np];
-        for i in 0..np {
-            g[i] = cols[i].iter().zip(&r).zip(&wts).map(|((j, e), w)| j * e * w).sum();
-            for j in 0..=i {
-                let v: f64 = cols[i]
-                    .iter()
-                    .zip(&cols[j])
-                    .zip(&wts)
-                    .map(|((a, b), w)| a * b * w)
-                    .sum();
-                jtj[i][j] = v;
-                jtj[j][i] = v;
-            }
-        }
+        let g: Vec<f64> = cols
+            .iter()
+            .map(|c| c.iter().zip(&r).zip(&wts).map(|((j, e), w)| j * e * w).sum())
+            .collect();
+        jtj = weighted_gram(&cols, &wts);
         let max_diag = (0..np).map(|i| jtj[i][i]).fold(0.0f64, f64::max);
         let mut improved = false;
         for _ in 0..6 {

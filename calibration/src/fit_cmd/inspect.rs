@@ -1,0 +1,249 @@
+//! Each photo as the fit will use it: loaded, shrunk, registered, checked; and `fit --check`.
+use std::path::{Path, PathBuf};
+
+use anyhow::Result;
+use scratchart::exit::InputError;
+use scratchart::model::camera::ViewGeom;
+
+use crate::card::Card;
+use crate::register::{load_photo, register};
+
+/// One photo as the fit will use it: shrunk to the capture view's scale, registered by the
+/// card's marks, its camera recovered, the pixels the fit compares, its own noise.
+pub struct Inspection {
+    pub file: PathBuf,
+    /// The photo's size as taken.
+    pub taken: (u32, u32),
+    /// Its JPEG quality, when it is a JPEG the fit compares on its own pixel grid.
+    pub jpeg: Option<u8>,
+    /// The photo at the capture view's height (its own aspect kept), display values.
+    pub image: crate::photo::Gray,
+    /// The camera that took it, at `image`'s size, with the capture view's name and lamp.
+    pub view: scratchart::model::scene::View,
+    /// The marks found, with confidences.
+    pub found: crate::fiducials::Found,
+    /// Taken off the capture pose (its camera from the marks, its eye refined by the fit).
+    pub off_pose: bool,
+    /// How far the camera stood from the capture position, mm.
+    pub moved_mm: f64,
+    /// Pixels the fit compares.
+    pub mask: Vec<bool>,
+    /// The photo's own pixel noise at `image`'s size (display units).
+    pub noise: f64,
+    /// Of the bright pixels the fit compares, the fraction at full white.
+    pub saturated: f64,
+}
+
+impl Inspection {
+    /// One line on the photo: size, marks found and their confidence, the camera, the noise.
+    pub fn summary(&self) -> String {
+        let c = &self.view.camera;
+        let conf: Vec<String> = self
+            .found
+            .confidence
+            .iter()
+            .zip(&self.found.points)
+            .map(|(k, p)| if p.is_some() { format!("{k:.2}") } else { "-".into() })
+            .collect();
+        format!(
+            "{}: {}x{} photo of view {}: {} of {} marks (confidence {}; {:.2} px rms), taken from ({:.0}, {:.0}, {:.0}) mm, \
+             {:.1} mm from the capture position; noise {:.4}",
+            self.file.display(),
+            self.taken.0,
+            self.taken.1,
+            self.view.name,
+            self.found.count(),
+            self.found.points.len(),
+            conf.join(" "),
+            self.found.rms_px,
+            c.eye[0],
+            c.eye[1],
+            c.eye[2],
+            self.moved_mm,
+            self.noise
+        )
+    }
+}
+
+/// Loads, registers and checks the photo `file` of capture view `v`: refused (exit 3, naming the
+/// photo and the reason) when it cannot be read, the card's marks are not found in it, the
+/// camera they give is not one near the capture view, or it is saturated.
+pub fn inspect_photo(
+    card: &Card,
+    capture: &scratchart::model::scene::Scene,
+    v: &scratchart::model::scene::View,
+    f: &Path,
+) -> Result<Inspection> {
+    let half = 0.5 * capture.plate.size_mm;
+    let img = load_photo(f).map_err(InputError)?;
+    // The photo shrunk by a whole factor k to at most the capture view's height (never
+    // enlarged), its own aspect kept (square pixels): each pixel the mean light of k x k of the
+    // photo's, as the model's pixels add up their subpixels. A fractional factor (640 x 480 to
+    // 256 high: 1.875) mixes pixels with weights that change with the sub-pixel phase, a blur
+    // the model cannot follow: it put a 75 degree V-bit at 73.9 with a stated +- 0.12. The rows
+    // and columns left over are cropped evenly from both sides (the field of view with them).
+    let mut v = v.clone();
+    let k = img.height.div_ceil(v.camera.height).max(1);
+    let (w, h) = ((img.width / k).max(16), (img.height / k).max(16));
+    let cropped = crate::photo::crop_centre(&img, (w * k).min(img.width), (h * k).min(img.height));
+    let t = (0.5 * v.camera.fov_y_deg).to_radians().tan() * cropped.height as f64 / img.height as f64;
+    v.camera.fov_y_deg = 2.0 * t.atan().to_degrees();
+    (v.camera.width, v.camera.height) = (w, h);
+    let small = crate::register::resize(&cropped, w, h);
+    // A photo mostly white is saturated before anything can be found in it (the marks alone
+    // may be white: they are a small part of the frame).
+    let white = small.data.iter().filter(|x| **x >= 0.99).count();
+    if white * 6 > small.data.len() {
+        return Err(InputError(format!(
+            "photo `{}` is saturated: {:.0}% of it is full white, so neither the card's marks nor its grooves \
+             can be read; lower the exposure (or the lamp) and photograph again",
+            f.display(),
+            100.0 * white as f64 / small.data.len() as f64
+        ))
+        .into());
+    }
+    let not_found = |e: String| {
+        InputError(format!(
+            "card not found in photo `{}` (view {}): {e}. At least {} of the card's {} hatched marks must \
+             glint; photograph from the capture position of card.json with the lamp where it says (see \
+             capture_guide.png beside card.json)",
+            f.display(),
+            v.name,
+            card.marks.len().min(5),
+            card.marks.len()
+        ))
+    };
+    let reg = register(&small, card, &v).map_err(not_found)?;
+    // The camera that took the photo, from the marks: the card is rendered as that camera saw it
+    // (the light on the grooves depends on where the camera stood), and the photo is used as
+    // taken, without resampling. Within 2 px of the capture view everywhere, the capture camera
+    // explains the photo better than a camera from a few marks found to about 0.3 px (its focal
+    // length and distance trade against each other); the fit's shift takes up the rest.
+    let off_pose = reg.pose_offset_px > 2.0;
+    let camera = if off_pose {
+        crate::fiducials::plausible_camera(&reg.found.plate_to_image, v.camera.width, v.camera.height, &v).map_err(
+            |e| {
+                InputError(format!(
+                    "photo `{}` (view {}): the camera recovered from the card's marks is implausible: {e}. \
+                     Photograph from the capture position of card.json",
+                    f.display(),
+                    v.name
+                ))
+            },
+        )?
+    } else {
+        v.camera.clone()
+    };
+    let e = v.camera.eye;
+    let moved_mm =
+        ((camera.eye[0] - e[0]).powi(2) + (camera.eye[1] - e[1]).powi(2) + (camera.eye[2] - e[2]).powi(2)).sqrt();
+    let fv = scratchart::model::scene::View { camera, ..v.clone() };
+    let mask = fit_mask(card, &fv, half);
+    // Saturation, over the pixels the fit compares (the marks glint brightest and are left out).
+    let bright = small.data.iter().zip(&mask).filter(|(x, m)| **m && **x > 0.25).count();
+    let sat = small.data.iter().zip(&mask).filter(|(x, m)| **m && **x >= 0.99).count();
+    let saturated = if bright > 0 { sat as f64 / bright as f64 } else { 0.0 };
+    if saturated > 0.5 {
+        return Err(InputError(format!(
+            "photo `{}` is saturated: {sat} of its {bright} bright pixels on the ladder are full white, so groove \
+             widths cannot be read; lower the exposure (or the lamp) and photograph again",
+            f.display()
+        ))
+        .into());
+    }
+    let noise = crate::fiducials::pixel_noise_in(&small, Some(&mask));
+    // A JPEG compared on its own pixel grid: the fit puts the same JPEG on its model.
+    let jpeg = if (small.width, small.height) == (img.width, img.height) {
+        crate::photo::jpeg_quality(f)
+    } else {
+        None
+    };
+    Ok(Inspection {
+        file: f.to_path_buf(),
+        taken: (img.width, img.height),
+        jpeg,
+        image: small,
+        view: fv,
+        found: reg.found,
+        off_pose,
+        moved_mm,
+        mask,
+        noise,
+        saturated,
+    })
+}
+
+/// `fit --check`: says of each photo whether the fit can use it, without fitting. A photo named
+/// after a capture view is checked against it, others against the views in order. Exit 3 when
+/// any is unusable.
+pub(super) fn check_photos(card: &Card, capture: &scratchart::model::scene::Scene, images: &[PathBuf]) -> Result<()> {
+    let mut bad = Vec::new();
+    for (i, f) in images.iter().enumerate() {
+        let stem = f
+            .file_stem()
+            .map(|s| s.to_string_lossy().to_string())
+            .unwrap_or_default();
+        let v = capture
+            .views
+            .iter()
+            .find(|v| v.name == stem)
+            .unwrap_or(&capture.views[i % capture.views.len()]);
+        let t = std::time::Instant::now();
+        match inspect_photo(card, capture, v, f) {
+            Ok(insp) => {
+                let weak: Vec<&str> = insp
+                    .found
+                    .confidence
+                    .iter()
+                    .zip(&card.marks)
+                    .filter(|(c, _)| **c < 0.5)
+                    .map(|(_, m)| m.label.as_str())
+                    .collect();
+                println!("usable   {} ({:.1} s)", insp.summary(), t.elapsed().as_secs_f64());
+                if !weak.is_empty() {
+                    println!("         marks not found or weak: {}", weak.join(", "));
+                }
+                if insp.saturated > 0.1 {
+                    println!(
+                        "         {:.0}% of the ladder's bright pixels are full white: a lower exposure reads the widths better",
+                        100.0 * insp.saturated
+                    );
+                }
+            }
+            Err(e) => {
+                println!("UNUSABLE {}: {e:#}", f.display());
+                bad.push(f.display().to_string());
+            }
+        }
+    }
+    if bad.is_empty() {
+        Ok(())
+    } else {
+        Err(InputError(format!(
+            "{} of {} photo(s) cannot be used: {}",
+            bad.len(),
+            images.len(),
+            bad.join(", ")
+        ))
+        .into())
+    }
+}
+
+/// The pixels of view `view` the fit compares: on the card, and away from the fiducial marks
+/// (their squares widened by 1.5 times their half side, past the blur of their light).
+pub fn fit_mask(card: &Card, view: &scratchart::model::scene::View, half_plate: f64) -> Vec<bool> {
+    let g = ViewGeom::new(view);
+    let mut mask = g.on_plate_mask(half_plate);
+    let w = view.camera.width;
+    for (i, m) in mask.iter_mut().enumerate() {
+        if *m {
+            let (x, y) = (i as u32 % w, i as u32 / w);
+            if let Some(q) = g.shading_point(x, y) {
+                if card.marks.iter().any(|mk| mk.covers(q, 1.5 * mk.half_mm)) {
+                    *m = false;
+                }
+            }
+        }
+    }
+    mask
+}

@@ -1,0 +1,228 @@
+//! The fit's verdict: the checks that refuse a fit (exit 3, no tool.json) or write it.
+use super::is_tool_param;
+use crate::fit::FitResult;
+
+/// What the fit's checks found: reasons to refuse (no tool.json, exit 3), the unidentified
+/// parameters written anyway (`--allow-unidentified`), and the tool parameters not identified.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Verdict {
+    pub reasons: Vec<String>,
+    pub allowed: Vec<String>,
+    pub unidentified: Vec<String>,
+}
+
+/// The checks that keep a wrong tool.json from being written: each photo's residual against
+/// its own noise (`residual`: per photo, the RMS residual and the noise; `photos`: how to name
+/// each), a parameter of the grooves at a bound of its range, and a tool parameter whose
+/// uncertainty is above what a plate needs (refused unless `allow_unidentified`).
+pub fn verdict(best: &FitResult, residual: &[(f64, f64)], photos: &[String], allow_unidentified: bool) -> Verdict {
+    let mut reasons: Vec<String> = Vec::new();
+    for (v, (rms, nz)) in residual.iter().enumerate() {
+        let floor = nz.max(RESIDUAL_FLOOR);
+        if !(rms / floor <= RESIDUAL_MAX) {
+            reasons.push(format!(
+                "{}: the fit leaves a residual of rms {rms:.4}, {:.1} times what the photo's own noise ({nz:.4}) \
+                 explains (at most {RESIDUAL_MAX}): this is not the card as a {} cuts it (another tool, another \
+                 card, not a card), or the photo has what the model lacks (glare, a smudge, a card that is not \
+                 flat); see the residual image",
+                photos[v],
+                rms / floor,
+                best.kind.name()
+            ));
+        }
+    }
+    for name in &best.at_bound {
+        let k = best.params.iter().position(|p| &p.0 == name).expect("a parameter");
+        reasons.push(format!(
+            "{name} ended at a bound of its range ({:.5}): the tool that fits best lies outside what this kind of \
+             tool can be; try another --kind or check the photos",
+            best.params[k].1
+        ));
+    }
+    let unidentified: Vec<String> = best
+        .unidentified()
+        .into_iter()
+        .filter(|n| is_tool_param(n) && n != "alpha")
+        .collect();
+    let mut allowed = Vec::new();
+    for name in &unidentified {
+        let k = best.params.iter().position(|p| &p.0 == name).expect("a parameter");
+        let msg = format!(
+            "{name} is not identified: +- {} where a plate needs at most {:.5}: the grooves that tell it are too \
+             dim, saturated, noisy or compressed in the photos, or missing. Photograph again with the lamp and \
+             exposure of the capture guide, the phone steady (less noise), saved at full size as PNG or the \
+             highest JPEG quality",
+            best.sd
+                .get(k)
+                .copied()
+                .flatten()
+                .map_or("undefined".to_string(), |s| format!("{s:.5}")),
+            best.limits.get(k).copied().unwrap_or(f64::NAN)
+        );
+        if allow_unidentified {
+            allowed.push(msg);
+        } else {
+            reasons.push(msg);
+        }
+    }
+    Verdict {
+        reasons,
+        allowed,
+        unidentified,
+    }
+}
+
+/// The residual's RMS may be at most this many times the photo's own pixel noise (or
+/// `RESIDUAL_FLOOR`, whichever is larger): beyond it the model does not explain the photo.
+pub const RESIDUAL_MAX: f64 = 3.0;
+/// The smallest noise the residual is compared with (display units): 8-bit steps, JPEG and the
+/// model's own error leave about this much even in a clean photo (a clean PNG: 0.0012 rms; a
+/// clean quality-90 JPEG at the view's size: 0.0022). At 0.004 a tapered ball 14 um off whose
+/// residual was 5 times its photo's noise (0.0073 against 0.0014, a 19-megapixel photo shrunk)
+/// was accepted, at 0.002 a V-bit 3.6 degrees off (0.0051 against 0.0014).
+pub const RESIDUAL_FLOOR: f64 = 0.0012;
+
+#[cfg(test)]
+mod verdict_tests {
+    use super::*;
+    use crate::fit::Kind;
+    use scratchart_tool::Tool;
+
+    /// A V-bit fit whose tool parameters have the given standard deviations.
+    fn result(sd: [f64; 3], at_bound: &[&str]) -> FitResult {
+        let names = ["angle_deg", "tip_flat_mm", "z_offset_mm", "alpha", "blur_px"];
+        let values = [75.0, 0.015, 0.007, 0.1, 0.6];
+        let limits = [0.5, 0.0025, 0.0015, 0.1, 1.0];
+        let sds = [sd[0], sd[1], sd[2], 0.001, 0.01];
+        FitResult {
+            kind: Kind::VBit,
+            tool: Tool::VBit {
+                angle_deg: 75.0,
+                tip_flat_mm: 0.015,
+                z_offset_mm: 0.007,
+            },
+            alpha: 0.1,
+            exposure: vec![1.0, 1.0],
+            blur_px: 0.6,
+            params: (0..5)
+                .map(|k| (names[k].to_string(), values[k], (sds[k] <= limits[k]).then_some(sds[k])))
+                .collect(),
+            loss: 1e-6,
+            rms: 0.004,
+            pixels: 50_000,
+            bic: 0.0,
+            renders: 0,
+            tangent_passes: 0,
+            iterations: 0,
+            bootstrap: None,
+            curvature: vec![None; 5],
+            sd: sds.iter().map(|s| Some(*s)).collect(),
+            limits: limits.to_vec(),
+            unseen: vec![],
+            at_bound: at_bound.iter().map(|s| s.to_string()).collect(),
+        }
+    }
+
+    fn photos() -> Vec<String> {
+        vec![
+            "photo `a.jpg` (view cam_south)".into(),
+            "photo `b.jpg` (view cam_west)".into(),
+        ]
+    }
+
+    #[test]
+    fn a_good_fit_is_accepted() {
+        let v = verdict(
+            &result([0.1, 0.001, 0.0005], &[]),
+            &[(0.006, 0.005), (0.003, 0.0)],
+            &photos(),
+            false,
+        );
+        assert_eq!(v, Verdict::default());
+    }
+
+    #[test]
+    fn a_residual_the_noise_does_not_explain_is_refused_naming_the_photo() {
+        // 0.03 against noise 0.005: 6 times.
+        let v = verdict(
+            &result([0.1, 0.001, 0.0005], &[]),
+            &[(0.006, 0.005), (0.03, 0.005)],
+            &photos(),
+            false,
+        );
+        assert_eq!(v.reasons.len(), 1, "{v:?}");
+        assert!(
+            v.reasons[0].contains("b.jpg") && v.reasons[0].contains("6.0 times"),
+            "{v:?}"
+        );
+        // A clean photo's noise is floored (quantization, JPEG, the model's own error): 0.003
+        // against 0 is 2.5 times, 0.007 against 0 is 5.8 times.
+        let v = verdict(
+            &result([0.1, 0.001, 0.0005], &[]),
+            &[(0.003, 0.0), (0.0025, 0.0)],
+            &photos(),
+            false,
+        );
+        assert!(v.reasons.is_empty(), "{v:?}");
+        let v = verdict(
+            &result([0.1, 0.001, 0.0005], &[]),
+            &[(0.007, 0.0), (0.003, 0.0)],
+            &photos(),
+            false,
+        );
+        assert_eq!(v.reasons.len(), 1, "{v:?}");
+        // NaN is refused, not passed.
+        let v = verdict(
+            &result([0.1, 0.001, 0.0005], &[]),
+            &[(f64::NAN, 0.005), (0.003, 0.0)],
+            &photos(),
+            false,
+        );
+        assert_eq!(v.reasons.len(), 1, "{v:?}");
+    }
+
+    #[test]
+    fn a_parameter_at_its_bound_is_refused() {
+        let v = verdict(
+            &result([0.1, 0.001, 0.0005], &["tip_flat_mm"]),
+            &[(0.004, 0.004); 2],
+            &photos(),
+            false,
+        );
+        assert_eq!(v.reasons.len(), 1, "{v:?}");
+        assert!(v.reasons[0].starts_with("tip_flat_mm ended at a bound"), "{v:?}");
+        // --allow-unidentified does not let a parameter at its bound through.
+        let v = verdict(
+            &result([0.1, 0.001, 0.0005], &["angle_deg"]),
+            &[(0.004, 0.004); 2],
+            &photos(),
+            true,
+        );
+        assert_eq!(v.reasons.len(), 1, "{v:?}");
+    }
+
+    #[test]
+    fn an_unidentified_tool_parameter_is_refused_unless_allowed() {
+        // The angle +- 0.8 degrees where a plate needs 0.5.
+        let v = verdict(
+            &result([0.8, 0.001, 0.0005], &[]),
+            &[(0.004, 0.004); 2],
+            &photos(),
+            false,
+        );
+        assert_eq!(v.unidentified, vec!["angle_deg".to_string()]);
+        assert_eq!(v.reasons.len(), 1, "{v:?}");
+        assert!(
+            v.reasons[0].contains("angle_deg is not identified: +- 0.80000"),
+            "{v:?}"
+        );
+        let v = verdict(
+            &result([0.8, 0.001, 0.0005], &[]),
+            &[(0.004, 0.004); 2],
+            &photos(),
+            true,
+        );
+        assert!(v.reasons.is_empty(), "{v:?}");
+        assert_eq!(v.allowed.len(), 1, "{v:?}");
+    }
+}
