@@ -1,17 +1,21 @@
 //! The tool fit: the tool's parameters, the z offset, the groove walls' roughness, each photo's
-//! exposure and the camera's blur, fitted to registered photos of the card by rendering the card
+//! exposure and blur, fitted to registered photos of the card by rendering the card
 //! with the engine.
 //!
 //! Forward model, per capture view v: the engine renders the card as the tool cuts it (every
 //! ladder cut and fiducial becomes the scratch model's groove for the tool at its commanded depth),
-//! the linear image is blurred by a Gaussian of sigma b px (the optics blur light, before the
-//! sensor), scaled by the exposure E_v, mapped to display values (1/2.2 power) and clipped at 1 as
-//! a sensor clips, as `scratchart-cal simulate` does. The Gaussian's centre is moved by a fitted
-//! sub-pixel shift per view: the photometric registration, with no resampling of anything
-//! (resampling blurs by an amount that changes with the sub-pixel phase and biased the groove
-//! shapes). Each view is the camera that took its photo (`fit_cmd`: the capture view, or the
-//! camera recovered from the card's hatched marks when the photo was taken elsewhere), at the photo's
-//! size after shrinking in linear light.
+//! the linear image is blurred by a Gaussian of sigma b_v px (each photo its own: its focus,
+//! shake and scale), scaled by the exposure E_v and a smooth shading across the frame, clipped
+//! at 1 as a sensor clips, its subpixels added up, mapped to display values (1/2.2 power), and
+//! then taken as the mean of that value plus the photo's noise s_v clipped to [0, 1] (a phone
+//! clips its noise at black in every dark pixel, which lifts a dark plate: 2.5% of noise put a
+//! 58 um ball at 39.5 um). The Gaussian's centre is moved by a fitted sub-pixel shift per view:
+//! the photometric registration, with no resampling of anything (resampling blurs by an amount
+//! that changes with the sub-pixel phase and biased the groove shapes). Each view is the camera
+//! that took its photo (`fit_cmd`: the capture view, or the camera recovered from the card's
+//! hatched marks when the photo was taken elsewhere, refined by the fit and held by the marks
+//! found: see `Evaluator::mark_residuals`), at the photo's size after shrinking in linear light
+//! by the whole factor that gives the card about the capture view's scale.
 //!
 //! Loss: a robust (Cauchy) sum over the on-card pixels of the capture views, scale
 //! s = 1.4826 MAD of the residuals at the start of each iteration (at least 0.002), so a dust
@@ -113,6 +117,11 @@ pub struct Data<'a> {
     /// Per view: the photo's own pixel noise (display units, `fiducials::pixel_noise`), for the
     /// check of what noise, 8-bit steps and JPEG do to the fit (see `fit_kind`).
     pub noise: Vec<f64>,
+    /// Per view: the card's marks found in its photo, (plate point in mm, image point in the
+    /// view's pixels), and how well they were found (pixels). Where the fit refines a photo's
+    /// camera, they hold it: its eye alone moves the grooves' light in ways the tool's shape can
+    /// take up (see `Evaluator::mark_residuals`).
+    pub marks: Vec<(Vec<([f64; 2], [f64; 2])>, f64)>,
 }
 
 /// What a fit found.
@@ -122,7 +131,8 @@ pub struct FitResult {
     pub tool: Tool,
     pub alpha: f64,
     pub exposure: Vec<f64>,
-    pub blur_px: f64,
+    /// Each photo's blur (Gaussian sigma, pixels of the photo as the fit uses it).
+    pub blur_px: Vec<f64>,
     /// Parameter names and values, with their uncertainties (None: not identified).
     pub params: Vec<(String, f64, Option<f64>)>,
     /// Robust loss at the optimum (per pixel), the RMS residual (display units), pixels used.
@@ -409,6 +419,39 @@ impl Evaluator<'_, '_> {
         b
     }
 
+    /// The marks' residuals of the photos whose camera is refined: where the camera at `x` (and
+    /// the photo's registration shift) puts each mark found, less where it was found, in units
+    /// of how well it was found and scaled to the pixels' own noise (`scale`), so that a mark
+    /// weighs as a pixel would at its noise. Without them, a ball's radius came out 2.1 um off
+    /// with its uncertainty 0.57 um: the eye moved 10 mm along its line of sight with the field
+    /// of view, which the image barely shows but the light on the grooves does.
+    pub(super) fn mark_residuals(&self, x: &[f64], scale: f64) -> Vec<f64> {
+        let mut r = Vec::new();
+        let ss = self.ss as f64;
+        for (v, (marks, sigma)) in self.data.marks.iter().enumerate() {
+            if self.lay.pose_at.get(v).copied().flatten().is_none() {
+                continue;
+            }
+            let g = scratchart::model::camera::ViewGeom::new(&self.render_view(x, v));
+            let (dx, dy) = self.lay.shift(x, v);
+            for (plate, found) in marks {
+                let (px, py) = g
+                    .project([plate[0], plate[1], 0.0])
+                    .map_or((f64::NAN, f64::NAN), |p| (p.0 / ss + dx, p.1 / ss + dy));
+                r.push((px - found[0]) / sigma * scale);
+                r.push((py - found[1]) / sigma * scale);
+            }
+        }
+        // (a mark behind the camera: a large residual, not a NaN)
+        r.iter().map(|e| if e.is_finite() { *e } else { 1.0 }).collect()
+    }
+
+    /// The pixel noise the marks' residuals are scaled to (see `mark_residuals`).
+    pub(super) fn mark_scale(&self) -> f64 {
+        let n = self.data.noise.iter().copied().fold(0.0, f64::max);
+        n.max(lm::MIN_SCALE)
+    }
+
     /// Residuals at `x` from linear renders `lin` already made for its tool part.
     fn residuals_at(&self, x: &[f64], lin: &[Vec<f32>]) -> Vec<f64> {
         self.residuals(&self.predict(lin, x))
@@ -564,6 +607,8 @@ pub fn fit_kind(
                 for v in 0..ev.lay.n_views {
                     let k = ev.lay.n_tool + 1 + v;
                     x[k] = ev.best_exposure(v, &lin[v], &x);
+                    x[ev.lay.lift_at + v] = ev.best_clipped_noise(v, &lin[v], &x);
+                    x[k] = ev.best_exposure(v, &lin[v], &x);
                 }
                 let r = ev.residuals_at(&x, &lin);
                 scored.push((cauchy(&r, 0.01), x, *rg));
@@ -634,7 +679,7 @@ pub fn fit_kind(
     // pixels are not independent (the camera's blur, JPEG's 8 x 8 blocks, a phone's
     // demosaicing: blocks of 16 x 16 pixels at the fit's scale) and where the model misses
     // something the photo has; both are given, the sandwich is the one used.
-    let (r, cols) = lm::jacobian_at(&mut ev, &x, best_rg)?;
+    let (r, cols) = lm::jacobian_at(&mut ev, &x, best_rg, true)?;
     let n = r.len();
     let np = ev.lay.params.len();
     let s_r = scratchart::optim::least_squares::robust_scale(&r, lm::MIN_SCALE);
@@ -645,13 +690,20 @@ pub fn fit_kind(
     // Covariance over the parameters the photos see at all (a zero column, such as a profile
     // width above the surface, is not identified and would make the whole matrix singular).
     let max_diag = (0..np).map(|i| jtj[i][i]).fold(0.0f64, f64::max);
-    let seen: Vec<usize> = (0..np).filter(|&i| jtj[i][i] > 1e-12 * max_diag).collect();
+    // (A photo's clipped noise near 0 changes nothing but the darkest pixels, to second order:
+    // its column vanishes there, and it is held fixed.)
+    let seen: Vec<usize> = (0..np)
+        .filter(|&i| jtj[i][i] > 1e-12 * max_diag)
+        .filter(|&i| !(ev.lay.params[i].name.starts_with("clipped_noise[") && x[i] < 0.005))
+        .collect();
     let ns = seen.len();
     let reduced: Vec<Vec<f64>> = seen
         .iter()
         .map(|&i| seen.iter().map(|&j| jtj[i][j]).collect())
         .collect();
-    let blocks = ev.residual_blocks(16);
+    let mut blocks = ev.residual_blocks(16);
+    // (each mark's residual a block of its own)
+    blocks.extend((blocks.len()..r.len()).map(|i| u64::MAX - i as u64));
     let mut ids: Vec<u64> = blocks.clone();
     ids.sort_unstable();
     ids.dedup();
@@ -827,7 +879,7 @@ pub fn fit_kind(
         tool: lay.tool(&x),
         alpha: lay.alpha(&x),
         exposure: (0..lay.n_views).map(|v| lay.exposure(&x, v)).collect(),
-        blur_px: lay.blur(&x),
+        blur_px: (0..lay.n_views).map(|v| lay.blur(&x, v)).collect(),
         params,
         loss,
         rms,

@@ -1,0 +1,167 @@
+//! Which of a phone's degradations moves the tool fit, one at a time, against the truth:
+//! `cargo run --release -p scratchart-calibration --example factor_probe -- [ball|v-bit|tapered-ball] [variant...]`.
+//! Each variant changes one thing of a sharp on-pose PNG shot (the same for both views) and
+//! prints the fitted tool beside the true one, the stated uncertainties and the residuals.
+use scratchart::observe::Silent;
+use scratchart::render::Renderer;
+use scratchart::vulkan::{Context, ContextDesc};
+use scratchart_calibration::card::{Card, CardSpec};
+use scratchart_calibration::fit_cmd::{run, FitArgs};
+use scratchart_calibration::phone::{take, Pose, Shot};
+use scratchart_tool::Tool;
+
+fn variant(name: &str) -> Shot {
+    let mut s = Shot {
+        blur_px: 0.8,
+        megapixels: 0.5,
+        ..Shot::default()
+    };
+    match name {
+        "base" => {}
+        "tilt" => {
+            s.pose.tilt_deg = 9.0;
+            s.pose.tilt_dir_deg = 30.0;
+        }
+        "roll" => s.pose.roll_deg = 104.0,
+        "shift" => s.pose.shift_mm = [15.0, -15.0, 10.0],
+        "fov" => {
+            s.pose.fov_scale = 1.25;
+            s.pose.aspect = 0.75;
+        }
+        "big" => s.megapixels = 13.0,
+        "light" => {
+            s.exposure = 0.5;
+            s.vignetting = 0.3;
+            s.cast = [1.2, 1.0, 0.8];
+        }
+        "noise" => s.noise = 0.025,
+        "jpeg" => s.jpeg_quality = Some(75),
+        "blur" => s.blur_px = 1.8,
+        "all" => {
+            s.pose = Pose {
+                tilt_deg: 9.0,
+                tilt_dir_deg: 30.0,
+                shift_mm: [15.0, -15.0, 10.0],
+                aim_mm: [2.0, -3.0],
+                roll_deg: 104.0,
+                fov_scale: 1.25,
+                aspect: 0.75,
+            };
+            s.noise = 0.02;
+            s.jpeg_quality = Some(80);
+            s.blur_px = 1.4;
+        }
+        other => panic!("unknown variant {other}"),
+    }
+    s
+}
+
+fn main() -> anyhow::Result<()> {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let kind = args.first().cloned().unwrap_or_else(|| "ball".into());
+    let names: Vec<String> = if args.len() > 1 {
+        args[1..].to_vec()
+    } else {
+        ["base", "tilt", "roll", "shift", "fov", "big", "light", "noise", "jpeg", "blur"]
+            .map(String::from)
+            .to_vec()
+    };
+    let truth = match kind.as_str() {
+        "ball" => Tool::Ball {
+            radius_mm: 0.058,
+            z_offset_mm: 0.0074,
+        },
+        "tapered-ball" => Tool::TaperedBall {
+            radius_mm: 0.046,
+            angle_deg: 35.5,
+            z_offset_mm: -0.0002,
+        },
+        _ => Tool::VBit {
+            angle_deg: 78.5,
+            tip_flat_mm: 0.0143,
+            z_offset_mm: -0.0067,
+        },
+    };
+    let ctx = Context::new(ContextDesc::default())?;
+    let r = Renderer::new(&ctx)?;
+    let card = Card::new(&CardSpec::default());
+    let dir = std::env::temp_dir().join("factor_probe");
+    std::fs::create_dir_all(&dir)?;
+    let p = dir.join("card.json");
+    std::fs::write(&p, serde_json::to_string(&card.to_json(256))?)?;
+    let (card, capture) = Card::load(&p)?;
+    println!("truth {truth:?}");
+    for name in &names {
+        let shot = variant(name);
+        let d = dir.join(name);
+        let _ = std::fs::remove_dir_all(&d);
+        let mut images = Vec::new();
+        for v in 0..capture.views.len() {
+            let mut s = shot.clone();
+            s.seed += v as u64;
+            images.push(take(&r, &card, &capture, v, &truth, &s, &d)?.0);
+        }
+        let out = d.join("fit").join("tool.json");
+        let fa = FitArgs {
+            card: p.clone(),
+            images,
+            kind: Some(kind.clone()),
+            out: out.clone(),
+            init: None,
+            iters: 15,
+            resume: false,
+            bootstrap: 0,
+            quiet: true,
+            allow_unidentified: true,
+            check: false,
+        };
+        let t0 = std::time::Instant::now();
+        let got = run(&r, &fa, &Silent);
+        let secs = t0.elapsed().as_secs_f64();
+        let report = d.join("fit").join("tool_report.json");
+        let rep: serde_json::Value = std::fs::read(&report)
+            .ok()
+            .and_then(|b| serde_json::from_slice(&b).ok())
+            .unwrap_or_default();
+        let params: Vec<String> = rep["params"]
+            .as_array()
+            .into_iter()
+            .flatten()
+            .filter(|q| {
+                let n = q["name"].as_str().unwrap_or("");
+                !n.starts_with("registration") && !n.starts_with("shade") && !n.starts_with("ln_exp")
+            })
+            .map(|q| {
+                format!(
+                    "{} {:.5}+-{:.5}",
+                    q["name"].as_str().unwrap_or("?"),
+                    q["value"].as_f64().unwrap_or(f64::NAN),
+                    q["sd"].as_f64().unwrap_or(f64::NAN)
+                )
+            })
+            .collect();
+        let res: Vec<String> = rep["fit"]["photos"]
+            .as_array()
+            .into_iter()
+            .flatten()
+            .map(|ph| {
+                format!(
+                    "res {:.4}/noise {:.4}",
+                    ph["residual_rms"].as_f64().unwrap_or(f64::NAN),
+                    ph["noise"].as_f64().unwrap_or(f64::NAN)
+                )
+            })
+            .collect();
+        println!(
+            "{name:6} {:>6.1} s {}: {} | {}",
+            secs,
+            match &got {
+                Ok(()) => "accepted".to_string(),
+                Err(e) => format!("refused ({})", format!("{e:#}").lines().last().unwrap_or("").chars().take(90).collect::<String>()),
+            },
+            params.join(", "),
+            res.join(", ")
+        );
+    }
+    Ok(())
+}
