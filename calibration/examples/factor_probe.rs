@@ -62,9 +62,11 @@ fn main() -> anyhow::Result<()> {
     let names: Vec<String> = if args.len() > 1 {
         args[1..].to_vec()
     } else {
-        ["base", "tilt", "roll", "shift", "fov", "big", "light", "noise", "jpeg", "blur"]
-            .map(String::from)
-            .to_vec()
+        [
+            "base", "tilt", "roll", "shift", "fov", "big", "light", "noise", "jpeg", "blur",
+        ]
+        .map(String::from)
+        .to_vec()
     };
     let truth = match kind.as_str() {
         "ball" => Tool::Ball {
@@ -157,7 +159,16 @@ fn main() -> anyhow::Result<()> {
             secs,
             match &got {
                 Ok(()) => "accepted".to_string(),
-                Err(e) => format!("refused ({})", format!("{e:#}").lines().last().unwrap_or("").chars().take(90).collect::<String>()),
+                Err(e) => format!(
+                    "refused ({})",
+                    format!("{e:#}")
+                        .lines()
+                        .last()
+                        .unwrap_or("")
+                        .chars()
+                        .take(90)
+                        .collect::<String>()
+                ),
             },
             params.join(", "),
             res.join(", ")

@@ -330,7 +330,10 @@ pub fn run(renderer: &Renderer, args: &FitArgs, obs: &dyn Observer) -> Result<()
             .iter()
             .map(|e| (e * 1000.0).round() / 1000.0)
             .collect::<Vec<_>>(),
-        best.blur_px.iter().map(|b| (b * 100.0).round() / 100.0).collect::<Vec<_>>()
+        best.blur_px
+            .iter()
+            .map(|b| (b * 100.0).round() / 100.0)
+            .collect::<Vec<_>>()
     );
     // The verdict: what would make tool.json wrong.
     let residual: Vec<(f64, f64)> = (0..capture.views.len())
