@@ -105,17 +105,8 @@ fn main() -> anyhow::Result<()> {
         }
         let out = d.join("fit").join("tool.json");
         let fa = FitArgs {
-            card: p.clone(),
-            images,
-            kind: Some(kind.clone()),
-            out: out.clone(),
-            init: None,
-            iters: 15,
-            resume: false,
-            bootstrap: 0,
-            quiet: true,
             allow_unidentified: true,
-            check: false,
+            ..FitArgs::quiet(&p, images, Some(&kind), &out)
         };
         let t0 = std::time::Instant::now();
         let got = run(&r, &fa, &Silent);

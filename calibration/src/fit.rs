@@ -87,10 +87,12 @@ mod layout;
 pub use layout::{ANGLE_TOL_DEG, LENGTH_TOL_MM, OFFSET_TOL_MM};
 mod camera;
 mod lm;
+mod uncertainty;
 
 use layout::Layout;
 use lm::refine;
-use scratchart::optim::least_squares::{cauchy, solve_spd, Solution};
+use scratchart::optim::least_squares::{cauchy, Solution};
+use uncertainty::Uncertainty;
 
 /// The fit's data: the card, its capture views and the registered photos.
 pub struct Data<'a> {
@@ -607,8 +609,6 @@ pub fn fit_kind(
                 for v in 0..ev.lay.n_views {
                     let k = ev.lay.n_tool + 1 + v;
                     x[k] = ev.best_exposure(v, &lin[v], &x);
-                    x[ev.lay.lift_at + v] = ev.best_clipped_noise(v, &lin[v], &x);
-                    x[k] = ev.best_exposure(v, &lin[v], &x);
                 }
                 let r = ev.residuals_at(&x, &lin);
                 scored.push((cauchy(&r, 0.01), x, *rg));
@@ -619,6 +619,14 @@ pub fn fit_kind(
         ev.gs = None;
         scored.sort_by(|a, b| a.0.total_cmp(&b.0));
         starts = scored.into_iter().take(2).map(|s| (s.1, s.2)).collect();
+        // The two best: each photo's clipped noise, and the exposure again with it.
+        for (x, _) in &mut starts {
+            let lin = ev.render(x)?;
+            for (v, img) in lin.iter().enumerate() {
+                x[ev.lay.lift_at + v] = ev.best_clipped_noise(v, img, x);
+                x[ev.lay.n_tool + 1 + v] = ev.best_exposure(v, img, x);
+            }
+        }
     }
     on_starts(&starts);
     let mut best: Option<(Solution, Option<(f64, f64)>)> = None;
@@ -653,6 +661,25 @@ pub fn fit_kind(
         }
     }
     let (Solution { mut x, mut cost, .. }, best_rg) = best.expect("at least one start");
+    // Each photo's clipped noise again, now with the tool found (the search had only its start),
+    // and the rest refined again where it moved.
+    {
+        let lin = ev.render(&x)?;
+        let mut moved = false;
+        for (v, img) in lin.iter().enumerate() {
+            let k = ev.lay.lift_at + v;
+            let s = ev.best_clipped_noise(v, img, &x);
+            moved |= (s - x[k]).abs() > 0.001;
+            x[k] = s;
+        }
+        if moved {
+            let label = format!("{} after the clipped noise", kind.name());
+            let got = refine(&mut ev, x, best_rg, cfg.iters.min(8), obs, &label)?;
+            iterations += cfg.iters.min(8);
+            x = got.x;
+            cost = got.cost;
+        }
+    }
     // JPEG photos compared on their own pixel grid: the model takes the JPEG's change to it
     // (see `Data::jpeg`) and is refined again from where it stands.
     if data.jpeg.iter().any(|q| q.is_some()) {
@@ -673,188 +700,15 @@ pub fn fit_kind(
             cost = got.cost;
         }
     }
-    // Uncertainties: the block sandwich (cluster-robust) covariance A^-1 B A^-1 at the optimum,
-    // A = J^T W J and B = sum over blocks of g_b g_b^T, g_b = sum over the block's pixels of
-    // w r J (W the robust weights). Unlike the curvature's s^2 A^-1 it holds where neighbouring
-    // pixels are not independent (the camera's blur, JPEG's 8 x 8 blocks, a phone's
-    // demosaicing: blocks of 16 x 16 pixels at the fit's scale) and where the model misses
-    // something the photo has; both are given, the sandwich is the one used.
-    let (r, cols) = lm::jacobian_at(&mut ev, &x, best_rg, true)?;
+    let Uncertainty {
+        params,
+        curvature,
+        sd: raw_sd,
+        unseen,
+        residuals: r,
+    } = uncertainty::at_optimum(&mut ev, data, &x, best_rg)?;
     let n = r.len();
     let np = ev.lay.params.len();
-    let s_r = scratchart::optim::least_squares::robust_scale(&r, lm::MIN_SCALE);
-    let wts: Vec<f64> = r.iter().map(|e| 1.0 / (1.0 + e * e / (s_r * s_r))).collect();
-    let jtj = scratchart::optim::least_squares::weighted_gram(&cols, &wts);
-    let wsum: f64 = r.iter().zip(&wts).map(|(e, w)| w * e * e).sum();
-    let s2 = wsum / (n.saturating_sub(np)).max(1) as f64;
-    // Covariance over the parameters the photos see at all (a zero column, such as a profile
-    // width above the surface, is not identified and would make the whole matrix singular).
-    let max_diag = (0..np).map(|i| jtj[i][i]).fold(0.0f64, f64::max);
-    // (A photo's clipped noise near 0 changes nothing but the darkest pixels, to second order:
-    // its column vanishes there, and it is held fixed.)
-    let seen: Vec<usize> = (0..np)
-        .filter(|&i| jtj[i][i] > 1e-12 * max_diag)
-        .filter(|&i| !(ev.lay.params[i].name.starts_with("clipped_noise[") && x[i] < 0.005))
-        .collect();
-    let ns = seen.len();
-    let reduced: Vec<Vec<f64>> = seen
-        .iter()
-        .map(|&i| seen.iter().map(|&j| jtj[i][j]).collect())
-        .collect();
-    let mut blocks = ev.residual_blocks(16);
-    // (each mark's residual a block of its own)
-    blocks.extend((blocks.len()..r.len()).map(|i| u64::MAX - i as u64));
-    let mut ids: Vec<u64> = blocks.clone();
-    ids.sort_unstable();
-    ids.dedup();
-    let mut g = vec![vec![0.0f64; ns]; ids.len()];
-    for (i, b) in blocks.iter().enumerate() {
-        let k = ids.binary_search(b).expect("block listed");
-        let wr = wts[i] * r[i];
-        for (a, &p) in seen.iter().enumerate() {
-            g[k][a] += wr * cols[p][i];
-        }
-    }
-    let nb = ids.len() as f64;
-    let corr = if nb > 1.0 {
-        nb / (nb - 1.0) * (n as f64 - 1.0) / (n as f64 - ns as f64).max(1.0)
-    } else {
-        1.0
-    };
-    let mut bmat = vec![vec![0.0f64; ns]; ns];
-    for gb in &g {
-        for a in 0..ns {
-            for c in 0..ns {
-                bmat[a][c] += corr * gb[a] * gb[c];
-            }
-        }
-    }
-    // A^-1, column by column.
-    let ainv: Option<Vec<Vec<f64>>> = (0..ns)
-        .map(|a| {
-            let mut e = vec![0.0; ns];
-            e[a] = 1.0;
-            solve_spd(&reduced, &e)
-        })
-        .collect();
-    // The model's own error: the fit renders at SUPERSAMPLE times the photos' resolution, which
-    // is not the camera's continuous optics. The shift of the parameters that the residual
-    // change to a render at twice that resolution asks for, A^-1 J^T W (r_fine - r), is added in
-    // quadrature to each standard deviation (it is a bias no pixel noise shows).
-    let model_shift: Option<Vec<f64>> = {
-        ev.ss = 2 * SUPERSAMPLE;
-        ev.gs = None;
-        let fine = ev.eval(&x);
-        ev.ss = SUPERSAMPLE;
-        ev.gs = None;
-        let (rf, _) = fine?;
-        let g: Vec<f64> = seen
-            .iter()
-            .map(|&p| {
-                cols[p]
-                    .iter()
-                    .zip(&rf)
-                    .zip(&r)
-                    .zip(&wts)
-                    .map(|(((j, a), b), w)| j * (a - b) * w)
-                    .sum()
-            })
-            .collect();
-        solve_spd(&reduced, &g)
-    };
-    // What the photo's own degradations do to the fit beyond the noise the sandwich sees: the
-    // model image at the optimum, given the photo's noise, clipped to black and white, stepped to
-    // 8 bits and (a JPEG on its own grid) through the same JPEG, four times; the mean parameter
-    // shift A^-1 J^T W (degraded - model) is a bias of these steps (noise clipped at black lifts
-    // a dark plate; JPEG's quantization of a noisy groove is not JPEG's quantization of the
-    // groove), added in quadrature like the model's own error (it also holds half the noise's
-    // own spread over four draws: the sum errs large).
-    let degrade_shift: Option<Vec<f64>> = {
-        let lin = ev.render(&x)?;
-        let pred = ev.predict(&lin, &x);
-        let base = ev.residuals(&pred);
-        let mut rng = scratchart::scenes::Rng::new(0x5eed);
-        let reps = 4;
-        let mut mean = vec![0.0; ns];
-        let mut ok = true;
-        for _ in 0..reps {
-            let deg: Vec<Vec<f32>> = pred
-                .iter()
-                .enumerate()
-                .map(|(v, img)| {
-                    let sigma = data.noise.get(v).copied().unwrap_or(0.0);
-                    let noisy: Vec<f32> = img
-                        .iter()
-                        .map(|&m| (((m as f64 + sigma * rng.normal()).clamp(0.0, 1.0) * 255.0).round() / 255.0) as f32)
-                        .collect();
-                    match data.jpeg.get(v).copied().flatten() {
-                        // Against the model with its JPEG change (what the fit compares).
-                        Some(q) => {
-                            let c = &data.capture.views[v].camera;
-                            let back = super::photo::jpeg_round_trip(&noisy, c.width, c.height, q);
-                            match &ev.jpeg_shift[v] {
-                                Some(sh) => back.iter().zip(sh).map(|(b, s)| b - s).collect(),
-                                None => back,
-                            }
-                        }
-                        None => noisy,
-                    }
-                })
-                .collect();
-            let rd = ev.residuals(&deg);
-            let g: Vec<f64> = seen
-                .iter()
-                .map(|&p| {
-                    cols[p]
-                        .iter()
-                        .zip(&rd)
-                        .zip(&base)
-                        .zip(&wts)
-                        .map(|(((j, a), b), w)| j * (b - a) * w)
-                        .sum()
-                })
-                .collect();
-            match solve_spd(&reduced, &g) {
-                Some(d) => mean.iter_mut().zip(&d).for_each(|(m, d)| *m += d / reps as f64),
-                None => ok = false,
-            }
-        }
-        ok.then_some(mean)
-    };
-    let mut params = Vec::with_capacity(np);
-    let mut curvature = Vec::with_capacity(np);
-    let mut raw_sd = Vec::with_capacity(np);
-    for k in 0..np {
-        let q = &ev.lay.params[k];
-        let pos = seen.iter().position(|&i| i == k);
-        let (sd, sd_curv) = match (pos, &ainv) {
-            (Some(a), Some(ai)) => {
-                // (A^-1 B A^-1)_aa = sum_bc Ai_ab B_bc Ai_ca (A^-1 symmetric)
-                let mut var = 0.0;
-                for b in 0..ns {
-                    for c in 0..ns {
-                        var += ai[b][a] * bmat[b][c] * ai[c][a];
-                    }
-                }
-                let vc = s2 * ai[a][a];
-                let m = model_shift.as_ref().map_or(0.0, |d| d[a]);
-                let dg = degrade_shift.as_ref().map_or(0.0, |d| d[a]);
-                let var = var + m * m + dg * dg;
-                (
-                    (var.is_finite() && var >= 0.0).then(|| var.sqrt()),
-                    (vc.is_finite() && vc >= 0.0).then(|| vc.sqrt()),
-                )
-            }
-            _ => (None, None),
-        };
-        curvature.push(sd_curv);
-        raw_sd.push(sd);
-        params.push((q.name.clone(), x[k], sd.filter(|sd| *sd <= q.limit)));
-    }
-    let unseen: Vec<String> = (0..np)
-        .filter(|k| !seen.contains(k))
-        .map(|k| ev.lay.params[k].name.clone())
-        .collect();
     let at_bound: Vec<String> = (0..np)
         .filter(|&k| {
             let q = &ev.lay.params[k];
@@ -866,7 +720,7 @@ pub fn fit_kind(
         .map(|k| ev.lay.params[k].name.clone())
         .collect();
     let bootstrap = if cfg.bootstrap > 0 {
-        Some(bootstrap(&mut ev, &x, best_rg, cfg.bootstrap, obs)?)
+        Some(uncertainty::bootstrap(&mut ev, &x, best_rg, cfg.bootstrap, obs)?)
     } else {
         None
     };
@@ -895,42 +749,6 @@ pub fn fit_kind(
         unseen,
         at_bound,
     })
-}
-
-/// Bootstrap uncertainties: `reps` refits from the optimum `x` (6 iterations each), every one
-/// with the residuals of 8 x 8-pixel blocks weighted by independent Exp(1) weights (the Bayesian
-/// bootstrap; blocks, because the camera's blur makes neighbouring pixels agree), and the
-/// standard deviation of each parameter over the refits. Unlike the curvature's uncertainties it
-/// sees the correlation of neighbouring pixels and the trade-offs the fit's local quadratic
-/// misses. Seeded: the same data give the same numbers.
-fn bootstrap(
-    ev: &mut Evaluator,
-    x: &[f64],
-    rg: Option<(f64, f64)>,
-    reps: u32,
-    obs: &dyn Observer,
-) -> Result<Vec<f64>, FitError> {
-    let blocks = ev.residual_blocks(8);
-    let mut ids: Vec<u64> = blocks.clone();
-    ids.sort_unstable();
-    ids.dedup();
-    let mut rng = scratchart::scenes::Rng::new(0);
-    let mut fits: Vec<Vec<f64>> = Vec::new();
-    for b in 0..reps {
-        let wb: Vec<f64> = ids.iter().map(|_| -(1.0 - rng.f64()).ln()).collect();
-        ev.weights = Some(blocks.iter().map(|id| wb[ids.binary_search(id).unwrap()]).collect());
-        let label = format!("bootstrap {}/{reps}", b + 1);
-        let got = refine(ev, x.to_vec(), rg, 6, obs, &label);
-        ev.weights = None;
-        fits.push(got?.x);
-    }
-    let m = fits.len() as f64;
-    Ok((0..x.len())
-        .map(|k| {
-            let mean = fits.iter().map(|f| f[k]).sum::<f64>() / m;
-            (fits.iter().map(|f| (f[k] - mean).powi(2)).sum::<f64>() / (m - 1.0).max(1.0)).sqrt()
-        })
-        .collect())
 }
 
 /// Model display images of a fitted tool and the photos as the fit registered them (for the

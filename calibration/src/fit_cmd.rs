@@ -99,6 +99,27 @@ fn pair_photos(images: &[PathBuf], names: &[String]) -> Result<Vec<PathBuf>> {
     Ok(images.to_vec())
 }
 
+impl FitArgs {
+    /// The flags of a quiet fit of `kind` (None: every kind) to `images` of `card`, writing
+    /// `out`, with the defaults of the command line: what the study, the examples and the tests
+    /// run.
+    pub fn quiet(card: &Path, images: Vec<PathBuf>, kind: Option<&str>, out: &Path) -> FitArgs {
+        FitArgs {
+            card: card.to_path_buf(),
+            images,
+            kind: kind.map(String::from),
+            out: out.to_path_buf(),
+            init: None,
+            iters: 15,
+            resume: false,
+            bootstrap: 0,
+            quiet: true,
+            allow_unidentified: false,
+            check: false,
+        }
+    }
+}
+
 pub fn run(renderer: &Renderer, args: &FitArgs, obs: &dyn Observer) -> Result<()> {
     let (card, capture) = Card::load(&args.card).map_err(|e| InputError(format!("{e:#}")))?;
     let names: Vec<String> = capture.views.iter().map(|v| v.name.clone()).collect();

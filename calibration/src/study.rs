@@ -216,19 +216,7 @@ pub fn run(renderer: &Renderer, args: &StudyArgs, obs: &dyn Observer) -> Result<
             shots.push(shot);
         }
         let out = dir.join("fit").join("tool.json");
-        let fa = FitArgs {
-            card: card_path.clone(),
-            images,
-            kind: Some(kind.name().into()),
-            out: out.clone(),
-            init: None,
-            iters: 15,
-            resume: false,
-            bootstrap: 0,
-            quiet: true,
-            allow_unidentified: false,
-            check: false,
-        };
+        let fa = FitArgs::quiet(&card_path, images, Some(kind.name()), &out);
         let t0 = Instant::now();
         let got = fit(renderer, &fa, &Silent);
         let seconds = t0.elapsed().as_secs_f64();

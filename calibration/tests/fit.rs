@@ -102,21 +102,12 @@ fn fit(
     out: &Path,
 ) -> anyhow::Result<(Tool, serde_json::Value)> {
     let args = FitArgs {
-        card: card.to_path_buf(),
-        images,
-        // "auto": no --kind, every kind fitted and the best chosen
-        kind: (kind != "auto").then(|| kind.into()),
-        out: out.to_path_buf(),
-        init: None,
-        iters: 15,
-        resume: false,
-        bootstrap: 0,
-        quiet: true,
         // A measured profile's deep widths trade with the exposure (about 7%, more than the
         // 2.5 um a plate's lengths need): the profile tests check them against their stated
         // uncertainties instead, so they write them anyway.
         allow_unidentified: kind == "profile" || kind == "auto",
-        check: false,
+        // "auto": no --kind, every kind fitted and the best chosen
+        ..FitArgs::quiet(card, images, (kind != "auto").then_some(kind), out)
     };
     run(r, &args, &Silent)?;
     let (tool, fitted) = Tool::load_fitted(out).unwrap();

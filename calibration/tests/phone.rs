@@ -30,19 +30,7 @@ fn card(dir: &Path) -> (Card, scratchart::model::scene::Scene, PathBuf) {
 }
 
 fn args(card: &Path, images: Vec<PathBuf>, kind: &str, out: &Path) -> FitArgs {
-    FitArgs {
-        card: card.to_path_buf(),
-        images,
-        kind: Some(kind.into()),
-        out: out.to_path_buf(),
-        init: None,
-        iters: 15,
-        resume: false,
-        bootstrap: 0,
-        quiet: true,
-        allow_unidentified: false,
-        check: false,
-    }
+    FitArgs::quiet(card, images, Some(kind), out)
 }
 
 /// The photos of every capture view, each with its own shot.

@@ -149,7 +149,7 @@ impl Evaluator<'_, '_> {
     pub(super) fn best_exposure(&self, v: usize, lin: &[f32], x: &[f64]) -> f64 {
         let k = self.lay.n_tool + 1 + v;
         let b = self.blurred(lin, v, x);
-        let cost = self.view_cost(v, &b, x, k);
+        let cost = self.view_cost(v, &b, x, k, &self.data.masks[v]);
         let mut best = (f64::INFINITY, 0.0);
         for step in -10..=10 {
             let c = cost(step as f64);
@@ -161,17 +161,35 @@ impl Evaluator<'_, '_> {
     }
 
     /// The clipped noise of view `v` (`Layout::clipped_noise`) that fits its photo best with the
-    /// rest of `x` (golden-section search over [0, 0.2]; no render). The refinement's linear
-    /// steps cannot reach it from afar: its effect on a pixel of value d grows like the
-    /// normal density at d / s.
+    /// rest of `x` (golden-section search over [0, 0.2]; no render), judged on the dark plate
+    /// only (the model's pixels below a tenth of full scale): there it is all that lifts the
+    /// light, where on the grooves it would trade with their widths (a measured profile's widths
+    /// and a noise of twice the truth). The refinement's linear steps cannot reach it from
+    /// afar: its effect on a pixel of value d grows like the normal density at d / s.
     pub(super) fn best_clipped_noise(&self, v: usize, lin: &[f32], x: &[f64]) -> f64 {
         let b = self.blurred(lin, v, x);
-        golden(self.view_cost(v, &b, x, self.lay.lift_at + v), 0.0, 0.2)
+        let k = self.lay.lift_at + v;
+        let mut x0 = x.to_vec();
+        x0[k] = 0.0;
+        let dark: Vec<bool> = self
+            .expose(&b, v, &x0)
+            .iter()
+            .zip(&self.data.masks[v])
+            .map(|(m, ok)| *ok && *m < 0.1)
+            .collect();
+        golden(self.view_cost(v, &b, x, k, &dark), 0.0, 0.2)
     }
 
-    /// The robust cost of view `v` against its photo as a function of parameter `k` alone, the
-    /// optics' light `b` given.
-    fn view_cost<'s>(&'s self, v: usize, b: &'s [f32], x: &'s [f64], k: usize) -> impl Fn(f64) -> f64 + 's {
+    /// The robust cost of view `v` against its photo over the pixels `mask` as a function of
+    /// parameter `k` alone, the optics' light `b` given.
+    fn view_cost<'s>(
+        &'s self,
+        v: usize,
+        b: &'s [f32],
+        x: &'s [f64],
+        k: usize,
+        mask: &'s [bool],
+    ) -> impl Fn(f64) -> f64 + 's {
         move |val: f64| {
             let mut xe = x.to_vec();
             xe[k] = val;
@@ -179,7 +197,7 @@ impl Evaluator<'_, '_> {
                 .expose(b, v, &xe)
                 .iter()
                 .zip(&self.data.photos[v])
-                .zip(&self.data.masks[v])
+                .zip(mask)
                 .filter(|(_, m)| **m)
                 .map(|((m, p), _)| (m - p) as f64)
                 .collect();

@@ -16,6 +16,10 @@ pub(super) struct Param {
     /// Needs a new render when it changes.
     pub(super) render: bool,
     pub(super) limit: f64,
+    /// Set by a search of its own (`Evaluator::best_clipped_noise`) and held by the
+    /// refinement: where it changes only a few pixels its column nearly vanishes, and
+    /// Levenberg-Marquardt's step for it runs to its bound and spoils the step of the rest.
+    pub(super) searched: bool,
 }
 
 fn p(name: &str, lo: f64, hi: f64, step: f64, render: bool, limit: f64) -> Param {
@@ -26,6 +30,7 @@ fn p(name: &str, lo: f64, hi: f64, step: f64, render: bool, limit: f64) -> Param
         step,
         render,
         limit,
+        searched: false,
     }
 }
 
@@ -149,7 +154,10 @@ impl Layout {
         // mean of their value plus that noise, clipped to [0, 1] (`camera::clipped_mean`).
         let lift_at = params.len();
         for v in 0..n_views {
-            params.push(p(&format!("clipped_noise[{v}]"), 0.0, 0.2, 0.002, false, 1.0));
+            params.push(Param {
+                searched: true,
+                ..p(&format!("clipped_noise[{v}]"), 0.0, 0.2, 0.0002, false, 1.0)
+            });
         }
         Layout {
             pose_at,

@@ -148,6 +148,11 @@ impl LeastSquares for Refinement<'_, '_, '_> {
                 cols.push(motion.next().expect("one column per camera term"));
                 continue;
             }
+            if self.ev.lay.params[k].searched {
+                // (held: a zero column leaves it where it is)
+                cols.push(vec![0.0; r.len()]);
+                continue;
+            }
             let (lo, hi) = bounds[k];
             let mut xh = x.to_vec();
             let mut h = self.ev.lay.params[k].step;

@@ -1,0 +1,251 @@
+//! The fit's uncertainties at its optimum: the block sandwich covariance, and in quadrature the
+//! model's own error and what the photo's degradations do (see `at_optimum`).
+use scratchart::optim::least_squares::solve_spd;
+
+use scratchart::observe::Observer;
+
+use super::{lm, refine, Data, Evaluator, FitError, SUPERSAMPLE};
+
+/// What `at_optimum` finds: per parameter (the layout's order) its name, value and standard
+/// deviation where it is identified, the curvature's and the sandwich's standard deviations, the
+/// parameters the photos do not see, and the residuals (pixels, then marks) there.
+pub(super) struct Uncertainty {
+    pub(super) params: Vec<(String, f64, Option<f64>)>,
+    pub(super) curvature: Vec<Option<f64>>,
+    pub(super) sd: Vec<Option<f64>>,
+    pub(super) unseen: Vec<String>,
+    pub(super) residuals: Vec<f64>,
+}
+
+/// The uncertainties of the fit at `x` (its z offset within `best_rg`).
+pub(super) fn at_optimum(
+    ev: &mut Evaluator,
+    data: &Data,
+    x: &[f64],
+    best_rg: Option<(f64, f64)>,
+) -> Result<Uncertainty, FitError> {
+    // Uncertainties: the block sandwich (cluster-robust) covariance A^-1 B A^-1 at the optimum,
+    // A = J^T W J and B = sum over blocks of g_b g_b^T, g_b = sum over the block's pixels of
+    // w r J (W the robust weights). Unlike the curvature's s^2 A^-1 it holds where neighbouring
+    // pixels are not independent (the camera's blur, JPEG's 8 x 8 blocks, a phone's
+    // demosaicing: blocks of 16 x 16 pixels at the fit's scale) and where the model misses
+    // something the photo has; both are given, the sandwich is the one used.
+    let (r, cols) = lm::jacobian_at(ev, x, best_rg, true)?;
+    let n = r.len();
+    let np = ev.lay.params.len();
+    let s_r = scratchart::optim::least_squares::robust_scale(&r, lm::MIN_SCALE);
+    let wts: Vec<f64> = r.iter().map(|e| 1.0 / (1.0 + e * e / (s_r * s_r))).collect();
+    let jtj = scratchart::optim::least_squares::weighted_gram(&cols, &wts);
+    let wsum: f64 = r.iter().zip(&wts).map(|(e, w)| w * e * e).sum();
+    let s2 = wsum / (n.saturating_sub(np)).max(1) as f64;
+    // Covariance over the parameters the photos see at all (a zero column, such as a profile
+    // width above the surface, is not identified and would make the whole matrix singular).
+    let max_diag = (0..np).map(|i| jtj[i][i]).fold(0.0f64, f64::max);
+    // (The searched terms are held: see `layout::Param::searched`.)
+    let seen: Vec<usize> = (0..np)
+        .filter(|&i| jtj[i][i] > 1e-12 * max_diag)
+        .filter(|&i| !ev.lay.params[i].searched)
+        .collect();
+    let ns = seen.len();
+    let reduced: Vec<Vec<f64>> = seen
+        .iter()
+        .map(|&i| seen.iter().map(|&j| jtj[i][j]).collect())
+        .collect();
+    let mut blocks = ev.residual_blocks(16);
+    // (each mark's residual a block of its own)
+    blocks.extend((blocks.len()..r.len()).map(|i| u64::MAX - i as u64));
+    let mut ids: Vec<u64> = blocks.clone();
+    ids.sort_unstable();
+    ids.dedup();
+    let mut g = vec![vec![0.0f64; ns]; ids.len()];
+    for (i, b) in blocks.iter().enumerate() {
+        let k = ids.binary_search(b).expect("block listed");
+        let wr = wts[i] * r[i];
+        for (a, &p) in seen.iter().enumerate() {
+            g[k][a] += wr * cols[p][i];
+        }
+    }
+    let nb = ids.len() as f64;
+    let corr = if nb > 1.0 {
+        nb / (nb - 1.0) * (n as f64 - 1.0) / (n as f64 - ns as f64).max(1.0)
+    } else {
+        1.0
+    };
+    let mut bmat = vec![vec![0.0f64; ns]; ns];
+    for gb in &g {
+        for a in 0..ns {
+            for c in 0..ns {
+                bmat[a][c] += corr * gb[a] * gb[c];
+            }
+        }
+    }
+    // A^-1, column by column.
+    let ainv: Option<Vec<Vec<f64>>> = (0..ns)
+        .map(|a| {
+            let mut e = vec![0.0; ns];
+            e[a] = 1.0;
+            solve_spd(&reduced, &e)
+        })
+        .collect();
+    // The model's own error: the fit renders at SUPERSAMPLE times the photos' resolution, which
+    // is not the camera's continuous optics. The shift of the parameters that the residual
+    // change to a render at twice that resolution asks for, A^-1 J^T W (r_fine - r), is added in
+    // quadrature to each standard deviation (it is a bias no pixel noise shows).
+    let model_shift: Option<Vec<f64>> = {
+        ev.ss = 2 * SUPERSAMPLE;
+        ev.gs = None;
+        let fine = ev.eval(x);
+        ev.ss = SUPERSAMPLE;
+        ev.gs = None;
+        let (rf, _) = fine?;
+        let g: Vec<f64> = seen
+            .iter()
+            .map(|&p| {
+                cols[p]
+                    .iter()
+                    .zip(&rf)
+                    .zip(&r)
+                    .zip(&wts)
+                    .map(|(((j, a), b), w)| j * (a - b) * w)
+                    .sum()
+            })
+            .collect();
+        solve_spd(&reduced, &g)
+    };
+    // What the photo's own degradations do to the fit beyond the noise the sandwich sees: the
+    // model image at the optimum, given the photo's noise, clipped to black and white, stepped to
+    // 8 bits and (a JPEG on its own grid) through the same JPEG, four times; the mean parameter
+    // shift A^-1 J^T W (degraded - model) is a bias of these steps (noise clipped at black lifts
+    // a dark plate; JPEG's quantization of a noisy groove is not JPEG's quantization of the
+    // groove), added in quadrature like the model's own error (it also holds half the noise's
+    // own spread over four draws: the sum errs large).
+    let degrade_shift: Option<Vec<f64>> = {
+        let lin = ev.render(x)?;
+        let pred = ev.predict(&lin, &x);
+        let base = ev.residuals(&pred);
+        let mut rng = scratchart::scenes::Rng::new(0x5eed);
+        let reps = 4;
+        let mut mean = vec![0.0; ns];
+        let mut ok = true;
+        for _ in 0..reps {
+            let deg: Vec<Vec<f32>> = pred
+                .iter()
+                .enumerate()
+                .map(|(v, img)| {
+                    let sigma = data.noise.get(v).copied().unwrap_or(0.0);
+                    let noisy: Vec<f32> = img
+                        .iter()
+                        .map(|&m| (((m as f64 + sigma * rng.normal()).clamp(0.0, 1.0) * 255.0).round() / 255.0) as f32)
+                        .collect();
+                    match data.jpeg.get(v).copied().flatten() {
+                        // Against the model with its JPEG change (what the fit compares).
+                        Some(q) => {
+                            let c = &data.capture.views[v].camera;
+                            let back = crate::photo::jpeg_round_trip(&noisy, c.width, c.height, q);
+                            match &ev.jpeg_shift[v] {
+                                Some(sh) => back.iter().zip(sh).map(|(b, s)| b - s).collect(),
+                                None => back,
+                            }
+                        }
+                        None => noisy,
+                    }
+                })
+                .collect();
+            let rd = ev.residuals(&deg);
+            let g: Vec<f64> = seen
+                .iter()
+                .map(|&p| {
+                    cols[p]
+                        .iter()
+                        .zip(&rd)
+                        .zip(&base)
+                        .zip(&wts)
+                        .map(|(((j, a), b), w)| j * (b - a) * w)
+                        .sum()
+                })
+                .collect();
+            match solve_spd(&reduced, &g) {
+                Some(d) => mean.iter_mut().zip(&d).for_each(|(m, d)| *m += d / reps as f64),
+                None => ok = false,
+            }
+        }
+        ok.then_some(mean)
+    };
+    let mut params = Vec::with_capacity(np);
+    let mut curvature = Vec::with_capacity(np);
+    let mut raw_sd = Vec::with_capacity(np);
+    for k in 0..np {
+        let q = &ev.lay.params[k];
+        let pos = seen.iter().position(|&i| i == k);
+        let (sd, sd_curv) = match (pos, &ainv) {
+            (Some(a), Some(ai)) => {
+                // (A^-1 B A^-1)_aa = sum_bc Ai_ab B_bc Ai_ca (A^-1 symmetric)
+                let mut var = 0.0;
+                for b in 0..ns {
+                    for c in 0..ns {
+                        var += ai[b][a] * bmat[b][c] * ai[c][a];
+                    }
+                }
+                let vc = s2 * ai[a][a];
+                let m = model_shift.as_ref().map_or(0.0, |d| d[a]);
+                let dg = degrade_shift.as_ref().map_or(0.0, |d| d[a]);
+                let var = var + m * m + dg * dg;
+                (
+                    (var.is_finite() && var >= 0.0).then(|| var.sqrt()),
+                    (vc.is_finite() && vc >= 0.0).then(|| vc.sqrt()),
+                )
+            }
+            _ => (None, None),
+        };
+        curvature.push(sd_curv);
+        raw_sd.push(sd);
+        params.push((q.name.clone(), x[k], sd.filter(|sd| *sd <= q.limit)));
+    }
+    let unseen: Vec<String> = (0..np)
+        .filter(|k| !seen.contains(k))
+        .map(|k| ev.lay.params[k].name.clone())
+        .collect();
+    Ok(Uncertainty {
+        params,
+        curvature,
+        sd: raw_sd,
+        unseen,
+        residuals: r,
+    })
+}
+
+/// Bootstrap uncertainties: `reps` refits from the optimum `x` (6 iterations each), every one
+/// with the residuals of 8 x 8-pixel blocks weighted by independent Exp(1) weights (the Bayesian
+/// bootstrap; blocks, because the camera's blur makes neighbouring pixels agree), and the
+/// standard deviation of each parameter over the refits. Unlike the curvature's uncertainties it
+/// sees the correlation of neighbouring pixels and the trade-offs the fit's local quadratic
+/// misses. Seeded: the same data give the same numbers.
+pub(super) fn bootstrap(
+    ev: &mut Evaluator,
+    x: &[f64],
+    rg: Option<(f64, f64)>,
+    reps: u32,
+    obs: &dyn Observer,
+) -> Result<Vec<f64>, FitError> {
+    let blocks = ev.residual_blocks(8);
+    let mut ids: Vec<u64> = blocks.clone();
+    ids.sort_unstable();
+    ids.dedup();
+    let mut rng = scratchart::scenes::Rng::new(0);
+    let mut fits: Vec<Vec<f64>> = Vec::new();
+    for b in 0..reps {
+        let wb: Vec<f64> = ids.iter().map(|_| -(1.0 - rng.f64()).ln()).collect();
+        ev.weights = Some(blocks.iter().map(|id| wb[ids.binary_search(id).unwrap()]).collect());
+        let label = format!("bootstrap {}/{reps}", b + 1);
+        let got = refine(ev, x.to_vec(), rg, 6, obs, &label);
+        ev.weights = None;
+        fits.push(got?.x);
+    }
+    let m = fits.len() as f64;
+    Ok((0..x.len())
+        .map(|k| {
+            let mean = fits.iter().map(|f| f[k]).sum::<f64>() / m;
+            (fits.iter().map(|f| (f[k] - mean).powi(2)).sum::<f64>() / (m - 1.0).max(1.0)).sqrt()
+        })
+        .collect())
+}
