@@ -162,7 +162,7 @@ impl Evaluator<'_, '_> {
 
     /// The clipped noise of view `v` (`Layout::clipped_noise`) that fits its photo best with the
     /// rest of `x` (golden-section search over [0, 0.2]; no render), judged on the dark plate
-    /// only (the model's pixels below a tenth of full scale): there it is all that lifts the
+    /// only (the model's pixels below 0.02 of full scale): there it is all that lifts the
     /// light, where on the grooves it would trade with their widths (a measured profile's widths
     /// and a noise of twice the truth). The refinement's linear steps cannot reach it from
     /// afar: its effect on a pixel of value d grows like the normal density at d / s.
@@ -175,8 +175,12 @@ impl Evaluator<'_, '_> {
             .expose(&b, v, &x0)
             .iter()
             .zip(&self.data.masks[v])
-            .map(|(m, ok)| *ok && *m < 0.1)
+            .map(|(m, ok)| *ok && *m < 0.02)
             .collect();
+        // (a plate with little dark in it has little the clipping changes)
+        if dark.iter().filter(|d| **d).count() < 200 {
+            return 0.0;
+        }
         golden(self.view_cost(v, &b, x, k, &dark), 0.0, 0.2)
     }
 

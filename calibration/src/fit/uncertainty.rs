@@ -121,7 +121,7 @@ pub(super) fn at_optimum(
     // own spread over four draws: the sum errs large).
     let degrade_shift: Option<Vec<f64>> = {
         let lin = ev.render(x)?;
-        let pred = ev.predict(&lin, &x);
+        let pred = ev.predict(&lin, x);
         let base = ev.residuals(&pred);
         let mut rng = scratchart::scenes::Rng::new(0x5eed);
         let reps = 4;
