@@ -623,8 +623,11 @@ pub fn fit_kind(
         for (x, _) in &mut starts {
             let lin = ev.render(x)?;
             for (v, img) in lin.iter().enumerate() {
-                x[ev.lay.lift_at + v] = ev.best_clipped_noise(v, img, x);
-                x[ev.lay.n_tool + 1 + v] = ev.best_exposure(v, img, x);
+                let s = ev.best_clipped_noise(v, img, x);
+                if s != x[ev.lay.lift_at + v] {
+                    x[ev.lay.lift_at + v] = s;
+                    x[ev.lay.n_tool + 1 + v] = ev.best_exposure(v, img, x);
+                }
             }
         }
     }
