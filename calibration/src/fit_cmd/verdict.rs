@@ -31,20 +31,33 @@ pub fn verdict(best: &FitResult, residual: &[(f64, f64)], photos: &[String], all
             ));
         }
     }
-    for name in &best.at_bound {
-        let k = best.params.iter().position(|p| &p.0 == name).expect("a parameter");
-        reasons.push(format!(
-            "{name} ended at a bound of its range ({:.5}): the tool that fits best lies outside what this kind of \
-             tool can be; try another --kind or check the photos",
-            best.params[k].1
-        ));
-    }
     let unidentified: Vec<String> = best
         .unidentified()
         .into_iter()
         .filter(|n| is_tool_param(n) && n != "alpha")
         .collect();
     let mut allowed = Vec::new();
+    for name in &best.at_bound {
+        let k = best.params.iter().position(|p| &p.0 == name).expect("a parameter");
+        // A parameter the photos identify, run to a bound, says the tool lies outside this
+        // kind. One they do not identify ran along a valley the photos cannot tell from flat
+        // (a measured profile's wall shape on saturated grooves: its w/W trades with its
+        // widths) and stopped where its range ends: that is said as not identified, and
+        // written only as such.
+        if allow_unidentified && unidentified.contains(name) {
+            allowed.push(format!(
+                "{name} ran to a bound of its range ({:.5}) along a direction the photos do not identify; the value \
+                 written is where its range ends, not what the photos show",
+                best.params[k].1
+            ));
+            continue;
+        }
+        reasons.push(format!(
+            "{name} ended at a bound of its range ({:.5}): the tool that fits best lies outside what this kind of \
+             tool can be; try another --kind or check the photos",
+            best.params[k].1
+        ));
+    }
     for name in &unidentified {
         let k = best.params.iter().position(|p| &p.0 == name).expect("a parameter");
         let msg = format!(
@@ -90,7 +103,7 @@ mod verdict_tests {
 
     /// A V-bit fit whose tool parameters have the given standard deviations.
     fn result(sd: [f64; 3], at_bound: &[&str]) -> FitResult {
-        let names = ["angle_deg", "tip_flat_mm", "z_offset_mm", "alpha", "blur_px"];
+        let names = ["angle_deg", "tip_flat_mm", "z_offset_mm", "alpha", "blur_px[0]"];
         let values = [75.0, 0.015, 0.007, 0.1, 0.6];
         let limits = [0.5, 0.0025, 0.0015, 0.1, 1.0];
         let sds = [sd[0], sd[1], sd[2], 0.001, 0.01];
@@ -103,7 +116,7 @@ mod verdict_tests {
             },
             alpha: 0.1,
             exposure: vec![1.0, 1.0],
-            blur_px: 0.6,
+            blur_px: vec![0.6, 0.6],
             params: (0..5)
                 .map(|k| (names[k].to_string(), values[k], (sds[k] <= limits[k]).then_some(sds[k])))
                 .collect(),
@@ -199,6 +212,26 @@ mod verdict_tests {
             true,
         );
         assert_eq!(v.reasons.len(), 1, "{v:?}");
+        // One the photos do not identify is refused as such, and with --allow-unidentified
+        // written with a warning that its value is its bound.
+        let v = verdict(
+            &result([3.0, 0.001, 0.0005], &["angle_deg"]),
+            &[(0.004, 0.004); 2],
+            &photos(),
+            false,
+        );
+        assert_eq!(v.reasons.len(), 2, "{v:?}");
+        let v = verdict(
+            &result([3.0, 0.001, 0.0005], &["angle_deg"]),
+            &[(0.004, 0.004); 2],
+            &photos(),
+            true,
+        );
+        assert!(v.reasons.is_empty(), "{v:?}");
+        assert!(
+            v.allowed.iter().any(|m| m.starts_with("angle_deg ran to a bound")),
+            "{v:?}"
+        );
     }
 
     #[test]
