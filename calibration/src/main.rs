@@ -56,6 +56,9 @@ enum Cmd {
     /// the plan; --resume continues a stopped job. Exit 1 when the machine stops the job (with the
     /// --resume command), 130 after Ctrl-C (machine stopped, tool raised).
     Carve(carve::CarveArgs),
+    /// List the serial ports this computer has (USB ones first, with their USB ids and names):
+    /// what `carve --port` and `probe --port` take. Exit 1 when the system cannot list them.
+    Ports,
     /// Probe the plate's height on a grid with the tool (G38.2; Marlin G38.2 or G30) and write
     /// heightmap.json for `plan --heightmap`.
     Probe(carve::ProbeArgs),
@@ -125,6 +128,22 @@ fn run(cli: Cli) -> Result<()> {
     match &cli.cmd {
         Cmd::Carve(args) => carve::run(args),
         Cmd::Probe(args) => carve::probe(args),
+        Cmd::Ports => {
+            let ports = scratchart_machine::transport::ports()?;
+            if ports.is_empty() {
+                println!(
+                    "no serial ports found: plug the machine's USB cable in (and on Linux, check that you are in \
+                     the `dialout` group)"
+                );
+            }
+            for p in &ports {
+                match &p.usb {
+                    Some(u) => println!("{}\t{} ({u})", p.name, p.kind),
+                    None => println!("{}\t{}", p.name, p.kind),
+                }
+            }
+            Ok(())
+        }
         Cmd::Fit(args) => {
             let ctx = Context::new(ContextDesc {
                 device: cli.device.clone(),

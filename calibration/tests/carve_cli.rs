@@ -1,6 +1,8 @@
 //! `scratchart-cal carve` end to end: a plan from `scratchart-cal plan` streams to a fake GRBL and
 //! to a fake Marlin on a pseudo-terminal; a disconnect gives exit 1 with the `--resume` command,
 //! and that command (on the reconnected port) finishes the job without skipping a scratch.
+// The fakes sit behind pseudo-terminals, which only Unix has.
+#![cfg(unix)]
 use std::path::Path;
 use std::process::{Command, Output, Stdio};
 
@@ -270,4 +272,29 @@ fn ctrl_c_stops_the_machine_raises_the_tool_and_exits_130() {
     assert_eq!((r.holds, r.resets), (1, 1));
     assert_eq!(r.pos[2], 2.0, "the tool ends at the safe height");
     let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// `ports` lists the system's serial ports, each a name `carve --port` can open (a device file
+/// on Unix), or says that there are none; exit 0 either way.
+#[test]
+fn ports_lists_the_serial_ports_by_name() {
+    let bin = scratchart_tests::workspace_bin("scratchart-calibration", "scratchart-cal");
+    let out = run(&bin, &std::env::temp_dir(), &["ports"]);
+    assert_eq!(out.status.code(), Some(0), "{out:?}");
+    let text = String::from_utf8(out.stdout).unwrap();
+    let lines: Vec<&str> = text.lines().collect();
+    assert!(!lines.is_empty(), "ports printed nothing");
+    if lines[0].starts_with("no serial ports found") {
+        return;
+    }
+    for l in lines {
+        let (name, kind) = l.split_once('\t').unwrap_or_else(|| panic!("not `NAME\\tKIND`: {l}"));
+        assert!(Path::new(name).exists(), "listed port {name} is not a device file");
+        assert!(
+            ["USB", "Bluetooth", "PCI", "unknown"]
+                .iter()
+                .any(|k| kind.starts_with(k)),
+            "{l}"
+        );
+    }
 }

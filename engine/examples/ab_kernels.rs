@@ -12,14 +12,9 @@ use scratchart::vulkan::{Context, ContextDesc, Recorder, ShaderCompiler};
 use std::path::PathBuf;
 use std::time::Instant;
 
-/// Process CPU time in seconds (user + system, all threads).
-fn cpu_s() -> f64 {
-    // SAFETY: getrusage only writes the struct it is given.
-    let mut ru: libc::rusage = unsafe { std::mem::zeroed() };
-    unsafe { libc::getrusage(libc::RUSAGE_SELF, &mut ru) };
-    let t = |tv: libc::timeval| tv.tv_sec as f64 + tv.tv_usec as f64 * 1e-6;
-    t(ru.ru_utime) + t(ru.ru_stime)
-}
+#[path = "common/cpu.rs"]
+mod cpu;
+use cpu::cpu_s;
 
 fn main() -> anyhow::Result<()> {
     let args: Vec<String> = std::env::args().collect();

@@ -13,7 +13,7 @@
 //! - [`stream`]: the streaming engine (receive-buffer flow control, resends, hold, progress);
 //!   [`job`]: a whole job (settings check, check mode, resume and re-zero, stopping safely);
 //!   [`journal`]: the resumable job's record beside the plan.
-//! - [`fake`]: fake GRBL and Marlin controllers on pseudo-terminals, for tests.
+//! - [`fake`]: fake GRBL and Marlin controllers on pseudo-terminals, for tests (Unix).
 //! - [`probe`]: levelling: the plate probed on a grid with the tool, as a [`level::HeightMap`].
 //!
 //! It depends on the scene model (`scratchart-model`) only, never on the engine, so it builds and
@@ -24,6 +24,8 @@ pub mod controller;
 pub mod depths;
 pub mod detect;
 pub mod export;
+/// (pseudo-terminals: Unix only)
+#[cfg(unix)]
 pub mod fake;
 pub mod gcode;
 pub mod grbl;

@@ -1,10 +1,17 @@
-//! The serial link: a port opened with `serialport` (a USB serial adapter or a pseudo-terminal's
-//! path), read line by line with a timeout. A read that fails for any reason but a timeout (the
-//! cable pulled, the board reset, the pty closed) is a lost link.
+//! The serial link: a port opened with `serialport` (a USB serial adapter: `/dev/ttyUSB0` on
+//! Linux, `/dev/cu.usbserial-*` on macOS, `COM3` on Windows; or a pseudo-terminal's path), read
+//! line by line with a timeout. A read that fails for any reason but a timeout (the cable
+//! pulled, the board reset, the pty closed) is a lost link. [`ports`] lists the ports there are.
 use std::io::{Read, Write};
 use std::time::{Duration, Instant};
 
-use serialport::{SerialPort, TTYPort};
+use serialport::SerialPort;
+
+/// The operating system's own port type (`serialport`'s native port on each desktop system).
+#[cfg(unix)]
+type NativePort = serialport::TTYPort;
+#[cfg(windows)]
+type NativePort = serialport::COMPort;
 
 /// What went wrong on the link.
 #[derive(Debug, Clone, PartialEq)]
@@ -23,11 +30,13 @@ impl std::fmt::Display for LinkError {
     }
 }
 
+impl std::error::Error for LinkError {}
+
 /// Longest line accepted from a controller; anything longer is cut (and said so in the line).
 const MAX_IN_LINE: usize = 4096;
 
 pub struct Link {
-    port: TTYPort,
+    port: NativePort,
     name: String,
     buf: Vec<u8>,
     /// Bytes written, for the benchmark and tests.
@@ -129,7 +138,58 @@ impl Link {
 impl Drop for Link {
     fn drop(&mut self) {
         // Leave the port openable by the next program (a pty keeps TIOCEXCL while any side holds
-        // it open).
+        // it open; Windows gives a COM port to one program at a time by itself).
+        #[cfg(unix)]
         let _ = self.port.set_exclusive(false);
     }
+}
+
+/// A serial port the system has: its name (what `--port` takes) and what is known of the
+/// device behind it.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PortInfo {
+    pub name: String,
+    /// "USB", "Bluetooth", "PCI" or "unknown".
+    pub kind: &'static str,
+    /// For a USB port: vendor and product ids ("1a86:7523") and, where the device gives them,
+    /// its maker, product name and serial number (a CH340 or FTDI adapter names itself so).
+    pub usb: Option<String>,
+}
+
+/// The serial ports the system has, USB ones first (the kind a carving machine's board is).
+pub fn ports() -> Result<Vec<PortInfo>, LinkError> {
+    let found =
+        serialport::available_ports().map_err(|e| LinkError::Open(format!("cannot list the serial ports: {e}")))?;
+    let mut out: Vec<PortInfo> = found
+        .into_iter()
+        .map(|p| {
+            let (kind, usb) = match p.port_type {
+                serialport::SerialPortType::UsbPort(u) => {
+                    let mut d = format!("{:04x}:{:04x}", u.vid, u.pid);
+                    for part in [
+                        u.manufacturer,
+                        u.product,
+                        u.serial_number.map(|s| format!("serial {s}")),
+                    ]
+                    .into_iter()
+                    .flatten()
+                    {
+                        d.push_str(", ");
+                        d.push_str(&part);
+                    }
+                    ("USB", Some(d))
+                }
+                serialport::SerialPortType::BluetoothPort => ("Bluetooth", None),
+                serialport::SerialPortType::PciPort => ("PCI", None),
+                serialport::SerialPortType::Unknown => ("unknown", None),
+            };
+            PortInfo {
+                name: p.port_name,
+                kind,
+                usb,
+            }
+        })
+        .collect();
+    out.sort_by_key(|p| (p.kind != "USB", p.name.clone()));
+    Ok(out)
 }

@@ -1,6 +1,8 @@
 //! Levelling probes against the fakes: a tilted plate is recovered from a grid of G38.2 probes
 //! (GRBL `[PRB:...]`; Marlin G38.2 with M114, or G30 without G38), and a probe that finds no
 //! plate stops with a clear error.
+// The fakes sit behind pseudo-terminals, which only Unix has.
+#![cfg(unix)]
 mod common;
 
 use std::time::Duration;

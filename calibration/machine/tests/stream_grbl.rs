@@ -1,5 +1,7 @@
 //! Streaming to a fake GRBL 1.1 over a pty: character counting, errors, alarms, hold/resume,
 //! abort, check mode, disconnect and resume, settings, firmware refusal, a silent port.
+// The fakes sit behind pseudo-terminals, which only Unix has.
+#![cfg(unix)]
 mod common;
 
 use std::sync::atomic::Ordering;

@@ -1,6 +1,8 @@
 //! Streaming to a fake Marlin over a pty: line numbers and checksums, corrupted lines and
 //! resends (repeated requests ignored), busy and temperature messages, a halt, a disconnect and
 //! resume, Ctrl-C (M410 then raise; M112 only when asked), the bed check and firmware refusal.
+// The fakes sit behind pseudo-terminals, which only Unix has.
+#![cfg(unix)]
 mod common;
 
 use std::collections::BTreeSet;

@@ -157,7 +157,7 @@ pub fn inspect_photo(
     // length and distance trade against each other); the fit's shift takes up the rest.
     let off_pose = reg.pose_offset_px > 2.0;
     let camera = if off_pose {
-        crate::fiducials::plausible_camera(&reg.found.plate_to_image, v.camera.width, v.camera.height, &v).map_err(
+        crate::fiducials::plausible_camera(&reg.found.plate_to_image, v.camera.width, v.camera.height, v).map_err(
             |e| {
                 InputError(format!(
                     "photo `{}` (view {}): the camera recovered from the card's marks is implausible: {e}. \
