@@ -144,6 +144,29 @@ fn scratchart_exit_codes() {
         "8x8",
         "grad target of the wrong size",
     );
+    // 1: an output that cannot be written, the same for every command (its parent is a file)
+    let blocked = format!("{scene}/out");
+    let tdir_ok = d.join("targets_ok");
+    std::fs::create_dir_all(&tdir_ok).unwrap();
+    std::fs::copy(d.join("out").join("v.pfm"), tdir_ok.join("v.pfm")).unwrap();
+    for args in [
+        vec!["render", &scene, "--out", &blocked],
+        vec![
+            "grad",
+            &scene,
+            "--targets",
+            tdir_ok.to_str().unwrap(),
+            "--out",
+            &format!("{blocked}/g.csv"),
+        ],
+    ] {
+        expect(
+            &run("scratchart", &args),
+            1,
+            "cannot create",
+            &format!("{} to an unwritable output", args[0]),
+        );
+    }
     // 2: an unknown standard benchmark scene
     expect(
         &run("scratchart", &["bench", "--sizes", "XL"]),
@@ -374,4 +397,39 @@ fn design_progress_in_a_log_and_the_count_kept() {
         .unwrap_or_else(|| panic!("{stdout}"));
     assert!(line.contains("scratches written (200 optimized)"), "{line}");
     let _ = std::fs::remove_dir_all(&d);
+}
+
+/// Every binary ends through the one contract: no `process::exit` anywhere in the workspace's
+/// sources but `scratchart_exit::exit_now` (for a signal handler that cannot return to main).
+#[test]
+fn no_process_exit_outside_the_exit_contract() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).parent().unwrap().to_path_buf();
+    let mut stack = vec![root.clone()];
+    let mut offenders = Vec::new();
+    let mut seen = 0;
+    while let Some(dir) = stack.pop() {
+        for e in std::fs::read_dir(&dir).unwrap().flatten() {
+            let p = e.path();
+            let name = e.file_name().to_string_lossy().into_owned();
+            if p.is_dir() {
+                if !name.starts_with('.') && name != "target" {
+                    stack.push(p);
+                }
+                continue;
+            }
+            if p.extension().is_some_and(|x| x == "rs") {
+                seen += 1;
+                let text = std::fs::read_to_string(&p).unwrap();
+                let allowed = p.ends_with("engine/exit/src/lib.rs") || p.ends_with("tests/cli.rs");
+                if !allowed && text.contains(concat!("process::", "exit(")) {
+                    offenders.push(p.strip_prefix(&root).unwrap().display().to_string());
+                }
+            }
+        }
+    }
+    assert!(seen > 100, "only {seen} Rust files found under {}", root.display());
+    assert!(
+        offenders.is_empty(),
+        "process::exit outside scratchart_exit::exit_now: {offenders:?}"
+    );
 }

@@ -15,7 +15,7 @@ use anyhow::Result;
 use scratchart::exit::{InputError, UsageError};
 use scratchart::observe::Observer as _;
 use scratchart_machine::controller::Rezero;
-use scratchart_machine::job::{carve, CarveError, Options};
+use scratchart_machine::job::{carve, Options};
 use scratchart_machine::plan::MachineProfile;
 use scratchart_machine::stream::{Control, Observer, Progress};
 
@@ -196,7 +196,7 @@ pub fn run(a: &CarveArgs) -> Result<()> {
         resume_command: resume_command(a),
     };
     let control = Arc::new(Control::default());
-    scratchart_machine::job::stop_on_ctrl_c(control.clone()).map_err(anyhow::Error::msg)?;
+    stop_on_ctrl_c(control.clone()).map_err(anyhow::Error::msg)?;
     let tty = std::io::stdin().is_terminal();
     let asking = Arc::new(AtomicBool::new(false));
     let answers = tty.then(|| Mutex::new(keys(control.clone(), asking.clone())));
@@ -226,13 +226,8 @@ pub fn run(a: &CarveArgs) -> Result<()> {
             );
             Ok(())
         }
-        Err(CarveError::Usage(m)) => Err(UsageError(m).into()),
-        Err(CarveError::Input(m)) => Err(InputError(m).into()),
-        Err(CarveError::Stopped(m)) => Err(anyhow::Error::msg(m)),
-        Err(CarveError::Interrupted(m)) => {
-            eprintln!("error: {m}");
-            std::process::exit(130);
-        }
+        // (its class decides the exit code: `scratchart::exit`)
+        Err(e) => Err(e.into()),
     }
 }
 
@@ -291,7 +286,7 @@ pub fn probe(a: &ProbeArgs) -> Result<()> {
         }
     }
     let control = Arc::new(Control::default());
-    scratchart_machine::job::stop_on_ctrl_c(control.clone()).map_err(anyhow::Error::msg)?;
+    stop_on_ctrl_c(control.clone()).map_err(anyhow::Error::msg)?;
     let tty = std::io::stdin().is_terminal();
     let asking = Arc::new(AtomicBool::new(false));
     let term = Term {
@@ -321,16 +316,8 @@ pub fn probe(a: &ProbeArgs) -> Result<()> {
     };
     let result = probe_grid(&o, &control, &term);
     term.out.finish("carve");
-    let map = match result {
-        Ok(m) => m,
-        Err(CarveError::Usage(m)) => return Err(UsageError(m).into()),
-        Err(CarveError::Input(m)) => return Err(InputError(m).into()),
-        Err(CarveError::Stopped(m)) => return Err(anyhow::Error::msg(m)),
-        Err(CarveError::Interrupted(m)) => {
-            eprintln!("error: {m}");
-            std::process::exit(130);
-        }
-    };
+    // (its class decides the exit code: `scratchart::exit`)
+    let map = result?;
     scratchart::io::write_atomic(&a.out, map.to_json().as_bytes())?;
     let (lo, hi) = map.range();
     println!(
@@ -340,4 +327,22 @@ pub fn probe(a: &ProbeArgs) -> Result<()> {
         grid.1
     );
     Ok(())
+}
+
+/// Makes Ctrl-C (and SIGTERM where available) ask the running job to stop the machine and raise
+/// the tool. Pressing it three times gives up waiting and exits with 130 at once (the machine
+/// may then still be moving: use its stop button).
+fn stop_on_ctrl_c(control: std::sync::Arc<scratchart_machine::stream::Control>) -> Result<(), String> {
+    let presses = std::sync::atomic::AtomicUsize::new(0);
+    ctrlc::set_handler(move || {
+        let n = presses.fetch_add(1, std::sync::atomic::Ordering::SeqCst) + 1;
+        control.abort.store(true, std::sync::atomic::Ordering::SeqCst);
+        if n == 1 {
+            eprintln!("\ninterrupt: stopping the machine and raising the tool (press Ctrl-C twice more to quit without waiting)");
+        } else if n >= 3 {
+            eprintln!("\nquitting without waiting: the machine may still be moving; use its stop button");
+            scratchart_exit::exit_now(scratchart_exit::Class::Interrupted);
+        }
+    })
+    .map_err(|e| format!("cannot install the Ctrl-C handler: {e}"))
 }

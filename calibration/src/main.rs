@@ -147,6 +147,7 @@ fn run(cli: Cli) -> Result<()> {
         Cmd::Fit(args) => {
             let ctx = Context::new(ContextDesc {
                 device: cli.device.clone(),
+                notify: Some(scratchart::term::stderr_notices()),
                 ..Default::default()
             })?;
             let renderer = scratchart::render::Renderer::new(&ctx)?;
@@ -189,6 +190,7 @@ fn run(cli: Cli) -> Result<()> {
             let (card, capture) = Card::load(&path)?;
             let ctx = Context::new(ContextDesc {
                 device: cli.device.clone(),
+                notify: Some(scratchart::term::stderr_notices()),
                 ..Default::default()
             })?;
             let renderer = scratchart::render::Renderer::new(&ctx)?;
@@ -254,6 +256,7 @@ fn run(cli: Cli) -> Result<()> {
         Cmd::Study(args) => {
             let ctx = Context::new(ContextDesc {
                 device: cli.device.clone(),
+                notify: Some(scratchart::term::stderr_notices()),
                 ..Default::default()
             })?;
             let renderer = scratchart::render::Renderer::new(&ctx)?;
@@ -283,6 +286,7 @@ fn run(cli: Cli) -> Result<()> {
             let tool = Tool::load(tool).map_err(|e| scratchart::exit::InputError(e.to_string()))?;
             let ctx = Context::new(ContextDesc {
                 device: cli.device.clone(),
+                notify: Some(scratchart::term::stderr_notices()),
                 ..Default::default()
             })?;
             let renderer = scratchart::render::Renderer::new(&ctx)?;

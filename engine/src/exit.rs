@@ -1,16 +1,20 @@
-//! One exit-code contract for every binary of the project, in one place:
+//! One exit-code contract for every binary of the project (the table is in `scratchart-exit`):
 //!
 //! | code | meaning |
 //! |---|---|
 //! | 0 | success |
-//! | 1 | runtime failure (the job stopped: divergence, an output that cannot be written, ...) |
+//! | 1 | runtime failure (the job stopped: divergence, an output that cannot be written, the machine stopped the job, validation messages under `--validation`) |
 //! | 2 | bad command line (flags, or flag values that cannot work) |
-//! | 3 | bad input file (scene, scratch CSV, target image, checkpoint) |
+//! | 3 | bad input file (scene, scratch CSV, target image, checkpoint, plan, tool, profile, photo) |
 //! | 4 | GPU or device failure (no device, out of memory, a scene over the device's limits) |
 //! | 130 | interrupted (Ctrl-C); long jobs save their state first and say how to resume |
 //!
-//! Binaries keep `anyhow` with context for their messages and call [`code`] on the error.
+//! Binaries keep `anyhow` with context for their messages and end through [`finish`], which
+//! maps the error chain with [`code`]: the one mapping of every binary (engine, viewer,
+//! calibration), over the error types of every library (engine, tool, machine).
 use std::error::Error;
+
+pub use scratchart_exit::{Class, ExitClass, InputError, UsageError};
 
 use crate::io::IoError;
 use crate::model::scene::SceneError;
@@ -19,67 +23,75 @@ use crate::optim::OptimError;
 use crate::vulkan::GpuError;
 
 pub const SUCCESS: u8 = 0;
-pub const RUNTIME: u8 = 1;
-pub const USAGE: u8 = 2;
-pub const INPUT: u8 = 3;
-pub const GPU: u8 = 4;
-pub const INTERRUPTED: u8 = 130;
+pub const RUNTIME: u8 = Class::Runtime.code();
+pub const USAGE: u8 = Class::Usage.code();
+pub const INPUT: u8 = Class::Input.code();
+pub const GPU: u8 = Class::Device.code();
+pub const INTERRUPTED: u8 = Class::Interrupted.code();
 
-/// A flag or flag value that cannot work; the message names the flag and what to give instead.
-#[derive(Debug, thiserror::Error)]
-#[error("{0}")]
-pub struct UsageError(pub String);
+/// Every error type of the project's libraries, and clap's.
+const KNOWN: &[scratchart_exit::Classifier] = &[
+    scratchart_exit::classifier::<UsageError>,
+    scratchart_exit::classifier::<InputError>,
+    scratchart_exit::classifier::<IoError>,
+    scratchart_exit::classifier::<SceneError>,
+    scratchart_exit::classifier::<TargetError>,
+    scratchart_exit::classifier::<GpuError>,
+    scratchart_exit::classifier::<OptimError>,
+    scratchart_exit::classifier::<scratchart_tool::ToolError>,
+    scratchart_exit::classifier::<scratchart_machine::job::CarveError>,
+    scratchart_exit::classifier::<scratchart_machine::transport::LinkError>,
+    clap_class,
+];
 
-/// An input file that is readable but wrong for the job (a target of the wrong size, ...); the
-/// message names the file and what was expected.
-#[derive(Debug, thiserror::Error)]
-#[error("{0}")]
-pub struct InputError(pub String);
-
-/// The exit code of an error: the first error in its `source()` chain that the contract knows
-/// decides; anything else is a runtime failure.
-pub fn code(err: &(dyn Error + 'static)) -> u8 {
-    let mut cur: Option<&(dyn Error + 'static)> = Some(err);
-    while let Some(e) = cur {
-        if let Some(c) = known(e) {
-            return c;
-        }
-        cur = e.source();
-    }
-    RUNTIME
+fn clap_class(e: &(dyn Error + 'static)) -> Option<Class> {
+    e.is::<clap::Error>().then_some(Class::Usage)
 }
 
-fn known(e: &(dyn Error + 'static)) -> Option<u8> {
-    if e.is::<UsageError>() || e.is::<clap::Error>() {
-        return Some(USAGE);
+/// The class of an error: the first error in its `source()` chain that the contract knows
+/// decides; anything else is a runtime failure.
+pub fn class(err: &(dyn Error + 'static)) -> Class {
+    scratchart_exit::classify(err, KNOWN)
+}
+
+/// The exit code of an error (see [`class`]).
+pub fn code(err: &(dyn Error + 'static)) -> u8 {
+    class(err).code()
+}
+
+impl ExitClass for IoError {
+    fn exit_class(&self) -> Option<Class> {
+        Some(if self.is_output() { Class::Runtime } else { Class::Input })
     }
-    if let Some(io) = e.downcast_ref::<IoError>() {
-        return Some(if io.is_output() { RUNTIME } else { INPUT });
+}
+
+impl ExitClass for TargetError {
+    fn exit_class(&self) -> Option<Class> {
+        match self {
+            TargetError::Image(io) => io.exit_class(),
+            TargetError::Count { .. } => Some(Class::Input),
+        }
     }
-    if let Some(SceneError::Write(_)) = e.downcast_ref::<SceneError>() {
-        return Some(RUNTIME);
+}
+
+impl ExitClass for GpuError {
+    fn exit_class(&self) -> Option<Class> {
+        Some(Class::Device)
     }
-    if let Some(TargetError::Image(io)) = e.downcast_ref::<TargetError>() {
-        return known(io);
-    }
-    if e.is::<InputError>() || e.is::<SceneError>() || e.is::<TargetError>() {
-        return Some(INPUT);
-    }
-    if e.is::<GpuError>() {
-        return Some(GPU);
-    }
-    if let Some(o) = e.downcast_ref::<OptimError>() {
-        return match o {
+}
+
+impl ExitClass for OptimError {
+    fn exit_class(&self) -> Option<Class> {
+        Some(match self {
             // transparent wrappers (their `source()` skips the wrapped error): it decides
-            OptimError::Gpu(g) => known(g),
-            OptimError::Io(i) => known(i),
-            OptimError::NoCheckpoint { .. } | OptimError::Damaged { .. } => Some(INPUT),
-            OptimError::Mismatch { .. } | OptimError::Usage(_) => Some(USAGE),
-            OptimError::Diverged(_) | OptimError::Stopped(_) | OptimError::Report(_) => Some(RUNTIME),
-            OptimError::Interrupted { .. } => Some(INTERRUPTED),
-        };
+            OptimError::Gpu(g) => return g.exit_class(),
+            OptimError::Io(i) => return i.exit_class(),
+            OptimError::NoCheckpoint { .. } | OptimError::Damaged { .. } => Class::Input,
+            OptimError::Mismatch { .. } | OptimError::Usage(_) => Class::Usage,
+            OptimError::Diverged(_) | OptimError::Stopped(_) | OptimError::Report(_) => Class::Runtime,
+            OptimError::Interrupted { .. } => Class::Interrupted,
+        })
     }
-    None
 }
 
 /// Exit code of an `anyhow` error (what the binaries hold).

@@ -158,6 +158,7 @@ fn context(cli: &Cli) -> Result<std::sync::Arc<Context>> {
     Ok(Context::new(ContextDesc {
         validation: cli.validation,
         device: cli.device.clone(),
+        notify: Some(term::stderr_notices()),
         ..Default::default()
     })?)
 }

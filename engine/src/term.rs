@@ -20,10 +20,16 @@ pub fn install_interrupt_handler() {
     let _ = ctrlc::set_handler(|| {
         if INTERRUPTED.swap(true, Ordering::SeqCst) {
             eprintln!("\ninterrupted again: exiting without saving");
-            std::process::exit(crate::exit::INTERRUPTED as i32);
+            scratchart_exit::exit_now(scratchart_exit::Class::Interrupted);
         }
         eprintln!("\ninterrupt: stopping after this iteration and saving a checkpoint (Ctrl-C again to quit at once)");
     });
+}
+
+/// The binaries' sink for the Vulkan layer's notices (`ContextDesc::notify`): each on its
+/// own line of stderr.
+pub fn stderr_notices() -> crate::vulkan::instance::Notify {
+    std::sync::Arc::new(|msg: &str| eprintln!("{msg}"))
 }
 
 pub struct Terminal {

@@ -33,6 +33,7 @@ pub fn make_context(
         instance_extensions,
         device_extensions,
         quiet: false,
+        notify: Some(scratchart::term::stderr_notices()),
         ..Default::default()
     })?;
     log.replace(Some(ctx.validation_log()));

@@ -143,7 +143,7 @@ pub struct Opts {
     /// Vulkan device: index or part of the name (default: best available)
     #[arg(long)]
     pub device: Option<String>,
-    /// Enable the Vulkan validation layer; print the message count on exit, exit code 5 if any
+    /// Enable the Vulkan validation layer; print the message count on exit, exit code 1 if any
     #[arg(long)]
     pub validation: bool,
 }
@@ -191,7 +191,9 @@ fn main() -> ExitCode {
             if let Some(n) = n_validation.filter(|_| opts.validation) {
                 eprintln!("validation messages: {n}");
                 if n > 0 {
-                    return ExitCode::from(5);
+                    // (a failure of the run like any other: the contract's runtime class)
+                    eprintln!("error: the Vulkan validation layer reported {n} message(s) (see above)");
+                    return scratchart::exit::Class::Runtime.exit_code();
                 }
             }
             ExitCode::SUCCESS

@@ -47,12 +47,19 @@ pub enum CarveError {
 
 impl CarveError {
     pub fn exit_code(&self) -> u8 {
-        match self {
-            CarveError::Usage(_) => 2,
-            CarveError::Input(_) => 3,
-            CarveError::Stopped(_) => 1,
-            CarveError::Interrupted(_) => 130,
-        }
+        scratchart_exit::ExitClass::exit_class(self).map_or(1, scratchart_exit::Class::code)
+    }
+}
+
+impl scratchart_exit::ExitClass for CarveError {
+    fn exit_class(&self) -> Option<scratchart_exit::Class> {
+        use scratchart_exit::Class;
+        Some(match self {
+            CarveError::Usage(_) => Class::Usage,
+            CarveError::Input(_) => Class::Input,
+            CarveError::Stopped(_) => Class::Runtime,
+            CarveError::Interrupted(_) => Class::Interrupted,
+        })
     }
 }
 
@@ -366,22 +373,4 @@ fn check_run(
         End::Input(e) => Err(CarveError::Input(e)),
         End::Stopped(e) | End::Lost(e) => Err(CarveError::Stopped(format!("check mode: {e}"))),
     }
-}
-
-/// Makes Ctrl-C (and SIGTERM where available) ask the running job to stop the machine and raise
-/// the tool. Pressing it three times gives up waiting and exits with 130 at once (the machine
-/// may then still be moving: use its stop button).
-pub fn stop_on_ctrl_c(control: std::sync::Arc<Control>) -> Result<(), String> {
-    let presses = std::sync::atomic::AtomicUsize::new(0);
-    ctrlc::set_handler(move || {
-        let n = presses.fetch_add(1, Ordering::SeqCst) + 1;
-        control.abort.store(true, Ordering::SeqCst);
-        if n == 1 {
-            eprintln!("\ninterrupt: stopping the machine and raising the tool (press Ctrl-C twice more to quit without waiting)");
-        } else if n >= 3 {
-            eprintln!("\nquitting without waiting: the machine may still be moving; use its stop button");
-            std::process::exit(130);
-        }
-    })
-    .map_err(|e| format!("cannot install the Ctrl-C handler: {e}"))
 }

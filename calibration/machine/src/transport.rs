@@ -32,6 +32,13 @@ impl std::fmt::Display for LinkError {
 
 impl std::error::Error for LinkError {}
 
+/// A port that cannot be opened or was lost: the job stopped.
+impl scratchart_exit::ExitClass for LinkError {
+    fn exit_class(&self) -> Option<scratchart_exit::Class> {
+        Some(scratchart_exit::Class::Runtime)
+    }
+}
+
 /// Longest line accepted from a controller; anything longer is cut (and said so in the line).
 const MAX_IN_LINE: usize = 4096;
 

@@ -70,6 +70,13 @@ pub enum ToolError {
     Invalid { path: String, msg: String },
 }
 
+/// A tool file that cannot be read or is not a tool: a bad input file.
+impl scratchart_exit::ExitClass for ToolError {
+    fn exit_class(&self) -> Option<scratchart_exit::Class> {
+        Some(scratchart_exit::Class::Input)
+    }
+}
+
 impl Tool {
     /// The z offset: the real depth of a cut commanded to z is z + offset.
     pub fn z_offset_mm(&self) -> f64 {

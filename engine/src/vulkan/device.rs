@@ -23,7 +23,7 @@ use std::path::{Path, PathBuf};
 pub(crate) const SUBMIT_TIMEOUT_S: u64 = 60;
 
 /// How to create a [`Context`].
-#[derive(Clone, Debug, Default)]
+#[derive(Clone, Default)]
 pub struct ContextDesc {
     /// Enable `VK_LAYER_KHRONOS_validation` and the debug messenger. Also forced on by the
     /// environment variable `SCRATCHART_VALIDATION=1`.
@@ -35,8 +35,10 @@ pub struct ContextDesc {
     pub instance_extensions: Vec<&'static CStr>,
     /// Extra device extensions (e.g. swapchain).
     pub device_extensions: Vec<&'static CStr>,
-    /// When false, print `device: NAME (kind)` to stderr once at creation.
+    /// When false, say `device: NAME (kind)` to `notify` once at creation.
     pub quiet: bool,
+    /// Where the layer's notices go (see [`super::instance::Notify`]); `None`: nowhere.
+    pub notify: Option<super::instance::Notify>,
     /// Where the persistent pipeline cache lives (see `vulkan::pipeline_cache`).
     pub pipeline_cache: PipelineCacheDir,
 }
@@ -108,8 +110,8 @@ impl Context {
         } = inst;
         let queue = unsafe { device.get_device_queue(queue_family, 0) };
         let debug_device = debug_utils.then(|| ash::ext::debug_utils::Device::new(&instance, &device));
-        if !desc.quiet {
-            eprintln!("device: {} ({})", info.name, info.kind);
+        if let Some(n) = desc.notify.as_ref().filter(|_| !desc.quiet) {
+            n(&format!("device: {} ({})", info.name, info.kind));
         }
         Ok(Arc::new(Context {
             entry,
@@ -287,6 +289,13 @@ impl Context {
         Ok((pd, device, queue_family, info, allocator))
     }
 
+    /// Gives `msg` to the context's notice sink (`ContextDesc::notify`), if any.
+    pub fn notice(&self, msg: &str) {
+        if let Some(n) = &self.log.0.notify {
+            n(msg);
+        }
+    }
+
     pub fn info(&self) -> &DeviceInfo {
         &self.info
     }
@@ -361,10 +370,14 @@ impl Drop for Context {
     fn drop(&mut self) {
         unsafe {
             let _ = self.device.device_wait_idle();
-            self.pipelines
+            let warning = self
+                .pipelines
                 .get_mut()
                 .unwrap_or_else(|e| e.into_inner())
                 .save_and_destroy(&self.device);
+            if let Some(w) = warning {
+                self.notice(&w);
+            }
             // The allocator frees its device memory blocks: it must go before the device.
             ManuallyDrop::drop(&mut self.allocator);
             self.device.destroy_device(None);

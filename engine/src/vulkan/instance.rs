@@ -20,12 +20,24 @@ const VALIDATION_LAYER: &CStr = c"VK_LAYER_KHRONOS_validation";
 /// the context is dropped, so tests can also see messages emitted while destroying the device
 /// and instance (e.g. leaked objects).
 #[derive(Clone, Default)]
-pub struct ValidationLog(Arc<Mutex<Vec<String>>>);
+pub struct ValidationLog(pub(super) Arc<LogInner>);
+
+#[derive(Default)]
+pub(super) struct LogInner {
+    messages: Mutex<Vec<String>>,
+    pub(super) notify: Option<Notify>,
+}
+
+/// Where the Vulkan layer's notices go (the device chosen, validation messages, a pipeline
+/// cache that cannot be saved, dropped timestamps): the library never prints; the binaries
+/// pass a sink that does (`scratchart::term::stderr_notices`), a library user may log them or
+/// leave them out (`None`; validation messages are still kept in the [`ValidationLog`]).
+pub type Notify = Arc<dyn Fn(&str) + Send + Sync>;
 
 impl ValidationLog {
     /// Every WARNING or ERROR message seen so far.
     pub fn messages(&self) -> Vec<String> {
-        self.0.lock().unwrap_or_else(|e| e.into_inner()).clone()
+        self.0.messages.lock().unwrap_or_else(|e| e.into_inner()).clone()
     }
 }
 
@@ -45,9 +57,11 @@ unsafe extern "system" fn debug_callback(
     if severity
         .intersects(vk::DebugUtilsMessageSeverityFlagsEXT::WARNING | vk::DebugUtilsMessageSeverityFlagsEXT::ERROR)
     {
-        eprintln!("vulkan validation: {msg}");
-        let log = unsafe { &*(user as *const Mutex<Vec<String>>) };
-        log.lock().unwrap_or_else(|e| e.into_inner()).push(msg);
+        let log = unsafe { &*(user as *const LogInner) };
+        if let Some(n) = &log.notify {
+            n(&format!("vulkan validation: {msg}"));
+        }
+        log.messages.lock().unwrap_or_else(|e| e.into_inner()).push(msg);
     }
     vk::FALSE
 }
@@ -88,7 +102,9 @@ impl Instance {
                 .iter()
                 .any(|l| l.layer_name_as_c_str().ok() == Some(VALIDATION_LAYER));
         if want_validation && !validation {
-            eprintln!("warning: validation requested but VK_LAYER_KHRONOS_validation is not installed");
+            if let Some(n) = &desc.notify {
+                n("warning: validation requested but VK_LAYER_KHRONOS_validation is not installed");
+            }
         }
         let debug_utils = has_ext(&inst_exts, ash::ext::debug_utils::NAME);
         let mut ext_names: Vec<&CStr> = desc.instance_extensions.clone();
@@ -121,7 +137,10 @@ impl Instance {
             vec![]
         };
 
-        let log = ValidationLog::default();
+        let log = ValidationLog(Arc::new(LogInner {
+            messages: Mutex::default(),
+            notify: desc.notify.clone(),
+        }));
         let log_ptr = Arc::as_ptr(&log.0) as *mut c_void;
         let mut messenger_info = vk::DebugUtilsMessengerCreateInfoEXT::default()
             .message_severity(

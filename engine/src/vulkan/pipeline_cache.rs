@@ -97,20 +97,25 @@ impl PersistentCache {
         })
     }
 
-    /// Writes the cache back if it changed (errors are reported, never fatal: it is a cache),
-    /// then destroys it. Call before the device is destroyed.
-    pub fn save_and_destroy(&mut self, device: &ash::Device) {
+    /// Writes the cache back if it changed, then destroys it; returns the warning to give when
+    /// it could not be saved (never fatal: it is a cache). Call before the device is destroyed.
+    pub fn save_and_destroy(&mut self, device: &ash::Device) -> Option<String> {
+        let mut warning = None;
         if let Some(path) = &self.path {
             if let Ok(data) = unsafe { device.get_pipeline_cache_data(self.cache) } {
                 if data.len() != self.loaded && !data.is_empty() {
                     if let Err(e) = write(path, &data) {
-                        eprintln!("warning: cannot save the pipeline cache {}: {e}", path.display());
+                        warning = Some(format!(
+                            "warning: cannot save the pipeline cache {}: {e}",
+                            path.display()
+                        ));
                     }
                 }
             }
         }
         unsafe { device.destroy_pipeline_cache(self.cache, None) };
         self.cache = vk::PipelineCache::null();
+        warning
     }
 
     /// The file, if the cache has one.

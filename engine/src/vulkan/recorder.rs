@@ -398,10 +398,10 @@ impl Recorder {
         let Some(qp) = self.query_pool else { return };
         if self.queries >= MAX_QUERIES {
             if !self.warned_queries {
-                eprintln!(
+                self.ctx.notice(&format!(
                     "warning: more than {} timestamps in one submission; dropping '{label}'",
                     MAX_QUERIES - 1
-                );
+                ));
                 self.warned_queries = true;
             }
             return;

@@ -120,6 +120,17 @@ pub enum SceneError {
     },
 }
 
+/// A scene that cannot be read or is not valid is a bad input file; one that cannot be written
+/// is a failure of the job.
+impl scratchart_exit::ExitClass for SceneError {
+    fn exit_class(&self) -> Option<scratchart_exit::Class> {
+        Some(match self {
+            SceneError::Write(_) => scratchart_exit::Class::Runtime,
+            _ => scratchart_exit::Class::Input,
+        })
+    }
+}
+
 fn invalid(file: &str, field: impl Into<String>, msg: impl Into<String>) -> SceneError {
     SceneError::Invalid {
         file: file.to_string(),
