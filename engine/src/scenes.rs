@@ -1,4 +1,4 @@
-//! Built-in scenes: the benchmark scenes S and M of the README, the paper-scale scene, and the demo
+//! Built-in scenes: the benchmark scenes S and M (engine/docs/performance.md), the paper-scale scene, and the demo
 //! plate. Generated from a seed with a small deterministic generator, so every machine builds the
 //! same scene.
 use crate::model::scene::{Camera, Light, LightKind, Plate, Scene, Scratch, View};
