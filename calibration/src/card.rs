@@ -286,10 +286,7 @@ impl Card {
     /// camera light up, more of them the deeper and wider the cut.
     pub fn views(&self, res: u32) -> Vec<View> {
         let d = 4.0 * self.plate_mm;
-        let place = |az: f64, el: f64| {
-            let (a, e) = (az.to_radians(), el.to_radians());
-            [d * e.cos() * a.cos(), d * e.cos() * a.sin(), d * e.sin()]
-        };
+        let place = |az: f64, el: f64| scratchart::model::camera::spherical(d, az, el);
         [("cam_south", -90.0), ("cam_west", 180.0)]
             .iter()
             .map(|&(name, az)| View {

@@ -41,12 +41,7 @@ pub fn orbit_camera(
     width: u32,
     height: u32,
 ) -> Camera {
-    let (el, az) = (elevation_deg.to_radians(), azimuth_deg.to_radians());
-    let eye = [
-        distance * el.cos() * az.cos(),
-        distance * el.cos() * az.sin(),
-        distance * el.sin(),
-    ];
+    let eye = crate::model::camera::spherical(distance, azimuth_deg, elevation_deg);
     // Vertical field of view that holds the plate's half-diagonal with a small margin.
     let fov = 2.0 * ((0.75 * plate_mm) / distance).atan().to_degrees();
     Camera {
@@ -61,14 +56,9 @@ pub fn orbit_camera(
 
 /// A point light on the same kind of sphere; `intensity` is chosen by the caller.
 pub fn orbit_light(distance: f64, elevation_deg: f64, azimuth_deg: f64, intensity: f64) -> Light {
-    let (el, az) = (elevation_deg.to_radians(), azimuth_deg.to_radians());
     Light {
         kind: LightKind::Point {
-            position: [
-                distance * el.cos() * az.cos(),
-                distance * el.cos() * az.sin(),
-                distance * el.sin(),
-            ],
+            position: crate::model::camera::spherical(distance, azimuth_deg, elevation_deg),
         },
         intensity,
     }

@@ -23,8 +23,7 @@ pub struct OrbitCamera {
 }
 
 fn spherical(distance: f64, az_deg: f64, el_deg: f64) -> DVec3 {
-    let (az, el) = (az_deg.to_radians(), el_deg.to_radians());
-    distance * DVec3::new(el.cos() * az.cos(), el.cos() * az.sin(), el.sin())
+    DVec3::from(scratchart::model::camera::spherical(distance, az_deg, el_deg))
 }
 
 fn to_spherical(v: DVec3) -> (f64, f64, f64) {

@@ -210,6 +210,18 @@ impl ViewGeom {
     }
 }
 
+/// The project's one spherical convention: the point at `distance_mm` from the plate centre,
+/// `azimuth_deg` counter-clockwise from +x in the plate's plane and `elevation_deg` above it (the
+/// scene's lamps, viewers and default cameras; the set-up sheet; the viewer's orbit).
+pub fn spherical(distance_mm: f64, azimuth_deg: f64, elevation_deg: f64) -> [f64; 3] {
+    let (az, el) = (azimuth_deg.to_radians(), elevation_deg.to_radians());
+    [
+        distance_mm * el.cos() * az.cos(),
+        distance_mm * el.cos() * az.sin(),
+        distance_mm * el.sin(),
+    ]
+}
+
 /// On-plate mask of view `view` of `scene` (row-major, top row first); see
 /// [`ViewGeom::on_plate_mask`].
 pub fn on_plate_mask(scene: &Scene, view: usize) -> Vec<bool> {

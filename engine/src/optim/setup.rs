@@ -36,12 +36,7 @@ impl Place {
 
     /// The point at these spherical coordinates.
     pub fn at(azimuth_deg: f64, elevation_deg: f64, distance_mm: f64) -> [f64; 3] {
-        let (az, el) = (azimuth_deg.to_radians(), elevation_deg.to_radians());
-        [
-            distance_mm * el.cos() * az.cos(),
-            distance_mm * el.cos() * az.sin(),
-            distance_mm * el.sin(),
-        ]
+        crate::model::camera::spherical(distance_mm, azimuth_deg, elevation_deg)
     }
 }
 
