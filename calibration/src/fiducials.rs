@@ -91,7 +91,9 @@ impl Found {
     }
 }
 
-fn median(v: &mut [f32]) -> f32 {
+/// The middle value of an image's pixels (the upper of the two middles; 0 for none): the one
+/// median of the calibration's images (benchmarks use `scratchart::bench::median`).
+pub(crate) fn median(v: &mut [f32]) -> f32 {
     if v.is_empty() {
         return 0.0;
     }

@@ -590,11 +590,7 @@ fn measured_widths(data: &Data, photos: &[Vec<f32>], res: &FitResult, pred: &[Ve
 
 fn median_masked(img: &[f32], mask: &[bool]) -> f32 {
     let mut v: Vec<f32> = img.iter().zip(mask).filter(|(_, m)| **m).map(|(x, _)| *x).collect();
-    if v.is_empty() {
-        return 0.0;
-    }
-    let n = v.len();
-    *v.select_nth_unstable_by(n / 2, |a, b| a.total_cmp(b)).1
+    crate::fiducials::median(&mut v)
 }
 
 /// W(z) and w(z) of the fitted tool against commanded depth, with the measured widths.

@@ -202,15 +202,10 @@ pub fn stage_medians(frames: &[scratchart::vulkan::Timings]) -> Vec<(String, f64
     labels
         .into_iter()
         .map(|l| {
-            let mut v: Vec<f64> = frames.iter().filter_map(|t| t.get(&l)).collect();
-            let m = median(&mut v);
-            (l, m)
+            let v: Vec<f64> = frames.iter().filter_map(|t| t.get(&l)).collect();
+            (l, scratchart::bench::median(v))
         })
         .collect()
-}
-
-pub fn median(v: &mut [f64]) -> f64 {
-    scratchart::bench::median(v.to_vec())
 }
 
 pub fn print_table(title: &str, device: &str, rows: &[BenchRow]) {
@@ -289,8 +284,8 @@ pub fn benchmark(
             mode: format!("headless 1/{}", crate::frame::DIVISORS[level]),
             internal: (iw, ih),
             full,
-            gpu_ms: median(&mut gpu),
-            frame_ms: median(&mut wall),
+            gpu_ms: scratchart::bench::median(gpu.clone()),
+            frame_ms: scratchart::bench::median(wall.clone()),
             stages: stage_medians(&stages),
         });
     }

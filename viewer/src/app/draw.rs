@@ -231,8 +231,8 @@ impl App {
                     },
                     internal: internal[internal.len() / 2],
                     full,
-                    gpu_ms: headless::median(&mut b.gpu),
-                    frame_ms: headless::median(&mut b.interval),
+                    gpu_ms: scratchart::bench::median(b.gpu.clone()),
+                    frame_ms: scratchart::bench::median(b.interval.clone()),
                     stages: headless::stage_medians(&b.timings),
                 });
                 b.timings.clear();
