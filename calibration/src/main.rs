@@ -208,13 +208,13 @@ fn run(cli: Cli) -> Result<()> {
                     .iter()
                     .zip(&mask)
                     .filter(|(_, m)| **m)
-                    .map(|(x, _)| (*x as f64).powf(2.2))
+                    .map(|(x, _)| scratchart::model::display::linear(*x as f64))
                     .collect();
                 on.sort_by(|a, b| a.total_cmp(b));
                 peak = peak.max(on.get(on.len() * 998 / 1000).copied().unwrap_or(1e-6));
             }
             let cam = Camera {
-                exposure: 0.8f64.powf(2.2) / peak,
+                exposure: scratchart::model::display::linear(0.8) / peak,
                 blur_px: 0.5,
                 noise: 0.004,
                 seed: 1,

@@ -247,7 +247,11 @@ pub fn resize(img: &Gray, w: u32, h: u32) -> Gray {
             .collect()
     };
     let (cols, rows) = (spans(w, sx, img.width), spans(h, sy, img.height));
-    let lin: Vec<f64> = img.data.iter().map(|&d| (d.max(0.0) as f64).powf(2.2)).collect();
+    let lin: Vec<f64> = img
+        .data
+        .iter()
+        .map(|&d| scratchart::model::display::linear(d as f64))
+        .collect();
     let iw = img.width as usize;
     let mut tmp = vec![0.0f64; w as usize * img.height as usize];
     for y in 0..img.height as usize {
@@ -259,7 +263,7 @@ pub fn resize(img: &Gray, w: u32, h: u32) -> Gray {
     for (y, span) in rows.iter().enumerate() {
         for x in 0..w as usize {
             let l: f64 = span.iter().map(|&(j, wt)| wt * tmp[j * w as usize + x]).sum();
-            data[y * w as usize + x] = l.powf(1.0 / 2.2) as f32;
+            data[y * w as usize + x] = scratchart::model::display::display(l) as f32;
         }
     }
     Gray {

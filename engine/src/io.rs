@@ -206,7 +206,7 @@ pub fn decode_pfm(bytes: &[u8]) -> Result<(u32, u32, Vec<f32>), String> {
 /// so that a bad render shows up downstream).
 pub fn display_value(l: f32) -> f32 {
     if l > 0.0 {
-        l.powf(1.0 / 2.2)
+        l.powf(1.0 / crate::model::display::GAMMA as f32)
     } else if l.is_nan() {
         l
     } else {
@@ -218,7 +218,7 @@ pub fn display_byte(l: f32) -> u8 {
     if l.is_nan() || l <= 0.0 {
         return 0;
     }
-    let i = (l as f64).powf(1.0 / 2.2).min(1.0);
+    let i = crate::model::display::display(l as f64).min(1.0);
     (255.0 * i).round() as u8
 }
 

@@ -14,6 +14,7 @@
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 pub mod camera;
+pub mod display;
 pub mod fsio;
 pub mod reference;
 pub mod scene;

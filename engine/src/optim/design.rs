@@ -274,7 +274,7 @@ impl<'r> Optimizer<'r> {
             for ((&l, &tv), &m) in img.iter().zip(t).zip(&mask) {
                 if m {
                     sl += l as f64;
-                    st += (tv as f64).powf(2.2);
+                    st += crate::model::display::linear(tv as f64);
                     n += 1;
                 }
             }

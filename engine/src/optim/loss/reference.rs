@@ -26,9 +26,10 @@ fn cl(x: i64, n: u32) -> usize {
     x.clamp(0, n as i64 - 1) as usize
 }
 
+/// (NaN gives 0 here: the reference loss of a bad pixel is that of a black one.)
 fn display(l: f64) -> f64 {
     if l > 0.0 {
-        l.powf(1.0 / 2.2)
+        crate::model::display::display(l)
     } else {
         0.0
     }
@@ -209,7 +210,8 @@ pub fn view_loss(l: &[f64], t: &[f64], w: u32, h: u32, cfg: &LossConfig) -> (f64
     }
     let dl: Vec<f64> = (0..n)
         .map(|i| {
-            let slope = (1.0 / 2.2) * l[i].max(1e-4).powf(1.0 / 2.2 - 1.0);
+            let g = crate::model::display::GAMMA;
+            let slope = (1.0 / g) * l[i].max(1e-4).powf(1.0 / g - 1.0);
             (d_img[i] + d_up[i]) * slope
         })
         .collect();
