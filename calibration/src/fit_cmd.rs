@@ -124,7 +124,7 @@ pub fn run(renderer: &Renderer, args: &FitArgs, obs: &dyn Observer) -> Result<()
     let (card, capture) = Card::load(&args.card).map_err(|e| InputError(format!("{e:#}")))?;
     let names: Vec<String> = capture.views.iter().map(|v| v.name.clone()).collect();
     if args.check {
-        return check_photos(&card, &capture, &args.images);
+        return check_photos(&card, &capture, &args.images, obs);
     }
     let files = pair_photos(&args.images, &names)?;
     let mut photos = Vec::new();
@@ -306,24 +306,24 @@ pub fn run(renderer: &Renderer, args: &FitArgs, obs: &dyn Observer) -> Result<()
     let secs = t0.elapsed().as_secs_f64();
     let (pred, registered) = predict(renderer, &data, &best)?;
     // Report.
-    println!(
+    obs.result(&format!(
         "fitted {} to {} photo(s) in {secs:.1} s ({} renders, {} tangent passes): rms residual {:.4} (display units)",
         best.kind.name(),
         files.len(),
         results.iter().map(|r| r.renders).sum::<u32>(),
         results.iter().map(|r| r.tangent_passes).sum::<u32>(),
         best.rms
-    );
+    ));
     if results.len() > 1 {
-        println!("  chosen by the lowest BIC (robust loss, penalized by parameter count):");
+        obs.result("  chosen by the lowest BIC (robust loss, penalized by parameter count):");
         for r in &results {
-            println!(
+            obs.result(&format!(
                 "    {:13} BIC {:>12.0}  loss {:.4e}{}",
                 r.kind.name(),
                 r.bic,
                 r.loss,
                 if r.kind == best.kind { "  <- chosen" } else { "" }
-            );
+            ));
         }
     }
     for (k, (name, v, sd)) in best.params.iter().enumerate() {
@@ -336,16 +336,16 @@ pub fn run(renderer: &Renderer, args: &FitArgs, obs: &dyn Observer) -> Result<()
             .map_or(String::new(), |b| format!(" (bootstrap +- {:.5})", b[k]));
         let raw = best.sd.get(k).copied().flatten();
         match (sd, raw) {
-            (Some(sd), _) => println!("  {name:14} {v:.5} +- {sd:.5}{boot}"),
-            _ if best.unseen.contains(name) => println!("  {name:14} no groove at this depth"),
-            (None, Some(raw)) => println!(
+            (Some(sd), _) => obs.result(&format!("  {name:14} {v:.5} +- {sd:.5}{boot}")),
+            _ if best.unseen.contains(name) => obs.result(&format!("  {name:14} no groove at this depth")),
+            (None, Some(raw)) => obs.result(&format!(
                 "  {name:14} {v:.5} +- {raw:.5}: not identified (more than {:.5}){boot}",
                 best.limits[k]
-            ),
-            (None, None) => println!("  {name:14} not identified: the photos do not constrain it"),
+            )),
+            (None, None) => obs.result(&format!("  {name:14} not identified: the photos do not constrain it")),
         }
     }
-    println!(
+    obs.result(&format!(
         "  exposure {:?}, blur {:?} px",
         best.exposure
             .iter()
@@ -355,7 +355,7 @@ pub fn run(renderer: &Renderer, args: &FitArgs, obs: &dyn Observer) -> Result<()
             .iter()
             .map(|b| (b * 100.0).round() / 100.0)
             .collect::<Vec<_>>()
-    );
+    ));
     // The verdict: what would make tool.json wrong.
     let residual: Vec<(f64, f64)> = (0..capture.views.len())
         .map(|v| {
@@ -370,11 +370,11 @@ pub fn run(renderer: &Renderer, args: &FitArgs, obs: &dyn Observer) -> Result<()
         })
         .collect();
     for (v, (rms, nz)) in residual.iter().enumerate() {
-        println!(
+        obs.result(&format!(
             "  photo {}: residual rms {rms:.4}, its own noise {nz:.4} ({:.1} times)",
             files[v].display(),
             rms / nz.max(RESIDUAL_FLOOR)
-        );
+        ));
     }
     let photo_names: Vec<String> = files
         .iter()
@@ -406,18 +406,18 @@ pub fn run(renderer: &Renderer, args: &FitArgs, obs: &dyn Observer) -> Result<()
             .collect();
         let p = PathBuf::from(format!("{}_residual_{}.png", stem.display(), view.name));
         scratchart::io::write_png_gray(&p, view.camera.width, view.camera.height, &bytes)?;
-        println!(
+        obs.result(&format!(
             "wrote {} (mid grey: no residual; 1 grey level = 1/510 of full scale)",
             p.display()
-        );
+        ));
     }
     let plot = PathBuf::from(format!("{}_profile.png", stem.display()));
     let points = measured_widths(&data, &registered, &best, &pred);
     profile_plot(&plot, &best, &card, &points)?;
-    println!(
+    obs.result(&format!(
         "wrote {} (W and w against commanded depth, measured points)",
         plot.display()
-    );
+    ));
     let record = json!({
         "kind": best.kind.name(),
         "criterion": "lowest BIC of the robust loss among the fitted kinds",
@@ -468,7 +468,10 @@ pub fn run(renderer: &Renderer, args: &FitArgs, obs: &dyn Observer) -> Result<()
         })).collect::<Vec<_>>(),
     });
     scratchart::io::write_atomic(&report_path, serde_json::to_string_pretty(&report)?.as_bytes())?;
-    println!("wrote {} (the fit, its checks and its verdict)", report_path.display());
+    obs.result(&format!(
+        "wrote {} (the fit, its checks and its verdict)",
+        report_path.display()
+    ));
     let _ = std::fs::remove_file(&state_path);
     if !reasons.is_empty() {
         return Err(InputError(format!(
@@ -487,9 +490,9 @@ pub fn run(renderer: &Renderer, args: &FitArgs, obs: &dyn Observer) -> Result<()
         fit: Some(record),
     };
     scratchart::io::write_atomic(&args.out, best.tool.to_json_fitted(&fitted).as_bytes())?;
-    println!("wrote {}", args.out.display());
+    obs.result(&format!("wrote {}", args.out.display()));
     for a in &allowed {
-        println!("  warning (--allow-unidentified): {a}");
+        obs.result(&format!("  warning (--allow-unidentified): {a}"));
     }
     Ok(())
 }

@@ -26,6 +26,9 @@ pub trait Observer {
     fn warn(&self, _msg: &str) {}
     /// A note about what happens (what was written where).
     fn info(&self, _msg: &str) {}
+    /// A line of the job's result (a fit's parameters, its verdict, the files it wrote): what a
+    /// binary prints on stdout, where a script reads it.
+    fn result(&self, _msg: &str) {}
     /// Whether the user asked the job to stop (Ctrl-C). Long jobs poll it between steps and stop
     /// cleanly: the optimizer writes a checkpoint first.
     fn should_stop(&self) -> bool {
@@ -51,6 +54,9 @@ impl Observer for Collect {
         self.warnings.lock().unwrap().push(msg.to_string());
     }
     fn info(&self, msg: &str) {
+        self.notes.lock().unwrap().push(msg.to_string());
+    }
+    fn result(&self, msg: &str) {
         self.notes.lock().unwrap().push(msg.to_string());
     }
 }

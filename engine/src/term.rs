@@ -104,6 +104,13 @@ impl Observer for Terminal {
         }
     }
 
+    fn result(&self, msg: &str) {
+        match self.bar.lock().unwrap().as_ref() {
+            Some(b) => b.suspend(|| println!("{msg}")),
+            None => println!("{msg}"),
+        }
+    }
+
     fn should_stop(&self) -> bool {
         INTERRUPTED.load(Ordering::SeqCst)
     }

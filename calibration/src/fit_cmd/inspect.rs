@@ -1,4 +1,5 @@
 //! Each photo as the fit will use it: loaded, shrunk, registered, checked; and `fit --check`.
+use scratchart::observe::Observer;
 use std::path::{Path, PathBuf};
 
 use anyhow::Result;
@@ -248,7 +249,12 @@ fn saturated_frame(small: &crate::photo::Gray, f: &Path) -> Result<()> {
 /// `fit --check`: says of each photo whether the fit can use it, without fitting. A photo named
 /// after a capture view is checked against it, others against the views in order. Exit 3 when
 /// any is unusable.
-pub(super) fn check_photos(card: &Card, capture: &scratchart::model::scene::Scene, images: &[PathBuf]) -> Result<()> {
+pub(super) fn check_photos(
+    card: &Card,
+    capture: &scratchart::model::scene::Scene,
+    images: &[PathBuf],
+    obs: &dyn Observer,
+) -> Result<()> {
     let mut bad = Vec::new();
     for (i, f) in images.iter().enumerate() {
         let stem = f
@@ -271,19 +277,23 @@ pub(super) fn check_photos(card: &Card, capture: &scratchart::model::scene::Scen
                     .filter(|(c, _)| **c < 0.5)
                     .map(|(_, m)| m.label.as_str())
                     .collect();
-                println!("usable   {} ({:.1} s)", insp.summary(), t.elapsed().as_secs_f64());
+                obs.result(&format!(
+                    "usable   {} ({:.1} s)",
+                    insp.summary(),
+                    t.elapsed().as_secs_f64()
+                ));
                 if !weak.is_empty() {
-                    println!("         marks not found or weak: {}", weak.join(", "));
+                    obs.result(&format!("         marks not found or weak: {}", weak.join(", ")));
                 }
                 if insp.saturated > 0.1 {
-                    println!(
+                    obs.result(&format!(
                         "         {:.0}% of the ladder's bright pixels are full white: a lower exposure reads the widths better",
                         100.0 * insp.saturated
-                    );
+                    ));
                 }
             }
             Err(e) => {
-                println!("UNUSABLE {}: {e:#}", f.display());
+                obs.result(&format!("UNUSABLE {}: {e:#}", f.display()));
                 bad.push(f.display().to_string());
             }
         }
