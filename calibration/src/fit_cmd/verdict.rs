@@ -31,6 +31,9 @@ pub fn verdict(best: &FitResult, residual: &[(f64, f64)], photos: &[String], all
             ));
         }
     }
+    if let Some(msg) = shrinking_profile(best) {
+        reasons.push(msg);
+    }
     let unidentified: Vec<String> = best
         .unidentified()
         .into_iter()
@@ -83,6 +86,43 @@ pub fn verdict(best: &FitResult, residual: &[(f64, f64)], photos: &[String], all
         allowed,
         unidentified,
     }
+}
+
+/// A measured profile whose width shrinks as the cut goes deeper is no tool: a cutter plunged
+/// deeper cuts at least as wide (a groove at one depth and none, or a narrower one, deeper down
+/// is a fit that traded the widths with something else). The study's trial 7 was written with
+/// 15.0 +- 0.2 um at -0.005 mm and no groove at +0.005 mm, 10.5 um off its truth. Widths are
+/// compared with 3 standard deviations of slack (an unstated one counts as none).
+fn shrinking_profile(best: &FitResult) -> Option<String> {
+    if best.kind != crate::fit::Kind::Profile {
+        return None;
+    }
+    let mut w: Vec<(f64, f64, f64)> = best
+        .params
+        .iter()
+        .zip(&best.sd)
+        .filter_map(|((name, v, _), sd)| {
+            let z: f64 = name.strip_prefix("W_mm@")?.parse().ok()?;
+            Some((z, *v, sd.unwrap_or(0.0)))
+        })
+        .collect();
+    w.sort_by(|a, b| a.0.total_cmp(&b.0));
+    for (i, a) in w.iter().enumerate() {
+        for b in &w[i + 1..] {
+            if a.1 > b.1 + 3.0 * a.2.hypot(b.2) {
+                return Some(format!(
+                    "the measured profile narrows as the cut goes deeper: {:.1} um wide at {} mm but {:.1} um at {} mm \
+                     (a deeper cut is at least as wide): the photos do not tell this tool's widths; photograph again \
+                     (sharper, less noise, the capture guide's exposure) or fit a --kind with a shape",
+                    1e3 * a.1,
+                    a.0,
+                    1e3 * b.1,
+                    b.0
+                ));
+            }
+        }
+    }
+    None
 }
 
 /// The residual's RMS may be at most this many times the photo's own pixel noise (or
@@ -232,6 +272,40 @@ mod verdict_tests {
             v.allowed.iter().any(|m| m.starts_with("angle_deg ran to a bound")),
             "{v:?}"
         );
+    }
+
+    #[test]
+    fn a_profile_that_narrows_deeper_is_refused() {
+        let profile = |w: [f64; 3], sd: [Option<f64>; 3]| {
+            let mut r = result([0.1, 0.001, 0.0005], &[]);
+            r.kind = Kind::Profile;
+            r.params = ["W_mm@-0.005", "W_mm@0.005", "W_mm@0.02"]
+                .iter()
+                .zip(w)
+                .zip(sd)
+                .map(|((n, v), s)| (n.to_string(), v, s))
+                .collect();
+            r.sd = sd.to_vec();
+            r.limits = vec![0.0025; 3];
+            r.curvature = vec![None; 3];
+            r
+        };
+        // 15 um at -0.005 mm and no groove at +0.005 mm (the study's trial 7).
+        let v = verdict(
+            &profile([0.015, 0.0, 0.025], [Some(0.0002), None, Some(0.0003)]),
+            &[(0.004, 0.004); 2],
+            &photos(),
+            true,
+        );
+        assert!(v.reasons.iter().any(|m| m.contains("narrows")), "{v:?}");
+        // Widening with depth, or narrowing within the uncertainties, is a tool.
+        for (w, sd) in [
+            ([0.006, 0.012, 0.03], [Some(0.0002); 3]),
+            ([0.0121, 0.012, 0.03], [Some(0.0002); 3]),
+        ] {
+            let v = verdict(&profile(w, sd), &[(0.004, 0.004); 2], &photos(), true);
+            assert!(!v.reasons.iter().any(|m| m.contains("narrows")), "{v:?}");
+        }
     }
 
     #[test]
