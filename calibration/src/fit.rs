@@ -1,21 +1,17 @@
 //! The tool fit: the tool's parameters, the z offset, the groove walls' roughness, each photo's
-//! exposure and blur, fitted to registered photos of the card by rendering the card
+//! exposure and the camera's blur, fitted to registered photos of the card by rendering the card
 //! with the engine.
 //!
 //! Forward model, per capture view v: the engine renders the card as the tool cuts it (every
 //! ladder cut and fiducial becomes the scratch model's groove for the tool at its commanded depth),
-//! the linear image is blurred by a Gaussian of sigma b_v px (each photo its own: its focus,
-//! shake and scale), scaled by the exposure E_v and a smooth shading across the frame, clipped
-//! at 1 as a sensor clips, its subpixels added up, mapped to display values (1/2.2 power), and
-//! then taken as the mean of that value plus the photo's noise s_v clipped to [0, 1] (a phone
-//! clips its noise at black in every dark pixel, which lifts a dark plate: 2.5% of noise put a
-//! 58 um ball at 39.5 um). The Gaussian's centre is moved by a fitted sub-pixel shift per view:
-//! the photometric registration, with no resampling of anything (resampling blurs by an amount
-//! that changes with the sub-pixel phase and biased the groove shapes). Each view is the camera
-//! that took its photo (`fit_cmd`: the capture view, or the camera recovered from the card's
-//! hatched marks when the photo was taken elsewhere, refined by the fit and held by the marks
-//! found: see `Evaluator::mark_residuals`), at the photo's size after shrinking in linear light
-//! by the whole factor that gives the card about the capture view's scale.
+//! the linear image is blurred by a Gaussian of sigma b px (the optics blur light, before the
+//! sensor), scaled by the exposure E_v, mapped to display values (1/2.2 power) and clipped at 1 as
+//! a sensor clips, as `scratchart-cal simulate` does. The Gaussian's centre is moved by a fitted
+//! sub-pixel shift per view: the photometric registration, with no resampling of anything
+//! (resampling blurs by an amount that changes with the sub-pixel phase and biased the groove
+//! shapes). Each view is the camera that took its photo (`fit_cmd`: the capture view, or the
+//! camera recovered from the card's hatched marks when the photo was taken elsewhere), at the photo's
+//! size after shrinking in linear light.
 //!
 //! Loss: a robust (Cauchy) sum over the on-card pixels of the capture views, scale
 //! s = 1.4826 MAD of the residuals at the start of each iteration (at least 0.002), so a dust
@@ -119,11 +115,6 @@ pub struct Data<'a> {
     /// Per view: the photo's own pixel noise (display units, `fiducials::pixel_noise`), for the
     /// check of what noise, 8-bit steps and JPEG do to the fit (see `fit_kind`).
     pub noise: Vec<f64>,
-    /// Per view: the card's marks found in its photo, (plate point in mm, image point in the
-    /// view's pixels), and how well they were found (pixels). Where the fit refines a photo's
-    /// camera, they hold it: its eye alone moves the grooves' light in ways the tool's shape can
-    /// take up (see `Evaluator::mark_residuals`).
-    pub marks: Vec<(Vec<([f64; 2], [f64; 2])>, f64)>,
 }
 
 /// What a fit found.
@@ -133,8 +124,7 @@ pub struct FitResult {
     pub tool: Tool,
     pub alpha: f64,
     pub exposure: Vec<f64>,
-    /// Each photo's blur (Gaussian sigma, pixels of the photo as the fit uses it).
-    pub blur_px: Vec<f64>,
+    pub blur_px: f64,
     /// Parameter names and values, with their uncertainties (None: not identified).
     pub params: Vec<(String, f64, Option<f64>)>,
     /// Robust loss at the optimum (per pixel), the RMS residual (display units), pixels used.
@@ -421,39 +411,6 @@ impl Evaluator<'_, '_> {
         b
     }
 
-    /// The marks' residuals of the photos whose camera is refined: where the camera at `x` (and
-    /// the photo's registration shift) puts each mark found, less where it was found, in units
-    /// of how well it was found and scaled to the pixels' own noise (`scale`), so that a mark
-    /// weighs as a pixel would at its noise. Without them, a ball's radius came out 2.1 um off
-    /// with its uncertainty 0.57 um: the eye moved 10 mm along its line of sight with the field
-    /// of view, which the image barely shows but the light on the grooves does.
-    pub(super) fn mark_residuals(&self, x: &[f64], scale: f64) -> Vec<f64> {
-        let mut r = Vec::new();
-        let ss = self.ss as f64;
-        for (v, (marks, sigma)) in self.data.marks.iter().enumerate() {
-            if self.lay.pose_at.get(v).copied().flatten().is_none() {
-                continue;
-            }
-            let g = scratchart::model::camera::ViewGeom::new(&self.render_view(x, v));
-            let (dx, dy) = self.lay.shift(x, v);
-            for (plate, found) in marks {
-                let (px, py) = g
-                    .project([plate[0], plate[1], 0.0])
-                    .map_or((f64::NAN, f64::NAN), |p| (p.0 / ss + dx, p.1 / ss + dy));
-                r.push((px - found[0]) / sigma * scale);
-                r.push((py - found[1]) / sigma * scale);
-            }
-        }
-        // (a mark behind the camera: a large residual, not a NaN)
-        r.iter().map(|e| if e.is_finite() { *e } else { 1.0 }).collect()
-    }
-
-    /// The pixel noise the marks' residuals are scaled to (see `mark_residuals`).
-    pub(super) fn mark_scale(&self) -> f64 {
-        let n = self.data.noise.iter().copied().fold(0.0, f64::max);
-        n.max(lm::MIN_SCALE)
-    }
-
     /// Residuals at `x` from linear renders `lin` already made for its tool part.
     fn residuals_at(&self, x: &[f64], lin: &[Vec<f32>]) -> Vec<f64> {
         self.residuals(&self.predict(lin, x))
@@ -619,17 +576,6 @@ pub fn fit_kind(
         ev.gs = None;
         scored.sort_by(|a, b| a.0.total_cmp(&b.0));
         starts = scored.into_iter().take(2).map(|s| (s.1, s.2)).collect();
-        // The two best: each photo's clipped noise, and the exposure again with it.
-        for (x, _) in &mut starts {
-            let lin = ev.render(x)?;
-            for (v, img) in lin.iter().enumerate() {
-                let s = ev.best_clipped_noise(v, img, x);
-                if s != x[ev.lay.lift_at + v] {
-                    x[ev.lay.lift_at + v] = s;
-                    x[ev.lay.n_tool + 1 + v] = ev.best_exposure(v, img, x);
-                }
-            }
-        }
     }
     on_starts(&starts);
     let mut best: Option<(Solution, Option<(f64, f64)>)> = None;
@@ -664,25 +610,6 @@ pub fn fit_kind(
         }
     }
     let (Solution { mut x, mut cost, .. }, best_rg) = best.expect("at least one start");
-    // Each photo's clipped noise again, now with the tool found (the search had only its start),
-    // and the rest refined again where it moved.
-    {
-        let lin = ev.render(&x)?;
-        let mut moved = false;
-        for (v, img) in lin.iter().enumerate() {
-            let k = ev.lay.lift_at + v;
-            let s = ev.best_clipped_noise(v, img, &x);
-            moved |= (s - x[k]).abs() > 0.001;
-            x[k] = s;
-        }
-        if moved {
-            let label = format!("{} after the clipped noise", kind.name());
-            let got = refine(&mut ev, x, best_rg, cfg.iters.min(8), obs, &label)?;
-            iterations += cfg.iters.min(8);
-            x = got.x;
-            cost = got.cost;
-        }
-    }
     // JPEG photos compared on their own pixel grid: the model takes the JPEG's change to it
     // (see `Data::jpeg`) and is refined again from where it stands.
     if data.jpeg.iter().any(|q| q.is_some()) {
@@ -736,7 +663,7 @@ pub fn fit_kind(
         tool: lay.tool(&x),
         alpha: lay.alpha(&x),
         exposure: (0..lay.n_views).map(|v| lay.exposure(&x, v)).collect(),
-        blur_px: (0..lay.n_views).map(|v| lay.blur(&x, v)).collect(),
+        blur_px: lay.blur(&x),
         params,
         loss,
         rms,

@@ -134,20 +134,9 @@ pub fn run(renderer: &Renderer, args: &FitArgs, obs: &dyn Observer) -> Result<()
     let mut noise = Vec::new();
     let mut jpeg = Vec::new();
     let mut inspections = Vec::new();
-    let mut marks = Vec::new();
     for (v, f) in capture.views.iter().zip(&files) {
         let insp = inspect_photo(&card, &capture, v, f)?;
         obs.info(&insp.summary());
-        // The marks found, as well as the homography through them fits them (at least a tenth
-        // of a pixel: a blurred, compressed mark's centre is no better).
-        marks.push((
-            card.marks
-                .iter()
-                .zip(&insp.found.points)
-                .filter_map(|(m, p)| p.map(|p| (m.centre, p)))
-                .collect::<Vec<_>>(),
-            insp.found.rms_px.max(0.1),
-        ));
         photos.push(insp.image.data.clone());
         masks.push(insp.mask);
         refine_pose.push(insp.off_pose);
@@ -180,7 +169,6 @@ pub fn run(renderer: &Renderer, args: &FitArgs, obs: &dyn Observer) -> Result<()
         refine_pose,
         jpeg,
         noise: noise.clone(),
-        marks,
     };
     let init = match &args.init {
         Some(p) => {
@@ -346,15 +334,12 @@ pub fn run(renderer: &Renderer, args: &FitArgs, obs: &dyn Observer) -> Result<()
         }
     }
     obs.result(&format!(
-        "  exposure {:?}, blur {:?} px",
+        "  exposure {:?}, camera blur {:.2} px",
         best.exposure
             .iter()
             .map(|e| (e * 1000.0).round() / 1000.0)
             .collect::<Vec<_>>(),
         best.blur_px
-            .iter()
-            .map(|b| (b * 100.0).round() / 100.0)
-            .collect::<Vec<_>>()
     ));
     // The verdict: what would make tool.json wrong.
     let residual: Vec<(f64, f64)> = (0..capture.views.len())
@@ -536,9 +521,7 @@ pub(super) fn is_tool_param(name: &str) -> bool {
     !(name.starts_with("ln_exposure")
         || name.starts_with("registration")
         || name.starts_with("eye[")
-        || name.starts_with("shade[")
-        || name.starts_with("blur_px")
-        || name.starts_with("clipped_noise["))
+        || name.starts_with("shade["))
 }
 
 /// Per ladder depth, the visible width the photos show: the model's width scaled by the ratio of

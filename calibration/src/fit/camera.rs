@@ -82,7 +82,7 @@ impl Evaluator<'_, '_> {
         let (w, h) = (c.width as usize, c.height as usize);
         let (dx, dy) = self.lay.shift(x, v);
         let kf = k as f64;
-        blur_shifted(img, k * w, k * h, kf * self.lay.blur(x, v), kf * dx, kf * dy)
+        blur_shifted(img, k * w, k * h, kf * self.lay.blur(x), kf * dx, kf * dy)
     }
 
     /// What the sensor of view v makes of the light `b` (at `ss` times its resolution): the
@@ -112,10 +112,9 @@ impl Evaluator<'_, '_> {
                 ((l as f64 * e * f) as f32).min(1.0)
             })
             .collect();
-        let sn = self.lay.clipped_noise(x, v);
         self.reduce(&lit, v)
             .into_iter()
-            .map(|l| clipped_mean(scratchart::io::display_value(l).min(1.0) as f64, sn) as f32)
+            .map(|l| scratchart::io::display_value(l).min(1.0))
             .collect()
     }
 
@@ -147,9 +146,21 @@ impl Evaluator<'_, '_> {
     /// The log exposure of view `v` that fits its photo best with the rest of `x` (a scan in
     /// steps of 1 over [-10, 10], then golden-section search; no render).
     pub(super) fn best_exposure(&self, v: usize, lin: &[f32], x: &[f64]) -> f64 {
-        let k = self.lay.n_tool + 1 + v;
         let b = self.blurred(lin, v, x);
-        let cost = self.view_cost(v, &b, x, k, &self.data.masks[v]);
+        let k = self.lay.n_tool + 1 + v;
+        let cost = |le: f64| {
+            let mut xe = x.to_vec();
+            xe[k] = le;
+            let r: Vec<f64> = self
+                .expose(&b, v, &xe)
+                .iter()
+                .zip(&self.data.photos[v])
+                .zip(&self.data.masks[v])
+                .filter(|(_, m)| **m)
+                .map(|((m, p), _)| (m - p) as f64)
+                .collect();
+            cauchy(&r, 0.01)
+        };
         let mut best = (f64::INFINITY, 0.0);
         for step in -10..=10 {
             let c = cost(step as f64);
@@ -157,127 +168,16 @@ impl Evaluator<'_, '_> {
                 best = (c, step as f64);
             }
         }
-        golden(cost, best.1 - 1.0, best.1 + 1.0)
-    }
-
-    /// The clipped noise of view `v` (`Layout::clipped_noise`) that fits its photo best with the
-    /// rest of `x` (golden-section search over [0, 0.2]; no render), judged on the dark plate
-    /// only (the model's pixels below 0.02 of full scale): there it is all that lifts the
-    /// light, where on the grooves it would trade with their widths (a measured profile's widths
-    /// and a noise of twice the truth). The refinement's linear steps cannot reach it from
-    /// afar: its effect on a pixel of value d grows like the normal density at d / s.
-    pub(super) fn best_clipped_noise(&self, v: usize, lin: &[f32], x: &[f64]) -> f64 {
-        let b = self.blurred(lin, v, x);
-        let k = self.lay.lift_at + v;
-        let mut x0 = x.to_vec();
-        x0[k] = 0.0;
-        let dark: Vec<bool> = self
-            .expose(&b, v, &x0)
-            .iter()
-            .zip(&self.data.masks[v])
-            .map(|(m, ok)| *ok && *m < 0.02)
-            .collect();
-        // (a plate with little dark in it has little the clipping changes)
-        if dark.iter().filter(|d| **d).count() < 200 {
-            return 0.0;
+        let (mut a, mut b) = (best.1 - 1.0, best.1 + 1.0);
+        let g = 0.5 * (5f64.sqrt() - 1.0);
+        for _ in 0..16 {
+            let (m1, m2) = (b - g * (b - a), a + g * (b - a));
+            if cost(m1) < cost(m2) {
+                b = m2;
+            } else {
+                a = m1;
+            }
         }
-        golden(self.view_cost(v, &b, x, k, &dark), 0.0, 0.2)
-    }
-
-    /// The robust cost of view `v` against its photo over the pixels `mask` as a function of
-    /// parameter `k` alone, the optics' light `b` given.
-    fn view_cost<'s>(
-        &'s self,
-        v: usize,
-        b: &'s [f32],
-        x: &'s [f64],
-        k: usize,
-        mask: &'s [bool],
-    ) -> impl Fn(f64) -> f64 + 's {
-        move |val: f64| {
-            let mut xe = x.to_vec();
-            xe[k] = val;
-            let r: Vec<f64> = self
-                .expose(b, v, &xe)
-                .iter()
-                .zip(&self.data.photos[v])
-                .zip(mask)
-                .filter(|(_, m)| **m)
-                .map(|((m, p), _)| (m - p) as f64)
-                .collect();
-            cauchy(&r, 0.01)
-        }
-    }
-}
-
-/// The mean of d + s Z clipped to [0, 1], Z standard normal: what a sensor's noise of s does to
-/// the mean of a pixel of true value d once it is clipped at black and white (a dark pixel is
-/// lifted by up to 0.4 s, a white one lowered as much).
-pub(super) fn clipped_mean(d: f64, s: f64) -> f64 {
-    if s < 1e-6 {
-        return d.clamp(0.0, 1.0);
-    }
-    let (a, b) = (d / s, (1.0 - d) / s);
-    // E[X] + E[max(0, -X)] - E[max(0, X - 1)], X ~ N(d, s^2).
-    d + s * pdf(a) - d * cdf(-a) - s * pdf(b) + (1.0 - d) * cdf(-b)
-}
-
-/// The minimum of a unimodal `cost` on [a, b], by golden-section search (16 steps).
-fn golden(cost: impl Fn(f64) -> f64, mut a: f64, mut b: f64) -> f64 {
-    let g = 0.5 * (5f64.sqrt() - 1.0);
-    for _ in 0..16 {
-        let (m1, m2) = (b - g * (b - a), a + g * (b - a));
-        if cost(m1) < cost(m2) {
-            b = m2;
-        } else {
-            a = m1;
-        }
-    }
-    0.5 * (a + b)
-}
-
-fn pdf(x: f64) -> f64 {
-    (-0.5 * x * x).exp() / (2.0 * std::f64::consts::PI).sqrt()
-}
-
-/// The standard normal distribution function, through erfc (Numerical Recipes' erfcc,
-/// fractional error below 1.2e-7).
-fn cdf(x: f64) -> f64 {
-    let z = x.abs() / std::f64::consts::SQRT_2;
-    let t = 1.0 / (1.0 + 0.5 * z);
-    let erfc = t
-        * (-z * z - 1.26551223
-            + t * (1.00002368
-                + t * (0.37409196
-                    + t * (0.09678418
-                        + t * (-0.18628806
-                            + t * (0.27886807
-                                + t * (-1.13520398 + t * (1.48851587 + t * (-0.82215223 + t * 0.17087277)))))))))
-            .exp();
-    if x >= 0.0 {
-        1.0 - 0.5 * erfc
-    } else {
-        0.5 * erfc
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::clipped_mean;
-
-    /// Against the mean of many clipped draws.
-    #[test]
-    fn clipped_mean_is_the_mean_of_clipped_noise() {
-        let mut rng = scratchart::scenes::Rng::new(3);
-        for &(d, s) in &[(0.0, 0.02), (0.01, 0.03), (0.5, 0.05), (0.99, 0.02), (0.2, 0.0)] {
-            let n = 200_000;
-            let m: f64 = (0..n).map(|_| (d + s * rng.normal()).clamp(0.0, 1.0)).sum::<f64>() / n as f64;
-            let g = clipped_mean(d, s);
-            assert!(
-                (g - m).abs() < 4.0 * s / (n as f64).sqrt() + 1e-9,
-                "d {d} s {s}: {g} against {m}"
-            );
-        }
-        assert!((clipped_mean(0.0, 0.025) - 0.025 * 0.398_942_28).abs() < 1e-8);
+        0.5 * (a + b)
     }
 }

@@ -16,10 +16,6 @@ pub(super) struct Param {
     /// Needs a new render when it changes.
     pub(super) render: bool,
     pub(super) limit: f64,
-    /// Set by a search of its own (`Evaluator::best_clipped_noise`) and held by the
-    /// refinement: where it changes only a few pixels its column nearly vanishes, and
-    /// Levenberg-Marquardt's step for it runs to its bound and spoils the step of the rest.
-    pub(super) searched: bool,
 }
 
 fn p(name: &str, lo: f64, hi: f64, step: f64, render: bool, limit: f64) -> Param {
@@ -30,7 +26,6 @@ fn p(name: &str, lo: f64, hi: f64, step: f64, render: bool, limit: f64) -> Param
         step,
         render,
         limit,
-        searched: false,
     }
 }
 
@@ -49,8 +44,7 @@ const OFFSET_LIMIT: f64 = 0.5 * OFFSET_TOL_MM;
 /// Camera terms per photo taken off the capture pose (eye x, y, z; roll; log field of view).
 pub(super) const POSE_PARAMS: usize = 5;
 
-/// The parameter layout of a kind: tool parameters, then alpha, the log exposures and the blurs
-/// (one of each per photo).
+/// The parameter layout of a kind: tool parameters, then alpha, the log exposures and the blur.
 pub(super) struct Layout {
     pub(super) kind: Kind,
     /// The last 2 per view are a sub-pixel shift of each view's model (registration).
@@ -59,8 +53,6 @@ pub(super) struct Layout {
     pub(super) pose_at: Vec<Option<usize>>,
     /// Index of the first shading term (3 per view: see [`Layout::shade`]).
     pub(super) shade_at: usize,
-    /// Index of the first clipped-noise term (one per view: see [`Layout::clipped_noise`]).
-    pub(super) lift_at: usize,
     pub(super) params: Vec<Param>,
     /// Index of the z offset (none for a profile: its points are in commanded depth).
     pub(super) offset: Option<usize>,
@@ -103,14 +95,9 @@ impl Layout {
         for v in 0..n_views {
             params.push(p(&format!("ln_exposure[{v}]"), -12.0, 12.0, 0.01, false, 1.0));
         }
-        // One per photo: each was taken with its own focus, shake and lens, at its own scale
-        // (one blur shared by two photos, 1.2 and 0.6 px, left the sharper fitted and the other
-        // refused at 3 to 8 times its noise in 11 of 20 trials of the study). At least a quarter
-        // pixel: every camera blurs that much (optics, demosaicing), and the registration shift
-        // needs a kernel it can move.
-        for v in 0..n_views {
-            params.push(p(&format!("blur_px[{v}]"), 0.25, 4.0, 0.02, false, 1.0));
-        }
+        // At least a quarter pixel: every camera blurs that much (optics, demosaicing), and the
+        // registration shift needs a kernel it can move.
+        params.push(p("blur_px", 0.25, 4.0, 0.02, false, 1.0));
         let reg = if refine_registration {
             for v in 0..n_views {
                 for axis in ["dx", "dy"] {
@@ -147,22 +134,9 @@ impl Layout {
                 params.push(p(&format!("shade[{v}].{term}"), -1.5, 1.5, 0.01, false, 1.5));
             }
         }
-        // The noise the sensor clipped at black, per photo (display units at the photo's own
-        // resolution): a phone's noise is clipped at 0 in every dark pixel before the fit's
-        // pixels average them, which lifts the dark plate by 0.4 of it (2.5% of noise put a
-        // ball of 58 um at 39.5 um with its residual at the noise). The model's pixels take the
-        // mean of their value plus that noise, clipped to [0, 1] (`camera::clipped_mean`).
-        let lift_at = params.len();
-        for v in 0..n_views {
-            params.push(Param {
-                searched: true,
-                ..p(&format!("clipped_noise[{v}]"), 0.0, 0.2, 0.0002, false, 1.0)
-            });
-        }
         Layout {
             pose_at,
             shade_at,
-            lift_at,
             reg,
             kind,
             params,
@@ -213,14 +187,13 @@ impl Layout {
     pub(super) fn exposure(&self, x: &[f64], v: usize) -> f64 {
         x[self.n_tool + 1 + v].exp()
     }
-    /// The blur of photo v, pixels.
-    pub(super) fn blur(&self, x: &[f64], v: usize) -> f64 {
-        x[self.n_tool + 1 + self.n_views + v]
+    pub(super) fn blur(&self, x: &[f64]) -> f64 {
+        x[self.n_tool + 1 + self.n_views]
     }
     /// The registration shift of view v, pixels (zero without refinement).
     pub(super) fn shift(&self, x: &[f64], v: usize) -> (f64, f64) {
         if self.reg {
-            let b = self.n_tool + 1 + 2 * self.n_views + 2 * v;
+            let b = self.n_tool + 2 + self.n_views + 2 * v;
             (x[b], x[b + 1])
         } else {
             (0.0, 0.0)
@@ -241,7 +214,7 @@ impl Layout {
         };
         x.push(0.1);
         x.extend(std::iter::repeat_n(0.0, self.n_views));
-        x.extend(std::iter::repeat_n(0.5, self.n_views));
+        x.push(0.5);
         if self.reg {
             x.extend(std::iter::repeat_n(0.0, 2 * self.n_views));
         }
@@ -250,14 +223,7 @@ impl Layout {
             POSE_PARAMS * self.pose_at.iter().flatten().count(),
         ));
         x.extend(std::iter::repeat_n(0.0, 3 * self.n_views));
-        // Not 0: there its derivative vanishes on all but the darkest pixels.
-        x.extend(std::iter::repeat_n(0.01, self.n_views));
         x
-    }
-
-    /// The noise photo v's sensor clipped at black and white (display units).
-    pub(super) fn clipped_noise(&self, x: &[f64], v: usize) -> f64 {
-        x[self.lift_at + v]
     }
 
     /// The shading terms (gx, gy, q) of view v.

@@ -26,10 +26,6 @@ struct Refinement<'x, 'a, 'r> {
     ev: &'x mut Evaluator<'a, 'r>,
     off_range: Option<(f64, f64)>,
     renders: Vec<(Vec<f64>, Vec<Vec<f32>>)>,
-    /// The camera terms of off-pose photos by differences of renders (what moving the camera
-    /// does to the light on the grooves as well as to where they are) rather than from the
-    /// image's motion alone.
-    rendered_eyes: bool,
 }
 
 impl Refinement<'_, '_, '_> {
@@ -48,18 +44,14 @@ impl Refinement<'_, '_, '_> {
     /// Residuals at `x`, rendering only when its render parameters are new.
     fn eval(&mut self, x: &[f64]) -> Result<Vec<f64>, FitError> {
         let key = self.render_key(x);
-        let marks = self.ev.mark_residuals(x, self.ev.mark_scale());
         if let Some((_, lin)) = self.renders.iter().find(|(k, _)| *k == key) {
-            let mut r = self.ev.residuals_at(x, lin);
-            r.extend(marks);
-            return Ok(r);
+            return Ok(self.ev.residuals_at(x, lin));
         }
-        let (mut r, lin) = self.ev.eval(x)?;
+        let (r, lin) = self.ev.eval(x)?;
         if self.renders.len() == 2 {
             self.renders.remove(0);
         }
         self.renders.push((key, lin));
-        r.extend(marks);
         Ok(r)
     }
 }
@@ -88,18 +80,7 @@ impl LeastSquares for Refinement<'_, '_, '_> {
         let np = self.ev.lay.params.len();
         let bounds = self.bounds();
         // The grooves' parameters: derivatives from the engine.
-        let eyes: Vec<usize> = if self.rendered_eyes {
-            Vec::new()
-        } else {
-            self.ev
-                .lay
-                .pose_at
-                .iter()
-                .flatten()
-                .flat_map(|&i| i..i + super::layout::POSE_PARAMS)
-                .collect()
-        };
-        let pose_terms: Vec<usize> = self
+        let eyes: Vec<usize> = self
             .ev
             .lay
             .pose_at
@@ -108,7 +89,7 @@ impl LeastSquares for Refinement<'_, '_, '_> {
             .flat_map(|&i| i..i + super::layout::POSE_PARAMS)
             .collect();
         let grooves: Vec<usize> = (0..np)
-            .filter(|k| self.ev.lay.params[*k].render && !pose_terms.contains(k))
+            .filter(|k| self.ev.lay.params[*k].render && !eyes.contains(k))
             .collect();
         let mut tangent = self.ev.tangent_columns(x, &grooves)?.into_iter();
         // The camera terms of off-pose photos: from the image's motion (no render).
@@ -116,41 +97,16 @@ impl LeastSquares for Refinement<'_, '_, '_> {
             Some((_, lin)) => lin.clone(),
             None => self.ev.render(x)?,
         };
-        let scale = self.ev.mark_scale();
-        let m0 = self.ev.mark_residuals(x, scale);
-        let mut motion = self
-            .ev
-            .motion_columns(x, &lin, &eyes)
-            .into_iter()
-            .zip(&eyes)
-            .map(|(mut c, &k)| {
-                // and the marks' residuals, moved with the camera
-                let h = self.ev.lay.params[k].step;
-                let mut xh = x.to_vec();
-                xh[k] += h;
-                let m1 = self.ev.mark_residuals(&xh, scale);
-                c.extend(m1.iter().zip(&m0).map(|(a, b)| (a - b) / h));
-                c
-            })
-            .collect::<Vec<_>>()
-            .into_iter();
+        let mut motion = self.ev.motion_columns(x, &lin, &eyes).into_iter();
         // The rest by forward differences (away from the nearer bound).
         let mut cols: Vec<Vec<f64>> = Vec::with_capacity(np);
         for k in 0..np {
             if grooves.contains(&k) {
-                // (the tool does not move the marks)
-                let mut c = tangent.next().expect("one column per groove parameter");
-                c.resize(r.len(), 0.0);
-                cols.push(c);
+                cols.push(tangent.next().expect("one column per groove parameter"));
                 continue;
             }
             if eyes.contains(&k) {
                 cols.push(motion.next().expect("one column per camera term"));
-                continue;
-            }
-            if self.ev.lay.params[k].searched {
-                // (held: a zero column leaves it where it is)
-                cols.push(vec![0.0; r.len()]);
                 continue;
             }
             let (lo, hi) = bounds[k];
@@ -184,7 +140,6 @@ pub(super) fn refine(
         ev,
         off_range,
         renders: Vec::new(),
-        rendered_eyes: false,
     };
     let cfg = least_squares::Config {
         iters,
@@ -195,22 +150,17 @@ pub(super) fn refine(
     least_squares::solve(&mut p, x, &cfg, obs)
 }
 
-/// The residuals at `x` and the Jacobian there, column by column, with the z offset (if any)
-/// kept in `off_range`. For the uncertainties (`rendered_eyes`), the camera terms of off-pose
-/// photos are differenced over renders: moving the camera also turns the light it sees on each
-/// groove, which trades with the tool's shape (the image's motion alone left that out, and a
-/// ball's radius 3.7 standard deviations off its truth).
+/// The residuals at `x` and the Jacobian there, column by column (as the refinement computes
+/// them), with the z offset (if any) kept in `off_range`.
 pub(super) fn jacobian_at(
     ev: &mut Evaluator,
     x: &[f64],
     off_range: Option<(f64, f64)>,
-    rendered_eyes: bool,
 ) -> Result<(Vec<f64>, Vec<Vec<f64>>), FitError> {
     let mut p = Refinement {
         ev,
         off_range,
         renders: Vec::new(),
-        rendered_eyes,
     };
     let r = p.eval(x)?;
     let cols = p.jacobian(x, &r)?;

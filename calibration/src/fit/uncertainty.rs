@@ -1,14 +1,13 @@
 //! The fit's uncertainties at its optimum: the block sandwich covariance, and in quadrature the
-//! model's own error and what the photo's degradations do (see `at_optimum`).
-use scratchart::optim::least_squares::solve_spd;
-
+//! model's own error and what the photo's degradations do (see `at_optimum`); and the bootstrap.
 use scratchart::observe::Observer;
+use scratchart::optim::least_squares::solve_spd;
 
 use super::{lm, refine, Data, Evaluator, FitError, SUPERSAMPLE};
 
 /// What `at_optimum` finds: per parameter (the layout's order) its name, value and standard
 /// deviation where it is identified, the curvature's and the sandwich's standard deviations, the
-/// parameters the photos do not see, and the residuals (pixels, then marks) there.
+/// parameters the photos do not see, and the residuals there.
 pub(super) struct Uncertainty {
     pub(super) params: Vec<(String, f64, Option<f64>)>,
     pub(super) curvature: Vec<Option<f64>>,
@@ -30,7 +29,7 @@ pub(super) fn at_optimum(
     // pixels are not independent (the camera's blur, JPEG's 8 x 8 blocks, a phone's
     // demosaicing: blocks of 16 x 16 pixels at the fit's scale) and where the model misses
     // something the photo has; both are given, the sandwich is the one used.
-    let (r, cols) = lm::jacobian_at(ev, x, best_rg, true)?;
+    let (r, cols) = lm::jacobian_at(ev, x, best_rg)?;
     let n = r.len();
     let np = ev.lay.params.len();
     let s_r = scratchart::optim::least_squares::robust_scale(&r, lm::MIN_SCALE);
@@ -41,19 +40,13 @@ pub(super) fn at_optimum(
     // Covariance over the parameters the photos see at all (a zero column, such as a profile
     // width above the surface, is not identified and would make the whole matrix singular).
     let max_diag = (0..np).map(|i| jtj[i][i]).fold(0.0f64, f64::max);
-    // (The searched terms are held: see `layout::Param::searched`.)
-    let seen: Vec<usize> = (0..np)
-        .filter(|&i| jtj[i][i] > 1e-12 * max_diag)
-        .filter(|&i| !ev.lay.params[i].searched)
-        .collect();
+    let seen: Vec<usize> = (0..np).filter(|&i| jtj[i][i] > 1e-12 * max_diag).collect();
     let ns = seen.len();
     let reduced: Vec<Vec<f64>> = seen
         .iter()
         .map(|&i| seen.iter().map(|&j| jtj[i][j]).collect())
         .collect();
-    let mut blocks = ev.residual_blocks(16);
-    // (each mark's residual a block of its own)
-    blocks.extend((blocks.len()..r.len()).map(|i| u64::MAX - i as u64));
+    let blocks = ev.residual_blocks(16);
     let mut ids: Vec<u64> = blocks.clone();
     ids.sort_unstable();
     ids.dedup();

@@ -83,8 +83,26 @@ pub fn inspect_photo(
     // 256 high: 1.875) mixes pixels with weights that change with the sub-pixel phase, a blur
     // the model cannot follow: it put a 75 degree V-bit at 73.9 with a stated +- 0.12. The rows
     // and columns left over are cropped evenly from both sides (the field of view with them).
-    let k0 = img.height.div_ceil(v.camera.height).max(1);
-    let (small, v0) = shrink(&img, v, k0, None);
+    let mut v = v.clone();
+    let k = img.height.div_ceil(v.camera.height).max(1);
+    let (w, h) = ((img.width / k).max(16), (img.height / k).max(16));
+    let cropped = crate::photo::crop_centre(&img, (w * k).min(img.width), (h * k).min(img.height));
+    let t = (0.5 * v.camera.fov_y_deg).to_radians().tan() * cropped.height as f64 / img.height as f64;
+    v.camera.fov_y_deg = 2.0 * t.atan().to_degrees();
+    (v.camera.width, v.camera.height) = (w, h);
+    let small = crate::register::resize(&cropped, w, h);
+    // A photo mostly white is saturated before anything can be found in it (the marks alone
+    // may be white: they are a small part of the frame).
+    let white = small.data.iter().filter(|x| **x >= 0.99).count();
+    if white * 6 > small.data.len() {
+        return Err(InputError(format!(
+            "photo `{}` is saturated: {:.0}% of it is full white, so neither the card's marks nor its grooves \
+             can be read; lower the exposure (or the lamp) and photograph again",
+            f.display(),
+            100.0 * white as f64 / small.data.len() as f64
+        ))
+        .into());
+    }
     let not_found = |e: String| {
         InputError(format!(
             "card not found in photo `{}` (view {}): {e}. At least {} of the card's {} hatched marks must \
@@ -96,61 +114,7 @@ pub fn inspect_photo(
             card.marks.len()
         ))
     };
-    saturated_frame(&small, f)?;
-    let reg0 = register(&small, card, &v0).map_err(not_found)?;
-    // A phone held farther, or wider, than the capture view shows the card smaller: shrunk to
-    // the view's height it would cover a third to two thirds of the capture view's pixels (the
-    // study's photos: 5,000 to 13,000 against 17,700), and its grooves fewer still. So the
-    // photo is shrunk by the factor that gives the card about the capture view's scale, and
-    // cropped (evenly, about its centre) to the card and a margin.
-    let corners = |hm: &[f64; 9]| -> Vec<[f64; 2]> {
-        [[-1.0, -1.0], [1.0, -1.0], [1.0, 1.0], [-1.0, 1.0]]
-            .iter()
-            .map(|s| crate::fiducials::apply(hm, [s[0] * half, s[1] * half]))
-            .collect()
-    };
-    let area = |c: &[[f64; 2]]| -> f64 {
-        0.5 * (0..4)
-            .map(|i| c[i][0] * c[(i + 1) % 4][1] - c[(i + 1) % 4][0] * c[i][1])
-            .sum::<f64>()
-            .abs()
-    };
-    let g = ViewGeom::new(v);
-    let cap: Option<Vec<[f64; 2]>> = [[-1.0, -1.0], [1.0, -1.0], [1.0, 1.0], [-1.0, 1.0]]
-        .iter()
-        .map(|s| g.project([s[0] * half, s[1] * half, 0.0]).map(|p| [p.0, p.1]))
-        .collect();
-    let seen = corners(&reg0.found.plate_to_image);
-    let want = cap.map_or(0.0, |c| area(&c));
-    let got = area(&seen);
-    let k1 = if want > 0.0 && got > 0.0 {
-        ((k0 as f64 * (got / want).sqrt()).round() as u32).clamp(1, k0)
-    } else {
-        k0
-    };
-    let (small, v, reg) = if k1 < k0 {
-        // The card's reach from the frame's centre, in the photo's pixels, with a margin of a
-        // tenth of the card.
-        let (cx, cy) = (0.5 * small.width as f64, 0.5 * small.height as f64);
-        let span = seen
-            .iter()
-            .flat_map(|p| seen.iter().map(move |q| (p[0] - q[0]).hypot(p[1] - q[1])))
-            .fold(0.0, f64::max);
-        let margin = 0.1 * span;
-        let rx = seen.iter().map(|p| (p[0] - cx).abs()).fold(0.0, f64::max) + margin;
-        let ry = seen.iter().map(|p| (p[1] - cy).abs()).fold(0.0, f64::max) + margin;
-        let kk = k0 as f64;
-        let window = ((2.0 * rx * kk).ceil() as u32, (2.0 * ry * kk).ceil() as u32);
-        let (s1, v1) = shrink(&img, v, k1, Some(window));
-        match register(&s1, card, &v1) {
-            Ok(r1) => (s1, v1, r1),
-            // Found at the first scale and not at the finer one: the first is used.
-            Err(_) => (small, v0, reg0),
-        }
-    } else {
-        (small, v0, reg0)
-    };
-    let v = &v;
+    let reg = register(&small, card, &v).map_err(not_found)?;
     // The camera that took the photo, from the marks: the card is rendered as that camera saw it
     // (the light on the grooves depends on where the camera stood), and the photo is used as
     // taken, without resampling. Within 2 px of the capture view everywhere, the capture camera
@@ -158,7 +122,7 @@ pub fn inspect_photo(
     // length and distance trade against each other); the fit's shift takes up the rest.
     let off_pose = reg.pose_offset_px > 2.0;
     let camera = if off_pose {
-        crate::fiducials::plausible_camera(&reg.found.plate_to_image, v.camera.width, v.camera.height, v).map_err(
+        crate::fiducials::plausible_camera(&reg.found.plate_to_image, v.camera.width, v.camera.height, &v).map_err(
             |e| {
                 InputError(format!(
                     "photo `{}` (view {}): the camera recovered from the card's marks is implausible: {e}. \
@@ -208,42 +172,6 @@ pub fn inspect_photo(
         noise,
         saturated,
     })
-}
-
-/// The photo `img` shrunk by the whole factor `k` for capture view `v`, cropped evenly about
-/// its centre to `window` (the photo's pixels; at most the photo) and to a whole number of k x k
-/// blocks; the view's raster and field of view follow the crop.
-fn shrink(
-    img: &crate::photo::Gray,
-    v: &scratchart::model::scene::View,
-    k: u32,
-    window: Option<(u32, u32)>,
-) -> (crate::photo::Gray, scratchart::model::scene::View) {
-    let mut v = v.clone();
-    let (ww, wh) = window.map_or((img.width, img.height), |(w, h)| (w.min(img.width), h.min(img.height)));
-    let (w, h) = ((ww / k).max(16), (wh / k).max(16));
-    let cropped = crate::photo::crop_centre(img, (w * k).min(img.width), (h * k).min(img.height));
-    let t = (0.5 * v.camera.fov_y_deg).to_radians().tan() * cropped.height as f64 / img.height as f64;
-    v.camera.fov_y_deg = 2.0 * t.atan().to_degrees();
-    (v.camera.width, v.camera.height) = (cropped.width / k, cropped.height / k);
-    let small = crate::register::resize(&cropped, v.camera.width, v.camera.height);
-    (small, v)
-}
-
-/// A photo mostly white is saturated before anything can be found in it (the marks alone may
-/// be white: they are a small part of the frame).
-fn saturated_frame(small: &crate::photo::Gray, f: &Path) -> Result<()> {
-    let white = small.data.iter().filter(|x| **x >= 0.99).count();
-    if white * 6 > small.data.len() {
-        return Err(InputError(format!(
-            "photo `{}` is saturated: {:.0}% of it is full white, so neither the card's marks nor its grooves \
-             can be read; lower the exposure (or the lamp) and photograph again",
-            f.display(),
-            100.0 * white as f64 / small.data.len() as f64
-        ))
-        .into());
-    }
-    Ok(())
 }
 
 /// `fit --check`: says of each photo whether the fit can use it, without fitting. A photo named

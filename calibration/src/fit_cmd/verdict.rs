@@ -143,7 +143,7 @@ mod verdict_tests {
 
     /// A V-bit fit whose tool parameters have the given standard deviations.
     fn result(sd: [f64; 3], at_bound: &[&str]) -> FitResult {
-        let names = ["angle_deg", "tip_flat_mm", "z_offset_mm", "alpha", "blur_px[0]"];
+        let names = ["angle_deg", "tip_flat_mm", "z_offset_mm", "alpha", "blur_px"];
         let values = [75.0, 0.015, 0.007, 0.1, 0.6];
         let limits = [0.5, 0.0025, 0.0015, 0.1, 1.0];
         let sds = [sd[0], sd[1], sd[2], 0.001, 0.01];
@@ -156,7 +156,7 @@ mod verdict_tests {
             },
             alpha: 0.1,
             exposure: vec![1.0, 1.0],
-            blur_px: vec![0.6, 0.6],
+            blur_px: 0.6,
             params: (0..5)
                 .map(|k| (names[k].to_string(), values[k], (sds[k] <= limits[k]).then_some(sds[k])))
                 .collect(),
