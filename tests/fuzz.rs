@@ -155,7 +155,10 @@ fn mutated_scene_files_give_clean_errors_or_valid_renders() {
                     }
                     // A scene over the device's limits (a mutated width, say) is a clean error.
                     Err(e) => {
-                        assert!(scratchart::exit::code(&e) == scratchart::exit::GPU, "case {case}: {e}");
+                        assert!(
+                            scratchart::exit::class(&e) == scratchart::exit::Class::Device,
+                            "case {case}: {e}"
+                        );
                         errors += 1;
                     }
                 }

@@ -231,7 +231,7 @@ pub fn run(renderer: &Renderer, args: &StudyArgs, obs: &dyn Observer) -> Result<
                 };
                 (o, Some(tool), e)
             }
-            Err(e) if scratchart::exit::code_of(&e) == 3 => {
+            Err(e) if scratchart::exit::class(e.as_ref()) == scratchart::exit::Class::Input => {
                 let msg = format!("{e:#}");
                 let first = msg
                     .lines()

@@ -22,13 +22,6 @@ use crate::optim::targets::TargetError;
 use crate::optim::OptimError;
 use crate::vulkan::GpuError;
 
-pub const SUCCESS: u8 = 0;
-pub const RUNTIME: u8 = Class::Runtime.code();
-pub const USAGE: u8 = Class::Usage.code();
-pub const INPUT: u8 = Class::Input.code();
-pub const GPU: u8 = Class::Device.code();
-pub const INTERRUPTED: u8 = Class::Interrupted.code();
-
 /// Every error type of the project's libraries, and clap's.
 const KNOWN: &[scratchart_exit::Classifier] = &[
     scratchart_exit::classifier::<UsageError>,
@@ -117,7 +110,7 @@ pub fn parse_args<P: clap::Parser>() -> Result<P, std::process::ExitCode> {
     P::try_parse().map_err(|e| {
         let _ = e.print();
         if e.use_stderr() {
-            std::process::ExitCode::from(USAGE)
+            Class::Usage.exit_code()
         } else {
             std::process::ExitCode::SUCCESS
         }

@@ -51,6 +51,16 @@ impl Terminal {
     }
 }
 
+impl Terminal {
+    /// Prints with `print`, above the progress bar when one is shown.
+    fn above_bar(&self, print: impl FnOnce()) {
+        match self.bar.lock().unwrap().as_ref() {
+            Some(b) => b.suspend(print),
+            None => print(),
+        }
+    }
+}
+
 impl Observer for Terminal {
     fn progress(&self, p: &Progress) {
         if self.quiet {
@@ -91,24 +101,15 @@ impl Observer for Terminal {
     }
 
     fn warn(&self, msg: &str) {
-        match self.bar.lock().unwrap().as_ref() {
-            Some(b) => b.suspend(|| eprintln!("warning: {msg}")),
-            None => eprintln!("warning: {msg}"),
-        }
+        self.above_bar(|| eprintln!("warning: {msg}"));
     }
 
     fn info(&self, msg: &str) {
-        match self.bar.lock().unwrap().as_ref() {
-            Some(b) => b.suspend(|| eprintln!("{msg}")),
-            None => eprintln!("{msg}"),
-        }
+        self.above_bar(|| eprintln!("{msg}"));
     }
 
     fn result(&self, msg: &str) {
-        match self.bar.lock().unwrap().as_ref() {
-            Some(b) => b.suspend(|| println!("{msg}")),
-            None => println!("{msg}"),
-        }
+        self.above_bar(|| println!("{msg}"));
     }
 
     fn should_stop(&self) -> bool {

@@ -1,7 +1,7 @@
 //! The fit's uncertainties at its optimum: the block sandwich covariance, and in quadrature the
 //! model's own error and what the photo's degradations do (see `at_optimum`); and the bootstrap.
 use scratchart::observe::Observer;
-use scratchart::optim::least_squares::solve_spd;
+use scratchart::optim::least_squares::{solve_spd, weighted_gradient};
 
 use super::{lm, refine, Data, Evaluator, FitError, SUPERSAMPLE};
 
@@ -33,7 +33,7 @@ pub(super) fn at_optimum(
     let n = r.len();
     let np = ev.lay.params.len();
     let s_r = scratchart::optim::least_squares::robust_scale(&r, lm::MIN_SCALE);
-    let wts: Vec<f64> = r.iter().map(|e| 1.0 / (1.0 + e * e / (s_r * s_r))).collect();
+    let wts = scratchart::optim::least_squares::cauchy_weights(&r, s_r);
     let jtj = scratchart::optim::least_squares::weighted_gram(&cols, &wts);
     let wsum: f64 = r.iter().zip(&wts).map(|(e, w)| w * e * e).sum();
     let s2 = wsum / (n.saturating_sub(np)).max(1) as f64;
@@ -91,19 +91,11 @@ pub(super) fn at_optimum(
         ev.ss = SUPERSAMPLE;
         ev.gs = None;
         let (rf, _) = fine?;
-        let g: Vec<f64> = seen
-            .iter()
-            .map(|&p| {
-                cols[p]
-                    .iter()
-                    .zip(&rf)
-                    .zip(&r)
-                    .zip(&wts)
-                    .map(|(((j, a), b), w)| j * (a - b) * w)
-                    .sum()
-            })
-            .collect();
-        solve_spd(&reduced, &g)
+        let shift: Vec<f64> = rf.iter().zip(&r).map(|(a, b)| a - b).collect();
+        solve_spd(
+            &reduced,
+            &weighted_gradient(seen.iter().map(|&p| &cols[p]), &shift, &wts),
+        )
     };
     // What the photo's own degradations do to the fit beyond the noise the sandwich sees: the
     // model image at the optimum, given the photo's noise, clipped to black and white, stepped to
@@ -145,19 +137,11 @@ pub(super) fn at_optimum(
                 })
                 .collect();
             let rd = ev.residuals(&deg);
-            let g: Vec<f64> = seen
-                .iter()
-                .map(|&p| {
-                    cols[p]
-                        .iter()
-                        .zip(&rd)
-                        .zip(&base)
-                        .zip(&wts)
-                        .map(|(((j, a), b), w)| j * (b - a) * w)
-                        .sum()
-                })
-                .collect();
-            match solve_spd(&reduced, &g) {
+            let shift: Vec<f64> = base.iter().zip(&rd).map(|(b, a)| b - a).collect();
+            match solve_spd(
+                &reduced,
+                &weighted_gradient(seen.iter().map(|&p| &cols[p]), &shift, &wts),
+            ) {
                 Some(d) => mean.iter_mut().zip(&d).for_each(|(m, d)| *m += d / reps as f64),
                 None => ok = false,
             }

@@ -40,21 +40,12 @@ pub fn verdict(best: &FitResult, residual: &[(f64, f64)], photos: &[String], all
         .filter(|n| is_tool_param(n) && n != "alpha")
         .collect();
     let mut allowed = Vec::new();
-    for name in &best.at_bound {
+    // A parameter the photos identify, run to a bound, says the tool lies outside this kind. One
+    // they do not identify ran along a valley the photos cannot tell from flat (a measured
+    // profile's wall shape on saturated grooves: its w/W trades with its widths) and stopped
+    // where its range ends: it is said once, as not identified.
+    for name in best.at_bound.iter().filter(|n| !unidentified.contains(n)) {
         let k = best.params.iter().position(|p| &p.0 == name).expect("a parameter");
-        // A parameter the photos identify, run to a bound, says the tool lies outside this
-        // kind. One they do not identify ran along a valley the photos cannot tell from flat
-        // (a measured profile's wall shape on saturated grooves: its w/W trades with its
-        // widths) and stopped where its range ends: that is said as not identified, and
-        // written only as such.
-        if allow_unidentified && unidentified.contains(name) {
-            allowed.push(format!(
-                "{name} ran to a bound of its range ({:.5}) along a direction the photos do not identify; the value \
-                 written is where its range ends, not what the photos show",
-                best.params[k].1
-            ));
-            continue;
-        }
         reasons.push(format!(
             "{name} ended at a bound of its range ({:.5}): the tool that fits best lies outside what this kind of \
              tool can be; try another --kind or check the photos",
@@ -63,7 +54,7 @@ pub fn verdict(best: &FitResult, residual: &[(f64, f64)], photos: &[String], all
     }
     for name in &unidentified {
         let k = best.params.iter().position(|p| &p.0 == name).expect("a parameter");
-        let msg = format!(
+        let mut msg = format!(
             "{name} is not identified: +- {} where a plate needs at most {:.5}: the grooves that tell it are too \
              dim, saturated, noisy or compressed in the photos, or missing. Photograph again with the lamp and \
              exposure of the capture guide, the phone steady (less noise), saved at full size as PNG or the \
@@ -75,6 +66,13 @@ pub fn verdict(best: &FitResult, residual: &[(f64, f64)], photos: &[String], all
                 .map_or("undefined".to_string(), |s| format!("{s:.5}")),
             best.limits.get(k).copied().unwrap_or(f64::NAN)
         );
+        if best.at_bound.contains(name) {
+            msg += &format!(
+                " (it ran to a bound of its range, {:.5}: the value written is where its range ends, not what the \
+                 photos show)",
+                best.params[k].1
+            );
+        }
         if allow_unidentified {
             allowed.push(msg);
         } else {
@@ -236,42 +234,25 @@ mod verdict_tests {
 
     #[test]
     fn a_parameter_at_its_bound_is_refused() {
-        let v = verdict(
-            &result([0.1, 0.001, 0.0005], &["tip_flat_mm"]),
-            &[(0.004, 0.004); 2],
-            &photos(),
-            false,
-        );
+        let check = |sd: [f64; 3], bound: &str, allow: bool| {
+            verdict(&result(sd, &[bound]), &[(0.004, 0.004); 2], &photos(), allow)
+        };
+        let v = check([0.1, 0.001, 0.0005], "tip_flat_mm", false);
         assert_eq!(v.reasons.len(), 1, "{v:?}");
         assert!(v.reasons[0].starts_with("tip_flat_mm ended at a bound"), "{v:?}");
         // --allow-unidentified does not let a parameter at its bound through.
-        let v = verdict(
-            &result([0.1, 0.001, 0.0005], &["angle_deg"]),
-            &[(0.004, 0.004); 2],
-            &photos(),
-            true,
-        );
+        let v = check([0.1, 0.001, 0.0005], "angle_deg", true);
         assert_eq!(v.reasons.len(), 1, "{v:?}");
-        // One the photos do not identify is refused as such, and with --allow-unidentified
-        // written with a warning that its value is its bound.
-        let v = verdict(
-            &result([3.0, 0.001, 0.0005], &["angle_deg"]),
-            &[(0.004, 0.004); 2],
-            &photos(),
-            false,
-        );
-        assert_eq!(v.reasons.len(), 2, "{v:?}");
-        let v = verdict(
-            &result([3.0, 0.001, 0.0005], &["angle_deg"]),
-            &[(0.004, 0.004); 2],
-            &photos(),
-            true,
-        );
+        // One the photos do not identify is refused once, as not identified, and with
+        // --allow-unidentified written with a warning that its value is its bound.
+        let v = check([3.0, 0.001, 0.0005], "angle_deg", false);
+        assert_eq!(v.reasons.len(), 1, "{v:?}");
+        assert!(v.reasons[0].starts_with("angle_deg is not identified"), "{v:?}");
+        assert!(v.reasons[0].contains("ran to a bound"), "{v:?}");
+        let v = check([3.0, 0.001, 0.0005], "angle_deg", true);
         assert!(v.reasons.is_empty(), "{v:?}");
-        assert!(
-            v.allowed.iter().any(|m| m.starts_with("angle_deg ran to a bound")),
-            "{v:?}"
-        );
+        assert_eq!(v.allowed.len(), 1, "{v:?}");
+        assert!(v.allowed[0].contains("ran to a bound"), "{v:?}");
     }
 
     #[test]

@@ -62,6 +62,11 @@ pub fn cauchy(r: &[f64], s: f64) -> f64 {
     r.iter().map(|x| 0.5 * s * s * (x * x / (s * s)).ln_1p()).sum()
 }
 
+/// The Cauchy loss's weight of each residual at scale `s` (the W of the normal equations).
+pub fn cauchy_weights(r: &[f64], s: f64) -> Vec<f64> {
+    r.iter().map(|e| 1.0 / (1.0 + e * e / (s * s))).collect()
+}
+
 /// J^T W J for the Jacobian's columns `cols` and the residuals' weights `wts` (W diagonal).
 pub fn weighted_gram(cols: &[Vec<f64>], wts: &[f64]) -> Vec<Vec<f64>> {
     let np = cols.len();
@@ -74,6 +79,14 @@ pub fn weighted_gram(cols: &[Vec<f64>], wts: &[f64]) -> Vec<Vec<f64>> {
         }
     }
     a
+}
+
+/// J^T W e for the Jacobian's columns `cols`, residuals (or any per-residual vector) `e` and
+/// weights `wts`: the weighted gradient of the solver's steps and of the fit's bias terms.
+pub fn weighted_gradient<'c>(cols: impl IntoIterator<Item = &'c Vec<f64>>, e: &[f64], wts: &[f64]) -> Vec<f64> {
+    cols.into_iter()
+        .map(|c| c.iter().zip(e).zip(wts).map(|((j, e), w)| j * e * w).sum())
+        .collect()
 }
 
 /// Solves the symmetric positive definite system a x = b (Cholesky); `None` when it is not.
@@ -153,13 +166,10 @@ pub fn solve<P: LeastSquares>(
         iterations = it + 1;
         s = robust_scale(&r, cfg.min_scale);
         cost = cauchy(&r, s);
-        let wts: Vec<f64> = r.iter().map(|e| 1.0 / (1.0 + e * e / (s * s))).collect();
+        let wts = cauchy_weights(&r, s);
         let cols = p.jacobian(&x, &r)?;
         assert_eq!(cols.len(), np, "one Jacobian column per parameter");
-        let g: Vec<f64> = cols
-            .iter()
-            .map(|c| c.iter().zip(&r).zip(&wts).map(|((j, e), w)| j * e * w).sum())
-            .collect();
+        let g = weighted_gradient(&cols, &r, &wts);
         jtj = weighted_gram(&cols, &wts);
         let max_diag = (0..np).map(|i| jtj[i][i]).fold(0.0f64, f64::max);
         let mut improved = false;
@@ -194,7 +204,7 @@ pub fn solve<P: LeastSquares>(
         }
     }
     obs.finish(cfg.task);
-    let weights: Vec<f64> = r.iter().map(|e| 1.0 / (1.0 + e * e / (s * s))).collect();
+    let weights = cauchy_weights(&r, s);
     Ok(Solution {
         x,
         cost,
