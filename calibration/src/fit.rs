@@ -149,6 +149,14 @@ pub struct FitResult {
     /// The sandwich's standard deviations before the limits (`params` holds `None` above them).
     #[serde(default)]
     pub sd: Vec<Option<f64>>,
+    /// Per parameter, the largest step one photo alone takes from the joint optimum beyond what
+    /// that photo's own noise explains (a part of `sd`; None where fewer than two photos see it).
+    #[serde(default)]
+    pub disagreement: Vec<Option<f64>>,
+    /// Per photo, per parameter: where that photo alone puts it (one Gauss-Newton step from the
+    /// joint optimum on its residuals; None where it does not see the parameter).
+    #[serde(default)]
+    pub per_photo: Vec<Vec<Option<f64>>>,
     /// Each parameter's limit of identification (its standard deviation at most this).
     #[serde(default)]
     pub limits: Vec<f64>,
@@ -634,6 +642,8 @@ pub fn fit_kind(
         params,
         curvature,
         sd: raw_sd,
+        disagreement,
+        per_photo,
         unseen,
         residuals: r,
     } = uncertainty::at_optimum(&mut ev, data, &x, best_rg)?;
@@ -675,6 +685,8 @@ pub fn fit_kind(
         bootstrap,
         curvature,
         sd: raw_sd,
+        disagreement,
+        per_photo,
         limits: ev.lay.params.iter().map(|q| q.limit).collect(),
         unseen,
         at_bound,

@@ -412,7 +412,7 @@ pub fn run(renderer: &Renderer, args: &FitArgs, obs: &dyn Observer) -> Result<()
         "pixels": best.pixels,
         "uncertainty": best.params.iter().filter(|p| is_tool_param(&p.0))
             .map(|p| (p.0.clone(), p.2.map_or(json!("not identified"), |s| json!(s)))).collect::<serde_json::Map<_, _>>(),
-        "uncertainty_method": "block sandwich (16 x 16 pixel blocks) at the optimum",
+        "uncertainty_method": "block sandwich (16 x 16 pixel blocks) at the optimum, with the model's own error, the photos' degradations and the photos' disagreement in quadrature",
         "curvature_uncertainty": best.params.iter().zip(&best.curvature).filter(|(p, _)| is_tool_param(&p.0))
             .map(|(p, s)| (p.0.clone(), json!(s))).collect::<serde_json::Map<_, _>>(),
         "not_identified": unidentified,
@@ -450,6 +450,7 @@ pub fn run(renderer: &Renderer, args: &FitArgs, obs: &dyn Observer) -> Result<()
         "params": best.params.iter().enumerate().map(|(k, p)| json!({
             "name": p.0, "value": p.1, "sd": best.sd.get(k).copied().flatten(),
             "curvature_sd": best.curvature.get(k).copied().flatten(), "limit": best.limits.get(k),
+            "photo_disagreement": best.disagreement.get(k).copied().flatten(),
         })).collect::<Vec<_>>(),
     });
     scratchart::io::write_atomic(&report_path, serde_json::to_string_pretty(&report)?.as_bytes())?;

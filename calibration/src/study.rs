@@ -36,6 +36,10 @@ pub struct StudyArgs {
     /// Output directory: study.csv, study.md, and each trial's photos and fit
     #[arg(long, default_value = "study")]
     pub out: PathBuf,
+    /// Run only these trials (repeatable: `--only 6 --only 17`), with the same tools and photos
+    /// as in the whole study of this seed: a row of the table, reproduced alone
+    #[arg(long)]
+    pub only: Vec<usize>,
 }
 
 /// How a trial ended.
@@ -59,6 +63,8 @@ impl Outcome {
 /// One trial: the truth, the photos' degradations, the fit and how it ended.
 #[derive(Clone, Debug)]
 pub struct Trial {
+    /// Its number in the study (the draws of the trials before it come first).
+    pub number: usize,
     pub kind: Kind,
     pub truth: Tool,
     pub shots: Vec<Shot>,
@@ -200,20 +206,24 @@ pub fn run(renderer: &Renderer, args: &StudyArgs, obs: &dyn Observer) -> Result<
     let (card, capture) = Card::load(&card_path)?;
     let mut rng = Rng::new(args.seed);
     let mut trials = Vec::new();
-    for t in 0..args.trials {
+    let last = args.only.iter().max().map_or(args.trials, |m| m + 1);
+    for t in 0..last {
         if obs.should_stop() {
             break;
         }
         let kind = Kind::ALL[t % Kind::ALL.len()];
         let truth = random_tool(&mut rng, kind, &card);
+        let shots: Vec<Shot> = (0..capture.views.len())
+            .map(|_| random_shot(&mut rng, card.marks.len(), args.max_tilt))
+            .collect();
+        if !args.only.is_empty() && !args.only.contains(&t) {
+            continue;
+        }
         let dir = args.out.join(format!("trial{t:02}"));
-        let mut shots = Vec::new();
         let mut images = Vec::new();
-        for v in 0..capture.views.len() {
-            let shot = random_shot(&mut rng, card.marks.len(), args.max_tilt);
-            let (p, _) = take(renderer, &card, &capture, v, &truth, &shot, &dir)?;
+        for (v, shot) in shots.iter().enumerate() {
+            let (p, _) = take(renderer, &card, &capture, v, &truth, shot, &dir)?;
             images.push(p);
-            shots.push(shot);
         }
         let out = dir.join("fit").join("tool.json");
         let fa = FitArgs::quiet(&card_path, images, Some(kind.name()), &out);
@@ -259,6 +269,7 @@ pub fn run(renderer: &Renderer, args: &StudyArgs, obs: &dyn Observer) -> Result<
             describe(&truth)
         ));
         trials.push(Trial {
+            number: t,
             kind,
             truth,
             shots,
@@ -368,7 +379,8 @@ fn write_tables(dir: &Path, trials: &[Trial], args: &StudyArgs) -> Result<()> {
     let mut md = String::new();
     md.push_str("| # | tool | photos (per view) | outcome | angle err | length err | offset err | time |\n");
     md.push_str("|---|---|---|---|---|---|---|---|\n");
-    for (t, tr) in trials.iter().enumerate() {
+    for tr in trials {
+        let t = tr.number;
         let reason = match &tr.outcome {
             Outcome::Refused(r) => r.clone(),
             _ => String::new(),

@@ -54,16 +54,44 @@ pub fn verdict(best: &FitResult, residual: &[(f64, f64)], photos: &[String], all
     }
     for name in &unidentified {
         let k = best.params.iter().position(|p| &p.0 == name).expect("a parameter");
+        let sd = best.sd.get(k).copied().flatten();
+        // Where the photos' disagreement is most of the uncertainty, that is the cause given:
+        // each photo's own answer.
+        let cause = match best
+            .disagreement
+            .get(k)
+            .copied()
+            .flatten()
+            .filter(|d| sd.is_some_and(|sd| *d > 0.5 * sd))
+        {
+            Some(d) => {
+                let each: Vec<String> = best
+                    .per_photo
+                    .iter()
+                    .zip(photos)
+                    .filter_map(|(pp, name)| {
+                        pp.get(k)
+                            .copied()
+                            .flatten()
+                            .map(|v| format!("{name} alone puts it at {v:.5}"))
+                    })
+                    .collect();
+                format!(
+                    "the photos disagree by up to {d:.5} about it ({}; together {:.5}): one of them shows what the \
+                     model lacks (noise averaged by a shrink, JPEG, glare; see the residual images)",
+                    each.join(", "),
+                    best.params[k].1
+                )
+            }
+            None => "the grooves that tell it are too dim, saturated, noisy or compressed in the photos, or \
+                     missing"
+                .to_string(),
+        };
         let mut msg = format!(
-            "{name} is not identified: +- {} where a plate needs at most {:.5}: the grooves that tell it are too \
-             dim, saturated, noisy or compressed in the photos, or missing. Photograph again with the lamp and \
-             exposure of the capture guide, the phone steady (less noise), saved at full size as PNG or the \
-             highest JPEG quality",
-            best.sd
-                .get(k)
-                .copied()
-                .flatten()
-                .map_or("undefined".to_string(), |s| format!("{s:.5}")),
+            "{name} is not identified: +- {} where a plate needs at most {:.5}: {cause}. Photograph again with the \
+             lamp and exposure of the capture guide, the phone steady (less noise), saved at full size as PNG or \
+             the highest JPEG quality",
+            sd.map_or("undefined".to_string(), |s| format!("{s:.5}")),
             best.limits.get(k).copied().unwrap_or(f64::NAN)
         );
         if best.at_bound.contains(name) {
@@ -168,6 +196,8 @@ mod verdict_tests {
             bootstrap: None,
             curvature: vec![None; 5],
             sd: sds.iter().map(|s| Some(*s)).collect(),
+            disagreement: vec![None; 5],
+            per_photo: vec![],
             limits: limits.to_vec(),
             unseen: vec![],
             at_bound: at_bound.iter().map(|s| s.to_string()).collect(),
@@ -287,6 +317,30 @@ mod verdict_tests {
             let v = verdict(&profile(w, sd), &[(0.004, 0.004); 2], &photos(), true);
             assert!(!v.reasons.iter().any(|m| m.contains("narrows")), "{v:?}");
         }
+    }
+
+    #[test]
+    fn photos_that_disagree_are_named_as_the_cause() {
+        // The angle +- 3.3 degrees, 3.27 of it the two photos' disagreement.
+        let mut r = result([3.3, 0.001, 0.0005], &[]);
+        r.disagreement = vec![Some(3.27), None, None, None, None];
+        r.per_photo = vec![vec![Some(71.73), None], vec![Some(75.42), None]];
+        let v = verdict(&r, &[(0.004, 0.004); 2], &photos(), false);
+        assert_eq!(v.reasons.len(), 1, "{v:?}");
+        let m = &v.reasons[0];
+        assert!(m.starts_with("angle_deg is not identified: +- 3.30000"), "{m}");
+        assert!(
+            m.contains("(view cam_south) alone puts it at 71.73000")
+                && m.contains("(view cam_west) alone puts it at 75.42000"),
+            "{m}"
+        );
+        // Where the disagreement is the lesser part, the grooves are the cause given.
+        r.disagreement = vec![Some(0.2), None, None, None, None];
+        let v = verdict(&r, &[(0.004, 0.004); 2], &photos(), false);
+        assert!(
+            v.reasons[0].contains("too dim") && !v.reasons[0].contains("alone"),
+            "{v:?}"
+        );
     }
 
     #[test]
