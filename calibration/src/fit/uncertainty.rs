@@ -164,7 +164,7 @@ pub(super) fn at_optimum(
     // less what that photo's own noise explains of it (the variance of a photo's estimate about
     // the joint one is its own variance less the joint's), is added in quadrature to each
     // standard deviation: a fit is only as sure as its photos agree.
-    let splits = split_estimates(&cols, &r, &wts, &blocks);
+    let splits = split_estimates(&cols, &r, &wts, &blocks, ev.lay.n_views);
     let per_photo: Vec<Vec<Option<f64>>> = (0..ev.lay.n_views as u64)
         .map(|v| match splits.iter().find(|s| s.view == v) {
             Some(sp) => sp.step.iter().zip(x).map(|(d, x)| d.map(|d| x + d)).collect(),
@@ -277,17 +277,14 @@ pub(super) struct Split {
 
 /// What each photo says on its own: one Gauss-Newton step from the joint optimum on its
 /// residuals alone, and that estimate's own block sandwich variance (`blocks`: each residual's
-/// block id, the view in its bits from 40 up, as `Evaluator::residual_blocks` gives them). At the
+/// block id, the view in its bits from 40 up, as `Evaluator::residual_blocks` gives them; other
+/// residuals, such as the marks', are in no photo's share). At the
 /// joint optimum the photos' gradients add up to zero; each alone says where its photo puts the
 /// parameters.
-pub(super) fn split_estimates(cols: &[Vec<f64>], r: &[f64], wts: &[f64], blocks: &[u64]) -> Vec<Split> {
-    let mut views: Vec<u64> = blocks.iter().map(|b| b >> 40).collect();
-    views.sort_unstable();
-    views.dedup();
+pub(super) fn split_estimates(cols: &[Vec<f64>], r: &[f64], wts: &[f64], blocks: &[u64], n_views: usize) -> Vec<Split> {
     let np = cols.len();
-    views
-        .iter()
-        .map(|&view| {
+    (0..n_views as u64)
+        .map(|view| {
             let gw: Vec<f64> = wts
                 .iter()
                 .zip(blocks)
