@@ -67,12 +67,6 @@ impl ExitClass for TargetError {
     }
 }
 
-impl ExitClass for GpuError {
-    fn exit_class(&self) -> Option<Class> {
-        Some(Class::Device)
-    }
-}
-
 impl ExitClass for OptimError {
     fn exit_class(&self) -> Option<Class> {
         Some(match self {

@@ -1,6 +1,7 @@
 //! scratchart: a GPU engine for scratch-based reflection art.
 //!
-//! - [`vulkan`]: the ash layer (instance, device, buffers, compute pipelines, command recording).
+//! - [`vulkan`]: the ash layer (instance, device, buffers, compute pipelines, command recording):
+//!   the crate `scratchart-vulkan` (`engine/vulkan/`), re-exported here.
 //! - [`model`]: the scratch model of `MODEL.md`: scene files, geometry, and the float64 CPU
 //!   reference (a test oracle only; never a fallback for the GPU path). It is the crate
 //!   `scratchart-model` (`engine/model/`), re-exported here so `scratchart::model::...` paths hold;
@@ -24,4 +25,4 @@ pub mod render;
 pub mod scenes;
 pub mod study;
 pub mod term;
-pub mod vulkan;
+pub use scratchart_vulkan as vulkan;

@@ -1,12 +1,12 @@
-//! Build script: embeds the GLSL sources of `../shaders` so the binaries run from any directory,
+//! Build script: embeds the GLSL sources of the workspace's `shaders/` so the binaries run from any directory,
 //! and compiles the kernel variants of `scratchart_glsl::PRECOMPILED` to SPIR-V, so a run
 //! compiles no GLSL (the viewer's hot reload and unlisted variants still compile at run time).
 //! Linking Debian's static glslang is the `scratchart-glsl` crate's job.
 use std::{env, fs, path::Path};
 
 fn main() {
-    // Embed every shader under ../shaders as (relative path, source).
-    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shaders");
+    // Embed every shader under shaders/ as (relative path, source).
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shaders");
     let mut entries = Vec::new();
     collect(&root, &root, &mut entries);
     entries.sort();

@@ -3,7 +3,7 @@
 //! Mesa's lavapipe keeps its own shader cache as well).
 //!
 //! The file is `DIR/pipelines-VENDOR-DEVICE-UUID.bin`, with DIR from [`ContextDesc::pipeline_cache`]
-//! (`crate::vulkan::ContextDesc`), else `SCRATCHART_CACHE_DIR`, else `$XDG_CACHE_HOME/scratchart`,
+//! (`crate::ContextDesc`), else `SCRATCHART_CACHE_DIR`, else `$XDG_CACHE_HOME/scratchart`,
 //! else `$HOME/.cache/scratchart`; `SCRATCHART_PIPELINE_CACHE=0` turns it off. A file whose header
 //! does not match the device (another driver version, a damaged file) is ignored and replaced.
 //! The cache is written back, atomically, when the context is dropped, if it changed.
@@ -128,5 +128,5 @@ fn write(path: &Path, data: &[u8]) -> Result<(), String> {
     if let Some(d) = path.parent() {
         std::fs::create_dir_all(d).map_err(|e| e.to_string())?;
     }
-    crate::io::write_atomic(path, data).map_err(|e| e.to_string())
+    scratchart_model::fsio::write_atomic(path, data).map_err(|e| e.to_string())
 }

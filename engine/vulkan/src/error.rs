@@ -67,3 +67,10 @@ pub(crate) fn vk_err(call: &'static str) -> impl Fn(vk::Result) -> GpuError {
         _ => GpuError::Vk { call, result },
     }
 }
+
+/// Every failure of the Vulkan layer is the device's (exit 5 in the one exit contract).
+impl scratchart_exit::ExitClass for GpuError {
+    fn exit_class(&self) -> Option<scratchart_exit::Class> {
+        Some(scratchart_exit::Class::Device)
+    }
+}
