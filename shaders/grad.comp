@@ -1,6 +1,6 @@
 #version 450
 // Backward pass of forward.comp: gradients of a loss E with respect to every scratch's
-// (x0, y0, x1, y1, w, d, alpha), given dE/dL per pixel. Two builds (engine/src/render/kernels.rs):
+// (x0, y0, x1, y1, w, d, alpha), given dE/dL per pixel. Two builds (engine/render/src/kernels.rs):
 //   SA_EDGE_ADJOINT (Mode::Backward, the default): reverse mode, inc/pair_adjoint.glsl;
 //   SA_DUAL (Mode::BackwardDual, and integrators without an adjoint): forward-mode dual numbers
 //   through the forward's own code, the test oracle of the first.
@@ -24,7 +24,7 @@
 // enumeration order. No float atomics: gradients are bit-reproducible.
 #extension GL_GOOGLE_include_directive : require
 #if !defined(SA_DUAL) && !defined(SA_EDGE_ADJOINT)
-#error grad.comp needs SA_EDGE_ADJOINT (reverse mode) or SA_DUAL (dual numbers), see engine/src/render/kernels.rs
+#error grad.comp needs SA_EDGE_ADJOINT (reverse mode) or SA_DUAL (dual numbers), see engine/render/src/kernels.rs
 #endif
 #include "inc/common.glsl"
 #include "inc/pixel.glsl"

@@ -17,7 +17,7 @@
 // across passes in the output buffer. No atomics on floats: results are bit-reproducible.
 #extension GL_GOOGLE_include_directive : require
 #ifndef SA_EDGE_ADJOINT
-#error tangent.comp is built with SA_EDGE_ADJOINT (engine/src/render/kernels.rs)
+#error tangent.comp is built with SA_EDGE_ADJOINT (engine/render/src/kernels.rs)
 #endif
 #include "inc/common.glsl"
 #include "inc/pixel.glsl"

@@ -6,7 +6,8 @@
 //!   reference (a test oracle only; never a fallback for the GPU path). It is the crate
 //!   `scratchart-model` (`engine/model/`), re-exported here so `scratchart::model::...` paths hold;
 //!   it builds without Vulkan, for the crates that need the scene model but no GPU.
-//! - [`render`]: the GPU forward renderer (pair search, patch-NDF shading, images).
+//! - [`render`]: the GPU renderer (pair search, patch-NDF shading, images, gradients): the crate
+//!   `scratchart-render` (`engine/render/`), re-exported here, with [`limits`].
 //! - [`io`]: PFM/PNG image files, written atomically.
 //! - [`optim`]: the generic optimizer (objective and parameter-set interfaces, Adam, rollback,
 //!   checkpoints) and the design job behind `scratchart design`.
@@ -17,11 +18,11 @@
 pub mod bench;
 pub mod exit;
 pub mod io;
-pub mod limits;
 pub use scratchart_model as model;
+pub use scratchart_render::limits;
 pub mod observe;
 pub mod optim;
-pub mod render;
+pub use scratchart_render as render;
 pub mod scenes;
 pub mod study;
 pub mod term;

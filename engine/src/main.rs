@@ -413,7 +413,7 @@ fn grad_command(ctx: &std::sync::Arc<Context>, scene: &Scene, dir: &Path, out: &
     }
     let renderer = Renderer::new(ctx)?;
     let mut gs = renderer.upload(scene)?;
-    let r = renderer.check_loss_gradients(&mut gs, scene, &targets)?;
+    let r = scratchart::optim::check::check_loss_gradients(&renderer, &mut gs, scene, &targets)?;
     let mut csv = String::from("x0,y0,x1,y1,w,d,alpha\n");
     for g in &r.grads.scratches {
         let row: Vec<String> = g.iter().map(|x| format!("{x:e}")).collect();

@@ -1,5 +1,5 @@
 // Push constants of the binning kernel (bin.comp); Rust twin: BinPush in
-// engine/src/render/layout.rs (checked by tests/layout.rs through test/layout_push.comp).
+// engine/render/src/layout.rs (checked by tests/layout.rs through test/layout_push.comp).
 #ifndef SA_BIN_PUSH_GLSL
 #define SA_BIN_PUSH_GLSL
 layout(push_constant) uniform Push {

@@ -1,5 +1,5 @@
 // Shared structs and camera geometry (MODEL.md sections 1-4).
-// Every struct here has a #[repr(C)] twin in engine/src/render/layout.rs; a test checks they agree.
+// Every struct here has a #[repr(C)] twin in engine/render/src/layout.rs; a test checks they agree.
 #ifndef SA_COMMON_GLSL
 #define SA_COMMON_GLSL
 

@@ -5,7 +5,7 @@
 //   [3] the forward kernel hit the device's loop limit
 //   [4] most chunks of CHUNK scratches in one tile's list (the true count)
 //   [5] the render (or its gradient) is incomplete, for any of the reasons here: Adam refuses
-//       such a step and the host redoes the submission after adapting (engine/src/render/scene.rs)
+//       such a step and the host redoes the submission after adapting (engine/render/src/scene.rs)
 //   [6] the backward kernel hit the device's loop limit
 //   [7] binning hit the device's loop limit
 //   [8] high word of [0], [9] the (tile, scratch) entries passed 2^32 - 1 (scan.comp), [10] high

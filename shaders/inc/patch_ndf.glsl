@@ -14,7 +14,7 @@
 // On the chi+ range (c > 0) 1/(1+x) lies in [1/2, 1] and is smooth. D jumps to 0 where c = 0
 // (MODEL.md section 9): every integrator integrates over the chi+ range only.
 //
-// The integrator. The kernels compile with one SA_INTEGRATOR_* define (engine/src/render/kernels.rs)
+// The integrator. The kernels compile with one SA_INTEGRATOR_* define (engine/render/src/kernels.rs)
 // that picks a file of inc/integrators/; it defines
 //   void pair_integral(R fs[4], R fv[4], R se, R len, R half_w, PairGeom G, bool try_fast, out R I, out R A)
 // over the footprint corners (fs, fv) in scratch-local (s, v) coordinates (counter-clockwise in

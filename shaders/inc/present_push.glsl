@@ -1,5 +1,5 @@
 // Push constants of the viewer's present pass (view_present.comp); Rust twin: PresentPush in
-// engine/src/render/present.rs (checked by tests/layout.rs through test/layout_push.comp).
+// engine/render/src/present.rs (checked by tests/layout.rs through test/layout_push.comp).
 #ifndef SA_PRESENT_PUSH_GLSL
 #define SA_PRESENT_PUSH_GLSL
 layout(push_constant) uniform Push {

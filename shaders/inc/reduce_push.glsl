@@ -1,4 +1,4 @@
-// Push constants of grad_reduce.comp; Rust twin: ReducePush in engine/src/render/layout.rs
+// Push constants of grad_reduce.comp; Rust twin: ReducePush in engine/render/src/layout.rs
 // (checked by tests/layout.rs).
 #ifndef SA_REDUCE_PUSH_GLSL
 #define SA_REDUCE_PUSH_GLSL

@@ -1,5 +1,5 @@
 // Push constants of the shading kernels (forward.comp, grad.comp); Rust twin: ShadePush in
-// engine/src/render/layout.rs (checked by tests/layout.rs through test/layout.comp).
+// engine/render/src/layout.rs (checked by tests/layout.rs through test/layout.comp).
 #ifndef SA_SHADE_PUSH_GLSL
 #define SA_SHADE_PUSH_GLSL
 layout(push_constant) uniform Push {

@@ -10,6 +10,7 @@ use bytemuck::{Pod, Zeroable};
 
 use super::driver::{Evaluation, Objective};
 use crate::model::scene::Scene;
+use crate::render::grad::Gradients;
 use crate::render::{GpuScene, Renderer};
 use crate::vulkan::{Buffer, ComputePipeline, Context, GpuError, MemLoc, Recorder, ShaderCompiler};
 
@@ -111,23 +112,46 @@ impl Objective for CheckObjective {
     }
 }
 
-impl Renderer {
-    /// Renders `gs` and evaluates `objective` and its gradients with respect to every scratch
-    /// and light, in one submission; gradients downloaded.
-    pub fn objective_gradients(
-        &self,
-        gs: &mut GpuScene,
-        objective: &dyn Objective,
-    ) -> Result<(Evaluation, crate::render::grad::Gradients), GpuError> {
-        self.prepare_backward()?;
-        let mut rec = Recorder::new(&self.ctx)?;
-        self.submit(&mut rec, gs, |rec, gs| {
-            self.record_render(rec, gs);
-            objective.record_forward(rec, gs);
-            objective.record_backward(rec, gs);
-            self.record_backward(rec, gs);
-        })?;
-        let ev = objective.read()?;
-        Ok((ev, self.download_gradients(gs)?))
-    }
+/// Renders `gs` and evaluates `objective` and its gradients with respect to every scratch and
+/// light, in one submission; gradients downloaded.
+pub fn objective_gradients(
+    renderer: &Renderer,
+    gs: &mut GpuScene,
+    objective: &dyn Objective,
+) -> Result<(Evaluation, Gradients), GpuError> {
+    renderer.prepare_backward()?;
+    let mut rec = Recorder::new(&renderer.ctx)?;
+    renderer.submit(&mut rec, gs, |rec, gs| {
+        renderer.record_render(rec, gs);
+        objective.record_forward(rec, gs);
+        objective.record_backward(rec, gs);
+        renderer.record_backward(rec, gs);
+    })?;
+    let ev = objective.read()?;
+    Ok((ev, renderer.download_gradients(gs)?))
+}
+
+/// The check loss of MODEL.md section 8 and its gradients, for the `grad` command:
+/// E_lin = sum over views of the mean over the view's on-plate pixels of (L - T)^2, with T the
+/// given linear target images (one per view, row-major, top row first).
+pub struct CheckLoss {
+    pub e_lin: f64,
+    pub grads: Gradients,
+}
+
+/// Renders `scene` and evaluates E_lin against `targets` and its gradients on the GPU
+/// ([`CheckObjective`]); on-plate pixels come from the float64 camera geometry of
+/// `model::camera`.
+pub fn check_loss_gradients(
+    renderer: &Renderer,
+    gs: &mut GpuScene,
+    scene: &Scene,
+    targets: &[Vec<f32>],
+) -> Result<CheckLoss, GpuError> {
+    let objective = CheckObjective::new(&renderer.ctx, scene, targets)?;
+    let (ev, grads) = objective_gradients(renderer, gs, &objective)?;
+    Ok(CheckLoss {
+        e_lin: ev.total as f64,
+        grads,
+    })
 }

@@ -18,9 +18,14 @@
 pub mod grad;
 pub mod kernels;
 pub mod layout;
+pub mod limits;
 pub mod present;
 mod scene;
 pub mod tangent;
+
+// The crates beneath, by the names the engine gives them.
+use scratchart_model as model;
+use scratchart_vulkan as vulkan;
 
 pub use scene::{GpuScene, RenderStats};
 

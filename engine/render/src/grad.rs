@@ -91,7 +91,7 @@ impl Renderer {
     }
 
     /// The gradients of the last backward pass.
-    pub(crate) fn download_gradients(&self, gs: &GpuScene) -> Result<Gradients, GpuError> {
+    pub fn download_gradients(&self, gs: &GpuScene) -> Result<Gradients, GpuError> {
         let g: Vec<[f32; 8]> = self.ctx.download(&gs.grad)?;
         let scratches = g[..gs.n_scratches as usize]
             .iter()
@@ -101,32 +101,5 @@ impl Renderer {
         // (buffers may be allocated larger than asked)
         lights.truncate(gs.shade.n_views as usize);
         Ok(Gradients { scratches, lights })
-    }
-}
-
-/// The check loss of MODEL.md section 8 and its gradients, for the `grad` command:
-/// E_lin = sum over views of the mean over the view's on-plate pixels of (L - T)^2, with T the
-/// given linear target images (one per view, row-major, top row first).
-pub struct CheckLoss {
-    pub e_lin: f64,
-    pub grads: Gradients,
-}
-
-impl Renderer {
-    /// Renders `scene` and evaluates E_lin against `targets` and its gradients on the GPU
-    /// ([`crate::optim::check::CheckObjective`]); on-plate pixels come from the float64 camera
-    /// geometry of `model::camera`.
-    pub fn check_loss_gradients(
-        &self,
-        gs: &mut GpuScene,
-        scene: &crate::model::scene::Scene,
-        targets: &[Vec<f32>],
-    ) -> Result<CheckLoss, GpuError> {
-        let objective = crate::optim::check::CheckObjective::new(&self.ctx, scene, targets)?;
-        let (ev, grads) = self.objective_gradients(gs, &objective)?;
-        Ok(CheckLoss {
-            e_lin: ev.total as f64,
-            grads,
-        })
     }
 }

@@ -2,10 +2,10 @@
 //! computed, so a scene that cannot run fails at once with a message that says what to reduce
 //! and the largest value that fits, instead of minutes later naming an internal buffer.
 //!
-//! The sizes are those of [`crate::render::GpuScene`] and [`crate::optim::loss::Loss`]; the
+//! The sizes are those of [`crate::GpuScene`] and [`crate::optim::loss::Loss`]; the
 //! functions here mirror their allocations (a test checks that the largest buffer of a real
 //! upload is within the estimate).
-use crate::render::layout::{PIXEL_RECORD_BYTES, SCRATCH_RECORD_BYTES, TILE};
+use crate::layout::{PIXEL_RECORD_BYTES, SCRATCH_RECORD_BYTES, TILE};
 use crate::vulkan::DeviceInfo;
 
 /// The quantities that decide how large the device buffers are.
@@ -60,7 +60,7 @@ impl SceneDims {
 
     /// The device buffers that grow with the scene: (what, bytes), largest first.
     pub fn buffers(&self) -> Vec<(&'static str, u64)> {
-        let groups = self.scratches.div_ceil(crate::render::GROUP_SIZE as u64).max(1);
+        let groups = self.scratches.div_ceil(crate::GROUP_SIZE as u64).max(1);
         let mut b = vec![
             ("per-pixel images (image, coverage, dE/dL), each", self.pixels * 4),
             (
