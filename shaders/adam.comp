@@ -1,5 +1,5 @@
 #version 450
-// Adam on one flat parameter buffer (engine/src/optim/adam.rs), one thread per float. Element i
+// Adam on one flat parameter buffer (engine/optim/src/adam.rs), one thread per float. Element i
 // belongs to learning-rate group i % stride (a scratch's 8 floats: 4 endpoint coordinates, w, d,
 // alpha and an unused one; a light: one group). Each group has a learning rate, box bounds, a
 // space (linear, or logarithmic: x = exp(u), moved in u with gradient x dE/dx, for quantities

@@ -1,6 +1,6 @@
 #version 450
 // Forward passes of the design loss (MODEL.md section 7; definitions in inc/loss_bank.glsl).
-// One pass per compile-time define, recorded in this order by engine/src/optim/loss.rs:
+// One pass per compile-time define, recorded in this order by engine/optim/src/loss/mod.rs:
 //   DISPLAY  level-0 pyramid = I = L^(1/2.2) of the render
 //   POOL     level `level` of the pyramid from the level below (2x2 mean)
 //   FEAT     5 filter responses at every pyramid pixel; at level 0 also B = g * (I - T)

@@ -1,5 +1,5 @@
 #version 450
-// Projection of the scratch parameter set after an Adam step (engine/src/optim/scene_params.rs):
+// Projection of the scratch parameter set after an Adam step (engine/optim/src/scene_params.rs):
 // a scratch shorter than min_len keeps its direction (the one before the step if the new one
 // vanished) and its midpoint, moved inwards just enough for both ends to stay on the plate, and
 // is stretched to min_len. Adam has already clamped every coordinate to the plate and w, d, alpha

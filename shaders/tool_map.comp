@@ -1,5 +1,5 @@
 #version 450
-// Fabrication mode (engine/src/optim/tool_params.rs): one commanded carve depth z per scratch,
+// Fabrication mode (engine/optim/src/tool_params.rs): one commanded carve depth z per scratch,
 // mapped through the calibrated tool's curve z -> (w, d), sampled on the host at n_table points
 // uniformly spaced in s = sqrt(z - z_first) (dense where the curve bends most, near first
 // contact) and interpolated linearly in s.

@@ -52,32 +52,12 @@ pub fn code(err: &(dyn Error + 'static)) -> u8 {
     class(err).code()
 }
 
-impl ExitClass for IoError {
-    fn exit_class(&self) -> Option<Class> {
-        Some(if self.is_output() { Class::Runtime } else { Class::Input })
-    }
-}
-
 impl ExitClass for TargetError {
     fn exit_class(&self) -> Option<Class> {
         match self {
             TargetError::Image(io) => io.exit_class(),
             TargetError::Count { .. } => Some(Class::Input),
         }
-    }
-}
-
-impl ExitClass for OptimError {
-    fn exit_class(&self) -> Option<Class> {
-        Some(match self {
-            // transparent wrappers (their `source()` skips the wrapped error): it decides
-            OptimError::Gpu(g) => return g.exit_class(),
-            OptimError::Io(i) => return i.exit_class(),
-            OptimError::NoCheckpoint { .. } | OptimError::Damaged { .. } => Class::Input,
-            OptimError::Mismatch { .. } | OptimError::Usage(_) => Class::Usage,
-            OptimError::Diverged(_) | OptimError::Stopped(_) | OptimError::Report(_) => Class::Runtime,
-            OptimError::Interrupted { .. } => Class::Interrupted,
-        })
     }
 }
 

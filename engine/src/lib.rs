@@ -17,10 +17,10 @@
 //! - [`limits`]: scene sizes checked against the device and the host before any work.
 pub mod bench;
 pub mod exit;
-pub mod io;
 pub use scratchart_model as model;
+pub use scratchart_optim::observe;
+pub use scratchart_render::io;
 pub use scratchart_render::limits;
-pub mod observe;
 pub mod optim;
 pub use scratchart_render as render;
 pub mod scenes;

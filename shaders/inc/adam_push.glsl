@@ -1,5 +1,5 @@
 // Push constants and the learning-rate group record of adam.comp; Rust twins: AdamPush and
-// AdamGroupGpu in engine/src/optim/adam.rs (checked by tests/layout.rs).
+// AdamGroupGpu in engine/optim/src/adam.rs (checked by tests/layout.rs).
 #ifndef SA_ADAM_PUSH_GLSL
 #define SA_ADAM_PUSH_GLSL
 struct AdamGroupGPU {

@@ -1,4 +1,4 @@
-// Push constants of check_loss.comp; Rust twin: CheckPush in engine/src/optim/check.rs
+// Push constants of check_loss.comp; Rust twin: CheckPush in engine/optim/src/check.rs
 // (checked by tests/layout.rs).
 #ifndef SA_CHECK_PUSH_GLSL
 #define SA_CHECK_PUSH_GLSL

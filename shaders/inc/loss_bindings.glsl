@@ -1,6 +1,6 @@
 // Storage buffers and push constants shared by loss_fwd.comp and loss_bwd.comp (one pipeline
 // layout of 13 buffers for every loss pass; a pass ignores what it does not use). Twin:
-// engine/src/optim/loss.rs (binding order in `Loss::bufs`; LossSeg and LossPush, declared in
+// engine/optim/src/loss/mod.rs (binding order in `Loss::bufs`; LossSeg and LossPush, declared in
 // inc/loss_push.glsl).
 #ifndef SA_LOSS_BINDINGS_GLSL
 #define SA_LOSS_BINDINGS_GLSL

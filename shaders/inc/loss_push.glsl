@@ -1,5 +1,5 @@
 // The loss kernels' segment struct and push constants (loss_fwd.comp, loss_bwd.comp, through
-// inc/loss_bindings.glsl); Rust twins: LossSeg and LossPush in engine/src/optim/loss.rs (checked
+// inc/loss_bindings.glsl); Rust twins: LossSeg and LossPush in engine/optim/src/loss/mod.rs (checked
 // by tests/layout.rs through test/layout_push.comp).
 #ifndef SA_LOSS_PUSH_GLSL
 #define SA_LOSS_PUSH_GLSL

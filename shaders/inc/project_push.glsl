@@ -1,5 +1,5 @@
 // Push constants of scratch_project.comp; Rust twin: ProjectPush in
-// engine/src/optim/scene_params.rs (checked by tests/layout.rs).
+// engine/optim/src/scene_params.rs (checked by tests/layout.rs).
 #ifndef SA_PROJECT_PUSH_GLSL
 #define SA_PROJECT_PUSH_GLSL
 layout(push_constant) uniform Push {

@@ -1,4 +1,4 @@
-// Push constants of tool_map.comp; Rust twin: ToolMapPush in engine/src/optim/tool_params.rs
+// Push constants of tool_map.comp; Rust twin: ToolMapPush in engine/optim/src/tool_params.rs
 // (checked by tests/layout.rs).
 #ifndef SA_TOOL_MAP_PUSH_GLSL
 #define SA_TOOL_MAP_PUSH_GLSL

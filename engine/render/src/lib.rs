@@ -16,6 +16,7 @@
 //! kernel sums per pixel in float, the backward one per scratch (reverse mode, or dual numbers
 //! for the oracle).
 pub mod grad;
+pub mod io;
 pub mod kernels;
 pub mod layout;
 pub mod limits;

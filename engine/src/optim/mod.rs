@@ -1,5 +1,7 @@
 //! The optimizer and the design job (`scratchart design`): fits parameters against an objective
-//! on the GPU (MODEL.md section 7 for the design).
+//! on the GPU (MODEL.md section 7 for the design). The generic optimizer is the crate
+//! `scratchart-optim` (`engine/optim/`), re-exported here module by module; the design job and
+//! its reports are the application's.
 //!
 //! - [`driver`]: the generic optimizer: iterate, roll back, checkpoint, resume, over any
 //!   [`driver::Objective`] and any [`driver::ParamSet`].
@@ -27,21 +29,15 @@
 //! Determinism: every GPU reduction runs in a fixed order and the host feeds back only values it
 //! read from the GPU, so a run is bit-reproducible on one device, and a resumed run equals an
 //! uninterrupted one bit for bit.
-pub mod adam;
-pub mod check;
-pub mod checkpoint;
+pub use scratchart_optim::{
+    adam, check, checkpoint, driver, error, least_squares, loss, prune, scene_params, tool_params,
+};
+
 pub mod design;
-pub mod driver;
-pub mod error;
 pub mod framing;
-pub mod least_squares;
-pub mod loss;
-pub mod prune;
 pub mod report;
-pub mod scene_params;
 pub mod setup;
 pub mod targets;
-pub mod tool_params;
 
 pub use adam::AdamConfig;
 pub use design::{DesignConfig, DesignReport, Problem};

@@ -338,3 +338,15 @@ fn tent_weights(src_n: usize, dst_n: usize) -> Vec<(usize, Vec<f64>)> {
         })
         .collect()
 }
+
+/// A file that cannot be read or decoded is bad input (exit 3); one that cannot be written is a
+/// runtime failure (exit 1).
+impl scratchart_exit::ExitClass for IoError {
+    fn exit_class(&self) -> Option<scratchart_exit::Class> {
+        Some(if self.is_output() {
+            scratchart_exit::Class::Runtime
+        } else {
+            scratchart_exit::Class::Input
+        })
+    }
+}

@@ -59,3 +59,18 @@ impl OptimError {
         }
     }
 }
+
+/// The exit class of each way an optimization stops (the one contract of `scratchart-exit`).
+impl scratchart_exit::ExitClass for OptimError {
+    fn exit_class(&self) -> Option<scratchart_exit::Class> {
+        Some(match self {
+            // transparent wrappers (their `source()` skips the wrapped error): it decides
+            OptimError::Gpu(g) => return scratchart_exit::ExitClass::exit_class(g),
+            OptimError::Io(i) => return scratchart_exit::ExitClass::exit_class(i),
+            OptimError::NoCheckpoint { .. } | OptimError::Damaged { .. } => scratchart_exit::Class::Input,
+            OptimError::Mismatch { .. } | OptimError::Usage(_) => scratchart_exit::Class::Usage,
+            OptimError::Diverged(_) | OptimError::Stopped(_) | OptimError::Report(_) => scratchart_exit::Class::Runtime,
+            OptimError::Interrupted { .. } => scratchart_exit::Class::Interrupted,
+        })
+    }
+}

@@ -392,7 +392,7 @@ impl Loss {
 pub mod reference;
 
 /// The design loss as the optimizer's objective: terms are, per view, the pixel and the Gram term.
-impl crate::optim::driver::Objective for Loss {
+impl crate::driver::Objective for Loss {
     fn record_forward(&self, rec: &mut Recorder, gs: &crate::render::GpuScene) {
         self.record_forward(rec, gs.image());
     }
@@ -405,19 +405,19 @@ impl crate::optim::driver::Objective for Loss {
         (&self.out, 2 * self.pyr.n_views)
     }
 
-    fn read(&self) -> Result<crate::optim::driver::Evaluation, GpuError> {
+    fn read(&self) -> Result<crate::driver::Evaluation, GpuError> {
         let o: Vec<f32> = self.out.read()?;
         let nv = self.pyr.n_views as usize;
-        Ok(crate::optim::driver::Evaluation {
+        Ok(crate::driver::Evaluation {
             terms: o[..2 * nv].to_vec(),
             total: o[2 * nv],
         })
     }
 }
 
-impl From<&crate::optim::driver::Evaluation> for LossValues {
+impl From<&crate::driver::Evaluation> for LossValues {
     /// The design loss's terms, split per view (see [`Loss`]'s objective).
-    fn from(e: &crate::optim::driver::Evaluation) -> LossValues {
+    fn from(e: &crate::driver::Evaluation) -> LossValues {
         LossValues {
             pixel: e.terms.iter().step_by(2).copied().collect(),
             gram: e.terms.iter().skip(1).step_by(2).copied().collect(),
