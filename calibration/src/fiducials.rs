@@ -618,8 +618,8 @@ pub fn plausible_camera(
     let f_hint = 0.5 * h as f64 / (0.5 * c.fov_y_deg).to_radians().tan();
     let e = c.eye;
     let d_hint = (e[0] * e[0] + e[1] * e[1] + e[2] * e[2]).sqrt();
-    let f = super::register::focal_near(hm, w, h, f_hint, d_hint);
-    let cam = super::register::camera_with_focal(hm, w, h, f)
+    let f = super::pose::focal_near(hm, w, h, f_hint, d_hint);
+    let cam = super::pose::camera_with_focal(hm, w, h, f)
         .ok_or("the marks do not lie as a camera above the card would see them")?;
     let dir = |e: [f64; 3], t: [f64; 3]| {
         let d = [e[0] - t[0], e[1] - t[1], e[2] - t[2]];

@@ -21,6 +21,7 @@ pub mod fit_cmd;
 pub mod guide;
 pub mod phone;
 pub mod photo;
+pub mod pose;
 pub mod register;
 pub mod simulate;
 pub mod study;

@@ -16,8 +16,7 @@ use scratchart_tool::Tool;
 use super::card::Card;
 use super::simulate::{blur, cut_scene};
 
-/// How much finer than the capture view the photos are rendered.
-pub const RENDER_SCALE: u32 = 4;
+pub use super::simulate::RENDER_SCALE;
 
 /// Where the phone is held, relative to a capture view.
 #[derive(Clone, Copy, Debug, PartialEq)]

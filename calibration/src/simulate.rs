@@ -12,6 +12,11 @@ use scratchart_tool::Tool;
 
 use super::card::Card;
 
+/// How much finer than the capture view the photos (`simulate`'s and `phone`'s) are rendered:
+/// a camera's optics are continuous, and the fit models them at `fit::SUPERSAMPLE` (2) times the
+/// view's resolution, so the photos are made finer than that.
+pub const RENDER_SCALE: u32 = 4;
+
 /// How the photos are degraded.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Camera {
@@ -120,7 +125,7 @@ pub fn photos(
     // light added up over its area: a camera's optics are continuous, and a render at the
     // photo's own resolution has already added up the light of a groove a pixel wide before the
     // blur (the fit models that at twice the resolution; photos made at its own would flatter it).
-    let k = super::phone::RENDER_SCALE;
+    let k = RENDER_SCALE;
     let mut scene = cut_scene(card, capture, tool);
     for v in &mut scene.views {
         v.camera.width *= k;

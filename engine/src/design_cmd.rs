@@ -265,6 +265,7 @@ pub fn problem(args: &DesignArgs, info: &DeviceInfo) -> anyhow::Result<Problem> 
 /// The configuration of `args`.
 pub fn config(args: &DesignArgs) -> DesignConfig {
     let mut cfg = DesignConfig::new(args.plate, args.out.clone());
+    cfg.started = Some(scratchart::exit::process_start());
     cfg.iters = args.iters;
     cfg.seed = args.seed;
     cfg.loss.lambda_p = args.lambda_p;

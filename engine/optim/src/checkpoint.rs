@@ -7,7 +7,6 @@ use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
 
-use super::driver::HostState;
 use super::error::OptimError;
 
 const MAGIC: &[u8; 8] = b"SACKPT02";
@@ -27,11 +26,13 @@ struct ChunkInfo {
     fnv: String,
 }
 
+/// The header of a checkpoint: `state` is the driver's host state (any serde type: this module
+/// does not know it).
 #[derive(Serialize, Deserialize)]
-struct Header {
+struct Header<S> {
     version: u32,
     fingerprint: serde_json::Value,
-    state: HostState,
+    state: S,
     chunks: Vec<ChunkInfo>,
 }
 
@@ -50,16 +51,16 @@ pub fn fnv(bytes: &[u8]) -> u64 {
     h
 }
 
-pub(super) fn write(
+pub(super) fn write<S: Serialize>(
     dir: &Path,
     fingerprint: &serde_json::Value,
-    state: &HostState,
+    state: &S,
     chunks: &[Chunk],
 ) -> Result<(), OptimError> {
     let header = Header {
         version: VERSION,
         fingerprint: fingerprint.clone(),
-        state: state.clone(),
+        state,
         chunks: chunks
             .iter()
             .map(|c| ChunkInfo {
@@ -82,7 +83,10 @@ pub(super) fn write(
 }
 
 /// Reads and checks `dir/checkpoint.bin` against `fingerprint`.
-pub(super) fn read(dir: &Path, fingerprint: &serde_json::Value) -> Result<(HostState, Vec<Chunk>), OptimError> {
+pub(super) fn read<S: serde::de::DeserializeOwned>(
+    dir: &Path,
+    fingerprint: &serde_json::Value,
+) -> Result<(S, Vec<Chunk>), OptimError> {
     let path = path(dir);
     let file = std::fs::read(&path).map_err(|source| OptimError::NoCheckpoint {
         path: path.clone(),
@@ -96,7 +100,7 @@ pub(super) fn read(dir: &Path, fingerprint: &serde_json::Value) -> Result<(HostS
     let text = file
         .get(16..16usize.saturating_add(n))
         .ok_or_else(|| bad("truncated header"))?;
-    let header: Header = serde_json::from_slice(text).map_err(|e| bad(&format!("bad header ({e})")))?;
+    let header: Header<S> = serde_json::from_slice(text).map_err(|e| bad(&format!("bad header ({e})")))?;
     if header.version != VERSION {
         return Err(bad(&format!(
             "format version {} (this build reads {VERSION})",

@@ -2,9 +2,9 @@
 //! computed, so a scene that cannot run fails at once with a message that says what to reduce
 //! and the largest value that fits, instead of minutes later naming an internal buffer.
 //!
-//! The sizes are those of [`crate::GpuScene`] and [`crate::optim::loss::Loss`]; the
-//! functions here mirror their allocations (a test checks that the largest buffer of a real
-//! upload is within the estimate).
+//! The sizes of [`crate::GpuScene`]'s buffers have one source: the methods of [`SceneDims`],
+//! which `GpuScene::new` allocates by and [`SceneDims::buffers`] checks. The design loss's
+//! pyramid (`scratchart_optim::loss::Loss`) is bounded here from above (4/3 of the pixels).
 use crate::layout::{PIXEL_RECORD_BYTES, SCRATCH_RECORD_BYTES, TILE};
 use crate::vulkan::DeviceInfo;
 
@@ -58,17 +58,50 @@ impl SceneDims {
         }
     }
 
+    /// Scratch groups of the pair search (`GROUP_SIZE` scratches each; at least one).
+    pub fn groups(&self) -> u64 {
+        self.scratches.div_ceil(crate::GROUP_SIZE as u64).max(1)
+    }
+
+    /// Bytes of one per-pixel float image of all views (the image, coverage, dE/dL).
+    pub fn image_bytes(&self) -> u64 {
+        self.pixels * 4
+    }
+
+    /// Entries of the pair search's offsets: one per tile and scratch group, and one past the end.
+    pub fn offsets_len(&self) -> u64 {
+        self.tiles * self.groups() + 1
+    }
+
+    /// Bytes of the scratch parameters, and of their gradients (8 floats per scratch).
+    pub fn scratch_bytes(&self) -> u64 {
+        self.scratches.max(1) * 32
+    }
+
+    /// Bytes of the shading kernels' per-scratch records.
+    pub fn records_bytes(&self) -> u64 {
+        self.scratches.max(1) * SCRATCH_RECORD_BYTES
+    }
+
+    /// Bytes of the shading kernels' per-pixel records.
+    pub fn pixel_records_bytes(&self) -> u64 {
+        self.pixels.max(1) * PIXEL_RECORD_BYTES
+    }
+
+    /// The tile lists' first capacity, in entries: a guess (four tiles per scratch and view, at
+    /// least 2^16) that the renderer grows on demand after the first binning, bounded so that
+    /// the 32-byte partial gradient of each entry fits `max_range` bytes.
+    pub fn first_list_capacity(&self, max_range: u64) -> u32 {
+        (self.scratches * self.views * 4).max(1 << 16).min(max_range / 32) as u32
+    }
+
     /// The device buffers that grow with the scene: (what, bytes), largest first.
     pub fn buffers(&self) -> Vec<(&'static str, u64)> {
-        let groups = self.scratches.div_ceil(crate::GROUP_SIZE as u64).max(1);
         let mut b = vec![
-            ("per-pixel images (image, coverage, dE/dL), each", self.pixels * 4),
-            (
-                "pair-search offsets (tiles x scratch groups)",
-                (self.tiles * groups + 1) * 4,
-            ),
-            ("scratch parameters and gradients, each", self.scratches.max(1) * 32),
-            (RECORDS, self.scratches.max(1) * SCRATCH_RECORD_BYTES),
+            ("per-pixel images (image, coverage, dE/dL), each", self.image_bytes()),
+            ("pair-search offsets (tiles x scratch groups)", self.offsets_len() * 4),
+            ("scratch parameters and gradients, each", self.scratch_bytes()),
+            (RECORDS, self.records_bytes()),
             // A lower bound: every visible scratch is listed in at least one tile per view; the
             // lists grow with the scene's pairs (and are checked again then).
             (
@@ -90,7 +123,7 @@ impl SceneDims {
         let limit = info.max_storage_buffer_range;
         // The records are also texel buffers: 16-byte texels, at most maxTexelBufferElements.
         let texel_limit = info.max_texel_buffer_elements.saturating_mul(16);
-        let texels = [(PIXEL_RECORDS, self.pixels.max(1) * PIXEL_RECORD_BYTES)];
+        let texels = [(PIXEL_RECORDS, self.pixel_records_bytes())];
         self.buffers()
             .into_iter()
             .find_map(|(n, b)| {

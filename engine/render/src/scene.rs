@@ -158,20 +158,22 @@ impl GpuScene {
             return Err(GpuError::Capacity(format!("{why}; use smaller views")));
         }
         let slots = layout::view_slots(scene);
+        assert_eq!(
+            (slots.n_pixels, slots.n_tiles as u64),
+            (dims.pixels, dims.tiles),
+            "one count of pixels and tiles"
+        );
         let n_scratches = scene.scratches.len() as u32;
-        let n_groups = n_scratches.div_ceil(GROUP_SIZE).max(1);
+        let n_groups = dims.groups() as u32;
         let max_rows = slots.views.iter().map(|v| v.dims[3]).max().unwrap_or(1);
         let n_bands = binning_bands(ctx.info(), n_scratches, n_groups, scene.views.len() as u32, max_rows);
         let (sbase, sbase_sums) =
             scratch_base_buffers(ctx, n_scratches, binning_parts(n_bands, scene.views.len() as u32))?;
         let scr: Vec<ScratchGpu> = scene.scratches.iter().map(ScratchGpu::from).collect();
         let phi: Vec<f32> = scene.views.iter().map(|v| v.light.intensity as f32).collect();
-        let hist_len = slots.n_tiles as u64 * n_groups as u64 + 1;
+        let hist_len = dims.offsets_len();
         let n_blocks = hist_len.div_ceil(SCAN_BLOCK as u64);
-        // Initial list capacity: a guess, grown on demand after the first binning.
-        // (bounded so that the 32-byte-per-entry partial-gradient buffer fits the device limit).
-        let capacity = ((n_scratches as u64 * scene.views.len() as u64 * 4).max(1 << 16))
-            .min(ctx.info().max_storage_buffer_range / 32) as u32;
+        let capacity = dims.first_list_capacity(ctx.info().max_storage_buffer_range);
         let gpu_only = |name: &str, bytes: u64| Buffer::new(ctx, name, bytes, MemLoc::GpuOnly);
         // Host-visible so a viewer can move cameras and lights every frame without reallocating
         // (see `update_views`).
@@ -198,18 +200,8 @@ impl GpuScene {
             views: host("views", bytemuck::cast_slice(&slots.views))?,
             views64: host("views (float64 cameras)", bytemuck::cast_slice(&slots.views64))?,
             scratches: ctx.upload("scratches", &scr)?,
-            records: Buffer::new_texel(
-                ctx,
-                "scratch records",
-                n_scratches.max(1) as u64 * layout::SCRATCH_RECORD_BYTES,
-                MemLoc::GpuOnly,
-            )?,
-            pixel_records: Buffer::new_texel(
-                ctx,
-                "pixel records",
-                dims.pixels.max(1) * layout::PIXEL_RECORD_BYTES,
-                MemLoc::GpuOnly,
-            )?,
+            records: Buffer::new_texel(ctx, "scratch records", dims.records_bytes(), MemLoc::GpuOnly)?,
+            pixel_records: Buffer::new_texel(ctx, "pixel records", dims.pixel_records_bytes(), MemLoc::GpuOnly)?,
             // Host-visible too (the viewer's light slider); Adam writes it on the device.
             lights: host("light intensities", bytemuck::cast_slice(&phi))?,
             hist: gpu_only("bin offsets", hist_len * 4)?,
@@ -222,11 +214,11 @@ impl GpuScene {
             n_bands,
             inv: gpu_only("entry inverse map", capacity as u64 * 4)?,
             partials: gpu_only("partial gradients", capacity as u64 * 32)?,
-            cov_raw: gpu_only("coverage", slots.n_pixels * 4)?,
-            dl: gpu_only("dE/dL", slots.n_pixels * 4)?,
-            grad: gpu_only("scratch gradients", n_scratches.max(1) as u64 * 32)?,
+            cov_raw: gpu_only("coverage", dims.image_bytes())?,
+            dl: gpu_only("dE/dL", dims.image_bytes())?,
+            grad: gpu_only("scratch gradients", dims.scratch_bytes())?,
             grad_light: gpu_only("light gradients", scene.views.len() as u64 * 4)?,
-            image: gpu_only("image", slots.n_pixels * 4)?,
+            image: gpu_only("image", dims.image_bytes())?,
             stats: Buffer::new(ctx, "stats", 64, MemLoc::GpuToCpu)?,
             group_size: GROUP_SIZE,
             fwd_plan: PassPlan::ONE,

@@ -2,176 +2,23 @@
 //! ([`Loss`]) as objective and the scene's scratches and lights ([`SceneParams`]) as parameters
 //! (or, in fabrication mode, one carve depth per scratch: [`ToolParams`]), then pruning, a final
 //! evaluation and the reports.
-use std::path::PathBuf;
 use std::sync::Arc;
 
 use serde_json::{json, Value};
 
-use super::adam::AdamConfig;
 use super::checkpoint::fnv;
-use super::driver::{Driver, DriverConfig, Evaluation};
+use super::driver::{Driver, DriverConfig};
 pub use super::driver::{Hooks, Rollback};
 use super::error::OptimError;
-use super::loss::{Loss, LossConfig, LossValues};
-use super::prune::{PruneConfig, PruneStats};
+use super::loss::{Loss, LossValues};
+pub use super::problem::{DesignConfig, DesignReport, Images, IterRecord, Problem, WallTimes};
 use super::scene_params::SceneParams;
-use super::tool_params::{depths_of_kept, Fabrication, ToolParams};
+use super::tool_params::{depths_of_kept, ToolParams};
 use crate::model::scene::{Scene, Scratch};
 use crate::observe::Observer;
 use crate::render::layout::{ScratchGpu, ViewGpu};
 use crate::render::{GpuScene, Renderer};
 use crate::vulkan::{Context, GpuError};
-
-/// One image per view (row-major f32, top row first).
-pub type Images = Vec<Vec<f32>>;
-
-/// A design problem: plate, views (with their lights), initial scratches, one target per view
-/// (display values in [0, 1], W x H, top row first).
-#[derive(Clone, Debug)]
-pub struct Problem {
-    pub scene: Scene,
-    pub targets: Vec<Vec<f32>>,
-    /// Per view, the pixels that show the picture (where quality is measured); the on-plate
-    /// pixels when the target has no picture region of its own.
-    pub pictures: Vec<Vec<bool>>,
-    /// Per view, the picture's rectangle in the frame (pixels), when it has one.
-    pub picture_rects: Vec<Option<super::framing::Rect>>,
-}
-
-impl Problem {
-    /// A problem whose pictures cover every on-plate pixel.
-    pub fn new(scene: Scene, targets: Vec<Vec<f32>>) -> Problem {
-        let pictures = (0..scene.views.len())
-            .map(|v| crate::model::camera::on_plate_mask(&scene, v))
-            .collect();
-        let picture_rects = vec![None; scene.views.len()];
-        Problem {
-            scene,
-            targets,
-            pictures,
-            picture_rects,
-        }
-    }
-}
-
-#[derive(Clone, Debug)]
-pub struct DesignConfig {
-    pub iters: u32,
-    pub loss: LossConfig,
-    pub adam: AdamConfig,
-    /// Write a checkpoint every this many iterations (0: only at the end).
-    pub checkpoint_every: u32,
-    pub out: PathBuf,
-    /// Continue from `out/checkpoint.bin`.
-    pub resume: bool,
-    pub prune: PruneConfig,
-    pub hooks: Hooks,
-    /// Seed of the initialization (recorded; the optimizer itself draws no random numbers).
-    pub seed: u64,
-    /// Scale the lights at the start so that each view's mean on-plate L matches its target's.
-    pub calibrate_lights: bool,
-    /// Give up after this many rollbacks.
-    pub max_rollbacks: u32,
-    /// Write the output files (design, images, plot, summary).
-    pub write_outputs: bool,
-    /// Fabrication mode: one carve depth per scratch through this tool (`design --tool`).
-    pub tool: Option<Fabrication>,
-}
-
-impl DesignConfig {
-    pub fn new(plate_mm: f64, out: PathBuf) -> DesignConfig {
-        DesignConfig {
-            iters: 200,
-            loss: LossConfig::default(),
-            adam: AdamConfig::for_plate(plate_mm),
-            checkpoint_every: 50,
-            out,
-            resume: false,
-            prune: PruneConfig::default(),
-            hooks: Hooks::default(),
-            seed: 1,
-            calibrate_lights: true,
-            max_rollbacks: 30,
-            write_outputs: true,
-            tool: None,
-        }
-    }
-}
-
-/// One accepted loss evaluation.
-#[derive(Clone, Debug, PartialEq)]
-pub struct IterRecord {
-    pub pixel: Vec<f32>,
-    pub gram: Vec<f32>,
-    pub total: f32,
-}
-
-impl From<&Evaluation> for IterRecord {
-    fn from(e: &Evaluation) -> Self {
-        let l = LossValues::from(e);
-        IterRecord {
-            pixel: l.pixel,
-            gram: l.gram,
-            total: l.total,
-        }
-    }
-}
-
-/// Wall-clock seconds of a design run's phases.
-#[derive(Clone, Copy, Debug, Default)]
-pub struct WallTimes {
-    /// From the process start (device, kernels, uploads, light calibration, the first render)
-    /// to the first iteration.
-    pub start_up: f64,
-    /// The optimization loop.
-    pub iterations: f64,
-    /// Pruning trials.
-    pub pruning: f64,
-    /// The final render, the quality report, images, plots and the set-up sheet (0 until written).
-    pub reports: f64,
-}
-
-impl WallTimes {
-    pub fn to_json(&self) -> serde_json::Value {
-        json!({
-            "start_up": self.start_up,
-            "iterations": self.iterations,
-            "pruning": self.pruning,
-            "final_render_and_reports": self.reports,
-            "total": self.start_up + self.iterations + self.pruning + self.reports,
-        })
-    }
-}
-
-/// What a design run produced.
-#[derive(Clone, Debug)]
-pub struct DesignReport {
-    /// The final design (after pruning, if any).
-    pub scene: Scene,
-    /// The optimized design before pruning.
-    pub unpruned: Scene,
-    pub history: Vec<IterRecord>,
-    pub rollbacks: Vec<Rollback>,
-    pub prune: Option<PruneStats>,
-    /// Loss of the final design (after pruning).
-    pub final_loss: LossValues,
-    /// Wall seconds of the optimization loop and iterations run in this process.
-    pub loop_seconds: f64,
-    pub iters_run: u32,
-    /// Mean (pixel, scratch) pairs per iteration and GPU milliseconds per phase.
-    pub mean_pairs: f64,
-    pub gpu_ms: Vec<(String, f64)>,
-    /// Display images of the final design and of the initial one, per view.
-    pub final_images: Vec<Vec<f32>>,
-    pub initial_images: Vec<Vec<f32>>,
-    pub resumed_from: Option<u32>,
-    /// What `summary.json` holds, when the outputs were written.
-    pub summary: Option<serde_json::Value>,
-    /// Fabrication mode: the commanded depth of every written scratch, mm.
-    pub depths: Option<Vec<f64>>,
-    /// Wall time by phase.
-    pub wall: WallTimes,
-}
 
 /// The design optimizer: the driver over the design loss and the scene parameters.
 pub struct Optimizer<'r> {
@@ -433,7 +280,7 @@ pub fn run_design(
         summary: None,
         depths,
         wall: WallTimes {
-            start_up: t_loop.duration_since(crate::exit::process_start()).as_secs_f64(),
+            start_up: cfg.started.map_or(0.0, |s| t_loop.duration_since(s).as_secs_f64()),
             iterations: t_loop_end.duration_since(t_loop).as_secs_f64(),
             pruning: t_pruned.duration_since(t_loop_end).as_secs_f64(),
             reports: 0.0,

@@ -22,7 +22,9 @@
 //! - [`targets`]: target images (files, or the built-in circle / triangle / star).
 //! - [`framing`]: where a picture goes in a view (upright and as large as fits inside the
 //!   plate's silhouette by default).
-//! - [`report`]: compare images, SSIM, the loss-curve plot and the summary.
+//! - [`problem`]: the design problem, the job's configuration and what a run produced.
+//! - [`measure`]: image measures (blur, SSIM, correlation, each view's quality and cross-talk).
+//! - [`report`]: the design's outputs: compare images, the loss-curve plot and the summary.
 //! - [`setup`]: where the lamp and the viewers go, and how precisely (setup sheet, sensitivity).
 //! - [`error`]: what can stop an optimization.
 //!
@@ -35,6 +37,8 @@ pub use scratchart_optim::{
 
 pub mod design;
 pub mod framing;
+pub mod measure;
+pub mod problem;
 pub mod report;
 pub mod setup;
 pub mod targets;

@@ -10,7 +10,7 @@ use std::path::Path;
 use serde_json::{json, Value};
 
 use super::error::OptimError;
-use super::report::{blur3, correlation};
+use super::measure::{blur3, correlation};
 use crate::model::scene::{LightKind, Scene, View};
 use crate::render::Renderer;
 

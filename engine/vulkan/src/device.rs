@@ -77,7 +77,7 @@ impl Context {
             .clone()
             .or_else(|| std::env::var("SCRATCHART_DEVICE").ok().filter(|s| !s.is_empty()));
 
-        let inst = Instance::new(&desc, want_validation)?;
+        let inst = Instance::new(&desc.instance_extensions, desc.notify.as_ref(), want_validation)?;
         // From here on, failures must tear down the messenger and instance.
         let built = Self::create_device(&inst.instance, &desc, selector.as_deref());
         let (physical_device, device, queue_family, info, allocator) = match built {

@@ -9,10 +9,7 @@ use std::{
 
 use ash::vk;
 
-use super::{
-    device::ContextDesc,
-    error::{vk_err, GpuError},
-};
+use super::error::{vk_err, GpuError};
 
 const VALIDATION_LAYER: &CStr = c"VK_LAYER_KHRONOS_validation";
 
@@ -88,9 +85,14 @@ pub(super) struct Instance {
 }
 
 impl Instance {
-    /// Loads Vulkan and creates the instance, with `desc.instance_extensions`, debug utils when
-    /// available, and the validation layer and messenger when `want_validation` and installed.
-    pub(super) fn new(desc: &ContextDesc, want_validation: bool) -> Result<Instance, GpuError> {
+    /// Loads Vulkan and creates the instance, with `extensions`, debug utils when available, and
+    /// the validation layer and messenger when `want_validation` and installed (its notices to
+    /// `notify`).
+    pub(super) fn new(
+        extensions: &[&'static CStr],
+        notify: Option<&Notify>,
+        want_validation: bool,
+    ) -> Result<Instance, GpuError> {
         let entry = unsafe { ash::Entry::load() }.map_err(|e| GpuError::Loading(e.to_string()))?;
 
         let inst_exts = unsafe { entry.enumerate_instance_extension_properties(None) }
@@ -102,12 +104,12 @@ impl Instance {
                 .iter()
                 .any(|l| l.layer_name_as_c_str().ok() == Some(VALIDATION_LAYER));
         if want_validation && !validation {
-            if let Some(n) = &desc.notify {
+            if let Some(n) = notify {
                 n("warning: validation requested but VK_LAYER_KHRONOS_validation is not installed");
             }
         }
         let debug_utils = has_ext(&inst_exts, ash::ext::debug_utils::NAME);
-        let mut ext_names: Vec<&CStr> = desc.instance_extensions.clone();
+        let mut ext_names: Vec<&CStr> = extensions.to_vec();
         if debug_utils {
             ext_names.push(ash::ext::debug_utils::NAME);
         }
@@ -139,7 +141,7 @@ impl Instance {
 
         let log = ValidationLog(Arc::new(LogInner {
             messages: Mutex::default(),
-            notify: desc.notify.clone(),
+            notify: notify.cloned(),
         }));
         let log_ptr = Arc::as_ptr(&log.0) as *mut c_void;
         let mut messenger_info = vk::DebugUtilsMessengerCreateInfoEXT::default()
