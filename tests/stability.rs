@@ -160,11 +160,19 @@ fn across_h(h: [f64; 3]) -> f64 {
 }
 
 fn cases() -> Vec<Case> {
-    let pi = std::f64::consts::PI;
-    let mut out = Vec::new();
     // Eye 70 degrees up, lamp 30 degrees up on the same side: h about 40 degrees from z.
     let tilted = view(40, 70.0, 0.0, 30.0, 0.0, None);
+    let mut out = lobe_cases(&tilted);
+    out.extend(edge_cases(&tilted));
+    out
+}
 
+/// Cases 1 to 3: the lobe's peak on the carved edge, the chi+ cut inside the groove, h along
+/// the scratch axis at a grazing view.
+fn lobe_cases(tilted: &View) -> Vec<Case> {
+    let pi = std::f64::consts::PI;
+    let tilted = tilted.clone();
+    let mut out = Vec::new();
     // 1. Lobe peak on the carved edge.
     {
         let px = pixels(&tilted, 4);
@@ -233,6 +241,15 @@ fn cases() -> Vec<Case> {
         out.push(case("half vector along the scratch", grazing, sc, targets));
     }
 
+    out
+}
+
+/// Cases 4 to 6: e -> 0, zero-area and sliver clips, footprint corners exactly on a scratch's
+/// edges.
+fn edge_cases(tilted: &View) -> Vec<Case> {
+    let pi = std::f64::consts::PI;
+    let tilted = tilted.clone();
+    let mut out = Vec::new();
     // 4. e -> 0.
     {
         let px = pixels(&tilted, 3);

@@ -199,6 +199,39 @@ fn printed_arrow(out: &str, label: &str) -> ((f64, f64), (f64, f64)) {
     ((v[0], v[1]), (v[2], v[3]))
 }
 
+/// The viewer's set-up lines against the sheet (`summary`): x, y, z to the micrometre;
+/// azimuth, elevation and distance from those coordinates; the same JSON.
+fn set_up_numbers_match(out: &str, summary: &serde_json::Value) {
+    let check = |label: &str, want: &[serde_json::Value]| {
+        let l = line_with(out, &format!("set-up {label}: "));
+        let p: Vec<f64> = want.iter().map(|v| v.as_f64().unwrap()).collect();
+        for (k, key) in ["x", "y", "z"].iter().enumerate() {
+            let got = num_after(l, key);
+            assert!(
+                (got - p[k]).abs() <= 1e-3,
+                "{label} {key}: {got} vs the sheet's {}",
+                p[k]
+            );
+        }
+        let r = (p[0] * p[0] + p[1] * p[1] + p[2] * p[2]).sqrt();
+        let az = p[1].atan2(p[0]).to_degrees();
+        let el = (p[2] / r).asin().to_degrees();
+        assert!((num_after(l, "distance") - r).abs() <= 1e-3, "{l}");
+        assert!((num_after(l, "azimuth") - az).abs() <= 1e-4, "{l}: azimuth {az}");
+        assert!((num_after(l, "elevation") - el).abs() <= 1e-4, "{l}: elevation {el}");
+    };
+    check("lamp", summary["light"]["position_mm"].as_array().unwrap());
+    for v in summary["views"].as_array().unwrap() {
+        check(
+            &format!("eye {}", v["name"].as_str().unwrap()),
+            v["eye_mm"].as_array().unwrap(),
+        );
+    }
+    let printed: serde_json::Value =
+        serde_json::from_str(line_with(out, "set-up json: ").trim_start_matches("set-up json: ")).unwrap();
+    assert_eq!(&printed, summary, "the viewer's set-up JSON is the sheet's");
+}
+
 #[test]
 fn overlay_marks_setup_points_and_numbers_match_the_sheet() {
     let tmp = tmp_dir("headless");
@@ -216,7 +249,6 @@ fn overlay_marks_setup_points_and_numbers_match_the_sheet() {
     let sheet_out = String::from_utf8_lossy(&sheet.stdout);
     assert!(sheet.status.success(), "{}", String::from_utf8_lossy(&sheet.stderr));
     let summary: serde_json::Value = serde_json::from_str(sheet_out.lines().last().unwrap()).unwrap();
-    let lamp = summary["light"]["position_mm"].as_array().unwrap().clone();
 
     let (on_png, off_png) = (tmp.join("on.png"), tmp.join("off.png"));
     let (out, _) = screenshot(&design, "top", &on_png, true);
@@ -224,36 +256,7 @@ fn overlay_marks_setup_points_and_numbers_match_the_sheet() {
     let (on, off) = (rgb(&on_png), rgb(&off_png));
     assert_eq!(on.dimensions(), SIZE);
 
-    // Numbers: x, y, z to the micrometre against the sheet; azimuth, elevation and distance
-    // from those coordinates.
-    let check = |label: &str, want: &[serde_json::Value]| {
-        let l = line_with(&out, &format!("set-up {label}: "));
-        let p: Vec<f64> = want.iter().map(|v| v.as_f64().unwrap()).collect();
-        for (k, key) in ["x", "y", "z"].iter().enumerate() {
-            let got = num_after(l, key);
-            assert!(
-                (got - p[k]).abs() <= 1e-3,
-                "{label} {key}: {got} vs the sheet's {}",
-                p[k]
-            );
-        }
-        let r = (p[0] * p[0] + p[1] * p[1] + p[2] * p[2]).sqrt();
-        let az = p[1].atan2(p[0]).to_degrees();
-        let el = (p[2] / r).asin().to_degrees();
-        assert!((num_after(l, "distance") - r).abs() <= 1e-3, "{l}");
-        assert!((num_after(l, "azimuth") - az).abs() <= 1e-4, "{l}: azimuth {az}");
-        assert!((num_after(l, "elevation") - el).abs() <= 1e-4, "{l}: elevation {el}");
-    };
-    check("lamp", &lamp);
-    for v in summary["views"].as_array().unwrap() {
-        check(
-            &format!("eye {}", v["name"].as_str().unwrap()),
-            v["eye_mm"].as_array().unwrap(),
-        );
-    }
-    let printed: serde_json::Value =
-        serde_json::from_str(line_with(&out, "set-up json: ").trim_start_matches("set-up json: ")).unwrap();
-    assert_eq!(printed, summary, "the viewer's set-up JSON is the sheet's");
+    set_up_numbers_match(&out, &summary);
 
     // Markers where the lamp and the eyes project; "top" is the camera itself.
     let cam = camera_of(&scene, "top");

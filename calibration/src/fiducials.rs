@@ -269,12 +269,62 @@ pub fn find_marks(img: &Gray, card: &Card, view: &View) -> Result<Found, String>
     // Hypotheses: triples of marks x ordered triples of candidates, by affine maps, scored by
     // how many other marks they bring near a candidate of the right size (each counted by its
     // closeness); the best go on to a homography.
-    let nc = cands.len();
-    let tol = 0.7 * side;
     // Four points fit any homography exactly, so four marks prove nothing: at least five must
     // agree (a card of four marks, the first cards' crosses, can only ask for four).
     let need = m.min(5);
+    let mut hyps = affine_hypotheses(&nom, &cands, side, need);
+    if hyps.is_empty() {
+        return Err(format!(
+            "no {need} of the {n_blobs} bright spots found lie as the card's {m} marks do"
+        ));
+    }
+    hyps.sort_by(|x, y| y.0.total_cmp(&x.0));
+    let plate: Vec<[f64; 2]> = card.marks.iter().map(|mk| mk.centre).collect();
+    // Each of the best hypotheses refined through homographies (matches from the plate, closer
+    // each round); the one with the most marks, then the smallest misfit, wins.
+    let noise = pixel_noise(img).max(0.5 / 255.0);
+    let mut best: Option<Candidate> = None;
+    for (_, _, af) in hyps.iter().take(40) {
+        let Some(c) = refine_hypothesis(img, card, view, af, &cands, &plate, &nom, side, need, noise) else {
+            continue;
+        };
+        if best.as_ref().is_none_or(|b| c.0 > b.0 || (c.0 == b.0 && c.1 < b.1)) {
+            best = Some(c);
+        }
+    }
+    let Some((_, rms_px, points, contrast, scale)) = best else {
+        return Err(format!(
+            "no {need} of the {n_blobs} bright spots found fit one view of the flat card's {m} marks \
+             from near capture view {}",
+            view.name
+        ));
+    };
+    let pairs: Vec<(usize, [f64; 2], [f64; 2])> = points
+        .iter()
+        .enumerate()
+        .filter_map(|(q, p)| p.map(|p| (q, plate[q], p)))
+        .collect();
+    let (s, d): (Vec<[f64; 2]>, Vec<[f64; 2]>) = pairs.iter().map(|x| (x.1, x.2)).unzip();
+    let hm = homography_lsq(&s, &d).ok_or("the marks found are degenerate (collinear)")?;
+    let confidence = confidences(&pairs, need, rms_px, &contrast, noise, side * scale, m);
+    Ok(Found {
+        points,
+        confidence,
+        plate_to_image: hm,
+        rms_px,
+        candidates: n_blobs,
+    })
+}
+
+/// Hypotheses of which blob is which mark: every triple of marks (at `nom`, their capture-view
+/// places on this photo) x every ordered triple of candidate blobs, by the affine map between
+/// them, kept where it keeps orientation, is of plausible scale and shear, and brings at least
+/// `need` marks near a blob of the right size; each with its score (how close those are), how
+/// many, and the map.
+fn affine_hypotheses(nom: &[[f64; 2]], cands: &[Blob], side: f64, need: usize) -> Vec<(f64, usize, [f64; 6])> {
     let mut hyps: Vec<(f64, usize, [f64; 6])> = Vec::new();
+    let (m, nc) = (nom.len(), cands.len());
+    let tol = 0.7 * side;
     for i in 0..m {
         for j in i + 1..m {
             for l in j + 1..m {
@@ -342,160 +392,165 @@ pub fn find_marks(img: &Gray, card: &Card, view: &View) -> Result<Found, String>
             }
         }
     }
-    if hyps.is_empty() {
-        return Err(format!(
-            "no {need} of the {n_blobs} bright spots found lie as the card's {m} marks do"
-        ));
-    }
-    hyps.sort_by(|x, y| y.0.total_cmp(&x.0));
-    let plate: Vec<[f64; 2]> = card.marks.iter().map(|mk| mk.centre).collect();
-    // Each of the best hypotheses refined through homographies (matches from the plate, closer
-    // each round); the one with the most marks, then the smallest misfit, wins.
-    let rematch = |hm: &[f64; 9], t: f64| -> Vec<Option<usize>> {
-        let mut used = vec![false; nc];
-        plate
-            .iter()
-            .map(|p| {
-                let pr = apply(hm, *p);
-                let got = (0..nc)
-                    .filter(|&z| !used[z])
-                    .map(|z| (z, (cands[z].at[0] - pr[0]).hypot(cands[z].at[1] - pr[1])))
-                    .filter(|(_, d)| *d < t)
-                    .min_by(|x, y| x.1.total_cmp(&y.1))
-                    .map(|(z, _)| z);
-                if let Some(z) = got {
-                    used[z] = true;
-                }
-                got
-            })
-            .collect()
-    };
-    let noise = pixel_noise(img).max(0.5 / 255.0);
-    let mut best: Option<(usize, f64, Vec<Option<[f64; 2]>>, Vec<f64>, f64)> = None;
-    for (_, _, af) in hyps.iter().take(40) {
-        let scale = (af[0] * af[4] - af[1] * af[3]).sqrt();
-        let map = |p: [f64; 2]| [af[0] * p[0] + af[1] * p[1] + af[2], af[3] * p[0] + af[4] * p[1] + af[5]];
-        // Start: the affine map from the plate through the capture view's points.
-        let (s0, d0): (Vec<[f64; 2]>, Vec<[f64; 2]>) = plate.iter().zip(&nom).map(|(p, n)| (*p, map(*n))).unzip();
-        let Some(mut hm) = homography_lsq(&s0, &d0) else {
-            continue;
-        };
-        let mut assign = rematch(&hm, tol * scale);
-        let mut ok = true;
-        for t in [0.5, 0.3, 0.3] {
-            let (s, d): (Vec<[f64; 2]>, Vec<[f64; 2]>) = assign
-                .iter()
-                .enumerate()
-                .filter_map(|(q, z)| z.map(|z| (plate[q], cands[z].at)))
-                .unzip();
-            match homography_lsq(&s, &d) {
-                Some(h) => hm = h,
-                None => {
-                    ok = false;
-                    break;
-                }
+    hyps
+}
+
+/// Each of the card's marks (at `plate`) matched to the nearest unused candidate within `t`
+/// pixels of where the homography `hm` puts it.
+fn rematch(plate: &[[f64; 2]], cands: &[Blob], hm: &[f64; 9], t: f64) -> Vec<Option<usize>> {
+    let nc = cands.len();
+    let mut used = vec![false; nc];
+    plate
+        .iter()
+        .map(|p| {
+            let pr = apply(hm, *p);
+            let got = (0..nc)
+                .filter(|&z| !used[z])
+                .map(|z| (z, (cands[z].at[0] - pr[0]).hypot(cands[z].at[1] - pr[1])))
+                .filter(|(_, d)| *d < t)
+                .min_by(|x, y| x.1.total_cmp(&y.1))
+                .map(|(z, _)| z);
+            if let Some(z) = got {
+                used[z] = true;
             }
-            assign = rematch(&hm, t * side * scale);
-        }
-        if !ok || assign.iter().flatten().count() < need {
-            continue;
-        }
-        // Sub-pixel centres of the matched marks; a mark no brighter than its surroundings is
-        // not there (covered, or a spot beside it).
-        let (mut points, contrast) = centres(img, card, &hm, &assign, noise);
-        // Outliers: while a centre lies off the homography of the others (a glint beside a
-        // covered mark, a stray spot), the worst goes, down to `need`.
-        loop {
-            let pairs: Vec<(usize, [f64; 2], [f64; 2])> = points
-                .iter()
-                .enumerate()
-                .filter_map(|(q, p)| p.map(|p| (q, plate[q], p)))
-                .collect();
-            if pairs.len() <= need {
-                break;
-            }
-            let worst = pairs
-                .iter()
-                .map(|(q, p, c)| (*q, loo_error(&pairs, *q, *p, *c)))
-                .max_by(|x, y| x.1.total_cmp(&y.1))
-                .expect("pairs");
-            if worst.1 <= (0.15 * side * scale).max(1.5) {
-                break;
-            }
-            points[worst.0] = None;
-        }
-        let (s, d): (Vec<[f64; 2]>, Vec<[f64; 2]>) = points
+            got
+        })
+        .collect()
+}
+
+/// A hypothesis refined: the marks found, their misfit to one homography (px rms), the
+/// sub-pixel centres, each mark's contrast, and the map's scale.
+type Candidate = (usize, f64, Vec<Option<[f64; 2]>>, Vec<f64>, f64);
+
+/// One affine hypothesis `af` refined through homographies (matches from the plate, closer each
+/// round), its marks' sub-pixel centres found, outliers dropped, and the camera checked; None
+/// where fewer than `need` marks remain, they misfit one homography, or no camera near the
+/// capture view could have taken them.
+#[allow(clippy::too_many_arguments)]
+fn refine_hypothesis(
+    img: &Gray,
+    card: &Card,
+    view: &View,
+    af: &[f64; 6],
+    cands: &[Blob],
+    plate: &[[f64; 2]],
+    nom: &[[f64; 2]],
+    side: f64,
+    need: usize,
+    noise: f64,
+) -> Option<Candidate> {
+    let tol = 0.7 * side;
+    let scale = (af[0] * af[4] - af[1] * af[3]).sqrt();
+    let map = |p: [f64; 2]| [af[0] * p[0] + af[1] * p[1] + af[2], af[3] * p[0] + af[4] * p[1] + af[5]];
+    // Start: the affine map from the plate through the capture view's points.
+    let (s0, d0): (Vec<[f64; 2]>, Vec<[f64; 2]>) = plate.iter().zip(nom).map(|(p, n)| (*p, map(*n))).unzip();
+    let mut hm = homography_lsq(&s0, &d0)?;
+    let mut assign = rematch(plate, cands, &hm, tol * scale);
+    let mut ok = true;
+    for t in [0.5, 0.3, 0.3] {
+        let (s, d): (Vec<[f64; 2]>, Vec<[f64; 2]>) = assign
             .iter()
             .enumerate()
-            .filter_map(|(q, p)| p.map(|p| (plate[q], p)))
+            .filter_map(|(q, z)| z.map(|z| (plate[q], cands[z].at)))
             .unzip();
-        let n = s.len();
-        if n < need {
-            continue;
+        match homography_lsq(&s, &d) {
+            Some(h) => hm = h,
+            None => {
+                ok = false;
+                break;
+            }
         }
-        let Some(h2) = homography_lsq(&s, &d) else { continue };
-        // Only a camera looking at the card from near the capture view can have taken it.
-        if plausible_camera(&h2, img.width, img.height, view).is_err() {
-            continue;
-        }
-        let misfit = (s
-            .iter()
-            .zip(&d)
-            .map(|(p, c)| {
-                let pr = apply(&h2, *p);
-                (pr[0] - c[0]).powi(2) + (pr[1] - c[1]).powi(2)
-            })
-            .sum::<f64>()
-            / n as f64)
-            .sqrt();
-        // The marks' centres fit one homography to about a tenth of a pixel (measured over 160
-        // random phone views, `examples/detect_probe`: at most 0.07 px rms with five marks,
-        // 0.11 px with six); five spots of something else that happen to lie near the pattern
-        // fit to half a pixel and more (0.58 px on a circuit board). Not caught: four marks and
-        // one stray spot near a covered mark's place (0.05 and 0.12 px in 2 of 40 views: five
-        // marks of this card, two keys on the lines of two corners, constrain the fifth little).
-        if misfit > (0.03 * side * scale).max(0.25) {
-            continue;
-        }
-        if best.as_ref().is_none_or(|b| n > b.0 || (n == b.0 && misfit < b.1)) {
-            best = Some((n, misfit, points, contrast, scale));
-        }
+        assign = rematch(plate, cands, &hm, t * side * scale);
     }
-    let Some((_, rms_px, points, contrast, scale)) = best else {
-        return Err(format!(
-            "no {need} of the {n_blobs} bright spots found fit one view of the flat card's {m} marks \
-             from near capture view {}",
-            view.name
-        ));
-    };
-    let pairs: Vec<(usize, [f64; 2], [f64; 2])> = points
+    if !ok || assign.iter().flatten().count() < need {
+        return None;
+    }
+    // Sub-pixel centres of the matched marks; a mark no brighter than its surroundings is
+    // not there (covered, or a spot beside it).
+    let (mut points, contrast) = centres(img, card, &hm, &assign, noise);
+    // Outliers: while a centre lies off the homography of the others (a glint beside a
+    // covered mark, a stray spot), the worst goes, down to `need`.
+    loop {
+        let pairs: Vec<(usize, [f64; 2], [f64; 2])> = points
+            .iter()
+            .enumerate()
+            .filter_map(|(q, p)| p.map(|p| (q, plate[q], p)))
+            .collect();
+        if pairs.len() <= need {
+            break;
+        }
+        let worst = pairs
+            .iter()
+            .map(|(q, p, c)| (*q, loo_error(&pairs, *q, *p, *c)))
+            .max_by(|x, y| x.1.total_cmp(&y.1))
+            .expect("pairs");
+        if worst.1 <= (0.15 * side * scale).max(1.5) {
+            break;
+        }
+        points[worst.0] = None;
+    }
+    let (s, d): (Vec<[f64; 2]>, Vec<[f64; 2]>) = points
         .iter()
         .enumerate()
-        .filter_map(|(q, p)| p.map(|p| (q, plate[q], p)))
-        .collect();
-    let (s, d): (Vec<[f64; 2]>, Vec<[f64; 2]>) = pairs.iter().map(|x| (x.1, x.2)).unzip();
-    let hm = homography_lsq(&s, &d).ok_or("the marks found are degenerate (collinear)")?;
-    // Confidence: contrast against the noise, and agreement with the other marks' homography.
+        .filter_map(|(q, p)| p.map(|p| (plate[q], p)))
+        .unzip();
+    let n = s.len();
+    if n < need {
+        return None;
+    }
+    let h2 = homography_lsq(&s, &d)?;
+    // Only a camera looking at the card from near the capture view can have taken it.
+    if plausible_camera(&h2, img.width, img.height, view).is_err() {
+        return None;
+    }
+    let misfit = (s
+        .iter()
+        .zip(&d)
+        .map(|(p, c)| {
+            let pr = apply(&h2, *p);
+            (pr[0] - c[0]).powi(2) + (pr[1] - c[1]).powi(2)
+        })
+        .sum::<f64>()
+        / n as f64)
+        .sqrt();
+    // The marks' centres fit one homography to about a tenth of a pixel (measured over 160
+    // random phone views, `examples/detect_probe`: at most 0.07 px rms with five marks,
+    // 0.11 px with six); five spots of something else that happen to lie near the pattern
+    // fit to half a pixel and more (0.58 px on a circuit board). Not caught: four marks and
+    // one stray spot near a covered mark's place (0.05 and 0.12 px in 2 of 40 views: five
+    // marks of this card, two keys on the lines of two corners, constrain the fifth little).
+    if misfit > (0.03 * side * scale).max(0.25) {
+        return None;
+    }
+    Some((n, misfit, points, contrast, scale))
+}
+
+/// Each mark's confidence: its contrast against the noise, and its agreement with the other
+/// marks' homography (with only `need` marks, four of the others can be nearly collinear, so
+/// the misfit of all of them to one homography is used).
+fn confidences(
+    pairs: &[(usize, [f64; 2], [f64; 2])],
+    need: usize,
+    rms_px: f64,
+    contrast: &[f64],
+    noise: f64,
+    side_px: f64,
+    m: usize,
+) -> Vec<f64> {
     let mut confidence = vec![0.0; m];
-    for &(q, p, c) in &pairs {
+    for &(q, p, c) in pairs {
         // Agreement: where the others put it. With only `need` marks, four of the others can
         // be nearly collinear (a key lies on the line of two corners) and their homography
         // says little of the fifth: the misfit of all of them to one homography is used.
         let off = if pairs.len() > need {
-            loo_error(&pairs, q, p, c)
+            loo_error(pairs, q, p, c)
         } else {
             rms_px
         };
         let snr = contrast[q] / noise;
-        confidence[q] = (1.0 - (-snr / 2.0).exp()) * (-(off / (0.15 * side * scale).max(1.0)).powi(2)).exp();
+        confidence[q] = (1.0 - (-snr / 2.0).exp()) * (-(off / (0.15 * side_px).max(1.0)).powi(2)).exp();
     }
-    Ok(Found {
-        points,
-        confidence,
-        plate_to_image: hm,
-        rms_px,
-        candidates: n_blobs,
-    })
+    confidence
 }
 
 /// The centres of the marks matched in `assign` (by candidate; the card's order): the centroid

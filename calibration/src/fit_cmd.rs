@@ -127,6 +127,162 @@ pub fn run(renderer: &Renderer, args: &FitArgs, obs: &dyn Observer) -> Result<()
         return check_photos(&card, &capture, &args.images, obs);
     }
     let files = pair_photos(&args.images, &names)?;
+    let (capture, data_parts, inspections) = load_photos(&card, &capture, &files, obs)?;
+    let noise = data_parts.noise.clone();
+    let data = Data {
+        card: &card,
+        capture: &capture,
+        photos: data_parts.photos,
+        masks: data_parts.masks,
+        refine_shift: true,
+        refine_pose: data_parts.refine_pose,
+        jpeg: data_parts.jpeg,
+        noise: data_parts.noise,
+    };
+    let init = match &args.init {
+        Some(p) => {
+            let (t, f) = Tool::load_fitted(p).map_err(|e| InputError(e.to_string()))?;
+            Some((t, f.alpha))
+        }
+        None => None,
+    };
+    let kinds: Vec<Kind> = match (&args.kind, &init) {
+        (Some(k), _) => vec![Kind::parse(k).expect("clap checked")],
+        (None, Some((t, _))) => vec![Kind::parse(match t {
+            Tool::VBit { .. } => "v-bit",
+            Tool::Ball { .. } => "ball",
+            Tool::TaperedBall { .. } => "tapered-ball",
+            Tool::Profile { .. } => "profile",
+        })
+        .expect("known kind")],
+        (None, None) => Kind::ALL.to_vec(),
+    };
+    let (state_path, state) = open_resume(args, &files, obs)?;
+    let t0 = std::time::Instant::now();
+    let results = fit_kinds(renderer, &data, &kinds, &init, args, &state_path, state, obs)?;
+    let best = results
+        .iter()
+        .min_by(|a, b| a.bic.total_cmp(&b.bic))
+        .expect("at least one kind")
+        .clone();
+    let secs = t0.elapsed().as_secs_f64();
+    let (pred, registered) = predict(renderer, &data, &best)?;
+    // Report.
+    obs.result(&format!(
+        "fitted {} to {} photo(s) in {secs:.1} s ({} renders, {} tangent passes): rms residual {:.4} (display units)",
+        best.kind.name(),
+        files.len(),
+        results.iter().map(|r| r.renders).sum::<u32>(),
+        results.iter().map(|r| r.tangent_passes).sum::<u32>(),
+        best.rms
+    ));
+    print_fit(&best, &results, obs);
+    let residual = photo_residuals(&data, &pred, &registered, &noise);
+    for (v, (rms, nz)) in residual.iter().enumerate() {
+        obs.result(&format!(
+            "  photo {}: residual rms {rms:.4}, its own noise {nz:.4} ({:.1} times)",
+            files[v].display(),
+            rms / nz.max(RESIDUAL_FLOOR)
+        ));
+    }
+    let photo_names: Vec<String> = files
+        .iter()
+        .zip(&capture.views)
+        .map(|(f, v)| format!("photo `{}` (view {})", f.display(), v.name))
+        .collect();
+    let Verdict {
+        reasons,
+        allowed,
+        unidentified,
+    } = verdict(&best, &residual, &photo_names, args.allow_unidentified);
+    // Residual images, the plot and the report, whatever the verdict.
+    let stem = args.out.with_extension("");
+    if let Some(dir) = args.out.parent().filter(|p| !p.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
+    }
+    write_residual_images(&stem, &capture, &data, &pred, &registered, obs)?;
+    let plot = PathBuf::from(format!("{}_profile.png", stem.display()));
+    let points = measured_widths(&data, &registered, &best, &pred);
+    profile_plot(&plot, &best, &card, &points)?;
+    obs.result(&format!(
+        "wrote {} (W and w against commanded depth, measured points)",
+        plot.display()
+    ));
+    let record = fit_record(
+        &best,
+        &results,
+        &unidentified,
+        &files,
+        &inspections,
+        &residual,
+        args,
+        secs,
+    );
+    let report_path = PathBuf::from(format!("{}_report.json", stem.display()));
+    let report = json!({
+        "verdict": if reasons.is_empty() { "accepted" } else { "refused" },
+        "reasons": reasons,
+        "allowed_unidentified": allowed,
+        "tool": serde_json::from_str::<serde_json::Value>(&best.tool.to_json_fitted(&Fitted { alpha: Some(best.alpha), fit: None }))?,
+        "fit": record,
+        "params": best.params.iter().enumerate().map(|(k, p)| json!({
+            "name": p.0, "value": p.1, "sd": best.sd.get(k).copied().flatten(),
+            "curvature_sd": best.curvature.get(k).copied().flatten(), "limit": best.limits.get(k),
+            "photo_disagreement": best.disagreement.get(k).copied().flatten(),
+        })).collect::<Vec<_>>(),
+    });
+    scratchart::io::write_atomic(&report_path, serde_json::to_string_pretty(&report)?.as_bytes())?;
+    obs.result(&format!(
+        "wrote {} (the fit, its checks and its verdict)",
+        report_path.display()
+    ));
+    let _ = std::fs::remove_file(&state_path);
+    if !reasons.is_empty() {
+        return Err(InputError(format!(
+            "the fit is refused and no {} was written:\n  - {}",
+            args.out.display(),
+            reasons.join("\n  - ")
+        ))
+        .into());
+    }
+    let mut record = record;
+    if !allowed.is_empty() {
+        record["written_with_unidentified"] = json!(allowed);
+    }
+    let fitted = Fitted {
+        alpha: Some(best.alpha),
+        fit: Some(record),
+    };
+    scratchart::io::write_atomic(&args.out, best.tool.to_json_fitted(&fitted).as_bytes())?;
+    obs.result(&format!("wrote {}", args.out.display()));
+    for a in &allowed {
+        obs.result(&format!("  warning (--allow-unidentified): {a}"));
+    }
+    Ok(())
+}
+
+/// What the fit takes from each photo (see [`load_photos`]).
+struct PhotoData {
+    photos: Vec<Vec<f32>>,
+    masks: Vec<Vec<bool>>,
+    refine_pose: Vec<bool>,
+    jpeg: Vec<Option<u8>>,
+    noise: Vec<f64>,
+}
+
+/// Per photo, for the report: its size as taken, the marks found and their confidences, the
+/// camera's eye and how far it stood from the capture position.
+type PhotoRecord = ((u32, u32), usize, Vec<f64>, [f64; 3], f64);
+
+/// Each photo inspected ([`inspect_photo`]: loaded, shrunk, registered, checked) against its
+/// capture view; the scene of the photos' own cameras, what the fit compares, and the report's
+/// record of each photo.
+fn load_photos(
+    card: &Card,
+    capture: &scratchart::model::scene::Scene,
+    files: &[PathBuf],
+    obs: &dyn Observer,
+) -> Result<(scratchart::model::scene::Scene, PhotoData, Vec<PhotoRecord>)> {
     let mut photos = Vec::new();
     let mut masks = Vec::new();
     let mut fit_views = Vec::new();
@@ -134,8 +290,8 @@ pub fn run(renderer: &Renderer, args: &FitArgs, obs: &dyn Observer) -> Result<()
     let mut noise = Vec::new();
     let mut jpeg = Vec::new();
     let mut inspections = Vec::new();
-    for (v, f) in capture.views.iter().zip(&files) {
-        let insp = inspect_photo(&card, &capture, v, f)?;
+    for (v, f) in capture.views.iter().zip(files) {
+        let insp = inspect_photo(card, capture, v, f)?;
         obs.info(&insp.summary());
         photos.push(insp.image.data.clone());
         masks.push(insp.mask);
@@ -159,38 +315,22 @@ pub fn run(renderer: &Renderer, args: &FitArgs, obs: &dyn Observer) -> Result<()
     fit_scene
         .validate()
         .map_err(|e| InputError(format!("the photos' cameras do not make a valid scene: {e}")))?;
-    let capture = fit_scene;
-    let data = Data {
-        card: &card,
-        capture: &capture,
+    let data = PhotoData {
         photos,
         masks,
-        refine_shift: true,
         refine_pose,
         jpeg,
-        noise: noise.clone(),
+        noise,
     };
-    let init = match &args.init {
-        Some(p) => {
-            let (t, f) = Tool::load_fitted(p).map_err(|e| InputError(e.to_string()))?;
-            Some((t, f.alpha))
-        }
-        None => None,
-    };
-    let kinds: Vec<Kind> = match (&args.kind, &init) {
-        (Some(k), _) => vec![Kind::parse(k).expect("clap checked")],
-        (None, Some((t, _))) => vec![Kind::parse(match t {
-            Tool::VBit { .. } => "v-bit",
-            Tool::Ball { .. } => "ball",
-            Tool::TaperedBall { .. } => "tapered-ball",
-            Tool::Profile { .. } => "profile",
-        })
-        .expect("known kind")],
-        (None, None) => Kind::ALL.to_vec(),
-    };
-    // The resume file: what this fit has done so far, for `--resume`.
+    Ok((fit_scene, data, inspections))
+}
+
+/// The resume file of this fit (`OUT.resume.json`) and what it holds: with `--resume`, the
+/// state an interrupted fit of the same photos, card and options left (refused where it is of
+/// others); else a fresh state.
+fn open_resume(args: &FitArgs, files: &[PathBuf], obs: &dyn Observer) -> Result<(PathBuf, ResumeState)> {
     let state_path = resume_path(&args.out);
-    let key = resume_key(args, &files)?;
+    let key = resume_key(args, files)?;
     let mut state = ResumeState {
         key: key.clone(),
         done: Vec::new(),
@@ -234,13 +374,28 @@ pub fn run(renderer: &Renderer, args: &FitArgs, obs: &dyn Observer) -> Result<()
     if let Some(dir) = state_path.parent().filter(|p| !p.as_os_str().is_empty()) {
         std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
     }
+    Ok((state_path, state))
+}
+
+/// Fits each of `kinds` not yet done in `state`, saving the state as it goes (a kind finished,
+/// the start points searched); Ctrl-C leaves it for `--resume`.
+#[allow(clippy::too_many_arguments)]
+fn fit_kinds(
+    renderer: &Renderer,
+    data: &Data,
+    kinds: &[Kind],
+    init: &Option<(Tool, Option<f64>)>,
+    args: &FitArgs,
+    state_path: &Path,
+    mut state: ResumeState,
+    obs: &dyn Observer,
+) -> Result<Vec<FitResult>> {
     let save = |st: &ResumeState| -> Result<()> {
-        scratchart::io::write_atomic(&state_path, serde_json::to_string(st)?.as_bytes())?;
+        scratchart::io::write_atomic(state_path, serde_json::to_string(st)?.as_bytes())?;
         Ok(())
     };
-    let t0 = std::time::Instant::now();
     let mut results: Vec<FitResult> = state.done.clone();
-    for k in kinds {
+    for &k in kinds {
         if results.iter().any(|r| r.kind == k) {
             continue;
         }
@@ -251,7 +406,7 @@ pub fn run(renderer: &Renderer, args: &FitArgs, obs: &dyn Observer) -> Result<()
             bootstrap: args.bootstrap,
         };
         let mut saved: Result<()> = Ok(());
-        let got = fit_kind(renderer, &data, k, &cfg, obs, &mut |starts: &[Start]| {
+        let got = fit_kind(renderer, data, k, &cfg, obs, &mut |starts: &[Start]| {
             state.current = Some((k.name().to_string(), starts.to_vec()));
             saved = save(&state);
         });
@@ -279,32 +434,22 @@ pub fn run(renderer: &Renderer, args: &FitArgs, obs: &dyn Observer) -> Result<()
                 ));
                 return Err(scratchart::optim::OptimError::Interrupted {
                     iter: 0,
-                    checkpoint: Some(state_path.clone()),
+                    checkpoint: Some(state_path.to_path_buf()),
                 }
                 .into());
             }
             Err(e) => return Err(e.into()),
         }
     }
-    let best = results
-        .iter()
-        .min_by(|a, b| a.bic.total_cmp(&b.bic))
-        .expect("at least one kind")
-        .clone();
-    let secs = t0.elapsed().as_secs_f64();
-    let (pred, registered) = predict(renderer, &data, &best)?;
-    // Report.
-    obs.result(&format!(
-        "fitted {} to {} photo(s) in {secs:.1} s ({} renders, {} tangent passes): rms residual {:.4} (display units)",
-        best.kind.name(),
-        files.len(),
-        results.iter().map(|r| r.renders).sum::<u32>(),
-        results.iter().map(|r| r.tangent_passes).sum::<u32>(),
-        best.rms
-    ));
+    Ok(results)
+}
+
+/// The fitted parameters as the terminal shows them: the kinds compared, each tool parameter
+/// with its uncertainty (or why it has none), the exposures and the blur.
+fn print_fit(best: &FitResult, results: &[FitResult], obs: &dyn Observer) {
     if results.len() > 1 {
         obs.result("  chosen by the lowest BIC (robust loss, penalized by parameter count):");
-        for r in &results {
+        for r in results {
             obs.result(&format!(
                 "    {:13} BIC {:>12.0}  loss {:.4e}{}",
                 r.kind.name(),
@@ -341,8 +486,11 @@ pub fn run(renderer: &Renderer, args: &FitArgs, obs: &dyn Observer) -> Result<()
             .collect::<Vec<_>>(),
         best.blur_px
     ));
-    // The verdict: what would make tool.json wrong.
-    let residual: Vec<(f64, f64)> = (0..capture.views.len())
+}
+
+/// Per photo: the RMS residual over the pixels the fit compares, and the photo's own noise.
+fn photo_residuals(data: &Data, pred: &[Vec<f32>], registered: &[Vec<f32>], noise: &[f64]) -> Vec<(f64, f64)> {
+    (0..data.capture.views.len())
         .map(|v| {
             let (mut sum, mut n) = (0.0f64, 0usize);
             for ((m, p), ok) in pred[v].iter().zip(&registered[v]).zip(&data.masks[v]) {
@@ -353,29 +501,18 @@ pub fn run(renderer: &Renderer, args: &FitArgs, obs: &dyn Observer) -> Result<()
             }
             ((sum / n.max(1) as f64).sqrt(), noise[v])
         })
-        .collect();
-    for (v, (rms, nz)) in residual.iter().enumerate() {
-        obs.result(&format!(
-            "  photo {}: residual rms {rms:.4}, its own noise {nz:.4} ({:.1} times)",
-            files[v].display(),
-            rms / nz.max(RESIDUAL_FLOOR)
-        ));
-    }
-    let photo_names: Vec<String> = files
-        .iter()
-        .zip(&capture.views)
-        .map(|(f, v)| format!("photo `{}` (view {})", f.display(), v.name))
-        .collect();
-    let Verdict {
-        reasons,
-        allowed,
-        unidentified,
-    } = verdict(&best, &residual, &photo_names, args.allow_unidentified);
-    // Residual images, the plot and the report, whatever the verdict.
-    let stem = args.out.with_extension("");
-    if let Some(dir) = args.out.parent().filter(|p| !p.as_os_str().is_empty()) {
-        std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
-    }
+        .collect()
+}
+
+/// The residual image of each photo (`OUT_residual_VIEW.png`: mid grey is no residual).
+fn write_residual_images(
+    stem: &Path,
+    capture: &scratchart::model::scene::Scene,
+    data: &Data,
+    pred: &[Vec<f32>],
+    registered: &[Vec<f32>],
+    obs: &dyn Observer,
+) -> Result<()> {
     for (v, view) in capture.views.iter().enumerate() {
         let bytes: Vec<u8> = pred[v]
             .iter()
@@ -396,14 +533,23 @@ pub fn run(renderer: &Renderer, args: &FitArgs, obs: &dyn Observer) -> Result<()
             p.display()
         ));
     }
-    let plot = PathBuf::from(format!("{}_profile.png", stem.display()));
-    let points = measured_widths(&data, &registered, &best, &pred);
-    profile_plot(&plot, &best, &card, &points)?;
-    obs.result(&format!(
-        "wrote {} (W and w against commanded depth, measured points)",
-        plot.display()
-    ));
-    let record = json!({
+    Ok(())
+}
+
+/// The fit's record in tool.json and the report: the kinds compared, the loss, the
+/// uncertainties and how they were found, each photo, the time and the work.
+#[allow(clippy::too_many_arguments)]
+fn fit_record(
+    best: &FitResult,
+    results: &[FitResult],
+    unidentified: &[String],
+    files: &[PathBuf],
+    inspections: &[PhotoRecord],
+    residual: &[(f64, f64)],
+    args: &FitArgs,
+    secs: f64,
+) -> serde_json::Value {
+    json!({
         "kind": best.kind.name(),
         "criterion": "lowest BIC of the robust loss among the fitted kinds",
         "candidates": results.iter().map(|r| json!({"kind": r.kind.name(), "bic": r.bic, "loss": r.loss})).collect::<Vec<_>>(),
@@ -419,7 +565,7 @@ pub fn run(renderer: &Renderer, args: &FitArgs, obs: &dyn Observer) -> Result<()
         "no_groove": best.unseen,
         "exposure": best.exposure,
         "blur_px": best.blur_px,
-        "photos": files.iter().zip(&inspections).zip(&residual).map(|((f, insp), (rms, nz))| json!({
+        "photos": files.iter().zip(inspections).zip(residual).map(|((f, insp), (rms, nz))| json!({
             "file": f.display().to_string(),
             "size": [insp.0.0, insp.0.1],
             "marks_found": insp.1,
@@ -439,48 +585,7 @@ pub fn run(renderer: &Renderer, args: &FitArgs, obs: &dyn Observer) -> Result<()
         "renders": results.iter().map(|r| r.renders).sum::<u32>(),
         "tangent_passes": results.iter().map(|r| r.tangent_passes).sum::<u32>(),
         "jacobian": "engine derivatives (tangent passes) for the tool, z offset and alpha; differences for eyes and camera terms",
-    });
-    let report_path = PathBuf::from(format!("{}_report.json", stem.display()));
-    let report = json!({
-        "verdict": if reasons.is_empty() { "accepted" } else { "refused" },
-        "reasons": reasons,
-        "allowed_unidentified": allowed,
-        "tool": serde_json::from_str::<serde_json::Value>(&best.tool.to_json_fitted(&Fitted { alpha: Some(best.alpha), fit: None }))?,
-        "fit": record,
-        "params": best.params.iter().enumerate().map(|(k, p)| json!({
-            "name": p.0, "value": p.1, "sd": best.sd.get(k).copied().flatten(),
-            "curvature_sd": best.curvature.get(k).copied().flatten(), "limit": best.limits.get(k),
-            "photo_disagreement": best.disagreement.get(k).copied().flatten(),
-        })).collect::<Vec<_>>(),
-    });
-    scratchart::io::write_atomic(&report_path, serde_json::to_string_pretty(&report)?.as_bytes())?;
-    obs.result(&format!(
-        "wrote {} (the fit, its checks and its verdict)",
-        report_path.display()
-    ));
-    let _ = std::fs::remove_file(&state_path);
-    if !reasons.is_empty() {
-        return Err(InputError(format!(
-            "the fit is refused and no {} was written:\n  - {}",
-            args.out.display(),
-            reasons.join("\n  - ")
-        ))
-        .into());
-    }
-    let mut record = record;
-    if !allowed.is_empty() {
-        record["written_with_unidentified"] = json!(allowed);
-    }
-    let fitted = Fitted {
-        alpha: Some(best.alpha),
-        fit: Some(record),
-    };
-    scratchart::io::write_atomic(&args.out, best.tool.to_json_fitted(&fitted).as_bytes())?;
-    obs.result(&format!("wrote {}", args.out.display()));
-    for a in &allowed {
-        obs.result(&format!("  warning (--allow-unidentified): {a}"));
-    }
-    Ok(())
+    })
 }
 
 /// What an interrupted fit had done (`--resume`): the kinds it finished, and the start points of

@@ -94,8 +94,6 @@ pub fn guide_text(card: &Card, capture: &Scene) -> String {
 pub fn write_guide_png(path: &Path, card: &Card, capture: &Scene, examples: &[Vec<f32>]) -> Result<()> {
     let (wpx, hpx) = (1500u32, 1000u32);
     let mut buf = vec![255u8; (wpx * hpx * 3) as usize];
-    let pe = |e: DrawingAreaErrorKind<_>| anyhow::anyhow!("capture guide: {e:?}");
-    let font_ok = scratchart::optim::report::plot_font().is_some();
     let thumb = 370i32;
     let thumbs_at: Vec<(i32, i32)> = (0..examples.len())
         .map(|k| (700 + k as i32 * (thumb + 30), 90))
@@ -103,23 +101,11 @@ pub fn write_guide_png(path: &Path, card: &Card, capture: &Scene, examples: &[Ve
     {
         let root = BitMapBackend::with_buffer(&mut buf, (wpx, hpx)).into_drawing_area();
         root.fill(&WHITE).map_err(pe)?;
-        let font = |size: i32| ("sans-serif", size).into_font();
-        let text = |area: &DrawingArea<BitMapBackend, plotters::coord::Shift>,
-                    t: &str,
-                    at: (i32, i32),
-                    size: i32,
-                    c: &RGBColor| {
-            if font_ok {
-                area.draw(&Text::new(t.to_string(), at, font(size).color(c)))
-                    .map_err(pe)
-            } else {
-                Ok(())
-            }
+        let sheet = Sheet {
+            root: &root,
+            font_ok: scratchart::optim::report::plot_font().is_some(),
         };
-        let cam_col = RGBColor(30, 80, 200);
-        let lamp_col = RGBColor(210, 130, 0);
-        text(
-            &root,
+        sheet.text(
             &format!(
                 "Capture guide: the {:.0} mm calibration card, photographed from each capture view",
                 card.plate_mm
@@ -128,162 +114,9 @@ pub fn write_guide_png(path: &Path, card: &Card, capture: &Scene, examples: &[Ve
             24,
             &BLACK,
         )?;
-        // Top view, to scale: everything within the largest ground distance.
-        let reach = (0..capture.views.len())
-            .flat_map(|v| {
-                [
-                    Place::of(capture.views[v].camera.eye).ground_mm,
-                    Place::of(lamp_of(capture, v)).ground_mm,
-                ]
-            })
-            .fold(card.plate_mm, f64::max)
-            * 1.15;
-        let (tc, tr) = ((320i32, 330i32), 250.0);
-        let s = tr / reach;
-        let to = |x: f64, y: f64| (tc.0 + (x * s) as i32, tc.1 - (y * s) as i32);
-        text(
-            &root,
-            "Top view (to scale; north = +y up the page)",
-            (20, 50),
-            18,
-            &BLACK,
-        )?;
-        let h = 0.5 * card.plate_mm;
-        root.draw(&Rectangle::new([to(-h, h), to(h, -h)], RGBColor(90, 90, 90).filled()))
-            .map_err(pe)?;
-        for m in &card.marks {
-            root.draw(&Rectangle::new(
-                [
-                    to(m.centre[0] - m.half_mm, m.centre[1] + m.half_mm),
-                    to(m.centre[0] + m.half_mm, m.centre[1] - m.half_mm),
-                ],
-                WHITE.filled(),
-            ))
-            .map_err(pe)?;
-        }
-        let xe = to(h, 0.0);
-        root.draw(&PathElement::new(
-            vec![(xe.0 + 4, xe.1), (xe.0 + 24, xe.1)],
-            RED.stroke_width(3),
-        ))
-        .map_err(pe)?;
-        text(&root, "+x edge", (xe.0 + 4, xe.1 - 20), 14, &RED)?;
-        for (v, view) in capture.views.iter().enumerate() {
-            for (p, col, what) in [
-                (view.camera.eye, cam_col, "camera"),
-                (lamp_of(capture, v), lamp_col, "lamp"),
-            ] {
-                let q = Place::of(p);
-                let at = to(p[0], p[1]);
-                root.draw(&PathElement::new(vec![tc, at], col.stroke_width(1)))
-                    .map_err(pe)?;
-                root.draw(&Circle::new(at, 7, col.filled())).map_err(pe)?;
-                let label = format!(
-                    "{} {what}: azimuth {:.0}, {:.0} mm out",
-                    view.name, q.azimuth_deg, q.ground_mm
-                );
-                // Beside the marker, away from the card.
-                let wlab = 7 * label.len() as i32;
-                let (dx, dy) = if p[1] < -1.0 { (12, -6) } else { (-wlab / 2, 12) };
-                text(&root, &label, (at.0 + dx, at.1 + dy), 13, &col)?;
-            }
-        }
-        // Scale bar under the top view.
-        let bar_mm = (reach / 3.0 / 50.0).round().max(1.0) * 50.0;
-        let (b0, b1) = (
-            to(-reach * 0.9, -reach * 0.95),
-            to(-reach * 0.9 + bar_mm, -reach * 0.95),
-        );
-        root.draw(&PathElement::new(vec![b0, b1], BLACK.stroke_width(3)))
-            .map_err(pe)?;
-        text(&root, &format!("{bar_mm:.0} mm"), (b0.0, b0.1 + 6), 13, &BLACK)?;
-        // Side view, to scale: height against distance along the table, every camera and lamp.
-        let top = (0..capture.views.len())
-            .flat_map(|v| [capture.views[v].camera.eye[2], lamp_of(capture, v)[2]])
-            .fold(0.0, f64::max)
-            * 1.15;
-        let (sx0, sy0) = (120i32, 940i32);
-        let ss = (480.0 / reach).min(250.0 / top);
-        let side = |g: f64, z: f64| (sx0 + (g * ss) as i32, sy0 - (z * ss) as i32);
-        text(
-            &root,
-            "Side view (to scale): height above the card against distance along the table",
-            (20, 640),
-            18,
-            &BLACK,
-        )?;
-        root.draw(&PathElement::new(
-            vec![side(-h, 0.0), side(reach, 0.0)],
-            BLACK.stroke_width(1),
-        ))
-        .map_err(pe)?;
-        root.draw(&Rectangle::new(
-            [side(-h, 2.0), side(h, 0.0)],
-            RGBColor(90, 90, 90).filled(),
-        ))
-        .map_err(pe)?;
-        text(&root, "card", (side(-h, 0.0).0, sy0 + 6), 13, &BLACK)?;
-        for (v, view) in capture.views.iter().enumerate() {
-            for (p, col, what, dy) in [
-                (view.camera.eye, cam_col, "camera", -22),
-                (lamp_of(capture, v), lamp_col, "lamp", 8),
-            ] {
-                let q = Place::of(p);
-                let at = side(q.ground_mm, q.height_mm);
-                root.draw(&PathElement::new(vec![side(0.0, 0.0), at], col.stroke_width(1)))
-                    .map_err(pe)?;
-                root.draw(&PathElement::new(vec![at, (at.0, sy0)], col.stroke_width(1)))
-                    .map_err(pe)?;
-                root.draw(&Circle::new(at, 7, col.filled())).map_err(pe)?;
-                text(
-                    &root,
-                    &format!(
-                        "{} {what}: {:.0} mm high, {:.0} up ({:.0} mm away)",
-                        view.name, q.height_mm, q.elevation_deg, q.distance_mm
-                    ),
-                    (at.0 + 12, at.1 + dy + if v == 1 { 14 } else { 0 }),
-                    13,
-                    &col,
-                )?;
-            }
-        }
-        let bar = side(0.0, 0.0);
-        let bar_px = (bar_mm * ss) as i32;
-        root.draw(&PathElement::new(
-            vec![(bar.0 + 200, sy0 + 20), (bar.0 + 200 + bar_px, sy0 + 20)],
-            BLACK.stroke_width(3),
-        ))
-        .map_err(pe)?;
-        text(&root, &format!("{bar_mm:.0} mm"), (bar.0 + 200, sy0 + 26), 13, &BLACK)?;
-        // What a good photo looks like.
-        for (k, view) in capture.views.iter().enumerate().take(examples.len()) {
-            let (x, y) = thumbs_at[k];
-            text(
-                &root,
-                &format!("A good photo of {} (card.json view)", view.name),
-                (x, y - 24),
-                15,
-                &BLACK,
-            )?;
-            root.draw(&Rectangle::new(
-                [(x - 2, y - 2), (x + thumb + 1, y + thumb + 1)],
-                BLACK.stroke_width(1),
-            ))
-            .map_err(pe)?;
-        }
-        let notes = [
-            "Before each photo:",
-            "- room dark, the lamp the only light",
-            "- all six hatched marks glint (one may be covered)",
-            "- the flat card stays dark",
-            "- no part of the ladder is pure white",
-            "- the card fills most of the frame, in focus",
-            "- name it after its view: cam_south.jpg, cam_west.jpg",
-            "- check: scratchart-cal fit --check --card card.json *.jpg",
-        ];
-        for (i, n) in notes.iter().enumerate() {
-            text(&root, n, (720, 520 + 26 * i as i32), 17, &BLACK)?;
-        }
+        let (reach, bar_mm) = top_view(&sheet, card, capture)?;
+        side_view(&sheet, card, capture, reach, bar_mm)?;
+        good_photo(&sheet, capture, examples.len(), &thumbs_at, thumb)?;
         root.present().map_err(pe)?;
     }
     // The example photos, scaled into their frames (nearest pixel).
@@ -304,5 +137,221 @@ pub fn write_guide_png(path: &Path, card: &Card, capture: &Scene, examples: &[Ve
         }
     }
     scratchart::io::write_png_rgb(path, wpx, hpx, &buf)?;
+    Ok(())
+}
+
+/// A drawing error of the guide, as an error.
+fn pe<E: std::fmt::Debug>(e: E) -> anyhow::Error {
+    anyhow::anyhow!("capture guide: {e:?}")
+}
+
+/// The guide's page being drawn, and whether a font is there for its words.
+struct Sheet<'a, 'b> {
+    root: &'a DrawingArea<BitMapBackend<'b>, plotters::coord::Shift>,
+    font_ok: bool,
+}
+
+const CAMERA_COLOUR: RGBColor = RGBColor(30, 80, 200);
+const LAMP_COLOUR: RGBColor = RGBColor(210, 130, 0);
+
+impl Sheet<'_, '_> {
+    /// Words at `at` (nothing where no font is installed).
+    fn text(&self, t: &str, at: (i32, i32), size: i32, c: &RGBColor) -> Result<()> {
+        if self.font_ok {
+            self.root
+                .draw(&Text::new(t.to_string(), at, ("sans-serif", size).into_font().color(c)))
+                .map_err(pe)?;
+        }
+        Ok(())
+    }
+}
+
+/// The top view, to scale: the card, its marks and +x edge, and each view's camera and lamp
+/// with their azimuth and distance; its reach (mm) and the scale bar's length (mm).
+fn top_view(sheet: &Sheet, card: &Card, capture: &Scene) -> Result<(f64, f64)> {
+    let (cam_col, lamp_col) = (CAMERA_COLOUR, LAMP_COLOUR);
+    // Top view, to scale: everything within the largest ground distance.
+    let reach = (0..capture.views.len())
+        .flat_map(|v| {
+            [
+                Place::of(capture.views[v].camera.eye).ground_mm,
+                Place::of(lamp_of(capture, v)).ground_mm,
+            ]
+        })
+        .fold(card.plate_mm, f64::max)
+        * 1.15;
+    let (tc, tr) = ((320i32, 330i32), 250.0);
+    let s = tr / reach;
+    let to = |x: f64, y: f64| (tc.0 + (x * s) as i32, tc.1 - (y * s) as i32);
+    sheet.text("Top view (to scale; north = +y up the page)", (20, 50), 18, &BLACK)?;
+    let h = 0.5 * card.plate_mm;
+    sheet
+        .root
+        .draw(&Rectangle::new([to(-h, h), to(h, -h)], RGBColor(90, 90, 90).filled()))
+        .map_err(pe)?;
+    for m in &card.marks {
+        sheet
+            .root
+            .draw(&Rectangle::new(
+                [
+                    to(m.centre[0] - m.half_mm, m.centre[1] + m.half_mm),
+                    to(m.centre[0] + m.half_mm, m.centre[1] - m.half_mm),
+                ],
+                WHITE.filled(),
+            ))
+            .map_err(pe)?;
+    }
+    let xe = to(h, 0.0);
+    sheet
+        .root
+        .draw(&PathElement::new(
+            vec![(xe.0 + 4, xe.1), (xe.0 + 24, xe.1)],
+            RED.stroke_width(3),
+        ))
+        .map_err(pe)?;
+    sheet.text("+x edge", (xe.0 + 4, xe.1 - 20), 14, &RED)?;
+    for (v, view) in capture.views.iter().enumerate() {
+        for (p, col, what) in [
+            (view.camera.eye, cam_col, "camera"),
+            (lamp_of(capture, v), lamp_col, "lamp"),
+        ] {
+            let q = Place::of(p);
+            let at = to(p[0], p[1]);
+            sheet
+                .root
+                .draw(&PathElement::new(vec![tc, at], col.stroke_width(1)))
+                .map_err(pe)?;
+            sheet.root.draw(&Circle::new(at, 7, col.filled())).map_err(pe)?;
+            let label = format!(
+                "{} {what}: azimuth {:.0}, {:.0} mm out",
+                view.name, q.azimuth_deg, q.ground_mm
+            );
+            // Beside the marker, away from the card.
+            let wlab = 7 * label.len() as i32;
+            let (dx, dy) = if p[1] < -1.0 { (12, -6) } else { (-wlab / 2, 12) };
+            sheet.text(&label, (at.0 + dx, at.1 + dy), 13, &col)?;
+        }
+    }
+    // Scale bar under the top view.
+    let bar_mm = (reach / 3.0 / 50.0).round().max(1.0) * 50.0;
+    let (b0, b1) = (
+        to(-reach * 0.9, -reach * 0.95),
+        to(-reach * 0.9 + bar_mm, -reach * 0.95),
+    );
+    sheet
+        .root
+        .draw(&PathElement::new(vec![b0, b1], BLACK.stroke_width(3)))
+        .map_err(pe)?;
+    sheet.text(&format!("{bar_mm:.0} mm"), (b0.0, b0.1 + 6), 13, &BLACK)?;
+    Ok((reach, bar_mm))
+}
+
+/// The side view, to scale: height above the card against distance along the table, every
+/// camera and lamp.
+fn side_view(sheet: &Sheet, card: &Card, capture: &Scene, reach: f64, bar_mm: f64) -> Result<()> {
+    let (cam_col, lamp_col) = (CAMERA_COLOUR, LAMP_COLOUR);
+    let h = 0.5 * card.plate_mm;
+    // Side view, to scale: height against distance along the table, every camera and lamp.
+    let top = (0..capture.views.len())
+        .flat_map(|v| [capture.views[v].camera.eye[2], lamp_of(capture, v)[2]])
+        .fold(0.0, f64::max)
+        * 1.15;
+    let (sx0, sy0) = (120i32, 940i32);
+    let ss = (480.0 / reach).min(250.0 / top);
+    let side = |g: f64, z: f64| (sx0 + (g * ss) as i32, sy0 - (z * ss) as i32);
+    sheet.text(
+        "Side view (to scale): height above the card against distance along the table",
+        (20, 640),
+        18,
+        &BLACK,
+    )?;
+    sheet
+        .root
+        .draw(&PathElement::new(
+            vec![side(-h, 0.0), side(reach, 0.0)],
+            BLACK.stroke_width(1),
+        ))
+        .map_err(pe)?;
+    sheet
+        .root
+        .draw(&Rectangle::new(
+            [side(-h, 2.0), side(h, 0.0)],
+            RGBColor(90, 90, 90).filled(),
+        ))
+        .map_err(pe)?;
+    sheet.text("card", (side(-h, 0.0).0, sy0 + 6), 13, &BLACK)?;
+    for (v, view) in capture.views.iter().enumerate() {
+        for (p, col, what, dy) in [
+            (view.camera.eye, cam_col, "camera", -22),
+            (lamp_of(capture, v), lamp_col, "lamp", 8),
+        ] {
+            let q = Place::of(p);
+            let at = side(q.ground_mm, q.height_mm);
+            sheet
+                .root
+                .draw(&PathElement::new(vec![side(0.0, 0.0), at], col.stroke_width(1)))
+                .map_err(pe)?;
+            sheet
+                .root
+                .draw(&PathElement::new(vec![at, (at.0, sy0)], col.stroke_width(1)))
+                .map_err(pe)?;
+            sheet.root.draw(&Circle::new(at, 7, col.filled())).map_err(pe)?;
+            sheet.text(
+                &format!(
+                    "{} {what}: {:.0} mm high, {:.0} up ({:.0} mm away)",
+                    view.name, q.height_mm, q.elevation_deg, q.distance_mm
+                ),
+                (at.0 + 12, at.1 + dy + if v == 1 { 14 } else { 0 }),
+                13,
+                &col,
+            )?;
+        }
+    }
+    let bar = side(0.0, 0.0);
+    let bar_px = (bar_mm * ss) as i32;
+    sheet
+        .root
+        .draw(&PathElement::new(
+            vec![(bar.0 + 200, sy0 + 20), (bar.0 + 200 + bar_px, sy0 + 20)],
+            BLACK.stroke_width(3),
+        ))
+        .map_err(pe)?;
+    sheet.text(&format!("{bar_mm:.0} mm"), (bar.0 + 200, sy0 + 26), 13, &BLACK)?;
+    Ok(())
+}
+
+/// The frames of the example photos (`n` of them, at `thumbs_at`, `thumb` pixels square) and
+/// the checklist before each photo.
+fn good_photo(sheet: &Sheet, capture: &Scene, n: usize, thumbs_at: &[(i32, i32)], thumb: i32) -> Result<()> {
+    // What a good photo looks like.
+    for (k, view) in capture.views.iter().enumerate().take(n) {
+        let (x, y) = thumbs_at[k];
+        sheet.text(
+            &format!("A good photo of {} (card.json view)", view.name),
+            (x, y - 24),
+            15,
+            &BLACK,
+        )?;
+        sheet
+            .root
+            .draw(&Rectangle::new(
+                [(x - 2, y - 2), (x + thumb + 1, y + thumb + 1)],
+                BLACK.stroke_width(1),
+            ))
+            .map_err(pe)?;
+    }
+    let notes = [
+        "Before each photo:",
+        "- room dark, the lamp the only light",
+        "- all six hatched marks glint (one may be covered)",
+        "- the flat card stays dark",
+        "- no part of the ladder is pure white",
+        "- the card fills most of the frame, in focus",
+        "- name it after its view: cam_south.jpg, cam_west.jpg",
+        "- check: scratchart-cal fit --check --card card.json *.jpg",
+    ];
+    for (i, n) in notes.iter().enumerate() {
+        sheet.text(n, (720, 520 + 26 * i as i32), 17, &BLACK)?;
+    }
     Ok(())
 }

@@ -128,29 +128,9 @@ fn run(cli: Cli) -> Result<()> {
     match &cli.cmd {
         Cmd::Carve(args) => carve::run(args),
         Cmd::Probe(args) => carve::probe(args),
-        Cmd::Ports => {
-            let ports = scratchart_machine::transport::ports()?;
-            if ports.is_empty() {
-                println!(
-                    "no serial ports found: plug the machine's USB cable in (and on Linux, check that you are in \
-                     the `dialout` group)"
-                );
-            }
-            for p in &ports {
-                match &p.usb {
-                    Some(u) => println!("{}\t{} ({u})", p.name, p.kind),
-                    None => println!("{}\t{}", p.name, p.kind),
-                }
-            }
-            Ok(())
-        }
+        Cmd::Ports => ports_cmd(),
         Cmd::Fit(args) => {
-            let ctx = Context::new(ContextDesc {
-                device: cli.device.clone(),
-                notify: Some(scratchart::term::stderr_notices()),
-                ..Default::default()
-            })?;
-            let renderer = scratchart::render::Renderer::new(&ctx)?;
+            let (_ctx, renderer) = renderer(cli.device.as_deref())?;
             scratchart::term::install_interrupt_handler();
             scratchart_calibration::fit_cmd::run(&renderer, args, &scratchart::term::Terminal::new(args.quiet))
         }
@@ -159,107 +139,9 @@ fn run(cli: Cli) -> Result<()> {
             plate,
             res,
             machine,
-        } => {
-            if !(*plate > 0.0) {
-                return Err(scratchart::exit::UsageError("--plate must be > 0 mm".into()).into());
-            }
-            let card = Card::new(&CardSpec {
-                plate_mm: *plate,
-                res: *res,
-                ..CardSpec::default()
-            });
-            std::fs::create_dir_all(out)
-                .with_context(|| format!("cannot create output directory {}", out.display()))?;
-            let path = out.join("card.json");
-            let text = serde_json::to_string_pretty(&card.to_json(*res))?;
-            scratchart::io::write_atomic(&path, text.as_bytes())?;
-            println!(
-                "wrote {}: {} ladder cuts ({} depths from {} to {} mm, {} orientations x {} repeats) and {} fiducial marks ({} cuts)",
-                path.display(),
-                card.cuts.iter().filter(|c| c.role == scratchart_calibration::card::CutRole::Ladder).count(),
-                card.depths_mm.len(),
-                card.depths_mm[0],
-                card.depths_mm[card.depths_mm.len() - 1],
-                card.orientations_deg.len(),
-                card.repeats,
-                card.marks.len(),
-                card.cuts.iter().filter(|c| c.role == scratchart_calibration::card::CutRole::Fiducial).count()
-            );
-            println!("wrote {}", plan_cmd::write_card_gcode(&card, out, machine)?.display());
-            // The capture guide, with each view as a good photo of a typical V-bit's card looks.
-            let (card, capture) = Card::load(&path)?;
-            let ctx = Context::new(ContextDesc {
-                device: cli.device.clone(),
-                notify: Some(scratchart::term::stderr_notices()),
-                ..Default::default()
-            })?;
-            let renderer = scratchart::render::Renderer::new(&ctx)?;
-            let typical = Tool::VBit {
-                angle_deg: 60.0,
-                tip_flat_mm: 0.01,
-                z_offset_mm: 0.0,
-            };
-            let lin = photos(&renderer, &card, &capture, &typical, &Camera::default())?;
-            // Exposed so the brightest ladder rungs sit near 0.8 of full scale.
-            let mut peak = 1e-6f64;
-            for (v, img) in capture.views.iter().zip(&lin) {
-                let mask = scratchart_calibration::fit_cmd::fit_mask(&card, v, 0.5 * card.plate_mm);
-                let mut on: Vec<f64> = img
-                    .iter()
-                    .zip(&mask)
-                    .filter(|(_, m)| **m)
-                    .map(|(x, _)| scratchart::model::display::linear(*x as f64))
-                    .collect();
-                on.sort_by(|a, b| a.total_cmp(b));
-                peak = peak.max(on.get(on.len() * 998 / 1000).copied().unwrap_or(1e-6));
-            }
-            let cam = Camera {
-                exposure: scratchart::model::display::linear(0.8) / peak,
-                blur_px: 0.5,
-                noise: 0.004,
-                seed: 1,
-            };
-            let examples = photos(&renderer, &card, &capture, &typical, &cam)?;
-            let gp = out.join("capture_guide.png");
-            scratchart_calibration::guide::write_guide_png(&gp, &card, &capture, &examples)?;
-            let gt = out.join("capture_guide.txt");
-            scratchart::io::write_atomic(
-                &gt,
-                scratchart_calibration::guide::guide_text(&card, &capture).as_bytes(),
-            )?;
-            println!(
-                "wrote {} and {} (where the camera and the lamp go, and a good photo)",
-                gp.display(),
-                gt.display()
-            );
-            for v in card.views(*res) {
-                let lamp = match v.light.kind {
-                    scratchart::model::scene::LightKind::Point { position } => {
-                        format!(
-                            "lamp at ({:.0}, {:.0}, {:.0}) mm",
-                            position[0], position[1], position[2]
-                        )
-                    }
-                    scratchart::model::scene::LightKind::Directional { direction } => format!(
-                        "lamp far away towards ({:.2}, {:.2}, {:.2})",
-                        direction[0], direction[1], direction[2]
-                    ),
-                };
-                let e = v.camera.eye;
-                println!(
-                    "  capture view {}: camera at ({:.0}, {:.0}, {:.0}) mm, {lamp}, both from the card's centre",
-                    v.name, e[0], e[1], e[2]
-                );
-            }
-            Ok(())
-        }
+        } => card_cmd(cli.device.as_deref(), out, *plate, *res, machine),
         Cmd::Study(args) => {
-            let ctx = Context::new(ContextDesc {
-                device: cli.device.clone(),
-                notify: Some(scratchart::term::stderr_notices()),
-                ..Default::default()
-            })?;
-            let renderer = scratchart::render::Renderer::new(&ctx)?;
+            let (_ctx, renderer) = renderer(cli.device.as_deref())?;
             scratchart::term::install_interrupt_handler();
             let trials = scratchart_calibration::study::run(&renderer, args, &scratchart::term::Terminal::new(false))?;
             let summary = std::fs::read_to_string(args.out.join("study.md"))?;
@@ -284,12 +166,7 @@ fn run(cli: Cli) -> Result<()> {
         } => {
             let (card, capture) = Card::load(card)?;
             let tool = Tool::load(tool).map_err(|e| scratchart::exit::InputError(e.to_string()))?;
-            let ctx = Context::new(ContextDesc {
-                device: cli.device.clone(),
-                notify: Some(scratchart::term::stderr_notices()),
-                ..Default::default()
-            })?;
-            let renderer = scratchart::render::Renderer::new(&ctx)?;
+            let (_ctx, renderer) = renderer(cli.device.as_deref())?;
             let cam = Camera {
                 exposure: *exposure,
                 blur_px: *blur,
@@ -308,4 +185,130 @@ fn run(cli: Cli) -> Result<()> {
             Ok(())
         }
     }
+}
+
+/// The device (`--device`) and a renderer on it (the context first: the renderer holds it).
+fn renderer(device: Option<&str>) -> Result<(std::sync::Arc<Context>, scratchart::render::Renderer)> {
+    let ctx = Context::new(ContextDesc {
+        device: device.map(String::from),
+        notify: Some(scratchart::term::stderr_notices()),
+        ..Default::default()
+    })?;
+    let renderer = scratchart::render::Renderer::new(&ctx)?;
+    Ok((ctx, renderer))
+}
+
+/// `scratchart-cal ports`: the serial ports, with their USB names.
+fn ports_cmd() -> Result<()> {
+    let ports = scratchart_machine::transport::ports()?;
+    if ports.is_empty() {
+        println!(
+            "no serial ports found: plug the machine's USB cable in (and on Linux, check that you are in \
+             the `dialout` group)"
+        );
+    }
+    for p in &ports {
+        match &p.usb {
+            Some(u) => println!("{}\t{} ({u})", p.name, p.kind),
+            None => println!("{}\t{}", p.name, p.kind),
+        }
+    }
+    Ok(())
+}
+
+/// `scratchart-cal card`: the card, its G-code, and the capture guide (PNG and text) with each
+/// view as a good photo of a typical V-bit's card looks.
+fn card_cmd(
+    device: Option<&str>,
+    out: &std::path::Path,
+    plate: f64,
+    res: u32,
+    machine: &plan_cmd::MachineArgs,
+) -> Result<()> {
+    if !(plate > 0.0) {
+        return Err(scratchart::exit::UsageError("--plate must be > 0 mm".into()).into());
+    }
+    let card = Card::new(&CardSpec {
+        plate_mm: plate,
+        res,
+        ..CardSpec::default()
+    });
+    std::fs::create_dir_all(out).with_context(|| format!("cannot create output directory {}", out.display()))?;
+    let path = out.join("card.json");
+    let text = serde_json::to_string_pretty(&card.to_json(res))?;
+    scratchart::io::write_atomic(&path, text.as_bytes())?;
+    println!(
+        "wrote {}: {} ladder cuts ({} depths from {} to {} mm, {} orientations x {} repeats) and {} fiducial marks ({} cuts)",
+        path.display(),
+        card.cuts.iter().filter(|c| c.role == scratchart_calibration::card::CutRole::Ladder).count(),
+        card.depths_mm.len(),
+        card.depths_mm[0],
+        card.depths_mm[card.depths_mm.len() - 1],
+        card.orientations_deg.len(),
+        card.repeats,
+        card.marks.len(),
+        card.cuts.iter().filter(|c| c.role == scratchart_calibration::card::CutRole::Fiducial).count()
+    );
+    println!("wrote {}", plan_cmd::write_card_gcode(&card, out, machine)?.display());
+    // The capture guide, with each view as a good photo of a typical V-bit's card looks.
+    let (card, capture) = Card::load(&path)?;
+    let (_ctx, renderer) = renderer(device)?;
+    let typical = Tool::VBit {
+        angle_deg: 60.0,
+        tip_flat_mm: 0.01,
+        z_offset_mm: 0.0,
+    };
+    let lin = photos(&renderer, &card, &capture, &typical, &Camera::default())?;
+    // Exposed so the brightest ladder rungs sit near 0.8 of full scale.
+    let mut peak = 1e-6f64;
+    for (v, img) in capture.views.iter().zip(&lin) {
+        let mask = scratchart_calibration::fit_cmd::fit_mask(&card, v, 0.5 * card.plate_mm);
+        let mut on: Vec<f64> = img
+            .iter()
+            .zip(&mask)
+            .filter(|(_, m)| **m)
+            .map(|(x, _)| scratchart::model::display::linear(*x as f64))
+            .collect();
+        on.sort_by(|a, b| a.total_cmp(b));
+        peak = peak.max(on.get(on.len() * 998 / 1000).copied().unwrap_or(1e-6));
+    }
+    let cam = Camera {
+        exposure: scratchart::model::display::linear(0.8) / peak,
+        blur_px: 0.5,
+        noise: 0.004,
+        seed: 1,
+    };
+    let examples = photos(&renderer, &card, &capture, &typical, &cam)?;
+    let gp = out.join("capture_guide.png");
+    scratchart_calibration::guide::write_guide_png(&gp, &card, &capture, &examples)?;
+    let gt = out.join("capture_guide.txt");
+    scratchart::io::write_atomic(
+        &gt,
+        scratchart_calibration::guide::guide_text(&card, &capture).as_bytes(),
+    )?;
+    println!(
+        "wrote {} and {} (where the camera and the lamp go, and a good photo)",
+        gp.display(),
+        gt.display()
+    );
+    for v in card.views(res) {
+        let lamp = match v.light.kind {
+            scratchart::model::scene::LightKind::Point { position } => {
+                format!(
+                    "lamp at ({:.0}, {:.0}, {:.0}) mm",
+                    position[0], position[1], position[2]
+                )
+            }
+            scratchart::model::scene::LightKind::Directional { direction } => format!(
+                "lamp far away towards ({:.2}, {:.2}, {:.2})",
+                direction[0], direction[1], direction[2]
+            ),
+        };
+        let e = v.camera.eye;
+        println!(
+            "  capture view {}: camera at ({:.0}, {:.0}, {:.0}) mm, {lamp}, both from the card's centre",
+            v.name, e[0], e[1], e[2]
+        );
+    }
+    Ok(())
 }

@@ -148,58 +148,7 @@ pub fn plan(a: &PlanArgs) -> Result<()> {
     };
     let mut summary = Vec::new();
     let surface = surface_depth_mm(tool.as_ref().map(|t| t.z_offset_mm()));
-    // Depths: the design's z_mm column when it has one, else the tool's curve.
-    let depths: Vec<f64> = match extra.column("z_mm") {
-        Some(z) => {
-            if let Some(k) = z.iter().position(|z| !(*z >= surface)) {
-                let why = match &tool {
-                    Some(_) => format!(
-                        "above the plate's surface, which the tool's z offset puts at commanded depth {surface} mm"
-                    ),
-                    None => "above the plate's surface at commanded zero; a design made with `design --tool` \
-                             needs the same --tool here (its z offset moves the surface)"
-                        .to_string(),
-                };
-                return Err(InputError(format!(
-                    "{}: scratch {} has z_mm = {}: {why}",
-                    a.design.display(),
-                    k + 1,
-                    z[k]
-                ))
-                .into());
-            }
-            let mut line = format!("depths: the design's z_mm column ({} scratches)", z.len());
-            if let Some(t) = &tool {
-                let worst = scene
-                    .scratches
-                    .iter()
-                    .zip(&z)
-                    .map(|(s, &z)| {
-                        t.model(z)
-                            .map_or(f64::INFINITY, |g| (g.w - s.w).abs() / s.w + (g.d - s.d).abs() / s.d)
-                    })
-                    .fold(0.0f64, f64::max);
-                line += &format!("; worst mismatch of the tool's groove at z_mm: {:.1}%", 100.0 * worst);
-            }
-            summary.push(line);
-            z
-        }
-        None => {
-            let t = tool.as_ref().ok_or_else(|| {
-                UsageError(format!(
-                    "{} has no z_mm column: give the tool (--tool tool.json) to map each scratch to a depth",
-                    a.design.display()
-                ))
-            })?;
-            let d = scratchart_machine::depths::depths(&scene.scratches, t, 0.5);
-            let worst = d.iter().map(|d| d.1).fold(0.0f64, f64::max);
-            summary.push(format!(
-                "depths: the tool's curve; worst groove mismatch {:.1}% (|dw|/w + |dd|/d)",
-                100.0 * worst
-            ));
-            d.into_iter().map(|d| d.0).collect()
-        }
-    };
+    let depths = plan_depths(a, &scene, &extra, tool.as_ref(), surface, &mut summary)?;
     if let Some(t) = &tool {
         summary.insert(0, format!("tool {}", serde_json::to_string(t)?));
     }
@@ -249,37 +198,7 @@ pub fn plan(a: &PlanArgs) -> Result<()> {
         }
     }
     if let Some(map) = &map {
-        let (mut lo, mut hi, mut outside, mut segs) = (f64::INFINITY, f64::NEG_INFINITY, 0usize, 0usize);
-        for b in &mut blocks {
-            let (p, q) = (b.path[0], b.path[b.path.len() - 1]);
-            let depth = -p[2];
-            let path = compensate(map, [p[0], p[1]], [q[0], q[1]], depth, LEVEL_TOL_MM)
-                .map_err(|e| InputError(format!("{}: {e}", b.label)))?;
-            for v in &path {
-                lo = lo.min(v[2] + depth);
-                hi = hi.max(v[2] + depth);
-                if !map.covers(v[0], v[1]) {
-                    outside += 1;
-                }
-            }
-            segs += path.len() - 1;
-            b.path = path;
-        }
-        summary.push(format!(
-            "levelled by {}: surface correction {:+.4} to {:+.4} mm, {segs} G1 segments for {} cuts, \
-             within {LEVEL_TOL_MM} mm of the probed surface",
-            a.heightmap.as_ref().unwrap().display(),
-            lo,
-            hi,
-            blocks.len()
-        ));
-        println!(
-            "  levelling: correction from {lo:+.4} to {hi:+.4} mm ({segs} segments for {} cuts)",
-            blocks.len()
-        );
-        if outside > 0 {
-            eprintln!("warning: {outside} cut points lie outside the probed area; their height is the nearest edge's");
-        }
+        level(map, &mut blocks, a, &mut summary)?;
     }
     check_moves(&blocks, &m).map_err(|e| InputError(format!("the plan leaves its bounds: {e}")))?;
     let t1 = program_travel(&blocks);
@@ -311,6 +230,106 @@ pub fn plan(a: &PlanArgs) -> Result<()> {
         if s.starts_with("depths") {
             println!("  {s}");
         }
+    }
+    Ok(())
+}
+
+/// Each scratch's commanded depth: the design's z_mm column when it has one (refused where a
+/// depth lies above the plate's surface), else the tool's curve; what was used goes to `summary`.
+fn plan_depths(
+    a: &PlanArgs,
+    scene: &Scene,
+    extra: &scratchart::model::scene::Extra,
+    tool: Option<&Tool>,
+    surface: f64,
+    summary: &mut Vec<String>,
+) -> Result<Vec<f64>> {
+    Ok(match extra.column("z_mm") {
+        Some(z) => {
+            if let Some(k) = z.iter().position(|z| !(*z >= surface)) {
+                let why = match tool {
+                    Some(_) => format!(
+                        "above the plate's surface, which the tool's z offset puts at commanded depth {surface} mm"
+                    ),
+                    None => "above the plate's surface at commanded zero; a design made with `design --tool` \
+                         needs the same --tool here (its z offset moves the surface)"
+                        .to_string(),
+                };
+                return Err(InputError(format!(
+                    "{}: scratch {} has z_mm = {}: {why}",
+                    a.design.display(),
+                    k + 1,
+                    z[k]
+                ))
+                .into());
+            }
+            let mut line = format!("depths: the design's z_mm column ({} scratches)", z.len());
+            if let Some(t) = tool {
+                let worst = scene
+                    .scratches
+                    .iter()
+                    .zip(&z)
+                    .map(|(s, &z)| {
+                        t.model(z)
+                            .map_or(f64::INFINITY, |g| (g.w - s.w).abs() / s.w + (g.d - s.d).abs() / s.d)
+                    })
+                    .fold(0.0f64, f64::max);
+                line += &format!("; worst mismatch of the tool's groove at z_mm: {:.1}%", 100.0 * worst);
+            }
+            summary.push(line);
+            z
+        }
+        None => {
+            let t = tool.ok_or_else(|| {
+                UsageError(format!(
+                    "{} has no z_mm column: give the tool (--tool tool.json) to map each scratch to a depth",
+                    a.design.display()
+                ))
+            })?;
+            let d = scratchart_machine::depths::depths(&scene.scratches, t, 0.5);
+            let worst = d.iter().map(|d| d.1).fold(0.0f64, f64::max);
+            summary.push(format!(
+                "depths: the tool's curve; worst groove mismatch {:.1}% (|dw|/w + |dd|/d)",
+                100.0 * worst
+            ));
+            d.into_iter().map(|d| d.0).collect()
+        }
+    })
+}
+
+/// Levels every cut by the probed height map (`--heightmap`): each becomes G1 segments that
+/// follow the surface within `LEVEL_TOL_MM`; the correction's range goes to `summary`.
+fn level(map: &HeightMap, blocks: &mut [Block], a: &PlanArgs, summary: &mut Vec<String>) -> Result<()> {
+    let (mut lo, mut hi, mut outside, mut segs) = (f64::INFINITY, f64::NEG_INFINITY, 0usize, 0usize);
+    for b in blocks.iter_mut() {
+        let (p, q) = (b.path[0], b.path[b.path.len() - 1]);
+        let depth = -p[2];
+        let path = compensate(map, [p[0], p[1]], [q[0], q[1]], depth, LEVEL_TOL_MM)
+            .map_err(|e| InputError(format!("{}: {e}", b.label)))?;
+        for v in &path {
+            lo = lo.min(v[2] + depth);
+            hi = hi.max(v[2] + depth);
+            if !map.covers(v[0], v[1]) {
+                outside += 1;
+            }
+        }
+        segs += path.len() - 1;
+        b.path = path;
+    }
+    summary.push(format!(
+        "levelled by {}: surface correction {:+.4} to {:+.4} mm, {segs} G1 segments for {} cuts, \
+         within {LEVEL_TOL_MM} mm of the probed surface",
+        a.heightmap.as_ref().unwrap().display(),
+        lo,
+        hi,
+        blocks.len()
+    ));
+    println!(
+        "  levelling: correction from {lo:+.4} to {hi:+.4} mm ({segs} segments for {} cuts)",
+        blocks.len()
+    );
+    if outside > 0 {
+        eprintln!("warning: {outside} cut points lie outside the probed area; their height is the nearest edge's");
     }
     Ok(())
 }

@@ -197,28 +197,7 @@ fn run(cli: Cli) -> Result<()> {
             setup_command(&ctx, &scene, &dir, &out)?;
             check_validation(&ctx)
         }
-        Cmd::Devices => {
-            let devices = scratchart::vulkan::list_devices()?;
-            if devices.is_empty() {
-                anyhow::bail!("no Vulkan device found (on Debian, `bash .ci/setup` installs Mesa's lavapipe)");
-            }
-            for d in devices {
-                println!(
-                    "{} {}: {} ({}, Vulkan {}){}",
-                    if d.default { "*" } else { " " },
-                    d.index,
-                    d.name,
-                    d.kind,
-                    d.api_version,
-                    if d.usable {
-                        ""
-                    } else {
-                        " [unusable: needs a compute queue and Vulkan 1.1]"
-                    }
-                );
-            }
-            Ok(())
-        }
+        Cmd::Devices => devices_cmd(),
         Cmd::Grad { scene, targets, out } => {
             let scene = load_scene(scene)?;
             warn_about(&scene);
@@ -233,62 +212,7 @@ fn run(cli: Cli) -> Result<()> {
             repeats,
             methods,
             regimes,
-        } => {
-            use scratchart::render::kernels::Integrator;
-            let methods: Vec<Integrator> = if methods.is_empty() {
-                Integrator::STUDY.to_vec()
-            } else {
-                methods
-                    .iter()
-                    .map(|m| {
-                        Integrator::from_name(m).ok_or_else(|| {
-                            let names: Vec<String> = Integrator::STUDY.iter().map(|i| i.name()).collect();
-                            scratchart::exit::UsageError(format!(
-                                "--methods: unknown method '{m}' (choose from {})",
-                                names.join(", ")
-                            ))
-                            .into()
-                        })
-                    })
-                    .collect::<Result<_>>()?
-            };
-            let known: Vec<&str> = scratchart::study::regimes(16, 1).iter().map(|r| r.name).collect();
-            if let Some(bad) = regimes.iter().find(|r| !known.contains(&r.as_str())) {
-                return Err(scratchart::exit::UsageError(format!(
-                    "--regimes: unknown regime '{bad}' (choose from {})",
-                    known.join(", ")
-                ))
-                .into());
-            }
-            for (flag, v) in [("--res", res), ("--time-res", time_res)] {
-                if !(16..=1024).contains(v) {
-                    return Err(scratchart::exit::UsageError(format!("{flag} {v}: choose 16 to 1024")).into());
-                }
-            }
-            let ctx = context(&cli)?;
-            std::fs::create_dir_all(out)
-                .map_err(|e| scratchart::exit::InputError(format!("{}: {e}", out.display())))?;
-            let opt = scratchart::study::StudyOptions {
-                res: *res,
-                time_res: *time_res,
-                repeats: *repeats,
-                methods,
-                regimes: (!regimes.is_empty()).then(|| regimes.clone()),
-            };
-            let rows = scratchart::study::run(&ctx, &opt, &mut |line| eprintln!("{line}"))?;
-            scratchart::io::write_atomic(&out.join("study.csv"), scratchart::study::csv(&rows).as_bytes())?;
-            let verdict = scratchart::study::verdict(&rows);
-            scratchart::io::write_atomic(&out.join("verdict.txt"), verdict.as_bytes())?;
-            scratchart::study::chart(&rows, &out.join("study.png"))?;
-            print!("{verdict}");
-            eprintln!(
-                "wrote {}, {} and {}",
-                out.join("study.csv").display(),
-                out.join("study.png").display(),
-                out.join("verdict.txt").display()
-            );
-            check_validation(&ctx)
-        }
+        } => study_cmd(&cli, out, *res, *time_res, *repeats, methods, regimes),
         Cmd::Bench {
             sizes,
             scene,
@@ -298,50 +222,157 @@ fn run(cli: Cli) -> Result<()> {
             targets,
             compare_backward,
             binning_bands,
-        } => {
-            let ctx = context(&cli)?;
-            let scenes: Vec<(String, Scene)> = match scene {
-                Some(p) => vec![(p.display().to_string(), load_scene(p)?)],
-                None => sizes
-                    .iter()
-                    .map(|s| {
-                        scratchart::scenes::bench_scene(s)
-                            .map(|sc| (if s.len() == 1 { s.to_uppercase() } else { s.clone() }, sc))
-                            .ok_or_else(|| {
-                                scratchart::exit::UsageError(format!(
-                                    "--sizes: unknown standard scene '{s}' (choose S, M, P, L or NxVxR such as 20000x3x256)"
-                                ))
-                                .into()
-                            })
-                    })
-                    .collect::<Result<_>>()?,
-            };
-            let rows = bench::run_forward(
-                &ctx,
-                &scenes,
-                *warmup,
-                (*repeats).max(1),
-                *compare_backward,
-                *binning_bands,
-            )?;
-            print!("{}", bench::forward_table(&ctx, &rows));
-            if *iters > 0 {
-                let mut it_rows = Vec::new();
-                for (name, sc) in &scenes {
-                    let linear = match targets {
-                        Some(dir) => Some(read_linear_targets(sc, dir)?),
-                        None => None,
-                    };
-                    let t = bench::bench_targets(&ctx, sc, linear)?;
-                    eprintln!("timing {iters} design iterations of {name} ...");
-                    it_rows.push(bench::run_iterations(&ctx, name, sc, t, *warmup as u32, *iters)?);
-                }
-                println!();
-                print!("{}", bench::iteration_table(&it_rows));
+        } => bench_cmd(
+            &cli,
+            sizes,
+            scene.as_deref(),
+            *repeats,
+            *warmup,
+            *iters,
+            targets.as_deref(),
+            *compare_backward,
+            *binning_bands,
+        ),
+    }
+}
+
+/// `scratchart devices`: the Vulkan devices, the default marked.
+fn devices_cmd() -> Result<()> {
+    let devices = scratchart::vulkan::list_devices()?;
+    if devices.is_empty() {
+        anyhow::bail!("no Vulkan device found (on Debian, `bash .ci/setup` installs Mesa's lavapipe)");
+    }
+    for d in devices {
+        println!(
+            "{} {}: {} ({}, Vulkan {}){}",
+            if d.default { "*" } else { " " },
+            d.index,
+            d.name,
+            d.kind,
+            d.api_version,
+            if d.usable {
+                ""
+            } else {
+                " [unusable: needs a compute queue and Vulkan 1.1]"
             }
-            check_validation(&ctx)
+        );
+    }
+    Ok(())
+}
+
+/// `scratchart study`: the speed-against-accuracy study of the pair integral's methods.
+fn study_cmd(
+    cli: &Cli,
+    out: &Path,
+    res: u32,
+    time_res: u32,
+    repeats: usize,
+    methods: &[String],
+    regimes: &[String],
+) -> Result<()> {
+    use scratchart::render::kernels::Integrator;
+    let methods: Vec<Integrator> = if methods.is_empty() {
+        Integrator::STUDY.to_vec()
+    } else {
+        methods
+            .iter()
+            .map(|m| {
+                Integrator::from_name(m).ok_or_else(|| {
+                    let names: Vec<String> = Integrator::STUDY.iter().map(|i| i.name()).collect();
+                    scratchart::exit::UsageError(format!(
+                        "--methods: unknown method '{m}' (choose from {})",
+                        names.join(", ")
+                    ))
+                    .into()
+                })
+            })
+            .collect::<Result<_>>()?
+    };
+    let known: Vec<&str> = scratchart::study::regimes(16, 1).iter().map(|r| r.name).collect();
+    if let Some(bad) = regimes.iter().find(|r| !known.contains(&r.as_str())) {
+        return Err(scratchart::exit::UsageError(format!(
+            "--regimes: unknown regime '{bad}' (choose from {})",
+            known.join(", ")
+        ))
+        .into());
+    }
+    for (flag, v) in [("--res", res), ("--time-res", time_res)] {
+        if !(16..=1024).contains(&v) {
+            return Err(scratchart::exit::UsageError(format!("{flag} {v}: choose 16 to 1024")).into());
         }
     }
+    let ctx = context(cli)?;
+    std::fs::create_dir_all(out).map_err(|e| scratchart::exit::InputError(format!("{}: {e}", out.display())))?;
+    let opt = scratchart::study::StudyOptions {
+        res,
+        time_res,
+        repeats,
+        methods,
+        regimes: (!regimes.is_empty()).then(|| regimes.to_vec()),
+    };
+    let rows = scratchart::study::run(&ctx, &opt, &mut |line| eprintln!("{line}"))?;
+    scratchart::io::write_atomic(&out.join("study.csv"), scratchart::study::csv(&rows).as_bytes())?;
+    let verdict = scratchart::study::verdict(&rows);
+    scratchart::io::write_atomic(&out.join("verdict.txt"), verdict.as_bytes())?;
+    scratchart::study::chart(&rows, &out.join("study.png"))?;
+    print!("{verdict}");
+    eprintln!(
+        "wrote {}, {} and {}",
+        out.join("study.csv").display(),
+        out.join("study.png").display(),
+        out.join("verdict.txt").display()
+    );
+    check_validation(&ctx)
+}
+
+/// `scratchart bench`: the forward pass on the standard scenes (or a scene file), and full
+/// design iterations.
+#[allow(clippy::too_many_arguments)]
+fn bench_cmd(
+    cli: &Cli,
+    sizes: &[String],
+    scene: Option<&Path>,
+    repeats: usize,
+    warmup: usize,
+    iters: u32,
+    targets: Option<&Path>,
+    compare_backward: bool,
+    binning_bands: Option<u32>,
+) -> Result<()> {
+    let ctx = context(cli)?;
+    let scenes: Vec<(String, Scene)> = match scene {
+        Some(p) => vec![(p.display().to_string(), load_scene(p)?)],
+        None => sizes
+            .iter()
+            .map(|s| {
+                scratchart::scenes::bench_scene(s)
+                    .map(|sc| (if s.len() == 1 { s.to_uppercase() } else { s.clone() }, sc))
+                    .ok_or_else(|| {
+                        scratchart::exit::UsageError(format!(
+                            "--sizes: unknown standard scene '{s}' (choose S, M, P, L or NxVxR such as 20000x3x256)"
+                        ))
+                        .into()
+                    })
+            })
+            .collect::<Result<_>>()?,
+    };
+    let rows = bench::run_forward(&ctx, &scenes, warmup, repeats.max(1), compare_backward, binning_bands)?;
+    print!("{}", bench::forward_table(&ctx, &rows));
+    if iters > 0 {
+        let mut it_rows = Vec::new();
+        for (name, sc) in &scenes {
+            let linear = match targets {
+                Some(dir) => Some(read_linear_targets(sc, dir)?),
+                None => None,
+            };
+            let t = bench::bench_targets(&ctx, sc, linear)?;
+            eprintln!("timing {iters} design iterations of {name} ...");
+            it_rows.push(bench::run_iterations(&ctx, name, sc, t, warmup as u32, iters)?);
+        }
+        println!();
+        print!("{}", bench::iteration_table(&it_rows));
+    }
+    check_validation(&ctx)
 }
 
 /// Loads a scene file and prints warnings about keys it does not know.

@@ -126,27 +126,38 @@ fn scratches(
 /// The study's regimes; `res` is the view resolution (the footprint is about 1.5 plate / res),
 /// `more` multiplies the scratch counts (the timed renders use more pairs than the checked ones).
 pub fn regimes(res: u32, more: usize) -> Vec<Regime> {
-    let plate = 20.0;
-    let pl = Plate {
-        size_mm: plate,
-        roughness: 0.02,
-        f0: 0.91,
-    };
-    let pi = std::f64::consts::PI;
-    let fp = 1.5 * plate / res as f64; // rough footprint size, mm
-    let mk = |name, what, seed: u64, v: View, sc: &dyn Fn(&mut Rng) -> Vec<Scratch>| {
-        let mut rng = Rng::new(seed);
-        Regime {
-            name,
-            what,
-            scene: Scene {
-                plate: pl.clone(),
-                views: vec![v],
-                scratches: sc(&mut rng),
+    let mut r = light_regimes(res, more);
+    r.extend(geometry_regimes(res, more));
+    r
+}
+
+/// The plate of every regime, 20 mm.
+const REGIME_PLATE_MM: f64 = 20.0;
+
+/// A regime: one view of `REGIME_PLATE_MM`'s plate and the scratches `sc` draws (seeded).
+fn regime(name: &'static str, what: &'static str, seed: u64, v: View, sc: &dyn Fn(&mut Rng) -> Vec<Scratch>) -> Regime {
+    let mut rng = Rng::new(seed);
+    Regime {
+        name,
+        what,
+        scene: Scene {
+            plate: Plate {
+                size_mm: REGIME_PLATE_MM,
+                roughness: 0.02,
+                f0: 0.91,
             },
-        }
-    };
-    let any = pi;
+            views: vec![v],
+            scratches: sc(&mut rng),
+        },
+    }
+}
+
+/// The regimes of roughness and light: moderate, sharp, wide, grazing.
+fn light_regimes(res: u32, more: usize) -> Vec<Regime> {
+    let plate = REGIME_PLATE_MM;
+    let fp = 1.5 * plate / res as f64; // rough footprint size, mm
+    let any = std::f64::consts::PI;
+    let mk = regime;
     vec![
         mk(
             "moderate",
@@ -215,6 +226,17 @@ pub fn regimes(res: u32, more: usize) -> Vec<Regime> {
                 )
             },
         ),
+    ]
+}
+
+/// The regimes of geometry: the footprint small and large against a scratch, the half vector
+/// along the scratches, and dense scratches.
+fn geometry_regimes(res: u32, more: usize) -> Vec<Regime> {
+    let plate = REGIME_PLATE_MM;
+    let fp = 1.5 * plate / res as f64; // rough footprint size, mm
+    let any = std::f64::consts::PI;
+    let mk = regime;
+    vec![
         mk(
             "small-footprint",
             "footprint about 1/8 of the scratch width",

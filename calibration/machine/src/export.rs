@@ -272,19 +272,53 @@ impl Dxf {
     }
 }
 
-/// The drawing as a DXF (AC1015) document.
+/// The drawing as a DXF (AC1015) document: the tables, blocks, entities and objects first (they
+/// take the handles), the header last (it needs `$HANDSEED`).
 pub fn dxf(d: &Drawing) -> String {
     let h = 0.5 * d.plate_mm;
-    let mut x = Dxf {
-        s: String::new(),
-        handle: 0x1F,
-    };
     let mut body = Dxf {
         s: String::new(),
         handle: 0x1F,
     };
-    // Tables, blocks, entities and objects first (handles), the header last (it needs $HANDSEED).
-    let b = &mut body;
+    let ms = dxf_tables(&mut body, d);
+    dxf_entities(&mut body, d, &ms);
+    dxf_objects(&mut body);
+    let seed = format!("{:X}", body.handle + 1);
+    let mut x = Dxf {
+        s: String::new(),
+        handle: 0x1F,
+    };
+    x.pairs(&[
+        (
+            999,
+            "scratchart export: scratches as LINEs on one layer per band, the plate outline on layer plate",
+        ),
+        (0, "SECTION"),
+        (2, "HEADER"),
+        (9, "$ACADVER"),
+        (1, "AC1015"),
+        (9, "$HANDSEED"),
+        (5, &seed),
+        (9, "$INSUNITS"),
+        (70, "4"),
+        (9, "$MEASUREMENT"),
+        (70, "1"),
+        (9, "$EXTMIN"),
+        (10, &n(-h)),
+        (20, &n(-h)),
+        (30, "0"),
+        (9, "$EXTMAX"),
+        (10, &n(h)),
+        (20, &n(h)),
+        (30, "0"),
+        (0, "ENDSEC"),
+    ]);
+    x.s + &body.s
+}
+
+/// The CLASSES, TABLES and BLOCKS sections (one layer per band, the plate's layer, the model and
+/// paper spaces); the model space's handle.
+fn dxf_tables(b: &mut Dxf, d: &Drawing) -> String {
     b.pairs(&[(0, "SECTION"), (2, "CLASSES"), (0, "ENDSEC")]);
     b.pairs(&[(0, "SECTION"), (2, "TABLES")]);
     b.table("VPORT", 0);
@@ -342,8 +376,14 @@ pub fn dxf(d: &Drawing) -> String {
     let ps = b.record("BLOCK_RECORD", &br, "AcDbBlockTableRecord");
     b.pair(2, "*Paper_Space");
     b.pairs(&[(0, "ENDTAB"), (0, "ENDSEC")]);
+    dxf_blocks(b, &ms, &ps);
+    ms
+}
+
+/// The BLOCKS section: the model and paper spaces' blocks.
+fn dxf_blocks(b: &mut Dxf, ms: &str, ps: &str) {
     b.pairs(&[(0, "SECTION"), (2, "BLOCKS")]);
-    for (name, owner, paper) in [("*Model_Space", &ms, false), ("*Paper_Space", &ps, true)] {
+    for (name, owner, paper) in [("*Model_Space", ms, false), ("*Paper_Space", ps, true)] {
         let hb = b.h();
         b.pairs(&[(0, "BLOCK"), (5, &hb), (330, owner), (100, "AcDbEntity")]);
         if paper {
@@ -368,13 +408,18 @@ pub fn dxf(d: &Drawing) -> String {
         b.pairs(&[(8, "0"), (100, "AcDbBlockEnd")]);
     }
     b.pair(0, "ENDSEC");
+}
+
+/// The ENTITIES section: the plate's outline and every scratch, as LINEs in model space `ms`.
+fn dxf_entities(b: &mut Dxf, d: &Drawing, ms: &str) {
+    let h = 0.5 * d.plate_mm;
     b.pairs(&[(0, "SECTION"), (2, "ENTITIES")]);
     let line = |b: &mut Dxf, layer: &str, p: [f64; 2], q: [f64; 2]| {
         let hl = b.h();
         b.pairs(&[
             (0, "LINE"),
             (5, &hl),
-            (330, &ms),
+            (330, ms),
             (100, "AcDbEntity"),
             (8, layer),
             (100, "AcDbLine"),
@@ -400,6 +445,10 @@ pub fn dxf(d: &Drawing) -> String {
         line(b, &d.bands[ln.band].name, ln.a, ln.b);
     }
     b.pair(0, "ENDSEC");
+}
+
+/// The OBJECTS section: the root dictionary and its group dictionary.
+fn dxf_objects(b: &mut Dxf) {
     let (root, group) = (b.h(), b.h());
     b.pairs(&[(0, "SECTION"), (2, "OBJECTS")]);
     b.pairs(&[
@@ -419,31 +468,4 @@ pub fn dxf(d: &Drawing) -> String {
         (281, "1"),
     ]);
     b.pairs(&[(0, "ENDSEC"), (0, "EOF")]);
-    let seed = format!("{:X}", body.handle + 1);
-    x.pairs(&[
-        (
-            999,
-            "scratchart export: scratches as LINEs on one layer per band, the plate outline on layer plate",
-        ),
-        (0, "SECTION"),
-        (2, "HEADER"),
-        (9, "$ACADVER"),
-        (1, "AC1015"),
-        (9, "$HANDSEED"),
-        (5, &seed),
-        (9, "$INSUNITS"),
-        (70, "4"),
-        (9, "$MEASUREMENT"),
-        (70, "1"),
-        (9, "$EXTMIN"),
-        (10, &n(-h)),
-        (20, &n(-h)),
-        (30, "0"),
-        (9, "$EXTMAX"),
-        (10, &n(h)),
-        (20, &n(h)),
-        (30, "0"),
-        (0, "ENDSEC"),
-    ]);
-    x.s + &body.s
 }

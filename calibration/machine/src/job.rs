@@ -99,91 +99,24 @@ fn feed_of(program: &Program) -> f64 {
 /// Runs a carving job.
 pub fn carve(opts: &Options, control: &Control, obs: &dyn Observer) -> Result<Summary, CarveError> {
     let program = Program::load(&opts.plan).map_err(CarveError::Input)?;
-    let fw = Program::firmware_name(program.firmware);
     let total = program.blocks.len();
-    let mut journal = if opts.resume {
-        let j = Journal::load(&opts.journal).map_err(CarveError::Usage)?;
-        if j.plan_checksum != program.checksum {
-            return Err(CarveError::Input(format!(
-                "{} changed since the job in {} started (checksum {} then, {} now): a changed plan \
-                 cannot be resumed; carve it anew without --resume",
-                opts.plan.display(),
-                opts.journal.display(),
-                j.plan_checksum,
-                program.checksum
-            )));
-        }
-        if j.state == "done" {
-            obs.note(&format!(
-                "the journal {} says the job is finished: nothing to do",
-                opts.journal.display()
-            ));
-            return Ok(Summary {
-                controller: String::new(),
-                from: total,
-                total,
-                lines: 0,
-                seconds: 0.0,
-            });
-        }
-        j
-    } else {
-        if let Ok(j) = Journal::load(&opts.journal) {
-            if j.state != "done" && j.plan_checksum == program.checksum {
-                obs.note(&format!(
-                    "an unfinished job of this plan is recorded in {} ({} of {} scratches); \
-                     starting over (to continue it instead: {})",
-                    opts.journal.display(),
-                    j.last_acked.map_or(0, |k| k + 1),
-                    j.total,
-                    opts.resume_command
-                ));
-            }
-        }
-        Journal {
-            plan: opts.plan.display().to_string(),
-            plan_checksum: program.checksum.clone(),
-            firmware: fw.into(),
+    let Some(mut journal) = open_journal(opts, &program, obs)? else {
+        return Ok(Summary {
+            controller: String::new(),
+            from: total,
             total,
-            last_acked: None,
-            last_acked_scratch: None,
-            state: "running".into(),
-            message: String::new(),
-        }
+            lines: 0,
+            seconds: 0.0,
+        });
     };
     let from = if opts.resume { journal.resume_from() } else { 0 };
 
-    let mut link = Link::open(&opts.port, opts.baud).map_err(|e| match e {
-        LinkError::Open(m) if !std::path::Path::new(&opts.port).exists() => {
-            CarveError::Usage(format!("{m} (no such port: check --port)"))
-        }
-        e => CarveError::Stopped(e.to_string()),
-    })?;
-    let stopped = |m: String| CarveError::Stopped(m);
-    let mut ctl = crate::detect::detect(&mut link, opts.detect_timeout).map_err(|f| match f {
-        Fault::Input(m) | Fault::Machine(m) => stopped(m),
-    })?;
-    obs.note(&format!("{} answers on {}", ctl.describe(), opts.port));
-    if ctl.firmware() != program.firmware {
-        return Err(CarveError::Input(format!(
-            "{} was planned for {fw} (its first line), but {} answers on {}: plan it again with \
-             `scratchart-cal plan ... --machine {}`",
-            opts.plan.display(),
-            ctl.describe(),
-            opts.port,
-            Program::firmware_name(ctl.firmware())
-        )));
-    }
+    let (mut link, mut ctl) = connect(opts, &program, obs)?;
     let fault = |f: Fault| match f {
         Fault::Input(m) => CarveError::Input(m),
         Fault::Machine(m) => CarveError::Stopped(m),
     };
-    for n in ctl
-        .check_settings(&mut link, &program, opts.profile.as_ref())
-        .map_err(fault)?
-    {
-        obs.note(&n);
-    }
+    let stopped = |m: String| CarveError::Stopped(m);
     if opts.check && opts.resume {
         return Err(CarveError::Usage(
             "--check and --resume together: check the plan in a run of its own".into(),
@@ -263,55 +196,7 @@ pub fn carve(opts: &Options, control: &Control, obs: &dyn Observer) -> Result<Su
         };
         stream(&mut link, ctl.as_mut(), &lines, control, obs, &mut on_block)
     };
-    let where_ = |j: &Journal| {
-        format!(
-            "{} of {total} scratches acknowledged (journal {})",
-            j.last_acked.map_or(0, |k| k + 1),
-            opts.journal.display()
-        )
-    };
-    let resume_hint = format!("to continue: {}", opts.resume_command);
-    let outcome = match end {
-        End::Done => match ctl.wait_idle(&mut link) {
-            Ok(()) => None,
-            Err(f) => Some(CarveError::Stopped(format!("at the end of the job: {f:?}"))),
-        },
-        End::Abort => {
-            let did = ctl
-                .stop_and_raise(&mut link, pending, safe_z, opts.emergency)
-                .unwrap_or_else(|f| format!("the stop sequence failed: {f:?}: stop the machine by hand"));
-            journal.state = "interrupted".into();
-            Some(CarveError::Interrupted(format!(
-                "interrupted: {did}; {}; {resume_hint}",
-                where_(&journal)
-            )))
-        }
-        End::Refused(e) => {
-            let did = ctl
-                .stop_and_raise(&mut link, pending, safe_z, false)
-                .unwrap_or_else(|f| format!("the stop sequence failed ({f:?}): stop the machine by hand"));
-            Some(CarveError::Stopped(format!(
-                "{} refused {e}; stopped: {did}; {}; {resume_hint}",
-                ctl.describe(),
-                where_(&journal)
-            )))
-        }
-        End::Stopped(e) => Some(CarveError::Stopped(format!(
-            "the machine stopped the job: {e}; the tool may still be down: clear the cause, \
-             raise it, then {}; {}; {resume_hint}",
-            if ctl.firmware() == crate::plan::Firmware::Grbl {
-                "unlock ($X) or home ($H)"
-            } else {
-                "reset the printer"
-            },
-            where_(&journal)
-        ))),
-        End::Lost(e) => Some(CarveError::Stopped(format!(
-            "{e}; {}; reconnect, then {resume_hint}",
-            where_(&journal)
-        ))),
-        End::Input(e) => Some(CarveError::Input(e)),
-    };
+    let outcome = outcome(end, pending, &mut link, ctl.as_mut(), &mut journal, opts, safe_z);
     if let Some(e) = save_err {
         obs.note(&format!("warning: the journal could not be written: {e}"));
     }
@@ -335,6 +220,160 @@ pub fn carve(opts: &Options, control: &Control, obs: &dyn Observer) -> Result<Su
             let _ = journal.save(&opts.journal);
             Err(e)
         }
+    }
+}
+
+/// The journal of this run: the one `--resume` continues (refused where the plan changed since;
+/// None where it says the job is finished), or a new one (noting an unfinished job of the same
+/// plan that this run starts over).
+fn open_journal(opts: &Options, program: &Program, obs: &dyn Observer) -> Result<Option<Journal>, CarveError> {
+    let fw = Program::firmware_name(program.firmware);
+    let total = program.blocks.len();
+    Ok(Some(if opts.resume {
+        let j = Journal::load(&opts.journal).map_err(CarveError::Usage)?;
+        if j.plan_checksum != program.checksum {
+            return Err(CarveError::Input(format!(
+                "{} changed since the job in {} started (checksum {} then, {} now): a changed plan \
+                 cannot be resumed; carve it anew without --resume",
+                opts.plan.display(),
+                opts.journal.display(),
+                j.plan_checksum,
+                program.checksum
+            )));
+        }
+        if j.state == "done" {
+            obs.note(&format!(
+                "the journal {} says the job is finished: nothing to do",
+                opts.journal.display()
+            ));
+            return Ok(None);
+        }
+        j
+    } else {
+        if let Ok(j) = Journal::load(&opts.journal) {
+            if j.state != "done" && j.plan_checksum == program.checksum {
+                obs.note(&format!(
+                    "an unfinished job of this plan is recorded in {} ({} of {} scratches); \
+                     starting over (to continue it instead: {})",
+                    opts.journal.display(),
+                    j.last_acked.map_or(0, |k| k + 1),
+                    j.total,
+                    opts.resume_command
+                ));
+            }
+        }
+        Journal {
+            plan: opts.plan.display().to_string(),
+            plan_checksum: program.checksum.clone(),
+            firmware: fw.into(),
+            total,
+            last_acked: None,
+            last_acked_scratch: None,
+            state: "running".into(),
+            message: String::new(),
+        }
+    }))
+}
+
+/// Opens the port, finds out which controller answers (refusing one of the other firmware than
+/// the plan's), and checks its settings against the plan and the machine profile.
+fn connect(opts: &Options, program: &Program, obs: &dyn Observer) -> Result<(Link, Box<dyn Controller>), CarveError> {
+    let fw = Program::firmware_name(program.firmware);
+    let mut link = Link::open(&opts.port, opts.baud).map_err(|e| match e {
+        LinkError::Open(m) if !std::path::Path::new(&opts.port).exists() => {
+            CarveError::Usage(format!("{m} (no such port: check --port)"))
+        }
+        e => CarveError::Stopped(e.to_string()),
+    })?;
+    let stopped = |m: String| CarveError::Stopped(m);
+    let mut ctl = crate::detect::detect(&mut link, opts.detect_timeout).map_err(|f| match f {
+        Fault::Input(m) | Fault::Machine(m) => stopped(m),
+    })?;
+    obs.note(&format!("{} answers on {}", ctl.describe(), opts.port));
+    if ctl.firmware() != program.firmware {
+        return Err(CarveError::Input(format!(
+            "{} was planned for {fw} (its first line), but {} answers on {}: plan it again with \
+             `scratchart-cal plan ... --machine {}`",
+            opts.plan.display(),
+            ctl.describe(),
+            opts.port,
+            Program::firmware_name(ctl.firmware())
+        )));
+    }
+    let fault = |f: Fault| match f {
+        Fault::Input(m) => CarveError::Input(m),
+        Fault::Machine(m) => CarveError::Stopped(m),
+    };
+    for n in ctl
+        .check_settings(&mut link, program, opts.profile.as_ref())
+        .map_err(fault)?
+    {
+        obs.note(&n);
+    }
+    Ok((link, ctl))
+}
+
+/// What the end of the stream means: None for a finished job (the controller idle), else the
+/// error to return, after the stop sequence where the job was aborted or refused (the journal
+/// says where it stands and how to resume).
+fn outcome(
+    end: End,
+    pending: usize,
+    link: &mut Link,
+    ctl: &mut dyn Controller,
+    journal: &mut Journal,
+    opts: &Options,
+    safe_z: f64,
+) -> Option<CarveError> {
+    let total = journal.total;
+    let where_ = |j: &Journal| {
+        format!(
+            "{} of {total} scratches acknowledged (journal {})",
+            j.last_acked.map_or(0, |k| k + 1),
+            opts.journal.display()
+        )
+    };
+    let resume_hint = format!("to continue: {}", opts.resume_command);
+    match end {
+        End::Done => match ctl.wait_idle(link) {
+            Ok(()) => None,
+            Err(f) => Some(CarveError::Stopped(format!("at the end of the job: {f:?}"))),
+        },
+        End::Abort => {
+            let did = ctl
+                .stop_and_raise(link, pending, safe_z, opts.emergency)
+                .unwrap_or_else(|f| format!("the stop sequence failed: {f:?}: stop the machine by hand"));
+            journal.state = "interrupted".into();
+            Some(CarveError::Interrupted(format!(
+                "interrupted: {did}; {}; {resume_hint}",
+                where_(journal)
+            )))
+        }
+        End::Refused(e) => {
+            let did = ctl
+                .stop_and_raise(link, pending, safe_z, false)
+                .unwrap_or_else(|f| format!("the stop sequence failed ({f:?}): stop the machine by hand"));
+            Some(CarveError::Stopped(format!(
+                "{} refused {e}; stopped: {did}; {}; {resume_hint}",
+                ctl.describe(),
+                where_(journal)
+            )))
+        }
+        End::Stopped(e) => Some(CarveError::Stopped(format!(
+            "the machine stopped the job: {e}; the tool may still be down: clear the cause, \
+             raise it, then {}; {}; {resume_hint}",
+            if ctl.firmware() == crate::plan::Firmware::Grbl {
+                "unlock ($X) or home ($H)"
+            } else {
+                "reset the printer"
+            },
+            where_(journal)
+        ))),
+        End::Lost(e) => Some(CarveError::Stopped(format!(
+            "{e}; {}; reconnect, then {resume_hint}",
+            where_(journal)
+        ))),
+        End::Input(e) => Some(CarveError::Input(e)),
     }
 }
 

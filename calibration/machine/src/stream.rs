@@ -78,6 +78,225 @@ const POLL: Duration = Duration::from_millis(200);
 /// How long a resend waits for the answers to lines sent before it.
 const RESEND_QUIET: Duration = Duration::from_millis(500);
 
+/// The sender's state while it streams (see [`stream`]).
+struct Sender<'a> {
+    lines: &'a [(String, Option<usize>)],
+    /// The controller's receive buffer, bytes.
+    window: usize,
+    /// The next line to send, and the bytes in the controller's buffer.
+    next: usize,
+    used: usize,
+    /// Lines sent and not yet answered, oldest first.
+    fl: VecDeque<Flight>,
+    /// A resend under way: the line asked for, and when the last answer came.
+    resend: Option<(usize, Instant)>,
+    /// The line last asked for again, and how many times in a row.
+    repeats: (usize, usize),
+    held: bool,
+    last_poll: Instant,
+    last_status: Instant,
+    last_rx: Instant,
+    /// The machine's state and position from its last status report.
+    state: String,
+    pos: Option<[f64; 3]>,
+}
+
+/// How a step of the sender ends the stream: how it ended and the lines still unanswered.
+type Ended = (End, usize);
+
+impl Sender<'_> {
+    fn lost(&self, e: impl std::fmt::Display) -> Ended {
+        (End::Lost(e.to_string()), self.fl.len())
+    }
+
+    /// Whether line `seq` is the last of its plan block.
+    fn last_of_block(&self, seq: usize) -> bool {
+        match self.lines[seq].1 {
+            Some(b) => self.lines.get(seq + 1).is_none_or(|n| n.1 != Some(b)),
+            None => false,
+        }
+    }
+
+    /// Ctrl-C, feed hold and resume, as `control` asks.
+    fn controls(
+        &mut self,
+        link: &mut Link,
+        ctl: &mut dyn Controller,
+        control: &Control,
+        obs: &dyn Observer,
+    ) -> Option<Ended> {
+        if control.abort.load(Ordering::SeqCst) {
+            return Some((End::Abort, self.fl.len()));
+        }
+        if control.hold.swap(false, Ordering::SeqCst) && !self.held {
+            if let Err(e) = ctl.hold(link) {
+                return Some(self.lost(format!("{e:?}")));
+            }
+            self.held = true;
+            obs.note("feed hold: the machine stops; resume with `~` (or `r`), abort with Ctrl-C");
+        }
+        if control.resume.swap(false, Ordering::SeqCst) && self.held {
+            if let Err(e) = ctl.resume(link) {
+                return Some(self.lost(format!("{e:?}")));
+            }
+            self.held = false;
+            obs.note("resumed");
+        }
+        None
+    }
+
+    /// Ends a resend once the lines sent before it are answered or given up on: lines the
+    /// controller threw away with its receive buffer get no answer.
+    fn settle_resend(&mut self) {
+        if let Some((_, t)) = self.resend {
+            if !self.fl.iter().any(|f| f.stale) || t.elapsed() > RESEND_QUIET {
+                let used = &mut self.used;
+                self.fl.retain(|f| {
+                    if f.stale {
+                        *used -= f.bytes;
+                    }
+                    !f.stale
+                });
+                self.resend = None;
+            }
+        }
+    }
+
+    /// Sends lines while they fit the controller's receive buffer.
+    fn fill(&mut self, link: &mut Link, ctl: &mut dyn Controller) -> Option<Ended> {
+        if self.held || self.resend.is_some() {
+            return None;
+        }
+        while self.next < self.lines.len() {
+            let bytes = ctl.frame(self.next, &self.lines[self.next].0);
+            if bytes.len() > self.window {
+                return Some((
+                    End::Input(format!(
+                        "`{}` takes {} bytes, more than the controller's {}-byte receive buffer",
+                        self.lines[self.next].0,
+                        bytes.len(),
+                        self.window
+                    )),
+                    self.fl.len(),
+                ));
+            }
+            if self.used + bytes.len() > self.window {
+                break;
+            }
+            if let Err(e) = link.send(&bytes) {
+                return Some(self.lost(e));
+            }
+            self.used += bytes.len();
+            self.fl.push_back(Flight {
+                seq: self.next,
+                bytes: bytes.len(),
+                stale: false,
+            });
+            self.next += 1;
+        }
+        None
+    }
+
+    /// Asks for the status every `POLL` (where the controller answers one), and gives up on a
+    /// controller that has been silent too long.
+    fn poll(&mut self, link: &mut Link, poll: Option<u8>) -> Option<Ended> {
+        if let Some(q) = poll {
+            if self.last_poll.elapsed() >= POLL {
+                if let Err(e) = link.send(&[q]) {
+                    return Some(self.lost(e));
+                }
+                self.last_poll = Instant::now();
+            }
+            if self.last_status.elapsed() > Duration::from_secs(10) && self.last_rx.elapsed() > Duration::from_secs(10)
+            {
+                return Some(self.lost(format!(
+                    "{} answered nothing, not even a status report, for 10 s",
+                    link.name()
+                )));
+            }
+        } else if self.last_rx.elapsed() > Duration::from_secs(120) && !self.fl.is_empty() {
+            return Some(self.lost(format!("{} answered nothing for 120 s", link.name())));
+        }
+        None
+    }
+
+    /// One line from the controller.
+    fn reply(
+        &mut self,
+        l: &str,
+        ctl: &mut dyn Controller,
+        obs: &dyn Observer,
+        acked: &mut dyn FnMut(usize, &str, Option<[f64; 3]>),
+    ) -> Option<Ended> {
+        match ctl.classify(l) {
+            Reply::Ok => {
+                let Some(f) = self.fl.pop_front() else {
+                    obs.note(&format!("an answer with no line waiting for it: `{l}`"));
+                    return None;
+                };
+                self.used -= f.bytes;
+                if let Some(r) = self.resend.as_mut() {
+                    r.1 = Instant::now();
+                }
+                if !f.stale && self.last_of_block(f.seq) {
+                    acked(self.lines[f.seq].1.unwrap(), &self.state, self.pos);
+                }
+            }
+            Reply::Error(e) => {
+                let what = match self.fl.pop_front() {
+                    Some(f) => format!("`{}`: {e}", self.lines[f.seq].0),
+                    None => e,
+                };
+                return Some((End::Refused(what), self.fl.len()));
+            }
+            Reply::Stopped(e) => return Some((End::Stopped(e), self.fl.len())),
+            Reply::Resend(n) => return self.resend_from(n, ctl, obs),
+            Reply::Status(s) => {
+                self.last_status = Instant::now();
+                if s.state.starts_with("Alarm") {
+                    return Some((End::Stopped(format!("the controller is in {}", s.state)), self.fl.len()));
+                }
+                self.state = s.state;
+                self.pos = s.pos.or(self.pos);
+            }
+            Reply::Info(m) => obs.note(&m),
+            Reply::Ignore => {}
+        }
+        None
+    }
+
+    /// The controller asks for line `n` again: every line in flight becomes stale and sending
+    /// starts again from it (a repeated request for the line being resent is ignored; more
+    /// than 10 in a row for one line is a link too noisy to carve over).
+    fn resend_from(&mut self, n: u64, ctl: &mut dyn Controller, obs: &dyn Observer) -> Option<Ended> {
+        let Some(idx) = ctl.resend_index(n).filter(|&i| i < self.next) else {
+            obs.note(&format!("ignored a request for line {n}, which was never sent"));
+            return None;
+        };
+        let pending = self.resend.is_some_and(|r| r.0 == idx) || self.fl.iter().any(|f| !f.stale && f.seq == idx);
+        if pending {
+            return None;
+        }
+        self.repeats = if self.repeats.0 == idx {
+            (idx, self.repeats.1 + 1)
+        } else {
+            (idx, 1)
+        };
+        if self.repeats.1 > 10 {
+            return Some(self.lost(format!(
+                "line {n} was asked for again {} times: the link is too noisy",
+                self.repeats.1
+            )));
+        }
+        for f in self.fl.iter_mut() {
+            f.stale = true;
+        }
+        self.next = idx;
+        self.resend = Some((idx, Instant::now()));
+        None
+    }
+}
+
 /// Streams `lines` (each with the plan block it belongs to). `acked(block, progress_state)` is
 /// called when the last line of a block is acknowledged. Returns how it ended and how many
 /// lines were still unanswered.
@@ -89,174 +308,45 @@ pub fn stream(
     obs: &dyn Observer,
     acked: &mut dyn FnMut(usize, &str, Option<[f64; 3]>),
 ) -> (End, usize) {
-    let window = ctl.window();
-    let (mut next, mut used) = (0usize, 0usize);
-    let mut fl: VecDeque<Flight> = VecDeque::new();
-    let mut resend: Option<(usize, Instant)> = None;
-    let mut repeats = (usize::MAX, 0usize);
-    let mut held = false;
-    let poll = ctl.status_request();
-    let mut last_poll = Instant::now() - POLL;
-    let mut last_status = Instant::now();
-    let mut last_rx = Instant::now();
-    let (mut state, mut pos) = (String::from("Run"), None);
-    let last_of_block = |seq: usize| match lines[seq].1 {
-        Some(b) => lines.get(seq + 1).is_none_or(|n| n.1 != Some(b)),
-        None => false,
+    let now = Instant::now();
+    let mut tx = Sender {
+        lines,
+        window: ctl.window(),
+        next: 0,
+        used: 0,
+        fl: VecDeque::new(),
+        resend: None,
+        repeats: (usize::MAX, 0),
+        held: false,
+        last_poll: now - POLL,
+        last_status: now,
+        last_rx: now,
+        state: String::from("Run"),
+        pos: None,
     };
-    macro_rules! link_try {
-        ($e:expr) => {
-            match $e {
-                Ok(v) => v,
-                Err(e) => return (End::Lost(e.to_string()), fl.len()),
-            }
-        };
-    }
+    let poll = ctl.status_request();
     loop {
-        if control.abort.load(Ordering::SeqCst) {
-            return (End::Abort, fl.len());
+        if let Some(end) = tx.controls(link, ctl, control, obs) {
+            return end;
         }
-        if control.hold.swap(false, Ordering::SeqCst) && !held {
-            if let Err(e) = ctl.hold(link) {
-                return (End::Lost(format!("{e:?}")), fl.len());
-            }
-            held = true;
-            obs.note("feed hold: the machine stops; resume with `~` (or `r`), abort with Ctrl-C");
+        tx.settle_resend();
+        if let Some(end) = tx.fill(link, ctl) {
+            return end;
         }
-        if control.resume.swap(false, Ordering::SeqCst) && held {
-            if let Err(e) = ctl.resume(link) {
-                return (End::Lost(format!("{e:?}")), fl.len());
-            }
-            held = false;
-            obs.note("resumed");
-        }
-        if let Some((_, t)) = resend {
-            if !fl.iter().any(|f| f.stale) || t.elapsed() > RESEND_QUIET {
-                // Lines the controller threw away with its receive buffer get no answer.
-                fl.retain(|f| {
-                    if f.stale {
-                        used -= f.bytes;
-                    }
-                    !f.stale
-                });
-                resend = None;
-            }
-        }
-        if !held && resend.is_none() {
-            while next < lines.len() {
-                let bytes = ctl.frame(next, &lines[next].0);
-                if bytes.len() > window {
-                    return (
-                        End::Input(format!(
-                            "`{}` takes {} bytes, more than the controller's {window}-byte receive buffer",
-                            lines[next].0,
-                            bytes.len()
-                        )),
-                        fl.len(),
-                    );
-                }
-                if used + bytes.len() > window {
-                    break;
-                }
-                link_try!(link.send(&bytes));
-                used += bytes.len();
-                fl.push_back(Flight {
-                    seq: next,
-                    bytes: bytes.len(),
-                    stale: false,
-                });
-                next += 1;
-            }
-        }
-        if next == lines.len() && fl.is_empty() {
+        if tx.next == lines.len() && tx.fl.is_empty() {
             return (End::Done, 0);
         }
-        if let Some(q) = poll {
-            if last_poll.elapsed() >= POLL {
-                link_try!(link.send(&[q]));
-                last_poll = Instant::now();
-            }
-            if last_status.elapsed() > Duration::from_secs(10) && last_rx.elapsed() > Duration::from_secs(10) {
-                return (
-                    End::Lost(format!(
-                        "{} answered nothing, not even a status report, for 10 s",
-                        link.name()
-                    )),
-                    fl.len(),
-                );
-            }
-        } else if last_rx.elapsed() > Duration::from_secs(120) && !fl.is_empty() {
-            return (
-                End::Lost(format!("{} answered nothing for 120 s", link.name())),
-                fl.len(),
-            );
+        if let Some(end) = tx.poll(link, poll) {
+            return end;
         }
-        let Some(l) = link_try!(link.line(Duration::from_millis(10))) else {
-            continue;
+        let l = match link.line(Duration::from_millis(10)) {
+            Ok(Some(l)) => l,
+            Ok(None) => continue,
+            Err(e) => return tx.lost(e),
         };
-        last_rx = Instant::now();
-        match ctl.classify(&l) {
-            Reply::Ok => {
-                let Some(f) = fl.pop_front() else {
-                    obs.note(&format!("an answer with no line waiting for it: `{l}`"));
-                    continue;
-                };
-                used -= f.bytes;
-                if let Some(r) = resend.as_mut() {
-                    r.1 = Instant::now();
-                }
-                if !f.stale && last_of_block(f.seq) {
-                    acked(lines[f.seq].1.unwrap(), &state, pos);
-                }
-            }
-            Reply::Error(e) => {
-                let what = match fl.pop_front() {
-                    Some(f) => format!("`{}`: {e}", lines[f.seq].0),
-                    None => e,
-                };
-                return (End::Refused(what), fl.len());
-            }
-            Reply::Stopped(e) => return (End::Stopped(e), fl.len()),
-            Reply::Resend(n) => {
-                let Some(idx) = ctl.resend_index(n).filter(|&i| i < next) else {
-                    obs.note(&format!("ignored a request for line {n}, which was never sent"));
-                    continue;
-                };
-                // A repeated request for the line already being resent is ignored.
-                let pending = resend.is_some_and(|r| r.0 == idx) || fl.iter().any(|f| !f.stale && f.seq == idx);
-                if pending {
-                    continue;
-                }
-                repeats = if repeats.0 == idx {
-                    (idx, repeats.1 + 1)
-                } else {
-                    (idx, 1)
-                };
-                if repeats.1 > 10 {
-                    return (
-                        End::Lost(format!(
-                            "line {n} was asked for again {} times: the link is too noisy",
-                            repeats.1
-                        )),
-                        fl.len(),
-                    );
-                }
-                for f in fl.iter_mut() {
-                    f.stale = true;
-                }
-                next = idx;
-                resend = Some((idx, Instant::now()));
-            }
-            Reply::Status(s) => {
-                last_status = Instant::now();
-                if s.state.starts_with("Alarm") {
-                    return (End::Stopped(format!("the controller is in {}", s.state)), fl.len());
-                }
-                state = s.state;
-                pos = s.pos.or(pos);
-            }
-            Reply::Info(m) => obs.note(&m),
-            Reply::Ignore => {}
+        tx.last_rx = Instant::now();
+        if let Some(end) = tx.reply(&l, ctl, obs, acked) {
+            return end;
         }
     }
 }

@@ -87,74 +87,14 @@ pub(super) fn at_optimum(
             solve_spd(&reduced, &e)
         })
         .collect();
-    // The model's own error: the fit renders at SUPERSAMPLE times the photos' resolution, which
-    // is not the camera's continuous optics. The shift of the parameters that the residual
-    // change to a render at twice that resolution asks for, A^-1 J^T W (r_fine - r), is added in
-    // quadrature to each standard deviation (it is a bias no pixel noise shows).
-    let model_shift: Option<Vec<f64>> = {
-        ev.ss = 2 * SUPERSAMPLE;
-        ev.gs = None;
-        let fine = ev.eval(x);
-        ev.ss = SUPERSAMPLE;
-        ev.gs = None;
-        let (rf, _) = fine?;
-        let shift: Vec<f64> = rf.iter().zip(&r).map(|(a, b)| a - b).collect();
-        solve_spd(
-            &reduced,
-            &weighted_gradient(seen.iter().map(|&p| &cols[p]), &shift, &wts),
-        )
+    let normal = Normal {
+        a: &reduced,
+        seen: &seen,
+        cols: &cols,
+        wts: &wts,
     };
-    // What the photo's own degradations do to the fit beyond the noise the sandwich sees: the
-    // model image at the optimum, given the photo's noise, clipped to black and white, stepped to
-    // 8 bits and (a JPEG on its own grid) through the same JPEG, four times; the mean parameter
-    // shift A^-1 J^T W (degraded - model) is a bias of these steps (noise clipped at black lifts
-    // a dark plate; JPEG's quantization of a noisy groove is not JPEG's quantization of the
-    // groove), added in quadrature like the model's own error (it also holds half the noise's
-    // own spread over four draws: the sum errs large).
-    let degrade_shift: Option<Vec<f64>> = {
-        let lin = ev.render(x)?;
-        let pred = ev.predict(&lin, x);
-        let base = ev.residuals(&pred);
-        let mut rng = scratchart::scenes::Rng::new(0x5eed);
-        let reps = 4;
-        let mut mean = vec![0.0; ns];
-        let mut ok = true;
-        for _ in 0..reps {
-            let deg: Vec<Vec<f32>> = pred
-                .iter()
-                .enumerate()
-                .map(|(v, img)| {
-                    let sigma = data.noise.get(v).copied().unwrap_or(0.0);
-                    let noisy: Vec<f32> = img
-                        .iter()
-                        .map(|&m| (((m as f64 + sigma * rng.normal()).clamp(0.0, 1.0) * 255.0).round() / 255.0) as f32)
-                        .collect();
-                    match data.jpeg.get(v).copied().flatten() {
-                        // Against the model with its JPEG change (what the fit compares).
-                        Some(q) => {
-                            let c = &data.capture.views[v].camera;
-                            let back = crate::photo::jpeg_round_trip(&noisy, c.width, c.height, q);
-                            match &ev.jpeg_shift[v] {
-                                Some(sh) => back.iter().zip(sh).map(|(b, s)| b - s).collect(),
-                                None => back,
-                            }
-                        }
-                        None => noisy,
-                    }
-                })
-                .collect();
-            let rd = ev.residuals(&deg);
-            let shift: Vec<f64> = base.iter().zip(&rd).map(|(b, a)| b - a).collect();
-            match solve_spd(
-                &reduced,
-                &weighted_gradient(seen.iter().map(|&p| &cols[p]), &shift, &wts),
-            ) {
-                Some(d) => mean.iter_mut().zip(&d).for_each(|(m, d)| *m += d / reps as f64),
-                None => ok = false,
-            }
-        }
-        ok.then_some(mean)
-    };
+    let model_shift = model_shift(ev, x, &r, &normal)?;
+    let degrade_shift = degrade_shift(ev, data, x, &normal)?;
     // What the photos say each on its own: a bias that one photo's degradations bring (clipped
     // noise averaged by a shrink, JPEG, blur the model does not follow) moves that photo's answer
     // and not the other's, and the joint fit sits between them with a spread no pixel noise
@@ -225,6 +165,90 @@ pub(super) fn at_optimum(
         unseen,
         residuals: r,
     })
+}
+
+/// The normal equations at the optimum over the parameters the photos see: A (`a`, over
+/// `seen`), the Jacobian's columns and the robust weights.
+struct Normal<'a> {
+    a: &'a [Vec<f64>],
+    seen: &'a [usize],
+    cols: &'a [Vec<f64>],
+    wts: &'a [f64],
+}
+
+impl Normal<'_> {
+    /// The parameter shift A^-1 J^T W e that a change `e` of the residuals asks for (over
+    /// `seen`); None where A is singular.
+    fn step(&self, e: &[f64]) -> Option<Vec<f64>> {
+        solve_spd(
+            self.a,
+            &weighted_gradient(self.seen.iter().map(|&p| &self.cols[p]), e, self.wts),
+        )
+    }
+}
+
+/// The model's own error: the fit renders at SUPERSAMPLE times the photos' resolution, which
+/// is not the camera's continuous optics. The shift of the parameters that the residual
+/// change to a render at twice that resolution asks for, A^-1 J^T W (r_fine - r), is added in
+/// quadrature to each standard deviation (it is a bias no pixel noise shows).
+fn model_shift(ev: &mut Evaluator, x: &[f64], r: &[f64], normal: &Normal) -> Result<Option<Vec<f64>>, FitError> {
+    ev.ss = 2 * SUPERSAMPLE;
+    ev.gs = None;
+    let fine = ev.eval(x);
+    ev.ss = SUPERSAMPLE;
+    ev.gs = None;
+    let (rf, _) = fine?;
+    let shift: Vec<f64> = rf.iter().zip(r).map(|(a, b)| a - b).collect();
+    Ok(normal.step(&shift))
+}
+
+/// What the photo's own degradations do to the fit beyond the noise the sandwich sees: the
+/// model image at the optimum, given the photo's noise, clipped to black and white, stepped to
+/// 8 bits and (a JPEG on its own grid) through the same JPEG, four times; the mean parameter
+/// shift A^-1 J^T W (degraded - model) is a bias of these steps (noise clipped at black lifts
+/// a dark plate; JPEG's quantization of a noisy groove is not JPEG's quantization of the
+/// groove), added in quadrature like the model's own error (it also holds half the noise's
+/// own spread over four draws: the sum errs large).
+fn degrade_shift(ev: &mut Evaluator, data: &Data, x: &[f64], normal: &Normal) -> Result<Option<Vec<f64>>, FitError> {
+    let lin = ev.render(x)?;
+    let pred = ev.predict(&lin, x);
+    let base = ev.residuals(&pred);
+    let mut rng = scratchart::scenes::Rng::new(0x5eed);
+    let reps = 4;
+    let mut mean = vec![0.0; normal.seen.len()];
+    let mut ok = true;
+    for _ in 0..reps {
+        let deg: Vec<Vec<f32>> = pred
+            .iter()
+            .enumerate()
+            .map(|(v, img)| {
+                let sigma = data.noise.get(v).copied().unwrap_or(0.0);
+                let noisy: Vec<f32> = img
+                    .iter()
+                    .map(|&m| (((m as f64 + sigma * rng.normal()).clamp(0.0, 1.0) * 255.0).round() / 255.0) as f32)
+                    .collect();
+                match data.jpeg.get(v).copied().flatten() {
+                    // Against the model with its JPEG change (what the fit compares).
+                    Some(q) => {
+                        let c = &data.capture.views[v].camera;
+                        let back = crate::photo::jpeg_round_trip(&noisy, c.width, c.height, q);
+                        match &ev.jpeg_shift[v] {
+                            Some(sh) => back.iter().zip(sh).map(|(b, s)| b - s).collect(),
+                            None => back,
+                        }
+                    }
+                    None => noisy,
+                }
+            })
+            .collect();
+        let rd = ev.residuals(&deg);
+        let shift: Vec<f64> = base.iter().zip(&rd).map(|(b, a)| b - a).collect();
+        match normal.step(&shift) {
+            Some(d) => mean.iter_mut().zip(&d).for_each(|(m, d)| *m += d / reps as f64),
+            None => ok = false,
+        }
+    }
+    Ok(ok.then_some(mean))
 }
 
 /// Bootstrap uncertainties: `reps` refits from the optimum `x` (6 iterations each), every one

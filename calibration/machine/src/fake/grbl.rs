@@ -90,11 +90,14 @@ impl FakeGrbl {
         record.lock().unwrap().disconnected = false;
         let (mut w, path) = open_wire(cfg.rx_size - 1, record.clone())?;
         Ok(spawn(path, record.clone(), move |stop| {
-            let mut st = if cfg.start_in_alarm { St::Alarm } else { St::Idle };
-            let mut pos = record.lock().unwrap().pos;
-            let (mut gcode_lines, mut motions) = (0usize, 0usize);
-            let mut busy_until = Instant::now();
-            let mut check_prev = St::Idle;
+            let mut m = Machine {
+                st: if cfg.start_in_alarm { St::Alarm } else { St::Idle },
+                pos: record.lock().unwrap().pos,
+                gcode_lines: 0,
+                motions: 0,
+                busy_until: Instant::now(),
+                check_prev: St::Idle,
+            };
             while !stop.load(Ordering::SeqCst) {
                 let mut realtime = Vec::new();
                 w.pump(|b| {
@@ -104,163 +107,204 @@ impl FakeGrbl {
                     }
                     rt
                 });
-                let moving = Instant::now() < busy_until || w.rx.contains(&b'\n');
+                let moving = Instant::now() < m.busy_until || w.rx.contains(&b'\n');
                 for b in realtime {
-                    match b {
-                        b'?' => {
-                            let name = match st {
-                                St::Idle if moving => "Run".to_string(),
-                                St::Idle => "Idle".into(),
-                                St::Hold1(_) => "Hold:1".into(),
-                                St::Hold0 => "Hold:0".into(),
-                                St::Alarm => "Alarm".into(),
-                                St::Check => "Check".into(),
-                            };
-                            w.say(&format!(
-                                "<{name}|MPos:{:.3},{:.3},{:.3}|FS:0,0|WCO:0.000,0.000,0.000>\r\n",
-                                pos[0], pos[1], pos[2]
-                            ));
-                        }
-                        b'!' if st == St::Idle => {
-                            st = St::Hold1(Instant::now());
-                            w.record.lock().unwrap().holds += 1;
-                        }
-                        b'~' if matches!(st, St::Hold0 | St::Hold1(_)) => {
-                            st = St::Idle;
-                            w.record.lock().unwrap().resumes += 1;
-                        }
-                        0x18 => {
-                            w.rx.clear();
-                            w.record.lock().unwrap().resets += 1;
-                            let in_motion = st == St::Idle && moving;
-                            w.say(BANNER);
-                            st = if in_motion || st == St::Alarm {
-                                w.say("[MSG:'$H'|'$X' to unlock]\r\n");
-                                if in_motion {
-                                    w.say("ALARM:3\r\n");
-                                }
-                                St::Alarm
-                            } else {
-                                St::Idle
-                            };
-                            busy_until = Instant::now();
-                        }
-                        _ => {}
-                    }
+                    m.realtime(&mut w, b, moving);
                 }
-                if let St::Hold1(t) = st {
+                if let St::Hold1(t) = m.st {
                     if t.elapsed() >= cfg.hold_decel {
-                        st = St::Hold0;
+                        m.st = St::Hold0;
                     }
                 }
-                if matches!(st, St::Hold0 | St::Hold1(_)) || Instant::now() < busy_until {
+                if matches!(m.st, St::Hold0 | St::Hold1(_)) || Instant::now() < m.busy_until {
                     continue;
                 }
                 let Some(line) = w.take_line() else { continue };
                 let line = line.trim().to_string();
-                busy_until = Instant::now() + cfg.line_delay;
+                m.busy_until = Instant::now() + cfg.line_delay;
                 if line.is_empty() {
                     w.say("ok\r\n");
-                    continue;
-                }
-                if let Some(cmd) = line.strip_prefix('$') {
-                    match cmd {
-                        "I" => w.say("[VER:1.1h.20190825:]\r\n[OPT:V,15,128]\r\nok\r\n"),
-                        "$" => {
-                            let mut s = String::new();
-                            for (k, v) in &cfg.settings {
-                                s.push_str(&format!("${k}={v}\r\n"));
-                            }
-                            w.say(&s);
-                            w.say("ok\r\n");
-                        }
-                        "X" => {
-                            if st == St::Alarm {
-                                st = St::Idle;
-                                w.say("[MSG:Caution: Unlocked]\r\n");
-                            }
-                            w.say("ok\r\n");
-                        }
-                        "H" => {
-                            st = St::Idle;
-                            pos = [0.0, 0.0, 0.0];
-                            w.say("ok\r\n");
-                        }
-                        "C" => {
-                            if st == St::Check {
-                                w.say("[MSG:Disabled]\r\nok\r\n");
-                                w.say(BANNER);
-                                w.rx.clear();
-                                st = check_prev;
-                            } else if st == St::Alarm {
-                                w.say("error:8\r\n");
-                            } else {
-                                check_prev = st;
-                                st = St::Check;
-                                w.say("[MSG:Enabled]\r\nok\r\n");
-                            }
-                        }
-                        "#" => {
-                            w.say("[G54:0.000,0.000,0.000]\r\n[G92:0.000,0.000,0.000]\r\nok\r\n");
-                        }
-                        _ => w.say("ok\r\n"),
-                    }
-                    continue;
-                }
-                if line.starts_with('M') && line.starts_with("M115") {
-                    w.say("error:20\r\n");
-                    continue;
-                }
-                if st == St::Alarm {
-                    w.say("error:9\r\n");
-                    continue;
-                }
-                gcode_lines += 1;
-                if cfg.error_at.is_some_and(|(n, _)| n == gcode_lines) {
-                    w.say(&format!("error:{}\r\n", cfg.error_at.unwrap().1));
-                    continue;
-                }
-                if st == St::Check {
-                    w.record.lock().unwrap().checked.push(line.clone());
-                    w.say("ok\r\n");
-                    continue;
-                }
-                if line.starts_with("G38.2") {
-                    let target = word(&line, 'Z').unwrap_or(pos[2]);
-                    let contact = cfg.plane.map(|p| p.at(pos[0], pos[1]));
-                    match contact {
-                        Some(z) if z <= pos[2] && z >= target => {
-                            pos[2] = z;
-                            w.record.lock().unwrap().probes.push(pos);
-                            w.say(&format!("[PRB:{:.3},{:.3},{:.4}:1]\r\nok\r\n", pos[0], pos[1], pos[2]));
-                        }
-                        _ => {
-                            st = St::Alarm;
-                            w.say("ALARM:5\r\n");
-                        }
-                    }
-                    continue;
-                }
-                let motion = apply_motion(&line, &mut pos);
-                w.say("ok\r\n");
-                if motion {
-                    motions += 1;
-                    let mut r = w.record.lock().unwrap();
-                    r.executed.push(line.clone());
-                    r.pos = pos;
-                }
-                if let Some((n, code)) = cfg.alarm_after {
-                    if motion && n == motions {
-                        st = St::Alarm;
-                        w.rx.clear();
-                        w.say(&format!("ALARM:{code}\r\n"));
-                    }
-                }
-                if cfg.disconnect_after == Some(motions) && motion {
+                } else if let Some(cmd) = line.strip_prefix('$') {
+                    m.dollar(&mut w, cmd, &cfg);
+                } else if m.gcode(&mut w, &line, &cfg) == Next::Disconnect {
                     w.record.lock().unwrap().disconnected = true;
                     return; // dropping the wire closes both ends of the pty
                 }
             }
         }))
+    }
+}
+
+/// What the fake does after a line of G-code.
+#[derive(PartialEq)]
+enum Next {
+    Go,
+    Disconnect,
+}
+
+/// The fake machine's state between lines.
+struct Machine {
+    st: St,
+    pos: [f64; 3],
+    /// G-code lines and motions executed so far (for `error_at`, `alarm_after`,
+    /// `disconnect_after`).
+    gcode_lines: usize,
+    motions: usize,
+    /// Until when the last line keeps the machine busy.
+    busy_until: Instant,
+    /// The state to return to when check mode ends.
+    check_prev: St,
+}
+
+impl Machine {
+    /// A real-time byte: `?` status, `!` feed hold, `~` resume, Ctrl-X soft reset.
+    fn realtime(&mut self, w: &mut super::Wire, b: u8, moving: bool) {
+        let pos = self.pos;
+        match b {
+            b'?' => {
+                let name = match self.st {
+                    St::Idle if moving => "Run".to_string(),
+                    St::Idle => "Idle".into(),
+                    St::Hold1(_) => "Hold:1".into(),
+                    St::Hold0 => "Hold:0".into(),
+                    St::Alarm => "Alarm".into(),
+                    St::Check => "Check".into(),
+                };
+                w.say(&format!(
+                    "<{name}|MPos:{:.3},{:.3},{:.3}|FS:0,0|WCO:0.000,0.000,0.000>\r\n",
+                    pos[0], pos[1], pos[2]
+                ));
+            }
+            b'!' if self.st == St::Idle => {
+                self.st = St::Hold1(Instant::now());
+                w.record.lock().unwrap().holds += 1;
+            }
+            b'~' if matches!(self.st, St::Hold0 | St::Hold1(_)) => {
+                self.st = St::Idle;
+                w.record.lock().unwrap().resumes += 1;
+            }
+            0x18 => {
+                w.rx.clear();
+                w.record.lock().unwrap().resets += 1;
+                let in_motion = self.st == St::Idle && moving;
+                w.say(BANNER);
+                self.st = if in_motion || self.st == St::Alarm {
+                    w.say("[MSG:'$H'|'$X' to unlock]\r\n");
+                    if in_motion {
+                        w.say("ALARM:3\r\n");
+                    }
+                    St::Alarm
+                } else {
+                    St::Idle
+                };
+                self.busy_until = Instant::now();
+            }
+            _ => {}
+        }
+    }
+
+    /// A `$` command (without its `$`).
+    fn dollar(&mut self, w: &mut super::Wire, cmd: &str, cfg: &GrblConfig) {
+        match cmd {
+            "I" => w.say("[VER:1.1h.20190825:]\r\n[OPT:V,15,128]\r\nok\r\n"),
+            "$" => {
+                let mut s = String::new();
+                for (k, v) in &cfg.settings {
+                    s.push_str(&format!("${k}={v}\r\n"));
+                }
+                w.say(&s);
+                w.say("ok\r\n");
+            }
+            "X" => {
+                if self.st == St::Alarm {
+                    self.st = St::Idle;
+                    w.say("[MSG:Caution: Unlocked]\r\n");
+                }
+                w.say("ok\r\n");
+            }
+            "H" => {
+                self.st = St::Idle;
+                self.pos = [0.0, 0.0, 0.0];
+                w.say("ok\r\n");
+            }
+            "C" => {
+                if self.st == St::Check {
+                    w.say("[MSG:Disabled]\r\nok\r\n");
+                    w.say(BANNER);
+                    w.rx.clear();
+                    self.st = self.check_prev;
+                } else if self.st == St::Alarm {
+                    w.say("error:8\r\n");
+                } else {
+                    self.check_prev = self.st;
+                    self.st = St::Check;
+                    w.say("[MSG:Enabled]\r\nok\r\n");
+                }
+            }
+            "#" => {
+                w.say("[G54:0.000,0.000,0.000]\r\n[G92:0.000,0.000,0.000]\r\nok\r\n");
+            }
+            _ => w.say("ok\r\n"),
+        }
+    }
+
+    /// A line of G-code (or a Marlin command, which GRBL refuses).
+    fn gcode(&mut self, w: &mut super::Wire, line: &str, cfg: &GrblConfig) -> Next {
+        if line.starts_with('M') && line.starts_with("M115") {
+            w.say("error:20\r\n");
+            return Next::Go;
+        }
+        if self.st == St::Alarm {
+            w.say("error:9\r\n");
+            return Next::Go;
+        }
+        self.gcode_lines += 1;
+        if cfg.error_at.is_some_and(|(n, _)| n == self.gcode_lines) {
+            w.say(&format!("error:{}\r\n", cfg.error_at.unwrap().1));
+            return Next::Go;
+        }
+        if self.st == St::Check {
+            w.record.lock().unwrap().checked.push(line.to_string());
+            w.say("ok\r\n");
+            return Next::Go;
+        }
+        if line.starts_with("G38.2") {
+            let target = word(line, 'Z').unwrap_or(self.pos[2]);
+            let contact = cfg.plane.map(|p| p.at(self.pos[0], self.pos[1]));
+            match contact {
+                Some(z) if z <= self.pos[2] && z >= target => {
+                    self.pos[2] = z;
+                    w.record.lock().unwrap().probes.push(self.pos);
+                    w.say(&format!(
+                        "[PRB:{:.3},{:.3},{:.4}:1]\r\nok\r\n",
+                        self.pos[0], self.pos[1], self.pos[2]
+                    ));
+                }
+                _ => {
+                    self.st = St::Alarm;
+                    w.say("ALARM:5\r\n");
+                }
+            }
+            return Next::Go;
+        }
+        let motion = apply_motion(line, &mut self.pos);
+        w.say("ok\r\n");
+        if motion {
+            self.motions += 1;
+            let mut r = w.record.lock().unwrap();
+            r.executed.push(line.to_string());
+            r.pos = self.pos;
+        }
+        if let Some((n, code)) = cfg.alarm_after {
+            if motion && n == self.motions {
+                self.st = St::Alarm;
+                w.rx.clear();
+                w.say(&format!("ALARM:{code}\r\n"));
+            }
+        }
+        if cfg.disconnect_after == Some(self.motions) && motion {
+            return Next::Disconnect;
+        }
+        Next::Go
     }
 }
