@@ -36,15 +36,7 @@ pub struct SetupInfo {
 impl SetupInfo {
     pub fn of(scene: &Scene) -> SetupInfo {
         // One lamp per distinct light, named after its first view, as on the set-up sheet.
-        let mut lamps: Vec<(String, LightKind, f64)> = Vec::new();
-        for v in &scene.views {
-            if !lamps
-                .iter()
-                .any(|(_, k, i)| *k == v.light.kind && *i == v.light.intensity)
-            {
-                lamps.push((v.name.clone(), v.light.kind.clone(), v.light.intensity));
-            }
-        }
+        let lamps = scene.lamps();
         let single = lamps.len() == 1;
         let mut points: Vec<Point> = lamps
             .into_iter()

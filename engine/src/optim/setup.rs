@@ -267,15 +267,7 @@ pub fn setup_text(scene: &Scene, base: &[f64], rows: &[Moved]) -> String {
     };
     let _ = writeln!(t, "The {edge} edge faces the first viewer ({}).", scene.views[0].name);
     let _ = writeln!(t);
-    let mut lights: Vec<(String, LightKind, f64)> = Vec::new();
-    for v in &scene.views {
-        if !lights
-            .iter()
-            .any(|(_, k, i)| *k == v.light.kind && *i == v.light.intensity)
-        {
-            lights.push((v.name.clone(), v.light.kind.clone(), v.light.intensity));
-        }
-    }
+    let lights = scene.lamps();
     for (name, kind, _) in &lights {
         let head = if lights.len() == 1 {
             "Lamp".to_string()

@@ -87,6 +87,24 @@ pub struct Scene {
     pub scratches: Vec<Scratch>,
 }
 
+impl Scene {
+    /// The lamps a maker sets up: one per distinct light of the views (its kind, place and
+    /// intensity), in view order, each named after the first view it lights, with its kind and
+    /// intensity. The set-up sheet and the viewer's overlay both list these.
+    pub fn lamps(&self) -> Vec<(String, LightKind, f64)> {
+        let mut lamps: Vec<(String, LightKind, f64)> = Vec::new();
+        for v in &self.views {
+            if !lamps
+                .iter()
+                .any(|(_, k, i)| *k == v.light.kind && *i == v.light.intensity)
+            {
+                lamps.push((v.name.clone(), v.light.kind.clone(), v.light.intensity));
+            }
+        }
+        lamps
+    }
+}
+
 /// A scene could not be read, validated or written.
 #[derive(Debug, thiserror::Error)]
 pub enum SceneError {
