@@ -157,9 +157,8 @@ fn light_regimes(res: u32, more: usize) -> Vec<Regime> {
     let plate = REGIME_PLATE_MM;
     let fp = 1.5 * plate / res as f64; // rough footprint size, mm
     let any = std::f64::consts::PI;
-    let mk = regime;
     vec![
-        mk(
+        regime(
             "moderate",
             "alpha 0.03 to 0.3, eye and lamp 45 degrees up",
             11,
@@ -179,7 +178,7 @@ fn light_regimes(res: u32, more: usize) -> Vec<Regime> {
                 )
             },
         ),
-        mk(
+        regime(
             "sharp",
             "alpha 1e-3 to 3e-3",
             12,
@@ -199,14 +198,14 @@ fn light_regimes(res: u32, more: usize) -> Vec<Regime> {
                 )
             },
         ),
-        mk(
+        regime(
             "wide",
             "alpha 0.2 to 0.3",
             13,
             view("v", res, plate, 45.0, 0.0, 45.0, 120.0, None),
             &|r| scratches(r, 300 * more, plate, 0.0, any, 1.0, 6.0, 0.4 * fp, 0.3 * fp, [0.2, 0.3]),
         ),
-        mk(
+        regime(
             "grazing",
             "eye and lamp 5 degrees above the plate",
             14,
@@ -235,9 +234,8 @@ fn geometry_regimes(res: u32, more: usize) -> Vec<Regime> {
     let plate = REGIME_PLATE_MM;
     let fp = 1.5 * plate / res as f64; // rough footprint size, mm
     let any = std::f64::consts::PI;
-    let mk = regime;
     vec![
-        mk(
+        regime(
             "small-footprint",
             "footprint about 1/8 of the scratch width",
             15,
@@ -257,7 +255,7 @@ fn geometry_regimes(res: u32, more: usize) -> Vec<Regime> {
                 )
             },
         ),
-        mk(
+        regime(
             "large-footprint",
             "footprint about 25 times the scratch width",
             16,
@@ -277,7 +275,7 @@ fn geometry_regimes(res: u32, more: usize) -> Vec<Regime> {
                 )
             },
         ),
-        mk(
+        regime(
             "along-axis",
             "half vector within 10 degrees of the scratch axis",
             17,
@@ -297,7 +295,7 @@ fn geometry_regimes(res: u32, more: usize) -> Vec<Regime> {
                 )
             },
         ),
-        mk(
+        regime(
             "dense",
             "about 30 scratches per footprint",
             18,
