@@ -10,22 +10,11 @@
 #include "inc/patch_ndf.glsl"
 
 layout(local_size_x = 16, local_size_y = 16) in;
-layout(std430, binding = 0) readonly buffer Views { ViewGPU views[]; };
-// Bindings 1, 7 and 8 (scratches, float64 cameras, lights) are in every shading kernel's binding
-// list (engine/src/render) but read only by the records passes before it (scratch_records.comp,
-// pixel_records.comp): this kernel reads their records (inc/scratch_records.glsl).
-layout(std430, binding = 2) readonly buffer Offsets { uint offs[]; };  // scanned hist, n_tiles * n_groups + 1
-layout(std430, binding = 3) readonly buffer List { uint list[]; };
-layout(std430, binding = 4) writeonly buffer Image { float img[]; };  // L of every view, concatenated
-layout(std430, binding = 5) buffer Stats { uint stats[]; };            // render counters and flags (inc/limits.glsl)
-layout(std430, binding = 6) writeonly buffer Coverage { float cov_raw[]; };  // sum_k area(F ∩ R_k) / S_P, for the backward pass
-// Per pixel, between passes (see inc/limits.glsl): sum I, sum A, pairs, candidates so far.
-layout(std430, binding = 9) buffer Carry { vec4 carry[]; };
-// The queue of every chunk, for the backward to replay (inc/tile_queue.glsl, SA_STORE_PAIRS).
-layout(std430, binding = 10) writeonly buffer PairStore { uint pstore[]; };
+// Its bindings: inc/shade_bindings.glsl (writes the image, the coverage, the carry between
+// passes and, with SA_STORE_PAIRS, the queue of every chunk for the backward to replay).
+#define SA_SHADE_FORWARD
+#include "inc/shade_bindings.glsl"
 #define SA_STORE_PAIRS
-
-#include "inc/shade_push.glsl"
 
 // Queue entries integrated per round. 1024 (about 28 KiB of shared memory in all, within
 // lavapipe's 32 KiB) holds a typical chunk's pairs in one round: fewer barriers and queue passes

@@ -38,21 +38,11 @@
 #endif
 
 layout(local_size_x = 16, local_size_y = 16) in;
-layout(std430, binding = 0) readonly buffer Views { ViewGPU views[]; };
-// Bindings 1, 7 and 8 (scratches, float64 cameras, lights) are in every shading kernel's binding
-// list (engine/src/render) but read only by the records passes before it (scratch_records.comp,
-// pixel_records.comp): this kernel reads their records (inc/scratch_records.glsl).
-layout(std430, binding = 2) readonly buffer Offsets { uint offs[]; };
-layout(std430, binding = 3) readonly buffer List { uint list[]; };
-layout(std430, binding = 4) readonly buffer DL { float dl[]; };          // dE/dL per pixel
-layout(std430, binding = 5) readonly buffer Coverage { float cov_raw[]; };
-layout(std430, binding = 6) writeonly buffer Partials { vec4 partial[]; };  // 2 per list entry
-layout(std430, binding = 9) buffer Stats { uint stats[]; };                    // [5], [6] (inc/limits.glsl)
-// SA_REPLAY: the forward's stored queues (inc/tile_queue.glsl), replayed instead of searching the
-// pairs again (replay_stream below).
-layout(std430, binding = 10) readonly buffer PairStore { uint pstore[]; };
-
-#include "inc/shade_push.glsl"
+// Its bindings: inc/shade_bindings.glsl (reads dE/dL, the forward's coverage and, with SA_REPLAY,
+// the forward's stored queues, replayed instead of searching the pairs again: replay_stream
+// below; writes 2 partial gradients per tile-list entry).
+#define SA_SHADE_BACKWARD
+#include "inc/shade_bindings.glsl"
 
 // Queue entries per round: 256 fits 32 KiB of shared memory (lavapipe's limit); the host passes
 // GRAD_QCAP = 512 on devices with at least 48 KiB (fewer rounds and barriers per chunk).
@@ -147,9 +137,6 @@ void chunk_end(uint lid, uint c0, uint cnt) {
 }
 
 #ifdef SA_REPLAY
-// The pair store through its R32_UINT texel view (binding 14, the same buffer as `pstore`): the
-// entries are gathered, not loaded lane by lane.
-layout(binding = 14) uniform usamplerBuffer store_tex;
 
 // The stored record of the chunk at tile-list entry c0: where its entries start, how many, how
 // many of them fast. A chunk the forward could not store counts as empty and marks the pass

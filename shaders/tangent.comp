@@ -25,20 +25,10 @@
 #include "inc/pair_adjoint.glsl"
 
 layout(local_size_x = 16, local_size_y = 16) in;
-layout(std430, binding = 0) readonly buffer Views { ViewGPU views[]; };
-// Bindings 1, 7 and 8 (scratches, float64 cameras, lights) are in every shading kernel's binding
-// list (engine/src/render) but read only by the records passes before it (scratch_records.comp,
-// pixel_records.comp): this kernel reads their records (inc/scratch_records.glsl).
-layout(std430, binding = 2) readonly buffer Offsets { uint offs[]; };
-layout(std430, binding = 3) readonly buffer List { uint list[]; };
-// Per scratch 6 vec4: the tangents of w (directions 0-3, 4-6), of d, of alpha.
-layout(std430, binding = 4) readonly buffer Seeds { vec4 seeds[]; };
-layout(std430, binding = 5) readonly buffer Coverage { float cov_raw[]; };
-// Per pixel 2 vec4: dL/dθ_j (0-3, 4-6), summed over the passes.
-layout(std430, binding = 6) buffer Tangents { vec4 tang[]; };
-layout(std430, binding = 9) buffer Stats { uint stats[]; };  // [5], [6] (inc/limits.glsl)
-
-#include "inc/shade_push.glsl"
+// Its bindings: inc/shade_bindings.glsl (reads per scratch the tangents of w, d and alpha and the
+// forward's coverage; adds dL/dθ_j per pixel into the tangents, summed over the passes).
+#define SA_SHADE_TANGENT
+#include "inc/shade_bindings.glsl"
 
 // Queue entries per round: 32 bytes of results each; 256 keeps the kernel within 32 KiB of
 // shared memory.

@@ -2,7 +2,7 @@
 // threads per 16x16-pixel tile, the tile's scratch list streamed in chunks, and per chunk the
 // pair queue integrated in rounds of QCAP entries (the machinery is in tile_queue.glsl).
 //
-// A kernel keeps only its bindings, its per-pair work and its outputs; it plugs them in through
+// A kernel keeps only its role's bindings (inc/shade_bindings.glsl), its per-pair work and its outputs; it plugs them in through
 // hooks with fixed names (GLSL has no function pointers), declared here and defined by the kernel
 // after including this file:
 //   chunk_begin(lid)          every thread, at the start of a chunk (after its first barrier):
@@ -20,9 +20,8 @@
 //                             tile-list entry)
 // Call tile_loop from uniform control flow (it has barriers) after store_pixel.
 //
-// Include after the buffer bindings `views`, `offs`, `list` (and `pstore`, `stats` with
-// SA_STORE_PAIRS or SA_REPLAY), the push constants `pc`, and a definition of QCAP; the records
-// texel buffer `recs` is declared here (scratch_records.glsl). The backward's replay of the
+// Include after inc/shade_bindings.glsl (every buffer, texel buffer and push constant the loop
+// reads) and a definition of QCAP. The backward's replay of the
 // forward's queues is grad.comp's own loop (replay_stream).
 #ifndef SA_TILE_LOOP_GLSL
 #define SA_TILE_LOOP_GLSL

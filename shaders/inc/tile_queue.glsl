@@ -14,8 +14,7 @@
 // Everything is in a fixed order: results do not depend on thread timing. The loop that drives
 // these steps is tile_loop.glsl.
 //
-// Include after the buffer bindings `views`, `offs`, `list` (and `pstore`, `stats` with
-// SA_STORE_PAIRS or SA_REPLAY), the push constants `pc`, and a definition of QCAP.
+// Include after inc/shade_bindings.glsl (the buffers and push constants) and a definition of QCAP.
 #ifndef SA_TILE_QUEUE_GLSL
 #define SA_TILE_QUEUE_GLSL
 #extension GL_KHR_shader_subgroup_basic : require
@@ -25,11 +24,10 @@
 
 const uint CHUNK = 64u;            // scratches per chunk: one bit each in two 32-bit words
 
-// The tile lists through their R32_UINT texel view (binding 13, after the records: the same
-// buffer as `list`, engine/src/render): chunk scratch k's index in the scene (its records:
-// scratch_records.glsl) is a gather, where a load from `list` or from shared memory with a
-// per-lane index is a scalar loop over the lanes on CPU drivers.
-layout(binding = 13) uniform usamplerBuffer list_tex;
+// The tile lists through their R32_UINT texel view (`list_tex`, slot SA_BIND_LIST_TEX of
+// inc/shade_bindings.glsl: the same buffer as `list`): chunk scratch k's index in the scene (its
+// records: scratch_records.glsl) is a gather, where a load from `list` or from shared memory with
+// a per-lane index is a scalar loop over the lanes on CPU drivers.
 uint g_chunk = 0u;                 // the chunk's first tile-list entry (set by the tile loops)
 // The backward's replay (grad.comp) takes a round's entries from two chunks in turn: those of the
 // second are numbered k + CHUNK, and g_chunk_hi is its first entry.

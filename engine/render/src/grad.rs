@@ -51,7 +51,13 @@ impl Renderer {
             kernel,
             gs.bwd_plan,
             gs,
-            &super::backward_bindings(gs, &gs.dl, &gs.partials),
+            &super::bindings::shade_buffers(
+                gs,
+                super::bindings::Role::Backward {
+                    dl: &gs.dl,
+                    partials: &gs.partials,
+                },
+            ),
         );
         let push = ReducePush {
             n_scratches: gs.n_scratches,

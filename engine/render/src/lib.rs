@@ -15,6 +15,7 @@
 //! (`pair_integrate` in `shaders/inc/patch_ndf.glsl`), differing only in their hooks: the forward
 //! kernel sums per pixel in float, the backward one per scratch (reverse mode, or dual numbers
 //! for the oracle).
+mod bindings;
 pub mod grad;
 pub mod io;
 pub mod kernels;
@@ -72,15 +73,7 @@ pub struct Renderer {
 /// Compute shared memory the shading kernels need (lavapipe and desktop GPUs have 32 KiB or more).
 pub const MIN_SHARED_MEMORY: u32 = 32 * 1024;
 
-/// Storage buffers every shading kernel's pipeline binds (forward, backward, tangent); the last
-/// is the pair store, which the forward writes and the backward's replay reads. After them come
-/// four texel buffers: the scene's per-scratch and per-pixel records (`GpuScene::records` and
-/// `GpuScene::pixel_records`, bindings 11 and 12 of `shaders/inc/scratch_records.glsl`), then
-/// the tile lists and the pair store again, read through their R32_UINT views (binding 13,
-/// `list_tex` in `shaders/inc/tile_queue.glsl`; binding 14, `store_tex` in `shaders/grad.comp`).
-const SHADE_BUFFERS: u32 = 11;
-
-/// The pipeline of a shading kernel (`SHADE_BUFFERS` buffers, the records, and `ShadePush`);
+/// The pipeline of a shading kernel (the layout of [`bindings::SLOTS`] and `ShadePush`);
 /// `replay`: the backward's replay build (see [`KernelSet::replay`]).
 fn shade_pipeline(
     ctx: &Arc<Context>,
@@ -98,8 +91,8 @@ fn shade_pipeline(
         ctx,
         &name,
         &spirv,
-        SHADE_BUFFERS,
-        &[Texel::Read, Texel::Read, Texel::Read, Texel::Read],
+        bindings::STORAGE,
+        &bindings::TEXELS,
         std::mem::size_of::<ShadePush>() as u32,
     )
 }
@@ -298,23 +291,7 @@ impl Renderer {
             &self.forward,
             gs.fwd_plan,
             gs,
-            &[
-                &gs.views,
-                &gs.scratches,
-                &gs.hist,
-                &gs.list,
-                &gs.image,
-                &gs.stats,
-                &gs.cov_raw,
-                &gs.views64,
-                &gs.lights,
-                &gs.carry,
-                &gs.pair_store,
-                &gs.records,
-                &gs.pixel_records,
-                &gs.list,
-                &gs.pair_store,
-            ],
+            &bindings::shade_buffers(gs, bindings::Role::Forward),
         );
     }
 
@@ -398,31 +375,6 @@ impl Renderer {
             })
             .collect())
     }
-}
-
-/// The bindings of the kernels with `grad.comp`'s layout (`grad.comp`, `tangent.comp`): the
-/// scene, the tile lists, a per-pixel `input` (dE/dL, or the tangent seeds), the forward's
-/// coverage, the `output` (partial gradients, or tangents), the float64 cameras, the lights, the
-/// counters, the pair store (read by the backward's replay; `tangent.comp` leaves it unbound) and
-/// the per-scratch and per-pixel records (texel buffers, written by the render before).
-fn backward_bindings<'a>(gs: &'a GpuScene, input: &'a Buffer, output: &'a Buffer) -> [&'a Buffer; 15] {
-    [
-        &gs.views,
-        &gs.scratches,
-        &gs.hist,
-        &gs.list,
-        input,
-        &gs.cov_raw,
-        output,
-        &gs.views64,
-        &gs.lights,
-        &gs.stats,
-        &gs.pair_store,
-        &gs.records,
-        &gs.pixel_records,
-        &gs.list,
-        &gs.pair_store,
-    ]
 }
 
 /// Records a shading kernel (forward, backward or tangent: one workgroup per tile, `ShadePush`)

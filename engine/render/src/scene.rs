@@ -125,6 +125,9 @@ pub struct GpuScene {
     /// 2 words per tile-list entry (the chunk records), then `shade.store_cap` entries. A
     /// placeholder while `shade.store_cap` is 0.
     pub(super) pair_store: Buffer,
+    /// The placeholder of the shading slots a kernel does not declare (`bindings::shade_buffers`):
+    /// 16 bytes with an R32_UINT view, so it fills a storage or a texel slot.
+    pub(super) unbound: Buffer,
     /// A backward without replay was recorded although the kernels replay: size the store after
     /// the next complete submission ([`after_complete`](Self::after_complete)).
     store_wanted: std::sync::atomic::AtomicBool,
@@ -225,6 +228,7 @@ impl GpuScene {
             bwd_plan: PassPlan::ONE,
             carry: gpu_only("shading carry (unused: one pass)", 16)?,
             pair_store: Buffer::new_u32_texel(ctx, "pair store (unused: no replay yet)", 16, MemLoc::GpuOnly)?,
+            unbound: Buffer::new_u32_texel(ctx, "unused shading slot", 16, MemLoc::GpuOnly)?,
             store_wanted: std::sync::atomic::AtomicBool::new(false),
             store_off: false,
             n_scratches,

@@ -70,7 +70,13 @@ impl Renderer {
                 kernel,
                 gs.bwd_plan,
                 gs,
-                &super::backward_bindings(gs, &seed_buf, &tang),
+                &super::bindings::shade_buffers(
+                    gs,
+                    super::bindings::Role::Tangent {
+                        seeds: &seed_buf,
+                        tangents: &tang,
+                    },
+                ),
             );
         })?;
         let images = self.download_images(gs)?;
