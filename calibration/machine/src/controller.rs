@@ -108,6 +108,19 @@ pub trait Controller {
     fn wait_idle(&mut self, link: &mut Link) -> Result<(), Fault>;
     /// Re-establishes the position before a resumed job cuts again, then goes to `safe_z`.
     fn rezero(&mut self, link: &mut Link, how: Rezero, safe_z: f64, plunge: f64) -> Result<String, Fault>;
+    /// Why the controller's position can no longer be trusted, where this session saw the cause:
+    /// a reset (a start-up banner, also the one a board prints when opening the port resets it),
+    /// an alarm that loses the position (GRBL `ALARM:1`, `ALARM:3`, a failed homing), the
+    /// controller in alarm when the job began, a quickstop or a halt. `None` while nothing did,
+    /// and again after [`rezero`](Self::rezero) homed or probed.
+    fn position_lost(&self) -> Option<String>;
+    /// Forgets the causes seen so far: a new job starts from the work zero its maker set.
+    fn position_set(&mut self);
+    /// Whether `--rezero home` can work on this machine (GRBL: `$22`, once the settings were
+    /// read; Marlin: yes), `None` when unknown.
+    fn can_home(&self) -> Option<bool>;
+    /// The machine position of the last status report that had one (GRBL `MPos`).
+    fn machine_pos(&self) -> Option<[f64; 3]>;
     /// Enters (`true`) or leaves check mode (GRBL `$C`); other firmware: an error.
     fn check_mode(&mut self, link: &mut Link, on: bool) -> Result<(), Fault>;
     /// Probes straight down from the current XY to at most `depth` below Z0 at `feed`; returns

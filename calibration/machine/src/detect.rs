@@ -61,6 +61,13 @@ pub fn detect(link: &mut Link, timeout: Duration) -> Result<Box<dyn Controller>,
             break;
         }
     }
+    if let Some(ctl) = found.as_mut() {
+        // A start-up banner heard here means the board reset (when the port opened, say): the
+        // controller records that its position is lost.
+        for l in seen.iter().filter(|l| l.starts_with("Grbl ") || l.as_str() == "start") {
+            let _ = ctl.classify(l);
+        }
+    }
     found.ok_or_else(|| {
         Fault::Machine(format!(
             "no GRBL or Marlin controller answered on {} within {:.0} s (asked `$I` and `M115`{}): \

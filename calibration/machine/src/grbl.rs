@@ -16,7 +16,17 @@ pub struct Grbl {
     /// Work coordinate offset from the last report that had one (`WCO:`).
     wco: Option<[f64; 3]>,
     last: Status,
+    /// Machine position of the last report that had one.
+    mpos: Option<[f64; 3]>,
+    /// `$22` (homing cycle enabled), once `$$` was read.
+    homing: Option<bool>,
+    /// Why the position is lost (see [`Controller::position_lost`]).
+    lost: Option<String>,
 }
+
+/// Alarms after which GRBL's position is lost (GRBL 1.1's alarm table): 1 hard limit, 3 reset
+/// while in motion, 6-9 a failed homing cycle. A soft limit (2) and a failed probe (4, 5) keep it.
+const ALARMS_LOSING_POSITION: [u32; 6] = [1, 3, 6, 7, 8, 9];
 
 fn nums(s: &str) -> Option<[f64; 3]> {
     let v: Vec<f64> = s.split(',').filter_map(|x| x.parse().ok()).collect();
@@ -50,6 +60,9 @@ impl Grbl {
             rx: 128,
             wco: None,
             last: Status::default(),
+            mpos: None,
+            homing: None,
+            lost: None,
         };
         for l in info {
             if let Some(v) = l.strip_prefix("[VER:") {
@@ -161,6 +174,7 @@ impl Controller for Grbl {
     ) -> Result<Vec<String>, Fault> {
         let s = self.settings(link)?;
         let get = |k: u32| s.get(&k).copied();
+        self.homing = get(22).map(|v| v != 0.0);
         let mut bad = Vec::new();
         let mut notes = Vec::new();
         if get(32) == Some(1.0) {
@@ -238,6 +252,11 @@ impl Controller for Grbl {
     fn begin(&mut self, link: &mut Link, unlock: bool) -> Result<(), Fault> {
         let s = self.status(link, Duration::from_secs(2))?;
         if s.state.starts_with("Alarm") {
+            self.lost.get_or_insert_with(|| {
+                "the controller was in alarm when the job began (after a power-up with homing on, \
+                 or an alarm, GRBL does not know where the machine is)"
+                    .into()
+            });
             if !unlock {
                 return Err(Fault::Machine(
                     "the controller is in alarm (position unknown): home it ($H) or unlock it ($X) \
@@ -273,12 +292,21 @@ impl Controller for Grbl {
             Reply::Error(format!("error:{n} ({})", grbl_codes::error(n)))
         } else if let Some(n) = line.strip_prefix("ALARM:") {
             let n: u32 = n.trim().parse().unwrap_or(0);
-            Reply::Stopped(format!("ALARM:{n} ({})", grbl_codes::alarm(n)))
+            let what = format!("ALARM:{n} ({})", grbl_codes::alarm(n));
+            if ALARMS_LOSING_POSITION.contains(&n) {
+                self.lost.get_or_insert_with(|| format!("the controller raised {what}"));
+            }
+            Reply::Stopped(what)
         } else if line.starts_with('<') {
             match parse_status(line) {
                 Some((mut s, mpos, wco)) => {
                     if wco.is_some() {
                         self.wco = wco;
+                    }
+                    if mpos.is_some() {
+                        self.mpos = mpos;
+                    } else if let (Some(w), Some(o)) = (s.pos, self.wco) {
+                        self.mpos = Some([w[0] + o[0], w[1] + o[1], w[2] + o[2]]);
                     }
                     if s.pos.is_none() {
                         if let (Some(m), Some(o)) = (mpos, self.wco) {
@@ -291,6 +319,14 @@ impl Controller for Grbl {
                 None => Reply::Info(line.to_string()),
             }
         } else if line.starts_with("Grbl ") {
+            self.lost.get_or_insert_with(|| {
+                format!(
+                    "the controller reset (it printed its start-up banner `{}`; a board such as an \
+                     Arduino Uno resets when the port opens): GRBL set its position to zero where \
+                     the machine stood",
+                    line.trim()
+                )
+            });
             Reply::Stopped(format!(
                 "the controller reset itself (`{line}`): the position may be lost"
             ))
@@ -329,6 +365,13 @@ impl Controller for Grbl {
         let mut did = format!("feed hold ({}), soft reset", s.state);
         let after = self.status(link, Duration::from_secs(2))?;
         if after.state.starts_with("Alarm") {
+            self.lost.get_or_insert_with(|| {
+                format!(
+                    "the soft reset that stopped the job left GRBL in alarm (the machine was still \
+                     moving: {}): steps may be lost",
+                    s.state
+                )
+            });
             command(self, link, "$X", Duration::from_secs(2))?;
             did.push_str(", unlocked ($X) to raise the tool");
         }
@@ -355,29 +398,45 @@ impl Controller for Grbl {
 
     fn rezero(&mut self, link: &mut Link, how: Rezero, safe_z: f64, plunge: f64) -> Result<String, Fault> {
         let s = self.status(link, Duration::from_secs(2))?;
-        let said = match how {
+        let mut said = match how {
             Rezero::Home => {
                 command(self, link, "$H", Duration::from_secs(120))?;
                 "homed ($H); the work offset (G54) is kept by the controller".to_string()
             }
-            Rezero::Keep | Rezero::Probe => {
-                if s.state.starts_with("Alarm") {
-                    command(self, link, "$X", Duration::from_secs(2))?;
-                }
-                "unlocked".to_string()
+            Rezero::Keep | Rezero::Probe if s.state.starts_with("Alarm") => {
+                command(self, link, "$X", Duration::from_secs(2))?;
+                "unlocked ($X)".to_string()
             }
+            Rezero::Keep | Rezero::Probe => "kept the controller's position".to_string(),
         };
         command(self, link, &format!("G21 G90 G0 Z{safe_z:.3}"), Duration::from_secs(5))?;
-        let said = if how == Rezero::Probe {
+        if how == Rezero::Probe {
             let z = self.probe_z(link, safe_z + 5.0, plunge)?;
             command(self, link, &format!("G10 L20 P1 Z{:.4}", 0.0), Duration::from_secs(2))?;
             command(self, link, &format!("G0 Z{safe_z:.3}"), Duration::from_secs(5))?;
-            format!("touched the plate at work Z {z:.4} and set Z0 there")
-        } else {
-            said
-        };
+            said = format!("{said}; touched the plate at work Z {z:.4} and set Z0 there");
+        }
         self.wait_idle(link)?;
+        if how != Rezero::Keep {
+            self.lost = None;
+        }
         Ok(said)
+    }
+
+    fn position_lost(&self) -> Option<String> {
+        self.lost.clone()
+    }
+
+    fn position_set(&mut self) {
+        self.lost = None;
+    }
+
+    fn can_home(&self) -> Option<bool> {
+        self.homing
+    }
+
+    fn machine_pos(&self) -> Option<[f64; 3]> {
+        self.mpos
     }
 
     fn check_mode(&mut self, link: &mut Link, on: bool) -> Result<(), Fault> {

@@ -123,6 +123,26 @@ pub fn carve(opts: &Options, control: &Control, obs: &dyn Observer) -> Result<Su
         ));
     }
     ctl.begin(&mut link, opts.resume).map_err(fault)?;
+    if opts.resume {
+        // Before anything moves: was the position lost since the last acknowledged line?
+        let lost = journal
+            .position_lost
+            .clone()
+            .or_else(|| ctl.position_lost())
+            .or_else(|| reset_to_origin(journal.machine_pos, ctl.machine_pos()));
+        if let Some(why) = lost {
+            journal.position_lost = Some(why.clone());
+            journal.message = why.clone();
+            let _ = journal.save(&opts.journal);
+            if opts.rezero == Rezero::Keep {
+                return Err(CarveError::Stopped(lost_position(&why, ctl.as_ref(), opts)));
+            }
+        }
+    } else {
+        // A new job: its maker set the work zero.
+        ctl.position_set();
+    }
+    journal.machine_pos = ctl.machine_pos().or(journal.machine_pos);
     let safe_z = program.max_z;
     if opts.check {
         check_run(&mut link, ctl.as_mut(), &program, control, obs)?;
@@ -152,10 +172,14 @@ pub fn carve(opts: &Options, control: &Control, obs: &dyn Observer) -> Result<Su
         obs.note(&format!("re-established the position: {did}"));
         if opts.rezero == Rezero::Keep {
             obs.note(&format!(
-                "--rezero keep: trusting the controller's work offset. If the machine lost its \
-                 position (reset, power cut, quickstop), stop now (Ctrl-C) and run: {} --rezero home",
+                "--rezero keep: no reset, alarm or quickstop was seen since the last acknowledged \
+                 line, so the controller's work offset is trusted. If the machine lost its position \
+                 all the same (a power cut while the port was closed), stop now (Ctrl-C) and run: {} \
+                 --rezero home",
                 opts.resume_command
             ));
+        } else {
+            journal.position_lost = None;
         }
         obs.note(&format!(
             "resuming at scratch {} of {total} (the last acknowledged was {}; up to {RESUME_OVERLAP} \
@@ -177,8 +201,7 @@ pub fn carve(opts: &Options, control: &Control, obs: &dyn Observer) -> Result<Su
         let blocks = &program.blocks;
         let jpath = &opts.journal;
         let mut on_block = |b: usize, state: &str, pos: Option<[f64; 3]>| {
-            journal.last_acked = Some(b);
-            journal.last_acked_scratch = blocks[b].scratch;
+            journal.acked(b, blocks[b].scratch);
             if last_save.elapsed() > Duration::from_millis(200) {
                 if let Err(e) = journal.save(jpath) {
                     save_err.get_or_insert(e);
@@ -197,6 +220,10 @@ pub fn carve(opts: &Options, control: &Control, obs: &dyn Observer) -> Result<Su
         stream(&mut link, ctl.as_mut(), &lines, control, obs, &mut on_block)
     };
     let outcome = outcome(end, pending, &mut link, ctl.as_mut(), &mut journal, opts, safe_z);
+    // What this run saw (a reset, an alarm, its own quickstop) stays in the journal for the
+    // next resume, with where the machine last stood.
+    journal.position_lost = ctl.position_lost();
+    journal.machine_pos = ctl.machine_pos().or(journal.machine_pos);
     if let Some(e) = save_err {
         obs.note(&format!("warning: the journal could not be written: {e}"));
     }
@@ -221,6 +248,47 @@ pub fn carve(opts: &Options, control: &Control, obs: &dyn Observer) -> Result<Su
             Err(e)
         }
     }
+}
+
+/// A controller at machine position (0, 0, 0) where the journal last saw it elsewhere: GRBL
+/// starts there after a power-up or a reset, so it was reset while the port was closed (or its
+/// banner was lost).
+fn reset_to_origin(before: Option<[f64; 3]>, now: Option<[f64; 3]>) -> Option<String> {
+    let (b, n) = (before?, now?);
+    let away = b.iter().any(|v| v.abs() > 0.01);
+    let origin = n.iter().all(|v| v.abs() < 1e-4);
+    (away && origin).then(|| {
+        format!(
+            "the controller's machine position is 0, 0, 0, where GRBL starts after a reset or a \
+             power-up, but the job last stood at {:.3}, {:.3}, {:.3}",
+            b[0], b[1], b[2]
+        )
+    })
+}
+
+/// The refusal of `--rezero keep` after the position was lost: why, and what this machine allows.
+fn lost_position(why: &str, ctl: &dyn Controller, opts: &Options) -> String {
+    let cmd = &opts.resume_command;
+    let allows = match (ctl.firmware(), ctl.can_home()) {
+        (crate::plan::Firmware::Grbl, Some(false)) => format!(
+            "this machine cannot home ($22=0), so nothing restores X and Y by itself: jog the tool \
+             over the plate's centre (the plan's X0 Y0) and set the work zero there (G10 L20 P1 X0 \
+             Y0), then run {cmd} --rezero probe (it touches the plate and sets Z0)"
+        ),
+        (crate::plan::Firmware::Grbl, _) => format!(
+            "run {cmd} --rezero home (homing, $H: the controller's work offset G54 puts the plate \
+             back where it was), or set the work zero by hand and run {cmd} --rezero probe"
+        ),
+        (crate::plan::Firmware::Marlin, _) => format!(
+            "run {cmd} --rezero home (G28 X Y; where the plate's X0 Y0 was a G92 offset, set it \
+             again after homing), or set X0 Y0 by hand and run {cmd} --rezero probe (it touches \
+             the plate and sets Z0)"
+        ),
+    };
+    format!(
+        "the position is lost: {why}. Resuming with --rezero keep would cut on at the wrong place, \
+         so nothing moved (--yes does not change this). To continue: {allows}"
+    )
 }
 
 /// The journal of this run: the one `--resume` continues (refused where the plan changed since;
@@ -271,6 +339,8 @@ fn open_journal(opts: &Options, program: &Program, obs: &dyn Observer) -> Result
             last_acked_scratch: None,
             state: "running".into(),
             message: String::new(),
+            position_lost: None,
+            machine_pos: None,
         }
     }))
 }

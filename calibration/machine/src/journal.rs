@@ -29,6 +29,15 @@ pub struct Journal {
     pub state: String,
     /// What stopped the job, when it stopped.
     pub message: String,
+    /// Why the controller's position can no longer be trusted (a reset, an alarm, a quickstop
+    /// seen since the last acknowledged line), until a resume homes or probes; `carve --resume
+    /// --rezero keep` refuses to move while it is set.
+    #[serde(default)]
+    pub position_lost: Option<String>,
+    /// The controller's machine position when the journal was last written with one (GRBL
+    /// `MPos`): a controller found at (0, 0, 0) after it was elsewhere has been reset.
+    #[serde(default)]
+    pub machine_pos: Option<[f64; 3]>,
 }
 
 /// The journal path for a plan: `PLAN.journal.json` beside it.
@@ -53,6 +62,15 @@ impl Journal {
     pub fn save(&self, path: &Path) -> Result<(), String> {
         let text = serde_json::to_string_pretty(self).expect("a journal serializes");
         scratchart_model::fsio::write_atomic(path, text.as_bytes()).map_err(|e| e.to_string())
+    }
+
+    /// Records that block `b` (scratch `scratch` of the design) was acknowledged. The journal
+    /// never goes backwards: a resumed run re-sends a few blocks before the last acknowledged one.
+    pub fn acked(&mut self, b: usize, scratch: Option<usize>) {
+        if !matches!(self.last_acked, Some(k) if k >= b) {
+            self.last_acked = Some(b);
+            self.last_acked_scratch = scratch;
+        }
     }
 
     /// The block a resumed job starts at: [`RESUME_OVERLAP`] before the one after the last
@@ -85,14 +103,27 @@ mod tests {
             last_acked_scratch: None,
             state: "running".into(),
             message: String::new(),
+            position_lost: None,
+            machine_pos: None,
         };
         assert_eq!(j.resume_from(), 0);
         j.last_acked = Some(2);
         assert_eq!(j.resume_from(), 0);
         j.last_acked = Some(20);
         assert_eq!(j.resume_from(), 21 - RESUME_OVERLAP);
+        // A resumed run acknowledges blocks before 20 again: the journal stays at 20.
+        j.acked(17, Some(3));
+        assert_eq!((j.last_acked, j.last_acked_scratch), (Some(20), None));
+        j.acked(21, Some(9));
+        assert_eq!((j.last_acked, j.last_acked_scratch), (Some(21), Some(9)));
         j.save(&path).unwrap();
         assert_eq!(Journal::load(&path).unwrap(), j);
+        // Journals written before the position fields still load.
+        let old = serde_json::to_string(&j)
+            .unwrap()
+            .replace(",\"position_lost\":null,\"machine_pos\":null", "");
+        assert!(!old.contains("position_lost"), "{old}");
+        assert_eq!(serde_json::from_str::<Journal>(&old).unwrap(), j);
         std::fs::write(&path, "{").unwrap();
         assert!(Journal::load(&path).unwrap_err().contains("damaged"));
         let _ = std::fs::remove_dir_all(&dir);

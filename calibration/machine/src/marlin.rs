@@ -12,6 +12,8 @@ use crate::transport::Link;
 pub struct Marlin {
     name: String,
     z_feed: f64,
+    /// Why the position is lost (see [`Controller::position_lost`]).
+    lost: Option<String>,
 }
 
 /// XOR of the bytes, as Marlin's checksum.
@@ -50,7 +52,16 @@ impl Marlin {
                 name = rest[..end].trim().to_string();
             }
         }
-        Marlin { name, z_feed: 300.0 }
+        Marlin {
+            name,
+            z_feed: 300.0,
+            lost: None,
+        }
+    }
+
+    /// Records the first cause of a lost position.
+    fn lose(&mut self, why: &str) {
+        self.lost.get_or_insert_with(|| why.to_string());
     }
 
     /// Waits for `n` answers (`ok`), at most `timeout` without any line from the printer.
@@ -179,10 +190,12 @@ impl Controller for Marlin {
                 Err(_) => Reply::Info(l.to_string()),
             }
         } else if l == "!!" {
+            self.lose("the printer halted (`!!`)");
             Reply::Stopped("the printer halted (`!!`)".into())
         } else if let Some(e) = l.strip_prefix("Error:").or(l.strip_prefix("error:")) {
             let low = e.to_ascii_lowercase();
             if low.contains("halted") || low.contains("kill") {
+                self.lose(&format!("the printer halted (`{l}`)"));
                 Reply::Stopped(format!("the printer halted (`{l}`)"))
             } else if low.contains("checksum") || low.contains("line number") {
                 Reply::Ignore
@@ -198,6 +211,7 @@ impl Controller for Marlin {
             // Busy keep-alives and temperature reports.
             Reply::Ignore
         } else if l == "start" {
+            self.lose("the printer restarted (it printed `start`; a board resets when the port opens): it set its position to zero where the tool stood");
             Reply::Stopped("the printer restarted (`start`): the position may be lost".into())
         } else {
             Reply::Info(l.to_string())
@@ -224,6 +238,7 @@ impl Controller for Marlin {
         emergency: bool,
     ) -> Result<String, Fault> {
         if emergency {
+            self.lose("the job was stopped by M112 (emergency stop)");
             link.send(b"M112\n")?;
             let t0 = Instant::now();
             while t0.elapsed() < Duration::from_secs(5) {
@@ -239,6 +254,8 @@ impl Controller for Marlin {
                        switch it off"
                 .into());
         }
+        // A quickstop halts the steppers without deceleration: steps may be lost.
+        self.lose("the job was stopped by M410 (quickstop): steps may be lost");
         link.send(b"M410\n")?;
         self.wait_oks(link, pending + 1, Duration::from_secs(30))?;
         command(self, link, "G90", Duration::from_secs(5))?;
@@ -275,7 +292,27 @@ impl Controller for Marlin {
         let raise = format!("G0 Z{safe_z:.3} F{:.0}", self.z_feed);
         command(self, link, &raise, Duration::from_secs(30))?;
         self.wait_idle(link)?;
+        if how != Rezero::Keep {
+            self.lost = None;
+        }
         Ok(said)
+    }
+
+    fn position_lost(&self) -> Option<String> {
+        self.lost.clone()
+    }
+
+    fn position_set(&mut self) {
+        self.lost = None;
+    }
+
+    fn can_home(&self) -> Option<bool> {
+        // A printer homes on its endstops (G28).
+        Some(true)
+    }
+
+    fn machine_pos(&self) -> Option<[f64; 3]> {
+        None
     }
 
     fn check_mode(&mut self, _link: &mut Link, _on: bool) -> Result<(), Fault> {

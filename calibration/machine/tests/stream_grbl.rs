@@ -10,6 +10,7 @@ use std::time::{Duration, Instant};
 use common::*;
 use scratchart_machine::fake::{FakeGrbl, GrblConfig};
 use scratchart_machine::job::{carve, CarveError};
+use scratchart_machine::journal::Journal;
 use scratchart_machine::plan::MachineProfile;
 use scratchart_machine::stream::Control;
 
@@ -221,6 +222,112 @@ fn disconnect_then_resume_skips_nothing() {
     let e = carve(&opts, &Control::default(), &Log::default()).unwrap_err();
     assert_eq!(e.exit_code(), 3, "{e}");
     assert!(e.to_string().contains("changed"), "{e}");
+}
+
+/// A board that resets when the port opens (an Arduino Uno's DTR line) has lost its position:
+/// a resume with the default `--rezero keep` stops before any motion (exit 1, saying why and
+/// which `--rezero` this machine allows), also on a later port that does not reset (the journal
+/// remembers), and also where the reset's banner was never heard (the machine position is back
+/// at zero); `--rezero home` then finishes the job.
+#[test]
+fn a_reset_since_the_last_line_stops_keep_before_any_motion() {
+    for quiet in [false, true] {
+        let dir = tmpdir(if quiet { "grbl_reset_quiet" } else { "grbl_reset" });
+        let plan = plan(&dir, "p.nc", 30, &MachineProfile::grbl());
+        // At a pace where status reports come (every 200 ms), as on a machine.
+        let fake = FakeGrbl::start(GrblConfig {
+            disconnect_after: Some(60),
+            line_delay: Duration::from_millis(10),
+            ..GrblConfig::default()
+        })
+        .unwrap();
+        let e = carve(&options(&plan, fake.path()), &Control::default(), &Log::default()).unwrap_err();
+        assert_eq!(e.exit_code(), 1, "{e}");
+        let shared = fake.shared();
+        let cut_before = fake.record().executed.len();
+        drop(fake);
+        let fake = FakeGrbl::start_with(
+            GrblConfig {
+                reset_on_open: true,
+                quiet_reset: quiet,
+                ..GrblConfig::default()
+            },
+            shared,
+        )
+        .unwrap();
+        let mut opts = options(&plan, fake.path());
+        opts.resume = true;
+        let e = carve(&opts, &Control::default(), &Log::default())
+            .expect_err(&format!("quiet {quiet}: {:?}", Journal::load(&opts.journal)));
+        let msg = e.to_string();
+        assert_eq!(e.exit_code(), 1, "{msg}");
+        assert!(
+            msg.contains("position is lost") && msg.contains("nothing moved") && msg.contains("--rezero home"),
+            "{msg}"
+        );
+        assert!(msg.contains(if quiet { "0, 0, 0" } else { "start-up banner" }), "{msg}");
+        assert_eq!(
+            fake.record().executed.len(),
+            cut_before,
+            "nothing moved after the reset"
+        );
+        let journal = Journal::load(&opts.journal).unwrap();
+        assert!(journal.position_lost.is_some(), "{journal:?}");
+        assert!(journal.last_acked.is_some());
+        let shared = fake.shared();
+        drop(fake);
+
+        // The next port does not reset, but the journal remembers.
+        let fake = FakeGrbl::start_with(GrblConfig::default(), shared).unwrap();
+        let mut opts = options(&plan, fake.path());
+        opts.resume = true;
+        let e = carve(&opts, &Control::default(), &Log::default()).unwrap_err();
+        assert!(e.to_string().contains("position is lost"), "{e}");
+        assert_eq!(fake.record().executed.len(), cut_before);
+
+        // Homing restores it: the job finishes, every cut made.
+        opts.rezero = scratchart_machine::controller::Rezero::Home;
+        let log = Log::default();
+        carve(&opts, &Control::default(), &log).unwrap();
+        assert!(log.says("homed ($H)"));
+        assert_all_cut(&plan, &fake.record().executed);
+        let journal = Journal::load(&opts.journal).unwrap();
+        assert_eq!((journal.state.as_str(), journal.position_lost), ("done", None));
+    }
+}
+
+/// A resumed run re-sends a few scratches before the last acknowledged one: the journal never
+/// goes back to them, even when the resumed run stops early.
+#[test]
+fn the_journal_never_goes_backwards() {
+    let dir = tmpdir("grbl_journal_monotone");
+    let plan = plan(&dir, "p.nc", 40, &MachineProfile::grbl());
+    let fake = FakeGrbl::start(GrblConfig {
+        disconnect_after: Some(80),
+        ..GrblConfig::default()
+    })
+    .unwrap();
+    let opts = options(&plan, fake.path());
+    carve(&opts, &Control::default(), &Log::default()).unwrap_err();
+    let first = Journal::load(&opts.journal).unwrap().last_acked.unwrap();
+    assert!(first >= scratchart_machine::journal::RESUME_OVERLAP, "{first}");
+    let shared = fake.shared();
+    drop(fake);
+    // The resumed run loses the link again after ten motions (two or three scratches): within
+    // the overlap.
+    let fake = FakeGrbl::start_with(
+        GrblConfig {
+            disconnect_after: Some(10),
+            ..GrblConfig::default()
+        },
+        shared,
+    )
+    .unwrap();
+    let mut opts = options(&plan, fake.path());
+    opts.resume = true;
+    carve(&opts, &Control::default(), &Log::default()).unwrap_err();
+    let second = Journal::load(&opts.journal).unwrap().last_acked.unwrap();
+    assert!(second >= first, "the journal went from {first} back to {second}");
 }
 
 #[test]

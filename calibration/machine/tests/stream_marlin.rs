@@ -122,6 +122,69 @@ fn a_halt_stops_the_job() {
         "{e}"
     );
     assert_eq!(fake.record().executed.len(), 33);
+    // The halt lost the position: a resume that keeps it is refused before any motion, also on
+    // a printer that restarts when the port opens; homing then finishes the job.
+    let shared = fake.shared();
+    drop(fake);
+    for restart_on_open in [false, true] {
+        let fake = FakeMarlin::start_with(
+            MarlinConfig {
+                restart_on_open,
+                ..MarlinConfig::default()
+            },
+            shared.clone(),
+        )
+        .unwrap();
+        let mut opts = options(&plan, fake.path());
+        opts.resume = true;
+        let e = carve(&opts, &Control::default(), &Log::default()).unwrap_err();
+        let msg = e.to_string();
+        assert_eq!(e.exit_code(), 1, "{msg}");
+        assert!(
+            msg.contains("position is lost") && msg.contains("halted") && msg.contains("--rezero home"),
+            "{msg}"
+        );
+        assert_eq!(fake.record().executed.len(), 33, "nothing moved");
+        drop(fake);
+    }
+    let fake = FakeMarlin::start_with(MarlinConfig::default(), shared).unwrap();
+    let mut opts = options(&plan, fake.path());
+    opts.resume = true;
+    opts.rezero = scratchart_machine::controller::Rezero::Home;
+    carve(&opts, &Control::default(), &Log::default()).unwrap();
+    assert_all_cut(&plan, &fake.record().executed);
+}
+
+/// A printer that restarts when the port opens (`start`) has lost its position since the last
+/// acknowledged line: `--rezero keep` stops before any motion.
+#[test]
+fn a_restart_on_reconnect_stops_keep_before_any_motion() {
+    let dir = tmpdir("marlin_restart");
+    let plan = plan(&dir, "p.gcode", 30, &MachineProfile::marlin());
+    let fake = FakeMarlin::start(MarlinConfig {
+        disconnect_after: Some(41),
+        ..MarlinConfig::default()
+    })
+    .unwrap();
+    carve(&options(&plan, fake.path()), &Control::default(), &Log::default()).unwrap_err();
+    let shared = fake.shared();
+    let before = fake.record().executed.len();
+    drop(fake);
+    let fake = FakeMarlin::start_with(
+        MarlinConfig {
+            restart_on_open: true,
+            ..MarlinConfig::default()
+        },
+        shared,
+    )
+    .unwrap();
+    let mut opts = options(&plan, fake.path());
+    opts.resume = true;
+    let e = carve(&opts, &Control::default(), &Log::default()).unwrap_err();
+    let msg = e.to_string();
+    assert_eq!(e.exit_code(), 1, "{msg}");
+    assert!(msg.contains("restarted") && msg.contains("nothing moved"), "{msg}");
+    assert_eq!(fake.record().executed.len(), before, "nothing moved");
 }
 
 #[test]

@@ -24,6 +24,11 @@ pub struct GrblConfig {
     pub disconnect_after: Option<usize>,
     /// Starts in alarm (as after power-up with homing enabled).
     pub start_in_alarm: bool,
+    /// The board resets when the port is opened (an Arduino Uno's DTR line): the position starts
+    /// at zero, the first input is lost in the bootloader and the start-up banner follows it.
+    pub reset_on_open: bool,
+    /// With `reset_on_open`: no banner (one lost while the port was closed).
+    pub quiet_reset: bool,
     /// `$$` settings (number -> value).
     pub settings: BTreeMap<u32, String>,
     /// The plate surface that G38.2 touches.
@@ -60,6 +65,8 @@ impl Default for GrblConfig {
             alarm_after: None,
             disconnect_after: None,
             start_in_alarm: false,
+            reset_on_open: false,
+            quiet_reset: false,
             settings,
             plane: None,
         }
@@ -92,12 +99,17 @@ impl FakeGrbl {
         Ok(spawn(path, record.clone(), move |stop| {
             let mut m = Machine {
                 st: if cfg.start_in_alarm { St::Alarm } else { St::Idle },
-                pos: record.lock().unwrap().pos,
+                pos: if cfg.reset_on_open {
+                    [0.0; 3]
+                } else {
+                    record.lock().unwrap().pos
+                },
                 gcode_lines: 0,
                 motions: 0,
                 busy_until: Instant::now(),
                 check_prev: St::Idle,
             };
+            let mut booted = !cfg.reset_on_open;
             while !stop.load(Ordering::SeqCst) {
                 let mut realtime = Vec::new();
                 w.pump(|b| {
@@ -107,6 +119,15 @@ impl FakeGrbl {
                     }
                     rt
                 });
+                if !booted && (!w.rx.is_empty() || !realtime.is_empty()) {
+                    // The reset on open: what came during the bootloader is lost.
+                    booted = true;
+                    w.rx.clear();
+                    if !cfg.quiet_reset {
+                        w.say(BANNER);
+                    }
+                    continue;
+                }
                 let moving = Instant::now() < m.busy_until || w.rx.contains(&b'\n');
                 for b in realtime {
                     m.realtime(&mut w, b, moving);

@@ -28,6 +28,9 @@ pub struct MarlinConfig {
     pub halt_after: Option<usize>,
     /// After the n-th motion line the fake closes its pty.
     pub disconnect_after: Option<usize>,
+    /// The board restarts when the port is opened: the position starts at zero, the first input
+    /// is lost and `start` follows it.
+    pub restart_on_open: bool,
     /// Bed size from M211 (`None`: M211 unsupported).
     pub bed: Option<[f64; 3]>,
     /// G38.2 available (else G30 with the bed probe).
@@ -46,6 +49,7 @@ impl Default for MarlinConfig {
             temperature_every: None,
             halt_after: None,
             disconnect_after: None,
+            restart_on_open: false,
             bed: Some([220.0, 220.0, 250.0]),
             g38: true,
             plane: None,
@@ -72,14 +76,25 @@ impl FakeMarlin {
             let mut p = Printer {
                 last_n: 0,
                 corrupt: cfg.corrupt.clone(),
-                pos: record.lock().unwrap().pos,
+                pos: if cfg.restart_on_open {
+                    [0.0; 3]
+                } else {
+                    record.lock().unwrap().pos
+                },
                 motions: 0,
                 halted: false,
             };
+            let mut booted = !cfg.restart_on_open;
             let mut busy_until = Instant::now();
             let mut last_temp = Instant::now();
             while !stop.load(Ordering::SeqCst) {
                 w.pump(|_| false);
+                if !booted && !w.rx.is_empty() {
+                    booted = true;
+                    w.rx.clear();
+                    w.say("start\necho: External Reset\n");
+                    continue;
+                }
                 if let Some(every) = cfg.temperature_every {
                     if last_temp.elapsed() >= every && !p.halted {
                         w.say(" T:25.00 /0.00 B:24.90 /0.00 @:0 B@:0\n");

@@ -1,0 +1,213 @@
+//! Streaming to the real GRBL 1.1h firmware, run in the simavr AVR simulator on a pseudo-terminal
+//! (`../shared/grbl-sim` beside the project: a test fixture, never linked or shipped). The
+//! simulator is built with its own `setup.sh` into this build's temporary folder, run at full
+//! speed (`-s 0`), and every instance a test starts is stopped through its pidfile. Where the
+//! fixture is absent the tests say so plainly and pass without checking anything else: the fakes
+//! of `stream_grbl.rs` cover the protocol there.
+#![cfg(unix)]
+mod common;
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+use std::sync::atomic::Ordering;
+use std::sync::OnceLock;
+
+use common::*;
+use scratchart_machine::job::carve;
+use scratchart_machine::journal::Journal;
+use scratchart_machine::plan::{Cut, MachineProfile};
+use scratchart_machine::stream::{Control, Observer, Progress};
+
+/// The fixture's folder, when it is there.
+fn fixture() -> Option<PathBuf> {
+    let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/grbl-sim");
+    p.join("setup.sh").exists().then(|| p.canonicalize().unwrap())
+}
+
+/// Builds the simulator once per test binary (its Makefile skips what is up to date); the build
+/// folder, or why there is none.
+fn build() -> Result<PathBuf, String> {
+    static BUILT: OnceLock<Result<PathBuf, String>> = OnceLock::new();
+    BUILT
+        .get_or_init(|| {
+            let dir = fixture().ok_or("../shared/grbl-sim is absent")?;
+            let out = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("grbl-sim-build");
+            let r = Command::new("bash")
+                .arg(dir.join("setup.sh"))
+                .env("GRBL_SIM_BUILD", &out)
+                .output()
+                .map_err(|e| format!("cannot run grbl-sim's setup.sh: {e}"))?;
+            if !r.status.success() {
+                return Err(format!(
+                    "grbl-sim's setup.sh failed: {}{}",
+                    String::from_utf8_lossy(&r.stdout),
+                    String::from_utf8_lossy(&r.stderr)
+                ));
+            }
+            Ok(out)
+        })
+        .clone()
+}
+
+/// A running simulator; dropping it stops it through its pidfile.
+struct Sim {
+    link: PathBuf,
+}
+
+impl Sim {
+    /// Starts the firmware on `dir/tag` with grbl-sim's `options`; `None` (said on stderr) when the
+    /// fixture is absent. A fixture that is present but does not build or start fails the test.
+    fn start(dir: &Path, tag: &str, options: &[&str]) -> Option<Sim> {
+        if fixture().is_none() {
+            eprintln!("SKIPPED: ../shared/grbl-sim is absent, so nothing ran against the real GRBL firmware");
+            return None;
+        }
+        let build = build().unwrap_or_else(|e| panic!("{e}"));
+        let link = dir.join(tag);
+        let r = Command::new("bash")
+            .arg(fixture().unwrap().join("run.sh"))
+            .arg(&link)
+            .arg("300")
+            .args(["-s", "0"])
+            .args(options)
+            .env("GRBL_SIM_BUILD", &build)
+            .output()
+            .expect("run grbl-sim's run.sh");
+        assert!(
+            r.status.success(),
+            "grbl-sim did not start: {}",
+            String::from_utf8_lossy(&r.stderr)
+        );
+        Some(Sim { link })
+    }
+
+    fn port(&self) -> String {
+        self.link.display().to_string()
+    }
+}
+
+impl Drop for Sim {
+    fn drop(&mut self) {
+        let pidfile = PathBuf::from(format!("{}.pid", self.link.display()));
+        if let Ok(pid) = std::fs::read_to_string(&pidfile) {
+            let _ = Command::new("kill").arg(pid.trim()).status();
+        }
+    }
+}
+
+/// Six short cuts near the plate centre (a few seconds of machine time).
+fn small_plan(dir: &Path) -> PathBuf {
+    let cuts: Vec<Cut> = (0..6)
+        .map(|k| {
+            let x = -6.0 + 2.5 * k as f64;
+            Cut {
+                a: [x, -3.0],
+                b: [x + 1.0, 3.0],
+                z: 0.02,
+                scratch: k,
+            }
+        })
+        .collect();
+    let g = scratchart_machine::gcode::write(&cuts, &MachineProfile::grbl(), 60.0, &["grbl-sim test".into()]);
+    let p = dir.join("small.nc");
+    std::fs::write(&p, g).unwrap();
+    p
+}
+
+/// An observer that asks for Ctrl-C once `after` scratches are acknowledged.
+struct AbortAfter<'a> {
+    after: usize,
+    control: &'a Control,
+    log: Log,
+}
+
+impl Observer for AbortAfter<'_> {
+    fn progress(&self, p: &Progress) {
+        if p.done >= self.after {
+            self.control.abort.store(true, Ordering::SeqCst);
+        }
+        self.log.progress(p);
+    }
+    fn note(&self, msg: &str) {
+        self.log.note(msg);
+    }
+}
+
+/// The real firmware carves a plan to the end.
+#[test]
+fn the_real_firmware_carves_a_plan_to_the_end() {
+    let dir = tmpdir("grbl_sim_full");
+    let Some(sim) = Sim::start(&dir, "uart", &[]) else {
+        return;
+    };
+    let plan = small_plan(&dir);
+    let log = Log::default();
+    let s = carve(&options(&plan, &sim.port()), &Control::default(), &log)
+        .unwrap_or_else(|e| panic!("{e}\nnotes: {:?}", log.notes.lock().unwrap()));
+    assert_eq!((s.from, s.total), (0, 6));
+    assert!(s.controller.contains("1.1h"), "{}", s.controller);
+    let j = Journal::load(&scratchart_machine::journal::default_path(&plan)).unwrap();
+    assert_eq!((j.state.as_str(), j.last_acked), ("done", Some(5)));
+}
+
+/// Stopped with Ctrl-C (feed hold, soft reset once held, tool raised), a board that does not
+/// reset on open keeps its position: `--rezero keep` resumes and finishes. On a board that resets
+/// when the port opens (an Arduino Uno, `-r`), GRBL sets its position to zero: `--rezero keep`
+/// stops before any motion, with exit 1, saying why and what this machine (no homing, `$22=0`)
+/// allows.
+#[test]
+fn a_resume_after_a_board_reset_never_cuts_on_with_a_lost_position() {
+    for reset_on_open in [false, true] {
+        let dir = tmpdir(if reset_on_open {
+            "grbl_sim_reset"
+        } else {
+            "grbl_sim_keep"
+        });
+        let opts_sim: &[&str] = if reset_on_open { &["-r", "1000"] } else { &[] };
+        let Some(sim) = Sim::start(&dir, "uart", opts_sim) else {
+            return;
+        };
+        let plan = small_plan(&dir);
+        let control = Control::default();
+        let obs = AbortAfter {
+            after: 2,
+            control: &control,
+            log: Log::default(),
+        };
+        let e = carve(&options(&plan, &sim.port()), &control, &obs).unwrap_err();
+        assert_eq!(e.exit_code(), 130, "{e}");
+        let j = Journal::load(&scratchart_machine::journal::default_path(&plan)).unwrap();
+        assert_eq!(j.position_lost, None, "a controlled stop keeps the position: {j:?}");
+        let acked = j.last_acked.expect("some scratches were acknowledged");
+
+        let mut opts = options(&plan, &sim.port());
+        opts.resume = true;
+        let log = Log::default();
+        let r = carve(&opts, &Control::default(), &log);
+        if reset_on_open {
+            let e = r.expect_err("keep after a reset must stop");
+            let msg = e.to_string();
+            assert_eq!(e.exit_code(), 1, "{msg}");
+            assert!(
+                msg.contains("position is lost") && msg.contains("nothing moved") && msg.contains("$22=0"),
+                "{msg}"
+            );
+            assert!(msg.contains("--rezero probe"), "{msg}");
+            let j = Journal::load(&opts.journal).unwrap();
+            assert!(j.position_lost.is_some() && j.last_acked == Some(acked), "{j:?}");
+            // No progress was reported: not one line of the plan was sent.
+            assert!(log.progress.lock().unwrap().is_empty());
+        } else {
+            let s = r.unwrap_or_else(|e| panic!("{e}\nnotes: {:?}", log.notes.lock().unwrap()));
+            assert_eq!(s.total, 6);
+            assert!(
+                log.says("kept the controller's position"),
+                "{:?}",
+                log.notes.lock().unwrap()
+            );
+            let j = Journal::load(&opts.journal).unwrap();
+            assert_eq!(j.state, "done");
+        }
+        drop(sim);
+    }
+}
