@@ -123,26 +123,7 @@ pub fn carve(opts: &Options, control: &Control, obs: &dyn Observer) -> Result<Su
         ));
     }
     ctl.begin(&mut link, opts.resume).map_err(fault)?;
-    if opts.resume {
-        // Before anything moves: was the position lost since the last acknowledged line?
-        let lost = journal
-            .position_lost
-            .clone()
-            .or_else(|| ctl.position_lost())
-            .or_else(|| reset_to_origin(journal.machine_pos, ctl.machine_pos()));
-        if let Some(why) = lost {
-            journal.position_lost = Some(why.clone());
-            journal.message = why.clone();
-            let _ = journal.save(&opts.journal);
-            if opts.rezero == Rezero::Keep {
-                return Err(CarveError::Stopped(lost_position(&why, ctl.as_ref(), opts)));
-            }
-        }
-    } else {
-        // A new job: its maker set the work zero.
-        ctl.position_set();
-    }
-    journal.machine_pos = ctl.machine_pos().or(journal.machine_pos);
+    check_position(opts, &mut journal, ctl.as_mut())?;
     let safe_z = program.max_z;
     if opts.check {
         check_run(&mut link, ctl.as_mut(), &program, control, obs)?;
@@ -248,6 +229,32 @@ pub fn carve(opts: &Options, control: &Control, obs: &dyn Observer) -> Result<Su
             Err(e)
         }
     }
+}
+
+/// Before anything moves: on resume, whether the position was lost since the last acknowledged
+/// line (the journal's record, what the controller saw on connecting, a controller back at
+/// machine zero), recorded in the journal; `--rezero keep` then stops here. A new job forgets
+/// what came before: its maker set the work zero.
+fn check_position(opts: &Options, journal: &mut Journal, ctl: &mut dyn Controller) -> Result<(), CarveError> {
+    if opts.resume {
+        let lost = journal
+            .position_lost
+            .clone()
+            .or_else(|| ctl.position_lost())
+            .or_else(|| reset_to_origin(journal.machine_pos, ctl.machine_pos()));
+        if let Some(why) = lost {
+            journal.position_lost = Some(why.clone());
+            journal.message = why.clone();
+            let _ = journal.save(&opts.journal);
+            if opts.rezero == Rezero::Keep {
+                return Err(CarveError::Stopped(lost_position(&why, ctl, opts)));
+            }
+        }
+    } else {
+        ctl.position_set();
+    }
+    journal.machine_pos = ctl.machine_pos().or(journal.machine_pos);
+    Ok(())
 }
 
 /// A controller at machine position (0, 0, 0) where the journal last saw it elsewhere: GRBL
