@@ -330,6 +330,28 @@ fn the_journal_never_goes_backwards() {
     assert!(second >= first, "the journal went from {first} back to {second}");
 }
 
+/// GRBL clamps a spindle speed outside `$30`/`$31` without a word: `carve` says so before it
+/// starts (the plan's `M3 S10000` against the firmware's default `$30=1000`).
+#[test]
+fn a_spindle_speed_outside_the_controllers_range_is_named() {
+    let dir = tmpdir("grbl_spindle");
+    let plan = plan(&dir, "p.nc", 3, &MachineProfile::grbl());
+    let mut cfg = GrblConfig::default();
+    cfg.settings.insert(30, "1000".into());
+    let fake = FakeGrbl::start(cfg).unwrap();
+    let log = Log::default();
+    carve(&options(&plan, fake.path()), &Control::default(), &log).unwrap();
+    assert!(
+        log.says("S10000 is above the controller's $30=1000"),
+        "{:?}",
+        log.notes.lock().unwrap()
+    );
+    let fake = FakeGrbl::start(GrblConfig::default()).unwrap();
+    let log = Log::default();
+    carve(&options(&plan, fake.path()), &Control::default(), &log).unwrap();
+    assert!(!log.says("$30"), "{:?}", log.notes.lock().unwrap());
+}
+
 #[test]
 fn settings_that_contradict_the_plan_are_refused() {
     let dir = tmpdir("grbl_settings");
