@@ -238,14 +238,7 @@ impl Controller for Grbl {
         }
         // The plan's spindle speed against GRBL's range ($30 max, $31 min): GRBL clamps an S word
         // outside it without a word, so say so.
-        let spindle = program
-            .preamble
-            .iter()
-            .filter(|l| l.starts_with("M3") || l.starts_with("M4"))
-            .flat_map(|l| l.split_whitespace())
-            .filter_map(|w| w.strip_prefix('S')?.parse::<f64>().ok())
-            .fold(None, |a: Option<f64>, v| Some(a.map_or(v, |a| a.max(v))));
-        if let Some(rpm) = spindle {
+        if let Some(rpm) = program.spindle_rpm {
             if let Some(max) = get(30).filter(|&m| rpm > m + 1e-9) {
                 notes.push(format!(
                     "warning: the plan's spindle speed S{rpm:.0} is above the controller's $30={max:.0}: \

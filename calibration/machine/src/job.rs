@@ -337,18 +337,7 @@ fn open_journal(opts: &Options, program: &Program, obs: &dyn Observer) -> Result
                 ));
             }
         }
-        Journal {
-            plan: opts.plan.display().to_string(),
-            plan_checksum: program.checksum.clone(),
-            firmware: fw.into(),
-            total,
-            last_acked: None,
-            last_acked_scratch: None,
-            state: "running".into(),
-            message: String::new(),
-            position_lost: None,
-            machine_pos: None,
-        }
+        Journal::new(&opts.plan.display().to_string(), &program.checksum, fw, total)
     }))
 }
 

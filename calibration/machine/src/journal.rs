@@ -48,6 +48,22 @@ pub fn default_path(plan: &Path) -> PathBuf {
 }
 
 impl Journal {
+    /// The journal of a job starting now: nothing acknowledged yet, "running".
+    pub fn new(plan: &str, plan_checksum: &str, firmware: &str, total: usize) -> Journal {
+        Journal {
+            plan: plan.to_string(),
+            plan_checksum: plan_checksum.to_string(),
+            firmware: firmware.to_string(),
+            total,
+            last_acked: None,
+            last_acked_scratch: None,
+            state: "running".into(),
+            message: String::new(),
+            position_lost: None,
+            machine_pos: None,
+        }
+    }
+
     pub fn load(path: &Path) -> Result<Journal, String> {
         let text = std::fs::read_to_string(path).map_err(|e| {
             format!(
@@ -94,18 +110,7 @@ mod tests {
         let plan = dir.join("plan.nc");
         let path = default_path(&plan);
         assert_eq!(path, dir.join("plan.nc.journal.json"));
-        let mut j = Journal {
-            plan: plan.display().to_string(),
-            plan_checksum: "00".into(),
-            firmware: "grbl".into(),
-            total: 40,
-            last_acked: None,
-            last_acked_scratch: None,
-            state: "running".into(),
-            message: String::new(),
-            position_lost: None,
-            machine_pos: None,
-        };
+        let mut j = Journal::new(&plan.display().to_string(), "00", "grbl", 40);
         assert_eq!(j.resume_from(), 0);
         j.last_acked = Some(2);
         assert_eq!(j.resume_from(), 0);

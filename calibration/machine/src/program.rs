@@ -24,6 +24,8 @@ pub struct Program {
     pub max_z: f64,
     /// Largest |X| and |Y| the plan reaches, mm (work coordinates).
     pub max_xy: f64,
+    /// The highest spindle speed the plan commands (`M3 S..`, `M4 S..`), when it does.
+    pub spindle_rpm: Option<f64>,
     pub preamble: Vec<String>,
     pub blocks: Vec<Block>,
     pub postamble: Vec<String>,
@@ -72,6 +74,7 @@ impl Program {
             min_z: 0.0,
             max_z: 0.0,
             max_xy: 0.0,
+            spindle_rpm: None,
             preamble: Vec::new(),
             blocks: Vec::new(),
             postamble: Vec::new(),
@@ -125,6 +128,11 @@ impl Program {
                         p.min_z = p.min_z.min(v);
                         p.max_z = p.max_z.max(v);
                     }
+                }
+            }
+            if line.starts_with("M3") || line.starts_with("M4") {
+                if let Some(s) = word(line, 'S') {
+                    p.spindle_rpm = Some(p.spindle_rpm.map_or(s, |r: f64| r.max(s)));
                 }
             }
             match p.blocks.last_mut() {
@@ -205,6 +213,7 @@ mod tests {
         assert_eq!(p.blocks[1].lines[3], "G0 Z2.000");
         assert_eq!(p.postamble, vec!["M5", "G0 X0 Y0", "M2"]);
         assert!(p.preamble.contains(&"M3 S10000".to_string()));
+        assert_eq!(p.spindle_rpm, Some(10000.0));
         assert!((p.min_z + 0.05).abs() < 1e-12 && p.max_xy == 3.0);
         assert!(p.lines_from(0).iter().all(|(l, _)| !l.starts_with(';')));
         assert_eq!(p.lines_from(1).iter().filter(|l| l.1 == Some(1)).count(), 4);

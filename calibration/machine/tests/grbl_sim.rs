@@ -180,8 +180,7 @@ fn a_resume_after_a_board_reset_never_cuts_on_with_a_lost_position() {
         assert_eq!(j.position_lost, None, "a controlled stop keeps the position: {j:?}");
         let acked = j.last_acked.expect("some scratches were acknowledged");
 
-        let mut opts = options(&plan, &sim.port());
-        opts.resume = true;
+        let opts = resume_options(&plan, &sim.port());
         let log = Log::default();
         let r = carve(&opts, &Control::default(), &log);
         if reset_on_open {

@@ -200,8 +200,7 @@ fn disconnect_then_resume_skips_nothing() {
     let shared = fake.shared();
     drop(fake);
     let fake = FakeGrbl::start_with(GrblConfig::default(), shared).unwrap();
-    let mut opts = options(&plan, fake.path());
-    opts.resume = true;
+    let opts = resume_options(&plan, fake.path());
     let log = Log::default();
     let s = carve(&opts, &Control::default(), &log).unwrap();
     assert!(s.from > 0 && s.from <= 22, "resumed at {}", s.from);
@@ -255,8 +254,7 @@ fn a_reset_since_the_last_line_stops_keep_before_any_motion() {
             shared,
         )
         .unwrap();
-        let mut opts = options(&plan, fake.path());
-        opts.resume = true;
+        let opts = resume_options(&plan, fake.path());
         let e = carve(&opts, &Control::default(), &Log::default())
             .expect_err(&format!("quiet {quiet}: {:?}", Journal::load(&opts.journal)));
         let msg = e.to_string();
@@ -279,8 +277,7 @@ fn a_reset_since_the_last_line_stops_keep_before_any_motion() {
 
         // The next port does not reset, but the journal remembers.
         let fake = FakeGrbl::start_with(GrblConfig::default(), shared).unwrap();
-        let mut opts = options(&plan, fake.path());
-        opts.resume = true;
+        let mut opts = resume_options(&plan, fake.path());
         let e = carve(&opts, &Control::default(), &Log::default()).unwrap_err();
         assert!(e.to_string().contains("position is lost"), "{e}");
         assert_eq!(fake.record().executed.len(), cut_before);
@@ -323,8 +320,7 @@ fn the_journal_never_goes_backwards() {
         shared,
     )
     .unwrap();
-    let mut opts = options(&plan, fake.path());
-    opts.resume = true;
+    let opts = resume_options(&plan, fake.path());
     carve(&opts, &Control::default(), &Log::default()).unwrap_err();
     let second = Journal::load(&opts.journal).unwrap().last_acked.unwrap();
     assert!(second >= first, "the journal went from {first} back to {second}");

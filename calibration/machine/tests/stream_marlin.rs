@@ -135,8 +135,7 @@ fn a_halt_stops_the_job() {
             shared.clone(),
         )
         .unwrap();
-        let mut opts = options(&plan, fake.path());
-        opts.resume = true;
+        let opts = resume_options(&plan, fake.path());
         let e = carve(&opts, &Control::default(), &Log::default()).unwrap_err();
         let msg = e.to_string();
         assert_eq!(e.exit_code(), 1, "{msg}");
@@ -148,8 +147,7 @@ fn a_halt_stops_the_job() {
         drop(fake);
     }
     let fake = FakeMarlin::start_with(MarlinConfig::default(), shared).unwrap();
-    let mut opts = options(&plan, fake.path());
-    opts.resume = true;
+    let mut opts = resume_options(&plan, fake.path());
     opts.rezero = scratchart_machine::controller::Rezero::Home;
     carve(&opts, &Control::default(), &Log::default()).unwrap();
     assert_all_cut(&plan, &fake.record().executed);
@@ -178,8 +176,7 @@ fn a_restart_on_reconnect_stops_keep_before_any_motion() {
         shared,
     )
     .unwrap();
-    let mut opts = options(&plan, fake.path());
-    opts.resume = true;
+    let opts = resume_options(&plan, fake.path());
     let e = carve(&opts, &Control::default(), &Log::default()).unwrap_err();
     let msg = e.to_string();
     assert_eq!(e.exit_code(), 1, "{msg}");
@@ -203,8 +200,7 @@ fn disconnect_then_resume_skips_nothing() {
     let shared = fake.shared();
     drop(fake);
     let fake = FakeMarlin::start_with(MarlinConfig::default(), shared).unwrap();
-    let mut opts = options(&plan, fake.path());
-    opts.resume = true;
+    let opts = resume_options(&plan, fake.path());
     let s = carve(&opts, &Control::default(), &Log::default()).unwrap();
     assert!(s.from > 0, "resumed at {}", s.from);
     let r = fake.record();

@@ -46,19 +46,11 @@ impl Renderer {
             }
             None => grad,
         };
-        super::record_passes(
-            rec,
-            kernel,
-            gs.bwd_plan,
-            gs,
-            &super::bindings::shade_buffers(
-                gs,
-                super::bindings::Role::Backward {
-                    dl: &gs.dl,
-                    partials: &gs.partials,
-                },
-            ),
-        );
+        let role = super::bindings::Role::Backward {
+            dl: &gs.dl,
+            partials: &gs.partials,
+        };
+        super::record_passes(rec, kernel, gs, role);
         let push = ReducePush {
             n_scratches: gs.n_scratches,
             capacity: gs.capacity,

@@ -231,25 +231,27 @@ pub fn write_png_display(path: &Path, width: u32, height: u32, linear: &[f32]) -
 
 /// Write an 8-bit grayscale PNG atomically. `data` is top row first.
 pub fn write_png_gray(path: &Path, width: u32, height: u32, data: &[u8]) -> Result<(), IoError> {
-    use image::ImageEncoder;
-    check_dims(path, width, height, data.len())?;
-    let mut buf = Vec::new();
-    image::codecs::png::PngEncoder::new(&mut buf)
-        .write_image(data, width, height, image::ExtendedColorType::L8)
-        .map_err(|source| IoError::Image {
-            path: path.to_path_buf(),
-            cause: source,
-        })?;
-    write_atomic(path, &buf)
+    write_png(path, width, height, data, image::ExtendedColorType::L8)
 }
 
 /// Write an 8-bit RGB PNG atomically (plots). `data` is top row first, 3 bytes per pixel.
 pub fn write_png_rgb(path: &Path, width: u32, height: u32, data: &[u8]) -> Result<(), IoError> {
+    write_png(path, width, height, data, image::ExtendedColorType::Rgb8)
+}
+
+/// An 8-bit PNG of `color` (L8 or Rgb8), encoded in memory and written atomically.
+fn write_png(
+    path: &Path,
+    width: u32,
+    height: u32,
+    data: &[u8],
+    color: image::ExtendedColorType,
+) -> Result<(), IoError> {
     use image::ImageEncoder;
-    check_dims(path, width, height, data.len() / 3)?;
+    check_dims(path, width, height, data.len() / color.channel_count() as usize)?;
     let mut buf = Vec::new();
     image::codecs::png::PngEncoder::new(&mut buf)
-        .write_image(data, width, height, image::ExtendedColorType::Rgb8)
+        .write_image(data, width, height, color)
         .map_err(|source| IoError::Image {
             path: path.to_path_buf(),
             cause: source,

@@ -286,13 +286,7 @@ impl Renderer {
 
     /// Records the shading kernel (writes the image, the coverage and the counters).
     fn record_shading(&self, rec: &mut Recorder, gs: &GpuScene) {
-        record_passes(
-            rec,
-            &self.forward,
-            gs.fwd_plan,
-            gs,
-            &bindings::shade_buffers(gs, bindings::Role::Forward),
-        );
+        record_passes(rec, &self.forward, gs, bindings::Role::Forward);
     }
 
     /// Records one render of `gs` (counters cleared, pair search, shading), with the timestamps
@@ -378,14 +372,14 @@ impl Renderer {
 }
 
 /// Records a shading kernel (forward, backward or tangent: one workgroup per tile, `ShadePush`)
-/// once per pass of `plan`, each followed by a barrier.
-fn record_passes(
-    rec: &mut Recorder,
-    kernel: &ComputePipeline,
-    plan: scene::PassPlan,
-    gs: &GpuScene,
-    buffers: &[&Buffer],
-) {
+/// in `role` once per pass of the scene's plan for it (the forward's, or the backward's, which
+/// the tangent kernel shares), each followed by a barrier.
+fn record_passes(rec: &mut Recorder, kernel: &ComputePipeline, gs: &GpuScene, role: bindings::Role) {
+    let plan = match role {
+        bindings::Role::Forward => gs.fwd_plan,
+        bindings::Role::Backward { .. } | bindings::Role::Tangent { .. } => gs.bwd_plan,
+    };
+    let buffers = bindings::shade_buffers(gs, role);
     for pass in 0..plan.passes {
         let push = ShadePush {
             chunks_per_pass: plan.chunks_per_pass,
@@ -393,7 +387,7 @@ fn record_passes(
             n_passes: plan.passes,
             ..gs.shade
         };
-        rec.dispatch_1d(kernel, buffers, bytemuck::bytes_of(&push), gs.slots.n_tiles);
+        rec.dispatch_1d(kernel, &buffers, bytemuck::bytes_of(&push), gs.slots.n_tiles);
         rec.barrier();
     }
 }

@@ -295,19 +295,14 @@ impl GpuScene {
             return self.grow_list(ctx, stats.entries);
         }
         let max_chunks = raw[4];
-        if raw[3] != 0 {
-            let m = self
-                .fwd_plan
-                .split(max_chunks)
-                .ok_or_else(|| limit_err("shading one chunk of 64 scratches"))?;
-            self.fwd_plan = PassPlan::covering(m, max_chunks);
-        }
-        if raw[6] != 0 {
-            let m = self
-                .bwd_plan
-                .split(max_chunks)
-                .ok_or_else(|| limit_err("the gradient of one chunk of 64 scratches"))?;
-            self.bwd_plan = PassPlan::covering(m, max_chunks);
+        for (hit, plan, what) in [
+            (raw[3], &mut self.fwd_plan, "shading one chunk of 64 scratches"),
+            (raw[6], &mut self.bwd_plan, "the gradient of one chunk of 64 scratches"),
+        ] {
+            if hit != 0 {
+                let m = plan.split(max_chunks).ok_or_else(|| limit_err(what))?;
+                *plan = PassPlan::covering(m, max_chunks);
+            }
         }
         // Lists that grew since the plans were made.
         if !self.fwd_plan.covers(max_chunks) {

@@ -65,19 +65,11 @@ impl Renderer {
         let kernel = self.tangent.get().expect("prepared");
         self.submit(&mut rec, gs, |rec, gs| {
             self.record_render(rec, gs);
-            super::record_passes(
-                rec,
-                kernel,
-                gs.bwd_plan,
-                gs,
-                &super::bindings::shade_buffers(
-                    gs,
-                    super::bindings::Role::Tangent {
-                        seeds: &seed_buf,
-                        tangents: &tang,
-                    },
-                ),
-            );
+            let role = super::bindings::Role::Tangent {
+                seeds: &seed_buf,
+                tangents: &tang,
+            };
+            super::record_passes(rec, kernel, gs, role);
         })?;
         let images = self.download_images(gs)?;
         let all: Vec<[f32; 8]> = self.ctx.download(&tang)?;

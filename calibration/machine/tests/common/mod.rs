@@ -58,6 +58,14 @@ pub fn options(plan: &Path, port: &str) -> Options {
     }
 }
 
+/// [`options`] for `carve --resume` (the journal of the run before).
+pub fn resume_options(plan: &Path, port: &str) -> Options {
+    Options {
+        resume: true,
+        ..options(plan, port)
+    }
+}
+
 /// The cut lines (`G1 X.. Y..`) of a plan, in order.
 pub fn cut_lines(plan: &Path) -> Vec<String> {
     let p = Program::load(plan).unwrap();
