@@ -236,6 +236,14 @@ pub fn carve(opts: &Options, control: &Control, obs: &dyn Observer) -> Result<Su
 /// machine zero), recorded in the journal; `--rezero keep` then stops here. A new job forgets
 /// what came before: its maker set the work zero.
 fn check_position(opts: &Options, journal: &mut Journal, ctl: &mut dyn Controller) -> Result<(), CarveError> {
+    if opts.resume && opts.rezero == Rezero::Home && ctl.can_home() == Some(false) {
+        return Err(CarveError::Usage(format!(
+            "--rezero home: this machine cannot home ($22=0, no homing cycle), so nothing was sent. \
+             Set the work zero by hand (jog the tool over the plate's centre, G10 L20 P1 X0 Y0), then \
+             run {} --rezero probe",
+            opts.resume_command
+        )));
+    }
     if opts.resume {
         let lost = journal
             .position_lost

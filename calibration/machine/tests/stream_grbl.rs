@@ -9,7 +9,7 @@ use std::time::{Duration, Instant};
 
 use common::*;
 use scratchart_machine::fake::{FakeGrbl, GrblConfig};
-use scratchart_machine::job::{carve, CarveError};
+use scratchart_machine::job::{carve, CarveError, Options};
 use scratchart_machine::journal::Journal;
 use scratchart_machine::plan::MachineProfile;
 use scratchart_machine::stream::Control;
@@ -291,6 +291,36 @@ fn a_reset_since_the_last_line_stops_keep_before_any_motion() {
         let journal = Journal::load(&opts.journal).unwrap();
         assert_eq!((journal.state.as_str(), journal.position_lost), ("done", None));
     }
+}
+
+/// `--rezero home` on a machine without homing (`$22=0`) is a flag that cannot work: exit 2
+/// before anything is sent, naming what to do instead.
+#[test]
+fn rezero_home_without_homing_is_refused_before_anything_moves() {
+    let dir = tmpdir("grbl_no_homing");
+    let plan = plan(&dir, "p.nc", 20, &MachineProfile::grbl());
+    let mut cfg = GrblConfig {
+        disconnect_after: Some(30),
+        ..GrblConfig::default()
+    };
+    cfg.settings.insert(22, "0".into());
+    let fake = FakeGrbl::start(cfg.clone()).unwrap();
+    carve(&options(&plan, fake.path()), &Control::default(), &Log::default()).unwrap_err();
+    let (shared, before) = (fake.shared(), fake.record().executed.len());
+    drop(fake);
+    cfg.disconnect_after = None;
+    let fake = FakeGrbl::start_with(cfg, shared).unwrap();
+    let opts = Options {
+        rezero: scratchart_machine::controller::Rezero::Home,
+        ..resume_options(&plan, fake.path())
+    };
+    let e = carve(&opts, &Control::default(), &Log::default()).unwrap_err();
+    assert_eq!(e.exit_code(), 2, "{e}");
+    assert!(
+        e.to_string().contains("$22=0") && e.to_string().contains("--rezero probe"),
+        "{e}"
+    );
+    assert_eq!(fake.record().executed.len(), before, "nothing moved");
 }
 
 /// A resumed run re-sends a few scratches before the last acknowledged one: the journal never
