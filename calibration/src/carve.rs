@@ -97,6 +97,8 @@ fn resume_command(a: &CarveArgs) -> String {
 /// terminal.
 struct Term {
     out: scratchart::term::Terminal,
+    /// What the progress line is labelled ("carve", "probe").
+    task: &'static str,
     ask: bool,
     answers: Option<Mutex<Receiver<String>>>,
     asking: Arc<AtomicBool>,
@@ -109,12 +111,18 @@ fn eta(s: f64) -> String {
 
 impl Observer for Term {
     fn progress(&self, p: &Progress) {
-        let mut msg = format!("ETA {} | {}", p.eta_s.map_or("?".into(), eta), p.state);
+        // "carve: 370/2701 cuts, last scratch 1234 | ...": the cut order and the design's number.
+        let mut msg = if p.label.is_empty() {
+            String::new()
+        } else {
+            format!("cuts, last {} | ", p.label)
+        };
+        msg.push_str(&format!("ETA {} | {}", p.eta_s.map_or("?".into(), eta), p.state));
         if let Some(q) = p.pos {
             msg.push_str(&format!(" X{:.2} Y{:.2} Z{:.3}", q[0], q[1], q[2]));
         }
         self.out.progress(&scratchart::observe::Progress {
-            task: "carve",
+            task: self.task,
             done: p.done as u64,
             total: p.total as u64,
             message: msg,
@@ -207,6 +215,7 @@ pub fn run(a: &CarveArgs) -> Result<()> {
     }
     let term = Term {
         out: scratchart::term::Terminal::new(false),
+        task: "carve",
         ask: tty && !a.yes,
         answers,
         asking,
@@ -291,6 +300,7 @@ pub fn probe(a: &ProbeArgs) -> Result<()> {
     let asking = Arc::new(AtomicBool::new(false));
     let term = Term {
         out: scratchart::term::Terminal::new(false),
+        task: "probe",
         ask: tty && !a.yes,
         answers: tty.then(|| Mutex::new(keys(control.clone(), asking.clone()))),
         asking,
@@ -315,7 +325,7 @@ pub fn probe(a: &ProbeArgs) -> Result<()> {
         detect_timeout: Duration::from_secs(4),
     };
     let result = probe_grid(&o, &control, &term);
-    term.out.finish("carve");
+    term.out.finish("probe");
     // (its class decides the exit code: `scratchart::exit`)
     let map = result?;
     scratchart::io::write_atomic(&a.out, map.to_json().as_bytes())?;

@@ -18,7 +18,7 @@ use scratchart_tool::Tool;
 pub const LEVEL_TOL_MM: f64 = 0.001;
 /// The orientation mark keeps this much more than half a groove's visible width from every
 /// scratch, mm.
-pub const MARK_CLEAR_MM: f64 = 0.5;
+pub use scratchart_machine::plan::MARK_CLEAR_MM;
 
 /// How the groove ends are handled, stated in every plan's header.
 pub const GROOVE_ENDS: &str = "groove ends: cuts are not shortened. The tool plunges at one designed endpoint \
@@ -150,7 +150,9 @@ pub fn plan(a: &PlanArgs) -> Result<()> {
     let surface = surface_depth_mm(tool.as_ref().map(|t| t.z_offset_mm()));
     let depths = plan_depths(a, &scene, &extra, tool.as_ref(), surface, &mut summary)?;
     if let Some(t) = &tool {
-        summary.insert(0, format!("tool {}", serde_json::to_string(t)?));
+        // The whole record, spaced so that the header folds it between values.
+        let record = serde_json::to_string(t)?.replace(',', ", ").replace("\":", "\": ");
+        summary.insert(0, format!("tool {record}"));
     }
     let cuts: Vec<Cut> = scene
         .scratches
@@ -423,6 +425,9 @@ pub struct ExportArgs {
     /// The tool (tool.json): band by commanded depth when the design has no z_mm column
     #[arg(long)]
     pub tool: Option<PathBuf>,
+    /// Leave out the orientation mark at the plate's +x edge (as `plan --no-mark`)
+    #[arg(long)]
+    pub no_mark: bool,
 }
 
 /// `scratchart-cal export`.
@@ -441,7 +446,10 @@ pub fn export(a: &ExportArgs) -> Result<()> {
         }
         (None, None) => None,
     };
-    let d = drawing(&scene, depths.as_deref()).map_err(|e| InputError(format!("{}: {e}", a.design.display())))?;
+    let mut d = drawing(&scene, depths.as_deref()).map_err(|e| InputError(format!("{}: {e}", a.design.display())))?;
+    if a.no_mark {
+        d.mark = None;
+    }
     let by = match d.by {
         BandBy::Depth => "commanded depth",
         BandBy::Width => "visible width",

@@ -167,7 +167,7 @@ fn the_card_gcode_cuts_the_card() {
         let g = std::fs::read_to_string(dir.join(file)).unwrap();
         assert!(g.starts_with(&format!("; scratchart plan machine={fw}\n")));
         assert!(g.lines().all(|l| l.len() < 80) && !g.contains('\r'));
-        // Blocks: `; scratch N`, then G0 to the start, G1 Z down, G1 to the end.
+        // Blocks: `; scratch N (cut K of T)`, then G0 to the start, G1 Z down, G1 to the end.
         let mut seen = vec![false; card.cuts.len()];
         let mut above = 0;
         let lines: Vec<&str> = g.lines().collect();
@@ -180,6 +180,7 @@ fn the_card_gcode_cuts_the_card() {
             let Some(n) = l.strip_prefix("; scratch ") else {
                 continue;
             };
+            let n = n.split(" (cut ").next().unwrap();
             let k: usize = n.parse::<usize>().unwrap() - 1;
             assert!(!seen[k], "cut {} twice", k + 1);
             seen[k] = true;

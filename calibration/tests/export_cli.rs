@@ -62,10 +62,20 @@ fn export_writes_svg_and_dxf() {
     assert!(String::from_utf8_lossy(&o.stdout).contains("by visible width"));
     let svg = std::fs::read_to_string(dir.join("out/a.svg")).unwrap();
     assert!(svg.contains(r#"width="60mm" height="60mm" viewBox="0 0 60 60""#));
-    assert_eq!(svg.matches("<line ").count(), 30);
+    assert_eq!(svg.matches("<line ").count(), 31, "30 scratches and the +x mark");
+    assert!(svg.contains(r#"<g id="mark_plus_x_edge""#));
     let dxf = std::fs::read_to_string(dir.join("out/a.dxf")).unwrap();
     assert!(dxf.contains("$INSUNITS\n 70\n4\n") && dxf.contains("AC1015"));
-    assert_eq!(dxf.matches("\nLINE\n").count(), 34, "30 scratches and 4 plate edges");
+    assert_eq!(
+        dxf.matches("\nLINE\n").count(),
+        35,
+        "30 scratches, 4 plate edges and the +x mark"
+    );
+    // --no-mark leaves it out, as `plan --no-mark` does.
+    let o = run(&["export", "design.json", "--no-mark", "--svg", "out/b.svg"]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let svg = std::fs::read_to_string(dir.join("out/b.svg")).unwrap();
+    assert!(svg.matches("<line ").count() == 30 && !svg.contains("mark_plus_x_edge"));
     // Either alone; with z_mm the bands are by commanded depth.
     let extra = Extra {
         names: vec!["z_mm".into()],

@@ -63,6 +63,16 @@ fn plan_writes_gcode_and_a_preview() {
     assert!(g.starts_with("; scratchart plan machine=grbl\n"));
     assert_eq!(g.lines().filter(|l| l.starts_with("; scratch ")).count(), 40);
     assert!(dir.join("out/plan.png").exists());
+    // The whole tool record in the header (folded over comment lines, never cut short).
+    let header: Vec<&str> = g.lines().take_while(|l| l.starts_with(';')).map(|l| &l[2..]).collect();
+    let joined = header.join(" ");
+    let at = joined.find("tool {").expect("a tool record") + "tool ".len();
+    let end = at + joined[at..].find('}').unwrap() + 1;
+    let record: serde_json::Value = serde_json::from_str(&joined[at..end]).expect(&joined);
+    assert_eq!(record["kind"], "v-bit");
+    assert_eq!(record["angle_deg"], 60.0);
+    assert_eq!(record["tip_flat_mm"], 0.01);
+    assert_eq!(record["z_offset_mm"], 0.0);
     let o = run(&[
         "plan",
         "design.json",
@@ -114,7 +124,11 @@ fn blocks_of(g: &str) -> Vec<(String, Vec<[f64; 3]>)> {
     for line in g.lines() {
         if let Some(c) = line.strip_prefix("; ") {
             if c.starts_with("scratch ") || c.starts_with("mark ") {
-                out.push((c.to_string(), Vec::new()));
+                // `scratch N (cut K of T)`: K counts the blocks in order.
+                let (label, cut) = c.split_once(" (cut ").expect("a cut index");
+                let k: usize = cut.split(' ').next().unwrap().parse().unwrap();
+                assert_eq!(k, out.len() + 1, "{c}");
+                out.push((label.to_string(), Vec::new()));
             }
             continue;
         }

@@ -56,6 +56,14 @@ pub enum Fault {
     Machine(String),
 }
 
+impl std::fmt::Display for Fault {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Fault::Input(m) | Fault::Machine(m) => f.write_str(m),
+        }
+    }
+}
+
 impl From<LinkError> for Fault {
     fn from(e: LinkError) -> Fault {
         Fault::Machine(e.to_string())

@@ -13,17 +13,21 @@
 //! top-left corner: SVG x = x + L/2, SVG y = L/2 - y); one `<g>` per band (an Inkscape layer, its
 //! own stroke colour, so LightBurn sees one layer per band), each scratch a `<line id="sN">` whose
 //! stroke width is the groove's visible width, with butt caps (the model's groove has no end
-//! caps); the plate outline in `<g id="plate">`.
+//! caps); the plate outline in `<g id="plate">`; the orientation mark that `plan` cuts at the
+//! plate's +x edge (the set-up sheet's reference) in `<g id="mark_plus_x_edge">`.
 //!
 //! DXF: AutoCAD 2000 (AC1015) ASCII, the first version whose readers honour `$INSUNITS` (4: mm).
 //! HEADER, CLASSES, TABLES (with one LAYER per band and `plate`), BLOCKS, ENTITIES (one LINE per
-//! scratch on its band's layer, four LINEs of the plate outline on `plate`), OBJECTS; plate
+//! scratch on its band's layer, four LINEs of the plate outline on `plate`, the orientation mark
+//! on `mark_plus_x_edge`), OBJECTS; plate
 //! coordinates as they are (origin at the plate centre, +y up).
 //!
 //! Both are returned as text; the caller writes them (atomically).
 use std::fmt::Write as _;
 
 use scratchart_model::scene::Scene;
+
+use crate::plan::{orientation_mark, Mark, MARK_CLEAR_MM};
 
 /// The most bands a drawing is split into (a laser's or cutter's layer list stays short).
 pub const MAX_BANDS: usize = 8;
@@ -61,7 +65,13 @@ pub struct Drawing {
     pub by: BandBy,
     pub bands: Vec<Band>,
     pub lines: Vec<Line>,
+    /// The orientation mark at the plate's +x edge, placed as `plan` cuts it
+    /// ([`orientation_mark`]); `None` to leave it out (as `plan --no-mark`).
+    pub mark: Option<Mark>,
 }
+
+/// The layer (SVG group, DXF layer) of the orientation mark.
+pub const MARK_LAYER: &str = "mark_plus_x_edge";
 
 /// Visible width of a groove (MODEL.md section 2), mm.
 pub fn visible_width(w: f64, d: f64) -> f64 {
@@ -130,7 +140,7 @@ pub fn drawing(scene: &Scene, depths: Option<&[f64]>) -> Result<Drawing, String>
         let band_of = q.iter().map(|&v| renumber[index(v)]).collect();
         (bands, band_of)
     };
-    let lines = scene
+    let lines: Vec<Line> = scene
         .scratches
         .iter()
         .zip(&widths)
@@ -142,11 +152,15 @@ pub fn drawing(scene: &Scene, depths: Option<&[f64]>) -> Result<Drawing, String>
             band,
         })
         .collect();
+    let sc: Vec<_> = lines.iter().map(|l: &Line| (l.a, l.b, l.width)).collect();
+    let deepest = depths.map_or(0.0, |z| z.iter().cloned().fold(0.0f64, f64::max));
+    let mark = Some(orientation_mark(&sc, scene.plate.size_mm, deepest, MARK_CLEAR_MM));
     Ok(Drawing {
         plate_mm: scene.plate.size_mm,
         by,
         bands,
         lines,
+        mark,
     })
 }
 
@@ -228,6 +242,19 @@ pub fn svg(d: &Drawing) -> String {
             );
         }
         let _ = writeln!(s, "</g>");
+    }
+    if let Some(mk) = &d.mark {
+        // As `plan` cuts it: one line pointing +x near the +x edge (the set-up sheet's reference).
+        let width = d.lines.iter().map(|l| l.width).fold(0.05f64, f64::max);
+        let _ = writeln!(
+            s,
+            r##"<g id="{MARK_LAYER}" inkscape:groupmode="layer" inkscape:label="{MARK_LAYER}" fill="none" stroke="#000000" stroke-linecap="butt"><line id="mark" x1="{}" y1="{}" x2="{}" y2="{}" stroke-width="{}"/></g>"##,
+            n(mk.a[0] + h),
+            n(h - mk.a[1]),
+            n(mk.b[0] + h),
+            n(h - mk.b[1]),
+            n(width)
+        );
     }
     let _ = writeln!(s, "</svg>");
     s
@@ -337,6 +364,7 @@ fn dxf_tables(b: &mut Dxf, d: &Drawing) -> String {
                 .enumerate()
                 .map(|(i, band)| (band.name.clone(), COLOURS[i % MAX_BANDS].1)),
         )
+        .chain(d.mark.is_some().then(|| (MARK_LAYER.to_string(), 7)))
         .collect();
     let la = b.table("LAYER", layers.len());
     for (name, colour) in &layers {
@@ -443,6 +471,9 @@ fn dxf_entities(b: &mut Dxf, d: &Drawing, ms: &str) {
     }
     for ln in &d.lines {
         line(b, &d.bands[ln.band].name, ln.a, ln.b);
+    }
+    if let Some(mk) = &d.mark {
+        line(b, MARK_LAYER, mk.a, mk.b);
     }
     b.pair(0, "ENDSEC");
 }

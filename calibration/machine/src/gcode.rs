@@ -1,7 +1,8 @@
 //! The one G-code writer (used by `plan` and by the calibration card): a program's blocks as
 //! GRBL- or Marlin-flavoured G-code. The first line names the firmware (`carve` refuses a plan
 //! made for the other one); the header says where the work zero is; each block opens with its
-//! comment (`; scratch N`, or `; mark +x edge` for the orientation mark). Lines stay under 80
+//! comment (`; scratch N (cut K of T)`: N the design's scratch number, K the place in the cut
+//! order; or `; mark +x edge (cut K of T)` for the orientation mark). Lines stay under 80
 //! characters and end in `\n` only.
 use std::fmt::Write as _;
 
@@ -34,18 +35,31 @@ pub fn write(cuts: &[Cut], m: &MachineProfile, plate_mm: f64, summary: &[String]
     write_blocks(&blocks, m, plate_mm, summary, &Options::default())
 }
 
-/// Header comment lines, folded at spaces so that every line stays under 80 characters.
+/// Header comment lines, folded at spaces so that every line stays under 80 characters; a word
+/// longer than a line is split across lines, never cut short.
 fn comment(g: &mut String, s: &str) {
+    const WIDTH: usize = 74;
     let mut line = String::new();
     for word in s.split(' ') {
-        if !line.is_empty() && line.len() + 1 + word.len() > 74 {
+        if !line.is_empty() && line.len() + 1 + word.len() > WIDTH {
             let _ = writeln!(g, "; {line}");
             line.clear();
         }
         if !line.is_empty() {
             line.push(' ');
         }
-        line.push_str(&word[..word.len().min(74)]);
+        let mut rest = word;
+        while line.len() + rest.len() > WIDTH {
+            let mut cut = WIDTH - line.len();
+            while !rest.is_char_boundary(cut) {
+                cut -= 1;
+            }
+            line.push_str(&rest[..cut]);
+            let _ = writeln!(g, "; {line}");
+            line.clear();
+            rest = &rest[cut..];
+        }
+        line.push_str(rest);
     }
     if !line.is_empty() {
         let _ = writeln!(g, "; {line}");
@@ -131,8 +145,9 @@ pub fn write_blocks(blocks: &[Block], m: &MachineProfile, plate_mm: f64, summary
         let _ = writeln!(g, "G4 P2");
     }
     let xy = |p: &[f64; 3]| format!("X{} Y{}", num(p[0], 4), num(p[1], 4));
-    for b in blocks {
-        let _ = writeln!(g, "; {}", b.label);
+    for (i, b) in blocks.iter().enumerate() {
+        // The design's number, and where it comes in the cut order (as `carve` counts).
+        let _ = writeln!(g, "; {} (cut {} of {})", b.label, i + 1, blocks.len());
         let first = &b.path[0];
         let _ = match m.firmware {
             Firmware::Grbl => writeln!(g, "G0 {}", xy(first)),
@@ -167,4 +182,31 @@ pub fn write_blocks(blocks: &[Block], m: &MachineProfile, plate_mm: f64, summary
         }
     }
     g
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn header_comments_keep_every_character() {
+        // A tool record as `plan` writes it, and one word longer than any line.
+        let record = r#"tool {"kind": "profile", "depths_mm": [0.001, 0.002, 0.004, 0.008, 0.016, 0.032], "widths_mm": [0.0101, 0.0202, 0.0404, 0.0808, 0.1616, 0.3232], "z_offset_mm": 0.007, "alpha": 0.1}"#;
+        let long = "x".repeat(200);
+        for s in [record.to_string(), long.clone(), format!("a {long} b")] {
+            let mut g = String::new();
+            comment(&mut g, &s);
+            assert!(g.lines().all(|l| l.len() < 80 && l.starts_with("; ")), "{g}");
+            // Lines joined (at a space where the fold was at one) give the text back.
+            let pieces: Vec<&str> = g.lines().map(|l| &l[2..]).collect();
+            let joined_tight = pieces.concat();
+            assert_eq!(joined_tight.replace(' ', ""), s.replace(' ', ""), "{g}");
+        }
+        let mut g = String::new();
+        comment(&mut g, record);
+        let text: Vec<&str> = g.lines().map(|l| &l[2..]).collect();
+        let json: serde_json::Value = serde_json::from_str(&text.join(" ")["tool ".len()..]).unwrap();
+        assert_eq!(json["alpha"], 0.1);
+        assert_eq!(json["widths_mm"][5], 0.3232);
+    }
 }

@@ -480,12 +480,28 @@ impl Controller for Grbl {
     }
 
     fn probe_z(&mut self, link: &mut Link, depth: f64, feed: f64) -> Result<f64, Fault> {
-        let lines = command(
-            self,
-            link,
-            &format!("G38.2 Z{:.3} F{feed:.0}", -depth),
-            Duration::from_secs(120),
-        )?;
+        let probe = format!("G38.2 Z{:.3} F{feed:.0}", -depth);
+        let lines = match command(self, link, &probe, Duration::from_secs(120)) {
+            Ok(lines) => lines,
+            Err(Fault::Machine(m)) if m.contains("ALARM:5") => {
+                // GRBL 1.1h: ALARM:5, then `[PRB:...:0]`, then the line's `ok`; read them so
+                // nothing of this probe is taken for the answer to a later line.
+                let t0 = Instant::now();
+                while t0.elapsed() < Duration::from_secs(2) {
+                    match link.line(Duration::from_millis(50))? {
+                        Some(l) if l == "ok" => break,
+                        _ => {}
+                    }
+                }
+                return Err(Fault::Machine(format!(
+                    "the probe did not touch the plate within {depth} mm below Z0 (GRBL ALARM:5, \
+                     probe fail); GRBL is in alarm and the tool is down there: check that the probe \
+                     clip is on the tool and the plate is wired, raise the tool, unlock with `$X`, \
+                     and try again (a larger --depth if Z0 is set too high)"
+                )));
+            }
+            Err(f) => return Err(f),
+        };
         let prb = lines
             .iter()
             .find_map(|l| l.strip_prefix("[PRB:"))

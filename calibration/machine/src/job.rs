@@ -130,9 +130,10 @@ pub fn carve(opts: &Options, control: &Control, obs: &dyn Observer) -> Result<Su
     }
     let question = if opts.resume {
         format!(
-            "resume {} at scratch {} of {total} on {}?",
+            "resume {} at cut {} of {total} ({}) on {}?",
             opts.plan.display(),
             from + 1,
+            program.blocks[from.min(total.saturating_sub(1))].label,
             opts.port
         )
     } else {
@@ -163,10 +164,14 @@ pub fn carve(opts: &Options, control: &Control, obs: &dyn Observer) -> Result<Su
             journal.position_lost = None;
         }
         obs.note(&format!(
-            "resuming at scratch {} of {total} (the last acknowledged was {}; up to {RESUME_OVERLAP} \
-             before it are cut again so that none is skipped)",
+            "resuming at cut {} of {total} ({}; the last acknowledged was cut {}{}; up to \
+             {RESUME_OVERLAP} cuts before it are cut again so that none is skipped)",
             from + 1,
-            journal.last_acked.map_or(0, |k| k + 1)
+            program.blocks[from.min(total.saturating_sub(1))].label,
+            journal.last_acked.map_or(0, |k| k + 1),
+            journal
+                .last_acked_scratch
+                .map_or(String::new(), |n| format!(", scratch {n}"))
         ));
     }
 
@@ -193,6 +198,7 @@ pub fn carve(opts: &Options, control: &Control, obs: &dyn Observer) -> Result<Su
             obs.progress(&Progress {
                 done: b + 1,
                 total,
+                label: blocks[b].label.clone(),
                 eta_s: Some(t0.elapsed().as_secs_f64() / run * (total - b - 1) as f64),
                 state: state.to_string(),
                 pos,
@@ -336,7 +342,7 @@ fn open_journal(opts: &Options, program: &Program, obs: &dyn Observer) -> Result
         if let Ok(j) = Journal::load(&opts.journal) {
             if j.state != "done" && j.plan_checksum == program.checksum {
                 obs.note(&format!(
-                    "an unfinished job of this plan is recorded in {} ({} of {} scratches); \
+                    "an unfinished job of this plan is recorded in {} ({} of {} cuts); \
                      starting over (to continue it instead: {})",
                     opts.journal.display(),
                     j.last_acked.map_or(0, |k| k + 1),
@@ -402,8 +408,10 @@ fn outcome(
     let total = journal.total;
     let where_ = |j: &Journal| {
         format!(
-            "{} of {total} scratches acknowledged (journal {})",
+            "{} of {total} cuts acknowledged{} (journal {})",
             j.last_acked.map_or(0, |k| k + 1),
+            j.last_acked_scratch
+                .map_or(String::new(), |n| format!(", the last scratch {n} of the design")),
             opts.journal.display()
         )
     };
@@ -411,12 +419,12 @@ fn outcome(
     match end {
         End::Done => match ctl.wait_idle(link) {
             Ok(()) => None,
-            Err(f) => Some(CarveError::Stopped(format!("at the end of the job: {f:?}"))),
+            Err(f) => Some(CarveError::Stopped(format!("at the end of the job: {f}"))),
         },
         End::Abort => {
             let did = ctl
                 .stop_and_raise(link, pending, safe_z, opts.emergency)
-                .unwrap_or_else(|f| format!("the stop sequence failed: {f:?}: stop the machine by hand"));
+                .unwrap_or_else(|f| format!("the stop sequence failed: {f}: stop the machine by hand"));
             journal.state = "interrupted".into();
             Some(CarveError::Interrupted(format!(
                 "interrupted: {did}; {}; {resume_hint}",
@@ -426,7 +434,7 @@ fn outcome(
         End::Refused(e) => {
             let did = ctl
                 .stop_and_raise(link, pending, safe_z, false)
-                .unwrap_or_else(|f| format!("the stop sequence failed ({f:?}): stop the machine by hand"));
+                .unwrap_or_else(|f| format!("the stop sequence failed ({f}): stop the machine by hand"));
             Some(CarveError::Stopped(format!(
                 "{} refused {e}; stopped: {did}; {}; {resume_hint}",
                 ctl.describe(),

@@ -21,7 +21,8 @@ pub struct Journal {
     pub firmware: String,
     /// Scratches (blocks) in the plan.
     pub total: usize,
-    /// Index, in plan order, of the last block whose every line was acknowledged (None: none yet).
+    /// Index, in plan order, of the last block whose every line was acknowledged (None: none yet);
+    /// the plan comment's `(cut K of T)` has K = this + 1.
     pub last_acked: Option<usize>,
     /// That block's scratch number in the design (`; scratch N`).
     pub last_acked_scratch: Option<usize>,

@@ -371,6 +371,9 @@ fn seg_dist(a: [f64; 2], b: [f64; 2], c: [f64; 2], d: [f64; 2]) -> f64 {
     pt(a, c, d).min(pt(b, c, d)).min(pt(c, a, b)).min(pt(d, a, b))
 }
 
+/// The room the orientation mark keeps from every scratch (beyond half its visible width), mm.
+pub const MARK_CLEAR_MM: f64 = 0.5;
+
 /// Places the orientation mark (see [`Mark`]) among `scratches` (endpoints and visible width, mm)
 /// on a plate of `plate_mm`, cut `depth` deep.
 pub fn orientation_mark(scratches: &[([f64; 2], [f64; 2], f64)], plate_mm: f64, depth: f64, clear_mm: f64) -> Mark {

@@ -112,11 +112,12 @@ pub fn probe_grid(o: &ProbeOptions, control: &Control, obs: &dyn Observer) -> Re
             moveto(ctl.as_mut(), &mut link, &format!("X{:.4} Y{y:.4}", xs[i])).map_err(fault)?;
             z[j][i] = ctl
                 .probe_z(&mut link, o.depth_mm, o.feed_mm_min)
-                .map_err(|f| fault(Fault::Machine(format!("at X{:.3} Y{y:.3}: {f:?}", xs[i]))))?;
+                .map_err(|f| fault(Fault::Machine(format!("at X{:.3} Y{y:.3}: {f}", xs[i]))))?;
             moveto(ctl.as_mut(), &mut link, &safe).map_err(fault)?;
             obs.progress(&Progress {
                 done: j * xs.len() + k + 1,
                 total,
+                label: String::new(),
                 eta_s: None,
                 state: format!("Z {:.4} at X{:.2} Y{y:.2}", z[j][i], xs[i]),
                 pos: None,

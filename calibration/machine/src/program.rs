@@ -1,6 +1,7 @@
 //! A plan read back for streaming: the firmware named on its first line, the lines before the
 //! first scratch (units, offsets, spindle), one block of lines per scratch (from each
-//! `; scratch N` comment to the next), and the lines after the last one. Comments and blank lines
+//! `; scratch N (cut K of T)` comment to the next: N the design's number, K the cut order), and
+//! the lines after the last one. Comments and blank lines
 //! are never sent.
 use crate::plan::Firmware;
 
@@ -84,7 +85,10 @@ impl Program {
             let line = raw.trim();
             if let Some(c) = line.strip_prefix(';') {
                 let c = c.trim();
-                if let Some(n) = c.strip_prefix("scratch ") {
+                // `scratch N (cut K of T)` (or `scratch N` from older plans): the label is
+                // what comes before the cut index.
+                let label = c.split(" (cut ").next().unwrap_or(c).trim();
+                if let Some(n) = label.strip_prefix("scratch ") {
                     let n: usize = n
                         .trim()
                         .parse()
@@ -92,13 +96,13 @@ impl Program {
                     // A block ends where the next begins; the lines after the last block's
                     // retract belong to the postamble (see below).
                     p.blocks.push(Block {
-                        label: c.to_string(),
+                        label: label.to_string(),
                         scratch: Some(n),
                         lines: Vec::new(),
                     });
-                } else if c.starts_with("mark ") {
+                } else if label.starts_with("mark ") {
                     p.blocks.push(Block {
-                        label: c.to_string(),
+                        label: label.to_string(),
                         scratch: None,
                         lines: Vec::new(),
                     });
@@ -203,7 +207,11 @@ mod tests {
             },
         ];
         let g = crate::gcode::write(&cuts, &MachineProfile::grbl(), 50.0, &["a note".into()]);
+        assert!(g.contains("\n; scratch 5 (cut 1 of 2)\n") && g.contains("\n; scratch 1 (cut 2 of 2)\n"));
         let p = Program::parse(&g).unwrap();
+        // A plan written before the cut index was added reads the same.
+        let old = Program::parse(&g.replace(" (cut 1 of 2)", "").replace(" (cut 2 of 2)", "")).unwrap();
+        assert_eq!(old.blocks, p.blocks);
         assert_eq!(p.firmware, Firmware::Grbl);
         assert_eq!(p.plate_mm, Some(50.0));
         assert_eq!(p.blocks.len(), 2);

@@ -22,9 +22,13 @@ pub struct Control {
 /// How far the job is.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Progress {
-    /// Scratches acknowledged (counting those before a resumed job's start) and in the plan.
+    /// Cuts acknowledged (counting those before a resumed job's start) and in the plan: the
+    /// cut index of the plan's `(cut K of T)` comments.
     pub done: usize,
     pub total: usize,
+    /// What the last acknowledged cut is, in the design's numbering (`scratch 1234`,
+    /// `mark +x edge`); empty where there is none (probing).
+    pub label: String,
     /// Estimated seconds left, from this run's pace.
     pub eta_s: Option<f64>,
     /// The machine's state (GRBL's status, or what the sender knows).
@@ -130,14 +134,14 @@ impl Sender<'_> {
         }
         if control.hold.swap(false, Ordering::SeqCst) && !self.held {
             if let Err(e) = ctl.hold(link) {
-                return Some(self.lost(format!("{e:?}")));
+                return Some(self.lost(e.to_string()));
             }
             self.held = true;
             obs.note("feed hold: the machine stops; resume with `~` (or `r`), abort with Ctrl-C");
         }
         if control.resume.swap(false, Ordering::SeqCst) && self.held {
             if let Err(e) = ctl.resume(link) {
-                return Some(self.lost(format!("{e:?}")));
+                return Some(self.lost(e.to_string()));
             }
             self.held = false;
             obs.note("resumed");

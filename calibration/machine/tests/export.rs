@@ -1,6 +1,7 @@
 //! The vector export read back by independent parsers (roxmltree for SVG, the `dxf` crate for
 //! DXF) and compared with the design endpoint by endpoint.
-use scratchart_machine::export::{drawing, dxf, svg, visible_width, BandBy, Drawing, MAX_BANDS};
+use scratchart_machine::export::{drawing, dxf, svg, visible_width, BandBy, Drawing, MARK_LAYER, MAX_BANDS};
+use scratchart_machine::plan::{orientation_mark, Mark, MARK_CLEAR_MM};
 use scratchart_model::scene::{Camera, Light, LightKind, Plate, Scene, Scratch, View};
 
 const TOL: f64 = 1e-6;
@@ -72,6 +73,20 @@ fn bands_hold(d: &Drawing, values: &[f64]) {
     }
 }
 
+/// The mark as `plan` places it for this design.
+fn plan_mark(scene: &Scene, d: &Drawing) -> Mark {
+    let sc: Vec<_> = scene
+        .scratches
+        .iter()
+        .map(|s| (s.p0, s.p1, visible_width(s.w, s.d)))
+        .collect();
+    let deepest = match d.by {
+        BandBy::Depth => d.bands.iter().map(|b| b.hi).fold(0.0, f64::max),
+        BandBy::Width => 0.0,
+    };
+    orientation_mark(&sc, scene.plate.size_mm, deepest, MARK_CLEAR_MM)
+}
+
 fn check_svg(scene: &Scene, d: &Drawing) {
     let text = svg(d);
     let doc = roxmltree::Document::parse(&text).expect("the SVG parses");
@@ -96,9 +111,29 @@ fn check_svg(scene: &Scene, d: &Drawing) {
     let rect = plate.children().find(|n| n.has_tag_name("rect")).unwrap();
     assert_eq!((num(rect, "width"), num(rect, "height")), (l, l));
     assert_eq!(plate.descendants().filter(|n| n.has_tag_name("line")).count(), 0);
+    // The orientation mark in its own group, where `plan` cuts it, pointing +x.
+    let mk = d.mark.expect("the drawing has the +x mark");
+    let group = root
+        .children()
+        .find(|n| n.attribute("id") == Some(MARK_LAYER))
+        .expect("a mark group");
+    let line = group.children().find(|n| n.has_tag_name("line")).unwrap();
+    let back = |x: f64, y: f64| [x - 0.5 * l, 0.5 * l - y];
+    let (a, b) = (
+        back(num(line, "x1"), num(line, "y1")),
+        back(num(line, "x2"), num(line, "y2")),
+    );
+    assert!(
+        close(a, mk.a) && close(b, mk.b) && b[0] > a[0] && b[0] > 0.4 * l,
+        "{a:?} {b:?}"
+    );
+    assert_eq!(mk, plan_mark(scene, d), "placed by plan's rule");
     // Every scratch once, in the group of its band, endpoints and width as designed.
     let mut seen = vec![false; scene.scratches.len()];
-    for line in root.descendants().filter(|n| n.has_tag_name("line")) {
+    for line in root
+        .descendants()
+        .filter(|n| n.has_tag_name("line") && n.attribute("id") != Some("mark"))
+    {
         let k: usize = line.attribute("id").unwrap()[1..].parse::<usize>().unwrap() - 1;
         assert!(!seen[k], "scratch {} twice", k + 1);
         seen[k] = true;
@@ -131,14 +166,18 @@ fn check_dxf(scene: &Scene, d: &Drawing, tag: &str) {
     for b in &d.bands {
         assert!(layers.contains(&b.name), "no layer {} in {layers:?}", b.name);
     }
+    assert!(layers.contains(&MARK_LAYER.to_string()), "{layers:?}");
     let mut plate = Vec::new();
     let mut scratches = Vec::new();
+    let mut marks = Vec::new();
     for e in back.entities() {
         match &e.specific {
             dxf::entities::EntityType::Line(ln) => {
                 let seg = ([ln.p1.x, ln.p1.y], [ln.p2.x, ln.p2.y]);
                 if e.common.layer == "plate" {
                     plate.push(seg);
+                } else if e.common.layer == MARK_LAYER {
+                    marks.push(seg);
                 } else {
                     scratches.push((e.common.layer.clone(), seg));
                 }
@@ -154,6 +193,11 @@ fn check_dxf(scene: &Scene, d: &Drawing, tag: &str) {
             "plate corner {a:?}"
         );
     }
+    let mk = d.mark.unwrap();
+    assert!(
+        marks.len() == 1 && close(marks[0].0, mk.a) && close(marks[0].1, mk.b),
+        "{marks:?}"
+    );
     assert_eq!(scratches.len(), scene.scratches.len());
     for (k, ((layer, (a, b)), s)) in scratches.iter().zip(&scene.scratches).enumerate() {
         assert!(

@@ -223,8 +223,9 @@ fn marlin_gcode_has_no_spindle_and_homes_only_when_asked() {
         // The cuts read back as planned.
         let back = blocks_of(&g);
         assert_eq!(back.len(), 30);
-        for ((label, pts), c) in back.iter().zip(&cuts) {
-            assert_eq!(label, &format!("scratch {}", c.scratch + 1));
+        for (i, ((label, pts), c)) in back.iter().zip(&cuts).enumerate() {
+            // The design's number, then the place in the cut order.
+            assert_eq!(label, &format!("scratch {} (cut {} of 30)", c.scratch + 1, i + 1));
             assert_eq!(pts.len(), 2, "{label}: {pts:?}");
             assert!((pts[0][0] - c.a[0]).abs() < 1e-4 && (pts[1][1] - c.b[1]).abs() < 1e-4);
             assert!((pts[0][2] + c.z).abs() < 1e-4);
@@ -290,7 +291,7 @@ fn the_mark_points_plus_x_on_the_plate_clear_of_the_scratches() {
     let b = mk.block();
     assert_eq!(b.label, Label::Mark);
     let g = write_blocks(&[b], &MachineProfile::grbl(), plate, &[], &Options::default());
-    assert!(g.contains("\n; mark +x edge\n") && !g.contains("; scratch "));
+    assert!(g.contains("\n; mark +x edge (cut 1 of 1)\n") && !g.contains("; scratch "));
 }
 
 fn tilted_map() -> HeightMap {

@@ -451,6 +451,10 @@ fn the_fake_records_an_overflow() {
     for _ in 0..3 {
         port.write_all(line.as_bytes()).unwrap();
     }
-    std::thread::sleep(Duration::from_millis(100));
+    // (waits for the fake's thread to read it, up to 5 s on a loaded machine)
+    let t0 = std::time::Instant::now();
+    while fake.record().overflows.is_empty() && t0.elapsed() < Duration::from_secs(5) {
+        std::thread::sleep(Duration::from_millis(20));
+    }
     assert!(!fake.record().overflows.is_empty());
 }

@@ -208,12 +208,14 @@ impl Machine {
                 w.rx.clear();
                 w.record.lock().unwrap().resets += 1;
                 let in_motion = self.st == St::Idle && moving;
+                // As GRBL 1.1h: a reset during motion reports ALARM:3 first, then restarts with
+                // its banner and, in alarm, the unlock message.
+                if in_motion {
+                    w.say("ALARM:3\r\n");
+                }
                 w.say(BANNER);
                 self.st = if in_motion || self.st == St::Alarm {
                     w.say("[MSG:'$H'|'$X' to unlock]\r\n");
-                    if in_motion {
-                        w.say("ALARM:3\r\n");
-                    }
                     St::Alarm
                 } else {
                     St::Idle
@@ -297,13 +299,19 @@ impl Machine {
                     self.pos[2] = z;
                     w.record.lock().unwrap().probes.push(self.pos);
                     w.say(&format!(
-                        "[PRB:{:.3},{:.3},{:.4}:1]\r\nok\r\n",
+                        "[PRB:{:.3},{:.3},{:.3}:1]\r\nok\r\n",
                         self.pos[0], self.pos[1], self.pos[2]
                     ));
                 }
                 _ => {
+                    // As GRBL 1.1h: the alarm, then the probe report (not touched: 0), then the
+                    // line's own `ok`. The tool went down to the target.
+                    self.pos[2] = target;
                     self.st = St::Alarm;
-                    w.say("ALARM:5\r\n");
+                    w.say(&format!(
+                        "ALARM:5\r\n[PRB:{:.3},{:.3},{:.3}:0]\r\nok\r\n",
+                        self.pos[0], self.pos[1], self.pos[2]
+                    ));
                 }
             }
             return Next::Go;
