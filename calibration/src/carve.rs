@@ -104,11 +104,6 @@ struct Term {
     asking: Arc<AtomicBool>,
 }
 
-fn eta(s: f64) -> String {
-    let s = s.max(0.0).round() as u64;
-    format!("{}:{:02}:{:02}", s / 3600, s / 60 % 60, s % 60)
-}
-
 impl Observer for Term {
     fn progress(&self, p: &Progress) {
         // "carve: 370/2701 cuts, last scratch 1234 | ...": the cut order and the design's number.
@@ -117,7 +112,11 @@ impl Observer for Term {
         } else {
             format!("cuts, last {} | ", p.label)
         };
-        msg.push_str(&format!("ETA {} | {}", p.eta_s.map_or("?".into(), eta), p.state));
+        msg.push_str(&format!(
+            "ETA {} | {}",
+            p.eta_s.map_or("?".into(), scratchart_machine::job::clock),
+            p.state
+        ));
         if let Some(q) = p.pos {
             msg.push_str(&format!(" X{:.2} Y{:.2} Z{:.3}", q[0], q[1], q[2]));
         }

@@ -205,8 +205,9 @@ pub fn plan(a: &PlanArgs) -> Result<()> {
     check_moves(&blocks, &m).map_err(|e| InputError(format!("the plan leaves its bounds: {e}")))?;
     let t1 = program_travel(&blocks);
     let secs = program_time(&blocks, &m);
+    summary.push(format!("travel {t0:.0} mm in design order, {t1:.0} mm ordered"));
     summary.push(format!(
-        "travel {t0:.0} mm in design order, {t1:.0} mm ordered; estimated {:.1} min",
+        "estimated job time {:.1} min for the profile's rates (carve states the machine's own)",
         secs / 60.0
     ));
     summary.push(GROOVE_ENDS.to_string());

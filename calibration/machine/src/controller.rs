@@ -36,6 +36,29 @@ pub struct Status {
     pub pos: Option<[f64; 3]>,
 }
 
+/// The machine's own motion limits, as its controller reports them: the job time `carve` states
+/// comes from these, not from a profile's defaults.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Kinematics {
+    /// Top rate of each axis (X, Y, Z), mm/min (GRBL `$110-$112`; Marlin `M203`, mm/s there).
+    pub rate_mm_min: [f64; 3],
+    /// Acceleration of each axis, mm/s^2 (GRBL `$120-$122`; Marlin `M201`).
+    pub accel_mm_s2: [f64; 3],
+    /// Where they came from, for the user ("the controller's $110-$112 and $120-$122").
+    pub source: String,
+}
+
+impl Kinematics {
+    /// A machine profile's rates: its rapid feed and one acceleration on every axis.
+    pub fn of_profile(m: &MachineProfile) -> Kinematics {
+        Kinematics {
+            rate_mm_min: [m.rapid_mm_min; 3],
+            accel_mm_s2: [m.accel_mm_s2; 3],
+            source: "the machine profile's rapid feed and acceleration".into(),
+        }
+    }
+}
+
 /// How `carve --resume` re-establishes the position before it cuts again.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Rezero {
@@ -131,6 +154,9 @@ pub trait Controller {
     fn machine_pos(&self) -> Option<[f64; 3]>;
     /// Enters (`true`) or leaves check mode (GRBL `$C`); other firmware: an error.
     fn check_mode(&mut self, link: &mut Link, on: bool) -> Result<(), Fault>;
+    /// The machine's motion limits, once [`Controller::check_settings`] has read them (`$$`;
+    /// Marlin's `M503`); `None` where the controller does not report them.
+    fn kinematics(&self) -> Option<Kinematics>;
     /// Probes straight down from the current XY to at most `depth` below Z0 at `feed`; returns
     /// the Z of contact (work coordinates).
     fn probe_z(&mut self, link: &mut Link, depth: f64, feed: f64) -> Result<f64, Fault>;

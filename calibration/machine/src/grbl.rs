@@ -4,7 +4,7 @@
 use std::collections::BTreeMap;
 use std::time::{Duration, Instant};
 
-use crate::controller::{command, Controller, Fault, Reply, Rezero, Status};
+use crate::controller::{command, Controller, Fault, Kinematics, Reply, Rezero, Status};
 use crate::grbl_codes;
 use crate::plan::{Firmware, MachineProfile};
 use crate::program::Program;
@@ -22,6 +22,8 @@ pub struct Grbl {
     homing: Option<bool>,
     /// Why the position is lost (see [`Controller::position_lost`]).
     lost: Option<String>,
+    /// `$110-$112` and `$120-$122`, once `$$` was read.
+    kin: Option<Kinematics>,
 }
 
 /// Alarms after which GRBL's position is lost (GRBL 1.1's alarm table): 1 hard limit, 3 reset
@@ -63,6 +65,7 @@ impl Grbl {
             mpos: None,
             homing: None,
             lost: None,
+            kin: None,
         };
         for l in info {
             if let Some(v) = l.strip_prefix("[VER:") {
@@ -175,6 +178,18 @@ impl Controller for Grbl {
         let s = self.settings(link)?;
         let get = |k: u32| s.get(&k).copied();
         self.homing = get(22).map(|v| v != 0.0);
+        if let (Some(r), Some(a)) = (
+            [get(110), get(111), get(112)].into_iter().collect::<Option<Vec<f64>>>(),
+            [get(120), get(121), get(122)].into_iter().collect::<Option<Vec<f64>>>(),
+        ) {
+            if r.iter().chain(&a).all(|v| *v > 0.0 && v.is_finite()) {
+                self.kin = Some(Kinematics {
+                    rate_mm_min: [r[0], r[1], r[2]],
+                    accel_mm_s2: [a[0], a[1], a[2]],
+                    source: "the controller's $110-$112 rates and $120-$122 accelerations".into(),
+                });
+            }
+        }
         let mut bad = Vec::new();
         let mut notes = Vec::new();
         if get(32) == Some(1.0) {
@@ -454,6 +469,10 @@ impl Controller for Grbl {
 
     fn machine_pos(&self) -> Option<[f64; 3]> {
         self.mpos
+    }
+
+    fn kinematics(&self) -> Option<Kinematics> {
+        self.kin.clone()
     }
 
     fn check_mode(&mut self, link: &mut Link, on: bool) -> Result<(), Fault> {

@@ -6,7 +6,7 @@ use std::path::PathBuf;
 use std::sync::atomic::Ordering;
 use std::time::{Duration, Instant};
 
-use crate::controller::{Controller, Fault, Rezero};
+use crate::controller::{Controller, Fault, Kinematics, Rezero};
 use crate::journal::{Journal, RESUME_OVERLAP};
 use crate::plan::MachineProfile;
 use crate::program::Program;
@@ -128,6 +128,26 @@ pub fn carve(opts: &Options, control: &Control, obs: &dyn Observer) -> Result<Su
     if opts.check {
         check_run(&mut link, ctl.as_mut(), &program, control, obs)?;
     }
+    // The job's time on this machine, by its own rates (before anything moves).
+    let timing = ctl
+        .kinematics()
+        .or_else(|| opts.profile.as_ref().map(Kinematics::of_profile))
+        .map(|k| (program.timing(&k), k.source));
+    match &timing {
+        Some((t, source)) => obs.note(&format!(
+            "job time on this machine: {} for cuts {} to {total} (by {source}, at the feeds the \
+             plan commands{})",
+            clock(t.from(from)),
+            from + 1,
+            program.estimate_min.map_or(String::new(), |m| format!(
+                "; the plan's own estimate, for its profile, was {m} min"
+            ))
+        )),
+        None => obs.note(
+            "job time: the controller does not report its rates and no --machine-file was given; \
+             the progress estimates it from the pace",
+        ),
+    }
     let question = if opts.resume {
         format!(
             "resume {} at cut {} of {total} ({}) on {}?",
@@ -195,11 +215,26 @@ pub fn carve(opts: &Options, control: &Control, obs: &dyn Observer) -> Result<Su
                 last_save = Instant::now();
             }
             let run = (b + 1 - from) as f64;
+            let elapsed = t0.elapsed().as_secs_f64();
+            let eta = match &timing {
+                // The machine's model for what is left, scaled by how the job keeps to it.
+                Some((t, _)) => {
+                    let left = t.blocks[b + 1..].iter().sum::<f64>() + t.postamble;
+                    let done = t.preamble + t.blocks[from..=b].iter().sum::<f64>();
+                    let pace = if elapsed > 5.0 && done > 0.0 {
+                        (elapsed / done).clamp(0.2, 5.0)
+                    } else {
+                        1.0
+                    };
+                    left * pace
+                }
+                None => elapsed / run * (total - b - 1) as f64,
+            };
             obs.progress(&Progress {
                 done: b + 1,
                 total,
                 label: blocks[b].label.clone(),
-                eta_s: Some(t0.elapsed().as_secs_f64() / run * (total - b - 1) as f64),
+                eta_s: Some(eta),
                 state: state.to_string(),
                 pos,
             });
@@ -235,6 +270,12 @@ pub fn carve(opts: &Options, control: &Control, obs: &dyn Observer) -> Result<Su
             Err(e)
         }
     }
+}
+
+/// Seconds as `H:MM:SS`.
+pub fn clock(s: f64) -> String {
+    let s = s.max(0.0).round() as u64;
+    format!("{}:{:02}:{:02}", s / 3600, s / 60 % 60, s % 60)
 }
 
 /// Before anything moves: on resume, whether the position was lost since the last acknowledged

@@ -4,7 +4,7 @@
 //! M410 (quickstop) and raises Z when the printer answers; M112 only when asked.
 use std::time::{Duration, Instant};
 
-use crate::controller::{command, Controller, Fault, Reply, Rezero, Status};
+use crate::controller::{command, Controller, Fault, Kinematics, Reply, Rezero, Status};
 use crate::plan::{Firmware, MachineProfile};
 use crate::program::Program;
 use crate::transport::Link;
@@ -14,6 +14,8 @@ pub struct Marlin {
     z_feed: f64,
     /// Why the position is lost (see [`Controller::position_lost`]).
     lost: Option<String>,
+    /// `M203` and `M201` from `M503`, once read.
+    kin: Option<Kinematics>,
 }
 
 /// XOR of the bytes, as Marlin's checksum.
@@ -37,6 +39,23 @@ fn axis_value(line: &str, key: &str) -> Option<f64> {
     rest[..end].parse().ok()
 }
 
+/// The axes' top rates and accelerations from `M503`'s report (`echo:  M203 X500.00 Y500.00
+/// Z5.00 E25.00`, mm/s; `echo:  M201 X500.00 Y500.00 Z100.00 E5000.00`, mm/s^2).
+pub fn kinematics_of_m503(lines: &[String]) -> Option<Kinematics> {
+    let find = |code: &str| -> Option<[f64; 3]> {
+        let l = lines.iter().find_map(|l| l.split_once(code).map(|(_, rest)| rest))?;
+        let v = [axis_value(l, "X")?, axis_value(l, "Y")?, axis_value(l, "Z")?];
+        v.iter().all(|x| *x > 0.0 && x.is_finite()).then_some(v)
+    };
+    let rate = find("M203 ")?;
+    let accel = find("M201 ")?;
+    Some(Kinematics {
+        rate_mm_min: rate.map(|v| 60.0 * v),
+        accel_mm_s2: accel,
+        source: "the printer's M203 rates and M201 accelerations (M503)".into(),
+    })
+}
+
 impl Marlin {
     /// A Marlin printer that answered M115 (or printed its start-up lines) with these lines.
     pub fn new(info: &[String]) -> Marlin {
@@ -56,6 +75,7 @@ impl Marlin {
             name,
             z_feed: 300.0,
             lost: None,
+            kin: None,
         }
     }
 
@@ -148,6 +168,18 @@ impl Controller for Marlin {
             None => {
                 notes.push("the printer does not report its soft endstops (M211): the bed size is not checked".into())
             }
+        }
+        // The printer's own rates and accelerations (M503 lists M203 in mm/s and M201), for the
+        // job time; a printer built without M503 answers `Unknown command`.
+        if let Ok(lines) = command(self, link, "M503", Duration::from_secs(3)) {
+            self.kin = kinematics_of_m503(&lines);
+        }
+        if self.kin.is_none() {
+            notes.push(
+                "the printer does not report its rates (M503 with M203 and M201): the job time is \
+                 the machine profile's"
+                    .into(),
+            );
         }
         if let Some(m) = profile {
             if m.firmware != Firmware::Marlin {
@@ -315,6 +347,10 @@ impl Controller for Marlin {
         None
     }
 
+    fn kinematics(&self) -> Option<Kinematics> {
+        self.kin.clone()
+    }
+
     fn check_mode(&mut self, _link: &mut Link, _on: bool) -> Result<(), Fault> {
         Err(Fault::Input(
             "--check runs GRBL's check mode ($C); Marlin has none".into(),
@@ -358,6 +394,27 @@ pub fn status(state: &str) -> Status {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn rates_from_m503() {
+        let lines: Vec<String> = [
+            "echo:; Maximum feedrates (units/s):",
+            "echo:  M203 X500.00 Y500.00 Z5.00 E25.00",
+            "echo:; Maximum Acceleration (units/s2):",
+            "echo:  M201 X500.00 Y400.00 Z100.00 E5000.00",
+        ]
+        .iter()
+        .map(|s| s.to_string())
+        .collect();
+        let k = kinematics_of_m503(&lines).unwrap();
+        assert_eq!(k.rate_mm_min, [30000.0, 30000.0, 300.0]);
+        assert_eq!(k.accel_mm_s2, [500.0, 400.0, 100.0]);
+        assert_eq!(kinematics_of_m503(&lines[..2]), None, "no M201: not known");
+        assert_eq!(
+            kinematics_of_m503(&["echo:Unknown command: \"M503\"".to_string()]),
+            None
+        );
+    }
 
     #[test]
     fn frames_and_checksums() {

@@ -3,6 +3,7 @@
 //! `; scratch N (cut K of T)` comment to the next: N the design's number, K the cut order), and
 //! the lines after the last one. Comments and blank lines
 //! are never sent.
+use crate::controller::Kinematics;
 use crate::plan::Firmware;
 
 /// One block of the plan: what its opening comment says (`scratch N`, `mark +x edge`), the
@@ -25,6 +26,9 @@ pub struct Program {
     pub max_z: f64,
     /// Largest |X| and |Y| the plan reaches, mm (work coordinates).
     pub max_xy: f64,
+    /// The job time the plan's header states for the profile it was made for (`; estimated job
+    /// time 4.7 min ...`), when it does.
+    pub estimate_min: Option<f64>,
     /// The highest spindle speed the plan commands (`M3 S..`, `M4 S..`), when it does.
     pub spindle_rpm: Option<f64>,
     pub preamble: Vec<String>,
@@ -54,6 +58,101 @@ fn word(line: &str, letter: char) -> Option<f64> {
         .and_then(|w| w[1..].parse().ok())
 }
 
+/// The plan's time on a machine ([`Program::timing`]), s.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Timing {
+    pub preamble: f64,
+    /// Each block's.
+    pub blocks: Vec<f64>,
+    pub postamble: f64,
+}
+
+impl Timing {
+    /// A job from block `from` to the end (preamble and postamble included).
+    pub fn from(&self, from: usize) -> f64 {
+        self.preamble + self.blocks.iter().skip(from).sum::<f64>() + self.postamble
+    }
+}
+
+/// The modal state of a machine following G-code, for [`Program::timing`].
+struct Motion {
+    pos: [f64; 3],
+    feed: Option<f64>,
+    rapid: bool,
+    relative: bool,
+    marlin: bool,
+}
+
+impl Motion {
+    /// Seconds for one line.
+    fn line(&mut self, line: &str, k: &Kinematics) -> f64 {
+        let words: Vec<&str> = line.split_whitespace().collect();
+        let has = |w: &str| words.contains(&w);
+        if has("G90") {
+            self.relative = false;
+        }
+        if has("G91") {
+            self.relative = true;
+        }
+        if let Some(f) = word(line, 'F').filter(|f| *f > 0.0) {
+            self.feed = Some(f);
+        }
+        if has("G4") || has("G04") {
+            // GRBL: P in seconds; Marlin: P in milliseconds, S in seconds.
+            return match (self.marlin, word(line, 'P'), word(line, 'S')) {
+                (true, Some(p), _) => p / 1000.0,
+                (true, None, Some(s)) => s,
+                (false, Some(p), _) => p,
+                _ => 0.0,
+            };
+        }
+        if has("G92") || has("G28") {
+            // A new zero, or homing (its time is the machine's): the position the words give.
+            for (i, c) in ['X', 'Y', 'Z'].iter().enumerate() {
+                if let Some(v) = word(line, *c) {
+                    self.pos[i] = v;
+                }
+            }
+            return 0.0;
+        }
+        if has("G0") || has("G00") {
+            self.rapid = true;
+        } else if has("G1") || has("G01") {
+            self.rapid = false;
+        } else if !['X', 'Y', 'Z'].iter().any(|c| word(line, *c).is_some()) || words[0].starts_with('M') {
+            return 0.0;
+        }
+        let mut to = self.pos;
+        for (i, c) in ['X', 'Y', 'Z'].iter().enumerate() {
+            if let Some(v) = word(line, *c) {
+                to[i] = if self.relative { self.pos[i] + v } else { v };
+            }
+        }
+        let d: [f64; 3] = std::array::from_fn(|i| to[i] - self.pos[i]);
+        self.pos = to;
+        let len = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+        if len <= 0.0 {
+            return 0.0;
+        }
+        // The fastest rate and acceleration along the move that no axis exceeds.
+        let (mut v, mut a) = (f64::INFINITY, f64::INFINITY);
+        for i in 0..3 {
+            let u = d[i].abs() / len;
+            if u > 1e-12 {
+                v = v.min(k.rate_mm_min[i] / u);
+                a = a.min(k.accel_mm_s2[i] / u);
+            }
+        }
+        // GRBL's G0 runs at the axes' rates; Marlin's G0 shares G1's modal feed.
+        if !self.rapid || self.marlin {
+            if let Some(f) = self.feed {
+                v = v.min(f);
+            }
+        }
+        crate::plan::move_time(len, v, a)
+    }
+}
+
 impl Program {
     /// Parses a plan written by `scratchart-cal plan`. Errors say which line and what is wrong.
     pub fn parse(text: &str) -> Result<Program, String> {
@@ -72,6 +171,7 @@ impl Program {
         let mut p = Program {
             firmware,
             plate_mm: None,
+            estimate_min: None,
             min_z: 0.0,
             max_z: 0.0,
             max_xy: 0.0,
@@ -106,6 +206,8 @@ impl Program {
                         scratch: None,
                         lines: Vec::new(),
                     });
+                } else if let Some(rest) = c.strip_prefix("estimated job time ") {
+                    p.estimate_min = rest.split(' ').next().and_then(|v| v.parse().ok());
                 } else if let Some(rest) = c.strip_prefix("plate ") {
                     p.plate_mm = rest.split_whitespace().next().and_then(|s| s.parse().ok());
                 }
@@ -176,6 +278,31 @@ impl Program {
         out
     }
 
+    /// How long the machine takes for the plan by its own motion limits `k`: every G0/G1 from
+    /// rest to rest (the plans turn 90 degrees between plunge, cut and retract, where a planner
+    /// slows nearly to a stop), a rapid at the fastest rate every axis allows, a feed move at its
+    /// F but no faster than the axes allow, the acceleration the slowest axis of the move
+    /// allows; dwells (`G4`) as long as they say. The machine starts at X0 Y0 at the plan's
+    /// highest Z.
+    pub fn timing(&self, k: &Kinematics) -> Timing {
+        let mut m = Motion {
+            pos: [0.0, 0.0, self.max_z],
+            feed: None,
+            rapid: true,
+            relative: false,
+            marlin: self.firmware == Firmware::Marlin,
+        };
+        let mut run = |lines: &[String]| lines.iter().map(|l| m.line(l, k)).sum::<f64>();
+        let preamble = run(&self.preamble);
+        let blocks = self.blocks.iter().map(|b| run(&b.lines)).collect();
+        let postamble = run(&self.postamble);
+        Timing {
+            preamble,
+            blocks,
+            postamble,
+        }
+    }
+
     /// The firmware's name as the plan writes it.
     pub fn firmware_name(f: Firmware) -> &'static str {
         match f {
@@ -226,6 +353,35 @@ mod tests {
         assert!(p.lines_from(0).iter().all(|(l, _)| !l.starts_with(';')));
         assert_eq!(p.lines_from(1).iter().filter(|l| l.1 == Some(1)).count(), 4);
         assert!(p.lines_from(1).iter().all(|l| l.1 != Some(0)));
+        // The time by the machine's limits: with the profile's own rates it is the plan's
+        // estimate (GRBL: rapids and retracts at the rapid feed), and slower axes take longer.
+        // (On one axis: GRBL limits each axis on its own, so a diagonal rapid is faster than
+        // the profile's one rate.)
+        let prof = MachineProfile::grbl();
+        let k = Kinematics::of_profile(&prof);
+        let on_x: Vec<Cut> = cuts
+            .iter()
+            .map(|c| Cut {
+                a: [c.a[0], 0.0],
+                b: [c.b[0], 0.0],
+                ..*c
+            })
+            .collect();
+        let px = Program::parse(&crate::gcode::write(&on_x, &prof, 50.0, &[])).unwrap();
+        let t = px.timing(&k);
+        let blocks: Vec<_> = on_x.iter().map(crate::plan::Block::flat).collect();
+        let want = crate::plan::program_time(&blocks, &prof) + 2.0; // and the spindle's G4 P2
+        assert!((t.from(0) - want).abs() < 1e-9, "{} vs {want}", t.from(0));
+        assert!(t.from(1) < t.from(0) && t.blocks.len() == 2);
+        let diagonal = p.timing(&k).from(0);
+        let blocks: Vec<_> = cuts.iter().map(crate::plan::Block::flat).collect();
+        assert!(diagonal < crate::plan::program_time(&blocks, &prof) + 2.0);
+        let slow = Kinematics {
+            rate_mm_min: [500.0, 500.0, 100.0],
+            accel_mm_s2: [50.0, 50.0, 10.0],
+            source: String::new(),
+        };
+        assert!(p.timing(&slow).from(0) > t.from(0) + 1.0);
         let m = crate::gcode::write(&cuts, &MachineProfile::marlin(), 50.0, &[]);
         assert_eq!(Program::parse(&m).unwrap().firmware, Firmware::Marlin);
         assert_ne!(Program::parse(&m).unwrap().checksum, p.checksum);

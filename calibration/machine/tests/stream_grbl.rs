@@ -458,3 +458,61 @@ fn the_fake_records_an_overflow() {
     }
     assert!(!fake.record().overflows.is_empty());
 }
+
+#[test]
+fn the_job_time_is_the_machines_own() {
+    // `carve` states the job time from the controller's $110-$112 and $120-$122 before it
+    // starts: the same plan on a machine half as fast takes longer, and the estimate is the
+    // plan's timing by those rates.
+    let dir = tmpdir("grbl_time");
+    let plan = plan(&dir, "p.nc", 20, &MachineProfile::grbl());
+    let program = scratchart_machine::program::Program::load(&plan).unwrap();
+    let stated = |rates: [&str; 6]| -> String {
+        let mut cfg = GrblConfig::default();
+        for (k, v) in [110u32, 111, 112, 120, 121, 122].into_iter().zip(rates) {
+            cfg.settings.insert(k, v.to_string());
+        }
+        let fake = FakeGrbl::start(cfg).unwrap();
+        let log = Log::default();
+        carve(&options(&plan, fake.path()), &Control::default(), &log).unwrap();
+        let notes = log.notes.lock().unwrap().clone();
+        let note = notes
+            .iter()
+            .find(|n| n.starts_with("job time on this machine: "))
+            .unwrap_or_else(|| panic!("no job time in {notes:?}"))
+            .clone();
+        assert!(
+            note.contains("$110-$112") && note.contains("for cuts 1 to 20"),
+            "{note}"
+        );
+        // The progress's ETA comes from the same model: at the start, about the whole job.
+        let p = log.progress.lock().unwrap();
+        assert!(p.first().unwrap().eta_s.unwrap() > 0.0);
+        note["job time on this machine: ".len()..]
+            .split(' ')
+            .next()
+            .unwrap()
+            .to_string()
+    };
+    let secs = |c: &str| -> f64 {
+        let v: Vec<f64> = c.split(':').map(|x| x.parse().unwrap()).collect();
+        v[0] * 3600.0 + v[1] * 60.0 + v[2]
+    };
+    let fast = stated(["1000", "1000", "600", "200", "200", "50"]);
+    let slow = stated(["500", "500", "300", "100", "100", "25"]);
+    let want = |r: [f64; 3], a: [f64; 3]| {
+        program
+            .timing(&scratchart_machine::controller::Kinematics {
+                rate_mm_min: r,
+                accel_mm_s2: a,
+                source: String::new(),
+            })
+            .from(0)
+    };
+    let w_fast = want([1000.0, 1000.0, 600.0], [200.0, 200.0, 50.0]);
+    assert!((secs(&fast) - w_fast).abs() <= 0.5, "{fast} vs {w_fast} s");
+    let w_slow = want([500.0, 500.0, 300.0], [100.0, 100.0, 25.0]);
+    assert!((secs(&slow) - w_slow).abs() <= 0.5, "{slow} vs {w_slow} s");
+    // (the cuts and plunges run at the plan's feeds on both: the rapids make the difference)
+    assert!(secs(&slow) > secs(&fast) + 30.0, "{slow} vs {fast}");
+}

@@ -1,7 +1,7 @@
 //! A fake Marlin printer: line numbers and checksums (`Error:checksum mismatch` / `Error:Line
 //! Number is not Last Line Number+1` with `Resend: N` and `ok`), lines corrupted in transit,
 //! the 127-byte receive buffer, `echo:busy: processing` and temperature reports while it works,
-//! M115, M211, M110, M114, M400, M410, M112, G28, G38.2 / G30 probing of a [`Plane`], and an
+//! M115, M211, M503 (M203, M201), M110, M114, M400, M410, M112, G28, G38.2 / G30 probing of a [`Plane`], and an
 //! injected halt or disconnect.
 use std::collections::BTreeSet;
 use std::sync::atomic::Ordering;
@@ -35,6 +35,8 @@ pub struct MarlinConfig {
     pub bed: Option<[f64; 3]>,
     /// G38.2 available (else G30 with the bed probe).
     pub g38: bool,
+    /// `M203` (mm/s) and `M201` (mm/s^2) of X, Y, Z in `M503`'s report (`None`: M503 unknown).
+    pub m503: Option<([f64; 3], [f64; 3])>,
     pub plane: Option<Plane>,
 }
 
@@ -52,6 +54,7 @@ impl Default for MarlinConfig {
             restart_on_open: false,
             bed: Some([220.0, 220.0, 250.0]),
             g38: true,
+            m503: Some(([500.0, 500.0, 5.0], [500.0, 500.0, 100.0])),
             plane: None,
         }
     }
@@ -216,6 +219,14 @@ impl Printer {
                     b[0], b[1], b[2]
                 )),
                 None => w.say("echo:Unknown command: \"M211\"\nok\n"),
+            },
+            "M503" => match cfg.m503 {
+                Some((r, a)) => w.say(&format!(
+                    "echo:; Maximum feedrates (units/s):\necho:  M203 X{:.2} Y{:.2} Z{:.2} E25.00\n\
+                     echo:; Maximum Acceleration (units/s2):\necho:  M201 X{:.2} Y{:.2} Z{:.2} E5000.00\nok\n",
+                    r[0], r[1], r[2], a[0], a[1], a[2]
+                )),
+                None => w.say("echo:Unknown command: \"M503\"\nok\n"),
             },
             "M114" => w.say(&format!(
                 "X:{:.2} Y:{:.2} Z:{:.3} E:0.00 Count X:0 Y:0 Z:0\nok\n",
