@@ -33,7 +33,9 @@ pub enum RezeroArg {
 pub struct CarveArgs {
     /// The plan (G-code written by `scratchart-cal plan`; its first line names the firmware)
     pub plan: PathBuf,
-    /// Serial port of the controller (/dev/ttyUSB0, /dev/ttyACM0, or a pseudo-terminal's path)
+    /// Serial port of the controller (/dev/ttyUSB0, /dev/ttyACM0, COM3, or a pseudo-terminal's
+    /// path); `sim` for a dry run: the whole plan streamed to a built-in simulated controller of
+    /// the plan's firmware (GRBL's or Marlin's protocol, at full speed), nothing moves
     #[arg(long)]
     pub port: String,
     /// Baud rate
@@ -223,6 +225,10 @@ pub fn run(a: &CarveArgs) -> Result<()> {
     term.out.finish("carve");
     match result {
         Ok(s) => {
+            if let Some(d) = &s.dry_run {
+                println!("{d}");
+                return Ok(());
+            }
             println!(
                 "done: {} scratches of {} carved on {} ({} lines in {:.1} s); journal {}",
                 s.total - s.from,

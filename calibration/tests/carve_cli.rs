@@ -108,6 +108,26 @@ fn carve_streams_a_plan_to_grbl_and_marlin_and_resumes_after_a_disconnect() {
         assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     }
 
+    // A dry run of each: the whole plan, the job time, progress in the design's numbering
+    // (in a log: no terminal), exit 0, no journal left.
+    for plan in ["plan.nc", "plan.gcode"] {
+        let o = run(&bin, &dir, &["carve", plan, "--port", "sim"]);
+        let (out, err) = (String::from_utf8_lossy(&o.stdout), String::from_utf8_lossy(&o.stderr));
+        assert_eq!(o.status.code(), Some(0), "{err}");
+        let p = Program::load(&dir.join(plan)).unwrap();
+        let n = p.blocks.len();
+        assert!(
+            out.starts_with("dry run: the simulated ") && out.contains("never overflowed"),
+            "{out}"
+        );
+        assert!(err.contains("job time on this machine: "), "{err}");
+        assert!(
+            err.contains(&format!("carve: {n}/{n} cuts, last {}", p.blocks[n - 1].label)),
+            "{err}"
+        );
+        assert!(!dir.join(format!("{plan}.journal.json")).exists());
+    }
+
     // GRBL, with check mode first.
     let fake = FakeGrbl::start(GrblConfig::default()).unwrap();
     let o = run(&bin, &dir, &["carve", "plan.nc", "--port", fake.path(), "--check"]);

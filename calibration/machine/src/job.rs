@@ -8,11 +8,12 @@ use std::time::{Duration, Instant};
 
 use crate::controller::{Controller, Fault, Kinematics, Rezero};
 use crate::journal::{Journal, RESUME_OVERLAP};
-use crate::plan::MachineProfile;
+use crate::plan::{Firmware, MachineProfile};
 use crate::program::Program;
 use crate::stream::{stream, Control, End, Observer, Progress};
 use crate::transport::{Link, LinkError};
 
+#[derive(Clone, Debug)]
 pub struct Options {
     pub plan: PathBuf,
     pub port: String,
@@ -79,6 +80,8 @@ impl std::error::Error for CarveError {}
 #[derive(Debug, Clone, PartialEq)]
 pub struct Summary {
     pub controller: String,
+    /// A dry run (`--port sim`): what the simulated controller did, for the user.
+    pub dry_run: Option<String>,
     /// The block (in plan order) this run started at, and the blocks in the plan.
     pub from: usize,
     pub total: usize,
@@ -96,12 +99,80 @@ fn feed_of(program: &Program) -> f64 {
         .unwrap_or(100.0)
 }
 
-/// Runs a carving job.
+/// The `--port` of the built-in simulated controller (a dry run).
+pub const SIM_PORT: &str = "sim";
+
+/// Runs a carving job; with `--port sim` ([`SIM_PORT`]) a dry run against a simulated
+/// controller of the plan's firmware, with its journal in a temporary file (a rehearsal leaves
+/// no job to resume).
 pub fn carve(opts: &Options, control: &Control, obs: &dyn Observer) -> Result<Summary, CarveError> {
+    if opts.port != SIM_PORT {
+        return carve_on(opts, control, obs);
+    }
+    if opts.resume {
+        return Err(CarveError::Usage(
+            "--port sim is a dry run of the whole plan: it cannot --resume a job".into(),
+        ));
+    }
+    let journal = std::env::temp_dir().join(format!("scratchart-dry-run-{}.journal.json", std::process::id()));
+    let dry = Options {
+        journal: journal.clone(),
+        ..opts.clone()
+    };
+    let result = carve_on(&dry, control, obs);
+    let _ = std::fs::remove_file(&journal);
+    result
+}
+
+/// The simulated controller of a dry run: the plan's firmware, answering as the real one does
+/// (GRBL's 128-byte buffer, `ok` and `error:N`; Marlin's numbered lines), at full speed, with
+/// the machine profile's travel, rates and accelerations as its settings.
+fn simulated(program: &Program, profile: Option<&MachineProfile>) -> (crate::fake::Fake, crate::transport::PipeEnd) {
+    use crate::fake::{FakeGrbl, FakeMarlin, GrblConfig, MarlinConfig};
+    let m = profile.cloned().unwrap_or(match program.firmware {
+        Firmware::Grbl => MachineProfile::grbl(),
+        Firmware::Marlin => MachineProfile::marlin(),
+    });
+    match program.firmware {
+        Firmware::Grbl => {
+            let mut cfg = GrblConfig {
+                line_delay: Duration::ZERO,
+                hold_decel: Duration::from_millis(5),
+                ..GrblConfig::default()
+            };
+            let v = |x: f64| format!("{x:.3}");
+            for (k, x) in [
+                (110, m.rapid_mm_min),
+                (111, m.rapid_mm_min),
+                (112, m.rapid_mm_min),
+                (120, m.accel_mm_s2),
+                (121, m.accel_mm_s2),
+                (122, m.accel_mm_s2),
+                (130, m.travel_mm[0]),
+                (131, m.travel_mm[1]),
+                (132, m.travel_mm[2]),
+                (30, m.spindle_rpm.or(program.spindle_rpm).unwrap_or(1000.0)),
+            ] {
+                cfg.settings.insert(k, v(x));
+            }
+            FakeGrbl::simulated(cfg)
+        }
+        Firmware::Marlin => FakeMarlin::simulated(MarlinConfig {
+            line_delay: Duration::ZERO,
+            bed: Some(m.travel_mm),
+            m503: Some(([m.rapid_mm_min / 60.0; 3], [m.accel_mm_s2; 3])),
+            ..MarlinConfig::default()
+        }),
+    }
+}
+
+/// Runs a carving job on `opts.port` (or the simulated controller).
+fn carve_on(opts: &Options, control: &Control, obs: &dyn Observer) -> Result<Summary, CarveError> {
     let program = Program::load(&opts.plan).map_err(CarveError::Input)?;
     let total = program.blocks.len();
     let Some(mut journal) = open_journal(opts, &program, obs)? else {
         return Ok(Summary {
+            dry_run: None,
             controller: String::new(),
             from: total,
             total,
@@ -111,7 +182,7 @@ pub fn carve(opts: &Options, control: &Control, obs: &dyn Observer) -> Result<Su
     };
     let from = if opts.resume { journal.resume_from() } else { 0 };
 
-    let (mut link, mut ctl) = connect(opts, &program, obs)?;
+    let (mut link, mut ctl, sim) = connect(opts, &program, obs)?;
     let fault = |f: Fault| match f {
         Fault::Input(m) => CarveError::Input(m),
         Fault::Machine(m) => CarveError::Stopped(m),
@@ -164,7 +235,8 @@ pub fn carve(opts: &Options, control: &Control, obs: &dyn Observer) -> Result<Su
             opts.port
         )
     };
-    if !obs.confirm(&question) {
+    // (a dry run moves nothing: no question)
+    if opts.port != SIM_PORT && !obs.confirm(&question) {
         return Err(CarveError::Stopped("not started: the answer was no".into()));
     }
     if opts.resume {
@@ -253,7 +325,26 @@ pub fn carve(opts: &Options, control: &Control, obs: &dyn Observer) -> Result<Su
         None => {
             journal.state = "done".into();
             journal.save(&opts.journal).map_err(stopped)?;
+            let dry_run = sim.map(|fake| {
+                let r = fake.record();
+                format!(
+                    "dry run: the simulated {} executed {} motion lines; it ends at X{:.3} Y{:.3} \
+                     Z{:.3}; {}; the job would take {} on a machine with these rates",
+                    ctl.describe(),
+                    r.executed.len(),
+                    r.pos[0],
+                    r.pos[1],
+                    r.pos[2],
+                    if r.overflows.is_empty() {
+                        "its receive buffer never overflowed".to_string()
+                    } else {
+                        format!("its receive buffer overflowed {} times", r.overflows.len())
+                    },
+                    timing.as_ref().map_or("?".into(), |(t, _)| clock(t.from(from)))
+                )
+            });
             Ok(Summary {
+                dry_run,
                 controller: ctl.describe(),
                 from,
                 total,
@@ -398,14 +489,28 @@ fn open_journal(opts: &Options, program: &Program, obs: &dyn Observer) -> Result
 
 /// Opens the port, finds out which controller answers (refusing one of the other firmware than
 /// the plan's), and checks its settings against the plan and the machine profile.
-fn connect(opts: &Options, program: &Program, obs: &dyn Observer) -> Result<(Link, Box<dyn Controller>), CarveError> {
+/// The link and the controller that answers on it; for a dry run also the simulated controller
+/// (kept until the job ends).
+type Connected = (Link, Box<dyn Controller>, Option<crate::fake::Fake>);
+
+fn connect(opts: &Options, program: &Program, obs: &dyn Observer) -> Result<Connected, CarveError> {
     let fw = Program::firmware_name(program.firmware);
-    let mut link = Link::open(&opts.port, opts.baud).map_err(|e| match e {
-        LinkError::Open(m) if !std::path::Path::new(&opts.port).exists() => {
-            CarveError::Usage(format!("{m} (no such port: check --port)"))
-        }
-        e => CarveError::Stopped(e.to_string()),
-    })?;
+    let (mut link, sim) = if opts.port == SIM_PORT {
+        let (fake, end) = simulated(program, opts.profile.as_ref());
+        obs.note(
+            "dry run: a simulated controller of the plan's firmware, with the machine profile's \
+             travel, rates and accelerations; nothing moves",
+        );
+        (Link::over(Box::new(end), SIM_PORT), Some(fake))
+    } else {
+        let link = Link::open(&opts.port, opts.baud).map_err(|e| match e {
+            LinkError::Open(m) if !std::path::Path::new(&opts.port).exists() => {
+                CarveError::Usage(format!("{m} (no such port: check --port, or --port sim for a dry run)"))
+            }
+            e => CarveError::Stopped(e.to_string()),
+        })?;
+        (link, None)
+    };
     let stopped = |m: String| CarveError::Stopped(m);
     let mut ctl = crate::detect::detect(&mut link, opts.detect_timeout).map_err(|f| match f {
         Fault::Input(m) | Fault::Machine(m) => stopped(m),
@@ -431,7 +536,7 @@ fn connect(opts: &Options, program: &Program, obs: &dyn Observer) -> Result<(Lin
     {
         obs.note(&n);
     }
-    Ok((link, ctl))
+    Ok((link, ctl, sim))
 }
 
 /// What the end of the stream means: None for a finished job (the controller idle), else the

@@ -13,7 +13,8 @@
 //! - [`stream`]: the streaming engine (receive-buffer flow control, resends, hold, progress);
 //!   [`job`]: a whole job (settings check, check mode, resume and re-zero, stopping safely);
 //!   [`journal`]: the resumable job's record beside the plan.
-//! - [`fake`]: fake GRBL and Marlin controllers on pseudo-terminals, for tests (Unix).
+//! - [`fake`]: fake GRBL and Marlin controllers on pseudo-terminals, for tests (Unix), and on an
+//!   in-memory pipe: the simulated controller of a dry run (`carve --port sim`).
 //! - [`probe`]: levelling: the plate probed on a grid with the tool, as a [`level::HeightMap`].
 //!
 //! It depends on the scene model (`scratchart-model`) only, never on the engine, so it builds and
@@ -24,8 +25,7 @@ pub mod controller;
 pub mod depths;
 pub mod detect;
 pub mod export;
-/// (pseudo-terminals: Unix only)
-#[cfg(unix)]
+/// (on pseudo-terminals for tests: Unix only; on an in-memory pipe for `carve --port sim`)
 pub mod fake;
 pub mod gcode;
 pub mod grbl;

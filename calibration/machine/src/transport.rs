@@ -5,8 +5,6 @@
 use std::io::{Read, Write};
 use std::time::{Duration, Instant};
 
-use serialport::SerialPort;
-
 /// The operating system's own port type (`serialport`'s native port on each desktop system).
 #[cfg(unix)]
 type NativePort = serialport::TTYPort;
@@ -42,8 +40,133 @@ impl scratchart_exit::ExitClass for LinkError {
 /// Longest line accepted from a controller; anything longer is cut (and said so in the line).
 const MAX_IN_LINE: usize = 4096;
 
+/// What a [`Link`] talks through: a serial port, or one end of an in-memory [`pipe`] (the
+/// simulated controller of a dry run). Reads wait a few milliseconds at most and then fail with
+/// `TimedOut`; a read of 0 bytes is the end of the link.
+pub trait Port: Read + Write + Send {
+    /// Throws away what has arrived and not been read.
+    fn clear_input(&mut self);
+}
+
+struct Serial(NativePort);
+
+impl Read for Serial {
+    fn read(&mut self, b: &mut [u8]) -> std::io::Result<usize> {
+        self.0.read(b)
+    }
+}
+
+impl Write for Serial {
+    fn write(&mut self, b: &[u8]) -> std::io::Result<usize> {
+        self.0.write(b)
+    }
+    fn flush(&mut self) -> std::io::Result<()> {
+        self.0.flush()
+    }
+}
+
+impl Port for Serial {
+    fn clear_input(&mut self) {
+        let _ = serialport::SerialPort::clear(&self.0, serialport::ClearBuffer::Input);
+    }
+}
+
+impl Drop for Serial {
+    fn drop(&mut self) {
+        // Leave the port openable by the next program (a pty keeps TIOCEXCL while any side holds
+        // it open; Windows gives a COM port to one program at a time by itself).
+        #[cfg(unix)]
+        let _ = self.0.set_exclusive(false);
+    }
+}
+
+/// One direction of a [`pipe`]: the bytes in flight and whether the writer is gone.
+#[derive(Default)]
+struct Lane {
+    bytes: std::collections::VecDeque<u8>,
+    closed: bool,
+}
+
+type Shared = std::sync::Arc<(std::sync::Mutex<Lane>, std::sync::Condvar)>;
+
+/// One end of an in-memory [`pipe`].
+pub struct PipeEnd {
+    rx: Shared,
+    tx: Shared,
+    timeout: Duration,
+}
+
+/// Two connected ends, like the two ends of a serial cable: what one writes the other reads.
+/// Reads wait at most `timeout`; when one end is dropped the other reads the end of the link.
+pub fn pipe(timeout: Duration) -> (PipeEnd, PipeEnd) {
+    let (a, b) = (Shared::default(), Shared::default());
+    (
+        PipeEnd {
+            rx: a.clone(),
+            tx: b.clone(),
+            timeout,
+        },
+        PipeEnd { rx: b, tx: a, timeout },
+    )
+}
+
+impl Read for PipeEnd {
+    fn read(&mut self, out: &mut [u8]) -> std::io::Result<usize> {
+        let (lock, cv) = &*self.rx;
+        let mut lane = lock.lock().unwrap();
+        let t0 = Instant::now();
+        while lane.bytes.is_empty() {
+            if lane.closed {
+                return Ok(0);
+            }
+            let left = self.timeout.saturating_sub(t0.elapsed());
+            if left.is_zero() {
+                return Err(std::io::ErrorKind::TimedOut.into());
+            }
+            lane = cv.wait_timeout(lane, left).unwrap().0;
+        }
+        let n = out.len().min(lane.bytes.len());
+        for (o, b) in out.iter_mut().zip(lane.bytes.drain(..n)) {
+            *o = b;
+        }
+        Ok(n)
+    }
+}
+
+impl Write for PipeEnd {
+    fn write(&mut self, b: &[u8]) -> std::io::Result<usize> {
+        let (lock, cv) = &*self.tx;
+        let mut lane = lock.lock().unwrap();
+        if lane.closed {
+            return Err(std::io::ErrorKind::BrokenPipe.into());
+        }
+        lane.bytes.extend(b);
+        cv.notify_all();
+        Ok(b.len())
+    }
+    fn flush(&mut self) -> std::io::Result<()> {
+        Ok(())
+    }
+}
+
+impl Port for PipeEnd {
+    fn clear_input(&mut self) {
+        self.rx.0.lock().unwrap().bytes.clear();
+    }
+}
+
+impl Drop for PipeEnd {
+    fn drop(&mut self) {
+        // Both lanes end: the other side reads the end and its writes fail.
+        for lane in [&self.tx, &self.rx] {
+            lane.0.lock().unwrap().closed = true;
+            lane.1.notify_all();
+        }
+    }
+}
+
 pub struct Link {
-    port: NativePort,
+    port: Box<dyn Port>,
     name: String,
     buf: Vec<u8>,
     /// Bytes written, for the benchmark and tests.
@@ -58,12 +181,17 @@ impl Link {
             .timeout(Duration::from_millis(5))
             .open_native()
             .map_err(|e| LinkError::Open(format!("cannot open port {path}: {e}")))?;
-        Ok(Link {
+        Ok(Link::over(Box::new(Serial(port)), path))
+    }
+
+    /// A link over any [`Port`] (a [`pipe`]'s end), named `name` in messages.
+    pub fn over(port: Box<dyn Port>, name: &str) -> Link {
+        Link {
             port,
-            name: path.to_string(),
+            name: name.to_string(),
             buf: Vec::new(),
             written: 0,
-        })
+        }
     }
 
     pub fn name(&self) -> &str {
@@ -137,17 +265,8 @@ impl Link {
 
     /// Throws away everything received so far (and waiting in the OS).
     pub fn discard_input(&mut self) {
-        let _ = self.port.clear(serialport::ClearBuffer::Input);
+        self.port.clear_input();
         self.buf.clear();
-    }
-}
-
-impl Drop for Link {
-    fn drop(&mut self) {
-        // Leave the port openable by the next program (a pty keeps TIOCEXCL while any side holds
-        // it open; Windows gives a COM port to one program at a time by itself).
-        #[cfg(unix)]
-        let _ = self.port.set_exclusive(false);
     }
 }
 

@@ -6,7 +6,10 @@ use std::collections::BTreeMap;
 use std::sync::atomic::Ordering;
 use std::time::{Duration, Instant};
 
-use super::{apply_motion, open_wire, spawn, word, Fake, Plane, Shared};
+#[cfg(unix)]
+use super::open_wire;
+use super::{apply_motion, pipe_wire, spawn, word, Fake, Plane, Shared, Wire};
+use crate::transport::PipeEnd;
 
 #[derive(Clone, Debug)]
 pub struct GrblConfig {
@@ -90,15 +93,29 @@ const BANNER: &str = "\r\nGrbl 1.1h ['$' for help]\r\n";
 
 impl FakeGrbl {
     /// Starts a fake GRBL on a new pty.
+    #[cfg(unix)]
     pub fn start(cfg: GrblConfig) -> std::io::Result<Fake> {
         Self::start_with(cfg, Shared::default())
     }
 
     /// Starts a fake that continues `record` (the machine after a reconnect).
+    #[cfg(unix)]
     pub fn start_with(cfg: GrblConfig, record: Shared) -> std::io::Result<Fake> {
         record.lock().unwrap().disconnected = false;
-        let (mut w, path) = open_wire(cfg.rx_size - 1, record.clone())?;
-        Ok(spawn(path, record.clone(), move |stop| {
+        let (w, path) = open_wire(cfg.rx_size - 1, record.clone())?;
+        Ok(Self::run(w, path, cfg, record))
+    }
+
+    /// A simulated controller on an in-memory pipe (`carve --port sim`, on every system): the
+    /// fake, and the end to give [`crate::transport::Link::over`].
+    pub fn simulated(cfg: GrblConfig) -> (Fake, PipeEnd) {
+        let record = Shared::default();
+        let (w, end) = pipe_wire(cfg.rx_size - 1, record.clone());
+        (Self::run(w, "sim".into(), cfg, record), end)
+    }
+
+    fn run(mut w: Wire, path: String, cfg: GrblConfig, record: Shared) -> Fake {
+        spawn(path, record.clone(), move |stop| {
             let mut m = Machine {
                 st: if cfg.start_in_alarm { St::Alarm } else { St::Idle },
                 pos: if cfg.reset_on_open {
@@ -154,7 +171,7 @@ impl FakeGrbl {
                     return; // dropping the wire closes both ends of the pty
                 }
             }
-        }))
+        })
     }
 }
 

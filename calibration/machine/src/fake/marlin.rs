@@ -7,7 +7,10 @@ use std::collections::BTreeSet;
 use std::sync::atomic::Ordering;
 use std::time::{Duration, Instant};
 
-use super::{apply_motion, open_wire, spawn, word, Fake, Plane, Shared};
+#[cfg(unix)]
+use super::open_wire;
+use super::{apply_motion, pipe_wire, spawn, word, Fake, Plane, Shared, Wire};
+use crate::transport::PipeEnd;
 
 #[derive(Clone, Debug)]
 pub struct MarlinConfig {
@@ -67,15 +70,29 @@ fn checksum(s: &str) -> u8 {
 }
 
 impl FakeMarlin {
+    #[cfg(unix)]
     pub fn start(cfg: MarlinConfig) -> std::io::Result<Fake> {
         Self::start_with(cfg, Shared::default())
     }
 
     /// Starts a fake that continues `record` (the printer after a reconnect).
+    #[cfg(unix)]
     pub fn start_with(cfg: MarlinConfig, record: Shared) -> std::io::Result<Fake> {
         record.lock().unwrap().disconnected = false;
-        let (mut w, path) = open_wire(cfg.rx_capacity, record.clone())?;
-        Ok(spawn(path, record.clone(), move |stop| {
+        let (w, path) = open_wire(cfg.rx_capacity, record.clone())?;
+        Ok(Self::run(w, path, cfg, record))
+    }
+
+    /// A simulated controller on an in-memory pipe (`carve --port sim`, on every system): the
+    /// fake, and the end to give [`crate::transport::Link::over`].
+    pub fn simulated(cfg: MarlinConfig) -> (Fake, PipeEnd) {
+        let record = Shared::default();
+        let (w, end) = pipe_wire(cfg.rx_capacity, record.clone());
+        (Self::run(w, "sim".into(), cfg, record), end)
+    }
+
+    fn run(mut w: Wire, path: String, cfg: MarlinConfig, record: Shared) -> Fake {
+        spawn(path, record.clone(), move |stop| {
             let mut p = Printer {
                 last_n: 0,
                 corrupt: cfg.corrupt.clone(),
@@ -120,7 +137,7 @@ impl FakeMarlin {
                     return;
                 }
             }
-        }))
+        })
     }
 }
 

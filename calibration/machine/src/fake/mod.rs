@@ -9,7 +9,10 @@ use std::sync::{Arc, Mutex};
 use std::thread::JoinHandle;
 use std::time::Duration;
 
+#[cfg(unix)]
 use serialport::{SerialPort, TTYPort};
+
+use crate::transport::{pipe, PipeEnd, Port};
 
 mod grbl;
 mod marlin;
@@ -98,11 +101,12 @@ impl Drop for Fake {
     }
 }
 
-/// The fake's end of the pty, with the modelled receive buffer.
+/// The fake's end of the pty (or of the in-memory pipe of a dry run), with the modelled
+/// receive buffer.
 pub(crate) struct Wire {
-    master: TTYPort,
+    master: Box<dyn Port>,
     /// Kept open so the master never sees a hang-up while no client holds the port.
-    _slave: TTYPort,
+    _slave: Option<Box<dyn Send>>,
     pub rx: Vec<u8>,
     pub capacity: usize,
     pub record: Shared,
@@ -153,7 +157,36 @@ impl Wire {
     }
 }
 
+/// The pty master as a [`Port`].
+#[cfg(unix)]
+struct Master(TTYPort);
+
+#[cfg(unix)]
+impl Read for Master {
+    fn read(&mut self, b: &mut [u8]) -> std::io::Result<usize> {
+        self.0.read(b)
+    }
+}
+
+#[cfg(unix)]
+impl Write for Master {
+    fn write(&mut self, b: &[u8]) -> std::io::Result<usize> {
+        self.0.write(b)
+    }
+    fn flush(&mut self) -> std::io::Result<()> {
+        self.0.flush()
+    }
+}
+
+#[cfg(unix)]
+impl Port for Master {
+    fn clear_input(&mut self) {
+        let _ = self.0.clear(serialport::ClearBuffer::Input);
+    }
+}
+
 /// Opens a pty pair for a fake: (wire, slave path).
+#[cfg(unix)]
 pub(crate) fn open_wire(capacity: usize, record: Shared) -> std::io::Result<(Wire, String)> {
     let (mut master, slave) = TTYPort::pair().map_err(std::io::Error::other)?;
     master
@@ -164,14 +197,28 @@ pub(crate) fn open_wire(capacity: usize, record: Shared) -> std::io::Result<(Wir
         .ok_or_else(|| std::io::Error::other("the pty has no path"))?;
     Ok((
         Wire {
-            master,
-            _slave: slave,
+            master: Box::new(Master(master)),
+            _slave: Some(Box::new(slave)),
             rx: Vec::new(),
             capacity,
             record,
         },
         path,
     ))
+}
+
+/// An in-memory pipe for a fake (a dry run, on every system): (wire, the sender's end). Reads
+/// wait at most 1 ms, as the pty's do.
+pub(crate) fn pipe_wire(capacity: usize, record: Shared) -> (Wire, PipeEnd) {
+    let (fake, sender) = pipe(Duration::from_millis(1));
+    let w = Wire {
+        master: Box::new(fake),
+        _slave: None,
+        rx: Vec::new(),
+        capacity,
+        record,
+    };
+    (w, sender)
 }
 
 pub(crate) fn spawn(path: String, record: Shared, body: impl FnOnce(Arc<AtomicBool>) + Send + 'static) -> Fake {
