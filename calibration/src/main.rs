@@ -12,6 +12,7 @@ use scratchart_tool::Tool;
 
 mod carve;
 mod plan_cmd;
+mod toolpath;
 
 #[derive(Parser)]
 #[command(

@@ -10,7 +10,7 @@ use scratchart_machine::gcode::{write_blocks, Options};
 use scratchart_machine::level::{compensate, HeightMap};
 use scratchart_machine::plan::{
     check_bounds, check_moves, nearest_neighbour, orientation_mark, program_time, program_travel, surface_depth_mm,
-    travel, two_opt, Block, Cut, Label, MachineProfile,
+    travel, two_opt, Block, Cut, MachineProfile,
 };
 use scratchart_tool::Tool;
 
@@ -217,7 +217,26 @@ pub fn plan(a: &PlanArgs) -> Result<()> {
     }
     scratchart::io::write_atomic(out, g.as_bytes())?;
     let preview = out.with_extension("png");
-    write_preview(&preview, &blocks, plate)?;
+    let caption = crate::toolpath::Caption {
+        plan: out
+            .file_name()
+            .map_or(String::new(), |n| n.to_string_lossy().into_owned()),
+        machine: match (&a.machine.machine_file, m.firmware) {
+            (Some(f), _) => format!(
+                "{} ({})",
+                scratchart_machine::program::Program::firmware_name(m.firmware),
+                f.display()
+            ),
+            (None, scratchart_machine::plan::Firmware::Grbl) => "GRBL router (built-in profile)".into(),
+            (None, scratchart_machine::plan::Firmware::Marlin) => "Marlin printer (built-in profile)".into(),
+        },
+        tool: match &tool {
+            Some(t) => describe_tool(t),
+            None => "depths from the design's z_mm column".into(),
+        },
+        seconds: secs,
+    };
+    crate::toolpath::write(&preview, &blocks, plate, &caption)?;
     println!(
         "wrote {} ({} cuts{}) and {}",
         out.display(),
@@ -337,64 +356,28 @@ fn level(map: &HeightMap, blocks: &mut [Block], a: &PlanArgs, summary: &mut Vec<
     Ok(())
 }
 
-/// The tool path from above (512 px): the plate outline light gray, rapid moves gray, cuts black,
-/// the orientation mark black, thick and with an arrow head pointing +x.
-pub fn write_preview(path: &Path, blocks: &[Block], plate_mm: f64) -> Result<()> {
-    let n = 512usize;
-    let mut px = vec![255u8; n * n];
-    let to = |p: [f64; 2]| {
-        (
-            (p[0] / plate_mm + 0.5) * (n - 1) as f64,
-            (0.5 - p[1] / plate_mm) * (n - 1) as f64,
-        )
+/// A tool in a few words for the toolpath picture's title: its kind and numbers, in um and
+/// degrees (a measured profile: its number of points).
+fn describe_tool(t: &Tool) -> String {
+    let v = serde_json::to_value(t).unwrap_or_default();
+    let Some(o) = v.as_object() else {
+        return String::new();
     };
-    let mut line = |a: [f64; 2], b: [f64; 2], v: u8, thick: i64| {
-        let ((x0, y0), (x1, y1)) = (to(a), to(b));
-        let steps = ((x1 - x0).abs().max((y1 - y0).abs()).ceil() as usize).max(1);
-        for k in 0..=steps {
-            let t = k as f64 / steps as f64;
-            let (x, y) = (x0 + t * (x1 - x0), y0 + t * (y1 - y0));
-            for dy in -thick..=thick {
-                for dx in -thick..=thick {
-                    let (x, y) = (x.round() as i64 + dx, y.round() as i64 + dy);
-                    if x >= 0 && y >= 0 && (x as usize) < n && (y as usize) < n {
-                        let i = y as usize * n + x as usize;
-                        px[i] = px[i].min(v);
-                    }
-                }
+    let mut parts = vec![o.get("kind").and_then(|k| k.as_str()).unwrap_or("tool").to_string()];
+    for (k, x) in o {
+        if k == "kind" || k == "alpha" {
+            continue;
+        }
+        match (x.as_f64(), x.as_array()) {
+            (Some(f), _) if k.ends_with("_deg") => parts.push(format!("{} {f} deg", &k[..k.len() - 4])),
+            (Some(f), _) if k.ends_with("_mm") => {
+                parts.push(format!("{} {} um", &k[..k.len() - 3], (f * 1e4).round() / 10.0))
             }
-        }
-    };
-    let h = 0.5 * plate_mm;
-    for (a, b) in [
-        ([-h, -h], [h, -h]),
-        ([h, -h], [h, h]),
-        ([h, h], [-h, h]),
-        ([-h, h], [-h, -h]),
-    ] {
-        line(a, b, 220, 0);
-    }
-    let xy = |p: &[f64; 3]| [p[0], p[1]];
-    let mut at = [0.0, 0.0];
-    for b in blocks {
-        line(at, xy(&b.path[0]), 190, 0);
-        at = xy(&b.path[b.path.len() - 1]);
-    }
-    line(at, [0.0, 0.0], 190, 0);
-    for b in blocks {
-        let thick = if b.label == Label::Mark { 1 } else { 0 };
-        for w in b.path.windows(2) {
-            line(xy(&w[0]), xy(&w[1]), 0, thick);
-        }
-        if b.label == Label::Mark {
-            let tip = xy(&b.path[b.path.len() - 1]);
-            let s = 0.012 * plate_mm;
-            line(tip, [tip[0] - s, tip[1] + s], 0, 1);
-            line(tip, [tip[0] - s, tip[1] - s], 0, 1);
+            (_, Some(a)) => parts.push(format!("{k}: {} points", a.len())),
+            _ => {}
         }
     }
-    scratchart::io::write_png_gray(path, n as u32, n as u32, &px)?;
-    Ok(())
+    parts.join(", ")
 }
 
 /// `scratchart-cal card`'s G-code: `DIR/card.nc` (GRBL) or `DIR/card.gcode` (Marlin), written

@@ -36,7 +36,7 @@ fn design(plate: f64) -> Scene {
                     p0: [-h + 2.0 * h * t, -h],
                     p1: [-h + 2.0 * h * t, h * t],
                     w: 0.05,
-                    d: 0.05,
+                    d: 0.02 + 0.03 * t,
                     alpha: 0.1,
                 }
             })
@@ -63,6 +63,21 @@ fn plan_writes_gcode_and_a_preview() {
     assert!(g.starts_with("; scratchart plan machine=grbl\n"));
     assert_eq!(g.lines().filter(|l| l.starts_with("; scratch ")).count(), 40);
     assert!(dir.join("out/plan.png").exists());
+    // The toolpath picture: to scale, cuts coloured from the shallowest (dark blue) to the
+    // deepest (yellow), the first (green) and last (red) cut marked.
+    let png = image::open(dir.join("out/plan.png")).unwrap().to_rgb8();
+    assert_eq!(png.dimensions(), (1300, 980));
+    let count = |c: [u8; 3], tol: i32| {
+        png.pixels()
+            .filter(|p| (0..3).all(|i| (p.0[i] as i32 - c[i] as i32).abs() <= tol))
+            .count()
+    };
+    assert!(count([68, 1, 84], 6) > 50, "shallow cuts");
+    assert!(count([253, 231, 37], 6) > 50, "deep cuts");
+    assert!(
+        count([0, 150, 60], 0) > 10 && count([210, 30, 30], 0) > 10,
+        "first and last"
+    );
     // The whole tool record in the header (folded over comment lines, never cut short).
     let header: Vec<&str> = g.lines().take_while(|l| l.starts_with(';')).map(|l| &l[2..]).collect();
     let joined = header.join(" ");

@@ -1,0 +1,314 @@
+//! The toolpath picture `plan` writes beside the G-code (`plan.png`): the plate from above to
+//! scale (+x to the right, +y up, X0 Y0 at its centre) with a scale bar; each cut coloured by its
+//! commanded depth, with the legend; the travel between cuts (faint); the first and the last cut;
+//! the +x orientation mark; and a title with the machine, the tool and the estimated time. A
+//! maker reads it without the README.
+use std::path::Path;
+
+use anyhow::Result;
+use plotters::prelude::*;
+use scratchart_machine::plan::{Block, Label};
+
+/// What the title says.
+pub struct Caption {
+    /// The plan's file name.
+    pub plan: String,
+    /// The machine ("GRBL router, built-in profile").
+    pub machine: String,
+    /// The tool, or where the depths came from.
+    pub tool: String,
+    /// The job time by the profile's rates, s.
+    pub seconds: f64,
+}
+
+const W: u32 = 1300;
+const H: u32 = 980;
+/// The plate's square: left, top, side (px).
+const PX: i32 = 50;
+const PY: i32 = 90;
+const SIDE: i32 = 800;
+
+const TRAVEL: RGBColor = RGBColor(200, 200, 200);
+const FIRST: RGBColor = RGBColor(0, 150, 60);
+const LAST: RGBColor = RGBColor(210, 30, 30);
+const INK: RGBColor = RGBColor(40, 40, 40);
+
+fn pe<E: std::fmt::Debug>(e: E) -> anyhow::Error {
+    anyhow::anyhow!("toolpath picture: {e:?}")
+}
+
+/// A round length for a scale bar about a fifth of `span` (1, 2 or 5 times a power of ten), mm.
+pub fn scale_bar_mm(span: f64) -> f64 {
+    let target = span / 5.0;
+    let p = 10f64.powf(target.log10().floor());
+    [1.0, 2.0, 5.0, 10.0]
+        .iter()
+        .map(|m| m * p)
+        .rfind(|&v| v <= target * 1.0001)
+        .unwrap_or(p)
+}
+
+/// A block's commanded depth below the surface, mm (its deepest point).
+fn depth(b: &Block) -> f64 {
+    -b.path.iter().map(|p| p[2]).fold(f64::INFINITY, f64::min)
+}
+
+/// Viridis at nine points (dark blue to yellow): readable in grey and by most colour-blind eyes.
+const VIRIDIS: [(u8, u8, u8); 9] = [
+    (68, 1, 84),
+    (71, 45, 123),
+    (59, 82, 139),
+    (44, 114, 142),
+    (33, 145, 140),
+    (39, 173, 129),
+    (92, 200, 99),
+    (170, 220, 50),
+    (253, 231, 37),
+];
+
+/// The colour of depth `d` on a range `lo..hi` (viridis: shallow dark blue, deep yellow).
+fn colour(d: f64, lo: f64, hi: f64) -> RGBColor {
+    let t = if hi - lo < 1e-12 {
+        0.5
+    } else {
+        ((d - lo) / (hi - lo)).clamp(0.0, 1.0)
+    };
+    let x = t * (VIRIDIS.len() - 1) as f64;
+    let i = (x.floor() as usize).min(VIRIDIS.len() - 2);
+    let f = x - i as f64;
+    let (a, b) = (VIRIDIS[i], VIRIDIS[i + 1]);
+    let mix = |p: u8, q: u8| (p as f64 + f * (q as f64 - p as f64)).round() as u8;
+    RGBColor(mix(a.0, b.0), mix(a.1, b.1), mix(a.2, b.2))
+}
+
+/// Writes the picture of `blocks` (in cut order) on a `plate_mm` plate.
+pub fn write(path: &Path, blocks: &[Block], plate_mm: f64, cap: &Caption) -> Result<()> {
+    let mut buf = vec![255u8; (W * H * 3) as usize];
+    {
+        let root = BitMapBackend::with_buffer(&mut buf, (W, H)).into_drawing_area();
+        root.fill(&WHITE).map_err(pe)?;
+        let font = scratchart::optim::report::plot_font().is_some();
+        let text = |t: &str, at: (i32, i32), size: i32, c: &RGBColor| -> Result<()> {
+            if font {
+                root.draw(&Text::new(t.to_string(), at, ("sans-serif", size).into_font().color(c)))
+                    .map_err(pe)?;
+            }
+            Ok(())
+        };
+        // Words over the drawing, on a white ground so that cuts under them do not hide them.
+        let label = |t: &str, at: (i32, i32), c: &RGBColor| -> Result<()> {
+            if font {
+                let w = (t.chars().count() as f64 * 7.6).ceil() as i32;
+                root.draw(&Rectangle::new(
+                    [(at.0 - 2, at.1 - 1), (at.0 + w, at.1 + 17)],
+                    WHITE.mix(0.85).filled(),
+                ))
+                .map_err(pe)?;
+            }
+            text(t, at, 15, c)
+        };
+        let to = |p: [f64; 2]| -> (i32, i32) {
+            (
+                PX + ((p[0] / plate_mm + 0.5) * SIDE as f64).round() as i32,
+                PY + ((0.5 - p[1] / plate_mm) * SIDE as f64).round() as i32,
+            )
+        };
+        let xy = |p: &[f64; 3]| [p[0], p[1]];
+        let cuts: Vec<&Block> = blocks.iter().filter(|b| b.label != Label::Mark).collect();
+        let (lo, hi) = cuts
+            .iter()
+            .map(|b| depth(b))
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), d| (a.min(d), b.max(d)));
+        let (lo, hi) = if lo.is_finite() { (lo, hi) } else { (0.0, 0.0) };
+
+        // Title.
+        text(
+            &format!(
+                "{}: {} cuts on a {} mm plate, seen from above",
+                cap.plan,
+                cuts.len(),
+                plate_mm
+            ),
+            (PX, 12),
+            24,
+            &BLACK,
+        )?;
+        text(
+            &format!(
+                "machine: {}   tool: {}   estimated time: {:.1} min",
+                cap.machine,
+                cap.tool,
+                cap.seconds / 60.0
+            ),
+            (PX, 46),
+            17,
+            &INK,
+        )?;
+
+        // The plate.
+        root.draw(&Rectangle::new(
+            [(PX, PY), (PX + SIDE, PY + SIDE)],
+            ShapeStyle::from(&INK).stroke_width(1),
+        ))
+        .map_err(pe)?;
+        // Travel between cuts (rapids above the plate), from and back to X0 Y0.
+        let mut at = [0.0, 0.0];
+        for b in blocks {
+            root.draw(&PathElement::new(vec![to(at), to(xy(&b.path[0]))], TRAVEL))
+                .map_err(pe)?;
+            at = xy(&b.path[b.path.len() - 1]);
+        }
+        root.draw(&PathElement::new(vec![to(at), to([0.0, 0.0])], TRAVEL))
+            .map_err(pe)?;
+        // Cuts by depth.
+        for b in &cuts {
+            let c = colour(depth(b), lo, hi);
+            let pts: Vec<(i32, i32)> = b.path.iter().map(|p| to(xy(p))).collect();
+            root.draw(&PathElement::new(pts, ShapeStyle::from(&c).stroke_width(2)))
+                .map_err(pe)?;
+        }
+        // The work zero.
+        let z = to([0.0, 0.0]);
+        root.draw(&PathElement::new(vec![(z.0 - 6, z.1), (z.0 + 6, z.1)], INK))
+            .map_err(pe)?;
+        root.draw(&PathElement::new(vec![(z.0, z.1 - 6), (z.0, z.1 + 6)], INK))
+            .map_err(pe)?;
+        // First and last cut.
+        if let (Some(f), Some(l)) = (cuts.first(), cuts.last()) {
+            let p = to(xy(&f.path[0]));
+            root.draw(&Circle::new(p, 7, ShapeStyle::from(&FIRST).stroke_width(3)))
+                .map_err(pe)?;
+            label(&format!("first ({})", f.label), (p.0 + 10, p.1 - 24), &FIRST)?;
+            let q = to(xy(&l.path[l.path.len() - 1]));
+            root.draw(&Rectangle::new(
+                [(q.0 - 6, q.1 - 6), (q.0 + 6, q.1 + 6)],
+                ShapeStyle::from(&LAST).stroke_width(3),
+            ))
+            .map_err(pe)?;
+            label(&format!("last ({})", l.label), (q.0 + 10, q.1 + 6), &LAST)?;
+        }
+        // The +x mark: thick, with an arrow head pointing +x.
+        for b in blocks.iter().filter(|b| b.label == Label::Mark) {
+            let (a, e) = (to(xy(&b.path[0])), to(xy(&b.path[b.path.len() - 1])));
+            root.draw(&PathElement::new(vec![a, e], ShapeStyle::from(&BLACK).stroke_width(4)))
+                .map_err(pe)?;
+            for dy in [-9, 9] {
+                root.draw(&PathElement::new(
+                    vec![e, (e.0 - 9, e.1 + dy)],
+                    ShapeStyle::from(&BLACK).stroke_width(3),
+                ))
+                .map_err(pe)?;
+            }
+            label("+x mark", (a.0 - 20, a.1 + 12), &BLACK)?;
+        }
+        // Axes beside the plate: +x to the right, +y up.
+        let (ax, ay) = (PX + SIDE + 12, PY + SIDE);
+        root.draw(&PathElement::new(
+            vec![(ax, ay), (ax + 40, ay)],
+            ShapeStyle::from(&INK).stroke_width(2),
+        ))
+        .map_err(pe)?;
+        root.draw(&PathElement::new(
+            vec![(ax, ay), (ax, ay - 40)],
+            ShapeStyle::from(&INK).stroke_width(2),
+        ))
+        .map_err(pe)?;
+        text("+x", (ax + 44, ay - 8), 15, &INK)?;
+        text("+y", (ax - 8, ay - 60), 15, &INK)?;
+        // Scale bar under the plate.
+        let bar = scale_bar_mm(plate_mm);
+        let len = (bar / plate_mm * SIDE as f64).round() as i32;
+        let (bx, by) = (PX, PY + SIDE + 24);
+        root.draw(&Rectangle::new([(bx, by), (bx + len, by + 6)], BLACK.filled()))
+            .map_err(pe)?;
+        text(&format!("{bar} mm"), (bx + len + 10, by - 6), 16, &BLACK)?;
+        text(
+            "X0 Y0 (cross) at the plate centre; Z0 on its surface",
+            (bx + len + 100, by - 6),
+            15,
+            &INK,
+        )?;
+
+        // Legend: the depth colours.
+        let (lx, ly) = (PX + SIDE + 110, PY + 10);
+        text("commanded depth", (lx, ly), 17, &BLACK)?;
+        text("below the surface", (lx, ly + 20), 15, &INK)?;
+        let (cy0, ch, cw) = (ly + 50, 300, 26);
+        for k in 0..ch {
+            let t = 1.0 - k as f64 / (ch - 1) as f64;
+            let c = if hi - lo < 1e-12 {
+                colour(lo, lo, hi)
+            } else {
+                colour(lo + t * (hi - lo), lo, hi)
+            };
+            root.draw(&PathElement::new(vec![(lx, cy0 + k), (lx + cw, cy0 + k)], c))
+                .map_err(pe)?;
+        }
+        root.draw(&Rectangle::new([(lx, cy0), (lx + cw, cy0 + ch)], INK))
+            .map_err(pe)?;
+        let ticks = if hi - lo < 1e-12 { 1 } else { 5 };
+        for i in 0..ticks {
+            let t = if ticks == 1 { 0.5 } else { i as f64 / (ticks - 1) as f64 };
+            let v = hi - t * (hi - lo);
+            let y = cy0 + (t * (ch - 1) as f64).round() as i32;
+            root.draw(&PathElement::new(vec![(lx + cw, y), (lx + cw + 6, y)], INK))
+                .map_err(pe)?;
+            text(&format!("{:.1} um", 1000.0 * v), (lx + cw + 10, y - 8), 15, &INK)?;
+        }
+        // Keys.
+        let mut ky = cy0 + ch + 40;
+        let key_line = |y: i32, c: RGBColor, w: u32| {
+            root.draw(&PathElement::new(
+                vec![(lx, y), (lx + 30, y)],
+                ShapeStyle::from(&c).stroke_width(w),
+            ))
+            .map_err(pe)
+        };
+        key_line(ky, TRAVEL, 1)?;
+        text("travel between cuts (above the plate)", (lx + 38, ky - 8), 15, &INK)?;
+        ky += 28;
+        root.draw(&Circle::new((lx + 15, ky), 7, ShapeStyle::from(&FIRST).stroke_width(3)))
+            .map_err(pe)?;
+        text("first cut (its start)", (lx + 38, ky - 8), 15, &INK)?;
+        ky += 28;
+        root.draw(&Rectangle::new(
+            [(lx + 9, ky - 6), (lx + 21, ky + 6)],
+            ShapeStyle::from(&LAST).stroke_width(3),
+        ))
+        .map_err(pe)?;
+        text("last cut (its end)", (lx + 38, ky - 8), 15, &INK)?;
+        ky += 28;
+        key_line(ky, BLACK, 4)?;
+        text("+x mark: the plate edge facing +x", (lx + 38, ky - 8), 15, &INK)?;
+        ky += 40;
+        text(&format!("{} cuts in this order;", cuts.len()), (lx, ky), 15, &INK)?;
+        text("labels: the design's scratch numbers", (lx, ky + 20), 15, &INK)?;
+        root.present().map_err(pe)?;
+    }
+    scratchart::io::write_png_rgb(path, W, H, &buf)?;
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn depths_run_from_dark_blue_to_yellow() {
+        assert_eq!(colour(0.01, 0.01, 0.05), RGBColor(68, 1, 84));
+        assert_eq!(colour(0.05, 0.01, 0.05), RGBColor(253, 231, 37));
+        // Monotone in lightness (green channel) over the range.
+        let g: Vec<u8> = (0..=20).map(|k| colour(k as f64, 0.0, 20.0).1).collect();
+        assert!(g.windows(2).all(|w| w[0] <= w[1]), "{g:?}");
+        assert_eq!(colour(0.02, 0.02, 0.02), colour(0.5, 0.0, 1.0), "one depth: mid colour");
+    }
+
+    #[test]
+    fn scale_bars_are_round() {
+        assert_eq!(scale_bar_mm(100.0), 20.0);
+        assert_eq!(scale_bar_mm(60.0), 10.0);
+        assert_eq!(scale_bar_mm(30.0), 5.0);
+        assert_eq!(scale_bar_mm(8.0), 1.0);
+        assert_eq!(scale_bar_mm(250.0), 50.0);
+    }
+}
