@@ -125,6 +125,11 @@ pub trait Controller {
     fn hold(&mut self, link: &mut Link) -> Result<(), Fault>;
     /// Cycle start after a hold (GRBL `~`).
     fn resume(&mut self, link: &mut Link) -> Result<(), Fault>;
+    /// Whether a resume sent now would be taken, given the state of the last status report
+    /// since the hold (empty: none yet). GRBL ignores `~` until the hold is complete (`Hold:0`).
+    fn ready_to_resume(&self, _state: &str) -> bool {
+        true
+    }
     /// Stops motion now and raises the tool to `safe_z` (GRBL: hold, `Hold:0`, soft reset,
     /// raise; Marlin: M410 quickstop, raise when it answers; M112 when `emergency`). `pending`:
     /// the lines still unanswered. Returns what it did.

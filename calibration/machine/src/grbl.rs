@@ -382,6 +382,12 @@ impl Controller for Grbl {
         Ok(())
     }
 
+    fn ready_to_resume(&self, state: &str) -> bool {
+        // GRBL 1.1 takes a cycle start only once the hold is complete (or the machine idle): a
+        // `~` while it still decelerates (`Hold:1`) is dropped and the job would wait for ever.
+        state == "Hold:0" || state == "Idle"
+    }
+
     fn stop_and_raise(
         &mut self,
         link: &mut Link,

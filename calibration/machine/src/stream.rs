@@ -97,6 +97,9 @@ struct Sender<'a> {
     /// The line last asked for again, and how many times in a row.
     repeats: (usize, usize),
     held: bool,
+    /// A resume asked for while held, sent once the controller can take it
+    /// ([`Controller::ready_to_resume`]).
+    resume_wanted: bool,
     last_poll: Instant,
     last_status: Instant,
     last_rx: Instant,
@@ -137,13 +140,19 @@ impl Sender<'_> {
                 return Some(self.lost(e.to_string()));
             }
             self.held = true;
+            // (only a report after the hold tells what the machine does now)
+            self.state.clear();
             obs.note("feed hold: the machine stops; resume with `~` (or `r`), abort with Ctrl-C");
         }
         if control.resume.swap(false, Ordering::SeqCst) && self.held {
+            self.resume_wanted = true;
+        }
+        if self.resume_wanted && ctl.ready_to_resume(&self.state) {
             if let Err(e) = ctl.resume(link) {
                 return Some(self.lost(e.to_string()));
             }
             self.held = false;
+            self.resume_wanted = false;
             obs.note("resumed");
         }
         None
@@ -322,6 +331,7 @@ pub fn stream(
         resend: None,
         repeats: (usize::MAX, 0),
         held: false,
+        resume_wanted: false,
         last_poll: now - POLL,
         last_status: now,
         last_rx: now,

@@ -210,3 +210,77 @@ fn a_resume_after_a_board_reset_never_cuts_on_with_a_lost_position() {
         drop(sim);
     }
 }
+
+/// An observer that asks for a feed hold once `after` cuts are acknowledged, and for the resume
+/// a moment later (as a maker types `!` and then `~`).
+struct HoldAfter<'a> {
+    after: usize,
+    control: &'a Control,
+    log: Log,
+    held: std::sync::atomic::AtomicBool,
+}
+
+impl Observer for HoldAfter<'_> {
+    fn progress(&self, p: &Progress) {
+        if p.done >= self.after && !self.held.swap(true, Ordering::SeqCst) {
+            self.control.hold.store(true, Ordering::SeqCst);
+        }
+        self.log.progress(p);
+    }
+    fn note(&self, msg: &str) {
+        if msg.starts_with("feed hold") {
+            // Held: resume after a while.
+            self.control.resume.store(true, Ordering::SeqCst);
+        }
+        self.log.note(msg);
+    }
+}
+
+/// The real firmware's check mode (`$C`, which soft-resets GRBL when it ends) is not taken for a
+/// lost position, the job time comes from its own `$$`, and a feed hold in the middle of the
+/// job (`!`, then `~`) loses nothing: every cut is made and the job ends.
+#[test]
+fn the_real_firmware_checks_holds_and_resumes() {
+    let dir = tmpdir("grbl_sim_hold");
+    let Some(sim) = Sim::start(&dir, "uart", &[]) else {
+        return;
+    };
+    let plan = small_plan(&dir);
+    let control = Control::default();
+    let obs = HoldAfter {
+        after: 2,
+        control: &control,
+        log: Log::default(),
+        held: Default::default(),
+    };
+    let mut opts = options(&plan, &sim.port());
+    opts.check = true;
+    let s = carve(&opts, &control, &obs).unwrap_or_else(|e| panic!("{e}\nnotes: {:?}", obs.log.notes.lock().unwrap()));
+    assert_eq!((s.from, s.total), (0, 6));
+    let notes = obs.log.notes.lock().unwrap().clone();
+    assert!(notes.iter().any(|n| n.starts_with("check mode: all")), "{notes:?}");
+    assert!(
+        notes.iter().any(|n| n.starts_with("feed hold")) && notes.iter().any(|n| n == "resumed"),
+        "{notes:?}"
+    );
+    // GRBL 1.1h's defaults: $110-$112 = 500 mm/min, $120-$122 = 10 mm/s^2.
+    let k = scratchart_machine::controller::Kinematics {
+        rate_mm_min: [500.0; 3],
+        accel_mm_s2: [10.0; 3],
+        source: String::new(),
+    };
+    let program = scratchart_machine::program::Program::load(&plan).unwrap();
+    let want = scratchart_machine::job::clock(program.timing(&k).from(0));
+    assert!(
+        notes
+            .iter()
+            .any(|n| n.starts_with(&format!("job time on this machine: {want}"))),
+        "{want}: {notes:?}"
+    );
+    let j = Journal::load(&scratchart_machine::journal::default_path(&plan)).unwrap();
+    assert_eq!(
+        (j.state.as_str(), j.last_acked, j.position_lost.as_deref()),
+        ("done", Some(5), None)
+    );
+    drop(sim);
+}

@@ -219,7 +219,9 @@ impl Machine {
                 self.st = St::Hold1(Instant::now());
                 w.record.lock().unwrap().holds += 1;
             }
-            b'~' if matches!(self.st, St::Hold0 | St::Hold1(_)) => {
+            // As GRBL 1.1h: a cycle start only once the hold is complete (`~` during
+            // `Hold:1` is dropped).
+            b'~' if self.st == St::Hold0 => {
                 self.st = St::Idle;
                 w.record.lock().unwrap().resumes += 1;
             }
