@@ -46,6 +46,8 @@ const MAX_IN_LINE: usize = 4096;
 pub trait Port: Read + Write + Send {
     /// Throws away what has arrived and not been read.
     fn clear_input(&mut self);
+    /// How long a read waits for data (a port that cannot change it keeps its own).
+    fn set_read_wait(&mut self, _wait: Duration) {}
 }
 
 struct Serial(NativePort);
@@ -152,6 +154,9 @@ impl Write for PipeEnd {
 impl Port for PipeEnd {
     fn clear_input(&mut self) {
         self.rx.0.lock().unwrap().bytes.clear();
+    }
+    fn set_read_wait(&mut self, wait: Duration) {
+        self.timeout = wait;
     }
 }
 

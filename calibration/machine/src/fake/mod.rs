@@ -116,6 +116,10 @@ impl Wire {
     /// Reads what has arrived (at most ~1 ms wait); `filter` takes real-time bytes out of the
     /// stream (GRBL) before they reach the buffer. Returns false when the link is gone.
     pub fn pump(&mut self, mut filter: impl FnMut(u8) -> bool) -> bool {
+        // With a line already waiting, only take what has arrived (no wait): the fake then
+        // answers as fast as it can (a dry run at full speed).
+        let wait = if self.rx.contains(&b'\n') { 0 } else { 1 };
+        self.master.set_read_wait(Duration::from_millis(wait));
         let mut chunk = [0u8; 512];
         match self.master.read(&mut chunk) {
             Ok(n) => {
@@ -182,6 +186,9 @@ impl Write for Master {
 impl Port for Master {
     fn clear_input(&mut self) {
         let _ = self.0.clear(serialport::ClearBuffer::Input);
+    }
+    fn set_read_wait(&mut self, wait: Duration) {
+        let _ = self.0.set_timeout(wait);
     }
 }
 
