@@ -432,3 +432,62 @@ fn no_process_exit_outside_the_exit_contract() {
         "process::exit outside scratchart_exit::exit_now: {offenders:?}"
     );
 }
+
+/// A uniform picture (a 1 x 1 image, a blank frame) has nothing for its view to show: `design`
+/// refuses it with exit 3, naming the picture, its view and `--blank-view`; with
+/// `--blank-view NAME` the view is blank on purpose, `summary.json` lists it, and both paths
+/// to the set-up sheet (`design` and `setup`) say so instead of giving tolerances.
+#[test]
+fn a_uniform_picture_is_refused_unless_its_view_is_blank_on_purpose() {
+    let dir = tmp("blank");
+    let one = dir.join("one.png");
+    image::GrayImage::from_raw(1, 1, vec![200]).unwrap().save(&one).unwrap();
+    let data = |f: &str| Path::new(env!("CARGO_MANIFEST_DIR")).join("data").join(f);
+    let (a, c) = (data("astronaut.png"), data("coffee.png"));
+    let out = dir.join("d");
+    let args = |extra: &[&str]| -> Vec<String> {
+        let mut v: Vec<String> = ["design", "--targets"].iter().map(|s| s.to_string()).collect();
+        for p in [&a, &one, &c] {
+            v.push(p.display().to_string());
+        }
+        for s in ["--scratches", "60", "--iters", "2", "--res", "32", "--out"] {
+            v.push(s.into());
+        }
+        v.push(out.display().to_string());
+        v.extend(extra.iter().map(|s| s.to_string()));
+        v
+    };
+    let o = Command::new(bin("scratchart")).args(args(&[])).output().unwrap();
+    expect(&o, 3, "one.png (the picture of view v1) is uniform", "a 1x1 target");
+    expect(&o, 3, "--blank-view v1", "the flag that allows it");
+    assert!(!out.join("design.json").exists(), "nothing designed");
+    let o = Command::new(bin("scratchart"))
+        .args(args(&["--blank-view", "v7"]))
+        .output()
+        .unwrap();
+    expect(&o, 2, "--blank-view v7: no view is named so", "an unknown view");
+    let o = Command::new(bin("scratchart"))
+        .args(args(&["--blank-view", "v1"]))
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(0), "{}", String::from_utf8_lossy(&o.stderr));
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    assert_eq!(summary["blank_views"], serde_json::json!(["v1"]));
+    let sheet = std::fs::read_to_string(out.join("setup.txt")).unwrap();
+    assert!(sheet.contains("v1: blank on purpose"), "{sheet}");
+    assert!(!sheet.contains("v1: does not show its picture yet"), "{sheet}");
+    let again = dir.join("s");
+    let o = run(
+        "scratchart",
+        &[
+            "setup",
+            out.join("design.json").to_str().unwrap(),
+            "--out",
+            again.to_str().unwrap(),
+        ],
+    );
+    assert_eq!(o.status.code(), Some(0), "{}", String::from_utf8_lossy(&o.stderr));
+    let sheet2 = std::fs::read_to_string(again.join("setup.txt")).unwrap();
+    assert!(sheet2.contains("v1: blank on purpose"), "{sheet2}");
+}

@@ -148,7 +148,7 @@ fn a_photo_design_improves_every_view() {
         scratches: random_scratches(&mut rng, 2500, 100.0, 2.0, 8.0, 0.05, 0.05, 0.06),
     };
     let paths = [data("astronaut.png"), data("chelsea.png"), data("coffee.png")];
-    let fitted = load_fitted_targets(&paths, &scene, Fit::Contain, 0.0).unwrap();
+    let fitted = load_fitted_targets(&paths, &scene, Fit::Contain, 0.0, &[]).unwrap();
     let mut p = Problem::new(scene, fitted.iter().map(|f| f.image.clone()).collect());
     p.pictures = fitted.into_iter().map(|f| f.picture).collect();
     let out = std::env::temp_dir().join(format!("scratchart-photo-{}", std::process::id()));
@@ -243,7 +243,14 @@ fn awkward_target_files() {
     };
     let corrupt = dir.join("corrupt.png");
     std::fs::write(&corrupt, b"\x89PNG\r\n\x1a\nnot really").unwrap();
-    let e = load_fitted_targets(&[corrupt.clone(), corrupt.clone(), corrupt], &scene, Fit::Contain, 0.0).unwrap_err();
+    let e = load_fitted_targets(
+        &[corrupt.clone(), corrupt.clone(), corrupt],
+        &scene,
+        Fit::Contain,
+        0.0,
+        &[],
+    )
+    .unwrap_err();
     assert!(e.to_string().contains("corrupt.png"), "{e}");
     // 1x1
     let one = dir.join("one.png");
@@ -260,7 +267,23 @@ fn awkward_target_files() {
         .unwrap()
         .save(&rgba)
         .unwrap();
-    let t = load_fitted_targets(&[one, deep, rgba], &scene, Fit::Contain, 0.0).unwrap();
+    // Each is uniform: refused (exit 3), naming the picture, its view and the flag that allows
+    // it; accepted for views left blank on purpose.
+    let names: Vec<String> = scene.views.iter().map(|v| v.name.clone()).collect();
+    let paths = [one, deep, rgba];
+    let e = load_fitted_targets(&paths, &scene, Fit::Contain, 0.0, &[]).unwrap_err();
+    let msg = e.to_string();
+    assert!(
+        matches!(e, scratchart::optim::targets::TargetError::Uniform { .. })
+            && msg.contains("one.png")
+            && msg.contains("is uniform")
+            && msg.contains(&format!("--blank-view {}", names[0])),
+        "{msg}"
+    );
+    assert_eq!(scratchart::exit::code(&e), 3);
+    let e = load_fitted_targets(&paths, &scene, Fit::Contain, 0.0, &names[..1]).unwrap_err();
+    assert!(e.to_string().contains("deep.png"), "{e}");
+    let t = load_fitted_targets(&paths, &scene, Fit::Contain, 0.0, &names).unwrap();
     let level = |f: &scratchart::optim::framing::Fitted| {
         let v: Vec<f32> = f
             .image

@@ -44,6 +44,10 @@ pub struct DesignArgs {
     /// Display level (0 black .. 1 white) of the plate around a fitted picture
     #[arg(long, default_value_t = 0.0)]
     pub background: f32,
+    /// Leave view NAME blank on purpose: its picture may be uniform (a blank frame), which is
+    /// otherwise refused (repeat for more views)
+    #[arg(long, value_name = "NAME")]
+    pub blank_view: Vec<String>,
     /// Number of views on the paper's ring: elevation --elevation, view j at azimuth 360 j / N
     #[arg(long, default_value_t = 3)]
     pub views: usize,
@@ -242,11 +246,36 @@ pub fn problem(args: &DesignArgs, info: &DeviceInfo) -> anyhow::Result<Problem> 
         "--gamma must be > 0 (it is {})",
         args.gamma
     );
+    for b in &args.blank_view {
+        ensure_flag!(
+            scene.views.iter().any(|v| &v.name == b),
+            "--blank-view {b}: no view is named so (the views: {})",
+            scene
+                .views
+                .iter()
+                .map(|v| v.name.as_str())
+                .collect::<Vec<_>>()
+                .join(", ")
+        );
+    }
+    ensure_flag!(
+        args.blank_view.is_empty() || !args.targets.is_empty(),
+        "--blank-view needs --targets (the built-in shapes are never blank)"
+    );
     if args.targets.is_empty() {
         let targets = scratchart::optim::targets::builtin_targets(&scene);
         return Ok(Problem::new(scene, targets));
     }
-    let mut fitted = scratchart::optim::targets::load_fitted_targets(&args.targets, &scene, args.fit, args.background)?;
+    let mut fitted = scratchart::optim::targets::load_fitted_targets(
+        &args.targets,
+        &scene,
+        args.fit,
+        args.background,
+        &args.blank_view,
+    )?;
+    for b in &args.blank_view {
+        eprintln!("view {b}: blank on purpose (--blank-view): its picture is not asked to show anything");
+    }
     if args.gamma != 1.0 {
         for f in &mut fitted {
             for (v, p) in f.image.iter_mut().zip(&f.picture) {
@@ -282,6 +311,7 @@ pub fn config(args: &DesignArgs) -> DesignConfig {
     cfg.prune.tol = args.prune_tol;
     cfg.prune.max_trials = args.prune_trials;
     cfg.calibrate_lights = args.view_file.is_none();
+    cfg.blank_views = args.blank_view.clone();
     cfg.hooks = Hooks {
         nan_grad_at: args.inject_nan_grad_at,
         nan_image_at: None,

@@ -56,7 +56,7 @@ impl ExitClass for TargetError {
     fn exit_class(&self) -> Option<Class> {
         match self {
             TargetError::Image(io) => io.exit_class(),
-            TargetError::Count { .. } => Some(Class::Input),
+            TargetError::Count { .. } | TargetError::Uniform { .. } => Some(Class::Input),
         }
     }
 }

@@ -487,7 +487,15 @@ fn setup_command(ctx: &std::sync::Arc<Context>, scene: &Scene, dir: &Path, out: 
     let pictures: Vec<Vec<bool>> = (0..scene.views.len())
         .map(|v| scratchart::model::camera::on_plate_mask(scene, v))
         .collect();
-    let (setup, _, advice) = scratchart::optim::setup::write_setup(out, &renderer, scene, &targets, &pictures, 1.0)?;
+    // Views the design left blank on purpose, as its summary.json lists them.
+    let blank: Vec<String> = std::fs::read_to_string(dir.join("summary.json"))
+        .ok()
+        .and_then(|t| serde_json::from_str::<serde_json::Value>(&t).ok())
+        .and_then(|v| v["blank_views"].as_array().cloned())
+        .map(|a| a.iter().filter_map(|x| x.as_str().map(String::from)).collect())
+        .unwrap_or_default();
+    let (setup, _, advice) =
+        scratchart::optim::setup::write_setup(out, &renderer, scene, &targets, &pictures, 1.0, &blank)?;
     for a in advice {
         println!("{a}");
     }

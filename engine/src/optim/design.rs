@@ -306,7 +306,9 @@ pub fn run_design(
             &problem.targets,
             &problem.pictures,
             cfg.loss.sigma,
+            &cfg.blank_views,
         )?;
+        summary["blank_views"] = json!(cfg.blank_views);
         summary["setup"] = setup;
         summary["sensitivity"] = sensitivity;
         summary["setup_advice"] = json!(advice);

@@ -60,6 +60,9 @@ pub struct DesignConfig {
     pub seed: u64,
     /// Scale the lights at the start so that each view's mean on-plate L matches its target's.
     pub calibrate_lights: bool,
+    /// Views left blank on purpose (`--blank-view`): their pictures are uniform; the set-up
+    /// sheet says so instead of tolerances, and `summary.json` lists them.
+    pub blank_views: Vec<String>,
     /// Give up after this many rollbacks.
     pub max_rollbacks: u32,
     /// Write the output files (design, images, plot, summary).
@@ -84,6 +87,7 @@ impl DesignConfig {
             hooks: Hooks::default(),
             seed: 1,
             calibrate_lights: true,
+            blank_views: Vec::new(),
             max_rollbacks: 30,
             write_outputs: true,
             tool: None,

@@ -180,12 +180,18 @@ fn tolerance(rows: &[Moved], view: &str, moved: &str, axis: &str, base: f64) -> 
 pub const ADVICE_MIN_CORR: f64 = 0.3;
 
 /// One sentence per view: how precisely the lamp must stand to keep 90% of the correlation.
-pub fn advice(scene: &Scene, base: &[f64], rows: &[Moved]) -> Vec<String> {
+pub fn advice(scene: &Scene, base: &[f64], rows: &[Moved], blank: &[bool]) -> Vec<String> {
     scene
         .views
         .iter()
         .enumerate()
         .map(|(j, v)| {
+            if blank.get(j).copied().unwrap_or(false) {
+                return format!(
+                    "{}: blank on purpose (a uniform picture, --blank-view): it has no picture to keep, so no tolerances.",
+                    v.name
+                );
+            }
             let t = |axis: &str| tolerance(rows, &v.name, "light", axis, base[j]);
             advice_sentence(&v.name, base[j], [t("azimuth"), t("elevation"), t("distance")])
         })
@@ -240,7 +246,7 @@ pub fn sensitivity_json(rows: &[Moved]) -> Value {
 
 /// The set-up sheet as text: the plate's orientation, the lamp, each viewer, what kind of lamp,
 /// the sensitivity table and the advice.
-pub fn setup_text(scene: &Scene, base: &[f64], rows: &[Moved]) -> String {
+pub fn setup_text(scene: &Scene, base: &[f64], rows: &[Moved], blank: &[bool]) -> String {
     use std::fmt::Write as _;
     let mut t = String::new();
     let _ = writeln!(
@@ -333,7 +339,7 @@ pub fn setup_text(scene: &Scene, base: &[f64], rows: &[Moved]) -> String {
         }
     }
     let _ = writeln!(t);
-    for s in advice(scene, base, rows) {
+    for s in advice(scene, base, rows, blank) {
         let _ = writeln!(t, "{s}");
     }
     t
@@ -451,7 +457,7 @@ pub fn setup_png(path: &Path, scene: &Scene, base: &[f64], rows: &[Moved]) -> Re
 }
 
 /// Writes `setup.txt` and `setup.png` into `out` and returns the `setup` and `sensitivity`
-/// values for `summary.json`.
+/// values for `summary.json`; `blank_views` are left blank on purpose (no tolerances for them).
 pub fn write_setup(
     out: &Path,
     renderer: &Renderer,
@@ -459,11 +465,20 @@ pub fn write_setup(
     targets: &[Vec<f32>],
     pictures: &[Vec<bool>],
     sigma: f32,
+    blank_views: &[String],
 ) -> Result<(Value, Value, Vec<String>), OptimError> {
     let (base, rows) = sensitivity(renderer, scene, targets, pictures, sigma)?;
-    crate::io::write_atomic(&out.join("setup.txt"), setup_text(scene, &base, &rows).as_bytes())?;
+    let blank: Vec<bool> = scene.views.iter().map(|v| blank_views.contains(&v.name)).collect();
+    crate::io::write_atomic(
+        &out.join("setup.txt"),
+        setup_text(scene, &base, &rows, &blank).as_bytes(),
+    )?;
     setup_png(&out.join("setup.png"), scene, &base, &rows)?;
-    Ok((setup_json(scene), sensitivity_json(&rows), advice(scene, &base, &rows)))
+    Ok((
+        setup_json(scene),
+        sensitivity_json(&rows),
+        advice(scene, &base, &rows, &blank),
+    ))
 }
 
 #[cfg(test)]

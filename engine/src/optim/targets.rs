@@ -9,8 +9,22 @@ use crate::model::scene::Scene;
 pub enum TargetError {
     #[error("{given} target image(s) given for {views} view(s): give exactly one per view, in view order ({names})")]
     Count { given: usize, views: usize, names: String },
+    #[error(
+        "{path} (the picture of view {view}) is uniform: every pixel is {value:.3}, so there is nothing for \
+         the view to show. Give a picture with something in it, or, to leave this view blank on \
+         purpose, add --blank-view {view}"
+    )]
+    Uniform { path: String, view: String, value: f32 },
     #[error(transparent)]
     Image(#[from] crate::io::IoError),
+}
+
+/// A picture whose pixels all lie within half an 8-bit step of one value has nothing to show.
+pub fn is_uniform(data: &[f32]) -> Option<f32> {
+    let (lo, hi) = data
+        .iter()
+        .fold((f32::INFINITY, f32::NEG_INFINITY), |(a, b), &v| (a.min(v), b.max(v)));
+    (hi - lo <= 0.5 / 255.0).then_some(0.5 * (lo + hi))
 }
 
 /// One picture per view, or an error naming the views.
@@ -41,12 +55,15 @@ pub fn load_targets(paths: &[PathBuf], scene: &Scene) -> Result<Vec<Vec<f32>>, T
 }
 
 /// Reads one picture per view (in view order) and places it in its view as `fit` says (see
-/// [`super::framing`]): the targets the loss uses, with where each picture went.
+/// [`super::framing`]): the targets the loss uses, with where each picture went. A uniform
+/// picture (a 1 x 1 image, a blank frame) is refused unless its view is named in `blank` (a view
+/// left blank on purpose).
 pub fn load_fitted_targets(
     paths: &[PathBuf],
     scene: &Scene,
     fit: super::framing::Fit,
     background: f32,
+    blank: &[String],
 ) -> Result<Vec<super::framing::Fitted>, TargetError> {
     check_count(paths, scene)?;
     paths
@@ -55,6 +72,13 @@ pub fn load_fitted_targets(
         .map(|(p, v)| {
             let (sw, sh, data) = crate::io::read_image_gray(p)?;
             let data: Vec<f32> = data.into_iter().map(|x| x.clamp(0.0, 1.0)).collect();
+            if let Some(value) = is_uniform(&data).filter(|_| !blank.contains(&v.name)) {
+                return Err(TargetError::Uniform {
+                    path: p.display().to_string(),
+                    view: v.name.clone(),
+                    value,
+                });
+            }
             Ok(super::framing::fit_picture(
                 &data,
                 sw,
