@@ -228,11 +228,55 @@ pub fn setup_json(scene: &Scene) -> Value {
         LightKind::Point { position } => json!({"position_mm": position}),
         LightKind::Directional { direction } => json!({"direction": direction}),
     };
+    let lamps: Vec<Value> = lamps(scene)
+        .into_iter()
+        .map(|views| {
+            let l = &scene.views[views[0]].light;
+            let mut o = match l.kind {
+                LightKind::Point { position } => json!({"position_mm": position}),
+                LightKind::Directional { direction } => json!({"direction": direction}),
+            };
+            o["views"] = json!(views.iter().map(|&j| scene.views[j].name.clone()).collect::<Vec<_>>());
+            o["intensity"] = json!(views
+                .iter()
+                .map(|&j| scene.views[j].light.intensity)
+                .collect::<Vec<_>>());
+            o
+        })
+        .collect();
     json!({
         "light": light_json,
+        "lamps": lamps,
         "views": scene.views.iter().map(|v| json!({"name": v.name, "eye_mm": v.camera.eye})).collect::<Vec<_>>(),
         "mark": "+x",
     })
+}
+
+/// The distinct lamps of a scene, each as the views (indices, in view order) it lights: lights
+/// of one kind at one position (within 1 um) or in one direction are one lamp.
+pub fn lamps(scene: &Scene) -> Vec<Vec<usize>> {
+    let same = |a: &LightKind, b: &LightKind| match (a, b) {
+        (LightKind::Point { position: p }, LightKind::Point { position: q }) => {
+            (0..3).all(|i| (p[i] - q[i]).abs() <= 1e-3)
+        }
+        (LightKind::Directional { direction: d }, LightKind::Directional { direction: e }) => {
+            let n = |v: &[f64; 3]| (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
+            let (nd, ne) = (n(d), n(e));
+            nd > 0.0 && ne > 0.0 && (0..3).all(|i| (d[i] / nd - e[i] / ne).abs() <= 1e-9)
+        }
+        _ => false,
+    };
+    let mut out: Vec<Vec<usize>> = Vec::new();
+    for (j, v) in scene.views.iter().enumerate() {
+        match out
+            .iter_mut()
+            .find(|g| same(&scene.views[g[0]].light.kind, &v.light.kind))
+        {
+            Some(g) => g.push(j),
+            None => out.push(vec![j]),
+        }
+    }
+    out
 }
 
 /// `summary.json`'s `sensitivity` rows.
@@ -484,6 +528,61 @@ pub fn write_setup(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn one_lamp_per_position_and_every_lamp_listed() {
+        use crate::model::scene::{Camera, Light, Plate, View};
+        let view = |name: &str, kind: LightKind, intensity: f64| View {
+            name: name.into(),
+            camera: Camera {
+                eye: [0.0, -200.0, 200.0],
+                target: [0.0; 3],
+                up: [0.0, 0.0, 1.0],
+                fov_y_deg: 30.0,
+                width: 8,
+                height: 8,
+            },
+            light: Light { kind, intensity },
+        };
+        let at = |x: f64| LightKind::Point {
+            position: [x, 100.0, 200.0],
+        };
+        let scene = Scene {
+            plate: Plate {
+                size_mm: 50.0,
+                roughness: 0.02,
+                f0: 0.9,
+            },
+            views: vec![
+                view("a", at(10.0), 1.0e6),
+                view("b", at(30.0), 2.0e5),
+                view("c", at(10.0005), 1.6e5), // within 1 um of a's: the same lamp
+                view(
+                    "d",
+                    LightKind::Directional {
+                        direction: [0.0, 1.0, 1.0],
+                    },
+                    3.0,
+                ),
+                view(
+                    "e",
+                    LightKind::Directional {
+                        direction: [0.0, 2.0, 2.0],
+                    },
+                    3.0,
+                ),
+            ],
+            scratches: vec![],
+        };
+        assert_eq!(lamps(&scene), vec![vec![0, 2], vec![1], vec![3, 4]]);
+        let j = setup_json(&scene);
+        let l = j["lamps"].as_array().unwrap();
+        assert_eq!(l.len(), 3);
+        assert_eq!(l[0]["views"], json!(["a", "c"]));
+        assert_eq!(l[0]["intensity"], json!([1.0e6, 1.6e5]));
+        assert_eq!(l[1]["position_mm"], json!([30.0, 100.0, 200.0]));
+        assert_eq!(l[2]["views"], json!(["d", "e"]));
+    }
 
     #[test]
     fn advice_gives_tolerances_for_a_view_that_shows_its_picture() {
