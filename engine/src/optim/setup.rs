@@ -223,60 +223,27 @@ pub fn advice_sentence(name: &str, base: f64, tol: [f64; 3]) -> String {
 
 /// `summary.json`'s `setup`: the light and every eye in the plate's frame, and the mark.
 pub fn setup_json(scene: &Scene) -> Value {
-    let light = &scene.views[0].light;
-    let light_json = match light.kind {
+    let place = |kind: &LightKind| match kind {
         LightKind::Point { position } => json!({"position_mm": position}),
         LightKind::Directional { direction } => json!({"direction": direction}),
     };
-    let lamps: Vec<Value> = lamps(scene)
+    // Every lamp the sheet lists (`Scene::lamps`, as setup.txt and the viewer's overlay do).
+    let lamps: Vec<Value> = scene
+        .lamps()
         .into_iter()
-        .map(|views| {
-            let l = &scene.views[views[0]].light;
-            let mut o = match l.kind {
-                LightKind::Point { position } => json!({"position_mm": position}),
-                LightKind::Directional { direction } => json!({"direction": direction}),
-            };
-            o["views"] = json!(views.iter().map(|&j| scene.views[j].name.clone()).collect::<Vec<_>>());
-            o["intensity"] = json!(views
-                .iter()
-                .map(|&j| scene.views[j].light.intensity)
-                .collect::<Vec<_>>());
+        .map(|(name, kind, intensity)| {
+            let mut o = place(&kind);
+            o["for_view"] = json!(name);
+            o["intensity"] = json!(intensity);
             o
         })
         .collect();
     json!({
-        "light": light_json,
+        "light": place(&scene.views[0].light.kind),
         "lamps": lamps,
         "views": scene.views.iter().map(|v| json!({"name": v.name, "eye_mm": v.camera.eye})).collect::<Vec<_>>(),
         "mark": "+x",
     })
-}
-
-/// The distinct lamps of a scene, each as the views (indices, in view order) it lights: lights
-/// of one kind at one position (within 1 um) or in one direction are one lamp.
-pub fn lamps(scene: &Scene) -> Vec<Vec<usize>> {
-    let same = |a: &LightKind, b: &LightKind| match (a, b) {
-        (LightKind::Point { position: p }, LightKind::Point { position: q }) => {
-            (0..3).all(|i| (p[i] - q[i]).abs() <= 1e-3)
-        }
-        (LightKind::Directional { direction: d }, LightKind::Directional { direction: e }) => {
-            let n = |v: &[f64; 3]| (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
-            let (nd, ne) = (n(d), n(e));
-            nd > 0.0 && ne > 0.0 && (0..3).all(|i| (d[i] / nd - e[i] / ne).abs() <= 1e-9)
-        }
-        _ => false,
-    };
-    let mut out: Vec<Vec<usize>> = Vec::new();
-    for (j, v) in scene.views.iter().enumerate() {
-        match out
-            .iter_mut()
-            .find(|g| same(&scene.views[g[0]].light.kind, &v.light.kind))
-        {
-            Some(g) => g.push(j),
-            None => out.push(vec![j]),
-        }
-    }
-    out
 }
 
 /// `summary.json`'s `sensitivity` rows.
@@ -530,7 +497,7 @@ mod tests {
     use super::*;
 
     #[test]
-    fn one_lamp_per_position_and_every_lamp_listed() {
+    fn summary_lists_the_lamps_the_sheet_lists() {
         use crate::model::scene::{Camera, Light, Plate, View};
         let view = |name: &str, kind: LightKind, intensity: f64| View {
             name: name.into(),
@@ -556,7 +523,7 @@ mod tests {
             views: vec![
                 view("a", at(10.0), 1.0e6),
                 view("b", at(30.0), 2.0e5),
-                view("c", at(10.0005), 1.6e5), // within 1 um of a's: the same lamp
+                view("c", at(10.0), 1.0e6),
                 view(
                     "d",
                     LightKind::Directional {
@@ -564,24 +531,23 @@ mod tests {
                     },
                     3.0,
                 ),
-                view(
-                    "e",
-                    LightKind::Directional {
-                        direction: [0.0, 2.0, 2.0],
-                    },
-                    3.0,
-                ),
             ],
             scratches: vec![],
         };
-        assert_eq!(lamps(&scene), vec![vec![0, 2], vec![1], vec![3, 4]]);
         let j = setup_json(&scene);
         let l = j["lamps"].as_array().unwrap();
-        assert_eq!(l.len(), 3);
-        assert_eq!(l[0]["views"], json!(["a", "c"]));
-        assert_eq!(l[0]["intensity"], json!([1.0e6, 1.6e5]));
+        let want = scene.lamps();
+        assert_eq!(l.len(), 3, "{l:?}");
+        assert_eq!(l.len(), want.len());
+        for (got, (name, _, intensity)) in l.iter().zip(&want) {
+            assert_eq!(got["for_view"], json!(name));
+            assert_eq!(got["intensity"], json!(intensity));
+        }
         assert_eq!(l[1]["position_mm"], json!([30.0, 100.0, 200.0]));
-        assert_eq!(l[2]["views"], json!(["d", "e"]));
+        assert_eq!(l[2]["direction"], json!([0.0, 1.0, 1.0]));
+        // Every lamp the text names, the summary lists.
+        let text = setup_text(&scene, &[0.9; 4], &[], &[false; 4]);
+        assert_eq!(text.matches("Lamp for ").count(), l.len(), "{text}");
     }
 
     #[test]
