@@ -1,8 +1,8 @@
 #!/usr/bin/env bash
-# Issue 12's GPU figures in one device call. The machine set-up (Vulkan loader, binaries in
-# .gpu/bin, `carry: [".gl", ".gpu"]`) is ../shared/DEVICE.md's recipe; copy this script into
-# .gpu/ with the binaries and call `bash .gpu/measure.sh` after its first lines. Everything goes
-# to $OUT (at most 8 files come back): one log per step, then summary.md (8 files).
+# Every GPU figure of engine/BENCHMARKS.md's H100 section in one device call. prepare.sh (beside
+# this file) copies it into .gpu/ with the binaries; run.sh sets up the machine and calls it.
+# Everything goes to $OUT (at most 8 files come back): one log per step, then summary.md
+# (7 files; run.sh adds validation.log).
 #   bash measure.sh [BIN_DIR] [quick]      (quick: the S scene only, to try the script anywhere)
 set -u
 BIN=${1:-.gpu/bin}
@@ -15,6 +15,10 @@ if [ "$QUICK" = quick ]; then SIZES=S; DESIGN="--scratches 2000 --res 64 --iters
 
 # 1. Binning, forward and backward per view, with the backward/forward ratios (default bands).
 "$BIN/scratchart" bench --sizes "$SIZES" --iters 10 --compare-backward > "$OUT/bench.md" 2>&1
+#    and four times L's scratches (640,000 on 3 x 1024^2, 290 M pairs), the largest figure kept.
+if [ "$QUICK" != quick ]; then
+  "$BIN/scratchart" bench --sizes 640000x3x1024 --iters 3 --repeats 3 --warmup 1 >> "$OUT/bench.md" 2>&1
+fi
 # 2. The same pair search without bands (one thread per 64-scratch group), for the comparison.
 "$BIN/scratchart" bench --sizes "$SIZES" --iters 0 --binning-bands 0 > "$OUT/bench_nobands.md" 2>&1
 # 3. The paper's scale end to end: wall time split into start-up, iterations, pruning, reports
@@ -22,11 +26,20 @@ if [ "$QUICK" = quick ]; then SIZES=S; DESIGN="--scratches 2000 --res 64 --iters
 for run in 1 2; do
   rm -rf "/tmp/design$run"
   TIMEFORMAT="wall %R s"
-  { time "$BIN/scratchart" design $DESIGN --quiet --out "/tmp/design$run"; } > "$OUT/design$run.log" 2>&1
-  grep -o '"wall_s":{[^}]*}' "/tmp/design$run/summary.json" >> "$OUT/design$run.log" 2>/dev/null
+  echo "run $run:" >> "$OUT/design.log"
+  { time "$BIN/scratchart" design $DESIGN --quiet --out "/tmp/design$run"; } >> "$OUT/design.log" 2>&1
+  grep -o '"wall_s":{[^}]*}' "/tmp/design$run/summary.json" >> "$OUT/design.log" 2>/dev/null
 done
-# 4. The viewer, headless (no display there).
-"$BIN/scratchart-view" --benchmark --size 1920x1080 > "$OUT/viewer.md" 2>&1
+# 4. The viewer, headless (no display there): the demo plate (8,171 scratches) at 1920x1080, then
+#    issue 32's cases, 100,000 scratches at 1920x1080 and 400,000 at 3840x2160 (unoptimized,
+#    unpruned designs of random scratches).
+{ echo "### 1920x1080, the demo plate"; "$BIN/scratchart-view" --benchmark --size 1920x1080; } > "$OUT/viewer.md" 2>&1
+if [ "$QUICK" = quick ]; then CASES="5000:64:320x180 20000:64:640x360"; else CASES="100000:256:1920x1080 400000:256:3840x2160"; fi
+for c in $CASES; do
+  IFS=: read -r N R SIZE <<< "$c"
+  rm -rf /tmp/big && "$BIN/scratchart" design --scratches "$N" --res "$R" --iters 0 --prune-tol 0 --quiet --out /tmp/big > /dev/null 2>&1
+  { echo; echo "### $SIZE, $N scratches"; "$BIN/scratchart-view" /tmp/big/design.json --benchmark --size "$SIZE"; } >> "$OUT/viewer.md" 2>&1
+done
 # 5. Issue 11 on the GPU: the study (its verdict) and what `adaptive` gains over the closed form
 #    on whole scenes (target/release/examples/adaptive_gain, copied into BIN with the others).
 "$BIN/scratchart" study --out /tmp/study > /dev/null 2>&1 && cp /tmp/study/verdict.txt "$OUT/study_verdict.txt"
@@ -46,8 +59,8 @@ fi
   echo "# GPU measurements ($(date -u +%F))"
   echo; echo "## bench (default bands)"; grep -E '^\||^device' "$OUT/bench.md"
   echo; echo "## bench, pair search without bands"; grep -E '^\| [A-Z]' "$OUT/bench_nobands.md" | head -8
-  echo; echo "## design $DESIGN"; cat "$OUT/design1.log" "$OUT/design2.log" | grep -E 'wall'
-  echo; echo "## viewer 1920x1080"; tail -n 12 "$OUT/viewer.md"
+  echo; echo "## design $DESIGN"; grep -E 'wall' "$OUT/design.log"
+  echo; echo "## viewer"; grep -E '^###|^mode|^headless|^device' "$OUT/viewer.md"
   echo; echo "## adaptive against the closed form; the backward's replay against search"; cat "$OUT/adaptive.md" 2>/dev/null
   echo; echo "## study verdict"; tail -n 4 "$OUT/study_verdict.txt" 2>/dev/null
 } > "$OUT/summary.md"

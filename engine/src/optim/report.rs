@@ -61,20 +61,18 @@ pub(crate) fn write_rgb_png(path: &Path, w: u32, h: u32, buf: Vec<u8>) -> Result
     Ok(crate::io::write_png_rgb(path, w, h, &buf)?)
 }
 
-/// A sans-serif font from the system for plot text (Debian: fonts-dejavu-core), registered with
-/// plotters once; None when no font is found, and the plot is drawn without text.
+/// DejaVu Sans (Latin, Greek, arrows, mathematical signs; `engine/assets/`), built into the
+/// binaries so that every plot has its text, the same on every machine, also where no font is
+/// installed (a GPU server, a container).
+const PLOT_FONT: &[u8] = include_bytes!("../../assets/DejaVuSans-subset.ttf");
+
+/// The plot font, registered with plotters once as "sans-serif". `None` only if the built-in
+/// font could not be parsed (then plots are drawn without text; the text reports have every
+/// number).
 pub fn plot_font() -> Option<&'static str> {
     static FONT: std::sync::OnceLock<Option<&'static str>> = std::sync::OnceLock::new();
     *FONT.get_or_init(|| {
-        let candidates = [
-            "/usr/share/fonts/truetype/dejavu/DejaVuSans.ttf",
-            "/usr/share/fonts/TTF/DejaVuSans.ttf",
-            "/usr/share/fonts/dejavu/DejaVuSans.ttf",
-            "/usr/share/fonts/truetype/liberation/LiberationSans-Regular.ttf",
-        ];
-        let bytes = candidates.iter().find_map(|p| std::fs::read(p).ok())?;
-        let bytes: &'static [u8] = Box::leak(bytes.into_boxed_slice());
-        plotters::style::register_font("sans-serif", plotters::style::FontStyle::Normal, bytes).ok()?;
+        plotters::style::register_font("sans-serif", plotters::style::FontStyle::Normal, PLOT_FONT).ok()?;
         Some("sans-serif")
     })
 }
@@ -428,4 +426,25 @@ pub fn summary_text(s: &serde_json::Value, out: &Path) -> String {
         out.display()
     );
     text
+}
+
+#[cfg(test)]
+mod tests {
+    /// The built-in font registers and draws text: the plots have their labels on a machine with
+    /// no fonts installed (a GPU server had none, and the set-up sheet failed there).
+    #[test]
+    fn the_built_in_font_draws_text() {
+        use plotters::prelude::*;
+        assert_eq!(super::plot_font(), Some("sans-serif"));
+        let (w, h) = (200u32, 40u32);
+        let mut buf = vec![255u8; (w * h * 3) as usize];
+        {
+            let root = BitMapBackend::with_buffer(&mut buf, (w, h)).into_drawing_area();
+            let font = ("sans-serif", 20).into_font().color(&BLACK);
+            root.draw(&Text::new("±5° µm", (5, 5), font)).unwrap();
+            root.present().unwrap();
+        }
+        let dark = buf.chunks(3).filter(|p| p[0] < 128).count();
+        assert!(dark > 50, "the text drew {dark} dark pixels");
+    }
 }

@@ -364,8 +364,8 @@ pub fn setup_png(path: &Path, scene: &Scene, base: &[f64], rows: &[Moved]) -> Re
     let (wpx, hpx) = (960u32, 480u32);
     let mut buf = vec![0u8; (wpx * hpx * 3) as usize];
     let pe = |e: DrawingAreaErrorKind<_>| OptimError::Report(format!("set-up sheet: {e}"));
-    // Text needs a system font (fonts-dejavu-core); without one the sheet is drawn without text
-    // (setup.txt has every number).
+    // The built-in font (report::plot_font); were it unusable, the sheet has no text and
+    // setup.txt has every number.
     let text = super::report::plot_font().is_some();
     {
         let root = BitMapBackend::with_buffer(&mut buf, (wpx, hpx)).into_drawing_area();

@@ -1,0 +1,25 @@
+#!/usr/bin/env bash
+# Run here, in the repository root, before a device call: fetches the Vulkan loader (and the
+# validation layer) for the device machine, builds the release binaries and copies what the call
+# needs into .gpu/ (ignored by git; about 47 MB, under the 64 MiB a call carries).
+set -eu
+cd "$(git rev-parse --show-toplevel)"
+mkdir -p .git/info; touch .git/info/exclude
+for p in /.gl/ /.gpu/; do grep -qxF "$p" .git/info/exclude || echo "$p" >> .git/info/exclude; done
+mkdir -p .gl .gpu/vl .gpu/bin /tmp/amd64/partial
+o='-oAPT::Architecture=amd64 -oAPT::Architectures=amd64 -oDir::State::Lists=/tmp/amd64'
+if ! ls .gl/libglvnd0_*.deb > /dev/null 2>&1; then
+  apt-get $o update > /dev/null
+  # The NVIDIA ICD (libGLX_nvidia.so.0) needs glvnd's dispatch library beside the loader:
+  # without libglvnd0 the loader finds the ICD but "Could not get 'vkCreateInstance'".
+  (cd .gl && apt-get $o download libvulkan1 libglvnd0 libegl1 libgl1 libglx0 libopengl0 libgles2)
+  (cd .gpu/vl && apt-get $o download vulkan-validationlayers)
+fi
+cargo build --release --workspace --examples
+for b in scratchart scratchart-view examples/adaptive_gain examples/replay_gain; do
+  cp target/release/$b .gpu/bin/
+done
+strip .gpu/bin/*
+cp .gpu-recipe/measure.sh .gpu-recipe/run.sh .gpu/
+du -sh .gl .gpu
+echo 'now: device run, command "bash .gpu/run.sh", carry [".gl", ".gpu"], timeout_s 300'
