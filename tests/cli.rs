@@ -491,3 +491,94 @@ fn a_uniform_picture_is_refused_unless_its_view_is_blank_on_purpose() {
     let sheet2 = std::fs::read_to_string(again.join("setup.txt")).unwrap();
     assert!(sheet2.contains("v1: blank on purpose"), "{sheet2}");
 }
+
+/// `design` and `setup` build the set-up sheet through one function from the same inputs (the
+/// targets as the loss saw them, the pictures' pixels, the blur, written beside the design): on a
+/// photo design the two sheets are the same to the last digit, text, drawing and summary. A
+/// design without those inputs still gets a sheet, with a warning that it is approximate.
+#[test]
+fn design_and_setup_write_the_same_sheet() {
+    let dir = tmp("sheet");
+    let data = |f: &str| Path::new(env!("CARGO_MANIFEST_DIR")).join("data").join(f);
+    let out = dir.join("d");
+    let mut args: Vec<String> = vec!["design".into(), "--targets".into()];
+    for f in ["astronaut.png", "chelsea.png", "coffee.png"] {
+        args.push(data(f).display().to_string());
+    }
+    for s in [
+        "--scratches",
+        "1500",
+        "--iters",
+        "30",
+        "--res",
+        "48",
+        "--quiet",
+        "--out",
+    ] {
+        args.push(s.into());
+    }
+    args.push(out.display().to_string());
+    let o = Command::new(bin("scratchart")).args(&args).output().unwrap();
+    assert_eq!(o.status.code(), Some(0), "{}", String::from_utf8_lossy(&o.stderr));
+    let again = dir.join("s");
+    let setup = |d: &Path| {
+        run(
+            "scratchart",
+            &[
+                "setup",
+                out.join("design.json").to_str().unwrap(),
+                "--out",
+                d.to_str().unwrap(),
+            ],
+        )
+    };
+    let o = setup(&again);
+    assert_eq!(o.status.code(), Some(0), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(
+        !String::from_utf8_lossy(&o.stderr).contains("warning"),
+        "{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    let read = |p: PathBuf| std::fs::read(&p).unwrap_or_else(|e| panic!("{}: {e}", p.display()));
+    let (t1, t2) = (read(out.join("setup.txt")), read(again.join("setup.txt")));
+    assert!(
+        t1 == t2,
+        "design's sheet:\n{}\nsetup's sheet:\n{}",
+        String::from_utf8_lossy(&t1),
+        String::from_utf8_lossy(&t2)
+    );
+    assert!(
+        read(out.join("setup.png")) == read(again.join("setup.png")),
+        "the drawings differ"
+    );
+    // The summary's setup, as `setup` prints it, is the design's.
+    let summary: serde_json::Value = serde_json::from_slice(&read(out.join("summary.json"))).unwrap();
+    let printed = String::from_utf8_lossy(&o.stdout);
+    let line = printed
+        .lines()
+        .find(|l| l.starts_with('{'))
+        .expect("setup prints its JSON");
+    let setup_json: serde_json::Value = serde_json::from_str(line).unwrap();
+    assert_eq!(setup_json, summary["setup"]);
+    // The sheet names tolerances found for the lamp and the eye, and the tightest of all.
+    let text = String::from_utf8_lossy(&t1);
+    assert!(text.contains("Most sensitive: "), "{text}");
+    assert!(text.contains("the eye may move"), "{text}");
+    // Without the inputs (a design of an older version), a sheet with a warning.
+    std::fs::remove_file(out.join("setup_inputs.json")).unwrap();
+    let third = dir.join("t");
+    let o = setup(&third);
+    assert_eq!(o.status.code(), Some(0), "{}", String::from_utf8_lossy(&o.stderr));
+    expect(
+        &o,
+        0,
+        "warning: no setup_inputs.json beside the design",
+        "an older design",
+    );
+    assert!(third.join("setup.txt").exists());
+    // Damaged inputs are a clear error (exit 3) naming the file.
+    std::fs::write(out.join("setup_inputs.json"), "{\"sigma_px\": \"x\"}").unwrap();
+    let o = setup(&dir.join("u"));
+    expect(&o, 3, "setup_inputs.json", "damaged inputs");
+    let _ = std::fs::remove_dir_all(&dir);
+}

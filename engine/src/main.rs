@@ -66,8 +66,10 @@ enum Cmd {
     },
     /// Write the set-up sheet of a design (setup.txt, setup.png): where the plate's mark, the lamp
     /// and each viewer go, and how precisely the lamp must stand (each view rendered with the
-    /// lamp and the eye moved). Targets are the design's NAME_target.png beside it when present,
-    /// else its own renders. `scratchart design` writes the same sheet.
+    /// lamp and the eye moved, each tolerance found by search). It reads what the design wrote
+    /// beside itself (setup_inputs.json: each view's target as the loss saw it, its picture's
+    /// pixels, the blur), so the sheet is the one `scratchart design` wrote, to the digit; for
+    /// any other scene it compares with NAME_target.png beside it, else its own renders.
     Setup {
         /// Design file (design.json written by `scratchart design`, or any scene file)
         design: PathBuf,
@@ -464,7 +466,37 @@ fn grad_command(ctx: &std::sync::Arc<Context>, scene: &Scene, dir: &Path, out: &
 }
 
 fn setup_command(ctx: &std::sync::Arc<Context>, scene: &Scene, dir: &Path, out: &Path) -> Result<()> {
+    use scratchart::optim::setup::SheetInputs;
     let renderer = Renderer::new(ctx)?;
+    // The inputs the design wrote beside itself: the sheet is then the design's own, to the digit.
+    let inputs = match SheetInputs::load(dir, scene)? {
+        Some(inputs) => inputs,
+        None => {
+            eprintln!(
+                "warning: no {} beside the design (made by an older version, or not by `scratchart design`): \
+                 the sheet compares with NAME_target.png (8-bit) over the whole plate, so its numbers can differ \
+                 from the design's own sheet",
+                SheetInputs::FILE
+            );
+            approximate_sheet_inputs(&renderer, scene, dir)?
+        }
+    };
+    let (setup, _, advice) = scratchart::optim::setup::write_setup(out, &renderer, scene, &inputs)?;
+    for a in advice {
+        println!("{a}");
+    }
+    println!("{}", serde_json::to_string(&setup)?);
+    eprintln!("wrote {0}/setup.txt and {0}/setup.png", out.display());
+    Ok(())
+}
+
+/// The sheet's inputs of a design that wrote none: NAME_target.png beside it (else the design's
+/// own render), the whole plate as each picture, the loss's default blur.
+fn approximate_sheet_inputs(
+    renderer: &Renderer,
+    scene: &Scene,
+    dir: &Path,
+) -> Result<scratchart::optim::setup::SheetInputs> {
     let mut gs = renderer.upload(scene)?;
     let frame = renderer.render(&mut gs)?;
     let mut targets = Vec::new();
@@ -488,20 +520,18 @@ fn setup_command(ctx: &std::sync::Arc<Context>, scene: &Scene, dir: &Path, out: 
         .map(|v| scratchart::model::camera::on_plate_mask(scene, v))
         .collect();
     // Views the design left blank on purpose, as its summary.json lists them.
-    let blank: Vec<String> = std::fs::read_to_string(dir.join("summary.json"))
+    let blank_views: Vec<String> = std::fs::read_to_string(dir.join("summary.json"))
         .ok()
         .and_then(|t| serde_json::from_str::<serde_json::Value>(&t).ok())
         .and_then(|v| v["blank_views"].as_array().cloned())
         .map(|a| a.iter().filter_map(|x| x.as_str().map(String::from)).collect())
         .unwrap_or_default();
-    let (setup, _, advice) =
-        scratchart::optim::setup::write_setup(out, &renderer, scene, &targets, &pictures, 1.0, &blank)?;
-    for a in advice {
-        println!("{a}");
-    }
-    println!("{}", serde_json::to_string(&setup)?);
-    eprintln!("wrote {0}/setup.txt and {0}/setup.png", out.display());
-    Ok(())
+    Ok(scratchart::optim::setup::SheetInputs {
+        targets,
+        pictures,
+        sigma: scratchart::optim::LossConfig::default().sigma,
+        blank_views,
+    })
 }
 
 fn check_validation(ctx: &Context) -> Result<()> {

@@ -299,15 +299,15 @@ pub fn run_design(
             summary["fabrication"] = fab.summary(z);
         }
         // Where the lamp and the viewers go, and how precisely (setup.txt, setup.png).
-        let (setup, sensitivity, advice) = super::setup::write_setup(
-            &cfg.out,
-            &renderer,
-            &report.scene,
-            &problem.targets,
-            &problem.pictures,
-            cfg.loss.sigma,
-            &cfg.blank_views,
-        )?;
+        // Its inputs go beside the design first, so `scratchart setup` computes the same sheet.
+        let inputs = super::setup::SheetInputs {
+            targets: problem.targets.clone(),
+            pictures: problem.pictures.clone(),
+            sigma: cfg.loss.sigma,
+            blank_views: cfg.blank_views.clone(),
+        };
+        inputs.save(&cfg.out, &report.scene)?;
+        let (setup, sensitivity, advice) = super::setup::write_setup(&cfg.out, &renderer, &report.scene, &inputs)?;
         summary["blank_views"] = json!(cfg.blank_views);
         summary["setup"] = setup;
         summary["sensitivity"] = sensitivity;

@@ -41,6 +41,7 @@ pub mod measure;
 pub mod problem;
 pub mod report;
 pub mod setup;
+pub mod setup_sheet;
 pub mod targets;
 
 pub use adam::AdamConfig;

@@ -422,7 +422,7 @@ pub fn summary_text(s: &serde_json::Value, out: &Path) -> String {
     }
     let _ = writeln!(
         text,
-        "  wrote {0}/design.json, {0}/scratches.csv, {0}/*_compare.png (render | target), {0}/*_target.png, {0}/loss_curve.png, {0}/contact_sheet.png (render | target | difference), {0}/setup.txt and {0}/setup.png (where the lamp and viewers go), {0}/summary.json",
+        "  wrote {0}/design.json, {0}/scratches.csv, {0}/*_compare.png (render | target), {0}/*_target.png, {0}/loss_curve.png, {0}/contact_sheet.png (render | target | difference), {0}/setup.txt and {0}/setup.png (where the lamp and viewers go, and how far they may move; its inputs: {0}/setup_inputs.json, {0}/*_target.pfm, {0}/*_picture.png), {0}/summary.json",
         out.display()
     );
     text

@@ -1,0 +1,712 @@
+//! `setup.png`, the set-up sheet as a drawing: the plate, the lamps and the eyes from above and
+//! from the side at one stated scale, with distances marked, and how each view's correlation
+//! falls as the lamp or the eye moves. Labels are placed so that none overlaps another, a mark,
+//! a panel's edge or a chart: each tries places around its point and, where none is free, is left
+//! to the key below the drawing, which lists every lamp and eye with its numbers.
+use std::path::Path;
+
+use plotters::prelude::*;
+
+use super::error::OptimError;
+use super::setup::{Place, Sensitivity, ANGLE_RANGE, KEEP};
+use crate::model::scene::{LightKind, Scene};
+
+/// A placed text's box in image pixels: [x0, y0, x1, y1] (x1, y1 exclusive).
+pub type Rect = [i32; 4];
+
+/// Where the drawing put its texts, for tests: every label and key line with its box.
+#[derive(Clone, Debug, Default)]
+pub struct Layout {
+    pub size: (u32, u32),
+    pub texts: Vec<(String, Rect)>,
+    /// Labels that found no free place (listed in the key instead).
+    pub unplaced: Vec<String>,
+    /// The scale of both views, millimetres per pixel.
+    pub mm_per_px: f64,
+    /// The charts' plotting areas (no label may enter them).
+    pub charts: Vec<Rect>,
+}
+
+fn overlaps(a: &Rect, b: &Rect) -> bool {
+    a[0] < b[2] && b[0] < a[2] && a[1] < b[3] && b[1] < a[3]
+}
+
+fn inside(a: &Rect, area: &Rect) -> bool {
+    a[0] >= area[0] && a[1] >= area[1] && a[2] <= area[2] && a[3] <= area[3]
+}
+
+/// The view colours (cycling).
+const PALETTE: [RGBColor; 8] = [
+    RGBColor(31, 119, 180),
+    RGBColor(214, 39, 40),
+    RGBColor(44, 160, 44),
+    RGBColor(148, 103, 189),
+    RGBColor(23, 190, 207),
+    RGBColor(140, 86, 75),
+    RGBColor(227, 119, 194),
+    RGBColor(127, 127, 127),
+];
+const LAMP: RGBColor = RGBColor(230, 150, 0);
+const MARK: RGBColor = RGBColor(200, 0, 0);
+
+pub fn view_colour(j: usize) -> RGBColor {
+    PALETTE[j % PALETTE.len()]
+}
+
+/// A "nice" scale at least `need` mm per pixel.
+fn nice_scale(need: f64) -> f64 {
+    let mut m = 1e-3;
+    loop {
+        for k in [1.0, 2.0, 2.5, 5.0] {
+            if k * m >= need {
+                return k * m;
+            }
+        }
+        m *= 10.0;
+    }
+}
+
+/// A "nice" length near `about` mm, for the scale bar and the rings.
+fn nice_length(about: f64) -> f64 {
+    let m = 10f64.powf(about.log10().floor());
+    [5.0, 2.0, 1.0]
+        .into_iter()
+        .map(|k| k * m)
+        .find(|&l| l <= about)
+        .unwrap_or(m)
+}
+
+/// Text measuring and collision-free placing on the image.
+struct Placer<'a, 'b> {
+    root: &'a DrawingArea<BitMapBackend<'b>, plotters::coord::Shift>,
+    taken: Vec<Rect>,
+    layout: Layout,
+}
+
+impl<'a, 'b> Placer<'a, 'b> {
+    fn size(&self, text: &str, px: u32) -> (i32, i32) {
+        let style: TextStyle = ("sans-serif", px).into_font().into();
+        self.root
+            .estimate_text_size(text, &style)
+            .map(|(w, h)| (w as i32, h as i32))
+            .unwrap_or((text.len() as i32 * px as i32 / 2, px as i32))
+    }
+
+    /// Draws `text` with its top-left corner at `at` unconditionally (titles, key lines) and
+    /// records its box.
+    fn put(&mut self, text: &str, at: (i32, i32), px: u32, colour: RGBColor) -> Result<Rect, String> {
+        let (w, h) = self.size(text, px);
+        let r = [at.0, at.1, at.0 + w, at.1 + h];
+        self.root
+            .draw(&Text::new(
+                text.to_string(),
+                at,
+                ("sans-serif", px).into_font().color(&colour),
+            ))
+            .map_err(|e| e.to_string())?;
+        self.taken.push(r);
+        self.layout.texts.push((text.to_string(), r));
+        Ok(r)
+    }
+
+    /// Places `text` near the point `p` inside `area`, on the first free spot of a ring of
+    /// candidates at growing distances; returns false (and draws nothing) where none is free.
+    fn label(&mut self, text: &str, p: (i32, i32), px: u32, colour: RGBColor, area: Rect) -> Result<bool, String> {
+        let (w, h) = self.size(text, px);
+        for gap in [8, 16, 28] {
+            let spots = [
+                (p.0 + gap, p.1 - h / 2),
+                (p.0 - gap - w, p.1 - h / 2),
+                (p.0 - w / 2, p.1 - gap - h),
+                (p.0 - w / 2, p.1 + gap),
+                (p.0 + gap, p.1 - gap - h),
+                (p.0 + gap, p.1 + gap),
+                (p.0 - gap - w, p.1 - gap - h),
+                (p.0 - gap - w, p.1 + gap),
+            ];
+            for at in spots {
+                let r = [at.0, at.1, at.0 + w, at.1 + h];
+                if inside(&r, &area) && !self.taken.iter().any(|t| overlaps(t, &r)) {
+                    self.put(text, at, px, colour)?;
+                    return Ok(true);
+                }
+            }
+        }
+        self.layout.unplaced.push(text.to_string());
+        Ok(false)
+    }
+
+    /// Marks a region as taken (a marker, a chart) without drawing.
+    fn block(&mut self, r: Rect) {
+        self.taken.push(r);
+    }
+}
+
+/// One thing drawn in both views.
+struct Item {
+    name: String,
+    xyz: [f64; 3],
+    colour: RGBColor,
+    lamp: bool,
+    /// A directional lamp: `xyz` is a direction, drawn at the edge of the view.
+    direction: bool,
+}
+
+fn items(scene: &Scene) -> Vec<Item> {
+    let mut out = Vec::new();
+    let lamps = scene.lamps();
+    for (name, kind, _) in &lamps {
+        let (xyz, direction) = match kind {
+            LightKind::Point { position } => (*position, false),
+            LightKind::Directional { direction } => (*direction, true),
+        };
+        out.push(Item {
+            name: if lamps.len() == 1 {
+                "lamp".into()
+            } else {
+                format!("lamp ({name})")
+            },
+            xyz,
+            colour: LAMP,
+            lamp: true,
+            direction,
+        });
+    }
+    for (j, v) in scene.views.iter().enumerate() {
+        out.push(Item {
+            name: v.name.clone(),
+            xyz: v.camera.eye,
+            colour: view_colour(j),
+            lamp: false,
+            direction: false,
+        });
+    }
+    out
+}
+
+fn dashed(
+    root: &DrawingArea<BitMapBackend<'_>, plotters::coord::Shift>,
+    a: (i32, i32),
+    b: (i32, i32),
+    style: ShapeStyle,
+) -> Result<(), String> {
+    let (dx, dy) = ((b.0 - a.0) as f64, (b.1 - a.1) as f64);
+    let len = dx.hypot(dy);
+    let n = (len / 6.0).floor() as i32;
+    for k in (0..n).step_by(2) {
+        let t0 = k as f64 * 6.0 / len;
+        let t1 = ((k + 1) as f64 * 6.0 / len).min(1.0);
+        let p = |t: f64| (a.0 + (dx * t) as i32, a.1 + (dy * t) as i32);
+        root.draw(&PathElement::new(vec![p(t0), p(t1)], style))
+            .map_err(|e| e.to_string())?;
+    }
+    Ok(())
+}
+
+/// Draws the sheet into `path` and returns where its texts went.
+pub fn setup_png(path: &Path, scene: &Scene, sens: &Sensitivity) -> Result<Layout, OptimError> {
+    let (wpx, hpx) = (1400u32, 940u32);
+    let mut buf = vec![255u8; (wpx * hpx * 3) as usize];
+    let layout =
+        draw(&mut buf, (wpx, hpx), scene, sens).map_err(|e| OptimError::Report(format!("set-up sheet: {e}")))?;
+    super::report::write_rgb_png(path, wpx, hpx, buf)?;
+    Ok(layout)
+}
+
+fn draw(buf: &mut [u8], (wpx, hpx): (u32, u32), scene: &Scene, sens: &Sensitivity) -> Result<Layout, String> {
+    let root = BitMapBackend::with_buffer(buf, (wpx, hpx)).into_drawing_area();
+    root.fill(&WHITE).map_err(|e| e.to_string())?;
+    super::report::plot_font();
+    let mut pl = Placer {
+        root: &root,
+        taken: Vec::new(),
+        layout: Layout {
+            size: (wpx, hpx),
+            ..Layout::default()
+        },
+    };
+    let items = items(scene);
+    let half = scene.plate.size_mm / 2.0;
+
+    // Panels (image pixels): top view, side view, key; the two charts on the right.
+    let top: Rect = [20, 40, 700, 470];
+    let side: Rect = [20, 510, 700, 760];
+    let key: Rect = [20, 775, 700, hpx as i32 - 5];
+    let charts = [[760, 40, 1390, 430], [760, 480, 1390, 870]];
+
+    // One scale for both views: everything (a directional lamp at the edge) fits either.
+    let reach = items
+        .iter()
+        .filter(|i| !i.direction)
+        .map(|i| i.xyz[0].abs().max(i.xyz[1].abs()))
+        .fold(half, f64::max);
+    let radial = items
+        .iter()
+        .filter(|i| !i.direction)
+        .map(|i| i.xyz[0].hypot(i.xyz[1]))
+        .fold(half, f64::max);
+    let height = items
+        .iter()
+        .filter(|i| !i.direction)
+        .map(|i| i.xyz[2])
+        .fold(half, f64::max);
+    let (tw, th) = ((top[2] - top[0] - 60) as f64, (top[3] - top[1] - 60) as f64);
+    let (sw, sh) = ((side[2] - side[0] - 60) as f64, (side[3] - side[1] - 50) as f64);
+    let mmpp = nice_scale(
+        (2.0 * reach / tw)
+            .max(2.0 * reach / th)
+            .max((radial + half) / sw)
+            .max(height / sh),
+    );
+    pl.layout.mm_per_px = mmpp;
+    let scale_text = format!("scale: 1 px = {mmpp} mm (both views)");
+
+    // ---- top view
+    pl.put(
+        "Top view (plate face up; azimuth from +x towards +y)",
+        (top[0], 12),
+        16,
+        BLACK,
+    )?;
+    let c = ((top[0] + top[2]) / 2, (top[1] + top[3]) / 2);
+    let to_px = |x: f64, y: f64| (c.0 + (x / mmpp).round() as i32, c.1 - (y / mmpp).round() as i32);
+    root.draw(&Rectangle::new([(top[0], top[1]), (top[2], top[3])], BLACK.mix(0.3)))
+        .map_err(|e| e.to_string())?;
+    // range rings every nice distance, labelled
+    let ring = nice_length(reach / 2.0);
+    let mut r = ring;
+    while r <= reach * 1.5 {
+        let rp = (r / mmpp).round() as i32;
+        root.draw(&Circle::new(c, rp, RGBColor(200, 200, 200).stroke_width(1)))
+            .map_err(|e| e.to_string())?;
+        r += ring;
+    }
+    let plate_px = (half / mmpp).round() as i32;
+    let plate_r = [c.0 - plate_px, c.1 - plate_px, c.0 + plate_px, c.1 + plate_px];
+    root.draw(&Rectangle::new(
+        [(plate_r[0], plate_r[1]), (plate_r[2], plate_r[3])],
+        RGBColor(120, 120, 120).filled(),
+    ))
+    .map_err(|e| e.to_string())?;
+    pl.block(plate_r);
+    // the +x mark on the plate's +x edge
+    let mark = [plate_r[2] - 2, c.1 - 8, plate_r[2] + 4, c.1 + 8];
+    root.draw(&Rectangle::new([(mark[0], mark[1]), (mark[2], mark[3])], MARK.filled()))
+        .map_err(|e| e.to_string())?;
+    pl.block(mark);
+    let top_in = [top[0] + 2, top[1] + 2, top[2] - 2, top[3] - 2];
+    pl.label("+x mark", (mark[2], c.1), 13, MARK, top_in)?;
+    // scale bar, bottom left
+    let bar_mm = nice_length(reach / 2.0);
+    let bar_px = (bar_mm / mmpp).round() as i32;
+    let by = top[3] - 14;
+    root.draw(&PathElement::new(
+        vec![(top[0] + 10, by), (top[0] + 10 + bar_px, by)],
+        BLACK.stroke_width(2),
+    ))
+    .map_err(|e| e.to_string())?;
+    for x in [top[0] + 10, top[0] + 10 + bar_px] {
+        root.draw(&PathElement::new(vec![(x, by - 4), (x, by + 4)], BLACK.stroke_width(2)))
+            .map_err(|e| e.to_string())?;
+    }
+    pl.block([top[0] + 6, by - 6, top[0] + 14 + bar_px, by + 6]);
+    pl.put(
+        &format!("{bar_mm} mm; rings every {ring} mm"),
+        (top[0] + 16 + bar_px, by - 8),
+        13,
+        BLACK,
+    )?;
+    // marks first (so labels avoid all of them), then labels
+    let mut marks = Vec::new();
+    for it in &items {
+        let p = if it.direction {
+            // a direction: drawn where it crosses the panel's edge
+            let (dx, dy) = (it.xyz[0], it.xyz[1]);
+            let n = dx.hypot(dy).max(1e-9);
+            let rr = ((top[2] - top[0]).min(top[3] - top[1]) / 2 - 20) as f64;
+            (c.0 + (dx / n * rr) as i32, c.1 - (dy / n * rr) as i32)
+        } else {
+            to_px(it.xyz[0], it.xyz[1])
+        };
+        let rad = if it.lamp { 8 } else { 6 };
+        if it.lamp {
+            root.draw(&Circle::new(p, rad, it.colour.filled()))
+                .map_err(|e| e.to_string())?;
+            root.draw(&Circle::new(p, rad, BLACK.stroke_width(1)))
+                .map_err(|e| e.to_string())?;
+        } else {
+            root.draw(&Circle::new(p, rad, it.colour.filled()))
+                .map_err(|e| e.to_string())?;
+        }
+        pl.block([p.0 - rad, p.1 - rad, p.0 + rad + 1, p.1 + rad + 1]);
+        marks.push(p);
+    }
+    for (it, &p) in items.iter().zip(&marks) {
+        let q = Place::of(it.xyz);
+        let t = format!("{} az {:.0} deg", it.name, q.azimuth_deg);
+        pl.label(&t, p, 13, it.colour, top_in)?;
+    }
+
+    // ---- side view: height against horizontal distance from the plate centre
+    pl.put(
+        "Side view (height against distance from the plate centre, all azimuths)",
+        (side[0], side[1] - 26),
+        14,
+        BLACK,
+    )?;
+    root.draw(&Rectangle::new(
+        [(side[0], side[1]), (side[2], side[3])],
+        BLACK.mix(0.3),
+    ))
+    .map_err(|e| e.to_string())?;
+    let o = (side[0] + 30 + plate_px, side[3] - 30);
+    let sp = |d: f64, z: f64| (o.0 + (d / mmpp).round() as i32, o.1 - (z / mmpp).round() as i32);
+    let plate_s = [o.0 - plate_px, o.1 - 2, o.0 + plate_px, o.1 + 3];
+    root.draw(&Rectangle::new(
+        [(plate_s[0], plate_s[1]), (plate_s[2], plate_s[3])],
+        RGBColor(120, 120, 120).filled(),
+    ))
+    .map_err(|e| e.to_string())?;
+    pl.block(plate_s);
+    root.draw(&PathElement::new(
+        vec![(side[0] + 2, o.1 + 3), (side[2] - 2, o.1 + 3)],
+        BLACK.mix(0.4),
+    ))
+    .map_err(|e| e.to_string())?;
+    let side_in = [side[0] + 2, side[1] + 2, side[2] - 2, side[3] - 2];
+    let mut smarks = Vec::new();
+    for it in &items {
+        let q = Place::of(it.xyz);
+        let p = if it.direction {
+            let rr = ((side[3] - side[1]) - 60) as f64;
+            let e = q.elevation_deg.to_radians();
+            (o.0 + (rr * e.cos()) as i32, o.1 - (rr * e.sin()) as i32)
+        } else {
+            sp(it.xyz[0].hypot(it.xyz[1]), it.xyz[2])
+        };
+        dashed(&root, o, p, it.colour.mix(0.6).stroke_width(1))?;
+        let rad = if it.lamp { 8 } else { 6 };
+        root.draw(&Circle::new(p, rad, it.colour.filled()))
+            .map_err(|e| e.to_string())?;
+        if it.lamp {
+            root.draw(&Circle::new(p, rad, BLACK.stroke_width(1)))
+                .map_err(|e| e.to_string())?;
+        }
+        pl.block([p.0 - rad, p.1 - rad, p.0 + rad + 1, p.1 + rad + 1]);
+        smarks.push(p);
+    }
+    for (it, &p) in items.iter().zip(&smarks) {
+        let q = Place::of(it.xyz);
+        let t = if it.direction {
+            format!("{} from {:.0} deg up", it.name, q.elevation_deg)
+        } else {
+            format!("{} {:.0} mm, {:.0} deg up", it.name, q.distance_mm, q.elevation_deg)
+        };
+        pl.label(&t, p, 13, it.colour, side_in)?;
+    }
+
+    // ---- the charts: correlation (share of the designed one) against the move
+    for (moved, area) in [("lamp", charts[0]), ("eye", charts[1])] {
+        let title = format!(
+            "The {moved} moved: correlation as a share of the design's (grey: {:.0}%)",
+            100.0 * KEEP
+        );
+        pl.put(&title, (area[0], area[1] - 26), 13, BLACK)?;
+        let legend_h = 48;
+        let plot = [area[0], area[1], area[2], area[3] - legend_h];
+        pl.block(plot);
+        pl.layout.charts.push(plot);
+        let sub = root.clone().shrink(
+            (plot[0] as u32, plot[1] as u32),
+            ((plot[2] - plot[0]) as u32, (plot[3] - plot[1]) as u32),
+        );
+        let mut ymax: f64 = 1.05;
+        for (j, v) in scene.views.iter().enumerate() {
+            for s in sens.samples.iter().filter(|s| s.view == v.name && s.moved == moved) {
+                if sens.base[j] > 0.0 {
+                    ymax = ymax.max(s.corr / sens.base[j] + 0.02);
+                }
+            }
+        }
+        let mut chart = ChartBuilder::on(&sub)
+            .margin(8)
+            .x_label_area_size(34)
+            .y_label_area_size(48)
+            .build_cartesian_2d(-ANGLE_RANGE..ANGLE_RANGE, 0f64..ymax.min(2.0))
+            .map_err(|e| e.to_string())?;
+        chart
+            .configure_mesh()
+            .x_desc(format!("{moved} moved (degrees)"))
+            .y_desc("correlation / designed")
+            .light_line_style(RGBColor(235, 235, 235))
+            .draw()
+            .map_err(|e| e.to_string())?;
+        chart
+            .draw_series(DashedLineSeries::new(
+                vec![(-ANGLE_RANGE, KEEP), (ANGLE_RANGE, KEEP)],
+                4,
+                4,
+                RGBColor(150, 150, 150).stroke_width(1),
+            ))
+            .map_err(|e| e.to_string())?;
+        for (j, v) in scene.views.iter().enumerate() {
+            if sens.of(&v.name).next().is_none() || !(sens.base[j] > 0.0) {
+                continue;
+            }
+            let col = view_colour(j);
+            for axis in ["azimuth", "elevation"] {
+                let mut pts: Vec<(f64, f64)> = sens
+                    .samples
+                    .iter()
+                    .filter(|s| s.view == v.name && s.moved == moved && s.axis == axis)
+                    .map(|s| (s.delta, s.corr / sens.base[j]))
+                    .chain(std::iter::once((0.0, 1.0)))
+                    .collect();
+                pts.sort_by(|a, b| a.0.total_cmp(&b.0));
+                if axis == "azimuth" {
+                    chart
+                        .draw_series(LineSeries::new(pts, col.stroke_width(2)))
+                        .map_err(|e| e.to_string())?;
+                } else {
+                    chart
+                        .draw_series(DashedLineSeries::new(pts, 7, 5, col.stroke_width(2)))
+                        .map_err(|e| e.to_string())?;
+                }
+            }
+        }
+        // The legend, below the plot (never over a curve): line styles, then the views.
+        let ly = plot[3] + 6;
+        let mut x = area[0] + 48;
+        for (txt, dash) in [("azimuth", false), ("elevation", true)] {
+            let a = (x, ly + 8);
+            let b = (x + 30, ly + 8);
+            if dash {
+                dashed(&root, a, b, BLACK.stroke_width(2))?;
+            } else {
+                root.draw(&PathElement::new(vec![a, b], BLACK.stroke_width(2)))
+                    .map_err(|e| e.to_string())?;
+            }
+            let r = pl.put(txt, (x + 36, ly), 13, BLACK)?;
+            x = r[2] + 18;
+        }
+        let mut y = ly;
+        let mut more = 0;
+        for (j, v) in scene.views.iter().enumerate() {
+            let shown = sens.of(&v.name).next().is_some();
+            let txt = if shown {
+                v.name.clone()
+            } else {
+                format!("{} (no curve)", v.name)
+            };
+            let (w, h) = pl.size(&txt, 13);
+            if x + 26 + w > area[2] {
+                if y > ly {
+                    more += 1;
+                    continue;
+                }
+                y += h + 6;
+                x = area[0] + 48;
+            }
+            root.draw(&Rectangle::new([(x, y + 4), (x + 20, y + 12)], view_colour(j).filled()))
+                .map_err(|e| e.to_string())?;
+            let r = pl.put(&txt, (x + 24, y), 13, BLACK)?;
+            x = r[2] + 14;
+        }
+        if more > 0 {
+            pl.put(&format!("and {more} more (setup.txt)"), (x, y), 13, BLACK)?;
+        }
+    }
+
+    // ---- the key: every lamp and eye with its numbers; labels that found no place say so
+    pl.put(&scale_text, (key[0], key[1]), 13, BLACK)?;
+    let mut y = key[1] + 20;
+    let total = items.len();
+    for (shown, it) in items.iter().enumerate() {
+        let q = Place::of(it.xyz);
+        let crowded = pl
+            .layout
+            .unplaced
+            .iter()
+            .any(|u| u.starts_with(&format!("{} ", it.name)));
+        let line = if it.direction {
+            format!(
+                "{}: from azimuth {:.1} deg, elevation {:.1} deg (a direction){}",
+                it.name,
+                q.azimuth_deg,
+                q.elevation_deg,
+                if crowded { "; not labelled in the drawing" } else { "" }
+            )
+        } else {
+            format!(
+                "{}: azimuth {:.1} deg, elevation {:.1} deg, {:.0} mm from the plate centre (x {:.0}, y {:.0}, z {:.0}){}",
+                it.name,
+                q.azimuth_deg,
+                q.elevation_deg,
+                q.distance_mm,
+                q.xyz[0],
+                q.xyz[1],
+                q.xyz[2],
+                if crowded { "; not labelled in the drawing" } else { "" }
+            )
+        };
+        let (_, h) = pl.size(&line, 12);
+        if y + 2 * h + 2 > key[3] && shown + 1 < total {
+            pl.put(
+                &format!("... and {} more: setup.txt lists every lamp and eye", total - shown),
+                (key[0], y),
+                12,
+                BLACK,
+            )?;
+            break;
+        }
+        pl.put(&line, (key[0], y), 12, it.colour)?;
+        y += h + 2;
+    }
+    root.present().map_err(|e| e.to_string())?;
+    Ok(pl.layout)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::scene::{Camera, Light, Plate, View};
+    use crate::optim::setup::{Moved, Tolerance};
+
+    fn scene(eyes: &[[f64; 3]], light: LightKind) -> Scene {
+        Scene {
+            plate: Plate {
+                size_mm: 80.0,
+                roughness: 0.02,
+                f0: 0.9,
+            },
+            views: eyes
+                .iter()
+                .enumerate()
+                .map(|(j, &eye)| View {
+                    name: format!("v{j}"),
+                    camera: Camera {
+                        eye,
+                        target: [0.0; 3],
+                        up: [0.0, 0.0, 1.0],
+                        fov_y_deg: 30.0,
+                        width: 8,
+                        height: 8,
+                    },
+                    light: Light {
+                        kind: light.clone(),
+                        intensity: 1.0e5,
+                    },
+                })
+                .collect(),
+            scratches: vec![],
+        }
+    }
+
+    /// A search's worth of samples and tolerances for every view.
+    fn sensitivity(scene: &Scene) -> Sensitivity {
+        let mut s = Sensitivity {
+            base: vec![0.8; scene.views.len()],
+            ..Sensitivity::default()
+        };
+        for v in &scene.views {
+            for moved in ["lamp", "eye"] {
+                for axis in ["azimuth", "elevation", "distance"] {
+                    for d in [-5.0, -2.0, 1.0, 2.0, 5.0, 10.0] {
+                        let d = if axis == "distance" { d / 50.0 } else { d };
+                        let corr = 0.8 * (1.0 - 0.02 * d * d);
+                        s.samples.push(Moved {
+                            view: v.name.clone(),
+                            moved,
+                            axis,
+                            delta: d,
+                            corr,
+                        });
+                    }
+                    s.tolerances.push(Tolerance {
+                        view: v.name.clone(),
+                        moved,
+                        axis,
+                        safe: [2.0, 2.0],
+                        lost: [Some(2.5), Some(2.5)],
+                    });
+                }
+            }
+        }
+        s
+    }
+
+    fn assert_clean(label: &str, scene: &Scene) -> Layout {
+        let (w, h) = (1400u32, 940u32);
+        let mut buf = vec![255u8; (w * h * 3) as usize];
+        let l = draw(&mut buf, (w, h), scene, &sensitivity(scene)).unwrap();
+        assert!(l.texts.len() > scene.views.len(), "{label}: {} texts", l.texts.len());
+        let image = [0, 0, w as i32, h as i32];
+        for (i, (t, r)) in l.texts.iter().enumerate() {
+            assert!(inside(r, &image), "{label}: `{t}` {r:?} leaves the image");
+            for c in &l.charts {
+                assert!(!overlaps(r, c), "{label}: `{t}` {r:?} enters a chart {c:?}");
+            }
+            for (u, q) in &l.texts[..i] {
+                assert!(!overlaps(r, q), "{label}: `{t}` {r:?} overlaps `{u}` {q:?}");
+            }
+        }
+        // Whatever found no place in the drawing is in the key.
+        for u in &l.unplaced {
+            let name = u.split(' ').next().unwrap();
+            assert!(
+                l.texts
+                    .iter()
+                    .any(|(t, _)| t.starts_with(&format!("{name}: ")) || t.starts_with("... and")),
+                "{label}: `{u}` is neither drawn nor in the key"
+            );
+        }
+        l
+    }
+
+    #[test]
+    fn no_two_labels_overlap() {
+        let ring = |n: usize, r: f64, el: f64| -> Vec<[f64; 3]> {
+            (0..n).map(|k| Place::at(360.0 * k as f64 / n as f64, el, r)).collect()
+        };
+        // The lamp in v0's eye (the old default), three eyes at one distance and elevation.
+        let eyes = ring(3, 300.0, 45.0);
+        let l = assert_clean("lamp in an eye", &scene(&eyes, LightKind::Point { position: eyes[0] }));
+        // Both views to one scale, and the scale fits the furthest point.
+        assert!(300.0 / l.mm_per_px < 660.0, "{}", l.mm_per_px);
+        // Twelve eyes along an arc at two distances, a directional lamp.
+        let mut eyes: Vec<[f64; 3]> = (0..12)
+            .map(|k| Place::at(-30.0 + 5.45 * k as f64, 30.0, 250.0))
+            .collect();
+        eyes.extend(ring(4, 600.0, 60.0));
+        assert_clean(
+            "an arc of eyes",
+            &scene(
+                &eyes,
+                LightKind::Directional {
+                    direction: [0.2, 0.3, 1.0],
+                },
+            ),
+        );
+        // A lamp far away and eyes close by.
+        let eyes = ring(2, 120.0, 70.0);
+        assert_clean(
+            "a far lamp",
+            &scene(
+                &eyes,
+                LightKind::Point {
+                    position: [2000.0, 0.0, 1500.0],
+                },
+            ),
+        );
+    }
+
+    #[test]
+    fn scales_are_nice_and_large_enough() {
+        for need in [0.013, 0.3, 0.51, 1.0, 2.2, 7.0] {
+            let s = nice_scale(need);
+            assert!(s >= need && s <= 2.5 * need, "{need} -> {s}");
+        }
+        assert_eq!(nice_length(230.0), 200.0);
+        assert_eq!(nice_length(99.0), 50.0);
+    }
+}
