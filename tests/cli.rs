@@ -560,8 +560,23 @@ fn design_and_setup_write_the_same_sheet() {
         .expect("setup prints its JSON");
     let setup_json: serde_json::Value = serde_json::from_str(line).unwrap();
     assert_eq!(setup_json, summary["setup"]);
+    // One lamp with one intensity (the default `--exposure fixed`: the views keep exposure 1).
+    let design: serde_json::Value = serde_json::from_slice(&read(out.join("design.json"))).unwrap();
+    let views = design["views"].as_array().unwrap();
+    assert!(
+        views
+            .iter()
+            .all(|v| v["light"] == views[0]["light"] && v.get("exposure").is_none()),
+        "{views:?}"
+    );
+    assert_eq!(summary["setup"]["lamps"].as_array().unwrap().len(), 1);
+    assert_eq!(
+        summary["setup"]["lamps"][0]["views"],
+        serde_json::json!(["v0", "v1", "v2"])
+    );
     // The sheet names tolerances found for the lamp and the eye, and the tightest of all.
     let text = String::from_utf8_lossy(&t1);
+    assert_eq!(text.matches("\nLamp: ").count(), 1, "{text}");
     assert!(text.contains("Most sensitive: "), "{text}");
     assert!(text.contains("the eye may move"), "{text}");
     // Without the inputs (a design of an older version), a sheet with a warning.

@@ -483,3 +483,78 @@ fn bad_targets_give_clear_errors() {
         .all(|img| img.len() == 16 * 16 && img.iter().all(|v| (0.0..=1.0).contains(v))));
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// Views that share a lamp share its intensity (`--exposure fixed`): the tie kernel gives every
+/// view of a lamp one log-space step, so the ratios of their lights (their exposures) stay as
+/// they started (here 1, 0.5 and 0.25) while the lamp's intensity moves; without the tie the
+/// same run moves each view's light on its own. The saved design has one intensity per lamp
+/// either way: the exposures kept, or derived (the brightest view 1).
+#[test]
+fn a_shared_lamp_has_one_intensity() {
+    use scratchart::optim::design::Optimizer;
+    let ctx = gpu();
+    let renderer = Renderer::new(&ctx).unwrap();
+    let mut p = small_problem(3, 24, 300, 5);
+    for (v, e) in p.scene.views.iter_mut().zip([1.0, 0.5, 0.25]) {
+        v.exposure = e;
+    }
+    let slots = scratchart::render::layout::view_slots(&p.scene);
+    let mut ratios = Vec::new();
+    for keep in [true, false] {
+        let mut cfg = quiet_config(tmp_dir(&format!("tie-{keep}")), 12);
+        cfg.write_outputs = false;
+        cfg.keep_exposures = keep;
+        let loss = Loss::new(&ctx, &slots.views, &p.targets, cfg.loss).unwrap();
+        let mut opt = Optimizer::new(&renderer, &loss, &p, &cfg).unwrap();
+        opt.calibrate_lights(&p.scene, &p.targets).unwrap();
+        let phi0: Vec<f32> = opt.driver.gs.lights().read().unwrap();
+        opt.run(&Silent).unwrap();
+        let phi: Vec<f32> = opt.driver.gs.lights().read().unwrap();
+        let moved = (phi[0] / phi0[0] - 1.0).abs();
+        assert!(
+            moved > 1e-3,
+            "keep {keep}: the lamp did not move ({} -> {})",
+            phi0[0],
+            phi[0]
+        );
+        let r = [phi[1] / phi[0], phi[2] / phi[0]];
+        eprintln!("keep {keep}: phi {phi0:?} -> {phi:?}, ratios {r:?}");
+        if keep {
+            assert!(
+                (phi0[1] / phi0[0] - 0.5).abs() < 1e-6,
+                "calibration keeps the ratios: {phi0:?}"
+            );
+            assert!((r[0] - 0.5).abs() < 1e-4 && (r[1] - 0.25).abs() < 1e-4, "tied: {r:?}");
+        }
+        let scene = opt.scene(&p.scene).unwrap();
+        let i = scene.views[0].light.intensity;
+        assert!(
+            scene.views.iter().all(|v| v.light.intensity == i),
+            "one intensity per lamp"
+        );
+        for (v, &ph) in scene.views.iter().zip(&phi) {
+            assert!(
+                (v.radiance_scale() / ph as f64 - 1.0).abs() < 1e-6,
+                "{}: renders as optimized",
+                v.name
+            );
+        }
+        if keep {
+            let e: Vec<f64> = scene.views.iter().map(|v| v.exposure).collect();
+            assert_eq!(e, vec![1.0, 0.5, 0.25]);
+        } else {
+            assert!(
+                scene.views.iter().any(|v| v.exposure == 1.0),
+                "the brightest view has exposure 1"
+            );
+        }
+        ratios.push(r);
+    }
+    // Untied, the views' lights move apart from the ratios they started with.
+    let free = ratios[1];
+    assert!(
+        (free[0] - 0.5).abs() > 1e-3 || (free[1] - 0.25).abs() > 1e-3,
+        "free: {free:?}"
+    );
+    assert_no_validation(&ctx);
+}

@@ -8,12 +8,24 @@ use scratchart_tests::*;
 
 #[test]
 fn random_moderate_alpha() {
-    let views = vec![
+    let mut views = vec![
         orbit_view("a", 40, 45.0, 0.0, 45.0, 180.0, 20.0),
         orbit_view("b", 40, 45.0, 120.0, 45.0, 300.0, 20.0),
     ];
+    // A view's exposure scales what it sees (the reference and the GPU alike).
+    views[1].exposure = 0.37;
     let scene = random_scene(1, 300, 20.0, 0.2, 0.15, 0.2, views);
     assert_matches_reference("moderate", &scene);
+    let ctx = scratchart_tests::gpu();
+    let mut unit = scene.clone();
+    unit.views[1].exposure = 1.0;
+    let (a, b) = (gpu_render(&ctx, &scene), gpu_render(&ctx, &unit));
+    let peak = b[1].iter().cloned().fold(0.0f32, f32::max);
+    assert!(peak > 0.0);
+    for (x, y) in a[1].iter().zip(&b[1]) {
+        assert!((x - 0.37 * y).abs() <= 1e-5 * peak, "{x} against 0.37 x {y}");
+    }
+    assert_eq!(a[0], b[0], "the other view is untouched");
 }
 
 #[test]

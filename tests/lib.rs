@@ -144,6 +144,7 @@ pub fn plate(size: f64) -> Plate {
 /// A view on an orbit around the plate centre with a point light on another orbit.
 pub fn orbit_view(name: &str, res: u32, elev: f64, az: f64, light_elev: f64, light_az: f64, plate_mm: f64) -> View {
     View {
+        exposure: 1.0,
         name: name.into(),
         camera: orbit_camera(3.0 * plate_mm, elev, az, plate_mm, res, res),
         light: orbit_light(3.0 * plate_mm, light_elev, light_az, 1.0e4),
@@ -161,6 +162,7 @@ pub fn directional_view(
 ) -> View {
     let (e, a) = (light_elev.to_radians(), light_az.to_radians());
     View {
+        exposure: 1.0,
         name: name.into(),
         camera: orbit_camera(3.0 * plate_mm, elev, az, plate_mm, res, res),
         light: Light {

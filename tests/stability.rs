@@ -44,6 +44,7 @@ fn view(res: u32, elev: f64, az: f64, light_elev: f64, light_az: f64, fov: Optio
         camera.fov_y_deg = f;
     }
     View {
+        exposure: 1.0,
         name: "v".into(),
         camera,
         light: orbit_light(3.0 * PLATE, light_elev, light_az, 1.0e4),

@@ -290,6 +290,7 @@ impl Card {
         [("cam_south", -90.0), ("cam_west", 180.0)]
             .iter()
             .map(|&(name, az)| View {
+                exposure: 1.0,
                 name: name.into(),
                 camera: Camera {
                     eye: place(az, 50.0),

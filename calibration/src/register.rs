@@ -157,6 +157,7 @@ mod camera_tests {
             assert!((cam.fov_y_deg - view.camera.fov_y_deg).abs() < 1e-9);
             // It projects plate points where the view does.
             let back = ViewGeom::new(&View {
+                exposure: 1.0,
                 camera: cam,
                 ..view.clone()
             });

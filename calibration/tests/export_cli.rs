@@ -13,6 +13,7 @@ fn design() -> Scene {
             f0: 0.91,
         },
         views: vec![View {
+            exposure: 1.0,
             name: "v".into(),
             camera: Camera {
                 eye: [0.0, -180.0, 180.0],

@@ -13,6 +13,7 @@ fn design(plate: f64) -> Scene {
             f0: 0.91,
         },
         views: vec![View {
+            exposure: 1.0,
             name: "v".into(),
             camera: Camera {
                 eye: [0.0, -3.0 * plate, 3.0 * plate],

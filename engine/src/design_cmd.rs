@@ -22,6 +22,20 @@ macro_rules! ensure_flag {
     };
 }
 
+/// The default lamp stands this many degrees above the views' elevation (at most 80)...
+pub const LIGHT_ELEVATION_ABOVE_VIEWS: f64 = 20.0;
+/// ... and this many times the views' distance from the plate centre.
+pub const LIGHT_DISTANCE_FACTOR: f64 = 1.0;
+
+/// `design --exposure`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum ExposureMode {
+    /// Each view its own exposure.
+    Free,
+    /// One intensity per lamp; the exposures stay.
+    Fixed,
+}
+
 /// Flags of `scratchart design`. Without any, designs the built-in 3-view demo (circle, triangle,
 /// star) into ./out in a few minutes on a CPU (lavapipe).
 #[derive(clap::Args, Clone, Debug)]
@@ -52,7 +66,7 @@ pub struct DesignArgs {
     #[arg(long, default_value_t = 3)]
     pub views: usize,
     /// Views from a file instead: a JSON array of MODEL.md view objects (their lights' intensities are used as given)
-    #[arg(long, conflicts_with_all = ["views", "res", "elevation", "light_azimuth"])]
+    #[arg(long, conflicts_with_all = ["views", "res", "elevation", "light_azimuth", "light_elevation", "light_distance"])]
     pub view_file: Option<PathBuf>,
     /// Number of scratches
     #[arg(long, default_value_t = 6000)]
@@ -66,14 +80,29 @@ pub struct DesignArgs {
     /// Seed of the random initial scratches
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
-    /// Elevation of the views and of the light, degrees
+    /// Elevation of the views, degrees
     #[arg(long, default_value_t = 45.0)]
     pub elevation: f64,
-    /// Azimuth of the point light, degrees (views sit at 0, 360/N, ...). The default, 0, puts it at
-    /// view 0's azimuth: its mirror direction then falls between views, so no view sees the plate's
-    /// own specular highlight (at 30 degrees one view does, and its target dims)
+    /// Azimuth of the lamp, degrees (views sit at 0, 360/N, ...). The default, 0, puts it on view
+    /// 0's side: its mirror direction then falls between views, so no view sees the plate's own
+    /// specular highlight (at 30 degrees one view does, and its target dims)
     #[arg(long, default_value_t = 0.0)]
     pub light_azimuth: f64,
+    /// Elevation of the lamp, degrees (default: 20 degrees above the views', at most 80: a lamp on
+    /// a stand above the first viewer's head, where a person can stand beside it; the views' own
+    /// elevation puts it in view 0's eye, as designs did before)
+    #[arg(long)]
+    pub light_elevation: Option<f64>,
+    /// Distance of the lamp from the plate centre, mm (default: the views' distance)
+    #[arg(long)]
+    pub light_distance: Option<f64>,
+    /// How each view's brightness is set: `fixed` (the default), views that share a lamp share its
+    /// intensity and keep their exposures (1 unless a --view-file gives them), so the plate looks
+    /// as rendered under the one lamp, with no adaptation; `free`, each view gets its own exposure
+    /// (what an eye's adaptation or a camera does), reported on the set-up sheet as its
+    /// brightness relative to the others under the lamp
+    #[arg(long, value_enum, default_value_t = ExposureMode::Fixed)]
+    pub exposure: ExposureMode,
     /// Plate size, mm
     #[arg(long, default_value_t = 100.0)]
     pub plate: f64,
@@ -209,7 +238,19 @@ pub fn problem(args: &DesignArgs, info: &DeviceInfo) -> anyhow::Result<Problem> 
                 "--elevation must lie strictly between 0 and 90 degrees"
             );
             // Initial intensity: a placeholder, calibrated against the targets before the first step.
-            let light = orbit_light(distance, args.elevation, args.light_azimuth, 1.0e4);
+            let light_elevation = args
+                .light_elevation
+                .unwrap_or((args.elevation + LIGHT_ELEVATION_ABOVE_VIEWS).min(80.0));
+            ensure_flag!(
+                light_elevation > 0.0 && light_elevation <= 90.0,
+                "--light-elevation must lie above 0 and at most 90 degrees"
+            );
+            let light_distance = args.light_distance.unwrap_or(LIGHT_DISTANCE_FACTOR * distance);
+            ensure_flag!(
+                light_distance.is_finite() && light_distance > 0.0,
+                "--light-distance must be a distance above 0 mm"
+            );
+            let light = orbit_light(light_distance, light_elevation, args.light_azimuth, 1.0e4);
             // The plate's silhouette fills 95% of each frame (width or height, whichever binds).
             framed_ring_views(args.views, args.elevation, distance, plate_mm, args.res, &light, 0.95)
         }
@@ -312,6 +353,7 @@ pub fn config(args: &DesignArgs) -> DesignConfig {
     cfg.prune.max_trials = args.prune_trials;
     cfg.calibrate_lights = args.view_file.is_none();
     cfg.blank_views = args.blank_view.clone();
+    cfg.keep_exposures = args.exposure == ExposureMode::Fixed;
     cfg.hooks = Hooks {
         nan_grad_at: args.inject_nan_grad_at,
         nan_image_at: None,

@@ -95,6 +95,7 @@ pub fn random_scratches(
 pub fn ring_views(m: usize, elev: f64, distance: f64, plate_mm: f64, res: u32, light: &Light) -> Vec<View> {
     (0..m)
         .map(|j| View {
+            exposure: 1.0,
             name: format!("v{j}"),
             camera: orbit_camera(distance, elev, 360.0 * j as f64 / m as f64, plate_mm, res, res),
             light: light.clone(),

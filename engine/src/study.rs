@@ -80,6 +80,7 @@ fn view(
         camera.fov_y_deg = f;
     }
     View {
+        exposure: 1.0,
         name: name.into(),
         camera,
         light: orbit_light(3.0 * plate, light_elev, light_az, 1.0e4),

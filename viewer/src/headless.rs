@@ -105,6 +105,7 @@ pub fn screenshot(
             let (w, h) = opts.size.unwrap_or(DEFAULT_SIZE);
             let (cam, light) = initial_state(opts, design, 0);
             View {
+                exposure: 1.0,
                 name: "interactive".into(),
                 camera: cam.camera(w, h),
                 light: light.light(),
@@ -257,6 +258,7 @@ pub fn benchmark(
             let t = k.saturating_sub(BENCH_WARMUP) as f64 / n as f64;
             let (cam, light) = bench_path(&cam0, &light0, t);
             let view = View {
+                exposure: 1.0,
                 name: "bench".into(),
                 camera: cam.camera(iw, ih),
                 light: light.light(),

@@ -67,6 +67,7 @@ struct Cam {
 impl Cam {
     fn new(camera: &Camera) -> Cam {
         let view = View {
+            exposure: 1.0,
             name: "overlay".into(),
             camera: camera.clone(),
             light: Light {

@@ -40,8 +40,9 @@ impl SetupInfo {
         let single = lamps.len() == 1;
         let mut points: Vec<Point> = lamps
             .into_iter()
-            .map(|(name, kind, _)| {
-                let (p, directional) = match kind {
+            .map(|lamp| {
+                let name = lamp.name;
+                let (p, directional) = match lamp.kind {
                     LightKind::Point { position } => (position, false),
                     LightKind::Directional { direction } => (direction, true),
                 };

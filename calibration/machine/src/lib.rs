@@ -71,6 +71,7 @@ mod tests {
                 f0: 0.91,
             },
             views: vec![View {
+                exposure: 1.0,
                 name: "v0".into(),
                 camera: Camera {
                     eye: [0.0, -250.0, 250.0],

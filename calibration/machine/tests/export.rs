@@ -40,6 +40,7 @@ fn design(n: usize, plate: f64) -> Scene {
             f0: 0.91,
         },
         views: vec![View {
+            exposure: 1.0,
             name: "v0".into(),
             camera: Camera {
                 eye: [0.0, -250.0, 250.0],

@@ -18,6 +18,7 @@ pub const PRECOMPILED: &[(&str, &[(&str, &str)])] = &[
     ("scratch_records.comp", &[]),
     ("pixel_records.comp", &[]),
     ("grad_light.comp", &[]),
+    ("light_tie.comp", &[]),
     ("forward.comp", &[("SA_INTEGRATOR_CLOSED_FORM", "1")]),
     (
         "forward.comp",

@@ -107,7 +107,7 @@ impl ViewGeom {
             height: c.height,
             tan_half: (0.5 * c.fov_y_deg.to_radians()).tan(),
             light_kind,
-            intensity: view.light.intensity,
+            intensity: view.radiance_scale(),
         }
     }
 
@@ -235,6 +235,7 @@ mod tests {
 
     fn view(eye: [f64; 3], target: [f64; 3], up: [f64; 3]) -> View {
         View {
+            exposure: 1.0,
             name: "v".into(),
             camera: Camera {
                 eye,

@@ -16,6 +16,7 @@ fn scene(eye: [f64; 3], light: [f64; 3], size: u32, scratches: Vec<Scratch>) -> 
             f0: 0.91,
         },
         views: vec![View {
+            exposure: 1.0,
             name: "v".into(),
             camera: Camera {
                 eye,

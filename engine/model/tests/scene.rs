@@ -402,6 +402,7 @@ fn awkward_scene() -> Scene {
         direction: [0.0, 0.6, 0.8],
     };
     s.views[1].light.intensity = 1.0 / 7.0;
+    s.views[1].exposure = 0.1 + 0.2;
     s.scratches = (0..50)
         .map(|k| {
             let a = k as f64 * 0.7313;
@@ -450,6 +451,80 @@ fn validate_catches_programmatic_errors() {
     s.views[1].light.intensity = f64::INFINITY;
     let msg = s.validate().unwrap_err().to_string();
     assert!(msg.contains("second_view") && msg.contains("intensity"), "{msg}");
+    for bad in [0.0, -1.0, f64::NAN] {
+        let mut s = awkward_scene();
+        s.views[1].exposure = bad;
+        let msg = s.validate().unwrap_err().to_string();
+        assert!(msg.contains("second_view") && msg.contains("exposure"), "{bad}: {msg}");
+    }
+}
+
+/// Views whose lights stand within 1 um (or come from one direction) are one lamp; each view's
+/// brightness under it is its intensity times exposure over the brightest's; setting the
+/// radiance scales the optimizer moves gives one intensity per lamp, with the exposures kept or
+/// derived, and renders the same radiance either way.
+#[test]
+fn lamps_share_one_intensity_and_views_keep_an_exposure() {
+    let mut s = awkward_scene();
+    let v = s.views[0].clone();
+    s.views = (0..5)
+        .map(|k| {
+            let mut w = v.clone();
+            w.name = format!("v{k}");
+            w
+        })
+        .collect();
+    let at = |x: f64| LightKind::Point {
+        position: [x, 100.0, 200.0],
+    };
+    s.views[0].light.kind = at(10.0);
+    s.views[1].light.kind = at(10.0 + 0.4e-3); // within 1 um: the same lamp
+    s.views[2].light.kind = at(10.0 + 2e-3); // 2 um away: another
+    s.views[3].light.kind = LightKind::Directional {
+        direction: [0.0, 0.6, 0.8],
+    };
+    s.views[4].light.kind = LightKind::Directional {
+        direction: [0.0, 0.6, 0.8],
+    };
+    let lamps = s.lamps();
+    let members: Vec<Vec<usize>> = lamps.iter().map(|l| l.views.clone()).collect();
+    assert_eq!(members, vec![vec![0, 1], vec![2], vec![3, 4]]);
+    assert_eq!(lamps[0].name, "v0");
+    // Free exposures: the brightest view of a lamp gets 1, the others their share.
+    let r = [4.0, 1.0, 3.0, 2.0, 8.0];
+    let mut free = s.clone();
+    free.set_radiance(&r, false);
+    for (j, &want) in r.iter().enumerate() {
+        assert!(
+            (free.views[j].radiance_scale() - want).abs() <= 1e-12 * want,
+            "view {j}"
+        );
+    }
+    assert_eq!(free.views[0].light.intensity, free.views[1].light.intensity);
+    assert_eq!(free.views[3].light.intensity, 8.0);
+    assert_eq!((free.views[0].exposure, free.views[1].exposure), (1.0, 0.25));
+    assert_eq!(free.relative_brightness(), vec![1.0, 0.25, 1.0, 0.25, 1.0]);
+    assert_eq!(free.lamps()[0].intensity, 4.0);
+    // Kept exposures (tied views): one intensity, exposures as they were.
+    let mut tied = s.clone();
+    tied.views[1].exposure = 0.5;
+    tied.set_radiance(&[4.0, 2.0, 3.0, 2.0, 2.0], true);
+    assert_eq!(tied.views[0].light.intensity, 4.0);
+    assert_eq!(tied.views[1].light.intensity, 4.0);
+    assert_eq!(tied.views[1].exposure, 0.5);
+    assert_eq!(tied.relative_brightness()[1], 0.5);
+    // The exposure is read and written (only where it is not 1), and round-trips.
+    let d = tmpdir("exposure");
+    let p = d.join("scene.json");
+    free.save(&p, "s.csv").unwrap();
+    let text = std::fs::read_to_string(&p).unwrap();
+    assert_eq!(text.matches("\"exposure\"").count(), 2, "{text}");
+    assert_eq!(Scene::load(&p).unwrap(), free);
+    let mut v = base();
+    v["views"][0]["exposure"] = json!(0.0);
+    expect_err("exposure0", &v, &["exposure", "> 0"]);
+    v["views"][0]["exposure"] = json!("x");
+    expect_err("exposurex", &v, &["exposure", "not a finite number"]);
 }
 
 /// A misspelt key is not silently ignored: a warning names it and the closest known key; known

@@ -15,6 +15,7 @@
 //! - [`scene_params`]: the design's parameter set (scratches and lights) and its projection.
 //! - [`tool_params`]: fabrication mode's parameter set: one carve depth per scratch through a
 //!   calibrated tool's curve.
+//! - [`light_tie`]: views that share a lamp share its intensity (a parameter-set wrapper).
 //! - [`prune`]: removal of scratches that barely matter, checked by true forward evaluations.
 //! - [`observe`]: how libraries report progress and warnings (they never print).
 //! - [`error`]: what can stop an optimization.
@@ -28,6 +29,7 @@ pub mod checkpoint;
 pub mod driver;
 pub mod error;
 pub mod least_squares;
+pub mod light_tie;
 pub mod loss;
 pub mod observe;
 pub mod prune;

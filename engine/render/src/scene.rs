@@ -173,7 +173,7 @@ impl GpuScene {
         let (sbase, sbase_sums) =
             scratch_base_buffers(ctx, n_scratches, binning_parts(n_bands, scene.views.len() as u32))?;
         let scr: Vec<ScratchGpu> = scene.scratches.iter().map(ScratchGpu::from).collect();
-        let phi: Vec<f32> = scene.views.iter().map(|v| v.light.intensity as f32).collect();
+        let phi: Vec<f32> = scene.views.iter().map(|v| v.radiance_scale() as f32).collect();
         let hist_len = dims.offsets_len();
         let n_blocks = hist_len.div_ceil(SCAN_BLOCK as u64);
         let capacity = dims.first_list_capacity(ctx.info().max_storage_buffer_range);
@@ -614,7 +614,7 @@ impl GpuScene {
             new.push(layout::view_gpu(v, old.base[0], old.base[1]));
         }
         let new64: Vec<_> = views.iter().map(layout::view_gpu64).collect();
-        let phi: Vec<f32> = views.iter().map(|v| v.light.intensity as f32).collect();
+        let phi: Vec<f32> = views.iter().map(|v| v.radiance_scale() as f32).collect();
         self.views.write(0, &new)?;
         self.views64.write(0, &new64)?;
         self.lights.write(0, &phi)?;

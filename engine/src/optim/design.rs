@@ -49,10 +49,14 @@ impl<'r> Optimizer<'r> {
             )?)),
             None => None,
         };
-        let params: Box<dyn super::driver::ParamSet> = match &tool {
+        let mut params: Box<dyn super::driver::ParamSet> = match &tool {
             Some(t) => Box::new(t.clone()),
             None => Box::new(SceneParams::new(&ctx, &cfg.adam)?),
         };
+        if cfg.keep_exposures {
+            let lamps: Vec<Vec<usize>> = problem.scene.lamps().into_iter().map(|l| l.views).collect();
+            params = Box::new(super::light_tie::TiedLights::new(&ctx, params, &lamps)?);
+        }
         let mut tbytes = Vec::new();
         for t in &problem.targets {
             tbytes.extend_from_slice(bytemuck::cast_slice(t));
@@ -71,6 +75,7 @@ impl<'r> Optimizer<'r> {
             "loss": format!("{:?}", cfg.loss),
             "adam": format!("{:?}", cfg.adam),
             "seed": cfg.seed,
+            "exposure": if cfg.keep_exposures { "fixed" } else { "free" },
         });
         if let Some(fab) = &cfg.tool {
             fingerprint["fabrication"] = fab.fingerprint();
@@ -115,19 +120,35 @@ impl<'r> Optimizer<'r> {
         let gs = &self.driver.gs;
         let mut phi: Vec<f32> = gs.lights().read()?;
         phi.truncate(scene.views.len());
-        for (v, (img, t)) in lin.iter().zip(targets).enumerate() {
-            let mask = crate::model::camera::on_plate_mask(scene, v);
-            let (mut sl, mut st, mut n) = (0.0f64, 0.0f64, 0usize);
-            for ((&l, &tv), &m) in img.iter().zip(t).zip(&mask) {
-                if m {
-                    sl += l as f64;
-                    st += crate::model::display::linear(tv as f64);
-                    n += 1;
+        // Sums of L and of the target's linear values over each view's on-plate pixels.
+        let sums: Vec<(f64, f64)> = lin
+            .iter()
+            .zip(targets)
+            .enumerate()
+            .map(|(v, (img, t))| {
+                let mask = crate::model::camera::on_plate_mask(scene, v);
+                let (mut sl, mut st) = (0.0f64, 0.0f64);
+                for ((&l, &tv), &m) in img.iter().zip(t).zip(&mask) {
+                    if m {
+                        sl += l as f64;
+                        st += crate::model::display::linear(tv as f64);
+                    }
                 }
-            }
-            if n > 0 && sl > 0.0 && st > 0.0 {
-                let p = phi[v] as f64 * st / sl;
-                phi[v] = (p as f32).max(self.cfg.adam.phi_min);
+                (sl, st)
+            })
+            .collect();
+        // Each view on its own, or (exposures kept) each lamp by its views together, by one factor.
+        let groups: Vec<Vec<usize>> = if self.cfg.keep_exposures {
+            scene.lamps().into_iter().map(|l| l.views).collect()
+        } else {
+            (0..scene.views.len()).map(|v| vec![v]).collect()
+        };
+        for g in groups {
+            let (sl, st) = g.iter().fold((0.0, 0.0), |(a, b), &v| (a + sums[v].0, b + sums[v].1));
+            if sl > 0.0 && st > 0.0 {
+                for v in g {
+                    phi[v] = ((phi[v] as f64 * st / sl) as f32).max(self.cfg.adam.phi_min);
+                }
             }
         }
         gs.lights().write(0, &phi)?;
@@ -139,7 +160,12 @@ impl<'r> Optimizer<'r> {
         let gs = &self.driver.gs;
         let scr: Vec<ScratchGpu> = self.renderer.ctx.download(gs.scratches())?;
         let phi: Vec<f32> = gs.lights().read()?;
-        Ok(to_scene(template, &scr[..gs.n_scratches() as usize], &phi))
+        Ok(to_scene(
+            template,
+            &scr[..gs.n_scratches() as usize],
+            &phi,
+            self.cfg.keep_exposures,
+        ))
     }
 
     pub fn history(&self) -> Vec<IterRecord> {
@@ -171,8 +197,10 @@ impl<'r> Optimizer<'r> {
 }
 
 /// Builds a scene from GPU parameters: `template`'s plate and views with the lights' optimized
-/// intensities `phi` (one per view).
-pub fn to_scene(template: &Scene, scr: &[ScratchGpu], phi: &[f32]) -> Scene {
+/// radiance scales `phi` (one per view: intensity times exposure), split into one intensity per
+/// lamp and an exposure per view ([`Scene::set_radiance`]; `keep_exposures` where the optimizer
+/// kept each lamp's views tied).
+pub fn to_scene(template: &Scene, scr: &[ScratchGpu], phi: &[f32], keep_exposures: bool) -> Scene {
     let mut scene = template.clone();
     scene.scratches = scr
         .iter()
@@ -184,9 +212,8 @@ pub fn to_scene(template: &Scene, scr: &[ScratchGpu], phi: &[f32]) -> Scene {
             alpha: s.shape[2] as f64,
         })
         .collect();
-    for (v, &p) in scene.views.iter_mut().zip(phi) {
-        v.light.intensity = p as f64;
-    }
+    let r: Vec<f64> = phi.iter().map(|&p| p as f64).collect();
+    scene.set_radiance(&r, keep_exposures);
     scene
 }
 

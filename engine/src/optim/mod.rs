@@ -32,7 +32,7 @@
 //! read from the GPU, so a run is bit-reproducible on one device, and a resumed run equals an
 //! uninterrupted one bit for bit.
 pub use scratchart_optim::{
-    adam, check, checkpoint, driver, error, least_squares, loss, prune, scene_params, tool_params,
+    adam, check, checkpoint, driver, error, least_squares, light_tie, loss, prune, scene_params, tool_params,
 };
 
 pub mod design;

@@ -60,6 +60,11 @@ pub struct DesignConfig {
     pub seed: u64,
     /// Scale the lights at the start so that each view's mean on-plate L matches its target's.
     pub calibrate_lights: bool,
+    /// `--exposure fixed`: the views of each lamp stay tied (one intensity moves, each view's
+    /// exposure stays as the scene gives it, 1 by default), so the plate under one lamp looks as
+    /// the renders do without any adaptation. Otherwise (`free`) each view's brightness is its
+    /// own (an exposure per view, what an eye's adaptation or a camera does), reported as such.
+    pub keep_exposures: bool,
     /// Views left blank on purpose (`--blank-view`): their pictures are uniform; the set-up
     /// sheet says so instead of tolerances, and `summary.json` lists them.
     pub blank_views: Vec<String>,
@@ -87,6 +92,7 @@ impl DesignConfig {
             hooks: Hooks::default(),
             seed: 1,
             calibrate_lights: true,
+            keep_exposures: false,
             blank_views: Vec::new(),
             max_rollbacks: 30,
             write_outputs: true,

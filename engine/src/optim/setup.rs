@@ -421,23 +421,58 @@ pub fn setup_json(scene: &Scene) -> Value {
         LightKind::Point { position } => json!({"position_mm": position}),
         LightKind::Directional { direction } => json!({"direction": direction}),
     };
-    // Every lamp the sheet lists (`Scene::lamps`, as setup.txt and the viewer's overlay do).
+    // Every lamp the sheet lists (`Scene::lamps`, as setup.txt and the viewer's overlay do),
+    // with the views it lights and how bright each looks under it (its exposure).
+    let rel = scene.relative_brightness();
     let lamps: Vec<Value> = scene
         .lamps()
         .into_iter()
-        .map(|(name, kind, intensity)| {
-            let mut o = place(&kind);
-            o["for_view"] = json!(name);
-            o["intensity"] = json!(intensity);
+        .map(|l| {
+            let mut o = place(&l.kind);
+            o["for_view"] = json!(l.name);
+            o["intensity"] = json!(l.intensity);
+            o["views"] = json!(l.views.iter().map(|&j| scene.views[j].name.clone()).collect::<Vec<_>>());
+            o["brightness"] = json!(l
+                .views
+                .iter()
+                .map(|&j| json!({"view": scene.views[j].name, "relative": rel[j], "stops": rel[j].log2(), "exposure": scene.views[j].exposure}))
+                .collect::<Vec<_>>());
             o
         })
         .collect();
     json!({
         "light": place(&scene.views[0].light.kind),
         "lamps": lamps,
-        "views": scene.views.iter().map(|v| json!({"name": v.name, "eye_mm": v.camera.eye})).collect::<Vec<_>>(),
+        "views": scene.views.iter().map(|v| json!({"name": v.name, "eye_mm": v.camera.eye, "exposure": v.exposure})).collect::<Vec<_>>(),
         "mark": "+x",
     })
+}
+
+/// What the lamp's views look like under it, for the sheet: one line, or none when they all look
+/// equally bright (within 1%).
+pub fn brightness_line(scene: &Scene, lamp: &crate::model::scene::Lamp) -> Option<String> {
+    let rel = scene.relative_brightness();
+    if lamp.views.len() < 2 || lamp.views.iter().all(|&j| rel[j] > 0.99) {
+        return None;
+    }
+    let parts: Vec<String> = lamp
+        .views
+        .iter()
+        .map(|&j| {
+            let r = rel[j];
+            if r > 0.99 {
+                format!("{} 1.00", scene.views[j].name)
+            } else {
+                format!("{} {r:.2} ({:.1} stops darker)", scene.views[j].name, -r.log2())
+            }
+        })
+        .collect();
+    Some(format!(
+        "  Under it the views look: {}. These are the design's exposures: an eye adapts to such \
+         differences as it moves between the views, a camera needs that much more exposure; \
+         `design --exposure fixed` (the default) makes a plate whose views look as rendered under one lamp.",
+        parts.join(", ")
+    ))
 }
 
 /// `summary.json`'s `sensitivity`: each view's correlation as designed, the tolerances found
@@ -496,11 +531,13 @@ pub fn setup_text(scene: &Scene, sens: &Sensitivity, blank: &[bool]) -> String {
     let _ = writeln!(t, "The {edge} edge faces the first viewer ({}).", scene.views[0].name);
     let _ = writeln!(t);
     let lights = scene.lamps();
-    for (name, kind, _) in &lights {
+    for lamp in &lights {
+        let kind = &lamp.kind;
+        let names: Vec<&str> = lamp.views.iter().map(|&j| scene.views[j].name.as_str()).collect();
         let head = if lights.len() == 1 {
             "Lamp".to_string()
         } else {
-            format!("Lamp for {name}")
+            format!("Lamp for {}", names.join(", "))
         };
         match kind {
             LightKind::Point { position } => {
@@ -524,6 +561,9 @@ pub fn setup_text(scene: &Scene, sens: &Sensitivity, blank: &[bool]) -> String {
                 );
                 let _ = writeln!(t, "  A distant lamp or the sun at that elevation (parallel light).");
             }
+        }
+        if let Some(line) = brightness_line(scene, lamp) {
+            let _ = writeln!(t, "{line}");
         }
         // A lamp (nearly) in a viewer's eye: how a person does that.
         let at = match kind {
@@ -731,6 +771,7 @@ mod tests {
     fn summary_lists_the_lamps_the_sheet_lists() {
         use crate::model::scene::{Camera, Light, Plate, View};
         let view = |name: &str, kind: LightKind, intensity: f64| View {
+            exposure: 1.0,
             name: name.into(),
             camera: Camera {
                 eye: [0.0, -200.0, 200.0],
@@ -770,10 +811,11 @@ mod tests {
         let want = scene.lamps();
         assert_eq!(l.len(), 3, "{l:?}");
         assert_eq!(l.len(), want.len());
-        for (got, (name, _, intensity)) in l.iter().zip(&want) {
-            assert_eq!(got["for_view"], json!(name));
-            assert_eq!(got["intensity"], json!(intensity));
+        for (got, lamp) in l.iter().zip(&want) {
+            assert_eq!(got["for_view"], json!(lamp.name));
+            assert_eq!(got["intensity"], json!(lamp.intensity));
         }
+        assert_eq!(l[0]["views"], json!(["a", "c"]));
         assert_eq!(l[1]["position_mm"], json!([30.0, 100.0, 200.0]));
         assert_eq!(l[2]["direction"], json!([0.0, 1.0, 1.0]));
         // Every lamp the text names, the summary lists.

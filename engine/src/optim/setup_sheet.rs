@@ -25,6 +25,8 @@ pub struct Layout {
     pub mm_per_px: f64,
     /// The charts' plotting areas (no label may enter them).
     pub charts: Vec<Rect>,
+    /// Everything drawn that a text must not cover: marks, the plate, the scale bar, the charts.
+    pub obstacles: Vec<Rect>,
 }
 
 fn overlaps(a: &Rect, b: &Rect) -> bool {
@@ -139,6 +141,7 @@ impl<'a, 'b> Placer<'a, 'b> {
     /// Marks a region as taken (a marker, a chart) without drawing.
     fn block(&mut self, r: Rect) {
         self.taken.push(r);
+        self.layout.obstacles.push(r);
     }
 }
 
@@ -155,8 +158,8 @@ struct Item {
 fn items(scene: &Scene) -> Vec<Item> {
     let mut out = Vec::new();
     let lamps = scene.lamps();
-    for (name, kind, _) in &lamps {
-        let (xyz, direction) = match kind {
+    for lamp in &lamps {
+        let (xyz, direction) = match &lamp.kind {
             LightKind::Point { position } => (*position, false),
             LightKind::Directional { direction } => (*direction, true),
         };
@@ -164,7 +167,7 @@ fn items(scene: &Scene) -> Vec<Item> {
             name: if lamps.len() == 1 {
                 "lamp".into()
             } else {
-                format!("lamp ({name})")
+                format!("lamp ({})", lamp.name)
             },
             xyz,
             colour: LAMP,
@@ -295,7 +298,6 @@ fn draw(buf: &mut [u8], (wpx, hpx): (u32, u32), scene: &Scene, sens: &Sensitivit
         .map_err(|e| e.to_string())?;
     pl.block(mark);
     let top_in = [top[0] + 2, top[1] + 2, top[2] - 2, top[3] - 2];
-    pl.label("+x mark", (mark[2], c.1), 13, MARK, top_in)?;
     // scale bar, bottom left
     let bar_mm = nice_length(reach / 2.0);
     let bar_px = (bar_mm / mmpp).round() as i32;
@@ -341,6 +343,8 @@ fn draw(buf: &mut [u8], (wpx, hpx): (u32, u32), scene: &Scene, sens: &Sensitivit
         pl.block([p.0 - rad, p.1 - rad, p.0 + rad + 1, p.1 + rad + 1]);
         marks.push(p);
     }
+    // Labels after every mark, so that none covers one.
+    pl.label("+x mark", (mark[2], c.1), 13, MARK, top_in)?;
     for (it, &p) in items.iter().zip(&marks) {
         let q = Place::of(it.xyz);
         let t = format!("{} az {:.0} deg", it.name, q.azimuth_deg);
@@ -583,6 +587,7 @@ mod tests {
                 .iter()
                 .enumerate()
                 .map(|(j, &eye)| View {
+                    exposure: 1.0,
                     name: format!("v{j}"),
                     camera: Camera {
                         eye,
@@ -646,6 +651,9 @@ mod tests {
             for c in &l.charts {
                 assert!(!overlaps(r, c), "{label}: `{t}` {r:?} enters a chart {c:?}");
             }
+            for o in &l.obstacles {
+                assert!(!overlaps(r, o), "{label}: `{t}` {r:?} covers a mark {o:?}");
+            }
             for (u, q) in &l.texts[..i] {
                 assert!(!overlaps(r, q), "{label}: `{t}` {r:?} overlaps `{u}` {q:?}");
             }
@@ -684,6 +692,17 @@ mod tests {
                 &eyes,
                 LightKind::Directional {
                     direction: [0.2, 0.3, 1.0],
+                },
+            ),
+        );
+        // A lamp high above, just beyond the +x mark in the top view (where the mark's label goes).
+        let eyes = ring(3, 300.0, 45.0);
+        assert_clean(
+            "a lamp by the mark",
+            &scene(
+                &eyes,
+                LightKind::Point {
+                    position: [52.0, 0.0, 400.0],
                 },
             ),
         );

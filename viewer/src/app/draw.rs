@@ -88,6 +88,7 @@ impl App {
         };
         let (iw, ih) = internal_size(full, level);
         let view = View {
+            exposure: 1.0,
             name: "interactive".into(),
             camera: self.cam.camera(iw, ih),
             light: self.light.light(),

@@ -69,6 +69,18 @@ pub struct View {
     pub name: String,
     pub camera: Camera,
     pub light: Light,
+    /// What the eye's adaptation or a camera's exposure does to this view: a factor on the
+    /// radiance it sees (the scene file's optional `exposure`, default 1). Views that share a
+    /// lamp share its intensity; their exposures say how bright each looks relative to the
+    /// others under that lamp.
+    pub exposure: f64,
+}
+
+impl View {
+    /// The factor the renderer applies to this view's light: intensity times exposure.
+    pub fn radiance_scale(&self) -> f64 {
+        self.light.intensity * self.exposure
+    }
 }
 
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -87,21 +99,100 @@ pub struct Scene {
     pub scratches: Vec<Scratch>,
 }
 
+/// One lamp a maker sets up: the light of one or more views, at one place (within 1 um) or from
+/// one direction.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Lamp {
+    /// The first view it lights (names the lamp where there are several).
+    pub name: String,
+    pub kind: LightKind,
+    /// Its intensity: the largest of its views' (one value where the design shares it).
+    pub intensity: f64,
+    /// The views it lights (indices, in view order).
+    pub views: Vec<usize>,
+}
+
+/// Whether two lights are one lamp: points within 1 um, or one direction.
+pub fn same_lamp(a: &LightKind, b: &LightKind) -> bool {
+    match (a, b) {
+        (LightKind::Point { position: p }, LightKind::Point { position: q }) => {
+            let d = [p[0] - q[0], p[1] - q[1], p[2] - q[2]];
+            (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt() <= 1e-3
+        }
+        (LightKind::Directional { direction: p }, LightKind::Directional { direction: q }) => {
+            let dot = p[0] * q[0] + p[1] * q[1] + p[2] * q[2];
+            dot >= 1.0 - 1e-12
+        }
+        _ => false,
+    }
+}
+
 impl Scene {
-    /// The lamps a maker sets up: one per distinct light of the views (its kind, place and
-    /// intensity), in view order, each named after the first view it lights, with its kind and
-    /// intensity. The set-up sheet and the viewer's overlay both list these.
-    pub fn lamps(&self) -> Vec<(String, LightKind, f64)> {
-        let mut lamps: Vec<(String, LightKind, f64)> = Vec::new();
-        for v in &self.views {
-            if !lamps
-                .iter()
-                .any(|(_, k, i)| *k == v.light.kind && *i == v.light.intensity)
-            {
-                lamps.push((v.name.clone(), v.light.kind.clone(), v.light.intensity));
+    /// The lamps a maker sets up: views whose lights stand at one place (within 1 um) or come
+    /// from one direction share one lamp, named after the first view it lights. The set-up
+    /// sheet, `summary.json` and the viewer's overlay all list these.
+    pub fn lamps(&self) -> Vec<Lamp> {
+        let mut lamps: Vec<Lamp> = Vec::new();
+        for (j, v) in self.views.iter().enumerate() {
+            match lamps.iter_mut().find(|l| same_lamp(&l.kind, &v.light.kind)) {
+                Some(l) => {
+                    l.views.push(j);
+                    l.intensity = l.intensity.max(v.light.intensity);
+                }
+                None => lamps.push(Lamp {
+                    name: v.name.clone(),
+                    kind: v.light.kind.clone(),
+                    intensity: v.light.intensity,
+                    views: vec![j],
+                }),
             }
         }
         lamps
+    }
+
+    /// Each view's brightness relative to the brightest view under the same lamp (its
+    /// intensity times exposure over the largest such product of the lamp's views): what the
+    /// set-up sheet reports as each view's exposure.
+    pub fn relative_brightness(&self) -> Vec<f64> {
+        let mut out = vec![1.0; self.views.len()];
+        for lamp in self.lamps() {
+            let top = lamp
+                .views
+                .iter()
+                .map(|&j| self.views[j].radiance_scale())
+                .fold(0.0, f64::max);
+            for &j in &lamp.views {
+                out[j] = self.views[j].radiance_scale() / top;
+            }
+        }
+        out
+    }
+
+    /// Sets every view's light from the radiance scale `r[j]` it renders with (intensity times
+    /// exposure, what the optimizer moves per view): views that share a lamp get one intensity.
+    /// With `keep_exposures` the exposures stay as they are and the lamp's intensity is the
+    /// geometric mean of r / exposure over its views (equal where the optimizer kept them tied);
+    /// otherwise the brightest view of each lamp gets exposure 1, the others less.
+    pub fn set_radiance(&mut self, r: &[f64], keep_exposures: bool) {
+        for lamp in self.lamps() {
+            let intensity = if keep_exposures {
+                let each: Vec<f64> = lamp.views.iter().map(|&j| r[j] / self.views[j].exposure).collect();
+                if each.iter().all(|&x| x == each[0]) {
+                    each[0]
+                } else {
+                    (each.iter().map(|x| x.ln()).sum::<f64>() / each.len() as f64).exp()
+                }
+            } else {
+                lamp.views.iter().map(|&j| r[j]).fold(0.0, f64::max)
+            };
+            for &j in &lamp.views {
+                let v = &mut self.views[j];
+                v.light.intensity = intensity;
+                if !keep_exposures {
+                    v.exposure = r[j] / intensity;
+                }
+            }
+        }
     }
 }
 

@@ -18,7 +18,7 @@ use super::{
 /// names its target image (read by the viewer).
 const TOP_KEYS: &[&str] = &["plate", "views", "scratches", "card", "setup"];
 const PLATE_KEYS: &[&str] = &["size_mm", "roughness", "f0"];
-const VIEW_KEYS: &[&str] = &["name", "camera", "light", "target"];
+const VIEW_KEYS: &[&str] = &["name", "camera", "light", "target", "exposure"];
 const CAMERA_KEYS: &[&str] = &["eye", "target", "up", "fov_y_deg", "width", "height"];
 const LIGHT_KEYS: &[&str] = &["kind", "position", "direction", "intensity"];
 
@@ -349,7 +349,9 @@ fn parse_view(v: &Value, k: usize, file: &str) -> Result<View, SceneError> {
         }
     };
     let intensity = req_num(lo, "intensity", &light_ctx, file)?;
+    let exposure = opt_num(o, "exposure", &ctx, file)?.unwrap_or(1.0);
     Ok(View {
+        exposure,
         name,
         camera,
         light: Light { kind, intensity },

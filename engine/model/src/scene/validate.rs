@@ -189,6 +189,15 @@ fn check_view(v: &View) -> Result<(), (String, String)> {
             format!("light intensity {} must be a finite number > 0", l.intensity),
         ));
     }
+    if !(v.exposure.is_finite() && v.exposure > 0.0) {
+        return Err((
+            f("exposure"),
+            format!(
+                "exposure {} must be a finite number > 0 (1: as the lamp gives it)",
+                v.exposure
+            ),
+        ));
+    }
     Ok(())
 }
 

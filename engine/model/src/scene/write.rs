@@ -22,14 +22,19 @@ impl Scene {
                     LightKind::Directional { direction } => json!({
                         "kind": "directional", "direction": direction, "intensity": v.light.intensity }),
                 };
-                json!({
+                let mut o = json!({
                     "name": v.name,
                     "camera": {
                         "eye": c.eye, "target": c.target, "up": c.up,
                         "fov_y_deg": c.fov_y_deg, "width": c.width, "height": c.height
                     },
                     "light": light
-                })
+                });
+                // MODEL.md's view has no exposure: written only where it is not 1.
+                if v.exposure != 1.0 {
+                    o["exposure"] = json!(v.exposure);
+                }
+                o
             })
             .collect();
         json!({
