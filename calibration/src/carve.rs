@@ -170,10 +170,9 @@ fn keys(control: Arc<Control>, asking: Arc<AtomicBool>) -> Receiver<String> {
 }
 
 fn load_profile(path: &Path) -> Result<MachineProfile> {
-    let text = std::fs::read_to_string(path)
-        .map_err(|e| InputError(format!("cannot read machine profile {}: {e}", path.display())))?;
-    Ok(serde_json::from_str(&text)
-        .map_err(|e| InputError(format!("machine profile {} is not valid: {e}", path.display())))?)
+    // A profile that names no firmware is read over the GRBL one; `carve` checks it against
+    // the controller it finds.
+    crate::plan_cmd::load_profile(path, scratchart_machine::plan::Firmware::Grbl)
 }
 
 pub fn run(a: &CarveArgs) -> Result<()> {

@@ -10,7 +10,7 @@ use scratchart_machine::gcode::{write_blocks, Options};
 use scratchart_machine::level::{compensate, HeightMap};
 use scratchart_machine::plan::{
     check_bounds, check_moves, nearest_neighbour, orientation_mark, program_time, program_travel, surface_depth_mm,
-    travel, two_opt, Block, Cut, MachineProfile,
+    travel, two_opt, Block, Cut, Firmware, MachineProfile,
 };
 use scratchart_tool::Tool;
 
@@ -33,8 +33,15 @@ pub struct MachineArgs {
     /// Firmware of the machine: grbl (a router) or marlin (a printer with an engraving bit)
     #[arg(long, default_value = "grbl", value_parser = ["grbl", "marlin"])]
     pub machine: String,
-    /// Machine profile (JSON: firmware, travel_mm, feeds, accel_mm_s2, safe_z_mm, spindle_rpm);
-    /// default: the built-in profile of --machine
+    /// Machine profile, a JSON object of any of these fields (the rest from the built-in profile
+    /// of its firmware; `plan --print-machine` prints one to start from): firmware ("grbl" or
+    /// "marlin"); travel_mm ([X, Y, Z], the plate centred on X/Y); rapid_mm_min, cut_mm_min,
+    /// plunge_mm_min (feeds; plunge is every Z move on Marlin); accel_mm_s2; retract_mm (height
+    /// above the surface between neighbouring cuts); clearance_mm (for long travels, start and
+    /// end; older name safe_z_mm); long_travel_mm (a travel longer than this rises to the
+    /// clearance); z_step_mm (the Z step: designs command depths in its multiples);
+    /// z_repeatability_mm (1 sigma); min_cut_depth_mm (the shallowest cut the maker trusts);
+    /// spindle_rpm (or null). Default: the built-in profile of --machine
     #[arg(long)]
     pub machine_file: Option<PathBuf>,
 }
@@ -43,7 +50,12 @@ pub struct MachineArgs {
 #[derive(clap::Args, Debug)]
 pub struct PlanArgs {
     /// The design (design.json from `scratchart design`)
-    pub design: PathBuf,
+    #[arg(required_unless_present = "print_machine")]
+    pub design: Option<PathBuf>,
+    /// Print the machine profile (the built-in one of --machine, or --machine-file over it) as
+    /// JSON, to start a machine.json from, and stop
+    #[arg(long)]
+    pub print_machine: bool,
     /// The tool (tool.json); needed unless the design's scratch CSV has a z_mm column
     #[arg(long)]
     pub tool: Option<PathBuf>,
@@ -89,32 +101,25 @@ pub fn machine_profile(machine: &str, machine_file: Option<&Path>, bed: Option<&
         other => return Err(UsageError(format!("--machine {other}: expected grbl or marlin")).into()),
     };
     if let Some(f) = machine_file {
-        let text = std::fs::read_to_string(f)
-            .map_err(|e| InputError(format!("cannot read machine profile {}: {e}", f.display())))?;
-        m = serde_json::from_str(&text)
-            .map_err(|e| InputError(format!("machine profile {} is not valid: {e}", f.display())))?;
-        let ok = m.travel_mm.iter().all(|t| *t > 0.0)
-            && [
-                m.rapid_mm_min,
-                m.cut_mm_min,
-                m.plunge_mm_min,
-                m.accel_mm_s2,
-                m.safe_z_mm,
-            ]
-            .iter()
-            .all(|v| *v > 0.0 && v.is_finite());
-        if !ok {
-            return Err(InputError(format!(
-                "machine profile {}: travel, feeds, acceleration and safe height must all be > 0",
-                f.display()
-            ))
-            .into());
-        }
+        m = load_profile(f, m.firmware)?;
     }
     if let Some(b) = bed {
         let [w, h] = parse_bed(b)?;
         m.travel_mm[0] = w;
         m.travel_mm[1] = h;
+    }
+    Ok(m)
+}
+
+/// Reads a machine.json ([`MachineProfile::from_json`]): the fields it gives over the built-in
+/// profile of its firmware (`default` where it names none); unknown keys are warned about.
+pub fn load_profile(f: &Path, default: Firmware) -> Result<MachineProfile> {
+    let text = std::fs::read_to_string(f)
+        .map_err(|e| InputError(format!("cannot read machine profile {}: {e}", f.display())))?;
+    let (m, warnings) = MachineProfile::from_json(&text, default)
+        .map_err(|e| InputError(format!("machine profile {}: {e}", f.display())))?;
+    for w in warnings {
+        eprintln!("warning: machine profile {}: {w}", f.display());
     }
     Ok(m)
 }
@@ -127,6 +132,14 @@ fn visible_width(w: f64, d: f64) -> f64 {
 /// `scratchart-cal plan`.
 pub fn plan(a: &PlanArgs) -> Result<()> {
     let m = machine_profile(&a.machine.machine, a.machine.machine_file.as_deref(), a.bed.as_deref())?;
+    if a.print_machine {
+        println!("{}", m.to_json());
+        return Ok(());
+    }
+    let design = a
+        .design
+        .as_deref()
+        .ok_or_else(|| UsageError("give the design to plan".into()))?;
     let out = a.out.clone().unwrap_or_else(|| {
         PathBuf::from(match m.firmware {
             scratchart_machine::plan::Firmware::Marlin => "plan.gcode",
@@ -134,7 +147,7 @@ pub fn plan(a: &PlanArgs) -> Result<()> {
         })
     });
     let out = out.as_path();
-    let (scene, extra) = Scene::load_extra(&a.design)?;
+    let (scene, extra) = Scene::load_extra(design)?;
     if a.home && m.firmware != scratchart_machine::plan::Firmware::Marlin {
         return Err(UsageError("--home is for Marlin printers (GRBL uses its own work offsets)".into()).into());
     }
@@ -279,7 +292,7 @@ fn plan_depths(
                 };
                 return Err(InputError(format!(
                     "{}: scratch {} has z_mm = {}: {why}",
-                    a.design.display(),
+                    a.design.as_deref().unwrap_or(Path::new("-")).display(),
                     k + 1,
                     z[k]
                 ))
@@ -305,7 +318,7 @@ fn plan_depths(
             let t = tool.ok_or_else(|| {
                 UsageError(format!(
                     "{} has no z_mm column: give the tool (--tool tool.json) to map each scratch to a depth",
-                    a.design.display()
+                    a.design.as_deref().unwrap_or(Path::new("-")).display()
                 ))
             })?;
             let d = scratchart_machine::depths::depths(&scene.scratches, t, 0.5);

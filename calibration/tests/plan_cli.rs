@@ -394,3 +394,75 @@ fn commanded_depths_start_at_the_tools_surface() {
     assert!(e.contains("scratch 6") && e.contains("-0.004"), "{e}");
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// `plan --print-machine` prints the built-in profile as a machine.json to start from; a file
+/// with a few fields plans over the built-in profile (an unknown key warned about, the old
+/// `safe_z_mm` read as the clearance), and a bad value is refused with exit 3 naming the field.
+#[test]
+fn the_machine_profile_is_printed_and_read_back() {
+    let bin = scratchart_tests::workspace_bin("scratchart-calibration", "scratchart-cal");
+    let dir = std::env::temp_dir().join(format!("scratchart-profile-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let run = |args: &[&str]| Command::new(&bin).current_dir(&dir).args(args).output().unwrap();
+    for (machine, want) in [
+        ("grbl", scratchart_machine::plan::MachineProfile::grbl()),
+        ("marlin", scratchart_machine::plan::MachineProfile::marlin()),
+    ] {
+        let o = run(&["plan", "--print-machine", "--machine", machine]);
+        assert_eq!(o.status.code(), Some(0), "{}", String::from_utf8_lossy(&o.stderr));
+        let got: scratchart_machine::plan::MachineProfile = serde_json::from_slice(&o.stdout).unwrap();
+        assert_eq!(got, want);
+    }
+    design(60.0).save(&dir.join("design.json"), "s.csv").unwrap();
+    std::fs::write(
+        dir.join("tool.json"),
+        r#"{ "kind": "v-bit", "angle_deg": 60.0, "tip_flat_mm": 0.01, "z_offset_mm": 0.0 }"#,
+    )
+    .unwrap();
+    std::fs::write(
+        dir.join("m.json"),
+        r#"{"safe_z_mm": 4, "retract_mm": 0.5, "retrakt": 1}"#,
+    )
+    .unwrap();
+    let o = run(&[
+        "plan",
+        "design.json",
+        "--tool",
+        "tool.json",
+        "--machine-file",
+        "m.json",
+        "--out",
+        "p.nc",
+    ]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(0), "{err}");
+    assert!(
+        err.contains("unknown key `retrakt`") && err.contains("`retract_mm`"),
+        "{err}"
+    );
+    let g = std::fs::read_to_string(dir.join("p.nc")).unwrap();
+    assert!(
+        g.contains("G0 Z0.500") && g.contains("G0 Z4.000"),
+        "retract and clearance heights:\n{g}"
+    );
+    std::fs::write(dir.join("bad.json"), r#"{"cut_mm_min": "fast"}"#).unwrap();
+    let o = run(&[
+        "plan",
+        "design.json",
+        "--tool",
+        "tool.json",
+        "--machine-file",
+        "bad.json",
+        "--out",
+        "q.nc",
+    ]);
+    assert_eq!(o.status.code(), Some(3));
+    assert!(
+        String::from_utf8_lossy(&o.stderr).contains("cut_mm_min"),
+        "{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    assert!(!dir.join("q.nc").exists());
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -112,7 +112,8 @@ pub fn write_blocks(blocks: &[Block], m: &MachineProfile, plate_mm: f64, summary
     for s in summary {
         comment(&mut g, s);
     }
-    let safe = num(m.safe_z_mm, 3);
+    let safe = num(m.clearance_mm, 3);
+    let retract = num(m.retract_mm, 3);
     let zf = num(m.plunge_mm_min, 0);
     let cf = num(m.cut_mm_min, 0);
     let rf = num(m.rapid_mm_min, 0);
@@ -145,14 +146,29 @@ pub fn write_blocks(blocks: &[Block], m: &MachineProfile, plate_mm: f64, summary
         let _ = writeln!(g, "G4 P2");
     }
     let xy = |p: &[f64; 3]| format!("X{} Y{}", num(p[0], 4), num(p[1], 4));
+    let z_to = |h: &str| match m.firmware {
+        Firmware::Grbl => format!("G0 Z{h}"),
+        Firmware::Marlin => format!("G0 Z{h} F{zf}"),
+    };
+    // Between neighbouring cuts the tool waits at the retract height; a long travel (and the
+    // first) goes at the clearance height ([`crate::plan::Hop`]).
+    let mut at = [0.0, 0.0];
+    let mut high = true;
     for (i, b) in blocks.iter().enumerate() {
         // The design's number, and where it comes in the cut order (as `carve` counts).
         let _ = writeln!(g, "; {} (cut {} of {})", b.label, i + 1, blocks.len());
         let first = &b.path[0];
+        let hop = crate::plan::Hop::of(m, at, [first[0], first[1]], high);
+        if hop.rise {
+            let _ = writeln!(g, "{}", z_to(&safe));
+        }
         let _ = match m.firmware {
             Firmware::Grbl => writeln!(g, "G0 {}", xy(first)),
             Firmware::Marlin => writeln!(g, "G0 {} F{rf}", xy(first)),
         };
+        if hop.descend {
+            let _ = writeln!(g, "{}", z_to(&retract));
+        }
         let _ = writeln!(g, "G1 Z{} F{zf}", num(first[2], 4));
         let mut z = first[2];
         for p in &b.path[1..] {
@@ -163,11 +179,12 @@ pub fn write_blocks(blocks: &[Block], m: &MachineProfile, plate_mm: f64, summary
             }
             z = p[2];
         }
-        let _ = match m.firmware {
-            Firmware::Grbl => writeln!(g, "G0 Z{safe}"),
-            Firmware::Marlin => writeln!(g, "G0 Z{safe} F{zf}"),
-        };
+        let _ = writeln!(g, "{}", z_to(&retract));
+        let last = b.path[b.path.len() - 1];
+        at = [last[0], last[1]];
+        high = false;
     }
+    let _ = writeln!(g, "{}", z_to(&safe));
     match m.firmware {
         Firmware::Grbl => {
             if m.spindle_rpm.is_some() {

@@ -246,13 +246,16 @@ impl Program {
                 None => p.preamble.push(line.to_string()),
             }
         }
-        // The last block ends with its retract (`G0 Z..`); what follows it is the postamble.
+        // The last block ends with its retract, the first `G0 Z..` after its cut (`G1`); what
+        // follows it (the rise to the clearance height, the way home) is the postamble.
         if let Some(b) = p.blocks.last_mut() {
+            let cut = b.lines.iter().position(|l| l.starts_with("G1")).unwrap_or(0);
             let end = b
                 .lines
                 .iter()
-                .rposition(|l| l.starts_with("G0 Z"))
-                .map_or(b.lines.len(), |i| i + 1);
+                .skip(cut)
+                .position(|l| l.starts_with("G0 Z"))
+                .map_or(b.lines.len(), |i| cut + i + 1);
             p.postamble = b.lines.split_off(end);
         }
         if let Some(b) = p.blocks.iter().find(|b| b.lines.is_empty()) {
@@ -345,8 +348,10 @@ mod tests {
         assert_eq!(p.blocks[0].scratch, Some(5));
         assert_eq!(p.blocks[1].label, "scratch 1");
         assert_eq!(p.blocks[1].lines.len(), 4);
-        assert_eq!(p.blocks[1].lines[3], "G0 Z2.000");
-        assert_eq!(p.postamble, vec!["M5", "G0 X0 Y0", "M2"]);
+        // A neighbour 1.4 mm away: the hop at the retract height, no rise to the clearance.
+        assert_eq!(p.blocks[1].lines[0], "G0 X2.0000 Y1.0000");
+        assert_eq!(p.blocks[1].lines[3], "G0 Z0.300");
+        assert_eq!(p.postamble, vec!["G0 Z2.000", "M5", "G0 X0 Y0", "M2"]);
         assert!(p.preamble.contains(&"M3 S10000".to_string()));
         assert_eq!(p.spindle_rpm, Some(10000.0));
         assert!((p.min_z + 0.05).abs() < 1e-12 && p.max_xy == 3.0);

@@ -4,8 +4,8 @@ use scratchart_machine::depths::depths;
 use scratchart_machine::gcode::{self, write_blocks, Options};
 use scratchart_machine::level::{compensate, HeightMap};
 use scratchart_machine::plan::{
-    check_bounds, check_cuts, check_moves, job_time, move_time, nearest_neighbour, orientation_mark, travel, two_opt,
-    Block, Cut, Label, MachineProfile,
+    check_bounds, check_cuts, check_moves, job_time, move_time, nearest_neighbour, orientation_mark, program_time,
+    travel, two_opt, Block, Cut, Label, MachineProfile,
 };
 use scratchart_model::scene::Scratch;
 use scratchart_tool::Tool;
@@ -86,10 +86,15 @@ fn time_follows_the_acceleration_model() {
         z: 0.05,
         scratch: 0,
     };
+    // From the work zero at the clearance height: the rapid, down to the retract height, the
+    // plunge, the cut, the retract; then up to the clearance height and home.
+    let up_down = move_time(m.clearance_mm - m.retract_mm, m.rapid_mm_min, m.accel_mm_s2);
     let want = move_time(10.0, m.rapid_mm_min, m.accel_mm_s2)
-        + move_time(m.safe_z_mm + 0.05, m.plunge_mm_min, m.accel_mm_s2)
+        + up_down
+        + move_time(m.retract_mm + 0.05, m.plunge_mm_min, m.accel_mm_s2)
         + move_time(10.0, m.cut_mm_min, m.accel_mm_s2)
-        + move_time(m.safe_z_mm + 0.05, m.rapid_mm_min, m.accel_mm_s2)
+        + move_time(m.retract_mm + 0.05, m.rapid_mm_min, m.accel_mm_s2)
+        + up_down
         + move_time(20.0, m.rapid_mm_min, m.accel_mm_s2);
     assert!((job_time(&[c], &m) - want).abs() < 1e-12);
     // More than distance over feed.
@@ -402,4 +407,126 @@ fn malformed_height_maps_are_refused_clearly() {
     std::fs::write(dir.join("ok.json"), m.to_json()).unwrap();
     assert_eq!(HeightMap::load(&dir.join("ok.json")).unwrap(), m);
     let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// Between neighbouring cuts the tool waits at the retract height (a few tenths of a millimetre);
+/// a travel longer than `long_travel_mm` rises to the clearance height first. The G-code does
+/// what the time model counts, and the retract halves the time a design spends in the air.
+#[test]
+fn neighbouring_cuts_hop_at_the_retract_height() {
+    let m = MachineProfile::grbl();
+    let cut = |x: f64, y: f64, k: usize| Cut {
+        a: [x, y],
+        b: [x + 1.0, y],
+        z: 0.03,
+        scratch: k,
+    };
+    // Two neighbours 2 mm apart, then one 40 mm away (a long travel).
+    let cuts = [cut(0.0, 0.0, 0), cut(0.0, 2.0, 1), cut(0.0, 42.0, 2)];
+    let g = gcode::write(&cuts, &m, 100.0, &[]);
+    let body: Vec<&str> = g.lines().skip_while(|l| !l.starts_with("; scratch 1 ")).collect();
+    let block = |k: usize| -> Vec<&str> {
+        body.iter()
+            .skip_while(|l| !l.starts_with(&format!("; scratch {k} ")))
+            .skip(1)
+            .take_while(|l| !l.starts_with("; "))
+            .copied()
+            .collect()
+    };
+    assert_eq!(
+        block(1),
+        [
+            "G0 X0.0000 Y0.0000",
+            "G0 Z0.300",
+            "G1 Z-0.0300 F100",
+            "G1 X1.0000 Y0.0000 F300",
+            "G0 Z0.300"
+        ]
+    );
+    assert_eq!(
+        block(2),
+        [
+            "G0 X0.0000 Y2.0000",
+            "G1 Z-0.0300 F100",
+            "G1 X1.0000 Y2.0000 F300",
+            "G0 Z0.300"
+        ]
+    );
+    assert_eq!(
+        block(3)[..4],
+        ["G0 Z2.000", "G0 X0.0000 Y42.0000", "G0 Z0.300", "G1 Z-0.0300 F100"],
+        "a long travel rises to the clearance height"
+    );
+    assert!(
+        g.contains("G0 Z0.300\nG0 Z2.000\nM5"),
+        "the end rises to the clearance height:\n{g}"
+    );
+    // The time model counts those moves: a profile that hops at the clearance height everywhere
+    // (the old plans) takes longer, by the Z moves it adds.
+    let blocks: Vec<Block> = cuts.iter().map(Block::flat).collect();
+    let mut high = m.clone();
+    high.retract_mm = high.clearance_mm;
+    let (t, t_high) = (program_time(&blocks, &m), program_time(&blocks, &high));
+    assert!(t < t_high, "{t} against {t_high}");
+    let many = random_cuts(300, 100.0);
+    let order = two_opt(nearest_neighbour(&many), 200);
+    let blocks: Vec<Block> = order.iter().map(Block::flat).collect();
+    let (t, t_high) = (program_time(&blocks, &m), program_time(&blocks, &high));
+    eprintln!(
+        "300 cuts: {:.1} min at a 0.3 mm retract, {:.1} min at 2 mm",
+        t / 60.0,
+        t_high / 60.0
+    );
+    assert!(t < 0.75 * t_high, "{t} against {t_high}");
+}
+
+/// A machine.json gives any fields over the built-in profile of its firmware; the old name
+/// `safe_z_mm` is the clearance; an unknown key is warned about with the closest known key; a
+/// bad value is an error naming the field. `to_json` prints a profile that reads back the same.
+#[test]
+fn machine_profiles_are_read_over_the_built_in_one() {
+    use scratchart_machine::plan::Firmware;
+    let (m, w) = MachineProfile::from_json(r#"{"retract_mm": 0.5}"#, Firmware::Grbl).unwrap();
+    assert!(w.is_empty());
+    assert_eq!(
+        m,
+        MachineProfile {
+            retract_mm: 0.5,
+            ..MachineProfile::grbl()
+        }
+    );
+    let (m, w) = MachineProfile::from_json(
+        r#"{"firmware": "marlin", "safe_z_mm": 3, "z_stepmm": 0.01}"#,
+        Firmware::Grbl,
+    )
+    .unwrap();
+    assert_eq!(m.firmware, Firmware::Marlin);
+    assert_eq!(m.clearance_mm, 3.0);
+    assert_eq!(m.z_step_mm, MachineProfile::marlin().z_step_mm);
+    assert_eq!(w.len(), 1);
+    assert!(w[0].contains("z_stepmm") && w[0].contains("z_step_mm"), "{w:?}");
+    for (text, needle) in [
+        (r#"{"retract_mm": 5}"#, "retract_mm 5 is above clearance_mm"),
+        (r#"{"z_step_mm": 0}"#, "z_step_mm is 0"),
+        (r#"{"min_cut_depth_mm": -1}"#, "min_cut_depth_mm is -1"),
+        (r#"{"firmware": "smoothie"}"#, "expected \"grbl\" or \"marlin\""),
+        (r#"{"cut_mm_min": "fast"}"#, "cut_mm_min"),
+        (r#"[1, 2]"#, "JSON object"),
+    ] {
+        let e = MachineProfile::from_json(text, Firmware::Grbl).unwrap_err();
+        assert!(e.contains(needle), "{text}: {e}");
+    }
+    for m in [MachineProfile::grbl(), MachineProfile::marlin()] {
+        let (back, w) = MachineProfile::from_json(&m.to_json(), Firmware::Grbl).unwrap();
+        assert_eq!(back, m);
+        assert!(w.is_empty());
+        // Every field is described.
+        let v: serde_json::Value = serde_json::from_str(&m.to_json()).unwrap();
+        for k in v.as_object().unwrap().keys() {
+            assert!(
+                MachineProfile::FIELDS.iter().any(|(f, _)| f == k),
+                "{k} has no description"
+            );
+        }
+    }
 }

@@ -69,7 +69,11 @@ pub fn resume_options(plan: &Path, port: &str) -> Options {
 /// The cut lines (`G1 X.. Y..`) of a plan, in order.
 pub fn cut_lines(plan: &Path) -> Vec<String> {
     let p = Program::load(plan).unwrap();
-    p.blocks.iter().map(|b| b.lines[2].clone()).collect()
+    // Each block's cut: its first G1 move in X and Y (after the hop and the plunge).
+    p.blocks
+        .iter()
+        .map(|b| b.lines.iter().find(|l| l.starts_with("G1 X")).expect("a cut").clone())
+        .collect()
 }
 
 #[derive(Default)]
