@@ -167,7 +167,8 @@ fn the_card_gcode_cuts_the_card() {
         let g = std::fs::read_to_string(dir.join(file)).unwrap();
         assert!(g.starts_with(&format!("; scratchart plan machine={fw}\n")));
         assert!(g.lines().all(|l| l.len() < 80) && !g.contains('\r'));
-        // Blocks: `; scratch N (cut K of T)`, then G0 to the start, G1 Z down, G1 to the end.
+        // Blocks: `; scratch N (cut K of T)`, then the hop (G0 to the start, at the retract or
+        // the clearance height), G1 Z down, G1 to the end.
         let mut seen = vec![false; card.cuts.len()];
         let mut above = 0;
         let lines: Vec<&str> = g.lines().collect();
@@ -184,7 +185,18 @@ fn the_card_gcode_cuts_the_card() {
             let k: usize = n.parse::<usize>().unwrap() - 1;
             assert!(!seen[k], "cut {} twice", k + 1);
             seen[k] = true;
-            let (start, plunge, end) = (lines[i + 1], lines[i + 2], lines[i + 3]);
+            let block: Vec<&str> = lines[i + 1..]
+                .iter()
+                .take_while(|l| !l.starts_with(';'))
+                .copied()
+                .collect();
+            let find = |p: &str| {
+                *block
+                    .iter()
+                    .find(|l| l.starts_with(p))
+                    .unwrap_or_else(|| panic!("{p} in {block:?}"))
+            };
+            let (start, plunge, end) = (find("G0 X"), find("G1 Z"), find("G1 X"));
             let a = [word(start, 'X'), word(start, 'Y')];
             let b = [word(end, 'X'), word(end, 'Y')];
             let c = &card.cuts[k];
