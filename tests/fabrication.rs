@@ -447,3 +447,117 @@ fn ball_tool_through_the_binary_and_bad_tool_files() {
     let _ = std::fs::remove_dir_all(&dir);
     eprintln!("{:.1} s", t0.elapsed().as_secs_f64());
 }
+
+/// `design --tool --machine`: every commanded depth lies at least the profile's shallowest cut
+/// below the surface (the tool's z offset moves the surface) and on its Z grid, every scratch is
+/// at least --min-length-mm long, and summary.json counts what each limit touched. Read back from
+/// the CSV, and from the G-code `scratchart-cal plan` writes for it, independently.
+#[test]
+fn a_machine_design_keeps_the_machines_limits() {
+    let dir = tmp_dir("machine");
+    let d = dir.to_str().unwrap();
+    let tool = write(
+        &dir,
+        "tool.json",
+        r#"{"kind": "v-bit", "angle_deg": 75.0, "tip_flat_mm": 0.01, "z_offset_mm": 0.007}"#,
+    );
+    let machine = write(&dir, "machine.json", r#"{"min_cut_depth_mm": 0.1, "z_step_mm": 0.005}"#);
+    let out = format!("{d}/out");
+    let mut args = design_args(&tool, &out);
+    assert_eq!((args[5], args[7], args[9]), ("--scratches", "--iters", "--prune-tol"));
+    (args[6], args[8], args[10]) = ("300", "15", "0");
+    args.retain(|a| *a != "--validation");
+    // Limits the design must meet: a third of the initial scratches (2 to 8 mm) are shorter than
+    // 4 mm, and the shallowest cut (0.1 mm) is deeper than the initial grooves (0.092 mm).
+    args.extend(["--machine-file", &machine, "--min-length-mm", "4"]);
+    let o = run_bin(&args);
+    assert_eq!(o.status.code(), Some(0), "{}", String::from_utf8_lossy(&o.stderr));
+    let (scene, extra) = Scene::load_extra(Path::new(&format!("{out}/design.json"))).unwrap();
+    let z = extra.column("z_mm").unwrap();
+    let (min_cut, step, offset, min_len) = (0.1, 0.005, 0.007, 4.0);
+    let mut at_floor = 0;
+    for (k, (&z, s)) in z.iter().zip(&scene.scratches).enumerate() {
+        assert!(
+            z + offset >= min_cut - 1e-12,
+            "scratch {}: cut {} mm below the surface",
+            k + 1,
+            z + offset
+        );
+        assert!(
+            ((z / step).round() * step - z).abs() < 1e-12,
+            "scratch {}: z {z} is off the grid",
+            k + 1
+        );
+        let len = (s.p1[0] - s.p0[0]).hypot(s.p1[1] - s.p0[1]);
+        assert!(len >= min_len, "scratch {}: {len} mm long", k + 1);
+        if z + offset < min_cut + 0.5 * step {
+            at_floor += 1;
+        }
+    }
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(format!("{out}/summary.json")).unwrap()).unwrap();
+    let m = &summary["machine"];
+    assert_eq!(m["at_min_cut_depth"], serde_json::json!(at_floor), "{m}");
+    assert_eq!(m["off_z_grid"], 0);
+    assert_eq!(m["min_length_mm"], min_len);
+    assert!(
+        at_floor > 0,
+        "no scratch reached the shallowest cut: the test does not test it"
+    );
+    let shortest = scene
+        .scratches
+        .iter()
+        .map(|s| (s.p1[0] - s.p0[0]).hypot(s.p1[1] - s.p0[1]))
+        .fold(f64::INFINITY, f64::min);
+    assert!(
+        shortest < min_len + 1e-3,
+        "no scratch at the shortest length ({shortest}): the test does not test it"
+    );
+    assert!(m["at_min_length"].as_u64().unwrap() > 0, "{m}");
+    assert!(m["scratches"].as_u64() == Some(z.len() as u64));
+    eprintln!("{m}");
+    // The plan's G-code, read line by line: each plunge's depth below the surface and each cut's length.
+    let cal = workspace_bin("scratchart-calibration", "scratchart-cal");
+    let nc = format!("{d}/plan.nc");
+    let o = Command::new(cal)
+        .args([
+            "plan",
+            &format!("{out}/design.json"),
+            "--tool",
+            &tool,
+            "--out",
+            &nc,
+            "--no-mark",
+        ])
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(0), "{}", String::from_utf8_lossy(&o.stderr));
+    let g = std::fs::read_to_string(&nc).unwrap();
+    let word = |l: &str, c: char| -> Option<f64> {
+        l.split_whitespace()
+            .find(|w| w.starts_with(c))
+            .and_then(|w| w[1..].parse().ok())
+    };
+    let (mut at, mut cuts) = ([0.0f64; 2], 0);
+    let mut depth = 0.0;
+    for l in g.lines().filter(|l| !l.starts_with(';')) {
+        let (x, y) = (word(l, 'X'), word(l, 'Y'));
+        if l.starts_with("G1 Z") {
+            depth = -word(l, 'Z').unwrap();
+            assert!(
+                depth + offset >= min_cut - 1e-9,
+                "`{l}`: {} mm below the surface",
+                depth + offset
+            );
+        } else if l.starts_with("G1 X") {
+            let b = [x.unwrap(), y.unwrap()];
+            let len = (b[0] - at[0]).hypot(b[1] - at[1]);
+            assert!(len >= min_len, "`{l}`: a cut {len} mm long at depth {depth}");
+            cuts += 1;
+        }
+        if let (Some(x), Some(y)) = (x, y) {
+            at = [x, y];
+        }
+    }
+    assert_eq!(cuts, z.len());
+}

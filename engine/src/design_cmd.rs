@@ -166,6 +166,22 @@ pub struct DesignArgs {
     /// --init-alpha). scratches.csv gets the column z_mm
     #[arg(long, conflicts_with_all = ["lr_w", "lr_alpha"])]
     pub tool: Option<PathBuf>,
+    /// Design within a machine's limits (needs --tool): grbl or marlin, the built-in profile that
+    /// `scratchart-cal plan --print-machine` prints. Every commanded depth then lies between the
+    /// profile's min_cut_depth_mm below the surface and the tool's deepest, on its z_step_mm grid,
+    /// and every scratch is at least --min-length-mm long; summary.json's `machine` counts the
+    /// scratches each limit touched
+    #[arg(long, value_parser = ["grbl", "marlin"], requires = "tool")]
+    pub machine: Option<String>,
+    /// The machine profile (machine.json: any fields over the built-in profile of its firmware;
+    /// the fields are listed in `scratchart-cal plan --help`). Implies --machine (needs --tool)
+    #[arg(long, requires = "tool")]
+    pub machine_file: Option<PathBuf>,
+    /// With --machine: the shortest scratch, mm (default: 3 times the tool's widest groove in the
+    /// design's depth range, so that no scratch is as short as the tapered ends a plunged tool
+    /// leaves, about one groove width together)
+    #[arg(long)]
+    pub min_length_mm: Option<f64>,
     /// No progress bar
     #[arg(long)]
     pub quiet: bool,
@@ -434,7 +450,20 @@ pub fn run(ctx: &Arc<Context>, args: &DesignArgs, obs: &dyn Observer) -> anyhow:
             &cfg.adam,
         )
         .map_err(scratchart::exit::InputError)?;
+        let fab = match machine_limits(args, &fab)? {
+            Some(limits) => {
+                // The projection after every step keeps each scratch at least this long.
+                // (2e-4 mm more: the endpoints are f32 on the GPU and 4 decimals in the G-code, so
+                // a scratch read back from either is still no shorter than asked.)
+                cfg.adam.min_len = cfg.adam.min_len.max((limits.min_length_mm + 2e-4) as f32);
+                fab.with_machine(limits, &cfg.adam)
+                    .map_err(scratchart::exit::InputError)?
+            }
+            None => fab,
+        };
         cfg.tool = Some(fab);
+    } else if args.min_length_mm.is_some() {
+        return Err(scratchart::exit::UsageError("--min-length-mm needs --machine (and --tool)".into()).into());
     }
     let report = match run_design(ctx, &problem, &cfg, obs) {
         Ok(r) => r,
@@ -465,6 +494,81 @@ pub fn run(ctx: &Arc<Context>, args: &DesignArgs, obs: &dyn Observer) -> anyhow:
                 n(&f["table_max_rel_err_d"]),
             );
         }
+        if let Some(m) = s.get("machine") {
+            let n = |v: &serde_json::Value| v.as_f64().unwrap_or(f64::NAN);
+            println!(
+                "  machine ({}): cuts {:.4} mm or deeper below the surface on a {} mm Z grid, scratches {:.3} mm or longer ({}); \
+                 {} of {} scratches at the shallowest cut, {} at the shortest length, {} of the {} optimized moved onto the Z grid (at most {:.2} um)",
+                m["profile"].as_str().unwrap_or("?"),
+                n(&m["min_cut_depth_mm"]),
+                n(&m["z_step_mm"]),
+                n(&m["min_length_mm"]),
+                m["min_length_from"].as_str().unwrap_or("?"),
+                m["at_min_cut_depth"],
+                m["scratches"],
+                m["at_min_length"],
+                m["moved_onto_z_grid"],
+                m["scratches_optimized"],
+                n(&m["largest_z_grid_move_um"]),
+            );
+        }
     }
     Ok(())
+}
+
+/// The machine limits of `--machine` / `--machine-file` for a design with this tool, or None.
+fn machine_limits(
+    args: &DesignArgs,
+    fab: &scratchart::optim::tool_params::Fabrication,
+) -> anyhow::Result<Option<scratchart::optim::tool_params::MachineLimits>> {
+    use scratchart_tool::machine::{Firmware, MachineProfile};
+    if args.machine.is_none() && args.machine_file.is_none() {
+        if args.min_length_mm.is_some() {
+            return Err(scratchart::exit::UsageError("--min-length-mm needs --machine".into()).into());
+        }
+        return Ok(None);
+    }
+    let firmware = match args.machine.as_deref() {
+        Some("marlin") => Firmware::Marlin,
+        _ => Firmware::Grbl,
+    };
+    let (profile, source) = match &args.machine_file {
+        Some(f) => {
+            let text = std::fs::read_to_string(f).map_err(|e| {
+                scratchart::exit::InputError(format!("cannot read machine profile {}: {e}", f.display()))
+            })?;
+            let (m, warnings) = MachineProfile::from_json(&text, firmware)
+                .map_err(|e| scratchart::exit::InputError(format!("machine profile {}: {e}", f.display())))?;
+            for w in warnings {
+                eprintln!("warning: machine profile {}: {w}", f.display());
+            }
+            (m, f.display().to_string())
+        }
+        None => (
+            MachineProfile::builtin(firmware),
+            format!("built-in {}", args.machine.as_deref().unwrap_or("grbl")),
+        ),
+    };
+    let (min_length_mm, min_length_from) = match args.min_length_mm {
+        Some(l) => {
+            if !(l >= 0.0 && l.is_finite()) {
+                return Err(scratchart::exit::UsageError(format!("--min-length-mm {l}: a length >= 0 mm")).into());
+            }
+            (l, "--min-length-mm".to_string())
+        }
+        None => {
+            // The table's range before the machine's limits: its widest groove.
+            let w = fab.widest_groove_mm();
+            (
+                3.0 * w,
+                format!("3 x the tool's widest groove in the design's depth range ({w:.4} mm)"),
+            )
+        }
+    };
+    Ok(Some(scratchart::optim::tool_params::MachineLimits {
+        profile,
+        source,
+        min_length_mm,
+        min_length_from,
+    }))
 }

@@ -13,8 +13,10 @@
 //! That makes the normals (set by w) match the tool's walls in the least-squares sense.
 //!
 //! This crate uses serde only: the engine (`design --tool`), the calibration fit and the machine
-//! driver all read `tool.json` through it.
+//! driver all read `tool.json` through it, and the machine profile (`machine.json`, [`machine`])
+//! that `plan` cuts by and `design --machine` designs within.
 mod fit;
+pub mod machine;
 mod section;
 
 pub use fit::{model_of_section, ModelGroove};

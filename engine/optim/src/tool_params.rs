@@ -38,6 +38,7 @@ use std::sync::Arc;
 use bytemuck::{Pod, Zeroable};
 use serde_json::{json, Value};
 
+pub use scratchart_tool::machine::MachineProfile;
 pub use scratchart_tool::{Fitted, Tool, ToolError};
 
 use super::adam::{AdamConfig, AdamGroup, ParamBlock};
@@ -125,6 +126,19 @@ impl ToolTable {
     /// Samples `tool` over its useful range: up to where the groove's visible width reaches
     /// `w_max` or its real depth `depth_max` (mm). An error names what makes the tool unusable.
     pub fn new(tool: &Tool, w_max: f64, depth_max: f64, n: usize) -> Result<ToolTable, String> {
+        ToolTable::within(tool, w_max, depth_max, n, None)
+    }
+
+    /// [`ToolTable::new`] within a machine's limits: no cut shallower than `min_cut_depth_mm`
+    /// below the plate surface, and the range's ends on the Z step's grid (commanded depths are
+    /// multiples of `z_step_mm`).
+    pub fn within(
+        tool: &Tool,
+        w_max: f64,
+        depth_max: f64,
+        n: usize,
+        machine: Option<&MachineProfile>,
+    ) -> Result<ToolTable, String> {
         assert!(n >= 2, "a table needs at least 2 samples");
         let cuts = |z: f64| tool.model(z).is_some();
         let z0 = -tool.z_offset_mm();
@@ -140,7 +154,12 @@ impl ToolTable {
         }
         let (_, first) = bisect(z0, b, cuts);
         let z_first = first as f32 as f64;
-        let z_lo = z_first + FIRST_CUT_MM;
+        let mut z_lo = z_first + FIRST_CUT_MM;
+        if let Some(m) = machine {
+            // The surface lies at commanded depth z0; a cut's depth below it is z - z0.
+            z_lo = z_lo.max(z0 + m.min_cut_depth_mm);
+            z_lo = (z_lo / m.z_step_mm - 1e-9).ceil() * m.z_step_mm;
+        }
         let deep = |z: f64| {
             tool.section(z)
                 .is_some_and(|s| s.width >= w_max || s.depth >= depth_max)
@@ -159,6 +178,9 @@ impl ToolTable {
         let (mut z_hi, _) = bisect(z_lo, z_lo + step, deep);
         if let Tool::Profile { points, .. } = tool {
             z_hi = z_hi.min(points[points.len() - 1][0]);
+        }
+        if let Some(m) = machine {
+            z_hi = (z_hi / m.z_step_mm + 1e-9).floor() * m.z_step_mm;
         }
         if !(z_hi > z_lo + 1e-6) {
             return Err(format!(
@@ -274,6 +296,27 @@ pub struct Fabrication {
     /// Learning rate of z, mm per step.
     pub lr_z: f32,
     pub table: ToolTable,
+    /// The machine the design is carved on (`design --machine`), when given.
+    pub machine: Option<MachineLimits>,
+}
+
+/// What `design --machine` keeps every scratch within.
+#[derive(Clone, Debug)]
+pub struct MachineLimits {
+    pub profile: MachineProfile,
+    /// Where the profile came from (the built-in one's name, or the file).
+    pub source: String,
+    /// The shortest scratch, mm, and where that number came from.
+    pub min_length_mm: f64,
+    pub min_length_from: String,
+}
+
+impl MachineLimits {
+    /// `z` on the machine's Z grid and inside the table's range (whose ends lie on it).
+    pub fn snap(&self, z: f64, table: &ToolTable) -> f64 {
+        let step = self.profile.z_step_mm;
+        ((z / step).round() * step).clamp(table.z_lo, table.z_hi)
+    }
 }
 
 impl Fabrication {
@@ -299,7 +342,28 @@ impl Fabrication {
             alpha_from: alpha_from.to_string(),
             lr_z,
             table,
+            machine: None,
         })
+    }
+
+    /// The same tool within a machine's limits: the depth range starts at the machine's
+    /// shallowest trusted cut and both its ends lie on the Z grid.
+    pub fn with_machine(mut self, limits: MachineLimits, adam: &AdamConfig) -> Result<Fabrication, String> {
+        self.table = ToolTable::within(
+            &self.tool,
+            adam.w_bounds.1 as f64,
+            adam.d_bounds.1 as f64,
+            TABLE_SAMPLES,
+            Some(&limits.profile),
+        )
+        .map_err(|e| format!("within the machine's limits ({}): {e}", limits.source))?;
+        self.machine = Some(limits);
+        Ok(self)
+    }
+
+    /// The widest groove the tool cuts in the design's depth range (its visible width), mm.
+    pub fn widest_groove_mm(&self) -> f64 {
+        self.tool.section(self.table.z_hi).map_or(0.0, |s| s.width)
     }
 
     /// Reads `tool.json` and samples it; alpha is the file's `alpha` when it has one, else
@@ -325,6 +389,7 @@ impl Fabrication {
         json!({
             "tool": self.tool.to_json(), "alpha": self.alpha, "lr_z": self.lr_z,
             "z_range": [self.table.z_lo, self.table.z_hi], "samples": self.table.samples.len(),
+            "machine": self.machine.as_ref().map(|m| json!({"profile": m.profile.to_json(), "min_length_mm": m.min_length_mm})),
         })
     }
 

@@ -260,9 +260,40 @@ pub fn run_design(
     let t_loop = std::time::Instant::now();
     let (loop_seconds, iters_run) = opt.run(obs)?;
     let t_loop_end = std::time::Instant::now();
+    // Within a machine (`design --machine`): every commanded depth on its Z grid. The optimizer's
+    // range already starts at the shallowest trusted cut and ends on the grid; this moves each
+    // depth by at most half a step, before pruning and the final evaluation judge the design.
+    let mut snap: Option<(usize, f64, f32, usize)> = None;
+    if let (Some(t), Some(fab)) = (&opt.tool, &cfg.tool) {
+        if let Some(limits) = &fab.machine {
+            let before = opt.loss()?.total;
+            let z = t.depths(ctx)?;
+            let snapped: Vec<f32> = z.iter().map(|&v| limits.snap(v as f64, &fab.table) as f32).collect();
+            let moved = z.iter().zip(&snapped).filter(|(a, b)| a != b).count();
+            let largest = z
+                .iter()
+                .zip(&snapped)
+                .map(|(a, b)| (*a as f64 - *b as f64).abs())
+                .fold(0.0, f64::max);
+            t.set_depths(ctx, &snapped)?;
+            t.apply(ctx, &opt.driver.gs)?;
+            snap = Some((moved, largest, before, z.len()));
+        }
+    }
     let unpruned = opt.scene(&problem.scene)?;
+    let limits = cfg
+        .tool
+        .as_ref()
+        .and_then(|f| f.machine.as_ref().map(|m| (m, &f.table)));
     let depths = match &opt.tool {
-        Some(t) => Some(t.depths(ctx)?.iter().map(|&z| z as f64).collect::<Vec<f64>>()),
+        // Within a machine, each depth as the grid's own f64 value (the GPU holds it in f32:
+        // 0.02 mm would be written 0.0199999996).
+        Some(t) => Some(
+            t.depths(ctx)?
+                .iter()
+                .map(|&z| limits.map_or(z as f64, |(m, table)| m.snap(z as f64, table)))
+                .collect::<Vec<f64>>(),
+        ),
         None => None,
     };
     let st = &opt.driver.stats;
@@ -324,6 +355,9 @@ pub fn run_design(
                 .save_extra(&cfg.out.join("design.json"), "scratches.csv", &extra)
                 .map_err(|e| OptimError::Report(e.to_string()))?;
             summary["fabrication"] = fab.summary(z);
+            if let Some(limits) = &fab.machine {
+                summary["machine"] = machine_summary(limits, fab, &report.scene, z, snap, report.final_loss.total);
+            }
         }
         // Where the lamp and the viewers go, and how precisely (setup.txt, setup.png).
         // Its inputs go beside the design first, so `scratchart setup` computes the same sheet.
@@ -350,4 +384,56 @@ pub fn run_design(
         report.summary = Some(summary);
     }
     Ok(report)
+}
+
+/// `summary.json`'s `machine`: the limits a `design --machine` kept and how many scratches each
+/// touched (at the shallowest cut, at the shortest length, moved onto the Z grid).
+fn machine_summary(
+    limits: &super::tool_params::MachineLimits,
+    fab: &super::tool_params::Fabrication,
+    scene: &Scene,
+    depths: &[f64],
+    snap: Option<(usize, f64, f32, usize)>,
+    final_loss: f32,
+) -> Value {
+    let m = &limits.profile;
+    let at_min_depth = depths
+        .iter()
+        .filter(|&&z| (z - fab.table.z_lo).abs() < 0.5 * m.z_step_mm)
+        .count();
+    let lengths: Vec<f64> = scene
+        .scratches
+        .iter()
+        .map(|s| (s.p1[0] - s.p0[0]).hypot(s.p1[1] - s.p0[1]))
+        .collect();
+    let at_min_length = lengths.iter().filter(|&&l| l < limits.min_length_mm + 3e-4).count();
+    let shortest = lengths.iter().cloned().fold(f64::INFINITY, f64::min);
+    let off_grid = depths
+        .iter()
+        .filter(|&&z| ((z / m.z_step_mm).round() * m.z_step_mm - z).abs() > 1e-6)
+        .count();
+    let shallowest_cut = depths.iter().cloned().fold(f64::INFINITY, f64::min) + fab.tool.z_offset_mm();
+    let (snapped, largest_snap, loss_before, optimized) = snap.unwrap_or((0, 0.0, f32::NAN, depths.len()));
+    json!({
+        "profile": limits.source,
+        "firmware": m.firmware,
+        "min_cut_depth_mm": m.min_cut_depth_mm,
+        "z_step_mm": m.z_step_mm,
+        "z_repeatability_mm": m.z_repeatability_mm,
+        "min_length_mm": limits.min_length_mm,
+        "min_length_from": limits.min_length_from,
+        "z_range_mm": [fab.table.z_lo, fab.table.z_hi],
+        "scratches": depths.len(),
+        "scratches_optimized": optimized,
+        "at_min_cut_depth": at_min_depth,
+        "at_min_length": at_min_length,
+        "moved_onto_z_grid": snapped,
+        "moved_onto_z_grid_counts": "of the scratches optimized, before pruning",
+        "largest_z_grid_move_um": 1e3 * largest_snap,
+        "loss_before_z_grid": loss_before,
+        "loss_final": final_loss,
+        "off_z_grid": off_grid,
+        "shallowest_cut_below_surface_mm": shallowest_cut,
+        "shortest_scratch_mm": shortest,
+    })
 }
