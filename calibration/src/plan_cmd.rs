@@ -9,8 +9,8 @@ use scratchart::model::scene::Scene;
 use scratchart_machine::gcode::{write_blocks, Options};
 use scratchart_machine::level::{compensate, HeightMap};
 use scratchart_machine::plan::{
-    check_bounds, check_moves, nearest_neighbour, orientation_mark, program_time, program_travel, surface_depth_mm,
-    travel, two_opt, Block, Cut, Firmware, MachineProfile,
+    check_bounds, check_moves, nearest_neighbour, orientation_mark, program_time_split, program_travel,
+    surface_depth_mm, travel, two_opt, Block, Cut, Firmware, MachineProfile,
 };
 use scratchart_tool::Tool;
 
@@ -217,11 +217,13 @@ pub fn plan(a: &PlanArgs) -> Result<()> {
     }
     check_moves(&blocks, &m).map_err(|e| InputError(format!("the plan leaves its bounds: {e}")))?;
     let t1 = program_travel(&blocks);
-    let secs = program_time(&blocks, &m);
+    let split = program_time_split(&blocks, &m);
+    let secs = split.total();
     summary.push(format!("travel {t0:.0} mm in design order, {t1:.0} mm ordered"));
     summary.push(format!(
-        "estimated job time {:.1} min for the profile's rates (carve states the machine's own)",
-        secs / 60.0
+        "estimated job time {:.1} min for the profile's rates (carve states the machine's own): {}",
+        secs / 60.0,
+        split.shares()
     ));
     summary.push(GROOVE_ENDS.to_string());
     let g = write_blocks(&blocks, &m, plate, &summary, &Options { home: a.home });
@@ -258,8 +260,9 @@ pub fn plan(a: &PlanArgs) -> Result<()> {
         preview.display()
     );
     println!(
-        "  travel: {t0:.0} mm in design order -> {t1:.0} mm ordered; estimated job time {:.1} min",
-        secs / 60.0
+        "  travel: {t0:.0} mm in design order -> {t1:.0} mm ordered; estimated job time {:.1} min ({})",
+        secs / 60.0,
+        split.shares()
     );
     for s in &summary {
         if s.starts_with("depths") {

@@ -150,6 +150,37 @@ impl Hop {
 /// on GRBL and at the Z feed `plunge_mm_min` on Marlin, where every Z move is made at the printer's
 /// Z feed.
 pub fn program_time(blocks: &[Block], m: &MachineProfile) -> f64 {
+    program_time_split(blocks, m).total()
+}
+
+/// Where a job's time goes, s: cutting (the G1 moves in the plate), travelling (the rapids in X
+/// and Y) and in Z (plunges, retracts, rises to the clearance height and the ways down).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct TimeSplit {
+    pub cutting: f64,
+    pub travel: f64,
+    pub z: f64,
+}
+
+impl TimeSplit {
+    pub fn total(&self) -> f64 {
+        self.cutting + self.travel + self.z
+    }
+
+    /// "62% cutting, 21% travelling, 17% in Z".
+    pub fn shares(&self) -> String {
+        let t = self.total().max(1e-12);
+        format!(
+            "{:.0}% cutting, {:.0}% travelling, {:.0}% in Z",
+            100.0 * self.cutting / t,
+            100.0 * self.travel / t,
+            100.0 * self.z / t
+        )
+    }
+}
+
+/// [`program_time`], split by what the machine does.
+pub fn program_time_split(blocks: &[Block], m: &MachineProfile) -> TimeSplit {
     let z_feed = match m.firmware {
         Firmware::Grbl => m.rapid_mm_min,
         Firmware::Marlin => m.plunge_mm_min,
@@ -157,30 +188,31 @@ pub fn program_time(blocks: &[Block], m: &MachineProfile) -> f64 {
     let up_down = move_time(m.clearance_mm - m.retract_mm, z_feed, m.accel_mm_s2);
     let mut at = [0.0, 0.0];
     let mut high = true;
-    let mut t = 0.0;
+    let mut t = TimeSplit::default();
     for b in blocks {
         let (first, last) = (b.path[0], b.path[b.path.len() - 1]);
         let hop = Hop::of(m, at, [first[0], first[1]], high);
         if hop.rise {
-            t += up_down;
+            t.z += up_down;
         }
-        t += move_time(dist(at, [first[0], first[1]]), m.rapid_mm_min, m.accel_mm_s2);
+        t.travel += move_time(dist(at, [first[0], first[1]]), m.rapid_mm_min, m.accel_mm_s2);
         if hop.descend {
-            t += up_down;
+            t.z += up_down;
         }
-        t += move_time(m.retract_mm - first[2], m.plunge_mm_min, m.accel_mm_s2);
+        t.z += move_time(m.retract_mm - first[2], m.plunge_mm_min, m.accel_mm_s2);
         for w in b.path.windows(2) {
             let d = ((w[1][0] - w[0][0]).powi(2) + (w[1][1] - w[0][1]).powi(2) + (w[1][2] - w[0][2]).powi(2)).sqrt();
-            t += move_time(d, m.cut_mm_min, m.accel_mm_s2);
+            t.cutting += move_time(d, m.cut_mm_min, m.accel_mm_s2);
         }
-        t += move_time(m.retract_mm - last[2], z_feed, m.accel_mm_s2);
+        t.z += move_time(m.retract_mm - last[2], z_feed, m.accel_mm_s2);
         at = [last[0], last[1]];
         high = false;
     }
     if !high {
-        t += up_down;
+        t.z += up_down;
     }
-    t + move_time(dist(at, [0.0, 0.0]), m.rapid_mm_min, m.accel_mm_s2)
+    t.travel += move_time(dist(at, [0.0, 0.0]), m.rapid_mm_min, m.accel_mm_s2);
+    t
 }
 
 /// Rapid travel of a program starting and ending at the work zero, mm.

@@ -108,7 +108,14 @@ fn small_plan(dir: &Path) -> PathBuf {
             }
         })
         .collect();
-    let g = scratchart_machine::gcode::write(&cuts, &MachineProfile::grbl(), 60.0, &["grbl-sim test".into()]);
+    // Hops at the clearance height (2 mm), as plans made before the retract height did: the
+    // tests that stop a job after two acknowledged cuts need the rest to take a while (with
+    // 0.3 mm hops the simulated board can finish the six cuts before the stop arrives).
+    let m = MachineProfile {
+        retract_mm: 2.0,
+        ..MachineProfile::grbl()
+    };
+    let g = scratchart_machine::gcode::write(&cuts, &m, 60.0, &["grbl-sim test".into()]);
     let p = dir.join("small.nc");
     std::fs::write(&p, g).unwrap();
     p
