@@ -447,10 +447,11 @@ fn the_fake_records_an_overflow() {
     })
     .unwrap();
     let mut port = serialport::new(fake.path(), 115200).open_native().unwrap();
+    // Six lines of 63 bytes in one write: even if the fake takes the first line on its own
+    // before the rest arrive (a loaded machine splits the stream), it executes one line a
+    // second, and the other five (315 bytes) overflow its 128-byte buffer.
     let line = format!("G1 X{} Y1 F100\n", "1".repeat(50));
-    for _ in 0..3 {
-        port.write_all(line.as_bytes()).unwrap();
-    }
+    port.write_all(line.repeat(6).as_bytes()).unwrap();
     // (waits for the fake's thread to read it, up to 5 s on a loaded machine)
     let t0 = std::time::Instant::now();
     while fake.record().overflows.is_empty() && t0.elapsed() < Duration::from_secs(5) {
