@@ -43,6 +43,7 @@ pub mod report;
 pub mod setup;
 pub mod setup_sheet;
 pub mod targets;
+pub mod tolerance;
 
 pub use adam::AdamConfig;
 pub use design::{DesignConfig, DesignReport, Problem};

@@ -1,0 +1,346 @@
+//! How far the lamp and each eye may move: every view rendered with the lamp or the eye moved
+//! in azimuth, elevation and distance, both ways, and a search (outwards on a grid, then by
+//! bisection) for how far each keeps [`KEEP`] of the view's correlation with its picture. The
+//! set-up sheet ([`super::setup`]) states the results.
+use serde_json::{json, Value};
+
+use super::error::OptimError;
+use super::measure::{blur3, correlation};
+use super::setup::{Place, SheetInputs, ADVICE_MIN_CORR};
+use crate::model::scene::{LightKind, Scene, View};
+use crate::render::Renderer;
+
+/// One render of a view with the lamp or the eye moved, and its correlation with its picture.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Moved {
+    pub view: String,
+    /// "lamp" or "eye"
+    pub moved: &'static str,
+    /// "azimuth", "elevation" or "distance"
+    pub axis: &'static str,
+    /// degrees, or a fraction of the distance
+    pub delta: f64,
+    pub corr: f64,
+}
+
+/// The share of a view's correlation that a tolerance keeps.
+pub const KEEP: f64 = 0.9;
+/// How far the searches go: degrees of azimuth or elevation, and a fraction of the distance.
+pub const ANGLE_RANGE: f64 = 20.0;
+pub const DISTANCE_RANGE: f64 = 0.5;
+/// The moves tried first, outwards; between the last that keeps [`KEEP`] and the first that
+/// does not, the search bisects down to [`resolution`].
+const ANGLE_GRID: [f64; 5] = [1.0, 2.0, 5.0, 10.0, ANGLE_RANGE];
+const DISTANCE_GRID: [f64; 5] = [0.02, 0.05, 0.1, 0.2, DISTANCE_RANGE];
+/// Views rendered per batch (bounds the batch's buffers whatever the number of views).
+const BATCH_VIEWS: usize = 48;
+
+/// How finely a tolerance of about `safe` is found: 10% of it, at least 0.25 degrees or 1% of the
+/// distance.
+pub fn resolution(axis: &str, safe: f64) -> f64 {
+    let floor = if axis == "distance" { 0.01 } else { 0.25 };
+    (0.1 * safe).max(floor)
+}
+
+fn range_of(axis: &str) -> f64 {
+    if axis == "distance" {
+        DISTANCE_RANGE
+    } else {
+        ANGLE_RANGE
+    }
+}
+
+/// `p` moved along `axis` by `delta` on the sphere about the plate centre (the elevation kept
+/// between 0.5 and 89.9 degrees).
+fn moved(p: [f64; 3], axis: &str, delta: f64) -> [f64; 3] {
+    let q = Place::of(p);
+    match axis {
+        "azimuth" => Place::at(q.azimuth_deg + delta, q.elevation_deg, q.distance_mm),
+        "elevation" => Place::at(q.azimuth_deg, (q.elevation_deg + delta).clamp(0.5, 89.9), q.distance_mm),
+        _ => Place::at(q.azimuth_deg, q.elevation_deg, q.distance_mm * (1.0 + delta)),
+    }
+}
+
+/// View `v` with the lamp or the eye moved (the camera keeps looking at the same plate point).
+fn variant(v: &View, what: &str, axis: &str, delta: f64) -> View {
+    let mut w = v.clone();
+    w.name = format!("{}~{what}~{axis}~{delta}", v.name);
+    if what == "lamp" {
+        w.light.kind = match w.light.kind {
+            LightKind::Point { position } => LightKind::Point {
+                position: moved(position, axis, delta),
+            },
+            // A directional light has no distance (never searched); its direction moves in angle.
+            LightKind::Directional { direction } => LightKind::Directional {
+                direction: moved(direction, axis, delta),
+            },
+        };
+    } else {
+        w.camera.eye = moved(w.camera.eye, axis, delta);
+    }
+    w
+}
+
+/// How far the lamp or the eye of one view may move along one axis and keep [`KEEP`] of the
+/// view's correlation, found by search in both directions.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Tolerance {
+    pub view: String,
+    /// "lamp" or "eye"
+    pub moved: &'static str,
+    pub axis: &'static str,
+    /// The largest move found to keep it, towards minus and towards plus (degrees or a fraction).
+    pub safe: [f64; 2],
+    /// The smallest move found to lose it, each way; `None` where it never did within the range.
+    pub lost: [Option<f64>; 2],
+}
+
+impl Tolerance {
+    /// How far it may move either way.
+    pub fn within(&self) -> f64 {
+        self.safe[0].min(self.safe[1])
+    }
+
+    /// The tolerance as a share of the range searched (to compare angles with distances).
+    pub fn relative(&self) -> f64 {
+        self.within() / range_of(self.axis)
+    }
+
+    /// "up to 3.5 deg", "more than 20 deg", "less than 0.25 deg", "up to 12%".
+    pub fn phrase(&self) -> String {
+        let say = |x: f64| {
+            if self.axis == "distance" {
+                let pc = 100.0 * x;
+                if pc < 5.0 {
+                    format!("{pc:.1}%")
+                } else {
+                    format!("{pc:.0}%")
+                }
+            } else if x < 1.0 {
+                format!("{x:.2} deg")
+            } else if x < 10.0 {
+                format!("{x:.1} deg")
+            } else {
+                format!("{x:.0} deg")
+            }
+        };
+        let w = self.within();
+        if self.lost == [None, None] {
+            format!("more than {}", say(range_of(self.axis)))
+        } else if w <= 0.0 {
+            let first = self.lost.iter().flatten().fold(f64::INFINITY, |a, &b| a.min(b));
+            format!("less than {}", say(first))
+        } else {
+            format!("up to {}", say(w))
+        }
+    }
+
+    pub fn to_json(&self) -> Value {
+        json!({
+            "view": self.view, "moved": self.moved, "axis": self.axis,
+            "unit": if self.axis == "distance" { "fraction of the distance" } else { "degrees" },
+            "within": self.within(), "safe_minus": self.safe[0], "safe_plus": self.safe[1],
+            "lost_minus": self.lost[0], "lost_plus": self.lost[1],
+            "range": range_of(self.axis), "phrase": self.phrase(),
+        })
+    }
+}
+
+/// One search in progress: a (view, moved, axis, direction).
+struct Search {
+    view: usize,
+    moved: &'static str,
+    axis: &'static str,
+    sign: f64,
+    safe: f64,
+    lost: Option<f64>,
+    next_grid: usize,
+}
+
+impl Search {
+    /// The next move to try (its size), or None when found.
+    fn next(&self) -> Option<f64> {
+        match self.lost {
+            Some(l) => (l - self.safe > resolution(self.axis, self.safe)).then_some(0.5 * (self.safe + l)),
+            None => {
+                let grid: &[f64] = if self.axis == "distance" {
+                    &DISTANCE_GRID
+                } else {
+                    &ANGLE_GRID
+                };
+                grid.get(self.next_grid).copied()
+            }
+        }
+    }
+
+    fn record(&mut self, size: f64, kept: bool) {
+        if kept {
+            self.safe = size;
+            self.next_grid += 1;
+        } else {
+            self.lost = Some(size);
+        }
+    }
+}
+
+/// Every view's correlation as designed, the tolerances found, and every render the search made.
+#[derive(Clone, Debug, Default)]
+pub struct Sensitivity {
+    pub base: Vec<f64>,
+    pub tolerances: Vec<Tolerance>,
+    pub samples: Vec<Moved>,
+}
+
+impl Sensitivity {
+    /// The tolerances of view `name`.
+    pub fn of<'a>(&'a self, name: &'a str) -> impl Iterator<Item = &'a Tolerance> + 'a {
+        self.tolerances.iter().filter(move |t| t.view == name)
+    }
+
+    /// The tightest tolerance of all, relative to the range searched: what the maker must get
+    /// right first.
+    pub fn most_sensitive(&self) -> Option<&Tolerance> {
+        self.tolerances
+            .iter()
+            .min_by(|a, b| a.relative().total_cmp(&b.relative()))
+    }
+}
+
+/// Renders `views` of `scene` (in batches) and returns each one's display image.
+fn render_views(renderer: &Renderer, scene: &Scene, views: Vec<View>) -> Result<Vec<Vec<f32>>, OptimError> {
+    let mut out = Vec::with_capacity(views.len());
+    for chunk in views.chunks(BATCH_VIEWS) {
+        let mut batch = scene.clone();
+        batch.views = chunk.to_vec();
+        let mut gs = renderer.upload(&batch)?;
+        for img in renderer.render(&mut gs)?.images {
+            out.push(
+                img.iter()
+                    .map(|&l| crate::io::display_value(l).clamp(0.0, 1.0))
+                    .collect(),
+            );
+        }
+    }
+    Ok(out)
+}
+
+/// Each view's correlation with its picture as designed and, for every view that shows its
+/// picture (and is not blank on purpose), how far the lamp and the eye may move in azimuth,
+/// elevation and distance and keep [`KEEP`] of it: each found by search, outwards on a grid up
+/// to [`ANGLE_RANGE`] and [`DISTANCE_RANGE`], then by bisection. All searches step together, one
+/// batched render per step.
+pub fn sensitivity(renderer: &Renderer, scene: &Scene, inputs: &SheetInputs) -> Result<Sensitivity, OptimError> {
+    let corr_of = |img: &[f32], j: usize| {
+        let (w, h) = (scene.views[j].camera.width, scene.views[j].camera.height);
+        let t: Vec<f64> = inputs.targets[j].iter().map(|&x| x as f64).collect();
+        correlation(&blur3(img, w, h, inputs.sigma), &t, &inputs.pictures[j])
+    };
+    let images = render_views(renderer, scene, scene.views.clone())?;
+    let base: Vec<f64> = images.iter().enumerate().map(|(j, img)| corr_of(img, j)).collect();
+    let mut searches = Vec::new();
+    for (j, v) in scene.views.iter().enumerate() {
+        if inputs.blank_views.contains(&v.name) || !(base[j] >= ADVICE_MIN_CORR) {
+            continue;
+        }
+        for moved in ["lamp", "eye"] {
+            for axis in ["azimuth", "elevation", "distance"] {
+                let directional = matches!(v.light.kind, LightKind::Directional { .. });
+                if moved == "lamp" && axis == "distance" && directional {
+                    continue;
+                }
+                for sign in [-1.0, 1.0] {
+                    searches.push(Search {
+                        view: j,
+                        moved,
+                        axis,
+                        sign,
+                        safe: 0.0,
+                        lost: None,
+                        next_grid: 0,
+                    });
+                }
+            }
+        }
+    }
+    let mut samples = Vec::new();
+    loop {
+        let step: Vec<(usize, f64)> = searches
+            .iter()
+            .enumerate()
+            .filter_map(|(i, s)| s.next().map(|size| (i, size)))
+            .collect();
+        if step.is_empty() {
+            break;
+        }
+        let views: Vec<View> = step
+            .iter()
+            .map(|&(i, size)| {
+                let s = &searches[i];
+                variant(&scene.views[s.view], s.moved, s.axis, s.sign * size)
+            })
+            .collect();
+        let images = render_views(renderer, scene, views)?;
+        for (&(i, size), img) in step.iter().zip(&images) {
+            let s = &mut searches[i];
+            let corr = corr_of(img, s.view);
+            samples.push(Moved {
+                view: scene.views[s.view].name.clone(),
+                moved: s.moved,
+                axis: s.axis,
+                delta: s.sign * size,
+                corr,
+            });
+            s.record(size, corr >= KEEP * base[s.view]);
+        }
+    }
+    samples.sort_by(|a, b| {
+        (a.view.as_str(), a.moved, a.axis)
+            .cmp(&(b.view.as_str(), b.moved, b.axis))
+            .then(a.delta.total_cmp(&b.delta))
+    });
+    let mut tolerances: Vec<Tolerance> = Vec::new();
+    for pair in searches.chunks(2) {
+        let (m, p) = (&pair[0], &pair[1]);
+        tolerances.push(Tolerance {
+            view: scene.views[m.view].name.clone(),
+            moved: m.moved,
+            axis: m.axis,
+            safe: [m.safe, p.safe],
+            lost: [m.lost, p.lost],
+        });
+    }
+    Ok(Sensitivity {
+        base,
+        tolerances,
+        samples,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_search_bisects_to_its_resolution() {
+        // A correlation that keeps 90% up to 3.3 degrees: the search finds 3.3 within 0.33.
+        let mut s = Search {
+            view: 0,
+            moved: "lamp",
+            axis: "azimuth",
+            sign: 1.0,
+            safe: 0.0,
+            lost: None,
+            next_grid: 0,
+        };
+        let mut tried = Vec::new();
+        while let Some(x) = s.next() {
+            tried.push(x);
+            s.record(x, x <= 3.3);
+        }
+        assert_eq!(&tried[..3], &[1.0, 2.0, 5.0]);
+        let lost = s.lost.unwrap();
+        assert!(s.safe <= 3.3 && lost > 3.3, "{} {lost}", s.safe);
+        assert!(lost - s.safe <= resolution("azimuth", s.safe), "{} {lost}", s.safe);
+        assert!(tried.len() <= 9, "{tried:?}");
+    }
+}
