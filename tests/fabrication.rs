@@ -561,3 +561,159 @@ fn a_machine_design_keeps_the_machines_limits() {
     }
     assert_eq!(cuts, z.len());
 }
+
+/// `design --robust` (issue 27 item 3) at the level of the parameter set: an iteration that
+/// steps maps a perturbed carving (endpoints moved by about sigma_xy, grooves of perturbed
+/// depths), the chain rule puts the exact endpoints back bit for bit, and an iteration that only
+/// evaluates (or a set without --robust) maps the exact design.
+#[test]
+fn a_robust_step_sees_a_perturbed_carving_and_keeps_the_exact_design() {
+    use scratchart::optim::driver::ParamSet;
+    use scratchart::optim::tool_params::Robust;
+    use scratchart::render::layout::ScratchGpu;
+    use scratchart::vulkan::Recorder;
+    let ctx = gpu();
+    let r = Renderer::new(&ctx).unwrap();
+    let p = small_problem(16, 2000, 9);
+    let adam = AdamConfig::for_plate(100.0);
+    let fab = Fabrication::new(v_bit(), "v-bit", 0.1, "test", adam.lr_d, &adam).unwrap();
+    let (sz, sxy) = (0.015, 0.01);
+    let robust = Robust {
+        sigma_z_mm: sz,
+        sigma_xy_mm: sxy,
+        seed: 3,
+    };
+    let gs = r.upload(&p.scene).unwrap();
+    // Depths in mid-range, where the groove widens with depth both ways of them.
+    let z0 = vec![0.08f32; p.scene.scratches.len()];
+    let params = ToolParams::with_depths(&ctx, &adam, &fab, &z0)
+        .unwrap()
+        .with_robust(&ctx, robust)
+        .unwrap();
+    let read = || -> Vec<ScratchGpu> { ctx.download(gs.scratches()).unwrap() };
+    let run = |f: &dyn Fn(&mut Recorder)| {
+        let mut rec = Recorder::new(&ctx).unwrap();
+        rec.begin().unwrap();
+        f(&mut rec);
+        rec.submit_and_wait().unwrap();
+    };
+    params.begin_iteration(0, false);
+    run(&|rec| params.record_to_scene(rec, &gs));
+    let exact = read();
+    let exact_depths = params.depths(&ctx).unwrap();
+    let carved = |k: u32| {
+        params.begin_iteration(k, true);
+        run(&|rec| params.record_to_scene(rec, &gs));
+        let c = read();
+        run(&|rec| params.record_grad(rec, &gs));
+        let back = read();
+        (c, back)
+    };
+    let (c5, back) = carved(5);
+    // Endpoints: moved by N(0, sigma_xy) per coordinate.
+    let moves: Vec<f64> = c5
+        .iter()
+        .zip(&exact)
+        .flat_map(|(a, b)| (0..4).map(move |i| a.ends[i] as f64 - b.ends[i] as f64))
+        .collect();
+    let n = moves.len() as f64;
+    let mean = moves.iter().sum::<f64>() / n;
+    let std = (moves.iter().map(|m| (m - mean).powi(2)).sum::<f64>() / n).sqrt();
+    eprintln!("endpoint moves: mean {mean:.2e} mm, std {std:.4e} mm (sigma {sxy})");
+    assert!(mean.abs() < 4.0 * sxy / n.sqrt(), "mean move {mean}");
+    assert!((std / sxy - 1.0).abs() < 0.05, "std of the moves {std}, sigma {sxy}");
+    // Grooves: those of perturbed depths (the width changes with the depth, both ways).
+    let (wider, narrower) = c5.iter().zip(&exact).fold((0, 0), |(a, b), (c, e)| {
+        (a + usize::from(c.shape[0] > e.shape[0]), b + usize::from(c.shape[0] < e.shape[0]))
+    });
+    assert!(wider > 900 && narrower > 900, "{wider} wider, {narrower} narrower of 2000");
+    assert!(c5.iter().all(|s| s.shape[0] > 0.0 && s.shape[1] > 0.0), "a carved groove with w or d <= 0");
+    // The chain rule puts the exact endpoints back, bit for bit, and the depths never move.
+    for (a, b) in back.iter().zip(&exact) {
+        assert_eq!(a.ends.map(f32::to_bits), b.ends.map(f32::to_bits));
+    }
+    assert_eq!(params.depths(&ctx).unwrap(), exact_depths);
+    // Another iteration, another carving; the same iteration (a redo, a resume), the same one.
+    let (c6, _) = carved(6);
+    assert!(c6.iter().zip(&c5).filter(|(a, b)| a.ends != b.ends).count() > 1900);
+    let (c5b, _) = carved(5);
+    assert!(c5b.iter().zip(&c5).all(|(a, b)| a.ends.map(f32::to_bits) == b.ends.map(f32::to_bits)
+        && a.shape.map(f32::to_bits) == b.shape.map(f32::to_bits)));
+    // The evaluation-only iteration maps the exact design.
+    params.begin_iteration(7, false);
+    run(&|rec| params.record_to_scene(rec, &gs));
+    let e = read();
+    assert!(e.iter().zip(&exact).all(|(a, b)| a.ends.map(f32::to_bits) == b.ends.map(f32::to_bits)
+        && a.shape.map(f32::to_bits) == b.shape.map(f32::to_bits)));
+    assert_no_validation(&ctx);
+}
+
+/// `design --robust` through the command line: a design trained on carvings with the
+/// machine's error, stopped and resumed bit for bit (each iteration's carving comes from its
+/// number), whose summary reports each view's correlation as written and as carved, and which
+/// differs from the same design without --robust; --robust without --machine is a usage error.
+#[test]
+fn a_robust_design_reports_what_the_machines_error_costs_and_resumes_bit_exactly() {
+    let dir = tmp_dir("robust");
+    let d = dir.to_str().unwrap();
+    let tool = write(
+        &dir,
+        "tool.json",
+        r#"{"kind": "v-bit", "angle_deg": 75.0, "tip_flat_mm": 0.01, "z_offset_mm": 0.007}"#,
+    );
+    let run = |name: &str, extra: &[&str]| -> (std::process::Output, String) {
+        let out = format!("{d}/{name}");
+        let mut args = design_args(&tool, &out);
+        args.retain(|a| *a != "--validation");
+        args.extend(["--machine", "grbl", "--carvings", "3", "--checkpoint-every", "1"]);
+        args.extend(extra);
+        (run_bin(&args), out)
+    };
+    let (o, plain) = run("plain", &[]);
+    assert_eq!(o.status.code(), Some(0), "{}", String::from_utf8_lossy(&o.stderr));
+    let (o, robust) = run("robust", &["--robust"]);
+    assert_eq!(o.status.code(), Some(0), "{}", String::from_utf8_lossy(&o.stderr));
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert!(stdout.contains("designed with --robust") && stdout.contains("as carved"), "{stdout}");
+    let summary = |out: &str| -> serde_json::Value {
+        serde_json::from_str(&std::fs::read_to_string(format!("{out}/summary.json")).unwrap()).unwrap()
+    };
+    let (sp, sr) = (summary(&plain), summary(&robust));
+    for (s, robust) in [(&sp, false), (&sr, true)] {
+        let e = &s["machine_error"];
+        assert_eq!(e["robust"], robust, "{e}");
+        assert_eq!(e["carvings"], 3);
+        assert_eq!(e["sigma_z_mm"], 0.015);
+        let views = e["per_view"].as_array().unwrap();
+        assert_eq!(views.len(), 2);
+        for v in views {
+            let (exact, mean, worst) = (
+                v["corr_exact"].as_f64().unwrap(),
+                v["corr_carved_mean"].as_f64().unwrap(),
+                v["corr_carved_worst"].as_f64().unwrap(),
+            );
+            assert!(exact.is_finite() && mean.is_finite() && worst <= mean + 1e-12, "{v}");
+            assert!(v["corr_carved_std"].as_f64().unwrap() > 0.0, "carvings that all look the same: {v}");
+        }
+    }
+    let csv = |out: &str| std::fs::read_to_string(format!("{out}/scratches.csv")).unwrap();
+    assert_ne!(csv(&plain), csv(&robust), "--robust changed nothing");
+    // Stopped after iteration 2's checkpoint and resumed: the same design as the robust run.
+    let (o, stopped) = run("stopped", &["--robust", "--inject-stop-at", "2"]);
+    assert_ne!(o.status.code(), Some(0));
+    let out = stopped.clone();
+    let mut args = design_args(&tool, &out);
+    args.retain(|a| *a != "--validation");
+    args.extend(["--machine", "grbl", "--carvings", "3", "--checkpoint-every", "1", "--robust", "--resume"]);
+    let o = run_bin(&args);
+    assert_eq!(o.status.code(), Some(0), "{}", String::from_utf8_lossy(&o.stderr));
+    assert_eq!(csv(&stopped), csv(&robust), "the resumed robust design differs");
+    // --robust needs the machine.
+    let mut args = design_args(&tool, &out);
+    args.retain(|a| *a != "--validation");
+    args.push("--robust");
+    let o = run_bin(&args);
+    assert_eq!(o.status.code(), Some(2), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("--machine"));
+    let _ = std::fs::remove_dir_all(&dir);
+}

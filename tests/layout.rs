@@ -267,13 +267,17 @@ fn push_constant_layouts_agree() {
         n_scratches: u(),
         n_table: u(),
         mode: u(),
-        pad0: u(),
+        seed: u(),
         z_first: u() as f32,
         s_lo: u() as f32,
         inv_ds: u() as f32,
         alpha: u() as f32,
+        sigma_z: u() as f32,
+        sigma_xy: u() as f32,
+        pad0: u(),
+        pad1: u(),
     };
-    assert_eq!(std::mem::size_of::<ToolMapPush>(), 32);
+    assert_eq!(std::mem::size_of::<ToolMapPush>(), 48);
     check_push(&ctx, "BIN", bytemuck::bytes_of(&bin), &[]);
     check_push(&ctx, "SCAN", bytemuck::bytes_of(&scan), &[]);
     check_push(&ctx, "LOSS", bytemuck::bytes_of(&loss), bytemuck::cast_slice(&segs));

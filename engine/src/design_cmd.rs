@@ -182,12 +182,27 @@ pub struct DesignArgs {
     /// leaves, about one groove width together)
     #[arg(long)]
     pub min_length_mm: Option<f64>,
+    /// With --machine: a design that survives the machine's error. Each iteration's gradient is
+    /// taken on the plate carved as the machine would cut it: every commanded depth off by the
+    /// profile's z_repeatability_mm, every endpoint by its xy_repeatability_mm (1 sigma), a new
+    /// carving each iteration. Either way summary.json's `machine_error` gives each view's
+    /// correlation with its picture as written and averaged over --carvings such carvings
+    #[arg(long)]
+    pub robust: bool,
+    /// With --machine: how many carvings with the machine's error the written design is scored
+    /// on (summary.json's `machine_error`; 0: none)
+    #[arg(long, default_value_t = 8)]
+    pub carvings: u32,
     /// No progress bar
     #[arg(long)]
     pub quiet: bool,
     /// Test hook: fill the gradient with NaN at this iteration (exercises the rollback)
     #[arg(long, hide = true)]
     pub inject_nan_grad_at: Option<u32>,
+    /// Test hook: stop with an error at the top of this iteration (after its checkpoint), as a
+    /// killed run would
+    #[arg(long, hide = true)]
+    pub inject_stop_at: Option<u32>,
 }
 
 fn parse_fit(s: &str) -> Result<scratchart::optim::framing::Fit, String> {
@@ -373,7 +388,7 @@ pub fn config(args: &DesignArgs) -> DesignConfig {
     cfg.hooks = Hooks {
         nan_grad_at: args.inject_nan_grad_at,
         nan_image_at: None,
-        stop_at: None,
+        stop_at: args.inject_stop_at,
     };
     cfg
 }
@@ -456,12 +471,30 @@ pub fn run(ctx: &Arc<Context>, args: &DesignArgs, obs: &dyn Observer) -> anyhow:
                 // (2e-4 mm more: the endpoints are f32 on the GPU and 4 decimals in the G-code, so
                 // a scratch read back from either is still no shorter than asked.)
                 cfg.adam.min_len = cfg.adam.min_len.max((limits.min_length_mm + 2e-4) as f32);
-                fab.with_machine(limits, &cfg.adam)
-                    .map_err(scratchart::exit::InputError)?
+                let fab = fab
+                    .with_machine(limits, &cfg.adam)
+                    .map_err(scratchart::exit::InputError)?;
+                if args.robust {
+                    fab.with_robust(cfg.seed as u32).map_err(scratchart::exit::InputError)?
+                } else {
+                    fab
+                }
+            }
+            None if args.robust => {
+                return Err(scratchart::exit::UsageError(
+                    "--robust needs --machine (the machine whose error the design survives) and --tool".into(),
+                )
+                .into())
             }
             None => fab,
         };
+        cfg.carvings = args.carvings;
         cfg.tool = Some(fab);
+    } else if args.robust {
+        return Err(scratchart::exit::UsageError(
+            "--robust needs --machine (the machine whose error the design survives) and --tool".into(),
+        )
+        .into());
     } else if args.min_length_mm.is_some() {
         return Err(scratchart::exit::UsageError("--min-length-mm needs --machine (and --tool)".into()).into());
     }
@@ -512,8 +545,34 @@ pub fn run(ctx: &Arc<Context>, args: &DesignArgs, obs: &dyn Observer) -> anyhow:
                 n(&m["largest_z_grid_move_um"]),
             );
         }
+        if let Some(e) = s.get("machine_error") {
+            print!("{}", machine_error_text(e));
+        }
     }
     Ok(())
+}
+
+/// The lines that say what the machine's error costs each view (summary.json's `machine_error`).
+fn machine_error_text(e: &serde_json::Value) -> String {
+    let n = |v: &serde_json::Value| v.as_f64().unwrap_or(f64::NAN);
+    let mut out = format!(
+        "  machine error ({} carvings, depth +-{:.1} um, position +-{:.1} um, 1 sigma; {}): correlation as written -> as carved\n",
+        e["carvings"],
+        1e3 * n(&e["sigma_z_mm"]),
+        1e3 * n(&e["sigma_xy_mm"]),
+        if e["robust"].as_bool() == Some(true) { "designed with --robust" } else { "without --robust" },
+    );
+    for v in e["per_view"].as_array().into_iter().flatten() {
+        out += &format!(
+            "    {}: {:.3} -> {:.3} +- {:.3} (worst {:.3})\n",
+            v["name"].as_str().unwrap_or("?"),
+            n(&v["corr_exact"]),
+            n(&v["corr_carved_mean"]),
+            n(&v["corr_carved_std"]),
+            n(&v["corr_carved_worst"]),
+        );
+    }
+    out
 }
 
 /// The machine limits of `--machine` / `--machine-file` for a design with this tool, or None.

@@ -72,7 +72,8 @@ void main() {
 #elif defined(CHECK)
     put(pc.n_views); put(pc.n_pixels); put(pc.pad0); put(pc.pad1);
 #elif defined(TOOLMAP)
-    put(pc.n_scratches); put(pc.n_table); put(pc.mode); put(pc.pad0);
+    put(pc.n_scratches); put(pc.n_table); put(pc.mode); put(pc.seed);
     put(pc.z_first); put(pc.s_lo); put(pc.inv_ds); put(pc.alpha);
+    put(pc.sigma_z); put(pc.sigma_xy); put(pc.pad0); put(pc.pad1);
 #endif
 }

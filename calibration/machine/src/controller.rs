@@ -44,6 +44,9 @@ pub struct Kinematics {
     pub rate_mm_min: [f64; 3],
     /// Acceleration of each axis, mm/s^2 (GRBL `$120-$122`; Marlin `M201`).
     pub accel_mm_s2: [f64; 3],
+    /// The planner's junction deviation, mm (GRBL `$11`; Marlin `M205 J`): how fast the machine
+    /// takes a corner ([`crate::planner`]).
+    pub junction_deviation_mm: f64,
     /// Where they came from, for the user ("the controller's $110-$112 and $120-$122").
     pub source: String,
 }
@@ -54,7 +57,8 @@ impl Kinematics {
         Kinematics {
             rate_mm_min: [m.rapid_mm_min; 3],
             accel_mm_s2: [m.accel_mm_s2; 3],
-            source: "the machine profile's rapid feed and acceleration".into(),
+            junction_deviation_mm: m.junction_deviation_mm,
+            source: "the machine profile's rapid feed, acceleration and junction deviation".into(),
         }
     }
 }

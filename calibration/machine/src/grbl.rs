@@ -186,7 +186,10 @@ impl Controller for Grbl {
                 self.kin = Some(Kinematics {
                     rate_mm_min: [r[0], r[1], r[2]],
                     accel_mm_s2: [a[0], a[1], a[2]],
-                    source: "the controller's $110-$112 rates and $120-$122 accelerations".into(),
+                    junction_deviation_mm: get(11)
+                        .filter(|j| *j >= 0.0 && j.is_finite())
+                        .unwrap_or(crate::plan::MachineProfile::grbl().junction_deviation_mm),
+                    source: "the controller's $110-$112 rates, $120-$122 accelerations and $11 junction deviation".into(),
                 });
             }
         }

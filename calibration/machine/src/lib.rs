@@ -35,6 +35,7 @@ pub mod journal;
 pub mod level;
 pub mod marlin;
 pub mod plan;
+pub mod planner;
 pub mod probe;
 pub mod program;
 pub mod stream;

@@ -49,9 +49,16 @@ pub fn kinematics_of_m503(lines: &[String]) -> Option<Kinematics> {
     };
     let rate = find("M203 ")?;
     let accel = find("M201 ")?;
+    // Junction deviation (M205 J, where the printer plans with it; else the profile's).
+    let jd = lines
+        .iter()
+        .find_map(|l| l.split_once("M205 ").map(|(_, rest)| rest))
+        .and_then(|l| axis_value(l, "J"))
+        .filter(|j| *j >= 0.0 && j.is_finite());
     Some(Kinematics {
         rate_mm_min: rate.map(|v| 60.0 * v),
         accel_mm_s2: accel,
+        junction_deviation_mm: jd.unwrap_or(crate::plan::MachineProfile::marlin().junction_deviation_mm),
         source: "the printer's M203 rates and M201 accelerations (M503)".into(),
     })
 }

@@ -6,8 +6,10 @@
 //! (reversing a run of cuts also reverses each cut) until no improvement, with the partner search
 //! limited to a window of the next 200 cuts so large designs stay fast.
 //!
-//! Time: every move follows a trapezoidal speed profile (accelerate at `accel` to the feed,
-//! cruise, decelerate to a stop), so t(d) = d / v + v / a when d >= v^2 / a, else 2 sqrt(d / a).
+//! Time: the moves the G-code writer makes, as the controller's planner runs them
+//! ([`crate::planner`]: GRBL's junction speeds, acceleration and lookahead). [`move_time`] is
+//! one move from rest to rest, t(d) = d / v + v / a when d >= v^2 / a, else 2 sqrt(d / a): a
+//! sum of those over the moves is the upper bound the tests hold the planner to.
 
 pub use scratchart_tool::machine::{Firmware, MachineProfile};
 
@@ -143,10 +145,11 @@ impl Hop {
     }
 }
 
-/// The time of a program of blocks, s, as the G-code writer moves: for every block the hop to it
-/// ([`Hop`]: a rise to the clearance height, the rapid, the way down to the retract height), the
-/// plunge from the retract height, each of its G1 moves at the cut feed, and the retract; at the
-/// end the rise to the clearance height and the rapid home. Z moves outside the plate are rapids
+/// The time of a program of blocks, s, as the G-code writer moves and the controller's planner
+/// runs it: for every block the hop to it ([`Hop`]: a rise to the clearance height, the rapid,
+/// the way down to the retract height), the plunge from the retract height, each of its G1
+/// moves at the cut feed, and the retract; at the end the rise to the clearance height and the
+/// rapid home. Z moves outside the plate are rapids
 /// on GRBL and at the Z feed `plunge_mm_min` on Marlin, where every Z move is made at the printer's
 /// Z feed.
 pub fn program_time(blocks: &[Block], m: &MachineProfile) -> f64 {
@@ -179,39 +182,60 @@ impl TimeSplit {
     }
 }
 
-/// [`program_time`], split by what the machine does.
+/// What a move of the program does, for [`TimeSplit`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Doing {
+    Cutting,
+    Travel,
+    Z,
+}
+
+/// [`program_time`], split by what the machine does: the moves the G-code writer makes, timed
+/// as the controller's planner runs them ([`crate::planner`], with the profile's rates,
+/// acceleration and junction deviation).
 pub fn program_time_split(blocks: &[Block], m: &MachineProfile) -> TimeSplit {
-    let z_feed = match m.firmware {
-        Firmware::Grbl => m.rapid_mm_min,
-        Firmware::Marlin => m.plunge_mm_min,
+    let k = crate::controller::Kinematics::of_profile(m);
+    // Z outside the plate: rapids on GRBL, the Z feed on Marlin; Marlin's rapids at the rapid
+    // feed (its G0 shares G1's modal feed, which the writer sets).
+    let (z_feed, rapid) = match m.firmware {
+        Firmware::Grbl => (None, None),
+        Firmware::Marlin => (Some(m.plunge_mm_min), Some(m.rapid_mm_min)),
     };
-    let up_down = move_time(m.clearance_mm - m.retract_mm, z_feed, m.accel_mm_s2);
-    let mut at = [0.0, 0.0];
+    let mut mv = crate::planner::Moves::new([0.0, 0.0, m.clearance_mm], &k);
     let mut high = true;
-    let mut t = TimeSplit::default();
     for b in blocks {
         let (first, last) = (b.path[0], b.path[b.path.len() - 1]);
+        let at = [mv.at[0], mv.at[1]];
         let hop = Hop::of(m, at, [first[0], first[1]], high);
         if hop.rise {
-            t.z += up_down;
+            mv.go([at[0], at[1], m.clearance_mm], z_feed, Doing::Z);
         }
-        t.travel += move_time(dist(at, [first[0], first[1]]), m.rapid_mm_min, m.accel_mm_s2);
+        mv.go([first[0], first[1], mv.at[2]], rapid, Doing::Travel);
         if hop.descend {
-            t.z += up_down;
+            mv.go([first[0], first[1], m.retract_mm], z_feed, Doing::Z);
         }
-        t.z += move_time(m.retract_mm - first[2], m.plunge_mm_min, m.accel_mm_s2);
-        for w in b.path.windows(2) {
-            let d = ((w[1][0] - w[0][0]).powi(2) + (w[1][1] - w[0][1]).powi(2) + (w[1][2] - w[0][2]).powi(2)).sqrt();
-            t.cutting += move_time(d, m.cut_mm_min, m.accel_mm_s2);
+        mv.go(first, Some(m.plunge_mm_min), Doing::Z);
+        for p in &b.path[1..] {
+            mv.go(*p, Some(m.cut_mm_min), Doing::Cutting);
         }
-        t.z += move_time(m.retract_mm - last[2], z_feed, m.accel_mm_s2);
-        at = [last[0], last[1]];
+        mv.go([last[0], last[1], m.retract_mm], z_feed, Doing::Z);
         high = false;
     }
     if !high {
-        t.z += up_down;
+        mv.go([mv.at[0], mv.at[1], m.clearance_mm], z_feed, Doing::Z);
     }
-    t.travel += move_time(dist(at, [0.0, 0.0]), m.rapid_mm_min, m.accel_mm_s2);
+    if m.firmware == Firmware::Grbl && m.spindle_rpm.is_some() {
+        mv.stop(); // M5: the spindle stops with the machine standing
+    }
+    mv.go([0.0, 0.0, mv.at[2]], rapid, Doing::Travel);
+    let mut t = TimeSplit::default();
+    for (doing, secs) in mv.times() {
+        match doing {
+            Doing::Cutting => t.cutting += secs,
+            Doing::Travel => t.travel += secs,
+            Doing::Z => t.z += secs,
+        }
+    }
     t
 }
 

@@ -5,6 +5,7 @@
 //! are never sent.
 use crate::controller::Kinematics;
 use crate::plan::Firmware;
+use crate::planner::Moves;
 
 /// One block of the plan: what its opening comment says (`scratch N`, `mark +x edge`), the
 /// scratch number in the design when it is a scratch, and its G-code lines.
@@ -74,18 +75,21 @@ impl Timing {
     }
 }
 
-/// The modal state of a machine following G-code, for [`Program::timing`].
-struct Motion {
-    pos: [f64; 3],
+/// The modal state of a machine following G-code, for [`Program::timing`]: its moves go to the
+/// planner ([`crate::planner`]) tagged with the section they belong to; dwells are counted
+/// apart.
+struct Motion<'k> {
+    moves: Moves<'k, usize>,
+    dwell: Vec<f64>,
     feed: Option<f64>,
     rapid: bool,
     relative: bool,
     marlin: bool,
 }
 
-impl Motion {
-    /// Seconds for one line.
-    fn line(&mut self, line: &str, k: &Kinematics) -> f64 {
+impl Motion<'_> {
+    /// Follows one line of section `sec`.
+    fn line(&mut self, line: &str, sec: usize) {
         let words: Vec<&str> = line.split_whitespace().collect();
         let has = |w: &str| words.contains(&w);
         if has("G90") {
@@ -98,58 +102,48 @@ impl Motion {
             self.feed = Some(f);
         }
         if has("G4") || has("G04") {
-            // GRBL: P in seconds; Marlin: P in milliseconds, S in seconds.
-            return match (self.marlin, word(line, 'P'), word(line, 'S')) {
+            // GRBL: P in seconds; Marlin: P in milliseconds, S in seconds. The planner empties
+            // its buffer first: the machine stops.
+            self.dwell[sec] += match (self.marlin, word(line, 'P'), word(line, 'S')) {
                 (true, Some(p), _) => p / 1000.0,
                 (true, None, Some(s)) => s,
                 (false, Some(p), _) => p,
                 _ => 0.0,
             };
+            self.moves.stop();
+            return;
         }
         if has("G92") || has("G28") {
             // A new zero, or homing (its time is the machine's): the position the words give.
             for (i, c) in ['X', 'Y', 'Z'].iter().enumerate() {
                 if let Some(v) = word(line, *c) {
-                    self.pos[i] = v;
+                    self.moves.at[i] = v;
                 }
             }
-            return 0.0;
+            self.moves.stop();
+            return;
+        }
+        if words.first().is_some_and(|w| w.starts_with('M')) {
+            // Spindle and other machine commands: GRBL and Marlin finish the moves before them.
+            self.moves.stop();
+            return;
         }
         if has("G0") || has("G00") {
             self.rapid = true;
         } else if has("G1") || has("G01") {
             self.rapid = false;
-        } else if !['X', 'Y', 'Z'].iter().any(|c| word(line, *c).is_some()) || words[0].starts_with('M') {
-            return 0.0;
+        } else if !['X', 'Y', 'Z'].iter().any(|c| word(line, *c).is_some()) {
+            return;
         }
-        let mut to = self.pos;
+        let mut to = self.moves.at;
         for (i, c) in ['X', 'Y', 'Z'].iter().enumerate() {
             if let Some(v) = word(line, *c) {
-                to[i] = if self.relative { self.pos[i] + v } else { v };
-            }
-        }
-        let d: [f64; 3] = std::array::from_fn(|i| to[i] - self.pos[i]);
-        self.pos = to;
-        let len = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
-        if len <= 0.0 {
-            return 0.0;
-        }
-        // The fastest rate and acceleration along the move that no axis exceeds.
-        let (mut v, mut a) = (f64::INFINITY, f64::INFINITY);
-        for i in 0..3 {
-            let u = d[i].abs() / len;
-            if u > 1e-12 {
-                v = v.min(k.rate_mm_min[i] / u);
-                a = a.min(k.accel_mm_s2[i] / u);
+                to[i] = if self.relative { self.moves.at[i] + v } else { v };
             }
         }
         // GRBL's G0 runs at the axes' rates; Marlin's G0 shares G1's modal feed.
-        if !self.rapid || self.marlin {
-            if let Some(f) = self.feed {
-                v = v.min(f);
-            }
-        }
-        crate::plan::move_time(len, v, a)
+        let feed = if !self.rapid || self.marlin { self.feed } else { None };
+        self.moves.go(to, feed, sec);
     }
 }
 
@@ -281,28 +275,38 @@ impl Program {
         out
     }
 
-    /// How long the machine takes for the plan by its own motion limits `k`: every G0/G1 from
-    /// rest to rest (the plans turn 90 degrees between plunge, cut and retract, where a planner
-    /// slows nearly to a stop), a rapid at the fastest rate every axis allows, a feed move at its
-    /// F but no faster than the axes allow, the acceleration the slowest axis of the move
-    /// allows; dwells (`G4`) as long as they say. The machine starts at X0 Y0 at the plan's
-    /// highest Z.
+    /// How long the machine takes for the plan by its own motion limits `k`, as its planner
+    /// runs it ([`crate::planner`]: junction speeds, acceleration, lookahead): a rapid at the
+    /// fastest rate every axis allows, a feed move at its F but no faster than the axes allow,
+    /// the acceleration the slowest axis of the move allows; dwells (`G4`) as long as they say,
+    /// with the machine stopped before and after them and around spindle commands. The machine
+    /// starts at X0 Y0 at the plan's highest Z.
     pub fn timing(&self, k: &Kinematics) -> Timing {
+        let sections = self.blocks.len() + 2;
         let mut m = Motion {
-            pos: [0.0, 0.0, self.max_z],
+            moves: Moves::new([0.0, 0.0, self.max_z], k),
+            dwell: vec![0.0; sections],
             feed: None,
             rapid: true,
             relative: false,
             marlin: self.firmware == Firmware::Marlin,
         };
-        let mut run = |lines: &[String]| lines.iter().map(|l| m.line(l, k)).sum::<f64>();
-        let preamble = run(&self.preamble);
-        let blocks = self.blocks.iter().map(|b| run(&b.lines)).collect();
-        let postamble = run(&self.postamble);
+        let all = std::iter::once(&self.preamble)
+            .chain(self.blocks.iter().map(|b| &b.lines))
+            .chain(std::iter::once(&self.postamble));
+        for (sec, lines) in all.enumerate() {
+            for l in lines {
+                m.line(l, sec);
+            }
+        }
+        let mut t = m.dwell.clone();
+        for (sec, secs) in m.moves.times() {
+            t[sec] += secs;
+        }
         Timing {
-            preamble,
-            blocks,
-            postamble,
+            preamble: t[0],
+            blocks: t[1..sections - 1].to_vec(),
+            postamble: t[sections - 1],
         }
     }
 
@@ -359,9 +363,8 @@ mod tests {
         assert_eq!(p.lines_from(1).iter().filter(|l| l.1 == Some(1)).count(), 4);
         assert!(p.lines_from(1).iter().all(|l| l.1 != Some(0)));
         // The time by the machine's limits: with the profile's own rates it is the plan's
-        // estimate (GRBL: rapids and retracts at the rapid feed), and slower axes take longer.
-        // (On one axis: GRBL limits each axis on its own, so a diagonal rapid is faster than
-        // the profile's one rate.)
+        // estimate (GRBL: rapids and retracts at the rapid feed, each axis limited on its own,
+        // so a diagonal rapid is faster than one axis), and slower axes take longer.
         let prof = MachineProfile::grbl();
         let k = Kinematics::of_profile(&prof);
         let on_x: Vec<Cut> = cuts
@@ -380,10 +383,12 @@ mod tests {
         assert!(t.from(1) < t.from(0) && t.blocks.len() == 2);
         let diagonal = p.timing(&k).from(0);
         let blocks: Vec<_> = cuts.iter().map(crate::plan::Block::flat).collect();
-        assert!(diagonal < crate::plan::program_time(&blocks, &prof) + 2.0);
+        let want = crate::plan::program_time(&blocks, &prof) + 2.0;
+        assert!((diagonal - want).abs() < 1e-9, "{diagonal} vs {want}");
         let slow = Kinematics {
             rate_mm_min: [500.0, 500.0, 100.0],
             accel_mm_s2: [50.0, 50.0, 10.0],
+            junction_deviation_mm: 0.01,
             source: String::new(),
         };
         assert!(p.timing(&slow).from(0) > t.from(0) + 1.0);

@@ -274,6 +274,7 @@ fn the_real_firmware_checks_holds_and_resumes() {
     let k = scratchart_machine::controller::Kinematics {
         rate_mm_min: [500.0; 3],
         accel_mm_s2: [10.0; 3],
+        junction_deviation_mm: 0.01,
         source: String::new(),
     };
     let program = scratchart_machine::program::Program::load(&plan).unwrap();

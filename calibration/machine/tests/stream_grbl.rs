@@ -506,6 +506,7 @@ fn the_job_time_is_the_machines_own() {
             .timing(&scratchart_machine::controller::Kinematics {
                 rate_mm_min: r,
                 accel_mm_s2: a,
+                junction_deviation_mm: 0.01,
                 source: String::new(),
             })
             .from(0)

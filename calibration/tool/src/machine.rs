@@ -21,6 +21,10 @@ pub struct MachineProfile {
     pub plunge_mm_min: f64,
     /// Acceleration, mm/s^2.
     pub accel_mm_s2: f64,
+    /// The planner's junction deviation, mm (GRBL `$11`, Marlin `M205 J`; older profiles
+    /// without it: the firmware's default).
+    #[serde(default = "default_junction_deviation")]
+    pub junction_deviation_mm: f64,
     /// Height above the plate surface between neighbouring cuts, mm.
     pub retract_mm: f64,
     /// Height above the plate surface for long travels, the start and the end of the job, mm
@@ -33,6 +37,10 @@ pub struct MachineProfile {
     pub z_step_mm: f64,
     /// How closely the Z axis returns to a commanded height, mm (one standard deviation).
     pub z_repeatability_mm: f64,
+    /// How closely X and Y reach a commanded point, mm (one standard deviation, per axis; older
+    /// profiles without it: the built-in value).
+    #[serde(default = "default_xy_repeatability")]
+    pub xy_repeatability_mm: f64,
     /// The shallowest cut below the surface the maker trusts the machine with, mm.
     pub min_cut_depth_mm: f64,
     /// Spindle speed, rpm (`None`: no spindle, e.g. a drag engraver).
@@ -65,6 +73,10 @@ impl MachineProfile {
             "feed of plunges into the plate (and of every Z move on Marlin), mm/min",
         ),
         ("accel_mm_s2", "acceleration of every axis, mm/s^2 (for the job time)"),
+        (
+            "junction_deviation_mm",
+            "the planner's junction deviation (GRBL $11, Marlin M205 J), mm: how fast corners are taken (for the job time)",
+        ),
         ("retract_mm", "height above the surface between neighbouring cuts, mm"),
         (
             "clearance_mm",
@@ -83,6 +95,10 @@ impl MachineProfile {
             "how closely Z returns to a commanded height (1 sigma), mm",
         ),
         (
+            "xy_repeatability_mm",
+            "how closely X and Y reach a commanded point (1 sigma, per axis), mm",
+        ),
+        (
             "min_cut_depth_mm",
             "the shallowest cut below the surface the maker trusts, mm",
         ),
@@ -98,11 +114,13 @@ impl MachineProfile {
             cut_mm_min: 300.0,
             plunge_mm_min: 100.0,
             accel_mm_s2: 200.0,
+            junction_deviation_mm: 0.01,
             retract_mm: 0.3,
             clearance_mm: 2.0,
             long_travel_mm: 20.0,
             z_step_mm: 0.0025,
             z_repeatability_mm: 0.015,
+            xy_repeatability_mm: 0.01,
             min_cut_depth_mm: 0.02,
             spindle_rpm: Some(10_000.0),
         }
@@ -118,11 +136,13 @@ impl MachineProfile {
             cut_mm_min: 600.0,
             plunge_mm_min: 300.0,
             accel_mm_s2: 500.0,
+            junction_deviation_mm: 0.013,
             retract_mm: 0.3,
             clearance_mm: 2.0,
             long_travel_mm: 20.0,
             z_step_mm: 0.0025,
             z_repeatability_mm: 0.02,
+            xy_repeatability_mm: 0.02,
             min_cut_depth_mm: 0.03,
             spindle_rpm: None,
         }
@@ -209,7 +229,9 @@ impl MachineProfile {
         }
         for (name, v) in [
             ("long_travel_mm", self.long_travel_mm),
+            ("junction_deviation_mm", self.junction_deviation_mm),
             ("z_repeatability_mm", self.z_repeatability_mm),
+            ("xy_repeatability_mm", self.xy_repeatability_mm),
             ("min_cut_depth_mm", self.min_cut_depth_mm),
         ] {
             if !(v >= 0.0 && v.is_finite()) {
@@ -229,6 +251,14 @@ impl MachineProfile {
         }
         Ok(())
     }
+}
+
+fn default_junction_deviation() -> f64 {
+    MachineProfile::grbl().junction_deviation_mm
+}
+
+fn default_xy_repeatability() -> f64 {
+    MachineProfile::grbl().xy_repeatability_mm
 }
 
 /// Edit distance of two keys, ignoring case and underscores.

@@ -72,6 +72,10 @@ pub trait ParamSet {
     /// The blocks, with their gradients and learning-rate groups. Their buffers must not change
     /// between calls (the optimizer keeps copies of them for rollback).
     fn blocks<'a>(&'a self, gs: &'a GpuScene) -> Vec<ParamBlock<'a>>;
+    /// Called before iteration `k` is recorded (again, when it is redone after a rollback);
+    /// `step`: whether it steps (the last iteration only evaluates). A set that draws something
+    /// per iteration (a perturbed carving) draws it from `k`, so a resumed run draws the same.
+    fn begin_iteration(&self, _k: u32, _step: bool) {}
     /// Records the map from the parameters to the scene before the render (nothing when the
     /// parameters are the scene's own buffers).
     fn record_to_scene(&self, _rec: &mut Recorder, _gs: &GpuScene) {}
@@ -332,6 +336,7 @@ impl<'r> Driver<'r> {
             let nan_image = inner.cfg.hooks.nan_image_at == Some(k) && !inner.hooks_fired.0;
             let nan_grad = step && inner.cfg.hooks.nan_grad_at == Some(k) && !inner.hooks_fired.1;
             let mut failed = None;
+            inner.params.begin_iteration(k, step);
             let inner_ref = &*inner;
             let (stats, timings) = inner.renderer.submit(rec, &mut self.gs, |rec, gs| {
                 if let Err(e) = inner_ref.record_eval(rec, gs, step, nan_image, nan_grad) {

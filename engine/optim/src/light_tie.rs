@@ -45,6 +45,10 @@ impl ParamSet for TiedLights {
         self.inner.blocks(gs)
     }
 
+    fn begin_iteration(&self, k: u32, step: bool) {
+        self.inner.begin_iteration(k, step)
+    }
+
     fn record_to_scene(&self, rec: &mut Recorder, gs: &GpuScene) {
         self.inner.record_to_scene(rec, gs)
     }

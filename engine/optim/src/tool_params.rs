@@ -33,6 +33,7 @@
 //! for its rounding on top of the bound). A grid uniform in z was worse near first contact
 //! (1.5e-2 for the flat-tipped V-bit).
 use std::path::Path;
+use std::sync::atomic::{AtomicU32, Ordering};
 use std::sync::Arc;
 
 use bytemuck::{Pod, Zeroable};
@@ -46,7 +47,7 @@ use super::driver::{Evaluation, Objective, ParamSet};
 use super::scene_params::SceneParams;
 use crate::model::scene::Scratch;
 use crate::render::{GpuScene, Renderer};
-use crate::vulkan::{Buffer, ComputePipeline, Context, GpuError, Recorder, ShaderCompiler};
+use crate::vulkan::{Buffer, ComputePipeline, Context, GpuError, MemLoc, Recorder, ShaderCompiler};
 
 /// Samples of the tool's curve in the table.
 pub const TABLE_SAMPLES: usize = 512;
@@ -60,11 +61,27 @@ pub struct ToolMapPush {
     pub n_scratches: u32,
     pub n_table: u32,
     pub mode: u32,
-    pub pad0: u32,
+    pub seed: u32,
     pub z_first: f32,
     pub s_lo: f32,
     pub inv_ds: f32,
     pub alpha: f32,
+    pub sigma_z: f32,
+    pub sigma_xy: f32,
+    pub pad0: u32,
+    pub pad1: u32,
+}
+
+/// A design that survives the machine's error (`design --robust`): every step's gradient is
+/// taken on a carving perturbed as the machine would cut it (each scratch's commanded depth
+/// off by a normal error of `sigma_z_mm`, each endpoint by `sigma_xy_mm` per axis; a new
+/// carving each iteration, drawn from `seed` and the iteration's number, so a resumed run draws
+/// the same ones). The last iteration (the evaluation the design is judged by) is exact.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Robust {
+    pub sigma_z_mm: f64,
+    pub sigma_xy_mm: f64,
+    pub seed: u32,
 }
 
 /// The tool's curve z -> (w, d) on [z_lo, z_hi], sampled for linear interpolation in
@@ -298,6 +315,8 @@ pub struct Fabrication {
     pub table: ToolTable,
     /// The machine the design is carved on (`design --machine`), when given.
     pub machine: Option<MachineLimits>,
+    /// Trains on carvings perturbed by the machine's repeatability (`design --robust`).
+    pub robust: Option<Robust>,
 }
 
 /// What `design --machine` keeps every scratch within.
@@ -343,6 +362,7 @@ impl Fabrication {
             lr_z,
             table,
             machine: None,
+            robust: None,
         })
     }
 
@@ -358,6 +378,21 @@ impl Fabrication {
         )
         .map_err(|e| format!("within the machine's limits ({}): {e}", limits.source))?;
         self.machine = Some(limits);
+        Ok(self)
+    }
+
+    /// Trains on carvings perturbed by the machine's repeatability (its profile's
+    /// `z_repeatability_mm` and `xy_repeatability_mm`); needs [`with_machine`](Self::with_machine).
+    pub fn with_robust(mut self, seed: u32) -> Result<Fabrication, String> {
+        let m = self
+            .machine
+            .as_ref()
+            .ok_or("a robust design needs the machine whose error it survives (--machine)")?;
+        self.robust = Some(Robust {
+            sigma_z_mm: m.profile.z_repeatability_mm,
+            sigma_xy_mm: m.profile.xy_repeatability_mm,
+            seed,
+        });
         Ok(self)
     }
 
@@ -386,11 +421,16 @@ impl Fabrication {
 
     /// What a checkpoint must agree with.
     pub fn fingerprint(&self) -> Value {
-        json!({
+        let mut f = json!({
             "tool": self.tool.to_json(), "alpha": self.alpha, "lr_z": self.lr_z,
             "z_range": [self.table.z_lo, self.table.z_hi], "samples": self.table.samples.len(),
             "machine": self.machine.as_ref().map(|m| json!({"profile": m.profile.to_json(), "min_length_mm": m.min_length_mm})),
-        })
+        });
+        // (only where set: checkpoints of designs without it stay valid)
+        if let Some(r) = self.robust {
+            f["robust"] = json!([r.sigma_z_mm, r.sigma_xy_mm, r.seed]);
+        }
+        f
     }
 
     /// The `fabrication` entry of `summary.json`; `depths` are the written scratches' z.
@@ -423,6 +463,12 @@ pub struct ToolParams {
     table: Buffer,
     depths: Buffer,
     depth_grad: Buffer,
+    /// The exact endpoints while a perturbed carving is in the scene (`--robust`).
+    saved: Buffer,
+    robust: Option<Robust>,
+    /// The perturbed carving of this iteration: its seed + 1, or 0 for the exact one (set by
+    /// [`ParamSet::begin_iteration`]; atomic so that a shared set stays `Sync`).
+    carving: AtomicU32,
     n: u32,
 }
 
@@ -472,12 +518,22 @@ impl ToolParams {
             scene: SceneParams::new(ctx, cfg)?,
             cfg: *cfg,
             fab: fab.clone(),
-            map: ComputePipeline::new(ctx, &sc, "tool_map.comp", &[], 5, push)?,
+            map: ComputePipeline::new(ctx, &sc, "tool_map.comp", &[], 6, push)?,
             table: ctx.upload("tool table", &tab)?,
             depths: ctx.upload("depths", &z)?,
             depth_grad: ctx.upload("depth gradient", &zeros)?,
+            saved: Buffer::new(ctx, "exact endpoints", 16, MemLoc::GpuOnly)?,
+            robust: None,
+            carving: AtomicU32::new(0),
             n,
         })
+    }
+
+    /// Trains on perturbed carvings (see [`Robust`]).
+    pub fn with_robust(mut self, ctx: &Arc<Context>, robust: Robust) -> Result<ToolParams, GpuError> {
+        self.saved = Buffer::new(ctx, "exact endpoints", 16 * self.n.max(1) as u64, MemLoc::GpuOnly)?;
+        self.robust = Some(robust);
+        Ok(self)
     }
 
     pub fn fabrication(&self) -> &Fabrication {
@@ -507,21 +563,40 @@ impl ToolParams {
         Ok(())
     }
 
-    fn push(&self, mode: u32) -> ToolMapPush {
+    /// The push block of `mode`; `perturbed` draws this iteration's carving (when there is one).
+    fn push(&self, mode: u32, perturbed: bool) -> ToolMapPush {
         let t = &self.fab.table;
+        let carving = self.carving.load(Ordering::Relaxed);
+        let (sigma_z, sigma_xy) = match self.robust {
+            Some(r) if perturbed && carving > 0 => (r.sigma_z_mm as f32, r.sigma_xy_mm as f32),
+            _ => (0.0, 0.0),
+        };
         ToolMapPush {
             n_scratches: self.n,
             n_table: t.samples.len() as u32,
             mode,
-            pad0: 0,
+            seed: carving.wrapping_sub(1),
             z_first: t.z_first as f32,
             s_lo: t.s_lo as f32,
             inv_ds: (1.0 / t.ds) as f32,
             alpha: self.fab.alpha as f32,
+            sigma_z,
+            sigma_xy,
+            pad0: 0,
+            pad1: 0,
         }
     }
 
+    /// The seed of the perturbed carving of iteration `k` of a run drawn from `seed`.
+    pub fn carving_seed(seed: u32, k: u32) -> u32 {
+        seed.wrapping_mul(0x9E37_79B9) ^ k.wrapping_mul(0x85EB_CA6B) ^ 0x5bd1_e995
+    }
+
     fn record_map(&self, rec: &mut Recorder, gs: &GpuScene, mode: u32) {
+        self.record_map_as(rec, gs, mode, false)
+    }
+
+    fn record_map_as(&self, rec: &mut Recorder, gs: &GpuScene, mode: u32, perturbed: bool) {
         assert_eq!(gs.n_scratches(), self.n, "the depths belong to another scene");
         let bufs = [
             gs.scratches(),
@@ -529,11 +604,12 @@ impl ToolParams {
             &self.table,
             gs.scratch_grad(),
             &self.depth_grad,
+            &self.saved,
         ];
         rec.dispatch_1d(
             &self.map,
             &bufs,
-            bytemuck::bytes_of(&self.push(mode)),
+            bytemuck::bytes_of(&self.push(mode, perturbed)),
             self.n.div_ceil(256),
         );
         rec.barrier();
@@ -613,12 +689,20 @@ impl ParamSet for ToolParams {
         ]
     }
 
+    fn begin_iteration(&self, k: u32, step: bool) {
+        let carving = match self.robust {
+            Some(r) if step => ToolParams::carving_seed(r.seed, k).wrapping_add(1).max(1),
+            _ => 0,
+        };
+        self.carving.store(carving, Ordering::Relaxed);
+    }
+
     fn record_to_scene(&self, rec: &mut Recorder, gs: &GpuScene) {
-        self.record_map(rec, gs, 0);
+        self.record_map_as(rec, gs, 0, true);
     }
 
     fn record_grad(&self, rec: &mut Recorder, gs: &GpuScene) {
-        self.record_map(rec, gs, 1);
+        self.record_map_as(rec, gs, 1, true);
     }
 
     fn record_project(&self, rec: &mut Recorder, gs: &GpuScene, before: &[&Buffer], flags: &Buffer) {
@@ -634,6 +718,9 @@ impl ParamSet for ToolParams {
 impl ParamSet for Arc<ToolParams> {
     fn blocks<'a>(&'a self, gs: &'a GpuScene) -> Vec<ParamBlock<'a>> {
         (**self).blocks(gs)
+    }
+    fn begin_iteration(&self, k: u32, step: bool) {
+        (**self).begin_iteration(k, step)
     }
     fn record_to_scene(&self, rec: &mut Recorder, gs: &GpuScene) {
         (**self).record_to_scene(rec, gs)

@@ -41,12 +41,13 @@ impl<'r> Optimizer<'r> {
         let ctx = renderer.ctx.clone();
         let gs = renderer.upload(&problem.scene)?;
         let tool = match &cfg.tool {
-            Some(fab) => Some(Arc::new(ToolParams::new(
-                &ctx,
-                &cfg.adam,
-                fab,
-                &problem.scene.scratches,
-            )?)),
+            Some(fab) => {
+                let t = ToolParams::new(&ctx, &cfg.adam, fab, &problem.scene.scratches)?;
+                Some(Arc::new(match fab.robust {
+                    Some(r) => t.with_robust(&ctx, r)?,
+                    None => t,
+                }))
+            }
             None => None,
         };
         let mut params: Box<dyn super::driver::ParamSet> = match &tool {
@@ -357,6 +358,9 @@ pub fn run_design(
             summary["fabrication"] = fab.summary(z);
             if let Some(limits) = &fab.machine {
                 summary["machine"] = machine_summary(limits, fab, &report.scene, z, snap, report.final_loss.total);
+                if cfg.carvings > 0 {
+                    summary["machine_error"] = machine_error(&renderer, problem, cfg, fab, limits, &report.scene, z)?;
+                }
             }
         }
         // Where the lamp and the viewers go, and how precisely (setup.txt, setup.png).
@@ -384,6 +388,39 @@ pub fn run_design(
         report.summary = Some(summary);
     }
     Ok(report)
+}
+
+/// `summary.json`'s `machine_error`: the written design carved `cfg.carvings` times with the
+/// machine's error ([`super::carving`]).
+fn machine_error(
+    renderer: &Renderer,
+    problem: &Problem,
+    cfg: &DesignConfig,
+    fab: &super::tool_params::Fabrication,
+    limits: &super::tool_params::MachineLimits,
+    scene: &Scene,
+    depths: &[f64],
+) -> Result<Value, OptimError> {
+    use super::carving::{carved_quality, carving_table, summary, MachineError};
+    let err = MachineError {
+        sigma_z_mm: limits.profile.z_repeatability_mm,
+        sigma_xy_mm: limits.profile.xy_repeatability_mm,
+    };
+    let table = carving_table(fab, cfg.adam.w_bounds.1 as f64, cfg.adam.d_bounds.1 as f64)
+        .map_err(|e| OptimError::Report(format!("the carvings' tool table: {e}")))?;
+    let views = carved_quality(
+        renderer,
+        problem,
+        scene,
+        depths,
+        fab,
+        &table,
+        err,
+        cfg.carvings,
+        cfg.seed,
+        cfg.loss.sigma,
+    )?;
+    Ok(summary(scene, err, fab.robust.is_some(), cfg.carvings, &views))
 }
 
 /// `summary.json`'s `machine`: the limits a `design --machine` kept and how many scratches each

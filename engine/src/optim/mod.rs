@@ -17,6 +17,8 @@
 //! - [`scene_params`]: the design's parameter set (scratches and lights) and its projection.
 //! - [`tool_params`]: fabrication mode's parameter set: one carve depth per scratch through a
 //!   calibrated tool's curve (`design --tool`).
+//! - [`carving`]: what the machine's error costs a design: perturbed carvings rendered and
+//!   scored (`design --machine`).
 //! - [`design`]: the design job: the driver with those two, then pruning and the reports.
 //! - [`prune`]: removal of scratches that barely matter, checked by true forward evaluations.
 //! - [`targets`]: target images (files, or the built-in circle / triangle / star).
@@ -35,6 +37,7 @@ pub use scratchart_optim::{
     adam, check, checkpoint, driver, error, least_squares, light_tie, loss, prune, scene_params, tool_params,
 };
 
+pub mod carving;
 pub mod design;
 pub mod framing;
 pub mod measure;

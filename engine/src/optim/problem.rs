@@ -74,6 +74,9 @@ pub struct DesignConfig {
     pub write_outputs: bool,
     /// Fabrication mode: one carve depth per scratch through this tool (`design --tool`).
     pub tool: Option<Fabrication>,
+    /// Within a machine (`design --machine`): carvings perturbed by the machine's error that the
+    /// written design is scored on (`summary.json`'s `machine_error`); 0: none.
+    pub carvings: u32,
     /// When the job started (the process, for a program), for the start-up time in the wall
     /// times; None: the start-up is not counted.
     pub started: Option<std::time::Instant>,
@@ -97,6 +100,7 @@ impl DesignConfig {
             max_rollbacks: 30,
             write_outputs: true,
             tool: None,
+            carvings: 8,
             started: None,
         }
     }
