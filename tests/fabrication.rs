@@ -717,3 +717,104 @@ fn a_robust_design_reports_what_the_machines_error_costs_and_resumes_bit_exactly
     assert!(String::from_utf8_lossy(&o.stderr).contains("--machine"));
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// `design --max-job-min` (issue 27 item 4): a limit the design meets as asked costs nothing;
+/// a limit of half its job trims the design until the G-code `scratchart-cal plan` writes for
+/// it, summed here move by move from rest at the profile's feeds, fits; the summary says what
+/// the limit cost each view.
+#[test]
+fn a_job_limit_design_fits_its_plan_and_says_what_it_cost() {
+    let dir = tmp_dir("joblimit");
+    let d = dir.to_str().unwrap();
+    let tool = write(
+        &dir,
+        "tool.json",
+        r#"{"kind": "v-bit", "angle_deg": 75.0, "tip_flat_mm": 0.01, "z_offset_mm": 0.007}"#,
+    );
+    let run = |name: &str, limit: &str| -> (String, serde_json::Value) {
+        let out = format!("{d}/{name}");
+        let mut args = design_args(&tool, &out);
+        args.retain(|a| *a != "--validation");
+        args[8] = "6";
+        args.extend(["--machine", "grbl", "--carvings", "0", "--max-job-min", limit]);
+        let o = run_bin(&args);
+        assert_eq!(o.status.code(), Some(0), "{}", String::from_utf8_lossy(&o.stderr));
+        let s: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(format!("{out}/summary.json")).unwrap()).unwrap();
+        (out, s["job_limit"].clone())
+    };
+    let (_, j) = run("loose", "1000");
+    assert_eq!(j["fits_without_trimming"], true, "{j}");
+    assert_eq!(j["limited"]["scratches"], j["unlimited"]["scratches"]);
+    assert!(j["corr_cost"].as_array().unwrap().iter().all(|c| c.as_f64().unwrap().abs() < 1e-3), "{j}");
+    let full = j["unlimited"]["job_min_upper"].as_f64().unwrap();
+    let limit = 0.5 * full;
+    let (out, j) = run("tight", &format!("{limit:.3}"));
+    eprintln!("{j}");
+    let n = j["limited"]["scratches"].as_u64().unwrap();
+    assert!(n < j["unlimited"]["scratches"].as_u64().unwrap());
+    assert!(j["limited"]["job_min_upper"].as_f64().unwrap() <= limit + 1e-6);
+    assert_eq!(j["corr_cost"].as_array().unwrap().len(), 2);
+    // The plan, read back and timed move by move from rest at the profile's feeds.
+    let cal = workspace_bin("scratchart-calibration", "scratchart-cal");
+    let nc = format!("{out}/plan.nc");
+    let o = Command::new(cal)
+        .args(["plan", &format!("{out}/design.json"), "--machine", "grbl", "--out", &nc])
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(0), "{}", String::from_utf8_lossy(&o.stderr));
+    let g = std::fs::read_to_string(&nc).unwrap();
+    let word = |l: &str, c: char| -> Option<f64> {
+        l.split_whitespace()
+            .find(|w| w.starts_with(c))
+            .and_then(|w| w[1..].parse().ok())
+    };
+    // GRBL's built-in profile: rapids 1000 mm/min, 200 mm/s^2.
+    let (rapid, accel) = (1000.0f64, 200.0f64);
+    let move_secs = |len: f64, v_mm_min: f64| {
+        let v = v_mm_min / 60.0;
+        if len >= v * v / accel {
+            len / v + v / accel
+        } else {
+            2.0 * (len / accel).sqrt()
+        }
+    };
+    let (mut at, mut feed, mut secs, mut cuts) = ([0.0f64, 0.0, 2.0], rapid, 0.0, 0);
+    for l in g.lines().filter(|l| !l.starts_with(';')) {
+        if let Some(f) = word(l, 'F') {
+            feed = f;
+        }
+        if l.starts_with("G4") {
+            secs += word(l, 'P').unwrap();
+        }
+        if !(l.starts_with("G0") || l.starts_with("G1")) {
+            continue;
+        }
+        let mut to = at;
+        for (i, c) in ['X', 'Y', 'Z'].into_iter().enumerate() {
+            if let Some(v) = word(l, c) {
+                to[i] = v;
+            }
+        }
+        let len = ((to[0] - at[0]).powi(2) + (to[1] - at[1]).powi(2) + (to[2] - at[2]).powi(2)).sqrt();
+        if len > 0.0 {
+            secs += move_secs(len, if l.starts_with("G0") { rapid } else { feed });
+        }
+        if l.starts_with("G1 X") {
+            cuts += 1;
+        }
+        at = to;
+    }
+    assert_eq!(cuts as u64, n + 1, "the design's cuts and the +x mark");
+    let mins = (secs - 2.0) / 60.0; // less the spindle's dwell
+    eprintln!("limit {limit:.3} min; the plan summed move by move: {mins:.3} min");
+    assert!(mins <= limit, "the plan takes {mins} min by a move-by-move sum, over the limit of {limit}");
+    let stated = g
+        .lines()
+        .find_map(|l| l.strip_prefix("; estimated job time "))
+        .and_then(|r| r.split(' ').next())
+        .and_then(|v| v.parse::<f64>().ok())
+        .unwrap();
+    assert!(stated <= limit + 0.05 && stated <= mins + 0.05, "stated {stated} min");
+    let _ = std::fs::remove_dir_all(&dir);
+}

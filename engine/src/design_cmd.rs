@@ -193,6 +193,13 @@ pub struct DesignArgs {
     /// on (summary.json's `machine_error`; 0: none)
     #[arg(long, default_value_t = 8)]
     pub carvings: u32,
+    /// With --machine: the longest job the maker has, minutes. The design is made as asked (in
+    /// OUT/unlimited/), its job time taken as `scratchart-cal plan` makes it for the same
+    /// machine, and if it is longer, the scratches that matter least go and the rest is
+    /// optimized again, until the job (summed move by move from rest, an upper bound of the
+    /// planner's estimate) fits. summary.json's `job_limit` says what the limit cost each view
+    #[arg(long)]
+    pub max_job_min: Option<f64>,
     /// No progress bar
     #[arg(long)]
     pub quiet: bool,
@@ -498,7 +505,14 @@ pub fn run(ctx: &Arc<Context>, args: &DesignArgs, obs: &dyn Observer) -> anyhow:
     } else if args.min_length_mm.is_some() {
         return Err(scratchart::exit::UsageError("--min-length-mm needs --machine (and --tool)".into()).into());
     }
-    let report = match run_design(ctx, &problem, &cfg, obs) {
+    if args.max_job_min.is_some() && cfg.tool.as_ref().is_none_or(|f| f.machine.is_none()) {
+        return Err(scratchart::exit::UsageError("--max-job-min needs --machine (and --tool)".into()).into());
+    }
+    let result = match args.max_job_min {
+        Some(limit) => scratchart::optim::job_limit::run_design_within(ctx, &problem, &cfg, limit, obs),
+        None => run_design(ctx, &problem, &cfg, obs),
+    };
+    let report = match result {
         Ok(r) => r,
         Err(
             e @ scratchart::optim::OptimError::Interrupted {
@@ -548,6 +562,9 @@ pub fn run(ctx: &Arc<Context>, args: &DesignArgs, obs: &dyn Observer) -> anyhow:
         if let Some(e) = s.get("machine_error") {
             print!("{}", machine_error_text(e));
         }
+        if let Some(j) = s.get("job_limit") {
+            print!("{}", job_limit_text(j));
+        }
     }
     Ok(())
 }
@@ -572,6 +589,37 @@ fn machine_error_text(e: &serde_json::Value) -> String {
             n(&v["corr_carved_worst"]),
         );
     }
+    out
+}
+
+/// The lines that say what `--max-job-min` did and cost (summary.json's `job_limit`).
+fn job_limit_text(j: &serde_json::Value) -> String {
+    let n = |v: &serde_json::Value| v.as_f64().unwrap_or(f64::NAN);
+    let side = |k: &str| {
+        format!(
+            "{} scratches, {:.1} min ({:.1} at most; {})",
+            j[k]["scratches"],
+            n(&j[k]["job_min"]),
+            n(&j[k]["job_min_upper"]),
+            j[k]["shares"].as_str().unwrap_or("?")
+        )
+    };
+    let mut out = format!(
+        "  job limit {} min: without it {}; within it {}\n",
+        n(&j["max_job_min"]),
+        side("unlimited"),
+        side("limited")
+    );
+    let costs: Vec<String> = j["corr_cost"]
+        .as_array()
+        .into_iter()
+        .flatten()
+        .zip(j["limited"]["corr"].as_array().into_iter().flatten())
+        .zip(j["unlimited"]["corr"].as_array().into_iter().flatten())
+        .enumerate()
+        .map(|(v, ((c, l), u))| format!("v{v} {:.3} -> {:.3} ({:+.3})", n(u), n(l), -n(c)))
+        .collect();
+    out += &format!("    what the limit cost in correlation: {}\n", costs.join(", "));
     out
 }
 

@@ -195,13 +195,40 @@ enum Doing {
 /// acceleration and junction deviation).
 pub fn program_time_split(blocks: &[Block], m: &MachineProfile) -> TimeSplit {
     let k = crate::controller::Kinematics::of_profile(m);
+    let mv = program_moves(blocks, m, &k);
+    let mut t = TimeSplit::default();
+    for (doing, secs) in mv.times() {
+        match doing {
+            Doing::Cutting => t.cutting += secs,
+            Doing::Travel => t.travel += secs,
+            Doing::Z => t.z += secs,
+        }
+    }
+    t
+}
+
+/// The same moves summed one by one from rest to rest ([`move_time`]) at the profile's rates
+/// and acceleration along each move's path (a rapid at `rapid_mm_min`, without the faster
+/// diagonal that axes limited one by one allow), s: an upper bound of [`program_time`], and of
+/// any simple sum of the G-code's moves at their feeds.
+pub fn program_time_rest_to_rest(blocks: &[Block], m: &MachineProfile) -> f64 {
+    let k = crate::controller::Kinematics::of_profile(m);
+    program_moves(blocks, m, &k)
+        .segs
+        .iter()
+        .map(|s| move_time(s.len, (60.0 * s.v_max).min(m.rapid_mm_min), m.accel_mm_s2))
+        .sum()
+}
+
+/// The moves the G-code writer makes for `blocks` (see [`program_time`]).
+fn program_moves<'k>(blocks: &[Block], m: &MachineProfile, k: &'k crate::controller::Kinematics) -> crate::planner::Moves<'k, Doing> {
     // Z outside the plate: rapids on GRBL, the Z feed on Marlin; Marlin's rapids at the rapid
     // feed (its G0 shares G1's modal feed, which the writer sets).
     let (z_feed, rapid) = match m.firmware {
         Firmware::Grbl => (None, None),
         Firmware::Marlin => (Some(m.plunge_mm_min), Some(m.rapid_mm_min)),
     };
-    let mut mv = crate::planner::Moves::new([0.0, 0.0, m.clearance_mm], &k);
+    let mut mv = crate::planner::Moves::new([0.0, 0.0, m.clearance_mm], k);
     let mut high = true;
     for b in blocks {
         let (first, last) = (b.path[0], b.path[b.path.len() - 1]);
@@ -228,15 +255,21 @@ pub fn program_time_split(blocks: &[Block], m: &MachineProfile) -> TimeSplit {
         mv.stop(); // M5: the spindle stops with the machine standing
     }
     mv.go([0.0, 0.0, mv.at[2]], rapid, Doing::Travel);
-    let mut t = TimeSplit::default();
-    for (doing, secs) in mv.times() {
-        match doing {
-            Doing::Cutting => t.cutting += secs,
-            Doing::Travel => t.travel += secs,
-            Doing::Z => t.z += secs,
-        }
+    mv
+}
+
+/// The job time of a design's cuts as `plan` makes it: ordered (nearest neighbour, then 2-opt),
+/// the +x mark after them (`widths`: each scratch's visible groove width, where the mark keeps
+/// clear of), no levelling. Returns the planner's estimate and the move-by-move upper bound, s.
+pub fn design_job_time(cuts: &[Cut], widths: &[f64], plate_mm: f64, m: &MachineProfile) -> (TimeSplit, f64) {
+    let ordered = two_opt(nearest_neighbour(cuts), 200);
+    let mut blocks: Vec<Block> = ordered.iter().map(Block::flat).collect();
+    if !cuts.is_empty() {
+        let sc: Vec<_> = cuts.iter().zip(widths).map(|(c, &w)| (c.a, c.b, w)).collect();
+        let deepest = cuts.iter().map(|c| c.z).fold(0.0f64, f64::max);
+        blocks.push(orientation_mark(&sc, plate_mm, deepest, MARK_CLEAR_MM).block());
     }
-    t
+    (program_time_split(&blocks, m), program_time_rest_to_rest(&blocks, m))
 }
 
 /// Rapid travel of a program starting and ending at the work zero, mm.

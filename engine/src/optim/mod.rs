@@ -20,6 +20,7 @@
 //! - [`carving`]: what the machine's error costs a design: perturbed carvings rendered and
 //!   scored (`design --machine`).
 //! - [`design`]: the design job: the driver with those two, then pruning and the reports.
+//! - [`job_limit`]: a design sized to the job time the maker has (`design --max-job-min`).
 //! - [`prune`]: removal of scratches that barely matter, checked by true forward evaluations.
 //! - [`targets`]: target images (files, or the built-in circle / triangle / star).
 //! - [`framing`]: where a picture goes in a view (upright and as large as fits inside the
@@ -40,6 +41,7 @@ pub use scratchart_optim::{
 pub mod carving;
 pub mod design;
 pub mod framing;
+pub mod job_limit;
 pub mod measure;
 pub mod problem;
 pub mod report;

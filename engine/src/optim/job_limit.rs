@@ -1,0 +1,241 @@
+//! A design sized to the job time the maker has (`design --machine ... --max-job-min N`, issue 27
+//! item 4).
+//!
+//! 1. The design as asked, without the limit, in `OUT/unlimited/` (its own checkpoints and
+//!    reports): what the limit is measured against.
+//! 2. Its job time as `plan` would make it for the same machine ([`job_time`]: the cuts ordered
+//!    as `plan` orders them, the +x mark, the controller's planner). The limit holds the
+//!    move-by-move sum from rest to rest, an upper bound of the planner's estimate that a
+//!    maker's own sum of the G-code will not exceed either.
+//! 3. Over the limit: the scratches that matter least (the pruning's ranking: how far each one's
+//!    gradient would move it) go until the job fits in [`TRIM_TARGET`] of it, and the rest is
+//!    optimized again for half the iterations (lengths may grow while it is); still over, the
+//!    least important go again until it fits, with a final evaluation. Within the limit from
+//!    the start: the same design, evaluated again.
+//! 4. The result goes to `OUT/` as any design does, and its `summary.json` gains `job_limit`:
+//!    both designs' scratches, job times and correlations, and what the limit cost each view.
+//!
+//! `--resume` continues whichever stage was stopped (each has its checkpoints; the stages are
+//! deterministic, so a resumed run equals an uninterrupted one).
+use serde_json::{json, Value};
+
+use scratchart_machine::plan::{design_job_time, Cut, MachineProfile, TimeSplit};
+
+use super::design::{run_design, DesignConfig, DesignReport, Problem};
+use super::error::OptimError;
+use super::loss::Loss;
+use crate::model::scene::Scene;
+use crate::observe::Observer;
+use crate::render::Renderer;
+use crate::vulkan::Context;
+
+/// Before re-optimizing, the job is trimmed to this share of the limit (the re-optimization may
+/// lengthen scratches).
+pub const TRIM_TARGET: f64 = 0.92;
+
+/// A design's job time as `plan` makes it for machine `m`: the planner's estimate and the
+/// move-by-move upper bound, s.
+pub fn job_time(scene: &Scene, depths: &[f64], m: &MachineProfile) -> (TimeSplit, f64) {
+    let cuts: Vec<Cut> = scene
+        .scratches
+        .iter()
+        .zip(depths)
+        .enumerate()
+        .map(|(k, (s, &z))| Cut {
+            a: s.p0,
+            b: s.p1,
+            z,
+            scratch: k,
+        })
+        .collect();
+    let widths: Vec<f64> = scene
+        .scratches
+        .iter()
+        .map(|s| scratchart_machine::export::visible_width(s.w, s.d))
+        .collect();
+    design_job_time(&cuts, &widths, scene.plate.size_mm, m)
+}
+
+/// Each scratch's importance (the pruning's ranking) in `scene`.
+fn importance(renderer: &Renderer, loss: &Loss, scene: &Scene, cfg: &DesignConfig) -> Result<Vec<f64>, OptimError> {
+    let a = &cfg.adam;
+    let lr = [a.lr_end, a.lr_end, a.lr_end, a.lr_end, a.lr_w, a.lr_d, a.lr_alpha];
+    renderer.prepare_backward()?;
+    let (_, grads) = super::prune::evaluate(renderer, loss, scene)?;
+    Ok(grads
+        .iter()
+        .map(|g| (0..7).map(|i| (g[i] * lr[i]).abs() as f64).sum())
+        .collect())
+}
+
+/// The most important scratches of `scene` (kept in order) whose job fits in `secs`; with
+/// their depths and the job's times. An error when not even one scratch fits.
+fn trim(
+    scene: &Scene,
+    depths: &[f64],
+    rank: &[f64],
+    m: &MachineProfile,
+    secs: f64,
+) -> Result<(Scene, Vec<f64>, (TimeSplit, f64)), OptimError> {
+    let mut order: Vec<usize> = (0..scene.scratches.len()).collect();
+    order.sort_by(|&a, &b| rank[b].total_cmp(&rank[a]).then(a.cmp(&b)));
+    let keep = |n: usize| -> (Scene, Vec<f64>) {
+        let mut idx: Vec<usize> = order[..n].to_vec();
+        idx.sort_unstable();
+        let mut s = scene.clone();
+        s.scratches = idx.iter().map(|&i| scene.scratches[i]).collect();
+        (s, idx.iter().map(|&i| depths[i]).collect())
+    };
+    let (mut n, mut t) = (scene.scratches.len(), job_time(scene, depths, m));
+    for _ in 0..12 {
+        if t.1 <= secs {
+            break;
+        }
+        // The time is about proportional to the scratches left (a few percent of it is the
+        // start, the end and the mark): shrink by the ratio, and by at least one.
+        let next = ((n as f64 * secs / t.1).floor() as usize).min(n - 1);
+        if next == 0 {
+            break;
+        }
+        n = next;
+        let (s, z) = keep(n);
+        t = job_time(&s, &z, m);
+    }
+    if t.1 > secs {
+        let (s, z) = keep(1);
+        let one = job_time(&s, &z, m).1;
+        return Err(OptimError::Usage(format!(
+            "the job limit ({:.1} min) is shorter than a job of one scratch ({:.1} min on this machine)",
+            secs / 60.0,
+            one / 60.0
+        )));
+    }
+    let (s, z) = keep(n);
+    Ok((s, z, t))
+}
+
+fn corr(summary: &Option<Value>) -> Vec<f64> {
+    summary
+        .as_ref()
+        .and_then(|s| s["per_view"].as_array().cloned())
+        .unwrap_or_default()
+        .iter()
+        .map(|v| v["corr_final"].as_f64().unwrap_or(f64::NAN))
+        .collect()
+}
+
+/// The design of `problem` within `max_min` minutes of machine time (see the module doc).
+pub fn run_design_within(
+    ctx: &std::sync::Arc<Context>,
+    problem: &Problem,
+    cfg: &DesignConfig,
+    max_min: f64,
+    obs: &dyn Observer,
+) -> Result<DesignReport, OptimError> {
+    let m = match cfg.tool.as_ref().and_then(|f| f.machine.as_ref()) {
+        Some(l) => l.profile.clone(),
+        None => return Err(OptimError::Usage("--max-job-min needs --machine (and --tool)".into())),
+    };
+    if !(max_min > 0.0 && max_min.is_finite()) {
+        return Err(OptimError::Usage(format!("--max-job-min {max_min}: a time > 0 minutes")));
+    }
+    let limit = 60.0 * max_min;
+    let has_checkpoint = |dir: &std::path::Path| super::checkpoint::path(dir).exists();
+    // 1. Without the limit.
+    let mut c1 = cfg.clone();
+    c1.out = cfg.out.join("unlimited");
+    c1.carvings = 0;
+    c1.resume = cfg.resume && has_checkpoint(&c1.out);
+    obs.info(&format!(
+        "job limit {max_min} min: the design without it first (in {})",
+        c1.out.display()
+    ));
+    let a = run_design(ctx, problem, &c1, obs)?;
+    let za = a.depths.clone().expect("a machine design has depths");
+    let ta = job_time(&a.scene, &za, &m);
+    // 2. Trimmed to fit, optimized again.
+    let renderer = Renderer::new(ctx)?;
+    let slots = crate::render::layout::view_slots(&problem.scene);
+    let loss = Loss::new(ctx, &slots.views, &problem.targets, cfg.loss)?;
+    let fits = ta.1 <= limit;
+    let (start, refine_iters, trimmed_to) = if fits {
+        (a.scene.clone(), 0, None)
+    } else {
+        let rank = importance(&renderer, &loss, &a.scene, cfg)?;
+        let (s, _, t) = trim(&a.scene, &za, &rank, &m, TRIM_TARGET * limit)?;
+        let n = s.scratches.len();
+        (s, (cfg.iters / 2).max(10), Some((n, t.1)))
+    };
+    obs.info(&format!(
+        "job limit {max_min} min: without it {} scratches, {:.1} min (at most {:.1}); {}",
+        a.scene.scratches.len(),
+        ta.0.total() / 60.0,
+        ta.1 / 60.0,
+        match trimmed_to {
+            None => "it fits".to_string(),
+            Some((n, t)) => format!(
+                "trimmed to the {n} that matter most ({:.1} min at most), optimized again for {refine_iters} iterations",
+                t / 60.0
+            ),
+        }
+    ));
+    let run_stage = |scene: Scene, iters: u32| -> Result<DesignReport, OptimError> {
+        let mut p = problem.clone();
+        p.scene = scene;
+        let mut c = cfg.clone();
+        c.iters = iters;
+        c.calibrate_lights = false;
+        // (an evaluation only has no checkpoint of its own: one in OUT is the stage before)
+        c.resume = iters > 0 && cfg.resume && has_checkpoint(&cfg.out);
+        if iters == 0 {
+            c.prune.tol = 0.0;
+        }
+        run_design(ctx, &p, &c, obs)
+    };
+    let mut b = run_stage(start, refine_iters)?;
+    let mut zb = b.depths.clone().expect("a machine design has depths");
+    let mut tb = job_time(&b.scene, &zb, &m);
+    let mut final_trim = None;
+    if tb.1 > limit {
+        // 3. Lengthened past the limit while it was optimized: the least important go again.
+        let rank = importance(&renderer, &loss, &b.scene, cfg)?;
+        let (s, _, _) = trim(&b.scene, &zb, &rank, &m, limit)?;
+        final_trim = Some((b.scene.scratches.len(), s.scratches.len()));
+        b = run_stage(s, 0)?;
+        zb = b.depths.clone().expect("a machine design has depths");
+        tb = job_time(&b.scene, &zb, &m);
+    }
+    let (ca, cb) = (corr(&a.summary), corr(&b.summary));
+    let entry = json!({
+        "max_job_min": max_min,
+        "what": "the design without the limit (in unlimited/) and within it: scratches, job time as plan makes it for this machine (the planner's estimate, and the move-by-move sum from rest that the limit holds), each view's correlation with its picture",
+        "fits_without_trimming": fits,
+        "refine_iterations": refine_iters,
+        "final_trim": final_trim.map(|(from, to)| json!({"from": from, "to": to})),
+        "unlimited": {
+            "scratches": a.scene.scratches.len(),
+            "job_min": ta.0.total() / 60.0,
+            "job_min_upper": ta.1 / 60.0,
+            "shares": ta.0.shares(),
+            "corr": ca,
+        },
+        "limited": {
+            "scratches": b.scene.scratches.len(),
+            "job_min": tb.0.total() / 60.0,
+            "job_min_upper": tb.1 / 60.0,
+            "shares": tb.0.shares(),
+            "corr": cb,
+        },
+        "corr_cost": ca.iter().zip(&cb).map(|(x, y)| x - y).collect::<Vec<_>>(),
+    });
+    if let Some(s) = b.summary.as_mut() {
+        s["job_limit"] = entry;
+        crate::io::write_atomic(
+            &cfg.out.join("summary.json"),
+            serde_json::to_string_pretty(s)
+                .expect("the summary always serializes")
+                .as_bytes(),
+        )?;
+    }
+    Ok(b)
+}
