@@ -329,3 +329,42 @@ impl Drop for XServer {
         }
     }
 }
+
+/// Runs the `scratchart` binary with `args`.
+pub fn run_scratchart(args: &[&str]) -> std::process::Output {
+    std::process::Command::new(workspace_bin("scratchart", "scratchart"))
+        .args(args)
+        .output()
+        .unwrap()
+}
+
+/// A small `scratchart design --tool TOOL --out OUT` (2 views of 32 px, 200 scratches, 3
+/// iterations, no pruning, quiet, validation on): tests change the values they need.
+pub fn tool_design_args<'a>(tool: &'a str, out: &'a str) -> Vec<&'a str> {
+    vec![
+        "design",
+        "--views",
+        "2",
+        "--res",
+        "32",
+        "--scratches",
+        "200",
+        "--iters",
+        "3",
+        "--prune-tol",
+        "0",
+        "--quiet",
+        "--validation",
+        "--tool",
+        tool,
+        "--out",
+        out,
+    ]
+}
+
+/// Writes `text` to `dir/name` and returns the path.
+pub fn write_file(dir: &std::path::Path, name: &str, text: &str) -> String {
+    let p = dir.join(name);
+    std::fs::write(&p, text).unwrap();
+    p.to_str().unwrap().to_string()
+}

@@ -452,6 +452,20 @@ fn resume_command() -> String {
 /// Runs `scratchart design`.
 pub fn run(ctx: &Arc<Context>, args: &DesignArgs, obs: &dyn Observer) -> anyhow::Result<()> {
     ensure_flag!(args.blur_sigma > 0.0, "--blur-sigma must be > 0");
+    // What only a design for a machine has.
+    let machine_given = args.machine.is_some() || args.machine_file.is_some();
+    for (given, flag) in [
+        (args.min_length_mm.is_some(), "--min-length-mm"),
+        (args.robust, "--robust"),
+        (args.max_job_min.is_some(), "--max-job-min"),
+    ] {
+        if given && !machine_given {
+            return Err(scratchart::exit::UsageError(format!(
+                "{flag} needs the machine: --machine grbl|marlin or --machine-file machine.json (with --tool)"
+            ))
+            .into());
+        }
+    }
     let problem = problem(args, ctx.info())?;
     if args.targets.is_empty() {
         let names: Vec<&str> = (0..problem.scene.views.len())
@@ -487,26 +501,10 @@ pub fn run(ctx: &Arc<Context>, args: &DesignArgs, obs: &dyn Observer) -> anyhow:
                     fab
                 }
             }
-            None if args.robust => {
-                return Err(scratchart::exit::UsageError(
-                    "--robust needs --machine (the machine whose error the design survives) and --tool".into(),
-                )
-                .into())
-            }
             None => fab,
         };
         cfg.carvings = args.carvings;
         cfg.tool = Some(fab);
-    } else if args.robust {
-        return Err(scratchart::exit::UsageError(
-            "--robust needs --machine (the machine whose error the design survives) and --tool".into(),
-        )
-        .into());
-    } else if args.min_length_mm.is_some() {
-        return Err(scratchart::exit::UsageError("--min-length-mm needs --machine (and --tool)".into()).into());
-    }
-    if args.max_job_min.is_some() && cfg.tool.as_ref().is_none_or(|f| f.machine.is_none()) {
-        return Err(scratchart::exit::UsageError("--max-job-min needs --machine (and --tool)".into()).into());
     }
     let result = match args.max_job_min {
         Some(limit) => scratchart::optim::job_limit::run_design_within(ctx, &problem, &cfg, limit, obs),
@@ -630,9 +628,6 @@ fn machine_limits(
 ) -> anyhow::Result<Option<scratchart::optim::tool_params::MachineLimits>> {
     use scratchart_tool::machine::{Firmware, MachineProfile};
     if args.machine.is_none() && args.machine_file.is_none() {
-        if args.min_length_mm.is_some() {
-            return Err(scratchart::exit::UsageError("--min-length-mm needs --machine".into()).into());
-        }
         return Ok(None);
     }
     let firmware = match args.machine.as_deref() {

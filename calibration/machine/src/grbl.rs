@@ -189,7 +189,8 @@ impl Controller for Grbl {
                     junction_deviation_mm: get(11)
                         .filter(|j| *j >= 0.0 && j.is_finite())
                         .unwrap_or(crate::plan::MachineProfile::grbl().junction_deviation_mm),
-                    source: "the controller's $110-$112 rates, $120-$122 accelerations and $11 junction deviation".into(),
+                    source: "the controller's $110-$112 rates, $120-$122 accelerations and $11 junction deviation"
+                        .into(),
                 });
             }
         }

@@ -157,28 +157,35 @@ pub fn program_time(blocks: &[Block], m: &MachineProfile) -> f64 {
 }
 
 /// Where a job's time goes, s: cutting (the G1 moves in the plate), travelling (the rapids in X
-/// and Y) and in Z (plunges, retracts, rises to the clearance height and the ways down).
+/// and Y), in Z (plunges, retracts, rises to the clearance height and the ways down), and
+/// waiting (the spindle's spin-up dwell, [`crate::gcode::SPINDLE_DWELL_S`]).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct TimeSplit {
     pub cutting: f64,
     pub travel: f64,
     pub z: f64,
+    pub dwell: f64,
 }
 
 impl TimeSplit {
     pub fn total(&self) -> f64 {
-        self.cutting + self.travel + self.z
+        self.cutting + self.travel + self.z + self.dwell
     }
 
-    /// "62% cutting, 21% travelling, 17% in Z".
+    /// "62% cutting, 21% travelling, 17% in Z" (and the spindle's wait where it has one:
+    /// ", 0.3% waiting for the spindle").
     pub fn shares(&self) -> String {
         let t = self.total().max(1e-12);
-        format!(
+        let mut s = format!(
             "{:.0}% cutting, {:.0}% travelling, {:.0}% in Z",
             100.0 * self.cutting / t,
             100.0 * self.travel / t,
             100.0 * self.z / t
-        )
+        );
+        if self.dwell > 0.0 {
+            s += &format!(", {:.1}% waiting for the spindle", 100.0 * self.dwell / t);
+        }
+        s
     }
 }
 
@@ -196,7 +203,10 @@ enum Doing {
 pub fn program_time_split(blocks: &[Block], m: &MachineProfile) -> TimeSplit {
     let k = crate::controller::Kinematics::of_profile(m);
     let mv = program_moves(blocks, m, &k);
-    let mut t = TimeSplit::default();
+    let mut t = TimeSplit {
+        dwell: spindle_dwell(m),
+        ..TimeSplit::default()
+    };
     for (doing, secs) in mv.times() {
         match doing {
             Doing::Cutting => t.cutting += secs,
@@ -217,11 +227,24 @@ pub fn program_time_rest_to_rest(blocks: &[Block], m: &MachineProfile) -> f64 {
         .segs
         .iter()
         .map(|s| move_time(s.len, (60.0 * s.v_max).min(m.rapid_mm_min), m.accel_mm_s2))
-        .sum()
+        .sum::<f64>()
+        + spindle_dwell(m)
+}
+
+/// The dwell the G-code writer adds after starting the spindle (GRBL with a spindle), s.
+fn spindle_dwell(m: &MachineProfile) -> f64 {
+    match (m.firmware, m.spindle_rpm) {
+        (Firmware::Grbl, Some(_)) => crate::gcode::SPINDLE_DWELL_S,
+        _ => 0.0,
+    }
 }
 
 /// The moves the G-code writer makes for `blocks` (see [`program_time`]).
-fn program_moves<'k>(blocks: &[Block], m: &MachineProfile, k: &'k crate::controller::Kinematics) -> crate::planner::Moves<'k, Doing> {
+fn program_moves<'k>(
+    blocks: &[Block],
+    m: &MachineProfile,
+    k: &'k crate::controller::Kinematics,
+) -> crate::planner::Moves<'k, Doing> {
     // Z outside the plate: rapids on GRBL, the Z feed on Marlin; Marlin's rapids at the rapid
     // feed (its G0 shares G1's modal feed, which the writer sets).
     let (z_feed, rapid) = match m.firmware {

@@ -378,12 +378,12 @@ mod tests {
         let px = Program::parse(&crate::gcode::write(&on_x, &prof, 50.0, &[])).unwrap();
         let t = px.timing(&k);
         let blocks: Vec<_> = on_x.iter().map(crate::plan::Block::flat).collect();
-        let want = crate::plan::program_time(&blocks, &prof) + 2.0; // and the spindle's G4 P2
+        let want = crate::plan::program_time(&blocks, &prof); // the spindle's G4 P2 included
         assert!((t.from(0) - want).abs() < 1e-9, "{} vs {want}", t.from(0));
         assert!(t.from(1) < t.from(0) && t.blocks.len() == 2);
         let diagonal = p.timing(&k).from(0);
         let blocks: Vec<_> = cuts.iter().map(crate::plan::Block::flat).collect();
-        let want = crate::plan::program_time(&blocks, &prof) + 2.0;
+        let want = crate::plan::program_time(&blocks, &prof);
         assert!((diagonal - want).abs() < 1e-9, "{diagonal} vs {want}");
         let slow = Kinematics {
             rate_mm_min: [500.0, 500.0, 100.0],

@@ -5,7 +5,7 @@ use scratchart_machine::gcode::{self, write_blocks, Options};
 use scratchart_machine::level::{compensate, HeightMap};
 use scratchart_machine::plan::{
     check_bounds, check_cuts, check_moves, job_time, move_time, nearest_neighbour, orientation_mark, program_time,
-    program_time_split, travel, two_opt, Block, Cut, Label, MachineProfile,
+    program_time_rest_to_rest, program_time_split, travel, two_opt, Block, Cut, Label, MachineProfile,
 };
 use scratchart_model::scene::Scratch;
 use scratchart_tool::Tool;
@@ -91,7 +91,8 @@ fn time_follows_the_acceleration_model() {
     // move from rest to rest, an upper bound of the planner's time; the moves at their top
     // speeds, a lower one. Every junction here turns 90 degrees, where GRBL's planner keeps
     // sqrt(a delta sin45 / (1 - sin45)) = 2.2 mm/s: a little less than the sum.
-    let up_down = move_time(m.clearance_mm - m.retract_mm, m.rapid_mm_min, m.accel_mm_s2);
+    // The spindle's dwell after M3 (GRBL with a spindle) is a wait in every one of these.
+    let dwell = scratchart_machine::gcode::SPINDLE_DWELL_S;
     let moves = [
         (10.0, m.rapid_mm_min),
         (m.clearance_mm - m.retract_mm, m.rapid_mm_min),
@@ -101,15 +102,21 @@ fn time_follows_the_acceleration_model() {
         (m.clearance_mm - m.retract_mm, m.rapid_mm_min),
         (20.0, m.rapid_mm_min),
     ];
-    let rest_to_rest: f64 = moves.iter().map(|&(d, v)| move_time(d, v, m.accel_mm_s2)).sum();
-    let cruise: f64 = moves.iter().map(|&(d, v)| d / (v / 60.0)).sum();
-    assert!((rest_to_rest - (2.0 * up_down + moves.iter().filter(|x| x.0 != m.clearance_mm - m.retract_mm).map(|&(d, v)| move_time(d, v, m.accel_mm_s2)).sum::<f64>())).abs() < 1e-12);
+    let rest_to_rest: f64 = dwell + moves.iter().map(|&(d, v)| move_time(d, v, m.accel_mm_s2)).sum::<f64>();
+    let cruise: f64 = dwell + moves.iter().map(|&(d, v)| d / (v / 60.0)).sum::<f64>();
+    // The plan's own upper bound is this sum (every move here runs along one axis).
+    let blocks = [Block::flat(&c)];
+    let upper = program_time_rest_to_rest(&blocks, &m);
+    assert!((upper - rest_to_rest).abs() < 1e-9, "{upper} vs {rest_to_rest}");
     let t = job_time(&[c], &m);
     eprintln!("one cut: planner {t:.4} s, move by move from rest {rest_to_rest:.4} s, at top speeds {cruise:.4} s");
     assert!(t < rest_to_rest && t > cruise, "{t} outside ({cruise}, {rest_to_rest})");
     // The junctions save at most what a stop costs at each of the 6 junctions.
     let vj = (m.accel_mm_s2 * m.junction_deviation_mm * 0.5f64.sqrt() / (1.0 - 0.5f64.sqrt())).sqrt();
-    assert!(rest_to_rest - t < 6.0 * 2.0 * vj / m.accel_mm_s2 + 1e-9, "{t} vs {rest_to_rest}");
+    assert!(
+        rest_to_rest - t < 6.0 * 2.0 * vj / m.accel_mm_s2 + 1e-9,
+        "{t} vs {rest_to_rest}"
+    );
     // More than distance over feed.
     assert!(t > 10.0 / (m.cut_mm_min / 60.0) + 30.0 / (m.rapid_mm_min / 60.0));
 }
@@ -142,7 +149,11 @@ fn the_planner_follows_grbls_junctions_and_lookahead() {
     let whole = total(&[[10.0, 0.0, 0.0]], &[]);
     assert!((whole - move_time(10.0, 600.0, a)).abs() < 1e-12);
     let pieces: Vec<[f64; 3]> = (1..=10).map(|i| [i as f64, 0.0, 0.0]).collect();
-    assert!((total(&pieces, &[]) - whole).abs() < 1e-9, "{} vs {whole}", total(&pieces, &[]));
+    assert!(
+        (total(&pieces, &[]) - whole).abs() < 1e-9,
+        "{} vs {whole}",
+        total(&pieces, &[])
+    );
     // A stop in the middle: two moves from rest to rest.
     let stopped = total(&pieces, &[5]);
     assert!((stopped - 2.0 * move_time(5.0, 600.0, a)).abs() < 1e-9, "{stopped}");
@@ -162,10 +173,20 @@ fn the_planner_follows_grbls_junctions_and_lookahead() {
     let tiny: Vec<[f64; 3]> = (1..=1000).map(|i| [0.01 * i as f64, 0.0, 0.0]).collect();
     let t_tiny = total(&tiny, &[]);
     let v_cap = (2.0 * a * 0.01 * LOOKAHEAD as f64).sqrt();
-    assert!(t_tiny > 10.0 / v_cap && t_tiny < 10.0 / v_cap + 2.0 * v_cap / a, "{t_tiny} vs {}", 10.0 / v_cap);
+    assert!(
+        t_tiny > 10.0 / v_cap && t_tiny < 10.0 / v_cap + 2.0 * v_cap / a,
+        "{t_tiny} vs {}",
+        10.0 / v_cap
+    );
     // Never more than the move-by-move sum, never less than at the top speed.
     let zigzag: Vec<[f64; 3]> = (1..=50)
-        .map(|i| [i as f64 * 0.7, if i % 2 == 0 { 0.0 } else { 0.4 }, if i % 3 == 0 { -0.1 } else { 0.0 }])
+        .map(|i| {
+            [
+                i as f64 * 0.7,
+                if i % 2 == 0 { 0.0 } else { 0.4 },
+                if i % 3 == 0 { -0.1 } else { 0.0 },
+            ]
+        })
         .collect();
     let mut mv = Moves::new([0.0; 3], &k);
     for p in &zigzag {

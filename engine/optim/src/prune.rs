@@ -67,14 +67,9 @@ pub fn evaluate(renderer: &Renderer, loss: &Loss, scene: &Scene) -> Result<(Loss
     Ok((lv, g[..scene.scratches.len()].to_vec()))
 }
 
-/// Prunes `scene` (see the module doc). Returns the pruned scene and what happened.
-pub fn prune(
-    renderer: &Renderer,
-    loss: &Loss,
-    scene: &Scene,
-    cfg: &PruneConfig,
-    adam: &AdamConfig,
-) -> Result<(Scene, PruneStats), GpuError> {
+/// Each scratch's importance (see the module doc) from its gradient `grads` (as [`evaluate`]
+/// gives them) and the optimizer's learning rates.
+pub fn importance(grads: &[[f32; 8]], adam: &AdamConfig) -> Vec<f64> {
     let lr = [
         adam.lr_end,
         adam.lr_end,
@@ -84,6 +79,20 @@ pub fn prune(
         adam.lr_d,
         adam.lr_alpha,
     ];
+    grads
+        .iter()
+        .map(|g| (0..7).map(|i| (g[i] * lr[i]).abs() as f64).sum())
+        .collect()
+}
+
+/// Prunes `scene` (see the module doc). Returns the pruned scene and what happened.
+pub fn prune(
+    renderer: &Renderer,
+    loss: &Loss,
+    scene: &Scene,
+    cfg: &PruneConfig,
+    adam: &AdamConfig,
+) -> Result<(Scene, PruneStats), GpuError> {
     let (lv0, mut grads) = evaluate(renderer, loss, scene)?;
     let e0 = lv0.total;
     let limit = e0 as f64 * (1.0 + cfg.tol);
@@ -95,13 +104,7 @@ pub fn prune(
     let (mut trials, mut accepted) = (0u32, 0u32);
     while trials < cfg.max_trials && batch >= min_batch && current.scratches.len() > 1 {
         let b = batch.min(current.scratches.len() - 1);
-        let mut order: Vec<(f64, usize)> = current
-            .scratches
-            .iter()
-            .zip(&grads)
-            .enumerate()
-            .map(|(k, (_, g))| ((0..7).map(|i| (g[i] * lr[i]).abs() as f64).sum::<f64>(), k))
-            .collect();
+        let mut order: Vec<(f64, usize)> = importance(&grads, adam).into_iter().zip(0..).collect();
         order.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
         let mut drop = vec![false; current.scratches.len()];
         for &(_, k) in &order[..b] {

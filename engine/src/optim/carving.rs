@@ -117,7 +117,11 @@ pub fn carved_quality(
                 exact: exact[v],
                 mean: if c.is_empty() { exact[v] } else { mean },
                 std: var.sqrt(),
-                worst: c.iter().cloned().fold(exact[v], f64::min),
+                worst: if c.is_empty() {
+                    exact[v]
+                } else {
+                    c.iter().cloned().fold(f64::INFINITY, f64::min)
+                },
             }
         })
         .collect())

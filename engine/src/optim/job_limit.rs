@@ -58,14 +58,9 @@ pub fn job_time(scene: &Scene, depths: &[f64], m: &MachineProfile) -> (TimeSplit
 
 /// Each scratch's importance (the pruning's ranking) in `scene`.
 fn importance(renderer: &Renderer, loss: &Loss, scene: &Scene, cfg: &DesignConfig) -> Result<Vec<f64>, OptimError> {
-    let a = &cfg.adam;
-    let lr = [a.lr_end, a.lr_end, a.lr_end, a.lr_end, a.lr_w, a.lr_d, a.lr_alpha];
     renderer.prepare_backward()?;
     let (_, grads) = super::prune::evaluate(renderer, loss, scene)?;
-    Ok(grads
-        .iter()
-        .map(|g| (0..7).map(|i| (g[i] * lr[i]).abs() as f64).sum())
-        .collect())
+    Ok(super::prune::importance(&grads, &cfg.adam))
 }
 
 /// The most important scratches of `scene` (kept in order) whose job fits in `secs`; with
@@ -114,6 +109,17 @@ fn trim(
     Ok((s, z, t))
 }
 
+/// One design's entry in `job_limit`.
+fn side(scene: &Scene, t: &(TimeSplit, f64), corr: &[f64]) -> Value {
+    json!({
+        "scratches": scene.scratches.len(),
+        "job_min": t.0.total() / 60.0,
+        "job_min_upper": t.1 / 60.0,
+        "shares": t.0.shares(),
+        "corr": corr,
+    })
+}
+
 fn corr(summary: &Option<Value>) -> Vec<f64> {
     summary
         .as_ref()
@@ -137,7 +143,9 @@ pub fn run_design_within(
         None => return Err(OptimError::Usage("--max-job-min needs --machine (and --tool)".into())),
     };
     if !(max_min > 0.0 && max_min.is_finite()) {
-        return Err(OptimError::Usage(format!("--max-job-min {max_min}: a time > 0 minutes")));
+        return Err(OptimError::Usage(format!(
+            "--max-job-min {max_min}: a time > 0 minutes"
+        )));
     }
     let limit = 60.0 * max_min;
     let has_checkpoint = |dir: &std::path::Path| super::checkpoint::path(dir).exists();
@@ -212,20 +220,8 @@ pub fn run_design_within(
         "fits_without_trimming": fits,
         "refine_iterations": refine_iters,
         "final_trim": final_trim.map(|(from, to)| json!({"from": from, "to": to})),
-        "unlimited": {
-            "scratches": a.scene.scratches.len(),
-            "job_min": ta.0.total() / 60.0,
-            "job_min_upper": ta.1 / 60.0,
-            "shares": ta.0.shares(),
-            "corr": ca,
-        },
-        "limited": {
-            "scratches": b.scene.scratches.len(),
-            "job_min": tb.0.total() / 60.0,
-            "job_min_upper": tb.1 / 60.0,
-            "shares": tb.0.shares(),
-            "corr": cb,
-        },
+        "unlimited": side(&a.scene, &ta, &ca),
+        "limited": side(&b.scene, &tb, &cb),
         "corr_cost": ca.iter().zip(&cb).map(|(x, y)| x - y).collect::<Vec<_>>(),
     });
     if let Some(s) = b.summary.as_mut() {
