@@ -254,6 +254,15 @@ fn a_job_limit_design_fits_its_plan_and_says_what_it_cost() {
         let j = summary(&out)["job_limit"].clone();
         (out, j)
     };
+    // A limit shorter than one scratch's job is refused before any work, saying so.
+    let o = design(
+        &tool,
+        &format!("{d}/short"),
+        &["--machine", "grbl", "--max-job-min", "0.001"],
+    );
+    assert_eq!(o.status.code(), Some(2), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("shorter than a job of one scratch"));
+    assert!(!Path::new(&format!("{d}/short/unlimited")).exists());
     let (_, j) = run("loose", "1000");
     assert_eq!(j["fits_without_trimming"], true, "{j}");
     assert_eq!(j["limited"]["scratches"], j["unlimited"]["scratches"]);

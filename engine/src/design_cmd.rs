@@ -603,8 +603,9 @@ fn job_limit_text(j: &serde_json::Value) -> String {
         )
     };
     let mut out = format!(
-        "  job limit {} min: without it {}; within it {}\n",
+        "  job limit {} min ({:.1} s in all; the lines above are its last stage's): without it {}; within it {}\n",
         n(&j["max_job_min"]),
+        n(&j["wall_s"]),
         side("unlimited"),
         side("limited")
     );

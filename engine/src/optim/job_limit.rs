@@ -98,12 +98,7 @@ fn trim(
     }
     if t.1 > secs {
         let (s, z) = keep(1);
-        let one = job_time(&s, &z, m).1;
-        return Err(OptimError::Usage(format!(
-            "the job limit ({:.1} min) is shorter than a job of one scratch ({:.1} min on this machine)",
-            secs / 60.0,
-            one / 60.0
-        )));
+        return Err(too_short(secs, job_time(&s, &z, m).1));
     }
     let (s, z) = keep(n);
     Ok((s, z, t))
@@ -118,6 +113,14 @@ fn side(scene: &Scene, t: &(TimeSplit, f64), corr: &[f64]) -> Value {
         "shares": t.0.shares(),
         "corr": corr,
     })
+}
+
+fn too_short(limit_s: f64, one_s: f64) -> OptimError {
+    OptimError::Usage(format!(
+        "the job limit ({} min) is shorter than a job of one scratch ({:.2} min on this machine): give a longer --max-job-min",
+        limit_s / 60.0,
+        one_s / 60.0
+    ))
 }
 
 fn corr(summary: &Option<Value>) -> Vec<f64> {
@@ -148,6 +151,23 @@ pub fn run_design_within(
         )));
     }
     let limit = 60.0 * max_min;
+    let started = std::time::Instant::now();
+    // A limit shorter than the job of the shortest initial scratch at the shallowest cut is
+    // refused before any work.
+    if let (Some(fab), Some(s)) = (
+        &cfg.tool,
+        problem.scene.scratches.iter().min_by(|a, b| {
+            let len = |s: &crate::model::scene::Scratch| (s.p1[0] - s.p0[0]).hypot(s.p1[1] - s.p0[1]);
+            len(a).total_cmp(&len(b))
+        }),
+    ) {
+        let mut one = problem.scene.clone();
+        one.scratches = vec![*s];
+        let t = job_time(&one, &[fab.table.z_lo], &m).1;
+        if t > limit {
+            return Err(too_short(limit, t));
+        }
+    }
     let has_checkpoint = |dir: &std::path::Path| super::checkpoint::path(dir).exists();
     // 1. Without the limit.
     let mut c1 = cfg.clone();
@@ -193,6 +213,8 @@ pub fn run_design_within(
         let mut c = cfg.clone();
         c.iters = iters;
         c.calibrate_lights = false;
+        // (the start-up of the whole job is counted once, in the first stage's wall times)
+        c.started = None;
         // (an evaluation only has no checkpoint of its own: one in OUT is the stage before)
         c.resume = iters > 0 && cfg.resume && has_checkpoint(&cfg.out);
         if iters == 0 {
@@ -223,6 +245,7 @@ pub fn run_design_within(
         "unlimited": side(&a.scene, &ta, &ca),
         "limited": side(&b.scene, &tb, &cb),
         "corr_cost": ca.iter().zip(&cb).map(|(x, y)| x - y).collect::<Vec<_>>(),
+        "wall_s": started.elapsed().as_secs_f64(),
     });
     if let Some(s) = b.summary.as_mut() {
         s["job_limit"] = entry;
