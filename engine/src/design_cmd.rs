@@ -65,6 +65,51 @@ pub struct DesignArgs {
     /// Number of views on the paper's ring: elevation --elevation, view j at azimuth 360 j / N
     #[arg(long, default_value_t = 3)]
     pub views: usize,
+    /// A walk-past plate: the frames it plays as the viewer walks along --arc, one design view
+    /// per frame, evenly spaced, in the order given (first frame at the arc's start, counter-
+    /// clockwise seen from above); or one directory, whose PNG and JPEG files are taken in name
+    /// order. Each frame is placed in its view as --fit says
+    #[arg(long, num_args = 1.., value_name = "FRAME", conflicts_with_all = ["targets", "view_file", "views", "hold", "object"])]
+    pub walk: Vec<PathBuf>,
+    /// A walk that shows one picture over the whole --arc (the same frame at every view)
+    #[arg(long, value_name = "PICTURE", conflicts_with_all = ["targets", "view_file", "views", "object"])]
+    pub hold: Option<PathBuf>,
+    /// A walk that shows a 3D object (an OBJ mesh) with parallax: the object, placed behind the
+    /// plate (--object-depth) at --object-size and lit by a fixed lamp, seen from every view of
+    /// the --arc, is each view's target: a scratch hologram designed by optimization
+    #[arg(long, value_name = "OBJ", conflicts_with_all = ["targets", "view_file", "views"])]
+    pub object: Option<PathBuf>,
+    /// The walk's arc: total angle from its first view to its last, degrees (needs --walk,
+    /// --hold or --object)
+    #[arg(long, value_name = "DEG")]
+    pub arc: Option<f64>,
+    /// Azimuth of the arc's middle, degrees (counter-clockwise from the plate's +x edge); the
+    /// lamp stands there too unless --light-azimuth says otherwise
+    #[arg(long, value_name = "DEG")]
+    pub azimuth: Option<f64>,
+    /// Distance of the walk's eyes from the plate centre, mm (default 3 x --plate)
+    #[arg(long, value_name = "MM")]
+    pub distance: Option<f64>,
+    /// Design views along the arc for --hold and --object (default: one every 5 degrees or
+    /// closer, at least 2); --walk has one per frame
+    #[arg(long, value_name = "N")]
+    pub walk_views: Option<usize>,
+    /// In-between views per pair of neighbouring walk views that join the loss, so the plate
+    /// does not go dark or flicker between them: their targets are the cross-fades of their
+    /// neighbours' frames (for --object, the object seen from there). 0: none
+    #[arg(long, default_value_t = 1, value_name = "K")]
+    pub between: usize,
+    /// --object: the object's largest extent, mm (default: half the plate)
+    #[arg(long, value_name = "MM")]
+    pub object_size: Option<f64>,
+    /// --object: how far the object's centre lies behind the plate, mm (negative: in front;
+    /// default: a quarter of the plate)
+    #[arg(long, value_name = "MM", allow_hyphen_values = true)]
+    pub object_depth: Option<f64>,
+    /// --object: turn the object about the plate's normal, degrees (0: the OBJ's front, +Z,
+    /// faces the arc's middle, its +Y up the plate's normal)
+    #[arg(long, value_name = "DEG", default_value_t = 0.0, allow_hyphen_values = true)]
+    pub object_yaw: f64,
     /// Views from a file instead: a JSON array of MODEL.md view objects (their lights' intensities are used as given)
     #[arg(long, conflicts_with_all = ["views", "res", "elevation", "light_azimuth", "light_elevation", "light_distance"])]
     pub view_file: Option<PathBuf>,
@@ -83,11 +128,12 @@ pub struct DesignArgs {
     /// Elevation of the views, degrees
     #[arg(long, default_value_t = 45.0)]
     pub elevation: f64,
-    /// Azimuth of the lamp, degrees (views sit at 0, 360/N, ...). The default, 0, puts it on view
+    /// Azimuth of the lamp, degrees (views sit at 0, 360/N, ...; a walk's lamp defaults to its
+    /// arc's middle). The default, 0, puts it on view
     /// 0's side: its mirror direction then falls between views, so no view sees the plate's own
     /// specular highlight (at 30 degrees one view does, and its target dims)
-    #[arg(long, default_value_t = 0.0)]
-    pub light_azimuth: f64,
+    #[arg(long, allow_hyphen_values = true)]
+    pub light_azimuth: Option<f64>,
     /// Elevation of the lamp, degrees (default: 20 degrees above the views', at most 80: a lamp on
     /// a stand above the first viewer's head, where a person can stand beside it; the views' own
     /// elevation puts it in view 0's eye, as designs did before)
@@ -212,6 +258,155 @@ pub struct DesignArgs {
     pub inject_stop_at: Option<u32>,
 }
 
+/// The lamp of `args` for views at `distance` (its azimuth `default_azimuth` unless
+/// --light-azimuth is given); its intensity a placeholder, calibrated against the targets before
+/// the first step.
+fn lamp(args: &DesignArgs, distance: f64, default_azimuth: f64) -> anyhow::Result<scratchart::model::scene::Light> {
+    let light_elevation = args
+        .light_elevation
+        .unwrap_or((args.elevation + LIGHT_ELEVATION_ABOVE_VIEWS).min(80.0));
+    ensure_flag!(
+        light_elevation > 0.0 && light_elevation <= 90.0,
+        "--light-elevation must lie above 0 and at most 90 degrees"
+    );
+    let light_distance = args.light_distance.unwrap_or(LIGHT_DISTANCE_FACTOR * distance);
+    ensure_flag!(
+        light_distance.is_finite() && light_distance > 0.0,
+        "--light-distance must be a distance above 0 mm"
+    );
+    let azimuth = args.light_azimuth.unwrap_or(default_azimuth);
+    ensure_flag!(azimuth.is_finite(), "--light-azimuth must be a number of degrees");
+    Ok(orbit_light(light_distance, light_elevation, azimuth, 1.0e4))
+}
+
+/// The walk's arc of `--walk / --hold / --object` with `--arc`, or None for a design that is
+/// not a walk (whose walk flags are then refused).
+fn walk_arc(args: &DesignArgs) -> anyhow::Result<Option<scratchart::optim::walk::WalkArc>> {
+    use scratchart::optim::walk::{frame_files, WalkArc};
+    let kinds = !args.walk.is_empty() as usize + args.hold.is_some() as usize + args.object.is_some() as usize;
+    ensure_flag!(kinds <= 1, "give one of --walk, --hold and --object");
+    for (set, flag) in [
+        (args.object_size.is_some(), "--object-size"),
+        (args.object_depth.is_some(), "--object-depth"),
+        (args.object_yaw != 0.0, "--object-yaw"),
+    ] {
+        ensure_flag!(!set || args.object.is_some(), "{flag} belongs to --object MODEL.obj");
+    }
+    if kinds == 0 {
+        for (set, flag) in [
+            (args.arc.is_some(), "--arc"),
+            (args.azimuth.is_some(), "--azimuth"),
+            (args.distance.is_some(), "--distance"),
+            (args.walk_views.is_some(), "--walk-views"),
+            (args.between != 1, "--between"),
+        ] {
+            ensure_flag!(
+                !set,
+                "{flag} belongs to a walk: give --walk FRAMES..., --hold PICTURE or --object MODEL.obj with it"
+            );
+        }
+        return Ok(None);
+    }
+    let Some(arc_deg) = args.arc else {
+        return Err(scratchart::exit::UsageError(
+            "--walk, --hold and --object need --arc DEG: the total angle from the walk's first view to its last".into(),
+        )
+        .into());
+    };
+    let views = if args.walk.is_empty() {
+        args.walk_views.unwrap_or(WalkArc::default_views(arc_deg))
+    } else {
+        ensure_flag!(
+            args.walk_views.is_none(),
+            "--walk-views is for --hold and --object: a --walk has one view per frame"
+        );
+        frame_files(&args.walk).map_err(scratchart::exit::UsageError)?.len()
+    };
+    let arc = WalkArc {
+        arc_deg,
+        centre_azimuth_deg: args.azimuth.unwrap_or(0.0),
+        elevation_deg: args.elevation,
+        distance_mm: args.distance.unwrap_or(3.0 * args.plate),
+        views,
+        between: args.between,
+        res: args.res,
+    };
+    arc.check().map_err(scratchart::exit::UsageError)?;
+    ensure_flag!(
+        arc.centre_azimuth_deg.is_finite(),
+        "--azimuth must be a number of degrees"
+    );
+    Ok(Some(arc))
+}
+
+/// The problem of a walk: its targets (frames, a held picture or an object's views) on the
+/// walk's views and in-between views.
+fn walk_problem(
+    args: &DesignArgs,
+    scene: Scene,
+    arc: scratchart::optim::walk::WalkArc,
+    between: Vec<scratchart::optim::walk::BetweenView>,
+) -> anyhow::Result<Problem> {
+    use scratchart::optim::walk::{frame_files, read_pictures, walk_targets, Frames, Walk};
+    let mesh;
+    let name = |p: &std::path::Path| p.display().to_string();
+    let (source, frames_named, frames) = if let Some(obj) = &args.object {
+        mesh = scratchart::model::mesh::Mesh::load_obj(obj)?;
+        let size_mm = args.object_size.unwrap_or(0.5 * args.plate);
+        let depth_mm = args.object_depth.unwrap_or(0.25 * args.plate);
+        ensure_flag!(
+            size_mm.is_finite() && size_mm > 0.0,
+            "--object-size must be a size above 0 mm (it is {size_mm})"
+        );
+        ensure_flag!(
+            depth_mm.is_finite(),
+            "--object-depth must be a number of mm (it is {depth_mm})"
+        );
+        ensure_flag!(args.object_yaw.is_finite(), "--object-yaw must be a number of degrees");
+        let placement = scratchart::model::mesh::Placement {
+            size_mm,
+            depth_mm,
+            front_azimuth_deg: arc.centre_azimuth_deg,
+            yaw_deg: args.object_yaw,
+        };
+        // The object's own lamp: above and to one side of the walk's middle, the same for
+        // every view, so it is lit as one object.
+        let key_light = scratchart::model::camera::spherical(1.0, arc.centre_azimuth_deg + 40.0, 50.0);
+        (
+            "object",
+            vec![name(obj)],
+            Frames::Object {
+                mesh: &mesh,
+                placement,
+                key_light,
+            },
+        )
+    } else {
+        let (source, files) = match &args.hold {
+            Some(h) => ("hold", vec![h.clone(); arc.views]),
+            None => ("frames", frame_files(&args.walk).map_err(scratchart::exit::UsageError)?),
+        };
+        let pictures = read_pictures(&files, &args.blank_view)?;
+        (
+            source,
+            files.iter().map(|f| name(f)).collect(),
+            Frames::Pictures(pictures),
+        )
+    };
+    let walk = Walk {
+        arc,
+        source: source.into(),
+        frames: frames_named,
+        between,
+    };
+    let fitted = walk_targets(&scene, &walk, &frames, args.fit, args.background, args.gamma);
+    let mut problem = Problem::new(scene, fitted.iter().map(|f| f.image.clone()).collect());
+    problem.picture_rects = fitted.iter().map(|f| f.rect).collect();
+    problem.pictures = fitted.into_iter().map(|f| f.picture).collect();
+    problem.walk = Some(walk);
+    Ok(problem)
+}
+
 fn parse_fit(s: &str) -> Result<scratchart::optim::framing::Fit, String> {
     s.parse()
 }
@@ -249,6 +444,8 @@ pub fn problem(args: &DesignArgs, info: &DeviceInfo) -> anyhow::Result<Problem> 
         f0: scratchart::model::scene::DEFAULT_F0,
     };
     let distance = 3.0 * plate_mm;
+    let walk = walk_arc(args)?;
+    let mut between = Vec::new();
     let views: Vec<View> = match &args.view_file {
         Some(path) => {
             let text =
@@ -269,28 +466,26 @@ pub fn problem(args: &DesignArgs, info: &DeviceInfo) -> anyhow::Result<Problem> 
             Scene::from_json_str(&doc.to_string(), &base, &path.display().to_string())?.views
         }
         None => {
-            ensure_flag!(args.views >= 1, "--views must be at least 1");
             ensure_flag!(args.res >= 8, "--res must be at least 8 pixels");
             ensure_flag!(
                 args.elevation > 0.0 && args.elevation < 90.0,
                 "--elevation must lie strictly between 0 and 90 degrees"
             );
-            // Initial intensity: a placeholder, calibrated against the targets before the first step.
-            let light_elevation = args
-                .light_elevation
-                .unwrap_or((args.elevation + LIGHT_ELEVATION_ABOVE_VIEWS).min(80.0));
-            ensure_flag!(
-                light_elevation > 0.0 && light_elevation <= 90.0,
-                "--light-elevation must lie above 0 and at most 90 degrees"
-            );
-            let light_distance = args.light_distance.unwrap_or(LIGHT_DISTANCE_FACTOR * distance);
-            ensure_flag!(
-                light_distance.is_finite() && light_distance > 0.0,
-                "--light-distance must be a distance above 0 mm"
-            );
-            let light = orbit_light(light_distance, light_elevation, args.light_azimuth, 1.0e4);
-            // The plate's silhouette fills 95% of each frame (width or height, whichever binds).
-            framed_ring_views(args.views, args.elevation, distance, plate_mm, args.res, &light, 0.95)
+            match &walk {
+                Some(arc) => {
+                    let light = lamp(args, arc.distance_mm, arc.centre_azimuth_deg)?;
+                    let (views, b) = scratchart::optim::walk::arc_views(arc, plate_mm, &light);
+                    between = b;
+                    views
+                }
+                None => {
+                    ensure_flag!(args.views >= 1, "--views must be at least 1");
+                    // Initial intensity: a placeholder, calibrated against the targets before the first step.
+                    let light = lamp(args, distance, 0.0)?;
+                    // The plate's silhouette fills 95% of each frame (width or height, whichever binds).
+                    framed_ring_views(args.views, args.elevation, distance, plate_mm, args.res, &light, 0.95)
+                }
+            }
         }
     };
     check_size(args, &views, info)?;
@@ -338,9 +533,12 @@ pub fn problem(args: &DesignArgs, info: &DeviceInfo) -> anyhow::Result<Problem> 
         );
     }
     ensure_flag!(
-        args.blank_view.is_empty() || !args.targets.is_empty(),
-        "--blank-view needs --targets (the built-in shapes are never blank)"
+        args.blank_view.is_empty() || !args.targets.is_empty() || walk.is_some(),
+        "--blank-view needs --targets or --walk (the built-in shapes are never blank)"
     );
+    if let Some(arc) = walk {
+        return walk_problem(args, scene, arc, between);
+    }
     if args.targets.is_empty() {
         let targets = scratchart::optim::targets::builtin_targets(&scene);
         return Ok(Problem::new(scene, targets));
@@ -467,7 +665,7 @@ pub fn run(ctx: &Arc<Context>, args: &DesignArgs, obs: &dyn Observer) -> anyhow:
         }
     }
     let problem = problem(args, ctx.info())?;
-    if args.targets.is_empty() {
+    if args.targets.is_empty() && problem.walk.is_none() {
         let names: Vec<&str> = (0..problem.scene.views.len())
             .map(|j| scratchart::optim::targets::SHAPES[j % scratchart::optim::targets::SHAPES.len()])
             .collect();
@@ -563,6 +761,9 @@ pub fn run(ctx: &Arc<Context>, args: &DesignArgs, obs: &dyn Observer) -> anyhow:
         if let Some(j) = s.get("job_limit") {
             print!("{}", job_limit_text(j));
         }
+        if let Some(w) = s.get("walk") {
+            print!("{}", walk_text(w, &cfg.out));
+        }
     }
     Ok(())
 }
@@ -588,6 +789,43 @@ fn machine_error_text(e: &serde_json::Value) -> String {
         );
     }
     out
+}
+
+/// The lines that say how a walk shows its frames along its arc (summary.json's `walk`).
+fn walk_text(w: &serde_json::Value, out: &std::path::Path) -> String {
+    let n = |v: &serde_json::Value| v.as_f64().unwrap_or(f64::NAN);
+    let corrs = |k: &str| -> Vec<f64> { w[k].as_array().into_iter().flatten().map(|e| n(&e["corr"])).collect() };
+    let (views, between) = (corrs("views"), corrs("between"));
+    let mean = |c: &[f64]| c.iter().sum::<f64>() / c.len().max(1) as f64;
+    let mut text = format!(
+        "  walk ({}): {} views over {:.1} degrees ({:.2} apart) about azimuth {:.1}; correlation with their frames: min {:.3}, mean {:.3}\n",
+        w["source"].as_str().unwrap_or("?"),
+        views.len(),
+        n(&w["arc_deg"]),
+        n(&w["step_deg"]),
+        n(&w["centre_azimuth_deg"]),
+        n(&w["min_corr_views"]),
+        mean(&views),
+    );
+    if !between.is_empty() {
+        text += &format!(
+            "    {} in-between views in the loss ({} per pair), correlation with {}: min {:.3}, mean {:.3}\n",
+            between.len(),
+            w["between_per_pair"],
+            if w["source"] == "object" {
+                "the object seen from there"
+            } else {
+                "their neighbours' cross-fades"
+            },
+            n(&w["min_corr_between"]),
+            mean(&between),
+        );
+    }
+    text += &format!(
+        "    wrote {0}/walk.png (correlation along the arc) and {0}/walk_sheet.png (the renders along the arc above their targets)\n",
+        out.display()
+    );
+    text
 }
 
 /// The lines that say what `--max-job-min` did and cost (summary.json's `job_limit`).

@@ -29,6 +29,7 @@ const KNOWN: &[scratchart_exit::Classifier] = &[
     scratchart_exit::classifier::<IoError>,
     scratchart_exit::classifier::<SceneError>,
     scratchart_exit::classifier::<TargetError>,
+    scratchart_exit::classifier::<crate::model::mesh::MeshError>,
     scratchart_exit::classifier::<GpuError>,
     scratchart_exit::classifier::<OptimError>,
     scratchart_exit::classifier::<scratchart_tool::ToolError>,

@@ -82,8 +82,9 @@ enum Cmd {
     /// Benchmark the GPU pipeline on the standard scenes (S, M, P) or on a scene file.
     Bench {
         /// Standard scenes to run: S (4,000 scratches, 2x128^2), M (40,000, 3x256^2), P (40,000,
-        /// 3x512^2, the paper's scale), L (160,000, 3x1024^2, to fill a big GPU), or NxVxR (N
-        /// scratches, V views of R x R pixels, e.g. 20000x3x256, for scaling tables)
+        /// 3x512^2, the paper's scale), L (160,000, 3x1024^2, to fill a big GPU), NxVxR (N
+        /// scratches, V views of R x R pixels, e.g. 20000x3x256, for scaling tables), or NxVxRw
+        /// (V views, 2 to 64, along a walk's 60 degree arc, e.g. 10000x24x128w)
         #[arg(long, value_delimiter = ',', default_value = "S,M")]
         sizes: Vec<String>,
         /// Time this scene file instead of the standard scenes
@@ -351,7 +352,7 @@ fn bench_cmd(
                     .map(|sc| (if s.len() == 1 { s.to_uppercase() } else { s.clone() }, sc))
                     .ok_or_else(|| {
                         scratchart::exit::UsageError(format!(
-                            "--sizes: unknown standard scene '{s}' (choose S, M, P, L or NxVxR such as 20000x3x256)"
+                            "--sizes: unknown standard scene '{s}' (choose S, M, P, L, NxVxR such as 20000x3x256 with 1 to 3 views, or NxVxRw such as 10000x24x128w with 2 to 64 views along a walk)"
                         ))
                         .into()
                     })

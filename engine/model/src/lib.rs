@@ -8,6 +8,8 @@
 //!   on-plate mask, light).
 //! - [`reference`](mod@reference): the float64 CPU reference renderer — a test oracle only, never a fallback
 //!   for the GPU path.
+//! - [`mesh`]: OBJ meshes: reading, placing behind the plate and rendering their views (the target
+//!   images of a scratch hologram).
 //! - [`fsio`]: the atomic file writer (temporary file, fsync, rename) every output goes through.
 
 // `!(x > 0.0)` is used on purpose throughout: it also rejects NaN.
@@ -16,6 +18,7 @@
 pub mod camera;
 pub mod display;
 pub mod fsio;
+pub mod mesh;
 pub mod reference;
 pub mod scene;
 

@@ -346,33 +346,39 @@ pub fn run_design(
         },
     };
     if cfg.write_outputs {
-        let mut summary = super::report::write_outputs(&cfg.out, problem, cfg, &report)?;
+        // A walk's in-between views were in the loss; the design's files hold its design views.
+        let (wp, wr) = super::walk::design_views_only(problem, &report);
+        let mut summary = super::report::write_outputs(&cfg.out, &wp, cfg, &wr)?;
         if let (Some(fab), Some(z)) = (&cfg.tool, &report.depths) {
             // The design again, with each scratch's commanded depth as the CSV's column `z_mm`.
             let mut extra = crate::model::scene::Extra::default();
             extra.set_column("z_mm", z);
-            report
-                .scene
+            wr.scene
                 .save_extra(&cfg.out.join("design.json"), "scratches.csv", &extra)
                 .map_err(|e| OptimError::Report(e.to_string()))?;
             summary["fabrication"] = fab.summary(z);
             if let Some(limits) = &fab.machine {
-                summary["machine"] = machine_summary(limits, fab, &report.scene, z, snap, report.final_loss.total);
+                summary["machine"] = machine_summary(limits, fab, &wr.scene, z, snap, report.final_loss.total);
                 if cfg.carvings > 0 {
-                    summary["machine_error"] = machine_error(&renderer, problem, cfg, fab, limits, &report.scene, z)?;
+                    summary["machine_error"] = machine_error(&renderer, &wp, cfg, fab, limits, &wr.scene, z)?;
                 }
             }
+        }
+        if let Some((walk, corr)) = super::walk::walk_summary(problem, &report.final_images, cfg.loss.sigma) {
+            summary["walk"] = walk;
+            super::walk::walk_plot_png(&cfg.out.join("walk.png"), problem, &corr)?;
+            super::walk::walk_sheet_png(&cfg.out.join("walk_sheet.png"), problem, &report.final_images)?;
         }
         // Where the lamp and the viewers go, and how precisely (setup.txt, setup.png).
         // Its inputs go beside the design first, so `scratchart setup` computes the same sheet.
         let inputs = super::setup::SheetInputs {
-            targets: problem.targets.clone(),
-            pictures: problem.pictures.clone(),
+            targets: wp.targets.clone(),
+            pictures: wp.pictures.clone(),
             sigma: cfg.loss.sigma,
             blank_views: cfg.blank_views.clone(),
         };
-        inputs.save(&cfg.out, &report.scene)?;
-        let (setup, sensitivity, advice) = super::setup::write_setup(&cfg.out, &renderer, &report.scene, &inputs)?;
+        inputs.save(&cfg.out, &wr.scene)?;
+        let (setup, sensitivity, advice) = super::setup::write_setup(&cfg.out, &renderer, &wr.scene, &inputs)?;
         summary["blank_views"] = json!(cfg.blank_views);
         summary["setup"] = setup;
         summary["sensitivity"] = sensitivity;

@@ -29,6 +29,8 @@
 //! - [`measure`]: image measures (blur, SSIM, correlation, each view's quality and cross-talk).
 //! - [`report`]: the design's outputs: compare images, the loss-curve plot and the summary.
 //! - [`setup`]: where the lamp and the viewers go, and how precisely (setup sheet, sensitivity).
+//! - [`walk`]: walk-past plates: views along an arc, in-between views whose targets are
+//!   cross-fades, and their report (`design --walk/--hold/--object`).
 //! - [`error`]: what can stop an optimization.
 //!
 //! Determinism: every GPU reduction runs in a fixed order and the host feeds back only values it
@@ -49,6 +51,7 @@ pub mod setup;
 pub mod setup_sheet;
 pub mod targets;
 pub mod tolerance;
+pub mod walk;
 
 pub use adam::AdamConfig;
 pub use design::{DesignConfig, DesignReport, Problem};

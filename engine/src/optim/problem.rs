@@ -26,6 +26,9 @@ pub struct Problem {
     pub pictures: Vec<Vec<bool>>,
     /// Per view, the picture's rectangle in the frame (pixels), when it has one.
     pub picture_rects: Vec<Option<super::framing::Rect>>,
+    /// A walk-past design (`design --walk/--hold/--object`): its arc and its in-between views,
+    /// which follow the design views in `scene` (see [`super::walk`]).
+    pub walk: Option<super::walk::Walk>,
 }
 
 impl Problem {
@@ -40,6 +43,7 @@ impl Problem {
             targets,
             pictures,
             picture_rects,
+            walk: None,
         }
     }
 }
