@@ -122,6 +122,14 @@ fn a_small_walk_shows_its_frames_and_their_blends_between_them() {
         );
         assert_eq!(b["t"], 0.5);
     }
+    // Probes judge the arc between the views without joining the loss: 3 per pair by default.
+    let probes = w["probes"].as_array().unwrap();
+    assert_eq!(probes.len(), 9);
+    assert!(
+        probes.iter().all(|p| p["corr"].as_f64().is_some_and(|c| c > 0.3)),
+        "{probes:?}"
+    );
+    assert!(text.contains("9 probes between the views"), "{text}");
     for f in ["walk.png", "walk_sheet.png"] {
         assert!(std::fs::metadata(out.join(f)).unwrap().len() > 1000, "{f}");
     }
@@ -148,6 +156,7 @@ fn a_small_walk_shows_its_frames_and_their_blends_between_them() {
         source: "frames".into(),
         frames: frames.clone(),
         between: bviews.clone(),
+        probes: vec![],
     };
     let pictures: Vec<Picture> = frames
         .iter()

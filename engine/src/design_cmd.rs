@@ -27,6 +27,9 @@ pub const LIGHT_ELEVATION_ABOVE_VIEWS: f64 = 20.0;
 /// ... and this many times the views' distance from the plate centre.
 pub const LIGHT_DISTANCE_FACTOR: f64 = 1.0;
 
+/// Scratches of a design without --scratches (a walk has 1000 per walk view, at least this).
+pub const DEFAULT_SCRATCHES: usize = 6000;
+
 /// `design --exposure`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
 pub enum ExposureMode {
@@ -99,6 +102,11 @@ pub struct DesignArgs {
     /// neighbours' frames (for --object, the object seen from there). 0: none
     #[arg(long, default_value_t = 1, value_name = "K")]
     pub between: usize,
+    /// Views per pair of neighbouring walk views that judge the finished design without joining
+    /// the loss (at 1/(K+1), 2/(K+1), ... of the way): summary.json's walk.probes and the crosses
+    /// of walk.png. 0: none
+    #[arg(long, default_value_t = 3, value_name = "K")]
+    pub walk_probes: usize,
     /// --object: the object's largest extent, mm (default: half the plate)
     #[arg(long, value_name = "MM")]
     pub object_size: Option<f64>,
@@ -113,9 +121,10 @@ pub struct DesignArgs {
     /// Views from a file instead: a JSON array of MODEL.md view objects (their lights' intensities are used as given)
     #[arg(long, conflicts_with_all = ["views", "res", "elevation", "light_azimuth", "light_elevation", "light_distance"])]
     pub view_file: Option<PathBuf>,
-    /// Number of scratches
-    #[arg(long, default_value_t = 6000)]
-    pub scratches: usize,
+    /// Number of scratches (default 6000; for a walk, 1000 per walk view, at least 6000: a plate
+    /// that shows more pictures needs more scratches)
+    #[arg(long)]
+    pub scratches: Option<usize>,
     /// Optimization iterations
     #[arg(long, default_value_t = 200)]
     pub iters: u32,
@@ -299,6 +308,7 @@ fn walk_arc(args: &DesignArgs) -> anyhow::Result<Option<scratchart::optim::walk:
             (args.distance.is_some(), "--distance"),
             (args.walk_views.is_some(), "--walk-views"),
             (args.between != 1, "--between"),
+            (args.walk_probes != 3, "--walk-probes"),
         ] {
             ensure_flag!(
                 !set,
@@ -347,7 +357,7 @@ fn walk_problem(
     arc: scratchart::optim::walk::WalkArc,
     between: Vec<scratchart::optim::walk::BetweenView>,
 ) -> anyhow::Result<Problem> {
-    use scratchart::optim::walk::{frame_files, read_pictures, walk_targets, Frames, Walk};
+    use scratchart::optim::walk::{frame_files, probe_views, probes, read_pictures, walk_targets, Frames, Walk};
     let mesh;
     let name = |p: &std::path::Path| p.display().to_string();
     let (source, frames_named, frames) = if let Some(obj) = &args.object {
@@ -393,13 +403,23 @@ fn walk_problem(
             Frames::Pictures(pictures),
         )
     };
-    let walk = Walk {
+    let probe_views = probe_views(&arc, scene.plate.size_mm, &scene.views[0].light, args.walk_probes);
+    let mut walk = Walk {
         arc,
         source: source.into(),
         frames: frames_named,
         between,
+        probes: Vec::new(),
     };
     let fitted = walk_targets(&scene, &walk, &frames, args.fit, args.background, args.gamma);
+    walk.probes = probes(
+        probe_views,
+        scene.plate.size_mm,
+        &frames,
+        args.fit,
+        args.background,
+        args.gamma,
+    );
     let mut problem = Problem::new(scene, fitted.iter().map(|f| f.image.clone()).collect());
     problem.picture_rects = fitted.iter().map(|f| f.rect).collect();
     problem.pictures = fitted.into_iter().map(|f| f.picture).collect();
@@ -415,7 +435,12 @@ fn parse_fit(s: &str) -> Result<scratchart::optim::framing::Fit, String> {
 pub fn problem(args: &DesignArgs, info: &DeviceInfo) -> anyhow::Result<Problem> {
     let plate_mm = args.plate;
     ensure_flag!(plate_mm > 0.0, "--plate must be > 0 mm");
-    ensure_flag!(args.scratches > 0, "--scratches must be at least 1");
+    let walk = walk_arc(args)?;
+    let n_scratches = args.scratches.unwrap_or_else(|| {
+        walk.as_ref()
+            .map_or(DEFAULT_SCRATCHES, |a| (1000 * a.views).max(DEFAULT_SCRATCHES))
+    });
+    ensure_flag!(n_scratches > 0, "--scratches must be at least 1");
     ensure_flag!(args.init_w > 0.0, "--init-w must be > 0 mm (it is {})", args.init_w);
     ensure_flag!(args.init_d > 0.0, "--init-d must be > 0 mm (it is {})", args.init_d);
     ensure_flag!(
@@ -444,7 +469,6 @@ pub fn problem(args: &DesignArgs, info: &DeviceInfo) -> anyhow::Result<Problem> 
         f0: scratchart::model::scene::DEFAULT_F0,
     };
     let distance = 3.0 * plate_mm;
-    let walk = walk_arc(args)?;
     let mut between = Vec::new();
     let views: Vec<View> = match &args.view_file {
         Some(path) => {
@@ -488,14 +512,14 @@ pub fn problem(args: &DesignArgs, info: &DeviceInfo) -> anyhow::Result<Problem> 
             }
         }
     };
-    check_size(args, &views, info)?;
+    check_size(args, &views, n_scratches, info)?;
     for w in views.iter().flat_map(scratchart::limits::view_warnings) {
         eprintln!("warning: {w}");
     }
     let mut rng = Rng::new(args.seed);
     let scratches = random_scratches(
         &mut rng,
-        args.scratches,
+        n_scratches,
         plate_mm,
         0.01 * args.len_min_pct * plate_mm,
         0.01 * args.len_max_pct * plate_mm,
@@ -600,9 +624,9 @@ pub fn config(args: &DesignArgs) -> DesignConfig {
 
 /// Checks the job's size against the device and the host before anything is computed; the
 /// error names the flag to change and the largest value that fits.
-fn check_size(args: &DesignArgs, views: &[View], info: &DeviceInfo) -> anyhow::Result<()> {
+fn check_size(args: &DesignArgs, views: &[View], n_scratches: usize, info: &DeviceInfo) -> anyhow::Result<()> {
     let sizes: Vec<(u32, u32)> = views.iter().map(|v| (v.camera.width, v.camera.height)).collect();
-    let n = args.scratches as u64;
+    let n = n_scratches as u64;
     let Err(why) = SceneDims::new(&sizes, n, true).check(info) else {
         return Ok(());
     };
@@ -612,7 +636,12 @@ fn check_size(args: &DesignArgs, views: &[View], info: &DeviceInfo) -> anyhow::R
         let nv = views.len();
         let max_res = largest_fitting(args.res as u64, |r| fits(&vec![(r as u32, r as u32); nv], n));
         if max_res > 0 && max_res < args.res as u64 {
-            format!("use a smaller --res: the largest that fits with --views {nv} and --scratches {n} is {max_res}")
+            let with = if args.arc.is_some() {
+                format!("the walk's {nv} views (in-between views included; fewer with --between 0)")
+            } else {
+                format!("--views {nv}")
+            };
+            format!("use a smaller --res: the largest that fits with {with} and --scratches {n} is {max_res}")
         } else if max_n > 0 {
             format!("use fewer --scratches: at --res {} at most {max_n} fit", args.res)
         } else {
@@ -807,6 +836,7 @@ fn walk_text(w: &serde_json::Value, out: &std::path::Path) -> String {
         n(&w["min_corr_views"]),
         mean(&views),
     );
+    let probes = corrs("probes");
     if !between.is_empty() {
         text += &format!(
             "    {} in-between views in the loss ({} per pair), correlation with {}: min {:.3}, mean {:.3}\n",
@@ -819,6 +849,14 @@ fn walk_text(w: &serde_json::Value, out: &std::path::Path) -> String {
             },
             n(&w["min_corr_between"]),
             mean(&between),
+        );
+    }
+    if !probes.is_empty() {
+        text += &format!(
+            "    {} probes between the views, judged only (not in the loss): min {:.3}, mean {:.3}\n",
+            probes.len(),
+            n(&w["min_corr_probes"]),
+            mean(&probes),
         );
     }
     text += &format!(

@@ -364,9 +364,15 @@ pub fn run_design(
                 }
             }
         }
-        if let Some((walk, corr)) = super::walk::walk_summary(problem, &report.final_images, cfg.loss.sigma) {
+        let probe_corr = match &problem.walk {
+            Some(w) => super::walk::judge_probes(&renderer, &report.scene, w, cfg.loss.sigma)?,
+            None => Vec::new(),
+        };
+        if let Some((walk, corr)) =
+            super::walk::walk_summary(problem, &report.final_images, &probe_corr, cfg.loss.sigma)
+        {
             summary["walk"] = walk;
-            super::walk::walk_plot_png(&cfg.out.join("walk.png"), problem, &corr)?;
+            super::walk::walk_plot_png(&cfg.out.join("walk.png"), problem, &corr, &probe_corr)?;
             super::walk::walk_sheet_png(&cfg.out.join("walk_sheet.png"), problem, &report.final_images)?;
         }
         // Where the lamp and the viewers go, and how precisely (setup.txt, setup.png).

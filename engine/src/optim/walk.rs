@@ -115,6 +115,23 @@ pub struct Walk {
     pub frames: Vec<String>,
     /// The in-between views, in the order they follow the design views in the scene.
     pub between: Vec<BetweenView>,
+    /// Views that judge the design between its design views without joining the loss (see
+    /// [`Probe`]).
+    pub probes: Vec<Probe>,
+}
+
+/// A view that judges the finished design between two design views and is not in the loss:
+/// the fraction `t` of the way from design view `left` to `left + 1`, with its target (the
+/// cross-fade, or the object seen from there) and its picture's pixels. The design is rendered
+/// from every probe once at the end, so `walk.png` shows the whole arc, not only the points the
+/// optimizer saw.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Probe {
+    pub left: usize,
+    pub t: f64,
+    pub view: View,
+    pub target: Vec<f32>,
+    pub picture: Vec<bool>,
 }
 
 impl Walk {
@@ -188,6 +205,24 @@ pub fn arc_views(arc: &WalkArc, plate_mm: f64, light: &Light) -> (Vec<View>, Vec
         }
     }
     (views, between)
+}
+
+/// The probe views of `arc`: `per_pair` per pair of neighbouring design views, at the fractions
+/// i / (per_pair + 1), named `v0-v1@0.25` and so on; each pair's left view index and fraction.
+pub fn probe_views(arc: &WalkArc, plate_mm: f64, light: &Light, per_pair: usize) -> Vec<(usize, f64, View)> {
+    let mut out = Vec::new();
+    for left in 0..arc.views.saturating_sub(1) {
+        for i in 1..=per_pair {
+            let t = i as f64 / (per_pair + 1) as f64;
+            let name = format!("v{left}-v{}@{t:.2}", left + 1);
+            out.push((
+                left,
+                t,
+                arc_view(name, arc, arc.azimuth_at(left as f64 + t), plate_mm, light),
+            ));
+        }
+    }
+    out
 }
 
 /// A picture file read as gray display values.
@@ -274,10 +309,21 @@ pub fn read_pictures(files: &[PathBuf], blank: &[String]) -> Result<Vec<Picture>
         .collect()
 }
 
-/// Every view's target (design views, then in-between views), placed as `fit` says and put
-/// through the tone curve `gamma` (as `design --targets` does).
-pub fn walk_targets(scene: &Scene, walk: &Walk, frames: &Frames, fit: Fit, background: f32, gamma: f32) -> Vec<Fitted> {
-    let plate = scene.plate.size_mm;
+/// The target of `view` at the fraction `t` of the way from design view `left` to `left + 1`
+/// (t = 0: design view `left` itself): the frame there, the cross-fade (1 - t) left + t right of
+/// the neighbours' frames, each placed in `view` as `fit` says and put through the tone curve
+/// `gamma` (as `design --targets` does), or the object seen from `view`.
+#[allow(clippy::too_many_arguments)] // the placement's settings, named at the one call site
+pub fn target_at(
+    view: &View,
+    plate_mm: f64,
+    left: usize,
+    t: f64,
+    frames: &Frames,
+    fit: Fit,
+    background: f32,
+    gamma: f32,
+) -> Fitted {
     let tone = |mut f: Fitted| {
         if gamma != 1.0 {
             for (v, p) in f.image.iter_mut().zip(&f.picture) {
@@ -288,61 +334,133 @@ pub fn walk_targets(scene: &Scene, walk: &Walk, frames: &Frames, fit: Fit, backg
         }
         f
     };
-    let place = |pic: &Picture, view: &View| {
-        tone(fit_picture(
-            &pic.data, pic.width, pic.height, view, plate, fit, background,
-        ))
-    };
-    let n = walk.design_views();
+    let on = || crate::model::camera::ViewGeom::new(view).on_plate_mask(0.5 * plate_mm);
     match frames {
         Frames::Pictures(pics) => {
-            let mut out: Vec<Fitted> = (0..n).map(|k| place(&pics[k], &scene.views[k])).collect();
-            for b in &walk.between {
-                let view = &scene.views[b.view];
-                let (l, r) = (place(&pics[b.left], view), place(&pics[b.left + 1], view));
-                let t = b.t as f32;
-                let on = crate::model::camera::on_plate_mask(scene, b.view);
-                out.push(Fitted {
-                    image: l
-                        .image
-                        .iter()
-                        .zip(&r.image)
-                        .map(|(a, c)| (1.0 - t) * a + t * c)
-                        .collect(),
-                    rect: None,
-                    picture: l
-                        .picture
-                        .iter()
-                        .zip(&r.picture)
-                        .zip(&on)
-                        .map(|((a, c), o)| (*a || *c) && *o)
-                        .collect(),
-                });
+            let place = |pic: &Picture| {
+                tone(fit_picture(
+                    &pic.data, pic.width, pic.height, view, plate_mm, fit, background,
+                ))
+            };
+            if t == 0.0 {
+                return place(&pics[left]);
             }
-            out
+            let (l, r) = (place(&pics[left]), place(&pics[left + 1]));
+            let tf = t as f32;
+            Fitted {
+                image: l
+                    .image
+                    .iter()
+                    .zip(&r.image)
+                    .map(|(a, c)| (1.0 - tf) * a + tf * c)
+                    .collect(),
+                rect: None,
+                picture: l
+                    .picture
+                    .iter()
+                    .zip(&r.picture)
+                    .zip(&on())
+                    .map(|((a, c), o)| (*a || *c) && *o)
+                    .collect(),
+            }
         }
         Frames::Object {
             mesh,
             placement,
             key_light,
-        } => (0..scene.views.len())
-            .map(|v| {
-                let img = crate::model::mesh::render_object(mesh, placement, &scene.views[v], *key_light, background);
-                let on = crate::model::camera::on_plate_mask(scene, v);
-                let image: Vec<f32> = img
-                    .shade
-                    .iter()
-                    .zip(&on)
-                    .map(|(s, o)| if *o { *s } else { 0.0 })
-                    .collect();
-                tone(Fitted {
-                    image,
-                    rect: None,
-                    picture: on,
-                })
+        } => {
+            let img = crate::model::mesh::render_object(mesh, placement, view, *key_light, background);
+            let on = on();
+            let image: Vec<f32> = img
+                .shade
+                .iter()
+                .zip(&on)
+                .map(|(s, o)| if *o { *s } else { 0.0 })
+                .collect();
+            tone(Fitted {
+                image,
+                rect: None,
+                picture: on,
             })
-            .collect(),
+        }
     }
+}
+
+/// Every view's target (design views, then in-between views); see [`target_at`].
+pub fn walk_targets(scene: &Scene, walk: &Walk, frames: &Frames, fit: Fit, background: f32, gamma: f32) -> Vec<Fitted> {
+    let plate = scene.plate.size_mm;
+    let n = walk.design_views();
+    let at = |v: usize, left: usize, t: f64| target_at(&scene.views[v], plate, left, t, frames, fit, background, gamma);
+    (0..n)
+        .map(|k| at(k, k, 0.0))
+        .chain(walk.between.iter().map(|b| at(b.view, b.left, b.t)))
+        .collect()
+}
+
+/// The probes of `views` ([`probe_views`]) with their targets.
+pub fn probes(
+    views: Vec<(usize, f64, View)>,
+    plate_mm: f64,
+    frames: &Frames,
+    fit: Fit,
+    background: f32,
+    gamma: f32,
+) -> Vec<Probe> {
+    views
+        .into_iter()
+        .map(|(left, t, view)| {
+            let f = target_at(&view, plate_mm, left, t, frames, fit, background, gamma);
+            Probe {
+                left,
+                t,
+                view,
+                target: f.image,
+                picture: f.picture,
+            }
+        })
+        .collect()
+}
+
+/// Renders the finished design `scene` (its design views first, as [`Walk`] numbers them) from
+/// every probe, lit as the probe's left neighbour is, a few views at a time; returns each
+/// probe's correlation with its target.
+pub fn judge_probes(
+    renderer: &crate::render::Renderer,
+    scene: &Scene,
+    walk: &Walk,
+    sigma: f32,
+) -> Result<Vec<f64>, crate::vulkan::GpuError> {
+    const CHUNK: usize = 12;
+    let mut out = Vec::with_capacity(walk.probes.len());
+    for chunk in walk.probes.chunks(CHUNK) {
+        let mut s = scene.clone();
+        s.views = chunk
+            .iter()
+            .map(|p| {
+                let mut v = p.view.clone();
+                v.light = scene.views[p.left].light.clone();
+                v.exposure = scene.views[p.left].exposure;
+                v
+            })
+            .collect();
+        let mut gs = renderer.upload(&s)?;
+        let frame = renderer.render(&mut gs)?;
+        for (p, img) in chunk.iter().zip(&frame.images) {
+            let display: Vec<f32> = img.iter().map(|&l| crate::io::display_value(l)).collect();
+            let (w, h) = (p.view.camera.width, p.view.camera.height);
+            out.push(corr_of(&display, &p.target, &p.picture, w, h, sigma));
+        }
+    }
+    Ok(out)
+}
+
+/// The correlation the walk reports: the render (clamped to [0, 1] and blurred as the loss
+/// blurs it) against the target over its picture's pixels.
+pub fn corr_of(display: &[f32], target: &[f32], picture: &[bool], w: u32, h: u32, sigma: f32) -> f64 {
+    let c: Vec<f32> = display.iter().map(|x| x.clamp(0.0, 1.0)).collect();
+    let blurred = super::measure::blur3(&c, w, h, sigma);
+    let t: Vec<f64> = target.iter().map(|&x| x as f64).collect();
+    super::measure::correlation(&blurred, &t, picture)
 }
 
 /// The problem and report of a walk cut down to its design views, for the outputs every design
@@ -376,16 +494,18 @@ pub fn design_views_only(problem: &Problem, report: &DesignReport) -> (Problem, 
 
 /// `summary.json`'s `walk`: the arc, and every view's correlation with its frame (design
 /// views) or its neighbours' blend (in-between views), in arc order; with the smallest of each.
-pub fn walk_summary(problem: &Problem, final_images: &[Vec<f32>], sigma: f32) -> Option<(Value, Vec<f64>)> {
+pub fn walk_summary(
+    problem: &Problem,
+    final_images: &[Vec<f32>],
+    probe_corr: &[f64],
+    sigma: f32,
+) -> Option<(Value, Vec<f64>)> {
     let walk = problem.walk.as_ref()?;
     let scene = &problem.scene;
     let corr: Vec<f64> = (0..scene.views.len())
         .map(|v| {
             let (w, h) = (scene.views[v].camera.width, scene.views[v].camera.height);
-            let c: Vec<f32> = final_images[v].iter().map(|x| x.clamp(0.0, 1.0)).collect();
-            let blurred = super::measure::blur3(&c, w, h, sigma);
-            let t: Vec<f64> = problem.targets[v].iter().map(|&x| x as f64).collect();
-            super::measure::correlation(&blurred, &t, &problem.pictures[v])
+            corr_of(&final_images[v], &problem.targets[v], &problem.pictures[v], w, h, sigma)
         })
         .collect();
     let n = walk.design_views();
@@ -410,7 +530,23 @@ pub fn walk_summary(problem: &Problem, final_images: &[Vec<f32>], sigma: f32) ->
         }
         e
     };
+    let probes: Vec<Value> = walk
+        .probes
+        .iter()
+        .zip(probe_corr)
+        .map(|(p, c)| {
+            json!({
+                "name": p.view.name,
+                "azimuth_deg": walk.arc.azimuth_at(p.left as f64 + p.t),
+                "position": p.left as f64 + p.t,
+                "between": [scene.views[p.left].name, scene.views[p.left + 1].name],
+                "t": p.t,
+                "corr": c,
+            })
+        })
+        .collect();
     let min = |r: std::ops::Range<usize>| r.map(|v| corr[v]).fold(f64::INFINITY, f64::min);
+    let min_probe = probe_corr.iter().cloned().fold(f64::INFINITY, f64::min);
     let a = &walk.arc;
     let value = json!({
         "source": walk.source,
@@ -426,15 +562,23 @@ pub fn walk_summary(problem: &Problem, final_images: &[Vec<f32>], sigma: f32) ->
         "between": (n..scene.views.len()).map(entry).collect::<Vec<_>>(),
         "min_corr_views": min(0..n),
         "min_corr_between": if scene.views.len() > n { json!(min(n..scene.views.len())) } else { Value::Null },
+        "probes": probes,
+        "probes_are": "views between the design views that are not in the loss: the finished design rendered from there, against the same kind of target as an in-between view's",
+        "min_corr_probes": if probe_corr.is_empty() { Value::Null } else { json!(min_probe) },
         "corr": "correlation of the render (blurred as the loss blurs it) with the view's target over its picture's pixels",
-        "walk_png": "x: azimuth along the arc, degrees; y: correlation; filled: design views, hollow: in-between views",
+        "walk_png": "x: azimuth along the arc, degrees; y: correlation; filled: design views, hollow: in-between views (in the loss), grey crosses: probes (judged only)",
     });
     Some((value, corr))
 }
 
 /// `walk.png`: each view's correlation along the arc (design views filled, in-between views
-/// hollow), with the bars 0.9 and 0.8 dashed.
-pub fn walk_plot_png(path: &Path, problem: &Problem, corr: &[f64]) -> Result<(), super::OptimError> {
+/// hollow, probes grey crosses), with the bars 0.9 and 0.8 dashed.
+pub fn walk_plot_png(
+    path: &Path,
+    problem: &Problem,
+    corr: &[f64],
+    probe_corr: &[f64],
+) -> Result<(), super::OptimError> {
     use plotters::prelude::*;
     let Some(walk) = &problem.walk else { return Ok(()) };
     let (wpx, hpx) = (900u32, 420u32);
@@ -443,7 +587,24 @@ pub fn walk_plot_png(path: &Path, problem: &Problem, corr: &[f64]) -> Result<(),
     let az = |v: usize| walk.arc.azimuth_at(walk.position(v));
     let (x0, x1) = (az(order[0]), az(*order.last().expect("a walk has views")));
     let pad = 0.04 * (x1 - x0).max(1.0);
-    let lo = corr.iter().cloned().fold(0.5f64, f64::min).clamp(-1.0, 0.5);
+    let lo = corr
+        .iter()
+        .chain(probe_corr)
+        .cloned()
+        .fold(0.5f64, f64::min)
+        .clamp(-1.0, 0.5);
+    // Every point along the arc (views and probes), for the line through them.
+    let mut line: Vec<(f64, f64)> = order
+        .iter()
+        .map(|&v| (az(v), corr[v]))
+        .chain(
+            walk.probes
+                .iter()
+                .zip(probe_corr)
+                .map(|(p, &c)| (walk.arc.azimuth_at(p.left as f64 + p.t), c)),
+        )
+        .collect();
+    line.sort_by(|a, b| a.0.total_cmp(&b.0));
     let pe = |e: DrawingAreaErrorKind<_>| super::OptimError::Report(format!("plot: {e}"));
     let n = walk.design_views();
     {
@@ -457,7 +618,7 @@ pub fn walk_plot_png(path: &Path, problem: &Problem, corr: &[f64]) -> Result<(),
         if let Some(f) = font {
             builder.caption(
                 format!(
-                    "correlation along the walk ({} views, {:.1} deg apart; hollow: in between)",
+                    "correlation along the walk ({} views, {:.1} deg apart; hollow: in between, x: probes)",
                     n,
                     walk.arc.step_deg()
                 ),
@@ -491,10 +652,16 @@ pub fn walk_plot_png(path: &Path, problem: &Problem, corr: &[f64]) -> Result<(),
             }
         }
         chart
-            .draw_series(LineSeries::new(
-                order.iter().map(|&v| (az(v), corr[v])),
-                RGBColor(90, 90, 90),
-            ))
+            .draw_series(LineSeries::new(line.iter().copied(), RGBColor(90, 90, 90)))
+            .map_err(pe)?;
+        chart
+            .draw_series(walk.probes.iter().zip(probe_corr).map(|(p, &c)| {
+                Cross::new(
+                    (walk.arc.azimuth_at(p.left as f64 + p.t), c),
+                    4,
+                    RGBColor(120, 120, 120),
+                )
+            }))
             .map_err(pe)?;
         chart
             .draw_series(
@@ -593,6 +760,7 @@ mod tests {
             source: "frames".into(),
             frames: vec![],
             between: between.clone(),
+            probes: vec![],
         };
         for (v, view) in views.iter().enumerate() {
             let e = view.camera.eye;
@@ -659,6 +827,7 @@ mod tests {
             source: "frames".into(),
             frames: vec![],
             between,
+            probes: vec![],
         };
         let frames = Frames::Pictures(vec![pic(0.2), pic(1.0), pic(0.6)]);
         let t = walk_targets(&scene, &walk, &frames, Fit::Contain, 0.0, 1.0);
