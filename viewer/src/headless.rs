@@ -1,5 +1,6 @@
 //! Work without a window: `--screenshot` (one frame through the same render + present path as
-//! the window, read back and written as a PNG) and the headless half of `--benchmark`. Also the
+//! the window, read back and written as a PNG), `--walk --frames DIR` (the walk's frames, each
+//! written as `--screenshot` writes its one) and the headless half of `--benchmark`. Also the
 //! setup shared with the window: the Vulkan context and the frame renderer with its shaders.
 use std::cell::RefCell;
 use std::path::Path;
@@ -10,8 +11,10 @@ use scratchart::model::scene::View;
 use scratchart::vulkan::{Context, ContextDesc, GpuError, ShaderCompiler, ValidationLog};
 
 use crate::design::Design;
-use crate::frame::{internal_size, FrameParams, FrameRenderer, Layout};
+use crate::frame::{internal_size, FrameInfo, FrameParams, FrameRenderer, Layout};
+use crate::setup::SetupInfo;
 use crate::state::{LightRig, OrbitCamera};
+use crate::walk::Walk;
 use crate::Opts;
 
 /// Default window and screenshot size.
@@ -76,6 +79,62 @@ pub fn bench_path(cam0: &OrbitCamera, light0: &LightRig, t: f64) -> (OrbitCamera
     (cam, light)
 }
 
+/// View `base` as `--screenshot --view` renders it: its camera, light and resolution exactly as
+/// `scratchart render` has them, with `size` (`--size`) and `--light-azimuth` applied.
+pub fn as_rendered(opts: &Opts, base: &View, size: Option<(u32, u32)>) -> View {
+    let mut v = base.clone();
+    if let Some((w, h)) = size {
+        v.camera.width = w;
+        v.camera.height = h;
+    }
+    if let Some(az) = opts.light_azimuth {
+        let mut rig = LightRig::from_light(&v.light);
+        rig.azimuth_deg = az;
+        v.light = rig.light();
+    }
+    v
+}
+
+/// Renders `view` through the window's render and present path (with the target that `fr`
+/// holds beside it when `show_target`, and the set-up overlay when `setup`), reads the display
+/// image back and writes it to `path` atomically: gray, or RGB with the overlay. The one render
+/// path of `--screenshot` and `--walk --frames`. Returns the frame's numbers and the image size.
+pub fn write_frame(
+    fr: &mut FrameRenderer,
+    opts: &Opts,
+    view: &View,
+    show_target: bool,
+    setup: Option<&SetupInfo>,
+    path: &Path,
+) -> Result<(FrameInfo, (u32, u32))> {
+    let (w, h) = (view.camera.width, view.camera.height);
+    // With the target the output doubles in width so the render keeps its resolution.
+    let layout = if show_target {
+        Layout::new((2 * w, h), fr.target_dims())
+    } else {
+        Layout::new((w, h), None)
+    };
+    let info = fr.render(
+        &FrameParams {
+            view,
+            layout,
+            exposure: opts.exposure as f32,
+            nearest: false,
+            show_target,
+            setup,
+        },
+        None,
+    )?;
+    if setup.is_some() {
+        let rgb = fr.read_output_rgb(layout.out)?;
+        scratchart::io::write_png_rgb(path, layout.out.0, layout.out.1, &rgb)?;
+    } else {
+        let bytes = fr.read_output_gray(layout.out)?;
+        scratchart::io::write_png_gray(path, layout.out.0, layout.out.1, &bytes)?;
+    }
+    Ok((info, layout.out))
+}
+
 pub fn screenshot(
     opts: &Opts,
     design: &Design,
@@ -85,22 +144,10 @@ pub fn screenshot(
     let path = opts.screenshot.as_ref().expect("screenshot mode");
     let idx = opts.view.as_deref().map(|s| design.view_index(s)).transpose()?;
     let base = &design.scene.views[idx.unwrap_or(0)];
-    // With --view: that view's camera, light and (unless --size) resolution, exactly as
-    // `scratchart render` has them. Without: the window's starting state at --size.
+    // With --view: that view as `scratchart render` has it. Without: the window's starting
+    // state at --size.
     let view = match idx {
-        Some(_) => {
-            let mut v = base.clone();
-            if let Some((w, h)) = opts.size {
-                v.camera.width = w;
-                v.camera.height = h;
-            }
-            if let Some(az) = opts.light_azimuth {
-                let mut rig = LightRig::from_light(&v.light);
-                rig.azimuth_deg = az;
-                v.light = rig.light();
-            }
-            v
-        }
+        Some(_) => as_rendered(opts, base, opts.size),
         None => {
             let (w, h) = opts.size.unwrap_or(DEFAULT_SIZE);
             let (cam, light) = initial_state(opts, design, 0);
@@ -112,7 +159,6 @@ pub fn screenshot(
             }
         }
     };
-    let (w, h) = (view.camera.width, view.camera.height);
     let ctx = make_context(opts, vec![], vec![], log)?;
     let mut fr = make_frame_renderer(&ctx, design, shaders)?;
     let target = design.targets[idx.unwrap_or(0)].as_ref();
@@ -121,41 +167,118 @@ pub fn screenshot(
         eprintln!("warning: view '{}' has no target image", base.name);
     }
     fr.set_target(target.filter(|_| show_target))?;
-    let setup = opts.setup.then(|| crate::setup::SetupInfo::of(&design.scene));
-    // With the target the output doubles in width so the render keeps its resolution.
-    let layout = if show_target {
-        Layout::new((2 * w, h), fr.target_dims())
-    } else {
-        Layout::new((w, h), None)
-    };
-    let info = fr.render(
-        &FrameParams {
-            view: &view,
-            layout,
-            exposure: opts.exposure as f32,
-            nearest: false,
-            show_target,
-            setup: setup.as_ref(),
-        },
-        None,
-    )?;
+    let setup = opts.setup.then(|| SetupInfo::of(&design.scene));
+    let (info, out) = write_frame(&mut fr, opts, &view, show_target, setup.as_ref(), path)?;
     if let Some(s) = &setup {
         println!("{}", s.report());
         print_marks(&info.marks);
-        let rgb = fr.read_output_rgb(layout.out)?;
-        scratchart::io::write_png_rgb(path, layout.out.0, layout.out.1, &rgb)?;
-    } else {
-        let bytes = fr.read_output_gray(layout.out)?;
-        scratchart::io::write_png_gray(path, layout.out.0, layout.out.1, &bytes)?;
     }
     eprintln!(
         "wrote {} ({}x{}, view '{}', {:.1} ms on the GPU, {} overlapping pairs)",
         path.display(),
-        layout.out.0,
-        layout.out.1,
+        out.0,
+        out.1,
         base.name,
         info.timings.total_ms(),
         info.stats.pairs
+    );
+    Ok(())
+}
+
+/// `--walk --frames DIR`: the walk from the first view to the last (one way) rendered without a
+/// window, `--walk-steps` frames per gap and then the last view, as DIR/frame_0000.png, ...
+/// Frame k x steps is design view k exactly as `--screenshot --view k` renders it; every frame
+/// has the first view's resolution (or --size).
+pub fn walk_frames(
+    opts: &Opts,
+    design: &Design,
+    shaders: Option<&Path>,
+    log: &RefCell<Option<ValidationLog>>,
+    dir: &Path,
+) -> Result<()> {
+    let views = &design.scene.views;
+    let walk = Walk::new(views, opts.walk_speed).ok_or_else(|| crate::walk_refused(design))?;
+    let steps = opts.walk_steps.max(1) as usize;
+    let total = (views.len() - 1) * steps + 1;
+    let c0 = &views[0].camera;
+    let size = opts.size.unwrap_or((c0.width, c0.height));
+    if opts.size.is_none() && views.iter().any(|v| (v.camera.width, v.camera.height) != size) {
+        eprintln!(
+            "warning: the views differ in resolution: every frame is {}x{} (view '{}'s); --size WxH sets another",
+            size.0, size.1, views[0].name
+        );
+    }
+    std::fs::create_dir_all(dir).with_context(|| format!("cannot create the frame directory {}", dir.display()))?;
+    let ctx = make_context(opts, vec![], vec![], log)?;
+    let mut fr = make_frame_renderer(&ctx, design, shaders)?;
+    // A target beside every frame only when every view has one (the frames keep one size).
+    let mut show_target = opts.show_target && design.targets.iter().all(Option::is_some);
+    if opts.show_target && !show_target {
+        eprintln!("warning: not every view has a target image: the frames show none");
+    }
+    let setup = opts.setup.then(|| SetupInfo::of(&design.scene));
+    if let Some(s) = &setup {
+        println!("{}", s.report());
+    }
+    let mut target_of = None;
+    let t0 = std::time::Instant::now();
+    for j in 0..total {
+        let (gap, step) = (j / steps, j % steps);
+        // Whole positions are exact: k + 0 / steps, and the last view itself.
+        let pos = gap as f64 + step as f64 / steps as f64;
+        let view = as_rendered(opts, &walk.view_at(pos), Some(size));
+        let near = walk.nearest(pos);
+        if show_target && target_of != Some(near) {
+            fr.set_target(design.targets[near].as_ref())?;
+            target_of = Some(near);
+            show_target = fr.target_dims().is_some();
+        }
+        let path = dir.join(format!("frame_{j:04}.png"));
+        let (info, out) = write_frame(&mut fr, opts, &view, show_target, setup.as_ref(), &path)?;
+        let orbit = OrbitCamera::from_camera(&view.camera);
+        let at = if step == 0 {
+            format!("view {}", views[gap].name)
+        } else {
+            format!(
+                "{} -> {} {:.0}%",
+                views[gap].name,
+                views[gap + 1].name,
+                100.0 * step as f64 / steps as f64
+            )
+        };
+        println!(
+            "frame {j:04}/{:04} {}: {at}, azimuth {:.3} elevation {:.3} distance {:.2}, light of {} ({}x{}, {:.1} ms on the GPU)",
+            total - 1,
+            path.display(),
+            orbit.azimuth_deg,
+            orbit.elevation_deg,
+            orbit.distance,
+            views[near].name,
+            out.0,
+            out.1,
+            info.timings.total_ms()
+        );
+    }
+    // Older frames past this walk's last would join a GIF made with a wildcard.
+    let stale = (total..)
+        .take_while(|j| dir.join(format!("frame_{j:04}.png")).exists())
+        .count();
+    if stale > 0 {
+        eprintln!(
+            "warning: {} holds {stale} older frame(s) after frame_{:04}.png from an earlier run: remove them before making a GIF",
+            dir.display(),
+            total - 1
+        );
+    }
+    println!(
+        "wrote {total} frames to {} ({} views, {steps} per gap, {:.1} s)",
+        dir.display(),
+        views.len(),
+        t0.elapsed().as_secs_f64()
+    );
+    println!(
+        "make a GIF: ffmpeg -framerate 12 -i {d}/frame_%04d.png walk.gif   (or ImageMagick: convert -delay 8 -loop 0 {d}/frame_*.png walk.gif)",
+        d = dir.display()
     );
     Ok(())
 }

@@ -5,8 +5,9 @@
 //! - [`app`]: the winit window, input, adaptive resolution, hot reload.
 //! - [`frame`]: one frame: engine render at an internal size + the present pass.
 //! - [`swapchain`]: surface and swapchain.
-//! - [`headless`]: `--screenshot` and `--benchmark` without a window.
+//! - [`headless`]: `--screenshot`, `--walk --frames DIR` and `--benchmark` without a window.
 //! - [`state`]: the orbit camera and the light rig.
+//! - [`walk`]: the walk along the design views (`--walk`, key W): interpolated cameras, timing.
 //! - [`design`]: design files, target images, file watching.
 //! - [`upscale`]: the blit path that upsamples reduced frames onto the swapchain image.
 //! - [`setup`], [`overlay`], [`font`]: the set-up overlay (key S): the lamp and eye positions
@@ -21,8 +22,9 @@ mod setup;
 mod state;
 mod swapchain;
 mod upscale;
+mod walk;
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 use anyhow::{bail, Result};
@@ -39,6 +41,8 @@ macro_rules! keys_text {
   L                  light orbits on its own: on/off
   + / -              light orbit speed x1.5 / /1.5
   1 .. 9             jump to design view N's camera and light
+  W                  walk: the camera moves along the design views v0 -> v1 -> ... and back
+                     (--walk-speed; mouse orbiting stops it): on/off
   T                  show/hide that view's target image beside the render
   S                  set-up overlay on/off: the lamp and every designed eye drawn over the
                      plate (an arrow at the frame's edge when off-screen or behind), the
@@ -69,6 +73,11 @@ next to the design.\n\n",
 "Hot reload: the design (and its scratch CSV) is re-read when it changes on disk (a parse error keeps the old \
 scene); the shaders are recompiled when a file under the shader directory changes (--shader-dir, or the source \
 tree's shaders/ when it exists; a compile error keeps the last good pipelines).\n\n",
+"Walk: --walk plays the design views' cameras in order, v0 -> v1 -> ... -> the last and back, \
+interpolating between neighbours (azimuth the short way round, elevation, distance, field of view, target) at \
+--walk-speed degrees of azimuth per second, with the light of the nearest view; key W toggles it. \
+--walk --frames DIR renders it without a window, one way, as DIR/frame_0000.png ... (--walk-steps frames per \
+gap, then the last view); then e.g. `ffmpeg -framerate 12 -i DIR/frame_%04d.png walk.gif`.\n\n",
 "Exit codes: 0 success, 1 runtime failure, 2 bad command line, 3 bad input file, 4 GPU/device failure \
 (including a lost device), 5 Vulkan validation messages were reported (with --validation).\n\n",
 keys_text!())
@@ -124,10 +133,26 @@ pub struct Opts {
     /// Timed frames per benchmark row (after 3 warm-up frames)
     #[arg(long, default_value_t = 20)]
     pub bench_frames: usize,
-    /// Draw this many frames, then exit (frames are drawn continuously until then, also when
-    /// nothing moves)
-    #[arg(long, value_name = "N")]
-    pub frames: Option<u64>,
+    /// Window: draw N frames, then exit (frames are drawn continuously until then, also when
+    /// nothing moves). With --walk, a directory instead: render the walk without a window to
+    /// DIR/frame_0000.png, frame_0001.png, ... (created if missing). A value of digits only is N:
+    /// write a directory named with digits as ./123
+    #[arg(long, value_name = "N|DIR", value_parser = parse_frames)]
+    pub frames: Option<Frames>,
+    /// Play the walk (key W): the camera moves along the design views' cameras in order, v0 ->
+    /// v1 -> ... -> the last and back, with the nearest view's light. With --frames DIR: render
+    /// it to PNG frames, one way. Needs a design with at least 2 views
+    #[arg(long, conflicts_with_all = ["screenshot", "benchmark"])]
+    pub walk: bool,
+    /// Walk speed (--walk, key W) in degrees of azimuth per second (a gap between views of one
+    /// azimuth takes 1 s)
+    #[arg(long, default_value_t = 10.0, value_name = "DEG")]
+    pub walk_speed: f64,
+    /// --walk --frames DIR: frames per gap between neighbouring views (the gap's start and
+    /// K - 1 in between); N views give (N - 1) x K + 1 frames
+    #[arg(long, default_value_t = 4, value_name = "K", requires = "walk",
+          value_parser = clap::value_parser!(u32).range(1..=10_000))]
+    pub walk_steps: u32,
     /// Exit after this many seconds
     #[arg(long, value_name = "SECS")]
     pub exit_after: Option<f64>,
@@ -146,6 +171,61 @@ pub struct Opts {
     /// Enable the Vulkan validation layer; print the message count on exit, exit code 1 if any
     #[arg(long)]
     pub validation: bool,
+}
+
+/// `--frames`: a count of window frames, or the directory of a walk's frames.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Frames {
+    Count(u64),
+    Dir(PathBuf),
+}
+
+/// All digits: a count; anything else: a directory (`./123` for a directory named 123).
+fn parse_frames(s: &str) -> Result<Frames, String> {
+    if s.is_empty() {
+        Err("give a number of frames or, with --walk, a directory".into())
+    } else if s.bytes().all(|b| b.is_ascii_digit()) {
+        s.parse::<u64>()
+            .map(Frames::Count)
+            .map_err(|e| format!("'{s}' is not a frame count: {e} (a directory named with digits is written ./{s})"))
+    } else {
+        Ok(Frames::Dir(PathBuf::from(s)))
+    }
+}
+
+impl Opts {
+    /// `--frames N`: the window's frame count.
+    pub fn frame_count(&self) -> Option<u64> {
+        match self.frames {
+            Some(Frames::Count(n)) => Some(n),
+            _ => None,
+        }
+    }
+
+    /// `--frames DIR`: where the walk's frames go.
+    pub fn frames_dir(&self) -> Option<&Path> {
+        match &self.frames {
+            Some(Frames::Dir(d)) => Some(d),
+            _ => None,
+        }
+    }
+}
+
+/// The refusal of `--walk` (or key W's message) for a design with fewer than 2 views.
+pub fn walk_refused(design: &design::Design) -> anyhow::Error {
+    scratchart::exit::UsageError(format!(
+        "--walk needs a design with at least 2 views: {} has {} ({})",
+        design.name(),
+        design.scene.views.len(),
+        design
+            .scene
+            .views
+            .iter()
+            .map(|v| v.name.as_str())
+            .collect::<Vec<_>>()
+            .join(", ")
+    ))
+    .into()
 }
 
 fn parse_size(s: &str) -> Result<(u32, u32), String> {
@@ -212,16 +292,37 @@ fn run(opts: &Opts, log: &std::cell::RefCell<Option<scratchart::vulkan::Validati
     if opts.exposure.is_nan() || opts.exposure <= 0.0 {
         bail!("--exposure must be a positive number");
     }
+    if let (Some(d), false) = (opts.frames_dir(), opts.walk) {
+        return Err(scratchart::exit::UsageError(format!(
+            "--frames {} is a directory, which is where a walk's frames go: add --walk to render \
+             the walk there (for a number of window frames give digits, e.g. --frames 10; a \
+             directory named only with digits is written ./123)",
+            d.display()
+        ))
+        .into());
+    }
+    if !(opts.walk_speed.is_finite() && opts.walk_speed > 0.0) {
+        return Err(scratchart::exit::UsageError(
+            "--walk-speed must be a positive number of degrees per second".into(),
+        )
+        .into());
+    }
     let design = match &opts.design {
         Some(p) => design::Design::load(p)?,
         None => design::Design::demo(),
     };
+    if opts.walk && design.scene.views.len() < 2 {
+        return Err(walk_refused(&design));
+    }
     let shaders = shader_dir(opts);
     if let Some(d) = &shaders {
         eprintln!("shaders: {} (hot reload)", d.display());
     }
     if opts.screenshot.is_some() {
         return headless::screenshot(opts, &design, shaders.as_deref(), log);
+    }
+    if let Some(dir) = opts.frames_dir() {
+        return headless::walk_frames(opts, &design, shaders.as_deref(), log, dir);
     }
     if opts.benchmark {
         headless::benchmark(opts, &design, shaders.as_deref(), log)?;

@@ -65,6 +65,22 @@ impl OrbitCamera {
         }
     }
 
+    /// The camera a fraction `t` of the way from `a` to `b` (the walk's in-between cameras):
+    /// azimuth along the shorter way round, elevation, distance, field of view, target and up
+    /// linearly. `t` = 0 gives `a`'s parameters and `t` = 1 `b`'s (the azimuth possibly 360
+    /// degrees off, the same direction).
+    pub fn lerp(a: &OrbitCamera, b: &OrbitCamera, t: f64) -> OrbitCamera {
+        let mix = |x: f64, y: f64| x * (1.0 - t) + y * t;
+        OrbitCamera {
+            target: a.target * (1.0 - t) + b.target * t,
+            distance: mix(a.distance, b.distance),
+            azimuth_deg: a.azimuth_deg + t * crate::walk::short_turn(a.azimuth_deg, b.azimuth_deg),
+            elevation_deg: mix(a.elevation_deg, b.elevation_deg),
+            fov_y_deg: mix(a.fov_y_deg, b.fov_y_deg),
+            up: a.up * (1.0 - t) + b.up * t,
+        }
+    }
+
     /// Left drag: turn around the target (drag right = the scene turns right).
     pub fn orbit(&mut self, dx_px: f64, dy_px: f64) {
         self.azimuth_deg -= dx_px * DEG_PER_PX;

@@ -165,9 +165,14 @@ impl App {
         still: bool,
     ) {
         let gpu_ms = info.timings.total_ms();
+        let walk = self
+            .walk
+            .as_ref()
+            .filter(|_| self.walking)
+            .map(|w| (w.position(), w.label()));
         if self.opts.log_frames {
             println!(
-                "frame {} t={:.3} {} internal={}x{} full={}x{} level={} wall_ms={:.1} gpu_ms={:.1} interval_ms={:.1} cam_az={:.2} cam_el={:.2} light_az={:.2}",
+                "frame {} t={:.3} {} internal={}x{} full={}x{} level={} wall_ms={:.1} gpu_ms={:.1} interval_ms={:.1} cam_az={:.2} cam_el={:.2} light_az={:.2}{}",
                 self.frames,
                 self.start.elapsed().as_secs_f64(),
                 if level == 0 { "full" } else { "reduced" },
@@ -182,6 +187,7 @@ impl App {
                 self.cam.azimuth_deg,
                 self.cam.elevation_deg,
                 self.light.azimuth_deg,
+                walk.as_ref().map(|(p, _)| format!(" walk={p:.4}")).unwrap_or_default(),
             );
         }
         let now = Instant::now();
@@ -204,6 +210,9 @@ impl App {
                 self.exposure,
                 if self.light_orbit { " | light orbiting" } else { "" }
             );
+            if let Some((_, label)) = &walk {
+                title += &format!(" | {label}");
+            }
             if let Some(s) = &self.setup {
                 title += &format!(" | {}", s.title());
             }
@@ -258,7 +267,7 @@ impl App {
                 }
             }
         }
-        if self.opts.frames.is_some_and(|n| self.frames >= n) {
+        if self.opts.frame_count().is_some_and(|n| self.frames >= n) {
             event_loop.exit();
         }
     }

@@ -1,5 +1,5 @@
 //! Keyboard and mouse: the key bindings of `crate::KEYS`, orbit / pan / zoom of the camera,
-//! shift-drag of the light, and the actions behind them (views, target, reset).
+//! shift-drag of the light, and the actions behind them (views, target, walk, reset).
 use std::time::Instant;
 
 use anyhow::Result;
@@ -11,8 +11,85 @@ use super::App;
 use crate::headless;
 use crate::setup::SetupInfo;
 use crate::state::{LightRig, OrbitCamera};
+use crate::walk::Walk;
 
 impl App {
+    /// Key W: the walk on or off (on resumes where it stopped, or at the view last jumped to).
+    fn toggle_walk(&mut self) -> Result<()> {
+        if self.walk.is_none() {
+            eprintln!(
+                "no walk: it needs a design with at least 2 views, {} has {}",
+                self.design.name(),
+                self.design.scene.views.len()
+            );
+            return Ok(());
+        }
+        self.walking = !self.walking;
+        self.last_title = None;
+        if self.walking {
+            eprintln!(
+                "walk on: {} views, {:.1} deg/s",
+                self.design.scene.views.len(),
+                self.opts.walk_speed
+            );
+            self.follow_walk()
+        } else {
+            eprintln!("walk off");
+            self.bump();
+            Ok(())
+        }
+    }
+
+    /// Mouse input that moves the camera or the light stops the walk.
+    fn stop_walk(&mut self, why: &str) {
+        if self.walking {
+            self.walking = false;
+            self.last_title = None;
+            eprintln!("walk stopped ({why})");
+        }
+    }
+
+    /// While the walk plays: the camera at its position now, the light of the nearest view, and
+    /// that view's index (and target, when one is shown).
+    pub(super) fn follow_walk(&mut self) -> Result<()> {
+        let Some(w) = &self.walk else {
+            self.walking = false;
+            return Ok(());
+        };
+        let pos = w.position();
+        let near = w.nearest(pos);
+        self.cam = w.camera_at(pos);
+        self.light = LightRig::from_light(&self.design.scene.views[near].light);
+        if near != self.view_idx {
+            self.view_idx = near;
+            if self.show_target {
+                match self.design.targets.get(near).and_then(|t| t.as_ref()) {
+                    Some(t) => self.fr.set_target(Some(t))?,
+                    None => {
+                        eprintln!(
+                            "view '{}' has no target image: target hidden",
+                            self.design.scene.views[near].name
+                        );
+                        self.show_target = false;
+                        self.fr.set_target(None)?;
+                    }
+                }
+            }
+        }
+        self.bump();
+        Ok(())
+    }
+
+    /// After a reload: the walk along the new views, from the current view (stopped when the
+    /// design has fewer than 2 views now).
+    pub(super) fn rebuild_walk(&mut self) {
+        self.walk = Walk::new(&self.design.scene.views, self.opts.walk_speed);
+        match self.walk.as_mut() {
+            Some(w) => w.start_at(self.view_idx),
+            None => self.stop_walk("the design has fewer than 2 views now"),
+        }
+    }
+
     pub(super) fn toggle_target(&mut self) -> Result<()> {
         if self.show_target {
             self.show_target = false;
@@ -57,6 +134,10 @@ impl App {
         self.cam = OrbitCamera::from_camera(&v.camera);
         self.light = LightRig::from_light(&v.light);
         self.view_idx = idx;
+        // The walk goes on from here (W starts it here when off).
+        if let Some(w) = self.walk.as_mut() {
+            w.start_at(idx);
+        }
         if self.show_target {
             // Show the new view's target (or none).
             self.show_target = false;
@@ -81,6 +162,11 @@ impl App {
         self.exposure = self.opts.exposure;
         self.light_orbit = false;
         self.light_speed = self.opts.light_speed;
+        if let Some(w) = self.walk.as_mut() {
+            w.start_at(idx);
+        }
+        self.walking = self.opts.walk && self.walk.is_some();
+        self.last_title = None;
         if self.show_target {
             self.toggle_target()?;
         }
@@ -113,6 +199,7 @@ impl App {
                 eprintln!("light orbit speed {:.1} deg/s", self.light_speed);
             }
             "t" => self.toggle_target()?,
+            "w" => self.toggle_walk()?,
             "s" => self.toggle_setup(),
             "e" => {
                 if self.shift {
@@ -142,6 +229,7 @@ impl App {
     }
 
     fn on_drag(&mut self, dx: f64, dy: f64) {
+        self.stop_walk("mouse");
         let h = self
             .window
             .as_ref()
@@ -204,6 +292,7 @@ impl App {
                     MouseScrollDelta::LineDelta(_, y) => y as f64,
                     MouseScrollDelta::PixelDelta(p) => p.y / 40.0,
                 };
+                self.stop_walk("mouse");
                 self.cam.zoom(steps);
                 self.bump();
                 Ok(())

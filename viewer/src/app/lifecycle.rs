@@ -100,6 +100,14 @@ impl ApplicationHandler for App {
             self.light.rotate(self.light_speed * dt.min(0.25));
             self.bump();
         }
+        if self.walking {
+            if let Some(w) = self.walk.as_mut() {
+                w.advance(dt.min(0.25));
+            }
+            if let Err(e) = self.follow_walk() {
+                return self.fail(event_loop, e);
+            }
+        }
         if let Err(e) = self.poll_files() {
             return self.fail(event_loop, e);
         }
@@ -110,8 +118,11 @@ impl ApplicationHandler for App {
             Some((v, l)) => v != self.version || (still && l != 0 && l != want_level),
         };
         // --frames N counts drawn frames: draw until N, even when nothing changes.
-        let need =
-            stale || self.swap_dirty || self.opts.continuous || self.bench.is_some() || self.opts.frames.is_some();
+        let need = stale
+            || self.swap_dirty
+            || self.opts.continuous
+            || self.bench.is_some()
+            || self.opts.frame_count().is_some();
         let minimized = self
             .window
             .as_ref()

@@ -27,6 +27,7 @@ use crate::headless::{self, BenchRow, BENCH_LEVELS};
 use crate::setup::SetupInfo;
 use crate::state::{LightRig, OrbitCamera};
 use crate::swapchain::Presenter;
+use crate::walk::Walk;
 use crate::Opts;
 
 mod draw;
@@ -103,6 +104,9 @@ struct App {
     setup: Option<SetupInfo>,
     light_orbit: bool,
     light_speed: f64,
+    /// The walk along the design's views (`None` with fewer than 2 views) and whether it plays.
+    walk: Option<Walk>,
+    walking: bool,
     nearest: bool,
     adaptive: bool,
 
@@ -141,6 +145,10 @@ impl App {
             .transpose()?
             .unwrap_or(0);
         let (cam, light) = headless::initial_state(&opts, &design, view_idx);
+        let mut walk = Walk::new(&design.scene.views, opts.walk_speed);
+        if let Some(w) = walk.as_mut() {
+            w.start_at(view_idx);
+        }
         let now = Instant::now();
         let bench = opts.benchmark.then(|| WindowBench {
             phases: BENCH_LEVELS.iter().map(|&l| Some(l)).chain([None]).collect(),
@@ -162,6 +170,8 @@ impl App {
             setup: None,
             light_orbit: opts.light_orbit,
             light_speed: opts.light_speed,
+            walking: opts.walk && walk.is_some(),
+            walk,
             nearest: false,
             adaptive: !opts.no_adaptive,
             design,
@@ -211,7 +221,11 @@ impl App {
     }
 
     fn still(&self, now: Instant) -> bool {
-        !self.dragging() && !self.light_orbit && self.bench.is_none() && now.duration_since(self.last_change) >= SETTLE
+        !self.dragging()
+            && !self.light_orbit
+            && !self.walking
+            && self.bench.is_none()
+            && now.duration_since(self.last_change) >= SETTLE
     }
 
     fn fail(&mut self, event_loop: &ActiveEventLoop, e: anyhow::Error) {

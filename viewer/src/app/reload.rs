@@ -33,6 +33,7 @@ impl App {
                     self.design_mtimes = mtimes(&d.watched);
                     self.design = d;
                     self.view_idx = self.view_idx.min(self.design.scene.views.len() - 1);
+                    self.rebuild_walk();
                     if self.setup.is_some() {
                         self.setup = None;
                         self.toggle_setup();
