@@ -72,8 +72,21 @@ pub fn silhouette(view: &View, plate_mm: f64) -> Option<[[f64; 2]; 4]> {
 /// feasible set, where three constraints are active: all triples are solved and the feasible one
 /// with the largest s wins (20 constraints, 1,140 triples).
 pub fn largest_rect(poly: &[[f64; 2]; 4], aspect: f64, fw: f64, fh: f64) -> Option<Rect> {
+    largest_rect_with(poly, aspect, fw, fh, None)
+}
+
+/// [`largest_rect`] whose centre's x is `cx` (pixels) when given: the largest rectangle centred
+/// on that column. A walk's views use the plate centre's column, so the picture stays on the
+/// same part of the plate as the viewer walks: the unconstrained optimum of a near-symmetric
+/// silhouette (a trapezoid) slides to one end or the other, and jumps from one to the other
+/// where the view passes the symmetric one.
+pub fn largest_rect_with(poly: &[[f64; 2]; 4], aspect: f64, fw: f64, fh: f64, cx: Option<f64>) -> Option<Rect> {
     // Constraints a . (cx, cy, s) <= b.
     let mut cons: Vec<([f64; 3], f64)> = Vec::new();
+    if let Some(c) = cx {
+        cons.push(([1.0, 0.0, 0.0], c));
+        cons.push(([-1.0, 0.0, 0.0], -c));
+    }
     let area2: f64 = (0..4)
         .map(|i| {
             let (p, q) = (poly[i], poly[(i + 1) % 4]);
@@ -104,7 +117,7 @@ pub fn largest_rect(poly: &[[f64; 2]; 4], aspect: f64, fw: f64, fh: f64) -> Opti
                 .iter()
                 .all(|(a, b)| a[0] * x[0] + a[1] * x[1] + a[2] * x[2] <= b + 1e-9 * (1.0 + b.abs()))
     };
-    let mut best: Option<[f64; 3]> = None;
+    let mut vertices: Vec<[f64; 3]> = Vec::new();
     let n = cons.len();
     for i in 0..n {
         for j in i + 1..n {
@@ -112,12 +125,33 @@ pub fn largest_rect(poly: &[[f64; 2]; 4], aspect: f64, fw: f64, fh: f64) -> Opti
                 let Some(x) = solve3([cons[i].0, cons[j].0, cons[k].0], [cons[i].1, cons[j].1, cons[k].1]) else {
                     continue;
                 };
-                if feasible(&x) && best.is_none_or(|b| x[2] > b[2]) {
-                    best = Some(x);
+                if feasible(&x) {
+                    vertices.push(x);
                 }
             }
         }
     }
+    let s_max = vertices.iter().map(|x| x[2]).fold(f64::NEG_INFINITY, f64::max);
+    // The largest size is often reached along an edge of the feasible set (a trapezoid's long
+    // side leaves the square room to slide): the middle of that edge, the mean of the optimal
+    // vertices (a convex combination, so feasible), so the picture sits centred in its room and
+    // moves smoothly from one view to the next (a walk's views) instead of jumping between ends.
+    // (A vertex where more than three constraints meet is found once per triple: each counts once.)
+    let mut optimal: Vec<&[f64; 3]> = Vec::new();
+    for x in vertices.iter().filter(|x| x[2] >= s_max - 1e-9 * (1.0 + s_max.abs())) {
+        if !optimal
+            .iter()
+            .any(|o| (o[0] - x[0]).abs() + (o[1] - x[1]).abs() < 1e-7 * (1.0 + s_max.abs()))
+        {
+            optimal.push(x);
+        }
+    }
+    let best = (!optimal.is_empty()).then(|| {
+        let m = optimal.len() as f64;
+        let cx = optimal.iter().map(|x| x[0]).sum::<f64>() / m;
+        let cy = optimal.iter().map(|x| x[1]).sum::<f64>() / m;
+        [cx, cy, s_max]
+    });
     best.map(|[cx, cy, s]| Rect {
         x0: cx - s * aspect / 2.0,
         y0: cy - s / 2.0,
@@ -179,11 +213,38 @@ pub struct Fitted {
 /// A picture smaller than the rectangle it fills is scaled up, a larger one down (an area
 /// average over the source pixels a target pixel covers, so nothing aliases).
 pub fn fit_picture(src: &[f32], sw: u32, sh: u32, view: &View, plate_mm: f64, fit: Fit, background: f32) -> Fitted {
-    let (w, h) = (view.camera.width, view.camera.height);
-    let g = ViewGeom::new(view);
-    let on = g.on_plate_mask(0.5 * plate_mm);
+    let rect = picture_rect(view, plate_mm, fit, sw as f64 / sh as f64);
+    fit_picture_in(src, sw, sh, view, plate_mm, fit, background, rect)
+}
+
+/// [`fit_picture`] for a walk's view: `contain` keeps the picture centred on the column of the
+/// plate's centre ([`largest_rect_with`]), so it moves smoothly along the walk; the other modes
+/// place it as [`fit_picture`] does.
+pub fn fit_picture_walk(
+    src: &[f32],
+    sw: u32,
+    sh: u32,
+    view: &View,
+    plate_mm: f64,
+    fit: Fit,
+    background: f32,
+) -> Fitted {
     let aspect = sw as f64 / sh as f64;
     let rect = match fit {
+        Fit::Contain => silhouette(view, plate_mm).and_then(|q| {
+            let (w, h) = (view.camera.width as f64, view.camera.height as f64);
+            let cx = ViewGeom::new(view).project([0.0, 0.0, 0.0]).map(|p| p.0);
+            largest_rect_with(&q, aspect, w, h, cx)
+        }),
+        _ => picture_rect(view, plate_mm, fit, aspect),
+    };
+    fit_picture_in(src, sw, sh, view, plate_mm, fit, background, rect)
+}
+
+/// Where a picture of `aspect` (width / height) goes in `view` for `fit` (see [`Fitted::rect`]).
+pub fn picture_rect(view: &View, plate_mm: f64, fit: Fit, aspect: f64) -> Option<Rect> {
+    let (w, h) = (view.camera.width, view.camera.height);
+    match fit {
         Fit::Frame => Some(Rect {
             x0: 0.0,
             y0: 0.0,
@@ -214,7 +275,25 @@ pub fn fit_picture(src: &[f32], sw: u32, sh: u32, view: &View, plate_mm: f64, fi
             }
         }),
         Fit::Printed => None,
-    };
+    }
+}
+
+/// Places picture `src` in `view` with its rectangle `rect` ([`picture_rect`]).
+#[allow(clippy::too_many_arguments)] // fit_picture's settings and the rectangle
+fn fit_picture_in(
+    src: &[f32],
+    sw: u32,
+    sh: u32,
+    view: &View,
+    plate_mm: f64,
+    fit: Fit,
+    background: f32,
+    rect: Option<Rect>,
+) -> Fitted {
+    let (w, h) = (view.camera.width, view.camera.height);
+    let g = ViewGeom::new(view);
+    let on = g.on_plate_mask(0.5 * plate_mm);
+    let aspect = sw as f64 / sh as f64;
     let mut image = vec![0f32; (w * h) as usize];
     let mut picture = vec![false; (w * h) as usize];
     // Supersampling of each target pixel, so a large picture is area-averaged.

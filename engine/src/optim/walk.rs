@@ -19,7 +19,7 @@ use std::path::{Path, PathBuf};
 
 use serde_json::{json, Value};
 
-use super::framing::{fit_picture, Fit, Fitted};
+use super::framing::{fit_picture_walk, Fit, Fitted};
 use super::problem::{DesignReport, IterRecord, Problem};
 use crate::model::scene::{Light, Scene, View};
 
@@ -338,7 +338,7 @@ pub fn target_at(
     match frames {
         Frames::Pictures(pics) => {
             let place = |pic: &Picture| {
-                tone(fit_picture(
+                tone(fit_picture_walk(
                     &pic.data, pic.width, pic.height, view, plate_mm, fit, background,
                 ))
             };
@@ -783,6 +783,36 @@ mod tests {
         assert_eq!(order[0], 0);
         assert_eq!(order[3], 1);
         assert!(between.iter().all(|b| b.t > 0.0 && b.t < 1.0));
+    }
+
+    /// Along a walk a picture stays on the same part of the plate: its rectangle moves by a
+    /// fraction of a pixel per half degree, also where the view passes the symmetric one (the
+    /// largest rectangle of a near-symmetric silhouette jumps there from one end to the other).
+    #[test]
+    fn a_walks_pictures_move_smoothly_along_the_arc() {
+        let light = crate::scenes::orbit_light(300.0, 65.0, 0.0, 1e4);
+        let a = arc(3, 0);
+        let centre = |az: f64| {
+            let mut a = a.clone();
+            a.res = 64;
+            let v = arc_view("x".into(), &a, az, 100.0, &light);
+            let f = fit_picture_walk(&[1.0; 4], 2, 2, &v, 100.0, Fit::Contain, 0.0);
+            let r = f.rect.expect("a rectangle");
+            (r.x0 + 0.5 * r.w, r.y0 + 0.5 * r.h, r.w)
+        };
+        let mut last = centre(-6.0);
+        for i in -11..=12 {
+            let now = centre(0.5 * i as f64);
+            let moved = (now.0 - last.0).hypot(now.1 - last.1);
+            assert!(moved < 1.0, "at {} deg the picture moved {moved} px", 0.5 * i as f64);
+            assert!(
+                now.2 > 30.0,
+                "at {} deg the picture is {} px wide",
+                0.5 * i as f64,
+                now.2
+            );
+            last = now;
+        }
     }
 
     #[test]
