@@ -1,6 +1,8 @@
 //! The `scratchart design` subcommand: flags, problem setup (views, lights, initial scratches,
-//! targets) and the call into [`scratchart::optim::design::run_design`]. Kept here so `main.rs`
-//! only adds one enum variant.
+//! targets), the call into [`scratchart::optim::design::run_design`] and the printed summary.
+//! In the library so that the viewer's live design (`scratchart-view --design`) takes the same
+//! flags and makes the same problem: a design it saves is one `scratchart design --resume`
+//! continues bit for bit.
 use std::path::PathBuf;
 use std::sync::Arc;
 
@@ -661,6 +663,25 @@ fn resume_command() -> String {
     if let Some(first) = args.first_mut() {
         *first = "scratchart".into();
     }
+    // The viewer's live design (`scratchart-view --design ...`): the same run is `scratchart
+    // design` with the design's flags (the live view's own left out).
+    if let Some(i) = args.iter().position(|a| a == "--design") {
+        let mut design = vec!["scratchart".to_string(), "design".to_string()];
+        let mut rest = args[1..i].iter().chain(&args[i + 1..]);
+        while let Some(a) = rest.next() {
+            match a.as_str() {
+                "--headless" | "--paused" | "--log-frames" | "--validation" => {}
+                "--size" | "--device" | "--exit-after" | "--script" => {
+                    rest.next();
+                }
+                _ if ["--size=", "--device=", "--exit-after=", "--script="]
+                    .iter()
+                    .any(|p| a.starts_with(p)) => {}
+                _ => design.push(a.clone()),
+            }
+        }
+        args = design;
+    }
     if !args.iter().any(|a| a == "--resume") {
         args.push("--resume".into());
     }
@@ -678,6 +699,17 @@ fn resume_command() -> String {
 
 /// Runs `scratchart design`.
 pub fn run(ctx: &Arc<Context>, args: &DesignArgs, obs: &dyn Observer) -> anyhow::Result<()> {
+    let (problem, cfg) = prepare(ctx, args, obs)?;
+    let result = match args.max_job_min {
+        Some(limit) => scratchart::optim::job_limit::run_design_within(ctx, &problem, &cfg, limit, obs),
+        None => run_design(ctx, &problem, &cfg, obs),
+    };
+    finish(result, &cfg)
+}
+
+/// The problem and configuration of `scratchart design ARGS` (every flag checked), as the
+/// command runs it; `scratchart-view --design` runs the same.
+pub fn prepare(ctx: &Arc<Context>, args: &DesignArgs, obs: &dyn Observer) -> anyhow::Result<(Problem, DesignConfig)> {
     ensure_flag!(args.blur_sigma > 0.0, "--blur-sigma must be > 0");
     // What only a design for a machine has.
     let machine_given = args.machine.is_some() || args.machine_file.is_some();
@@ -733,10 +765,15 @@ pub fn run(ctx: &Arc<Context>, args: &DesignArgs, obs: &dyn Observer) -> anyhow:
         cfg.carvings = args.carvings;
         cfg.tool = Some(fab);
     }
-    let result = match args.max_job_min {
-        Some(limit) => scratchart::optim::job_limit::run_design_within(ctx, &problem, &cfg, limit, obs),
-        None => run_design(ctx, &problem, &cfg, obs),
-    };
+    Ok((problem, cfg))
+}
+
+/// Prints what a design run made (the summary and its parts), or the error, with the command
+/// that continues a stopped run.
+pub fn finish(
+    result: Result<scratchart::optim::DesignReport, scratchart::optim::OptimError>,
+    cfg: &DesignConfig,
+) -> anyhow::Result<()> {
     let report = match result {
         Ok(r) => r,
         Err(

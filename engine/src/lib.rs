@@ -15,7 +15,13 @@
 //!   (they never print).
 //! - [`exit`]: the exit-code contract shared by every binary.
 //! - [`limits`]: scene sizes checked against the device and the host before any work.
+//! - [`design_cmd`]: `scratchart design`'s flags, problem and run, shared with the viewer's live
+//!   design (`scratchart-view --design`).
+// The library's own modules name it `scratchart::` as its programs do (`design_cmd`).
+extern crate self as scratchart;
+
 pub mod bench;
+pub mod design_cmd;
 pub mod exit;
 pub use scratchart_model as model;
 pub use scratchart_optim::observe;

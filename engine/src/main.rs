@@ -5,7 +5,7 @@ use std::process::ExitCode;
 use anyhow::{Context as _, Result};
 use clap::{Parser, Subcommand};
 
-mod design_cmd;
+use scratchart::design_cmd;
 use scratchart::term;
 
 use scratchart::bench;

@@ -43,6 +43,31 @@ impl Design {
         }
     }
 
+    /// A live design's problem as the viewer shows it: its views, its initial scratches, and
+    /// each view's target as the loss uses it.
+    pub fn live(problem: &scratchart::optim::Problem) -> Design {
+        let scene = problem.scene.clone();
+        let targets = scene
+            .views
+            .iter()
+            .zip(&problem.targets)
+            .map(|(v, t)| {
+                Some(Target {
+                    path: PathBuf::from(format!("(the target of {})", v.name)),
+                    width: v.camera.width,
+                    height: v.camera.height,
+                    data: t.clone(),
+                })
+            })
+            .collect();
+        Design {
+            path: None,
+            scene,
+            targets,
+            watched: Vec::new(),
+        }
+    }
+
     pub fn load(path: &Path) -> Result<Design> {
         let (scene, warnings) = Scene::load_with_warnings(path)?;
         for w in warnings {

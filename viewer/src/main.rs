@@ -17,6 +17,7 @@ mod design;
 mod font;
 mod frame;
 mod headless;
+mod live;
 mod overlay;
 mod setup;
 mod state;
@@ -51,6 +52,8 @@ macro_rules! keys_text {
   E / shift+E        exposure x1.25 / /1.25
   N                  upscaling while moving: bilinear / nearest
   A                  adaptive resolution while moving: on/off
+  P                  live design (--design): pause / resume the optimizer
+  K                  live design: save design.json and the checkpoint in its --out
   R                  reset camera, light and exposure
   H                  print this list
   Esc / Q            quit"
@@ -78,6 +81,9 @@ interpolating between neighbours (azimuth the short way round, elevation, distan
 --walk-speed degrees of azimuth per second, with the light of the nearest view; key W toggles it. \
 --walk --frames DIR renders it without a window, one way, as DIR/frame_0000.png ... (--walk-steps frames per \
 gap, then the last view); then e.g. `ffmpeg -framerate 12 -i DIR/frame_%04d.png walk.gif`.\n\n",
+"Live design: `scratchart-view --design [scratchart design's flags] [--headless] [--script S]` runs the design \
+job in the viewer and shows the plate as it converges (P pause, K save); `scratchart-view --design --help` \
+lists its flags.\n\n",
 "Exit codes: 0 success, 1 runtime failure, 2 bad command line, 3 bad input file, 4 GPU/device failure \
 (including a lost device), 5 Vulkan validation messages were reported (with --validation).\n\n",
 keys_text!())
@@ -255,12 +261,33 @@ fn shader_dir(opts: &Opts) -> Option<PathBuf> {
 }
 
 fn main() -> ExitCode {
-    let opts = match scratchart::exit::parse_args::<Opts>() {
-        Ok(o) => o,
-        Err(code) => return code,
-    };
+    let argv: Vec<String> = std::env::args().collect();
     let log = std::cell::RefCell::new(None);
-    let r = run(&opts, &log);
+    // `--design` anywhere: the live design, with `scratchart design`'s flags.
+    let (r, validation) = match live::live_args(&argv) {
+        Some(largs) => {
+            let _ = scratchart::exit::process_start();
+            let o = match <live::LiveOpts as clap::Parser>::try_parse_from(largs) {
+                Ok(o) => o,
+                Err(e) => {
+                    let _ = e.print();
+                    return if e.use_stderr() {
+                        scratchart::exit::Class::Usage.exit_code()
+                    } else {
+                        ExitCode::SUCCESS
+                    };
+                }
+            };
+            (live::run(&o, &log), o.validation)
+        }
+        None => {
+            let opts = match scratchart::exit::parse_args::<Opts>() {
+                Ok(o) => o,
+                Err(code) => return code,
+            };
+            (run(&opts, &log), opts.validation)
+        }
+    };
     // Counted after everything Vulkan was dropped, so leaks reported at destruction count too.
     let n_validation = log
         .borrow()
@@ -268,7 +295,7 @@ fn main() -> ExitCode {
         .map(|l: &scratchart::vulkan::ValidationLog| l.messages().len());
     match r {
         Ok(()) => {
-            if let Some(n) = n_validation.filter(|_| opts.validation) {
+            if let Some(n) = n_validation.filter(|_| validation) {
                 eprintln!("validation messages: {n}");
                 if n > 0 {
                     // (a failure of the run like any other: the contract's runtime class)
@@ -280,7 +307,7 @@ fn main() -> ExitCode {
         }
         Err(e) => {
             eprintln!("error: {e:#}");
-            if let Some(n) = n_validation.filter(|_| opts.validation) {
+            if let Some(n) = n_validation.filter(|_| validation) {
                 eprintln!("validation messages: {n}");
             }
             ExitCode::from(scratchart::exit::code_of(&e))

@@ -275,6 +275,19 @@ impl<'r> Driver<'r> {
     /// Runs iterations until `cfg.iters` has been evaluated, checkpointing on the way and
     /// reporting progress to `obs`. Returns the wall seconds and the iterations run.
     pub fn run(&mut self, obs: &dyn Observer) -> Result<(f64, u32), OptimError> {
+        self.run_with(obs, &mut |_, _| Ok(true))
+    }
+
+    /// [`Driver::run`] that calls `after` with the driver and each accepted evaluation (a live
+    /// view of the run: read the parameters, save a checkpoint, wait while paused). `after`
+    /// returning false ends the run there, after the iteration it saw, as if it had been the
+    /// last. `after` must not change the optimizer's state, so a run with a hook gives the same
+    /// bits as one without.
+    pub fn run_with(
+        &mut self,
+        obs: &dyn Observer,
+        after: &mut dyn FnMut(&mut Driver<'r>, &Evaluation) -> Result<bool, OptimError>,
+    ) -> Result<(f64, u32), OptimError> {
         let mut rec = Recorder::new(&self.inner.ctx)?;
         // Progress counts steps: iteration k (0-based) done means k steps taken; the last
         // evaluation (iteration `iters`, no step) completes the count.
@@ -321,6 +334,9 @@ impl<'r> Driver<'r> {
                 total,
                 message: format!("loss {:.5}", ev.total),
             });
+            if !after(self, &ev)? {
+                break;
+            }
         }
         obs.finish(task);
         Ok((t0.elapsed().as_secs_f64(), run))

@@ -191,6 +191,28 @@ impl<'r> Optimizer<'r> {
         self.driver.run(obs)
     }
 
+    /// [`Optimizer::run`] with a live hook after each accepted iteration (see [`Live`]).
+    pub fn run_live(
+        &mut self,
+        obs: &dyn Observer,
+        template: &Scene,
+        hook: &mut LiveHook<'_>,
+    ) -> Result<(f64, u32), OptimError> {
+        let Optimizer {
+            renderer, driver, cfg, ..
+        } = self;
+        driver.run_with(obs, &mut |d, ev| {
+            let mut live = Live {
+                driver: d,
+                renderer,
+                template,
+                keep_exposures: cfg.keep_exposures,
+                out: &cfg.out,
+            };
+            hook(&mut live, ev)
+        })
+    }
+
     /// Continues from the checkpoint in `cfg.out`.
     pub fn resume(&mut self) -> Result<(), OptimError> {
         self.driver.load_checkpoint(&self.cfg.out)
@@ -218,6 +240,64 @@ pub fn to_scene(template: &Scene, scr: &[ScratchGpu], phi: &[f32], keep_exposure
     scene
 }
 
+/// What a live design's hook sees after each accepted iteration (`scratchart-view --design`):
+/// the running optimizer, to read (never to change: a run with a hook gives the same bits).
+pub struct Live<'a, 'r> {
+    pub driver: &'a mut Driver<'r>,
+    pub renderer: &'r Renderer,
+    /// The problem's scene (plate, views, lights as they started).
+    pub template: &'a Scene,
+    pub keep_exposures: bool,
+    /// The design's output directory.
+    pub out: &'a std::path::Path,
+}
+
+/// Called after each accepted iteration of a live design; `Ok(false)` ends the optimization
+/// there (pruning, the final evaluation and the outputs follow as after the last iteration).
+pub type LiveHook<'h> = dyn FnMut(&mut Live, &super::driver::Evaluation) -> Result<bool, OptimError> + 'h;
+
+impl Live<'_, '_> {
+    /// The next iteration to run (the iterations evaluated so far).
+    pub fn iteration(&self) -> u32 {
+        self.driver.next_iter()
+    }
+
+    /// The design as it stands (parameters and light intensities read back).
+    pub fn scene(&self) -> Result<Scene, GpuError> {
+        let gs = &self.driver.gs;
+        let scr: Vec<ScratchGpu> = self.renderer.ctx.download(gs.scratches())?;
+        let phi: Vec<f32> = gs.lights().read()?;
+        Ok(to_scene(
+            self.template,
+            &scr[..gs.n_scratches() as usize],
+            &phi,
+            self.keep_exposures,
+        ))
+    }
+
+    /// Each view's last render (linear L, the evaluation just accepted).
+    pub fn images(&self) -> Result<Vec<Vec<f32>>, GpuError> {
+        self.renderer.download_images(&self.driver.gs)
+    }
+
+    /// Saves the run where it stands into the output directory: the checkpoint that `scratchart
+    /// design --resume` continues bit for bit, and design.json + scratches.csv of the design as
+    /// it is (not pruned).
+    pub fn save(&self) -> Result<(), OptimError> {
+        std::fs::create_dir_all(self.out).map_err(|source| {
+            OptimError::Io(crate::io::IoError::Io {
+                action: "create output directory",
+                path: self.out.to_path_buf(),
+                cause: source,
+            })
+        })?;
+        self.driver.save_checkpoint(self.out)?;
+        self.scene()?
+            .save(&self.out.join("design.json"), "scratches.csv")
+            .map_err(|e| OptimError::Report(e.to_string()))
+    }
+}
+
 /// The whole `design` job: optimize, prune, evaluate and (if configured) write the outputs.
 /// Progress and warnings go to `obs`.
 pub fn run_design(
@@ -225,6 +305,17 @@ pub fn run_design(
     problem: &Problem,
     cfg: &DesignConfig,
     obs: &dyn Observer,
+) -> Result<DesignReport, OptimError> {
+    run_design_live(ctx, problem, cfg, obs, &mut |_, _| Ok(true))
+}
+
+/// [`run_design`] with a live hook after each accepted iteration ([`Live`]).
+pub fn run_design_live(
+    ctx: &Arc<Context>,
+    problem: &Problem,
+    cfg: &DesignConfig,
+    obs: &dyn Observer,
+    hook: &mut LiveHook<'_>,
 ) -> Result<DesignReport, OptimError> {
     if cfg.write_outputs {
         std::fs::create_dir_all(&cfg.out).map_err(|source| {
@@ -259,7 +350,7 @@ pub fn run_design(
     };
     let (initial_images, _) = opt.render()?;
     let t_loop = std::time::Instant::now();
-    let (loop_seconds, iters_run) = opt.run(obs)?;
+    let (loop_seconds, iters_run) = opt.run_live(obs, &problem.scene, hook)?;
     let t_loop_end = std::time::Instant::now();
     // Within a machine (`design --machine`): every commanded depth on its Z grid. The optimizer's
     // range already starts at the shallowest trusted cut and ends on the grid; this moves each

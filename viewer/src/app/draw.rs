@@ -187,7 +187,12 @@ impl App {
                 self.cam.azimuth_deg,
                 self.cam.elevation_deg,
                 self.light.azimuth_deg,
-                walk.as_ref().map(|(p, _)| format!(" walk={p:.4}")).unwrap_or_default(),
+                walk.as_ref().map(|(p, _)| format!(" walk={p:.4}")).unwrap_or_default()
+                    + &self
+                        .live
+                        .as_ref()
+                        .map(|l| format!(" live_iter={} live_paused={}", l.last_iteration, l.paused()))
+                        .unwrap_or_default(),
             );
         }
         let now = Instant::now();
@@ -212,6 +217,9 @@ impl App {
             );
             if let Some((_, label)) = &walk {
                 title += &format!(" | {label}");
+            }
+            if let Some(l) = &self.live {
+                title += &format!(" | {} | P pause, K save", l.status());
             }
             if let Some(s) = &self.setup {
                 title += &format!(" | {}", s.title());

@@ -200,6 +200,19 @@ impl App {
             }
             "t" => self.toggle_target()?,
             "w" => self.toggle_walk()?,
+            "p" => {
+                if let Some(l) = &self.live {
+                    let paused = l.toggle_pause();
+                    eprintln!("live design {}", if paused { "paused" } else { "running" });
+                    self.bump();
+                }
+            }
+            "k" => {
+                if let Some(l) = &self.live {
+                    l.request_save();
+                    eprintln!("live design: saving at the next iteration boundary");
+                }
+            }
             "s" => self.toggle_setup(),
             "e" => {
                 if self.shift {

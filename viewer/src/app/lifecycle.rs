@@ -111,6 +111,9 @@ impl ApplicationHandler for App {
         if let Err(e) = self.poll_files() {
             return self.fail(event_loop, e);
         }
+        if let Err(e) = self.poll_live() {
+            return self.fail(event_loop, e);
+        }
         let still = self.still(now);
         let want_level = if still || !self.adaptive { 0 } else { self.level };
         let stale = match self.presented {
@@ -133,6 +136,10 @@ impl ApplicationHandler for App {
         }
         if !still {
             wake = wake.min(self.last_change + SETTLE);
+        }
+        if self.live.as_ref().is_some_and(|l| l.done.is_none()) {
+            // A live design publishes after every iteration: look often.
+            wake = wake.min(now + Duration::from_millis(30));
         }
         if need && !minimized && self.presenter.is_some() {
             if let Some(w) = &self.window {

@@ -46,6 +46,54 @@ pub fn display_available() -> bool {
         .any(|k| std::env::var_os(k).is_some_and(|v| !v.is_empty()))
 }
 
+/// The window of a live design (`scratchart-view --design ...`): the design job's optimizer
+/// runs in its own thread ([`crate::live::Session`]) and the window shows the design as it
+/// stands, with the viewer's camera and lamp.
+pub fn run_live_window(o: &crate::live::LiveOpts, log: &RefCell<Option<ValidationLog>>) -> Result<()> {
+    if !display_available() {
+        anyhow::bail!(
+            "no display: DISPLAY and WAYLAND_DISPLAY are unset (add --headless to run the live design without a window)"
+        );
+    }
+    let script = match &o.script {
+        Some(s) => crate::live::parse_script(s).map_err(scratchart::exit::UsageError)?,
+        None => Vec::new(),
+    };
+    let event_loop = EventLoop::new().context("cannot connect to the display")?;
+    let inst = crate::swapchain::required_instance_extensions(&event_loop)?;
+    let ctx = crate::live::context(o, inst, vec![ash::khr::swapchain::NAME], log)?;
+    let obs = scratchart::term::Terminal::new(o.design.quiet);
+    let (problem, cfg) = scratchart::design_cmd::prepare(&ctx, &o.design, &obs)?;
+    let design = Design::live(&problem);
+    let mut opts = <Opts as clap::Parser>::parse_from(["scratchart-view"]);
+    opts.size = o.size;
+    opts.device = o.device.clone();
+    opts.validation = o.validation;
+    opts.exit_after = o.exit_after;
+    opts.log_frames = o.log_frames;
+    let fr = headless::make_frame_renderer(&ctx, &design, None)?;
+    let session = crate::live::Session::start(ctx.clone(), problem, cfg, script, o.design.quiet, o.paused);
+    let mut app = App::new(opts, design, None, fr)?;
+    app.live = Some(session);
+    event_loop.run_app(&mut app)?;
+    app.presenter = None;
+    // The window closed: the optimization stops at the next iteration boundary, and the
+    // design is finished and written as after its last iteration.
+    let mut live = app.live.take().expect("a live session");
+    if live.done.is_none() {
+        eprintln!(
+            "live design: stopping at iteration {} and finishing the design ...",
+            live.last_iteration
+        );
+    }
+    live.join();
+    let err = live.error.take();
+    match (app.error.take(), err) {
+        (Some(e), _) | (None, Some(e)) => Err(e),
+        (None, None) => Ok(()),
+    }
+}
+
 pub fn run_window(
     opts: &Opts,
     design: Design,
@@ -134,6 +182,8 @@ struct App {
     reload_error: Option<String>,
     error: Option<anyhow::Error>,
     bench: Option<WindowBench>,
+    /// A live design's optimizer (`--design`).
+    live: Option<crate::live::Session>,
 }
 
 impl App {
@@ -200,6 +250,7 @@ impl App {
             reload_error: None,
             error: None,
             bench,
+            live: None,
             opts,
         };
         if app.opts.show_target {
@@ -209,6 +260,52 @@ impl App {
             app.toggle_setup();
         }
         Ok(app)
+    }
+
+    /// Takes a live design's news: the design as it stands (shown at once), a script's lamp,
+    /// saves, and the end (then the written, pruned design is shown).
+    fn poll_live(&mut self) -> Result<()> {
+        let Some(l) = self.live.as_mut() else { return Ok(()) };
+        let (scene, updates) = l.poll();
+        let out = l.out.clone();
+        let done = l.done.clone();
+        if let Some(sc) = scene {
+            self.fr.set_scene(&sc);
+            self.design.scene = sc;
+            self.bump();
+        }
+        for u in updates {
+            match u {
+                crate::live::Update::Lamp(az, el) => {
+                    self.light.azimuth_deg = az;
+                    self.light.elevation_deg = el;
+                    eprintln!("live design: lamp at azimuth {az}, elevation {el}");
+                    self.bump();
+                }
+                crate::live::Update::Saved(Ok(k)) => {
+                    eprintln!("live design: saved at iteration {k} in {}", out.display())
+                }
+                crate::live::Update::Saved(Err(e)) => eprintln!("warning: live design: the save failed: {e}"),
+                crate::live::Update::Done(_) => match &done {
+                    Some(Ok(())) => {
+                        let path = out.join("design.json");
+                        match Design::load(&path) {
+                            Ok(d) => {
+                                self.fr.set_scene(&d.scene);
+                                self.design.scene = d.scene;
+                                eprintln!("live design: finished; showing {}", path.display());
+                            }
+                            Err(e) => eprintln!("warning: live design: cannot show {}: {e:#}", path.display()),
+                        }
+                        self.bump();
+                    }
+                    Some(Err(e)) => eprintln!("error: live design: {e}"),
+                    None => {}
+                },
+                crate::live::Update::Step { .. } => {}
+            }
+        }
+        Ok(())
     }
 
     fn bump(&mut self) {

@@ -1,0 +1,187 @@
+//! The live design (`scratchart-view --design [design flags]`): the design job run in the
+//! viewer, driven by script (run, pause, move the lamp, save, resume, stop), headless and in a
+//! window; a design it saves is one `scratchart design --resume` continues to the same bits as
+//! an uninterrupted `scratchart design`.
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+use scratchart_tests::{run_scratchart, viewer_bin, XServer};
+
+fn tmp_dir(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("scratchart-live-test-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+/// A small design's flags (2 views of 32 px, 300 scratches, no pruning, quiet).
+const FLAGS: [&str; 11] = [
+    "--views",
+    "2",
+    "--res",
+    "32",
+    "--scratches",
+    "300",
+    "--checkpoint-every",
+    "0",
+    "--prune-tol",
+    "0",
+    "--quiet",
+];
+
+fn live(display: Option<&str>, args: &[&str]) -> Output {
+    let mut c = Command::new(viewer_bin());
+    c.arg("--design").args(FLAGS).args(args);
+    match display {
+        Some(d) => c.env("DISPLAY", d),
+        None => c.env_remove("DISPLAY").env_remove("WAYLAND_DISPLAY"),
+    };
+    c.output().unwrap()
+}
+
+fn design(args: &[&str]) -> Output {
+    let mut a = vec!["design"];
+    a.extend(FLAGS);
+    a.extend(args);
+    run_scratchart(&a)
+}
+
+fn summary(out: &Path) -> serde_json::Value {
+    serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap()
+}
+
+fn text(o: &Output) -> String {
+    format!(
+        "{}\n{}",
+        String::from_utf8_lossy(&o.stdout),
+        String::from_utf8_lossy(&o.stderr)
+    )
+}
+
+/// Headless, by script: run to iteration 5, pause, move the lamp, save, resume and stop there.
+/// `scratchart design --resume` continues the saved run to iteration 12, and its scratches are
+/// the same bits as an uninterrupted `scratchart design --iters 12`'s.
+#[test]
+fn a_live_design_saved_mid_run_continues_bit_for_bit() {
+    let dir = tmp_dir("headless");
+    let (a, b) = (dir.join("live"), dir.join("plain"));
+    let (a_s, b_s) = (a.display().to_string(), b.display().to_string());
+    let o = live(
+        None,
+        &[
+            "--iters",
+            "12",
+            "--out",
+            &a_s,
+            "--headless",
+            "--validation",
+            "--script",
+            "5:pause;5:lamp 30 60;5:save;5:resume;5:stop",
+        ],
+    );
+    assert!(o.status.success(), "live design failed: {}", text(&o));
+    let t = text(&o);
+    assert!(t.contains("saved at iteration 5"), "{t}");
+    assert!(t.contains("validation messages: 0"), "{t}");
+    // Stopped at 5: the design written there is 5 iterations in.
+    assert_eq!(summary(&a)["iterations_run_now"], 5, "{t}");
+    let o = design(&["--iters", "12", "--out", &a_s, "--resume"]);
+    assert!(o.status.success(), "resume failed: {}", text(&o));
+    assert_eq!(summary(&a)["resumed_from_iteration"], 5);
+    let o = design(&["--iters", "12", "--out", &b_s]);
+    assert!(o.status.success(), "design failed: {}", text(&o));
+    let (ca, cb) = (
+        std::fs::read(a.join("scratches.csv")).unwrap(),
+        std::fs::read(b.join("scratches.csv")).unwrap(),
+    );
+    assert!(ca == cb, "the continued live design differs from the uninterrupted one");
+    assert_eq!(summary(&a)["loss_final"], summary(&b)["loss_final"]);
+}
+
+/// In a window: the plate is shown as it converges (frames report rising iterations), the
+/// script pauses it (frames drawn while paused), moves the window's lamp, saves and resumes;
+/// closing the window stops the optimization and the design is finished and written, and
+/// `scratchart design --resume` takes it on.
+#[test]
+fn a_live_design_runs_in_the_window_and_obeys_pause_lamp_and_save() {
+    let x = XServer::start();
+    let dir = tmp_dir("window");
+    let out = dir.join("live");
+    let out_s = out.display().to_string();
+    let o = live(
+        Some(&x.display),
+        &[
+            "--iters",
+            "100000",
+            "--out",
+            &out_s,
+            "--validation",
+            "--log-frames",
+            "--size",
+            "320x240",
+            "--exit-after",
+            "6",
+            "--script",
+            "3:pause;3:lamp 40 70;3:save;3:wait 1.5;3:resume",
+        ],
+    );
+    let t = text(&o);
+    assert!(o.status.success(), "live window failed: {t}");
+    assert!(t.contains("validation messages: 0"), "{t}");
+    assert!(t.contains("saved at iteration 3"), "{t}");
+    let frames: Vec<&str> = t.lines().filter(|l| l.starts_with("frame ")).collect();
+    assert!(frames.len() >= 5, "{} frames: {t}", frames.len());
+    let iter_of = |l: &str| -> u32 {
+        l.split_whitespace()
+            .find_map(|w| w.strip_prefix("live_iter="))
+            .and_then(|v| v.parse().ok())
+            .unwrap_or_else(|| panic!("no live_iter in {l}"))
+    };
+    let last = iter_of(frames.last().unwrap());
+    assert!(last > 3, "the window saw the design only up to iteration {last}");
+    assert!(
+        frames.iter().any(|l| l.contains("live_paused=true")),
+        "no frame while paused"
+    );
+    assert!(
+        frames.iter().any(|l| l.contains("light_az=40.00")),
+        "the lamp did not move"
+    );
+    // The window closed: the design was finished and written where it stood.
+    let s = summary(&out);
+    let run = s["iterations_run_now"].as_u64().unwrap() as u32;
+    assert!(run >= last, "{run} iterations written, the window saw {last}");
+    let resume_to = (run + 3).to_string();
+    let o = design(&["--iters", &resume_to, "--out", &out_s, "--resume"]);
+    assert!(o.status.success(), "resume failed: {}", text(&o));
+    assert!(summary(&out)["resumed_from_iteration"].as_u64().is_some());
+}
+
+/// Bad live flags exit 2 with a message: a malformed script, a paused headless run, and no
+/// display without --headless.
+#[test]
+fn live_flags_are_checked() {
+    let dir = tmp_dir("flags");
+    let out = dir.join("o").display().to_string();
+    for (args, msg) in [
+        (
+            vec!["--headless", "--script", "5:jump", "--out", &out],
+            "unknown command",
+        ),
+        (
+            vec!["--headless", "--script", "9:pause;2:resume", "--out", &out],
+            "in order",
+        ),
+        (
+            vec!["--headless", "--paused", "--out", &out],
+            "--paused needs the window",
+        ),
+        (vec!["--iters", "2", "--out", &out], "add --headless"),
+    ] {
+        let o = live(None, &args);
+        assert_ne!(o.status.code(), Some(0), "{args:?}: {}", text(&o));
+        assert!(text(&o).contains(msg), "{args:?}: {}", text(&o));
+    }
+    let o = live(None, &["--headless", "--script", "x", "--out", &out]);
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+}

@@ -1,0 +1,517 @@
+//! Live design: `scratchart-view --design [design flags]` runs the design job's optimizer in
+//! the viewer's process, on the same device, and shows the plate as it converges.
+//!
+//! - The flags after `--design` are `scratchart design`'s ([`DesignArgs`], the same parser and
+//!   the same problem: `design_cmd::prepare`), plus the few of this file's [`LiveOpts`]. So a
+//!   live design saved at iteration k is the checkpoint `scratchart design [the same flags]
+//!   --resume` continues, bit for bit.
+//! - The optimizer runs in its own thread ([`Session`]) with the design job's own loop
+//!   (`run_design_live`); after each accepted iteration its hook publishes the design as it
+//!   stands (scratches and lights read back) and obeys the window: pause, save, stop. The hook
+//!   only reads the optimizer's buffers, so the run is the same bits as `scratchart design`'s.
+//!   The window renders the published design with its own camera and lamp, which can move
+//!   while the optimizer runs (the optimizer's views do not move with them).
+//! - `--headless` runs the same without a window (and `--script` drives either, for tests and
+//!   demos).
+use std::path::PathBuf;
+use std::sync::mpsc::{Receiver, Sender};
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
+
+use anyhow::{bail, Result};
+use scratchart::design_cmd::DesignArgs;
+use scratchart::model::scene::Scene;
+use scratchart::observe::{Observer, Progress};
+use scratchart::optim::design::{run_design_live, Live};
+use scratchart::vulkan::Context;
+
+/// `scratchart-view --design`: the design's flags and the live view's own.
+#[derive(clap::Parser, Debug, Clone)]
+#[command(
+    name = "scratchart-view --design",
+    about = "Live design: the design job runs in the viewer and the plate is shown as it converges.",
+    long_about = None,
+    after_help = "Every flag of `scratchart design` applies (see `scratchart design --help`): the targets, \
+views, scratches, --iters, --out, --resume, ...; the run is the same bits as `scratchart design` with those \
+flags, and a design saved here (key K, or at the end) is one `scratchart design [the same flags] --resume` \
+continues.\n\nKeys in the window (besides the viewer's own: drag to orbit, shift-drag to move the lamp, 1..9 \
+for a design view's camera, T for its target): P pause/resume the optimizer, K save (design.json and the \
+checkpoint in --out), Esc/Q stop: the optimization ends there, and the pruning, the final evaluation and the \
+outputs follow as after the last iteration.\n\nExit codes: as `scratchart design` (0 done, 1 runtime, 2 bad \
+flags, 3 bad input file, 4 GPU)."
+)]
+pub struct LiveOpts {
+    #[command(flatten)]
+    pub design: DesignArgs,
+    /// No window: run the live design (to --iters, or as --script says) and save it
+    #[arg(long)]
+    pub headless: bool,
+    /// Window size (WxH)
+    #[arg(long, value_name = "WxH", value_parser = crate::parse_size)]
+    pub size: Option<(u32, u32)>,
+    /// Vulkan device: index or part of the name
+    #[arg(long)]
+    pub device: Option<String>,
+    /// Enable the Vulkan validation layer; exit code 1 if it reported anything
+    #[arg(long)]
+    pub validation: bool,
+    /// Start with the optimizer paused (window)
+    #[arg(long)]
+    pub paused: bool,
+    /// Close the window after this many seconds (the optimization stops there and the design
+    /// is finished and saved)
+    #[arg(long, value_name = "SECS")]
+    pub exit_after: Option<f64>,
+    /// Print one line per presented frame (with the live iteration) to stdout
+    #[arg(long)]
+    pub log_frames: bool,
+    /// Drive the run by script, for tests and demos: `;`-separated `ITER:COMMAND` items, run
+    /// after iteration ITER is accepted, in order: `pause`, `resume`, `save`, `stop`, `lamp
+    /// AZ EL` (the window's lamp; headless: the preview's), `wait SECS` (while paused: the
+    /// window keeps drawing). Example: `5:pause;5:lamp 30 60;5:save;5:resume;9:stop`
+    #[arg(long, value_name = "SCRIPT")]
+    pub script: Option<String>,
+}
+
+/// One step of a `--script`.
+#[derive(Clone, Debug, PartialEq)]
+pub enum ScriptCmd {
+    Pause,
+    Resume,
+    Save,
+    Stop,
+    Lamp(f64, f64),
+    Wait(f64),
+}
+
+/// Parses `--script` into (iteration, command) pairs in order.
+pub fn parse_script(s: &str) -> Result<Vec<(u32, ScriptCmd)>, String> {
+    let mut out = Vec::new();
+    for item in s.split(';').map(str::trim).filter(|i| !i.is_empty()) {
+        let (k, cmd) = item
+            .split_once(':')
+            .ok_or_else(|| format!("--script item `{item}`: write ITER:COMMAND, e.g. 5:pause"))?;
+        let k: u32 = k
+            .trim()
+            .parse()
+            .map_err(|_| format!("--script item `{item}`: `{k}` is not an iteration number"))?;
+        let words: Vec<&str> = cmd.split_whitespace().collect();
+        let num = |w: Option<&&str>| -> Result<f64, String> {
+            w.and_then(|w| w.parse::<f64>().ok())
+                .filter(|v| v.is_finite())
+                .ok_or_else(|| format!("--script item `{item}`: a number is missing or malformed"))
+        };
+        let c = match words.first().copied() {
+            Some("pause") => ScriptCmd::Pause,
+            Some("resume") => ScriptCmd::Resume,
+            Some("save") => ScriptCmd::Save,
+            Some("stop") => ScriptCmd::Stop,
+            Some("lamp") => ScriptCmd::Lamp(num(words.get(1))?, num(words.get(2))?),
+            Some("wait") => ScriptCmd::Wait(num(words.get(1))?),
+            _ => {
+                return Err(format!(
+                    "--script item `{item}`: unknown command (pause, resume, save, stop, lamp AZ EL, wait SECS)"
+                ))
+            }
+        };
+        out.push((k, c));
+    }
+    let mut last = 0;
+    for (k, _) in &out {
+        if *k < last {
+            return Err(format!(
+                "--script: iteration {k} comes after {last}; give the items in order"
+            ));
+        }
+        last = *k;
+    }
+    Ok(out)
+}
+
+/// The arguments after `--design` (the program name first), or `None` without `--design`.
+pub fn live_args(args: &[String]) -> Option<Vec<String>> {
+    let i = args.iter().position(|a| a == "--design")?;
+    let mut out = vec!["scratchart-view --design".to_string()];
+    out.extend(args[..i].iter().skip(1).cloned());
+    out.extend(args[i + 1..].iter().cloned());
+    Some(out)
+}
+
+/// What the window tells the optimizer thread.
+#[derive(Debug, Default)]
+pub struct Control {
+    pub paused: bool,
+    /// Save at the next iteration boundary (cleared when done).
+    pub save: bool,
+    /// End the optimization at the next iteration boundary.
+    pub stop: bool,
+}
+
+/// What the optimizer thread publishes.
+pub enum Update {
+    /// The design after an accepted iteration.
+    Step {
+        iteration: u32,
+        loss: f32,
+        scene: Box<Scene>,
+    },
+    /// A save finished (the iteration saved) or failed.
+    Saved(Result<u32, String>),
+    /// A `--script` lamp command for the window.
+    Lamp(f64, f64),
+    /// The run is over (its summary printed), or failed with this error.
+    Done(Option<anyhow::Error>),
+}
+
+/// An observer that passes everything to the terminal (Ctrl-C stops the run with a
+/// checkpoint, as in `scratchart design`).
+struct ThreadObserver {
+    term: scratchart::term::Terminal,
+}
+
+impl Observer for ThreadObserver {
+    fn progress(&self, p: &Progress) {
+        self.term.progress(p)
+    }
+    fn finish(&self, task: &str) {
+        self.term.finish(task)
+    }
+    fn warn(&self, msg: &str) {
+        self.term.warn(msg)
+    }
+    fn info(&self, msg: &str) {
+        self.term.info(msg)
+    }
+    fn result(&self, msg: &str) {
+        self.term.result(msg)
+    }
+    fn should_stop(&self) -> bool {
+        self.term.should_stop()
+    }
+}
+
+/// The optimizer thread's side of a live design.
+pub struct Session {
+    pub control: Arc<Mutex<Control>>,
+    pub updates: Receiver<Update>,
+    thread: Option<std::thread::JoinHandle<()>>,
+    /// Iterations of the run (--iters).
+    pub iters: u32,
+    pub out: PathBuf,
+    /// (iteration, when) of the first and the latest step seen, for the rate.
+    first: Option<(u32, Instant)>,
+    pub last_iteration: u32,
+    pub last_loss: f32,
+    /// The run is over: Ok, or its error's message.
+    pub done: Option<Result<(), String>>,
+    /// The run's error, until taken.
+    pub error: Option<anyhow::Error>,
+}
+
+impl Session {
+    /// Starts the optimizer thread on `problem` (from `design_cmd::prepare`).
+    pub fn start(
+        ctx: Arc<Context>,
+        problem: scratchart::optim::Problem,
+        cfg: scratchart::optim::DesignConfig,
+        script: Vec<(u32, ScriptCmd)>,
+        quiet: bool,
+        paused: bool,
+    ) -> Session {
+        let control = Arc::new(Mutex::new(Control {
+            paused,
+            ..Default::default()
+        }));
+        let (tx, rx) = std::sync::mpsc::channel();
+        let (iters, out) = (cfg.iters, cfg.out.clone());
+        let c2 = control.clone();
+        let thread = std::thread::spawn(move || {
+            let obs = ThreadObserver {
+                term: scratchart::term::Terminal::new(quiet),
+            };
+            let mut script = script.into_iter().peekable();
+            let result = run_design_live(&ctx, &problem, &cfg, &obs, &mut |live, ev| {
+                hook(live, ev.total, &c2, &tx, &mut script)
+            });
+            // Printed as `scratchart design` prints it (the summary on stdout).
+            let r = scratchart::design_cmd::finish(result, &cfg);
+            let _ = tx.send(Update::Done(r.err()));
+        });
+        Session {
+            control,
+            updates: rx,
+            thread: Some(thread),
+            iters,
+            out,
+            first: None,
+            last_iteration: 0,
+            last_loss: f32::NAN,
+            done: None,
+            error: None,
+        }
+    }
+
+    /// Iterations a second since the first step seen.
+    pub fn rate(&self) -> Option<f64> {
+        let (k0, t0) = self.first?;
+        let dt = t0.elapsed().as_secs_f64();
+        (self.last_iteration > k0 && dt > 0.0).then(|| (self.last_iteration - k0) as f64 / dt)
+    }
+
+    /// Takes every pending update; returns the newest design, and the other updates in order.
+    pub fn poll(&mut self) -> (Option<Scene>, Vec<Update>) {
+        let mut scene = None;
+        let mut other = Vec::new();
+        while let Ok(u) = self.updates.try_recv() {
+            match u {
+                Update::Step {
+                    iteration,
+                    loss,
+                    scene: s,
+                } => {
+                    self.first.get_or_insert((iteration, Instant::now()));
+                    self.last_iteration = iteration;
+                    self.last_loss = loss;
+                    scene = Some(*s);
+                }
+                Update::Done(e) => {
+                    self.done = Some(match &e {
+                        None => Ok(()),
+                        Some(e) => Err(format!("{e:#}")),
+                    });
+                    self.error = e;
+                    other.push(Update::Done(None));
+                }
+                u => other.push(u),
+            }
+        }
+        (scene, other)
+    }
+
+    pub fn toggle_pause(&self) -> bool {
+        let mut c = self.control.lock().unwrap();
+        c.paused = !c.paused;
+        c.paused
+    }
+
+    pub fn paused(&self) -> bool {
+        self.control.lock().unwrap().paused
+    }
+
+    pub fn request_save(&self) {
+        self.control.lock().unwrap().save = true;
+    }
+
+    pub fn request_stop(&self) {
+        let mut c = self.control.lock().unwrap();
+        c.stop = true;
+        c.paused = false;
+    }
+
+    /// Stops the optimization (if it still runs) and waits for the thread: the design is
+    /// finished and written as after its last iteration.
+    pub fn join(&mut self) -> Option<Result<(), String>> {
+        self.request_stop();
+        if let Some(t) = self.thread.take() {
+            let _ = t.join();
+        }
+        let (_, rest) = self.poll();
+        drop(rest);
+        self.done.clone()
+    }
+
+    /// One line for the title or the log.
+    pub fn status(&self) -> String {
+        let state = match (&self.done, self.paused()) {
+            (Some(Ok(_)), _) => " | done".to_string(),
+            (Some(Err(_)), _) => " | FAILED".to_string(),
+            (None, true) => " | paused (P)".to_string(),
+            (None, false) => String::new(),
+        };
+        format!(
+            "design {}/{} loss {:.5}{}{}",
+            self.last_iteration,
+            self.iters,
+            self.last_loss,
+            self.rate().map(|r| format!(" {r:.1} it/s")).unwrap_or_default(),
+            state
+        )
+    }
+}
+
+impl Drop for Session {
+    fn drop(&mut self) {
+        self.join();
+    }
+}
+
+/// After each accepted iteration: publish the design, run the script's items for this
+/// iteration, save when asked, wait while paused, and say whether to go on.
+fn hook(
+    live: &mut Live,
+    loss: f32,
+    control: &Arc<Mutex<Control>>,
+    tx: &Sender<Update>,
+    script: &mut std::iter::Peekable<std::vec::IntoIter<(u32, ScriptCmd)>>,
+) -> Result<bool, scratchart::optim::OptimError> {
+    let k = live.iteration();
+    let scene = live.scene()?;
+    let _ = tx.send(Update::Step {
+        iteration: k,
+        loss,
+        scene: Box::new(scene),
+    });
+    // The script's items of iterations up to this one (an item of an iteration a rollback
+    // skipped runs at the next).
+    while script.peek().is_some_and(|(at, _)| *at <= k) {
+        let (_, c) = script.next().expect("peeked");
+        let mut ctl = control.lock().unwrap();
+        match c {
+            ScriptCmd::Pause => ctl.paused = true,
+            ScriptCmd::Resume => ctl.paused = false,
+            ScriptCmd::Save => ctl.save = true,
+            ScriptCmd::Stop => ctl.stop = true,
+            ScriptCmd::Lamp(az, el) => {
+                let _ = tx.send(Update::Lamp(az, el));
+            }
+            ScriptCmd::Wait(s) => {
+                drop(ctl);
+                std::thread::sleep(Duration::from_secs_f64(s.clamp(0.0, 60.0)));
+                continue;
+            }
+        }
+        drop(ctl);
+        serve(live, control, tx, false)?;
+    }
+    serve(live, control, tx, true)
+}
+
+/// Saves when asked; with `block`, waits while paused. Returns false when the window stops the
+/// run.
+fn serve(
+    live: &mut Live,
+    control: &Arc<Mutex<Control>>,
+    tx: &Sender<Update>,
+    block: bool,
+) -> Result<bool, scratchart::optim::OptimError> {
+    loop {
+        let (save, stop, paused) = {
+            let mut c = control.lock().unwrap();
+            let s = (c.save, c.stop, c.paused);
+            c.save = false;
+            s
+        };
+        if save {
+            let r = live.save().map(|_| live.iteration()).map_err(|e| e.to_string());
+            let _ = tx.send(Update::Saved(r));
+        }
+        if stop {
+            return Ok(false);
+        }
+        if !paused || !block {
+            return Ok(true);
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    }
+}
+
+/// The context of a live design.
+pub fn context(
+    o: &LiveOpts,
+    instance_extensions: Vec<&'static std::ffi::CStr>,
+    device_extensions: Vec<&'static std::ffi::CStr>,
+    log: &std::cell::RefCell<Option<scratchart::vulkan::ValidationLog>>,
+) -> Result<Arc<Context>> {
+    let ctx = Context::new(scratchart::vulkan::ContextDesc {
+        validation: o.validation,
+        device: o.device.clone(),
+        instance_extensions,
+        device_extensions,
+        quiet: false,
+        notify: Some(scratchart::term::stderr_notices()),
+        ..Default::default()
+    })?;
+    log.replace(Some(ctx.validation_log()));
+    Ok(ctx)
+}
+
+/// `--headless`: the live design without a window. Progress goes to the terminal, the script's
+/// items run as in the window, the design is saved when asked and at the end.
+pub fn run_headless(o: &LiveOpts, log: &std::cell::RefCell<Option<scratchart::vulkan::ValidationLog>>) -> Result<()> {
+    let script = match &o.script {
+        Some(s) => parse_script(s).map_err(scratchart::exit::UsageError)?,
+        None => Vec::new(),
+    };
+    if o.paused {
+        bail!(scratchart::exit::UsageError(
+            "--paused needs the window: headless, nothing would resume it (use --script)".into()
+        ));
+    }
+    scratchart::term::install_interrupt_handler();
+    let ctx = context(o, vec![], vec![], log)?;
+    let obs = scratchart::term::Terminal::new(o.design.quiet);
+    let (problem, cfg) = scratchart::design_cmd::prepare(&ctx, &o.design, &obs)?;
+    let mut session = Session::start(ctx, problem, cfg, script, o.design.quiet, false);
+    loop {
+        let (_, updates) = session.poll();
+        for u in updates {
+            match u {
+                Update::Saved(Ok(k)) => eprintln!("live: saved at iteration {k} in {}", session.out.display()),
+                Update::Saved(Err(e)) => eprintln!("warning: live: the save failed: {e}"),
+                Update::Lamp(az, el) => eprintln!("live: lamp at azimuth {az}, elevation {el}"),
+                Update::Done(_) => {
+                    session.join();
+                    return match session.error.take() {
+                        Some(e) => Err(e),
+                        None => Ok(()),
+                    };
+                }
+                Update::Step { .. } => {}
+            }
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    }
+}
+
+/// `scratchart-view --design ...`: the window, or `--headless`.
+pub fn run(o: &LiveOpts, log: &std::cell::RefCell<Option<scratchart::vulkan::ValidationLog>>) -> Result<()> {
+    if o.headless {
+        return run_headless(o, log);
+    }
+    crate::app::run_live_window(o, log)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_script_parses_in_order_and_refuses_what_it_cannot_read() {
+        let s = parse_script("5:pause; 5:lamp 30 60;5:save;7:wait 0.5;9:stop").unwrap();
+        assert_eq!(
+            s,
+            vec![
+                (5, ScriptCmd::Pause),
+                (5, ScriptCmd::Lamp(30.0, 60.0)),
+                (5, ScriptCmd::Save),
+                (7, ScriptCmd::Wait(0.5)),
+                (9, ScriptCmd::Stop)
+            ]
+        );
+        assert!(parse_script("x:pause").unwrap_err().contains("iteration number"));
+        assert!(parse_script("5 pause").unwrap_err().contains("ITER:COMMAND"));
+        assert!(parse_script("5:lamp 30").unwrap_err().contains("number"));
+        assert!(parse_script("5:fly").unwrap_err().contains("unknown command"));
+        assert!(parse_script("5:pause;3:resume").unwrap_err().contains("in order"));
+    }
+
+    #[test]
+    fn the_design_flags_are_those_after_design_with_the_viewers_before() {
+        let a = |v: &[&str]| v.iter().map(|s| s.to_string()).collect::<Vec<_>>();
+        assert_eq!(live_args(&a(&["view", "x.json"])), None);
+        assert_eq!(
+            live_args(&a(&["view", "--headless", "--design", "--iters", "3"])).unwrap(),
+            a(&["scratchart-view --design", "--headless", "--iters", "3"])
+        );
+    }
+}
