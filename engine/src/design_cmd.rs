@@ -864,12 +864,13 @@ fn walk_text(w: &serde_json::Value, out: &std::path::Path) -> String {
     let (views, between) = (corrs("views"), corrs("between"));
     let mean = |c: &[f64]| c.iter().sum::<f64>() / c.len().max(1) as f64;
     let mut text = format!(
-        "  walk ({}): {} views over {:.1} degrees ({:.2} apart) about azimuth {:.1}; correlation with their frames: min {:.3}, mean {:.3}\n",
+        "  walk ({}): {} views over {:.1} degrees ({:.2} apart) about azimuth {:.1}; correlation with {}: min {:.3}, mean {:.3}\n",
         w["source"].as_str().unwrap_or("?"),
         views.len(),
         n(&w["arc_deg"]),
         n(&w["step_deg"]),
         n(&w["centre_azimuth_deg"]),
+        if w["source"] == "object" { "the object seen from there" } else { "their frames" },
         n(&w["min_corr_views"]),
         mean(&views),
     );
