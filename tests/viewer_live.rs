@@ -98,8 +98,8 @@ fn a_live_design_saved_mid_run_continues_bit_for_bit() {
     assert_eq!(summary(&a)["loss_final"], summary(&b)["loss_final"]);
 }
 
-/// In a window: the plate is shown as it converges (frames report rising iterations), the
-/// script pauses it (frames drawn while paused), moves the window's lamp, saves and resumes;
+/// In a window: the plate is shown as it converges (frames report rising iterations) with the
+/// design panel beside it (every view's render and target, the loss curve), the script pauses it (frames drawn while paused), moves the window's lamp, saves and resumes;
 /// closing the window stops the optimization and the design is finished and written, and
 /// `scratchart design --resume` takes it on.
 #[test]
@@ -117,6 +117,7 @@ fn a_live_design_runs_in_the_window_and_obeys_pause_lamp_and_save() {
             &out_s,
             "--validation",
             "--log-frames",
+            "--panel",
             "--size",
             "320x240",
             "--exit-after",
@@ -146,6 +147,10 @@ fn a_live_design_runs_in_the_window_and_obeys_pause_lamp_and_save() {
     assert!(
         frames.iter().any(|l| l.contains("light_az=40.00")),
         "the lamp did not move"
+    );
+    assert!(
+        frames.iter().any(|l| l.contains("panel=true")),
+        "the design panel was never shown"
     );
     // The window closed: the design was finished and written where it stood.
     let s = summary(&out);

@@ -62,6 +62,10 @@ pub struct LiveOpts {
     /// is finished and saved)
     #[arg(long, value_name = "SECS")]
     pub exit_after: Option<f64>,
+    /// Start with the design panel on (key V): every view's render beside its target and the
+    /// loss curve, beside the interactive render
+    #[arg(long)]
+    pub panel: bool,
     /// Print one line per presented frame (with the live iteration) to stdout
     #[arg(long)]
     pub log_frames: bool,
@@ -157,10 +161,91 @@ pub enum Update {
     },
     /// A save finished (the iteration saved) or failed.
     Saved(Result<u32, String>),
+    /// Every view's render (display values) and the loss so far, a few times a second, for
+    /// the design panel (key V).
+    Views(Box<ViewsUpdate>),
     /// A `--script` lamp command for the window.
     Lamp(f64, f64),
     /// The run is over (its summary printed), or failed with this error.
     Done(Option<anyhow::Error>),
+}
+
+/// What the design panel shows.
+#[derive(Clone, Debug)]
+pub struct ViewsUpdate {
+    pub iteration: u32,
+    /// Per view: width, height and the render's display values.
+    pub images: Vec<(u32, u32, Vec<f32>)>,
+    /// The total loss of every accepted iteration so far.
+    pub losses: Vec<f32>,
+}
+
+/// How often the optimizer thread sends the panel's renders.
+const VIEWS_EVERY: Duration = Duration::from_millis(250);
+
+/// The design panel (key V): each view's render beside its target, a few views a row, and the
+/// loss curve (log scale) under them, as one gray image for the viewer's target slot.
+pub fn panel(v: &ViewsUpdate, targets: &[Option<crate::design::Target>]) -> crate::design::Target {
+    const GAP: u32 = 4;
+    let n = v.images.len().max(1);
+    let per_row = (n as f64).sqrt().ceil() as usize;
+    let rows = n.div_ceil(per_row);
+    let cw = v.images.iter().map(|i| i.0).max().unwrap_or(1);
+    let ch = v.images.iter().map(|i| i.1).max().unwrap_or(1);
+    let width = per_row as u32 * (2 * cw + 2 * GAP) + GAP;
+    let curve_h = ch.max(48);
+    let height = rows as u32 * (ch + GAP) + GAP + curve_h + GAP;
+    let mut data = vec![0.15f32; (width * height) as usize];
+    let mut put = |x: u32, y: u32, val: f32| {
+        if x < width && y < height {
+            data[(y * width + x) as usize] = val;
+        }
+    };
+    for (k, (w, h, img)) in v.images.iter().enumerate() {
+        let (cx, cy) = ((k % per_row) as u32, (k / per_row) as u32);
+        let x0 = GAP + cx * (2 * cw + 2 * GAP);
+        let y0 = GAP + cy * (ch + GAP);
+        for y in 0..*h {
+            for x in 0..*w {
+                let i = (y * w + x) as usize;
+                put(x0 + x, y0 + y, img[i].clamp(0.0, 1.0));
+                if let Some(Some(t)) = targets.get(k) {
+                    if t.width == *w && t.height == *h {
+                        put(x0 + w + GAP + x, y0 + y, t.data[i].clamp(0.0, 1.0));
+                    }
+                }
+            }
+        }
+    }
+    // The loss curve: log10 of the total loss against the iteration, over the whole width.
+    let y_top = rows as u32 * (ch + GAP) + GAP;
+    let logs: Vec<f64> = v.losses.iter().map(|&l| (l.max(1e-12) as f64).log10()).collect();
+    if logs.len() >= 2 {
+        let (lo, hi) = logs
+            .iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &l| (a.min(l), b.max(l)));
+        let span = (hi - lo).max(1e-6);
+        let y_of = |l: f64| y_top + ((hi - l) / span * (curve_h - 1) as f64).round() as u32;
+        let mut prev: Option<u32> = None;
+        for x in 0..width {
+            let i = (x as f64 / (width - 1).max(1) as f64 * (logs.len() - 1) as f64).round() as usize;
+            let y = y_of(logs[i]);
+            let (a, b) = match prev {
+                Some(p) => (p.min(y), p.max(y)),
+                None => (y, y),
+            };
+            for yy in a..=b {
+                put(x, yy, 1.0);
+            }
+            prev = Some(y);
+        }
+    }
+    crate::design::Target {
+        path: PathBuf::from(format!("(design panel, iteration {})", v.iteration)),
+        width,
+        height,
+        data,
+    }
 }
 
 /// An observer that passes everything to the terminal (Ctrl-C stops the run with a
@@ -230,7 +315,26 @@ impl Session {
                 term: scratchart::term::Terminal::new(quiet),
             };
             let mut script = script.into_iter().peekable();
+            let mut views_sent: Option<Instant> = None;
             let result = run_design_live(&ctx, &problem, &cfg, &obs, &mut |live, ev| {
+                if views_sent.is_none_or(|t| t.elapsed() >= VIEWS_EVERY) {
+                    views_sent = Some(Instant::now());
+                    let images = live
+                        .images()?
+                        .into_iter()
+                        .zip(&live.template.views)
+                        .map(|(img, v)| {
+                            let d = img.iter().map(|&l| scratchart::io::display_value(l)).collect();
+                            (v.camera.width, v.camera.height, d)
+                        })
+                        .collect();
+                    let losses = live.driver.history().iter().map(|e| e.total).collect();
+                    let _ = tx.send(Update::Views(Box::new(ViewsUpdate {
+                        iteration: live.iteration(),
+                        images,
+                        losses,
+                    })));
+                }
                 hook(live, ev.total, &c2, &tx, &mut script)
             });
             // Printed as `scratchart design` prints it (the summary on stdout).
@@ -466,7 +570,7 @@ pub fn run_headless(o: &LiveOpts, log: &std::cell::RefCell<Option<scratchart::vu
                         None => Ok(()),
                     };
                 }
-                Update::Step { .. } => {}
+                Update::Step { .. } | Update::Views(_) => {}
             }
         }
         std::thread::sleep(Duration::from_millis(20));

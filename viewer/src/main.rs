@@ -54,6 +54,8 @@ macro_rules! keys_text {
   A                  adaptive resolution while moving: on/off
   P                  live design (--design): pause / resume the optimizer
   K                  live design: save design.json and the checkpoint in its --out
+  V                  live design: the design panel beside the render: every view's render
+                     next to its target, the loss curve (log scale) below, as it converges
   R                  reset camera, light and exposure
   H                  print this list
   Esc / Q            quit"

@@ -75,7 +75,11 @@ impl App {
             self.version += 1;
         }
 
-        let tgt = if self.show_target { self.fr.target_dims() } else { None };
+        let tgt = if self.show_target || self.panel {
+            self.fr.target_dims()
+        } else {
+            None
+        };
         let layout = Layout::new(extent, tgt);
         let full = layout.viewport();
         let keep: Vec<_> = (0..DIVISORS.len()).map(|l| internal_size(full, l)).collect();
@@ -100,7 +104,7 @@ impl App {
                 layout,
                 exposure: self.exposure as f32,
                 nearest: self.nearest,
-                show_target: self.show_target,
+                show_target: self.show_target || self.panel,
                 setup: self.setup.as_ref(),
             },
             Some(SwapImage { image, format, extent }),
@@ -191,7 +195,14 @@ impl App {
                     + &self
                         .live
                         .as_ref()
-                        .map(|l| format!(" live_iter={} live_paused={}", l.last_iteration, l.paused()))
+                        .map(|l| {
+                            format!(
+                                " live_iter={} live_paused={} panel={}",
+                                l.last_iteration,
+                                l.paused(),
+                                self.panel && self.panel_data.is_some()
+                            )
+                        })
                         .unwrap_or_default(),
             );
         }

@@ -198,7 +198,13 @@ impl App {
                 self.light_speed /= 1.5;
                 eprintln!("light orbit speed {:.1} deg/s", self.light_speed);
             }
-            "t" => self.toggle_target()?,
+            "t" => {
+                if self.panel {
+                    self.toggle_panel()?;
+                }
+                self.toggle_target()?
+            }
+            "v" => self.toggle_panel()?,
             "w" => self.toggle_walk()?,
             "p" => {
                 if let Some(l) = &self.live {

@@ -75,6 +75,7 @@ pub fn run_live_window(o: &crate::live::LiveOpts, log: &RefCell<Option<Validatio
     let session = crate::live::Session::start(ctx.clone(), problem, cfg, script, o.design.quiet, o.paused);
     let mut app = App::new(opts, design, None, fr)?;
     app.live = Some(session);
+    app.panel = o.panel;
     event_loop.run_app(&mut app)?;
     app.presenter = None;
     // The window closed: the optimization stops at the next iteration boundary, and the
@@ -184,6 +185,11 @@ struct App {
     bench: Option<WindowBench>,
     /// A live design's optimizer (`--design`).
     live: Option<crate::live::Session>,
+    /// The design panel (key V, live design): every view's render beside its target and the
+    /// loss curve, shown in the target's place.
+    panel: bool,
+    /// The latest renders for the panel.
+    panel_data: Option<crate::live::ViewsUpdate>,
 }
 
 impl App {
@@ -251,6 +257,8 @@ impl App {
             error: None,
             bench,
             live: None,
+            panel: false,
+            panel_data: None,
             opts,
         };
         if app.opts.show_target {
@@ -270,6 +278,11 @@ impl App {
         let out = l.out.clone();
         let done = l.done.clone();
         if let Some(sc) = scene {
+            // The lamp's intensity is the optimizer's (it calibrates and optimizes it); where the
+            // lamp stands stays the window's.
+            if let Some(v) = sc.views.get(self.view_idx) {
+                self.light.intensity = v.light.intensity * v.exposure;
+            }
             self.fr.set_scene(&sc);
             self.design.scene = sc;
             self.bump();
@@ -302,9 +315,43 @@ impl App {
                     Some(Err(e)) => eprintln!("error: live design: {e}"),
                     None => {}
                 },
+                crate::live::Update::Views(v) => {
+                    self.panel_data = Some(*v);
+                    if self.panel {
+                        self.upload_panel()?;
+                        self.bump();
+                    }
+                }
                 crate::live::Update::Step { .. } => {}
             }
         }
+        Ok(())
+    }
+
+    /// Puts the design panel in the target's place.
+    fn upload_panel(&mut self) -> Result<()> {
+        if let Some(v) = &self.panel_data {
+            let t = crate::live::panel(v, &self.design.targets);
+            self.fr.set_target(Some(&t))?;
+        }
+        Ok(())
+    }
+
+    /// Key V: the design panel on or off (a live design only).
+    fn toggle_panel(&mut self) -> Result<()> {
+        if self.live.is_none() {
+            eprintln!("V: the design panel belongs to a live design (scratchart-view --design ...)");
+            return Ok(());
+        }
+        self.panel = !self.panel;
+        if self.panel {
+            self.show_target = false;
+            self.upload_panel()?;
+            eprintln!("design panel on: every view's render beside its target, the loss curve below");
+        } else {
+            self.fr.set_target(None)?;
+        }
+        self.bump();
         Ok(())
     }
 
