@@ -181,6 +181,10 @@ fn live_flags_are_checked() {
             vec!["--headless", "--paused", "--out", &out],
             "--paused needs the window",
         ),
+        (
+            vec!["--headless", "--script", "2:pause;3:resume", "--out", &out],
+            "never resumed",
+        ),
         (vec!["--iters", "2", "--out", &out], "add --headless"),
     ] {
         let o = live(None, &args);

@@ -546,6 +546,20 @@ pub fn run_headless(o: &LiveOpts, log: &std::cell::RefCell<Option<scratchart::vu
         Some(s) => parse_script(s).map_err(scratchart::exit::UsageError)?,
         None => Vec::new(),
     };
+    // Paused, the iterations stand still, so only an item of the same iteration can end a pause.
+    for (i, (k, c)) in script.iter().enumerate() {
+        if *c == ScriptCmd::Pause
+            && !script[i + 1..]
+                .iter()
+                .take_while(|(k2, _)| k2 == k)
+                .any(|(_, c2)| matches!(c2, ScriptCmd::Resume | ScriptCmd::Stop))
+        {
+            bail!(scratchart::exit::UsageError(format!(
+                "--script: the pause at iteration {k} is never resumed: headless, only a `{k}:resume` or \
+                 `{k}:stop` after it can end it (the iterations stand still while paused)"
+            )));
+        }
+    }
     if o.paused {
         bail!(scratchart::exit::UsageError(
             "--paused needs the window: headless, nothing would resume it (use --script)".into()
