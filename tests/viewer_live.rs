@@ -98,6 +98,86 @@ fn a_live_design_saved_mid_run_continues_bit_for_bit() {
     assert_eq!(summary(&a)["loss_final"], summary(&b)["loss_final"]);
 }
 
+/// Steering by script (view v0's picture moved and scaled at iteration 3, v1's at 5) is
+/// recorded in summary.json, and `scratchart design --steer summary.json` replays it to the
+/// same bits; the steering changed the design; steering that cannot apply is refused.
+#[test]
+fn a_steered_live_design_is_replayed_from_the_command_line() {
+    let dir = tmp_dir("steer");
+    let data = scratchart_tests::workspace_root().join("tests/data");
+    let pics: Vec<String> = ["astronaut.png", "chelsea.png"]
+        .iter()
+        .map(|f| data.join(f).display().to_string())
+        .collect();
+    let (a, b, c) = (dir.join("live"), dir.join("replay"), dir.join("plain"));
+    let (a_s, b_s, c_s) = (
+        a.display().to_string(),
+        b.display().to_string(),
+        c.display().to_string(),
+    );
+    let base = |out: &str| -> Vec<String> {
+        let mut v: Vec<String> = ["--targets", &pics[0], &pics[1], "--iters", "8", "--out", out]
+            .iter()
+            .map(|s| s.to_string())
+            .collect();
+        v.extend(FLAGS.iter().map(|s| s.to_string()));
+        v
+    };
+    let mut args = base(&a_s);
+    args.extend(
+        ["--headless", "--script", "3:steer v0 3 -2 1.1;5:steer v1 -2 1 0.9"]
+            .iter()
+            .map(|s| s.to_string()),
+    );
+    let o = Command::new(viewer_bin()).arg("--design").args(&args).output().unwrap();
+    assert!(o.status.success(), "steered live design failed: {}", text(&o));
+    let steering = summary(&a)["steering"].clone();
+    assert_eq!(steering.as_array().map(|a| a.len()), Some(2), "{steering}");
+    assert_eq!(steering[0]["iteration"], 3);
+    assert_eq!(steering[0]["view"], "v0");
+    assert_eq!(steering[1]["iteration"], 5);
+    let summary_a = a.join("summary.json").display().to_string();
+    let mut args = vec!["design".to_string()];
+    args.extend(base(&b_s));
+    args.extend(["--steer".to_string(), summary_a.clone()]);
+    let o = run_scratchart(&args.iter().map(String::as_str).collect::<Vec<_>>());
+    assert!(o.status.success(), "replay failed: {}", text(&o));
+    assert_eq!(summary(&b)["steering"], steering);
+    let same = |x: &Path, y: &Path| {
+        std::fs::read(x.join("scratches.csv")).unwrap() == std::fs::read(y.join("scratches.csv")).unwrap()
+    };
+    assert!(same(&a, &b), "the replayed design differs from the steered live one");
+    assert!(
+        std::fs::read(a.join("v0_target.png")).unwrap() == std::fs::read(b.join("v0_target.png")).unwrap(),
+        "the steered targets differ"
+    );
+    let mut args = vec!["design".to_string()];
+    args.extend(base(&c_s));
+    let o = run_scratchart(&args.iter().map(String::as_str).collect::<Vec<_>>());
+    assert!(o.status.success(), "{}", text(&o));
+    assert!(!same(&a, &c), "steering changed nothing");
+    // A view that does not exist, and steering without pictures, are refused before any work.
+    let bad = write_steer(
+        &dir,
+        r#"[{"iteration": 2, "view": "v7", "shift_px": [0, 0], "scale": 1}]"#,
+    );
+    let mut args = vec!["design".to_string()];
+    args.extend(base(&c_s));
+    args.extend(["--steer".to_string(), bad.clone()]);
+    let o = run_scratchart(&args.iter().map(String::as_str).collect::<Vec<_>>());
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+    assert!(text(&o).contains("no view is named `v7`"), "{}", text(&o));
+    let o = design(&["--iters", "2", "--out", &c_s, "--steer", &bad]);
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+    assert!(text(&o).contains("--steer needs --targets"), "{}", text(&o));
+}
+
+fn write_steer(dir: &Path, json: &str) -> String {
+    let p = dir.join("steer.json");
+    std::fs::write(&p, json).unwrap();
+    p.display().to_string()
+}
+
 /// In a window: the plate is shown as it converges (frames report rising iterations) with the
 /// design panel beside it (every view's render and target, the loss curve), the script pauses it (frames drawn while paused), moves the window's lamp, saves and resumes;
 /// closing the window stops the optimization and the design is finished and written, and
@@ -123,13 +203,15 @@ fn a_live_design_runs_in_the_window_and_obeys_pause_lamp_and_save() {
             "--exit-after",
             "6",
             "--script",
-            "3:pause;3:lamp 40 70;3:save;3:wait 1.5;3:resume",
+            "3:pause;3:lamp 40 70;3:save;3:steer v0 2 0 1;3:wait 1.5;3:resume",
         ],
     );
     let t = text(&o);
     assert!(o.status.success(), "live window failed: {t}");
     assert!(t.contains("validation messages: 0"), "{t}");
     assert!(t.contains("saved at iteration 3"), "{t}");
+    // The built-in shapes are not pictures from files: steering them is refused, the run goes on.
+    assert!(t.contains("cannot be moved"), "{t}");
     let frames: Vec<&str> = t.lines().filter(|l| l.starts_with("frame ")).collect();
     assert!(frames.len() >= 5, "{} frames: {t}", frames.len());
     let iter_of = |l: &str| -> u32 {

@@ -257,6 +257,12 @@ pub struct DesignArgs {
     /// planner's estimate) fits. summary.json's `job_limit` says what the limit cost each view
     #[arg(long)]
     pub max_job_min: Option<f64>,
+    /// Replay steering: pictures moved or scaled at given iterations, as a live design
+    /// (`scratchart-view --design`) recorded them: its summary.json, or a JSON array of
+    /// {"iteration", "view", "shift_px": [x, y], "scale"} (shift in pixels from where the
+    /// design placed the picture, scale about its centre). Needs --targets
+    #[arg(long, value_name = "FILE")]
+    pub steer: Option<PathBuf>,
     /// No progress bar
     #[arg(long)]
     pub quiet: bool,
@@ -591,6 +597,25 @@ pub fn problem(args: &DesignArgs, info: &DeviceInfo) -> anyhow::Result<Problem> 
     let mut problem = Problem::new(scene, fitted.iter().map(|f| f.image.clone()).collect());
     problem.picture_rects = fitted.iter().map(|f| f.rect).collect();
     problem.pictures = fitted.into_iter().map(|f| f.picture).collect();
+    // Each picture as read, for steering (pictures placed in a rectangle only).
+    problem.sources = args
+        .targets
+        .iter()
+        .zip(&problem.picture_rects)
+        .map(|(p, rect)| {
+            let rect = (*rect)?;
+            let (width, height, data) = scratchart::io::read_image_gray(p).ok()?;
+            Some(scratchart::optim::steer::Source {
+                width,
+                height,
+                data: data.into_iter().map(|x| x.clamp(0.0, 1.0)).collect(),
+                fit: args.fit,
+                background: args.background,
+                gamma: args.gamma,
+                rect,
+            })
+        })
+        .collect();
     Ok(problem)
 }
 
@@ -764,6 +789,27 @@ pub fn prepare(ctx: &Arc<Context>, args: &DesignArgs, obs: &dyn Observer) -> any
         };
         cfg.carvings = args.carvings;
         cfg.tool = Some(fab);
+    }
+    if let Some(path) = &args.steer {
+        ensure_flag!(
+            !args.targets.is_empty(),
+            "--steer needs --targets: only pictures given as files can be moved"
+        );
+        ensure_flag!(
+            args.max_job_min.is_none(),
+            "--steer and --max-job-min cannot be used together"
+        );
+        let events = scratchart::optim::steer::read(path).map_err(scratchart::exit::InputError)?;
+        for e in &events {
+            scratchart::optim::steer::check(e, &problem.scene.views, &problem.sources)
+                .map_err(scratchart::exit::UsageError)?;
+        }
+        obs.info(&format!(
+            "replaying {} steering event(s) from {}",
+            events.len(),
+            path.display()
+        ));
+        cfg.steer = events;
     }
     Ok((problem, cfg))
 }

@@ -80,6 +80,8 @@ pub struct LiveOpts {
 /// One step of a `--script`.
 #[derive(Clone, Debug, PartialEq)]
 pub enum ScriptCmd {
+    /// Move view NAME's picture by (dx, dy) pixels and scale it, from where the design placed it.
+    Steer(String, f64, f64, f64),
     Pause,
     Resume,
     Save,
@@ -112,9 +114,18 @@ pub fn parse_script(s: &str) -> Result<Vec<(u32, ScriptCmd)>, String> {
             Some("stop") => ScriptCmd::Stop,
             Some("lamp") => ScriptCmd::Lamp(num(words.get(1))?, num(words.get(2))?),
             Some("wait") => ScriptCmd::Wait(num(words.get(1))?),
+            Some("steer") => ScriptCmd::Steer(
+                words
+                    .get(1)
+                    .ok_or_else(|| format!("--script item `{item}`: steer VIEW DX DY SCALE"))?
+                    .to_string(),
+                num(words.get(2))?,
+                num(words.get(3))?,
+                num(words.get(4))?,
+            ),
             _ => {
                 return Err(format!(
-                    "--script item `{item}`: unknown command (pause, resume, save, stop, lamp AZ EL, wait SECS)"
+                    "--script item `{item}`: unknown command (pause, resume, save, stop, lamp AZ EL, wait SECS, steer VIEW DX DY SCALE)"
                 ))
             }
         };
@@ -149,6 +160,8 @@ pub struct Control {
     pub save: bool,
     /// End the optimization at the next iteration boundary.
     pub stop: bool,
+    /// Pictures to move: (view, shift in pixels, scale), from where the design placed them.
+    pub steer: Vec<(String, [f64; 2], f64)>,
 }
 
 /// What the optimizer thread publishes.
@@ -166,6 +179,8 @@ pub enum Update {
     Views(Box<ViewsUpdate>),
     /// A `--script` lamp command for the window.
     Lamp(f64, f64),
+    /// A picture was moved (the view, the iteration, its new target), or could not be.
+    Steered(Result<(usize, u32, Vec<f32>), String>),
     /// The run is over (its summary printed), or failed with this error.
     Done(Option<anyhow::Error>),
 }
@@ -322,7 +337,7 @@ impl Session {
                     let images = live
                         .images()?
                         .into_iter()
-                        .zip(&live.template.views)
+                        .zip(&live.problem.scene.views)
                         .map(|(img, v)| {
                             let d = img.iter().map(|&l| scratchart::io::display_value(l)).collect();
                             (v.camera.width, v.camera.height, d)
@@ -402,6 +417,14 @@ impl Session {
         self.control.lock().unwrap().paused
     }
 
+    pub fn request_steer(&self, view: &str, shift: [f64; 2], scale: f64) {
+        self.control
+            .lock()
+            .unwrap()
+            .steer
+            .push((view.to_string(), shift, scale));
+    }
+
     pub fn request_save(&self) {
         self.control.lock().unwrap().save = true;
     }
@@ -478,6 +501,7 @@ fn hook(
             ScriptCmd::Lamp(az, el) => {
                 let _ = tx.send(Update::Lamp(az, el));
             }
+            ScriptCmd::Steer(view, dx, dy, scale) => ctl.steer.push((view, [dx, dy], scale)),
             ScriptCmd::Wait(s) => {
                 drop(ctl);
                 std::thread::sleep(Duration::from_secs_f64(s.clamp(0.0, 60.0)));
@@ -499,12 +523,30 @@ fn serve(
     block: bool,
 ) -> Result<bool, scratchart::optim::OptimError> {
     loop {
-        let (save, stop, paused) = {
+        let (save, stop, paused, steer) = {
             let mut c = control.lock().unwrap();
-            let s = (c.save, c.stop, c.paused);
+            let s = (c.save, c.stop, c.paused, std::mem::take(&mut c.steer));
             c.save = false;
             s
         };
+        for (view, shift, scale) in steer {
+            let r = match live.steer(&view, shift, scale) {
+                Ok(()) => {
+                    let v = live
+                        .problem
+                        .scene
+                        .views
+                        .iter()
+                        .position(|x| x.name == view)
+                        .expect("steered");
+                    Ok((v, live.iteration(), live.problem.targets[v].clone()))
+                }
+                // A picture that cannot move is the user's to hear about; the run goes on.
+                Err(scratchart::optim::OptimError::Usage(m)) => Err(m),
+                Err(e) => return Err(e),
+            };
+            let _ = tx.send(Update::Steered(r));
+        }
         if save {
             let r = live.save().map(|_| live.iteration()).map_err(|e| e.to_string());
             let _ = tx.send(Update::Saved(r));
@@ -577,6 +619,8 @@ pub fn run_headless(o: &LiveOpts, log: &std::cell::RefCell<Option<scratchart::vu
                 Update::Saved(Ok(k)) => eprintln!("live: saved at iteration {k} in {}", session.out.display()),
                 Update::Saved(Err(e)) => eprintln!("warning: live: the save failed: {e}"),
                 Update::Lamp(az, el) => eprintln!("live: lamp at azimuth {az}, elevation {el}"),
+                Update::Steered(Ok((v, k, _))) => eprintln!("live: view {v}'s picture moved at iteration {k}"),
+                Update::Steered(Err(e)) => eprintln!("warning: live: {e}"),
                 Update::Done(_) => {
                     session.join();
                     return match session.error.take() {

@@ -56,6 +56,9 @@ macro_rules! keys_text {
   K                  live design: save design.json and the checkpoint in its --out
   V                  live design: the design panel beside the render: every view's render
                      next to its target, the loss curve (log scale) below, as it converges
+  arrows, [ / ]      live design: move (shift: 8 px, else 2) or scale (1.05x) the current
+                     view's picture on the plate; recorded in summary.json's `steering`, which
+                     `scratchart design --steer summary.json` replays
   R                  reset camera, light and exposure
   H                  print this list
   Esc / Q            quit"

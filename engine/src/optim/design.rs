@@ -191,24 +191,42 @@ impl<'r> Optimizer<'r> {
         self.driver.run(obs)
     }
 
-    /// [`Optimizer::run`] with a live hook after each accepted iteration (see [`Live`]).
+    /// [`Optimizer::run`] with a live hook after each accepted iteration (see [`Live`]). `work`
+    /// is the problem as the run goes (its targets change when the design is steered); the
+    /// `scheduled` steering is applied where due, before the user's hook.
     pub fn run_live(
         &mut self,
         obs: &dyn Observer,
-        template: &Scene,
+        work: &mut Problem,
+        loss: &Loss,
+        scheduled: &[super::steer::SteerEvent],
         hook: &mut LiveHook<'_>,
     ) -> Result<(f64, u32), OptimError> {
         let Optimizer {
             renderer, driver, cfg, ..
         } = self;
+        let mut next = 0usize;
+        // What was due before the first iteration of this run (all of it up to a resumed
+        // run's iteration, so the targets are those of the run that stopped).
+        Live {
+            driver,
+            renderer,
+            problem: &mut *work,
+            loss,
+            keep_exposures: cfg.keep_exposures,
+            out: &cfg.out,
+        }
+        .apply_due(scheduled, &mut next)?;
         driver.run_with(obs, &mut |d, ev| {
             let mut live = Live {
                 driver: d,
                 renderer,
-                template,
+                problem: &mut *work,
+                loss,
                 keep_exposures: cfg.keep_exposures,
                 out: &cfg.out,
             };
+            live.apply_due(scheduled, &mut next)?;
             hook(&mut live, ev)
         })
     }
@@ -245,8 +263,10 @@ pub fn to_scene(template: &Scene, scr: &[ScratchGpu], phi: &[f32], keep_exposure
 pub struct Live<'a, 'r> {
     pub driver: &'a mut Driver<'r>,
     pub renderer: &'r Renderer,
-    /// The problem's scene (plate, views, lights as they started).
-    pub template: &'a Scene,
+    /// The problem as the run goes: its scene (plate, views, lights as they started) and its
+    /// targets, steered ones included ([`Live::steer`]).
+    pub problem: &'a mut Problem,
+    pub loss: &'a Loss,
     pub keep_exposures: bool,
     /// The design's output directory.
     pub out: &'a std::path::Path,
@@ -268,7 +288,7 @@ impl Live<'_, '_> {
         let scr: Vec<ScratchGpu> = self.renderer.ctx.download(gs.scratches())?;
         let phi: Vec<f32> = gs.lights().read()?;
         Ok(to_scene(
-            self.template,
+            &self.problem.scene,
             &scr[..gs.n_scratches() as usize],
             &phi,
             self.keep_exposures,
@@ -278,6 +298,46 @@ impl Live<'_, '_> {
     /// Each view's last render (linear L, the evaluation just accepted).
     pub fn images(&self) -> Result<Vec<Vec<f32>>, GpuError> {
         self.renderer.download_images(&self.driver.gs)
+    }
+
+    /// Moves or scales view `view`'s picture from this iteration on (see [`super::steer`]):
+    /// placed again from its file, the loss's targets replaced, the event recorded in the
+    /// problem's `steering`. A view that cannot be steered is a [`OptimError::Usage`].
+    pub fn steer(&mut self, view: &str, shift_px: [f64; 2], scale: f64) -> Result<(), OptimError> {
+        self.steer_event(super::steer::SteerEvent {
+            iteration: self.iteration(),
+            view: view.to_string(),
+            shift_px,
+            scale,
+        })
+    }
+
+    /// Applies `e` now, recorded as it is (a replayed event keeps its own iteration, also when
+    /// a resumed run applies it before its first iteration).
+    fn steer_event(&mut self, e: super::steer::SteerEvent) -> Result<(), OptimError> {
+        let v = super::steer::check(&e, &self.problem.scene.views, &self.problem.sources).map_err(OptimError::Usage)?;
+        let src = self.problem.sources[v].as_ref().expect("checked");
+        let f = src.place(
+            &self.problem.scene.views[v],
+            self.problem.scene.plate.size_mm,
+            e.shift_px,
+            e.scale,
+        );
+        self.problem.targets[v] = f.image;
+        self.problem.pictures[v] = f.picture;
+        self.problem.picture_rects[v] = f.rect;
+        self.loss.set_targets(&self.renderer.ctx, &self.problem.targets)?;
+        self.problem.steering.push(e);
+        Ok(())
+    }
+
+    /// Applies the scheduled events from `next` on that are due at this iteration.
+    fn apply_due(&mut self, scheduled: &[super::steer::SteerEvent], next: &mut usize) -> Result<(), OptimError> {
+        while let Some(e) = scheduled.get(*next).filter(|e| e.iteration <= self.iteration()) {
+            self.steer_event(e.clone())?;
+            *next += 1;
+        }
+        Ok(())
     }
 
     /// Saves the run where it stands into the output directory: the checkpoint that `scratchart
@@ -350,7 +410,10 @@ pub fn run_design_live(
     };
     let (initial_images, _) = opt.render()?;
     let t_loop = std::time::Instant::now();
-    let (loop_seconds, iters_run) = opt.run_live(obs, &problem.scene, hook)?;
+    let mut work = problem.clone();
+    let (loop_seconds, iters_run) = opt.run_live(obs, &mut work, &loss, &cfg.steer, hook)?;
+    // From here on the problem is the steered one (the targets the loss ended with).
+    let problem = &work;
     let t_loop_end = std::time::Instant::now();
     // Within a machine (`design --machine`): every commanded depth on its Z grid. The optimizer's
     // range already starts at the shallowest trusted cut and ends on the grid; this moves each
@@ -476,6 +539,11 @@ pub fn run_design_live(
         };
         inputs.save(&cfg.out, &wr.scene)?;
         let (setup, sensitivity, advice) = super::setup::write_setup(&cfg.out, &renderer, &wr.scene, &inputs)?;
+        if !problem.steering.is_empty() {
+            summary["steering"] = json!(problem.steering);
+            summary["steering_is"] =
+                json!("the pictures moved while the design ran: `scratchart design [the same flags] --steer summary.json` replays them");
+        }
         summary["blank_views"] = json!(cfg.blank_views);
         summary["setup"] = setup;
         summary["sensitivity"] = sensitivity;

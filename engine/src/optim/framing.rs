@@ -278,6 +278,22 @@ pub fn picture_rect(view: &View, plate_mm: f64, fit: Fit, aspect: f64) -> Option
     }
 }
 
+/// Places picture `src` in `view` in the rectangle `rect` (a picture moved or scaled by the
+/// design's user, [`super::steer`]); `rect` None places nothing (`printed` has no rectangle).
+#[allow(clippy::too_many_arguments)] // fit_picture's settings and the rectangle
+pub fn fit_picture_rect(
+    src: &[f32],
+    sw: u32,
+    sh: u32,
+    view: &View,
+    plate_mm: f64,
+    fit: Fit,
+    background: f32,
+    rect: Option<Rect>,
+) -> Fitted {
+    fit_picture_in(src, sw, sh, view, plate_mm, fit, background, rect)
+}
+
 /// Places picture `src` in `view` with its rectangle `rect` ([`picture_rect`]).
 #[allow(clippy::too_many_arguments)] // fit_picture's settings and the rectangle
 fn fit_picture_in(

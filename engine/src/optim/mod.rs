@@ -29,6 +29,8 @@
 //! - [`measure`]: image measures (blur, SSIM, correlation, each view's quality and cross-talk).
 //! - [`report`]: the design's outputs: compare images, the loss-curve plot and the summary.
 //! - [`setup`]: where the lamp and the viewers go, and how precisely (setup sheet, sensitivity).
+//! - [`steer`]: a picture moved or scaled while the design runs, and the same replayed
+//!   (`scratchart-view --design`, `scratchart design --steer`).
 //! - [`walk`]: walk-past plates: views along an arc, in-between views whose targets are
 //!   cross-fades, and their report (`design --walk/--hold/--object`).
 //! - [`error`]: what can stop an optimization.
@@ -49,6 +51,7 @@ pub mod problem;
 pub mod report;
 pub mod setup;
 pub mod setup_sheet;
+pub mod steer;
 pub mod targets;
 pub mod tolerance;
 pub mod walk;

@@ -29,6 +29,11 @@ pub struct Problem {
     /// A walk-past design (`design --walk/--hold/--object`): its arc and its in-between views,
     /// which follow the design views in `scene` (see [`super::walk`]).
     pub walk: Option<super::walk::Walk>,
+    /// Per view, its picture as read from its file, for moving it while the design runs
+    /// ([`super::steer`]); None where a view cannot be steered.
+    pub sources: Vec<Option<super::steer::Source>>,
+    /// The steering applied so far (a live design's working copy of the problem).
+    pub steering: Vec<super::steer::SteerEvent>,
 }
 
 impl Problem {
@@ -44,6 +49,8 @@ impl Problem {
             pictures,
             picture_rects,
             walk: None,
+            sources: Vec::new(),
+            steering: Vec::new(),
         }
     }
 }
@@ -84,6 +91,8 @@ pub struct DesignConfig {
     /// When the job started (the process, for a program), for the start-up time in the wall
     /// times; None: the start-up is not counted.
     pub started: Option<std::time::Instant>,
+    /// Steering to replay (`scratchart design --steer`), in the order of its iterations.
+    pub steer: Vec<super::steer::SteerEvent>,
 }
 
 impl DesignConfig {
@@ -106,6 +115,7 @@ impl DesignConfig {
             tool: None,
             carvings: 8,
             started: None,
+            steer: Vec::new(),
         }
     }
 }

@@ -175,9 +175,26 @@ impl App {
     }
 
     fn on_key(&mut self, key: &Key, event_loop: &ActiveEventLoop) -> Result<()> {
+        let step = if self.shift { 8.0 } else { 2.0 };
         let ch = match key {
             Key::Named(NamedKey::Escape) => {
                 event_loop.exit();
+                return Ok(());
+            }
+            Key::Named(NamedKey::ArrowLeft) => {
+                self.steer_picture(-step, 0.0, 1.0);
+                return Ok(());
+            }
+            Key::Named(NamedKey::ArrowRight) => {
+                self.steer_picture(step, 0.0, 1.0);
+                return Ok(());
+            }
+            Key::Named(NamedKey::ArrowUp) => {
+                self.steer_picture(0.0, -step, 1.0);
+                return Ok(());
+            }
+            Key::Named(NamedKey::ArrowDown) => {
+                self.steer_picture(0.0, step, 1.0);
                 return Ok(());
             }
             Key::Character(s) => s.to_lowercase(),
@@ -205,6 +222,8 @@ impl App {
                 self.toggle_target()?
             }
             "v" => self.toggle_panel()?,
+            "[" => self.steer_picture(0.0, 0.0, 1.0 / 1.05),
+            "]" => self.steer_picture(0.0, 0.0, 1.05),
             "w" => self.toggle_walk()?,
             "p" => {
                 if let Some(l) = &self.live {

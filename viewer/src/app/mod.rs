@@ -190,6 +190,9 @@ struct App {
     panel: bool,
     /// The latest renders for the panel.
     panel_data: Option<crate::live::ViewsUpdate>,
+    /// Per view, where the live design's picture is asked to be (shift in pixels, scale),
+    /// from where the design placed it (arrows, [ and ]).
+    steer: Vec<([f64; 2], f64)>,
 }
 
 impl App {
@@ -259,6 +262,7 @@ impl App {
             live: None,
             panel: false,
             panel_data: None,
+            steer: Vec::new(),
             opts,
         };
         if app.opts.show_target {
@@ -315,6 +319,20 @@ impl App {
                     Some(Err(e)) => eprintln!("error: live design: {e}"),
                     None => {}
                 },
+                crate::live::Update::Steered(Ok((v, k, target))) => {
+                    if let Some(Some(t)) = self.design.targets.get_mut(v) {
+                        t.data = target;
+                    }
+                    eprintln!(
+                        "live design: {}'s picture moved at iteration {k}",
+                        self.design.scene.views[v].name
+                    );
+                    if self.show_target && v == self.view_idx {
+                        self.show_target = false;
+                        self.toggle_target()?;
+                    }
+                }
+                crate::live::Update::Steered(Err(e)) => eprintln!("warning: live design: {e}"),
                 crate::live::Update::Views(v) => {
                     self.panel_data = Some(*v);
                     if self.panel {
@@ -335,6 +353,27 @@ impl App {
             self.fr.set_target(Some(&t))?;
         }
         Ok(())
+    }
+
+    /// Arrows and [ ]: move or scale the current view's picture (a live design only): the
+    /// optimizer takes it at its next iteration, and records it in summary.json.
+    fn steer_picture(&mut self, dx: f64, dy: f64, factor: f64) {
+        let Some(l) = &self.live else {
+            return;
+        };
+        if self.steer.len() < self.design.scene.views.len() {
+            self.steer.resize(self.design.scene.views.len(), ([0.0, 0.0], 1.0));
+        }
+        let s = &mut self.steer[self.view_idx];
+        s.0[0] += dx;
+        s.0[1] += dy;
+        s.1 = (s.1 * factor).clamp(0.1, 10.0);
+        let name = &self.design.scene.views[self.view_idx].name;
+        eprintln!(
+            "live design: {name}'s picture to shift ({:+.0}, {:+.0}) px, scale {:.3}",
+            s.0[0], s.0[1], s.1
+        );
+        l.request_steer(name, s.0, s.1);
     }
 
     /// Key V: the design panel on or off (a live design only).

@@ -268,6 +268,39 @@ impl Loss {
         Ok(loss)
     }
 
+    /// Replaces the targets (as [`Loss::new`] takes them) between evaluations: a live design
+    /// steered by its user (a picture moved or scaled on the plate). Their pyramid and Gram
+    /// matrices are computed again, exactly as `new` computes them, so a design steered live
+    /// and one given the same changes from the command line see the same bits.
+    pub fn set_targets(&self, ctx: &Arc<Context>, targets: &[Vec<f32>]) -> Result<(), GpuError> {
+        assert_eq!(
+            targets.len(),
+            self.pyr.n_views as usize,
+            "Loss::set_targets: one target per view"
+        );
+        let n = self.pyr.n_pixels() as usize;
+        let mut t0 = vec![0f32; n];
+        // Level 0 holds each view at its `base`, as in `new`.
+        for seg in self.pyr.segs.iter().filter(|s| s.level == 0) {
+            let t = &targets[seg.view as usize];
+            assert_eq!(
+                t.len(),
+                (seg.w * seg.h) as usize,
+                "Loss::set_targets: target {} size",
+                seg.view
+            );
+            t0[seg.off as usize..seg.off as usize + t.len()].copy_from_slice(t);
+        }
+        let staging = ctx.upload("loss new targets", &t0)?;
+        let mut rec = Recorder::new(ctx)?;
+        rec.begin()?;
+        rec.copy(&staging, &self.tpyr, (n * 4) as u64);
+        rec.barrier();
+        self.record_features(&mut rec, &self.tpyr, &self.gram_t, &self.tpyr);
+        rec.submit_and_wait()?;
+        Ok(())
+    }
+
     fn push(&self, level: u32, begin: u32, end: u32) -> LossPush {
         let (g_c, g_s) = self.cfg.gauss_1d();
         LossPush {

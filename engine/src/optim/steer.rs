@@ -1,0 +1,156 @@
+//! Steering a design while it runs: a view's picture moved or scaled on the plate at a given
+//! iteration (`scratchart-view --design`, keys or `--script`), and the same changes replayed from
+//! the command line (`scratchart design --steer FILE`), so a steered design can be reproduced.
+//!
+//! An event states where the picture is from that iteration on, relative to where the design
+//! placed it at the start: shifted by `shift_px` (image pixels, x right, y down) and scaled by
+//! `scale` about its centre. The picture is placed again from its file exactly as at the start
+//! ([`super::framing::fit_picture_rect`], the same tone curve), the loss's targets are replaced
+//! between two iterations ([`super::loss::Loss::set_targets`]), and `summary.json`'s `steering`
+//! lists every event applied. Only designs from `--targets` pictures placed in a rectangle
+//! (`--fit contain`, `cover` or `frame`) can be steered.
+use serde::{Deserialize, Serialize};
+
+use super::framing::{Fit, Fitted, Rect};
+
+/// One change of a view's picture, applied before iteration `iteration` runs.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct SteerEvent {
+    pub iteration: u32,
+    pub view: String,
+    pub shift_px: [f64; 2],
+    pub scale: f64,
+}
+
+/// A view's picture as read from its file, with how it was placed, for placing it again.
+#[derive(Clone, Debug)]
+pub struct Source {
+    pub width: u32,
+    pub height: u32,
+    pub data: Vec<f32>,
+    pub fit: Fit,
+    pub background: f32,
+    pub gamma: f32,
+    /// Where the design placed it at the start.
+    pub rect: Rect,
+}
+
+impl Source {
+    /// The picture placed in `view` (of a `plate_mm` plate) as `event` says.
+    pub fn place(&self, view: &crate::model::scene::View, plate_mm: f64, shift: [f64; 2], scale: f64) -> Fitted {
+        let r = self.rect;
+        let (w, h) = (r.w * scale, r.h * scale);
+        let rect = Rect {
+            x0: r.x0 + 0.5 * (r.w - w) + shift[0],
+            y0: r.y0 + 0.5 * (r.h - h) + shift[1],
+            w,
+            h,
+        };
+        let mut f = super::framing::fit_picture_rect(
+            &self.data,
+            self.width,
+            self.height,
+            view,
+            plate_mm,
+            self.fit,
+            self.background,
+            Some(rect),
+        );
+        if self.gamma != 1.0 {
+            for (v, p) in f.image.iter_mut().zip(&f.picture) {
+                if *p {
+                    *v = v.powf(self.gamma);
+                }
+            }
+        }
+        f
+    }
+}
+
+/// Checks an event against the problem's views: a known view with a steerable picture, a finite
+/// shift, a scale in (0.05, 20].
+pub fn check(e: &SteerEvent, views: &[crate::model::scene::View], sources: &[Option<Source>]) -> Result<usize, String> {
+    let v = views.iter().position(|v| v.name == e.view).ok_or_else(|| {
+        format!(
+            "steering at iteration {}: no view is named `{}` (the views: {})",
+            e.iteration,
+            e.view,
+            views.iter().map(|v| v.name.as_str()).collect::<Vec<_>>().join(", ")
+        )
+    })?;
+    if sources.get(v).is_none_or(|s| s.is_none()) {
+        return Err(format!(
+            "steering at iteration {}: view {}'s picture cannot be moved (only pictures given with --targets and placed \
+             in a rectangle, --fit contain, cover or frame)",
+            e.iteration, e.view
+        ));
+    }
+    if !(e.shift_px.iter().all(|x| x.is_finite()) && e.scale > 0.05 && e.scale <= 20.0) {
+        return Err(format!(
+            "steering at iteration {} of view {}: the shift must be finite and the scale in (0.05, 20] (it is {:?}, {})",
+            e.iteration, e.view, e.shift_px, e.scale
+        ));
+    }
+    Ok(v)
+}
+
+/// Reads steering events: a JSON array of them, or a design's `summary.json` (its `steering`).
+/// They must come in the order of their iterations.
+pub fn read(path: &std::path::Path) -> Result<Vec<SteerEvent>, String> {
+    let text = std::fs::read_to_string(path).map_err(|e| format!("cannot read {}: {e}", path.display()))?;
+    let v: serde_json::Value =
+        serde_json::from_str(&text).map_err(|e| format!("{} is not valid JSON: {e}", path.display()))?;
+    let list = match v.get("steering") {
+        Some(s) => s.clone(),
+        None => v,
+    };
+    let events: Vec<SteerEvent> = serde_json::from_value(list).map_err(|e| {
+        format!(
+            "{}: not a list of steering events ({{\"iteration\", \"view\", \"shift_px\": [x, y], \"scale\"}}) nor a summary.json with one: {e}",
+            path.display()
+        )
+    })?;
+    if let Some(w) = events.windows(2).find(|w| w[1].iteration < w[0].iteration) {
+        return Err(format!(
+            "{}: the steering events must come in the order of their iterations ({} after {})",
+            path.display(),
+            w[1].iteration,
+            w[0].iteration
+        ));
+    }
+    Ok(events)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn events_read_from_a_list_or_a_summary_in_order() {
+        let dir = std::env::temp_dir().join(format!("scratchart-steer-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let e = r#"[{"iteration": 3, "view": "v0", "shift_px": [2.0, -1.0], "scale": 1.1}]"#;
+        std::fs::write(dir.join("a.json"), e).unwrap();
+        std::fs::write(dir.join("s.json"), format!(r#"{{"views": 2, "steering": {e}}}"#)).unwrap();
+        for f in ["a.json", "s.json"] {
+            let got = read(&dir.join(f)).unwrap();
+            assert_eq!(
+                got,
+                vec![SteerEvent {
+                    iteration: 3,
+                    view: "v0".into(),
+                    shift_px: [2.0, -1.0],
+                    scale: 1.1
+                }]
+            );
+        }
+        std::fs::write(
+            dir.join("b.json"),
+            r#"[{"iteration": 5, "view": "v0", "shift_px": [0, 0], "scale": 1}, {"iteration": 2, "view": "v0", "shift_px": [0, 0], "scale": 1}]"#,
+        )
+        .unwrap();
+        assert!(read(&dir.join("b.json")).unwrap_err().contains("order"));
+        std::fs::write(dir.join("c.json"), r#"{"x": 1}"#).unwrap();
+        assert!(read(&dir.join("c.json")).unwrap_err().contains("steering events"));
+    }
+}
