@@ -30,9 +30,27 @@ pub fn make_context(
     device_extensions: Vec<&'static std::ffi::CStr>,
     log: &RefCell<Option<ValidationLog>>,
 ) -> Result<Arc<Context>> {
+    context_for(
+        opts.validation,
+        opts.device.clone(),
+        instance_extensions,
+        device_extensions,
+        log,
+    )
+}
+
+/// The context of a session with `--validation` and `--device` as given (the viewer's and the
+/// live design's), its validation log kept in `log`.
+pub fn context_for(
+    validation: bool,
+    device: Option<String>,
+    instance_extensions: Vec<&'static std::ffi::CStr>,
+    device_extensions: Vec<&'static std::ffi::CStr>,
+    log: &RefCell<Option<ValidationLog>>,
+) -> Result<Arc<Context>> {
     let ctx = Context::new(ContextDesc {
-        validation: opts.validation,
-        device: opts.device.clone(),
+        validation,
+        device,
         instance_extensions,
         device_extensions,
         quiet: false,

@@ -568,17 +568,13 @@ pub fn context(
     device_extensions: Vec<&'static std::ffi::CStr>,
     log: &std::cell::RefCell<Option<scratchart::vulkan::ValidationLog>>,
 ) -> Result<Arc<Context>> {
-    let ctx = Context::new(scratchart::vulkan::ContextDesc {
-        validation: o.validation,
-        device: o.device.clone(),
+    crate::headless::context_for(
+        o.validation,
+        o.device.clone(),
         instance_extensions,
         device_extensions,
-        quiet: false,
-        notify: Some(scratchart::term::stderr_notices()),
-        ..Default::default()
-    })?;
-    log.replace(Some(ctx.validation_log()));
-    Ok(ctx)
+        log,
+    )
 }
 
 /// `--headless`: the live design without a window. Progress goes to the terminal, the script's

@@ -214,7 +214,7 @@ pub struct Fitted {
 /// average over the source pixels a target pixel covers, so nothing aliases).
 pub fn fit_picture(src: &[f32], sw: u32, sh: u32, view: &View, plate_mm: f64, fit: Fit, background: f32) -> Fitted {
     let rect = picture_rect(view, plate_mm, fit, sw as f64 / sh as f64);
-    fit_picture_in(src, sw, sh, view, plate_mm, fit, background, rect)
+    fit_picture_rect(src, sw, sh, view, plate_mm, fit, background, rect)
 }
 
 /// [`fit_picture`] for a walk's view: `contain` keeps the picture centred on the column of the
@@ -238,7 +238,7 @@ pub fn fit_picture_walk(
         }),
         _ => picture_rect(view, plate_mm, fit, aspect),
     };
-    fit_picture_in(src, sw, sh, view, plate_mm, fit, background, rect)
+    fit_picture_rect(src, sw, sh, view, plate_mm, fit, background, rect)
 }
 
 /// Where a picture of `aspect` (width / height) goes in `view` for `fit` (see [`Fitted::rect`]).
@@ -278,25 +278,11 @@ pub fn picture_rect(view: &View, plate_mm: f64, fit: Fit, aspect: f64) -> Option
     }
 }
 
-/// Places picture `src` in `view` in the rectangle `rect` (a picture moved or scaled by the
-/// design's user, [`super::steer`]); `rect` None places nothing (`printed` has no rectangle).
+/// Places picture `src` in `view` in the rectangle `rect` ([`picture_rect`], or one moved or
+/// scaled by the design's user, [`super::steer`]); `rect` None places nothing but for
+/// `printed`, which has no rectangle.
 #[allow(clippy::too_many_arguments)] // fit_picture's settings and the rectangle
 pub fn fit_picture_rect(
-    src: &[f32],
-    sw: u32,
-    sh: u32,
-    view: &View,
-    plate_mm: f64,
-    fit: Fit,
-    background: f32,
-    rect: Option<Rect>,
-) -> Fitted {
-    fit_picture_in(src, sw, sh, view, plate_mm, fit, background, rect)
-}
-
-/// Places picture `src` in `view` with its rectangle `rect` ([`picture_rect`]).
-#[allow(clippy::too_many_arguments)] // fit_picture's settings and the rectangle
-fn fit_picture_in(
     src: &[f32],
     sw: u32,
     sh: u32,
