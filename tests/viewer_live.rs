@@ -98,7 +98,8 @@ fn a_live_design_saved_mid_run_continues_bit_for_bit() {
     assert_eq!(summary(&a)["loss_final"], summary(&b)["loss_final"]);
 }
 
-/// Steering by script (view v0's picture moved and scaled at iteration 3, v1's at 5) is
+/// Steering by script (view v0's picture moved and scaled at iteration 3, v1's at 5, the Gram
+/// term's weight changed at 6) is
 /// recorded in summary.json, and `scratchart design --steer summary.json` replays it to the
 /// same bits; the steering changed the design; steering that cannot apply is refused.
 #[test]
@@ -125,17 +126,26 @@ fn a_steered_live_design_is_replayed_from_the_command_line() {
     };
     let mut args = base(&a_s);
     args.extend(
-        ["--headless", "--script", "3:steer v0 3 -2 1.1;5:steer v1 -2 1 0.9"]
-            .iter()
-            .map(|s| s.to_string()),
+        [
+            "--headless",
+            "--script",
+            "3:steer v0 3 -2 1.1;5:steer v1 -2 1 0.9;6:weight 1 0.04",
+        ]
+        .iter()
+        .map(|s| s.to_string()),
     );
     let o = Command::new(viewer_bin()).arg("--design").args(&args).output().unwrap();
     assert!(o.status.success(), "steered live design failed: {}", text(&o));
     let steering = summary(&a)["steering"].clone();
-    assert_eq!(steering.as_array().map(|a| a.len()), Some(2), "{steering}");
+    assert_eq!(steering.as_array().map(|a| a.len()), Some(3), "{steering}");
     assert_eq!(steering[0]["iteration"], 3);
     assert_eq!(steering[0]["view"], "v0");
     assert_eq!(steering[1]["iteration"], 5);
+    assert_eq!(steering[2]["iteration"], 6);
+    assert!(
+        (steering[2]["lambda_g"].as_f64().unwrap() - 0.04).abs() < 1e-6,
+        "{steering}"
+    );
     let summary_a = a.join("summary.json").display().to_string();
     let mut args = vec!["design".to_string()];
     args.extend(base(&b_s));
@@ -167,9 +177,15 @@ fn a_steered_live_design_is_replayed_from_the_command_line() {
     let o = run_scratchart(&args.iter().map(String::as_str).collect::<Vec<_>>());
     assert_eq!(o.status.code(), Some(2), "{}", text(&o));
     assert!(text(&o).contains("no view is named `v7`"), "{}", text(&o));
-    let o = design(&["--iters", "2", "--out", &c_s, "--steer", &bad]);
+    // The built-in shapes are not pictures from files: they cannot be moved (the weights can).
+    let shapes = write_steer(&dir, r#"[{"iteration": 1, "view": "v0", "shift_px": [1, 0]}]"#);
+    let o = design(&["--iters", "2", "--out", &c_s, "--steer", &shapes]);
     assert_eq!(o.status.code(), Some(2), "{}", text(&o));
-    assert!(text(&o).contains("--steer needs --targets"), "{}", text(&o));
+    assert!(text(&o).contains("cannot be moved"), "{}", text(&o));
+    let weights = write_steer(&dir, r#"[{"iteration": 1, "lambda_g": 0.1}]"#);
+    let o = design(&["--iters", "2", "--out", &c_s, "--steer", &weights]);
+    assert!(o.status.success(), "{}", text(&o));
+    assert_eq!(summary(&c)["steering"][0]["lambda_g"], 0.1);
 }
 
 fn write_steer(dir: &Path, json: &str) -> String {

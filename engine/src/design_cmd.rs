@@ -260,7 +260,8 @@ pub struct DesignArgs {
     /// Replay steering: pictures moved or scaled at given iterations, as a live design
     /// (`scratchart-view --design`) recorded them: its summary.json, or a JSON array of
     /// {"iteration", "view", "shift_px": [x, y], "scale"} (shift in pixels from where the
-    /// design placed the picture, scale about its centre). Needs --targets
+    /// design placed the picture, scale about its centre; pictures from --targets only) and
+    /// {"iteration", "lambda_p", "lambda_g"} (the loss's weights from that iteration on)
     #[arg(long, value_name = "FILE")]
     pub steer: Option<PathBuf>,
     /// No progress bar
@@ -791,10 +792,6 @@ pub fn prepare(ctx: &Arc<Context>, args: &DesignArgs, obs: &dyn Observer) -> any
         cfg.tool = Some(fab);
     }
     if let Some(path) = &args.steer {
-        ensure_flag!(
-            !args.targets.is_empty(),
-            "--steer needs --targets: only pictures given as files can be moved"
-        );
         ensure_flag!(
             args.max_job_min.is_none(),
             "--steer and --max-job-min cannot be used together"

@@ -82,6 +82,8 @@ pub struct LiveOpts {
 pub enum ScriptCmd {
     /// Move view NAME's picture by (dx, dy) pixels and scale it, from where the design placed it.
     Steer(String, f64, f64, f64),
+    /// The loss's weights: the pixel term's and the Gram term's.
+    Weight(f64, f64),
     Pause,
     Resume,
     Save,
@@ -114,6 +116,7 @@ pub fn parse_script(s: &str) -> Result<Vec<(u32, ScriptCmd)>, String> {
             Some("stop") => ScriptCmd::Stop,
             Some("lamp") => ScriptCmd::Lamp(num(words.get(1))?, num(words.get(2))?),
             Some("wait") => ScriptCmd::Wait(num(words.get(1))?),
+            Some("weight") => ScriptCmd::Weight(num(words.get(1))?, num(words.get(2))?),
             Some("steer") => ScriptCmd::Steer(
                 words
                     .get(1)
@@ -125,7 +128,7 @@ pub fn parse_script(s: &str) -> Result<Vec<(u32, ScriptCmd)>, String> {
             ),
             _ => {
                 return Err(format!(
-                    "--script item `{item}`: unknown command (pause, resume, save, stop, lamp AZ EL, wait SECS, steer VIEW DX DY SCALE)"
+                    "--script item `{item}`: unknown command (pause, resume, save, stop, lamp AZ EL, wait SECS, steer VIEW DX DY SCALE, weight PIXEL GRAM)"
                 ))
             }
         };
@@ -162,6 +165,8 @@ pub struct Control {
     pub stop: bool,
     /// Pictures to move: (view, shift in pixels, scale), from where the design placed them.
     pub steer: Vec<(String, [f64; 2], f64)>,
+    /// Loss weights to set: (lambda_p, lambda_g).
+    pub weights: Vec<(f64, f64)>,
 }
 
 /// What the optimizer thread publishes.
@@ -181,6 +186,8 @@ pub enum Update {
     Lamp(f64, f64),
     /// A picture was moved (the view, the iteration, its new target), or could not be.
     Steered(Result<(usize, u32, Vec<f32>), String>),
+    /// Something done (the loss weights changed), or refused, for the user to read.
+    Note(Result<String, String>),
     /// The run is over (its summary printed), or failed with this error.
     Done(Option<anyhow::Error>),
 }
@@ -425,6 +432,10 @@ impl Session {
             .push((view.to_string(), shift, scale));
     }
 
+    pub fn request_weights(&self, lambda_p: f64, lambda_g: f64) {
+        self.control.lock().unwrap().weights.push((lambda_p, lambda_g));
+    }
+
     pub fn request_save(&self) {
         self.control.lock().unwrap().save = true;
     }
@@ -502,6 +513,7 @@ fn hook(
                 let _ = tx.send(Update::Lamp(az, el));
             }
             ScriptCmd::Steer(view, dx, dy, scale) => ctl.steer.push((view, [dx, dy], scale)),
+            ScriptCmd::Weight(p, g) => ctl.weights.push((p, g)),
             ScriptCmd::Wait(s) => {
                 drop(ctl);
                 std::thread::sleep(Duration::from_secs_f64(s.clamp(0.0, 60.0)));
@@ -523,12 +535,29 @@ fn serve(
     block: bool,
 ) -> Result<bool, scratchart::optim::OptimError> {
     loop {
-        let (save, stop, paused, steer) = {
+        let (save, stop, paused, steer, weights) = {
             let mut c = control.lock().unwrap();
-            let s = (c.save, c.stop, c.paused, std::mem::take(&mut c.steer));
+            let s = (
+                c.save,
+                c.stop,
+                c.paused,
+                std::mem::take(&mut c.steer),
+                std::mem::take(&mut c.weights),
+            );
             c.save = false;
             s
         };
+        for (p, g) in weights {
+            let r = match live.steer_weights(Some(p), Some(g)) {
+                Ok(()) => Ok(format!(
+                    "loss weights pixel {p}, Gram {g} from iteration {}",
+                    live.iteration()
+                )),
+                Err(scratchart::optim::OptimError::Usage(m)) => Err(m),
+                Err(e) => return Err(e),
+            };
+            let _ = tx.send(Update::Note(r));
+        }
         for (view, shift, scale) in steer {
             let r = match live.steer(&view, shift, scale) {
                 Ok(()) => {
@@ -616,7 +645,8 @@ pub fn run_headless(o: &LiveOpts, log: &std::cell::RefCell<Option<scratchart::vu
                 Update::Saved(Err(e)) => eprintln!("warning: live: the save failed: {e}"),
                 Update::Lamp(az, el) => eprintln!("live: lamp at azimuth {az}, elevation {el}"),
                 Update::Steered(Ok((v, k, _))) => eprintln!("live: view {v}'s picture moved at iteration {k}"),
-                Update::Steered(Err(e)) => eprintln!("warning: live: {e}"),
+                Update::Steered(Err(e)) | Update::Note(Err(e)) => eprintln!("warning: live: {e}"),
+                Update::Note(Ok(m)) => eprintln!("live: {m}"),
                 Update::Done(_) => {
                     session.join();
                     return match session.error.take() {

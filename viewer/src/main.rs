@@ -59,6 +59,7 @@ macro_rules! keys_text {
   arrows, [ / ]      live design: move (shift: 8 px, else 2) or scale (1.05x) the current
                      view's picture on the plate; recorded in summary.json's `steering`, which
                      `scratchart design --steer summary.json` replays
+  G / shift+G        live design: the loss's Gram-term weight x2 / /2 (recorded the same way)
   R                  reset camera, light and exposure
   H                  print this list
   Esc / Q            quit"

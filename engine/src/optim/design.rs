@@ -304,29 +304,43 @@ impl Live<'_, '_> {
     /// placed again from its file, the loss's targets replaced, the event recorded in the
     /// problem's `steering`. A view that cannot be steered is a [`OptimError::Usage`].
     pub fn steer(&mut self, view: &str, shift_px: [f64; 2], scale: f64) -> Result<(), OptimError> {
-        self.steer_event(super::steer::SteerEvent {
-            iteration: self.iteration(),
-            view: view.to_string(),
+        self.steer_event(super::steer::SteerEvent::picture(
+            self.iteration(),
+            view,
             shift_px,
             scale,
-        })
+        ))
+    }
+
+    /// Changes the loss's weights (the pixel and Gram terms'; None keeps one) from this
+    /// iteration on, recorded in the problem's `steering`.
+    pub fn steer_weights(&mut self, lambda_p: Option<f64>, lambda_g: Option<f64>) -> Result<(), OptimError> {
+        self.steer_event(super::steer::SteerEvent::weights(self.iteration(), lambda_p, lambda_g))
     }
 
     /// Applies `e` now, recorded as it is (a replayed event keeps its own iteration, also when
     /// a resumed run applies it before its first iteration).
     fn steer_event(&mut self, e: super::steer::SteerEvent) -> Result<(), OptimError> {
-        let v = super::steer::check(&e, &self.problem.scene.views, &self.problem.sources).map_err(OptimError::Usage)?;
-        let src = self.problem.sources[v].as_ref().expect("checked");
-        let f = src.place(
-            &self.problem.scene.views[v],
-            self.problem.scene.plate.size_mm,
-            e.shift_px,
-            e.scale,
-        );
-        self.problem.targets[v] = f.image;
-        self.problem.pictures[v] = f.picture;
-        self.problem.picture_rects[v] = f.rect;
-        self.loss.set_targets(&self.renderer.ctx, &self.problem.targets)?;
+        let view =
+            super::steer::check(&e, &self.problem.scene.views, &self.problem.sources).map_err(OptimError::Usage)?;
+        if let Some(v) = view {
+            let src = self.problem.sources[v].as_ref().expect("checked");
+            let f = src.place(
+                &self.problem.scene.views[v],
+                self.problem.scene.plate.size_mm,
+                e.shift(),
+                e.scale(),
+            );
+            self.problem.targets[v] = f.image;
+            self.problem.pictures[v] = f.picture;
+            self.problem.picture_rects[v] = f.rect;
+            self.loss.set_targets(&self.renderer.ctx, &self.problem.targets)?;
+        }
+        if e.lambda_p.is_some() || e.lambda_g.is_some() {
+            let (p, g) = self.loss.weights();
+            self.loss
+                .set_weights(e.lambda_p.map_or(p, |x| x as f32), e.lambda_g.map_or(g, |x| x as f32));
+        }
         self.problem.steering.push(e);
         Ok(())
     }

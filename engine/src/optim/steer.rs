@@ -13,13 +13,53 @@ use serde::{Deserialize, Serialize};
 
 use super::framing::{Fit, Fitted, Rect};
 
-/// One change of a view's picture, applied before iteration `iteration` runs.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+/// One change, applied before iteration `iteration` runs: a view's picture moved and scaled
+/// (`view`, with `shift_px` [0, 0] and `scale` 1 when absent), the loss's weights changed
+/// (`lambda_p`, `lambda_g`: the pixel and Gram terms'; an absent one keeps its value), or both.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct SteerEvent {
     pub iteration: u32,
-    pub view: String,
-    pub shift_px: [f64; 2],
-    pub scale: f64,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub view: Option<String>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub shift_px: Option<[f64; 2]>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub scale: Option<f64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub lambda_p: Option<f64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub lambda_g: Option<f64>,
+}
+
+impl SteerEvent {
+    /// A picture's move.
+    pub fn picture(iteration: u32, view: &str, shift_px: [f64; 2], scale: f64) -> SteerEvent {
+        SteerEvent {
+            iteration,
+            view: Some(view.to_string()),
+            shift_px: Some(shift_px),
+            scale: Some(scale),
+            ..Default::default()
+        }
+    }
+
+    /// A change of the loss's weights.
+    pub fn weights(iteration: u32, lambda_p: Option<f64>, lambda_g: Option<f64>) -> SteerEvent {
+        SteerEvent {
+            iteration,
+            lambda_p,
+            lambda_g,
+            ..Default::default()
+        }
+    }
+
+    pub fn shift(&self) -> [f64; 2] {
+        self.shift_px.unwrap_or([0.0, 0.0])
+    }
+
+    pub fn scale(&self) -> f64 {
+        self.scale.unwrap_or(1.0)
+    }
 }
 
 /// A view's picture as read from its file, with how it was placed, for placing it again.
@@ -67,31 +107,61 @@ impl Source {
     }
 }
 
-/// Checks an event against the problem's views: a known view with a steerable picture, a finite
-/// shift, a scale in (0.05, 20].
-pub fn check(e: &SteerEvent, views: &[crate::model::scene::View], sources: &[Option<Source>]) -> Result<usize, String> {
-    let v = views.iter().position(|v| v.name == e.view).ok_or_else(|| {
+/// Checks an event against the problem's views: something to change; weights finite and >= 0;
+/// a known view with a steerable picture, a finite shift, a scale in (0.05, 20]. Returns the
+/// view's index, if the event moves a picture.
+pub fn check(
+    e: &SteerEvent,
+    views: &[crate::model::scene::View],
+    sources: &[Option<Source>],
+) -> Result<Option<usize>, String> {
+    for (name, w) in [("lambda_p", e.lambda_p), ("lambda_g", e.lambda_g)] {
+        if let Some(w) = w {
+            if !(w.is_finite() && w >= 0.0) {
+                return Err(format!(
+                    "steering at iteration {}: {name} must be a weight >= 0 (it is {w})",
+                    e.iteration
+                ));
+            }
+        }
+    }
+    let Some(view) = &e.view else {
+        if e.lambda_p.is_none() && e.lambda_g.is_none() {
+            return Err(format!(
+                "steering at iteration {}: the event changes nothing (give a view, lambda_p or lambda_g)",
+                e.iteration
+            ));
+        }
+        if e.shift_px.is_some() || e.scale.is_some() {
+            return Err(format!(
+                "steering at iteration {}: a shift or scale needs the view it moves",
+                e.iteration
+            ));
+        }
+        return Ok(None);
+    };
+    let v = views.iter().position(|v| &v.name == view).ok_or_else(|| {
         format!(
-            "steering at iteration {}: no view is named `{}` (the views: {})",
+            "steering at iteration {}: no view is named `{view}` (the views: {})",
             e.iteration,
-            e.view,
             views.iter().map(|v| v.name.as_str()).collect::<Vec<_>>().join(", ")
         )
     })?;
     if sources.get(v).is_none_or(|s| s.is_none()) {
         return Err(format!(
-            "steering at iteration {}: view {}'s picture cannot be moved (only pictures given with --targets and placed \
-             in a rectangle, --fit contain, cover or frame)",
-            e.iteration, e.view
+            "steering at iteration {}: view {view}'s picture cannot be moved (only pictures given with --targets and \
+             placed in a rectangle, --fit contain, cover or frame)",
+            e.iteration
         ));
     }
-    if !(e.shift_px.iter().all(|x| x.is_finite()) && e.scale > 0.05 && e.scale <= 20.0) {
+    let (shift, scale) = (e.shift(), e.scale());
+    if !(shift.iter().all(|x| x.is_finite()) && scale > 0.05 && scale <= 20.0) {
         return Err(format!(
-            "steering at iteration {} of view {}: the shift must be finite and the scale in (0.05, 20] (it is {:?}, {})",
-            e.iteration, e.view, e.shift_px, e.scale
+            "steering at iteration {} of view {view}: the shift must be finite and the scale in (0.05, 20] (it is {shift:?}, {scale})",
+            e.iteration
         ));
     }
-    Ok(v)
+    Ok(Some(v))
 }
 
 /// Reads steering events: a JSON array of them, or a design's `summary.json` (its `steering`).
@@ -106,7 +176,7 @@ pub fn read(path: &std::path::Path) -> Result<Vec<SteerEvent>, String> {
     };
     let events: Vec<SteerEvent> = serde_json::from_value(list).map_err(|e| {
         format!(
-            "{}: not a list of steering events ({{\"iteration\", \"view\", \"shift_px\": [x, y], \"scale\"}}) nor a summary.json with one: {e}",
+            "{}: not a list of steering events ({{\"iteration\", \"view\", \"shift_px\": [x, y], \"scale\", \"lambda_p\", \"lambda_g\"}}) nor a summary.json with one: {e}",
             path.display()
         )
     })?;
@@ -134,15 +204,7 @@ mod tests {
         std::fs::write(dir.join("s.json"), format!(r#"{{"views": 2, "steering": {e}}}"#)).unwrap();
         for f in ["a.json", "s.json"] {
             let got = read(&dir.join(f)).unwrap();
-            assert_eq!(
-                got,
-                vec![SteerEvent {
-                    iteration: 3,
-                    view: "v0".into(),
-                    shift_px: [2.0, -1.0],
-                    scale: 1.1
-                }]
-            );
+            assert_eq!(got, vec![SteerEvent::picture(3, "v0", [2.0, -1.0], 1.1)]);
         }
         std::fs::write(
             dir.join("b.json"),

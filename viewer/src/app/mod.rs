@@ -76,6 +76,11 @@ pub fn run_live_window(o: &crate::live::LiveOpts, log: &RefCell<Option<Validatio
     let mut app = App::new(opts, design, None, fr)?;
     app.live = Some(session);
     app.panel = o.panel;
+    // (as the flags were written: 0.01, not the f32 0.0099999998)
+    app.weights = (
+        o.design.lambda_p.to_string().parse().unwrap_or(1.0),
+        o.design.lambda_g.to_string().parse().unwrap_or(0.01),
+    );
     event_loop.run_app(&mut app)?;
     app.presenter = None;
     // The window closed: the optimization stops at the next iteration boundary, and the
@@ -193,6 +198,8 @@ struct App {
     /// Per view, where the live design's picture is asked to be (shift in pixels, scale),
     /// from where the design placed it (arrows, [ and ]).
     steer: Vec<([f64; 2], f64)>,
+    /// The live design's loss weights as last asked (lambda_p, lambda_g; key G).
+    weights: (f64, f64),
 }
 
 impl App {
@@ -263,6 +270,7 @@ impl App {
             panel: false,
             panel_data: None,
             steer: Vec::new(),
+            weights: (1.0, 0.01),
             opts,
         };
         if app.opts.show_target {
@@ -332,7 +340,10 @@ impl App {
                         self.toggle_target()?;
                     }
                 }
-                crate::live::Update::Steered(Err(e)) => eprintln!("warning: live design: {e}"),
+                crate::live::Update::Steered(Err(e)) | crate::live::Update::Note(Err(e)) => {
+                    eprintln!("warning: live design: {e}")
+                }
+                crate::live::Update::Note(Ok(m)) => eprintln!("live design: {m}"),
                 crate::live::Update::Views(v) => {
                     self.panel_data = Some(*v);
                     if self.panel {
@@ -374,6 +385,19 @@ impl App {
             s.0[0], s.0[1], s.1
         );
         l.request_steer(name, s.0, s.1);
+    }
+
+    /// Key G (shift: down): the live design's Gram-term weight x2 (/2) from its next iteration.
+    fn steer_gram(&mut self, factor: f64) {
+        let Some(l) = &self.live else {
+            return;
+        };
+        self.weights.1 = (self.weights.1 * factor).clamp(1e-6, 1e3);
+        eprintln!(
+            "live design: the Gram term's weight to {} (the pixel term's {})",
+            self.weights.1, self.weights.0
+        );
+        l.request_weights(self.weights.0, self.weights.1);
     }
 
     /// Key V: the design panel on or off (a live design only).

@@ -194,6 +194,9 @@ pub struct Loss {
     /// per view (pixel, gram), then the total; host-readable
     pub out: Buffer,
     gx: Buffer,
+    /// The weights of the pixel and Gram terms as f32 bits: `cfg`'s, until a steered design
+    /// changes them between iterations ([`Loss::set_weights`]).
+    weights: [std::sync::atomic::AtomicU32; 2],
 }
 
 const NUM_BUFFERS: u32 = 13;
@@ -257,6 +260,10 @@ impl Loss {
             gram_t: Buffer::new(ctx, "loss target gram", n_segs * NPART * 4, MemLoc::GpuOnly)?,
             out: Buffer::new(ctx, "loss values", (2 * views.len() as u64 + 1) * 4, MemLoc::GpuToCpu)?,
             gx: Buffer::new(ctx, "loss pyramid gradient", n * 4, MemLoc::GpuOnly)?,
+            weights: [
+                std::sync::atomic::AtomicU32::new(cfg.lambda_p.to_bits()),
+                std::sync::atomic::AtomicU32::new(cfg.lambda_g.to_bits()),
+            ],
             pyr,
             pipes,
         };
@@ -301,6 +308,23 @@ impl Loss {
         Ok(())
     }
 
+    /// The weights (lambda_p, lambda_g) the next evaluation uses.
+    pub fn weights(&self) -> (f32, f32) {
+        use std::sync::atomic::Ordering;
+        (
+            f32::from_bits(self.weights[0].load(Ordering::Relaxed)),
+            f32::from_bits(self.weights[1].load(Ordering::Relaxed)),
+        )
+    }
+
+    /// Changes the weights of the pixel and Gram terms from the next evaluation on (a steered
+    /// design; `cfg` keeps the ones it started with).
+    pub fn set_weights(&self, lambda_p: f32, lambda_g: f32) {
+        use std::sync::atomic::Ordering;
+        self.weights[0].store(lambda_p.to_bits(), Ordering::Relaxed);
+        self.weights[1].store(lambda_g.to_bits(), Ordering::Relaxed);
+    }
+
     fn push(&self, level: u32, begin: u32, end: u32) -> LossPush {
         let (g_c, g_s) = self.cfg.gauss_1d();
         LossPush {
@@ -310,8 +334,8 @@ impl Loss {
             n_blocks: self.pyr.n_blocks,
             lvl_begin: begin,
             lvl_end: end,
-            lambda_p: self.cfg.lambda_p,
-            lambda_g: self.cfg.lambda_g,
+            lambda_p: self.weights().0,
+            lambda_g: self.weights().1,
             g_c,
             g_s,
             n_segs: self.pyr.segs.len() as u32,
