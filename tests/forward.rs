@@ -197,3 +197,39 @@ fn very_thin_and_very_short_scratches() {
     }
     assert_matches_reference("thin/short", &scene);
 }
+
+/// A render that keeps the last render's tile lists (`record_render_with(.., false)`, what the
+/// viewer does when only the lamp moved) gives the same bits as one that bins again, and as a
+/// fresh upload lit by the new lamp; with a camera that moved, keeping the lists is wrong (the
+/// control that shows the comparison can fail).
+#[test]
+fn a_lamp_that_moves_needs_no_new_tile_lists() {
+    let ctx = scratchart_tests::gpu();
+    let r = scratchart::render::Renderer::new(&ctx).unwrap();
+    let views = vec![orbit_view("a", 48, 45.0, 0.0, 50.0, 20.0, 20.0)];
+    let scene = random_scene(7, 600, 20.0, 0.2, 0.15, 0.2, views);
+    let mut gs = r.upload(&scene).unwrap();
+    let mut rec = scratchart::vulkan::Recorder::new(&ctx).unwrap();
+    r.submit(&mut rec, &mut gs, |rec, gs| r.record_render_with(rec, gs, true))
+        .unwrap();
+    // The lamp moves; the camera stays.
+    let mut lit = scene.clone();
+    lit.views[0].light = scratchart::scenes::orbit_light(60.0, 35.0, 140.0, 2.0e3);
+    assert!(gs.update_views(&lit.views).unwrap());
+    r.submit(&mut rec, &mut gs, |rec, gs| r.record_render_with(rec, gs, false))
+        .unwrap();
+    let kept = r.download_images(&gs).unwrap();
+    let fresh = gpu_render(&ctx, &lit);
+    assert!(kept[0].iter().any(|&l| l > 0.0), "the lit plate is dark");
+    assert_eq!(kept, fresh, "the kept lists gave other bits than binning again");
+    // The control: the camera moves and the lists are kept: the image is not the right one.
+    let mut turned = lit.clone();
+    turned.views[0] = orbit_view("a", 48, 40.0, 35.0, 50.0, 20.0, 20.0);
+    turned.views[0].light = lit.views[0].light.clone();
+    assert!(gs.update_views(&turned.views).unwrap());
+    r.submit(&mut rec, &mut gs, |rec, gs| r.record_render_with(rec, gs, false))
+        .unwrap();
+    let stale = r.download_images(&gs).unwrap();
+    assert_ne!(stale, gpu_render(&ctx, &turned), "stale lists went unnoticed");
+    assert_no_validation(&ctx);
+}

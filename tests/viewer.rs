@@ -363,6 +363,10 @@ fn window_session() {
         l.starts_with("frame") && field(l, "light_az") != field(&first, "light_az")
     });
     assert_ne!(field(&first, "light_az"), field(&later, "light_az"));
+    // The camera is still: frames of the moving lamp keep their tile lists (shading only).
+    v.wait_line("a light-orbit frame that kept its tile lists", 30, |l| {
+        l.starts_with("frame") && field(l, "binned") == "false"
+    });
     v.xdotool(&["key", "l"]);
     v.wait_err("light orbit off", 30);
 

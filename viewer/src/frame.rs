@@ -91,6 +91,9 @@ pub struct FrameInfo {
     pub stats: RenderStats,
     /// Where the set-up overlay put each lamp and eye (empty without the overlay).
     pub marks: Vec<Mark>,
+    /// Whether the frame binned its tile lists (false: the last frame's camera and scratches,
+    /// lists kept).
+    pub binned: bool,
 }
 
 /// How to draw one frame.
@@ -133,8 +136,10 @@ pub struct FrameRenderer {
     pipes: Pipelines,
     /// The design with its views replaced by the one interactive view (plate and scratches kept).
     scene: Scene,
-    /// One uploaded scene per internal size, most recently used last.
-    cache: Vec<((u32, u32), GpuScene)>,
+    /// One uploaded scene per internal size, most recently used last, with the camera its tile
+    /// lists were binned for (a frame from the same camera with the same scratches keeps them:
+    /// a lamp that moves needs the shading only).
+    cache: Vec<((u32, u32), GpuScene, Option<scratchart::model::scene::Camera>)>,
     out: Option<Buffer>,
     target: Buffer,
     target_dims: Option<(u32, u32)>,
@@ -181,6 +186,10 @@ impl FrameRenderer {
     /// stay in use and the error (with the compiler log) is returned.
     pub fn reload_shaders(&mut self) -> Result<(), GpuError> {
         self.pipes = build_pipelines(&self.ctx)?;
+        // New kernels bin anew.
+        for c in &mut self.cache {
+            c.2 = None;
+        }
         Ok(())
     }
 
@@ -205,14 +214,14 @@ impl FrameRenderer {
 
     /// Drops the uploaded scenes whose size is not `keep` (after a resize).
     pub fn trim_cache(&mut self, keep: &[(u32, u32)]) {
-        self.cache.retain(|(s, _)| keep.contains(s));
+        self.cache.retain(|(s, _, _)| keep.contains(s));
         self.staging.retain(|s| keep.contains(&s.size));
     }
 
     /// The uploaded scene for `size`, uploading (and evicting the oldest) when needed.
     fn scene_for(&mut self, view: &View) -> Result<usize, GpuError> {
         let size = (view.camera.width, view.camera.height);
-        if let Some(i) = self.cache.iter().position(|(s, _)| *s == size) {
+        if let Some(i) = self.cache.iter().position(|(s, _, _)| *s == size) {
             let entry = self.cache.remove(i);
             self.cache.push(entry);
         } else {
@@ -222,7 +231,7 @@ impl FrameRenderer {
             let mut scene = self.scene.clone();
             scene.views = vec![view.clone()];
             let gs = self.pipes.renderer.upload(&scene)?;
-            self.cache.push((size, gs));
+            self.cache.push((size, gs, None));
         }
         Ok(self.cache.len() - 1)
     }
@@ -305,6 +314,9 @@ impl FrameRenderer {
             marks = ov.marks;
         }
         let (tw, th) = self.target_dims.unwrap_or((0, 0));
+        // The tile lists depend on the camera and the scratches only: the same camera over the
+        // same uploaded scratches keeps them.
+        let bin = self.cache[idx].2.as_ref() != Some(&p.view.camera);
         let gs = &mut self.cache[idx].1;
         let ok = gs.update_views(std::slice::from_ref(p.view))?;
         assert!(ok, "cached scene for {iw}x{ih} has another size");
@@ -320,8 +332,11 @@ impl FrameRenderer {
         let overlay_buf = self.overlay.as_ref();
         // Pair search, shading, present and the copy to the window in one submission; redone
         // (with larger tile lists) when a view sees more scratches per tile than the first guess.
+        // (A render redone for larger lists or more passes bins again.)
+        let mut first = true;
         let (stats, timings) = pipes.renderer.submit(&mut self.rec, gs, |rec, gs| {
-            pipes.renderer.record_render(rec, gs);
+            pipes.renderer.record_render_with(rec, gs, bin || !first);
+            first = false;
             rec.dispatch(
                 &pipes.present,
                 &[gs.image(), target, out],
@@ -356,12 +371,14 @@ impl FrameRenderer {
                 _ => {}
             }
         })?;
+        self.cache[idx].2 = Some(p.view.camera.clone());
         Ok(FrameInfo {
             internal: (iw, ih),
             timings,
             wall_ms: t0.elapsed().as_secs_f64() * 1e3,
             stats,
             marks,
+            binned: bin,
         })
     }
 

@@ -293,6 +293,15 @@ impl Renderer {
     /// `binning` and `forward`. Every caller records renders through this and submits through
     /// [`submit`](Self::submit), which checks that the render was complete.
     pub fn record_render(&self, rec: &mut Recorder, gs: &GpuScene) {
+        self.record_render_with(rec, gs, true);
+    }
+
+    /// [`record_render`](Self::record_render) that keeps the tile lists of the last render of
+    /// `gs` when `bin` is false: valid when neither the cameras nor the scratches changed since
+    /// (a lamp that moves needs the shading only; the viewer uses it). The images are the
+    /// same bits as with binning, since the shading reads the same lists. The `binning`
+    /// timestamp is still written (an empty span).
+    pub fn record_render_with(&self, rec: &mut Recorder, gs: &GpuScene, bin: bool) {
         rec.fill(&gs.stats, 0);
         let push = [gs.n_scratches, 0, 0, 0];
         rec.dispatch_1d(
@@ -308,7 +317,9 @@ impl Renderer {
             gs.slots.n_tiles,
         );
         rec.barrier();
-        self.record_binning(rec, gs);
+        if bin {
+            self.record_binning(rec, gs);
+        }
         rec.timestamp("binning");
         self.record_shading(rec, gs);
         rec.timestamp("forward");

@@ -176,7 +176,7 @@ impl App {
             .map(|w| (w.position(), w.label()));
         if self.opts.log_frames {
             println!(
-                "frame {} t={:.3} {} internal={}x{} full={}x{} level={} wall_ms={:.1} gpu_ms={:.1} interval_ms={:.1} cam_az={:.2} cam_el={:.2} light_az={:.2}{}",
+                "frame {} t={:.3} {} internal={}x{} full={}x{} level={} wall_ms={:.1} gpu_ms={:.1} interval_ms={:.1} cam_az={:.2} cam_el={:.2} light_az={:.2} binned={} binning_ms={:.2}{}",
                 self.frames,
                 self.start.elapsed().as_secs_f64(),
                 if level == 0 { "full" } else { "reduced" },
@@ -191,6 +191,8 @@ impl App {
                 self.cam.azimuth_deg,
                 self.cam.elevation_deg,
                 self.light.azimuth_deg,
+                info.binned,
+                info.timings.get("binning").unwrap_or(f64::NAN),
                 walk.as_ref().map(|(p, _)| format!(" walk={p:.4}")).unwrap_or_default()
                     + &self
                         .live
