@@ -576,13 +576,8 @@ pub fn problem(args: &DesignArgs, info: &DeviceInfo) -> anyhow::Result<Problem> 
         let targets = scratchart::optim::targets::builtin_targets(&scene);
         return Ok(Problem::new(scene, targets));
     }
-    let mut fitted = scratchart::optim::targets::load_fitted_targets(
-        &args.targets,
-        &scene,
-        args.fit,
-        args.background,
-        &args.blank_view,
-    )?;
+    let pictures = scratchart::optim::targets::read_pictures(&args.targets, &scene, &args.blank_view)?;
+    let mut fitted = scratchart::optim::targets::fit_pictures(&pictures, &scene, args.fit, args.background);
     for b in &args.blank_view {
         eprintln!("view {b}: blank on purpose (--blank-view): its picture is not asked to show anything");
     }
@@ -599,21 +594,18 @@ pub fn problem(args: &DesignArgs, info: &DeviceInfo) -> anyhow::Result<Problem> 
     problem.picture_rects = fitted.iter().map(|f| f.rect).collect();
     problem.pictures = fitted.into_iter().map(|f| f.picture).collect();
     // Each picture as read, for steering (pictures placed in a rectangle only).
-    problem.sources = args
-        .targets
-        .iter()
+    problem.sources = pictures
+        .into_iter()
         .zip(&problem.picture_rects)
         .map(|(p, rect)| {
-            let rect = (*rect)?;
-            let (width, height, data) = scratchart::io::read_image_gray(p).ok()?;
             Some(scratchart::optim::steer::Source {
-                width,
-                height,
-                data: data.into_iter().map(|x| x.clamp(0.0, 1.0)).collect(),
+                width: p.width,
+                height: p.height,
+                data: p.data,
                 fit: args.fit,
                 background: args.background,
                 gamma: args.gamma,
-                rect,
+                rect: (*rect)?,
             })
         })
         .collect();

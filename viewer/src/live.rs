@@ -21,7 +21,6 @@ use std::time::{Duration, Instant};
 use anyhow::{bail, Result};
 use scratchart::design_cmd::DesignArgs;
 use scratchart::model::scene::Scene;
-use scratchart::observe::{Observer, Progress};
 use scratchart::optim::design::{run_design_live, Live};
 use scratchart::vulkan::Context;
 
@@ -171,11 +170,12 @@ pub struct Control {
 
 /// What the optimizer thread publishes.
 pub enum Update {
-    /// The design after an accepted iteration.
+    /// An accepted iteration, with the design as it stands when the window wants it (at most
+    /// every [`SCENE_EVERY`]: a read-back of every scratch; never headless).
     Step {
         iteration: u32,
         loss: f32,
-        scene: Box<Scene>,
+        scene: Option<Box<Scene>>,
     },
     /// A save finished (the iteration saved) or failed.
     Saved(Result<u32, String>),
@@ -204,6 +204,8 @@ pub struct ViewsUpdate {
 
 /// How often the optimizer thread sends the panel's renders.
 const VIEWS_EVERY: Duration = Duration::from_millis(250);
+/// How often it sends the design itself to the window (about a display's frame rate).
+pub const SCENE_EVERY: Duration = Duration::from_millis(30);
 
 /// The design panel (key V): each view's render beside its target, a few views a row, and the
 /// loss curve (log scale) under them, as one gray image for the viewer's target slot.
@@ -270,33 +272,6 @@ pub fn panel(v: &ViewsUpdate, targets: &[Option<crate::design::Target>]) -> crat
     }
 }
 
-/// An observer that passes everything to the terminal (Ctrl-C stops the run with a
-/// checkpoint, as in `scratchart design`).
-struct ThreadObserver {
-    term: scratchart::term::Terminal,
-}
-
-impl Observer for ThreadObserver {
-    fn progress(&self, p: &Progress) {
-        self.term.progress(p)
-    }
-    fn finish(&self, task: &str) {
-        self.term.finish(task)
-    }
-    fn warn(&self, msg: &str) {
-        self.term.warn(msg)
-    }
-    fn info(&self, msg: &str) {
-        self.term.info(msg)
-    }
-    fn result(&self, msg: &str) {
-        self.term.result(msg)
-    }
-    fn should_stop(&self) -> bool {
-        self.term.should_stop()
-    }
-}
-
 /// The optimizer thread's side of a live design.
 pub struct Session {
     pub control: Arc<Mutex<Control>>,
@@ -324,6 +299,7 @@ impl Session {
         script: Vec<(u32, ScriptCmd)>,
         quiet: bool,
         paused: bool,
+        window: bool,
     ) -> Session {
         let control = Arc::new(Mutex::new(Control {
             paused,
@@ -333,13 +309,17 @@ impl Session {
         let (iters, out) = (cfg.iters, cfg.out.clone());
         let c2 = control.clone();
         let thread = std::thread::spawn(move || {
-            let obs = ThreadObserver {
-                term: scratchart::term::Terminal::new(quiet),
-            };
+            // Ctrl-C stops the run with a checkpoint, as in `scratchart design`.
+            let obs = scratchart::term::Terminal::new(quiet);
             let mut script = script.into_iter().peekable();
-            let mut views_sent: Option<Instant> = None;
+            let (mut views_sent, mut scene_sent): (Option<Instant>, Option<Instant>) = (None, None);
             let result = run_design_live(&ctx, &problem, &cfg, &obs, &mut |live, ev| {
-                if views_sent.is_none_or(|t| t.elapsed() >= VIEWS_EVERY) {
+                // The window's news, a few times a second: no read-back for a run nobody watches.
+                let scene_due = window && scene_sent.is_none_or(|t| t.elapsed() >= SCENE_EVERY);
+                if scene_due {
+                    scene_sent = Some(Instant::now());
+                }
+                if window && views_sent.is_none_or(|t| t.elapsed() >= VIEWS_EVERY) {
                     views_sent = Some(Instant::now());
                     let images = live
                         .images()?
@@ -357,7 +337,7 @@ impl Session {
                         losses,
                     })));
                 }
-                hook(live, ev.total, &c2, &tx, &mut script)
+                hook(live, ev.total, scene_due, window, &c2, &tx, &mut script)
             });
             // Printed as `scratchart design` prints it (the summary on stdout).
             let r = scratchart::design_cmd::finish(result, &cfg);
@@ -398,7 +378,9 @@ impl Session {
                     self.first.get_or_insert((iteration, Instant::now()));
                     self.last_iteration = iteration;
                     self.last_loss = loss;
-                    scene = Some(*s);
+                    if let Some(s) = s {
+                        scene = Some(*s);
+                    }
                 }
                 Update::Done(e) => {
                     self.done = Some(match &e {
@@ -485,20 +467,31 @@ impl Drop for Session {
 
 /// After each accepted iteration: publish the design, run the script's items for this
 /// iteration, save when asked, wait while paused, and say whether to go on.
+#[allow(clippy::too_many_arguments)] // the thread's state, named at its one call
 fn hook(
     live: &mut Live,
     loss: f32,
+    scene_due: bool,
+    window: bool,
     control: &Arc<Mutex<Control>>,
     tx: &Sender<Update>,
     script: &mut std::iter::Peekable<std::vec::IntoIter<(u32, ScriptCmd)>>,
 ) -> Result<bool, scratchart::optim::OptimError> {
     let k = live.iteration();
-    let scene = live.scene()?;
-    let _ = tx.send(Update::Step {
-        iteration: k,
-        loss,
-        scene: Box::new(scene),
-    });
+    let step = |live: &Live, with_scene: bool| -> Result<(), scratchart::optim::OptimError> {
+        let scene = if with_scene {
+            Some(Box::new(live.scene()?))
+        } else {
+            None
+        };
+        let _ = tx.send(Update::Step {
+            iteration: k,
+            loss,
+            scene,
+        });
+        Ok(())
+    };
+    step(live, scene_due)?;
     // The script's items of iterations up to this one (an item of an iteration a rollback
     // skipped runs at the next).
     while script.peek().is_some_and(|(at, _)| *at <= k) {
@@ -522,6 +515,10 @@ fn hook(
         }
         drop(ctl);
         serve(live, control, tx, false)?;
+    }
+    // A pause shows the design where it stopped.
+    if window && !scene_due && control.lock().unwrap().paused {
+        step(live, true)?;
     }
     serve(live, control, tx, true)
 }
@@ -636,7 +633,7 @@ pub fn run_headless(o: &LiveOpts, log: &std::cell::RefCell<Option<scratchart::vu
     let ctx = context(o, vec![], vec![], log)?;
     let obs = scratchart::term::Terminal::new(o.design.quiet);
     let (problem, cfg) = scratchart::design_cmd::prepare(&ctx, &o.design, &obs)?;
-    let mut session = Session::start(ctx, problem, cfg, script, o.design.quiet, false);
+    let mut session = Session::start(ctx, problem, cfg, script, o.design.quiet, false, false);
     loop {
         let (_, updates) = session.poll();
         for u in updates {

@@ -54,10 +54,61 @@ pub fn load_targets(paths: &[PathBuf], scene: &Scene) -> Result<Vec<Vec<f32>>, T
         .collect()
 }
 
-/// Reads one picture per view (in view order) and places it in its view as `fit` says (see
-/// [`super::framing`]): the targets the loss uses, with where each picture went. A uniform
-/// picture (a 1 x 1 image, a blank frame) is refused unless its view is named in `blank` (a view
-/// left blank on purpose).
+/// A picture file read as gray display values in [0, 1].
+#[derive(Clone, Debug)]
+pub struct Picture {
+    pub path: PathBuf,
+    pub width: u32,
+    pub height: u32,
+    pub data: Vec<f32>,
+}
+
+/// Reads the picture of view `view`; a uniform one (a 1 x 1 image, a blank frame) is refused
+/// unless the view is named in `blank` (left blank on purpose).
+pub fn read_picture(path: &Path, view: &str, blank: &[String]) -> Result<Picture, TargetError> {
+    let (width, height, data) = crate::io::read_image_gray(path)?;
+    let data: Vec<f32> = data.into_iter().map(|x| x.clamp(0.0, 1.0)).collect();
+    if let Some(value) = is_uniform(&data).filter(|_| !blank.iter().any(|b| b == view)) {
+        return Err(TargetError::Uniform {
+            path: path.display().to_string(),
+            view: view.to_string(),
+            value,
+        });
+    }
+    Ok(Picture {
+        path: path.to_path_buf(),
+        width,
+        height,
+        data,
+    })
+}
+
+/// Reads one picture per view (in view order, [`read_picture`]).
+pub fn read_pictures(paths: &[PathBuf], scene: &Scene, blank: &[String]) -> Result<Vec<Picture>, TargetError> {
+    check_count(paths, scene)?;
+    paths
+        .iter()
+        .zip(&scene.views)
+        .map(|(p, v)| read_picture(p, &v.name, blank))
+        .collect()
+}
+
+/// Places each view's picture in its view as `fit` says (see [`super::framing`]): the targets
+/// the loss uses, with where each picture went.
+pub fn fit_pictures(
+    pictures: &[Picture],
+    scene: &Scene,
+    fit: super::framing::Fit,
+    background: f32,
+) -> Vec<super::framing::Fitted> {
+    pictures
+        .iter()
+        .zip(&scene.views)
+        .map(|(p, v)| super::framing::fit_picture(&p.data, p.width, p.height, v, scene.plate.size_mm, fit, background))
+        .collect()
+}
+
+/// [`read_pictures`] then [`fit_pictures`].
 pub fn load_fitted_targets(
     paths: &[PathBuf],
     scene: &Scene,
@@ -65,31 +116,12 @@ pub fn load_fitted_targets(
     background: f32,
     blank: &[String],
 ) -> Result<Vec<super::framing::Fitted>, TargetError> {
-    check_count(paths, scene)?;
-    paths
-        .iter()
-        .zip(&scene.views)
-        .map(|(p, v)| {
-            let (sw, sh, data) = crate::io::read_image_gray(p)?;
-            let data: Vec<f32> = data.into_iter().map(|x| x.clamp(0.0, 1.0)).collect();
-            if let Some(value) = is_uniform(&data).filter(|_| !blank.contains(&v.name)) {
-                return Err(TargetError::Uniform {
-                    path: p.display().to_string(),
-                    view: v.name.clone(),
-                    value,
-                });
-            }
-            Ok(super::framing::fit_picture(
-                &data,
-                sw,
-                sh,
-                v,
-                scene.plate.size_mm,
-                fit,
-                background,
-            ))
-        })
-        .collect()
+    Ok(fit_pictures(
+        &read_pictures(paths, scene, blank)?,
+        scene,
+        fit,
+        background,
+    ))
 }
 
 /// One target file as display values, resized to `w` x `h` (antialiased bilinear).

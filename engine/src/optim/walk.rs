@@ -225,14 +225,7 @@ pub fn probe_views(arc: &WalkArc, plate_mm: f64, light: &Light, per_pair: usize)
     out
 }
 
-/// A picture file read as gray display values.
-#[derive(Clone, Debug)]
-pub struct Picture {
-    pub path: PathBuf,
-    pub width: u32,
-    pub height: u32,
-    pub data: Vec<f32>,
-}
+pub use super::targets::Picture;
 
 /// What a walk shows.
 pub enum Frames<'a> {
@@ -282,30 +275,12 @@ pub fn frame_files(given: &[PathBuf]) -> Result<Vec<PathBuf>, String> {
     Ok(given.to_vec())
 }
 
-/// Reads the pictures (gray display values in [0, 1]); a uniform one is refused unless its
-/// design view is left blank on purpose (`blank` holds view names v0, v1, ...).
+/// Reads a walk's frames, frame k for design view `v{k}` ([`super::targets::read_picture`]).
 pub fn read_pictures(files: &[PathBuf], blank: &[String]) -> Result<Vec<Picture>, super::targets::TargetError> {
     files
         .iter()
         .enumerate()
-        .map(|(k, p)| {
-            let (w, h, data) = crate::io::read_image_gray(p)?;
-            let data: Vec<f32> = data.into_iter().map(|x| x.clamp(0.0, 1.0)).collect();
-            let name = format!("v{k}");
-            if let Some(value) = super::targets::is_uniform(&data).filter(|_| !blank.contains(&name)) {
-                return Err(super::targets::TargetError::Uniform {
-                    path: p.display().to_string(),
-                    view: name,
-                    value,
-                });
-            }
-            Ok(Picture {
-                path: p.clone(),
-                width: w,
-                height: h,
-                data,
-            })
-        })
+        .map(|(k, p)| super::targets::read_picture(p, &format!("v{k}"), blank))
         .collect()
 }
 

@@ -72,7 +72,7 @@ pub fn run_live_window(o: &crate::live::LiveOpts, log: &RefCell<Option<Validatio
     opts.exit_after = o.exit_after;
     opts.log_frames = o.log_frames;
     let fr = headless::make_frame_renderer(&ctx, &design, None)?;
-    let session = crate::live::Session::start(ctx.clone(), problem, cfg, script, o.design.quiet, o.paused);
+    let session = crate::live::Session::start(ctx.clone(), problem, cfg, script, o.design.quiet, o.paused, true);
     let mut app = App::new(opts, design, None, fr)?;
     app.live = Some(session);
     app.panel = o.panel;
