@@ -1,0 +1,250 @@
+//! The flags of `scratchart design` ([`DesignArgs`]).
+use std::path::PathBuf;
+
+/// `design --exposure`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum ExposureMode {
+    /// Each view its own exposure.
+    Free,
+    /// One intensity per lamp; the exposures stay.
+    Fixed,
+}
+
+/// Flags of `scratchart design`. Without any, designs the built-in 3-view demo (circle, triangle,
+/// star) into ./out in a few minutes on a CPU (lavapipe).
+#[derive(clap::Args, Clone, Debug)]
+pub struct DesignArgs {
+    /// Target images, one per view in view order (PNG/JPEG, any size; converted to gray and resized
+    /// to the view resolution). Default: the built-in shapes (circle, triangle, star, ...).
+    #[arg(long, num_args = 1..)]
+    pub targets: Vec<PathBuf>,
+    /// How each target picture is placed in its view: `contain` (upright, aspect kept, as large
+    /// as fits inside the plate's silhouette in that view; the rest of the plate shows
+    /// --background), `frame` (stretched over the whole camera frame), `cover` (aspect kept,
+    /// filling the plate's silhouette and cropping the picture) or `printed` (laid on the plate
+    /// itself and seen in perspective). NAME_target.png shows the result, as the loss uses it
+    #[arg(long, default_value = "contain", value_parser = parse_fit)]
+    pub fit: scratchart::optim::framing::Fit,
+    /// Tone curve of the pictures: each display value v becomes v^GAMMA before fitting (below 1
+    /// lifts dark mid-tones, which a scratched plate renders poorly; 1 keeps the picture)
+    #[arg(long, default_value_t = 1.0)]
+    pub gamma: f32,
+    /// Display level (0 black .. 1 white) of the plate around a fitted picture
+    #[arg(long, default_value_t = 0.0)]
+    pub background: f32,
+    /// Leave view NAME blank on purpose: its picture may be uniform (a blank frame), which is
+    /// otherwise refused (repeat for more views)
+    #[arg(long, value_name = "NAME")]
+    pub blank_view: Vec<String>,
+    /// Number of views on the paper's ring: elevation --elevation, view j at azimuth 360 j / N
+    #[arg(long, default_value_t = 3)]
+    pub views: usize,
+    /// A walk-past plate: the frames it plays as the viewer walks along --arc, one design view
+    /// per frame, evenly spaced, in the order given (first frame at the arc's start, counter-
+    /// clockwise seen from above); or one directory, whose PNG and JPEG files are taken in name
+    /// order. Each frame is placed in its view as --fit says
+    #[arg(long, num_args = 1.., value_name = "FRAME", conflicts_with_all = ["targets", "view_file", "views", "hold", "object"])]
+    pub walk: Vec<PathBuf>,
+    /// A walk that shows one picture over the whole --arc (the same frame at every view)
+    #[arg(long, value_name = "PICTURE", conflicts_with_all = ["targets", "view_file", "views", "object"])]
+    pub hold: Option<PathBuf>,
+    /// A walk that shows a 3D object (an OBJ mesh) with parallax: the object, placed behind the
+    /// plate (--object-depth) at --object-size and lit by a fixed lamp, seen from every view of
+    /// the --arc, is each view's target: a scratch hologram designed by optimization
+    #[arg(long, value_name = "OBJ", conflicts_with_all = ["targets", "view_file", "views"])]
+    pub object: Option<PathBuf>,
+    /// The walk's arc: total angle from its first view to its last, degrees (needs --walk,
+    /// --hold or --object)
+    #[arg(long, value_name = "DEG")]
+    pub arc: Option<f64>,
+    /// Azimuth of the arc's middle, degrees (counter-clockwise from the plate's +x edge); the
+    /// lamp stands there too unless --light-azimuth says otherwise
+    #[arg(long, value_name = "DEG")]
+    pub azimuth: Option<f64>,
+    /// Distance of the walk's eyes from the plate centre, mm (default 3 x --plate)
+    #[arg(long, value_name = "MM")]
+    pub distance: Option<f64>,
+    /// Design views along the arc for --hold and --object (default: one every 5 degrees or
+    /// closer, at least 2); --walk has one per frame
+    #[arg(long, value_name = "N")]
+    pub walk_views: Option<usize>,
+    /// In-between views per pair of neighbouring walk views that join the loss, so the plate
+    /// does not go dark or flicker between them: their targets are the cross-fades of their
+    /// neighbours' frames (for --object, the object seen from there). 0: none
+    #[arg(long, default_value_t = 1, value_name = "K")]
+    pub between: usize,
+    /// Views per pair of neighbouring walk views that judge the finished design without joining
+    /// the loss (at 1/(K+1), 2/(K+1), ... of the way): summary.json's walk.probes and the crosses
+    /// of walk.png. 0: none
+    #[arg(long, default_value_t = 3, value_name = "K")]
+    pub walk_probes: usize,
+    /// --object: the object's largest extent, mm (default: half the plate)
+    #[arg(long, value_name = "MM")]
+    pub object_size: Option<f64>,
+    /// --object: how far the object's centre lies behind the plate, mm (negative: in front;
+    /// default: a quarter of the plate)
+    #[arg(long, value_name = "MM", allow_hyphen_values = true)]
+    pub object_depth: Option<f64>,
+    /// --object: turn the object about the plate's normal, degrees (0: the OBJ's front, +Z,
+    /// faces the arc's middle, its +Y up the plate's normal)
+    #[arg(long, value_name = "DEG", default_value_t = 0.0, allow_hyphen_values = true)]
+    pub object_yaw: f64,
+    /// Views from a file instead: a JSON array of MODEL.md view objects (their lights' intensities are used as given)
+    #[arg(long, conflicts_with_all = ["views", "res", "elevation", "light_azimuth", "light_elevation", "light_distance"])]
+    pub view_file: Option<PathBuf>,
+    /// Number of scratches (default 6000; for a walk, 1000 per walk view, at least 6000: a plate
+    /// that shows more pictures needs more scratches)
+    #[arg(long)]
+    pub scratches: Option<usize>,
+    /// Optimization iterations
+    #[arg(long, default_value_t = 200)]
+    pub iters: u32,
+    /// View resolution (square), pixels
+    #[arg(long, default_value_t = 112)]
+    pub res: u32,
+    /// Seed of the random initial scratches
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Elevation of the views, degrees
+    #[arg(long, default_value_t = 45.0)]
+    pub elevation: f64,
+    /// Azimuth of the lamp, degrees (views sit at 0, 360/N, ...; a walk's lamp defaults to its
+    /// arc's middle). The default, 0, puts it on view
+    /// 0's side: its mirror direction then falls between views, so no view sees the plate's own
+    /// specular highlight (at 30 degrees one view does, and its target dims)
+    #[arg(long, allow_hyphen_values = true)]
+    pub light_azimuth: Option<f64>,
+    /// Elevation of the lamp, degrees (default: 20 degrees above the views', at most 80: a lamp on
+    /// a stand above the first viewer's head, where a person can stand beside it; the views' own
+    /// elevation puts it in view 0's eye, as designs did before)
+    #[arg(long)]
+    pub light_elevation: Option<f64>,
+    /// Distance of the lamp from the plate centre, mm (default: the views' distance)
+    #[arg(long)]
+    pub light_distance: Option<f64>,
+    /// How each view's brightness is set: `fixed` (the default), views that share a lamp share its
+    /// intensity and keep their exposures (1 unless a --view-file gives them), so the plate looks
+    /// as rendered under the one lamp, with no adaptation; `free`, each view gets its own exposure
+    /// (what an eye's adaptation or a camera does), reported on the set-up sheet as its
+    /// brightness relative to the others under the lamp
+    #[arg(long, value_enum, default_value_t = ExposureMode::Fixed)]
+    pub exposure: ExposureMode,
+    /// Plate size, mm
+    #[arg(long, default_value_t = 100.0)]
+    pub plate: f64,
+    /// Initial scratch length range, percent of the plate size
+    #[arg(long, default_value_t = 2.0)]
+    pub len_min_pct: f64,
+    #[arg(long, default_value_t = 8.0)]
+    pub len_max_pct: f64,
+    /// Initial width parameter w, depth d (mm) and roughness alpha of every scratch
+    #[arg(long, default_value_t = 0.05)]
+    pub init_w: f64,
+    #[arg(long, default_value_t = 0.05)]
+    pub init_d: f64,
+    #[arg(long, default_value_t = 0.06)]
+    pub init_alpha: f64,
+    /// Learning rate of the endpoints, mm per step (default 1.5e-3 x plate size)
+    #[arg(long)]
+    pub lr_end: Option<f32>,
+    /// Learning rate of w, mm per step
+    #[arg(long)]
+    pub lr_w: Option<f32>,
+    /// Learning rate of d, mm per step
+    #[arg(long)]
+    pub lr_d: Option<f32>,
+    /// Learning rate of alpha per step
+    #[arg(long)]
+    pub lr_alpha: Option<f32>,
+    /// Learning rate of ln(light intensity) per step (0 keeps the lights fixed)
+    #[arg(long)]
+    pub lr_light: Option<f32>,
+    /// Weight of the blurred squared error
+    #[arg(long, default_value_t = 1.0)]
+    pub lambda_p: f32,
+    /// Weight of the Gram-matrix (feature statistics) term
+    #[arg(long, default_value_t = 0.01)]
+    pub lambda_g: f32,
+    /// Standard deviation of the loss's 3x3 Gaussian blur, pixels
+    #[arg(long, default_value_t = 1.0)]
+    pub blur_sigma: f32,
+    /// Output directory
+    #[arg(long, default_value = "out")]
+    pub out: PathBuf,
+    /// Write a checkpoint every N iterations (and at the end)
+    #[arg(long, default_value_t = 50)]
+    pub checkpoint_every: u32,
+    /// Continue a stopped run from the checkpoint in --out (same flags and targets; --iters may grow)
+    #[arg(long)]
+    pub resume: bool,
+    /// Pruning after the optimization: scratches that barely matter are removed, in batches, as
+    /// long as the loss grows by at most this fraction (0.01: 1%). In short runs most random
+    /// initial scratches never become visible, and pruning removes them (often 70-99%): the
+    /// summary says how many were kept. 0 keeps every scratch
+    #[arg(long, default_value_t = 0.01)]
+    pub prune_tol: f64,
+    /// Pruning: forward evaluations spent on trial batches
+    #[arg(long, default_value_t = 8)]
+    pub prune_trials: u32,
+    /// Fabrication mode: the calibrated tool (tool.json from `scratchart-cal fit`). Each scratch
+    /// then has one commanded carve depth z (learning rate --lr-d) in place of w, d and alpha;
+    /// its groove is the tool's cut at z, with alpha fixed at the file's `alpha` (else
+    /// --init-alpha). scratches.csv gets the column z_mm
+    #[arg(long, conflicts_with_all = ["lr_w", "lr_alpha"])]
+    pub tool: Option<PathBuf>,
+    /// Design within a machine's limits (needs --tool): grbl or marlin, the built-in profile that
+    /// `scratchart-cal plan --print-machine` prints. Every commanded depth then lies between the
+    /// profile's min_cut_depth_mm below the surface and the tool's deepest, on its z_step_mm grid,
+    /// and every scratch is at least --min-length-mm long; summary.json's `machine` counts the
+    /// scratches each limit touched
+    #[arg(long, value_parser = ["grbl", "marlin"], requires = "tool")]
+    pub machine: Option<String>,
+    /// The machine profile (machine.json: any fields over the built-in profile of its firmware;
+    /// the fields are listed in `scratchart-cal plan --help`). Implies --machine (needs --tool)
+    #[arg(long, requires = "tool")]
+    pub machine_file: Option<PathBuf>,
+    /// With --machine: the shortest scratch, mm (default: 3 times the tool's widest groove in the
+    /// design's depth range, so that no scratch is as short as the tapered ends a plunged tool
+    /// leaves, about one groove width together)
+    #[arg(long)]
+    pub min_length_mm: Option<f64>,
+    /// With --machine: a design that survives the machine's error. Each iteration's gradient is
+    /// taken on the plate carved as the machine would cut it: every commanded depth off by the
+    /// profile's z_repeatability_mm, every endpoint by its xy_repeatability_mm (1 sigma), a new
+    /// carving each iteration. Either way summary.json's `machine_error` gives each view's
+    /// correlation with its picture as written and averaged over --carvings such carvings
+    #[arg(long)]
+    pub robust: bool,
+    /// With --machine: how many carvings with the machine's error the written design is scored
+    /// on (summary.json's `machine_error`; 0: none)
+    #[arg(long, default_value_t = 8)]
+    pub carvings: u32,
+    /// With --machine: the longest job the maker has, minutes. The design is made as asked (in
+    /// OUT/unlimited/), its job time taken as `scratchart-cal plan` makes it for the same
+    /// machine, and if it is longer, the scratches that matter least go and the rest is
+    /// optimized again, until the job (summed move by move from rest, an upper bound of the
+    /// planner's estimate) fits. summary.json's `job_limit` says what the limit cost each view
+    #[arg(long)]
+    pub max_job_min: Option<f64>,
+    /// Replay steering: pictures moved or scaled at given iterations, as a live design
+    /// (`scratchart-view --design`) recorded them: its summary.json, or a JSON array of
+    /// {"iteration", "view", "shift_px": [x, y], "scale"} (shift in pixels from where the
+    /// design placed the picture, scale about its centre; pictures from --targets only) and
+    /// {"iteration", "lambda_p", "lambda_g"} (the loss's weights from that iteration on)
+    #[arg(long, value_name = "FILE")]
+    pub steer: Option<PathBuf>,
+    /// No progress bar
+    #[arg(long)]
+    pub quiet: bool,
+    /// Test hook: fill the gradient with NaN at this iteration (exercises the rollback)
+    #[arg(long, hide = true)]
+    pub inject_nan_grad_at: Option<u32>,
+    /// Test hook: stop with an error at the top of this iteration (after its checkpoint), as a
+    /// killed run would
+    #[arg(long, hide = true)]
+    pub inject_stop_at: Option<u32>,
+}
+
+pub(super) fn parse_fit(s: &str) -> Result<scratchart::optim::framing::Fit, String> {
+    s.parse()
+}
