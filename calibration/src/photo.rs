@@ -72,6 +72,12 @@ impl Gray {
 pub fn load_photo(path: &Path) -> Result<Gray, String> {
     use image::ImageDecoder as _;
     let name = path.display();
+    let bytes = std::fs::read(path).map_err(|e| format!("cannot read photo `{name}`: {e}"))?;
+    if scratchart::io::jpeg_cut_short(&bytes) {
+        return Err(format!(
+            "photo `{name}` was cut short (a JPEG that ends inside its image data: an interrupted copy or download); copy it again"
+        ));
+    }
     let reader = image::ImageReader::open(path)
         .map_err(|e| format!("cannot read photo `{name}`: {e}"))?
         .with_guessed_format()
@@ -278,6 +284,23 @@ mod photo_tests {
     use super::*;
 
     /// The quality a JPEG was saved at is read back from its table, for any quality; a PNG has none.
+    /// A card photo cut short (an interrupted copy) is refused with its name, not decoded with
+    /// grey where its data stops.
+    #[test]
+    fn a_photo_cut_short_is_refused() {
+        let d = std::env::temp_dir().join(format!("scratchart-photo-cut-{}", std::process::id()));
+        std::fs::create_dir_all(&d).unwrap();
+        let img = image::GrayImage::from_fn(64, 48, |x, y| image::Luma([((x * 3 + y * 2) % 256) as u8]));
+        let whole = d.join("whole.jpg");
+        img.save(&whole).unwrap();
+        assert!(load_photo(&whole).is_ok());
+        let bytes = std::fs::read(&whole).unwrap();
+        let cut = d.join("card_cut.jpg");
+        std::fs::write(&cut, &bytes[..bytes.len() / 2]).unwrap();
+        let e = load_photo(&cut).unwrap_err();
+        assert!(e.contains("card_cut.jpg") && e.contains("cut short"), "{e}");
+    }
+
     #[test]
     fn reads_the_jpeg_quality_back() {
         let dir = std::env::temp_dir().join(format!("scratchart-jpegq-{}", std::process::id()));

@@ -106,6 +106,61 @@ fn png_display_values() {
     assert!(g.iter().all(|v| (0.0..=1.0).contains(v)));
     let msg = io::read_image_gray(&d.join("nothere.png")).unwrap_err().to_string();
     assert!(msg.contains("nothere.png"), "{msg}");
+    // A JPEG cut short (an interrupted copy) is refused: its decoder would fill the rest with
+    // grey and say nothing. Bytes after its end (a phone's appended data) are fine.
+    let big = image::RgbImage::from_fn(64, 48, |x, y| image::Rgb([(x * 4) as u8, (y * 5) as u8, 90]));
+    let pj = d.join("whole.jpg");
+    big.save(&pj).unwrap();
+    let whole = std::fs::read(&pj).unwrap();
+    for cut in [whole.len() / 2, whole.len() - 3] {
+        let pc = d.join("cut.jpg");
+        std::fs::write(&pc, &whole[..cut]).unwrap();
+        let msg = io::read_image_gray(&pc).unwrap_err().to_string();
+        assert!(msg.contains("cut.jpg") && msg.contains("cut short"), "{cut}: {msg}");
+    }
+    let mut padded = whole.clone();
+    padded.extend_from_slice(b"trailing data a phone appended");
+    let pp = d.join("padded.jpg");
+    std::fs::write(&pp, &padded).unwrap();
+    assert_eq!(io::read_image_gray(&pp).unwrap().0, 64);
+    // A phone's portrait: stored turned, with EXIF orientation 6 (turn 90 degrees clockwise to
+    // show). Stored 16 x 8 with its left half white: shown 8 x 16 with its top half white.
+    let stored = image::GrayImage::from_fn(16, 8, |x, _| image::Luma([if x < 8 { 255 } else { 0 }]));
+    let ps = d.join("stored.jpg");
+    stored.save(&ps).unwrap();
+    let j = std::fs::read(&ps).unwrap();
+    let mut tiff = b"MM\x00\x2a\x00\x00\x00\x08\x00\x01".to_vec();
+    tiff.extend_from_slice(&[0x01, 0x12, 0x00, 0x03, 0x00, 0x00, 0x00, 0x01, 0x00, 0x06, 0x00, 0x00]);
+    tiff.extend_from_slice(&[0, 0, 0, 0]);
+    let mut app1 = b"Exif\x00\x00".to_vec();
+    app1.extend_from_slice(&tiff);
+    let mut turned = j[..2].to_vec();
+    turned.extend_from_slice(&[0xFF, 0xE1]);
+    turned.extend_from_slice(&((app1.len() + 2) as u16).to_be_bytes());
+    turned.extend_from_slice(&app1);
+    turned.extend_from_slice(&j[2..]);
+    let pt = d.join("portrait.jpg");
+    std::fs::write(&pt, &turned).unwrap();
+    let (w, h, g) = io::read_image_gray(&pt).unwrap();
+    assert_eq!((w, h), (8, 16), "the EXIF orientation was not applied");
+    let mean = |rows: std::ops::Range<usize>| {
+        rows.clone()
+            .map(|y| g[y * 8..y * 8 + 8].iter().sum::<f32>())
+            .sum::<f32>()
+            / (8 * rows.len()) as f32
+    };
+    assert!(
+        mean(0..7) > 0.8 && mean(9..16) < 0.2,
+        "top {} bottom {}",
+        mean(0..7),
+        mean(9..16)
+    );
+    // A PNG cut short is refused by its decoder.
+    let pn = d.join("whole.png");
+    big.save(&pn).unwrap();
+    let png = std::fs::read(&pn).unwrap();
+    std::fs::write(d.join("cut.png"), &png[..png.len() / 2]).unwrap();
+    assert!(io::read_image_gray(&d.join("cut.png")).is_err());
 }
 
 #[test]

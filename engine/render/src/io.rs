@@ -260,14 +260,35 @@ fn write_png(
 }
 
 /// Read a PNG or JPEG image as gray values in [0, 1] (colour is converted to luma by the
-/// `image` crate's Rec. 709 weights on the stored, display-encoded values; alpha is composited over black; any bit depth).
+/// `image` crate's Rec. 709 weights on the stored, display-encoded values; alpha is composited over black; any bit depth;
+/// the EXIF orientation applied; a JPEG cut short refused).
 /// Returns (width, height, data) top row first.
 pub fn read_image_gray(path: &Path) -> Result<(u32, u32, Vec<f32>), IoError> {
     let bytes = fs::read(path).map_err(|e| io_err("read", path, e))?;
-    let img = image::load_from_memory(&bytes).map_err(|source| IoError::Image {
+    if jpeg_cut_short(&bytes) {
+        // The JPEG decoder fills what a cut-short file lacks with grey and reports nothing.
+        return Err(IoError::Format {
+            kind: "JPEG",
+            path: path.to_path_buf(),
+            msg: "it ends inside its image data (no end-of-image marker after the last scan): the file \
+                  was cut short, by an interrupted copy or download; copy it again"
+                .into(),
+        });
+    }
+    let img_err = |cause| IoError::Image {
         path: path.to_path_buf(),
-        cause: source,
-    })?;
+        cause,
+    };
+    // With the EXIF orientation applied: a phone stores a portrait shot turned and says so there.
+    let mut decoder = image::ImageReader::new(std::io::Cursor::new(&bytes))
+        .with_guessed_format()
+        .map_err(|e| io_err("read", path, e))?
+        .into_decoder()
+        .map_err(img_err)?;
+    let orientation =
+        image::ImageDecoder::orientation(&mut decoder).unwrap_or(image::metadata::Orientation::NoTransforms);
+    let mut img = image::DynamicImage::from_decoder(decoder).map_err(img_err)?;
+    img.apply_orientation(orientation);
     // Any bit depth and colour type; an alpha channel is composited over black (a transparent
     // pixel asks for no light).
     let la = img.to_luma_alpha32f();
@@ -278,6 +299,21 @@ pub fn read_image_gray(path: &Path) -> Result<(u32, u32, Vec<f32>), IoError> {
         .map(|p| (p[0] * p[1]).clamp(0.0, 1.0))
         .collect();
     Ok((w, h, data))
+}
+
+/// Whether `bytes` are a JPEG whose last scan (start-of-scan marker FF DA) is not followed by an
+/// end-of-image marker (FF D9). Inside a scan's entropy-coded data every FF byte is followed by 00
+/// or a restart marker, so FF D9 there is the image's end; an embedded thumbnail's end comes
+/// before the main image's scan and does not count.
+pub fn jpeg_cut_short(bytes: &[u8]) -> bool {
+    if !bytes.starts_with(&[0xFF, 0xD8]) {
+        return false;
+    }
+    let last_scan = bytes.windows(2).rposition(|w| w == [0xFF, 0xDA]);
+    match last_scan {
+        None => true,
+        Some(s) => !bytes[s..].windows(2).any(|w| w == [0xFF, 0xD9]),
+    }
 }
 
 /// Resize a one-channel image (top row first) with a separable tent filter aligned on pixel
