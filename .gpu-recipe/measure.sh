@@ -19,8 +19,10 @@ if [ "$QUICK" = quick ]; then SIZES=S; DESIGN="--scratches 2000 --res 64 --iters
 if [ "$QUICK" != quick ]; then
   "$BIN/scratchart" bench --sizes 640000x3x1024 --iters 3 --repeats 3 --warmup 1 >> "$OUT/bench.md" 2>&1
 fi
-# 2. The same pair search without bands (one thread per 64-scratch group), for the comparison.
-"$BIN/scratchart" bench --sizes "$SIZES" --iters 0 --binning-bands 0 > "$OUT/bench_nobands.md" 2>&1
+# 2. The pair search in the groups mode (a thread per 64-scratch group and band: the GPUs'
+#    default before the pairs mode), then without bands, for the comparison.
+"$BIN/scratchart" bench --sizes "$SIZES" --iters 0 --binning groups > "$OUT/bench_nobands.md" 2>&1
+"$BIN/scratchart" bench --sizes "$SIZES" --iters 0 --binning groups --binning-bands 0 >> "$OUT/bench_nobands.md" 2>&1
 # 3. The paper's scale end to end: wall time split into start-up, iterations, pruning, reports
 #    (summary.json's wall_s), twice: the second run finds the pipeline cache warm.
 for run in 1 2; do
@@ -39,6 +41,7 @@ for c in $CASES; do
   IFS=: read -r N R SIZE <<< "$c"
   rm -rf /tmp/big && "$BIN/scratchart" design --scratches "$N" --res "$R" --iters 0 --prune-tol 0 --quiet --out /tmp/big > /dev/null 2>&1
   { echo; echo "### $SIZE, $N scratches"; "$BIN/scratchart-view" /tmp/big/design.json --benchmark --size "$SIZE"; } >> "$OUT/viewer.md" 2>&1
+  { echo; echo "### $SIZE, $N scratches, --binning groups"; "$BIN/scratchart-view" /tmp/big/design.json --benchmark --size "$SIZE" --binning groups --bench-frames 10; } >> "$OUT/viewer.md" 2>&1
 done
 # 5. Issue 11 on the GPU: the study (its verdict) and what `adaptive` gains over the closed form
 #    on whole scenes (target/release/examples/adaptive_gain, copied into BIN with the others).
@@ -58,9 +61,9 @@ fi
 {
   echo "# GPU measurements ($(date -u +%F))"
   echo; echo "## bench (default bands)"; grep -E '^\||^device' "$OUT/bench.md"
-  echo; echo "## bench, pair search without bands"; grep -E '^\| [A-Z]' "$OUT/bench_nobands.md" | head -8
+  echo; echo "## bench, pair search in the groups mode (with the GPU's bands, then none)"; grep -E '^\| [A-Z]' "$OUT/bench_nobands.md" | head -10
   echo; echo "## design $DESIGN"; grep -E 'wall' "$OUT/design.log"
-  echo; echo "## viewer"; grep -E '^###|^mode|^headless|^device' "$OUT/viewer.md"
+  echo; echo "## viewer"; grep -E '^###|^mode|^headless|^device|^  [0-9]' "$OUT/viewer.md"
   echo; echo "## adaptive against the closed form; the backward's replay against search"; cat "$OUT/adaptive.md" 2>/dev/null
   echo; echo "## study verdict"; tail -n 4 "$OUT/study_verdict.txt" 2>/dev/null
 } > "$OUT/summary.md"

@@ -7,6 +7,12 @@
 // After an exclusive scan of hist (tile-major), pass SCATTER re-enumerates in the same order and
 // writes scratch indices to list[cursor[t * n_groups + g]++]: every tile's list is then sorted by
 // scratch index, whatever the thread timing, so pixel sums are bit-reproducible.
+// PAIRS (GPUs; `GpuScene::binning_mode`): group_size is 1, so a thread owns one (scratch,
+// part), and there is no (tile, group) histogram. COUNT adds 1 to hist[t] per (tile t, scratch)
+// pair and writes sbase as above; after the scans, the emission pass writes each pair at its
+// scratch-major emission index e (today's `inv` order): the tile to list[e] and the scratch to
+// inv[e], here scratch space. radix.comp then sorts the pairs by tile, stably, which is the
+// order above (by tile, then scratch index), and writes the real list and inv.
 // A tile is listed for a scratch when the projected carved rectangle (a convex quad in image
 // space) meets the tile's image rectangle, grown by half a pixel against rounding (separating axes).
 #extension GL_GOOGLE_include_directive : require
@@ -60,6 +66,9 @@ void main() {
     uint k1 = min(k0 + pc.group_size, pc.n_scratches);
     // The loops test at the bottom, behind an `if` for the first test: on CPU drivers a loop that
     // tests at the top runs its body once more with every lane off.
+#ifdef COUNT
+    uint tests = 0u;  // tile tests of this thread: its serial work (stats[15])
+#endif
     uint k = k0;
     if (k < k1) do {
         uint nk = 0u;
@@ -114,16 +123,25 @@ void main() {
             if (ty <= ty1) do {
                 uint tx = tx0;
                 if (tx <= tx1) do {
+#ifdef COUNT
+                    ++tests;
+#endif
                     if (orient != 0.0) {
                         vec2 lo = vec2(float(tx * TILE), float(ty * TILE)) - 0.5;
                         vec2 hi = vec2(float((tx + 1u) * TILE), float((ty + 1u) * TILE)) + 0.5;
                         if (!quad_meets_rect(q, orient, lo, hi)) continue;
                     }
                     uint tile = V.base.x + ty * V.dims.z + tx;
-                    uint slot = tile * pc.n_groups + g;
-#ifdef COUNT
-                    hist[slot] += 1u;
+#if defined(PAIRS) && defined(COUNT)
+                    atomicAdd(hist[tile], 1u);  // a sum of ones: the same whatever the order
+#elif defined(PAIRS)
+                    // Emission e = sb + nk, scratch-major: list <- the tile (the sort's key),
+                    // inv <- the scratch (radix.comp's FINAL reads both back).
+                    if (sb + nk < pc.capacity) { list[sb + nk] = tile; inv[sb + nk] = k; }
+#elif defined(COUNT)
+                    hist[tile * pc.n_groups + g] += 1u;
 #else
+                    uint slot = tile * pc.n_groups + g;
                     uint pos = hist[slot];
                     hist[slot] = pos + 1u;
                     if (pos < pc.capacity) list[pos] = k;
@@ -139,5 +157,8 @@ void main() {
     } while (++k < k1);
     // A thread walks the tiles of its group's scratches in every view: with long scratches over
     // large views that can exceed a device's loop limit; the host then uses smaller groups.
+#ifdef COUNT
+    atomicMax(stats[15], tests);
+#endif
     if (loop_limit_hit(pc.sentinel)) { atomicOr(stats[7], 1u); atomicOr(stats[5], 1u); }
 }

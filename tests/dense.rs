@@ -378,3 +378,121 @@ fn binning_bands_change_no_bit() {
     }
     assert_no_validation(&ctx);
 }
+
+/// The two binning modes (`BinMode::Groups`: a thread per scratch group, CPU drivers;
+/// `BinMode::Pairs`: a thread per scratch and view, then a stable radix sort by tile, GPUs) give
+/// the same tile lists word for word (offsets, lists, the entry map of the backward), so the
+/// same images and gradients bit for bit, on dense tiles, on scratches over every tile, with
+/// more than 256 tiles (two radix passes) and with bands of tile rows.
+#[test]
+fn binning_modes_give_the_same_tile_lists() {
+    use scratchart::render::BinMode;
+    let ctx = gpu();
+    let r = Renderer::new(&ctx).unwrap();
+    let bits = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+    // As in `scratches_over_every_tile`: every tile lists every scratch (more entries than the
+    // first capacity: the lists and the sort grow).
+    let mut rng = Rng::new(11);
+    let wide = Scene {
+        plate: plate(100.0),
+        views: vec![orbit_view("a", 256, 60.0, 30.0, 50.0, 200.0, 100.0)],
+        scratches: (0..400)
+            .map(|_| {
+                let y = rng.range(-2.0, 2.0);
+                scratch([-50.0, y], [50.0, y], 200.0, 200.0, rng.range(0.1, 0.5))
+            })
+            .collect(),
+    };
+    let cases: Vec<(&str, Scene, bool)> = vec![
+        ("two views, 361 + 9 tiles", two_view_scene(4, 1200, 300, 45), true),
+        ("a dense tile", packed(12_000, 6.0, 112, 7), false),
+        ("scratches over every tile", wide, false),
+        ("no scratches", packed(0, 6.0, 64, 1), false),
+    ];
+    for (label, scene, grads) in cases {
+        let mut a = r.upload(&scene).unwrap();
+        a.force_binning_mode(&ctx, BinMode::Groups).unwrap();
+        let first_capacity = a.capacity();
+        let mut b = r.upload(&scene).unwrap();
+        b.force_binning_mode(&ctx, BinMode::Pairs).unwrap();
+        assert_eq!(b.binning_mode(), BinMode::Pairs);
+        let n = a.n_pixels() as usize;
+        let dl: Vec<f32> = (0..n).map(|i| ((i * 31) % 97) as f32 * 1e-2 - 0.4).collect();
+        let (img_a, g_a) = r.gradients(&mut a, &dl).unwrap();
+        let lists_a = a.tile_lists(&ctx).unwrap();
+        for bands in [None, Some(3)] {
+            if let Some(k) = bands {
+                b.force_binning_bands(&ctx, k).unwrap();
+            }
+            let (img_b, g_b) = r.gradients(&mut b, &dl).unwrap();
+            let lists_b = b.tile_lists(&ctx).unwrap();
+            eprintln!(
+                "{label} (bands {bands:?}): {} entries over {} tiles, longest list {}",
+                lists_a.list.len(),
+                lists_a.offsets.len() - 1,
+                lists_a.offsets.windows(2).map(|w| w[1] - w[0]).max().unwrap_or(0)
+            );
+            assert_eq!(lists_a.offsets, lists_b.offsets, "{label}: tile offsets differ");
+            assert!(lists_a.list == lists_b.list, "{label}: tile lists differ");
+            assert!(lists_a.inv == lists_b.inv, "{label}: entry maps differ");
+            for v in 0..img_a.len() {
+                assert_eq!(bits(&img_a[v]), bits(&img_b[v]), "{label}: view {v} differs");
+            }
+            if grads {
+                assert_eq!(
+                    bits(&g_a.scratches.concat()),
+                    bits(&g_b.scratches.concat()),
+                    "{label}: gradients differ"
+                );
+                assert_eq!(g_a.lights, g_b.lights);
+            }
+        }
+        if label.starts_with("scratches over") {
+            assert!(lists_a.list.len() > first_capacity as usize && b.capacity() > first_capacity);
+        }
+        if label.starts_with("no") {
+            assert!(lists_a.list.is_empty());
+        } else {
+            assert!(lists_a.list.len() > 1000, "{label}: {} entries", lists_a.list.len());
+        }
+    }
+    assert_no_validation(&ctx);
+}
+
+/// `scratchart bench --binning-work` states binning's threads and its longest serial loop (tile
+/// tests per thread) from the scene alone; the device's own counters of a render agree, in both
+/// modes, with and without bands.
+#[test]
+fn binning_work_is_what_the_device_does() {
+    use scratchart::render::BinMode;
+    let ctx = gpu();
+    let r = Renderer::new(&ctx).unwrap();
+    let scene = two_view_scene(9, 800, 96, 64);
+    for (mode, bands) in [
+        (BinMode::Groups, 0),
+        (BinMode::Groups, 3),
+        (BinMode::Pairs, 0),
+        (BinMode::Pairs, 2),
+    ] {
+        let mut gs = r.upload(&scene).unwrap();
+        gs.force_binning_mode(&ctx, mode).unwrap();
+        gs.force_binning_bands(&ctx, bands).unwrap();
+        let frame = r.render(&mut gs).unwrap();
+        let (threads, most) = scratchart::bench::binning_work(&scene, mode, bands);
+        eprintln!(
+            "{mode:?}, {bands} bands: {threads} threads, at most {most} tile tests (device: {} and {})",
+            gs.binning_threads(),
+            frame.stats.bin_tests_per_thread
+        );
+        assert_eq!(threads, gs.binning_threads(), "{mode:?} {bands}");
+        assert!(most > 0);
+        // float64 on the host, float32 on the device: a bound on a tile edge may differ.
+        let diff = most.abs_diff(frame.stats.bin_tests_per_thread);
+        assert!(
+            diff * 50 <= most,
+            "{mode:?} {bands}: host {most}, device {}",
+            frame.stats.bin_tests_per_thread
+        );
+    }
+    assert_no_validation(&ctx);
+}

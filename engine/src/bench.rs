@@ -37,6 +37,11 @@ pub struct ForwardRow {
     pub bin_ms: f64,
     /// bands of tile rows per view in the pair search (0: none; `GpuScene::binning_bands`)
     pub bands: u32,
+    /// the pair search's mode (`GpuScene::binning_mode`)
+    pub mode: crate::render::BinMode,
+    /// threads of its pass over (scratch, tile) work, and the most tile tests one made
+    pub bin_threads: u64,
+    pub bin_tests_per_thread: u64,
     pub shade_ms: f64,
     /// backward pass (all views) for dE/dL of the check loss against the scene's own render
     /// perturbed by a fixed pattern
@@ -63,13 +68,15 @@ pub fn median(mut v: Vec<f64>) -> f64 {
 /// Times binning and shading of each scene: `warmup` untimed runs, then the median of `repeats`.
 /// With `compare_backward`, every submission also runs the all-dual-number backward kernel
 /// (the oracle of the default one) after the default backward, so the two are timed side by side.
-/// `binning_bands` overrides the device's choice of bands of tile rows in the pair search.
+/// `binning_mode` and `binning_bands` override the device's choice of binning mode and of bands
+/// of tile rows in the pair search.
 pub fn run_forward(
     ctx: &Arc<Context>,
     scenes: &[(String, Scene)],
     warmup: usize,
     repeats: usize,
     compare_backward: bool,
+    binning_mode: Option<crate::render::BinMode>,
     binning_bands: Option<u32>,
 ) -> Result<Vec<ForwardRow>, GpuError> {
     use crate::render::kernels::{Integrator, KernelSet, Mode};
@@ -85,6 +92,9 @@ pub fn run_forward(
     let mut rows = Vec::new();
     for (name, scene) in scenes {
         let mut gs = renderer.upload(scene)?;
+        if let Some(m) = binning_mode {
+            gs.force_binning_mode(ctx, m)?;
+        }
         if let Some(b) = binning_bands {
             gs.force_binning_bands(ctx, b)?;
         }
@@ -123,6 +133,9 @@ pub fn run_forward(
             pairs: last.pairs,
             bin_ms: median(bins),
             bands: gs.binning_bands(),
+            mode: gs.binning_mode(),
+            bin_threads: gs.binning_threads(),
+            bin_tests_per_thread: last.bin_tests_per_thread,
             shade_ms: median(shades),
             backward_ms: median(backs),
             backward_dual_ms: if oracle.is_some() { median(duals) } else { f64::NAN },
@@ -187,9 +200,12 @@ pub fn forward_table(ctx: &Context, rows: &[ForwardRow]) -> String {
     let _ = writeln!(s, "device: {} ({})", ctx.info().name, ctx.info().kind);
     let _ = writeln!(
         s,
-        "| scene | scratches | views x pixels | tile entries | candidates | pairs | pair search ms/view (bands) | shading ms/view | backward ms/view | forward Mpairs/s | forward GFLOP/s | backward Mpairs/s | backward GFLOP/s |"
+        "| scene | scratches | views x pixels | tile entries | candidates | pairs | pair search ms/view (mode, bands) | binning threads | tile tests per thread (most) | shading ms/view | backward ms/view | forward Mpairs/s | forward GFLOP/s | backward Mpairs/s | backward GFLOP/s |"
     );
-    let _ = writeln!(s, "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
+    let _ = writeln!(
+        s,
+        "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"
+    );
     let mut ratios = String::new();
     for r in rows {
         let v = r.views as f64;
@@ -209,7 +225,7 @@ pub fn forward_table(ctx: &Context, rows: &[ForwardRow]) -> String {
         let flops = r.pairs as f64 * FLOPS_PER_PAIR + (r.candidates - r.pairs) as f64 * FLOPS_PER_CANDIDATE;
         let _ = writeln!(
             s,
-            "| {} | {} | {} x {} | {} | {} | {} | {:.2} ({}) | {:.2} | {:.2} | {:.1} | {:.1} | {:.1} | {:.1} |",
+            "| {} | {} | {} x {} | {} | {} | {} | {:.2} ({}, {}) | {} | {} | {:.2} | {:.2} | {:.1} | {:.1} | {:.1} | {:.1} |",
             r.name,
             r.scratches,
             r.views,
@@ -218,7 +234,10 @@ pub fn forward_table(ctx: &Context, rows: &[ForwardRow]) -> String {
             r.candidates,
             r.pairs,
             r.bin_ms / v,
+            r.mode.name(),
             r.bands,
+            r.bin_threads,
+            r.bin_tests_per_thread,
             r.shade_ms / v,
             r.backward_ms / v,
             r.pairs as f64 / secs * 1e-6,
@@ -373,5 +392,169 @@ pub fn iteration_table(rows: &[IterRow]) -> String {
             r.iters
         );
     }
+    s
+}
+
+/// Binning's pass over (scratch, tile) work in `mode` with `bands` bands of tile rows per view
+/// (0: none): (threads, the most tile tests one thread makes), counted on the host as
+/// `shaders/bin.comp`'s COUNT pass loops (its projected bounding boxes, here in float64: a bound
+/// that falls on a tile edge may count a tile more or less). It depends on the scene and the
+/// mode only, not on the device; `GpuScene::binning_threads` and `RenderStats::bin_tests_per_thread`
+/// give the device's own figures for a render.
+pub fn binning_work(scene: &Scene, mode: crate::render::BinMode, bands: u32) -> (u64, u64) {
+    use crate::model::camera::ViewGeom;
+    use crate::render::layout::TILE;
+    let n = scene.scratches.len();
+    let nv = scene.views.len();
+    let geoms: Vec<ViewGeom> = scene.views.iter().map(ViewGeom::new).collect();
+    // Per (scratch, view): tile rows [r0, r1] and columns, or None.
+    let boxes: Vec<Option<(u32, u32, u32)>> = scene
+        .scratches
+        .iter()
+        .flat_map(|s| {
+            let geoms = &geoms;
+            (0..nv).map(move |v| {
+                let g = &geoms[v];
+                let (tw, th) = (g.width.div_ceil(TILE), g.height.div_ceil(TILE));
+                let d = [s.p1[0] - s.p0[0], s.p1[1] - s.p0[1]];
+                let l = d[0].hypot(d[1]);
+                if l.is_nan() || l <= 0.0 {
+                    return None;
+                }
+                let t = [d[0] / l, d[1] / l];
+                let b = [-t[1], t[0]];
+                let e = s.half_width();
+                let corners = [(s.p0, -e), (s.p1, -e), (s.p1, e), (s.p0, e)];
+                let mut lo = [f64::INFINITY; 2];
+                let mut hi = [f64::NEG_INFINITY; 2];
+                for (p, off) in corners {
+                    match g.project([p[0] + off * b[0], p[1] + off * b[1], 0.0]) {
+                        Some((x, y)) => {
+                            lo = [lo[0].min(x), lo[1].min(y)];
+                            hi = [hi[0].max(x), hi[1].max(y)];
+                        }
+                        // Behind the camera: the whole view (bin.comp's conservative case).
+                        None => return Some((0, th - 1, tw)),
+                    }
+                }
+                let (lo, hi) = ([lo[0] - 0.5, lo[1] - 0.5], [hi[0] + 0.5, hi[1] + 0.5]);
+                if hi[0] < 0.0 || hi[1] < 0.0 || lo[0] > g.width as f64 || lo[1] > g.height as f64 {
+                    return None;
+                }
+                let tx0 = lo[0].max(0.0) as u32 / TILE;
+                let ty0 = lo[1].max(0.0) as u32 / TILE;
+                let tx1 = (hi[0].min(g.width as f64) as u32 / TILE).min(tw - 1);
+                let ty1 = (hi[1].min(g.height as f64) as u32 / TILE).min(th - 1);
+                Some((ty0, ty1, tx1 + 1 - tx0.min(tx1 + 1)))
+            })
+        })
+        .collect();
+    let rows_of = |v: usize| geoms[v].height.div_ceil(TILE);
+    // Tile tests of scratch k in view v within band `band` of `nb` (nb = 0: every row).
+    let tests = |k: usize, v: usize, band: u32, nb: u32| -> u64 {
+        let Some((r0, r1, cols)) = boxes[k * nv + v] else {
+            return 0;
+        };
+        let (lo, hi) = match (band * rows_of(v)).checked_div(nb) {
+            None => (0, rows_of(v)),
+            Some(lo) => (lo, (band + 1) * rows_of(v) / nb),
+        };
+        let (a, b) = (r0.max(lo), (r1 + 1).min(hi));
+        if b > a {
+            (b - a) as u64 * cols as u64
+        } else {
+            0
+        }
+    };
+    let group = match mode {
+        crate::render::BinMode::Groups => crate::render::GROUP_SIZE as usize,
+        crate::render::BinMode::Pairs => 1,
+    };
+    let n_groups = n.div_ceil(group).max(1);
+    let parts = if bands == 0 { 1 } else { nv as u64 * bands as u64 };
+    let mut most = 0u64;
+    for g in 0..n_groups {
+        let ks = g * group..((g + 1) * group).min(n);
+        if bands == 0 {
+            let t: u64 = ks
+                .clone()
+                .flat_map(|k| (0..nv).map(move |v| (k, v)))
+                .map(|(k, v)| tests(k, v, 0, 0))
+                .sum();
+            most = most.max(t);
+        } else {
+            for v in 0..nv {
+                for band in 0..bands {
+                    let t: u64 = ks.clone().map(|k| tests(k, v, band, bands)).sum();
+                    most = most.max(t);
+                }
+            }
+        }
+    }
+    (n_groups as u64 * parts, most)
+}
+
+/// Markdown table of binning's work for each scene, in both modes, with the bands a GPU
+/// chooses and without bands (a CPU driver's choice for groups).
+pub fn binning_work_table(scenes: &[(String, Scene)]) -> String {
+    use crate::render::{bands_on_gpu, BinMode};
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "| scene | scratches | views x pixels | mode | bands per view | binning threads | tile tests per thread (most) |"
+    );
+    let _ = writeln!(s, "|---|---:|---:|---|---:|---:|---:|");
+    for (name, scene) in scenes {
+        let max_rows = scene
+            .views
+            .iter()
+            .map(|v| v.camera.height.div_ceil(crate::render::layout::TILE))
+            .max()
+            .unwrap_or(1);
+        let n = scene.scratches.len() as u32;
+        let nv = scene.views.len() as u32;
+        let rows = [
+            (BinMode::Groups, 0, "groups, no bands (CPU drivers)"),
+            (
+                BinMode::Groups,
+                bands_on_gpu(BinMode::Groups, n, nv, max_rows),
+                "groups (GPUs before)",
+            ),
+            (
+                BinMode::Pairs,
+                bands_on_gpu(BinMode::Pairs, n, nv, max_rows),
+                "pairs (GPUs now)",
+            ),
+        ];
+        for (mode, bands, label) in rows {
+            let (threads, most) = binning_work(scene, mode, bands);
+            let v = &scene.views[0].camera;
+            let _ = writeln!(
+                s,
+                "| {name} | {n} | {nv} x {}x{} | {label} | {bands} | {threads} | {most} |",
+                v.width, v.height
+            );
+        }
+    }
+    let _ = writeln!(
+        s,
+        "
+The pairs mode's sort adds {} passes of 8 bits per render here at most, each a thread per pair whose longest loop is 46 steps (its rank in a block of 256).",
+        scenes
+            .iter()
+            .map(|(_, sc)| {
+                let tiles: u64 = sc
+                    .views
+                    .iter()
+                    .map(|v| {
+                        v.camera.width.div_ceil(crate::render::layout::TILE) as u64
+                            * v.camera.height.div_ceil(crate::render::layout::TILE) as u64
+                    })
+                    .sum();
+                (64 - tiles.saturating_sub(1).leading_zeros() as u64).div_ceil(8).max(1)
+            })
+            .max()
+            .unwrap_or(1)
+    );
     s
 }

@@ -113,6 +113,17 @@ enum Cmd {
         /// driver; on a GPU, enough for about 64k binning threads). For comparing the two
         #[arg(long)]
         binning_bands: Option<u32>,
+        /// The pair search's modes, each timed in turn in one run: `groups` (a thread per group
+        /// of 64 scratches counts into a tiles x groups histogram: the CPU drivers' default) or
+        /// `pairs` (a thread per scratch and view emits its (tile, scratch) pairs, a stable radix
+        /// sort orders them: the GPUs' default); e.g. `--binning groups,pairs`. Both give the
+        /// same tile lists. Default: the device's choice
+        #[arg(long, value_delimiter = ',', value_parser = parse_bin_mode)]
+        binning: Vec<scratchart::render::BinMode>,
+        /// Print binning's work for each scene instead (no device needed): its threads and the
+        /// most tile tests one thread makes, in both modes, with the bands a GPU would take
+        #[arg(long)]
+        binning_work: bool,
     },
     /// Speed against accuracy of the per-pair integral: writes DIR/study.csv, DIR/study.png and
     /// DIR/verdict.txt.
@@ -225,16 +236,18 @@ fn run(cli: Cli) -> Result<()> {
             targets,
             compare_backward,
             binning_bands,
+            binning,
+            binning_work,
         } => bench_cmd(
             &cli,
             sizes,
-            scene.as_deref(),
+            (scene.as_deref(), *binning_work),
             *repeats,
             *warmup,
             *iters,
             targets.as_deref(),
             *compare_backward,
-            *binning_bands,
+            (binning, *binning_bands),
         ),
     }
 }
@@ -334,15 +347,14 @@ fn study_cmd(
 fn bench_cmd(
     cli: &Cli,
     sizes: &[String],
-    scene: Option<&Path>,
+    (scene, binning_work): (Option<&Path>, bool),
     repeats: usize,
     warmup: usize,
     iters: u32,
     targets: Option<&Path>,
     compare_backward: bool,
-    binning_bands: Option<u32>,
+    (binning, binning_bands): (&[scratchart::render::BinMode], Option<u32>),
 ) -> Result<()> {
-    let ctx = context(cli)?;
     let scenes: Vec<(String, Scene)> = match scene {
         Some(p) => vec![(p.display().to_string(), load_scene(p)?)],
         None => sizes
@@ -359,7 +371,36 @@ fn bench_cmd(
             })
             .collect::<Result<_>>()?,
     };
-    let rows = bench::run_forward(&ctx, &scenes, warmup, repeats.max(1), compare_backward, binning_bands)?;
+    if binning_work {
+        print!("{}", bench::binning_work_table(&scenes));
+        return Ok(());
+    }
+    let ctx = context(cli)?;
+    let modes: Vec<Option<scratchart::render::BinMode>> = if binning.is_empty() {
+        vec![None]
+    } else {
+        binning.iter().map(|m| Some(*m)).collect()
+    };
+    let mut rows = Vec::new();
+    for m in &modes {
+        rows.extend(bench::run_forward(
+            &ctx,
+            &scenes,
+            warmup,
+            repeats.max(1),
+            compare_backward,
+            *m,
+            binning_bands,
+        )?);
+    }
+    if modes.len() > 1 {
+        // One scene's modes side by side.
+        let n = scenes.len();
+        rows = (0..n)
+            .flat_map(|i| (0..modes.len()).map(move |k| k * n + i))
+            .map(|j| rows[j].clone())
+            .collect();
+    }
     print!("{}", bench::forward_table(&ctx, &rows));
     if iters > 0 {
         let mut it_rows = Vec::new();
@@ -541,4 +582,9 @@ fn check_validation(ctx: &Context) -> Result<()> {
         anyhow::bail!("{} Vulkan validation message(s); first: {}", msgs.len(), msgs[0]);
     }
     Ok(())
+}
+
+/// `--binning`'s values.
+fn parse_bin_mode(s: &str) -> std::result::Result<scratchart::render::BinMode, String> {
+    scratchart::render::BinMode::parse(s).ok_or_else(|| format!("'{s}': choose groups or pairs"))
 }

@@ -15,6 +15,7 @@
 //   [13] queue entries the forward's chunks needed in the pair store (SA_STORE_PAIRS in
 //       tile_queue.glsl; counted while the scene has a store), [14] pair-store flags: bit 0 the backward's replay met a chunk that
 //       was not stored (it also sets [5]), bit 1 the counter [13] wrapped
+//   [15] the most tile tests one binning thread made (bin.comp's COUNT pass): its serial loop
 //
 // The loop limit: Mesa's llvmpipe (lavapipe) ends every loop of a shader invocation once the
 // invocation has run 65535 loop iterations in all (LP_MAX_TGSI_LOOP_ITERATIONS, counted per

@@ -150,6 +150,8 @@ pub struct FrameRenderer {
     blit_ok: Vec<(vk::Format, bool)>,
     /// The set-up overlay's pixels, written by the host and copied into the output (grows).
     overlay: Option<Buffer>,
+    /// The pair search's mode when not the device's (`--binning`)
+    binning: Option<scratchart::render::BinMode>,
 }
 
 /// Uploaded scenes kept at once (each holds the scratches and the binning buffers).
@@ -169,7 +171,21 @@ impl FrameRenderer {
             staging: Vec::new(),
             blit_ok: Vec::new(),
             overlay: None,
+            binning: None,
         })
+    }
+
+    /// The binning mode and threads of the scene rendered last.
+    pub fn binning_info(&self) -> Option<(scratchart::render::BinMode, u64)> {
+        self.cache
+            .last()
+            .map(|(_, gs, _)| (gs.binning_mode(), gs.binning_threads()))
+    }
+
+    /// Bins every scene uploaded from now on in `mode` (the same images; for measurements).
+    pub fn set_binning(&mut self, mode: Option<scratchart::render::BinMode>) {
+        self.binning = mode;
+        self.cache.clear();
     }
 
     pub fn ctx(&self) -> &Arc<Context> {
@@ -230,7 +246,10 @@ impl FrameRenderer {
             }
             let mut scene = self.scene.clone();
             scene.views = vec![view.clone()];
-            let gs = self.pipes.renderer.upload(&scene)?;
+            let mut gs = self.pipes.renderer.upload(&scene)?;
+            if let Some(m) = self.binning {
+                gs.force_binning_mode(&self.ctx, m)?;
+            }
             self.cache.push((size, gs, None));
         }
         Ok(self.cache.len() - 1)

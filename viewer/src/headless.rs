@@ -389,12 +389,15 @@ pub fn benchmark(
         .unwrap_or(0);
     let ctx = make_context(opts, vec![], vec![], log)?;
     let mut fr = make_frame_renderer(&ctx, design, shaders)?;
+    fr.set_binning(opts.binning);
     let (cam0, light0) = initial_state(opts, design, idx);
     let n = opts.bench_frames.max(1);
     let mut rows = Vec::new();
+    let mut binning = Vec::new();
     for level in BENCH_LEVELS {
         let (iw, ih) = internal_size(full, level);
         let (mut gpu, mut wall, mut stages) = (Vec::new(), Vec::new(), Vec::new());
+        let mut tests = 0u64;
         for k in 0..BENCH_WARMUP + n {
             let t = k.saturating_sub(BENCH_WARMUP) as f64 / n as f64;
             let (cam, light) = bench_path(&cam0, &light0, t);
@@ -417,6 +420,7 @@ pub fn benchmark(
                     None,
                 )
                 .context("benchmark frame")?;
+            tests = tests.max(info.stats.bin_tests_per_thread);
             if k >= BENCH_WARMUP {
                 gpu.push(info.timings.total_ms());
                 wall.push(info.wall_ms);
@@ -431,6 +435,12 @@ pub fn benchmark(
             frame_ms: scratchart::bench::median(wall.clone()),
             stages: stage_medians(&stages),
         });
+        if let Some((mode, threads)) = fr.binning_info() {
+            binning.push(format!(
+                "{iw}x{ih}: {} mode, {threads} threads, at most {tests} tile tests per thread",
+                mode.name()
+            ));
+        }
     }
     print_table(
         &format!(
@@ -440,5 +450,9 @@ pub fn benchmark(
         &ctx.info().name,
         &rows,
     );
+    println!("binning (its pass over scratches and tiles):");
+    for b in binning {
+        println!("  {b}");
+    }
     Ok(())
 }

@@ -142,6 +142,11 @@ pub struct Opts {
     /// display exists) in a window, and print a table
     #[arg(long)]
     pub benchmark: bool,
+    /// The pair search's mode for --benchmark: `groups` (a thread per group of 64 scratches;
+    /// the CPU drivers' default) or `pairs` (a thread per scratch, then a radix sort by tile;
+    /// the GPUs' default). The images are the same; default: the device's choice
+    #[arg(long, value_parser = parse_bin_mode)]
+    pub binning: Option<scratchart::render::BinMode>,
     /// Timed frames per benchmark row (after 3 warm-up frames)
     #[arg(long, default_value_t = 20)]
     pub bench_frames: usize,
@@ -365,4 +370,9 @@ fn run(opts: &Opts, log: &std::cell::RefCell<Option<scratchart::vulkan::Validati
         }
     }
     app::run_window(opts, design, shaders, log)
+}
+
+/// `--binning`'s values.
+fn parse_bin_mode(s: &str) -> std::result::Result<scratchart::render::BinMode, String> {
+    scratchart::render::BinMode::parse(s).ok_or_else(|| format!("'{s}': choose groups or pairs"))
 }

@@ -11,6 +11,11 @@ pub use shaderc;
 pub const PRECOMPILED: &[(&str, &[(&str, &str)])] = &[
     ("bin.comp", &[("COUNT", "1")]),
     ("bin.comp", &[("SCATTER", "1")]),
+    ("bin.comp", &[("PAIRS", "1"), ("COUNT", "1")]),
+    ("bin.comp", &[("PAIRS", "1"), ("SCATTER", "1")]),
+    ("radix.comp", &[("HIST", "1")]),
+    ("radix.comp", &[("SCATTER", "1")]),
+    ("radix.comp", &[("FINAL", "1")]),
     ("scan.comp", &[("REDUCE", "1")]),
     ("scan.comp", &[("SUMS", "1")]),
     ("scan.comp", &[("APPLY", "1")]),

@@ -85,6 +85,22 @@ pub struct BinPush {
     pub pad: u32,
 }
 
+/// Push constants of `radix.comp`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
+pub struct RadixPush {
+    /// blocks of 256 pairs that cover the capacity
+    pub n_blocks: u32,
+    /// the digit's first bit
+    pub shift: u32,
+    /// the word of `sbase` that holds the number of pairs
+    pub total_index: u32,
+    pub capacity: u32,
+    /// 1: the values are the emission indices themselves (the first pass)
+    pub first: u32,
+    pub pad: [u32; 3],
+}
+
 /// Push constants of `scan.comp`.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]

@@ -29,14 +29,14 @@ pub mod tangent;
 use scratchart_model as model;
 use scratchart_vulkan as vulkan;
 
-pub use scene::{GpuScene, RenderStats};
+pub use scene::{bands_on_gpu, BinMode, GpuScene, RenderStats, TileLists};
 
 use std::sync::Arc;
 
 use crate::model::scene::Scene;
 use crate::vulkan::{Buffer, ComputePipeline, Context, GpuError, Recorder, ShaderCompiler, Texel, Timings};
 use kernels::{KernelSet, ShadeKernel};
-use layout::{BinPush, ScanPush, ShadePush};
+use layout::{BinPush, RadixPush, ScanPush, ShadePush};
 
 /// Scratches per binning thread (see `shaders/bin.comp`).
 pub const GROUP_SIZE: u32 = 64;
@@ -48,6 +48,12 @@ pub struct Renderer {
     pub ctx: Arc<Context>,
     bin_count: ComputePipeline,
     bin_scatter: ComputePipeline,
+    /// [`BinMode::Pairs`]: bin.comp's PAIRS passes and radix.comp's
+    pair_count: ComputePipeline,
+    pair_emit: ComputePipeline,
+    radix_hist: ComputePipeline,
+    radix_scatter: ComputePipeline,
+    radix_final: ComputePipeline,
     scan_reduce: ComputePipeline,
     scan_sums: ComputePipeline,
     scan_apply: ComputePipeline,
@@ -139,10 +145,16 @@ impl Renderer {
         let sc = ShaderCompiler::embedded()?;
         let bin_push = std::mem::size_of::<BinPush>() as u32;
         let scan_push = std::mem::size_of::<ScanPush>() as u32;
+        let radix_push = std::mem::size_of::<RadixPush>() as u32;
         Ok(Renderer {
             ctx: ctx.clone(),
             bin_count: ComputePipeline::new(ctx, &sc, "bin.comp", &[("COUNT", "1")], 7, bin_push)?,
             bin_scatter: ComputePipeline::new(ctx, &sc, "bin.comp", &[("SCATTER", "1")], 7, bin_push)?,
+            pair_count: ComputePipeline::new(ctx, &sc, "bin.comp", &[("PAIRS", "1"), ("COUNT", "1")], 7, bin_push)?,
+            pair_emit: ComputePipeline::new(ctx, &sc, "bin.comp", &[("PAIRS", "1"), ("SCATTER", "1")], 7, bin_push)?,
+            radix_hist: ComputePipeline::new(ctx, &sc, "radix.comp", &[("HIST", "1")], 6, radix_push)?,
+            radix_scatter: ComputePipeline::new(ctx, &sc, "radix.comp", &[("SCATTER", "1")], 6, radix_push)?,
+            radix_final: ComputePipeline::new(ctx, &sc, "radix.comp", &[("FINAL", "1")], 6, radix_push)?,
             scan_reduce: ComputePipeline::new(ctx, &sc, "scan.comp", &[("REDUCE", "1")], 3, scan_push)?,
             scan_sums: ComputePipeline::new(ctx, &sc, "scan.comp", &[("SUMS", "1")], 3, scan_push)?,
             scan_apply: ComputePipeline::new(ctx, &sc, "scan.comp", &[("APPLY", "1")], 3, scan_push)?,
@@ -193,8 +205,97 @@ impl Renderer {
         GpuScene::new(&self.ctx, scene)
     }
 
-    /// Records binning (count, scan, scatter) of `gs` into `rec`.
+    /// Records binning of `gs` into `rec`, in its [`BinMode`].
     fn record_binning(&self, rec: &mut Recorder, gs: &GpuScene) {
+        match &gs.pair_sort {
+            Some(sort) if gs.mode == BinMode::Pairs => self.record_pair_binning(rec, gs, sort),
+            _ => self.record_group_binning(rec, gs),
+        }
+    }
+
+    /// [`BinMode::Pairs`]: count per (scratch, part) and per tile, scan both, emit the pairs in
+    /// scratch-major order, sort them by tile (stable, 8 bits a pass), write the lists.
+    fn record_pair_binning(&self, rec: &mut Recorder, gs: &GpuScene, sort: &scene::PairSort) {
+        let push = BinPush {
+            n_scratches: gs.n_scratches,
+            n_views: gs.shade.n_views,
+            n_groups: gs.n_scratches.max(1),
+            group_size: 1,
+            capacity: gs.capacity,
+            sentinel: 2,
+            n_bands: gs.n_bands,
+            pad: 0,
+        };
+        let threads = (gs.n_scratches.max(1) * gs.n_parts()).div_ceil(64);
+        rec.fill(&gs.hist, 0);
+        rec.fill(&gs.sbase, 0);
+        rec.barrier();
+        let bufs = [
+            &gs.views,
+            &gs.scratches,
+            &gs.hist,
+            &gs.list,
+            &gs.sbase,
+            &gs.inv,
+            &gs.stats,
+        ];
+        rec.dispatch_1d(&self.pair_count, &bufs, bytemuck::bytes_of(&push), threads);
+        rec.barrier();
+        self.record_scan(rec, &gs.hist, &gs.sums, &gs.stats, gs.slots.n_tiles as u64 + 1);
+        self.record_scan(rec, &gs.sbase, &gs.sbase_sums, &gs.stats, gs.sbase_len());
+        // The keys (tiles) to the lists' buffer, the scratches to the sort's.
+        let bufs = [
+            &gs.views,
+            &gs.scratches,
+            &gs.hist,
+            &gs.list,
+            &gs.sbase,
+            &sort.scratch_of,
+            &gs.stats,
+        ];
+        rec.dispatch_1d(&self.pair_emit, &bufs, bytemuck::bytes_of(&push), threads);
+        rec.barrier();
+        let keys = [&gs.list, &sort.keys];
+        let passes = scene::radix_passes(gs.slots.n_tiles);
+        let mut radix = RadixPush {
+            n_blocks: sort.blocks,
+            shift: 0,
+            total_index: (gs.sbase_len() - 1) as u32,
+            capacity: gs.capacity,
+            first: 1,
+            pad: [0; 3],
+        };
+        for p in 0..passes as usize {
+            radix.shift = 8 * p as u32;
+            radix.first = (p == 0) as u32;
+            let bufs = [
+                keys[p % 2],
+                &sort.vals[p % 2],
+                &sort.digits,
+                keys[(p + 1) % 2],
+                &sort.vals[(p + 1) % 2],
+                &gs.sbase,
+            ];
+            rec.dispatch_1d(&self.radix_hist, &bufs, bytemuck::bytes_of(&radix), sort.blocks);
+            rec.barrier();
+            self.record_scan(rec, &sort.digits, &sort.digit_sums, &gs.stats, sort.blocks as u64 * 256);
+            rec.dispatch_1d(&self.radix_scatter, &bufs, bytemuck::bytes_of(&radix), sort.blocks);
+            rec.barrier();
+        }
+        let bufs = [
+            &sort.scratch_of,
+            &sort.vals[passes as usize % 2],
+            &sort.digits,
+            &gs.list,
+            &gs.inv,
+            &gs.sbase,
+        ];
+        rec.dispatch_1d(&self.radix_final, &bufs, bytemuck::bytes_of(&radix), sort.blocks);
+        rec.barrier();
+    }
+
+    /// [`BinMode::Groups`]: count per (tile, group), scan, scatter.
+    fn record_group_binning(&self, rec: &mut Recorder, gs: &GpuScene) {
         let push = BinPush {
             n_scratches: gs.n_scratches,
             n_views: gs.shade.n_views,

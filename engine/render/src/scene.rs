@@ -22,6 +22,9 @@ pub struct RenderStats {
     /// Pairs the forward left out by their error bound (the integrator `adaptive`; 0 for the
     /// others): not in `pairs`, so `pairs + culled` are the pairs the scene has.
     pub culled: u64,
+    /// The most tile tests one binning thread made (its serial loop; 0 when the render kept
+    /// the last tile lists).
+    pub bin_tests_per_thread: u64,
 }
 
 /// The `stats` slot the scans set when the (tile, scratch) entries pass `u32::MAX`.
@@ -65,6 +68,99 @@ impl PassPlan {
     }
 }
 
+/// How binning spreads its work over threads. Both give the same tile lists in the same order
+/// (every tile's scratches in increasing index), so the same images and gradients, bit for bit
+/// (`tests/dense.rs::binning_modes_give_the_same_tile_lists`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum BinMode {
+    /// One thread per group of [`crate::GROUP_SIZE`] scratches (on GPUs per group, view and band
+    /// of tile rows) counts into a (tile, group) histogram, which a scan turns into list
+    /// positions (`shaders/bin.comp`). Few threads, each doing much: CPU drivers, whose threads
+    /// are few. Its histogram has tiles x groups entries, scanned every render.
+    Groups,
+    /// One thread per (scratch, view) (and band) counts and emits its (tile, scratch) pairs in
+    /// scratch order, and a stable radix sort by tile, 8 bits a pass, orders them
+    /// (`shaders/radix.comp`): as many threads as pairs at every step, no loop longer than one
+    /// scratch's tiles or 46 (the sort's rank). GPUs.
+    Pairs,
+}
+
+impl BinMode {
+    pub fn name(self) -> &'static str {
+        match self {
+            BinMode::Groups => "groups",
+            BinMode::Pairs => "pairs",
+        }
+    }
+
+    /// `groups` or `pairs`.
+    pub fn parse(s: &str) -> Option<BinMode> {
+        match s {
+            "groups" => Some(BinMode::Groups),
+            "pairs" => Some(BinMode::Pairs),
+            _ => None,
+        }
+    }
+
+    /// The device's mode: groups on a CPU driver, pairs on a GPU.
+    pub fn for_device(info: &crate::vulkan::DeviceInfo) -> BinMode {
+        if info.kind == "cpu" {
+            BinMode::Groups
+        } else {
+            BinMode::Pairs
+        }
+    }
+}
+
+/// The buffers of [`BinMode::Pairs`]'s sort, each one word per tile-list entry (the emitted
+/// keys are the tile lists' own buffer), and the per-(digit, block) counts.
+pub(super) struct PairSort {
+    /// the keys' second buffer (the first is `list`)
+    pub keys: Buffer,
+    /// the values (emission indices), ping-pong
+    pub vals: [Buffer; 2],
+    /// the scratch of each emission index
+    pub scratch_of: Buffer,
+    /// 256 x `blocks` digit counts, scanned in place
+    pub digits: Buffer,
+    pub digit_sums: Buffer,
+    /// blocks of 256 entries that cover the capacity
+    pub blocks: u32,
+}
+
+impl PairSort {
+    fn new(ctx: &std::sync::Arc<Context>, capacity: u32) -> Result<PairSort, GpuError> {
+        let cap = capacity.max(1) as u64;
+        let blocks = cap.div_ceil(256);
+        let gpu_only = |name: &str, words: u64| Buffer::new(ctx, name, words * 4, MemLoc::GpuOnly);
+        Ok(PairSort {
+            keys: gpu_only("pair sort keys", cap)?,
+            vals: [gpu_only("pair sort values", cap)?, gpu_only("pair sort values", cap)?],
+            scratch_of: gpu_only("pair sort scratches", cap)?,
+            digits: gpu_only("pair sort digit counts", blocks * 256)?,
+            digit_sums: gpu_only("pair sort scan sums", (blocks * 256).div_ceil(SCAN_BLOCK as u64))?,
+            blocks: blocks as u32,
+        })
+    }
+}
+
+/// The tile lists as [`GpuScene::tile_lists`] reads them back.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct TileLists {
+    /// first entry of each tile, then the total
+    pub offsets: Vec<u32>,
+    /// scratch indices, tile by tile
+    pub list: Vec<u32>,
+    /// scratch-major entry -> list position
+    pub inv: Vec<u32>,
+}
+
+/// Radix passes of 8 bits that sort tile indices below `n_tiles` (at least one).
+pub(super) fn radix_passes(n_tiles: u32) -> u32 {
+    let bits = 32 - n_tiles.saturating_sub(1).leading_zeros();
+    bits.div_ceil(8).max(1)
+}
+
 /// Device-resident scene: parameters, binning state and images.
 pub struct GpuScene {
     pub(super) slots: ViewSlots,
@@ -97,6 +193,10 @@ pub struct GpuScene {
     /// bands of tile rows per view in binning (0: one binning thread per group does every view;
     /// see `shaders/bin.comp` and [`binning_bands`])
     pub(super) n_bands: u32,
+    /// how binning spreads its work over threads (see [`BinMode`])
+    pub(super) mode: BinMode,
+    /// the sort's buffers of [`BinMode::Pairs`] (None in [`BinMode::Groups`])
+    pub(super) pair_sort: Option<PairSort>,
     pub(super) sbase_sums: Buffer,
     /// scratch-major entry -> tile-list position (for deterministic gradient sums)
     pub(super) inv: Buffer,
@@ -167,14 +267,22 @@ impl GpuScene {
             "one count of pixels and tiles"
         );
         let n_scratches = scene.scratches.len() as u32;
+        let mode = BinMode::for_device(ctx.info());
         let n_groups = dims.groups() as u32;
         let max_rows = slots.views.iter().map(|v| v.dims[3]).max().unwrap_or(1);
-        let n_bands = binning_bands(ctx.info(), n_scratches, n_groups, scene.views.len() as u32, max_rows);
+        let threads = match mode {
+            BinMode::Groups => n_groups,
+            BinMode::Pairs => n_scratches.max(1),
+        };
+        let n_bands = binning_bands(ctx.info(), n_scratches, threads, scene.views.len() as u32, max_rows);
         let (sbase, sbase_sums) =
             scratch_base_buffers(ctx, n_scratches, binning_parts(n_bands, scene.views.len() as u32))?;
         let scr: Vec<ScratchGpu> = scene.scratches.iter().map(ScratchGpu::from).collect();
         let phi: Vec<f32> = scene.views.iter().map(|v| v.radiance_scale() as f32).collect();
-        let hist_len = dims.offsets_len();
+        let hist_len = match mode {
+            BinMode::Groups => dims.offsets_len(),
+            BinMode::Pairs => dims.tiles + 1,
+        };
         let n_blocks = hist_len.div_ceil(SCAN_BLOCK as u64);
         let capacity = dims.first_list_capacity(ctx.info().max_storage_buffer_range);
         let gpu_only = |name: &str, bytes: u64| Buffer::new(ctx, name, bytes, MemLoc::GpuOnly);
@@ -191,7 +299,8 @@ impl GpuScene {
                 alpha_s: scene.plate.roughness as f32,
                 f0: scene.plate.f0 as f32,
                 n_views: scene.views.len() as u32,
-                n_groups,
+                // the stride of the scanned histogram: per tile in the pairs mode
+                n_groups: if mode == BinMode::Pairs { 1 } else { n_groups },
                 n_tiles: slots.n_tiles,
                 capacity,
                 chunks_per_pass: u32::MAX,
@@ -215,6 +324,11 @@ impl GpuScene {
             sbase,
             sbase_sums,
             n_bands,
+            mode,
+            pair_sort: match mode {
+                BinMode::Pairs => Some(PairSort::new(ctx, capacity)?),
+                BinMode::Groups => None,
+            },
             inv: gpu_only("entry inverse map", capacity as u64 * 4)?,
             partials: gpu_only("partial gradients", capacity as u64 * 32)?,
             cov_raw: gpu_only("coverage", dims.image_bytes())?,
@@ -223,7 +337,7 @@ impl GpuScene {
             grad_light: gpu_only("light gradients", scene.views.len() as u64 * 4)?,
             image: gpu_only("image", dims.image_bytes())?,
             stats: Buffer::new(ctx, "stats", 64, MemLoc::GpuToCpu)?,
-            group_size: GROUP_SIZE,
+            group_size: if mode == BinMode::Pairs { 1 } else { GROUP_SIZE },
             fwd_plan: PassPlan::ONE,
             bwd_plan: PassPlan::ONE,
             carry: gpu_only("shading carry (unused: one pass)", 16)?,
@@ -232,7 +346,8 @@ impl GpuScene {
             store_wanted: std::sync::atomic::AtomicBool::new(false),
             store_off: false,
             n_scratches,
-            n_groups,
+            // binning threads per part: scratch groups, or scratches in the pairs mode
+            n_groups: threads,
             slots,
         })
     }
@@ -250,6 +365,7 @@ impl GpuScene {
             entries: st[2] as u64,
             max_tile_chunks: st[4] as u64,
             culled: (st[12] as u64) << 32 | st[11] as u64,
+            bin_tests_per_thread: st[15] as u64,
         }
     }
 
@@ -285,7 +401,7 @@ impl GpuScene {
         }
         if raw[7] != 0 {
             // Binning hit the loop limit: fewer scratches per binning thread.
-            if self.group_size == 1 {
+            if self.group_size == 1 || self.mode == BinMode::Pairs {
                 return Err(limit_err("binning a single scratch over every tile it crosses"));
             }
             self.set_group_size(ctx, self.group_size / 2)?;
@@ -474,6 +590,65 @@ impl GpuScene {
         self.n_bands
     }
 
+    /// How binning spreads its work over threads ([`BinMode::for_device`] unless forced).
+    pub fn binning_mode(&self) -> BinMode {
+        self.mode
+    }
+
+    /// Bins in `mode` from the next render, with the device's choice of bands for it (tests
+    /// and benchmarks: tile lists, images and gradients must not change).
+    pub fn force_binning_mode(&mut self, ctx: &std::sync::Arc<Context>, mode: BinMode) -> Result<(), GpuError> {
+        if mode == self.mode {
+            return Ok(());
+        }
+        self.mode = mode;
+        let n_views = self.shade.n_views;
+        let max_rows = self.slots.views.iter().map(|v| v.dims[3]).max().unwrap_or(1);
+        match mode {
+            BinMode::Pairs => {
+                self.group_size = 1;
+                self.n_groups = self.n_scratches.max(1);
+                self.shade.n_groups = 1;
+                let hist_len = self.slots.n_tiles as u64 + 1;
+                self.hist = Buffer::new(ctx, "bin offsets", hist_len * 4, MemLoc::GpuOnly)?;
+                self.sums = Buffer::new(
+                    ctx,
+                    "scan block sums",
+                    hist_len.div_ceil(SCAN_BLOCK as u64) * 4,
+                    MemLoc::GpuOnly,
+                )?;
+                self.pair_sort = Some(PairSort::new(ctx, self.capacity)?);
+            }
+            BinMode::Groups => {
+                self.pair_sort = None;
+                self.set_group_size(ctx, crate::GROUP_SIZE)?;
+            }
+        }
+        let n_bands = binning_bands(ctx.info(), self.n_scratches, self.n_groups, n_views, max_rows);
+        self.force_binning_bands(ctx, n_bands)
+    }
+
+    /// Test hook: the tile lists of the last render, read back: (first entry of each tile and
+    /// the total, n_tiles + 1 words; the lists; the scratch-major entry -> list position map).
+    #[doc(hidden)]
+    pub fn tile_lists(&self, ctx: &std::sync::Arc<Context>) -> Result<TileLists, GpuError> {
+        let hist: Vec<u32> = ctx.download(&self.hist)?;
+        let stride = self.shade.n_groups as usize;
+        let offsets: Vec<u32> = (0..=self.slots.n_tiles as usize).map(|t| hist[t * stride]).collect();
+        let n = *offsets.last().unwrap_or(&0) as usize;
+        let mut list: Vec<u32> = ctx.download(&self.list)?;
+        let mut inv: Vec<u32> = ctx.download(&self.inv)?;
+        list.truncate(n);
+        inv.truncate(n);
+        Ok(TileLists { offsets, list, inv })
+    }
+
+    /// Threads of binning's pass over (scratch, tile) work: scratch groups (or scratches, in the
+    /// pairs mode) x binning parts.
+    pub fn binning_threads(&self) -> u64 {
+        self.n_groups as u64 * self.n_parts() as u64
+    }
+
     /// Binning parts per scratch: `binning_bands` x views, or 1.
     pub(super) fn n_parts(&self) -> u32 {
         binning_parts(self.n_bands, self.shade.n_views)
@@ -580,6 +755,9 @@ impl GpuScene {
         self.partials = Buffer::new(ctx, "partial gradients", want * 32, MemLoc::GpuOnly)?;
         self.capacity = want as u32;
         self.shade.capacity = self.capacity;
+        if self.mode == BinMode::Pairs {
+            self.pair_sort = Some(PairSort::new(ctx, self.capacity)?);
+        }
         // The store's chunk records are laid out by list position: a new store when asked.
         if self.shade.store_cap > 0 {
             self.want_store();
@@ -638,6 +816,22 @@ fn binning_bands(
     if info.kind == "cpu" {
         return 0;
     }
+    gpu_bands(n_scratches, n_groups, n_views, max_rows)
+}
+
+/// The bands of tile rows per view a GPU bins `mode` with (a CPU driver: none). For statements
+/// of binning's work that do not depend on the device (`scratchart bench --binning-work`).
+pub fn bands_on_gpu(mode: BinMode, n_scratches: u32, n_views: u32, max_rows: u32) -> u32 {
+    let threads = match mode {
+        BinMode::Groups => n_scratches.div_ceil(GROUP_SIZE).max(1),
+        BinMode::Pairs => n_scratches.max(1),
+    };
+    gpu_bands(n_scratches, threads, n_views, max_rows)
+}
+
+/// Enough bands for about 64k binning threads (`n_groups` threads per part x views x bands), at
+/// most the views' tile rows, and at most 16 M (scratch, part) bases (64 MiB).
+fn gpu_bands(n_scratches: u32, n_groups: u32, n_views: u32, max_rows: u32) -> u32 {
     let jobs = (n_groups as u64 * n_views.max(1) as u64).max(1);
     let want = 65_536u64.div_ceil(jobs);
     let fit = ((16u64 << 20) / (n_scratches.max(1) as u64 * n_views.max(1) as u64)).max(1);
