@@ -292,3 +292,103 @@ fn live_flags_are_checked() {
     let o = live(None, &["--headless", "--script", "x", "--out", &out]);
     assert_eq!(o.status.code(), Some(2), "{}", text(&o));
 }
+
+/// Scratches added and removed while the design runs (by script: 40 added at iteration 3, the
+/// 60 that matter least removed at 5) are recorded in summary.json with the removed indices and
+/// the added ones' random stream; `scratchart design --steer summary.json` replays them to the
+/// same bits; a run saved after them is continued by `scratchart design --resume` with its
+/// number of scratches (a warning says the record is not whole without --steer), and with
+/// --steer across the resume, later changes included, to the same bits; changes that cannot
+/// apply are refused.
+#[test]
+fn scratches_added_and_removed_live_are_replayed_and_resumed() {
+    let dir = tmp_dir("resize");
+    let p = |n: &str| dir.join(n);
+    let s = |n: &str| dir.join(n).display().to_string();
+    let o = live(
+        None,
+        &[
+            "--iters",
+            "12",
+            "--out",
+            &s("live"),
+            "--headless",
+            "--validation",
+            "--script",
+            "3:add 40;5:remove 60;9:add 7",
+        ],
+    );
+    assert!(o.status.success(), "live design failed: {}", text(&o));
+    let t = text(&o);
+    assert!(t.contains("300 -> 340 scratches from iteration 3"), "{t}");
+    assert!(t.contains("340 -> 280 scratches from iteration 5"), "{t}");
+    assert!(t.contains("validation messages: 0"), "{t}");
+    let steering = summary(&p("live"))["steering"].clone();
+    assert_eq!(steering[0]["add"], 40, "{steering}");
+    assert!(steering[0]["seed"].is_u64(), "{steering}");
+    assert_eq!(
+        steering[1]["remove"].as_array().map(|r| r.len()),
+        Some(60),
+        "{steering}"
+    );
+    assert_eq!(steering[2]["add"], 7, "{steering}");
+    let rows = |d: &str| {
+        std::fs::read_to_string(p(d).join("scratches.csv"))
+            .unwrap()
+            .lines()
+            .count()
+            - 1
+    };
+    assert_eq!(rows("live"), 287);
+    let same = |x: &str, y: &str| {
+        std::fs::read(p(x).join("scratches.csv")).unwrap() == std::fs::read(p(y).join("scratches.csv")).unwrap()
+    };
+    // Replayed from the command line.
+    let record = s("live/summary.json");
+    let o = design(&["--iters", "12", "--out", &s("replay"), "--steer", &record]);
+    assert!(o.status.success(), "replay failed: {}", text(&o));
+    assert!(same("live", "replay"), "the replayed design differs from the live one");
+    assert_eq!(summary(&p("replay"))["steering"], steering);
+    // Saved at 7 (after two changes), continued with --steer: the first two are in the
+    // checkpoint, the third is applied at 9.
+    let o = live(
+        None,
+        &[
+            "--iters",
+            "12",
+            "--out",
+            &s("saved"),
+            "--headless",
+            "--script",
+            "3:add 40;5:remove 60;7:save;7:stop",
+        ],
+    );
+    assert!(o.status.success(), "{}", text(&o));
+    assert_eq!(rows("saved"), 280);
+    std::fs::copy(p("saved").join("checkpoint.bin"), dir.join("checkpoint_at_7.bin")).unwrap();
+    let o = design(&["--iters", "12", "--out", &s("saved"), "--resume", "--steer", &record]);
+    assert!(o.status.success(), "resume failed: {}", text(&o));
+    assert_eq!(summary(&p("saved"))["resumed_from_iteration"], 7);
+    assert!(same("live", "saved"), "the resumed design differs from the live one");
+    assert_eq!(summary(&p("saved"))["steering"], steering);
+    // Without --steer: the checkpoint's 280 scratches go on, and a warning says so.
+    std::fs::copy(dir.join("checkpoint_at_7.bin"), p("saved").join("checkpoint.bin")).unwrap();
+    let o = design(&["--iters", "12", "--out", &s("saved"), "--resume"]);
+    assert!(o.status.success(), "{}", text(&o));
+    assert!(
+        text(&o).contains("added or removed scratches 2 time(s) (280 scratches now)"),
+        "{}",
+        text(&o)
+    );
+    assert_eq!(rows("saved"), 280);
+    // Refused: a scratch that is not there, an addition without its stream.
+    for (json, what) in [
+        (r#"[{"iteration": 2, "remove": [5000]}]"#, "no scratch 5000"),
+        (r#"[{"iteration": 2, "add": 5}]"#, "seed"),
+    ] {
+        let f = write_steer(&dir, json);
+        let o = design(&["--iters", "4", "--out", &s("bad"), "--steer", &f]);
+        assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+        assert!(text(&o).contains(what), "{}", text(&o));
+    }
+}

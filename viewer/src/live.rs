@@ -71,7 +71,9 @@ pub struct LiveOpts {
     /// Drive the run by script, for tests and demos: `;`-separated `ITER:COMMAND` items, run
     /// after iteration ITER is accepted, in order: `pause`, `resume`, `save`, `stop`, `lamp
     /// AZ EL` (the window's lamp; headless: the preview's), `wait SECS` (while paused: the
-    /// window keeps drawing). Example: `5:pause;5:lamp 30 60;5:save;5:resume;9:stop`
+    /// window keeps drawing), `steer VIEW DX DY SCALE`, `weight PIXEL GRAM`, `add N` (N more
+    /// scratches, drawn as the first ones were), `remove N` (the N that matter least).
+    /// Example: `5:pause;5:lamp 30 60;5:save;5:resume;9:stop`
     #[arg(long, value_name = "SCRIPT")]
     pub script: Option<String>,
 }
@@ -83,6 +85,10 @@ pub enum ScriptCmd {
     Steer(String, f64, f64, f64),
     /// The loss's weights: the pixel term's and the Gram term's.
     Weight(f64, f64),
+    /// Scratches added (drawn as the first ones were).
+    Add(u32),
+    /// The scratches that matter least removed.
+    Remove(u32),
     Pause,
     Resume,
     Save,
@@ -116,6 +122,18 @@ pub fn parse_script(s: &str) -> Result<Vec<(u32, ScriptCmd)>, String> {
             Some("lamp") => ScriptCmd::Lamp(num(words.get(1))?, num(words.get(2))?),
             Some("wait") => ScriptCmd::Wait(num(words.get(1))?),
             Some("weight") => ScriptCmd::Weight(num(words.get(1))?, num(words.get(2))?),
+            Some(w @ ("add" | "remove")) => {
+                let n = words
+                    .get(1)
+                    .and_then(|w| w.parse::<u32>().ok())
+                    .filter(|&n| n > 0)
+                    .ok_or_else(|| format!("--script item `{item}`: {w} N, with N a whole number of scratches above 0"))?;
+                if w == "add" {
+                    ScriptCmd::Add(n)
+                } else {
+                    ScriptCmd::Remove(n)
+                }
+            }
             Some("steer") => ScriptCmd::Steer(
                 words
                     .get(1)
@@ -127,7 +145,7 @@ pub fn parse_script(s: &str) -> Result<Vec<(u32, ScriptCmd)>, String> {
             ),
             _ => {
                 return Err(format!(
-                    "--script item `{item}`: unknown command (pause, resume, save, stop, lamp AZ EL, wait SECS, steer VIEW DX DY SCALE, weight PIXEL GRAM)"
+                    "--script item `{item}`: unknown command (pause, resume, save, stop, lamp AZ EL, wait SECS, steer VIEW DX DY SCALE, weight PIXEL GRAM, add N, remove N)"
                 ))
             }
         };
@@ -166,6 +184,8 @@ pub struct Control {
     pub steer: Vec<(String, [f64; 2], f64)>,
     /// Loss weights to set: (lambda_p, lambda_g).
     pub weights: Vec<(f64, f64)>,
+    /// Scratches to add (> 0) or remove (< 0), in order.
+    pub scratches: Vec<i64>,
 }
 
 /// What the optimizer thread publishes.
@@ -418,6 +438,12 @@ impl Session {
         self.control.lock().unwrap().weights.push((lambda_p, lambda_g));
     }
 
+    /// Adds `n` scratches (n > 0) or removes the -n that matter least (n < 0) at the next
+    /// iteration boundary.
+    pub fn request_scratches(&self, n: i64) {
+        self.control.lock().unwrap().scratches.push(n);
+    }
+
     pub fn request_save(&self) {
         self.control.lock().unwrap().save = true;
     }
@@ -507,6 +533,8 @@ fn hook(
             }
             ScriptCmd::Steer(view, dx, dy, scale) => ctl.steer.push((view, [dx, dy], scale)),
             ScriptCmd::Weight(p, g) => ctl.weights.push((p, g)),
+            ScriptCmd::Add(n) => ctl.scratches.push(n as i64),
+            ScriptCmd::Remove(n) => ctl.scratches.push(-(n as i64)),
             ScriptCmd::Wait(s) => {
                 drop(ctl);
                 std::thread::sleep(Duration::from_secs_f64(s.clamp(0.0, 60.0)));
@@ -532,7 +560,7 @@ fn serve(
     block: bool,
 ) -> Result<bool, scratchart::optim::OptimError> {
     loop {
-        let (save, stop, paused, steer, weights) = {
+        let (save, stop, paused, steer, weights, scratches) = {
             let mut c = control.lock().unwrap();
             let s = (
                 c.save,
@@ -540,10 +568,29 @@ fn serve(
                 c.paused,
                 std::mem::take(&mut c.steer),
                 std::mem::take(&mut c.weights),
+                std::mem::take(&mut c.scratches),
             );
             c.save = false;
             s
         };
+        for n in scratches {
+            let before = live.n_scratches();
+            let r = if n > 0 {
+                live.add_scratches(n as u32)
+            } else {
+                live.remove_scratches(n.unsigned_abs().min(u32::MAX as u64) as u32)
+            };
+            let r = match r {
+                Ok(()) => Ok(format!(
+                    "{before} -> {} scratches from iteration {}",
+                    live.n_scratches(),
+                    live.iteration()
+                )),
+                Err(scratchart::optim::OptimError::Usage(m)) => Err(m),
+                Err(e) => return Err(e),
+            };
+            let _ = tx.send(Update::Note(r));
+        }
         for (p, g) in weights {
             let r = match live.steer_weights(Some(p), Some(g)) {
                 Ok(()) => Ok(format!(
@@ -688,6 +735,13 @@ mod tests {
         assert!(parse_script("5:lamp 30").unwrap_err().contains("number"));
         assert!(parse_script("5:fly").unwrap_err().contains("unknown command"));
         assert!(parse_script("5:pause;3:resume").unwrap_err().contains("in order"));
+        assert_eq!(
+            parse_script("2:add 40;3:remove 7").unwrap(),
+            vec![(2, ScriptCmd::Add(40)), (3, ScriptCmd::Remove(7))]
+        );
+        for bad in ["2:add", "2:add 0", "2:remove -3", "2:add 1.5"] {
+            assert!(parse_script(bad).unwrap_err().contains("whole number"), "{bad}");
+        }
     }
 
     #[test]

@@ -60,6 +60,8 @@ macro_rules! keys_text {
                      view's picture on the plate; recorded in summary.json's `steering`, which
                      `scratchart design --steer summary.json` replays
   G / shift+G        live design: the loss's Gram-term weight x2 / /2 (recorded the same way)
+  C / shift+C        live design: a tenth more scratches, drawn as the first ones were / the
+                     tenth that matter least removed (recorded the same way)
   R                  reset camera, light and exposure
   H                  print this list
   Esc / Q            quit"

@@ -142,6 +142,14 @@ pub(super) struct HostState {
     pub best: Option<f32>,
     pub history: Vec<Evaluation>,
     pub rollbacks: Vec<Rollback>,
+    /// Scratches of the state (None in checkpoints that predate [`Driver::replace_scene`]: the
+    /// problem's own number).
+    #[serde(default)]
+    pub n_scratches: Option<u32>,
+    /// Times the scene was replaced by another number of scratches ([`Driver::replace_scene`]):
+    /// a resumed run does not apply those changes again.
+    #[serde(default)]
+    pub resized: u32,
 }
 
 /// Copies of one block's state on the GPU (parameters and moments).
@@ -246,6 +254,8 @@ impl<'r> Driver<'r> {
                     best: None,
                     history: Vec::new(),
                     rollbacks: Vec::new(),
+                    n_scratches: None,
+                    resized: 0,
                 },
                 cfg,
                 fingerprint,
@@ -436,6 +446,127 @@ impl<'r> Driver<'r> {
         checkpoint::write(dir, &self.inner.fingerprint, &self.inner.st, &chunks)
     }
 
+    /// The number of scratches of the checkpoint in `dir` (None: the problem's own), and how many
+    /// times its run replaced the scene ([`replace_scene`](Self::replace_scene)). A caller whose
+    /// scene has another number replaces it before [`load_checkpoint`](Self::load_checkpoint).
+    pub fn checkpoint_scratches(&self, dir: &Path) -> Result<(Option<u32>, u32), OptimError> {
+        let (st, _) = checkpoint::read::<HostState>(dir, &self.inner.fingerprint)?;
+        Ok((st.n_scratches, st.resized))
+    }
+
+    /// How many times this run replaced the scene (see [`replace_scene`](Self::replace_scene)).
+    pub fn times_resized(&self) -> u32 {
+        self.inner.st.resized
+    }
+
+    /// Replaces the scene by `gs`, whose scratch i is the current scratch `remap[i]` or, where
+    /// that is None, a new scratch as uploaded in `gs`, between two iterations (a live design's
+    /// added or removed scratches). The block named `per_scratch.0` holds `per_scratch.1` floats
+    /// per scratch: its parameters, Adam moments and good copy (the state a rollback returns to)
+    /// are carried over by `remap`, new scratches starting with zero moments; every other block
+    /// must keep its length and is carried over whole. Deterministic: a replayed run that
+    /// replaces the scene at the same iteration with the same `gs` and `remap` continues with the
+    /// same bits.
+    pub fn replace_scene(
+        &mut self,
+        gs: GpuScene,
+        remap: &[Option<u32>],
+        per_scratch: (&str, u32),
+    ) -> Result<(), OptimError> {
+        assert_eq!(
+            remap.len(),
+            gs.n_scratches() as usize,
+            "one entry of remap per new scratch"
+        );
+        let ctx = self.inner.ctx.clone();
+        let n_old = self.gs.n_scratches();
+        let read = |b: &Buffer, len: u32| -> Result<Vec<f32>, GpuError> {
+            let mut v: Vec<f32> = ctx.download(b)?;
+            v.truncate(len as usize);
+            Ok(v)
+        };
+        // The current state on the host: per block (params, m, v, good params, good m, good v).
+        let mut old = Vec::new();
+        for (b, s) in self.inner.params.blocks(&self.gs).iter().zip(&self.inner.blocks) {
+            old.push((
+                b.name,
+                b.len,
+                [
+                    read(b.params, b.len)?,
+                    read(&s.moments.m, b.len)?,
+                    read(&s.moments.v, b.len)?,
+                    read(&s.good.params, b.len)?,
+                    read(&s.good.m, b.len)?,
+                    read(&s.good.v, b.len)?,
+                ],
+            ));
+        }
+        let mut blocks = Vec::new();
+        let mut rec = Recorder::new(&ctx)?;
+        rec.begin()?;
+        let mut temps = Vec::new();
+        for (b, (name, len, data)) in self.inner.params.blocks(&gs).iter().zip(&old) {
+            assert_eq!(b.name, *name, "the parameter set's blocks keep their order");
+            let new: [Vec<f32>; 6] = if b.name == per_scratch.0 {
+                let k = per_scratch.1 as usize;
+                assert_eq!(*len as usize, k * n_old as usize, "{} floats per scratch", k);
+                let fresh = read(b.params, b.len)?;
+                let mut out: [Vec<f32>; 6] = Default::default();
+                for (c, o) in out.iter_mut().enumerate() {
+                    *o = vec![0f32; b.len as usize];
+                    for (i, m) in remap.iter().enumerate() {
+                        let dst = &mut o[i * k..(i + 1) * k];
+                        match m {
+                            Some(j) => dst.copy_from_slice(&data[c][*j as usize * k..(*j as usize + 1) * k]),
+                            // A new scratch: as uploaded, now and in the good copy; no moments.
+                            None if c == 0 || c == 3 => dst.copy_from_slice(&fresh[i * k..(i + 1) * k]),
+                            None => {}
+                        }
+                    }
+                }
+                out
+            } else {
+                if b.len != *len {
+                    return Err(OptimError::Usage(format!(
+                        "the parameter block `{}` changes its length ({len} -> {}) with the scratches: it cannot be carried over",
+                        b.name, b.len
+                    )));
+                }
+                data.clone()
+            };
+            let moments = Moments {
+                m: ctx.upload(&format!("{} adam m", b.name), &padded(&new[1]))?,
+                v: ctx.upload(&format!("{} adam v", b.name), &padded(&new[2]))?,
+            };
+            let snap = Copy3::new(&ctx, "snapshot", b, &moments)?;
+            let good = Copy3::new(&ctx, "good copy", b, &moments)?;
+            for (src, dst) in [
+                (&new[3], &good.params),
+                (&new[4], &good.m),
+                (&new[5], &good.v),
+                (&new[0], b.params),
+            ] {
+                let tmp = ctx.upload("carried state", &padded(src))?;
+                rec.copy(&tmp, dst, tmp.size().min(dst.size()));
+                temps.push(tmp);
+            }
+            blocks.push(BlockState {
+                groups: Adam::group_buffer(&ctx, b)?,
+                snap,
+                good,
+                moments,
+            });
+        }
+        rec.barrier();
+        rec.submit_and_wait()?;
+        drop(temps);
+        self.gs = gs;
+        self.inner.blocks = blocks;
+        self.inner.st.n_scratches = Some(self.gs.n_scratches());
+        self.inner.st.resized += 1;
+        Ok(())
+    }
+
     /// Restores the state saved by [`save_checkpoint`](Self::save_checkpoint) in `dir`.
     pub fn load_checkpoint(&mut self, dir: &Path) -> Result<(), OptimError> {
         let (st, chunks) = checkpoint::read(dir, &self.inner.fingerprint)?;
@@ -603,6 +734,15 @@ impl Inner<'_> {
             lr_scale: self.st.lr_scale,
         });
         Ok(())
+    }
+}
+
+/// `v`, or one zero when empty (buffers are never empty).
+fn padded(v: &[f32]) -> Vec<f32> {
+    if v.is_empty() {
+        vec![0.0]
+    } else {
+        v.to_vec()
     }
 }
 

@@ -230,7 +230,9 @@ pub struct DesignArgs {
     /// (`scratchart-view --design`) recorded them: its summary.json, or a JSON array of
     /// {"iteration", "view", "shift_px": [x, y], "scale"} (shift in pixels from where the
     /// design placed the picture, scale about its centre; pictures from --targets only) and
-    /// {"iteration", "lambda_p", "lambda_g"} (the loss's weights from that iteration on)
+    /// {"iteration", "lambda_p", "lambda_g"} (the loss's weights from that iteration on) and
+    /// {"iteration", "remove": [indices], "add": N, "seed": S} (scratches removed, then N
+    /// added, drawn as the first ones were from the random stream S)
     #[arg(long, value_name = "FILE")]
     pub steer: Option<PathBuf>,
     /// No progress bar

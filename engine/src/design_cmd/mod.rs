@@ -364,7 +364,7 @@ pub fn prepare(ctx: &Arc<Context>, args: &DesignArgs, obs: &dyn Observer) -> any
             .into());
         }
     }
-    let problem = problem(args, ctx.info())?;
+    let mut problem = problem(args, ctx.info())?;
     if args.targets.is_empty() && problem.walk.is_none() {
         let names: Vec<&str> = (0..problem.scene.views.len())
             .map(|j| scratchart::optim::targets::SHAPES[j % scratchart::optim::targets::SHAPES.len()])
@@ -404,6 +404,15 @@ pub fn prepare(ctx: &Arc<Context>, args: &DesignArgs, obs: &dyn Observer) -> any
         cfg.carvings = args.carvings;
         cfg.tool = Some(fab);
     }
+    problem.init = Some(scratchart::optim::steer::ScratchInit {
+        len_mm: (
+            0.01 * args.len_min_pct * problem.scene.plate.size_mm,
+            0.01 * args.len_max_pct * problem.scene.plate.size_mm,
+        ),
+        w: args.init_w,
+        d: args.init_d,
+        alpha: args.init_alpha,
+    });
     if let Some(path) = &args.steer {
         ensure_flag!(
             args.max_job_min.is_none(),
@@ -413,6 +422,11 @@ pub fn prepare(ctx: &Arc<Context>, args: &DesignArgs, obs: &dyn Observer) -> any
         for e in &events {
             scratchart::optim::steer::check(e, &problem.scene.views, &problem.sources)
                 .map_err(scratchart::exit::UsageError)?;
+            ensure_flag!(
+                !(e.resizes() && cfg.tool.is_some()),
+                "--steer: the event at iteration {} adds or removes scratches, which a design with --tool cannot do",
+                e.iteration
+            );
         }
         obs.info(&format!(
             "replaying {} steering event(s) from {}",

@@ -27,6 +27,9 @@ pub struct Optimizer<'r> {
     cfg: DesignConfig,
     /// Fabrication mode's parameter set (the depths live there).
     pub tool: Option<Arc<ToolParams>>,
+    /// The problem's scene (plate, views, first scratches): what a changed number of scratches
+    /// is uploaded with.
+    template: Scene,
 }
 
 impl<'r> Optimizer<'r> {
@@ -96,6 +99,7 @@ impl<'r> Optimizer<'r> {
             driver,
             cfg: cfg.clone(),
             tool,
+            template: problem.scene.clone(),
         })
     }
 
@@ -203,8 +207,16 @@ impl<'r> Optimizer<'r> {
         hook: &mut LiveHook<'_>,
     ) -> Result<(f64, u32), OptimError> {
         let Optimizer {
-            renderer, driver, cfg, ..
+            renderer,
+            driver,
+            cfg,
+            tool,
+            ..
         } = self;
+        let resizable = tool.is_none();
+        // Scheduled events that change the scratches and that the state already holds (a
+        // resumed run's checkpoint counts them): recorded, not applied again.
+        let mut skip = driver.times_resized();
         let mut next = 0usize;
         // What was due before the first iteration of this run (all of it up to a resumed
         // run's iteration, so the targets are those of the run that stopped).
@@ -215,8 +227,10 @@ impl<'r> Optimizer<'r> {
             loss,
             keep_exposures: cfg.keep_exposures,
             out: &cfg.out,
+            adam: &cfg.adam,
+            resizable,
         }
-        .apply_due(scheduled, &mut next)?;
+        .apply_due(scheduled, &mut next, &mut skip)?;
         driver.run_with(obs, &mut |d, ev| {
             let mut live = Live {
                 driver: d,
@@ -225,14 +239,29 @@ impl<'r> Optimizer<'r> {
                 loss,
                 keep_exposures: cfg.keep_exposures,
                 out: &cfg.out,
+                adam: &cfg.adam,
+                resizable,
             };
-            live.apply_due(scheduled, &mut next)?;
+            live.apply_due(scheduled, &mut next, &mut skip)?;
             hook(&mut live, ev)
         })
     }
 
-    /// Continues from the checkpoint in `cfg.out`.
+    /// Continues from the checkpoint in `cfg.out` (with its number of scratches, where a live
+    /// design added or removed some before it was saved).
     pub fn resume(&mut self) -> Result<(), OptimError> {
+        let (n, _) = self.driver.checkpoint_scratches(&self.cfg.out)?;
+        if let Some(n) = n.filter(|&n| n != self.driver.gs.n_scratches()) {
+            // Any n scratches: the checkpoint's state replaces them.
+            let mut scene = self.template.clone();
+            let first = scene.scratches.first().copied().ok_or_else(|| {
+                OptimError::Usage("the checkpoint's design has scratches, the problem has none".into())
+            })?;
+            scene.scratches.resize(n as usize, first);
+            let gs = self.renderer.upload(&scene)?;
+            self.driver
+                .replace_scene(gs, &vec![None; n as usize], ("scratches", 8))?;
+        }
         self.driver.load_checkpoint(&self.cfg.out)
     }
 }
@@ -270,6 +299,11 @@ pub struct Live<'a, 'r> {
     pub keep_exposures: bool,
     /// The design's output directory.
     pub out: &'a std::path::Path,
+    /// The optimizer's learning rates (what ranks scratches for removal).
+    pub adam: &'a super::adam::AdamConfig,
+    /// Whether scratches can be added or removed (not in fabrication mode, whose depths are a
+    /// parameter set of their own).
+    pub resizable: bool,
 }
 
 /// Called after each accepted iteration of a live design; `Ok(false)` ends the optimization
@@ -318,11 +352,120 @@ impl Live<'_, '_> {
         self.steer_event(super::steer::SteerEvent::weights(self.iteration(), lambda_p, lambda_g))
     }
 
+    /// The scratches of the design as it stands.
+    pub fn n_scratches(&self) -> u32 {
+        self.driver.gs.n_scratches()
+    }
+
+    /// Removes the `n` scratches that matter least now (the pruning's ranking: how far the
+    /// last gradient would move each, ties by index) from this iteration on, recorded in the
+    /// problem's `steering` with their indices. At least one scratch stays.
+    pub fn remove_scratches(&mut self, n: u32) -> Result<(), OptimError> {
+        let have = self.n_scratches();
+        let n = n.min(have.saturating_sub(1));
+        if n == 0 {
+            return Err(OptimError::Usage(format!(
+                "cannot remove scratches: the design has {have}, and one must stay"
+            )));
+        }
+        let g: Vec<[f32; 8]> = self.renderer.ctx.download(self.driver.gs.scratch_grad())?;
+        let imp = super::prune::importance(&g[..have as usize], self.adam);
+        let mut order: Vec<(f64, u32)> = imp.into_iter().zip(0..).collect();
+        order.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+        let mut idx: Vec<u32> = order[..n as usize].iter().map(|o| o.1).collect();
+        idx.sort_unstable();
+        self.steer_event(super::steer::SteerEvent::scratches(self.iteration(), idx, 0, 0))
+    }
+
+    /// Adds `n` scratches, drawn as the design drew its first ones, from this iteration on,
+    /// recorded in the problem's `steering` with the random stream they were drawn from.
+    pub fn add_scratches(&mut self, n: u32) -> Result<(), OptimError> {
+        // One stream per (iteration, event): a replay draws the same scratches.
+        let seed = 0x5eed_0000_0000u64 ^ ((self.iteration() as u64) << 16) ^ self.problem.steering.len() as u64;
+        self.steer_event(super::steer::SteerEvent::scratches(
+            self.iteration(),
+            Vec::new(),
+            n,
+            seed,
+        ))
+    }
+
+    /// Removes and adds scratches as `e` says: the design read back, the removed ones left
+    /// out, the new ones drawn after the rest, uploaded again, and the optimizer's state
+    /// carried over ([`Driver::replace_scene`]).
+    fn resize(&mut self, e: &super::steer::SteerEvent) -> Result<(), OptimError> {
+        if !self.resizable {
+            return Err(OptimError::Usage(
+                "scratches cannot be added or removed in fabrication mode (--tool): each has a depth of its own".into(),
+            ));
+        }
+        let have = self.n_scratches();
+        let current = self.scene()?;
+        let mut gone = vec![false; have as usize];
+        for &i in e.remove.iter().flatten() {
+            if i >= have {
+                return Err(OptimError::Usage(format!(
+                    "steering at iteration {}: there is no scratch {i} to remove (the design has {have})",
+                    e.iteration
+                )));
+            }
+            gone[i as usize] = true;
+        }
+        let mut remap: Vec<Option<u32>> = (0..have).filter(|&i| !gone[i as usize]).map(Some).collect();
+        let mut scratches: Vec<Scratch> = remap.iter().map(|i| current.scratches[i.unwrap() as usize]).collect();
+        if let Some(n) = e.add {
+            let init = self.problem.init.ok_or_else(|| {
+                OptimError::Usage(
+                    "this design cannot add scratches: it does not say how its first ones were drawn".into(),
+                )
+            })?;
+            if scratches.len() as u64 + n as u64 > super::steer::MAX_SCRATCHES as u64 {
+                return Err(OptimError::Usage(format!(
+                    "steering at iteration {}: more than {} scratches",
+                    e.iteration,
+                    super::steer::MAX_SCRATCHES
+                )));
+            }
+            let mut rng = crate::scenes::Rng::new(e.seed.unwrap_or(0));
+            scratches.extend(crate::scenes::random_scratches(
+                &mut rng,
+                n as usize,
+                self.problem.scene.plate.size_mm,
+                init.len_mm.0,
+                init.len_mm.1,
+                init.w,
+                init.d,
+                init.alpha,
+            ));
+            remap.extend(std::iter::repeat_n(None, n as usize));
+        }
+        if scratches.is_empty() {
+            return Err(OptimError::Usage(format!(
+                "steering at iteration {}: no scratch would be left",
+                e.iteration
+            )));
+        }
+        let mut scene = current;
+        scene.scratches = scratches;
+        // The device's limits, as for any scene the design uploads.
+        let gs = self.renderer.upload(&scene)?;
+        self.driver.replace_scene(gs, &remap, ("scratches", 8))
+    }
+
     /// Applies `e` now, recorded as it is (a replayed event keeps its own iteration, also when
     /// a resumed run applies it before its first iteration).
     fn steer_event(&mut self, e: super::steer::SteerEvent) -> Result<(), OptimError> {
+        self.steer_event_with(e, true)
+    }
+
+    /// [`steer_event`](Self::steer_event); `resize` false records a change of the scratches
+    /// without making it (the state already holds it: a resumed run).
+    fn steer_event_with(&mut self, e: super::steer::SteerEvent, resize: bool) -> Result<(), OptimError> {
         let view =
             super::steer::check(&e, &self.problem.scene.views, &self.problem.sources).map_err(OptimError::Usage)?;
+        if e.resizes() && resize {
+            self.resize(&e)?;
+        }
         if let Some(v) = view {
             let src = self.problem.sources[v].as_ref().expect("checked");
             let f = src.place(
@@ -345,10 +488,20 @@ impl Live<'_, '_> {
         Ok(())
     }
 
-    /// Applies the scheduled events from `next` on that are due at this iteration.
-    fn apply_due(&mut self, scheduled: &[super::steer::SteerEvent], next: &mut usize) -> Result<(), OptimError> {
+    /// Applies the scheduled events from `next` on that are due at this iteration; the first
+    /// `skip` that change the scratches are only recorded (the state holds them).
+    fn apply_due(
+        &mut self,
+        scheduled: &[super::steer::SteerEvent],
+        next: &mut usize,
+        skip: &mut u32,
+    ) -> Result<(), OptimError> {
         while let Some(e) = scheduled.get(*next).filter(|e| e.iteration <= self.iteration()) {
-            self.steer_event(e.clone())?;
+            let held = e.resizes() && *skip > 0;
+            if held {
+                *skip -= 1;
+            }
+            self.steer_event_with(e.clone(), !held)?;
             *next += 1;
         }
         Ok(())
@@ -414,6 +567,14 @@ pub fn run_design_live(
                 cfg.iters,
                 opt.next_iter()
             )));
+        }
+        let held = opt.driver.times_resized();
+        let listed = cfg.steer.iter().filter(|e| e.resizes()).count() as u32;
+        if held > listed {
+            obs.warn(&format!(
+                "the saved run added or removed scratches {held} time(s) ({} scratches now), and --steer lists {listed} such change(s): the design continues from the checkpoint as it is, but its summary.json will not list them; give --steer with the live design's summary.json to keep the record whole",
+                opt.driver.gs.n_scratches()
+            ));
         }
         Some(opt.next_iter())
     } else {
@@ -556,7 +717,7 @@ pub fn run_design_live(
         if !problem.steering.is_empty() {
             summary["steering"] = json!(problem.steering);
             summary["steering_is"] =
-                json!("the pictures moved while the design ran: `scratchart design [the same flags] --steer summary.json` replays them");
+                json!("what was changed while the design ran (pictures moved, loss weights, scratches added or removed): `scratchart design [the same flags] --steer summary.json` replays it");
         }
         summary["blank_views"] = json!(cfg.blank_views);
         summary["setup"] = setup;

@@ -34,6 +34,9 @@ pub struct Problem {
     pub sources: Vec<Option<super::steer::Source>>,
     /// The steering applied so far (a live design's working copy of the problem).
     pub steering: Vec<super::steer::SteerEvent>,
+    /// How the first scratches were drawn, so that scratches added while the design runs are
+    /// drawn alike (None: scratches cannot be added).
+    pub init: Option<super::steer::ScratchInit>,
 }
 
 impl Problem {
@@ -51,6 +54,7 @@ impl Problem {
             walk: None,
             sources: Vec::new(),
             steering: Vec::new(),
+            init: None,
         }
     }
 }

@@ -29,7 +29,30 @@ pub struct SteerEvent {
     pub lambda_p: Option<f64>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub lambda_g: Option<f64>,
+    /// Scratches removed: their indices in the design as it stood before this event (each
+    /// once). Applied before `add`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub remove: Option<Vec<u32>>,
+    /// Scratches added after the others, drawn as the design drew its first ones
+    /// ([`ScratchInit`]) from the random stream `seed`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub add: Option<u32>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub seed: Option<u64>,
 }
+
+/// How a design drew its first scratches (`scratchart::scenes::random_scratches`): scratches
+/// added while it runs are drawn the same way.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ScratchInit {
+    pub len_mm: (f64, f64),
+    pub w: f64,
+    pub d: f64,
+    pub alpha: f64,
+}
+
+/// The most scratches one event may add or a design may reach by adding.
+pub const MAX_SCRATCHES: u32 = 10_000_000;
 
 impl SteerEvent {
     /// A picture's move.
@@ -51,6 +74,22 @@ impl SteerEvent {
             lambda_g,
             ..Default::default()
         }
+    }
+
+    /// Scratches removed and added.
+    pub fn scratches(iteration: u32, remove: Vec<u32>, add: u32, seed: u64) -> SteerEvent {
+        SteerEvent {
+            iteration,
+            remove: (!remove.is_empty()).then_some(remove),
+            add: (add > 0).then_some(add),
+            seed: (add > 0).then_some(seed),
+            ..Default::default()
+        }
+    }
+
+    /// Whether the event changes the number of scratches (or which they are).
+    pub fn resizes(&self) -> bool {
+        self.remove.is_some() || self.add.is_some()
     }
 
     pub fn shift(&self) -> [f64; 2] {
@@ -125,10 +164,39 @@ pub fn check(
             }
         }
     }
-    let Some(view) = &e.view else {
-        if e.lambda_p.is_none() && e.lambda_g.is_none() {
+    if let Some(r) = &e.remove {
+        let mut seen = std::collections::HashSet::new();
+        if r.is_empty() {
             return Err(format!(
-                "steering at iteration {}: the event changes nothing (give a view, lambda_p or lambda_g)",
+                "steering at iteration {}: `remove` lists no scratch",
+                e.iteration
+            ));
+        }
+        if let Some(d) = r.iter().find(|&&i| !seen.insert(i)) {
+            return Err(format!(
+                "steering at iteration {}: scratch {d} is removed twice",
+                e.iteration
+            ));
+        }
+    }
+    if let Some(a) = e.add {
+        if a == 0 || a > MAX_SCRATCHES {
+            return Err(format!(
+                "steering at iteration {}: `add` must be 1 to {MAX_SCRATCHES} scratches (it is {a})",
+                e.iteration
+            ));
+        }
+        if e.seed.is_none() {
+            return Err(format!(
+                "steering at iteration {}: `add` needs the `seed` its scratches were drawn from",
+                e.iteration
+            ));
+        }
+    }
+    let Some(view) = &e.view else {
+        if e.lambda_p.is_none() && e.lambda_g.is_none() && !e.resizes() {
+            return Err(format!(
+                "steering at iteration {}: the event changes nothing (give a view, lambda_p, lambda_g, add or remove)",
                 e.iteration
             ));
         }
@@ -176,7 +244,7 @@ pub fn read(path: &std::path::Path) -> Result<Vec<SteerEvent>, String> {
     };
     let events: Vec<SteerEvent> = serde_json::from_value(list).map_err(|e| {
         format!(
-            "{}: not a list of steering events ({{\"iteration\", \"view\", \"shift_px\": [x, y], \"scale\", \"lambda_p\", \"lambda_g\"}}) nor a summary.json with one: {e}",
+            "{}: not a list of steering events ({{\"iteration\", \"view\", \"shift_px\": [x, y], \"scale\", \"lambda_p\", \"lambda_g\", \"remove\": [indices], \"add\", \"seed\"}}) nor a summary.json with one: {e}",
             path.display()
         )
     })?;
@@ -214,5 +282,42 @@ mod tests {
         assert!(read(&dir.join("b.json")).unwrap_err().contains("order"));
         std::fs::write(dir.join("c.json"), r#"{"x": 1}"#).unwrap();
         assert!(read(&dir.join("c.json")).unwrap_err().contains("steering events"));
+    }
+
+    #[test]
+    fn scratches_added_and_removed_are_checked() {
+        let ok = SteerEvent::scratches(4, vec![1, 5], 10, 77);
+        assert!(ok.resizes());
+        assert_eq!(check(&ok, &[], &[]), Ok(None));
+        let json = serde_json::to_string(&ok).unwrap();
+        assert_eq!(serde_json::from_str::<SteerEvent>(&json).unwrap(), ok);
+        let bad = |e: SteerEvent, what: &str| {
+            let err = check(&e, &[], &[]).unwrap_err();
+            assert!(err.contains(what), "{err}");
+        };
+        bad(SteerEvent::scratches(4, vec![1, 5, 1], 0, 0), "removed twice");
+        bad(
+            SteerEvent {
+                remove: Some(vec![]),
+                ..Default::default()
+            },
+            "no scratch",
+        );
+        bad(
+            SteerEvent {
+                add: Some(3),
+                ..Default::default()
+            },
+            "seed",
+        );
+        bad(
+            SteerEvent {
+                add: Some(0),
+                seed: Some(1),
+                ..Default::default()
+            },
+            "1 to",
+        );
+        bad(SteerEvent::default(), "changes nothing");
     }
 }

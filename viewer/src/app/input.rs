@@ -223,6 +223,7 @@ impl App {
             }
             "v" => self.toggle_panel()?,
             "g" => self.steer_gram(if self.shift { 0.5 } else { 2.0 }),
+            "c" => self.steer_count(!self.shift),
             "[" => self.steer_picture(0.0, 0.0, 1.0 / 1.05),
             "]" => self.steer_picture(0.0, 0.0, 1.05),
             "w" => self.toggle_walk()?,

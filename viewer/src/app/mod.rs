@@ -400,6 +400,20 @@ impl App {
         l.request_weights(self.weights.0, self.weights.1);
     }
 
+    /// Key C (shift: remove): the live design gets a tenth more scratches (at least one),
+    /// drawn as its first ones were, or loses the tenth that matter least.
+    fn steer_count(&mut self, add: bool) {
+        let Some(l) = &self.live else {
+            return;
+        };
+        let n = (self.design.scene.scratches.len() as i64 / 10).max(1);
+        eprintln!(
+            "live design: {} {n} scratches at the next iteration boundary",
+            if add { "adding" } else { "removing" }
+        );
+        l.request_scratches(if add { n } else { -n });
+    }
+
     /// Key V: the design panel on or off (a live design only).
     fn toggle_panel(&mut self) -> Result<()> {
         if self.live.is_none() {
