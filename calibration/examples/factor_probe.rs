@@ -51,6 +51,28 @@ fn variant(name: &str) -> Shot {
             s.jpeg_quality = Some(80);
             s.blur_px = 1.4;
         }
+        // "all" less one of its parts.
+        "all-noise" => {
+            s = variant("all");
+            s.noise = 0.0;
+        }
+        "all-pose" => {
+            s = variant("all");
+            s.pose = Pose::default();
+        }
+        "all-jpeg" => {
+            s = variant("all");
+            s.jpeg_quality = None;
+        }
+        "noise-jpeg" => {
+            s.noise = 0.02;
+            s.jpeg_quality = Some(80);
+        }
+        "noise2" => s.noise = 0.02,
+        "noise-blur" => {
+            s.noise = 0.02;
+            s.blur_px = 1.4;
+        }
         other => panic!("unknown variant {other}"),
     }
     s

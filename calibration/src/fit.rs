@@ -83,6 +83,7 @@ mod layout;
 pub use layout::{ANGLE_TOL_DEG, LENGTH_TOL_MM, OFFSET_TOL_MM};
 mod camera;
 mod lm;
+mod noise;
 mod uncertainty;
 
 use layout::Layout;
@@ -115,6 +116,28 @@ pub struct Data<'a> {
     /// Per view: the photo's own pixel noise (display units, `fiducials::pixel_noise`), for the
     /// check of what noise, 8-bit steps and JPEG do to the fit (see `fit_kind`).
     pub noise: Vec<f64>,
+    /// Per view: the whole factor its photo was shrunk by (1: used as taken). A shrink
+    /// averages the light of k x k pixels whose noise was clipped at black before: the dark
+    /// plate is lifted where no noise shows any more (see `uncertainty::ClipTransfer`).
+    pub shrink: Vec<u32>,
+    /// Per view: the sensor's noise at the photo's own resolution, before a shrink, in each
+    /// colour channel (display units; `fit_cmd::inspect`).
+    pub native_noise: Vec<f64>,
+    /// Per view: a colour photo (three channels with their own noise) or a grey one.
+    pub colour: Vec<bool>,
+}
+
+/// Per view, the transfer of its photo's clipped noise (`fit::noise`).
+fn transfers(data: &Data) -> Vec<Option<noise::Transfer>> {
+    (0..data.capture.views.len())
+        .map(|v| {
+            noise::Transfer::for_photo(
+                data.native_noise.get(v).copied().unwrap_or(0.0),
+                data.colour.get(v).copied().unwrap_or(false),
+                data.shrink.get(v).copied().unwrap_or(1),
+            )
+        })
+        .collect()
 }
 
 /// What a fit found.
@@ -209,6 +232,9 @@ struct Evaluator<'a, 'r> {
     ss: u32,
     /// Per view: what JPEG does to the model image (see `Data::jpeg`), added to the model.
     jpeg_shift: Vec<Option<Vec<f32>>>,
+    /// Per view: the expected photo of the model under the sensor's clipped noise (see
+    /// `noise`), applied in `expose`.
+    transfer: Vec<Option<noise::Transfer>>,
 }
 
 impl Evaluator<'_, '_> {
@@ -487,6 +513,7 @@ pub fn fit_kind(
         gs: None,
         ss: SUPERSAMPLE,
         jpeg_shift: vec![None; data.capture.views.len()],
+        transfer: transfers(data),
     };
     let intervals = OffsetIntervals::of(data.card);
     // Starting points: those of an interrupted fit, the tool given, or a search.
@@ -523,13 +550,14 @@ pub fn fit_kind(
         }
     }
     let Uncertainty {
-        params,
+        mut params,
         curvature,
         sd: raw_sd,
         disagreement,
         per_photo,
         unseen,
         residuals: r,
+        in_valley,
     } = uncertainty::at_optimum(&mut ev, data, &x, best_rg)?;
     let n = r.len();
     let np = ev.lay.params.len();
@@ -543,6 +571,14 @@ pub fn fit_kind(
         })
         .map(|k| ev.lay.params[k].name.clone())
         .collect();
+    // One that stopped at a bound in the valley of an unidentified parameter (a measured
+    // profile's w/W trades with its widths) ran along what the photos cannot tell from flat:
+    // it is not identified either, whatever its own uncertainty says.
+    for (k, p) in params.iter_mut().enumerate() {
+        if in_valley[k] && at_bound.contains(&p.0) {
+            p.2 = None;
+        }
+    }
     let bootstrap = if cfg.bootstrap > 0 {
         Some(uncertainty::bootstrap(&mut ev, &x, best_rg, cfg.bootstrap, obs)?)
     } else {
@@ -759,6 +795,7 @@ pub fn predict(renderer: &Renderer, data: &Data, res: &FitResult) -> Result<(Vec
         gs: None,
         ss: SUPERSAMPLE,
         jpeg_shift: vec![None; data.capture.views.len()],
+        transfer: transfers(data),
     };
     let x: Vec<f64> = res.params.iter().map(|p| p.1).collect();
     let lin = ev.render(&x)?;

@@ -138,6 +138,9 @@ pub fn run(renderer: &Renderer, args: &FitArgs, obs: &dyn Observer) -> Result<()
         refine_pose: data_parts.refine_pose,
         jpeg: data_parts.jpeg,
         noise: data_parts.noise,
+        shrink: data_parts.shrink,
+        native_noise: data_parts.native_noise,
+        colour: data_parts.colour,
     };
     let init = match &args.init {
         Some(p) => {
@@ -268,6 +271,9 @@ struct PhotoData {
     refine_pose: Vec<bool>,
     jpeg: Vec<Option<u8>>,
     noise: Vec<f64>,
+    shrink: Vec<u32>,
+    native_noise: Vec<f64>,
+    colour: Vec<bool>,
 }
 
 /// Per photo, for the report: its size as taken, the marks found and their confidences, the
@@ -288,6 +294,9 @@ fn load_photos(
     let mut fit_views = Vec::new();
     let mut refine_pose = Vec::new();
     let mut noise = Vec::new();
+    let mut shrink = Vec::new();
+    let mut native_noise = Vec::new();
+    let mut colour = Vec::new();
     let mut jpeg = Vec::new();
     let mut inspections = Vec::new();
     for (v, f) in capture.views.iter().zip(files) {
@@ -298,6 +307,9 @@ fn load_photos(
         refine_pose.push(insp.off_pose);
         jpeg.push(insp.jpeg);
         noise.push(insp.noise);
+        shrink.push(insp.shrink);
+        native_noise.push(insp.native_noise);
+        colour.push(insp.colour);
         inspections.push((
             insp.taken,
             insp.found.count(),
@@ -321,6 +333,9 @@ fn load_photos(
         refine_pose,
         jpeg,
         noise,
+        shrink,
+        native_noise,
+        colour,
     };
     Ok((fit_scene, data, inspections))
 }

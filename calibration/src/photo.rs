@@ -70,6 +70,18 @@ impl Gray {
 /// Reads a photo as grey display values: PNG or JPEG, 8 or 16 bit, colour or grey, with the
 /// EXIF orientation applied (a phone stores portrait shots turned).
 pub fn load_photo(path: &Path) -> Result<Gray, String> {
+    load_photo_with_channels(path).map(|p| p.0)
+}
+
+/// How much less noisy a photo's grey is than each of its colour channels, when their noise is
+/// independent: the grey is 0.2126 R + 0.7152 G + 0.0722 B (Rec. 709), so its noise is 0.749
+/// of theirs. A sensor's noise is clipped at black in each channel before the grey is formed,
+/// so the lift of a dark plate follows the channels' noise, not the grey's.
+pub const LUMA_NOISE: f64 = 0.749_4;
+
+/// [`load_photo`], and the grey's noise over its channels' (from [`LUMA_NOISE`] where each
+/// channel's noise is its own, to 1 where they share it: a grey photo).
+pub fn load_photo_with_channels(path: &Path) -> Result<(Gray, f64), String> {
     use image::ImageDecoder as _;
     let name = path.display();
     let bytes = std::fs::read(path).map_err(|e| format!("cannot read photo `{name}`: {e}"))?;
@@ -92,6 +104,32 @@ pub fn load_photo(path: &Path) -> Result<Gray, String> {
         image::DynamicImage::from_decoder(decoder).map_err(|e| format!("photo `{name}` cannot be decoded: {e}"))?;
     img.apply_orientation(orientation);
     let g = img.to_luma32f();
+    // The grey's noise over its channels' (each measured as `pixel_noise` measures it): 1 where
+    // the channels carry the same noise (a grey photo, or noise added to grey), about 0.75 where
+    // each has its own (a sensor's), between where demosaicing shares some.
+    let factor = if img.color().has_color() {
+        let rgb = img.to_rgb32f();
+        let (w, h) = (rgb.width(), rgb.height());
+        let channel = |c: usize| Gray {
+            width: w,
+            height: h,
+            data: rgb.pixels().map(|p| p[c]).collect(),
+        };
+        let grey = Gray {
+            width: w,
+            height: h,
+            data: g.as_raw().clone(),
+        };
+        let chans: f64 = (0..3).map(|c| crate::fiducials::pixel_noise(&channel(c))).sum::<f64>() / 3.0;
+        let gn = crate::fiducials::pixel_noise(&grey);
+        if chans > 0.0 {
+            (gn / chans).clamp(LUMA_NOISE, 1.0)
+        } else {
+            1.0
+        }
+    } else {
+        1.0
+    };
     if g.width() < 16 || g.height() < 16 {
         return Err(format!(
             "photo `{name}` is {}x{} pixels: too small to show the card",
@@ -99,11 +137,14 @@ pub fn load_photo(path: &Path) -> Result<Gray, String> {
             g.height()
         ));
     }
-    Ok(Gray {
-        width: g.width(),
-        height: g.height(),
-        data: g.into_raw(),
-    })
+    Ok((
+        Gray {
+            width: g.width(),
+            height: g.height(),
+            data: g.into_raw(),
+        },
+        factor,
+    ))
 }
 
 /// The middle `w` x `h` pixels of `img` (what is left over split evenly between the sides, the
@@ -276,6 +317,21 @@ pub fn resize(img: &Gray, w: u32, h: u32) -> Gray {
         width: w,
         height: h,
         data,
+    }
+}
+
+/// The standard normal distribution function (erf by Abramowitz and Stegun 7.1.26: error
+/// below 1.5e-7).
+pub fn normal_cdf(x: f64) -> f64 {
+    let z = x.abs() / std::f64::consts::SQRT_2;
+    let t = 1.0 / (1.0 + 0.327_591_1 * z);
+    let poly =
+        t * (0.254_829_592 + t * (-0.284_496_736 + t * (1.421_413_741 + t * (-1.453_152_027 + t * 1.061_405_429))));
+    let erf = 1.0 - poly * (-z * z).exp();
+    if x >= 0.0 {
+        0.5 * (1.0 + erf)
+    } else {
+        0.5 * (1.0 - erf)
     }
 }
 

@@ -348,3 +348,65 @@ fn the_harshest_phone_photos_are_registered_and_never_give_a_wrong_tool() {
     assert_no_validation(&ctx);
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// Noise clipped at black: photos with 2.5% noise per colour channel, larger than the capture
+/// view (shrunk by 3), of a 58 um ball. The shrink averages the noise away but not the lift its
+/// clipping gives the dark plate; before the fit's model knew it, it put the ball at 39.5 um
+/// +- 0.3 with a residual at the photo's noise and wrote it (exit 0). Now the model's pixels show
+/// the expected photo under that noise (`fit::noise`): the ball lands within 5 um of the truth,
+/// the truth lies within the stated uncertainty (half the lift's shift is in it), and since that
+/// is more than a plate allows the fit refuses (exit 3, no tool.json). The same photos without
+/// noise are recovered and written.
+#[test]
+fn noise_clipped_at_black_is_modelled_and_never_gives_a_wrong_tool() {
+    let ctx = gpu();
+    let r = Renderer::new(&ctx).unwrap();
+    let dir = tmp("noise");
+    let (card, capture, card_path) = card(&dir);
+    let truth = Tool::Ball {
+        radius_mm: 0.058,
+        z_offset_mm: 0.0074,
+    };
+    for (tag, noise) in [("clean", 0.0), ("noisy", 0.025)] {
+        let d = dir.join(tag);
+        let shots: Vec<Shot> = (0..capture.views.len() as u64)
+            .map(|v| Shot {
+                blur_px: 0.8,
+                megapixels: 0.5,
+                noise,
+                seed: 1 + v,
+                ..Shot::default()
+            })
+            .collect();
+        let imgs = shoot(&r, &card, &capture, &truth, &shots, &d);
+        let out = d.join("fit/tool.json");
+        let got = run(&r, &args(&card_path, imgs, "ball", &out), &Silent);
+        let report: serde_json::Value =
+            serde_json::from_slice(&std::fs::read(d.join("fit/tool_report.json")).unwrap()).unwrap();
+        let param = |name: &str| {
+            let p = report["params"]
+                .as_array()
+                .unwrap()
+                .iter()
+                .find(|p| p["name"] == name)
+                .unwrap_or_else(|| panic!("{name} in {report}"))
+                .clone();
+            (p["value"].as_f64().unwrap(), p["sd"].as_f64().unwrap())
+        };
+        let (radius, sd) = param("radius_mm");
+        eprintln!("{tag}: radius {radius:.5} +- {sd:.5} (truth 0.058)");
+        assert!((radius - 0.058).abs() < 0.005, "{tag}: radius {radius}");
+        if noise == 0.0 {
+            assert!(got.is_ok(), "{tag}: {:?}", got.err());
+            assert!(out.exists());
+        } else {
+            let e = got.expect_err("noisy photos of a shrunk card cannot give the radius to 2.5 um");
+            assert_eq!(code(&e), 3, "{e:#}");
+            assert!(format!("{e:#}").contains("not identified"), "{e:#}");
+            assert!(!out.exists(), "a refused fit wrote tool.json");
+            assert!((radius - 0.058).abs() <= sd, "{tag}: the truth lies outside +- {sd}");
+        }
+    }
+    assert_no_validation(&ctx);
+    let _ = std::fs::remove_dir_all(&dir);
+}

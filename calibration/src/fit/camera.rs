@@ -109,12 +109,24 @@ impl Evaluator<'_, '_> {
                     (((i / ws) as f64 + 0.5) / kf - cy) * s,
                 );
                 let f = (gx * px + gy * py + q * (px * px + py * py)).exp();
-                ((l as f64 * e * f) as f32).min(1.0)
+                let l = ((l as f64 * e * f) as f32).min(1.0);
+                // A shrunk photo: each subpixel's light as its clipped noise lifts it (`noise`).
+                match &self.transfer[v] {
+                    Some(t) => t.subpixel(l),
+                    None => l,
+                }
             })
             .collect();
         self.reduce(&lit, v)
             .into_iter()
-            .map(|l| scratchart::io::display_value(l).min(1.0))
+            .map(|l| {
+                let d = scratchart::io::display_value(l).min(1.0);
+                // A photo used as taken: its pixel's expected value under clipped noise.
+                match &self.transfer[v] {
+                    Some(t) => t.pixel(d),
+                    None => d,
+                }
+            })
             .collect()
     }
 

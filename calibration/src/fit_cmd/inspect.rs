@@ -7,7 +7,7 @@ use scratchart::exit::InputError;
 use scratchart::model::camera::ViewGeom;
 
 use crate::card::Card;
-use crate::register::{load_photo, register};
+use crate::register::register;
 
 /// One photo as the fit will use it: shrunk to the capture view's scale, registered by the
 /// card's marks, its camera recovered, the pixels the fit compares, its own noise.
@@ -31,6 +31,14 @@ pub struct Inspection {
     pub mask: Vec<bool>,
     /// The photo's own pixel noise at `image`'s size (display units).
     pub noise: f64,
+    /// The whole factor the photo was shrunk by to `image` (1: used as taken).
+    pub shrink: u32,
+    /// The sensor's noise at the photo's own resolution and in each colour channel (display
+    /// units): `shrink` x `noise`, over [`crate::photo::LUMA_NOISE`] for a colour photo (the
+    /// noise that was clipped at black, see `fit::uncertainty::ClipTransfer`).
+    pub native_noise: f64,
+    /// A colour photo (its channels noisy each on its own).
+    pub colour: bool,
     /// Of the bright pixels the fit compares, the fraction at full white.
     pub saturated: f64,
 }
@@ -76,7 +84,7 @@ pub fn inspect_photo(
     f: &Path,
 ) -> Result<Inspection> {
     let half = 0.5 * capture.plate.size_mm;
-    let img = load_photo(f).map_err(InputError)?;
+    let (img, channel_factor) = crate::photo::load_photo_with_channels(f).map_err(InputError)?;
     // The photo shrunk by a whole factor k to at most the capture view's height (never
     // enlarged), its own aspect kept (square pixels): each pixel the mean light of k x k of the
     // photo's, as the model's pixels add up their subpixels. A fractional factor (640 x 480 to
@@ -153,6 +161,9 @@ pub fn inspect_photo(
         .into());
     }
     let noise = crate::fiducials::pixel_noise_in(&small, Some(&mask));
+    // The shrink averaged k x k pixels' independent noise down by k; a colour photo's grey
+    // has less noise than the channels that were clipped.
+    let native_noise = k as f64 * noise / channel_factor;
     // A JPEG compared on its own pixel grid: the fit puts the same JPEG on its model.
     let jpeg = if (small.width, small.height) == (img.width, img.height) {
         crate::photo::jpeg_quality(f)
@@ -170,6 +181,10 @@ pub fn inspect_photo(
         moved_mm,
         mask,
         noise,
+        shrink: k,
+        native_noise,
+        // Channels whose noise is mostly their own.
+        colour: channel_factor < 0.5 * (1.0 + crate::photo::LUMA_NOISE),
         saturated,
     })
 }
