@@ -147,7 +147,8 @@ pub struct FitResult {
     pub tool: Tool,
     pub alpha: f64,
     pub exposure: Vec<f64>,
-    pub blur_px: f64,
+    /// The camera's blur of each photo, pixels.
+    pub blur_px: Vec<f64>,
     /// Parameter names and values, with their uncertainties (None: not identified).
     pub params: Vec<(String, f64, Option<f64>)>,
     /// Robust loss at the optimum (per pixel), the RMS residual (display units), pixels used.
@@ -593,7 +594,7 @@ pub fn fit_kind(
         tool: lay.tool(&x),
         alpha: lay.alpha(&x),
         exposure: (0..lay.n_views).map(|v| lay.exposure(&x, v)).collect(),
-        blur_px: lay.blur(&x),
+        blur_px: (0..lay.n_views).map(|v| lay.blur(&x, v)).collect(),
         params,
         loss,
         rms,

@@ -494,12 +494,15 @@ fn print_fit(best: &FitResult, results: &[FitResult], obs: &dyn Observer) {
         }
     }
     obs.result(&format!(
-        "  exposure {:?}, camera blur {:.2} px",
+        "  exposure {:?}, camera blur {:?} px",
         best.exposure
             .iter()
             .map(|e| (e * 1000.0).round() / 1000.0)
             .collect::<Vec<_>>(),
         best.blur_px
+            .iter()
+            .map(|b| (b * 100.0).round() / 100.0)
+            .collect::<Vec<_>>()
     ));
 }
 

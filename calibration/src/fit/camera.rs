@@ -82,7 +82,7 @@ impl Evaluator<'_, '_> {
         let (w, h) = (c.width as usize, c.height as usize);
         let (dx, dy) = self.lay.shift(x, v);
         let kf = k as f64;
-        blur_shifted(img, k * w, k * h, kf * self.lay.blur(x), kf * dx, kf * dy)
+        blur_shifted(img, k * w, k * h, kf * self.lay.blur(x, v), kf * dx, kf * dy)
     }
 
     /// What the sensor of view v makes of the light `b` (at `ss` times its resolution): the

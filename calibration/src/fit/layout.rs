@@ -44,7 +44,7 @@ const OFFSET_LIMIT: f64 = 0.5 * OFFSET_TOL_MM;
 /// Camera terms per photo taken off the capture pose (eye x, y, z; roll; log field of view).
 pub(super) const POSE_PARAMS: usize = 5;
 
-/// The parameter layout of a kind: tool parameters, then alpha, the log exposures and the blur.
+/// The parameter layout of a kind: tool parameters, then alpha, the log exposures and the blurs.
 pub(super) struct Layout {
     pub(super) kind: Kind,
     /// The last 2 per view are a sub-pixel shift of each view's model (registration).
@@ -95,9 +95,13 @@ impl Layout {
         for v in 0..n_views {
             params.push(p(&format!("ln_exposure[{v}]"), -12.0, 12.0, 0.01, false, 1.0));
         }
+        // One per photo (two phones, or one held steadier, blur differently: a blur shared by
+        // both fitted the sharper photo and left the other a residual of 3 to 7 times its noise).
         // At least a quarter pixel: every camera blurs that much (optics, demosaicing), and the
         // registration shift needs a kernel it can move.
-        params.push(p("blur_px", 0.25, 4.0, 0.02, false, 1.0));
+        for v in 0..n_views {
+            params.push(p(&format!("blur_px[{v}]"), 0.25, 4.0, 0.02, false, 1.0));
+        }
         let reg = if refine_registration {
             for v in 0..n_views {
                 for axis in ["dx", "dy"] {
@@ -187,13 +191,14 @@ impl Layout {
     pub(super) fn exposure(&self, x: &[f64], v: usize) -> f64 {
         x[self.n_tool + 1 + v].exp()
     }
-    pub(super) fn blur(&self, x: &[f64]) -> f64 {
-        x[self.n_tool + 1 + self.n_views]
+    /// The blur of view v's photo, pixels.
+    pub(super) fn blur(&self, x: &[f64], v: usize) -> f64 {
+        x[self.n_tool + 1 + self.n_views + v]
     }
     /// The registration shift of view v, pixels (zero without refinement).
     pub(super) fn shift(&self, x: &[f64], v: usize) -> (f64, f64) {
         if self.reg {
-            let b = self.n_tool + 2 + self.n_views + 2 * v;
+            let b = self.n_tool + 1 + 2 * self.n_views + 2 * v;
             (x[b], x[b + 1])
         } else {
             (0.0, 0.0)
@@ -214,7 +219,7 @@ impl Layout {
         };
         x.push(0.1);
         x.extend(std::iter::repeat_n(0.0, self.n_views));
-        x.push(0.5);
+        x.extend(std::iter::repeat_n(0.5, self.n_views));
         if self.reg {
             x.extend(std::iter::repeat_n(0.0, 2 * self.n_views));
         }

@@ -182,7 +182,7 @@ mod verdict_tests {
             },
             alpha: 0.1,
             exposure: vec![1.0, 1.0],
-            blur_px: 0.6,
+            blur_px: vec![0.6, 0.6],
             params: (0..5)
                 .map(|k| (names[k].to_string(), values[k], (sds[k] <= limits[k]).then_some(sds[k])))
                 .collect(),
