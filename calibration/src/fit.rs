@@ -118,7 +118,7 @@ pub struct Data<'a> {
     pub noise: Vec<f64>,
     /// Per view: the whole factor its photo was shrunk by (1: used as taken). A shrink
     /// averages the light of k x k pixels whose noise was clipped at black before: the dark
-    /// plate is lifted where no noise shows any more (see `uncertainty::ClipTransfer`).
+    /// plate is lifted where no noise shows any more (see `noise`).
     pub shrink: Vec<u32>,
     /// Per view: the sensor's noise at the photo's own resolution, before a shrink, in each
     /// colour channel (display units; `fit_cmd::inspect`).

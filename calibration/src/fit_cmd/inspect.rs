@@ -35,7 +35,7 @@ pub struct Inspection {
     pub shrink: u32,
     /// The sensor's noise at the photo's own resolution and in each colour channel (display
     /// units): `shrink` x `noise`, over [`crate::photo::LUMA_NOISE`] for a colour photo (the
-    /// noise that was clipped at black, see `fit::uncertainty::ClipTransfer`).
+    /// noise that was clipped at black, see `fit::noise`).
     pub native_noise: f64,
     /// A colour photo (its channels noisy each on its own).
     pub colour: bool,
