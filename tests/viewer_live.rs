@@ -315,13 +315,19 @@ fn scratches_added_and_removed_live_are_replayed_and_resumed() {
             "--headless",
             "--validation",
             "--script",
-            "3:add 40;5:remove 60;9:add 7",
+            "3:add 40;5:remove 60;6:add 5000000;9:add 7",
         ],
     );
     assert!(o.status.success(), "live design failed: {}", text(&o));
     let t = text(&o);
     assert!(t.contains("300 -> 340 scratches from iteration 3"), "{t}");
     assert!(t.contains("340 -> 280 scratches from iteration 5"), "{t}");
+    // More than the device holds (lavapipe binds 128 MiB per buffer; a GPU may hold them, and
+    // then they are added): refused with the limit named, not recorded, and the run goes on
+    // with what it has.
+    let huge_refused = t.contains("5000280 scratches do not fit this device");
+    assert!(huge_refused || t.contains("280 -> 5000280"), "{t}");
+    let last = if huge_refused { 2 } else { 3 };
     assert!(t.contains("validation messages: 0"), "{t}");
     let steering = summary(&p("live"))["steering"].clone();
     assert_eq!(steering[0]["add"], 40, "{steering}");
@@ -331,7 +337,8 @@ fn scratches_added_and_removed_live_are_replayed_and_resumed() {
         Some(60),
         "{steering}"
     );
-    assert_eq!(steering[2]["add"], 7, "{steering}");
+    assert_eq!(steering[last]["add"], 7, "{steering}");
+    assert_eq!(steering.as_array().map(|a| a.len()), Some(last + 1), "{steering}");
     let rows = |d: &str| {
         std::fs::read_to_string(p(d).join("scratches.csv"))
             .unwrap()
@@ -339,7 +346,7 @@ fn scratches_added_and_removed_live_are_replayed_and_resumed() {
             .count()
             - 1
     };
-    assert_eq!(rows("live"), 287);
+    assert_eq!(rows("live"), if huge_refused { 287 } else { 5_000_287 });
     let same = |x: &str, y: &str| {
         std::fs::read(p(x).join("scratches.csv")).unwrap() == std::fs::read(p(y).join("scratches.csv")).unwrap()
     };

@@ -447,8 +447,19 @@ impl Live<'_, '_> {
         }
         let mut scene = current;
         scene.scratches = scratches;
-        // The device's limits, as for any scene the design uploads.
-        let gs = self.renderer.upload(&scene)?;
+        // The device's limits, as for any scene the design uploads: a set that does not fit is
+        // refused and the run goes on with the one it has (nothing was changed yet).
+        let gs = self.renderer.upload(&scene).map_err(|err| match err {
+            GpuError::BufferTooLarge { .. }
+            | GpuError::OutOfMemory { .. }
+            | GpuError::Allocation { .. }
+            | GpuError::Capacity(_) => OptimError::Usage(format!(
+                "steering at iteration {}: {} scratches do not fit this device ({err}); the design keeps its {have}",
+                e.iteration,
+                scene.scratches.len()
+            )),
+            other => other.into(),
+        })?;
         self.driver.replace_scene(gs, &remap, ("scratches", 8))
     }
 
