@@ -127,19 +127,6 @@ pub struct Data<'a> {
     pub colour: Vec<bool>,
 }
 
-/// Per view, the transfer of its photo's clipped noise (`fit::noise`).
-fn transfers(data: &Data) -> Vec<Option<noise::Transfer>> {
-    (0..data.capture.views.len())
-        .map(|v| {
-            noise::Transfer::for_photo(
-                data.native_noise.get(v).copied().unwrap_or(0.0),
-                data.colour.get(v).copied().unwrap_or(false),
-                data.shrink.get(v).copied().unwrap_or(1),
-            )
-        })
-        .collect()
-}
-
 /// What a fit found.
 #[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct FitResult {
@@ -514,7 +501,7 @@ pub fn fit_kind(
         gs: None,
         ss: SUPERSAMPLE,
         jpeg_shift: vec![None; data.capture.views.len()],
-        transfer: transfers(data),
+        transfer: noise::for_views(data),
     };
     let intervals = OffsetIntervals::of(data.card);
     // Starting points: those of an interrupted fit, the tool given, or a search.
@@ -796,7 +783,7 @@ pub fn predict(renderer: &Renderer, data: &Data, res: &FitResult) -> Result<(Vec
         gs: None,
         ss: SUPERSAMPLE,
         jpeg_shift: vec![None; data.capture.views.len()],
-        transfer: transfers(data),
+        transfer: noise::for_views(data),
     };
     let x: Vec<f64> = res.params.iter().map(|p| p.1).collect();
     let lin = ev.render(&x)?;

@@ -543,15 +543,12 @@ The pairs mode's sort adds {} passes of 8 bits per render here at most, each a t
         scenes
             .iter()
             .map(|(_, sc)| {
-                let tiles: u64 = sc
+                let tiles: u32 = sc
                     .views
                     .iter()
-                    .map(|v| {
-                        v.camera.width.div_ceil(crate::render::layout::TILE) as u64
-                            * v.camera.height.div_ceil(crate::render::layout::TILE) as u64
-                    })
+                    .map(|v| v.camera.width.div_ceil(crate::render::layout::TILE) * v.camera.height.div_ceil(crate::render::layout::TILE))
                     .sum();
-                (64 - tiles.saturating_sub(1).leading_zeros() as u64).div_ceil(8).max(1)
+                crate::render::radix_passes(tiles)
             })
             .max()
             .unwrap_or(1)

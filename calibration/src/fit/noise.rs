@@ -96,6 +96,19 @@ impl Transfer {
     }
 }
 
+/// Per view, the transfer of its photo's clipped noise (`fit::noise`).
+pub(super) fn for_views(data: &super::Data) -> Vec<Option<Transfer>> {
+    (0..data.capture.views.len())
+        .map(|v| {
+            Transfer::for_photo(
+                data.native_noise.get(v).copied().unwrap_or(0.0),
+                data.colour.get(v).copied().unwrap_or(false),
+                data.shrink.get(v).copied().unwrap_or(1),
+            )
+        })
+        .collect()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -261,12 +261,14 @@ fn degrade_shift(
     let mut mean = vec![0.0; normal.seen.len()];
     let mut ok = true;
     for _ in 0..reps {
+        // A shrunk photo's pixels average many of the sensor's: it stays as the model has it.
         let deg: Vec<Vec<f32>> = raw
             .iter()
+            .zip(&pred)
             .enumerate()
-            .map(|(v, img)| {
+            .map(|(v, (img, lifted))| {
                 if data.shrink.get(v).copied().unwrap_or(1) > 1 {
-                    return pred[v].clone();
+                    return lifted.clone();
                 }
                 let sigma = data.native_noise.get(v).copied().unwrap_or(0.0);
                 let colour = data.colour.get(v).copied().unwrap_or(false);

@@ -16,6 +16,7 @@
 //! kernel sums per pixel in float, the backward one per scratch (reverse mode, or dual numbers
 //! for the oracle).
 mod bindings;
+mod binning;
 pub mod grad;
 pub mod io;
 pub mod kernels;
@@ -29,7 +30,8 @@ pub mod tangent;
 use scratchart_model as model;
 use scratchart_vulkan as vulkan;
 
-pub use scene::{bands_on_gpu, BinMode, GpuScene, RenderStats, TileLists};
+pub use binning::{bands_on_gpu, radix_passes, BinMode, TileLists};
+pub use scene::{GpuScene, RenderStats};
 
 use std::sync::Arc;
 
@@ -213,20 +215,10 @@ impl Renderer {
         }
     }
 
-    /// [`BinMode::Pairs`]: count per (scratch, part) and per tile, scan both, emit the pairs in
-    /// scratch-major order, sort them by tile (stable, 8 bits a pass), write the lists.
-    fn record_pair_binning(&self, rec: &mut Recorder, gs: &GpuScene, sort: &scene::PairSort) {
-        let push = BinPush {
-            n_scratches: gs.n_scratches,
-            n_views: gs.shade.n_views,
-            n_groups: gs.n_scratches.max(1),
-            group_size: 1,
-            capacity: gs.capacity,
-            sentinel: 2,
-            n_bands: gs.n_bands,
-            pad: 0,
-        };
-        let threads = (gs.n_scratches.max(1) * gs.n_parts()).div_ceil(64);
+    /// The count pass of either mode (`pipeline`): every per-tile and per-(scratch, part)
+    /// count from zero.
+    fn record_count(&self, rec: &mut Recorder, gs: &GpuScene, pipeline: &ComputePipeline) {
+        let push = gs.bin_push();
         rec.fill(&gs.hist, 0);
         rec.fill(&gs.sbase, 0);
         rec.barrier();
@@ -239,8 +231,15 @@ impl Renderer {
             &gs.inv,
             &gs.stats,
         ];
-        rec.dispatch_1d(&self.pair_count, &bufs, bytemuck::bytes_of(&push), threads);
+        let threads = gs.binning_threads().div_ceil(64) as u32;
+        rec.dispatch_1d(pipeline, &bufs, bytemuck::bytes_of(&push), threads);
         rec.barrier();
+    }
+
+    /// [`BinMode::Pairs`]: count per (scratch, part) and per tile, scan both, emit the pairs in
+    /// scratch-major order, sort them by tile (stable, 8 bits a pass), write the lists.
+    fn record_pair_binning(&self, rec: &mut Recorder, gs: &GpuScene, sort: &binning::PairSort) {
+        self.record_count(rec, gs, &self.pair_count);
         self.record_scan(rec, &gs.hist, &gs.sums, &gs.stats, gs.slots.n_tiles as u64 + 1);
         self.record_scan(rec, &gs.sbase, &gs.sbase_sums, &gs.stats, gs.sbase_len());
         // The keys (tiles) to the lists' buffer, the scratches to the sort's.
@@ -253,10 +252,11 @@ impl Renderer {
             &sort.scratch_of,
             &gs.stats,
         ];
-        rec.dispatch_1d(&self.pair_emit, &bufs, bytemuck::bytes_of(&push), threads);
+        let threads = gs.binning_threads().div_ceil(64) as u32;
+        rec.dispatch_1d(&self.pair_emit, &bufs, bytemuck::bytes_of(&gs.bin_push()), threads);
         rec.barrier();
         let keys = [&gs.list, &sort.keys];
-        let passes = scene::radix_passes(gs.slots.n_tiles);
+        let passes = binning::radix_passes(gs.slots.n_tiles);
         let mut radix = RadixPush {
             n_blocks: sort.blocks,
             shift: 0,
@@ -296,31 +296,7 @@ impl Renderer {
 
     /// [`BinMode::Groups`]: count per (tile, group), scan, scatter.
     fn record_group_binning(&self, rec: &mut Recorder, gs: &GpuScene) {
-        let push = BinPush {
-            n_scratches: gs.n_scratches,
-            n_views: gs.shade.n_views,
-            n_groups: gs.n_groups,
-            group_size: gs.group_size,
-            capacity: gs.capacity,
-            sentinel: 2,
-            n_bands: gs.n_bands,
-            pad: 0,
-        };
-        let groups = (gs.n_groups * gs.n_parts()).div_ceil(64);
-        rec.fill(&gs.hist, 0);
-        rec.fill(&gs.sbase, 0);
-        rec.barrier();
-        let bufs = [
-            &gs.views,
-            &gs.scratches,
-            &gs.hist,
-            &gs.list,
-            &gs.sbase,
-            &gs.inv,
-            &gs.stats,
-        ];
-        rec.dispatch_1d(&self.bin_count, &bufs, bytemuck::bytes_of(&push), groups);
-        rec.barrier();
+        self.record_count(rec, gs, &self.bin_count);
         let n_hist = gs.slots.n_tiles as u64 * gs.n_groups as u64 + 1;
         self.record_scan(rec, &gs.hist, &gs.sums, &gs.stats, n_hist);
         self.record_scan(rec, &gs.sbase, &gs.sbase_sums, &gs.stats, gs.sbase_len());
@@ -335,7 +311,8 @@ impl Renderer {
             &gs.inv,
             &gs.stats,
         ];
-        rec.dispatch_1d(&self.bin_scatter, &bufs, bytemuck::bytes_of(&push), groups);
+        let groups = gs.binning_threads().div_ceil(64) as u32;
+        rec.dispatch_1d(&self.bin_scatter, &bufs, bytemuck::bytes_of(&gs.bin_push()), groups);
         rec.barrier();
     }
 

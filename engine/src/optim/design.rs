@@ -10,6 +10,7 @@ use super::checkpoint::fnv;
 use super::driver::{Driver, DriverConfig};
 pub use super::driver::{Hooks, Rollback};
 use super::error::OptimError;
+pub use super::live::{Live, LiveHook};
 use super::loss::{Loss, LossValues};
 pub use super::problem::{DesignConfig, DesignReport, Images, IterRecord, Problem, WallTimes};
 use super::scene_params::SceneParams;
@@ -218,32 +219,19 @@ impl<'r> Optimizer<'r> {
         // resumed run's checkpoint counts them): recorded, not applied again.
         let mut skip = driver.times_resized();
         let mut next = 0usize;
+        let env = LiveEnv {
+            renderer,
+            loss,
+            cfg,
+            resizable,
+        };
         // What was due before the first iteration of this run (all of it up to a resumed
         // run's iteration, so the targets are those of the run that stopped).
-        Live {
-            driver,
-            renderer,
-            problem: &mut *work,
-            loss,
-            keep_exposures: cfg.keep_exposures,
-            out: &cfg.out,
-            adam: &cfg.adam,
-            resizable,
-        }
-        .apply_due(scheduled, &mut next, &mut skip)?;
+        env.live(driver, work).apply_due(scheduled, &mut next, &mut skip)?;
         driver.run_with(obs, &mut |d, ev| {
-            let mut live = Live {
-                driver: d,
-                renderer,
-                problem: &mut *work,
-                loss,
-                keep_exposures: cfg.keep_exposures,
-                out: &cfg.out,
-                adam: &cfg.adam,
-                resizable,
-            };
-            live.apply_due(scheduled, &mut next, &mut skip)?;
-            hook(&mut live, ev)
+            let mut l = env.live(d, work);
+            l.apply_due(scheduled, &mut next, &mut skip)?;
+            hook(&mut l, ev)
         })
     }
 
@@ -266,6 +254,29 @@ impl<'r> Optimizer<'r> {
     }
 }
 
+/// What every [`Live`] of one run shares.
+struct LiveEnv<'e, 'r> {
+    renderer: &'r Renderer,
+    loss: &'e Loss,
+    cfg: &'e DesignConfig,
+    resizable: bool,
+}
+
+impl<'e, 'r> LiveEnv<'e, 'r> {
+    fn live<'a>(&'a self, driver: &'a mut Driver<'r>, problem: &'a mut Problem) -> Live<'a, 'r> {
+        Live {
+            driver,
+            renderer: self.renderer,
+            problem,
+            loss: self.loss,
+            keep_exposures: self.cfg.keep_exposures,
+            out: &self.cfg.out,
+            adam: &self.cfg.adam,
+            resizable: self.resizable,
+        }
+    }
+}
+
 /// Builds a scene from GPU parameters: `template`'s plate and views with the lights' optimized
 /// radiance scales `phi` (one per view: intensity times exposure), split into one intensity per
 /// lamp and an exposure per view ([`Scene::set_radiance`]; `keep_exposures` where the optimizer
@@ -285,255 +296,6 @@ pub fn to_scene(template: &Scene, scr: &[ScratchGpu], phi: &[f32], keep_exposure
     let r: Vec<f64> = phi.iter().map(|&p| p as f64).collect();
     scene.set_radiance(&r, keep_exposures);
     scene
-}
-
-/// What a live design's hook sees after each accepted iteration (`scratchart-view --design`):
-/// the running optimizer, to read (never to change: a run with a hook gives the same bits).
-pub struct Live<'a, 'r> {
-    pub driver: &'a mut Driver<'r>,
-    pub renderer: &'r Renderer,
-    /// The problem as the run goes: its scene (plate, views, lights as they started) and its
-    /// targets, steered ones included ([`Live::steer`]).
-    pub problem: &'a mut Problem,
-    pub loss: &'a Loss,
-    pub keep_exposures: bool,
-    /// The design's output directory.
-    pub out: &'a std::path::Path,
-    /// The optimizer's learning rates (what ranks scratches for removal).
-    pub adam: &'a super::adam::AdamConfig,
-    /// Whether scratches can be added or removed (not in fabrication mode, whose depths are a
-    /// parameter set of their own).
-    pub resizable: bool,
-}
-
-/// Called after each accepted iteration of a live design; `Ok(false)` ends the optimization
-/// there (pruning, the final evaluation and the outputs follow as after the last iteration).
-pub type LiveHook<'h> = dyn FnMut(&mut Live, &super::driver::Evaluation) -> Result<bool, OptimError> + 'h;
-
-impl Live<'_, '_> {
-    /// The next iteration to run (the iterations evaluated so far).
-    pub fn iteration(&self) -> u32 {
-        self.driver.next_iter()
-    }
-
-    /// The design as it stands (parameters and light intensities read back).
-    pub fn scene(&self) -> Result<Scene, GpuError> {
-        let gs = &self.driver.gs;
-        let scr: Vec<ScratchGpu> = self.renderer.ctx.download(gs.scratches())?;
-        let phi: Vec<f32> = gs.lights().read()?;
-        Ok(to_scene(
-            &self.problem.scene,
-            &scr[..gs.n_scratches() as usize],
-            &phi,
-            self.keep_exposures,
-        ))
-    }
-
-    /// Each view's last render (linear L, the evaluation just accepted).
-    pub fn images(&self) -> Result<Vec<Vec<f32>>, GpuError> {
-        self.renderer.download_images(&self.driver.gs)
-    }
-
-    /// Moves or scales view `view`'s picture from this iteration on (see [`super::steer`]):
-    /// placed again from its file, the loss's targets replaced, the event recorded in the
-    /// problem's `steering`. A view that cannot be steered is a [`OptimError::Usage`].
-    pub fn steer(&mut self, view: &str, shift_px: [f64; 2], scale: f64) -> Result<(), OptimError> {
-        self.steer_event(super::steer::SteerEvent::picture(
-            self.iteration(),
-            view,
-            shift_px,
-            scale,
-        ))
-    }
-
-    /// Changes the loss's weights (the pixel and Gram terms'; None keeps one) from this
-    /// iteration on, recorded in the problem's `steering`.
-    pub fn steer_weights(&mut self, lambda_p: Option<f64>, lambda_g: Option<f64>) -> Result<(), OptimError> {
-        self.steer_event(super::steer::SteerEvent::weights(self.iteration(), lambda_p, lambda_g))
-    }
-
-    /// The scratches of the design as it stands.
-    pub fn n_scratches(&self) -> u32 {
-        self.driver.gs.n_scratches()
-    }
-
-    /// Removes the `n` scratches that matter least now (the pruning's ranking: how far the
-    /// last gradient would move each, ties by index) from this iteration on, recorded in the
-    /// problem's `steering` with their indices. At least one scratch stays.
-    pub fn remove_scratches(&mut self, n: u32) -> Result<(), OptimError> {
-        let have = self.n_scratches();
-        let n = n.min(have.saturating_sub(1));
-        if n == 0 {
-            return Err(OptimError::Usage(format!(
-                "cannot remove scratches: the design has {have}, and one must stay"
-            )));
-        }
-        let g: Vec<[f32; 8]> = self.renderer.ctx.download(self.driver.gs.scratch_grad())?;
-        let imp = super::prune::importance(&g[..have as usize], self.adam);
-        let mut order: Vec<(f64, u32)> = imp.into_iter().zip(0..).collect();
-        order.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
-        let mut idx: Vec<u32> = order[..n as usize].iter().map(|o| o.1).collect();
-        idx.sort_unstable();
-        self.steer_event(super::steer::SteerEvent::scratches(self.iteration(), idx, 0, 0))
-    }
-
-    /// Adds `n` scratches, drawn as the design drew its first ones, from this iteration on,
-    /// recorded in the problem's `steering` with the random stream they were drawn from.
-    pub fn add_scratches(&mut self, n: u32) -> Result<(), OptimError> {
-        // One stream per (iteration, event): a replay draws the same scratches.
-        let seed = 0x5eed_0000_0000u64 ^ ((self.iteration() as u64) << 16) ^ self.problem.steering.len() as u64;
-        self.steer_event(super::steer::SteerEvent::scratches(
-            self.iteration(),
-            Vec::new(),
-            n,
-            seed,
-        ))
-    }
-
-    /// Removes and adds scratches as `e` says: the design read back, the removed ones left
-    /// out, the new ones drawn after the rest, uploaded again, and the optimizer's state
-    /// carried over ([`Driver::replace_scene`]).
-    fn resize(&mut self, e: &super::steer::SteerEvent) -> Result<(), OptimError> {
-        if !self.resizable {
-            return Err(OptimError::Usage(
-                "scratches cannot be added or removed in fabrication mode (--tool): each has a depth of its own".into(),
-            ));
-        }
-        let have = self.n_scratches();
-        let current = self.scene()?;
-        let mut gone = vec![false; have as usize];
-        for &i in e.remove.iter().flatten() {
-            if i >= have {
-                return Err(OptimError::Usage(format!(
-                    "steering at iteration {}: there is no scratch {i} to remove (the design has {have})",
-                    e.iteration
-                )));
-            }
-            gone[i as usize] = true;
-        }
-        let mut remap: Vec<Option<u32>> = (0..have).filter(|&i| !gone[i as usize]).map(Some).collect();
-        let mut scratches: Vec<Scratch> = remap.iter().map(|i| current.scratches[i.unwrap() as usize]).collect();
-        if let Some(n) = e.add {
-            let init = self.problem.init.ok_or_else(|| {
-                OptimError::Usage(
-                    "this design cannot add scratches: it does not say how its first ones were drawn".into(),
-                )
-            })?;
-            if scratches.len() as u64 + n as u64 > super::steer::MAX_SCRATCHES as u64 {
-                return Err(OptimError::Usage(format!(
-                    "steering at iteration {}: more than {} scratches",
-                    e.iteration,
-                    super::steer::MAX_SCRATCHES
-                )));
-            }
-            let mut rng = crate::scenes::Rng::new(e.seed.unwrap_or(0));
-            scratches.extend(crate::scenes::random_scratches(
-                &mut rng,
-                n as usize,
-                self.problem.scene.plate.size_mm,
-                init.len_mm.0,
-                init.len_mm.1,
-                init.w,
-                init.d,
-                init.alpha,
-            ));
-            remap.extend(std::iter::repeat_n(None, n as usize));
-        }
-        if scratches.is_empty() {
-            return Err(OptimError::Usage(format!(
-                "steering at iteration {}: no scratch would be left",
-                e.iteration
-            )));
-        }
-        let mut scene = current;
-        scene.scratches = scratches;
-        // The device's limits, as for any scene the design uploads: a set that does not fit is
-        // refused and the run goes on with the one it has (nothing was changed yet).
-        let gs = self.renderer.upload(&scene).map_err(|err| match err {
-            GpuError::BufferTooLarge { .. }
-            | GpuError::OutOfMemory { .. }
-            | GpuError::Allocation { .. }
-            | GpuError::Capacity(_) => OptimError::Usage(format!(
-                "steering at iteration {}: {} scratches do not fit this device ({err}); the design keeps its {have}",
-                e.iteration,
-                scene.scratches.len()
-            )),
-            other => other.into(),
-        })?;
-        self.driver.replace_scene(gs, &remap, ("scratches", 8))
-    }
-
-    /// Applies `e` now, recorded as it is (a replayed event keeps its own iteration, also when
-    /// a resumed run applies it before its first iteration).
-    fn steer_event(&mut self, e: super::steer::SteerEvent) -> Result<(), OptimError> {
-        self.steer_event_with(e, true)
-    }
-
-    /// [`steer_event`](Self::steer_event); `resize` false records a change of the scratches
-    /// without making it (the state already holds it: a resumed run).
-    fn steer_event_with(&mut self, e: super::steer::SteerEvent, resize: bool) -> Result<(), OptimError> {
-        let view =
-            super::steer::check(&e, &self.problem.scene.views, &self.problem.sources).map_err(OptimError::Usage)?;
-        if e.resizes() && resize {
-            self.resize(&e)?;
-        }
-        if let Some(v) = view {
-            let src = self.problem.sources[v].as_ref().expect("checked");
-            let f = src.place(
-                &self.problem.scene.views[v],
-                self.problem.scene.plate.size_mm,
-                e.shift(),
-                e.scale(),
-            );
-            self.problem.targets[v] = f.image;
-            self.problem.pictures[v] = f.picture;
-            self.problem.picture_rects[v] = f.rect;
-            self.loss.set_targets(&self.renderer.ctx, &self.problem.targets)?;
-        }
-        if e.lambda_p.is_some() || e.lambda_g.is_some() {
-            let (p, g) = self.loss.weights();
-            self.loss
-                .set_weights(e.lambda_p.map_or(p, |x| x as f32), e.lambda_g.map_or(g, |x| x as f32));
-        }
-        self.problem.steering.push(e);
-        Ok(())
-    }
-
-    /// Applies the scheduled events from `next` on that are due at this iteration; the first
-    /// `skip` that change the scratches are only recorded (the state holds them).
-    fn apply_due(
-        &mut self,
-        scheduled: &[super::steer::SteerEvent],
-        next: &mut usize,
-        skip: &mut u32,
-    ) -> Result<(), OptimError> {
-        while let Some(e) = scheduled.get(*next).filter(|e| e.iteration <= self.iteration()) {
-            let held = e.resizes() && *skip > 0;
-            if held {
-                *skip -= 1;
-            }
-            self.steer_event_with(e.clone(), !held)?;
-            *next += 1;
-        }
-        Ok(())
-    }
-
-    /// Saves the run where it stands into the output directory: the checkpoint that `scratchart
-    /// design --resume` continues bit for bit, and design.json + scratches.csv of the design as
-    /// it is (not pruned).
-    pub fn save(&self) -> Result<(), OptimError> {
-        std::fs::create_dir_all(self.out).map_err(|source| {
-            OptimError::Io(crate::io::IoError::Io {
-                action: "create output directory",
-                path: self.out.to_path_buf(),
-                cause: source,
-            })
-        })?;
-        self.driver.save_checkpoint(self.out)?;
-        self.scene()?
-            .save(&self.out.join("design.json"), "scratches.csv")
-            .map_err(|e| OptimError::Report(e.to_string()))
-    }
 }
 
 /// The whole `design` job: optimize, prune, evaluate and (if configured) write the outputs.

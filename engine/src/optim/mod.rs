@@ -29,6 +29,7 @@
 //! - [`measure`]: image measures (blur, SSIM, correlation, each view's quality and cross-talk).
 //! - [`report`]: the design's outputs: compare images, the loss-curve plot and the summary.
 //! - [`setup`]: where the lamp and the viewers go, and how precisely (setup sheet, sensitivity).
+//! - [`live`]: a live design's view of the running optimizer and the changes it makes.
 //! - [`steer`]: a picture moved or scaled while the design runs, and the same replayed
 //!   (`scratchart-view --design`, `scratchart design --steer`).
 //! - [`walk`]: walk-past plates: views along an arc, in-between views whose targets are
@@ -46,6 +47,7 @@ pub mod carving;
 pub mod design;
 pub mod framing;
 pub mod job_limit;
+pub mod live;
 pub mod measure;
 pub mod problem;
 pub mod report;
