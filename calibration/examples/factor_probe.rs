@@ -2,6 +2,9 @@
 //! `cargo run --release -p scratchart-calibration --example factor_probe -- [ball|v-bit|tapered-ball] [variant...]`.
 //! Each variant changes one thing of a sharp on-pose PNG shot (the same for both views) and
 //! prints the fitted tool beside the true one, the stated uncertainties and the residuals.
+//! `-- trialN [change...]` takes the tool and the two shots of trial N of `scratchart-cal study
+//! --seed 1` instead, and each change takes one thing out of both shots (`asis`, `novign`,
+//! `nojpeg`, `nonoise`, `nopose`, `noblur`, `nolight`, `small`), to find what biases that trial.
 use scratchart::observe::Silent;
 use scratchart::render::Renderer;
 use scratchart::vulkan::{Context, ContextDesc};
@@ -73,6 +76,25 @@ fn variant(name: &str) -> Shot {
             s.noise = 0.02;
             s.blur_px = 1.4;
         }
+        // Any mix: "noise=0.015,jpeg=85,blur=1.2,mp=2,exposure=0.6".
+        other if other.contains('=') => {
+            for kv in other.split(',') {
+                let (k, v) = kv.split_once('=').unwrap_or_else(|| panic!("{kv}: want key=value"));
+                let x: f64 = v.parse().unwrap_or_else(|_| panic!("{kv}: not a number"));
+                match k {
+                    "noise" => s.noise = x,
+                    "jpeg" => s.jpeg_quality = Some(x as u8),
+                    "blur" => s.blur_px = x,
+                    "mp" => s.megapixels = x,
+                    "exposure" => s.exposure = x,
+                    "tilt" => {
+                        s.pose.tilt_deg = x;
+                        s.pose.tilt_dir_deg = 30.0;
+                    }
+                    _ => panic!("{k}: noise, jpeg, blur, mp, exposure or tilt"),
+                }
+            }
+        }
         other => panic!("unknown variant {other}"),
     }
     s
@@ -90,6 +112,104 @@ fn main() -> anyhow::Result<()> {
         .map(String::from)
         .to_vec()
     };
+    let trial: Option<usize> = kind.strip_prefix("trial").and_then(|t| t.parse().ok());
+    let ctx = Context::new(ContextDesc::default())?;
+    let r = Renderer::new(&ctx)?;
+    let card = Card::new(&CardSpec::default());
+    let dir = std::env::temp_dir().join("factor_probe");
+    std::fs::create_dir_all(&dir)?;
+    let p = dir.join("card.json");
+    std::fs::write(&p, serde_json::to_string(&card.to_json(256))?)?;
+    let (card, capture) = Card::load(&p)?;
+    if let Some(t) = trial {
+        // The study's draws, in its order, up to trial t.
+        let mut rng = scratchart::scenes::Rng::new(1);
+        let (mut truth, mut shots) = (None, Vec::new());
+        for i in 0..=t {
+            let kind = scratchart_calibration::fit::Kind::ALL[i % 4];
+            truth = Some((kind, scratchart_calibration::study::random_tool(&mut rng, kind, &card)));
+            shots = (0..capture.views.len())
+                .map(|_| scratchart_calibration::phone::random_shot(&mut rng, card.marks.len(), 20.0))
+                .collect::<Vec<Shot>>();
+        }
+        let (kind, truth) = truth.expect("a trial");
+        println!("truth {truth:?}");
+        for sh in &shots {
+            println!("shot {sh:?}");
+        }
+        for name in &names {
+            let mut s = shots.clone();
+            for (i, sh) in s.iter_mut().enumerate() {
+                match name.as_str() {
+                    "nojpeg0" | "nojpeg1" => {
+                        if name.ends_with(&i.to_string()) {
+                            sh.jpeg_quality = None
+                        }
+                    }
+                    "asis" => {}
+                    "novign" => sh.vignetting = 0.0,
+                    "nojpeg" => sh.jpeg_quality = None,
+                    "nonoise" => sh.noise = 0.0,
+                    "nopose" => sh.pose = Pose::default(),
+                    "noblur" => sh.blur_px = 0.5,
+                    "nolight" => {
+                        sh.exposure = 1.0;
+                        sh.cast = [1.0; 3];
+                    }
+                    "small" => sh.megapixels = 0.5,
+                    "nocast" => sh.cast = [1.0; 3],
+                    "noexp" => sh.exposure = 1.0,
+                    other => panic!("unknown change {other}"),
+                }
+            }
+            let d = dir.join(format!("{}-{name}", kind.name()));
+            let _ = std::fs::remove_dir_all(&d);
+            let mut images = Vec::new();
+            for (v, sh) in s.iter().enumerate() {
+                images.push(take(&r, &card, &capture, v, &truth, sh, &d)?.0);
+            }
+            let out = d.join("fit").join("tool.json");
+            let fa = FitArgs {
+                allow_unidentified: true,
+                ..FitArgs::quiet(&p, images, Some(kind.name()), &out)
+            };
+            let got = run(&r, &fa, &Silent);
+            let rep: serde_json::Value = std::fs::read(d.join("fit").join("tool_report.json"))
+                .ok()
+                .and_then(|b| serde_json::from_slice(&b).ok())
+                .unwrap_or_default();
+            let fitted = Tool::load_fitted(&out).ok().map(|t| t.0);
+            let err = fitted
+                .as_ref()
+                .map(|f| scratchart_calibration::study::errors(f, &truth, &card));
+            println!(
+                "{name:8} {}: errors {err:?} | {}",
+                if got.is_ok() { "accepted" } else { "refused" },
+                rep["params"]
+                    .as_array()
+                    .into_iter()
+                    .flatten()
+                    .filter(|q| {
+                        let n = q["name"].as_str().unwrap_or("");
+                        !(n.starts_with("ln_exp")
+                            || n.starts_with("registration")
+                            || n.starts_with("eye[")
+                            || n.starts_with("shade[")
+                            || n.starts_with("blur"))
+                            && q["value"].as_f64() != Some(0.0)
+                    })
+                    .map(|q| format!(
+                        "{} {:.5}+-{:.5}",
+                        q["name"].as_str().unwrap_or("?"),
+                        q["value"].as_f64().unwrap_or(f64::NAN),
+                        q["sd"].as_f64().unwrap_or(f64::NAN)
+                    ))
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            );
+        }
+        return Ok(());
+    }
     let truth = match kind.as_str() {
         "ball" => Tool::Ball {
             radius_mm: 0.058,
@@ -106,14 +226,6 @@ fn main() -> anyhow::Result<()> {
             z_offset_mm: -0.0067,
         },
     };
-    let ctx = Context::new(ContextDesc::default())?;
-    let r = Renderer::new(&ctx)?;
-    let card = Card::new(&CardSpec::default());
-    let dir = std::env::temp_dir().join("factor_probe");
-    std::fs::create_dir_all(&dir)?;
-    let p = dir.join("card.json");
-    std::fs::write(&p, serde_json::to_string(&card.to_json(256))?)?;
-    let (card, capture) = Card::load(&p)?;
     println!("truth {truth:?}");
     for name in &names {
         let shot = variant(name);
@@ -148,10 +260,13 @@ fn main() -> anyhow::Result<()> {
             })
             .map(|q| {
                 format!(
-                    "{} {:.5}+-{:.5}",
+                    "{} {:.5}+-{:.5}{}",
                     q["name"].as_str().unwrap_or("?"),
                     q["value"].as_f64().unwrap_or(f64::NAN),
-                    q["sd"].as_f64().unwrap_or(f64::NAN)
+                    q["sd"].as_f64().unwrap_or(f64::NAN),
+                    q["noise_lift_shift"]
+                        .as_f64()
+                        .map_or(String::new(), |l| format!(" (lift {l:+.5})"))
                 )
             })
             .collect();

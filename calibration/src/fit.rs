@@ -83,8 +83,9 @@ mod layout;
 pub use layout::{ANGLE_TOL_DEG, LENGTH_TOL_MM, OFFSET_TOL_MM};
 mod camera;
 mod lm;
-mod noise;
+pub(crate) mod noise;
 mod uncertainty;
+pub use uncertainty::LIFT_TRUST;
 
 use layout::Layout;
 use lm::refine;
@@ -125,6 +126,13 @@ pub struct Data<'a> {
     pub native_noise: Vec<f64>,
     /// Per view: a colour photo (three channels with their own noise) or a grey one.
     pub colour: Vec<bool>,
+    /// Per view: the JPEG quality the photo was saved with, used as taken or shrunk, turned or
+    /// not (`photo::jpeg_table_quality`); `None` for a PNG. A shrunk JPEG's noise lost part of
+    /// its spread to JPEG before the shrink (see `noise`).
+    pub saved_jpeg: Vec<Option<u8>>,
+    /// Per view: the photo's white balance, each channel's light over green's
+    /// (`photo::Channels::gains`): the channels clip at different light (`camera`).
+    pub gains: Vec<[f64; 3]>,
 }
 
 /// What a fit found.
@@ -164,6 +172,10 @@ pub struct FitResult {
     /// that photo's own noise explains (a part of `sd`; None where fewer than two photos see it).
     #[serde(default)]
     pub disagreement: Vec<Option<f64>>,
+    /// Per parameter, the shift the model's lift of the photos' clipped noise makes (the fit
+    /// with it against the fit without it; `noise`), of which `LIFT_TRUST` is a part of `sd`.
+    #[serde(default)]
+    pub noise_lift: Vec<Option<f64>>,
     /// Per photo, per parameter: where that photo alone puts it (one Gauss-Newton step from the
     /// joint optimum on its residuals; None where it does not see the parameter).
     #[serde(default)]
@@ -223,6 +235,9 @@ struct Evaluator<'a, 'r> {
     /// Per view: the expected photo of the model under the sensor's clipped noise (see
     /// `noise`), applied in `expose`.
     transfer: Vec<Option<noise::Transfer>>,
+    /// Per view: how its colour channels clip under the photo's white balance (see
+    /// `camera::ChannelClip`); `None` where they clip together.
+    clip: Vec<Option<camera::ChannelClip>>,
 }
 
 impl Evaluator<'_, '_> {
@@ -502,6 +517,7 @@ pub fn fit_kind(
         ss: SUPERSAMPLE,
         jpeg_shift: vec![None; data.capture.views.len()],
         transfer: noise::for_views(data),
+        clip: camera::ChannelClip::for_views(data),
     };
     let intervals = OffsetIntervals::of(data.card);
     // Starting points: those of an interrupted fit, the tool given, or a search.
@@ -517,18 +533,41 @@ pub fn fit_kind(
     on_starts(&starts);
     let (best, mut iterations) = refine_starts(&mut ev, starts, &intervals, kind, cfg, obs)?;
     let (Solution { mut x, mut cost, .. }, best_rg) = best;
-    // JPEG photos compared on their own pixel grid: the model takes the JPEG's change to it
-    // (see `Data::jpeg`) and is refined again from where it stands.
-    if data.jpeg.iter().any(|q| q.is_some()) {
+    // JPEG photos: the model takes the JPEG's change to it and is refined again from where it
+    // stands. Compared on their own pixel grid (see `Data::jpeg`), or shrunk: the JPEG at the
+    // photo's own resolution of the model's light, its colour under the photo's white balance
+    // (`noise::shrunk_photo_draw` with and without the JPEG, no noise).
+    let shrunk_jpeg = |v: usize| {
+        data.saved_jpeg.get(v).copied().flatten().filter(|_| {
+            let k = data.shrink.get(v).copied().unwrap_or(1);
+            k > 1 && k <= noise::SIMULATED_SHRINK
+        })
+    };
+    if data.jpeg.iter().any(|q| q.is_some()) || (0..data.capture.views.len()).any(|v| shrunk_jpeg(v).is_some()) {
         for pass in 0..2 {
             let lin = ev.render(&x)?;
             let pred = ev.predict(&lin, &x);
-            for (v, q) in data.jpeg.iter().enumerate() {
-                ev.jpeg_shift[v] = q.map(|q| {
-                    let c = &data.capture.views[v].camera;
+            for v in 0..data.capture.views.len() {
+                let c = &data.capture.views[v].camera;
+                ev.jpeg_shift[v] = if let Some(q) = data.jpeg.get(v).copied().flatten() {
                     let back = super::photo::jpeg_round_trip(&pred[v], c.width, c.height, q);
-                    back.iter().zip(&pred[v]).map(|(b, p)| b - p).collect()
-                });
+                    Some(back.iter().zip(&pred[v]).map(|(b, p)| b - p).collect())
+                } else if let Some(q) = shrunk_jpeg(v) {
+                    let lit = ev.light(&ev.blurred(&lin[v], v, &x), v, &x);
+                    let k = data.shrink[v];
+                    let colour = data.colour.get(v).copied().unwrap_or(false);
+                    let gains = data.gains.get(v).copied().unwrap_or([1.0; 3]);
+                    let mut rng = scratchart::scenes::Rng::new(1);
+                    let draw = |q: Option<u8>, rng: &mut scratchart::scenes::Rng| {
+                        noise::shrunk_photo_draw(&lit, ev.ss, (c.width, c.height), k, 0.0, colour, gains, q, rng)
+                    };
+                    match (draw(Some(q), &mut rng), draw(None, &mut rng)) {
+                        (Some(a), Some(b)) => Some(a.iter().zip(&b).map(|(a, b)| a - b).collect()),
+                        _ => None,
+                    }
+                } else {
+                    None
+                };
             }
             let label = format!("{} JPEG pass {}", kind.name(), pass + 1);
             let got = refine(&mut ev, x, best_rg, cfg.iters.min(8), obs, &label)?;
@@ -542,6 +581,7 @@ pub fn fit_kind(
         curvature,
         sd: raw_sd,
         disagreement,
+        noise_lift,
         per_photo,
         unseen,
         residuals: r,
@@ -594,6 +634,7 @@ pub fn fit_kind(
         curvature,
         sd: raw_sd,
         disagreement,
+        noise_lift,
         per_photo,
         limits: ev.lay.params.iter().map(|q| q.limit).collect(),
         unseen,
@@ -784,6 +825,7 @@ pub fn predict(renderer: &Renderer, data: &Data, res: &FitResult) -> Result<(Vec
         ss: SUPERSAMPLE,
         jpeg_shift: vec![None; data.capture.views.len()],
         transfer: noise::for_views(data),
+        clip: camera::ChannelClip::for_views(data),
     };
     let x: Vec<f64> = res.params.iter().map(|p| p.1).collect();
     let lin = ev.render(&x)?;

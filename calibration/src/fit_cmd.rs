@@ -141,6 +141,8 @@ pub fn run(renderer: &Renderer, args: &FitArgs, obs: &dyn Observer) -> Result<()
         shrink: data_parts.shrink,
         native_noise: data_parts.native_noise,
         colour: data_parts.colour,
+        saved_jpeg: data_parts.saved_jpeg,
+        gains: data_parts.gains,
     };
     let init = match &args.init {
         Some(p) => {
@@ -232,6 +234,7 @@ pub fn run(renderer: &Renderer, args: &FitArgs, obs: &dyn Observer) -> Result<()
             "name": p.0, "value": p.1, "sd": best.sd.get(k).copied().flatten(),
             "curvature_sd": best.curvature.get(k).copied().flatten(), "limit": best.limits.get(k),
             "photo_disagreement": best.disagreement.get(k).copied().flatten(),
+            "noise_lift_shift": best.noise_lift.get(k).copied().flatten(),
         })).collect::<Vec<_>>(),
     });
     scratchart::io::write_atomic(&report_path, serde_json::to_string_pretty(&report)?.as_bytes())?;
@@ -274,11 +277,14 @@ struct PhotoData {
     shrink: Vec<u32>,
     native_noise: Vec<f64>,
     colour: Vec<bool>,
+    saved_jpeg: Vec<Option<u8>>,
+    gains: Vec<[f64; 3]>,
 }
 
 /// Per photo, for the report: its size as taken, the marks found and their confidences, the
-/// camera's eye and how far it stood from the capture position.
-type PhotoRecord = ((u32, u32), usize, Vec<f64>, [f64; 3], f64);
+/// camera's eye and how far it stood from the capture position, the shrink, the sensor's noise
+/// per channel at the photo's own resolution, colour or grey, and its JPEG quality.
+type PhotoRecord = serde_json::Value;
 
 /// Each photo inspected ([`inspect_photo`]: loaded, shrunk, registered, checked) against its
 /// capture view; the scene of the photos' own cameras, what the fit compares, and the report's
@@ -297,6 +303,8 @@ fn load_photos(
     let mut shrink = Vec::new();
     let mut native_noise = Vec::new();
     let mut colour = Vec::new();
+    let mut saved_jpeg = Vec::new();
+    let mut gains = Vec::new();
     let mut jpeg = Vec::new();
     let mut inspections = Vec::new();
     for (v, f) in capture.views.iter().zip(files) {
@@ -310,13 +318,20 @@ fn load_photos(
         shrink.push(insp.shrink);
         native_noise.push(insp.native_noise);
         colour.push(insp.colour);
-        inspections.push((
-            insp.taken,
-            insp.found.count(),
-            insp.found.confidence.clone(),
-            insp.view.camera.eye,
-            insp.moved_mm,
-        ));
+        saved_jpeg.push(insp.saved_jpeg);
+        gains.push(insp.gains);
+        inspections.push(json!({
+            "size": [insp.taken.0, insp.taken.1],
+            "marks_found": insp.found.count(),
+            "mark_confidence": insp.found.confidence,
+            "camera_eye_mm": insp.view.camera.eye,
+            "moved_mm": insp.moved_mm,
+            "shrunk_by": insp.shrink,
+            "sensor_noise": insp.native_noise,
+            "colour": insp.colour,
+            "jpeg_quality": insp.saved_jpeg,
+            "white_balance": insp.gains,
+        }));
         fit_views.push(insp.view);
     }
     let fit_scene = scratchart::model::scene::Scene {
@@ -336,6 +351,8 @@ fn load_photos(
         shrink,
         native_noise,
         colour,
+        saved_jpeg,
+        gains,
     };
     Ok((fit_scene, data, inspections))
 }
@@ -583,16 +600,13 @@ fn fit_record(
         "no_groove": best.unseen,
         "exposure": best.exposure,
         "blur_px": best.blur_px,
-        "photos": files.iter().zip(inspections).zip(residual).map(|((f, insp), (rms, nz))| json!({
-            "file": f.display().to_string(),
-            "size": [insp.0.0, insp.0.1],
-            "marks_found": insp.1,
-            "mark_confidence": insp.2,
-            "camera_eye_mm": insp.3,
-            "moved_mm": insp.4,
-            "noise": nz,
-            "residual_rms": rms,
-        })).collect::<Vec<_>>(),
+        "photos": files.iter().zip(inspections).zip(residual).map(|((f, insp), (rms, nz))| {
+            let mut p = insp.clone();
+            p["file"] = json!(f.display().to_string());
+            p["noise"] = json!(nz);
+            p["residual_rms"] = json!(rms);
+            p
+        }).collect::<Vec<_>>(),
         "card": args.card.display().to_string(),
         "seconds": secs,
         "bootstrap": best.bootstrap.as_ref().map(|b| json!({

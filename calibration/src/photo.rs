@@ -79,9 +79,46 @@ pub fn load_photo(path: &Path) -> Result<Gray, String> {
 /// so the lift of a dark plate follows the channels' noise, not the grey's.
 pub const LUMA_NOISE: f64 = 0.749_4;
 
-/// [`load_photo`], and the grey's noise over its channels' (from [`LUMA_NOISE`] where each
-/// channel's noise is its own, to 1 where they share it: a grey photo).
-pub fn load_photo_with_channels(path: &Path) -> Result<(Gray, f64), String> {
+/// What a colour photo's channels say beyond its grey.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Channels {
+    /// The grey's noise over its channels' (from [`LUMA_NOISE`] where each channel's noise is
+    /// its own, to 1 where they share it).
+    pub noise_share: f64,
+    /// The white balance: each channel's light over green's where none is clipped (the median
+    /// ratio over pixels between 0.1 and 0.9 in every channel; 1 where fewer than 200 are). A
+    /// channel with more gain clips at less light, so the grey of a bright groove is not the
+    /// grey's light clipped once (`fit::camera`).
+    pub gains: [f64; 3],
+}
+
+/// The white balance of an RGB photo (see [`Channels::gains`]).
+fn channel_gains(rgb: &image::Rgb32FImage) -> [f64; 3] {
+    let lin = |d: f32| scratchart::model::display::linear(d as f64);
+    let n = rgb.width() as usize * rgb.height() as usize;
+    // At most about 2 million pixels looked at.
+    let stride = n.div_ceil(2_000_000).max(1);
+    let (mut r, mut b) = (Vec::new(), Vec::new());
+    for p in rgb.pixels().step_by(stride) {
+        if p.0.iter().all(|c| (0.1..=0.9).contains(c)) {
+            let g = lin(p[1]);
+            r.push(lin(p[0]) / g);
+            b.push(lin(p[2]) / g);
+        }
+    }
+    if r.len() < 200 {
+        return [1.0; 3];
+    }
+    let mid = |v: &mut Vec<f64>| {
+        let m = v.len() / 2;
+        *v.select_nth_unstable_by(m, |a, b| a.total_cmp(b)).1
+    };
+    [mid(&mut r), 1.0, mid(&mut b)]
+}
+
+/// [`load_photo`], and for a colour photo what its channels say ([`Channels`]); `None` for a
+/// grey photo.
+pub fn load_photo_with_channels(path: &Path) -> Result<(Gray, Option<Channels>), String> {
     use image::ImageDecoder as _;
     let name = path.display();
     let bytes = std::fs::read(path).map_err(|e| format!("cannot read photo `{name}`: {e}"))?;
@@ -122,13 +159,16 @@ pub fn load_photo_with_channels(path: &Path) -> Result<(Gray, f64), String> {
         };
         let chans: f64 = (0..3).map(|c| crate::fiducials::pixel_noise(&channel(c))).sum::<f64>() / 3.0;
         let gn = crate::fiducials::pixel_noise(&grey);
-        if chans > 0.0 {
-            (gn / chans).clamp(LUMA_NOISE, 1.0)
-        } else {
-            1.0
-        }
+        Some(Channels {
+            noise_share: if chans > 0.0 {
+                (gn / chans).clamp(LUMA_NOISE, 1.0)
+            } else {
+                1.0
+            },
+            gains: channel_gains(&rgb),
+        })
     } else {
-        1.0
+        None
     };
     if g.width() < 16 || g.height() < 16 {
         return Err(format!(
@@ -191,7 +231,18 @@ pub fn jpeg_quality(path: &Path) -> Option<u8> {
     if turned {
         return None;
     }
-    let table = luma_table(&bytes)?;
+    jpeg_table_quality(&bytes)
+}
+
+/// The quality (IJG scale) of a JPEG file's bytes, however its pixels are stored: the quality
+/// whose standard luminance table is nearest its first quantization table. `None` for what is
+/// not a JPEG with a table. What a shrunk photo's JPEG did to its noise follows it
+/// (`fit::noise`).
+pub fn jpeg_table_quality(bytes: &[u8]) -> Option<u8> {
+    if bytes.len() < 4 || bytes[0] != 0xFF || bytes[1] != 0xD8 {
+        return None;
+    }
+    let table = luma_table(bytes)?;
     (1..=100u8).min_by_key(|&q| {
         ijg_luma_table(q)
             .iter()
@@ -338,6 +389,26 @@ pub fn normal_cdf(x: f64) -> f64 {
 #[cfg(test)]
 mod photo_tests {
     use super::*;
+
+    #[test]
+    fn the_white_balance_is_read_from_the_channels() {
+        // A photo whose red has 1.2 and blue 0.85 times green's light, over a ramp of levels,
+        // with dark and clipped pixels that must not count.
+        let lin = scratchart::model::display::linear;
+        let disp = |l: f64| scratchart::model::display::display(l.min(1.0));
+        let img = image::Rgb32FImage::from_fn(64, 64, |x, y| {
+            let l = lin(0.05 + 0.9 * (x + 64 * y) as f64 / 4096.0);
+            image::Rgb([disp(1.2 * l) as f32, disp(l) as f32, disp(0.85 * l) as f32])
+        });
+        let g = channel_gains(&img);
+        assert!(
+            (g[0] - 1.2).abs() < 0.01 && g[1] == 1.0 && (g[2] - 0.85).abs() < 0.01,
+            "{g:?}"
+        );
+        // Too few pixels in range: no cast is claimed.
+        let dark = image::Rgb32FImage::from_pixel(64, 64, image::Rgb([0.02, 0.02, 0.02]));
+        assert_eq!(channel_gains(&dark), [1.0; 3]);
+    }
 
     /// The quality a JPEG was saved at is read back from its table, for any quality; a PNG has none.
     /// A card photo cut short (an interrupted copy) is refused with its name, not decoded with

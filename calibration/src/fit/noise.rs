@@ -12,6 +12,13 @@
 //!   the model has to the photo's own pixels) gets the light E[linear(grey(...))], which the
 //!   pixels then average as the shrink did.
 //!
+//! A shrunk photo saved as JPEG lost part of its noise to JPEG's quantization at its own
+//! resolution before the shrink, so the curve's convexity lifts its light less than the raw
+//! noise would (2% noise and JPEG 80 put a 58 um ball at 64.4 um with the raw noise's table):
+//! its table is measured by the same JPEG round trip of flat noisy patches, at the quality read
+//! from the file's quantization table (`photo::jpeg_table_quality`). The black's lift, clipped
+//! before the JPEG, stays in it.
+//!
 //! sigma is the channels' noise at the photo's own resolution (`fit_cmd::inspect`: the shrunk
 //! photo's noise times k, over the grey's share of independent channel noise for a colour
 //! photo). The expectations are tabulated over d from a fixed set of normal draws, so the model
@@ -36,10 +43,17 @@ pub(crate) enum Transfer {
 impl Transfer {
     /// The transfer of a photo whose channels have noise `sigma` (display units), a colour
     /// photo (`colour`: three independently noisy channels) or a grey one, shrunk by `shrink`.
-    /// None without noise (the 8-bit steps alone average out).
-    pub(crate) fn for_photo(sigma: f64, colour: bool, shrink: u32) -> Option<Transfer> {
+    /// None without noise (the 8-bit steps alone average out). `jpeg`: the quality a shrunk
+    /// photo was saved with (a JPEG used as taken gets the JPEG on its model image instead,
+    /// `fit::Data::jpeg`).
+    pub(crate) fn for_photo(sigma: f64, colour: bool, shrink: u32, jpeg: Option<u8>) -> Option<Transfer> {
         if !(sigma > 0.0) {
             return None;
+        }
+        if let (true, Some(q)) = (shrink > 1, jpeg) {
+            if let Some(t) = shrunk_jpeg_table(sigma, colour, q) {
+                return Some(Transfer::Shrunk(t));
+            }
         }
         let mut rng = scratchart::scenes::Rng::new(0x0c11_9ed0);
         let z: Vec<[f64; 3]> = (0..DRAWS).map(|_| [rng.normal(), rng.normal(), rng.normal()]).collect();
@@ -72,8 +86,9 @@ impl Transfer {
     }
 
     fn lookup(t: &[f32], d: f32) -> f32 {
-        let u = d.clamp(0.0, 1.0) * N as f32;
-        let i = (u.floor() as usize).min(N - 1);
+        let n = t.len() - 1;
+        let u = d.clamp(0.0, 1.0) * n as f32;
+        let i = (u.floor() as usize).min(n - 1);
         let f = u - i as f32;
         t[i] * (1.0 - f) + t[i + 1] * f
     }
@@ -96,6 +111,188 @@ impl Transfer {
     }
 }
 
+/// Table points of a shrunk JPEG's transfer over display values [0, 1].
+const JPEG_N: usize = 128;
+/// The side of each table point's flat patch (whole 16 x 16 blocks of colour JPEG's 4:2:0).
+const PATCH: usize = 64;
+
+/// A shrunk JPEG's table: for each display value d, a flat patch whose channels get the noise
+/// (the same draws for every d, so the table is smooth in d), clipped and stepped to 8 bits,
+/// through a JPEG at quality `q` as the photo was saved (colour or grey), read back as the fit
+/// reads a photo (Rec. 709 grey), and the mean of its light. None where the round trip fails.
+fn shrunk_jpeg_table(sigma: f64, colour: bool, q: u8) -> Option<Vec<f32>> {
+    let mut rng = scratchart::scenes::Rng::new(0x0c11_9ed1);
+    let px = PATCH * PATCH;
+    let z: Vec<[f64; 3]> = (0..px).map(|_| [rng.normal(), rng.normal(), rng.normal()]).collect();
+    let chans = if colour { 3 } else { 1 };
+    let (w, h) = (PATCH as u32, (PATCH * (JPEG_N + 1)) as u32);
+    let mut bytes = Vec::with_capacity(px * (JPEG_N + 1) * chans);
+    for i in 0..=JPEG_N {
+        let d = i as f64 / JPEG_N as f64;
+        for zc in &z {
+            for c in 0..chans {
+                bytes.push(((d + sigma * zc[c]).clamp(0.0, 1.0) * 255.0).round() as u8);
+            }
+        }
+    }
+    let g = jpeg_grey(&bytes, w, h, colour, q)?;
+    Some(
+        (0..=JPEG_N)
+            .map(|i| {
+                let sum: f64 = g[i * px..(i + 1) * px]
+                    .iter()
+                    .map(|&x| scratchart::model::display::linear(x as f64))
+                    .sum();
+                (sum / px as f64) as f32
+            })
+            .collect(),
+    )
+}
+
+/// 8-bit channels (`colour`: RGB, else grey) `w` x `h` through a JPEG at quality `q` and read
+/// back as the fit reads a photo: the Rec. 709 grey of the decoded channels.
+fn jpeg_grey(bytes: &[u8], w: u32, h: u32, colour: bool, q: u8) -> Option<Vec<f32>> {
+    let mut buf = Vec::new();
+    let enc = image::codecs::jpeg::JpegEncoder::new_with_quality(&mut buf, q);
+    let ct = if colour {
+        image::ExtendedColorType::Rgb8
+    } else {
+        image::ExtendedColorType::L8
+    };
+    image::ImageEncoder::write_image(enc, bytes, w, h, ct).ok()?;
+    let back = image::load_from_memory_with_format(&buf, image::ImageFormat::Jpeg).ok()?;
+    Some(back.to_luma32f().into_raw())
+}
+
+/// 8-bit channels `w` x `h` as the fit reads them from a photo saved as JPEG at `q`
+/// ([`jpeg_grey`]) or losslessly: the Rec. 709 grey.
+fn saved_grey(bytes: &[u8], w: u32, h: u32, colour: bool, q: Option<u8>) -> Option<Vec<f32>> {
+    Some(match q {
+        Some(q) => jpeg_grey(bytes, w, h, colour, q)?,
+        None if colour => bytes
+            .chunks_exact(3)
+            .map(|c| (0..3).map(|i| LUMA[i] * c[i] as f64 / 255.0).sum::<f64>() as f32)
+            .collect(),
+        None => bytes.iter().map(|&b| b as f32 / 255.0).collect(),
+    })
+}
+
+/// The side of the simulated photo after its shrink, pixels ([`sensor_noise`]):
+/// 256, fewer where the photo is shrunk by more than 8, so that the photo before the shrink is
+/// at most 2,048 pixels a side (a 50 MP photo is shrunk by about 24 to a 256-pixel view).
+fn sense_side(k: u32) -> usize {
+    (2048 / k.max(1) as usize).clamp(32, 256)
+}
+
+/// The sensor's noise per channel at a photo's own resolution, from the noise `measured`
+/// (`fiducials::pixel_noise`) on the photo shrunk by `k` (1: as taken). The sigma is the one
+/// whose simulated photo shows `measured`: a flat patch at the photo's typical display value
+/// `level`, noisy channels (`colour`) clipped and stepped to 8 bits, the JPEG at quality `q`
+/// where it was one, the grey, the shrink by k in light, and the same measure. JPEG's
+/// quantization takes part of the noise (a quality-70 photo with 3% noise per channel read as
+/// 1.7% from k times its shrunk noise: the ball's lift corrected by a third too little), and
+/// clipping at black another part on a dark plate. Seeded, so the same photo gives the same
+/// sigma.
+pub(crate) fn sensor_noise(measured: f64, level: f64, colour: bool, k: u32, q: Option<u8>) -> f64 {
+    let share = if colour { crate::photo::LUMA_NOISE } else { 1.0 };
+    let mut sigma = k as f64 * measured / share;
+    if !(measured > 0.0) || k < 1 {
+        return sigma.max(0.0);
+    }
+    let z = draws(0x5e45_0e5e, k, colour);
+    // The measure grows about as sigma does: a few fixed-point steps settle it.
+    for _ in 0..4 {
+        match shown_noise(&z, sigma, level, colour, k, q) {
+            Some(s) if s > 0.0 => sigma = (sigma * measured / s).min(0.5),
+            _ => break,
+        }
+    }
+    sigma
+}
+
+/// Normal draws for a simulated photo of [`sense_side`] k pixels a side.
+fn draws(seed: u64, k: u32, colour: bool) -> Vec<f32> {
+    let side = sense_side(k) * k as usize;
+    let mut rng = scratchart::scenes::Rng::new(seed);
+    (0..side * side * if colour { 3 } else { 1 })
+        .map(|_| rng.normal() as f32)
+        .collect()
+}
+
+/// The noise `fiducials::pixel_noise` measures on a flat photo (of [`sense_side`] k pixels a
+/// side) at display value `level` whose channels got the noise `sigma` x `z`, clipped and
+/// stepped to 8 bits, saved as JPEG at `q` (or losslessly), read back as grey and shrunk by `k`
+/// in light.
+fn shown_noise(z: &[f32], sigma: f64, level: f64, colour: bool, k: u32, q: Option<u8>) -> Option<f64> {
+    let small_side = sense_side(k);
+    let side = small_side * k as usize;
+    let bytes: Vec<u8> = z
+        .iter()
+        .map(|&z| ((level + sigma * z as f64).clamp(0.0, 1.0) * 255.0).round() as u8)
+        .collect();
+    let full = crate::photo::Gray {
+        width: side as u32,
+        height: side as u32,
+        data: saved_grey(&bytes, side as u32, side as u32, colour, q)?,
+    };
+    let small = crate::photo::resize(&full, small_side as u32, small_side as u32);
+    Some(crate::fiducials::pixel_noise(&small))
+}
+
+/// Photos shrunk by more than this are left as the model has them in the fit's degradation
+/// term (`uncertainty`): a 50 MP photo is shrunk by about 24 to a 256-pixel view, and beyond 32
+/// the simulated photo would take more than 200 MB. JPEG still matters at 16: a 21 MP quality-91
+/// photo's JPEG moved a measured profile's widest rung by 5 um.
+pub(super) const SIMULATED_SHRINK: u32 = 32;
+
+/// One draw of a shrunk photo as its camera made it, from the model's subpixel light `lit`
+/// (`ss` times the view's `w` x `h`): the light over the photo's own pixels (k times the view's),
+/// each channel's share of it under the photo's white balance `gains` (as `camera::ChannelClip`
+/// scales them) display-encoded, each channel's noise `sigma` (`colour`: three channels, each its
+/// own) clipped and stepped to 8 bits, the JPEG at `q` where the photo was one, read back as
+/// grey and shrunk by k in light as the fit shrank the photo. What JPEG at the photo's own
+/// resolution and the noise do to the fit, where no model term follows them: a JPEG keeps its
+/// colour at half the resolution and in coarse steps, and where a cast colours the grooves that
+/// leaks into the grey (a measured profile's widest rung 8 um narrow under a 19% cast).
+#[allow(clippy::too_many_arguments)]
+pub(super) fn shrunk_photo_draw(
+    lit: &[f32],
+    ss: u32,
+    (w, h): (u32, u32),
+    k: u32,
+    sigma: f64,
+    colour: bool,
+    gains: [f64; 3],
+    q: Option<u8>,
+    rng: &mut scratchart::scenes::Rng,
+) -> Option<Vec<f32>> {
+    // The light at the photo's own pixels (linear: the resize averages light).
+    let sub = crate::photo::Gray {
+        width: ss * w,
+        height: ss * h,
+        data: lit.iter().map(|&l| scratchart::io::display_value(l)).collect(),
+    };
+    let native = crate::photo::resize(&sub, k * w, k * h);
+    let chans = if colour { 3 } else { 1 };
+    // Each channel's light: the grey's light times its gain, scaled as `ChannelClip` does.
+    let scale = super::camera::ChannelClip::gain_scale(gains);
+    let g: [f64; 3] = if colour { gains.map(|g| g * scale) } else { [1.0; 3] };
+    let mut bytes = Vec::with_capacity(native.data.len() * chans);
+    for &d in &native.data {
+        let l = scratchart::model::display::linear(d as f64);
+        for gc in g.iter().take(chans) {
+            let dc = scratchart::model::display::display((l * gc).min(1.0));
+            bytes.push(((dc + sigma * rng.normal()).clamp(0.0, 1.0) * 255.0).round() as u8);
+        }
+    }
+    let full = crate::photo::Gray {
+        width: k * w,
+        height: k * h,
+        data: saved_grey(&bytes, k * w, k * h, colour, q)?,
+    };
+    Some(crate::photo::resize(&full, w, h).data)
+}
+
 /// Per view, the transfer of its photo's clipped noise (`fit::noise`).
 pub(super) fn for_views(data: &super::Data) -> Vec<Option<Transfer>> {
     (0..data.capture.views.len())
@@ -104,6 +301,7 @@ pub(super) fn for_views(data: &super::Data) -> Vec<Option<Transfer>> {
                 data.native_noise.get(v).copied().unwrap_or(0.0),
                 data.colour.get(v).copied().unwrap_or(false),
                 data.shrink.get(v).copied().unwrap_or(1),
+                data.saved_jpeg.get(v).copied().flatten(),
             )
         })
         .collect()
@@ -115,7 +313,7 @@ mod tests {
 
     #[test]
     fn noise_clipped_at_black_lifts_the_dark_and_leaves_the_middle() {
-        let t = Transfer::for_photo(0.025, true, 1).unwrap();
+        let t = Transfer::for_photo(0.025, true, 1, None).unwrap();
         // A black pixel: the mean of three clipped channels, about 0.4 sigma.
         let black = t.pixel(0.0);
         assert!((black - 0.4 * 0.025).abs() < 0.0015, "{black}");
@@ -125,13 +323,97 @@ mod tests {
         assert!(t.pixel(1.0) < 0.995);
         // Shrunk: the light of a black subpixel is that of the clipped noise, a subpixel's light
         // in the middle rises by the curve's convexity (about 1.2 sigma^2 d^0.2 x 2.2 / 2).
-        let s = Transfer::for_photo(0.025, true, 3).unwrap();
+        let s = Transfer::for_photo(0.025, true, 3, None).unwrap();
         assert!(s.subpixel(0.0) > 1e-5);
         let mid = s.subpixel(0.2176) as f64; // display 0.5
         assert!(mid > 0.2176 && mid < 0.2176 * 1.01, "{mid}");
         // A grey photo's single channel lifts black more than three averaged ones.
-        let g = Transfer::for_photo(0.025, false, 3).unwrap();
+        let g = Transfer::for_photo(0.025, false, 3, None).unwrap();
         assert!(g.subpixel(0.0) > s.subpixel(0.0));
-        assert!(Transfer::for_photo(0.0, true, 3).is_none());
+        assert!(Transfer::for_photo(0.0, true, 3, None).is_none());
+        // A shrunk JPEG's table: at quality 100 it is the raw noise's; at 70 JPEG took part of
+        // the noise, so the middle's convexity lift is smaller (the black's, clipped before the
+        // JPEG, stays).
+        let j100 = Transfer::for_photo(0.025, true, 3, Some(100)).unwrap();
+        let j70 = Transfer::for_photo(0.025, true, 3, Some(70)).unwrap();
+        let d01 = scratchart::model::display::linear(0.1) as f32;
+        let lift = |t: &Transfer| t.subpixel(d01) - d01;
+        assert!(
+            (lift(&j100) - lift(&s)).abs() < 0.1 * lift(&s),
+            "{} {}",
+            lift(&j100),
+            lift(&s)
+        );
+        assert!(lift(&j70) < 0.8 * lift(&s), "{} {}", lift(&j70), lift(&s));
+        assert!(j70.subpixel(0.0) > 0.5 * s.subpixel(0.0));
+    }
+
+    #[test]
+    fn a_jpeg_of_coloured_grooves_leaks_its_colour_into_the_grey() {
+        // Thin bright grooves on a dark plate, a view 48 x 48 rendered at twice that, its photo
+        // shrunk by 4: without noise, PNG, the draw is the model's light shrunk (within 8-bit
+        // steps), with a cast or not (light below the channels' clips passes); through JPEG 70
+        // the grey moves, and otherwise where a cast colours the grooves (JPEG keeps colour at
+        // half the resolution, and the grey is not JPEG's own luma).
+        let (w, h, ss, k) = (48u32, 48u32, 2u32, 4u32);
+        let lit: Vec<f32> = (0..(ss * w * ss * h) as usize)
+            .map(|i| if (i % (ss * w) as usize) % 7 == 3 { 0.6 } else { 0.004 })
+            .collect();
+        let mut rng = scratchart::scenes::Rng::new(3);
+        let mut draw = |gains: [f64; 3], q: Option<u8>| {
+            shrunk_photo_draw(&lit, ss, (w, h), k, 0.0, true, gains, q, &mut rng).unwrap()
+        };
+        let model: Vec<f32> = {
+            let sub = crate::photo::Gray {
+                width: ss * w,
+                height: ss * h,
+                data: lit.iter().map(|&l| scratchart::io::display_value(l)).collect(),
+            };
+            crate::photo::resize(&sub, w, h).data
+        };
+        let dist = |a: &[f32], b: &[f32]| {
+            (a.iter().zip(b).map(|(x, y)| ((x - y) as f64).powi(2)).sum::<f64>() / a.len() as f64).sqrt()
+        };
+        let cast = [1.25, 1.0, 0.8];
+        let plain = draw([1.0; 3], None);
+        let plain_cast = draw(cast, None);
+        assert!(dist(&plain, &model) < 0.003, "{}", dist(&plain, &model));
+        assert!(dist(&plain_cast, &model) < 0.01, "{}", dist(&plain_cast, &model));
+        let change = |a: Vec<f32>, b: &[f32]| -> Vec<f32> { a.iter().zip(b).map(|(x, y)| x - y).collect() };
+        let grey_jpeg = change(draw([1.0; 3], Some(70)), &plain);
+        let cast_jpeg = change(draw(cast, Some(70)), &plain_cast);
+        let none = vec![0.0; grey_jpeg.len()];
+        assert!(dist(&grey_jpeg, &none) > 0.0005, "{}", dist(&grey_jpeg, &none));
+        assert!(
+            dist(&cast_jpeg, &grey_jpeg) > 0.2 * dist(&grey_jpeg, &none),
+            "{} against {}",
+            dist(&cast_jpeg, &grey_jpeg),
+            dist(&grey_jpeg, &none)
+        );
+    }
+
+    #[test]
+    fn a_shrunk_jpegs_sensor_noise_is_found_through_its_quantization() {
+        // Photos of other draws than the search's: 3% and 1.5% per channel, quality 70 to 85,
+        // shrunk by 3 and 5, on a dark plate and mid levels. On the dark plate JPEG took a
+        // fifth of what the shrunk photo shows: k times it, over the grey's share, is 30% low.
+        for (sigma, q, k, level, colour) in [
+            (0.03, 70u8, 3u32, 0.02, true),
+            (0.015, 85, 5, 0.3, true),
+            (0.03, 80, 3, 0.15, false),
+            // A 17 MP photo to a 256-pixel view: the simulated photo is 2,048 pixels a side.
+            (0.02, 75, 16, 0.04, true),
+        ] {
+            let z = draws(77, k, colour);
+            let measured = shown_noise(&z, sigma, level, colour, k, Some(q)).unwrap();
+            let share = if colour { crate::photo::LUMA_NOISE } else { 1.0 };
+            let naive = k as f64 * measured / share;
+            let found = sensor_noise(measured, level, colour, k, Some(q));
+            eprintln!("sigma {sigma} q{q} k{k}: naive {naive:.4}, found {found:.4}");
+            assert!((found - sigma).abs() < 0.1 * sigma, "{found} for {sigma}");
+            if q == 70 {
+                assert!(naive < 0.8 * sigma, "{naive} for {sigma}");
+            }
+        }
     }
 }

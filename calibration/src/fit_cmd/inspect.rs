@@ -39,6 +39,10 @@ pub struct Inspection {
     pub native_noise: f64,
     /// A colour photo (its channels noisy each on its own).
     pub colour: bool,
+    /// The JPEG quality it was saved with, whatever its size or turn (`None`: not a JPEG).
+    pub saved_jpeg: Option<u8>,
+    /// Its white balance (`photo::Channels::gains`; 1, 1, 1 for a grey photo).
+    pub gains: [f64; 3],
     /// Of the bright pixels the fit compares, the fraction at full white.
     pub saturated: f64,
 }
@@ -84,7 +88,7 @@ pub fn inspect_photo(
     f: &Path,
 ) -> Result<Inspection> {
     let half = 0.5 * capture.plate.size_mm;
-    let (img, channel_factor) = crate::photo::load_photo_with_channels(f).map_err(InputError)?;
+    let (img, channels) = crate::photo::load_photo_with_channels(f).map_err(InputError)?;
     // The photo shrunk by a whole factor k to at most the capture view's height (never
     // enlarged), its own aspect kept (square pixels): each pixel the mean light of k x k of the
     // photo's, as the model's pixels add up their subpixels. A fractional factor (640 x 480 to
@@ -161,9 +165,54 @@ pub fn inspect_photo(
         .into());
     }
     let noise = crate::fiducials::pixel_noise_in(&small, Some(&mask));
-    // The shrink averaged k x k pixels' independent noise down by k; a colour photo's grey
-    // has less noise than the channels that were clipped.
-    let native_noise = k as f64 * noise / channel_factor;
+    let saved_jpeg = std::fs::read(f).ok().and_then(|b| crate::photo::jpeg_table_quality(&b));
+    // The sensor's noise in each channel, at the photo's own resolution: measured over the card
+    // on the photo shrunk by m = 1 (a JPEG: m = k, at most 4), where the optics' blur spans k /
+    // m times more pixels than in the view and the measure sees noise, not the grooves' edges
+    // (k times the noise of a 24 MP photo shrunk by 23 read its 0.8% as 1.6%). JPEG's steps
+    // take most of the noise at the photo's own pixels but less of what a shrink keeps.
+    // A colour photo's grey has less noise than the channels that were clipped; a JPEG's
+    // quantization took part of the noise after it was clipped, and its chroma's coarse steps
+    // hide whether the channels' noise was their own, so a colour JPEG is taken as a sensor's
+    // (each channel its own). The noise is the one whose simulated photo, at the card's
+    // typical level and saved as this one was, shows what was measured (`fit::noise`).
+    let colour = match (saved_jpeg, channels) {
+        (Some(_), c) => c.is_some(),
+        // Channels whose noise is mostly their own.
+        (None, c) => c.is_some_and(|c| c.noise_share < 0.5 * (1.0 + crate::photo::LUMA_NOISE)),
+    };
+    let native_noise = {
+        let m = if saved_jpeg.is_some() { k.min(4) } else { 1 };
+        let (mw, mh) = (cropped.width / m, cropped.height / m);
+        let at_m = crate::photo::resize(&crate::photo::crop_centre(&cropped, mw * m, mh * m), mw, mh);
+        let (mw, mh, ku, mu) = (mw as usize, mh as usize, k as usize, m as usize);
+        // The view's pixel under each, its offset that of the crop to whole m x m blocks.
+        let (ox, oy) = (
+            (cropped.width as usize - mw * mu) / 2,
+            (cropped.height as usize - mh * mu) / 2,
+        );
+        let m_mask: Vec<bool> = (0..mw * mh)
+            .map(|i| {
+                let (x, y) = (((i % mw) * mu + ox) / ku, ((i / mw) * mu + oy) / ku);
+                x < w as usize && y < h as usize && mask[y * w as usize + x]
+            })
+            .collect();
+        let measured = crate::fiducials::pixel_noise_in(&at_m, Some(&m_mask));
+        let mut on: Vec<f32> = small
+            .data
+            .iter()
+            .zip(&mask)
+            .filter(|(_, m)| **m)
+            .map(|(x, _)| *x)
+            .collect();
+        let level = if on.is_empty() {
+            0.0
+        } else {
+            let mid = on.len() / 2;
+            *on.select_nth_unstable_by(mid, |a, b| a.total_cmp(b)).1 as f64
+        };
+        crate::fit::noise::sensor_noise(measured, level, colour, m, saved_jpeg)
+    };
     // A JPEG compared on its own pixel grid: the fit puts the same JPEG on its model.
     let jpeg = if (small.width, small.height) == (img.width, img.height) {
         crate::photo::jpeg_quality(f)
@@ -183,8 +232,9 @@ pub fn inspect_photo(
         noise,
         shrink: k,
         native_noise,
-        // Channels whose noise is mostly their own.
-        colour: channel_factor < 0.5 * (1.0 + crate::photo::LUMA_NOISE),
+        colour,
+        saved_jpeg,
+        gains: channels.map_or([1.0; 3], |c| c.gains),
         saturated,
     })
 }

@@ -83,9 +83,23 @@ pub fn verdict(best: &FitResult, residual: &[(f64, f64)], photos: &[String], all
                     best.params[k].1
                 )
             }
-            None => "the grooves that tell it are too dim, saturated, noisy or compressed in the photos, or \
-                     missing"
-                .to_string(),
+            None => match best
+                .noise_lift
+                .get(k)
+                .copied()
+                .flatten()
+                .filter(|l| sd.is_some_and(|sd| crate::fit::LIFT_TRUST * l.abs() > 0.5 * sd))
+            {
+                // Most of it is the part of the noise's correction the fit does not trust.
+                Some(l) => format!(
+                    "the photos' noise, clipped at black, brightens the dark plate; the fit corrects for it (a \
+                     shift of {l:.5}), but trusts that correction only in part. Photograph with more light and \
+                     less noise (a lower ISO, a steady phone)"
+                ),
+                None => "the grooves that tell it are too dim, saturated, noisy or compressed in the photos, or \
+                         missing"
+                    .to_string(),
+            },
         };
         let mut msg = format!(
             "{name} is not identified: +- {} where a plate needs at most {:.5}: {cause}. Photograph again with the \
@@ -197,6 +211,7 @@ mod verdict_tests {
             curvature: vec![None; 5],
             sd: sds.iter().map(|s| Some(*s)).collect(),
             disagreement: vec![None; 5],
+            noise_lift: vec![None; 5],
             per_photo: vec![],
             limits: limits.to_vec(),
             unseen: vec![],
@@ -341,6 +356,18 @@ mod verdict_tests {
             v.reasons[0].contains("too dim") && !v.reasons[0].contains("alone"),
             "{v:?}"
         );
+        // Where the noise's lift, in the part not trusted, is most of it: the noise is named.
+        // The angle +- 3.0 degrees, 2.9 of it the part of the lift's 5.8-degree shift not trusted.
+        let mut r = result([3.0, 0.001, 0.0005], &[]);
+        r.noise_lift = vec![Some(-2.9 / crate::fit::LIFT_TRUST), None, None, None, None];
+        let v = verdict(&r, &[(0.004, 0.004); 2], &photos(), false);
+        assert!(
+            v.reasons[0].starts_with("angle_deg is not identified") && v.reasons[0].contains("clipped at black"),
+            "{v:?}"
+        );
+        r.noise_lift = vec![Some(0.001), None, None, None, None];
+        let v = verdict(&r, &[(0.004, 0.004); 2], &photos(), false);
+        assert!(v.reasons[0].contains("too dim"), "{v:?}");
     }
 
     #[test]
