@@ -79,6 +79,10 @@ pub fn load_photo(path: &Path) -> Result<Gray, String> {
 /// so the lift of a dark plate follows the channels' noise, not the grey's.
 pub const LUMA_NOISE: f64 = 0.749_4;
 
+/// Rec. 709 luma weights of red, green and blue: the grey the fit reads from a colour photo
+/// (the `image` crate's).
+pub const LUMA: [f64; 3] = [0.2126, 0.7152, 0.0722];
+
 /// What a colour photo's channels say beyond its grey.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Channels {

@@ -29,7 +29,7 @@ impl ChannelClip {
     /// The clip of channels with `gains` (each channel's light over green's); `None` where they
     /// are within 1% of each other (they clip together: the grey's light clipped at 1).
     pub(crate) fn new(gains: [f64; 3]) -> Option<ChannelClip> {
-        const LUMA: [f64; 3] = [0.2126, 0.7152, 0.0722];
+        use crate::photo::LUMA;
         let (lo, hi) = gains
             .iter()
             .fold((f64::MAX, 0.0f64), |(a, b), g| (a.min(*g), b.max(*g)));
@@ -57,7 +57,7 @@ impl ChannelClip {
     /// The scale s of the channels' gains under which light below every clip passes unchanged in
     /// the mid-tones: sum_c w_c (s g_c l)^(1/2.2) = l^(1/2.2).
     pub(crate) fn gain_scale(gains: [f64; 3]) -> f64 {
-        const LUMA: [f64; 3] = [0.2126, 0.7152, 0.0722];
+        use crate::photo::LUMA;
         LUMA.iter()
             .zip(&gains)
             .map(|(w, g)| w * g.powf(1.0 / 2.2))

@@ -24,8 +24,7 @@
 //! photo). The expectations are tabulated over d from a fixed set of normal draws, so the model
 //! is a smooth, deterministic function of d.
 
-/// Rec. 709 luma weights (the `image` crate's grey).
-const LUMA: [f64; 3] = [0.2126, 0.7152, 0.0722];
+use crate::photo::LUMA;
 /// Table points over display values [0, 1].
 const N: usize = 1024;
 /// Normal draws per table point (the same for every point).

@@ -265,7 +265,7 @@ fn degrade_shift(
             normal.step(&e)
         }
     };
-    const LUMA: [f64; 3] = [0.2126, 0.7152, 0.0722];
+    use crate::photo::LUMA;
     let mut rng = scratchart::scenes::Rng::new(0x5eed);
     let reps = 4;
     let mut mean = vec![0.0; normal.seen.len()];

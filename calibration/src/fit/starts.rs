@@ -1,0 +1,166 @@
+//! Where the fit starts: the z offset's intervals (a groove appears or vanishes where the offset
+//! crosses a ladder depth), start points from a given tool or a search, and the refinement of
+//! each start inside its interval.
+use super::*;
+
+/// The z offset's range, mm.
+const OFFSET_RANGE: (f64, f64) = (-0.3, 0.3);
+
+/// The z offset's intervals: between consecutive thresholds -z_k of the ladder (a groove appears
+/// or vanishes where the offset crosses one, so each refinement stays inside one interval).
+pub(super) struct OffsetIntervals {
+    list: Vec<(f64, f64)>,
+}
+
+impl OffsetIntervals {
+    pub(super) fn of(card: &Card) -> OffsetIntervals {
+        let mut th: Vec<f64> = card.depths_mm.iter().map(|z| -z).collect();
+        th.sort_by(|a, b| a.total_cmp(b));
+        let mut list: Vec<(f64, f64)> = Vec::new();
+        let mut prev = OFFSET_RANGE.0;
+        for &t in &th {
+            if t > prev {
+                list.push((prev, t));
+            }
+            prev = t;
+        }
+        list.push((prev, OFFSET_RANGE.1));
+        OffsetIntervals { list }
+    }
+
+    /// The interval that holds the offset `off` (the whole range where none does).
+    fn of_offset(&self, off: f64) -> (f64, f64) {
+        self.list
+            .iter()
+            .copied()
+            .find(|(a, b)| off >= *a && off < *b)
+            .unwrap_or(OFFSET_RANGE)
+    }
+}
+
+/// The start point of a tool given (`--init`), where it is of this layout's kind.
+pub(super) fn start_from(lay: &Layout, tool: &Tool, alpha: Option<f64>, intervals: &OffsetIntervals) -> Option<Start> {
+    let mut x = lay.start(tool.z_offset_mm(), 60.0);
+    let t = lay.tool(&x);
+    if std::mem::discriminant(&t) == std::mem::discriminant(tool) {
+        match tool {
+            Tool::VBit {
+                angle_deg, tip_flat_mm, ..
+            } => {
+                x[0] = *angle_deg;
+                x[1] = *tip_flat_mm;
+            }
+            Tool::Ball { radius_mm, .. } => x[0] = *radius_mm,
+            Tool::TaperedBall {
+                radius_mm, angle_deg, ..
+            } => {
+                x[0] = *radius_mm;
+                x[1] = *angle_deg;
+            }
+            Tool::Profile { .. } => {}
+        }
+        if let Some(a) = alpha {
+            x[lay.n_tool] = a;
+        }
+        let rg = lay.offset.map(|_| intervals.of_offset(tool.z_offset_mm()));
+        return Some((x, rg));
+    }
+    None
+}
+
+/// The search for start points: each offset interval's middle x each typical shape, exposure
+/// set per view by a 1-D search (no render); the best two go on to refinement. Coarse, so
+/// rendered at the photos' own resolution (a quarter of the refinement's pixels).
+pub(super) fn search_starts(
+    ev: &mut Evaluator,
+    intervals: &OffsetIntervals,
+    kind: Kind,
+    obs: &dyn Observer,
+) -> Result<Vec<Start>, FitError> {
+    ev.ss = 1;
+    ev.gs = None;
+    let offs: Vec<Option<(f64, f64)>> = if ev.lay.offset.is_some() {
+        intervals
+            .list
+            .iter()
+            .copied()
+            .filter(|(a, b)| *a > OFFSET_RANGE.0 && *b < OFFSET_RANGE.1)
+            .map(Some)
+            .collect()
+    } else {
+        vec![None]
+    };
+    let mut scored: Vec<(f64, Vec<f64>, Option<(f64, f64)>)> = Vec::new();
+    let total = (offs.len() * ev.lay.shapes().len()) as u64;
+    for (i, rg) in offs.iter().enumerate() {
+        for (j, shape) in ev.lay.shapes().into_iter().enumerate() {
+            if obs.should_stop() {
+                return Err(FitError::Interrupted);
+            }
+            obs.progress(&Progress {
+                task: "search",
+                done: (i * ev.lay.shapes().len() + j) as u64,
+                total,
+                message: format!("{} start points", kind.name()),
+            });
+            let off = rg.map_or(0.0, |(a, b)| 0.5 * (a + b));
+            let mut x = ev.lay.start(off, shape);
+            let lin = ev.render(&x)?;
+            for v in 0..ev.lay.n_views {
+                let k = ev.lay.n_tool + 1 + v;
+                x[k] = ev.best_exposure(v, &lin[v], &x);
+            }
+            let r = ev.residuals_at(&x, &lin);
+            scored.push((cauchy(&r, 0.01), x, *rg));
+        }
+    }
+    obs.finish("search");
+    ev.ss = SUPERSAMPLE;
+    ev.gs = None;
+    scored.sort_by(|a, b| a.0.total_cmp(&b.0));
+    Ok(scored.into_iter().take(2).map(|s| (s.1, s.2)).collect())
+}
+
+/// Refines each start point, and where one ends on its offset interval's edge, the next
+/// interval too (it may hold the optimum); the best and its interval, and the iterations run.
+pub(super) fn refine_starts(
+    ev: &mut Evaluator,
+    starts: Vec<Start>,
+    intervals: &OffsetIntervals,
+    kind: Kind,
+    cfg: &FitConfig,
+    obs: &dyn Observer,
+) -> Result<((Solution, Option<(f64, f64)>), u32), FitError> {
+    let mut best: Option<(Solution, Option<(f64, f64)>)> = None;
+    let mut iterations = 0;
+    for (n, (x0, rg)) in starts.into_iter().enumerate() {
+        let label = format!("{} start {}", kind.name(), n + 1);
+        let got = refine(ev, x0, rg, cfg.iters, obs, &label)?;
+        iterations += cfg.iters;
+        // The refinement may have ended on its interval's edge: then the next interval may hold
+        // the optimum, so it is refined there too.
+        let mut cand = vec![(got, rg)];
+        if let (Some(i), Some((a, b))) = (ev.lay.offset, rg) {
+            let x = &cand[0].0.x;
+            let edge = if (x[i] - a).abs() < 2e-4 {
+                Some(intervals.of_offset(a - 1e-6))
+            } else if (x[i] - b).abs() < 2e-4 {
+                Some(intervals.of_offset(b + 1e-6))
+            } else {
+                None
+            };
+            if let Some(rg2) = edge.filter(|r| *r != (a, b)) {
+                let mut x2 = x.clone();
+                x2[i] = 0.5 * (rg2.0 + rg2.1);
+                cand.push((refine(ev, x2, Some(rg2), cfg.iters, obs, &label)?, Some(rg2)));
+                iterations += cfg.iters;
+            }
+        }
+        for c in cand {
+            if best.as_ref().is_none_or(|b| c.0.cost < b.0.cost) {
+                best = Some(c);
+            }
+        }
+    }
+    Ok((best.expect("at least one start"), iterations))
+}
