@@ -60,7 +60,7 @@ impl Inspection {
             .collect();
         format!(
             "{}: {}x{} photo of view {}: {} of {} marks (confidence {}; {:.2} px rms), taken from ({:.0}, {:.0}, {:.0}) mm, \
-             {:.1} mm from the capture position; noise {:.4}",
+             {:.1} mm from the capture position; noise {:.4} ({:.1}% per channel at its own size{}{})",
             self.file.display(),
             self.taken.0,
             self.taken.1,
@@ -73,7 +73,17 @@ impl Inspection {
             c.eye[1],
             c.eye[2],
             self.moved_mm,
-            self.noise
+            self.noise,
+            100.0 * self.native_noise,
+            self.saved_jpeg.map_or(String::new(), |q| format!(", JPEG {q}")),
+            if self.gains.iter().any(|g| (g - 1.0).abs() > 0.01) {
+                format!(
+                    ", white balance {:.2} / 1 / {:.2}",
+                    self.gains[0], self.gains[2]
+                )
+            } else {
+                String::new()
+            }
         )
     }
 }
