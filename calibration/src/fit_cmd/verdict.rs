@@ -46,11 +46,27 @@ pub fn verdict(best: &FitResult, residual: &[(f64, f64)], photos: &[String], all
     // where its range ends: it is said once, as not identified.
     for name in best.at_bound.iter().filter(|n| !unidentified.contains(n)) {
         let k = best.params.iter().position(|p| &p.0 == name).expect("a parameter");
-        reasons.push(format!(
-            "{name} ended at a bound of its range ({:.5}): the tool that fits best lies outside what this kind of \
-             tool can be; try another --kind or check the photos",
-            best.params[k].1
-        ));
+        // A photo's camera (`eye[v]....`) is refined only a little from the one its marks gave:
+        // at a bound, that camera was off, not the tool.
+        let camera_of = name
+            .strip_prefix("eye[")
+            .and_then(|r| r.split(']').next())
+            .and_then(|v| v.parse::<usize>().ok());
+        reasons.push(match camera_of {
+            Some(v) => format!(
+                "{}: its camera's {} ended at the bound of how far the fit may move it from the camera the card's \
+                 marks gave ({:.5}): the marks placed that camera poorly (a mark covered or in glare, the card seen \
+                 at a slant); photograph again from nearer the capture position with every mark in view",
+                photos.get(v).map_or("a photo", |p| p.as_str()),
+                name.split("].").nth(1).unwrap_or(name),
+                best.params[k].1
+            ),
+            None => format!(
+                "{name} ended at a bound of its range ({:.5}): the tool that fits best lies outside what this kind of \
+                 tool can be; try another --kind or check the photos",
+                best.params[k].1
+            ),
+        });
     }
     for name in &unidentified {
         let k = best.params.iter().position(|p| &p.0 == name).expect("a parameter");
@@ -298,6 +314,16 @@ mod verdict_tests {
         assert!(v.reasons.is_empty(), "{v:?}");
         assert_eq!(v.allowed.len(), 1, "{v:?}");
         assert!(v.allowed[0].contains("ran to a bound"), "{v:?}");
+        // A photo's camera at its bound names the photo and its camera, not the tool's kind.
+        let mut r = result([0.1, 0.001, 0.0005], &["eye[1].ln_fov"]);
+        r.params.push(("eye[1].ln_fov".into(), 0.05, Some(0.01)));
+        let v = verdict(&r, &[(0.004, 0.004); 2], &photos(), false);
+        assert_eq!(v.reasons.len(), 1, "{v:?}");
+        assert!(
+            v.reasons[0].starts_with("photo `b.jpg` (view cam_west): its camera's ln_fov ended at the bound")
+                && !v.reasons[0].contains("--kind"),
+            "{v:?}"
+        );
     }
 
     #[test]
