@@ -545,6 +545,7 @@ pub fn fit_kind(
             k > 1 && k <= noise::SIMULATED_SHRINK
         })
     };
+    // (`Evaluator::simulated_light` holds the same condition for the views it simulates.)
     if data.jpeg.iter().any(|q| q.is_some()) || (0..data.capture.views.len()).any(|v| shrunk_jpeg(v).is_some()) {
         for pass in 0..2 {
             let lin = ev.render(&x)?;
@@ -554,16 +555,13 @@ pub fn fit_kind(
                 ev.jpeg_shift[v] = if let Some(q) = data.jpeg.get(v).copied().flatten() {
                     let back = super::photo::jpeg_round_trip(&pred[v], c.width, c.height, q);
                     Some(back.iter().zip(&pred[v]).map(|(b, p)| b - p).collect())
-                } else if let Some(q) = shrunk_jpeg(v) {
-                    let lit = ev.light(&ev.blurred(&lin[v], v, &x), v, &x);
-                    let k = data.shrink[v];
-                    let colour = data.colour.get(v).copied().unwrap_or(false);
-                    let gains = data.gains.get(v).copied().unwrap_or([1.0; 3]);
+                } else if let (Some(q), Some(lit)) = (shrunk_jpeg(v), ev.simulated_light(&lin[v], v, &x)) {
+                    // No noise: the draws do not use the generator.
                     let mut rng = scratchart::scenes::Rng::new(1);
-                    let draw = |q: Option<u8>, rng: &mut scratchart::scenes::Rng| {
-                        noise::shrunk_photo_draw(&lit, ev.ss, (c.width, c.height), k, 0.0, colour, gains, q, rng)
-                    };
-                    match (draw(Some(q), &mut rng), draw(None, &mut rng)) {
+                    match (
+                        ev.shrunk_draw(&lit, v, 0.0, Some(q), &mut rng),
+                        ev.shrunk_draw(&lit, v, 0.0, None, &mut rng),
+                    ) {
                         (Some(a), Some(b)) => Some(a.iter().zip(&b).map(|(a, b)| a - b).collect()),
                         _ => None,
                     }

@@ -292,6 +292,42 @@ pub(super) fn shrunk_photo_draw(
     Some(crate::photo::resize(&full, w, h).data)
 }
 
+impl super::Evaluator<'_, '_> {
+    /// View v's photo, when it is simulated at its own resolution (shrunk by 2 to
+    /// [`SIMULATED_SHRINK`]): the light of its subpixels at `x` from the render `lin`
+    /// ([`shrunk_photo_draw`]'s input), computed once for all the draws.
+    pub(super) fn simulated_light(&self, lin: &[f32], v: usize, x: &[f64]) -> Option<Vec<f32>> {
+        let k = self.data.shrink.get(v).copied().unwrap_or(1);
+        (k > 1 && k <= SIMULATED_SHRINK).then(|| self.light(&self.blurred(lin, v, x), v, x))
+    }
+
+    /// One [`shrunk_photo_draw`] of view v's photo from its light `lit`
+    /// ([`Self::simulated_light`]), with the photo's shrink, colour and white balance, the noise
+    /// `sigma` and the JPEG `q`.
+    pub(super) fn shrunk_draw(
+        &self,
+        lit: &[f32],
+        v: usize,
+        sigma: f64,
+        q: Option<u8>,
+        rng: &mut scratchart::scenes::Rng,
+    ) -> Option<Vec<f32>> {
+        let d = self.data;
+        let c = &d.capture.views[v].camera;
+        shrunk_photo_draw(
+            lit,
+            self.ss,
+            (c.width, c.height),
+            d.shrink[v],
+            sigma,
+            d.colour.get(v).copied().unwrap_or(false),
+            d.gains.get(v).copied().unwrap_or([1.0; 3]),
+            q,
+            rng,
+        )
+    }
+}
+
 /// Per view, the transfer of its photo's clipped noise (`fit::noise`).
 pub(super) fn for_views(data: &super::Data) -> Vec<Option<Transfer>> {
     (0..data.capture.views.len())

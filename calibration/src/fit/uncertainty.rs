@@ -270,6 +270,10 @@ fn degrade_shift(
     let reps = 4;
     let mut mean = vec![0.0; normal.seen.len()];
     let mut ok = true;
+    // A shrunk photo's light, once for all the draws (`Evaluator::simulated_light`).
+    let lights: Vec<Option<Vec<f32>>> = (0..data.capture.views.len())
+        .map(|v| ev.simulated_light(&lin[v], v, x))
+        .collect();
     for _ in 0..reps {
         let deg: Vec<Vec<f32>> = raw
             .iter()
@@ -278,28 +282,16 @@ fn degrade_shift(
             .map(|(v, (img, lifted))| {
                 let sigma = data.native_noise.get(v).copied().unwrap_or(0.0);
                 let colour = data.colour.get(v).copied().unwrap_or(false);
-                let k = data.shrink.get(v).copied().unwrap_or(1);
-                if k > 1 {
+                if data.shrink.get(v).copied().unwrap_or(1) > 1 {
                     // A shrunk photo as its camera made it, at its own resolution: the noise
                     // and its JPEG there, then the shrink (`noise::shrunk_photo_draw`). One
-                    // shrunk by more than `SIMULATED_SHRINK` stays as the model has it.
+                    // shrunk by more than `SIMULATED_SHRINK`, or clean and lossless, stays as
+                    // the model has it.
                     let q = data.saved_jpeg.get(v).copied().flatten();
-                    if k > super::noise::SIMULATED_SHRINK || (sigma <= 0.0 && q.is_none()) {
-                        return lifted.clone();
+                    return match &lights[v] {
+                        Some(lit) if sigma > 0.0 || q.is_some() => ev.shrunk_draw(lit, v, sigma, q, &mut rng),
+                        _ => None,
                     }
-                    let c = &data.capture.views[v].camera;
-                    let lit = ev.light(&ev.blurred(&lin[v], v, x), v, x);
-                    return super::noise::shrunk_photo_draw(
-                        &lit,
-                        ev.ss,
-                        (c.width, c.height),
-                        k,
-                        sigma,
-                        colour,
-                        data.gains.get(v).copied().unwrap_or([1.0; 3]),
-                        q,
-                        &mut rng,
-                    )
                     .unwrap_or_else(|| lifted.clone());
                 }
                 let q = |d: f64| (d.clamp(0.0, 1.0) * 255.0).round() / 255.0;
