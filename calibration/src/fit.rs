@@ -555,16 +555,8 @@ pub fn fit_kind(
                 ev.jpeg_shift[v] = if let Some(q) = data.jpeg.get(v).copied().flatten() {
                     let back = super::photo::jpeg_round_trip(&pred[v], c.width, c.height, q);
                     Some(back.iter().zip(&pred[v]).map(|(b, p)| b - p).collect())
-                } else if let (Some(q), Some(lit)) = (shrunk_jpeg(v), ev.simulated_light(&lin[v], v, &x)) {
-                    // No noise: the draws do not use the generator.
-                    let mut rng = scratchart::scenes::Rng::new(1);
-                    match (
-                        ev.shrunk_draw(&lit, v, 0.0, Some(q), &mut rng),
-                        ev.shrunk_draw(&lit, v, 0.0, None, &mut rng),
-                    ) {
-                        (Some(a), Some(b)) => Some(a.iter().zip(&b).map(|(a, b)| a - b).collect()),
-                        _ => None,
-                    }
+                } else if let (Some(_), Some(lit)) = (shrunk_jpeg(v), ev.simulated_light(&lin[v], v, &x)) {
+                    ev.simulated_shift(&lit, v, &pred[v])
                 } else {
                     None
                 };

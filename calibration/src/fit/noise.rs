@@ -263,7 +263,7 @@ pub(super) fn shrunk_photo_draw(
     colour: bool,
     gains: [f64; 3],
     q: Option<u8>,
-    rng: &mut scratchart::scenes::Rng,
+    normal: &mut dyn FnMut() -> f64,
 ) -> Option<Vec<f32>> {
     // The light at the photo's own pixels (linear: the resize averages light).
     let sub = crate::photo::Gray {
@@ -281,7 +281,7 @@ pub(super) fn shrunk_photo_draw(
         let l = scratchart::model::display::linear(d as f64);
         for gc in g.iter().take(chans) {
             let dc = scratchart::model::display::display((l * gc).min(1.0));
-            bytes.push(((dc + sigma * rng.normal()).clamp(0.0, 1.0) * 255.0).round() as u8);
+            bytes.push(((dc + sigma * normal()).clamp(0.0, 1.0) * 255.0).round() as u8);
         }
     }
     let full = crate::photo::Gray {
@@ -310,7 +310,7 @@ impl super::Evaluator<'_, '_> {
         v: usize,
         sigma: f64,
         q: Option<u8>,
-        rng: &mut scratchart::scenes::Rng,
+        normal: &mut dyn FnMut() -> f64,
     ) -> Option<Vec<f32>> {
         let d = self.data;
         let c = &d.capture.views[v].camera;
@@ -323,8 +323,44 @@ impl super::Evaluator<'_, '_> {
             d.colour.get(v).copied().unwrap_or(false),
             d.gains.get(v).copied().unwrap_or([1.0; 3]),
             q,
-            rng,
+            normal,
         )
+    }
+}
+
+impl super::Evaluator<'_, '_> {
+    /// View v's expected shrunk photo less the model's prediction `model` (with its lift, no
+    /// JPEG change): the mean of [`Self::shrunk_draw`]s with the photo's noise and JPEG, in
+    /// antithetic pairs (each draw's noise and its negative, so that the noise's linear part
+    /// cancels and only what clipping, the 8-bit steps and JPEG make of it stays), less `model`.
+    /// What the model then lacks of a shrunk JPEG: JPEG's quantization of the noisy photo at its
+    /// own resolution, which takes part of the noise and of its lift, and of a groove coloured by
+    /// the photo's white balance. A JPEG's change taken without the noise (the model's light
+    /// alone through the JPEG) put the ringing by bright grooves below black, clipped there, and
+    /// lifted the dark plate a second time. Seeded by view: the same fit gives the same shift.
+    pub(super) fn simulated_shift(&self, lit: &[f32], v: usize, model: &[f32]) -> Option<Vec<f32>> {
+        let d = self.data;
+        let sigma = d.native_noise.get(v).copied().unwrap_or(0.0);
+        let q = d.saved_jpeg.get(v).copied().flatten();
+        let k = d.shrink.get(v).copied().unwrap_or(1);
+        // A photo shrunk by k averages k^2 of its pixels' noise: fewer pairs as k grows.
+        let pairs = if sigma > 0.0 { (8 / k.max(1)).clamp(1, 4) } else { 1 };
+        let mut mean = vec![0.0f64; model.len()];
+        for p in 0..pairs {
+            for sign in [1.0, -1.0] {
+                let mut rng = scratchart::scenes::Rng::new(0x5111_f7ed ^ ((v as u64) << 8) ^ p as u64);
+                let draw = self.shrunk_draw(lit, v, sigma, q, &mut || sign * rng.normal())?;
+                if draw.len() != mean.len() {
+                    return None;
+                }
+                mean.iter_mut().zip(&draw).for_each(|(m, x)| *m += *x as f64);
+                if sigma == 0.0 {
+                    break;
+                }
+            }
+        }
+        let n = if sigma > 0.0 { 2 * pairs } else { 1 } as f64;
+        Some(mean.iter().zip(model).map(|(m, p)| (m / n) as f32 - p).collect())
     }
 }
 
@@ -396,7 +432,7 @@ mod tests {
             .collect();
         let mut rng = scratchart::scenes::Rng::new(3);
         let mut draw = |gains: [f64; 3], q: Option<u8>| {
-            shrunk_photo_draw(&lit, ss, (w, h), k, 0.0, true, gains, q, &mut rng).unwrap()
+            shrunk_photo_draw(&lit, ss, (w, h), k, 0.0, true, gains, q, &mut || rng.normal()).unwrap()
         };
         let model: Vec<f32> = {
             let sub = crate::photo::Gray {

@@ -289,7 +289,7 @@ fn degrade_shift(
                     // the model has it.
                     let q = data.saved_jpeg.get(v).copied().flatten();
                     return match &lights[v] {
-                        Some(lit) if sigma > 0.0 || q.is_some() => ev.shrunk_draw(lit, v, sigma, q, &mut rng),
+                        Some(lit) if sigma > 0.0 || q.is_some() => ev.shrunk_draw(lit, v, sigma, q, &mut || rng.normal()),
                         _ => None,
                     }
                     .unwrap_or_else(|| lifted.clone());
