@@ -236,7 +236,7 @@ struct Evaluator<'a, 'r> {
     jpeg_shift: Vec<Option<Vec<f32>>>,
     /// Per view: the expected photo of the model under the sensor's clipped noise (see
     /// `noise`), applied in `expose`.
-    transfer: Vec<Option<noise::Transfer>>,
+    transfer: Vec<Option<noise::Lift>>,
     /// Per view: how its colour channels clip under the photo's white balance (see
     /// `camera::ChannelClip`); `None` where they clip together.
     clip: Vec<Option<camera::ChannelClip>>,
@@ -507,6 +507,7 @@ pub fn fit_kind(
         data.capture.views.len(),
         data.refine_shift,
         &data.refine_pose,
+        &noise::lift_seen(data),
     );
     let mut ev = Evaluator {
         renderer,
@@ -556,7 +557,7 @@ pub fn fit_kind(
                     let back = super::photo::jpeg_round_trip(&pred[v], c.width, c.height, q);
                     Some(back.iter().zip(&pred[v]).map(|(b, p)| b - p).collect())
                 } else if let (Some(_), Some(lit)) = (shrunk_jpeg(v), ev.simulated_light(&lin[v], v, &x)) {
-                    ev.simulated_shift(&lit, v, &pred[v])
+                    ev.simulated_shift(&lit, v, &x, &pred[v])
                 } else {
                     None
                 };
@@ -587,7 +588,10 @@ pub fn fit_kind(
             let span = q.hi - q.lo;
             // (A measured profile's width of 0 is a rung the tool does not reach, not a limit.)
             let no_cut = q.name.starts_with("W_mm@") && x[k] - q.lo < 1e-3 * span;
-            q.render && !no_cut && (x[k] - q.lo < 1e-3 * span || q.hi - x[k] < 1e-3 * span)
+            // (A photo's noise scale at its bound: its dark plate is brighter or darker than any
+            // plausible noise makes it.)
+            let checked = q.render || q.name.starts_with("ln_noise[");
+            checked && !no_cut && (x[k] - q.lo < 1e-3 * span || q.hi - x[k] < 1e-3 * span)
         })
         .map(|k| ev.lay.params[k].name.clone())
         .collect();
@@ -643,6 +647,7 @@ pub fn predict(renderer: &Renderer, data: &Data, res: &FitResult) -> Result<(Vec
         data.capture.views.len(),
         data.refine_shift,
         &data.refine_pose,
+        &noise::lift_seen(data),
     );
     let mut ev = Evaluator {
         renderer,

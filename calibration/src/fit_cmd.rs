@@ -510,8 +510,16 @@ fn print_fit(best: &FitResult, results: &[FitResult], obs: &dyn Observer) {
             (None, None) => obs.result(&format!("  {name:14} not identified: the photos do not constrain it")),
         }
     }
+    let noise_scale: Vec<f64> = (0..best.blur_px.len())
+        .map(|v| {
+            best.params
+                .iter()
+                .find(|q| q.0 == format!("ln_noise[{v}]"))
+                .map_or(1.0, |q| (q.1.exp() * 100.0).round() / 100.0)
+        })
+        .collect();
     obs.result(&format!(
-        "  exposure {:?}, camera blur {:?} px",
+        "  exposure {:?}, camera blur {:?} px, noise {:?} x the one measured",
         best.exposure
             .iter()
             .map(|e| (e * 1000.0).round() / 1000.0)
@@ -519,7 +527,8 @@ fn print_fit(best: &FitResult, results: &[FitResult], obs: &dyn Observer) {
         best.blur_px
             .iter()
             .map(|b| (b * 100.0).round() / 100.0)
-            .collect::<Vec<_>>()
+            .collect::<Vec<_>>(),
+        noise_scale
     ));
 }
 
@@ -600,9 +609,13 @@ fn fit_record(
         "no_groove": best.unseen,
         "exposure": best.exposure,
         "blur_px": best.blur_px,
-        "photos": files.iter().zip(inspections).zip(residual).map(|((f, insp), (rms, nz))| {
+        "photos": files.iter().zip(inspections).zip(residual).enumerate().map(|(v, ((f, insp), (rms, nz)))| {
             let mut p = insp.clone();
             p["file"] = json!(f.display().to_string());
+            // The sensor noise whose lift the fit found in the photo (`fit::noise::Lift`).
+            if let Some(u) = best.params.iter().find(|q| q.0 == format!("ln_noise[{v}]")) {
+                p["sensor_noise_fitted"] = json!(insp["sensor_noise"].as_f64().unwrap_or(0.0) * u.1.exp());
+            }
             p["noise"] = json!(nz);
             p["residual_rms"] = json!(rms);
             p

@@ -352,11 +352,12 @@ fn the_harshest_phone_photos_are_registered_and_never_give_a_wrong_tool() {
 /// Noise clipped at black: photos with 2.5% noise per colour channel, larger than the capture
 /// view (shrunk by 3), of a 58 um ball. The shrink averages the noise away but not the lift its
 /// clipping gives the dark plate; before the fit's model knew it, it put the ball at 39.5 um
-/// +- 0.3 with a residual at the photo's noise and wrote it (exit 0). Now the model's pixels show
-/// the expected photo under that noise (`fit::noise`): the ball lands within 5 um of the truth,
-/// the truth lies within the stated uncertainty (half the lift's shift is in it), and since that
-/// is more than a plate allows the fit refuses (exit 3, no tool.json). The same photos without
-/// noise are recovered and written.
+/// +- 0.3 with a residual at the photo's noise and wrote it (exit 0). With the lift in the model
+/// at the noise measured on the photo it landed within 5 um but was not identified (the lift's
+/// size follows the noise, read to 5 or 10%); now the fit refines the lift's size on the dark
+/// plate (`ln_noise[v]`, `fit::noise::Lift`) and the ball is recovered and written, within
+/// 2.5 um, the truth within twice the stated uncertainty, the fitted noise within 10% of the
+/// truth. The same photos without noise are recovered and written.
 #[test]
 fn noise_clipped_at_black_is_modelled_and_never_gives_a_wrong_tool() {
     let ctx = gpu();
@@ -396,15 +397,21 @@ fn noise_clipped_at_black_is_modelled_and_never_gives_a_wrong_tool() {
         let (radius, sd) = param("radius_mm");
         eprintln!("{tag}: radius {radius:.5} +- {sd:.5} (truth 0.058)");
         assert!((radius - 0.058).abs() < 0.005, "{tag}: radius {radius}");
-        if noise == 0.0 {
-            assert!(got.is_ok(), "{tag}: {:?}", got.err());
-            assert!(out.exists());
-        } else {
-            let e = got.expect_err("noisy photos of a shrunk card cannot give the radius to 2.5 um");
-            assert_eq!(code(&e), 3, "{e:#}");
-            assert!(format!("{e:#}").contains("not identified"), "{e:#}");
-            assert!(!out.exists(), "a refused fit wrote tool.json");
-            assert!((radius - 0.058).abs() <= sd, "{tag}: the truth lies outside +- {sd}");
+        assert!(got.is_ok(), "{tag}: {:?}", got.err());
+        assert!(out.exists());
+        if noise > 0.0 {
+            assert!((radius - 0.058).abs() < 0.0025, "{tag}: radius {radius}");
+            assert!(
+                (radius - 0.058).abs() <= 2.0 * sd,
+                "{tag}: the truth lies outside 2 x +- {sd}"
+            );
+            for ph in report["fit"]["photos"].as_array().unwrap() {
+                let fitted = ph["sensor_noise_fitted"].as_f64().unwrap_or_else(|| panic!("{ph}"));
+                assert!(
+                    (fitted / noise - 1.0).abs() < 0.1,
+                    "{tag}: noise fitted {fitted} for {noise}"
+                );
+            }
         }
     }
     assert_no_validation(&ctx);

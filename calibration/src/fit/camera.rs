@@ -169,9 +169,10 @@ impl Evaluator<'_, '_> {
     /// subpixels, and the display transform encodes the result.
     pub(super) fn expose(&self, b: &[f32], v: usize, x: &[f64]) -> Vec<f32> {
         let mut lit = self.light(b, v, x);
+        let u = self.lay.ln_noise(x, v);
         // A shrunk photo: each subpixel's light as its clipped noise lifts it (`noise`).
         if let Some(t) = &self.transfer[v] {
-            lit.iter_mut().for_each(|l| *l = t.subpixel(*l));
+            lit.iter_mut().for_each(|l| *l = t.subpixel(*l, u));
         }
         self.reduce(&lit, v)
             .into_iter()
@@ -179,7 +180,7 @@ impl Evaluator<'_, '_> {
                 let d = scratchart::io::display_value(l).min(1.0);
                 // A photo used as taken: its pixel's expected value under clipped noise.
                 match &self.transfer[v] {
-                    Some(t) => t.pixel(d),
+                    Some(t) => t.pixel(d, u),
                     None => d,
                 }
             })

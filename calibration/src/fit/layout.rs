@@ -41,6 +41,9 @@ const ANGLE_LIMIT: f64 = 0.5 * ANGLE_TOL_DEG;
 const LENGTH_LIMIT: f64 = 0.5 * LENGTH_TOL_MM;
 const OFFSET_LIMIT: f64 = 0.5 * OFFSET_TOL_MM;
 
+/// How far the fit may scale a photo's sensor noise from the one measured, in log (x0.5 to x2).
+pub(super) const NOISE_SPAN: f64 = 0.7;
+
 /// Camera terms per photo taken off the capture pose (eye x, y, z; roll; log field of view).
 pub(super) const POSE_PARAMS: usize = 5;
 
@@ -53,6 +56,8 @@ pub(super) struct Layout {
     pub(super) pose_at: Vec<Option<usize>>,
     /// Index of the first shading term (3 per view: see [`Layout::shade`]).
     pub(super) shade_at: usize,
+    /// Per view, the index of its log noise scale (`ln_noise[v]`), if its photo has noise.
+    pub(super) noise_at: Vec<Option<usize>>,
     pub(super) params: Vec<Param>,
     /// Index of the z offset (none for a profile: its points are in commanded depth).
     pub(super) offset: Option<usize>,
@@ -63,7 +68,14 @@ pub(super) struct Layout {
 }
 
 impl Layout {
-    pub(super) fn new(kind: Kind, card: &Card, n_views: usize, refine_registration: bool, pose: &[bool]) -> Layout {
+    pub(super) fn new(
+        kind: Kind,
+        card: &Card,
+        n_views: usize,
+        refine_registration: bool,
+        pose: &[bool],
+        noisy: &[bool],
+    ) -> Layout {
         let mut params = match kind {
             Kind::VBit => vec![
                 p("angle_deg", 5.0, 175.0, 0.2, true, ANGLE_LIMIT),
@@ -138,9 +150,22 @@ impl Layout {
                 params.push(p(&format!("shade[{v}].{term}"), -1.5, 1.5, 0.01, false, 1.5));
             }
         }
+        // The size of each noisy photo's lift of clipped noise (`noise::Lift`): the log of its
+        // sensor noise against the one measured on the photo. A photo's noise is read to 5 or
+        // 10% (`fit_cmd::inspect`), and the lift moves a V angle by 15 degrees at 2% noise: a
+        // 6% error in the noise put it 2.8 degrees off. The dark plate, where nothing but the
+        // lift brightens the photo, pins it.
+        let mut noise_at = vec![None; n_views];
+        for (v, &on) in noisy.iter().enumerate().take(n_views) {
+            if on {
+                noise_at[v] = Some(params.len());
+                params.push(p(&format!("ln_noise[{v}]"), -NOISE_SPAN, NOISE_SPAN, 0.01, false, 10.0));
+            }
+        }
         Layout {
             pose_at,
             shade_at,
+            noise_at,
             reg,
             kind,
             params,
@@ -228,7 +253,13 @@ impl Layout {
             POSE_PARAMS * self.pose_at.iter().flatten().count(),
         ));
         x.extend(std::iter::repeat_n(0.0, 3 * self.n_views));
+        x.extend(std::iter::repeat_n(0.0, self.noise_at.iter().flatten().count()));
         x
+    }
+
+    /// The log scale of view v's sensor noise against the one measured (0 without noise).
+    pub(super) fn ln_noise(&self, x: &[f64], v: usize) -> f64 {
+        self.noise_at.get(v).copied().flatten().map_or(0.0, |i| x[i])
     }
 
     /// The shading terms (gx, gy, q) of view v.

@@ -301,6 +301,11 @@ impl super::Evaluator<'_, '_> {
         (k > 1 && k <= SIMULATED_SHRINK).then(|| self.light(&self.blurred(lin, v, x), v, x))
     }
 
+    /// View v's sensor noise at `x`: the one measured on its photo, scaled as the fit refined it.
+    pub(super) fn sigma(&self, x: &[f64], v: usize) -> f64 {
+        self.data.native_noise.get(v).copied().unwrap_or(0.0) * self.lay.ln_noise(x, v).exp()
+    }
+
     /// One [`shrunk_photo_draw`] of view v's photo from its light `lit`
     /// ([`Self::simulated_light`]), with the photo's shrink, colour and white balance, the noise
     /// `sigma` and the JPEG `q`.
@@ -338,9 +343,9 @@ impl super::Evaluator<'_, '_> {
     /// the photo's white balance. A JPEG's change taken without the noise (the model's light
     /// alone through the JPEG) put the ringing by bright grooves below black, clipped there, and
     /// lifted the dark plate a second time. Seeded by view: the same fit gives the same shift.
-    pub(super) fn simulated_shift(&self, lit: &[f32], v: usize, model: &[f32]) -> Option<Vec<f32>> {
+    pub(super) fn simulated_shift(&self, lit: &[f32], v: usize, x: &[f64], model: &[f32]) -> Option<Vec<f32>> {
         let d = self.data;
-        let sigma = d.native_noise.get(v).copied().unwrap_or(0.0);
+        let sigma = self.sigma(x, v);
         let q = d.saved_jpeg.get(v).copied().flatten();
         let k = d.shrink.get(v).copied().unwrap_or(1);
         // A photo shrunk by k averages k^2 of its pixels' noise: fewer pairs as k grows.
@@ -364,11 +369,12 @@ impl super::Evaluator<'_, '_> {
     }
 }
 
-/// Per view, the transfer of its photo's clipped noise (`fit::noise`).
-pub(super) fn for_views(data: &super::Data) -> Vec<Option<Transfer>> {
+/// Per view, the lift of its photo's clipped noise (`fit::noise`), at scales about the noise
+/// measured.
+pub(super) fn for_views(data: &super::Data) -> Vec<Option<Lift>> {
     (0..data.capture.views.len())
         .map(|v| {
-            Transfer::for_photo(
+            Lift::for_photo(
                 data.native_noise.get(v).copied().unwrap_or(0.0),
                 data.colour.get(v).copied().unwrap_or(false),
                 data.shrink.get(v).copied().unwrap_or(1),
@@ -376,6 +382,74 @@ pub(super) fn for_views(data: &super::Data) -> Vec<Option<Transfer>> {
             )
         })
         .collect()
+}
+
+/// Per view, whether the fit refines the size of its photo's lift (`ln_noise[v]`): where the
+/// photo has noise and a tenth of the pixels it compares lie within [`LIFT_SEEN`] times that
+/// noise of black, where clipping at black is what the photo shows. Elsewhere the lift is a
+/// few ten-thousandths, and its size would follow whatever else the model lacks there (a test
+/// card lit to 0.05, its noise 0.6%, ran it to the bound at twice the noise measured).
+pub(super) fn lift_seen(data: &super::Data) -> Vec<bool> {
+    (0..data.capture.views.len())
+        .map(|v| {
+            let sigma = data.native_noise.get(v).copied().unwrap_or(0.0);
+            let (Some(photo), Some(mask)) = (data.photos.get(v), data.masks.get(v)) else {
+                return false;
+            };
+            let (mut n, mut dark) = (0usize, 0usize);
+            for (&d, &m) in photo.iter().zip(mask) {
+                if m {
+                    n += 1;
+                    dark += usize::from((d as f64) < LIFT_SEEN * sigma);
+                }
+            }
+            sigma > 0.0 && n > 0 && dark * 10 >= n
+        })
+        .collect()
+}
+
+/// A pixel within this many times its photo's sensor noise of black shows the lift.
+const LIFT_SEEN: f64 = 2.0;
+
+/// Tables of a [`Transfer`] every this much in the log of the noise's scale.
+const SCALE_STEP: f64 = 0.175;
+
+/// A photo's [`Transfer`] for its sensor noise scaled by exp(u), |u| up to
+/// `layout::NOISE_SPAN`: tables every [`SCALE_STEP`] in u, interpolated, so that the fit can
+/// refine the lift's size (`ln_noise[v]`) as it refines the exposure, without a table per step.
+#[derive(Clone, Debug)]
+pub(crate) struct Lift {
+    tables: Vec<Transfer>,
+}
+
+impl Lift {
+    pub(crate) fn for_photo(sigma: f64, colour: bool, shrink: u32, jpeg: Option<u8>) -> Option<Lift> {
+        let n = (super::layout::NOISE_SPAN / SCALE_STEP).ceil() as i32;
+        let tables = (-n..=n)
+            .map(|i| Transfer::for_photo(sigma * (i as f64 * SCALE_STEP).exp(), colour, shrink, jpeg))
+            .collect::<Option<Vec<_>>>()?;
+        Some(Lift { tables })
+    }
+
+    /// The two tables about scale u and the weight of the second.
+    fn at(&self, u: f64) -> (&Transfer, &Transfer, f32) {
+        let n = (self.tables.len() - 1) as f64;
+        let t = (u / SCALE_STEP + n / 2.0).clamp(0.0, n);
+        let i = (t.floor() as usize).min(self.tables.len() - 2);
+        (&self.tables[i], &self.tables[i + 1], (t - i as f64) as f32)
+    }
+
+    /// [`Transfer::subpixel`] at the noise's scale exp(u).
+    pub(crate) fn subpixel(&self, l: f32, u: f64) -> f32 {
+        let (a, b, f) = self.at(u);
+        a.subpixel(l) * (1.0 - f) + b.subpixel(l) * f
+    }
+
+    /// [`Transfer::pixel`] at the noise's scale exp(u).
+    pub(crate) fn pixel(&self, d: f32, u: f64) -> f32 {
+        let (a, b, f) = self.at(u);
+        a.pixel(d) * (1.0 - f) + b.pixel(d) * f
+    }
 }
 
 #[cfg(test)]

@@ -280,7 +280,7 @@ fn degrade_shift(
             .zip(&pred)
             .enumerate()
             .map(|(v, (img, lifted))| {
-                let sigma = data.native_noise.get(v).copied().unwrap_or(0.0);
+                let sigma = ev.sigma(x, v);
                 let colour = data.colour.get(v).copied().unwrap_or(false);
                 if data.shrink.get(v).copied().unwrap_or(1) > 1 {
                     // A shrunk photo as its camera made it, at its own resolution: the noise
@@ -289,7 +289,9 @@ fn degrade_shift(
                     // the model has it.
                     let q = data.saved_jpeg.get(v).copied().flatten();
                     return match &lights[v] {
-                        Some(lit) if sigma > 0.0 || q.is_some() => ev.shrunk_draw(lit, v, sigma, q, &mut || rng.normal()),
+                        Some(lit) if sigma > 0.0 || q.is_some() => {
+                            ev.shrunk_draw(lit, v, sigma, q, &mut || rng.normal())
+                        }
                         _ => None,
                     }
                     .unwrap_or_else(|| lifted.clone());

@@ -52,6 +52,24 @@ pub fn verdict(best: &FitResult, residual: &[(f64, f64)], photos: &[String], all
             .strip_prefix("eye[")
             .and_then(|r| r.split(']').next())
             .and_then(|v| v.parse::<usize>().ok());
+        // A photo's noise scale (`ln_noise[v]`): its dark plate is not what its noise makes it.
+        let noise_of = name
+            .strip_prefix("ln_noise[")
+            .and_then(|r| r.split(']').next())
+            .and_then(|v| v.parse::<usize>().ok());
+        if let Some(v) = noise_of {
+            reasons.push(format!(
+                "{}: its dark plate is {} than the noise measured on the photo makes it, even with that noise \
+                 {} ({name} at {:.2}): light the model lacks (glare, a lamp in view, a camera's own black level) \
+                 or a photo edited after it was taken; photograph again with the lamp of the capture guide, the \
+                 room dark, and the photo as the phone saved it",
+                photos.get(v).map_or("a photo", |p| p.as_str()),
+                if best.params[k].1 > 0.0 { "brighter" } else { "darker" },
+                if best.params[k].1 > 0.0 { "doubled" } else { "halved" },
+                best.params[k].1
+            ));
+            continue;
+        }
         reasons.push(match camera_of {
             Some(v) => format!(
                 "{}: its camera's {} ended at the bound of how far the fit may move it from the camera the card's \
