@@ -494,6 +494,37 @@ mod tests {
     }
 
     #[test]
+    fn a_lifts_size_interpolates_between_noise_scales() {
+        // At u = 0 the lift is the transfer of the noise measured; at u = ln 1.3 (between two
+        // tables) it is within 3% (or 1e-4, where the 8-bit steps ripple a lift a tenth of a
+        // step) of the transfer of 1.3 times that noise, for a shrunk photo
+        // and one used as taken; beyond its span it stays at the span's end.
+        for shrink in [1u32, 3] {
+            let lift = Lift::for_photo(0.02, true, shrink, None).unwrap();
+            let at = |t: &Transfer, d: f32| if shrink > 1 { t.subpixel(d) } else { t.pixel(d) };
+            let of = |u: f64, d: f32| {
+                if shrink > 1 {
+                    lift.subpixel(d, u)
+                } else {
+                    lift.pixel(d, u)
+                }
+            };
+            let t1 = Transfer::for_photo(0.02, true, shrink, None).unwrap();
+            let t13 = Transfer::for_photo(0.026, true, shrink, None).unwrap();
+            for d in [0.0f32, 0.002, 0.01, 0.05] {
+                assert!((of(0.0, d) - at(&t1, d)).abs() < 1e-6, "{shrink} {d}");
+                let (want, got) = (at(&t13, d) - d, of(1.3f64.ln(), d) - d);
+                assert!(
+                    (got - want).abs() < 0.03 * want.abs() + 1e-4,
+                    "{shrink} {d}: {got} for {want}"
+                );
+            }
+            assert_eq!(of(5.0, 0.0), of(super::super::layout::NOISE_SPAN + 0.1, 0.0));
+            assert!(of(0.5, 0.0) > of(0.0, 0.0) && of(0.0, 0.0) > of(-0.5, 0.0));
+        }
+    }
+
+    #[test]
     fn a_jpeg_of_coloured_grooves_leaks_its_colour_into_the_grey() {
         // Thin bright grooves on a dark plate, a view 48 x 48 rendered at twice that, its photo
         // shrunk by 4: without noise, PNG, the draw is the model's light shrunk (within 8-bit

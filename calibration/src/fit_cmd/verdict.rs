@@ -342,6 +342,17 @@ mod verdict_tests {
                 && !v.reasons[0].contains("--kind"),
             "{v:?}"
         );
+        // A photo's noise scale at its bound names the photo and what brightens its dark plate.
+        let mut r = result([0.1, 0.001, 0.0005], &["ln_noise[0]"]);
+        r.params.push(("ln_noise[0]".into(), 0.7, Some(0.05)));
+        let v = verdict(&r, &[(0.004, 0.004); 2], &photos(), false);
+        assert_eq!(v.reasons.len(), 1, "{v:?}");
+        assert!(
+            v.reasons[0].starts_with("photo `a.jpg` (view cam_south): its dark plate is brighter")
+                && v.reasons[0].contains("glare")
+                && !v.reasons[0].contains("--kind"),
+            "{v:?}"
+        );
     }
 
     #[test]
