@@ -178,6 +178,11 @@ pub struct FitResult {
     /// with it against the fit without it; `noise`), of which `LIFT_TRUST` is a part of `sd`.
     #[serde(default)]
     pub noise_lift: Vec<Option<f64>>,
+    /// Per parameter, the shift the model's own error asks for (a render at four times the
+    /// photos' resolution) and the mean shift the photos' simulated degradations make: both
+    /// are in the standard deviation.
+    pub model_error: Vec<Option<f64>>,
+    pub degradation: Vec<Option<f64>>,
     /// Per photo, per parameter: where that photo alone puts it (one Gauss-Newton step from the
     /// joint optimum on its residuals; None where it does not see the parameter).
     #[serde(default)]
@@ -575,6 +580,8 @@ pub fn fit_kind(
         sd: raw_sd,
         disagreement,
         noise_lift,
+        model_error,
+        degradation,
         per_photo,
         unseen,
         residuals: r,
@@ -631,6 +638,8 @@ pub fn fit_kind(
         sd: raw_sd,
         disagreement,
         noise_lift,
+        model_error,
+        degradation,
         per_photo,
         limits: ev.lay.params.iter().map(|q| q.limit).collect(),
         unseen,

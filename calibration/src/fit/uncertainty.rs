@@ -19,6 +19,10 @@ pub(super) struct Uncertainty {
     /// the fit without it, linearized; None where the photos carry no noise or do not see it),
     /// of which [`LIFT_TRUST`] is part of `sd`.
     pub(super) noise_lift: Vec<Option<f64>>,
+    /// Per parameter, the shift the model's own error asks for and the mean shift the photos'
+    /// degradations make (both in `sd`; None where not measured).
+    pub(super) model_error: Vec<Option<f64>>,
+    pub(super) degradation: Vec<Option<f64>>,
     /// Per photo (view), per parameter: where that photo alone puts it (see `disagreement`).
     pub(super) per_photo: Vec<Vec<Option<f64>>>,
     pub(super) unseen: Vec<String>,
@@ -108,6 +112,8 @@ pub(super) fn at_optimum(
         .collect();
     let mut disagreement: Vec<Option<f64>> = vec![None; np];
     let mut noise_lift: Vec<Option<f64>> = vec![None; np];
+    let mut model_error: Vec<Option<f64>> = vec![None; np];
+    let mut degradation: Vec<Option<f64>> = vec![None; np];
     let mut params = Vec::with_capacity(np);
     let mut curvature = Vec::with_capacity(np);
     let mut raw_sd = Vec::with_capacity(np);
@@ -127,6 +133,8 @@ pub(super) fn at_optimum(
                 let m = model_shift.as_ref().map_or(0.0, |d| d[a]);
                 let dg = degrade_shift.as_ref().map_or(0.0, |d| d[a]);
                 noise_lift[k] = lift_shift.as_ref().map(|d| d[a]);
+                model_error[k] = model_shift.as_ref().map(|d| d[a]);
+                degradation[k] = degrade_shift.as_ref().map(|d| d[a]);
                 let lf = LIFT_TRUST * lift_shift.as_ref().map_or(0.0, |d| d[a]);
                 // Each photo's step beyond what its own noise explains; the largest.
                 let excess = splits
@@ -186,6 +194,8 @@ pub(super) fn at_optimum(
         sd: raw_sd,
         disagreement,
         noise_lift,
+        model_error,
+        degradation,
         per_photo,
         unseen,
         residuals: r,

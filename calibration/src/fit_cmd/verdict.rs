@@ -246,6 +246,8 @@ mod verdict_tests {
             sd: sds.iter().map(|s| Some(*s)).collect(),
             disagreement: vec![None; 5],
             noise_lift: vec![None; 5],
+            model_error: vec![None; 5],
+            degradation: vec![None; 5],
             per_photo: vec![],
             limits: limits.to_vec(),
             unseen: vec![],
