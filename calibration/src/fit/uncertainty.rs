@@ -298,10 +298,15 @@ fn degrade_shift(
                     // shrunk by more than `SIMULATED_SHRINK`, or clean and lossless, stays as
                     // the model has it.
                     let q = data.saved_jpeg.get(v).copied().flatten();
+                    // Against the model with its change for a shrunk JPEG (what the fit
+                    // compares): the residuals add that change to whatever they are given.
                     return match &lights[v] {
-                        Some(lit) if sigma > 0.0 || q.is_some() => {
-                            ev.shrunk_draw(lit, v, sigma, q, &mut || rng.normal())
-                        }
+                        Some(lit) if sigma > 0.0 || q.is_some() => ev
+                            .shrunk_draw(lit, v, sigma, q, &mut || rng.normal())
+                            .map(|d| match &ev.jpeg_shift[v] {
+                                Some(sh) => d.iter().zip(sh).map(|(d, s)| d - s).collect(),
+                                None => d,
+                            }),
                         _ => None,
                     }
                     .unwrap_or_else(|| lifted.clone());
