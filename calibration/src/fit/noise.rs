@@ -19,10 +19,14 @@
 //! from the file's quantization table (`photo::jpeg_table_quality`). The black's lift, clipped
 //! before the JPEG, stays in it.
 //!
-//! sigma is the channels' noise at the photo's own resolution (`fit_cmd::inspect`: the shrunk
-//! photo's noise times k, over the grey's share of independent channel noise for a colour
-//! photo). The expectations are tabulated over d from a fixed set of normal draws, so the model
-//! is a smooth, deterministic function of d.
+//! sigma is the channels' noise at the photo's own resolution, measured on the photo
+//! ([`sensor_noise`], `fit_cmd::inspect`) to 5 or 10%; where the photo shows the lift (its dark
+//! plate near black, [`lift_seen`]) the fit refines its size (`ln_noise[v]`: a [`Lift`] holds
+//! the tables at noise scales from half to twice the one measured). The expectations are
+//! tabulated over d from a fixed set of normal draws, so the model is a smooth, deterministic
+//! function of d. What the tables miss of a shrunk JPEG (JPEG's steps on the noisy photo at its
+//! own resolution, a groove coloured by the white balance) the fit adds from simulated photos
+//! ([`super::Evaluator::simulated_shift`]).
 
 use crate::photo::LUMA;
 /// Table points over display values [0, 1].
