@@ -86,7 +86,7 @@ mod lm;
 pub(crate) mod noise;
 mod starts;
 mod uncertainty;
-pub use uncertainty::LIFT_TRUST;
+pub use uncertainty::{CHANGE_TRUST, LIFT_TRUST};
 
 use layout::Layout;
 use lm::refine;
@@ -183,6 +183,9 @@ pub struct FitResult {
     /// are in the standard deviation.
     pub model_error: Vec<Option<f64>>,
     pub degradation: Vec<Option<f64>>,
+    /// Per parameter, the shift a shrunk JPEG's simulated change makes (see
+    /// `uncertainty::CHANGE_TRUST`).
+    pub jpeg_change: Vec<Option<f64>>,
     /// Per photo, per parameter: where that photo alone puts it (one Gauss-Newton step from the
     /// joint optimum on its residuals; None where it does not see the parameter).
     #[serde(default)]
@@ -582,6 +585,7 @@ pub fn fit_kind(
         noise_lift,
         model_error,
         degradation,
+        jpeg_change,
         per_photo,
         unseen,
         residuals: r,
@@ -640,6 +644,7 @@ pub fn fit_kind(
         noise_lift,
         model_error,
         degradation,
+        jpeg_change,
         per_photo,
         limits: ev.lay.params.iter().map(|q| q.limit).collect(),
         unseen,

@@ -237,6 +237,7 @@ pub fn run(renderer: &Renderer, args: &FitArgs, obs: &dyn Observer) -> Result<()
             "noise_lift_shift": best.noise_lift.get(k).copied().flatten(),
             "model_error_shift": best.model_error.get(k).copied().flatten(),
             "degradation_shift": best.degradation.get(k).copied().flatten(),
+            "jpeg_change_shift": best.jpeg_change.get(k).copied().flatten(),
         })).collect::<Vec<_>>(),
     });
     scratchart::io::write_atomic(&report_path, serde_json::to_string_pretty(&report)?.as_bytes())?;

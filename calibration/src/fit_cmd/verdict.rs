@@ -130,9 +130,24 @@ pub fn verdict(best: &FitResult, residual: &[(f64, f64)], photos: &[String], all
                      shift of {l:.5}), but trusts that correction only in part. Photograph with more light and \
                      less noise (a lower ISO, a steady phone)"
                 ),
-                None => "the grooves that tell it are too dim, saturated, noisy or compressed in the photos, or \
-                         missing"
-                    .to_string(),
+                None => match best
+                    .jpeg_change
+                    .get(k)
+                    .copied()
+                    .flatten()
+                    .filter(|c| sd.is_some_and(|sd| crate::fit::CHANGE_TRUST * c.abs() > 0.5 * sd))
+                {
+                    // Most of it is what a large photo's JPEG did, which the fit simulates
+                    // from coarser light than the photo's own pixels.
+                    Some(c) => format!(
+                        "a large photo's JPEG changed the grooves at its own pixels; the fit simulates that \
+                         (a shift of {c:.5}) but cannot follow it closely. Save the photo as PNG or at the \
+                         highest JPEG quality"
+                    ),
+                    None => "the grooves that tell it are too dim, saturated, noisy or compressed in the photos, \
+                             or missing"
+                        .to_string(),
+                },
             },
         };
         let mut msg = format!(
@@ -248,6 +263,7 @@ mod verdict_tests {
             noise_lift: vec![None; 5],
             model_error: vec![None; 5],
             degradation: vec![None; 5],
+            jpeg_change: vec![None; 5],
             per_photo: vec![],
             limits: limits.to_vec(),
             unseen: vec![],
@@ -425,6 +441,11 @@ mod verdict_tests {
         r.noise_lift = vec![Some(0.001), None, None, None, None];
         let v = verdict(&r, &[(0.004, 0.004); 2], &photos(), false);
         assert!(v.reasons[0].contains("too dim"), "{v:?}");
+        // A large photo's JPEG, simulated but not followed closely, named as the cause.
+        let mut r = result([2.0, 0.001, 0.0005], &[]);
+        r.jpeg_change = vec![Some(1.9 / crate::fit::CHANGE_TRUST), None, None, None, None];
+        let v = verdict(&r, &[(0.004, 0.004); 2], &photos(), false);
+        assert!(v.reasons[0].contains("a large photo's JPEG"), "{v:?}");
     }
 
     #[test]
