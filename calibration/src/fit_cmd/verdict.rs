@@ -117,38 +117,34 @@ pub fn verdict(best: &FitResult, residual: &[(f64, f64)], photos: &[String], all
                     best.params[k].1
                 )
             }
-            None => match best
-                .noise_lift
-                .get(k)
-                .copied()
-                .flatten()
-                .filter(|l| sd.is_some_and(|sd| crate::fit::LIFT_TRUST * l.abs() > 0.5 * sd))
-            {
-                // Most of it is the part of the noise's correction the fit does not trust.
-                Some(l) => format!(
-                    "the photos' noise, clipped at black, brightens the dark plate; the fit corrects for it (a \
-                     shift of {l:.5}), but trusts that correction only in part. Photograph with more light and \
-                     less noise (a lower ISO, a steady phone)"
-                ),
-                None => match best
-                    .jpeg_change
-                    .get(k)
-                    .copied()
-                    .flatten()
-                    .filter(|c| sd.is_some_and(|sd| crate::fit::CHANGE_TRUST * c.abs() > 0.5 * sd))
-                {
-                    // Most of it is what a large photo's JPEG did, which the fit simulates
-                    // from coarser light than the photo's own pixels.
-                    Some(c) => format!(
-                        "a large photo's JPEG changed the grooves at its own pixels; the fit simulates that \
-                         (a shift of {c:.5}) but cannot follow it closely. Save the photo as PNG or at the \
-                         highest JPEG quality"
-                    ),
-                    None => "the grooves that tell it are too dim, saturated, noisy or compressed in the photos, \
-                             or missing"
-                        .to_string(),
-                },
-            },
+            None => {
+                // A shift of which the fit counts `trust` in the uncertainty, where that part is
+                // most of it.
+                let most = |shifts: &[Option<f64>], trust: f64| {
+                    shifts
+                        .get(k)
+                        .copied()
+                        .flatten()
+                        .filter(|l| sd.is_some_and(|sd| trust * l.abs() > 0.5 * sd))
+                };
+                if let Some(l) = most(&best.noise_lift, crate::fit::LIFT_TRUST) {
+                    format!(
+                        "the photos' noise, clipped at black, brightens the dark plate; the fit corrects for it \
+                         (a shift of {l:.5}), but trusts that correction only in part. Photograph with more light \
+                         and less noise (a lower ISO, a steady phone)"
+                    )
+                } else if let Some(c) = most(&best.jpeg_change, crate::fit::CHANGE_TRUST) {
+                    // What a large photo's JPEG did, simulated from light coarser than its pixels.
+                    format!(
+                        "a large photo's JPEG changed the grooves at its own pixels; the fit simulates that (a \
+                         shift of {c:.5}) but cannot follow it closely. Save the photo as PNG or at the highest \
+                         JPEG quality"
+                    )
+                } else {
+                    "the grooves that tell it are too dim, saturated, noisy or compressed in the photos, or missing"
+                        .to_string()
+                }
+            }
         };
         let mut msg = format!(
             "{name} is not identified: +- {} where a plate needs at most {:.5}: {cause}. Photograph again with the \
