@@ -513,16 +513,22 @@ fn print_fit(best: &FitResult, results: &[FitResult], obs: &dyn Observer) {
             (None, None) => obs.result(&format!("  {name:14} not identified: the photos do not constrain it")),
         }
     }
-    let noise_scale: Vec<f64> = (0..best.blur_px.len())
+    // Each photo's noise as the fit refined its lift (`ln_noise[v]`), where it did.
+    let noise_scale: Vec<String> = (0..best.blur_px.len())
         .map(|v| {
             best.params
                 .iter()
                 .find(|q| q.0 == format!("ln_noise[{v}]"))
-                .map_or(1.0, |q| (q.1.exp() * 100.0).round() / 100.0)
+                .map_or("-".to_string(), |q| format!("{:.2}", q.1.exp()))
         })
         .collect();
+    let noise_note = if noise_scale.iter().any(|s| s != "-") {
+        format!(", noise [{}] x the one measured", noise_scale.join(", "))
+    } else {
+        String::new()
+    };
     obs.result(&format!(
-        "  exposure {:?}, camera blur {:?} px, noise {:?} x the one measured",
+        "  exposure {:?}, camera blur {:?} px{noise_note}",
         best.exposure
             .iter()
             .map(|e| (e * 1000.0).round() / 1000.0)
@@ -530,8 +536,7 @@ fn print_fit(best: &FitResult, results: &[FitResult], obs: &dyn Observer) {
         best.blur_px
             .iter()
             .map(|b| (b * 100.0).round() / 100.0)
-            .collect::<Vec<_>>(),
-        noise_scale
+            .collect::<Vec<_>>()
     ));
 }
 
