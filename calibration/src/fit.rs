@@ -545,9 +545,10 @@ pub fn fit_kind(
     let (best, mut iterations) = refine_starts(&mut ev, starts, &intervals, kind, cfg, obs)?;
     let (Solution { mut x, mut cost, .. }, best_rg) = best;
     // JPEG photos: the model takes the JPEG's change to it and is refined again from where it
-    // stands. Compared on their own pixel grid (see `Data::jpeg`), or shrunk: the JPEG at the
-    // photo's own resolution of the model's light, its colour under the photo's white balance
-    // (`noise::shrunk_photo_draw` with and without the JPEG, no noise).
+    // stands. Compared on their own pixel grid (see `Data::jpeg`), or shrunk: simulated photos
+    // at the photo's own resolution (the model's light under the photo's white balance, its
+    // noise, 8 bits, the JPEG, the shrink), their mean less the model
+    // (`Evaluator::simulated_shift`).
     let shrunk_jpeg = |v: usize| {
         data.saved_jpeg.get(v).copied().flatten().filter(|_| {
             let k = data.shrink.get(v).copied().unwrap_or(1);
