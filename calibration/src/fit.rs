@@ -204,6 +204,13 @@ pub struct FitResult {
 }
 
 impl FitResult {
+    /// Photo v's noise scale as the fit refined its lift of clipped noise (`ln_noise[v]`: its
+    /// sensor noise over the one measured); None where the fit did not refine it.
+    pub fn noise_scale(&self, v: usize) -> Option<f64> {
+        let name = format!("ln_noise[{v}]");
+        self.params.iter().find(|p| p.0 == name).map(|p| p.1.exp())
+    }
+
     /// Parameters the photos do not constrain well enough (their uncertainty is above the
     /// parameter's limit, or undefined), less those they do not see at all.
     pub fn unidentified(&self) -> Vec<String> {

@@ -515,12 +515,7 @@ fn print_fit(best: &FitResult, results: &[FitResult], obs: &dyn Observer) {
     }
     // Each photo's noise as the fit refined its lift (`ln_noise[v]`), where it did.
     let noise_scale: Vec<String> = (0..best.blur_px.len())
-        .map(|v| {
-            best.params
-                .iter()
-                .find(|q| q.0 == format!("ln_noise[{v}]"))
-                .map_or("-".to_string(), |q| format!("{:.2}", q.1.exp()))
-        })
+        .map(|v| best.noise_scale(v).map_or("-".to_string(), |s| format!("{s:.2}")))
         .collect();
     let noise_note = if noise_scale.iter().any(|s| s != "-") {
         format!(", noise [{}] x the one measured", noise_scale.join(", "))
@@ -621,8 +616,8 @@ fn fit_record(
             let mut p = insp.clone();
             p["file"] = json!(f.display().to_string());
             // The sensor noise whose lift the fit found in the photo (`fit::noise::Lift`).
-            if let Some(u) = best.params.iter().find(|q| q.0 == format!("ln_noise[{v}]")) {
-                p["sensor_noise_fitted"] = json!(insp["sensor_noise"].as_f64().unwrap_or(0.0) * u.1.exp());
+            if let Some(s) = best.noise_scale(v) {
+                p["sensor_noise_fitted"] = json!(insp["sensor_noise"].as_f64().unwrap_or(0.0) * s);
             }
             p["noise"] = json!(nz);
             p["residual_rms"] = json!(rms);

@@ -335,9 +335,7 @@ impl super::Evaluator<'_, '_> {
             normal,
         )
     }
-}
 
-impl super::Evaluator<'_, '_> {
     /// View v's expected shrunk photo less the model's prediction `model` (with its lift, no
     /// JPEG change): the mean of [`Self::shrunk_draw`]s with the photo's noise and JPEG, in
     /// antithetic pairs (each draw's noise and its negative, so that the noise's linear part
@@ -353,22 +351,24 @@ impl super::Evaluator<'_, '_> {
         let q = d.saved_jpeg.get(v).copied().flatten();
         let k = d.shrink.get(v).copied().unwrap_or(1);
         // A photo shrunk by k averages k^2 of its pixels' noise: fewer pairs as k grows.
-        let pairs = if sigma > 0.0 { (8 / k.max(1)).clamp(1, 4) } else { 1 };
+        // Without noise one draw is the photo's expectation.
+        let (pairs, signs): (u32, &[f64]) = if sigma > 0.0 {
+            ((8 / k.max(1)).clamp(1, 4), &[1.0, -1.0])
+        } else {
+            (1, &[1.0])
+        };
         let mut mean = vec![0.0f64; model.len()];
         for p in 0..pairs {
-            for sign in [1.0, -1.0] {
+            for &sign in signs {
                 let mut rng = scratchart::scenes::Rng::new(0x5111_f7ed ^ ((v as u64) << 8) ^ p as u64);
                 let draw = self.shrunk_draw(lit, v, sigma, q, &mut || sign * rng.normal())?;
                 if draw.len() != mean.len() {
                     return None;
                 }
                 mean.iter_mut().zip(&draw).for_each(|(m, x)| *m += *x as f64);
-                if sigma == 0.0 {
-                    break;
-                }
             }
         }
-        let n = if sigma > 0.0 { 2 * pairs } else { 1 } as f64;
+        let n = (pairs as usize * signs.len()) as f64;
         Some(mean.iter().zip(model).map(|(m, p)| (m / n) as f32 - p).collect())
     }
 }
@@ -376,6 +376,7 @@ impl super::Evaluator<'_, '_> {
 /// Per view, the lift of its photo's clipped noise (`fit::noise`), at scales about the noise
 /// measured.
 pub(super) fn for_views(data: &super::Data) -> Vec<Option<Lift>> {
+    let refined = lift_seen(data);
     (0..data.capture.views.len())
         .map(|v| {
             Lift::for_photo(
@@ -383,6 +384,7 @@ pub(super) fn for_views(data: &super::Data) -> Vec<Option<Lift>> {
                 data.colour.get(v).copied().unwrap_or(false),
                 data.shrink.get(v).copied().unwrap_or(1),
                 data.saved_jpeg.get(v).copied().flatten(),
+                refined[v],
             )
         })
         .collect()
@@ -427,16 +429,25 @@ pub(crate) struct Lift {
 }
 
 impl Lift {
-    pub(crate) fn for_photo(sigma: f64, colour: bool, shrink: u32, jpeg: Option<u8>) -> Option<Lift> {
-        let n = (super::layout::NOISE_SPAN / SCALE_STEP).ceil() as i32;
+    /// The tables of a photo's noise `sigma`: at every scale where the fit refines the lift's
+    /// size (`refined`), else at sigma alone.
+    pub(crate) fn for_photo(sigma: f64, colour: bool, shrink: u32, jpeg: Option<u8>, refined: bool) -> Option<Lift> {
+        let n = if refined {
+            (super::layout::NOISE_SPAN / SCALE_STEP).ceil() as i32
+        } else {
+            0
+        };
         let tables = (-n..=n)
             .map(|i| Transfer::for_photo(sigma * (i as f64 * SCALE_STEP).exp(), colour, shrink, jpeg))
             .collect::<Option<Vec<_>>>()?;
         Some(Lift { tables })
     }
 
-    /// The two tables about scale u and the weight of the second.
+    /// The two tables about scale u and the weight of the second (scale 1 where there is one).
     fn at(&self, u: f64) -> (&Transfer, &Transfer, f32) {
+        if self.tables.len() == 1 {
+            return (&self.tables[0], &self.tables[0], 0.0);
+        }
         let n = (self.tables.len() - 1) as f64;
         let t = (u / SCALE_STEP + n / 2.0).clamp(0.0, n);
         let i = (t.floor() as usize).min(self.tables.len() - 2);
@@ -504,7 +515,7 @@ mod tests {
         // step) of the transfer of 1.3 times that noise, for a shrunk photo
         // and one used as taken; beyond its span it stays at the span's end.
         for shrink in [1u32, 3] {
-            let lift = Lift::for_photo(0.02, true, shrink, None).unwrap();
+            let lift = Lift::for_photo(0.02, true, shrink, None, true).unwrap();
             let at = |t: &Transfer, d: f32| if shrink > 1 { t.subpixel(d) } else { t.pixel(d) };
             let of = |u: f64, d: f32| {
                 if shrink > 1 {
@@ -526,6 +537,13 @@ mod tests {
             assert_eq!(of(5.0, 0.0), of(super::super::layout::NOISE_SPAN + 0.1, 0.0));
             assert!(of(0.5, 0.0) > of(0.0, 0.0) && of(0.0, 0.0) > of(-0.5, 0.0));
         }
+        // Where the size is not refined, one table: the noise measured at any scale.
+        let one = Lift::for_photo(0.02, true, 3, None, false).unwrap();
+        assert_eq!(one.tables.len(), 1);
+        assert_eq!(
+            one.subpixel(0.0, 0.5),
+            Transfer::for_photo(0.02, true, 3, None).unwrap().subpixel(0.0)
+        );
     }
 
     #[test]
