@@ -670,10 +670,11 @@ fn resume_key(args: &FitArgs, files: &[PathBuf]) -> Result<String> {
 }
 
 /// Whether a fitted parameter is the tool's (or alpha) rather than the camera's (exposure,
-/// registration shift, an off-pose photo's eye): what the report and tool.json show.
+/// registration shift, an off-pose photo's eye, its noise scale): what the report and tool.json show.
 pub(super) fn is_tool_param(name: &str) -> bool {
     !(name.starts_with("ln_exposure")
         || name.starts_with("registration")
         || name.starts_with("eye[")
-        || name.starts_with("shade["))
+        || name.starts_with("shade[")
+        || name.starts_with("ln_noise["))
 }

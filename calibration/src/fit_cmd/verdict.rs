@@ -356,9 +356,10 @@ mod verdict_tests {
                 && !v.reasons[0].contains("--kind"),
             "{v:?}"
         );
-        // A photo's noise scale at its bound names the photo and what brightens its dark plate.
+        // A photo's noise scale at its bound names the photo and what brightens its dark plate,
+        // once: not also as a tool parameter not identified (it stopped in a valley).
         let mut r = result([0.1, 0.001, 0.0005], &["ln_noise[0]"]);
-        r.params.push(("ln_noise[0]".into(), 0.7, Some(0.05)));
+        r.params.push(("ln_noise[0]".into(), 0.7, None));
         let v = verdict(&r, &[(0.004, 0.004); 2], &photos(), false);
         assert_eq!(v.reasons.len(), 1, "{v:?}");
         assert!(
