@@ -255,9 +255,20 @@ struct Evaluator<'a, 'r> {
     /// Per view: how its colour channels clip under the photo's white balance (see
     /// `camera::ChannelClip`); `None` where they clip together.
     clip: Vec<Option<camera::ChannelClip>>,
+    /// The photos compared with the model where not the data's own: the search for start
+    /// points compares smoothed photos (see `starts::search_starts`).
+    compared: Option<Vec<Vec<f32>>>,
 }
 
 impl Evaluator<'_, '_> {
+    /// Photo v as the model is compared with it now.
+    fn photo(&self, v: usize) -> &[f32] {
+        match &self.compared {
+            Some(p) => &p[v],
+            None => &self.data.photos[v],
+        }
+    }
+
     /// The card's ladder as `tool` cuts it (the fiducial marks are left out of the render and
     /// their squares out of the loss: they are for registration, and their crossing hatches are
     /// what the scratch model represents least well): every cut keeps its place, so the device
@@ -325,6 +336,11 @@ impl Evaluator<'_, '_> {
                 * ((0.5 * c.fov_y_deg).to_radians().tan() * d[4].exp())
                     .atan()
                     .to_degrees();
+        }
+        let (dx, dy) = self.lay.shift(x, v);
+        if dx != 0.0 || dy != 0.0 {
+            // (In the render's pixels: `ss` to each of the photo's.)
+            pan(&mut view.camera, self.ss as f64 * dx, self.ss as f64 * dy);
         }
         view
     }
@@ -432,7 +448,7 @@ impl Evaluator<'_, '_> {
     fn residuals(&self, pred: &[Vec<f32>]) -> Vec<f64> {
         let mut r = Vec::new();
         for (v, img) in pred.iter().enumerate() {
-            let photo = &self.data.photos[v];
+            let photo = self.photo(v);
             let shift = self.jpeg_shift.get(v).and_then(|s| s.as_deref());
             for (i, ((m, &ph), &ok)) in img.iter().zip(photo.iter()).zip(&self.data.masks[v]).enumerate() {
                 if ok {
@@ -475,6 +491,47 @@ impl Evaluator<'_, '_> {
         let lin = self.render(x)?;
         Ok((self.residuals_at(x, &lin), lin))
     }
+}
+
+/// Turns `camera` about its eye so that its image moves by (-dx, -dy) of its pixels (the
+/// registration shift: the model's pixel p then shows what was at p + (dx, dy), x to the right,
+/// y down), exactly, with nothing resampled: a kernel moved by a sub-pixel amount blurs by an
+/// amount that changes with the phase, and needed a blur floor that a sharp photo does not have.
+pub(crate) fn pan(camera: &mut scratchart::model::scene::Camera, dx: f64, dy: f64) {
+    let sub = |a: [f64; 3], b: [f64; 3]| [a[0] - b[0], a[1] - b[1], a[2] - b[2]];
+    let cross = |a: [f64; 3], b: [f64; 3]| {
+        [
+            a[1] * b[2] - a[2] * b[1],
+            a[2] * b[0] - a[0] * b[2],
+            a[0] * b[1] - a[1] * b[0],
+        ]
+    };
+    let norm = |a: [f64; 3]| {
+        let l = (a[0] * a[0] + a[1] * a[1] + a[2] * a[2]).sqrt();
+        [a[0] / l, a[1] / l, a[2] / l]
+    };
+    let to = sub(camera.target, camera.eye);
+    let dist = (to[0] * to[0] + to[1] * to[1] + to[2] * to[2]).sqrt();
+    let f = norm(to);
+    let r = norm(cross(f, camera.up));
+    let u = cross(r, f);
+    // Pixels per unit of the image plane at distance 1: H / (2 tan(fov/2)).
+    let f_px = 0.5 * camera.height as f64 / (0.5 * camera.fov_y_deg).to_radians().tan();
+    let (a, b) = (dx / f_px, dy / f_px);
+    // The new axis points at what pixel centre + (dx, dy) showed: right by a, down by b.
+    let g = norm([
+        f[0] + a * r[0] - b * u[0],
+        f[1] + a * r[1] - b * u[1],
+        f[2] + a * r[2] - b * u[2],
+    ]);
+    camera.target = [
+        camera.eye[0] + dist * g[0],
+        camera.eye[1] + dist * g[1],
+        camera.eye[2] + dist * g[2],
+    ];
+    // Keep the frame upright as it was: the up vector stays in the plane of the old up and the
+    // new axis (the roll is the pose's own term).
+    camera.up = u;
 }
 
 /// A refinement's starting point: the parameter vector and the z offset's interval (if any).
@@ -536,6 +593,7 @@ pub fn fit_kind(
         jpeg_shift: vec![None; data.capture.views.len()],
         transfer: noise::for_views(data),
         clip: camera::ChannelClip::for_views(data),
+        compared: None,
     };
     let intervals = OffsetIntervals::of(data.card);
     // Starting points: those of an interrupted fit, the tool given, or a search.
@@ -609,7 +667,7 @@ pub fn fit_kind(
             let no_cut = q.name.starts_with("W_mm@") && x[k] - q.lo < 1e-3 * span;
             // (A photo's noise scale at its bound: its dark plate is brighter or darker than any
             // plausible noise makes it.)
-            let checked = q.render || q.name.starts_with("ln_noise[");
+            let checked = (q.render && !q.name.starts_with("registration")) || q.name.starts_with("ln_noise[");
             checked && !no_cut && (x[k] - q.lo < 1e-3 * span || q.hi - x[k] < 1e-3 * span)
         })
         .map(|k| ev.lay.params[k].name.clone())
@@ -683,9 +741,92 @@ pub fn predict(renderer: &Renderer, data: &Data, res: &FitResult) -> Result<(Vec
         jpeg_shift: vec![None; data.capture.views.len()],
         transfer: noise::for_views(data),
         clip: camera::ChannelClip::for_views(data),
+        compared: None,
     };
     let x: Vec<f64> = res.params.iter().map(|p| p.1).collect();
     let lin = ev.render(&x)?;
     let photos = (0..data.capture.views.len()).map(|v| data.photos[v].clone()).collect();
     Ok((ev.predict(&lin, &x), photos))
+}
+
+/// What one capture tells of a tool: the Cramér-Rao bound of every parameter the fit estimates,
+/// for photos at the capture views with Gaussian noise of `noise` (display units) on each pixel,
+/// at the truth (`tool`, `alpha`, each photo's exposure and blur), every nuisance term of the
+/// fit free beside the tool (exposures, blurs, shading, registration). The standard deviations
+/// are sqrt(diag(noise^2 (J^T J)^-1)) with J the fit's own Jacobian there (the engine's
+/// tangents for the grooves): the least any fit of such photos can be sure of. A parameter the
+/// photos do not see (a zero column) is `None`. `data.photos` only shape the masks' use: the
+/// Jacobian does not depend on them.
+pub fn information(
+    renderer: &Renderer,
+    data: &Data,
+    tool: &Tool,
+    alpha: f64,
+    exposure: &[f64],
+    blur_px: &[f64],
+    noise: f64,
+) -> Result<Vec<(String, Option<f64>)>, FitError> {
+    let kind = match tool {
+        Tool::VBit { .. } => Kind::VBit,
+        Tool::Ball { .. } => Kind::Ball,
+        Tool::TaperedBall { .. } => Kind::TaperedBall,
+        Tool::Profile { .. } => Kind::Profile,
+    };
+    let n_views = data.capture.views.len();
+    let lay = Layout::new(
+        kind,
+        data.card,
+        n_views,
+        data.refine_shift,
+        &data.refine_pose,
+        &vec![false; n_views],
+    );
+    let intervals = OffsetIntervals::of(data.card);
+    let (mut x, rg) = match tool {
+        Tool::Profile { points, w_over_w, .. } => {
+            let mut x = lay.start(0.0, 0.0);
+            for (k, z) in data.card.depths_mm.iter().enumerate() {
+                x[k] = points.iter().find(|p| (p[0] - z).abs() < 1e-9).map_or(0.0, |p| p[1]);
+            }
+            x[data.card.depths_mm.len()] = *w_over_w;
+            x[lay.n_tool] = alpha;
+            (x, None)
+        }
+        _ => start_from(&lay, tool, Some(alpha), &intervals)
+            .ok_or_else(|| FitError::Data("the tool's kind has no start".into()))?,
+    };
+    for v in 0..n_views {
+        x[lay.n_tool + 1 + v] = exposure[v].ln();
+        x[lay.n_tool + 1 + n_views + v] = blur_px[v];
+    }
+    let mut ev = Evaluator {
+        renderer,
+        data,
+        lay,
+        renders: 0,
+        tangent_passes: 0,
+        weights: None,
+        gs: None,
+        ss: SUPERSAMPLE,
+        jpeg_shift: vec![None; n_views],
+        transfer: vec![None; n_views],
+        clip: vec![None; n_views],
+        compared: None,
+    };
+    let (_, cols) = lm::jacobian_at(&mut ev, &x, rg)?;
+    let seen: Vec<usize> = (0..cols.len()).filter(|&k| cols[k].iter().any(|c| *c != 0.0)).collect();
+    let used: Vec<Vec<f64>> = seen.iter().map(|&k| cols[k].clone()).collect();
+    let ones = vec![1.0; used.first().map_or(0, |c| c.len())];
+    let a = scratchart::optim::least_squares::weighted_gram(&used, &ones);
+    let mut out: Vec<(String, Option<f64>)> = ev.lay.params.iter().map(|p| (p.name.clone(), None)).collect();
+    for (j, &k) in seen.iter().enumerate() {
+        let mut e = vec![0.0; seen.len()];
+        e[j] = 1.0;
+        if let Some(col) = scratchart::optim::least_squares::solve_spd(&a, &e) {
+            if col[j] > 0.0 {
+                out[k].1 = Some(noise * col[j].sqrt());
+            }
+        }
+    }
+    Ok(out)
 }

@@ -5,7 +5,7 @@
 use scratchart::model::camera::ViewGeom;
 
 use super::Evaluator;
-use crate::simulate::blur_shifted;
+use crate::simulate::blur;
 use scratchart::optim::least_squares::cauchy;
 
 /// Table points of a [`ChannelClip`].
@@ -100,9 +100,7 @@ impl Evaluator<'_, '_> {
         let pred0: Vec<Vec<f32>> = (0..lin.len()).map(|v| self.expose(&blurred[v], v, x)).collect();
         let base = self.residuals(&pred0);
         for &k in ks {
-            let v = (0..lin.len())
-                .find(|&v| self.lay.pose_at[v].is_some_and(|i| (i..i + super::layout::POSE_PARAMS).contains(&k)))
-                .expect("a camera term of an off-pose photo");
+            let v = self.lay.camera_view(k).expect("a camera term");
             let h = self.lay.params[k].step;
             let mut xh = x.to_vec();
             xh[k] += h;
@@ -156,9 +154,7 @@ impl Evaluator<'_, '_> {
         let c = &self.data.capture.views[v].camera;
         let k = self.ss as usize;
         let (w, h) = (c.width as usize, c.height as usize);
-        let (dx, dy) = self.lay.shift(x, v);
-        let kf = k as f64;
-        blur_shifted(img, k * w, k * h, kf * self.lay.blur(x, v), kf * dx, kf * dy)
+        blur(img, k * w, k * h, k as f64 * self.lay.blur(x, v))
     }
 
     /// What the sensor of view v makes of the light `b` (at `ss` times its resolution): the
@@ -251,7 +247,7 @@ impl Evaluator<'_, '_> {
             let r: Vec<f64> = self
                 .expose(&b, v, &xe)
                 .iter()
-                .zip(&self.data.photos[v])
+                .zip(self.photo(v))
                 .zip(&self.data.masks[v])
                 .filter(|(_, m)| **m)
                 .map(|((m, p), _)| (m - p) as f64)

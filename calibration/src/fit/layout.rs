@@ -109,15 +109,17 @@ impl Layout {
         }
         // One per photo (two phones, or one held steadier, blur differently: a blur shared by
         // both fitted the sharper photo and left the other a residual of 3 to 7 times its noise).
-        // At least a quarter pixel: every camera blurs that much (optics, demosaicing), and the
-        // registration shift needs a kernel it can move.
+        // From 0: a sharp photo is its pixels' own footprint, which the render already adds up
+        // (the registration shift moves the camera, not a kernel, so no kernel must be wide
+        // enough to move: a floor of a quarter pixel refused a perfectly sharp photo with a V
+        // angle 49 degrees off).
         for v in 0..n_views {
-            params.push(p(&format!("blur_px[{v}]"), 0.25, 4.0, 0.02, false, 1.0));
+            params.push(p(&format!("blur_px[{v}]"), 0.0, 4.0, 0.02, false, 1.0));
         }
         let reg = if refine_registration {
             for v in 0..n_views {
                 for axis in ["dx", "dy"] {
-                    params.push(p(&format!("registration[{v}].{axis}"), -2.0, 2.0, 0.05, false, 2.0));
+                    params.push(p(&format!("registration[{v}].{axis}"), -2.0, 2.0, 0.05, true, 2.0));
                 }
             }
             true
@@ -255,6 +257,22 @@ impl Layout {
         x.extend(std::iter::repeat_n(0.0, 3 * self.n_views));
         x.extend(std::iter::repeat_n(0.0, self.noise_at.iter().flatten().count()));
         x
+    }
+
+    /// The view whose camera parameter `k` moves (an off-pose photo's eye, or a view's
+    /// registration shift): its Jacobian column comes from the image's motion, not a tangent.
+    pub(super) fn camera_view(&self, k: usize) -> Option<usize> {
+        if let Some(v) = (0..self.n_views).find(|&v| self.pose_at[v].is_some_and(|i| (i..i + POSE_PARAMS).contains(&k)))
+        {
+            return Some(v);
+        }
+        if self.reg {
+            let b = self.n_tool + 1 + 2 * self.n_views;
+            if (b..b + 2 * self.n_views).contains(&k) {
+                return Some((k - b) / 2);
+            }
+        }
+        None
     }
 
     /// The log scale of view v's sensor noise against the one measured (0 without noise).

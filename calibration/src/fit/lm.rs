@@ -80,14 +80,7 @@ impl LeastSquares for Refinement<'_, '_, '_> {
         let np = self.ev.lay.params.len();
         let bounds = self.bounds();
         // The grooves' parameters: derivatives from the engine.
-        let eyes: Vec<usize> = self
-            .ev
-            .lay
-            .pose_at
-            .iter()
-            .flatten()
-            .flat_map(|&i| i..i + super::layout::POSE_PARAMS)
-            .collect();
+        let eyes: Vec<usize> = (0..np).filter(|&k| self.ev.lay.camera_view(k).is_some()).collect();
         let grooves: Vec<usize> = (0..np)
             .filter(|k| self.ev.lay.params[*k].render && !eyes.contains(k))
             .collect();

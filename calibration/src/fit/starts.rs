@@ -38,6 +38,26 @@ impl OffsetIntervals {
     }
 }
 
+/// How much the search for start points smooths the photos and the model (pixels).
+const SEARCH_BLUR_PX: f64 = 1.5;
+/// The blur a refinement starts from (pixels).
+const START_BLUR_PX: f64 = 0.5;
+
+/// Photo v of `data` blurred by `sigma` pixels in linear light (its display values decoded,
+/// blurred, encoded again), off-card pixels as they are.
+fn smoothed_photo(data: &Data, v: usize, sigma: f64) -> Vec<f32> {
+    let c = &data.capture.views[v].camera;
+    let (w, h) = (c.width as usize, c.height as usize);
+    let lin: Vec<f32> = data.photos[v]
+        .iter()
+        .map(|d| scratchart::model::display::linear(*d as f64) as f32)
+        .collect();
+    crate::simulate::blur(&lin, w, h, sigma)
+        .into_iter()
+        .map(|l| scratchart::io::display_value(l).min(1.0))
+        .collect()
+}
+
 /// The start point of a tool given (`--init`), where it is of this layout's kind.
 pub(super) fn start_from(lay: &Layout, tool: &Tool, alpha: Option<f64>, intervals: &OffsetIntervals) -> Option<Start> {
     let mut x = lay.start(tool.z_offset_mm(), 60.0);
@@ -79,6 +99,16 @@ pub(super) fn search_starts(
 ) -> Result<Vec<Start>, FitError> {
     ev.ss = 1;
     ev.gs = None;
+    // Compared smoothed: both the photos and the model through a blur of SEARCH_BLUR_PX more.
+    // A sharp photo's grooves are a pixel wide, and a start whose grooves are not quite where
+    // the photo's are scores worse than one with no grooves at all (a sharp photo was started
+    // with every rung above the plate, its z offset 90 um off).
+    ev.compared = Some(
+        (0..ev.lay.n_views)
+            .map(|v| smoothed_photo(ev.data, v, SEARCH_BLUR_PX))
+            .collect(),
+    );
+    let blur_at = ev.lay.n_tool + 1 + ev.lay.n_views;
     let offs: Vec<Option<(f64, f64)>> = if ev.lay.offset.is_some() {
         intervals
             .list
@@ -105,16 +135,23 @@ pub(super) fn search_starts(
             });
             let off = rg.map_or(0.0, |(a, b)| 0.5 * (a + b));
             let mut x = ev.lay.start(off, shape);
+            for v in 0..ev.lay.n_views {
+                x[blur_at + v] = x[blur_at + v].hypot(SEARCH_BLUR_PX);
+            }
             let lin = ev.render(&x)?;
             for v in 0..ev.lay.n_views {
                 let k = ev.lay.n_tool + 1 + v;
                 x[k] = ev.best_exposure(v, &lin[v], &x);
             }
             let r = ev.residuals_at(&x, &lin);
+            for v in 0..ev.lay.n_views {
+                x[blur_at + v] = START_BLUR_PX;
+            }
             scored.push((cauchy(&r, 0.01), x, *rg));
         }
     }
     obs.finish("search");
+    ev.compared = None;
     ev.ss = SUPERSAMPLE;
     ev.gs = None;
     scored.sort_by(|a, b| a.0.total_cmp(&b.0));

@@ -184,7 +184,7 @@ pub(super) fn at_optimum(
         let loose: Vec<usize> = (0..ns)
             .filter(|&a| {
                 let k = seen[a];
-                ev.lay.params[k].render && !ev.lay.params[k].name.starts_with("eye") && params[k].2.is_none()
+                ev.lay.params[k].render && ev.lay.camera_view(k).is_none() && params[k].2.is_none()
             })
             .collect();
         for a in 0..ns {
