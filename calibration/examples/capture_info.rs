@@ -8,7 +8,7 @@ use scratchart::model::scene::{Camera, Light, LightKind, Plate, Scene, View};
 use scratchart::render::Renderer;
 use scratchart::vulkan::{Context, ContextDesc};
 use scratchart_calibration::card::{Card, CardSpec};
-use scratchart_calibration::fit::{information, Data};
+use scratchart_calibration::fit::{information, Data, Truth};
 use scratchart_calibration::fit_cmd::fit_mask;
 use scratchart_calibration::simulate;
 use scratchart_tool::Tool;
@@ -30,8 +30,6 @@ fn view(name: &str, plate: f64, dist: f64, az: f64, el: f64, lamp: Lamp, res: u3
         Lamp::Opposite(e) => spherical(dist, az + 180.0, e),
         Lamp::Flash => {
             // 10 mm beside the lens, across the line of sight.
-            let (a, _) = (az + 90.0).to_radians().sin_cos();
-            let _ = a;
             let r = [(az + 90.0).to_radians().cos(), (az + 90.0).to_radians().sin()];
             [eye[0] + 10.0 * r[0], eye[1] + 10.0 * r[1], eye[2]]
         }
@@ -260,22 +258,33 @@ fn main() -> anyhow::Result<()> {
                 gains: vec![[1.0; 3]; n],
             };
             let t0 = std::time::Instant::now();
-            let info = information(&renderer, &data, tool, card.alpha, &exposure, &vec![0.6; n], noise)?;
-            let n_tool = info.iter().position(|p| p.0 == "alpha").unwrap_or(0);
-            let cells: Vec<String> = info[..=n_tool]
-                .iter()
-                .map(|(name, sd)| {
-                    let scale = if name.ends_with("_mm") { 1000.0 } else { 1.0 };
-                    match sd {
-                        Some(s) => format!("{name} {:.3}", s * scale),
-                        None => format!("{name} -"),
-                    }
-                })
-                .collect();
+            let mut cells = Vec::new();
+            for free_tone in [false, true] {
+                let truth = Truth {
+                    tool,
+                    alpha: card.alpha,
+                    exposure: exposure.clone(),
+                    blur_px: vec![0.6; n],
+                };
+                let info = information(&renderer, &data, &truth, noise, free_tone)?;
+                let n_tool = info.iter().position(|p| p.0 == "alpha").unwrap_or(0);
+                let c: Vec<String> = info[..n_tool]
+                    .iter()
+                    .map(|(name, sd)| {
+                        let scale = if name.ends_with("_mm") { 1000.0 } else { 1.0 };
+                        let short = name.trim_end_matches("_mm").trim_end_matches("_deg");
+                        match sd {
+                            Some(s) => format!("{short} {:.3}", s * scale),
+                            None => format!("{short} -"),
+                        }
+                    })
+                    .collect();
+                cells.push(c.join(", "));
+            }
             println!(
-                "  {tname:<11} {}  (exposure {:.2e}, {:.1} s)",
-                cells.join(", "),
-                exposure[0],
+                "  {tname:<11} tone fixed: {} | tone free: {}  ({:.1} s)",
+                cells[0],
+                cells[1],
                 t0.elapsed().as_secs_f64()
             );
         }

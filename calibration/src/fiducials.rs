@@ -31,7 +31,7 @@ use scratchart::model::scene::View;
 use super::card::Card;
 use super::photo::Gray;
 
-mod homography;
+pub(crate) mod homography;
 use homography::affine3;
 pub use homography::{apply, homography_lsq};
 

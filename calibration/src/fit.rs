@@ -580,6 +580,7 @@ pub fn fit_kind(
         data.refine_shift,
         &data.refine_pose,
         &noise::lift_seen(data),
+        false,
     );
     let mut ev = Evaluator {
         renderer,
@@ -728,6 +729,7 @@ pub fn predict(renderer: &Renderer, data: &Data, res: &FitResult) -> Result<(Vec
         data.refine_shift,
         &data.refine_pose,
         &noise::lift_seen(data),
+        false,
     );
     let mut ev = Evaluator {
         renderer,
@@ -749,23 +751,39 @@ pub fn predict(renderer: &Renderer, data: &Data, res: &FitResult) -> Result<(Vec
     Ok((ev.predict(&lin, &x), photos))
 }
 
+/// The truth of a capture's photos for [`information`]: the tool, its walls' roughness, and
+/// each photo's exposure and blur (pixels).
+pub struct Truth<'t> {
+    pub tool: &'t Tool,
+    pub alpha: f64,
+    pub exposure: Vec<f64>,
+    pub blur_px: Vec<f64>,
+}
+
 /// What one capture tells of a tool: the Cramér-Rao bound of every parameter the fit estimates,
 /// for photos at the capture views with Gaussian noise of `noise` (display units) on each pixel,
 /// at the truth (`tool`, `alpha`, each photo's exposure and blur), every nuisance term of the
 /// fit free beside the tool (exposures, blurs, shading, registration). The standard deviations
 /// are sqrt(diag(noise^2 (J^T J)^-1)) with J the fit's own Jacobian there (the engine's
-/// tangents for the grooves): the least any fit of such photos can be sure of. A parameter the
+/// tangents for the grooves): the least any fit of such photos can be sure of. With
+/// `free_tone` each photo's tone curve is free too (see `Layout`): what is left is what the
+/// capture tells by geometry rather than by brightness. A parameter the
 /// photos do not see (a zero column) is `None`. `data.photos` only shape the masks' use: the
 /// Jacobian does not depend on them.
 pub fn information(
     renderer: &Renderer,
     data: &Data,
-    tool: &Tool,
-    alpha: f64,
-    exposure: &[f64],
-    blur_px: &[f64],
+    truth: &Truth,
     noise: f64,
+    free_tone: bool,
 ) -> Result<Vec<(String, Option<f64>)>, FitError> {
+    let Truth {
+        tool,
+        alpha,
+        exposure,
+        blur_px,
+    } = truth;
+    let alpha = *alpha;
     let kind = match tool {
         Tool::VBit { .. } => Kind::VBit,
         Tool::Ball { .. } => Kind::Ball,
@@ -780,6 +798,7 @@ pub fn information(
         data.refine_shift,
         &data.refine_pose,
         &vec![false; n_views],
+        free_tone,
     );
     let intervals = OffsetIntervals::of(data.card);
     let (mut x, rg) = match tool {

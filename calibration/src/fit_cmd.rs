@@ -99,6 +99,90 @@ fn pair_photos(images: &[PathBuf], names: &[String]) -> Result<Vec<PathBuf>> {
     Ok(images.to_vec())
 }
 
+/// Whether every capture view has a photo named after it.
+fn all_named(images: &[PathBuf], names: &[String]) -> bool {
+    names.iter().all(|n| {
+        images
+            .iter()
+            .any(|p| p.file_stem().is_some_and(|s| s.to_string_lossy() == *n))
+    })
+}
+
+/// Photos given in an order that is not the views' (IMG_0001 is the west view): each photo is
+/// tried against each capture view, and where the views' order does not register every photo
+/// but another order does, that order is taken and said. The card's marks fix which view a
+/// photo was taken from: from another view's camera they are not found (the camera they give
+/// would stand a quarter turn from it).
+pub fn order_by_marks(
+    card: &Card,
+    capture: &scratchart::model::scene::Scene,
+    files: Vec<PathBuf>,
+    obs: &dyn Observer,
+) -> Vec<PathBuf> {
+    let n = files.len();
+    if !(2..=6).contains(&n) {
+        return files;
+    }
+    let mut ok: Vec<Vec<Option<bool>>> = vec![vec![None; n]; n];
+    let mut fits = |i: usize, v: usize| -> bool {
+        *ok[i][v].get_or_insert_with(|| inspect_photo(card, capture, &capture.views[v], &files[i]).is_ok())
+    };
+    if (0..n).all(|i| fits(i, i)) {
+        return files;
+    }
+    // The order that registers the most photos, the views' own first among equals.
+    let mut perm: Vec<usize> = (0..n).collect();
+    let mut best: (usize, Vec<usize>) = ((0..n).filter(|&i| fits(i, i)).count(), perm.clone());
+    while next_permutation(&mut perm) {
+        let good = (0..n).filter(|&i| fits(i, perm[i])).count();
+        if good > best.0 {
+            best = (good, perm.clone());
+        }
+    }
+    let (good, perm) = best;
+    if perm.iter().enumerate().all(|(i, &v)| i == v) {
+        return files;
+    }
+    let mut out = files.clone();
+    for (i, &v) in perm.iter().enumerate() {
+        out[v] = files[i].clone();
+        if i != v {
+            obs.info(&format!(
+                "photo `{}` is view {} (found by the card's marks; it was given in the place of {})",
+                files[i].display(),
+                capture.views[v].name,
+                capture.views[i].name
+            ));
+        }
+    }
+    if good < n {
+        obs.info(&format!("{} of {n} photos register in any order of the views", good));
+    }
+    out
+}
+
+/// The next permutation in lexicographic order (false after the last).
+fn next_permutation(p: &mut [usize]) -> bool {
+    let n = p.len();
+    if n < 2 {
+        return false;
+    }
+    let mut i = n - 1;
+    while i > 0 && p[i - 1] >= p[i] {
+        i -= 1;
+    }
+    if i == 0 {
+        return false;
+    }
+    let mut j = n - 1;
+    while p[j] <= p[i - 1] {
+        j -= 1;
+    }
+    p.swap(i - 1, j);
+    p[i..].reverse();
+    true
+}
+
 impl FitArgs {
     /// The flags of a quiet fit of `kind` (None: every kind) to `images` of `card`, writing
     /// `out`, with the defaults of the command line: what the study, the examples and the tests
@@ -127,6 +211,11 @@ pub fn run(renderer: &Renderer, args: &FitArgs, obs: &dyn Observer) -> Result<()
         return check_photos(&card, &capture, &args.images, obs);
     }
     let files = pair_photos(&args.images, &names)?;
+    let files = if all_named(&args.images, &names) {
+        files
+    } else {
+        order_by_marks(&card, &capture, files, obs)
+    };
     let (capture, data_parts, inspections) = load_photos(&card, &capture, &files, obs)?;
     let noise = data_parts.noise.clone();
     let data = Data {
@@ -334,6 +423,9 @@ fn load_photos(
             "colour": insp.colour,
             "jpeg_quality": insp.saved_jpeg,
             "white_balance": insp.gains,
+            "px_per_mm": insp.scale.photo_px_per_mm,
+            "fit_px_per_mm": insp.scale.fit_px_per_mm,
+            "needed_px_per_mm": insp.needed_px_per_mm,
         }));
         fit_views.push(insp.view);
     }
@@ -676,5 +768,32 @@ pub(super) fn is_tool_param(name: &str) -> bool {
         || name.starts_with("registration")
         || name.starts_with("eye[")
         || name.starts_with("shade[")
-        || name.starts_with("ln_noise["))
+        || name.starts_with("ln_noise[")
+        || name.starts_with("tone["))
+}
+
+#[cfg(test)]
+mod order_tests {
+    use super::next_permutation;
+
+    #[test]
+    fn permutations_come_in_order_and_end() {
+        let mut p = vec![0, 1, 2];
+        let mut seen = vec![p.clone()];
+        while next_permutation(&mut p) {
+            seen.push(p.clone());
+        }
+        assert_eq!(
+            seen,
+            vec![
+                vec![0, 1, 2],
+                vec![0, 2, 1],
+                vec![1, 0, 2],
+                vec![1, 2, 0],
+                vec![2, 0, 1],
+                vec![2, 1, 0]
+            ]
+        );
+        assert!(!next_permutation(&mut [0]));
+    }
 }

@@ -23,5 +23,6 @@ pub mod phone;
 pub mod photo;
 pub mod pose;
 pub mod register;
+pub mod resampled;
 pub mod simulate;
 pub mod study;

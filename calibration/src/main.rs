@@ -115,6 +115,13 @@ enum Cmd {
         /// Seed of the noise
         #[arg(long, default_value_t = 1)]
         seed: u64,
+        /// Take the photos as a phone does, this many megapixels each (colour, the noise on each
+        /// channel at the photo's own resolution; the blur stays in the capture view's pixels)
+        #[arg(long)]
+        megapixels: Option<f64>,
+        /// Save as JPEG of this quality (1-100), as a phone does, instead of PNG
+        #[arg(long, value_parser = clap::value_parser!(u8).range(1..=100))]
+        jpeg: Option<u8>,
     },
 }
 
@@ -164,10 +171,29 @@ fn run(cli: Cli) -> Result<()> {
             blur,
             noise,
             seed,
+            megapixels,
+            jpeg,
         } => {
             let (card, capture) = Card::load(card)?;
             let tool = Tool::load(tool).map_err(|e| scratchart::exit::InputError(e.to_string()))?;
             let (_ctx, renderer) = renderer(cli.device.as_deref())?;
+            if megapixels.is_some() || jpeg.is_some() {
+                // As a phone takes them (`phone::take`), from the capture pose.
+                for (v, view) in capture.views.iter().enumerate() {
+                    let shot = scratchart_calibration::phone::Shot {
+                        exposure: *exposure,
+                        blur_px: *blur,
+                        noise: *noise,
+                        megapixels: megapixels.unwrap_or(view.camera.width as f64 * view.camera.height as f64 / 1e6),
+                        jpeg_quality: *jpeg,
+                        seed: seed.wrapping_add(v as u64),
+                        ..Default::default()
+                    };
+                    let (p, _) = scratchart_calibration::phone::take(&renderer, &card, &capture, v, &tool, &shot, out)?;
+                    println!("wrote {}", p.display());
+                }
+                return Ok(());
+            }
             let cam = Camera {
                 exposure: *exposure,
                 blur_px: *blur,

@@ -170,9 +170,11 @@ impl Evaluator<'_, '_> {
         if let Some(t) = &self.transfer[v] {
             lit.iter_mut().for_each(|l| *l = t.subpixel(*l, u));
         }
+        let power = (-self.lay.tone(x, v)).exp() as f32;
         self.reduce(&lit, v)
             .into_iter()
             .map(|l| {
+                let l = if power != 1.0 && l > 0.0 { l.powf(power) } else { l };
                 let d = scratchart::io::display_value(l).min(1.0);
                 // A photo used as taken: its pixel's expected value under clipped noise.
                 match &self.transfer[v] {

@@ -58,6 +58,9 @@ pub(super) struct Layout {
     pub(super) shade_at: usize,
     /// Per view, the index of its log noise scale (`ln_noise[v]`), if its photo has noise.
     pub(super) noise_at: Vec<Option<usize>>,
+    /// Index of the first tone term (one per view where they are free: see [`Layout::tone`]).
+    pub(super) tone_at: usize,
+    pub(super) tone_free: bool,
     pub(super) params: Vec<Param>,
     /// Index of the z offset (none for a profile: its points are in commanded depth).
     pub(super) offset: Option<usize>,
@@ -75,6 +78,7 @@ impl Layout {
         refine_registration: bool,
         pose: &[bool],
         noisy: &[bool],
+        tone_free: bool,
     ) -> Layout {
         let mut params = match kind {
             Kind::VBit => vec![
@@ -164,7 +168,21 @@ impl Layout {
                 params.push(p(&format!("ln_noise[{v}]"), -NOISE_SPAN, NOISE_SPAN, 0.01, false, 10.0));
             }
         }
+        // The photo's tone curve (only in `fit::information`'s analysis of a capture, not in the
+        // fit): its display value is the light to the power 1 / (2.2 e^t), t free per photo. A
+        // phone's encoding is not exactly the display's 2.2 power (sRGB's toe, its tone
+        // mapping), and an app that resampled a photo in its encoding changed thin grooves'
+        // light more than wide ones': how well a capture pins the tool with the tone free says
+        // how much of what it tells is geometry rather than brightness.
+        let tone_at = params.len();
+        if tone_free {
+            for v in 0..n_views {
+                params.push(p(&format!("tone[{v}]"), -0.3, 0.3, 0.005, false, 1.0));
+            }
+        }
         Layout {
+            tone_at,
+            tone_free,
             pose_at,
             shade_at,
             noise_at,
@@ -256,7 +274,20 @@ impl Layout {
         ));
         x.extend(std::iter::repeat_n(0.0, 3 * self.n_views));
         x.extend(std::iter::repeat_n(0.0, self.noise_at.iter().flatten().count()));
+        if self.tone_free {
+            x.extend(std::iter::repeat_n(0.0, self.n_views));
+        }
         x
+    }
+
+    /// The tone term of view v (0 where it is not free): its display value is the light to the
+    /// power 1 / (2.2 e^t).
+    pub(super) fn tone(&self, x: &[f64], v: usize) -> f64 {
+        if self.tone_free {
+            x[self.tone_at + v]
+        } else {
+            0.0
+        }
     }
 
     /// The view whose camera parameter `k` moves (an off-pose photo's eye, or a view's

@@ -45,6 +45,10 @@ pub struct Inspection {
     pub gains: [f64; 3],
     /// Of the bright pixels the fit compares, the fraction at full white.
     pub saturated: f64,
+    /// The card's scale: pixels per mm at its centre, in the photo as taken and as the fit
+    /// compares it, and the least the fit needs there.
+    pub scale: CardScale,
+    pub needed_px_per_mm: f64,
 }
 
 impl Inspection {
@@ -59,12 +63,16 @@ impl Inspection {
             .map(|(k, p)| if p.is_some() { format!("{k:.2}") } else { "-".into() })
             .collect();
         format!(
-            "{}: {}x{} photo of view {}: {} of {} marks (confidence {}; {:.2} px rms), taken from ({:.0}, {:.0}, {:.0}) mm, \
+            "{}: {}x{} photo of view {}: card at {:.1} px per mm ({:.2} as fitted, at least {:.2} needed); {} of {} marks \
+             (confidence {}; {:.2} px rms), taken from ({:.0}, {:.0}, {:.0}) mm, \
              {:.1} mm from the capture position; noise {:.4} ({:.1}% per channel at its own size{}{})",
             self.file.display(),
             self.taken.0,
             self.taken.1,
             self.view.name,
+            self.scale.photo_px_per_mm,
+            self.scale.fit_px_per_mm,
+            self.needed_px_per_mm,
             self.found.count(),
             self.found.points.len(),
             conf.join(" "),
@@ -98,6 +106,7 @@ pub fn inspect_photo(
     f: &Path,
 ) -> Result<Inspection> {
     let half = 0.5 * capture.plate.size_mm;
+    let capture_view = v;
     let (img, channels) = crate::photo::load_photo_with_channels(f).map_err(InputError)?;
     // The photo shrunk by a whole factor k to at most the capture view's height (never
     // enlarged), its own aspect kept (square pixels): each pixel the mean light of k x k of the
@@ -105,14 +114,31 @@ pub fn inspect_photo(
     // 256 high: 1.875) mixes pixels with weights that change with the sub-pixel phase, a blur
     // the model cannot follow: it put a 75 degree V-bit at 73.9 with a stated +- 0.12. The rows
     // and columns left over are cropped evenly from both sides (the field of view with them).
-    let mut v = v.clone();
-    let k = img.height.div_ceil(v.camera.height).max(1);
-    let (w, h) = ((img.width / k).max(16), (img.height / k).max(16));
-    let cropped = crate::photo::crop_centre(&img, (w * k).min(img.width), (h * k).min(img.height));
-    let t = (0.5 * v.camera.fov_y_deg).to_radians().tan() * cropped.height as f64 / img.height as f64;
-    v.camera.fov_y_deg = 2.0 * t.atan().to_degrees();
-    (v.camera.width, v.camera.height) = (w, h);
-    let small = crate::register::resize(&cropped, w, h);
+    if let Some(p) = crate::resampled::enlarged(&img) {
+        return Err(InputError(format!(
+            "photo `{}` (view {}) was enlarged after it was taken: its pixels repeat a pattern every {:.2} pixels \
+             ({:.0} times the spectrum's floor), which only an enlargement leaves (an app, a messenger, a digital \
+             zoom). An enlargement in the display's encoding changes thin grooves' light more than wide ones' and \
+             would give a wrong tool. Send the photo as the phone saved it; zoom with the lens or come nearer instead",
+            f.display(),
+            v.name,
+            p.period_px,
+            p.peak_over_floor
+        ))
+        .into());
+    }
+    let shrunk = |k: u32| {
+        let mut v = capture_view.clone();
+        let (w, h) = ((img.width / k).max(16), (img.height / k).max(16));
+        let cropped = crate::photo::crop_centre(&img, (w * k).min(img.width), (h * k).min(img.height));
+        let t = (0.5 * v.camera.fov_y_deg).to_radians().tan() * cropped.height as f64 / img.height as f64;
+        v.camera.fov_y_deg = 2.0 * t.atan().to_degrees();
+        (v.camera.width, v.camera.height) = (w, h);
+        let small = crate::register::resize(&cropped, w, h);
+        (v, w, h, cropped, small)
+    };
+    let mut k = img.height.div_ceil(capture_view.camera.height).max(1);
+    let (mut v, mut w, mut h, mut cropped, mut small) = shrunk(k);
     // A photo mostly white is saturated before anything can be found in it (the marks alone
     // may be white: they are a small part of the frame).
     let white = small.data.iter().filter(|x| **x >= 0.99).count();
@@ -131,12 +157,46 @@ pub fn inspect_photo(
              glint; photograph from the capture position of card.json with the lamp where it says (see \
              capture_guide.png beside card.json)",
             f.display(),
-            v.name,
+            capture_view.name,
             card.marks.len().min(5),
             card.marks.len()
         ))
     };
-    let reg = register(&small, card, &v).map_err(not_found)?;
+    let mut reg = register(&small, card, &v).map_err(not_found)?;
+    // The card's scale in the photo against the capture view's: a photo shrunk after it was
+    // taken (a messenger, an app) or taken from too far shows the grooves on fewer pixels than
+    // the fit needs (two photos shrunk to half with an image editor were fitted at a V angle
+    // 11.5 degrees off).
+    let mut scale = card_scale(&reg.found.plate_to_image, k);
+    let needed = MIN_SCALE * view_scale(capture_view);
+    // A whole shrink that leaves too few pixels (a photo 1.5 times the view's height, halved)
+    // is made one smaller: the fit then compares more pixels than the view has.
+    if scale.fit_px_per_mm < needed && k > 1 && scale.photo_px_per_mm / (k - 1) as f64 >= needed {
+        k -= 1;
+        (v, w, h, cropped, small) = shrunk(k);
+        reg = register(&small, card, &v).map_err(not_found)?;
+        scale = card_scale(&reg.found.plate_to_image, k);
+    }
+    if scale.fit_px_per_mm < needed {
+        let dist = (capture_view.camera.eye[0].powi(2)
+            + capture_view.camera.eye[1].powi(2)
+            + capture_view.camera.eye[2].powi(2))
+        .sqrt();
+        return Err(InputError(format!(
+            "photo `{}` (view {}) shows the card at {:.2} pixels per mm; the fit needs at least {:.2} (the capture \
+             guide's {:.2} at {:.0} mm, less {:.0}%): photograph from nearer (about {:.0} mm) or zoom in with the \
+             lens, and send the photo as the phone saved it (a messenger, an app or an editor may have shrunk it)",
+            f.display(),
+            v.name,
+            scale.photo_px_per_mm,
+            needed,
+            view_scale(capture_view),
+            dist,
+            100.0 * (1.0 - MIN_SCALE),
+            dist * scale.photo_px_per_mm / view_scale(capture_view)
+        ))
+        .into());
+    }
     // The camera that took the photo, from the marks: the card is rendered as that camera saw it
     // (the light on the grooves depends on where the camera stood), and the photo is used as
     // taken, without resampling. Within 2 px of the capture view everywhere, the capture camera
@@ -246,7 +306,45 @@ pub fn inspect_photo(
         saved_jpeg,
         gains: channels.map_or([1.0; 3], |c| c.gains),
         saturated,
+        scale,
+        needed_px_per_mm: needed,
     })
+}
+
+/// The least card scale (pixels per mm at the card's centre) a photo may have, as a fraction
+/// of its capture view's: the capture guide's limit.
+pub const MIN_SCALE: f64 = 0.85;
+
+/// The card's scale in a photo: pixels per mm at the card's centre (the square root of the
+/// area a square millimetre there covers), as taken and as the fit compares it.
+#[derive(Clone, Copy, Debug)]
+pub struct CardScale {
+    pub photo_px_per_mm: f64,
+    pub fit_px_per_mm: f64,
+}
+
+fn px_per_mm(map: impl Fn([f64; 2]) -> Option<[f64; 2]>) -> f64 {
+    let h = 1.0;
+    let (Some(a), Some(b), Some(c)) = (map([-h, -h]), map([h, -h]), map([-h, h])) else {
+        return 0.0;
+    };
+    let (u, w) = ([b[0] - a[0], b[1] - a[1]], [c[0] - a[0], c[1] - a[1]]);
+    ((u[0] * w[1] - u[1] * w[0]).abs()).sqrt() / (2.0 * h)
+}
+
+/// The card's scale under the homography `plate_to_image` of a photo shrunk by `shrink`.
+pub fn card_scale(plate_to_image: &[f64; 9], shrink: u32) -> CardScale {
+    let fit = px_per_mm(|q| Some(crate::fiducials::homography::apply(plate_to_image, q)));
+    CardScale {
+        photo_px_per_mm: fit * shrink as f64,
+        fit_px_per_mm: fit,
+    }
+}
+
+/// The card's scale in a capture view (pixels per mm at the card's centre).
+pub fn view_scale(view: &scratchart::model::scene::View) -> f64 {
+    let g = ViewGeom::new(view);
+    px_per_mm(|q| g.project([q[0], q[1], 0.0]).map(|p| [p.0, p.1]))
 }
 
 /// `fit --check`: says of each photo whether the fit can use it, without fitting. A photo named
@@ -270,7 +368,26 @@ pub(super) fn check_photos(
             .find(|v| v.name == stem)
             .unwrap_or(&capture.views[i % capture.views.len()]);
         let t = std::time::Instant::now();
-        match inspect_photo(card, capture, v, f) {
+        let named = capture.views.iter().any(|v| v.name == stem);
+        let mut got = inspect_photo(card, capture, v, f);
+        // Not named after a view and not of the view in its place: the marks say which it is.
+        if got.is_err() && !named {
+            if let Some(other) = capture
+                .views
+                .iter()
+                .filter(|o| o.name != v.name)
+                .find_map(|o| inspect_photo(card, capture, o, f).ok())
+            {
+                obs.result(&format!(
+                    "         `{}` is view {} (found by the card's marks), not {} as its place among the photos says",
+                    f.display(),
+                    other.view.name,
+                    v.name
+                ));
+                got = Ok(other);
+            }
+        }
+        match got {
             Ok(insp) => {
                 let weak: Vec<&str> = insp
                     .found
