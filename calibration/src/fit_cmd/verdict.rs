@@ -58,14 +58,24 @@ pub fn verdict(best: &FitResult, residual: &[(f64, f64)], photos: &[String], all
             .and_then(|r| r.split(']').next())
             .and_then(|v| v.parse::<usize>().ok());
         if let Some(v) = noise_of {
+            let brighter = best.params[k].1 > 0.0;
+            // Light the model lacks brightens a dark plate; a darker one is a camera or an app
+            // that took light away or read the noise high (an unedited photo is no glare).
+            let why = if brighter {
+                "light the model lacks (glare, a lamp in view, a room light) or a photo brightened after it was \
+                 taken; photograph again with the lamp of the capture guide, the room dark"
+            } else {
+                "a camera that sets its black above the sensor's (phones with a dark-scene mode, a raised \
+                 contrast or a \"vivid\" filter), noise reduction or sharpening that makes the noise read higher \
+                 than it is, or a photo darkened or resized after it was taken; photograph again without filters \
+                 or night mode"
+            };
             reasons.push(format!(
                 "{}: its dark plate is {} than the noise measured on the photo makes it, even with that noise \
-                 {} ({name} at {:.2}): light the model lacks (glare, a lamp in view, a camera's own black level) \
-                 or a photo edited after it was taken; photograph again with the lamp of the capture guide, the \
-                 room dark, and the photo as the phone saved it",
+                 {} ({name} at {:.2}): {why}, and use the photo as the phone saved it",
                 photos.get(v).map_or("a photo", |p| p.as_str()),
-                if best.params[k].1 > 0.0 { "brighter" } else { "darker" },
-                if best.params[k].1 > 0.0 { "doubled" } else { "halved" },
+                if brighter { "brighter" } else { "darker" },
+                if brighter { "doubled" } else { "halved" },
                 best.params[k].1
             ));
             continue;
@@ -366,6 +376,17 @@ mod verdict_tests {
             v.reasons[0].starts_with("photo `a.jpg` (view cam_south): its dark plate is brighter")
                 && v.reasons[0].contains("glare")
                 && !v.reasons[0].contains("--kind"),
+            "{v:?}"
+        );
+        // Darker: not glare (glare brightens), but a camera or an app that took light away.
+        let mut r = result([0.1, 0.001, 0.0005], &["ln_noise[1]"]);
+        r.params.push(("ln_noise[1]".into(), -0.7, None));
+        let v = verdict(&r, &[(0.004, 0.004); 2], &photos(), false);
+        assert_eq!(v.reasons.len(), 1, "{v:?}");
+        assert!(
+            v.reasons[0].starts_with("photo `b.jpg` (view cam_west): its dark plate is darker")
+                && !v.reasons[0].contains("glare")
+                && v.reasons[0].contains("black"),
             "{v:?}"
         );
     }
