@@ -668,12 +668,29 @@ pub fn plausible_camera(
     h: u32,
     view: &View,
 ) -> Result<scratchart::model::scene::Camera, String> {
+    plausible_camera_with_focal(hm, w, h, view, None)
+}
+
+/// [`plausible_camera`] with the focal length the photo's EXIF gives (pixels of this raster),
+/// taken where it lies within 20% of the one the marks imply (a photo cropped after it was
+/// taken keeps its EXIF but not its frame: its EXIF focal length is then ignored).
+pub fn plausible_camera_with_focal(
+    hm: &[f64; 9],
+    w: u32,
+    h: u32,
+    view: &View,
+    exif_focal_px: Option<f64>,
+) -> Result<scratchart::model::scene::Camera, String> {
     let c = &view.camera;
     // The capture view's focal length on this photo's raster (same height scale).
     let f_hint = 0.5 * h as f64 / (0.5 * c.fov_y_deg).to_radians().tan();
     let e = c.eye;
     let d_hint = (e[0] * e[0] + e[1] * e[1] + e[2] * e[2]).sqrt();
-    let f = super::pose::focal_near(hm, w, h, f_hint, d_hint);
+    let f_marks = super::pose::focal_near(hm, w, h, f_hint, d_hint);
+    let f = match exif_focal_px {
+        Some(fe) if fe > 0.0 && (fe / f_marks - 1.0).abs() < 0.2 => fe,
+        _ => f_marks,
+    };
     let cam = super::pose::camera_with_focal(hm, w, h, f)
         .ok_or("the marks do not lie as a camera above the card would see them")?;
     let dir = |e: [f64; 3], t: [f64; 3]| {

@@ -260,6 +260,28 @@ struct Evaluator<'a, 'r> {
     compared: Option<Vec<Vec<f32>>>,
 }
 
+impl<'a, 'r> Evaluator<'a, 'r> {
+    /// The evaluator of `data` in `lay`: nothing rendered yet, at `SUPERSAMPLE`, the photos'
+    /// lift of clipped noise and their channels' clip from the data.
+    fn new(renderer: &'r Renderer, data: &'a Data<'a>, lay: Layout) -> Evaluator<'a, 'r> {
+        let n = data.capture.views.len();
+        Evaluator {
+            renderer,
+            data,
+            lay,
+            renders: 0,
+            tangent_passes: 0,
+            weights: None,
+            gs: None,
+            ss: SUPERSAMPLE,
+            jpeg_shift: vec![None; n],
+            transfer: noise::for_views(data),
+            clip: camera::ChannelClip::for_views(data),
+            compared: None,
+        }
+    }
+}
+
 impl Evaluator<'_, '_> {
     /// Photo v as the model is compared with it now.
     fn photo(&self, v: usize) -> &[f32] {
@@ -582,20 +604,7 @@ pub fn fit_kind(
         &noise::lift_seen(data),
         false,
     );
-    let mut ev = Evaluator {
-        renderer,
-        data,
-        lay,
-        renders: 0,
-        tangent_passes: 0,
-        weights: None,
-        gs: None,
-        ss: SUPERSAMPLE,
-        jpeg_shift: vec![None; data.capture.views.len()],
-        transfer: noise::for_views(data),
-        clip: camera::ChannelClip::for_views(data),
-        compared: None,
-    };
+    let mut ev = Evaluator::new(renderer, data, lay);
     let intervals = OffsetIntervals::of(data.card);
     // Starting points: those of an interrupted fit, the tool given, or a search.
     let mut starts: Vec<Start> = cfg.starts.clone().unwrap_or_default();
@@ -731,20 +740,7 @@ pub fn predict(renderer: &Renderer, data: &Data, res: &FitResult) -> Result<(Vec
         &noise::lift_seen(data),
         false,
     );
-    let mut ev = Evaluator {
-        renderer,
-        data,
-        lay,
-        renders: 0,
-        tangent_passes: 0,
-        weights: None,
-        gs: None,
-        ss: SUPERSAMPLE,
-        jpeg_shift: vec![None; data.capture.views.len()],
-        transfer: noise::for_views(data),
-        clip: camera::ChannelClip::for_views(data),
-        compared: None,
-    };
+    let mut ev = Evaluator::new(renderer, data, lay);
     let x: Vec<f64> = res.params.iter().map(|p| p.1).collect();
     let lin = ev.render(&x)?;
     let photos = (0..data.capture.views.len()).map(|v| data.photos[v].clone()).collect();
@@ -803,7 +799,7 @@ pub fn information(
     let intervals = OffsetIntervals::of(data.card);
     let (mut x, rg) = match tool {
         Tool::Profile { points, w_over_w, .. } => {
-            let mut x = lay.start(0.0, 0.0);
+            let mut x = lay.start(0.0, (0.0, 0.0));
             for (k, z) in data.card.depths_mm.iter().enumerate() {
                 x[k] = points.iter().find(|p| (p[0] - z).abs() < 1e-9).map_or(0.0, |p| p[1]);
             }
@@ -818,19 +814,11 @@ pub fn information(
         x[lay.n_tool + 1 + v] = exposure[v].ln();
         x[lay.n_tool + 1 + n_views + v] = blur_px[v];
     }
+    // The photos of the analysis are noiseless and grey: no lift, one clip.
     let mut ev = Evaluator {
-        renderer,
-        data,
-        lay,
-        renders: 0,
-        tangent_passes: 0,
-        weights: None,
-        gs: None,
-        ss: SUPERSAMPLE,
-        jpeg_shift: vec![None; n_views],
         transfer: vec![None; n_views],
         clip: vec![None; n_views],
-        compared: None,
+        ..Evaluator::new(renderer, data, lay)
     };
     let (_, cols) = lm::jacobian_at(&mut ev, &x, rg)?;
     let seen: Vec<usize> = (0..cols.len()).filter(|&k| cols[k].iter().any(|c| *c != 0.0)).collect();

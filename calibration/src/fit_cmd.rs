@@ -11,7 +11,7 @@ use serde_json::json;
 
 use super::card::Card;
 use super::fit::{fit_kind, predict, Data, FitConfig, FitError, FitResult, Kind, Start};
-mod inspect;
+pub mod inspect;
 mod plot;
 mod verdict;
 

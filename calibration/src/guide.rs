@@ -79,13 +79,27 @@ pub fn guide_text(card: &Card, capture: &Scene) -> String {
             view.name
         ));
     }
-    s.push_str(
+    use crate::fit_cmd::inspect::{view_scale, MAX_NOISE, MAX_OFF_DEG, MAX_SATURATED, MIN_JPEG_QUALITY, MIN_SCALE};
+    let min_px = capture
+        .views
+        .iter()
+        .map(|v| MIN_SCALE * view_scale(v))
+        .fold(0.0f64, f64::max);
+    let (noise, jpeg, off, sat) = (100.0 * MAX_NOISE, MIN_JPEG_QUALITY, MAX_OFF_DEG, 100.0 * MAX_SATURATED);
+    s.push_str(&format!(
         "\nA good photo: all six hatched marks glint as bright squares (one may be covered); the flat \
          card is dark (the lamp's reflection goes away from the camera); some ladder rungs glint; no part \
          of the ladder is pure white (lower the exposure if it is); the card fills most of the frame; the \
-         phone is held still (or on a stand), focused on the card. Any phone, any resolution, JPEG or PNG. \
-         Check the photos with `scratchart-cal fit --check --card card.json PHOTOS` before fitting.\n",
-    );
+         phone is held still (or on a stand), focused on the card. Any phone, JPEG or PNG.\n\
+         \nThe guide's limits (`fit --check` measures each photo against them, and the fit refuses a \
+         photo beyond one, naming it): the card at least {min_px:.2} pixels per mm at its centre (any phone \
+         photo of a megapixel or more of the card at this distance); noise at most {noise:.0}% per colour \
+         channel (more light, a stand, no night mode); JPEG quality {jpeg} or better (as the phone saves it, \
+         not a messenger's copy); the camera within {off:.0} degrees of the capture position; at most \
+         {sat:.0}% of the ladder's bright pixels full white; the photo as the phone saved it, not enlarged \
+         or shrunk by an app. Check the photos with `scratchart-cal fit --check --card card.json PHOTOS` \
+         before fitting.\n",
+    ));
     s
 }
 

@@ -74,6 +74,13 @@ pub struct Shot {
     /// The fiducial mark (index in `card.marks`) covered by a dark patch.
     pub cover: Option<usize>,
     pub seed: u64,
+    /// The phone's own exposure: scaled so that the frame's brightest light (its 99.9th
+    /// percentile: the glinting marks) shows at this display value, times `exposure`; `None`:
+    /// `exposure` alone.
+    pub auto_exposure: Option<f64>,
+    /// Enlarged by this factor after it was taken, in its display encoding (an app, a messenger,
+    /// a digital zoom), Catmull-Rom or bilinear by `seed`; 1: as taken.
+    pub enlarge: f64,
 }
 
 impl Default for Shot {
@@ -90,6 +97,8 @@ impl Default for Shot {
             exif_orientation: 1,
             cover: None,
             seed: 1,
+            auto_exposure: None,
+            enlarge: 1.0,
         }
     }
 }
@@ -148,29 +157,36 @@ pub fn posed_view(view: &View, pose: &Pose, height: u32) -> View {
     v
 }
 
+/// A phone held near a capture view: up to `max_tilt_deg` and `max_shift_mm` off it, aimed up
+/// to 4 mm off the card's centre, turned by any angle, its field of view `fov` times the view's,
+/// 4:3 or 3:4 (the draws in this order: the studies' seeds depend on it).
+fn random_pose(rng: &mut Rng, max_tilt_deg: f64, max_shift_mm: f64, fov: (f64, f64)) -> Pose {
+    let dir = rng.range(0.0, std::f64::consts::TAU);
+    let shift = rng.range(0.0, max_shift_mm);
+    let el = rng.range(-0.5, 0.5);
+    Pose {
+        tilt_deg: rng.range(0.0, max_tilt_deg),
+        tilt_dir_deg: rng.range(0.0, 360.0),
+        shift_mm: [
+            shift * dir.cos() * el.cos(),
+            shift * dir.sin() * el.cos(),
+            shift * el.sin(),
+        ],
+        aim_mm: [rng.range(-4.0, 4.0), rng.range(-4.0, 4.0)],
+        roll_deg: rng.range(-180.0, 180.0),
+        fov_scale: rng.range(fov.0, fov.1),
+        aspect: if rng.f64() < 0.5 { 4.0 / 3.0 } else { 3.0 / 4.0 },
+    }
+}
+
 /// A random shot with every degradation of the calibration issue drawn in its range: the
 /// camera up to `max_tilt_deg` and 30 mm off the capture pose and turned by any angle, exposure
 /// 0.3x to 3x, noise up to 3%, blur up to 2 px, vignetting up to 40%, a cast up to 25% per
 /// channel, 0.3 to 50 megapixels, JPEG quality 70 to 95 (or PNG), an EXIF orientation, and in
 /// a third of the shots one mark covered.
 pub fn random_shot(rng: &mut Rng, n_marks: usize, max_tilt_deg: f64) -> Shot {
-    let dir = rng.range(0.0, std::f64::consts::TAU);
-    let shift = rng.range(0.0, 30.0);
-    let el = rng.range(-0.5, 0.5);
     Shot {
-        pose: Pose {
-            tilt_deg: rng.range(0.0, max_tilt_deg),
-            tilt_dir_deg: rng.range(0.0, 360.0),
-            shift_mm: [
-                shift * dir.cos() * el.cos(),
-                shift * dir.sin() * el.cos(),
-                shift * el.sin(),
-            ],
-            aim_mm: [rng.range(-4.0, 4.0), rng.range(-4.0, 4.0)],
-            roll_deg: rng.range(-180.0, 180.0),
-            fov_scale: rng.range(1.15, 1.35),
-            aspect: if rng.f64() < 0.5 { 4.0 / 3.0 } else { 3.0 / 4.0 },
-        },
+        pose: random_pose(rng, max_tilt_deg, 30.0, (1.15, 1.35)),
         exposure: (rng.range(0.3f64.ln(), 3f64.ln())).exp(),
         blur_px: rng.range(0.3, 2.0),
         noise: rng.range(0.0, 0.03),
@@ -185,7 +201,109 @@ pub fn random_shot(rng: &mut Rng, n_marks: usize, max_tilt_deg: f64) -> Shot {
         exif_orientation: [1, 1, 3, 6, 8][(rng.f64() * 5.0) as usize % 5],
         cover: (rng.f64() < 1.0 / 3.0).then(|| (rng.f64() * n_marks as f64) as usize % n_marks),
         seed: rng.next_u64(),
+        auto_exposure: None,
+        enlarge: 1.0,
     }
+}
+
+/// What takes a photo outside the capture guide's limits (`fit_cmd::inspect`'s), one at a time.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Violation {
+    /// Too few pixels per mm on the card (a small photo, or shrunk by a messenger).
+    Shrunk,
+    /// More noise than the guide allows.
+    Noisy,
+    /// Recompressed as a low-quality JPEG.
+    LowJpeg,
+    /// Taken from too far off the capture view's direction.
+    OffPose,
+    /// Most of the ladder full white.
+    Saturated,
+    /// Enlarged after it was taken.
+    Enlarged,
+}
+
+impl Violation {
+    pub const ALL: [Violation; 6] = [
+        Violation::Shrunk,
+        Violation::Noisy,
+        Violation::LowJpeg,
+        Violation::OffPose,
+        Violation::Saturated,
+        Violation::Enlarged,
+    ];
+
+    pub fn label(self) -> &'static str {
+        match self {
+            Violation::Shrunk => "shrunk",
+            Violation::Noisy => "noisy",
+            Violation::LowJpeg => "low JPEG quality",
+            Violation::OffPose => "off the capture pose",
+            Violation::Saturated => "saturated",
+            Violation::Enlarged => "enlarged",
+        }
+    }
+
+    /// Words of the refusal that name this limit (`fit_cmd::inspect`).
+    pub fn named_by(self, msg: &str) -> bool {
+        match self {
+            Violation::Shrunk => msg.contains("pixels per mm"),
+            Violation::Noisy => msg.contains("noise per colour channel"),
+            Violation::LowJpeg => msg.contains("JPEG of quality"),
+            Violation::OffPose => msg.contains("degrees from the capture view") || msg.contains("implausible"),
+            Violation::Saturated => msg.contains("saturated"),
+            Violation::Enlarged => msg.contains("enlarged after it was taken"),
+        }
+    }
+}
+
+/// A random shot within the capture guide's limits (`fit_cmd::inspect`: at least 0.85 of the
+/// capture view's pixels per mm, noise at most 3% per channel, JPEG 80 or better, at most 25
+/// degrees off the capture view's direction, at most a quarter of the ladder's bright pixels
+/// white, not enlarged), drawn well inside them as a maker following the guide takes it: the
+/// phone held within 12 degrees and 20 mm of the capture position and turned by any angle, its
+/// own exposure (the glinting marks at 0.5 to 0.95 of full scale), blur 0.3 to 1.5 px, noise to
+/// 2%, vignetting to 30%, a cast to 15%, 2 to 24 megapixels, JPEG 85 to 97 or PNG, an EXIF
+/// turn, a covered mark in a third.
+pub fn random_shot_within(rng: &mut Rng, n_marks: usize) -> Shot {
+    Shot {
+        pose: random_pose(rng, 12.0, 20.0, (1.1, 1.3)),
+        exposure: 1.0,
+        auto_exposure: Some(rng.range(0.5, 0.95)),
+        blur_px: rng.range(0.3, 1.5),
+        noise: rng.range(0.0, 0.02),
+        vignetting: rng.range(0.0, 0.3),
+        cast: [rng.range(0.85, 1.15), 1.0, rng.range(0.85, 1.15)],
+        megapixels: (rng.range(2f64.ln(), 24f64.ln())).exp(),
+        jpeg_quality: if rng.f64() < 0.7 {
+            Some(rng.range(85.0, 97.0) as u8)
+        } else {
+            None
+        },
+        exif_orientation: [1, 1, 3, 6, 8][(rng.f64() * 5.0) as usize % 5],
+        cover: (rng.f64() < 1.0 / 3.0).then(|| (rng.f64() * n_marks as f64) as usize % n_marks),
+        seed: rng.next_u64(),
+        enlarge: 1.0,
+    }
+}
+
+/// A shot within the guide's limits but for `what`, which takes it clearly beyond one of them.
+pub fn random_shot_outside(rng: &mut Rng, n_marks: usize, what: Violation) -> Shot {
+    let mut s = random_shot_within(rng, n_marks);
+    match what {
+        // 0.4 to 0.7 of the capture view's scale.
+        Violation::Shrunk => s.megapixels = rng.range(0.02, 0.05),
+        Violation::Noisy => s.noise = rng.range(0.05, 0.08),
+        Violation::LowJpeg => s.jpeg_quality = Some(rng.range(40.0, 72.0) as u8),
+        Violation::OffPose => s.pose.tilt_deg = rng.range(29.0, 33.0),
+        Violation::Saturated => s.auto_exposure = Some(rng.range(10.0, 30.0)),
+        Violation::Enlarged => {
+            // A small photo (about the capture view's scale) enlarged 1.5 to 3 times.
+            s.megapixels = rng.range(0.1, 0.15);
+            s.enlarge = rng.range(1.5, 3.0);
+        }
+    }
+    s
 }
 
 /// The photo of capture view `view` (of `capture`) that `shot` takes of the card cut by `tool`,
@@ -220,6 +338,16 @@ pub fn take(
         rh,
         (rh as f64 / base.camera.height as f64) * shot.blur_px,
     );
+    // The phone's own exposure: the frame's brightest light at the display value asked for.
+    let exposure = match shot.auto_exposure {
+        Some(target) => {
+            let mut sorted = lin.clone();
+            let i = ((sorted.len() as f64 * 0.999) as usize).min(sorted.len() - 1);
+            let top = *sorted.select_nth_unstable_by(i, |a, b| a.total_cmp(b)).1 as f64;
+            shot.exposure * scratchart::model::display::linear(target) / top.max(1e-12)
+        }
+        None => shot.exposure,
+    };
     // Vignetting and exposure on the light.
     let (cx, cy) = (0.5 * rw as f64, 0.5 * rh as f64);
     let r2max = cx * cx + cy * cy;
@@ -228,7 +356,7 @@ pub fn take(
         .enumerate()
         .map(|(i, &l)| {
             let (x, y) = ((i % rw) as f64 + 0.5 - cx, (i / rw) as f64 + 0.5 - cy);
-            (l as f64 * shot.exposure * (1.0 - shot.vignetting * (x * x + y * y) / r2max)) as f32
+            (l as f64 * exposure * (1.0 - shot.vignetting * (x * x + y * y) / r2max)) as f32
         })
         .collect();
     // A covered mark: a black patch (a thumb in shadow, a clamp) over its square and beyond it
@@ -268,7 +396,20 @@ pub fn take(
             rgb.push((255.0 * v).round() as u8);
         }
     }
-    let upright = image::RgbImage::from_raw(pw, ph, rgb).expect("sized");
+    let mut upright = image::RgbImage::from_raw(pw, ph, rgb).expect("sized");
+    if shot.enlarge > 1.0 {
+        // In its display encoding, as apps do.
+        let (ew, eh) = (
+            (pw as f64 * shot.enlarge).round() as u32,
+            (ph as f64 * shot.enlarge).round() as u32,
+        );
+        let filter = if shot.seed % 2 == 0 {
+            image::imageops::FilterType::CatmullRom
+        } else {
+            image::imageops::FilterType::Triangle
+        };
+        upright = image::imageops::resize(&upright, ew, eh, filter);
+    }
     std::fs::create_dir_all(dir)?;
     let path = match shot.jpeg_quality {
         Some(q) => {
@@ -282,17 +423,10 @@ pub fn take(
             };
             let mut buf = Vec::new();
             let mut enc = image::codecs::jpeg::JpegEncoder::new_with_quality(&mut buf, q);
-            if shot.exif_orientation != 1 {
-                // TIFF header (big-endian), one IFD entry: Orientation (0x0112), SHORT, 1 value.
-                #[rustfmt::skip]
-                let exif = vec![
-                    b'M', b'M', 0, 42, 0, 0, 0, 8,
-                    0, 1,
-                    0x01, 0x12, 0, 3, 0, 0, 0, 1, 0, shot.exif_orientation, 0, 0,
-                    0, 0, 0, 0,
-                ];
-                enc.set_exif_metadata(exif)?;
-            }
+            // As a phone writes it: the orientation and the 35 mm equivalent focal length of
+            // the frame (`crate::exif`).
+            let f35 = crate::exif::focal_35mm_of(pv.camera.fov_y_deg, pw as f64 / ph as f64);
+            enc.set_exif_metadata(crate::exif::exif_blob(shot.exif_orientation, f35.round() as u16))?;
             enc.write_image(img.as_raw(), img.width(), img.height(), image::ExtendedColorType::Rgb8)?;
             let p = dir.join(format!("{}.jpg", base.name));
             scratchart::io::write_atomic(&p, &buf)?;
@@ -301,7 +435,7 @@ pub fn take(
         None => {
             // PNG: no orientation tag here, stored upright.
             let p = dir.join(format!("{}.png", base.name));
-            scratchart::io::write_png_rgb(&p, pw, ph, upright.as_raw())?;
+            scratchart::io::write_png_rgb(&p, upright.width(), upright.height(), upright.as_raw())?;
             p
         }
     };

@@ -191,6 +191,19 @@ pub fn load_photo_with_channels(path: &Path) -> Result<(Gray, Option<Channels>),
     ))
 }
 
+/// The 35 mm equivalent focal length a photo's EXIF gives (`crate::exif`), when it has one.
+pub fn focal_35mm(path: &Path) -> Option<f64> {
+    use image::ImageDecoder as _;
+    let mut decoder = image::ImageReader::open(path)
+        .ok()?
+        .with_guessed_format()
+        .ok()?
+        .into_decoder()
+        .ok()?;
+    let tiff = decoder.exif_metadata().ok()??;
+    crate::exif::focal_35mm(&tiff)
+}
+
 /// The middle `w` x `h` pixels of `img` (what is left over split evenly between the sides, the
 /// odd one at the right and bottom).
 pub fn crop_centre(img: &Gray, w: u32, h: u32) -> Gray {

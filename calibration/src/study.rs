@@ -19,7 +19,7 @@ use serde_json::json;
 use super::card::{Card, CardSpec};
 use super::fit::{Kind, ANGLE_TOL_DEG, LENGTH_TOL_MM, OFFSET_TOL_MM};
 use super::fit_cmd::{run as fit, FitArgs};
-use super::phone::{random_shot, take, Shot};
+use super::phone::{random_shot, random_shot_outside, random_shot_within, take, Shot, Violation};
 
 /// Flags of `scratchart-cal study`.
 #[derive(clap::Args, Debug)]
@@ -40,6 +40,13 @@ pub struct StudyArgs {
     /// as in the whole study of this seed: a row of the table, reproduced alone
     #[arg(long)]
     pub only: Vec<usize>,
+    /// Which captures: `within` the capture guide's limits (tools over the whole range of each
+    /// kind: V 20 to 120 degrees, flats to 50 um, balls 0.05 to 1 mm), `outside` them (the same,
+    /// each capture beyond one limit in turn: shrunk, noisy, low JPEG quality, off the pose,
+    /// saturated, enlarged; it must be refused naming the limit), or `any` (every phone
+    /// degradation drawn over its whole range, the studies before the guide's limits)
+    #[arg(long, default_value = "within", value_parser = ["within", "outside", "any"])]
+    pub group: String,
 }
 
 /// How a trial ended.
@@ -60,11 +67,31 @@ impl Outcome {
     }
 }
 
+/// A random tool of `kind` over the whole range the calibration issue names: V-bits of 20 to
+/// 120 degrees with flats to 50 um, balls of 0.05 to 1 mm, tapered balls, measured profiles.
+pub fn random_tool_wide(rng: &mut Rng, kind: Kind, card: &Card) -> Tool {
+    let off = rng.range(-0.008, 0.012);
+    match kind {
+        Kind::VBit => Tool::VBit {
+            angle_deg: rng.range(20.0, 120.0),
+            tip_flat_mm: rng.range(0.0, 0.05),
+            z_offset_mm: off,
+        },
+        Kind::Ball => Tool::Ball {
+            radius_mm: (rng.range(0.05f64.ln(), 1f64.ln())).exp(),
+            z_offset_mm: off,
+        },
+        _ => random_tool(rng, kind, card),
+    }
+}
+
 /// One trial: the truth, the photos' degradations, the fit and how it ended.
 #[derive(Clone, Debug)]
 pub struct Trial {
     /// Its number in the study (the draws of the trials before it come first).
     pub number: usize,
+    /// The limit of the capture guide its photos are beyond (`--group outside`).
+    pub violation: Option<Violation>,
     pub kind: Kind,
     pub truth: Tool,
     pub shots: Vec<Shot>,
@@ -212,9 +239,17 @@ pub fn run(renderer: &Renderer, args: &StudyArgs, obs: &dyn Observer) -> Result<
             break;
         }
         let kind = Kind::ALL[t % Kind::ALL.len()];
-        let truth = random_tool(&mut rng, kind, &card);
+        let violation = (args.group == "outside").then(|| Violation::ALL[t % Violation::ALL.len()]);
+        let truth = match args.group.as_str() {
+            "any" => random_tool(&mut rng, kind, &card),
+            _ => random_tool_wide(&mut rng, kind, &card),
+        };
         let shots: Vec<Shot> = (0..capture.views.len())
-            .map(|_| random_shot(&mut rng, card.marks.len(), args.max_tilt))
+            .map(|_| match (args.group.as_str(), violation) {
+                ("any", _) => random_shot(&mut rng, card.marks.len(), args.max_tilt),
+                (_, Some(what)) => random_shot_outside(&mut rng, card.marks.len(), what),
+                _ => random_shot_within(&mut rng, card.marks.len()),
+            })
             .collect();
         if !args.only.is_empty() && !args.only.contains(&t) {
             continue;
@@ -270,6 +305,7 @@ pub fn run(renderer: &Renderer, args: &StudyArgs, obs: &dyn Observer) -> Result<
         ));
         trials.push(Trial {
             number: t,
+            violation,
             kind,
             truth,
             shots,
@@ -346,16 +382,22 @@ fn describe_shots(shots: &[Shot]) -> String {
         .iter()
         .map(|s| {
             format!(
-                "{:.1} MP {}, tilt {:.0} deg, roll {:.0}, exp {:.2}, blur {:.1} px, noise {:.1}%, vign {:.0}%{}",
+                "{:.2} MP {}, tilt {:.0} deg, roll {:.0}, exp {}, blur {:.1} px, noise {:.1}%, vign {:.0}%{}{}",
                 s.megapixels,
                 s.jpeg_quality.map_or("PNG".to_string(), |q| format!("JPEG {q}")),
                 s.pose.tilt_deg,
                 s.pose.roll_deg,
-                s.exposure,
+                s.auto_exposure
+                    .map_or(format!("{:.2}", s.exposure), |a| format!("auto {a:.2}")),
                 s.blur_px,
                 100.0 * s.noise,
                 100.0 * s.vignetting,
-                s.cover.map_or(String::new(), |k| format!(", mark {k} covered"))
+                s.cover.map_or(String::new(), |k| format!(", mark {k} covered")),
+                if s.enlarge > 1.0 {
+                    format!(", enlarged {:.2}x", s.enlarge)
+                } else {
+                    String::new()
+                }
             )
         })
         .collect::<Vec<_>>()
@@ -377,8 +419,10 @@ fn write_tables(dir: &Path, trials: &[Trial], args: &StudyArgs) -> Result<()> {
     let mut csv =
         String::from("trial,kind,truth,outcome,reason,angle_err_deg,length_err_um,offset_err_um,seconds,photos\n");
     let mut md = String::new();
-    md.push_str("| # | tool | photos (per view) | outcome | angle err | length err | offset err | time |\n");
-    md.push_str("|---|---|---|---|---|---|---|---|\n");
+    md.push_str(
+        "| # | tool | photos (per view) | beyond the guide | outcome | angle err | length err | offset err | time |\n",
+    );
+    md.push_str("|---|---|---|---|---|---|---|---|---|\n");
     for tr in trials {
         let t = tr.number;
         let reason = match &tr.outcome {
@@ -398,9 +442,10 @@ fn write_tables(dir: &Path, trials: &[Trial], args: &StudyArgs) -> Result<()> {
             describe_shots(&tr.shots)
         ));
         md.push_str(&format!(
-            "| {t} | {} | {} | {}{} | {} | {} | {} | {:.0} s |\n",
+            "| {t} | {} | {} | {} | {}{} | {} | {} | {} | {:.0} s |\n",
             describe(&tr.truth),
             describe_shots(&tr.shots),
+            tr.violation.map_or("-", |v| v.label()),
             tr.outcome.label(),
             if reason.is_empty() {
                 String::new()
@@ -433,13 +478,30 @@ fn write_tables(dir: &Path, trials: &[Trial], args: &StudyArgs) -> Result<()> {
     };
     let mut times: Vec<f64> = trials.iter().map(|t| t.seconds).collect();
     times.sort_by(|a, b| a.total_cmp(b));
+    // Outside the guide: refused naming the limit the photos are beyond.
+    let named = trials
+        .iter()
+        .filter(|t| match (&t.outcome, t.violation) {
+            (Outcome::Refused(r), Some(v)) => v.named_by(r),
+            _ => false,
+        })
+        .count();
+    let group = match args.group.as_str() {
+        "within" => "captures within the capture guide's limits".to_string(),
+        "outside" => format!(
+            "captures beyond one of the capture guide's limits each ({named} of {refused} refusals name the limit)"
+        ),
+        _ => format!(
+            "photos up to {} degrees off the capture pose, every degradation over its whole range",
+            args.max_tilt
+        ),
+    };
     let summary = format!(
-        "{n} random tools (seed {}, photos up to {} degrees off the capture pose): {rec} recovered within {ANGLE_TOL_DEG} \
+        "{n} random tools (seed {}, {group}): {rec} recovered within {ANGLE_TOL_DEG} \
          degree, {:.0} um and {:.0} um; {refused} refused; {wrong} wrong but accepted. Fit time: median {:.0} s, \
          longest {:.0} s. The truth lies within the stated one-sigma in {:.0}% of {} parameter estimates ({:.0}% of {} \
          on accepted fits).\n",
         args.seed,
-        args.max_tilt,
         LENGTH_TOL_MM * 1e3,
         OFFSET_TOL_MM * 1e3,
         times.get(n / 2).copied().unwrap_or(0.0),
@@ -455,7 +517,8 @@ fn write_tables(dir: &Path, trials: &[Trial], args: &StudyArgs) -> Result<()> {
     scratchart::io::write_atomic(
         &dir.join("study.json"),
         serde_json::to_string_pretty(&json!({
-            "trials": n, "recovered": rec, "refused": refused, "wrong_but_accepted": wrong,
+            "group": args.group, "trials": n, "recovered": rec, "refused": refused, "wrong_but_accepted": wrong,
+            "refused_naming_the_limit": named,
             "coverage_1sigma": cover(&zs), "estimates": zs.len(),
             "z": trials.iter().map(|t| t.z.iter().map(|z| json!([z.0, z.1])).collect::<Vec<_>>()).collect::<Vec<_>>(),
         }))?

@@ -29,6 +29,9 @@ fn p(name: &str, lo: f64, hi: f64, step: f64, render: bool, limit: f64) -> Param
     }
 }
 
+/// A start's shape: a V-bit's angle and tip flat, a ball's radius (and 0).
+pub(super) type Shape = (f64, f64);
+
 /// What a plate needs of the fit: the tool's angle within 1 degree, its lengths (tip flat,
 /// radius, a profile's widths) within 5 um and its z offset within 3 um. A parameter counts as
 /// identified when its (block sandwich) standard deviation is at most half of that, so that an
@@ -250,10 +253,12 @@ impl Layout {
         }
     }
 
-    /// A starting point: a typical tool of the kind, offset `off`.
-    pub(super) fn start(&self, off: f64, shape: f64) -> Vec<f64> {
+    /// A starting point: a typical tool of the kind, offset `off`, of `shape` (a V-bit's angle
+    /// and tip flat, a ball's radius).
+    pub(super) fn start(&self, off: f64, shape: Shape) -> Vec<f64> {
+        let (shape, flat) = shape;
         let mut x: Vec<f64> = match self.kind {
-            Kind::VBit => vec![shape, 0.005, off],
+            Kind::VBit => vec![shape, flat, off],
             Kind::Ball => vec![shape, off],
             Kind::TaperedBall => vec![0.5 * shape, 60.0, off],
             Kind::Profile => {
@@ -326,12 +331,17 @@ impl Layout {
         }
     }
 
-    /// Shapes tried at the start (V angles, ball radii).
-    pub(super) fn shapes(&self) -> Vec<f64> {
+    /// Shapes tried at the start: V angles with narrow and wide tip flats (from 5 um, a V-bit
+    /// with a 40 um flat was started at 5 and ended in another offset interval with its flat at
+    /// 0), ball radii.
+    pub(super) fn shapes(&self) -> Vec<Shape> {
         match self.kind {
-            Kind::VBit => vec![35.0, 60.0, 85.0, 110.0],
-            Kind::Ball | Kind::TaperedBall => vec![0.02, 0.04, 0.08, 0.16, 0.32, 0.64],
-            Kind::Profile => vec![0.0],
+            Kind::VBit => [0.005, 0.03]
+                .iter()
+                .flat_map(|&f| [35.0, 60.0, 85.0, 110.0].map(|a| (a, f)))
+                .collect(),
+            Kind::Ball | Kind::TaperedBall => [0.02, 0.04, 0.08, 0.16, 0.32, 0.64].map(|r| (r, 0.0)).to_vec(),
+            Kind::Profile => vec![(0.0, 0.0)],
         }
     }
 }

@@ -60,7 +60,7 @@ fn smoothed_photo(data: &Data, v: usize, sigma: f64) -> Vec<f32> {
 
 /// The start point of a tool given (`--init`), where it is of this layout's kind.
 pub(super) fn start_from(lay: &Layout, tool: &Tool, alpha: Option<f64>, intervals: &OffsetIntervals) -> Option<Start> {
-    let mut x = lay.start(tool.z_offset_mm(), 60.0);
+    let mut x = lay.start(tool.z_offset_mm(), (60.0, 0.005));
     let t = lay.tool(&x);
     if std::mem::discriminant(&t) == std::mem::discriminant(tool) {
         match tool {

@@ -169,10 +169,12 @@ pub fn inspect_photo(
     // 11.5 degrees off).
     let mut scale = card_scale(&reg.found.plate_to_image, k);
     let needed = MIN_SCALE * view_scale(capture_view);
-    // A whole shrink that leaves too few pixels (a photo 1.5 times the view's height, halved)
-    // is made one smaller: the fit then compares more pixels than the view has.
-    if scale.fit_px_per_mm < needed && k > 1 && scale.photo_px_per_mm / (k - 1) as f64 >= needed {
-        k -= 1;
+    // A whole shrink that leaves too few pixels (a photo 1.5 times the view's height, halved;
+    // a card smaller in the frame than in the view) is made smaller: the fit then compares more
+    // pixels than the view has.
+    let most = (scale.photo_px_per_mm / needed).floor() as u32;
+    if scale.fit_px_per_mm < needed && k > 1 && most >= 1 {
+        k = most.min(k - 1);
         (v, w, h, cropped, small) = shrunk(k);
         reg = register(&small, card, &v).map_err(not_found)?;
         scale = card_scale(&reg.found.plate_to_image, k);
@@ -204,16 +206,22 @@ pub fn inspect_photo(
     // length and distance trade against each other); the fit's shift takes up the rest.
     let off_pose = reg.pose_offset_px > 2.0;
     let camera = if off_pose {
-        crate::fiducials::plausible_camera(&reg.found.plate_to_image, v.camera.width, v.camera.height, &v).map_err(
-            |e| {
-                InputError(format!(
-                    "photo `{}` (view {}): the camera recovered from the card's marks is implausible: {e}. \
+        crate::fiducials::plausible_camera_with_focal(
+            &reg.found.plate_to_image,
+            v.camera.width,
+            v.camera.height,
+            &v,
+            // The photo's EXIF focal length, on the raster the marks were found on.
+            crate::photo::focal_35mm(f).map(|f35| crate::exif::focal_px(f35, img.width, img.height) / k as f64),
+        )
+        .map_err(|e| {
+            InputError(format!(
+                "photo `{}` (view {}): the camera recovered from the card's marks is implausible: {e}. \
                      Photograph from the capture position of card.json",
-                    f.display(),
-                    v.name
-                ))
-            },
-        )?
+                f.display(),
+                v.name
+            ))
+        })?
     } else {
         v.camera.clone()
     };
@@ -226,11 +234,37 @@ pub fn inspect_photo(
     let bright = small.data.iter().zip(&mask).filter(|(x, m)| **m && **x > 0.25).count();
     let sat = small.data.iter().zip(&mask).filter(|(x, m)| **m && **x >= 0.99).count();
     let saturated = if bright > 0 { sat as f64 / bright as f64 } else { 0.0 };
-    if saturated > 0.5 {
+    if saturated > MAX_SATURATED {
         return Err(InputError(format!(
-            "photo `{}` is saturated: {sat} of its {bright} bright pixels on the ladder are full white, so groove \
-             widths cannot be read; lower the exposure (or the lamp) and photograph again",
-            f.display()
+            "photo `{}` is saturated: {sat} of its {bright} bright pixels on the ladder are full white ({:.0}%; \
+             the capture guide allows {:.0}%), so groove widths cannot be read; lower the exposure (tap the \
+             card and drag the exposure down) and photograph again",
+            f.display(),
+            100.0 * saturated,
+            100.0 * MAX_SATURATED
+        ))
+        .into());
+    }
+    // How far the camera stood from the capture view's direction, seen from the card.
+    let off_deg = {
+        let dir = |c: &scratchart::model::scene::Camera| {
+            let d = [c.eye[0] - c.target[0], c.eye[1] - c.target[1], c.eye[2] - c.target[2]];
+            let n = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+            [d[0] / n, d[1] / n, d[2] / n]
+        };
+        let (a, b) = (dir(&fv.camera), dir(&capture_view.camera));
+        (a[0] * b[0] + a[1] * b[1] + a[2] * b[2])
+            .clamp(-1.0, 1.0)
+            .acos()
+            .to_degrees()
+    };
+    if off_deg > MAX_OFF_DEG {
+        return Err(InputError(format!(
+            "photo `{}` (view {}) was taken {off_deg:.0} degrees from the capture view's direction; the capture \
+             guide allows {MAX_OFF_DEG:.0}: the grooves glint where the camera and the lamp are where it says, so \
+             photograph again from the capture position (capture_guide.png)",
+            f.display(),
+            capture_view.name
         ))
         .into());
     }
@@ -283,6 +317,29 @@ pub fn inspect_photo(
         };
         crate::fit::noise::sensor_noise(measured, level, colour, m, saved_jpeg)
     };
+    if native_noise > MAX_NOISE {
+        return Err(InputError(format!(
+            "photo `{}` (view {}) has {:.1}% noise per colour channel at its own size; the capture guide allows \
+             {:.1}%: the noise clipped at black lifts the dark card by more than the fit can be sure of. Give the \
+             card more light (the lamp nearer), hold the phone on a stand so it picks a lower ISO, or switch off \
+             night mode",
+            f.display(),
+            capture_view.name,
+            100.0 * native_noise,
+            100.0 * MAX_NOISE
+        ))
+        .into());
+    }
+    if let Some(q) = saved_jpeg.filter(|q| *q < MIN_JPEG_QUALITY) {
+        return Err(InputError(format!(
+            "photo `{}` (view {}) was saved as JPEG of quality {q}; the capture guide needs at least \
+             {MIN_JPEG_QUALITY} (a phone saves 85 to 95; a messenger or an app recompresses lower): send the photo \
+             as the phone saved it, or save as PNG",
+            f.display(),
+            capture_view.name
+        ))
+        .into());
+    }
     // A JPEG compared on its own pixel grid: the fit puts the same JPEG on its model.
     let jpeg = if (small.width, small.height) == (img.width, img.height) {
         crate::photo::jpeg_quality(f)
@@ -311,9 +368,19 @@ pub fn inspect_photo(
     })
 }
 
-/// The least card scale (pixels per mm at the card's centre) a photo may have, as a fraction
-/// of its capture view's: the capture guide's limit.
+/// The capture guide's limits, which `fit --check` and `fit` both hold each photo to (refused
+/// beyond them, naming the limit and what to change):
+/// the least card scale (pixels per mm at the card's centre) a photo may have, as a fraction
+/// of its capture view's;
 pub const MIN_SCALE: f64 = 0.85;
+/// the most noise per colour channel at the photo's own size (display units);
+pub const MAX_NOISE: f64 = 0.03;
+/// the least JPEG quality (as read from its quantization tables);
+pub const MIN_JPEG_QUALITY: u8 = 80;
+/// the most the camera may stand from the capture view's direction, degrees;
+pub const MAX_OFF_DEG: f64 = 25.0;
+/// the largest share of the ladder's bright pixels that may be full white.
+pub const MAX_SATURATED: f64 = 0.25;
 
 /// The card's scale in a photo: pixels per mm at the card's centre (the square root of the
 /// area a square millimetre there covers), as taken and as the fit compares it.
