@@ -416,15 +416,24 @@ impl Evaluator<'_, '_> {
         let mut cols = Vec::with_capacity(ks.len());
         for group in ks.chunks(TANGENT_DIRECTIONS) {
             let mut seeds: Vec<ScratchTangent> = vec![[[0.0; 3]; TANGENT_DIRECTIONS]; base.len()];
+            // The grooves a step up and a step down each parameter cut (each its own fit of
+            // the tool's sections: on the host's threads).
+            let this = &*self;
+            let stepped = camera::par_map(2 * group.len(), |i| {
+                let k = group[i / 2];
+                let q = &this.lay.params[k];
+                let mut xx = x.to_vec();
+                xx[k] = if i % 2 == 0 {
+                    (x[k] + q.step).min(q.hi)
+                } else {
+                    (x[k] - q.step).max(q.lo)
+                };
+                this.scratches(&this.lay.tool(&xx), this.lay.alpha(&xx))
+            });
             for (j, &k) in group.iter().enumerate() {
                 let q = &self.lay.params[k];
                 let (up, dn) = ((x[k] + q.step).min(q.hi), (x[k] - q.step).max(q.lo));
-                let at = |v: f64| {
-                    let mut xx = x.to_vec();
-                    xx[k] = v;
-                    self.scratches(&self.lay.tool(&xx), self.lay.alpha(&xx))
-                };
-                let (sp, sm) = (at(up), at(dn));
+                let (sp, sm) = (&stepped[2 * j], &stepped[2 * j + 1]);
                 for (c, t) in seeds.iter_mut().enumerate() {
                     // A groove that starts or stops cutting within the step jumps there: take the
                     // side that keeps its state.
@@ -449,18 +458,22 @@ impl Evaluator<'_, '_> {
             let (lin, tang) = self.renderer.tangents(gs, &seeds).map_err(anyhow::Error::from)?;
 
             self.tangent_passes += 1;
-            for (j, &k) in group.iter().enumerate() {
-                let h = self.lay.params[k].step;
+            let this = &*self;
+            cols.extend(camera::par_map(group.len(), |j| {
+                let h = this.lay.params[group[j]].step;
                 let moved = |sign: f64| -> Vec<Vec<f32>> {
                     lin.iter()
                         .zip(&tang)
                         .map(|(l, t)| l.iter().zip(t).map(|(a, d)| a + (sign * h) as f32 * d[j]).collect())
                         .collect()
                 };
-                let rp = self.residuals(&self.predict(&moved(1.0), x));
-                let rm = self.residuals(&self.predict(&moved(-1.0), x));
-                cols.push(rp.iter().zip(&rm).map(|(a, b)| (a - b) / (2.0 * h)).collect());
-            }
+                let rp = this.residuals(&this.predict(&moved(1.0), x));
+                let rm = this.residuals(&this.predict(&moved(-1.0), x));
+                rp.iter()
+                    .zip(&rm)
+                    .map(|(a, b)| (a - b) / (2.0 * h))
+                    .collect::<Vec<f64>>()
+            }));
         }
         Ok(cols)
     }

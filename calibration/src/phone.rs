@@ -426,7 +426,12 @@ pub fn take(
             // As a phone writes it: the orientation and the 35 mm equivalent focal length of
             // the frame (`crate::exif`).
             let f35 = crate::exif::focal_35mm_of(pv.camera.fov_y_deg, pw as f64 / ph as f64);
-            enc.set_exif_metadata(crate::exif::exif_blob(shot.exif_orientation, f35.round() as u16))?;
+            // The size the camera saved: an app's enlargement after it keeps the EXIF as it was.
+            let saved = match shot.exif_orientation {
+                6 | 8 => (ph, pw),
+                _ => (pw, ph),
+            };
+            enc.set_exif_metadata(crate::exif::exif_blob(shot.exif_orientation, f35.round() as u16, saved))?;
             enc.write_image(img.as_raw(), img.width(), img.height(), image::ExtendedColorType::Rgb8)?;
             let p = dir.join(format!("{}.jpg", base.name));
             scratchart::io::write_atomic(&p, &buf)?;

@@ -191,8 +191,8 @@ pub fn load_photo_with_channels(path: &Path) -> Result<(Gray, Option<Channels>),
     ))
 }
 
-/// The 35 mm equivalent focal length a photo's EXIF gives (`crate::exif`), when it has one.
-pub fn focal_35mm(path: &Path) -> Option<f64> {
+/// The EXIF block of a photo (its TIFF bytes), when it has one.
+fn exif_block(path: &Path) -> Option<Vec<u8>> {
     use image::ImageDecoder as _;
     let mut decoder = image::ImageReader::open(path)
         .ok()?
@@ -200,8 +200,27 @@ pub fn focal_35mm(path: &Path) -> Option<f64> {
         .ok()?
         .into_decoder()
         .ok()?;
-    let tiff = decoder.exif_metadata().ok()??;
-    crate::exif::focal_35mm(&tiff)
+    decoder.exif_metadata().ok()?
+}
+
+/// The 35 mm equivalent focal length a photo's EXIF gives (`crate::exif`), when it has one.
+pub fn focal_35mm(path: &Path) -> Option<f64> {
+    crate::exif::focal_35mm(&exif_block(path)?)
+}
+
+/// How many times larger than the camera saved it a photo is, where its EXIF says the saved
+/// size and the photo is that size scaled evenly (an app's resize that kept the EXIF; a crop
+/// scales the sides unevenly and gives `None`, as does a photo at its saved size).
+pub fn resized_since_saved(path: &Path, width: u32, height: u32) -> Option<(f64, (u32, u32))> {
+    let (sw, sh) = crate::exif::pixel_dimensions(&exif_block(path)?)?;
+    // Compared as sides, long with long: the orientation tag may turn the photo.
+    let (a, b) = (width.max(height) as f64, width.min(height) as f64);
+    let (sa, sb) = (sw.max(sh) as f64, sw.min(sh) as f64);
+    let (ra, rb) = (a / sa, b / sb);
+    // Even to within a pixel of each side (a resize rounds each side on its own).
+    let even = (ra - rb).abs() <= 1.0 / sb + 1.0 / sa + 1e-9;
+    let resized = (a - sa).abs() > 1.0 || (b - sb).abs() > 1.0;
+    (even && resized).then_some((0.5 * (ra + rb), (sw, sh)))
 }
 
 /// The middle `w` x `h` pixels of `img` (what is left over split evenly between the sides, the

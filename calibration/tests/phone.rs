@@ -438,9 +438,9 @@ fn photos_beyond_each_limit_of_the_guide_are_refused_naming_it() {
         z_offset_mm: 0.005,
     };
     let mut rng = scratchart::scenes::Rng::new(3);
-    // (Enlarged: only some enlargements are told apart from a photo's own pixels yet, see
-    // `resampled`; ImageMagick's default by 3 is tested in tests/fit.rs, and the study counts
-    // the rest.)
+    // (Enlarged: only some enlargements are told apart from a photo's own pixels, see
+    // `resampled`; ImageMagick's default by 3 is tested in tests/fit.rs, a JPEG that kept its
+    // EXIF below, and the study counts the rest.)
     for (i, what) in Violation::ALL
         .into_iter()
         .filter(|w| *w != Violation::Enlarged)
@@ -466,6 +466,25 @@ fn photos_beyond_each_limit_of_the_guide_are_refused_naming_it() {
         let (p, _) = take(&r, &card, &capture, 1, &tool, &shot, &d).unwrap();
         let got = inspect_photo(&card, &capture, &capture.views[1], &p);
         assert!(got.is_ok(), "{shot:?}: {:#}", got.err().unwrap());
+    }
+    // A JPEG enlarged by an app that kept its EXIF, by factors whose pattern the pixels do not
+    // show: told by the saved size the EXIF gives.
+    for (i, factor) in [1.25, 1.6, 2.0].into_iter().enumerate() {
+        let mut shot = random_shot_outside(&mut rng, card.marks.len(), Violation::Enlarged);
+        shot.enlarge = factor;
+        shot.jpeg_quality = Some(90);
+        let d = dir.join(format!("e{i}"));
+        let (p, _) = take(&r, &card, &capture, 0, &tool, &shot, &d).unwrap();
+        let got = inspect_photo(&card, &capture, &capture.views[0], &p);
+        let msg = format!(
+            "{:#}",
+            got.err().unwrap_or_else(|| panic!("enlarged by {factor} passed"))
+        );
+        assert!(
+            Violation::Enlarged.named_by(&msg) && msg.contains("its EXIF says"),
+            "{msg}"
+        );
+        assert!(msg.contains(&format!("{factor:.2} times larger")), "{msg}");
     }
     assert_no_validation(&ctx);
     let _ = std::fs::remove_dir_all(&dir);

@@ -84,6 +84,28 @@ impl ChannelClip {
     }
 }
 
+/// `f(0), ..., f(n - 1)`, on up to as many threads as the machine has cores (the host's part
+/// of the fit, per view or per Jacobian column, while the device waits).
+pub(super) fn par_map<T: Send>(n: usize, f: impl Fn(usize) -> T + Sync) -> Vec<T> {
+    let threads = std::thread::available_parallelism().map_or(1, |t| t.get()).min(n);
+    if threads <= 1 {
+        return (0..n).map(f).collect();
+    }
+    let f = &f;
+    std::thread::scope(|s| {
+        let handles: Vec<_> = (0..threads)
+            .map(|t| s.spawn(move || (t..n).step_by(threads).map(|i| (i, f(i))).collect::<Vec<_>>()))
+            .collect();
+        let mut out: Vec<Option<T>> = (0..n).map(|_| None).collect();
+        for h in handles {
+            for (i, r) in h.join().expect("a host thread of the fit panicked") {
+                out[i] = Some(r);
+            }
+        }
+        out.into_iter().map(|r| r.expect("every index computed")).collect()
+    })
+}
+
 impl Evaluator<'_, '_> {
     /// The Jacobian columns (d residual / d x_k) of the camera terms `ks` of photos taken off
     /// the capture pose, from the image's motion rather than new renders: moving the camera by
@@ -94,12 +116,12 @@ impl Evaluator<'_, '_> {
     /// derivative; every step is still judged on a real render.
     pub(super) fn motion_columns(&self, x: &[f64], lin: &[Vec<f32>], ks: &[usize]) -> Vec<Vec<f64>> {
         let k_ss = self.ss as usize;
-        let mut cols = Vec::with_capacity(ks.len());
         // The blurred supersampled images (their gradients move them), per view.
-        let blurred: Vec<Vec<f32>> = (0..lin.len()).map(|v| self.blurred(&lin[v], v, x)).collect();
-        let pred0: Vec<Vec<f32>> = (0..lin.len()).map(|v| self.expose(&blurred[v], v, x)).collect();
+        let blurred: Vec<Vec<f32>> = par_map(lin.len(), |v| self.blurred(&lin[v], v, x));
+        let pred0: Vec<Vec<f32>> = par_map(lin.len(), |v| self.expose(&blurred[v], v, x));
         let base = self.residuals(&pred0);
-        for &k in ks {
+        par_map(ks.len(), |i| {
+            let k = ks[i];
             let v = self.lay.camera_view(k).expect("a camera term");
             let h = self.lay.params[k].step;
             let mut xh = x.to_vec();
@@ -129,18 +151,14 @@ impl Evaluator<'_, '_> {
             let mut pred = pred0.clone();
             pred[v] = self.expose(&moved, v, x);
             let r1 = self.residuals(&pred);
-            cols.push(r1.iter().zip(&base).map(|(a, b)| (a - b) / h).collect());
-        }
-        cols
+            r1.iter().zip(&base).map(|(a, b)| (a - b) / h).collect()
+        })
     }
 
     /// Model display images from linear renders and the camera part of `x` (see `blurred` and
     /// `expose`), as `simulate` makes photos.
     pub(super) fn predict(&self, lin: &[Vec<f32>], x: &[f64]) -> Vec<Vec<f32>> {
-        lin.iter()
-            .enumerate()
-            .map(|(v, img)| self.expose(&self.blurred(img, v, x), v, x))
-            .collect()
+        par_map(lin.len(), |v| self.expose(&self.blurred(&lin[v], v, x), v, x))
     }
 
     /// The light the optics bring to the sensor of view v, from a linear render at `ss` times
@@ -196,14 +214,21 @@ impl Evaluator<'_, '_> {
         let ws = k * w;
         let (cx, cy, s) = (0.5 * w as f64, 0.5 * hh, 2.0 / hh);
         let kf = k as f64;
+        // exp(gx px + gy py + q (px^2 + py^2)) = exp(gx px + q px^2) exp(gy py + q py^2): one
+        // exponential per column and per row, not per subpixel.
+        let along = |n: usize, g: f64, c0: f64| -> Vec<f64> {
+            (0..n)
+                .map(|j| {
+                    let p = ((j as f64 + 0.5) / kf - c0) * s;
+                    (g * p + q * p * p).exp()
+                })
+                .collect()
+        };
+        let (fx, fy) = (along(ws, gx, cx), along(b.len() / ws.max(1), gy, cy));
         b.iter()
             .enumerate()
             .map(|(i, &l)| {
-                let (px, py) = (
-                    (((i % ws) as f64 + 0.5) / kf - cx) * s,
-                    (((i / ws) as f64 + 0.5) / kf - cy) * s,
-                );
-                let f = (gx * px + gy * py + q * (px * px + py * py)).exp();
+                let f = fx[i % ws] * fy[i / ws];
                 let l = (l as f64 * e * f) as f32;
                 match &self.clip[v] {
                     Some(c) => c.apply(l),
@@ -265,12 +290,18 @@ impl Evaluator<'_, '_> {
         }
         let (mut a, mut b) = (best.1 - 1.0, best.1 + 1.0);
         let g = 0.5 * (5f64.sqrt() - 1.0);
+        // Golden section: each step keeps one of its two inner points (and its cost).
+        let (mut m1, mut m2) = (b - g * (b - a), a + g * (b - a));
+        let (mut c1, mut c2) = (cost(m1), cost(m2));
         for _ in 0..16 {
-            let (m1, m2) = (b - g * (b - a), a + g * (b - a));
-            if cost(m1) < cost(m2) {
-                b = m2;
+            if c1 < c2 {
+                (b, m2, c2) = (m2, m1, c1);
+                m1 = b - g * (b - a);
+                c1 = cost(m1);
             } else {
-                a = m1;
+                (a, m1, c1) = (m1, m2, c2);
+                m2 = a + g * (b - a);
+                c2 = cost(m2);
             }
         }
         0.5 * (a + b)

@@ -139,9 +139,10 @@ pub(super) fn search_starts(
                 x[blur_at + v] = x[blur_at + v].hypot(SEARCH_BLUR_PX);
             }
             let lin = ev.render(&x)?;
-            for v in 0..ev.lay.n_views {
-                let k = ev.lay.n_tool + 1 + v;
-                x[k] = ev.best_exposure(v, &lin[v], &x);
+            let this = &*ev;
+            let exposures = super::camera::par_map(ev.lay.n_views, |v| this.best_exposure(v, &lin[v], &x));
+            for (v, e) in exposures.into_iter().enumerate() {
+                x[ev.lay.n_tool + 1 + v] = e;
             }
             let r = ev.residuals_at(&x, &lin);
             for v in 0..ev.lay.n_views {

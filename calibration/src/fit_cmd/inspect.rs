@@ -127,6 +127,23 @@ pub fn inspect_photo(
         ))
         .into());
     }
+    // The EXIF's saved size: an enlargement too smooth to leave a pattern in the pixels (by 1.25
+    // to 2, or a smooth filter) but done by an app that kept the EXIF.
+    if let Some((r, (sw, sh))) = crate::photo::resized_since_saved(f, img.width, img.height) {
+        if r > 1.01 {
+            return Err(InputError(format!(
+                "photo `{}` (view {}) was enlarged after it was taken: it is {} x {} pixels where its EXIF says the \
+                 camera saved {sw} x {sh} ({r:.2} times larger; an app, a messenger, an editor). An enlargement \
+                 interpolates the grooves' light in a way the fit cannot follow and would give a wrong tool. Send \
+                 the photo as the phone saved it; zoom with the lens or come nearer instead",
+                f.display(),
+                v.name,
+                img.width,
+                img.height,
+            ))
+            .into());
+        }
+    }
     let shrunk = |k: u32| {
         let mut v = capture_view.clone();
         let (w, h) = ((img.width / k).max(16), (img.height / k).max(16));
