@@ -187,22 +187,31 @@ pub fn verdict(best: &FitResult, residual: &[(f64, f64)], photos: &[String], all
 /// deeper cuts at least as wide (a groove at one depth and none, or a narrower one, deeper down
 /// is a fit that traded the widths with something else). The study's trial 7 was written with
 /// 15.0 +- 0.2 um at -0.005 mm and no groove at +0.005 mm, 10.5 um off its truth. Widths are
-/// compared with 3 standard deviations of slack (an unstated one counts as none).
+/// compared with 3 standard deviations of slack (an unstated one counts as none). A width the
+/// photos do not see (`FitResult::unseen`: its rung cuts no groove) is no groove: 0 where it
+/// is the deeper one, and nothing to compare where it is the shallower (its value is where the
+/// search left it: two studies' profiles were refused as narrowing from a start value of 6 um
+/// at -0.005 mm).
 fn shrinking_profile(best: &FitResult) -> Option<String> {
     if best.kind != crate::fit::Kind::Profile {
         return None;
     }
-    let mut w: Vec<(f64, f64, f64)> = best
+    // (depth, width, sd, seen)
+    let mut w: Vec<(f64, f64, f64, bool)> = best
         .params
         .iter()
         .zip(&best.sd)
         .filter_map(|((name, v, _), sd)| {
             let z: f64 = name.strip_prefix("W_mm@")?.parse().ok()?;
-            Some((z, *v, sd.unwrap_or(0.0)))
+            let seen = !best.unseen.contains(name);
+            Some((z, if seen { *v } else { 0.0 }, sd.unwrap_or(0.0), seen))
         })
         .collect();
     w.sort_by(|a, b| a.0.total_cmp(&b.0));
     for (i, a) in w.iter().enumerate() {
+        if !a.3 {
+            continue;
+        }
         for b in &w[i + 1..] {
             if a.1 > b.1 + 3.0 * a.2.hypot(b.2) {
                 return Some(format!(
@@ -423,6 +432,22 @@ mod verdict_tests {
             let v = verdict(&profile(w, sd), &[(0.004, 0.004); 2], &photos(), true);
             assert!(!v.reasons.iter().any(|m| m.contains("narrows")), "{v:?}");
         }
+        // A width the photos do not see is no groove: a start value of 6 um left at -0.005 mm
+        // over a seen 5.2 um deeper is no narrowing (the study's trial 15)...
+        let mut r = profile([0.006, 0.0052, 0.03], [None, Some(0.0002), Some(0.0002)]);
+        r.unseen = vec!["W_mm@-0.005".into()];
+        let v = verdict(&r, &[(0.004, 0.004); 2], &photos(), true);
+        assert!(!v.reasons.iter().any(|m| m.contains("narrows")), "{v:?}");
+        // ...while a seen groove over an unseen one deeper (left at 12 um) narrows to nothing.
+        let mut r = profile([0.0099, 0.012, 0.03], [Some(0.0002), None, Some(0.0002)]);
+        r.unseen = vec!["W_mm@0.005".into()];
+        let v = verdict(&r, &[(0.004, 0.004); 2], &photos(), true);
+        assert!(
+            v.reasons
+                .iter()
+                .any(|m| m.contains("9.9 um wide at -0.005 mm but 0.0 um at 0.005 mm")),
+            "{v:?}"
+        );
     }
 
     #[test]
