@@ -259,7 +259,7 @@ impl Violation {
 
 /// A random shot within the capture guide's limits (`fit_cmd::inspect`: at least 0.85 of the
 /// capture view's pixels per mm, noise at most 3% per channel, JPEG 80 or better, at most 25
-/// degrees off the capture view's direction, at most a quarter of the ladder's bright pixels
+/// degrees off the capture view's direction, at most a tenth of the ladder's bright pixels
 /// white, not enlarged), drawn well inside them as a maker following the guide takes it: the
 /// phone held within 12 degrees and 20 mm of the capture position and turned by any angle, its
 /// own exposure (the glinting marks at 0.5 to 0.95 of full scale), blur 0.3 to 1.5 px, noise to

@@ -499,17 +499,26 @@ fn write_tables(dir: &Path, trials: &[Trial], args: &StudyArgs) -> Result<()> {
     let summary = format!(
         "{n} random tools (seed {}, {group}): {rec} recovered within {ANGLE_TOL_DEG} \
          degree, {:.0} um and {:.0} um; {refused} refused; {wrong} wrong but accepted. Fit time: median {:.0} s, \
-         longest {:.0} s. The truth lies within the stated one-sigma in {:.0}% of {} parameter estimates ({:.0}% of {} \
-         on accepted fits).\n",
+         longest {:.0} s. {}\n",
         args.seed,
         LENGTH_TOL_MM * 1e3,
         OFFSET_TOL_MM * 1e3,
         times.get(n / 2).copied().unwrap_or(0.0),
         times.last().copied().unwrap_or(0.0),
-        100.0 * cover(&zs),
-        zs.len(),
-        100.0 * cover(&zs_acc),
-        zs_acc.len()
+        if zs.is_empty() {
+            "No fit stated an uncertainty to check against the truth.".to_string()
+        } else {
+            format!(
+                "The truth lies within the stated one-sigma in {:.0}% of {} parameter estimates ({} on accepted fits).",
+                100.0 * cover(&zs),
+                zs.len(),
+                if zs_acc.is_empty() {
+                    "none".to_string()
+                } else {
+                    format!("{:.0}% of {}", 100.0 * cover(&zs_acc), zs_acc.len())
+                }
+            )
+        }
     );
     let md = format!("{summary}\n{md}");
     scratchart::io::write_atomic(&dir.join("study.csv"), csv.as_bytes())?;
