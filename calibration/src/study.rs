@@ -520,7 +520,24 @@ fn write_tables(dir: &Path, trials: &[Trial], args: &StudyArgs) -> Result<()> {
             )
         }
     );
-    let md = format!("{summary}\n{md}");
+    // By kind: where the study's refusals fall.
+    let by_kind: Vec<(&str, usize, usize, usize)> = crate::fit::Kind::ALL
+        .iter()
+        .map(|&kind| {
+            let k = kind.name();
+            let of: Vec<&Trial> = trials.iter().filter(|t| t.kind == kind).collect();
+            let rec = of.iter().filter(|t| t.outcome == Outcome::Recovered).count();
+            let wrong = of.iter().filter(|t| t.outcome == Outcome::WrongButAccepted).count();
+            (k, of.len(), rec, wrong)
+        })
+        .filter(|k| k.1 > 0)
+        .collect();
+    let mut kinds_md =
+        String::from("| kind | trials | recovered | refused | wrong but accepted |\n|---|---|---|---|---|\n");
+    for (k, n, rec, wrong) in &by_kind {
+        kinds_md.push_str(&format!("| {k} | {n} | {rec} | {} | {wrong} |\n", n - rec - wrong));
+    }
+    let md = format!("{summary}\n{kinds_md}\n{md}");
     scratchart::io::write_atomic(&dir.join("study.csv"), csv.as_bytes())?;
     scratchart::io::write_atomic(&dir.join("study.md"), md.as_bytes())?;
     scratchart::io::write_atomic(
@@ -528,6 +545,9 @@ fn write_tables(dir: &Path, trials: &[Trial], args: &StudyArgs) -> Result<()> {
         serde_json::to_string_pretty(&json!({
             "group": args.group, "trials": n, "recovered": rec, "refused": refused, "wrong_but_accepted": wrong,
             "refused_naming_the_limit": named,
+            "by_kind": by_kind.iter().map(|(k, n, rec, wrong)| json!({
+                "kind": k, "trials": n, "recovered": rec, "wrong_but_accepted": wrong,
+            })).collect::<Vec<_>>(),
             "coverage_1sigma": cover(&zs), "estimates": zs.len(),
             "z": trials.iter().map(|t| t.z.iter().map(|z| json!([z.0, z.1])).collect::<Vec<_>>()).collect::<Vec<_>>(),
         }))?
