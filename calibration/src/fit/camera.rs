@@ -84,27 +84,7 @@ impl ChannelClip {
     }
 }
 
-/// `f(0), ..., f(n - 1)`, on up to as many threads as the machine has cores (the host's part
-/// of the fit, per view or per Jacobian column, while the device waits).
-pub(super) fn par_map<T: Send>(n: usize, f: impl Fn(usize) -> T + Sync) -> Vec<T> {
-    let threads = std::thread::available_parallelism().map_or(1, |t| t.get()).min(n);
-    if threads <= 1 {
-        return (0..n).map(f).collect();
-    }
-    let f = &f;
-    std::thread::scope(|s| {
-        let handles: Vec<_> = (0..threads)
-            .map(|t| s.spawn(move || (t..n).step_by(threads).map(|i| (i, f(i))).collect::<Vec<_>>()))
-            .collect();
-        let mut out: Vec<Option<T>> = (0..n).map(|_| None).collect();
-        for h in handles {
-            for (i, r) in h.join().expect("a host thread of the fit panicked") {
-                out[i] = Some(r);
-            }
-        }
-        out.into_iter().map(|r| r.expect("every index computed")).collect()
-    })
-}
+pub(super) use scratchart::model::par::par_map;
 
 impl Evaluator<'_, '_> {
     /// The Jacobian columns (d residual / d x_k) of the camera terms `ks` of photos taken off

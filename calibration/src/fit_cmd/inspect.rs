@@ -96,25 +96,205 @@ impl Inspection {
     }
 }
 
-/// Loads, registers and checks the photo `file` of capture view `v`: refused (exit 3, naming the
-/// photo and the reason) when it cannot be read, the card's marks are not found in it, the
-/// camera they give is not one near the capture view, or it is saturated.
-pub fn inspect_photo(
-    card: &Card,
-    capture: &scratchart::model::scene::Scene,
-    v: &scratchart::model::scene::View,
+/// The angle (degrees) between two cameras' directions, seen from what they look at.
+fn degrees_between(a: &scratchart::model::scene::Camera, b: &scratchart::model::scene::Camera) -> f64 {
+    let dir = |c: &scratchart::model::scene::Camera| {
+        let d = [c.eye[0] - c.target[0], c.eye[1] - c.target[1], c.eye[2] - c.target[2]];
+        let n = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+        [d[0] / n, d[1] / n, d[2] / n]
+    };
+    let (a, b) = (dir(a), dir(b));
+    (a[0] * b[0] + a[1] * b[1] + a[2] * b[2])
+        .clamp(-1.0, 1.0)
+        .acos()
+        .to_degrees()
+}
+
+/// The sensor's noise per channel at the photo's own size (see `inspect_photo`): measured on
+/// `cropped` (the photo as the fit crops it) shrunk by m (1; a JPEG: its shrink `k`, at most 4)
+/// over the pixels under the fit's `mask` (on `small`, the photo shrunk by k), then taken back
+/// through the clip at black and the JPEG to the sensor's (`fit::noise::sensor_noise`).
+/// The sensor's noise in each channel, at the photo's own resolution: measured over the card
+/// on the photo shrunk by m = 1 (a JPEG: m = k, at most 4), where the optics' blur spans k /
+/// m times more pixels than in the view and the measure sees noise, not the grooves' edges
+/// (k times the noise of a 24 MP photo shrunk by 23 read its 0.8% as 1.6%). JPEG's steps
+/// take most of the noise at the photo's own pixels but less of what a shrink keeps.
+fn sensor_noise_at_own_size(
+    cropped: &crate::photo::Gray,
+    small: &crate::photo::Gray,
+    mask: &[bool],
+    k: u32,
+    colour: bool,
+    saved_jpeg: Option<u8>,
+) -> f64 {
+    let (w, h) = (small.width, small.height);
+    let m = if saved_jpeg.is_some() { k.min(4) } else { 1 };
+    let (mw, mh) = (cropped.width / m, cropped.height / m);
+    let at_m = crate::photo::resize(&crate::photo::crop_centre(cropped, mw * m, mh * m), mw, mh);
+    let (mw, mh, ku, mu) = (mw as usize, mh as usize, k as usize, m as usize);
+    // The view's pixel under each, its offset that of the crop to whole m x m blocks.
+    let (ox, oy) = (
+        (cropped.width as usize - mw * mu) / 2,
+        (cropped.height as usize - mh * mu) / 2,
+    );
+    let m_mask: Vec<bool> = (0..mw * mh)
+        .map(|i| {
+            let (x, y) = (((i % mw) * mu + ox) / ku, ((i / mw) * mu + oy) / ku);
+            x < w as usize && y < h as usize && mask[y * w as usize + x]
+        })
+        .collect();
+    let measured = crate::fiducials::pixel_noise_in(&at_m, Some(&m_mask));
+    let mut on: Vec<f32> = small
+        .data
+        .iter()
+        .zip(mask)
+        .filter(|(_, m)| **m)
+        .map(|(x, _)| *x)
+        .collect();
+    let level = if on.is_empty() {
+        0.0
+    } else {
+        let mid = on.len() / 2;
+        *on.select_nth_unstable_by(mid, |a, b| a.total_cmp(b)).1 as f64
+    };
+    crate::fit::noise::sensor_noise(measured, level, colour, m, saved_jpeg)
+}
+
+/// The camera that took the photo, from the marks: the card is rendered as that camera saw it
+/// (the light on the grooves depends on where the camera stood), and the photo is used as
+/// taken, without resampling. Within 2 px of the capture view everywhere, the capture camera
+/// explains the photo better than a camera from a few marks found to about 0.3 px (its focal
+/// length and distance trade against each other); the fit's shift takes up the rest. This is
+/// the camera of a photo off that pose. `taken` is the photo's size as taken, `k` its shrink.
+fn camera_from_marks(
     f: &Path,
-) -> Result<Inspection> {
-    let half = 0.5 * capture.plate.size_mm;
-    let capture_view = v;
-    let (img, channels) = crate::photo::load_photo_with_channels(f).map_err(InputError)?;
-    // The photo shrunk by a whole factor k to at most the capture view's height (never
-    // enlarged), its own aspect kept (square pixels): each pixel the mean light of k x k of the
-    // photo's, as the model's pixels add up their subpixels. A fractional factor (640 x 480 to
-    // 256 high: 1.875) mixes pixels with weights that change with the sub-pixel phase, a blur
-    // the model cannot follow: it put a 75 degree V-bit at 73.9 with a stated +- 0.12. The rows
-    // and columns left over are cropped evenly from both sides (the field of view with them).
-    if let Some(p) = crate::resampled::enlarged(&img) {
+    plate_to_image: &[f64; 9],
+    v: &scratchart::model::scene::View,
+    taken: (u32, u32),
+    k: u32,
+) -> Result<scratchart::model::scene::Camera> {
+    let camera = crate::fiducials::plausible_camera_with_focal(
+        plate_to_image,
+        v.camera.width,
+        v.camera.height,
+        v,
+        // The photo's EXIF focal length, on the raster the marks were found on.
+        crate::photo::focal_35mm(f).map(|f35| crate::exif::focal_px(f35, taken.0, taken.1) / k as f64),
+    )
+    .map_err(|e| {
+        InputError(format!(
+            "photo `{}` (view {}): the camera recovered from the card's marks is implausible: {e}. \
+                     Photograph from the capture position of card.json",
+            f.display(),
+            v.name
+        ))
+    })?;
+    Ok(camera)
+}
+
+/// A card shown on fewer pixels per mm than `needed` (as the fit compares it) is refused,
+/// naming the scale and the distance that would give the capture view's.
+fn refuse_too_small(
+    f: &Path,
+    view: &str,
+    capture_view: &scratchart::model::scene::View,
+    scale: &CardScale,
+    needed: f64,
+) -> Result<()> {
+    if scale.fit_px_per_mm < needed {
+        let dist = (capture_view.camera.eye[0].powi(2)
+            + capture_view.camera.eye[1].powi(2)
+            + capture_view.camera.eye[2].powi(2))
+        .sqrt();
+        return Err(InputError(format!(
+            "photo `{}` (view {}) shows the card at {:.2} pixels per mm; the fit needs at least {:.2} (the capture \
+             guide's {:.2} at {:.0} mm, less {:.0}%): photograph from nearer (about {:.0} mm) or zoom in with the \
+             lens, and send the photo as the phone saved it (a messenger, an app or an editor may have shrunk it)",
+            f.display(),
+            view,
+            scale.photo_px_per_mm,
+            needed,
+            view_scale(capture_view),
+            dist,
+            100.0 * (1.0 - MIN_SCALE),
+            dist * scale.photo_px_per_mm / view_scale(capture_view)
+        ))
+        .into());
+    }
+    Ok(())
+}
+
+/// The share of the ladder's `bright` pixels that are full white (`sat` of them), refused over
+/// the guide's `MAX_SATURATED`.
+fn refuse_saturated(f: &Path, sat: usize, bright: usize) -> Result<f64> {
+    let saturated = if bright > 0 { sat as f64 / bright as f64 } else { 0.0 };
+    if saturated > MAX_SATURATED {
+        return Err(InputError(format!(
+            "photo `{}` is saturated: {sat} of its {bright} bright pixels on the ladder are full white ({:.0}%; \
+             the capture guide allows {:.0}%), so groove widths cannot be read; lower the exposure (tap the \
+             card and drag the exposure down) and photograph again",
+            f.display(),
+            100.0 * saturated,
+            100.0 * MAX_SATURATED
+        ))
+        .into());
+    }
+    Ok(saturated)
+}
+
+/// A camera more than the guide's `MAX_OFF_DEG` from its capture view's direction is refused.
+fn refuse_off_view(f: &Path, view: &str, off_deg: f64) -> Result<()> {
+    if off_deg > MAX_OFF_DEG {
+        return Err(InputError(format!(
+            "photo `{}` (view {}) was taken {off_deg:.0} degrees from the capture view's direction; the capture \
+             guide allows {MAX_OFF_DEG:.0}: the grooves glint where the camera and the lamp are where it says, so \
+             photograph again from the capture position (capture_guide.png)",
+            f.display(),
+            view
+        ))
+        .into());
+    }
+    Ok(())
+}
+
+/// More noise per channel than the guide's `MAX_NOISE` is refused.
+fn refuse_noisy(f: &Path, view: &str, native_noise: f64) -> Result<()> {
+    if native_noise > MAX_NOISE {
+        return Err(InputError(format!(
+            "photo `{}` (view {}) has {:.1}% noise per colour channel at its own size; the capture guide allows \
+             {:.1}%: the noise clipped at black lifts the dark card by more than the fit can be sure of. Give the \
+             card more light (the lamp nearer), hold the phone on a stand so it picks a lower ISO, or switch off \
+             night mode",
+            f.display(),
+            view,
+            100.0 * native_noise,
+            100.0 * MAX_NOISE
+        ))
+        .into());
+    }
+    Ok(())
+}
+
+/// A JPEG saved below the guide's `MIN_JPEG_QUALITY` is refused.
+fn refuse_low_jpeg(f: &Path, view: &str, saved_jpeg: Option<u8>) -> Result<()> {
+    if let Some(q) = saved_jpeg.filter(|q| *q < MIN_JPEG_QUALITY) {
+        return Err(InputError(format!(
+            "photo `{}` (view {}) was saved as JPEG of quality {q}; the capture guide needs at least \
+             {MIN_JPEG_QUALITY} (a phone saves 85 to 95; a messenger or an app recompresses lower): send the photo \
+             as the phone saved it, or save as PNG",
+            f.display(),
+            view
+        ))
+        .into());
+    }
+    Ok(())
+}
+
+/// Refuses a photo enlarged after it was taken: by the period an enlargement leaves in its
+/// pixels' sharpness (`resampled`), or by the EXIF's saved size, where an app kept the EXIF of
+/// an enlargement too smooth to leave a pattern (by 1.25 to 2, or a smooth filter).
+fn refuse_enlarged(f: &Path, v: &scratchart::model::scene::View, img: &crate::photo::Gray) -> Result<()> {
+    if let Some(p) = crate::resampled::enlarged(img) {
         return Err(InputError(format!(
             "photo `{}` (view {}) was enlarged after it was taken: its pixels repeat a pattern every {:.2} pixels \
              ({:.0} times the spectrum's floor), which only an enlargement leaves (an app, a messenger, a digital \
@@ -127,8 +307,6 @@ pub fn inspect_photo(
         ))
         .into());
     }
-    // The EXIF's saved size: an enlargement too smooth to leave a pattern in the pixels (by 1.25
-    // to 2, or a smooth filter) but done by an app that kept the EXIF.
     if let Some((r, (sw, sh))) = crate::photo::resized_since_saved(f, img.width, img.height) {
         if r > 1.01 {
             return Err(InputError(format!(
@@ -144,6 +322,28 @@ pub fn inspect_photo(
             .into());
         }
     }
+    Ok(())
+}
+
+/// Loads, registers and checks the photo `file` of capture view `v`: refused (exit 3, naming the
+/// photo and the reason) when it cannot be read, the card's marks are not found in it, the
+/// camera they give is not one near the capture view, or it is saturated.
+pub fn inspect_photo(
+    card: &Card,
+    capture: &scratchart::model::scene::Scene,
+    v: &scratchart::model::scene::View,
+    f: &Path,
+) -> Result<Inspection> {
+    let half = 0.5 * capture.plate.size_mm;
+    let capture_view = v;
+    let (img, channels) = crate::photo::load_photo_with_channels(f).map_err(InputError)?;
+    refuse_enlarged(f, v, &img)?;
+    // The photo shrunk by a whole factor k to at most the capture view's height (never
+    // enlarged), its own aspect kept (square pixels): each pixel the mean light of k x k of the
+    // photo's, as the model's pixels add up their subpixels. A fractional factor (640 x 480 to
+    // 256 high: 1.875) mixes pixels with weights that change with the sub-pixel phase, a blur
+    // the model cannot follow: it put a 75 degree V-bit at 73.9 with a stated +- 0.12. The rows
+    // and columns left over are cropped evenly from both sides (the field of view with them).
     let shrunk = |k: u32| {
         let mut v = capture_view.clone();
         let (w, h) = ((img.width / k).max(16), (img.height / k).max(16));
@@ -152,10 +352,10 @@ pub fn inspect_photo(
         v.camera.fov_y_deg = 2.0 * t.atan().to_degrees();
         (v.camera.width, v.camera.height) = (w, h);
         let small = crate::register::resize(&cropped, w, h);
-        (v, w, h, cropped, small)
+        (v, cropped, small)
     };
     let mut k = img.height.div_ceil(capture_view.camera.height).max(1);
-    let (mut v, mut w, mut h, mut cropped, mut small) = shrunk(k);
+    let (mut v, mut cropped, mut small) = shrunk(k);
     // A photo mostly white is saturated before anything can be found in it (the marks alone
     // may be white: they are a small part of the frame).
     let white = small.data.iter().filter(|x| **x >= 0.99).count();
@@ -209,53 +409,15 @@ pub fn inspect_photo(
             break;
         }
         k = most.min(k - 1);
-        (v, w, h, cropped, small) = shrunk(k);
+        (v, cropped, small) = shrunk(k);
         reg = register(&small, card, &v).map_err(not_found)?;
         scale = card_scale(&reg.found.plate_to_image, k);
     }
-    if scale.fit_px_per_mm < needed {
-        let dist = (capture_view.camera.eye[0].powi(2)
-            + capture_view.camera.eye[1].powi(2)
-            + capture_view.camera.eye[2].powi(2))
-        .sqrt();
-        return Err(InputError(format!(
-            "photo `{}` (view {}) shows the card at {:.2} pixels per mm; the fit needs at least {:.2} (the capture \
-             guide's {:.2} at {:.0} mm, less {:.0}%): photograph from nearer (about {:.0} mm) or zoom in with the \
-             lens, and send the photo as the phone saved it (a messenger, an app or an editor may have shrunk it)",
-            f.display(),
-            v.name,
-            scale.photo_px_per_mm,
-            needed,
-            view_scale(capture_view),
-            dist,
-            100.0 * (1.0 - MIN_SCALE),
-            dist * scale.photo_px_per_mm / view_scale(capture_view)
-        ))
-        .into());
-    }
-    // The camera that took the photo, from the marks: the card is rendered as that camera saw it
-    // (the light on the grooves depends on where the camera stood), and the photo is used as
-    // taken, without resampling. Within 2 px of the capture view everywhere, the capture camera
-    // explains the photo better than a camera from a few marks found to about 0.3 px (its focal
-    // length and distance trade against each other); the fit's shift takes up the rest.
+    refuse_too_small(f, &v.name, capture_view, &scale, needed)?;
+    // More than 2 px off the capture pose: the camera the marks give (see `camera_from_marks`).
     let off_pose = reg.pose_offset_px > 2.0;
     let camera = if off_pose {
-        crate::fiducials::plausible_camera_with_focal(
-            &reg.found.plate_to_image,
-            v.camera.width,
-            v.camera.height,
-            &v,
-            // The photo's EXIF focal length, on the raster the marks were found on.
-            crate::photo::focal_35mm(f).map(|f35| crate::exif::focal_px(f35, img.width, img.height) / k as f64),
-        )
-        .map_err(|e| {
-            InputError(format!(
-                "photo `{}` (view {}): the camera recovered from the card's marks is implausible: {e}. \
-                     Photograph from the capture position of card.json",
-                f.display(),
-                v.name
-            ))
-        })?
+        camera_from_marks(f, &reg.found.plate_to_image, &v, (img.width, img.height), k)?
     } else {
         v.camera.clone()
     };
@@ -267,48 +429,12 @@ pub fn inspect_photo(
     // Saturation, over the pixels the fit compares (the marks glint brightest and are left out).
     let bright = small.data.iter().zip(&mask).filter(|(x, m)| **m && **x > 0.25).count();
     let sat = small.data.iter().zip(&mask).filter(|(x, m)| **m && **x >= 0.99).count();
-    let saturated = if bright > 0 { sat as f64 / bright as f64 } else { 0.0 };
-    if saturated > MAX_SATURATED {
-        return Err(InputError(format!(
-            "photo `{}` is saturated: {sat} of its {bright} bright pixels on the ladder are full white ({:.0}%; \
-             the capture guide allows {:.0}%), so groove widths cannot be read; lower the exposure (tap the \
-             card and drag the exposure down) and photograph again",
-            f.display(),
-            100.0 * saturated,
-            100.0 * MAX_SATURATED
-        ))
-        .into());
-    }
+    let saturated = refuse_saturated(f, sat, bright)?;
     // How far the camera stood from the capture view's direction, seen from the card.
-    let off_deg = {
-        let dir = |c: &scratchart::model::scene::Camera| {
-            let d = [c.eye[0] - c.target[0], c.eye[1] - c.target[1], c.eye[2] - c.target[2]];
-            let n = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
-            [d[0] / n, d[1] / n, d[2] / n]
-        };
-        let (a, b) = (dir(&fv.camera), dir(&capture_view.camera));
-        (a[0] * b[0] + a[1] * b[1] + a[2] * b[2])
-            .clamp(-1.0, 1.0)
-            .acos()
-            .to_degrees()
-    };
-    if off_deg > MAX_OFF_DEG {
-        return Err(InputError(format!(
-            "photo `{}` (view {}) was taken {off_deg:.0} degrees from the capture view's direction; the capture \
-             guide allows {MAX_OFF_DEG:.0}: the grooves glint where the camera and the lamp are where it says, so \
-             photograph again from the capture position (capture_guide.png)",
-            f.display(),
-            capture_view.name
-        ))
-        .into());
-    }
+    let off_deg = degrees_between(&fv.camera, &capture_view.camera);
+    refuse_off_view(f, &capture_view.name, off_deg)?;
     let noise = crate::fiducials::pixel_noise_in(&small, Some(&mask));
     let saved_jpeg = std::fs::read(f).ok().and_then(|b| crate::photo::jpeg_table_quality(&b));
-    // The sensor's noise in each channel, at the photo's own resolution: measured over the card
-    // on the photo shrunk by m = 1 (a JPEG: m = k, at most 4), where the optics' blur spans k /
-    // m times more pixels than in the view and the measure sees noise, not the grooves' edges
-    // (k times the noise of a 24 MP photo shrunk by 23 read its 0.8% as 1.6%). JPEG's steps
-    // take most of the noise at the photo's own pixels but less of what a shrink keeps.
     // A colour photo's grey has less noise than the channels that were clipped; a JPEG's
     // quantization took part of the noise after it was clipped, and its chroma's coarse steps
     // hide whether the channels' noise was their own, so a colour JPEG is taken as a sensor's
@@ -319,61 +445,9 @@ pub fn inspect_photo(
         // Channels whose noise is mostly their own.
         (None, c) => c.is_some_and(|c| c.noise_share < 0.5 * (1.0 + crate::photo::LUMA_NOISE)),
     };
-    let native_noise = {
-        let m = if saved_jpeg.is_some() { k.min(4) } else { 1 };
-        let (mw, mh) = (cropped.width / m, cropped.height / m);
-        let at_m = crate::photo::resize(&crate::photo::crop_centre(&cropped, mw * m, mh * m), mw, mh);
-        let (mw, mh, ku, mu) = (mw as usize, mh as usize, k as usize, m as usize);
-        // The view's pixel under each, its offset that of the crop to whole m x m blocks.
-        let (ox, oy) = (
-            (cropped.width as usize - mw * mu) / 2,
-            (cropped.height as usize - mh * mu) / 2,
-        );
-        let m_mask: Vec<bool> = (0..mw * mh)
-            .map(|i| {
-                let (x, y) = (((i % mw) * mu + ox) / ku, ((i / mw) * mu + oy) / ku);
-                x < w as usize && y < h as usize && mask[y * w as usize + x]
-            })
-            .collect();
-        let measured = crate::fiducials::pixel_noise_in(&at_m, Some(&m_mask));
-        let mut on: Vec<f32> = small
-            .data
-            .iter()
-            .zip(&mask)
-            .filter(|(_, m)| **m)
-            .map(|(x, _)| *x)
-            .collect();
-        let level = if on.is_empty() {
-            0.0
-        } else {
-            let mid = on.len() / 2;
-            *on.select_nth_unstable_by(mid, |a, b| a.total_cmp(b)).1 as f64
-        };
-        crate::fit::noise::sensor_noise(measured, level, colour, m, saved_jpeg)
-    };
-    if native_noise > MAX_NOISE {
-        return Err(InputError(format!(
-            "photo `{}` (view {}) has {:.1}% noise per colour channel at its own size; the capture guide allows \
-             {:.1}%: the noise clipped at black lifts the dark card by more than the fit can be sure of. Give the \
-             card more light (the lamp nearer), hold the phone on a stand so it picks a lower ISO, or switch off \
-             night mode",
-            f.display(),
-            capture_view.name,
-            100.0 * native_noise,
-            100.0 * MAX_NOISE
-        ))
-        .into());
-    }
-    if let Some(q) = saved_jpeg.filter(|q| *q < MIN_JPEG_QUALITY) {
-        return Err(InputError(format!(
-            "photo `{}` (view {}) was saved as JPEG of quality {q}; the capture guide needs at least \
-             {MIN_JPEG_QUALITY} (a phone saves 85 to 95; a messenger or an app recompresses lower): send the photo \
-             as the phone saved it, or save as PNG",
-            f.display(),
-            capture_view.name
-        ))
-        .into());
-    }
+    let native_noise = sensor_noise_at_own_size(&cropped, &small, &mask, k, colour, saved_jpeg);
+    refuse_noisy(f, &capture_view.name, native_noise)?;
+    refuse_low_jpeg(f, &capture_view.name, saved_jpeg)?;
     // A JPEG compared on its own pixel grid: the fit puts the same JPEG on its model.
     let jpeg = if (small.width, small.height) == (img.width, img.height) {
         crate::photo::jpeg_quality(f)

@@ -19,6 +19,7 @@ pub mod camera;
 pub mod display;
 pub mod fsio;
 pub mod mesh;
+pub mod par;
 pub mod reference;
 pub mod scene;
 

@@ -119,24 +119,7 @@ fn bisect(mut a: f64, mut b: f64, pred: impl Fn(f64) -> bool) -> (f64, f64) {
 
 /// `Tool::model` at every z, in parallel on the host's cores (order kept).
 fn models(tool: &Tool, zs: &[f64]) -> Vec<Option<[f64; 2]>> {
-    let threads = std::thread::available_parallelism().map_or(1, |n| n.get()).min(8);
-    let chunk = zs.len().div_ceil(threads).max(1);
-    std::thread::scope(|sc| {
-        let handles: Vec<_> = zs
-            .chunks(chunk)
-            .map(|part| {
-                sc.spawn(move || {
-                    part.iter()
-                        .map(|&z| tool.model(z).map(|g| [g.w, g.d]))
-                        .collect::<Vec<_>>()
-                })
-            })
-            .collect();
-        handles
-            .into_iter()
-            .flat_map(|h| h.join().expect("tool model thread"))
-            .collect()
-    })
+    scratchart_model::par::par_map(zs.len(), |i| tool.model(zs[i]).map(|g| [g.w, g.d]))
 }
 
 impl ToolTable {
