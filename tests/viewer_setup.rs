@@ -390,10 +390,12 @@ fn lines(child: &mut Child) -> Receiver<String> {
     rx
 }
 
-fn wait_line(rx: &Receiver<String>, what: &str, pred: impl Fn(&str) -> bool) -> String {
+/// The next line that `pred` accepts; every line read on the way is kept in `seen`.
+fn wait_line(rx: &Receiver<String>, seen: &mut Vec<String>, what: &str, pred: impl Fn(&str) -> bool) -> String {
     let deadline = Instant::now() + Duration::from_secs(90);
     while Instant::now() < deadline {
         if let Ok(l) = rx.recv_timeout(Duration::from_millis(200)) {
+            seen.push(l.clone());
             if pred(&l) {
                 return l;
             }
@@ -476,10 +478,11 @@ fn key_s_toggles_the_overlay_in_the_window() {
         .spawn()
         .unwrap();
     let rx = lines(&mut child);
-    let id = wait_line(&rx, "window id", |l| l.starts_with("window-id"));
+    let mut seen = Vec::new();
+    let id = wait_line(&rx, &mut seen, "window id", |l| l.starts_with("window-id"));
     let id = id.split_whitespace().nth(1).unwrap().to_string();
     let full = |l: &str| l.contains(" full internal=");
-    wait_line(&rx, "a full frame", full);
+    wait_line(&rx, &mut seen, "a full frame", full);
     std::thread::sleep(Duration::from_millis(300));
     let grab = |name: &str| {
         let p = tmp.join(name);
@@ -500,13 +503,25 @@ fn key_s_toggles_the_overlay_in_the_window() {
     }
 
     x.run("xdotool", &["windowfocus", "--sync", &id]);
-    x.run("xdotool", &["key", "s"]);
-    let lamp = wait_line(&rx, "the lamp's numbers", |l| l.starts_with("set-up lamp: "));
-    wait_line(&rx, "a full frame with the overlay", full);
+    // S held past the keyboard's auto-repeat delay (660 ms) turns the overlay on once: a toggle
+    // ignores repeats, and the press winit makes up for a key held as the window gains focus
+    // (which turned the overlay straight off again in one of three runs).
+    let pressed = seen.len();
+    x.run("xdotool", &["keydown", "s"]);
+    std::thread::sleep(Duration::from_millis(1500));
+    x.run("xdotool", &["keyup", "s"]);
+    let lamp = wait_line(&rx, &mut seen, "the lamp's numbers", |l| l.starts_with("set-up lamp: "));
+    wait_line(&rx, &mut seen, "a full frame with the overlay", full);
     std::thread::sleep(Duration::from_millis(300));
     grab_until(&grab, "on.png", &|img| {
         same_frame("window with the overlay vs headless", img, &headless)
     });
+    seen.extend(rx.try_iter());
+    let toggles: Vec<&String> = seen[pressed..]
+        .iter()
+        .filter(|l| l.starts_with("set-up lamp: ") || *l == "set-up overlay off")
+        .collect();
+    assert_eq!(toggles.len(), 1, "the held S toggled again on auto-repeat: {toggles:?}");
     let title = x.run("xdotool", &["getwindowname", &id]);
     let az = format!("lamp az {:.1}", num_after(&lamp, "azimuth"));
     assert!(
@@ -515,8 +530,8 @@ fn key_s_toggles_the_overlay_in_the_window() {
     );
 
     x.run("xdotool", &["key", "s"]);
-    wait_line(&rx, "overlay off", |l| l == "set-up overlay off");
-    wait_line(&rx, "a full frame without the overlay", full);
+    wait_line(&rx, &mut seen, "overlay off", |l| l == "set-up overlay off");
+    wait_line(&rx, &mut seen, "a full frame without the overlay", full);
     std::thread::sleep(Duration::from_millis(300));
     grab_until(&grab, "after.png", &|after| {
         if after.as_raw() == before.as_raw() {

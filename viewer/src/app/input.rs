@@ -174,7 +174,12 @@ impl App {
         Ok(())
     }
 
-    fn on_key(&mut self, key: &Key, event_loop: &ActiveEventLoop) -> Result<()> {
+    fn on_key(&mut self, key: &Key, repeat: bool, event_loop: &ActiveEventLoop) -> Result<()> {
+        if repeat && !key_repeats(key) {
+            // A held toggle (S, L, T, ...) would flicker on and off with the keyboard's
+            // auto-repeat, and a busy X server can turn one slow press into several.
+            return Ok(());
+        }
         let step = if self.shift { 8.0 } else { 2.0 };
         let ch = match key {
             Key::Named(NamedKey::Escape) => {
@@ -295,8 +300,12 @@ impl App {
                 self.shift = m.state().shift_key();
                 Ok(())
             }
-            WindowEvent::KeyboardInput { event, .. } if event.state == ElementState::Pressed => {
-                self.on_key(&event.logical_key, event_loop)
+            // winit makes up a press for every key already held when the window gains focus
+            // (is_synthetic): a key pressed just as the window was focused would then act twice.
+            WindowEvent::KeyboardInput {
+                event, is_synthetic, ..
+            } if event.state == ElementState::Pressed && !is_synthetic => {
+                self.on_key(&event.logical_key, event.repeat, event_loop)
             }
             WindowEvent::MouseInput { state, button, .. } => {
                 let i = match button {
@@ -339,5 +348,36 @@ impl App {
             }
             _ => Ok(()),
         }
+    }
+}
+
+/// Whether holding `key` repeats it: steps (arrows, exposure, orbit speed, picture scale) do;
+/// toggles and one-shot actions (S, L, T, V, W, P, K, C, N, A, R, Q, view numbers) act once per
+/// press.
+pub(crate) fn key_repeats(key: &Key) -> bool {
+    match key {
+        Key::Named(n) => matches!(
+            n,
+            NamedKey::ArrowLeft | NamedKey::ArrowRight | NamedKey::ArrowUp | NamedKey::ArrowDown
+        ),
+        Key::Character(s) => matches!(s.to_lowercase().as_str(), "+" | "=" | "-" | "_" | "e" | "[" | "]" | "g"),
+        _ => false,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn toggles_ignore_auto_repeat_and_steps_repeat() {
+        for t in ["s", "S", "l", "t", "v", "w", "p", "k", "c", "n", "a", "r", "q", "1"] {
+            assert!(!key_repeats(&Key::Character(t.into())), "{t} repeats");
+        }
+        assert!(!key_repeats(&Key::Named(NamedKey::Escape)));
+        for t in ["e", "E", "+", "-", "[", "]"] {
+            assert!(key_repeats(&Key::Character(t.into())), "{t} does not repeat");
+        }
+        assert!(key_repeats(&Key::Named(NamedKey::ArrowUp)));
     }
 }
