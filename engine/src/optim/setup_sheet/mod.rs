@@ -7,9 +7,9 @@ use std::path::Path;
 
 use plotters::prelude::*;
 
-use super::error::OptimError;
-use super::setup::{Place, Sensitivity, ANGLE_RANGE, KEEP};
 use crate::model::scene::{LightKind, Scene};
+use crate::optim::error::OptimError;
+use crate::optim::setup::{Place, Sensitivity};
 
 /// A placed text's box in image pixels: [x0, y0, x1, y1] (x1, y1 exclusive).
 pub type Rect = [i32; 4];
@@ -216,6 +216,62 @@ pub fn setup_png(path: &Path, scene: &Scene, sens: &Sensitivity) -> Result<Layou
     Ok(layout)
 }
 
+/// The sheet's panels (image pixels: top view, side view, key; the two charts on the right)
+/// and the one scale (mm per pixel) both views are drawn to.
+struct Panels {
+    top: Rect,
+    side: Rect,
+    key: Rect,
+    charts: [Rect; 2],
+    mmpp: f64,
+    /// Half the plate's side (mm).
+    half: f64,
+    /// The furthest lamp or eye from the centre along x or y (mm), at least `half`.
+    reach: f64,
+}
+
+impl Panels {
+    /// One scale for both views: everything (a directional lamp at the edge) fits either.
+    fn new(scene: &Scene, items: &[Item], hpx: u32) -> Panels {
+        let half = scene.plate.size_mm / 2.0;
+        let top: Rect = [20, 40, 700, 470];
+        let side: Rect = [20, 510, 700, 760];
+        let key: Rect = [20, 775, 700, hpx as i32 - 5];
+        let charts = [[760, 40, 1390, 430], [760, 480, 1390, 870]];
+        let points = || items.iter().filter(|i| !i.direction);
+        let reach = points()
+            .map(|i| i.xyz[0].abs().max(i.xyz[1].abs()))
+            .fold(half, f64::max);
+        let radial = points().map(|i| i.xyz[0].hypot(i.xyz[1])).fold(half, f64::max);
+        let height = points().map(|i| i.xyz[2]).fold(half, f64::max);
+        let (tw, th) = ((top[2] - top[0] - 60) as f64, (top[3] - top[1] - 60) as f64);
+        let (sw, sh) = ((side[2] - side[0] - 60) as f64, (side[3] - side[1] - 50) as f64);
+        let mmpp = nice_scale(
+            (2.0 * reach / tw)
+                .max(2.0 * reach / th)
+                .max((radial + half) / sw)
+                .max(height / sh),
+        );
+        Panels {
+            top,
+            side,
+            key,
+            charts,
+            mmpp,
+            half,
+            reach,
+        }
+    }
+
+    /// The plate's half side in pixels.
+    fn plate_px(&self) -> i32 {
+        (self.half / self.mmpp).round() as i32
+    }
+}
+
+mod charts;
+use charts::draw_chart;
+
 fn draw(buf: &mut [u8], (wpx, hpx): (u32, u32), scene: &Scene, sens: &Sensitivity) -> Result<Layout, String> {
     let root = BitMapBackend::with_buffer(buf, (wpx, hpx)).into_drawing_area();
     root.fill(&WHITE).map_err(|e| e.to_string())?;
@@ -229,42 +285,38 @@ fn draw(buf: &mut [u8], (wpx, hpx): (u32, u32), scene: &Scene, sens: &Sensitivit
         },
     };
     let items = items(scene);
-    let half = scene.plate.size_mm / 2.0;
+    let panels = Panels::new(scene, &items, hpx);
+    pl.layout.mm_per_px = panels.mmpp;
+    draw_top_view(&mut pl, &panels, &items)?;
+    draw_side_view(&mut pl, &panels, &items)?;
+    for (moved, area) in [("lamp", panels.charts[0]), ("eye", panels.charts[1])] {
+        draw_chart(&mut pl, scene, sens, moved, area)?;
+    }
+    draw_key(&mut pl, &panels, &items)?;
+    root.present().map_err(|e| e.to_string())?;
+    Ok(pl.layout)
+}
 
-    // Panels (image pixels): top view, side view, key; the two charts on the right.
-    let top: Rect = [20, 40, 700, 470];
-    let side: Rect = [20, 510, 700, 760];
-    let key: Rect = [20, 775, 700, hpx as i32 - 5];
-    let charts = [[760, 40, 1390, 430], [760, 480, 1390, 870]];
+/// A lamp's or an eye's mark at `p`: lamps larger and outlined.
+fn draw_mark(pl: &mut Placer, it: &Item, p: (i32, i32)) -> Result<(), String> {
+    let rad = if it.lamp { 8 } else { 6 };
+    pl.root
+        .draw(&Circle::new(p, rad, it.colour.filled()))
+        .map_err(|e| e.to_string())?;
+    if it.lamp {
+        pl.root
+            .draw(&Circle::new(p, rad, BLACK.stroke_width(1)))
+            .map_err(|e| e.to_string())?;
+    }
+    pl.block([p.0 - rad, p.1 - rad, p.0 + rad + 1, p.1 + rad + 1]);
+    Ok(())
+}
 
-    // One scale for both views: everything (a directional lamp at the edge) fits either.
-    let reach = items
-        .iter()
-        .filter(|i| !i.direction)
-        .map(|i| i.xyz[0].abs().max(i.xyz[1].abs()))
-        .fold(half, f64::max);
-    let radial = items
-        .iter()
-        .filter(|i| !i.direction)
-        .map(|i| i.xyz[0].hypot(i.xyz[1]))
-        .fold(half, f64::max);
-    let height = items
-        .iter()
-        .filter(|i| !i.direction)
-        .map(|i| i.xyz[2])
-        .fold(half, f64::max);
-    let (tw, th) = ((top[2] - top[0] - 60) as f64, (top[3] - top[1] - 60) as f64);
-    let (sw, sh) = ((side[2] - side[0] - 60) as f64, (side[3] - side[1] - 50) as f64);
-    let mmpp = nice_scale(
-        (2.0 * reach / tw)
-            .max(2.0 * reach / th)
-            .max((radial + half) / sw)
-            .max(height / sh),
-    );
-    pl.layout.mm_per_px = mmpp;
-    let scale_text = format!("scale: 1 px = {mmpp} mm (both views)");
-
-    // ---- top view
+/// The top view: the plate face up with its +x mark, range rings, a scale bar, and every lamp
+/// and eye at its place (a directional lamp where its direction crosses the panel's edge).
+fn draw_top_view(pl: &mut Placer, panels: &Panels, items: &[Item]) -> Result<(), String> {
+    let (top, mmpp, reach) = (panels.top, panels.mmpp, panels.reach);
+    let root = pl.root;
     pl.put(
         "Top view (plate face up; azimuth from +x towards +y)",
         (top[0], 12),
@@ -284,7 +336,7 @@ fn draw(buf: &mut [u8], (wpx, hpx): (u32, u32), scene: &Scene, sens: &Sensitivit
             .map_err(|e| e.to_string())?;
         r += ring;
     }
-    let plate_px = (half / mmpp).round() as i32;
+    let plate_px = panels.plate_px();
     let plate_r = [c.0 - plate_px, c.1 - plate_px, c.0 + plate_px, c.1 + plate_px];
     root.draw(&Rectangle::new(
         [(plate_r[0], plate_r[1]), (plate_r[2], plate_r[3])],
@@ -320,7 +372,7 @@ fn draw(buf: &mut [u8], (wpx, hpx): (u32, u32), scene: &Scene, sens: &Sensitivit
     )?;
     // marks first (so labels avoid all of them), then labels
     let mut marks = Vec::new();
-    for it in &items {
+    for it in items {
         let p = if it.direction {
             // a direction: drawn where it crosses the panel's edge
             let (dx, dy) = (it.xyz[0], it.xyz[1]);
@@ -330,17 +382,7 @@ fn draw(buf: &mut [u8], (wpx, hpx): (u32, u32), scene: &Scene, sens: &Sensitivit
         } else {
             to_px(it.xyz[0], it.xyz[1])
         };
-        let rad = if it.lamp { 8 } else { 6 };
-        if it.lamp {
-            root.draw(&Circle::new(p, rad, it.colour.filled()))
-                .map_err(|e| e.to_string())?;
-            root.draw(&Circle::new(p, rad, BLACK.stroke_width(1)))
-                .map_err(|e| e.to_string())?;
-        } else {
-            root.draw(&Circle::new(p, rad, it.colour.filled()))
-                .map_err(|e| e.to_string())?;
-        }
-        pl.block([p.0 - rad, p.1 - rad, p.0 + rad + 1, p.1 + rad + 1]);
+        draw_mark(pl, it, p)?;
         marks.push(p);
     }
     // Labels after every mark, so that none covers one.
@@ -350,8 +392,14 @@ fn draw(buf: &mut [u8], (wpx, hpx): (u32, u32), scene: &Scene, sens: &Sensitivit
         let t = format!("{} az {:.0} deg", it.name, q.azimuth_deg);
         pl.label(&t, p, 13, it.colour, top_in)?;
     }
+    Ok(())
+}
 
-    // ---- side view: height against horizontal distance from the plate centre
+/// The side view: height against horizontal distance from the plate centre, all azimuths, a
+/// dashed line from the centre to each lamp and eye.
+fn draw_side_view(pl: &mut Placer, panels: &Panels, items: &[Item]) -> Result<(), String> {
+    let (side, mmpp, plate_px) = (panels.side, panels.mmpp, panels.plate_px());
+    let root = pl.root;
     pl.put(
         "Side view (height against distance from the plate centre, all azimuths)",
         (side[0], side[1] - 26),
@@ -379,7 +427,7 @@ fn draw(buf: &mut [u8], (wpx, hpx): (u32, u32), scene: &Scene, sens: &Sensitivit
     .map_err(|e| e.to_string())?;
     let side_in = [side[0] + 2, side[1] + 2, side[2] - 2, side[3] - 2];
     let mut smarks = Vec::new();
-    for it in &items {
+    for it in items {
         let q = Place::of(it.xyz);
         let p = if it.direction {
             let rr = ((side[3] - side[1]) - 60) as f64;
@@ -388,15 +436,8 @@ fn draw(buf: &mut [u8], (wpx, hpx): (u32, u32), scene: &Scene, sens: &Sensitivit
         } else {
             sp(it.xyz[0].hypot(it.xyz[1]), it.xyz[2])
         };
-        dashed(&root, o, p, it.colour.mix(0.6).stroke_width(1))?;
-        let rad = if it.lamp { 8 } else { 6 };
-        root.draw(&Circle::new(p, rad, it.colour.filled()))
-            .map_err(|e| e.to_string())?;
-        if it.lamp {
-            root.draw(&Circle::new(p, rad, BLACK.stroke_width(1)))
-                .map_err(|e| e.to_string())?;
-        }
-        pl.block([p.0 - rad, p.1 - rad, p.0 + rad + 1, p.1 + rad + 1]);
+        dashed(root, o, p, it.colour.mix(0.6).stroke_width(1))?;
+        draw_mark(pl, it, p)?;
         smarks.push(p);
     }
     for (it, &p) in items.iter().zip(&smarks) {
@@ -408,120 +449,14 @@ fn draw(buf: &mut [u8], (wpx, hpx): (u32, u32), scene: &Scene, sens: &Sensitivit
         };
         pl.label(&t, p, 13, it.colour, side_in)?;
     }
+    Ok(())
+}
 
-    // ---- the charts: correlation (share of the designed one) against the move
-    for (moved, area) in [("lamp", charts[0]), ("eye", charts[1])] {
-        let title = format!(
-            "The {moved} moved: correlation as a share of the design's (grey: {:.0}%)",
-            100.0 * KEEP
-        );
-        pl.put(&title, (area[0], area[1] - 26), 13, BLACK)?;
-        let legend_h = 48;
-        let plot = [area[0], area[1], area[2], area[3] - legend_h];
-        pl.block(plot);
-        pl.layout.charts.push(plot);
-        let sub = root.clone().shrink(
-            (plot[0] as u32, plot[1] as u32),
-            ((plot[2] - plot[0]) as u32, (plot[3] - plot[1]) as u32),
-        );
-        let mut ymax: f64 = 1.05;
-        for (j, v) in scene.views.iter().enumerate() {
-            for s in sens.samples.iter().filter(|s| s.view == v.name && s.moved == moved) {
-                if sens.base[j] > 0.0 {
-                    ymax = ymax.max(s.corr / sens.base[j] + 0.02);
-                }
-            }
-        }
-        let mut chart = ChartBuilder::on(&sub)
-            .margin(8)
-            .x_label_area_size(34)
-            .y_label_area_size(48)
-            .build_cartesian_2d(-ANGLE_RANGE..ANGLE_RANGE, 0f64..ymax.min(2.0))
-            .map_err(|e| e.to_string())?;
-        chart
-            .configure_mesh()
-            .x_desc(format!("{moved} moved (degrees)"))
-            .y_desc("correlation / designed")
-            .light_line_style(RGBColor(235, 235, 235))
-            .draw()
-            .map_err(|e| e.to_string())?;
-        chart
-            .draw_series(DashedLineSeries::new(
-                vec![(-ANGLE_RANGE, KEEP), (ANGLE_RANGE, KEEP)],
-                4,
-                4,
-                RGBColor(150, 150, 150).stroke_width(1),
-            ))
-            .map_err(|e| e.to_string())?;
-        for (j, v) in scene.views.iter().enumerate() {
-            if sens.of(&v.name).next().is_none() || !(sens.base[j] > 0.0) {
-                continue;
-            }
-            let col = view_colour(j);
-            for axis in ["azimuth", "elevation"] {
-                let mut pts: Vec<(f64, f64)> = sens
-                    .samples
-                    .iter()
-                    .filter(|s| s.view == v.name && s.moved == moved && s.axis == axis)
-                    .map(|s| (s.delta, s.corr / sens.base[j]))
-                    .chain(std::iter::once((0.0, 1.0)))
-                    .collect();
-                pts.sort_by(|a, b| a.0.total_cmp(&b.0));
-                if axis == "azimuth" {
-                    chart
-                        .draw_series(LineSeries::new(pts, col.stroke_width(2)))
-                        .map_err(|e| e.to_string())?;
-                } else {
-                    chart
-                        .draw_series(DashedLineSeries::new(pts, 7, 5, col.stroke_width(2)))
-                        .map_err(|e| e.to_string())?;
-                }
-            }
-        }
-        // The legend, below the plot (never over a curve): line styles, then the views.
-        let ly = plot[3] + 6;
-        let mut x = area[0] + 48;
-        for (txt, dash) in [("azimuth", false), ("elevation", true)] {
-            let a = (x, ly + 8);
-            let b = (x + 30, ly + 8);
-            if dash {
-                dashed(&root, a, b, BLACK.stroke_width(2))?;
-            } else {
-                root.draw(&PathElement::new(vec![a, b], BLACK.stroke_width(2)))
-                    .map_err(|e| e.to_string())?;
-            }
-            let r = pl.put(txt, (x + 36, ly), 13, BLACK)?;
-            x = r[2] + 18;
-        }
-        let mut y = ly;
-        let mut more = 0;
-        for (j, v) in scene.views.iter().enumerate() {
-            let shown = sens.of(&v.name).next().is_some();
-            let txt = if shown {
-                v.name.clone()
-            } else {
-                format!("{} (no curve)", v.name)
-            };
-            let (w, h) = pl.size(&txt, 13);
-            if x + 26 + w > area[2] {
-                if y > ly {
-                    more += 1;
-                    continue;
-                }
-                y += h + 6;
-                x = area[0] + 48;
-            }
-            root.draw(&Rectangle::new([(x, y + 4), (x + 20, y + 12)], view_colour(j).filled()))
-                .map_err(|e| e.to_string())?;
-            let r = pl.put(&txt, (x + 24, y), 13, BLACK)?;
-            x = r[2] + 14;
-        }
-        if more > 0 {
-            pl.put(&format!("and {more} more (setup.txt)"), (x, y), 13, BLACK)?;
-        }
-    }
-
-    // ---- the key: every lamp and eye with its numbers; labels that found no place say so
+/// The key: the scale, then every lamp and eye with its numbers; labels that found no place in
+/// the drawing say so, and what does not fit is left to setup.txt.
+fn draw_key(pl: &mut Placer, panels: &Panels, items: &[Item]) -> Result<(), String> {
+    let key = panels.key;
+    let scale_text = format!("scale: 1 px = {} mm (both views)", panels.mmpp);
     pl.put(&scale_text, (key[0], key[1]), 13, BLACK)?;
     let mut y = key[1] + 20;
     let total = items.len();
@@ -566,8 +501,7 @@ fn draw(buf: &mut [u8], (wpx, hpx): (u32, u32), scene: &Scene, sens: &Sensitivit
         pl.put(&line, (key[0], y), 12, it.colour)?;
         y += h + 2;
     }
-    root.present().map_err(|e| e.to_string())?;
-    Ok(pl.layout)
+    Ok(())
 }
 
 #[cfg(test)]
