@@ -81,212 +81,230 @@ fn colour(d: f64, lo: f64, hi: f64) -> RGBColor {
     RGBColor(mix(a.0, b.0), mix(a.1, b.1), mix(a.2, b.2))
 }
 
+/// The picture being drawn: its drawing area, whether a font is at hand (without one, texts
+/// are left out), and the plate's side in mm (for the plate-to-pixel map).
+struct Picture<'a, 'b> {
+    root: &'a DrawingArea<BitMapBackend<'b>, plotters::coord::Shift>,
+    font: bool,
+    plate_mm: f64,
+}
+
+impl Picture<'_, '_> {
+    fn text(&self, t: &str, at: (i32, i32), size: i32, c: &RGBColor) -> Result<()> {
+        if self.font {
+            self.root
+                .draw(&Text::new(t.to_string(), at, ("sans-serif", size).into_font().color(c)))
+                .map_err(pe)?;
+        }
+        Ok(())
+    }
+
+    /// Words over the drawing, on a white ground so that cuts under them do not hide them.
+    fn label(&self, t: &str, at: (i32, i32), c: &RGBColor) -> Result<()> {
+        if self.font {
+            let w = (t.chars().count() as f64 * 7.6).ceil() as i32;
+            self.root
+                .draw(&Rectangle::new(
+                    [(at.0 - 2, at.1 - 1), (at.0 + w, at.1 + 17)],
+                    WHITE.mix(0.85).filled(),
+                ))
+                .map_err(pe)?;
+        }
+        self.text(t, at, 15, c)
+    }
+
+    /// A point of the plate (mm, +y up) in image pixels.
+    fn to(&self, p: [f64; 2]) -> (i32, i32) {
+        (
+            PX + ((p[0] / self.plate_mm + 0.5) * SIDE as f64).round() as i32,
+            PY + ((0.5 - p[1] / self.plate_mm) * SIDE as f64).round() as i32,
+        )
+    }
+
+    fn line(&self, pts: Vec<(i32, i32)>, style: ShapeStyle) -> Result<()> {
+        self.root.draw(&PathElement::new(pts, style)).map_err(pe)
+    }
+}
+
+fn xy(p: &[f64; 3]) -> [f64; 2] {
+    [p[0], p[1]]
+}
+
 /// Writes the picture of `blocks` (in cut order) on a `plate_mm` plate.
 pub fn write(path: &Path, blocks: &[Block], plate_mm: f64, cap: &Caption) -> Result<()> {
     let mut buf = vec![255u8; (W * H * 3) as usize];
     {
         let root = BitMapBackend::with_buffer(&mut buf, (W, H)).into_drawing_area();
         root.fill(&WHITE).map_err(pe)?;
-        let font = scratchart::optim::report::plot_font().is_some();
-        let text = |t: &str, at: (i32, i32), size: i32, c: &RGBColor| -> Result<()> {
-            if font {
-                root.draw(&Text::new(t.to_string(), at, ("sans-serif", size).into_font().color(c)))
-                    .map_err(pe)?;
-            }
-            Ok(())
+        let pic = Picture {
+            root: &root,
+            font: scratchart::optim::report::plot_font().is_some(),
+            plate_mm,
         };
-        // Words over the drawing, on a white ground so that cuts under them do not hide them.
-        let label = |t: &str, at: (i32, i32), c: &RGBColor| -> Result<()> {
-            if font {
-                let w = (t.chars().count() as f64 * 7.6).ceil() as i32;
-                root.draw(&Rectangle::new(
-                    [(at.0 - 2, at.1 - 1), (at.0 + w, at.1 + 17)],
-                    WHITE.mix(0.85).filled(),
-                ))
-                .map_err(pe)?;
-            }
-            text(t, at, 15, c)
-        };
-        let to = |p: [f64; 2]| -> (i32, i32) {
-            (
-                PX + ((p[0] / plate_mm + 0.5) * SIDE as f64).round() as i32,
-                PY + ((0.5 - p[1] / plate_mm) * SIDE as f64).round() as i32,
-            )
-        };
-        let xy = |p: &[f64; 3]| [p[0], p[1]];
         let cuts: Vec<&Block> = blocks.iter().filter(|b| b.label != Label::Mark).collect();
         let (lo, hi) = cuts
             .iter()
             .map(|b| depth(b))
             .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), d| (a.min(d), b.max(d)));
         let (lo, hi) = if lo.is_finite() { (lo, hi) } else { (0.0, 0.0) };
-
-        // Title.
-        text(
-            &format!(
-                "{}: {} cuts on a {} mm plate, seen from above",
-                cap.plan,
-                cuts.len(),
-                plate_mm
-            ),
-            (PX, 12),
-            24,
-            &BLACK,
-        )?;
-        text(
-            &format!(
-                "machine: {}   tool: {}   estimated time: {:.1} min",
-                cap.machine,
-                cap.tool,
-                cap.seconds / 60.0
-            ),
-            (PX, 46),
-            17,
-            &INK,
-        )?;
-
-        // The plate.
-        root.draw(&Rectangle::new(
-            [(PX, PY), (PX + SIDE, PY + SIDE)],
-            ShapeStyle::from(&INK).stroke_width(1),
-        ))
-        .map_err(pe)?;
-        // Travel between cuts (rapids above the plate), from and back to X0 Y0.
-        let mut at = [0.0, 0.0];
-        for b in blocks {
-            root.draw(&PathElement::new(vec![to(at), to(xy(&b.path[0]))], TRAVEL))
-                .map_err(pe)?;
-            at = xy(&b.path[b.path.len() - 1]);
-        }
-        root.draw(&PathElement::new(vec![to(at), to([0.0, 0.0])], TRAVEL))
-            .map_err(pe)?;
-        // Cuts by depth.
-        for b in &cuts {
-            let c = colour(depth(b), lo, hi);
-            let pts: Vec<(i32, i32)> = b.path.iter().map(|p| to(xy(p))).collect();
-            root.draw(&PathElement::new(pts, ShapeStyle::from(&c).stroke_width(2)))
-                .map_err(pe)?;
-        }
-        // The work zero.
-        let z = to([0.0, 0.0]);
-        root.draw(&PathElement::new(vec![(z.0 - 6, z.1), (z.0 + 6, z.1)], INK))
-            .map_err(pe)?;
-        root.draw(&PathElement::new(vec![(z.0, z.1 - 6), (z.0, z.1 + 6)], INK))
-            .map_err(pe)?;
-        // First and last cut.
-        if let (Some(f), Some(l)) = (cuts.first(), cuts.last()) {
-            let p = to(xy(&f.path[0]));
-            root.draw(&Circle::new(p, 7, ShapeStyle::from(&FIRST).stroke_width(3)))
-                .map_err(pe)?;
-            label(&format!("first ({})", f.label), (p.0 + 10, p.1 - 24), &FIRST)?;
-            let q = to(xy(&l.path[l.path.len() - 1]));
-            root.draw(&Rectangle::new(
-                [(q.0 - 6, q.1 - 6), (q.0 + 6, q.1 + 6)],
-                ShapeStyle::from(&LAST).stroke_width(3),
-            ))
-            .map_err(pe)?;
-            label(&format!("last ({})", l.label), (q.0 + 10, q.1 + 6), &LAST)?;
-        }
-        // The +x mark: thick, with an arrow head pointing +x.
-        for b in blocks.iter().filter(|b| b.label == Label::Mark) {
-            let (a, e) = (to(xy(&b.path[0])), to(xy(&b.path[b.path.len() - 1])));
-            root.draw(&PathElement::new(vec![a, e], ShapeStyle::from(&BLACK).stroke_width(4)))
-                .map_err(pe)?;
-            for dy in [-9, 9] {
-                root.draw(&PathElement::new(
-                    vec![e, (e.0 - 9, e.1 + dy)],
-                    ShapeStyle::from(&BLACK).stroke_width(3),
-                ))
-                .map_err(pe)?;
-            }
-            label("+x mark", (a.0 - 20, a.1 + 12), &BLACK)?;
-        }
-        // Axes beside the plate: +x to the right, +y up.
-        let (ax, ay) = (PX + SIDE + 12, PY + SIDE);
-        root.draw(&PathElement::new(
-            vec![(ax, ay), (ax + 40, ay)],
-            ShapeStyle::from(&INK).stroke_width(2),
-        ))
-        .map_err(pe)?;
-        root.draw(&PathElement::new(
-            vec![(ax, ay), (ax, ay - 40)],
-            ShapeStyle::from(&INK).stroke_width(2),
-        ))
-        .map_err(pe)?;
-        text("+x", (ax + 44, ay - 8), 15, &INK)?;
-        text("+y", (ax - 8, ay - 60), 15, &INK)?;
-        // Scale bar under the plate.
-        let bar = scale_bar_mm(plate_mm);
-        let len = (bar / plate_mm * SIDE as f64).round() as i32;
-        let (bx, by) = (PX, PY + SIDE + 24);
-        root.draw(&Rectangle::new([(bx, by), (bx + len, by + 6)], BLACK.filled()))
-            .map_err(pe)?;
-        text(&format!("{bar} mm"), (bx + len + 10, by - 6), 16, &BLACK)?;
-        text(
-            "X0 Y0 (cross) at the plate centre; Z0 on its surface",
-            (bx + len + 100, by - 6),
-            15,
-            &INK,
-        )?;
-
-        // Legend: the depth colours.
-        let (lx, ly) = (PX + SIDE + 110, PY + 10);
-        text("commanded depth", (lx, ly), 17, &BLACK)?;
-        text("below the surface", (lx, ly + 20), 15, &INK)?;
-        let (cy0, ch, cw) = (ly + 50, 300, 26);
-        for k in 0..ch {
-            let t = 1.0 - k as f64 / (ch - 1) as f64;
-            let c = if hi - lo < 1e-12 {
-                colour(lo, lo, hi)
-            } else {
-                colour(lo + t * (hi - lo), lo, hi)
-            };
-            root.draw(&PathElement::new(vec![(lx, cy0 + k), (lx + cw, cy0 + k)], c))
-                .map_err(pe)?;
-        }
-        root.draw(&Rectangle::new([(lx, cy0), (lx + cw, cy0 + ch)], INK))
-            .map_err(pe)?;
-        let ticks = if hi - lo < 1e-12 { 1 } else { 5 };
-        for i in 0..ticks {
-            let t = if ticks == 1 { 0.5 } else { i as f64 / (ticks - 1) as f64 };
-            let v = hi - t * (hi - lo);
-            let y = cy0 + (t * (ch - 1) as f64).round() as i32;
-            root.draw(&PathElement::new(vec![(lx + cw, y), (lx + cw + 6, y)], INK))
-                .map_err(pe)?;
-            text(&format!("{:.1} um", 1000.0 * v), (lx + cw + 10, y - 8), 15, &INK)?;
-        }
-        // Keys.
-        let mut ky = cy0 + ch + 40;
-        let key_line = |y: i32, c: RGBColor, w: u32| {
-            root.draw(&PathElement::new(
-                vec![(lx, y), (lx + 30, y)],
-                ShapeStyle::from(&c).stroke_width(w),
-            ))
-            .map_err(pe)
-        };
-        key_line(ky, TRAVEL, 1)?;
-        text("travel between cuts (above the plate)", (lx + 38, ky - 8), 15, &INK)?;
-        ky += 28;
-        root.draw(&Circle::new((lx + 15, ky), 7, ShapeStyle::from(&FIRST).stroke_width(3)))
-            .map_err(pe)?;
-        text("first cut (its start)", (lx + 38, ky - 8), 15, &INK)?;
-        ky += 28;
-        root.draw(&Rectangle::new(
-            [(lx + 9, ky - 6), (lx + 21, ky + 6)],
-            ShapeStyle::from(&LAST).stroke_width(3),
-        ))
-        .map_err(pe)?;
-        text("last cut (its end)", (lx + 38, ky - 8), 15, &INK)?;
-        ky += 28;
-        key_line(ky, BLACK, 4)?;
-        text("+x mark: the plate edge facing +x", (lx + 38, ky - 8), 15, &INK)?;
-        ky += 40;
-        text(&format!("{} cuts in this order;", cuts.len()), (lx, ky), 15, &INK)?;
-        text("labels: the design's scratch numbers", (lx, ky + 20), 15, &INK)?;
+        draw_title(&pic, cap, cuts.len())?;
+        draw_plate(&pic, blocks, &cuts, (lo, hi))?;
+        draw_axes_and_scale(&pic)?;
+        draw_legend(&pic, cuts.len(), (lo, hi))?;
         root.present().map_err(pe)?;
     }
     scratchart::io::write_png_rgb(path, W, H, &buf)?;
     Ok(())
+}
+
+/// The title: the plan, the number of cuts, the machine, the tool and the time.
+fn draw_title(pic: &Picture, cap: &Caption, cuts: usize) -> Result<()> {
+    pic.text(
+        &format!(
+            "{}: {} cuts on a {} mm plate, seen from above",
+            cap.plan, cuts, pic.plate_mm
+        ),
+        (PX, 12),
+        24,
+        &BLACK,
+    )?;
+    pic.text(
+        &format!(
+            "machine: {}   tool: {}   estimated time: {:.1} min",
+            cap.machine,
+            cap.tool,
+            cap.seconds / 60.0
+        ),
+        (PX, 46),
+        17,
+        &INK,
+    )
+}
+
+/// The plate seen from above: travel between cuts, the cuts coloured by depth (`lo..hi`), the
+/// work zero, the first and the last cut, and the +x mark.
+fn draw_plate(pic: &Picture, blocks: &[Block], cuts: &[&Block], (lo, hi): (f64, f64)) -> Result<()> {
+    let root = pic.root;
+    root.draw(&Rectangle::new(
+        [(PX, PY), (PX + SIDE, PY + SIDE)],
+        ShapeStyle::from(&INK).stroke_width(1),
+    ))
+    .map_err(pe)?;
+    // Travel between cuts (rapids above the plate), from and back to X0 Y0.
+    let mut at = [0.0, 0.0];
+    for b in blocks {
+        pic.line(vec![pic.to(at), pic.to(xy(&b.path[0]))], TRAVEL.into())?;
+        at = xy(&b.path[b.path.len() - 1]);
+    }
+    pic.line(vec![pic.to(at), pic.to([0.0, 0.0])], TRAVEL.into())?;
+    // Cuts by depth.
+    for b in cuts {
+        let c = colour(depth(b), lo, hi);
+        let pts: Vec<(i32, i32)> = b.path.iter().map(|p| pic.to(xy(p))).collect();
+        pic.line(pts, ShapeStyle::from(&c).stroke_width(2))?;
+    }
+    // The work zero.
+    let z = pic.to([0.0, 0.0]);
+    pic.line(vec![(z.0 - 6, z.1), (z.0 + 6, z.1)], INK.into())?;
+    pic.line(vec![(z.0, z.1 - 6), (z.0, z.1 + 6)], INK.into())?;
+    // First and last cut.
+    if let (Some(f), Some(l)) = (cuts.first(), cuts.last()) {
+        let p = pic.to(xy(&f.path[0]));
+        root.draw(&Circle::new(p, 7, ShapeStyle::from(&FIRST).stroke_width(3)))
+            .map_err(pe)?;
+        pic.label(&format!("first ({})", f.label), (p.0 + 10, p.1 - 24), &FIRST)?;
+        let q = pic.to(xy(&l.path[l.path.len() - 1]));
+        root.draw(&Rectangle::new(
+            [(q.0 - 6, q.1 - 6), (q.0 + 6, q.1 + 6)],
+            ShapeStyle::from(&LAST).stroke_width(3),
+        ))
+        .map_err(pe)?;
+        pic.label(&format!("last ({})", l.label), (q.0 + 10, q.1 + 6), &LAST)?;
+    }
+    // The +x mark: thick, with an arrow head pointing +x.
+    for b in blocks.iter().filter(|b| b.label == Label::Mark) {
+        let (a, e) = (pic.to(xy(&b.path[0])), pic.to(xy(&b.path[b.path.len() - 1])));
+        pic.line(vec![a, e], ShapeStyle::from(&BLACK).stroke_width(4))?;
+        for dy in [-9, 9] {
+            pic.line(vec![e, (e.0 - 9, e.1 + dy)], ShapeStyle::from(&BLACK).stroke_width(3))?;
+        }
+        pic.label("+x mark", (a.0 - 20, a.1 + 12), &BLACK)?;
+    }
+    Ok(())
+}
+
+/// Axes beside the plate (+x to the right, +y up) and a scale bar under it.
+fn draw_axes_and_scale(pic: &Picture) -> Result<()> {
+    let (ax, ay) = (PX + SIDE + 12, PY + SIDE);
+    pic.line(vec![(ax, ay), (ax + 40, ay)], ShapeStyle::from(&INK).stroke_width(2))?;
+    pic.line(vec![(ax, ay), (ax, ay - 40)], ShapeStyle::from(&INK).stroke_width(2))?;
+    pic.text("+x", (ax + 44, ay - 8), 15, &INK)?;
+    pic.text("+y", (ax - 8, ay - 60), 15, &INK)?;
+    let bar = scale_bar_mm(pic.plate_mm);
+    let len = (bar / pic.plate_mm * SIDE as f64).round() as i32;
+    let (bx, by) = (PX, PY + SIDE + 24);
+    pic.root
+        .draw(&Rectangle::new([(bx, by), (bx + len, by + 6)], BLACK.filled()))
+        .map_err(pe)?;
+    pic.text(&format!("{bar} mm"), (bx + len + 10, by - 6), 16, &BLACK)?;
+    pic.text(
+        "X0 Y0 (cross) at the plate centre; Z0 on its surface",
+        (bx + len + 100, by - 6),
+        15,
+        &INK,
+    )
+}
+
+/// The legend right of the plate: the depth colours over `lo..hi` with ticks in um, then the
+/// keys of travel, first and last cut and the mark.
+fn draw_legend(pic: &Picture, cuts: usize, (lo, hi): (f64, f64)) -> Result<()> {
+    let root = pic.root;
+    let (lx, ly) = (PX + SIDE + 110, PY + 10);
+    pic.text("commanded depth", (lx, ly), 17, &BLACK)?;
+    pic.text("below the surface", (lx, ly + 20), 15, &INK)?;
+    let (cy0, ch, cw) = (ly + 50, 300, 26);
+    for k in 0..ch {
+        let t = 1.0 - k as f64 / (ch - 1) as f64;
+        let c = if hi - lo < 1e-12 {
+            colour(lo, lo, hi)
+        } else {
+            colour(lo + t * (hi - lo), lo, hi)
+        };
+        pic.line(vec![(lx, cy0 + k), (lx + cw, cy0 + k)], c.into())?;
+    }
+    root.draw(&Rectangle::new([(lx, cy0), (lx + cw, cy0 + ch)], INK))
+        .map_err(pe)?;
+    let ticks = if hi - lo < 1e-12 { 1 } else { 5 };
+    for i in 0..ticks {
+        let t = if ticks == 1 { 0.5 } else { i as f64 / (ticks - 1) as f64 };
+        let v = hi - t * (hi - lo);
+        let y = cy0 + (t * (ch - 1) as f64).round() as i32;
+        pic.line(vec![(lx + cw, y), (lx + cw + 6, y)], INK.into())?;
+        pic.text(&format!("{:.1} um", 1000.0 * v), (lx + cw + 10, y - 8), 15, &INK)?;
+    }
+    // Keys.
+    let mut ky = cy0 + ch + 40;
+    let key_line =
+        |y: i32, c: RGBColor, w: u32| pic.line(vec![(lx, y), (lx + 30, y)], ShapeStyle::from(&c).stroke_width(w));
+    key_line(ky, TRAVEL, 1)?;
+    pic.text("travel between cuts (above the plate)", (lx + 38, ky - 8), 15, &INK)?;
+    ky += 28;
+    root.draw(&Circle::new((lx + 15, ky), 7, ShapeStyle::from(&FIRST).stroke_width(3)))
+        .map_err(pe)?;
+    pic.text("first cut (its start)", (lx + 38, ky - 8), 15, &INK)?;
+    ky += 28;
+    root.draw(&Rectangle::new(
+        [(lx + 9, ky - 6), (lx + 21, ky + 6)],
+        ShapeStyle::from(&LAST).stroke_width(3),
+    ))
+    .map_err(pe)?;
+    pic.text("last cut (its end)", (lx + 38, ky - 8), 15, &INK)?;
+    ky += 28;
+    key_line(ky, BLACK, 4)?;
+    pic.text("+x mark: the plate edge facing +x", (lx + 38, ky - 8), 15, &INK)?;
+    ky += 40;
+    pic.text(&format!("{cuts} cuts in this order;"), (lx, ky), 15, &INK)?;
+    pic.text("labels: the design's scratch numbers", (lx, ky + 20), 15, &INK)
 }
 
 #[cfg(test)]
