@@ -199,72 +199,10 @@ fn carve_on(opts: &Options, control: &Control, obs: &dyn Observer) -> Result<Sum
     if opts.check {
         check_run(&mut link, ctl.as_mut(), &program, control, obs)?;
     }
-    // The job's time on this machine, by its own rates (before anything moves).
-    let timing = ctl
-        .kinematics()
-        .or_else(|| opts.profile.as_ref().map(Kinematics::of_profile))
-        .map(|k| (program.timing(&k), k.source));
-    match &timing {
-        Some((t, source)) => obs.note(&format!(
-            "job time on this machine: {} for cuts {} to {total} (by {source}, at the feeds the \
-             plan commands{})",
-            clock(t.from(from)),
-            from + 1,
-            program.estimate_min.map_or(String::new(), |m| format!(
-                "; the plan's own estimate, for its profile, was {m} min"
-            ))
-        )),
-        None => obs.note(
-            "job time: the controller does not report its rates and no --machine-file was given; \
-             the progress estimates it from the pace",
-        ),
-    }
-    let question = if opts.resume {
-        format!(
-            "resume {} at cut {} of {total} ({}) on {}?",
-            opts.plan.display(),
-            from + 1,
-            program.blocks[from.min(total.saturating_sub(1))].label,
-            opts.port
-        )
-    } else {
-        format!(
-            "carve {} ({total} scratches) on {}? The work zero must be set: X0 Y0 at the plate \
-             centre, Z0 on its surface",
-            opts.plan.display(),
-            opts.port
-        )
-    };
-    // (a dry run moves nothing: no question)
-    if opts.port != SIM_PORT && !obs.confirm(&question) {
-        return Err(CarveError::Stopped("not started: the answer was no".into()));
-    }
+    let timing = job_time(opts, ctl.as_ref(), &program, from, obs);
+    ask_to_start(opts, &program, from, obs)?;
     if opts.resume {
-        let did = ctl
-            .rezero(&mut link, opts.rezero, safe_z, feed_of(&program))
-            .map_err(fault)?;
-        obs.note(&format!("re-established the position: {did}"));
-        if opts.rezero == Rezero::Keep {
-            obs.note(&format!(
-                "--rezero keep: no reset, alarm or quickstop was seen since the last acknowledged \
-                 line, so the controller's work offset is trusted. If the machine lost its position \
-                 all the same (a power cut while the port was closed), stop now (Ctrl-C) and run: {} \
-                 --rezero home",
-                opts.resume_command
-            ));
-        } else {
-            journal.position_lost = None;
-        }
-        obs.note(&format!(
-            "resuming at cut {} of {total} ({}; the last acknowledged was cut {}{}; up to \
-             {RESUME_OVERLAP} cuts before it are cut again so that none is skipped)",
-            from + 1,
-            program.blocks[from.min(total.saturating_sub(1))].label,
-            journal.last_acked.map_or(0, |k| k + 1),
-            journal
-                .last_acked_scratch
-                .map_or(String::new(), |n| format!(", scratch {n}"))
-        ));
+        rezero_for_resume(opts, &mut link, ctl.as_mut(), &mut journal, &program, from, obs).map_err(fault)?;
     }
 
     let lines = program.lines_from(from);
@@ -286,22 +224,8 @@ fn carve_on(opts: &Options, control: &Control, obs: &dyn Observer) -> Result<Sum
                 }
                 last_save = Instant::now();
             }
-            let run = (b + 1 - from) as f64;
             let elapsed = t0.elapsed().as_secs_f64();
-            let eta = match &timing {
-                // The machine's model for what is left, scaled by how the job keeps to it.
-                Some((t, _)) => {
-                    let left = t.blocks[b + 1..].iter().sum::<f64>() + t.postamble;
-                    let done = t.preamble + t.blocks[from..=b].iter().sum::<f64>();
-                    let pace = if elapsed > 5.0 && done > 0.0 {
-                        (elapsed / done).clamp(0.2, 5.0)
-                    } else {
-                        1.0
-                    };
-                    left * pace
-                }
-                None => elapsed / run * (total - b - 1) as f64,
-            };
+            let eta = eta_s(timing.as_ref().map(|(t, _)| t), from, b, total, elapsed);
             obs.progress(&Progress {
                 done: b + 1,
                 total,
@@ -325,24 +249,7 @@ fn carve_on(opts: &Options, control: &Control, obs: &dyn Observer) -> Result<Sum
         None => {
             journal.state = "done".into();
             journal.save(&opts.journal).map_err(stopped)?;
-            let dry_run = sim.map(|fake| {
-                let r = fake.record();
-                format!(
-                    "dry run: the simulated {} executed {} motion lines; it ends at X{:.3} Y{:.3} \
-                     Z{:.3}; {}; the job would take {} on a machine with these rates",
-                    ctl.describe(),
-                    r.executed.len(),
-                    r.pos[0],
-                    r.pos[1],
-                    r.pos[2],
-                    if r.overflows.is_empty() {
-                        "its receive buffer never overflowed".to_string()
-                    } else {
-                        format!("its receive buffer overflowed {} times", r.overflows.len())
-                    },
-                    timing.as_ref().map_or("?".into(), |(t, _)| clock(t.from(from)))
-                )
-            });
+            let dry_run = sim.map(|fake| dry_run_note(&fake, ctl.as_ref(), timing.as_ref().map(|(t, _)| t), from));
             Ok(Summary {
                 dry_run,
                 controller: ctl.describe(),
@@ -361,6 +268,148 @@ fn carve_on(opts: &Options, control: &Control, obs: &dyn Observer) -> Result<Sum
             Err(e)
         }
     }
+}
+
+/// The job's time on this machine, by its own rates (the controller's, else the profile's),
+/// noted before anything moves; `None` where neither gives rates.
+fn job_time(
+    opts: &Options,
+    ctl: &dyn Controller,
+    program: &Program,
+    from: usize,
+    obs: &dyn Observer,
+) -> Option<(crate::program::Timing, String)> {
+    let total = program.blocks.len();
+    let timing = ctl
+        .kinematics()
+        .or_else(|| opts.profile.as_ref().map(Kinematics::of_profile))
+        .map(|k| (program.timing(&k), k.source));
+    match &timing {
+        Some((t, source)) => obs.note(&format!(
+            "job time on this machine: {} for cuts {} to {total} (by {source}, at the feeds the \
+             plan commands{})",
+            clock(t.from(from)),
+            from + 1,
+            program.estimate_min.map_or(String::new(), |m| format!(
+                "; the plan's own estimate, for its profile, was {m} min"
+            ))
+        )),
+        None => obs.note(
+            "job time: the controller does not report its rates and no --machine-file was given; \
+             the progress estimates it from the pace",
+        ),
+    }
+    timing
+}
+
+/// Asks the maker to start (or resume) the job; a dry run moves nothing and asks nothing.
+fn ask_to_start(opts: &Options, program: &Program, from: usize, obs: &dyn Observer) -> Result<(), CarveError> {
+    let total = program.blocks.len();
+    let question = if opts.resume {
+        format!(
+            "resume {} at cut {} of {total} ({}) on {}?",
+            opts.plan.display(),
+            from + 1,
+            program.blocks[from.min(total.saturating_sub(1))].label,
+            opts.port
+        )
+    } else {
+        format!(
+            "carve {} ({total} scratches) on {}? The work zero must be set: X0 Y0 at the plate \
+             centre, Z0 on its surface",
+            opts.plan.display(),
+            opts.port
+        )
+    };
+    // (a dry run moves nothing: no question)
+    if opts.port != SIM_PORT && !obs.confirm(&question) {
+        return Err(CarveError::Stopped("not started: the answer was no".into()));
+    }
+    Ok(())
+}
+
+/// Before a resumed job: the position re-established as `--rezero` says, and what was done and
+/// from which cut the job goes on noted for the maker.
+fn rezero_for_resume(
+    opts: &Options,
+    link: &mut Link,
+    ctl: &mut dyn Controller,
+    journal: &mut Journal,
+    program: &Program,
+    from: usize,
+    obs: &dyn Observer,
+) -> Result<(), Fault> {
+    let total = program.blocks.len();
+    let did = ctl.rezero(link, opts.rezero, program.max_z, feed_of(program))?;
+    obs.note(&format!("re-established the position: {did}"));
+    if opts.rezero == Rezero::Keep {
+        obs.note(&format!(
+            "--rezero keep: no reset, alarm or quickstop was seen since the last acknowledged \
+             line, so the controller's work offset is trusted. If the machine lost its position \
+             all the same (a power cut while the port was closed), stop now (Ctrl-C) and run: {} \
+             --rezero home",
+            opts.resume_command
+        ));
+    } else {
+        journal.position_lost = None;
+    }
+    obs.note(&format!(
+        "resuming at cut {} of {total} ({}; the last acknowledged was cut {}{}; up to \
+         {RESUME_OVERLAP} cuts before it are cut again so that none is skipped)",
+        from + 1,
+        program.blocks[from.min(total.saturating_sub(1))].label,
+        journal.last_acked.map_or(0, |k| k + 1),
+        journal
+            .last_acked_scratch
+            .map_or(String::new(), |n| format!(", scratch {n}"))
+    ));
+    Ok(())
+}
+
+/// Seconds left after block `b` of a job run from block `from`, `elapsed` seconds in: the
+/// machine's model for what is left scaled by how the job keeps to it, or without a model the
+/// pace so far.
+fn eta_s(timing: Option<&crate::program::Timing>, from: usize, b: usize, total: usize, elapsed: f64) -> f64 {
+    let run = (b + 1 - from) as f64;
+    match timing {
+        // The machine's model for what is left, scaled by how the job keeps to it.
+        Some(t) => {
+            let left = t.blocks[b + 1..].iter().sum::<f64>() + t.postamble;
+            let done = t.preamble + t.blocks[from..=b].iter().sum::<f64>();
+            let pace = if elapsed > 5.0 && done > 0.0 {
+                (elapsed / done).clamp(0.2, 5.0)
+            } else {
+                1.0
+            };
+            left * pace
+        }
+        None => elapsed / run * (total - b - 1) as f64,
+    }
+}
+
+/// What a dry run's simulated controller did, for the summary.
+fn dry_run_note(
+    fake: &crate::fake::Fake,
+    ctl: &dyn Controller,
+    timing: Option<&crate::program::Timing>,
+    from: usize,
+) -> String {
+    let r = fake.record();
+    format!(
+        "dry run: the simulated {} executed {} motion lines; it ends at X{:.3} Y{:.3} \
+             Z{:.3}; {}; the job would take {} on a machine with these rates",
+        ctl.describe(),
+        r.executed.len(),
+        r.pos[0],
+        r.pos[1],
+        r.pos[2],
+        if r.overflows.is_empty() {
+            "its receive buffer never overflowed".to_string()
+        } else {
+            format!("its receive buffer overflowed {} times", r.overflows.len())
+        },
+        timing.map_or("?".into(), |t| clock(t.from(from)))
+    )
 }
 
 /// Seconds as `H:MM:SS`.

@@ -330,32 +330,7 @@ pub fn run_design_live(
     let slots = crate::render::layout::view_slots(&problem.scene);
     let loss = Loss::new(ctx, &slots.views, &problem.targets, cfg.loss)?;
     let mut opt = Optimizer::new(&renderer, &loss, problem, cfg)?;
-    let resumed_from = if cfg.resume {
-        opt.resume()?;
-        if opt.next_iter() > cfg.iters {
-            return Err(OptimError::Usage(format!(
-                "the checkpoint in `{}` is at iteration {}, beyond --iters {}; resume with --iters {} or more",
-                cfg.out.display(),
-                opt.next_iter(),
-                cfg.iters,
-                opt.next_iter()
-            )));
-        }
-        let held = opt.driver.times_resized();
-        let listed = cfg.steer.iter().filter(|e| e.resizes()).count() as u32;
-        if held > listed {
-            obs.warn(&format!(
-                "the saved run added or removed scratches {held} time(s) ({} scratches now), and --steer lists {listed} such change(s): the design continues from the checkpoint as it is, but its summary.json will not list them; give --steer with the live design's summary.json to keep the record whole",
-                opt.driver.gs.n_scratches()
-            ));
-        }
-        Some(opt.next_iter())
-    } else {
-        if cfg.calibrate_lights {
-            opt.calibrate_lights(&problem.scene, &problem.targets)?;
-        }
-        None
-    };
+    let resumed_from = start_or_resume(&mut opt, problem, cfg, obs)?;
     let (initial_images, _) = opt.render()?;
     let t_loop = std::time::Instant::now();
     let mut work = problem.clone();
@@ -363,42 +338,9 @@ pub fn run_design_live(
     // From here on the problem is the steered one (the targets the loss ended with).
     let problem = &work;
     let t_loop_end = std::time::Instant::now();
-    // Within a machine (`design --machine`): every commanded depth on its Z grid. The optimizer's
-    // range already starts at the shallowest trusted cut and ends on the grid; this moves each
-    // depth by at most half a step, before pruning and the final evaluation judge the design.
-    let mut snap: Option<(usize, f64, f32, usize)> = None;
-    if let (Some(t), Some(fab)) = (&opt.tool, &cfg.tool) {
-        if let Some(limits) = &fab.machine {
-            let before = opt.loss()?.total;
-            let z = t.depths(ctx)?;
-            let snapped: Vec<f32> = z.iter().map(|&v| limits.snap(v as f64, &fab.table) as f32).collect();
-            let moved = z.iter().zip(&snapped).filter(|(a, b)| a != b).count();
-            let largest = z
-                .iter()
-                .zip(&snapped)
-                .map(|(a, b)| (*a as f64 - *b as f64).abs())
-                .fold(0.0, f64::max);
-            t.set_depths(ctx, &snapped)?;
-            t.apply(ctx, &opt.driver.gs)?;
-            snap = Some((moved, largest, before, z.len()));
-        }
-    }
+    let snap = snap_depths_to_machine(ctx, &opt, cfg)?;
     let unpruned = opt.scene(&problem.scene)?;
-    let limits = cfg
-        .tool
-        .as_ref()
-        .and_then(|f| f.machine.as_ref().map(|m| (m, &f.table)));
-    let depths = match &opt.tool {
-        // Within a machine, each depth as the grid's own f64 value (the GPU holds it in f32:
-        // 0.02 mm would be written 0.0199999996).
-        Some(t) => Some(
-            t.depths(ctx)?
-                .iter()
-                .map(|&z| limits.map_or(z as f64, |(m, table)| m.snap(z as f64, table)))
-                .collect::<Vec<f64>>(),
-        ),
-        None => None,
-    };
+    let depths = commanded_depths(ctx, &opt, cfg)?;
     let st = &opt.driver.stats;
     let evals = st.evals.max(1) as f64;
     let mean_pairs = st.pairs_sum / evals;
@@ -448,65 +390,161 @@ pub fn run_design_live(
         },
     };
     if cfg.write_outputs {
-        // A walk's in-between views were in the loss; the design's files hold its design views.
-        let (wp, wr) = super::walk::design_views_only(problem, &report);
-        let mut summary = super::report::write_outputs(&cfg.out, &wp, cfg, &wr)?;
-        if let (Some(fab), Some(z)) = (&cfg.tool, &report.depths) {
-            // The design again, with each scratch's commanded depth as the CSV's column `z_mm`.
-            let mut extra = crate::model::scene::Extra::default();
-            extra.set_column("z_mm", z);
-            wr.scene
-                .save_extra(&cfg.out.join("design.json"), "scratches.csv", &extra)
-                .map_err(|e| OptimError::Report(e.to_string()))?;
-            summary["fabrication"] = fab.summary(z);
-            if let Some(limits) = &fab.machine {
-                summary["machine"] = machine_summary(limits, fab, &wr.scene, z, snap, report.final_loss.total);
-                if cfg.carvings > 0 {
-                    summary["machine_error"] = machine_error(&renderer, &wp, cfg, fab, limits, &wr.scene, z)?;
-                }
-            }
-        }
-        let probe_corr = match &problem.walk {
-            Some(w) => super::walk::judge_probes(&renderer, &report.scene, w, cfg.loss.sigma)?,
-            None => Vec::new(),
-        };
-        if let Some((walk, corr)) =
-            super::walk::walk_summary(problem, &report.final_images, &probe_corr, cfg.loss.sigma)
-        {
-            summary["walk"] = walk;
-            super::walk::walk_plot_png(&cfg.out.join("walk.png"), problem, &corr, &probe_corr)?;
-            super::walk::walk_sheet_png(&cfg.out.join("walk_sheet.png"), problem, &report.final_images)?;
-        }
-        // Where the lamp and the viewers go, and how precisely (setup.txt, setup.png).
-        // Its inputs go beside the design first, so `scratchart setup` computes the same sheet.
-        let inputs = super::setup::SheetInputs {
-            targets: wp.targets.clone(),
-            pictures: wp.pictures.clone(),
-            sigma: cfg.loss.sigma,
-            blank_views: cfg.blank_views.clone(),
-        };
-        inputs.save(&cfg.out, &wr.scene)?;
-        let (setup, sensitivity, advice) = super::setup::write_setup(&cfg.out, &renderer, &wr.scene, &inputs)?;
-        if !problem.steering.is_empty() {
-            summary["steering"] = json!(problem.steering);
-            summary["steering_is"] =
-                json!("what was changed while the design ran (pictures moved, loss weights, scratches added or removed): `scratchart design [the same flags] --steer summary.json` replays it");
-        }
-        summary["blank_views"] = json!(cfg.blank_views);
-        summary["setup"] = setup;
-        summary["sensitivity"] = sensitivity;
-        summary["setup_advice"] = json!(advice);
-        report.wall.reports = t_pruned.elapsed().as_secs_f64();
-        summary["wall_s"] = report.wall.to_json();
-        crate::io::write_atomic(
-            &cfg.out.join("summary.json"),
-            serde_json::to_string_pretty(&summary)
-                .expect("the summary always serializes")
-                .as_bytes(),
-        )?;
-        report.summary = Some(summary);
+        write_design_outputs(&renderer, problem, cfg, &mut report, snap, t_pruned)?;
     }
     Ok(report)
+}
+
+/// Each scratch's commanded depth (mm) where the design has a tool; within a machine, as the
+/// grid's own f64 value (the GPU holds it in f32: 0.02 mm would be written 0.0199999996).
+fn commanded_depths(ctx: &Arc<Context>, opt: &Optimizer, cfg: &DesignConfig) -> Result<Option<Vec<f64>>, OptimError> {
+    let limits = cfg
+        .tool
+        .as_ref()
+        .and_then(|f| f.machine.as_ref().map(|m| (m, &f.table)));
+    Ok(match &opt.tool {
+        Some(t) => Some(
+            t.depths(ctx)?
+                .iter()
+                .map(|&z| limits.map_or(z as f64, |(m, table)| m.snap(z as f64, table)))
+                .collect::<Vec<f64>>(),
+        ),
+        None => None,
+    })
+}
+
+/// A new run's start (the lights calibrated when asked) or a resumed one's: the checkpoint
+/// loaded, its iteration checked against `--iters`, and a warning where the saved run changed
+/// its scratches more often than `--steer` lists. Returns the iteration resumed from.
+fn start_or_resume(
+    opt: &mut Optimizer,
+    problem: &Problem,
+    cfg: &DesignConfig,
+    obs: &dyn Observer,
+) -> Result<Option<u32>, OptimError> {
+    if !cfg.resume {
+        if cfg.calibrate_lights {
+            opt.calibrate_lights(&problem.scene, &problem.targets)?;
+        }
+        return Ok(None);
+    }
+    opt.resume()?;
+    if opt.next_iter() > cfg.iters {
+        return Err(OptimError::Usage(format!(
+            "the checkpoint in `{}` is at iteration {}, beyond --iters {}; resume with --iters {} or more",
+            cfg.out.display(),
+            opt.next_iter(),
+            cfg.iters,
+            opt.next_iter()
+        )));
+    }
+    let held = opt.driver.times_resized();
+    let listed = cfg.steer.iter().filter(|e| e.resizes()).count() as u32;
+    if held > listed {
+        obs.warn(&format!(
+            "the saved run added or removed scratches {held} time(s) ({} scratches now), and --steer lists {listed} such change(s): the design continues from the checkpoint as it is, but its summary.json will not list them; give --steer with the live design's summary.json to keep the record whole",
+            opt.driver.gs.n_scratches()
+        ));
+    }
+    Ok(Some(opt.next_iter()))
+}
+
+/// Within a machine (`design --machine`): every commanded depth on its Z grid. The optimizer's
+/// range already starts at the shallowest trusted cut and ends on the grid; this moves each
+/// depth by at most half a step, before pruning and the final evaluation judge the design.
+/// Returns (depths moved, the largest move in mm, the loss before, depths), or `None` without a
+/// machine.
+fn snap_depths_to_machine(
+    ctx: &Arc<Context>,
+    opt: &Optimizer,
+    cfg: &DesignConfig,
+) -> Result<Option<(usize, f64, f32, usize)>, OptimError> {
+    if let (Some(t), Some(fab)) = (&opt.tool, &cfg.tool) {
+        if let Some(limits) = &fab.machine {
+            let before = opt.loss()?.total;
+            let z = t.depths(ctx)?;
+            let snapped: Vec<f32> = z.iter().map(|&v| limits.snap(v as f64, &fab.table) as f32).collect();
+            let moved = z.iter().zip(&snapped).filter(|(a, b)| a != b).count();
+            let largest = z
+                .iter()
+                .zip(&snapped)
+                .map(|(a, b)| (*a as f64 - *b as f64).abs())
+                .fold(0.0, f64::max);
+            t.set_depths(ctx, &snapped)?;
+            t.apply(ctx, &opt.driver.gs)?;
+            return Ok(Some((moved, largest, before, z.len())));
+        }
+    }
+    Ok(None)
+}
+
+/// The design's files: design.json (with each scratch's commanded depth where a tool was
+/// given), the reports, the machine's summary and error, the walk's plots, the set-up sheet,
+/// and summary.json with the wall times (`reports` counted from `t_pruned`).
+fn write_design_outputs(
+    renderer: &Renderer,
+    problem: &Problem,
+    cfg: &DesignConfig,
+    report: &mut DesignReport,
+    snap: Option<(usize, f64, f32, usize)>,
+    t_pruned: std::time::Instant,
+) -> Result<(), OptimError> {
+    // A walk's in-between views were in the loss; the design's files hold its design views.
+    let (wp, wr) = super::walk::design_views_only(problem, report);
+    let mut summary = super::report::write_outputs(&cfg.out, &wp, cfg, &wr)?;
+    if let (Some(fab), Some(z)) = (&cfg.tool, &report.depths) {
+        // The design again, with each scratch's commanded depth as the CSV's column `z_mm`.
+        let mut extra = crate::model::scene::Extra::default();
+        extra.set_column("z_mm", z);
+        wr.scene
+            .save_extra(&cfg.out.join("design.json"), "scratches.csv", &extra)
+            .map_err(|e| OptimError::Report(e.to_string()))?;
+        summary["fabrication"] = fab.summary(z);
+        if let Some(limits) = &fab.machine {
+            summary["machine"] = machine_summary(limits, fab, &wr.scene, z, snap, report.final_loss.total);
+            if cfg.carvings > 0 {
+                summary["machine_error"] = machine_error(renderer, &wp, cfg, fab, limits, &wr.scene, z)?;
+            }
+        }
+    }
+    let probe_corr = match &problem.walk {
+        Some(w) => super::walk::judge_probes(renderer, &report.scene, w, cfg.loss.sigma)?,
+        None => Vec::new(),
+    };
+    if let Some((walk, corr)) = super::walk::walk_summary(problem, &report.final_images, &probe_corr, cfg.loss.sigma) {
+        summary["walk"] = walk;
+        super::walk::walk_plot_png(&cfg.out.join("walk.png"), problem, &corr, &probe_corr)?;
+        super::walk::walk_sheet_png(&cfg.out.join("walk_sheet.png"), problem, &report.final_images)?;
+    }
+    // Where the lamp and the viewers go, and how precisely (setup.txt, setup.png).
+    // Its inputs go beside the design first, so `scratchart setup` computes the same sheet.
+    let inputs = super::setup::SheetInputs {
+        targets: wp.targets.clone(),
+        pictures: wp.pictures.clone(),
+        sigma: cfg.loss.sigma,
+        blank_views: cfg.blank_views.clone(),
+    };
+    inputs.save(&cfg.out, &wr.scene)?;
+    let (setup, sensitivity, advice) = super::setup::write_setup(&cfg.out, renderer, &wr.scene, &inputs)?;
+    if !problem.steering.is_empty() {
+        summary["steering"] = json!(problem.steering);
+        summary["steering_is"] =
+            json!("what was changed while the design ran (pictures moved, loss weights, scratches added or removed): `scratchart design [the same flags] --steer summary.json` replays it");
+    }
+    summary["blank_views"] = json!(cfg.blank_views);
+    summary["setup"] = setup;
+    summary["sensitivity"] = sensitivity;
+    summary["setup_advice"] = json!(advice);
+    report.wall.reports = t_pruned.elapsed().as_secs_f64();
+    summary["wall_s"] = report.wall.to_json();
+    crate::io::write_atomic(
+        &cfg.out.join("summary.json"),
+        serde_json::to_string_pretty(&summary)
+            .expect("the summary always serializes")
+            .as_bytes(),
+    )?;
+    report.summary = Some(summary);
+    Ok(())
 }
 
 /// `summary.json`'s `machine_error`: the written design carved `cfg.carvings` times with the
