@@ -184,66 +184,14 @@ fn a_photo_design_improves_every_view() {
     let summary: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
     let design = Scene::load(&out.join("design.json")).unwrap();
-    let setup = &summary["setup"];
-    assert_eq!(setup["mark"], "+x");
-    let scratchart::model::scene::LightKind::Point { position } = design.views[0].light.kind else {
-        panic!("the test design has a point light")
-    };
-    for a in 0..3 {
-        assert!((setup["light"]["position_mm"][a].as_f64().unwrap() - position[a]).abs() < 1e-3);
-    }
-    for (k, v) in design.views.iter().enumerate() {
-        assert_eq!(setup["views"][k]["name"], v.name.as_str());
-        for a in 0..3 {
-            assert!((setup["views"][k]["eye_mm"][a].as_f64().unwrap() - v.camera.eye[a]).abs() < 1e-3);
-        }
-    }
+    setup_is_the_designs(&summary["setup"], &design);
     // The tolerances, found by search: each brackets the 90% crossing. Checked with renders made
     // here, the lamp or the eye moved on its sphere about the plate centre.
     let sens = &summary["sensitivity"];
     let tols = sens["tolerances"].as_array().unwrap();
     let renderer = Renderer::new(&ctx).unwrap();
     let corr_at = |j: usize, moved: &str, axis: &str, delta: f64| -> f64 {
-        let mut s = design.clone();
-        let v = &mut s.views[j];
-        let shift = |p: [f64; 3]| {
-            let (r, az, el) = (
-                (p[0] * p[0] + p[1] * p[1] + p[2] * p[2]).sqrt(),
-                p[1].atan2(p[0]).to_degrees(),
-                p[2].atan2(p[0].hypot(p[1])).to_degrees(),
-            );
-            let (r, az, el) = match axis {
-                "azimuth" => (r, az + delta, el),
-                "elevation" => (r, az, (el + delta).clamp(0.5, 89.9)),
-                _ => (r * (1.0 + delta), az, el),
-            };
-            let (a, e) = (az.to_radians(), el.to_radians());
-            [r * e.cos() * a.cos(), r * e.cos() * a.sin(), r * e.sin()]
-        };
-        if moved == "lamp" {
-            let scratchart::model::scene::LightKind::Point { position } = v.light.kind else {
-                unreachable!()
-            };
-            v.light.kind = scratchart::model::scene::LightKind::Point {
-                position: shift(position),
-            };
-        } else {
-            v.camera.eye = shift(v.camera.eye);
-        }
-        s.views = vec![s.views[j].clone()];
-        let mut gs = renderer.upload(&s).unwrap();
-        let img = &renderer.render(&mut gs).unwrap().images[0];
-        let disp: Vec<f32> = img
-            .iter()
-            .map(|&l| scratchart::io::display_value(l).clamp(0.0, 1.0))
-            .collect();
-        let (w, h) = (s.views[0].camera.width, s.views[0].camera.height);
-        let t: Vec<f64> = p.targets[j].iter().map(|&x| x as f64).collect();
-        scratchart::optim::measure::correlation(
-            &scratchart::optim::measure::blur3(&disp, w, h, cfg.loss.sigma),
-            &t,
-            &p.pictures[j],
-        )
+        corr_moved(&renderer, &design, &p, cfg.loss.sigma, j, (moved, axis, delta))
     };
     let mut bracketed = 0;
     for (j, v) in design.views.iter().enumerate() {
@@ -291,6 +239,77 @@ fn a_photo_design_improves_every_view() {
     );
     let _ = std::fs::remove_dir_all(&out);
     assert_no_validation(&ctx);
+}
+
+/// The set-up in summary.json places the lamp and every eye where design.json has them, to
+/// the micrometre.
+fn setup_is_the_designs(setup: &serde_json::Value, design: &Scene) {
+    assert_eq!(setup["mark"], "+x");
+    let scratchart::model::scene::LightKind::Point { position } = design.views[0].light.kind else {
+        panic!("the test design has a point light")
+    };
+    for a in 0..3 {
+        assert!((setup["light"]["position_mm"][a].as_f64().unwrap() - position[a]).abs() < 1e-3);
+    }
+    for (k, v) in design.views.iter().enumerate() {
+        assert_eq!(setup["views"][k]["name"], v.name.as_str());
+        for a in 0..3 {
+            assert!((setup["views"][k]["eye_mm"][a].as_f64().unwrap() - v.camera.eye[a]).abs() < 1e-3);
+        }
+    }
+}
+
+/// View `j` of `design` rendered with the lamp or the eye (`moved`) turned by `delta` degrees
+/// in `axis` (or moved by the share `delta` of its distance) on its sphere about the plate
+/// centre: the correlation of its blurred display image with the view's picture.
+fn corr_moved(
+    renderer: &Renderer,
+    design: &Scene,
+    p: &Problem,
+    sigma: f32,
+    j: usize,
+    (moved, axis, delta): (&str, &str, f64),
+) -> f64 {
+    let mut s = design.clone();
+    let v = &mut s.views[j];
+    let shift = |p: [f64; 3]| {
+        let (r, az, el) = (
+            (p[0] * p[0] + p[1] * p[1] + p[2] * p[2]).sqrt(),
+            p[1].atan2(p[0]).to_degrees(),
+            p[2].atan2(p[0].hypot(p[1])).to_degrees(),
+        );
+        let (r, az, el) = match axis {
+            "azimuth" => (r, az + delta, el),
+            "elevation" => (r, az, (el + delta).clamp(0.5, 89.9)),
+            _ => (r * (1.0 + delta), az, el),
+        };
+        let (a, e) = (az.to_radians(), el.to_radians());
+        [r * e.cos() * a.cos(), r * e.cos() * a.sin(), r * e.sin()]
+    };
+    if moved == "lamp" {
+        let scratchart::model::scene::LightKind::Point { position } = v.light.kind else {
+            unreachable!()
+        };
+        v.light.kind = scratchart::model::scene::LightKind::Point {
+            position: shift(position),
+        };
+    } else {
+        v.camera.eye = shift(v.camera.eye);
+    }
+    s.views = vec![s.views[j].clone()];
+    let mut gs = renderer.upload(&s).unwrap();
+    let img = &renderer.render(&mut gs).unwrap().images[0];
+    let disp: Vec<f32> = img
+        .iter()
+        .map(|&l| scratchart::io::display_value(l).clamp(0.0, 1.0))
+        .collect();
+    let (w, h) = (s.views[0].camera.width, s.views[0].camera.height);
+    let t: Vec<f64> = p.targets[j].iter().map(|&x| x as f64).collect();
+    scratchart::optim::measure::correlation(
+        &scratchart::optim::measure::blur3(&disp, w, h, sigma),
+        &t,
+        &p.pictures[j],
+    )
 }
 
 /// Awkward image files: a corrupt one is a clear error naming it; a 1x1 picture fills its

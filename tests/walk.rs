@@ -97,6 +97,17 @@ fn a_small_walk_shows_its_frames_and_their_blends_between_them() {
 
     // summary.json: each design view with its frame, each in-between view with its blend.
     let s = summary(&out);
+    check_walk_summary(&s, &text);
+    for f in ["walk.png", "walk_sheet.png"] {
+        assert!(std::fs::metadata(out.join(f)).unwrap().len() > 1000, "{f}");
+    }
+    renders_match_the_reported_correlations(&scene, &frames, &s["walk"]);
+}
+
+/// The walk of `a_small_walk_...` in summary.json: four design views each showing its frame,
+/// three in-between views showing their neighbours' blend, nine probes (`text`: the run's
+/// stdout).
+fn check_walk_summary(s: &serde_json::Value, text: &str) {
     let w = &s["walk"];
     assert_eq!(w["source"], "frames");
     assert_eq!(w["design_views"], 4);
@@ -130,12 +141,13 @@ fn a_small_walk_shows_its_frames_and_their_blends_between_them() {
         "{probes:?}"
     );
     assert!(text.contains("9 probes between the views"), "{text}");
-    for f in ["walk.png", "walk_sheet.png"] {
-        assert!(std::fs::metadata(out.join(f)).unwrap().len() > 1000, "{f}");
-    }
+}
 
-    // From design.json alone: the in-between cameras the arc puts halfway, rendered on the
-    // GPU, against the cross-fades of their neighbours' frames.
+/// From design.json alone: the in-between cameras the arc puts halfway, rendered on the GPU,
+/// against the cross-fades of their neighbours' frames; each correlation as `walk` reports it.
+fn renders_match_the_reported_correlations(scene: &Scene, frames: &[String], walk: &serde_json::Value) {
+    let views = walk["views"].as_array().unwrap();
+    let between = walk["between"].as_array().unwrap();
     let arc = WalkArc {
         arc_deg: 18.0,
         centre_azimuth_deg: 0.0,
@@ -154,7 +166,7 @@ fn a_small_walk_shows_its_frames_and_their_blends_between_them() {
     let walk = Walk {
         arc,
         source: "frames".into(),
-        frames: frames.clone(),
+        frames: frames.to_vec(),
         between: bviews.clone(),
         probes: vec![],
     };

@@ -8,7 +8,8 @@ use scratchart::model::scene::{Camera, Light, LightKind, Plate, Scene, View};
 use scratchart::render::Renderer;
 use scratchart::vulkan::{Context, ContextDesc};
 use scratchart_calibration::card::{Card, CardSpec};
-use scratchart_calibration::fit::{information, Data, Truth};
+use scratchart_calibration::fit::information::{information, Truth};
+use scratchart_calibration::fit::Data;
 use scratchart_calibration::fit_cmd::fit_mask;
 use scratchart_calibration::simulate;
 use scratchart_tool::Tool;
@@ -66,52 +67,82 @@ fn main() -> anyhow::Result<()> {
         f0: 0.91,
     };
     let d = 4.0 * card.plate_mm;
-    let captures: Vec<(String, Vec<View>)> = {
-        let p = card.plate_mm;
-        let mut c = vec![(
-            "guide: el 50, lamp quarter 35, S+W".to_string(),
-            vec![
-                view("s", p, d, -90.0, 50.0, Lamp::Quarter(35.0), res),
-                view("w", p, d, 180.0, 50.0, Lamp::Quarter(35.0), res),
-            ],
-        )];
-        for el in [25.0, 35.0, 45.0, 60.0, 75.0] {
-            c.push((
-                format!("flash el {el}, S+W"),
-                vec![
-                    view("s", p, d, -90.0, el, Lamp::Flash, res),
-                    view("w", p, d, 180.0, el, Lamp::Flash, res),
-                ],
-            ));
+    println!(
+        "res {res}, noise {noise}; each cell: the tool parameters' bounds (deg, um) [limit 0.5 deg, 2.5 um, 1.5 um]"
+    );
+    for (cname, views) in &captures(card.plate_mm, d, res) {
+        if only.as_deref().is_some_and(|o| !cname.contains(o)) {
+            continue;
         }
+        let capture = Scene {
+            plate: plate.clone(),
+            views: views.clone(),
+            scratches: vec![],
+        };
+        println!("\n== {cname}");
+        for (tname, tool) in &tools() {
+            let t0 = std::time::Instant::now();
+            let cells = bounds(&renderer, &card, &capture, tool, noise)?;
+            println!(
+                "  {tname:<11} tone fixed: {} | tone free: {}  ({:.1} s)",
+                cells[0],
+                cells[1],
+                t0.elapsed().as_secs_f64()
+            );
+        }
+    }
+    Ok(())
+}
+
+/// The candidate captures at `d` mm (views `res` pixels square), named.
+fn captures(p: f64, d: f64, res: u32) -> Vec<(String, Vec<View>)> {
+    let mut c = vec![(
+        "guide: el 50, lamp quarter 35, S+W".to_string(),
+        vec![
+            view("s", p, d, -90.0, 50.0, Lamp::Quarter(35.0), res),
+            view("w", p, d, 180.0, 50.0, Lamp::Quarter(35.0), res),
+        ],
+    )];
+    for el in [25.0, 35.0, 45.0, 60.0, 75.0] {
         c.push((
-            "flash el 30 + 60, S+W".to_string(),
+            format!("flash el {el}, S+W"),
             vec![
-                view("s", p, d, -90.0, 30.0, Lamp::Flash, res),
-                view("w", p, d, 180.0, 30.0, Lamp::Flash, res),
-                view("s2", p, d, -90.0, 60.0, Lamp::Flash, res),
-                view("w2", p, d, 180.0, 60.0, Lamp::Flash, res),
+                view("s", p, d, -90.0, el, Lamp::Flash, res),
+                view("w", p, d, 180.0, el, Lamp::Flash, res),
             ],
         ));
-        c.push((
-            "guide + flash el 30, S+W".to_string(),
-            vec![
-                view("s", p, d, -90.0, 50.0, Lamp::Quarter(35.0), res),
-                view("w", p, d, 180.0, 50.0, Lamp::Quarter(35.0), res),
-                view("s2", p, d, -90.0, 30.0, Lamp::Flash, res),
-                view("w2", p, d, 180.0, 30.0, Lamp::Flash, res),
-            ],
-        ));
-        c.push((
-            "el 50, lamp opposite 20, S+W".to_string(),
-            vec![
-                view("s", p, d, -90.0, 50.0, Lamp::Opposite(20.0), res),
-                view("w", p, d, 180.0, 50.0, Lamp::Opposite(20.0), res),
-            ],
-        ));
-        c
-    };
-    let tools: Vec<(String, Tool)> = vec![
+    }
+    c.push((
+        "flash el 30 + 60, S+W".to_string(),
+        vec![
+            view("s", p, d, -90.0, 30.0, Lamp::Flash, res),
+            view("w", p, d, 180.0, 30.0, Lamp::Flash, res),
+            view("s2", p, d, -90.0, 60.0, Lamp::Flash, res),
+            view("w2", p, d, 180.0, 60.0, Lamp::Flash, res),
+        ],
+    ));
+    c.push((
+        "guide + flash el 30, S+W".to_string(),
+        vec![
+            view("s", p, d, -90.0, 50.0, Lamp::Quarter(35.0), res),
+            view("w", p, d, 180.0, 50.0, Lamp::Quarter(35.0), res),
+            view("s2", p, d, -90.0, 30.0, Lamp::Flash, res),
+            view("w2", p, d, 180.0, 30.0, Lamp::Flash, res),
+        ],
+    ));
+    c.push((
+        "el 50, lamp opposite 20, S+W".to_string(),
+        vec![
+            view("s", p, d, -90.0, 50.0, Lamp::Opposite(20.0), res),
+            view("w", p, d, 180.0, 50.0, Lamp::Opposite(20.0), res),
+        ],
+    ));
+    c
+}
+
+/// The tools of the table, named.
+fn tools() -> Vec<(String, Tool)> {
+    vec![
         (
             "V 30".into(),
             Tool::VBit {
@@ -189,105 +220,87 @@ fn main() -> anyhow::Result<()> {
                 z_offset_mm: 0.007,
             },
         ),
-    ];
-    println!(
-        "res {res}, noise {noise}; each cell: the tool parameters' bounds (deg, um) [limit 0.5 deg, 2.5 um, 1.5 um]"
-    );
-    for (cname, views) in &captures {
-        if only.as_deref().is_some_and(|o| !cname.contains(o)) {
-            continue;
-        }
-        let capture = Scene {
-            plate: plate.clone(),
-            views: views.clone(),
-            scratches: vec![],
+    ]
+}
+
+/// One row's cells: the tool parameters' bounds for `capture` with each photo's tone curve
+/// fixed and free, each view exposed so its brightest groove pixels sit near 0.8 of full scale.
+fn bounds(renderer: &Renderer, card: &Card, capture: &Scene, tool: &Tool, noise: f64) -> anyhow::Result<Vec<String>> {
+    let cam = simulate::Camera {
+        exposure: 1.0,
+        blur_px: 0.6,
+        noise: 0.0,
+        seed: 1,
+    };
+    // Expose each view so its brightest groove pixels sit near 0.8 of full scale.
+    let raw = simulate::photos(renderer, card, capture, tool, &cam)?;
+    let masks: Vec<Vec<bool>> = capture
+        .views
+        .iter()
+        .map(|v| fit_mask(card, v, 0.5 * card.plate_mm))
+        .collect();
+    let exposure: Vec<f64> = raw
+        .iter()
+        .zip(&masks)
+        .map(|(img, m)| {
+            let mut lit: Vec<f64> = img
+                .iter()
+                .zip(m)
+                .filter(|(_, m)| **m)
+                .map(|(d, _)| (*d as f64).powf(2.2))
+                .collect();
+            lit.sort_by(f64::total_cmp);
+            let top = lit[(lit.len() as f64 * 0.998) as usize].max(1e-9);
+            0.8 / top
+        })
+        .collect();
+    let photos: Vec<Vec<f32>> = raw
+        .iter()
+        .zip(&exposure)
+        .map(|(img, e)| {
+            img.iter()
+                .map(|d| ((*d as f64).powf(2.2) * e).powf(1.0 / 2.2).min(1.0) as f32)
+                .collect()
+        })
+        .collect();
+    let n = capture.views.len();
+    let data = Data {
+        card,
+        capture,
+        photos,
+        masks,
+        refine_shift: true,
+        refine_pose: vec![false; n],
+        jpeg: vec![None; n],
+        noise: vec![0.0; n],
+        shrink: vec![1; n],
+        native_noise: vec![0.0; n],
+        colour: vec![false; n],
+        saved_jpeg: vec![None; n],
+        gains: vec![[1.0; 3]; n],
+    };
+    let mut cells = Vec::new();
+    for free_tone in [false, true] {
+        let truth = Truth {
+            tool,
+            alpha: card.alpha,
+            exposure: exposure.clone(),
+            blur_px: vec![0.6; n],
         };
-        println!("\n== {cname}");
-        for (tname, tool) in &tools {
-            let cam = simulate::Camera {
-                exposure: 1.0,
-                blur_px: 0.6,
-                noise: 0.0,
-                seed: 1,
-            };
-            // Expose each view so its brightest groove pixels sit near 0.8 of full scale.
-            let raw = simulate::photos(&renderer, &card, &capture, tool, &cam)?;
-            let masks: Vec<Vec<bool>> = capture
-                .views
-                .iter()
-                .map(|v| fit_mask(&card, v, 0.5 * card.plate_mm))
-                .collect();
-            let exposure: Vec<f64> = raw
-                .iter()
-                .zip(&masks)
-                .map(|(img, m)| {
-                    let mut lit: Vec<f64> = img
-                        .iter()
-                        .zip(m)
-                        .filter(|(_, m)| **m)
-                        .map(|(d, _)| (*d as f64).powf(2.2))
-                        .collect();
-                    lit.sort_by(f64::total_cmp);
-                    let top = lit[(lit.len() as f64 * 0.998) as usize].max(1e-9);
-                    0.8 / top
-                })
-                .collect();
-            let photos: Vec<Vec<f32>> = raw
-                .iter()
-                .zip(&exposure)
-                .map(|(img, e)| {
-                    img.iter()
-                        .map(|d| ((*d as f64).powf(2.2) * e).powf(1.0 / 2.2).min(1.0) as f32)
-                        .collect()
-                })
-                .collect();
-            let n = capture.views.len();
-            let data = Data {
-                card: &card,
-                capture: &capture,
-                photos,
-                masks,
-                refine_shift: true,
-                refine_pose: vec![false; n],
-                jpeg: vec![None; n],
-                noise: vec![0.0; n],
-                shrink: vec![1; n],
-                native_noise: vec![0.0; n],
-                colour: vec![false; n],
-                saved_jpeg: vec![None; n],
-                gains: vec![[1.0; 3]; n],
-            };
-            let t0 = std::time::Instant::now();
-            let mut cells = Vec::new();
-            for free_tone in [false, true] {
-                let truth = Truth {
-                    tool,
-                    alpha: card.alpha,
-                    exposure: exposure.clone(),
-                    blur_px: vec![0.6; n],
-                };
-                let info = information(&renderer, &data, &truth, noise, free_tone)?;
-                let n_tool = info.iter().position(|p| p.0 == "alpha").unwrap_or(0);
-                let c: Vec<String> = info[..n_tool]
-                    .iter()
-                    .map(|(name, sd)| {
-                        let scale = if name.ends_with("_mm") { 1000.0 } else { 1.0 };
-                        let short = name.trim_end_matches("_mm").trim_end_matches("_deg");
-                        match sd {
-                            Some(s) => format!("{short} {:.3}", s * scale),
-                            None => format!("{short} -"),
-                        }
-                    })
-                    .collect();
-                cells.push(c.join(", "));
-            }
-            println!(
-                "  {tname:<11} tone fixed: {} | tone free: {}  ({:.1} s)",
-                cells[0],
-                cells[1],
-                t0.elapsed().as_secs_f64()
-            );
-        }
+        let info = information(renderer, &data, &truth, noise, free_tone)?;
+        let n_tool = info.iter().position(|p| p.0 == "alpha").unwrap_or(0);
+        let c: Vec<String> = info[..n_tool]
+            .iter()
+            .map(|(name, sd)| {
+                let scale = if name.ends_with("_mm") { 1000.0 } else { 1.0 };
+                let short = name.trim_end_matches("_mm").trim_end_matches("_deg");
+                match sd {
+                    Some(s) => format!("{short} {:.3}", s * scale),
+                    None => format!("{short} -"),
+                }
+            })
+            .collect();
+        cells.push(c.join(", "));
     }
-    Ok(())
+    Ok(cells)
 }

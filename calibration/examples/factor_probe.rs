@@ -5,6 +5,9 @@
 //! `-- trialN [change...]` takes the tool and the two shots of trial N of `scratchart-cal study
 //! --seed 1` instead, and each change takes one thing out of both shots (`asis`, `novign`,
 //! `nojpeg`, `nonoise`, `nopose`, `noblur`, `nolight`, `small`), to find what biases that trial.
+use std::path::Path;
+
+use scratchart::model::scene::Scene;
 use scratchart::observe::Silent;
 use scratchart::render::Renderer;
 use scratchart::vulkan::{Context, ContextDesc};
@@ -121,96 +124,123 @@ fn main() -> anyhow::Result<()> {
     let p = dir.join("card.json");
     std::fs::write(&p, serde_json::to_string(&card.to_json(256))?)?;
     let (card, capture) = Card::load(&p)?;
-    if let Some(t) = trial {
-        // The study's draws, in its order, up to trial t.
-        let mut rng = scratchart::scenes::Rng::new(1);
-        let (mut truth, mut shots) = (None, Vec::new());
-        for i in 0..=t {
-            let kind = scratchart_calibration::fit::Kind::ALL[i % 4];
-            truth = Some((kind, scratchart_calibration::study::random_tool(&mut rng, kind, &card)));
-            shots = (0..capture.views.len())
-                .map(|_| scratchart_calibration::phone::random_shot(&mut rng, card.marks.len(), 20.0))
-                .collect::<Vec<Shot>>();
-        }
-        let (kind, truth) = truth.expect("a trial");
-        println!("truth {truth:?}");
-        for sh in &shots {
-            println!("shot {sh:?}");
-        }
-        for name in &names {
-            let mut s = shots.clone();
-            for (i, sh) in s.iter_mut().enumerate() {
-                match name.as_str() {
-                    "nojpeg0" | "nojpeg1" => {
-                        if name.ends_with(&i.to_string()) {
-                            sh.jpeg_quality = None
-                        }
-                    }
-                    "asis" => {}
-                    "novign" => sh.vignetting = 0.0,
-                    "nojpeg" => sh.jpeg_quality = None,
-                    "nonoise" => sh.noise = 0.0,
-                    "nopose" => sh.pose = Pose::default(),
-                    "noblur" => sh.blur_px = 0.5,
-                    "nolight" => {
-                        sh.exposure = 1.0;
-                        sh.cast = [1.0; 3];
-                    }
-                    "small" => sh.megapixels = 0.5,
-                    "nocast" => sh.cast = [1.0; 3],
-                    "noexp" => sh.exposure = 1.0,
-                    other => panic!("unknown change {other}"),
-                }
-            }
-            let d = dir.join(format!("{}-{name}", kind.name()));
-            let _ = std::fs::remove_dir_all(&d);
-            let mut images = Vec::new();
-            for (v, sh) in s.iter().enumerate() {
-                images.push(take(&r, &card, &capture, v, &truth, sh, &d)?.0);
-            }
-            let out = d.join("fit").join("tool.json");
-            let fa = FitArgs {
-                allow_unidentified: true,
-                ..FitArgs::quiet(&p, images, Some(kind.name()), &out)
-            };
-            let got = run(&r, &fa, &Silent);
-            let rep: serde_json::Value = std::fs::read(d.join("fit").join("tool_report.json"))
-                .ok()
-                .and_then(|b| serde_json::from_slice(&b).ok())
-                .unwrap_or_default();
-            let fitted = Tool::load_fitted(&out).ok().map(|t| t.0);
-            let err = fitted
-                .as_ref()
-                .map(|f| scratchart_calibration::study::errors(f, &truth, &card));
-            println!(
-                "{name:8} {}: errors {err:?} | {}",
-                if got.is_ok() { "accepted" } else { "refused" },
-                rep["params"]
-                    .as_array()
-                    .into_iter()
-                    .flatten()
-                    .filter(|q| {
-                        let n = q["name"].as_str().unwrap_or("");
-                        !(n.starts_with("ln_exp")
-                            || n.starts_with("registration")
-                            || n.starts_with("eye[")
-                            || n.starts_with("shade[")
-                            || n.starts_with("blur"))
-                            && q["value"].as_f64() != Some(0.0)
-                    })
-                    .map(|q| format!(
-                        "{} {:.5}+-{:.5}",
-                        q["name"].as_str().unwrap_or("?"),
-                        q["value"].as_f64().unwrap_or(f64::NAN),
-                        q["sd"].as_f64().unwrap_or(f64::NAN)
-                    ))
-                    .collect::<Vec<_>>()
-                    .join(", ")
-            );
-        }
-        return Ok(());
+    match trial {
+        Some(t) => trial_changes(t, &names, &r, &card, &capture, &p, &dir),
+        None => variants(&kind, &names, &r, &card, &capture, &p, &dir),
     }
-    let truth = match kind.as_str() {
+}
+
+/// Trial `t` of `scratchart-cal study --seed 1`, fitted once per change in `names` (each takes
+/// one thing out of both shots).
+fn trial_changes(
+    t: usize,
+    names: &[String],
+    r: &Renderer,
+    card: &Card,
+    capture: &Scene,
+    p: &Path,
+    dir: &Path,
+) -> anyhow::Result<()> {
+    // The study's draws, in its order, up to trial t.
+    let mut rng = scratchart::scenes::Rng::new(1);
+    let (mut truth, mut shots) = (None, Vec::new());
+    for i in 0..=t {
+        let kind = scratchart_calibration::fit::Kind::ALL[i % 4];
+        truth = Some((kind, scratchart_calibration::study::random_tool(&mut rng, kind, card)));
+        shots = (0..capture.views.len())
+            .map(|_| scratchart_calibration::phone::random_shot(&mut rng, card.marks.len(), 20.0))
+            .collect::<Vec<Shot>>();
+    }
+    let (kind, truth) = truth.expect("a trial");
+    println!("truth {truth:?}");
+    for sh in &shots {
+        println!("shot {sh:?}");
+    }
+    for name in names {
+        let mut s = shots.clone();
+        for (i, sh) in s.iter_mut().enumerate() {
+            match name.as_str() {
+                "nojpeg0" | "nojpeg1" => {
+                    if name.ends_with(&i.to_string()) {
+                        sh.jpeg_quality = None
+                    }
+                }
+                "asis" => {}
+                "novign" => sh.vignetting = 0.0,
+                "nojpeg" => sh.jpeg_quality = None,
+                "nonoise" => sh.noise = 0.0,
+                "nopose" => sh.pose = Pose::default(),
+                "noblur" => sh.blur_px = 0.5,
+                "nolight" => {
+                    sh.exposure = 1.0;
+                    sh.cast = [1.0; 3];
+                }
+                "small" => sh.megapixels = 0.5,
+                "nocast" => sh.cast = [1.0; 3],
+                "noexp" => sh.exposure = 1.0,
+                other => panic!("unknown change {other}"),
+            }
+        }
+        let d = dir.join(format!("{}-{name}", kind.name()));
+        let _ = std::fs::remove_dir_all(&d);
+        let mut images = Vec::new();
+        for (v, sh) in s.iter().enumerate() {
+            images.push(take(r, card, capture, v, &truth, sh, &d)?.0);
+        }
+        let out = d.join("fit").join("tool.json");
+        let fa = FitArgs {
+            allow_unidentified: true,
+            ..FitArgs::quiet(p, images, Some(kind.name()), &out)
+        };
+        let got = run(r, &fa, &Silent);
+        let rep: serde_json::Value = std::fs::read(d.join("fit").join("tool_report.json"))
+            .ok()
+            .and_then(|b| serde_json::from_slice(&b).ok())
+            .unwrap_or_default();
+        let fitted = Tool::load_fitted(&out).ok().map(|t| t.0);
+        let err = fitted
+            .as_ref()
+            .map(|f| scratchart_calibration::study::errors(f, &truth, card));
+        println!(
+            "{name:8} {}: errors {err:?} | {}",
+            if got.is_ok() { "accepted" } else { "refused" },
+            rep["params"]
+                .as_array()
+                .into_iter()
+                .flatten()
+                .filter(|q| {
+                    let n = q["name"].as_str().unwrap_or("");
+                    !(n.starts_with("ln_exp")
+                        || n.starts_with("registration")
+                        || n.starts_with("eye[")
+                        || n.starts_with("shade[")
+                        || n.starts_with("blur"))
+                        && q["value"].as_f64() != Some(0.0)
+                })
+                .map(|q| format!(
+                    "{} {:.5}+-{:.5}",
+                    q["name"].as_str().unwrap_or("?"),
+                    q["value"].as_f64().unwrap_or(f64::NAN),
+                    q["sd"].as_f64().unwrap_or(f64::NAN)
+                ))
+                .collect::<Vec<_>>()
+                .join(", ")
+        );
+    }
+    Ok(())
+}
+
+/// The shot variants `names` (see [`variant`]) of a fixed tool of `kind`, each fitted.
+fn variants(
+    kind: &str,
+    names: &[String],
+    r: &Renderer,
+    card: &Card,
+    capture: &Scene,
+    p: &Path,
+    dir: &Path,
+) -> anyhow::Result<()> {
+    let truth = match kind {
         "ball" => Tool::Ball {
             radius_mm: 0.058,
             z_offset_mm: 0.0074,
@@ -227,7 +257,7 @@ fn main() -> anyhow::Result<()> {
         },
     };
     println!("truth {truth:?}");
-    for name in &names {
+    for name in names {
         let shot = variant(name);
         let d = dir.join(name);
         let _ = std::fs::remove_dir_all(&d);
@@ -235,15 +265,15 @@ fn main() -> anyhow::Result<()> {
         for v in 0..capture.views.len() {
             let mut s = shot.clone();
             s.seed += v as u64;
-            images.push(take(&r, &card, &capture, v, &truth, &s, &d)?.0);
+            images.push(take(r, card, capture, v, &truth, &s, &d)?.0);
         }
         let out = d.join("fit").join("tool.json");
         let fa = FitArgs {
             allow_unidentified: true,
-            ..FitArgs::quiet(&p, images, Some(&kind), &out)
+            ..FitArgs::quiet(p, images, Some(kind), &out)
         };
         let t0 = std::time::Instant::now();
-        let got = run(&r, &fa, &Silent);
+        let got = run(r, &fa, &Silent);
         let secs = t0.elapsed().as_secs_f64();
         let report = d.join("fit").join("tool_report.json");
         let rep: serde_json::Value = std::fs::read(&report)

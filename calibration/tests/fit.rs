@@ -422,7 +422,8 @@ fn recovers_a_tapered_ball() {
 /// V-bit at 48.5 degrees and the enlarged one at 57.3 +- 0.25, written.)
 #[test]
 fn photos_shrunk_enlarged_or_reordered_are_refused_or_placed() {
-    use scratchart_calibration::fit_cmd::{inspect_photo, order_by_marks};
+    use scratchart_calibration::fit_cmd::inspect_photo;
+    use scratchart_calibration::fit_cmd::photos::order_by_marks;
     let ctx = gpu();
     let r = Renderer::new(&ctx).unwrap();
     let dir = tmp("resized");

@@ -64,31 +64,8 @@ pub(super) fn at_optimum(
     // Covariance over the parameters the photos see at all (a zero column, such as a profile
     // width above the surface, is not identified and would make the whole matrix singular).
     let (seen, reduced) = seen_part(&jtj, 1e-12);
-    let ns = seen.len();
     let blocks = ev.residual_blocks(16);
-    let g = block_scores(&cols, &seen, &blocks, |i| Some(wts[i] * r[i]));
-    let nb = g.len() as f64;
-    let corr = if nb > 1.0 {
-        nb / (nb - 1.0) * (n as f64 - 1.0) / (n as f64 - ns as f64).max(1.0)
-    } else {
-        1.0
-    };
-    let mut bmat = vec![vec![0.0f64; ns]; ns];
-    for gb in &g {
-        for a in 0..ns {
-            for c in 0..ns {
-                bmat[a][c] += corr * gb[a] * gb[c];
-            }
-        }
-    }
-    // A^-1, column by column.
-    let ainv: Option<Vec<Vec<f64>>> = (0..ns)
-        .map(|a| {
-            let mut e = vec![0.0; ns];
-            e[a] = 1.0;
-            solve_spd(&reduced, &e)
-        })
-        .collect();
+    let sandwich = Sandwich::new(&reduced, &cols, &seen, &blocks, &wts, &r);
     let normal = Normal {
         a: &reduced,
         seen: &seen,
@@ -124,16 +101,10 @@ pub(super) fn at_optimum(
     for k in 0..np {
         let q = &ev.lay.params[k];
         let pos = seen.iter().position(|&i| i == k);
-        let (sd, sd_curv) = match (pos, &ainv) {
-            (Some(a), Some(ai)) => {
-                // (A^-1 B A^-1)_aa = sum_bc Ai_ab B_bc Ai_ca (A^-1 symmetric)
-                let mut var = 0.0;
-                for b in 0..ns {
-                    for c in 0..ns {
-                        var += ai[b][a] * bmat[b][c] * ai[c][a];
-                    }
-                }
-                let vc = s2 * ai[a][a];
+        let (sd, sd_curv) = match (pos, &sandwich) {
+            (Some(a), Some(sw)) => {
+                let var = sw.cov(a, a);
+                let vc = s2 * sw.ainv[a][a];
                 let m = model_shift.as_ref().map_or(0.0, |d| d[a]);
                 let dg = degrade_shift.as_ref().map_or(0.0, |d| d[a]);
                 noise_lift[k] = lift_shift.as_ref().map(|d| d[a]);
@@ -168,32 +139,7 @@ pub(super) fn at_optimum(
         .filter(|k| !seen.contains(k))
         .map(|k| ev.lay.params[k].name.clone())
         .collect();
-    // The sandwich's correlations of each parameter with the grooves' unidentified ones.
-    let mut in_valley = vec![false; np];
-    if let Some(ai) = &ainv {
-        let cov = |a: usize, d: usize| -> f64 {
-            let mut c = 0.0;
-            for b in 0..ns {
-                for e in 0..ns {
-                    c += ai[b][a] * bmat[b][e] * ai[e][d];
-                }
-            }
-            c
-        };
-        let var: Vec<f64> = (0..ns).map(|a| cov(a, a)).collect();
-        let loose: Vec<usize> = (0..ns)
-            .filter(|&a| {
-                let k = seen[a];
-                ev.lay.params[k].render && ev.lay.camera_view(k).is_none() && params[k].2.is_none()
-            })
-            .collect();
-        for a in 0..ns {
-            in_valley[seen[a]] = loose.iter().filter(|&&j| j != a).any(|&j| {
-                let rho = cov(a, j) / (var[a] * var[j]).sqrt();
-                rho.abs() >= VALLEY_CORRELATION
-            });
-        }
-    }
+    let in_valley = valley_flags(ev, &seen, sandwich.as_ref(), &params);
     Ok(Uncertainty {
         params,
         curvature,
@@ -208,6 +154,93 @@ pub(super) fn at_optimum(
         residuals: r,
         in_valley,
     })
+}
+
+/// The block sandwich A^-1 B A^-1 over the parameters the photos see: A^-1 column by column and
+/// B = sum over blocks of g_b g_b^T (with the small-sample correction).
+struct Sandwich {
+    ainv: Vec<Vec<f64>>,
+    bmat: Vec<Vec<f64>>,
+}
+
+impl Sandwich {
+    /// `None` where A cannot be inverted.
+    fn new(
+        reduced: &[Vec<f64>],
+        cols: &[Vec<f64>],
+        seen: &[usize],
+        blocks: &[u64],
+        wts: &[f64],
+        r: &[f64],
+    ) -> Option<Sandwich> {
+        let n = r.len();
+        let ns = seen.len();
+        let g = block_scores(cols, seen, blocks, |i| Some(wts[i] * r[i]));
+        let nb = g.len() as f64;
+        let corr = if nb > 1.0 {
+            nb / (nb - 1.0) * (n as f64 - 1.0) / (n as f64 - ns as f64).max(1.0)
+        } else {
+            1.0
+        };
+        let mut bmat = vec![vec![0.0f64; ns]; ns];
+        for gb in &g {
+            for a in 0..ns {
+                for c in 0..ns {
+                    bmat[a][c] += corr * gb[a] * gb[c];
+                }
+            }
+        }
+        let ainv: Option<Vec<Vec<f64>>> = (0..ns)
+            .map(|a| {
+                let mut e = vec![0.0; ns];
+                e[a] = 1.0;
+                solve_spd(reduced, &e)
+            })
+            .collect();
+        Some(Sandwich { ainv: ainv?, bmat })
+    }
+
+    /// (A^-1 B A^-1)_ad = sum_bc Ai_ba B_bc Ai_cd (A^-1 symmetric), over seen indices.
+    fn cov(&self, a: usize, d: usize) -> f64 {
+        let (ai, ns) = (&self.ainv, self.ainv.len());
+        let mut c = 0.0;
+        for b in 0..ns {
+            for e in 0..ns {
+                c += ai[b][a] * self.bmat[b][e] * ai[e][d];
+            }
+        }
+        c
+    }
+}
+
+/// Per parameter: whether the sandwich correlates it with one of the grooves' unidentified
+/// parameters (no stated uncertainty) by at least [`VALLEY_CORRELATION`].
+fn valley_flags(
+    ev: &Evaluator,
+    seen: &[usize],
+    sandwich: Option<&Sandwich>,
+    params: &[(String, f64, Option<f64>)],
+) -> Vec<bool> {
+    let np = ev.lay.params.len();
+    let mut in_valley = vec![false; np];
+    let Some(sw) = sandwich else {
+        return in_valley;
+    };
+    let ns = seen.len();
+    let var: Vec<f64> = (0..ns).map(|a| sw.cov(a, a)).collect();
+    let loose: Vec<usize> = (0..ns)
+        .filter(|&a| {
+            let k = seen[a];
+            ev.lay.params[k].render && ev.lay.camera_view(k).is_none() && params[k].2.is_none()
+        })
+        .collect();
+    for a in 0..ns {
+        in_valley[seen[a]] = loose.iter().filter(|&&j| j != a).any(|&j| {
+            let rho = sw.cov(a, j) / (var[a] * var[j]).sqrt();
+            rho.abs() >= VALLEY_CORRELATION
+        });
+    }
+    in_valley
 }
 
 /// The normal equations at the optimum over the parameters the photos see: A (`a`, over

@@ -16,6 +16,41 @@ pub struct Verdict {
 /// each), a parameter of the grooves at a bound of its range, and a tool parameter whose
 /// uncertainty is above what a plate needs (refused unless `allow_unidentified`).
 pub fn verdict(best: &FitResult, residual: &[(f64, f64)], photos: &[String], allow_unidentified: bool) -> Verdict {
+    let mut reasons = residual_reasons(best, residual, photos);
+    if let Some(msg) = shrinking_profile(best) {
+        reasons.push(msg);
+    }
+    let unidentified: Vec<String> = best
+        .unidentified()
+        .into_iter()
+        .filter(|n| is_tool_param(n) && n != "alpha")
+        .collect();
+    let mut allowed = Vec::new();
+    // A parameter the photos identify, run to a bound, says the tool lies outside this kind. One
+    // they do not identify ran along a valley the photos cannot tell from flat (a measured
+    // profile's wall shape on saturated grooves: its w/W trades with its widths) and stopped
+    // where its range ends: it is said once, as not identified.
+    for name in best.at_bound.iter().filter(|n| !unidentified.contains(n)) {
+        reasons.push(at_bound_reason(best, name, photos));
+    }
+    for name in &unidentified {
+        let msg = unidentified_reason(best, name, photos);
+        if allow_unidentified {
+            allowed.push(msg);
+        } else {
+            reasons.push(msg);
+        }
+    }
+    Verdict {
+        reasons,
+        allowed,
+        unidentified,
+    }
+}
+
+/// Each photo whose residual is above [`RESIDUAL_MAX`] times its own noise (at least
+/// [`RESIDUAL_FLOOR`]).
+fn residual_reasons(best: &FitResult, residual: &[(f64, f64)], photos: &[String]) -> Vec<String> {
     let mut reasons: Vec<String> = Vec::new();
     for (v, (rms, nz)) in residual.iter().enumerate() {
         let floor = nz.max(RESIDUAL_FLOOR);
@@ -31,156 +66,140 @@ pub fn verdict(best: &FitResult, residual: &[(f64, f64)], photos: &[String], all
             ));
         }
     }
-    if let Some(msg) = shrinking_profile(best) {
-        reasons.push(msg);
+    reasons
+}
+
+/// Why a parameter the photos identify ended at a bound of its range: a photo's noise scale
+/// (its dark plate), a photo's camera (its marks), or the tool (another kind).
+fn at_bound_reason(best: &FitResult, name: &str, photos: &[String]) -> String {
+    let k = best.params.iter().position(|p| p.0 == name).expect("a parameter");
+    // A photo's camera (`eye[v]....`) is refined only a little from the one its marks gave:
+    // at a bound, that camera was off, not the tool.
+    let camera_of = name
+        .strip_prefix("eye[")
+        .and_then(|r| r.split(']').next())
+        .and_then(|v| v.parse::<usize>().ok());
+    // A photo's noise scale (`ln_noise[v]`): its dark plate is not what its noise makes it.
+    let noise_of = name
+        .strip_prefix("ln_noise[")
+        .and_then(|r| r.split(']').next())
+        .and_then(|v| v.parse::<usize>().ok());
+    if let Some(v) = noise_of {
+        let brighter = best.params[k].1 > 0.0;
+        // Light the model lacks brightens a dark plate; a darker one is a camera or an app
+        // that took light away or read the noise high (an unedited photo is no glare).
+        let why = if brighter {
+            "light the model lacks (glare, a lamp in view, a room light) or a photo brightened after it was \
+             taken; photograph again with the lamp of the capture guide, the room dark"
+        } else {
+            "a camera that sets its black above the sensor's (phones with a dark-scene mode, a raised \
+             contrast or a \"vivid\" filter), noise reduction or sharpening that makes the noise read higher \
+             than it is, or a photo darkened or resized after it was taken; photograph again without filters \
+             or night mode"
+        };
+        return format!(
+            "{}: its dark plate is {} than the noise measured on the photo makes it, even with that noise \
+             {} ({name} at {:.2}): {why}, and use the photo as the phone saved it",
+            photos.get(v).map_or("a photo", |p| p.as_str()),
+            if brighter { "brighter" } else { "darker" },
+            if brighter { "doubled" } else { "halved" },
+            best.params[k].1
+        );
     }
-    let unidentified: Vec<String> = best
-        .unidentified()
-        .into_iter()
-        .filter(|n| is_tool_param(n) && n != "alpha")
-        .collect();
-    let mut allowed = Vec::new();
-    // A parameter the photos identify, run to a bound, says the tool lies outside this kind. One
-    // they do not identify ran along a valley the photos cannot tell from flat (a measured
-    // profile's wall shape on saturated grooves: its w/W trades with its widths) and stopped
-    // where its range ends: it is said once, as not identified.
-    for name in best.at_bound.iter().filter(|n| !unidentified.contains(n)) {
-        let k = best.params.iter().position(|p| &p.0 == name).expect("a parameter");
-        // A photo's camera (`eye[v]....`) is refined only a little from the one its marks gave:
-        // at a bound, that camera was off, not the tool.
-        let camera_of = name
-            .strip_prefix("eye[")
-            .and_then(|r| r.split(']').next())
-            .and_then(|v| v.parse::<usize>().ok());
-        // A photo's noise scale (`ln_noise[v]`): its dark plate is not what its noise makes it.
-        let noise_of = name
-            .strip_prefix("ln_noise[")
-            .and_then(|r| r.split(']').next())
-            .and_then(|v| v.parse::<usize>().ok());
-        if let Some(v) = noise_of {
-            let brighter = best.params[k].1 > 0.0;
-            // Light the model lacks brightens a dark plate; a darker one is a camera or an app
-            // that took light away or read the noise high (an unedited photo is no glare).
-            let why = if brighter {
-                "light the model lacks (glare, a lamp in view, a room light) or a photo brightened after it was \
-                 taken; photograph again with the lamp of the capture guide, the room dark"
-            } else {
-                "a camera that sets its black above the sensor's (phones with a dark-scene mode, a raised \
-                 contrast or a \"vivid\" filter), noise reduction or sharpening that makes the noise read higher \
-                 than it is, or a photo darkened or resized after it was taken; photograph again without filters \
-                 or night mode"
-            };
-            reasons.push(format!(
-                "{}: its dark plate is {} than the noise measured on the photo makes it, even with that noise \
-                 {} ({name} at {:.2}): {why}, and use the photo as the phone saved it",
-                photos.get(v).map_or("a photo", |p| p.as_str()),
-                if brighter { "brighter" } else { "darker" },
-                if brighter { "doubled" } else { "halved" },
-                best.params[k].1
-            ));
-            continue;
-        }
-        reasons.push(match camera_of {
-            Some(v) => format!(
-                "{}: its camera's {} ended at the bound of how far the fit may move it from the camera the card's \
-                 marks gave ({:.5}): the marks placed that camera poorly (a mark covered or in glare, the card seen \
-                 at a slant); photograph again from nearer the capture position with every mark in view",
-                photos.get(v).map_or("a photo", |p| p.as_str()),
-                name.split("].").nth(1).unwrap_or(name),
-                best.params[k].1
-            ),
-            None => format!(
-                "{name} ended at a bound of its range ({:.5}): the tool that fits best lies outside what this kind of \
-                 tool can be; try another --kind or check the photos",
-                best.params[k].1
-            ),
-        });
+    match camera_of {
+        Some(v) => format!(
+            "{}: its camera's {} ended at the bound of how far the fit may move it from the camera the card's \
+             marks gave ({:.5}): the marks placed that camera poorly (a mark covered or in glare, the card seen \
+             at a slant); photograph again from nearer the capture position with every mark in view",
+            photos.get(v).map_or("a photo", |p| p.as_str()),
+            name.split("].").nth(1).unwrap_or(name),
+            best.params[k].1
+        ),
+        None => format!(
+            "{name} ended at a bound of its range ({:.5}): the tool that fits best lies outside what this kind of \
+             tool can be; try another --kind or check the photos",
+            best.params[k].1
+        ),
     }
-    for name in &unidentified {
-        let k = best.params.iter().position(|p| &p.0 == name).expect("a parameter");
-        let sd = best.sd.get(k).copied().flatten();
-        // Where the photos' disagreement is most of the uncertainty, that is the cause given:
-        // each photo's own answer.
-        let cause = match best
-            .disagreement
-            .get(k)
-            .copied()
-            .flatten()
-            .filter(|d| sd.is_some_and(|sd| *d > 0.5 * sd))
-        {
-            Some(d) => {
-                let each: Vec<String> = best
-                    .per_photo
-                    .iter()
-                    .zip(photos)
-                    .filter_map(|(pp, name)| {
-                        pp.get(k)
-                            .copied()
-                            .flatten()
-                            .map(|v| format!("{name} alone puts it at {v:.5}"))
-                    })
-                    .collect();
-                format!(
-                    "the photos disagree by up to {d:.5} about it ({}; together {:.5}): one of them shows what the \
-                     model lacks (noise averaged by a shrink, JPEG, glare; see the residual images)",
-                    each.join(", "),
-                    best.params[k].1
-                )
-            }
-            None => {
-                // A shift of which the fit counts `trust` in the uncertainty, where that part is
-                // most of it.
-                let most = |shifts: &[Option<f64>], trust: f64| {
-                    shifts
-                        .get(k)
+}
+
+/// Why a tool parameter is not identified, naming the largest cause (the photos' disagreement,
+/// the noise's lift, a large photo's JPEG) and whether it ran to a bound.
+fn unidentified_reason(best: &FitResult, name: &str, photos: &[String]) -> String {
+    let k = best.params.iter().position(|p| p.0 == name).expect("a parameter");
+    let sd = best.sd.get(k).copied().flatten();
+    // Where the photos' disagreement is most of the uncertainty, that is the cause given:
+    // each photo's own answer.
+    let cause = match best
+        .disagreement
+        .get(k)
+        .copied()
+        .flatten()
+        .filter(|d| sd.is_some_and(|sd| *d > 0.5 * sd))
+    {
+        Some(d) => {
+            let each: Vec<String> = best
+                .per_photo
+                .iter()
+                .zip(photos)
+                .filter_map(|(pp, name)| {
+                    pp.get(k)
                         .copied()
                         .flatten()
-                        .filter(|l| sd.is_some_and(|sd| trust * l.abs() > 0.5 * sd))
-                };
-                if let Some(l) = most(&best.noise_lift, crate::fit::LIFT_TRUST) {
-                    format!(
-                        "the photos' noise, clipped at black, brightens the dark plate; the fit corrects for it \
-                         (a shift of {l:.5}), but trusts that correction only in part. Photograph with more light \
-                         and less noise (a lower ISO, a steady phone)"
-                    )
-                } else if let Some(c) = most(&best.jpeg_change, crate::fit::CHANGE_TRUST) {
-                    // What a large photo's JPEG did, simulated from light coarser than its pixels.
-                    format!(
-                        "a large photo's JPEG changed the grooves at its own pixels; the fit simulates that (a \
-                         shift of {c:.5}) but cannot follow it closely. Save the photo as PNG or at the highest \
-                         JPEG quality"
-                    )
-                } else {
-                    "the grooves that tell it are too dim, saturated, noisy or compressed in the photos, or missing"
-                        .to_string()
-                }
-            }
-        };
-        let mut msg = format!(
-            "{name} is not identified: +- {} where a plate needs at most {:.5}: {cause}. Photograph again with the \
-             lamp and exposure of the capture guide, the phone steady (less noise), saved at full size as PNG or \
-             the highest JPEG quality",
-            sd.map_or("undefined".to_string(), |s| format!("{s:.5}")),
-            best.limits.get(k).copied().unwrap_or(f64::NAN)
-        );
-        if best.at_bound.contains(name) {
-            msg += &format!(
-                " (it ran to a bound of its range, {:.5}: the value written is where its range ends, not what the \
-                 photos show)",
+                        .map(|v| format!("{name} alone puts it at {v:.5}"))
+                })
+                .collect();
+            format!(
+                "the photos disagree by up to {d:.5} about it ({}; together {:.5}): one of them shows what the \
+                 model lacks (noise averaged by a shrink, JPEG, glare; see the residual images)",
+                each.join(", "),
                 best.params[k].1
-            );
+            )
         }
-        if allow_unidentified {
-            allowed.push(msg);
-        } else {
-            reasons.push(msg);
+        None => {
+            // A shift of which the fit counts `trust` in the uncertainty, where that part is
+            // most of it.
+            let most = |shifts: &[Option<f64>], trust: f64| {
+                shifts
+                    .get(k)
+                    .copied()
+                    .flatten()
+                    .filter(|l| sd.is_some_and(|sd| trust * l.abs() > 0.5 * sd))
+            };
+            if let Some(l) = most(&best.noise_lift, crate::fit::LIFT_TRUST) {
+                format!(
+                    "the photos' noise, clipped at black, brightens the dark plate; the fit corrects for it \
+                     (a shift of {l:.5}), but trusts that correction only in part. Photograph with more light \
+                     and less noise (a lower ISO, a steady phone)"
+                )
+            } else if let Some(c) = most(&best.jpeg_change, crate::fit::CHANGE_TRUST) {
+                // What a large photo's JPEG did, simulated from light coarser than its pixels.
+                format!(
+                    "a large photo's JPEG changed the grooves at its own pixels; the fit simulates that (a \
+                     shift of {c:.5}) but cannot follow it closely. Save the photo as PNG or at the highest \
+                     JPEG quality"
+                )
+            } else {
+                "the grooves that tell it are too dim, saturated, noisy or compressed in the photos, or missing"
+                    .to_string()
+            }
         }
+    };
+    let mut msg = format!(
+        "{name} is not identified: +- {} where a plate needs at most {:.5}: {cause}. Photograph again with the \
+         lamp and exposure of the capture guide, the phone steady (less noise), saved at full size as PNG or \
+         the highest JPEG quality",
+        sd.map_or("undefined".to_string(), |s| format!("{s:.5}")),
+        best.limits.get(k).copied().unwrap_or(f64::NAN)
+    );
+    if best.at_bound.iter().any(|n| n == name) {
+        msg += &format!(
+            " (it ran to a bound of its range, {:.5}: the value written is where its range ends, not what the \
+             photos show)",
+            best.params[k].1
+        );
     }
-    Verdict {
-        reasons,
-        allowed,
-        unidentified,
-    }
+    msg
 }
 
 /// A measured profile whose width shrinks as the cut goes deeper is no tool: a cutter plunged

@@ -71,6 +71,47 @@ pub fn problem(args: &DesignArgs, info: &DeviceInfo) -> anyhow::Result<Problem> 
             .map_or(DEFAULT_SCRATCHES, |a| (1000 * a.views).max(DEFAULT_SCRATCHES))
     });
     ensure_flag!(n_scratches > 0, "--scratches must be at least 1");
+    check_scratch_flags(args)?;
+    let plate = Plate {
+        size_mm: plate_mm,
+        roughness: scratchart::model::scene::DEFAULT_ROUGHNESS,
+        f0: scratchart::model::scene::DEFAULT_F0,
+    };
+    let (views, between) = design_views(args, walk.as_ref(), &plate)?;
+    check_size(args, &views, n_scratches, info)?;
+    for w in views.iter().flat_map(scratchart::limits::view_warnings) {
+        eprintln!("warning: {w}");
+    }
+    let mut rng = Rng::new(args.seed);
+    let scratches = random_scratches(
+        &mut rng,
+        n_scratches,
+        plate_mm,
+        0.01 * args.len_min_pct * plate_mm,
+        0.01 * args.len_max_pct * plate_mm,
+        args.init_w,
+        args.init_d,
+        args.init_alpha,
+    );
+    let scene = Scene {
+        plate,
+        views,
+        scratches,
+    };
+    scene.validate()?;
+    check_target_flags(args, &scene, walk.is_some())?;
+    if let Some(arc) = walk {
+        return walk_problem(args, scene, arc, between);
+    }
+    if args.targets.is_empty() {
+        let targets = scratchart::optim::targets::builtin_targets(&scene);
+        return Ok(Problem::new(scene, targets));
+    }
+    picture_problem(args, scene)
+}
+
+/// The flags of the initial scratches and of the learning rates, each within its range.
+fn check_scratch_flags(args: &DesignArgs) -> anyhow::Result<()> {
     ensure_flag!(args.init_w > 0.0, "--init-w must be > 0 mm (it is {})", args.init_w);
     ensure_flag!(args.init_d > 0.0, "--init-d must be > 0 mm (it is {})", args.init_d);
     ensure_flag!(
@@ -93,11 +134,17 @@ pub fn problem(args: &DesignArgs, info: &DeviceInfo) -> anyhow::Result<Problem> 
         args.len_min_pct > 0.0 && args.len_max_pct >= args.len_min_pct && args.len_max_pct < 100.0,
         "--len-min-pct / --len-max-pct must satisfy 0 < min <= max < 100"
     );
-    let plate = Plate {
-        size_mm: plate_mm,
-        roughness: scratchart::model::scene::DEFAULT_ROUGHNESS,
-        f0: scratchart::model::scene::DEFAULT_F0,
-    };
+    Ok(())
+}
+
+/// The design's views: from `--view-file`, along a walk's arc (with the views between its
+/// frames), or a ring of `--views` framed on the plate.
+fn design_views(
+    args: &DesignArgs,
+    walk: Option<&scratchart::optim::walk::WalkArc>,
+    plate: &Plate,
+) -> anyhow::Result<(Vec<View>, Vec<scratchart::optim::walk::BetweenView>)> {
+    let plate_mm = plate.size_mm;
     let distance = 3.0 * plate_mm;
     let mut between = Vec::new();
     let views: Vec<View> = match &args.view_file {
@@ -125,7 +172,7 @@ pub fn problem(args: &DesignArgs, info: &DeviceInfo) -> anyhow::Result<Problem> 
                 args.elevation > 0.0 && args.elevation < 90.0,
                 "--elevation must lie strictly between 0 and 90 degrees"
             );
-            match &walk {
+            match walk {
                 Some(arc) => {
                     let light = lamp(args, arc.distance_mm, arc.centre_azimuth_deg)?;
                     let (views, b) = scratchart::optim::walk::arc_views(arc, plate_mm, &light);
@@ -142,27 +189,11 @@ pub fn problem(args: &DesignArgs, info: &DeviceInfo) -> anyhow::Result<Problem> 
             }
         }
     };
-    check_size(args, &views, n_scratches, info)?;
-    for w in views.iter().flat_map(scratchart::limits::view_warnings) {
-        eprintln!("warning: {w}");
-    }
-    let mut rng = Rng::new(args.seed);
-    let scratches = random_scratches(
-        &mut rng,
-        n_scratches,
-        plate_mm,
-        0.01 * args.len_min_pct * plate_mm,
-        0.01 * args.len_max_pct * plate_mm,
-        args.init_w,
-        args.init_d,
-        args.init_alpha,
-    );
-    let scene = Scene {
-        plate,
-        views,
-        scratches,
-    };
-    scene.validate()?;
+    Ok((views, between))
+}
+
+/// The flags of the targets (background, gamma, blank views), against the scene's views.
+fn check_target_flags(args: &DesignArgs, scene: &Scene, walk: bool) -> anyhow::Result<()> {
     ensure_flag!(
         (0.0..=1.0).contains(&args.background),
         "--background must lie between 0 (black) and 1 (white) (it is {})",
@@ -187,16 +218,15 @@ pub fn problem(args: &DesignArgs, info: &DeviceInfo) -> anyhow::Result<Problem> 
         );
     }
     ensure_flag!(
-        args.blank_view.is_empty() || !args.targets.is_empty() || walk.is_some(),
+        args.blank_view.is_empty() || !args.targets.is_empty() || walk,
         "--blank-view needs --targets or --walk (the built-in shapes are never blank)"
     );
-    if let Some(arc) = walk {
-        return walk_problem(args, scene, arc, between);
-    }
-    if args.targets.is_empty() {
-        let targets = scratchart::optim::targets::builtin_targets(&scene);
-        return Ok(Problem::new(scene, targets));
-    }
+    Ok(())
+}
+
+/// The problem of pictures given with `--targets`: each fitted into its view (`--fit`,
+/// `--background`, `--gamma`), blank views left free, the sources kept for steering.
+fn picture_problem(args: &DesignArgs, scene: Scene) -> anyhow::Result<Problem> {
     let pictures = scratchart::optim::targets::read_pictures(&args.targets, &scene, &args.blank_view)?;
     let mut fitted = scratchart::optim::targets::fit_pictures(&pictures, &scene, args.fit, args.background);
     for b in &args.blank_view {

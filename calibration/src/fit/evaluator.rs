@@ -1,0 +1,251 @@
+//! The fit's evaluator at work: the card rendered as a tool cuts it, the model photo made of
+//! the render (exposure, blur, shading, the photo's clipped noise, JPEG) and compared with
+//! each photo.
+use super::camera::pan;
+use super::*;
+
+impl Evaluator<'_, '_> {
+    /// Photo v as the model is compared with it now.
+    pub(super) fn photo(&self, v: usize) -> &[f32] {
+        match &self.compared {
+            Some(p) => &p[v],
+            None => &self.data.photos[v],
+        }
+    }
+
+    /// The card's ladder as `tool` cuts it (the fiducial marks are left out of the render and
+    /// their squares out of the loss: they are for registration, and their crossing hatches are
+    /// what the scratch model represents least well): every cut keeps its place, so the device
+    /// scene is re-used;
+    /// a cut that does not reach the plate gets a groove far below a pixel's resolution
+    /// (w = d = 1e-6 mm: its light is below 1e-5 of a visible groove's).
+    pub(super) fn scratches(&self, tool: &Tool, alpha: f64) -> Vec<Scratch> {
+        // The tool model is a small least-squares fit: once per commanded depth, not per cut
+        // (the ladder's cuts share a few depths).
+        let mut models: Vec<(f64, (f64, f64))> = Vec::new();
+        self.data
+            .card
+            .cuts
+            .iter()
+            .filter(|c| c.role == CutRole::Ladder)
+            .map(|c| {
+                let (w, d) = match models.iter().find(|m| m.0 == c.z_mm) {
+                    Some(m) => m.1,
+                    None => {
+                        let wd = match tool.model(c.z_mm) {
+                            Some(m) if m.width > 1e-6 && m.w > 0.0 && m.d > 0.0 => (m.w, m.d),
+                            _ => (1e-6, 1e-6),
+                        };
+                        models.push((c.z_mm, wd));
+                        wd
+                    }
+                };
+                Scratch {
+                    p0: c.p0,
+                    p1: c.p1,
+                    w,
+                    d,
+                    alpha,
+                }
+            })
+            .collect()
+    }
+
+    /// View v as the fit renders it for `x`: its camera corrected by the pose terms (for a photo
+    /// taken off the capture pose), at `SUPERSAMPLE` times the photo's resolution.
+    pub(super) fn render_view(&self, x: &[f64], v: usize) -> scratchart::model::scene::View {
+        let mut view = self.data.capture.views[v].clone();
+        view.camera.width *= self.ss;
+        view.camera.height *= self.ss;
+        let d = self.lay.pose(x, v);
+        if d != [0.0; layout::POSE_PARAMS] {
+            let c = &mut view.camera;
+            for k in 0..3 {
+                c.eye[k] += d[k];
+            }
+            // Turn the up vector about the (new) axis, and scale the field of view.
+            let f = [c.target[0] - c.eye[0], c.target[1] - c.eye[1], c.target[2] - c.eye[2]];
+            let n = (f[0] * f[0] + f[1] * f[1] + f[2] * f[2]).sqrt();
+            let k = [f[0] / n, f[1] / n, f[2] / n];
+            let u = c.up;
+            let (sn, cs) = d[3].to_radians().sin_cos();
+            let kxu = [
+                k[1] * u[2] - k[2] * u[1],
+                k[2] * u[0] - k[0] * u[2],
+                k[0] * u[1] - k[1] * u[0],
+            ];
+            let ku = k[0] * u[0] + k[1] * u[1] + k[2] * u[2];
+            c.up = std::array::from_fn(|i| u[i] * cs + kxu[i] * sn + k[i] * ku * (1.0 - cs));
+            c.fov_y_deg = 2.0
+                * ((0.5 * c.fov_y_deg).to_radians().tan() * d[4].exp())
+                    .atan()
+                    .to_degrees();
+        }
+        let (dx, dy) = self.lay.shift(x, v);
+        if dx != 0.0 || dy != 0.0 {
+            // (In the render's pixels: `ss` to each of the photo's.)
+            pan(&mut view.camera, self.ss as f64 * dx, self.ss as f64 * dy);
+        }
+        view
+    }
+
+    /// Puts the card for `x` on the device (its grooves, and the eyes of photos taken off the
+    /// capture pose), uploading it the first time.
+    pub(super) fn sync(&mut self, x: &[f64]) -> Result<(), FitError> {
+        let scratches = self.scratches(&self.lay.tool(x), self.lay.alpha(x));
+        let ctx = self.renderer.ctx.clone();
+        let views: Vec<_> = (0..self.data.capture.views.len())
+            .map(|v| self.render_view(x, v))
+            .collect();
+        let reuse = match &mut self.gs {
+            Some(gs) => {
+                gs.update_scratches(&ctx, &scratches).map_err(anyhow::Error::from)?
+                    && gs.update_views(&views).map_err(anyhow::Error::from)?
+            }
+            None => false,
+        };
+        if !reuse {
+            let scene = Scene {
+                plate: self.data.capture.plate.clone(),
+                views,
+                scratches,
+            };
+            self.gs = Some(self.renderer.upload(&scene).map_err(anyhow::Error::from)?);
+        }
+        Ok(())
+    }
+
+    /// Linear renders of the card for the tool part of `x`.
+    pub(super) fn render(&mut self, x: &[f64]) -> Result<Vec<Vec<f32>>, FitError> {
+        self.sync(x)?;
+        let gs = self.gs.as_mut().expect("uploaded");
+        let frame = self.renderer.render(gs).map_err(anyhow::Error::from)?;
+        self.renders += 1;
+        Ok(frame.images)
+    }
+
+    /// The Jacobian columns (d residual / d x_k) of the parameters `ks`, each of which moves only
+    /// the grooves' (w, d, alpha): the tool's parameters, its z offset, alpha. Differentiable
+    /// rendering: the engine gives the pixel values' derivatives along up to 7 parameters per
+    /// pass (`Renderer::tangents`, the reverse sweep of the pair integral), seeded
+    /// with each groove's d(w, d, alpha)/dx_k (central differences of the tool model on the host,
+    /// no render); the camera model (blur, exposure, display encoding, clipping) is then
+    /// differenced around that linearized render, over the parameter's own step.
+    pub(super) fn tangent_columns(&mut self, x: &[f64], ks: &[usize]) -> Result<Vec<Vec<f64>>, FitError> {
+        // A cut that does not reach the plate is a placeholder groove (see `scratches`).
+        let reaches = |s: &Scratch| !(s.w == 1e-6 && s.d == 1e-6);
+        let base = self.scratches(&self.lay.tool(x), self.lay.alpha(x));
+        let mut cols = Vec::with_capacity(ks.len());
+        for group in ks.chunks(TANGENT_DIRECTIONS) {
+            let mut seeds: Vec<ScratchTangent> = vec![[[0.0; 3]; TANGENT_DIRECTIONS]; base.len()];
+            // The grooves a step up and a step down each parameter cut (each its own fit of
+            // the tool's sections: on the host's threads).
+            let this = &*self;
+            let stepped = camera::par_map(2 * group.len(), |i| {
+                let k = group[i / 2];
+                let q = &this.lay.params[k];
+                let mut xx = x.to_vec();
+                xx[k] = if i % 2 == 0 {
+                    (x[k] + q.step).min(q.hi)
+                } else {
+                    (x[k] - q.step).max(q.lo)
+                };
+                this.scratches(&this.lay.tool(&xx), this.lay.alpha(&xx))
+            });
+            for (j, &k) in group.iter().enumerate() {
+                let q = &self.lay.params[k];
+                let (up, dn) = ((x[k] + q.step).min(q.hi), (x[k] - q.step).max(q.lo));
+                let (sp, sm) = (&stepped[2 * j], &stepped[2 * j + 1]);
+                for (c, t) in seeds.iter_mut().enumerate() {
+                    // A groove that starts or stops cutting within the step jumps there: take the
+                    // side that keeps its state.
+                    let state = reaches(&base[c]);
+                    let (a, b, span) = match (reaches(&sp[c]) == state, reaches(&sm[c]) == state) {
+                        (true, true) => (&sp[c], &sm[c], up - dn),
+                        (true, false) => (&sp[c], &base[c], up - x[k]),
+                        (false, true) => (&base[c], &sm[c], x[k] - dn),
+                        (false, false) => continue,
+                    };
+                    if span > 0.0 {
+                        t[j] = [
+                            ((a.w - b.w) / span) as f32,
+                            ((a.d - b.d) / span) as f32,
+                            ((a.alpha - b.alpha) / span) as f32,
+                        ];
+                    }
+                }
+            }
+            self.sync(x)?;
+            let gs = self.gs.as_mut().expect("uploaded");
+            let (lin, tang) = self.renderer.tangents(gs, &seeds).map_err(anyhow::Error::from)?;
+
+            self.tangent_passes += 1;
+            let this = &*self;
+            cols.extend(camera::par_map(group.len(), |j| {
+                let h = this.lay.params[group[j]].step;
+                let moved = |sign: f64| -> Vec<Vec<f32>> {
+                    lin.iter()
+                        .zip(&tang)
+                        .map(|(l, t)| l.iter().zip(t).map(|(a, d)| a + (sign * h) as f32 * d[j]).collect())
+                        .collect()
+                };
+                let rp = this.residuals(&this.predict(&moved(1.0), x));
+                let rm = this.residuals(&this.predict(&moved(-1.0), x));
+                rp.iter()
+                    .zip(&rm)
+                    .map(|(a, b)| (a - b) / (2.0 * h))
+                    .collect::<Vec<f64>>()
+            }));
+        }
+        Ok(cols)
+    }
+
+    /// Residuals (model - photo) over the masked pixels, all views in order (times the square
+    /// roots of the bootstrap weights, when set).
+    pub(super) fn residuals(&self, pred: &[Vec<f32>]) -> Vec<f64> {
+        let mut r = Vec::new();
+        for (v, img) in pred.iter().enumerate() {
+            let photo = self.photo(v);
+            let shift = self.jpeg_shift.get(v).and_then(|s| s.as_deref());
+            for (i, ((m, &ph), &ok)) in img.iter().zip(photo.iter()).zip(&self.data.masks[v]).enumerate() {
+                if ok {
+                    let j = shift.map_or(0.0, |s| s[i]);
+                    r.push((*m + j - ph) as f64);
+                }
+            }
+        }
+        if let Some(w) = &self.weights {
+            for (e, w) in r.iter_mut().zip(w) {
+                *e *= w.sqrt();
+            }
+        }
+        r
+    }
+
+    /// The block (view, 8 x 8 pixels) of every residual, in the residuals' order: neighbouring
+    /// pixels share the camera's blur, so the bootstrap resamples blocks, not pixels.
+    pub(super) fn residual_blocks(&self, size: usize) -> Vec<u64> {
+        let mut b = Vec::new();
+        for (v, mask) in self.data.masks.iter().enumerate() {
+            let w = self.data.capture.views[v].camera.width as usize;
+            for (i, &ok) in mask.iter().enumerate() {
+                if ok {
+                    let (x, y) = ((i % w) / size, (i / w) / size);
+                    b.push(((v as u64) << 40) | ((y as u64) << 20) | x as u64);
+                }
+            }
+        }
+        b
+    }
+
+    /// Residuals at `x` from linear renders `lin` already made for its tool part.
+    pub(super) fn residuals_at(&self, x: &[f64], lin: &[Vec<f32>]) -> Vec<f64> {
+        self.residuals(&self.predict(lin, x))
+    }
+
+    /// Renders for `x`: the residuals and the linear renders.
+    pub(super) fn eval(&mut self, x: &[f64]) -> Result<(Vec<f64>, Vec<Vec<f32>>), FitError> {
+        let lin = self.render(x)?;
+        Ok((self.residuals_at(x, &lin), lin))
+    }
+}
