@@ -28,16 +28,7 @@ layout(std430, binding = 3) buffer C { uint keys_out[]; };
 layout(std430, binding = 4) buffer D { uint vals_out[]; };
 layout(std430, binding = 5) readonly buffer Total { uint sbase[]; };
 
-layout(push_constant) uniform Push {
-    uint n_blocks;     // blocks of 256 pairs that cover the capacity
-    uint shift;        // the digit's first bit
-    uint total_index;  // sbase[total_index] = the number of pairs
-    uint capacity;     // pairs the buffers hold
-    uint first;        // 1: the values are the emission indices themselves
-    uint pad0;
-    uint pad1;
-    uint pad2;
-} pc;
+#include "inc/radix_push.glsl"
 
 shared uint sh[256];
 #ifdef SCATTER

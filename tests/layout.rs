@@ -6,7 +6,8 @@
 //! - `push_constant_layouts_agree` (test/layout_push.comp): BinPush (inc/bin_push.glsl),
 //!   ScanPush (inc/scan_push.glsl), LossPush and LossSeg (inc/loss_push.glsl) and the viewer's
 //!   PresentPush (inc/present_push.glsl), and the optimizer's AdamPush, AdamGroupGpu,
-//!   ProjectPush, CheckPush and ToolMapPush (inc/tool_map_push.glsl).
+//!   ProjectPush, CheckPush and ToolMapPush (inc/tool_map_push.glsl), and the radix sort's
+//!   RadixPush (inc/radix_push.glsl).
 use std::sync::Arc;
 
 use scratchart::optim::adam::{AdamGroupGpu, AdamPush};
@@ -14,7 +15,7 @@ use scratchart::optim::check::CheckPush;
 use scratchart::optim::loss::{LossPush, LossSeg};
 use scratchart::optim::scene_params::ProjectPush;
 use scratchart::optim::tool_params::ToolMapPush;
-use scratchart::render::layout::{BinPush, ReducePush, ScanPush, ScratchGpu, ShadePush, ViewGpu, ViewGpu64};
+use scratchart::render::layout::{BinPush, RadixPush, ReducePush, ScanPush, ScratchGpu, ShadePush, ViewGpu, ViewGpu64};
 use scratchart::render::present::PresentPush;
 use scratchart::vulkan::{Buffer, ComputePipeline, Context, MemLoc, Recorder, ShaderCompiler};
 use scratchart_tests::*;
@@ -278,6 +279,15 @@ fn push_constant_layouts_agree() {
         pad1: u(),
     };
     assert_eq!(std::mem::size_of::<ToolMapPush>(), 48);
+    let radix = RadixPush {
+        n_blocks: u(),
+        shift: u(),
+        total_index: u(),
+        capacity: u(),
+        first: u(),
+        pad: [u(), u(), u()],
+    };
+    assert_eq!(std::mem::size_of::<RadixPush>(), 32);
     check_push(&ctx, "BIN", bytemuck::bytes_of(&bin), &[]);
     check_push(&ctx, "SCAN", bytemuck::bytes_of(&scan), &[]);
     check_push(&ctx, "LOSS", bytemuck::bytes_of(&loss), bytemuck::cast_slice(&segs));
@@ -287,5 +297,6 @@ fn push_constant_layouts_agree() {
     check_push(&ctx, "PROJECT", bytemuck::bytes_of(&project), &[]);
     check_push(&ctx, "CHECK", bytemuck::bytes_of(&check), &[]);
     check_push(&ctx, "TOOLMAP", bytemuck::bytes_of(&tool_map), &[]);
+    check_push(&ctx, "RADIX", bytemuck::bytes_of(&radix), &[]);
     assert_no_validation(&ctx);
 }

@@ -11,6 +11,7 @@
 //   PROJECT  inc/project_push.glsl  (scratch_project.comp) Rust: optim::scene_params::ProjectPush
 //   CHECK    inc/check_push.glsl    (check_loss.comp)    Rust: optim::check::CheckPush
 //   TOOLMAP  inc/tool_map_push.glsl (tool_map.comp)      Rust: optim::tool_params::ToolMapPush
+//   RADIX    inc/radix_push.glsl    (radix.comp)         Rust: render::layout::RadixPush
 // LOSS (ADAM) also reads two LossSeg (AdamGroupGPU) from binding 1 and writes them after the
 // push constants.
 #extension GL_GOOGLE_include_directive : require
@@ -36,8 +37,10 @@ layout(std430, binding = 1) readonly buffer Groups { AdamGroupGPU groups[]; };
 #include "inc/check_push.glsl"
 #elif defined(TOOLMAP)
 #include "inc/tool_map_push.glsl"
+#elif defined(RADIX)
+#include "inc/radix_push.glsl"
 #else
-#error "define BIN, SCAN, LOSS, PRESENT, REDUCE, ADAM, PROJECT, CHECK or TOOLMAP"
+#error "define BIN, SCAN, LOSS, PRESENT, REDUCE, ADAM, PROJECT, CHECK, TOOLMAP or RADIX"
 #endif
 
 uint o = 0u;
@@ -75,5 +78,8 @@ void main() {
     put(pc.n_scratches); put(pc.n_table); put(pc.mode); put(pc.seed);
     put(pc.z_first); put(pc.s_lo); put(pc.inv_ds); put(pc.alpha);
     put(pc.sigma_z); put(pc.sigma_xy); put(pc.pad0); put(pc.pad1);
+#elif defined(RADIX)
+    put(pc.n_blocks); put(pc.shift); put(pc.total_index); put(pc.capacity); put(pc.first);
+    put(pc.pad0); put(pc.pad1); put(pc.pad2);
 #endif
 }
