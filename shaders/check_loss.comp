@@ -1,5 +1,5 @@
 #version 450
-// The check loss of MODEL.md section 8 on the GPU (engine/optim/src/check.rs):
+// The check loss of engine/docs/model.md section 8 on the GPU (engine/optim/src/check.rs):
 //   E_lin = sum over views j of mean over view j's on-plate pixels of (L - T)^2.
 // `weight` is 1 / (on-plate pixels of the view) on the plate and 0 off it (from the float64
 // camera geometry, on the host), so E_lin = sum_pixels weight (L - T)^2 and dE/dL = 2 weight (L - T).

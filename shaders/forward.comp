@@ -1,5 +1,5 @@
 #version 450
-// Forward renderer: pixel values L of MODEL.md section 5 for every view. One workgroup per 16x16
+// Forward renderer: pixel values L of engine/docs/model.md section 5 for every view. One workgroup per 16x16
 // tile, one thread per pixel; the tile loop (chunks, block culling, the pair queue) is
 // inc/tile_loop.glsl, the pair integral inc/patch_ndf.glsl. Queue entries are integrated by all
 // threads side by side, then every pixel adds its own results in a fixed order (its fast-path

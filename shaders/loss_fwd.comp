@@ -1,5 +1,5 @@
 #version 450
-// Forward passes of the design loss (MODEL.md section 7; definitions in inc/loss_bank.glsl).
+// Forward passes of the design loss (engine/docs/model.md section 7; definitions in inc/loss_bank.glsl).
 // One pass per compile-time define, recorded in this order by engine/optim/src/loss/mod.rs:
 //   DISPLAY  level-0 pyramid = I = L^(1/2.2) of the render
 //   POOL     level `level` of the pyramid from the level below (2x2 mean)

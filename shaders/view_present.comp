@@ -2,7 +2,7 @@
 // Viewer present pass: linear L (the engine's image buffer, one view at the internal resolution)
 // -> display bytes in the swapchain-sized output buffer, copied to the swapchain image by the
 // host. Upscales the internal image to its destination rectangle (bilinear on L, or nearest),
-// applies the exposure and the display mapping of MODEL.md section 5, and optionally draws a
+// applies the exposure and the display mapping of engine/docs/model.md section 5, and optionally draws a
 // target image (already display values in [0, 1]) beside it. Pixels outside both rectangles get
 // the background grey.
 //

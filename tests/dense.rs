@@ -35,7 +35,7 @@ fn packed(n: usize, patch: f64, res: u32, seed: u64) -> Scene {
     }
 }
 
-/// Compares the listed pixels of view 0 with the float64 reference (MODEL.md section 8 bar,
+/// Compares the listed pixels of view 0 with the float64 reference (engine/docs/model.md section 8 bar,
 /// against the view's maximum) and names the worst.
 fn assert_pixels_match(label: &str, scene: &Scene, image: &[f32], pixels: &[(u32, u32)], max_l: f64) {
     let w = scene.views[0].camera.width;
@@ -72,7 +72,7 @@ fn assert_pixels_match(label: &str, scene: &Scene, image: &[f32], pixels: &[(u32
         worst.3,
         worst.4
     );
-    // MODEL.md: 99% of on-plate pixels within the bar.
+    // engine/docs/model.md: 99% of on-plate pixels within the bar.
     assert!(
         bad * 100 <= pixels.len(),
         "{label}: {bad} of {} pixels outside the bar; worst at ({}, {}): gpu {} reference {}",

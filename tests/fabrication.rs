@@ -1,4 +1,4 @@
-//! Fabrication mode (`design --tool`, MODEL.md section 7): one commanded carve depth per scratch
+//! Fabrication mode (`design --tool`, engine/docs/model.md section 7): one commanded carve depth per scratch
 //! through a calibrated tool's curve, alpha fixed. Every written groove must be the tool's cut at
 //! its written depth (to the table's measured interpolation error), the depth gradient must be
 //! the derivative of the GPU loss, resume must be bit-exact, and bad tool files exit with 3.

@@ -1,4 +1,4 @@
-//! The GPU forward renderer against the float64 reference (MODEL.md section 8 forward bar), on
+//! The GPU forward renderer against the float64 reference (engine/docs/model.md section 8 forward bar), on
 //! seeded scene families: moderate and sharp alpha, grazing views and lights, directional light,
 //! thousands of scratches in one footprint, scratch ends and edges on footprint corners, very
 //! thin and very short scratches.
@@ -190,7 +190,7 @@ fn very_thin_and_very_short_scratches() {
         }
     }
     // Shorter than float32 resolves at these coordinates (p1 rounds onto p0 on the device):
-    // allowed by MODEL.md, and must neither produce NaN nor disturb their pixels.
+    // allowed by engine/docs/model.md, and must neither produce NaN nor disturb their pixels.
     for k in 0..20 {
         let s = &mut scene.scratches[k];
         s.p1 = [s.p0[0] + 1e-7 * (1.0 + k as f64), s.p0[1]];

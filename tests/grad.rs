@@ -1,4 +1,4 @@
-//! GPU gradients against central differences of the float64 reference (MODEL.md section 8
+//! GPU gradients against central differences of the float64 reference (engine/docs/model.md section 8
 //! gradient bar): for each kind of parameter (endpoints, w, d, alpha, light intensity),
 //! ||g - g_ref|| / ||g_ref|| <= 1e-2 over all scratches, for the check loss E_lin.
 use scratchart::model::reference::{check_loss, on_plate_mask, render_view};
@@ -263,7 +263,7 @@ fn grad_command_matches_reference() {
     );
 }
 
-/// Scratches shorter than float32 resolves at their position (allowed by MODEL.md) give finite
+/// Scratches shorter than float32 resolves at their position (allowed by engine/docs/model.md) give finite
 /// gradients (zero for themselves: on the device they overlap nothing), never NaN. (On lavapipe
 /// the unguarded 0/0 direction also happens to stay harmless under its fast-math rules; the
 /// guards in bin.comp and tile_queue.glsl make this hold on every driver.)

@@ -9,8 +9,8 @@ use scratchart::render::kernels::{Integrator, KernelSet, Mode};
 use scratchart::render::{grad::Gradients, Renderer};
 use scratchart_tests::*;
 
-/// The share of on-plate pixels within MODEL.md's forward tolerance (1e-3 relative, or 1e-6 x
-/// the view's maximum) that each integrator must reach on every view: MODEL.md's 99% for both.
+/// The share of on-plate pixels within engine/docs/model.md's forward tolerance (1e-3 relative, or 1e-6 x
+/// the view's maximum) that each integrator must reach on every view: engine/docs/model.md's 99% for both.
 /// Measured on lavapipe: 100% for both on every view here; worst relative errors above the floor
 /// 2.43e-4 (closed form) and 2.38e-4 (Gauss panels), both at the same pixel (alpha 1e-3): the
 /// float32 geometry, not the integral, limits them.
@@ -296,7 +296,7 @@ fn reverse_mode_matches_dual_numbers() {
 /// d-gradient is a small difference of large terms (strip edges moving both ways), float32
 /// rounding in another order shows (measured worst: 9.6e-5 on d, 3.7e-6 on endpoints, 1.2e-6 on
 /// alpha; on the worst scratch the dual result was the closer one to float64 central
-/// differences, both far inside MODEL.md's 1e-2 bar, which tests/grad.rs checks).
+/// differences, both far inside engine/docs/model.md's 1e-2 bar, which tests/grad.rs checks).
 #[test]
 fn reverse_mode_matches_dual_numbers_over_random_regimes() {
     const TOL: f64 = 1e-3;

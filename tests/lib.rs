@@ -1,5 +1,5 @@
 //! Shared helpers of the workspace-level tests: a validated Vulkan context on the real device
-//! (lavapipe in CI), scene builders for the test families, and the MODEL.md section 8 comparison.
+//! (lavapipe in CI), scene builders for the test families, and the engine/docs/model.md section 8 comparison.
 use std::sync::Arc;
 
 use scratchart::model::scene::{Camera, Light, LightKind, Plate, Scene, Scratch, View};
@@ -34,7 +34,7 @@ pub fn gpu_render(ctx: &Arc<Context>, scene: &Scene) -> Vec<Vec<f32>> {
     r.render(&mut gs).expect("render").images
 }
 
-/// Outcome of comparing one view against the reference with the bar of MODEL.md section 8.
+/// Outcome of comparing one view against the reference with the bar of engine/docs/model.md section 8.
 #[derive(Debug)]
 pub struct Comparison {
     pub on_plate: usize,
@@ -102,7 +102,7 @@ pub fn compare(scene: &Scene, view: usize, gpu: &[f32], reference: &[f64]) -> Co
     c
 }
 
-/// Renders on the GPU and with the reference, and asserts the MODEL.md section 8 forward bar on
+/// Renders on the GPU and with the reference, and asserts the engine/docs/model.md section 8 forward bar on
 /// every view. Names the worst pixel and both values on failure.
 pub fn assert_matches_reference(label: &str, scene: &Scene) {
     scene.validate().expect("test scene is valid");

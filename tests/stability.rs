@@ -15,7 +15,7 @@
 //! directional lights, alpha from 1e-3 to 0.9, depths from 1e-6 to 10 widths, scratches from
 //! much smaller to much larger than a footprint).
 //!
-//! What is asserted (the stated bound is MODEL.md section 8's forward bar: within 1e-3 relative
+//! What is asserted (the stated bound is engine/docs/model.md section 8's forward bar: within 1e-3 relative
 //! or 1e-6 of the view's largest value):
 //! - the engine's closed form (and the Gauss panels, its numeric cross-check) meets the bar on
 //!   every targeted pixel, and on at least 99% of the on-plate pixels of every scene;
@@ -385,7 +385,7 @@ fn random_case(seed: u64) -> Scene {
     }
 }
 
-/// Whether one pixel meets MODEL.md section 8's forward bar.
+/// Whether one pixel meets engine/docs/model.md section 8's forward bar.
 fn within(g: f32, r: f64, max_ref: f64) -> bool {
     let err = (g as f64 - r).abs();
     err <= 1e-3 * r.abs() || err <= 1e-6 * max_ref

@@ -1,6 +1,6 @@
 //! The speed-against-accuracy study (`scratchart study`, `engine/src/study.rs`): every method
 //! renders every regime without a NaN or an infinity, the default closed form stays within
-//! MODEL.md section 8's bar on every regime while the methods it is charted against do not (so
+//! engine/docs/model.md section 8's bar on every regime while the methods it is charted against do not (so
 //! the measure can tell them apart), and the command writes its table, chart and verdict.
 use scratchart::render::kernels::Integrator;
 use scratchart::study::{self, StudyOptions, BAR};
@@ -40,7 +40,7 @@ fn every_method_is_finite_and_the_closed_form_meets_the_bar_everywhere() {
             cf.err_p99,
             cf.err_max
         );
-        // The numeric cross-check agrees as well (MODEL.md's bar, the same measure).
+        // The numeric cross-check agrees as well (engine/docs/model.md's bar, the same measure).
         assert!(
             get("gauss-panels", reg.name).err_p99 <= BAR,
             "gauss panels on {}",
@@ -118,7 +118,7 @@ fn the_command_writes_table_chart_and_verdict() {
 /// kept so far (shaders/inc/tile_queue.glsl, SA_CULL_PAIRS). Checked on the study's regimes and
 /// on a scene built to make it cull a lot (sharp lobes in random directions over a plate whose
 /// own highlight is far away): every pixel stays within the written bound of the closed form's,
-/// the render meets MODEL.md's bar against the float64 reference, and the culling really runs.
+/// the render meets engine/docs/model.md's bar against the float64 reference, and the culling really runs.
 #[test]
 fn adaptive_keeps_its_written_bound() {
     use scratchart::model::reference::render_view;
@@ -184,7 +184,7 @@ fn adaptive_keeps_its_written_bound() {
         let cmp = compare(scene, 0, &fa.images[0], &reference);
         assert!(
             cmp.fraction() >= 0.99,
-            "{name}: adaptive misses MODEL.md's bar: {:.4} within, worst {:?}",
+            "{name}: adaptive misses engine/docs/model.md's bar: {:.4} within, worst {:?}",
             cmp.fraction(),
             cmp.worst_at
         );

@@ -2,7 +2,7 @@
 //! against central differences of the float64 reference: for each of 7 directions in the
 //! scratches' (w, d, alpha) (each scratch's own w, each d, each alpha, a random mix, half the
 //! scratches, w against d, and the zero direction), per view,
-//! ||dL - dL_ref|| / ||dL_ref|| <= 1e-2 (MODEL.md section 8's gradient bar, here per direction);
+//! ||dL - dL_ref|| / ||dL_ref|| <= 1e-2 (engine/docs/model.md section 8's gradient bar, here per direction);
 //! the zero direction is exactly zero; the images are the forward's; two runs are bit-identical.
 use scratchart::model::reference::render_view;
 use scratchart::model::scene::Scene;

@@ -2,7 +2,7 @@
 //! they project in the viewer's camera, an arrow at the frame's edge for a point behind the
 //! camera or off-screen, the plate's +x edge, and the numbers, which must equal the set-up
 //! sheet's (`scratchart setup`). Positions are checked against a pinhole projection written here
-//! from MODEL.md section 4 (not the viewer's code); colours are the overlay's documented ones.
+//! from engine/docs/model.md section 4 (not the viewer's code); colours are the overlay's documented ones.
 use std::io::{BufRead, BufReader};
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
@@ -50,7 +50,7 @@ fn write_design(dir: &Path) -> PathBuf {
     p
 }
 
-/// (right, up, forward) components of p - eye in the camera frame of MODEL.md section 4.
+/// (right, up, forward) components of p - eye in the camera frame of engine/docs/model.md section 4.
 fn local(c: &Camera, p: [f64; 3]) -> [f64; 3] {
     let sub = |a: [f64; 3], b: [f64; 3]| [a[0] - b[0], a[1] - b[1], a[2] - b[2]];
     let dot = |a: [f64; 3], b: [f64; 3]| a[0] * b[0] + a[1] * b[1] + a[2] * b[2];

@@ -310,7 +310,7 @@ impl Card {
             .collect()
     }
 
-    /// card.json: a MODEL.md scene (the bare card plate seen from the capture views) with the
+    /// card.json: a engine/docs/model.md scene (the bare card plate seen from the capture views) with the
     /// card's fields under `card`.
     pub fn to_json(&self, res: u32) -> Value {
         let scene = Scene {

@@ -2,7 +2,7 @@
 //!
 //! - [`card`]: the calibration card: a ladder of commanded depths straddling the plate surface,
 //!   each at several orientations and repeated, corner fiducials, and the capture set-up (camera
-//!   and lamp places) as MODEL.md views. `card.json` is a MODEL.md scene (a bare plate) with the
+//!   and lamp places) as engine/docs/model.md views. `card.json` is a engine/docs/model.md scene (a bare plate) with the
 //!   card's own fields under `card`.
 //! - [`simulate`]: the card as a given tool would cut it, rendered by the engine from each
 //!   capture view as the photos a camera would take (with optional noise, exposure and blur).

@@ -124,7 +124,7 @@ pub fn load_profile(f: &Path, default: Firmware) -> Result<MachineProfile> {
     Ok(m)
 }
 
-/// Visible width of a scratch (MODEL.md section 2): W = w sqrt(1 - exp(-2d/w)).
+/// Visible width of a scratch (engine/docs/model.md section 2): W = w sqrt(1 - exp(-2d/w)).
 fn visible_width(w: f64, d: f64) -> f64 {
     w * (1.0 - (-2.0 * d / w).exp()).sqrt()
 }

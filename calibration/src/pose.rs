@@ -1,10 +1,10 @@
 //! The camera that took a photo of the flat card, from the homography that maps plate points to
-//! the photo's (MODEL.md's pinhole: square pixels, principal point at the centre): the closed
+//! the photo's (engine/docs/model.md's pinhole: square pixels, principal point at the centre): the closed
 //! form, and the focal length near a hint where the closed form is poorly determined. The marks'
 //! search ([`crate::fiducials`]) and the registration ([`crate::register`]) both use it.
 
 /// The camera that took a photo of `w` x `h` pixels (square pixels, principal point at the
-/// centre, MODEL.md's pinhole) from the homography `g` that maps plate points (x, y) in mm to
+/// centre, engine/docs/model.md's pinhole) from the homography `g` that maps plate points (x, y) in mm to
 /// its image points: with u = sx - w/2, v = h/2 - sy, g ~ K [r1 r2 t] with K = diag(f, f, 1),
 /// and the two rotation columns r1, r2 being orthogonal and of equal length gives f (least
 /// squares over both conditions); the rest follows. `None` when the homography is not that of
@@ -116,7 +116,7 @@ pub fn camera_with_focal(g: &[f64; 9], w: u32, h: u32, f: f64) -> Option<scratch
     let c1o = [c1[0] - d * e0[0], c1[1] - d * e0[1], c1[2] - d * e0[2]];
     let n1 = norm(c1o);
     let e1 = [c1o[0] / n1, c1o[1] / n1, c1o[2] / n1];
-    // MODEL.md's frame (right = forward x up) is left-handed as rows, so det R = -1 and the
+    // engine/docs/model.md's frame (right = forward x up) is left-handed as rows, so det R = -1 and the
     // third column is -(e0 x e1).
     let e2 = [
         -(e0[1] * e1[2] - e0[2] * e1[1]),
@@ -127,7 +127,7 @@ pub fn camera_with_focal(g: &[f64; 9], w: u32, h: u32, f: f64) -> Option<scratch
     let right = [e0[0], e1[0], e2[0]];
     let up = [e0[1], e1[1], e2[1]];
     let forward = [e0[2], e1[2], e2[2]];
-    // MODEL.md's camera: right = forward x up. A mirrored solution is not a camera.
+    // engine/docs/model.md's camera: right = forward x up. A mirrored solution is not a camera.
     let fx = [
         forward[1] * up[2] - forward[2] * up[1],
         forward[2] * up[0] - forward[0] * up[2],

@@ -1,4 +1,4 @@
-//! How many (pixel, scratch) pairs could a bound-based culling skip without breaking MODEL.md
+//! How many (pixel, scratch) pairs could a bound-based culling skip without breaking engine/docs/model.md
 //! section 8's forward bar? Float64 analysis on the CPU (no GPU), for the study's regimes and for
 //! a design (a scene file). For every on-plate pixel and every scratch meeting its footprint:
 //! the pair's exact contribution (I_k = ∫ D dA, A_k = area) and the tightest bound a per-pair
@@ -19,7 +19,7 @@ use scratchart::model::reference::{ndf, ndf_flat, pixel, scratch_patch_integral}
 use scratchart::model::scene::Scene;
 use scratchart::model::ViewGeom;
 
-/// Share of MODEL.md's relative bar (1e-3) left to culling.
+/// Share of engine/docs/model.md's relative bar (1e-3) left to culling.
 const EPS: f64 = 2.5e-4;
 
 fn dmax(s: &scratchart::model::scene::Scratch, h: [f64; 3]) -> f64 {

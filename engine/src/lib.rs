@@ -2,7 +2,7 @@
 //!
 //! - [`vulkan`]: the ash layer (instance, device, buffers, compute pipelines, command recording):
 //!   the crate `scratchart-vulkan` (`engine/vulkan/`), re-exported here.
-//! - [`model`]: the scratch model of `MODEL.md`: scene files, geometry, and the float64 CPU
+//! - [`model`]: the scratch model of `engine/docs/model.md`: scene files, geometry, and the float64 CPU
 //!   reference (a test oracle only; never a fallback for the GPU path). It is the crate
 //!   `scratchart-model` (`engine/model/`), re-exported here so `scratchart::model::...` paths hold;
 //!   it builds without Vulkan, for the crates that need the scene model but no GPU.

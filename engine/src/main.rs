@@ -20,7 +20,7 @@ use scratchart::vulkan::{Context, ContextDesc};
     about = "Design, render and benchmark scratch-based reflection art on any Vulkan device.",
     long_about = "Design, render and benchmark scratch-based reflection art on any Vulkan device.\n\n\
 A plate carved with many short straight scratches shows a different image from each of several viewpoints \
-under a light. Scenes are JSON files (see MODEL.md section 6) with scratches inline or in a CSV file.\n\n\
+under a light. Scenes are JSON files (see engine/docs/model.md section 6) with scratches inline or in a CSV file.\n\n\
 Device choice: discrete GPU, then integrated, then CPU (lavapipe); --device or SCRATCHART_DEVICE picks one \
 by index or by part of its name. SCRATCHART_VALIDATION=1 (or --validation) turns on the Vulkan validation layer.\n\n\
 Exit codes: 0 success, 1 runtime failure, 2 bad command line, 3 bad input file, 4 GPU/device failure."
@@ -44,18 +44,18 @@ enum Cmd {
     /// Render every view of a scene to NAME.pfm (linear L) and NAME.png (display value).
     /// Without SCENE, renders the built-in demo plate.
     Render {
-        /// Scene file (JSON, MODEL.md section 6)
+        /// Scene file (JSON, engine/docs/model.md section 6)
         scene: Option<PathBuf>,
         /// Output directory (created if missing)
         #[arg(long, default_value = "out")]
         out: PathBuf,
     },
-    /// Write the check loss E_lin of MODEL.md section 8 and its gradient with respect to every
+    /// Write the check loss E_lin of engine/docs/model.md section 8 and its gradient with respect to every
     /// scratch (grads.csv: x0,y0,x1,y1,w,d,alpha per scratch, in input order) and every view's
     /// light intensity (grads_lights.csv beside it: view,intensity). Targets are DIR/NAME.pfm,
     /// linear values, one per view.
     Grad {
-        /// Scene file (JSON, MODEL.md section 6)
+        /// Scene file (JSON, engine/docs/model.md section 6)
         scene: PathBuf,
         /// Directory holding NAME.pfm for every view NAME
         #[arg(long)]
@@ -136,7 +136,7 @@ enum Cmd {
     /// vector along the scratches, many scratches per footprint); each render is compared with the
     /// float64 reference and timed. Writes DIR/study.csv (method, regime, err_max, err_p99,
     /// err_median, ns_per_pair, pairs, culled, ...), DIR/study.png (error against time per regime, log axes)
-    /// and DIR/verdict.txt (per regime the cheapest method within MODEL.md's bar). About two
+    /// and DIR/verdict.txt (per regime the cheapest method within engine/docs/model.md's bar). About two
     /// minutes on a 2-core CPU driver with the defaults.
     Study {
         /// Output directory (created if missing)

@@ -3,10 +3,10 @@
 //! Every method of [`Integrator::STUDY`] renders the same small scenes, one per regime (sharp and
 //! wide lobes, grazing views, footprints much smaller and much larger than a scratch, the half
 //! vector nearly along the scratches, many scratches per footprint), with the engine's forward
-//! kernel; each render is compared pixel by pixel with the float64 reference of MODEL.md.
+//! kernel; each render is compared pixel by pixel with the float64 reference of engine/docs/model.md.
 //!
 //! Error of a pixel: `|L - L_ref| / max(L_ref, 1e-3 M)`, M the reference view's largest L. So a
-//! pixel meets MODEL.md section 8's forward bar (within 1e-3 relative, or within 1e-6 M, whichever
+//! pixel meets engine/docs/model.md section 8's forward bar (within 1e-3 relative, or within 1e-6 M, whichever
 //! is looser) exactly when its error is at most 1e-3, and a method meets the bar on a regime when
 //! the 99th percentile over the on-plate pixels is. Off-plate pixels are not counted (every
 //! method writes exactly 0 there).
@@ -31,7 +31,7 @@ use crate::render::Renderer;
 use crate::scenes::{orbit_camera, orbit_light, Rng};
 use crate::vulkan::Context;
 
-/// MODEL.md section 8's forward bar on this study's error measure.
+/// engine/docs/model.md section 8's forward bar on this study's error measure.
 pub const BAR: f64 = 1e-3;
 
 /// One regime: a scene of one view and what it stresses.
@@ -461,7 +461,7 @@ pub fn verdict(rows: &[Row]) -> String {
         }
     }
     let mut s = format!(
-        "Speed against accuracy of the per-pair integral. Bar: MODEL.md section 8 (99% of on-plate pixels within\n\
+        "Speed against accuracy of the per-pair integral. Bar: engine/docs/model.md section 8 (99% of on-plate pixels within\n\
          1e-3 relative or 1e-6 of the view's maximum): the 99th-percentile error here at most {BAR:.0e}.\n\n"
     );
     for reg in &regimes {
@@ -554,7 +554,7 @@ pub fn chart(rows: &[Row], path: &Path) -> Result<()> {
         let (title, body) = root.split_vertically(40);
         if text {
             title.draw_text(
-                "error (99th percentile) against GPU time per pair; dashed: MODEL.md's bar",
+                "error (99th percentile) against GPU time per pair; dashed: the model's bar",
                 &TextStyle::from((font, 18)).color(&BLACK),
                 (10, 10),
             )?;

@@ -1,4 +1,4 @@
-// Shared structs and camera geometry (MODEL.md sections 1-4).
+// Shared structs and camera geometry (engine/docs/model.md sections 1-4).
 // Every struct here has a #[repr(C)] twin in engine/render/src/layout.rs; a test checks they agree.
 #ifndef SA_COMMON_GLSL
 #define SA_COMMON_GLSL
@@ -43,7 +43,7 @@ vec2 ray_hit64(ViewGPU64 v, uvec2 dims, dvec2 sp, out bool ok) {
 struct ViewGPU64 { uvec4 pad[8]; };
 #endif
 
-// One scratch as the user gives it (MODEL.md section 2).
+// One scratch as the user gives it (engine/docs/model.md section 2).
 struct ScratchGPU {
     vec4 ends;   // p0.x, p0.y, p1.x, p1.y (mm)
     vec4 shape;  // w, d, alpha, unused
@@ -75,7 +75,7 @@ vec2 project(ViewGPU v, vec2 q, out bool ok) {
                 (1.0 - ky / v.eye.w) * 0.5 * float(v.dims.y));
 }
 
-// GGX point NDF (MODEL.md section 3) of the macro normal z, with the stable denominator of
+// GGX point NDF (engine/docs/model.md section 3) of the macro normal z, with the stable denominator of
 // section 9: alpha^2 c^2 + |z x h|^2 instead of (alpha^2 - 1) c^2 + 1.
 float ggx_flat(vec3 h, float alpha) {
     if (h.z <= 0.0) return 0.0;

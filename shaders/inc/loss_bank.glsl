@@ -1,4 +1,4 @@
-// The design loss (MODEL.md section 7): display transform, 3x3 Gaussian blur, image pyramid and
+// The design loss (engine/docs/model.md section 7): display transform, 3x3 Gaussian blur, image pyramid and
 // the fixed feature bank whose Gram matrices stand in for the paper's VGG-19 features.
 // Shared by loss_fwd.comp (values) and loss_bwd.comp (dE/dL). Include after loss_bindings.glsl.
 //
@@ -69,11 +69,11 @@ uint gram_idx(uint i, uint j) {
 
 int clampi(int x, int n) { return clamp(x, 0, n - 1); }
 
-// Display value I = L^(1/2.2) (MODEL.md section 5); L < 0 (never produced) is treated as 0.
+// Display value I = L^(1/2.2) (engine/docs/model.md section 5); L < 0 (never produced) is treated as 0.
 // A NaN render stays NaN (so the loss flags it) instead of being read as 0.
 float display(float L) { return L > 0.0 ? pow(L, 1.0 / 2.2) : (isnan(L) ? L : 0.0); }
 
-// dI/dL taken at max(L, 1e-4): the true slope is infinite at L = 0 (MODEL.md section 8 allows this).
+// dI/dL taken at max(L, 1e-4): the true slope is infinite at L = 0 (engine/docs/model.md section 8 allows this).
 float display_slope(float L) { return (1.0 / 2.2) * pow(max(L, 1e-4), 1.0 / 2.2 - 1.0); }
 
 #endif

@@ -1,4 +1,4 @@
-// The per-(pixel, scratch) patch integral of MODEL.md section 5,
+// The per-(pixel, scratch) patch integral of engine/docs/model.md section 5,
 //   I = integral over F ∩ R of D(n(u) . h; alpha) dA,   A = area(F ∩ R),
 // and the one pair set-up of the shading kernels. Written over the scalar type R of real.glsl:
 // forward.comp runs it in float, grad.comp differentiates exactly this code with dual numbers.
@@ -12,7 +12,7 @@
 // Q1 carries the sharp GGX lobe: Q1 = A ((s - s0)^2 + g^2) with A = 1 + beta hz, s0 = -beta hb / A,
 // g^2 = (alpha^2 + ht^2 (1 - alpha^2)) / A^2 (no cancellation: 1 - beta^2 rho^2 expanded).
 // On the chi+ range (c > 0) 1/(1+x) lies in [1/2, 1] and is smooth. D jumps to 0 where c = 0
-// (MODEL.md section 9): every integrator integrates over the chi+ range only.
+// (engine/docs/model.md section 9): every integrator integrates over the chi+ range only.
 //
 // The integrator. The kernels compile with one SA_INTEGRATOR_* define (engine/render/src/kernels.rs)
 // that picks a file of inc/integrators/; it defines
@@ -62,7 +62,7 @@ PairGeom pair_geom(R hb, R ht, float hz, R alpha) {
     return G;
 }
 
-// D(n(s) . h; alpha) with |n x h|^2 = ht^2 + m^2 computed directly (MODEL.md section 9).
+// D(n(s) . h; alpha) with |n x h|^2 = ht^2 + m^2 computed directly (engine/docs/model.md section 9).
 R ndf_at(PairGeom G, R s) {
     R s2 = mul(s, s);
     R iP = dv(1.0, add(1.0, s2));

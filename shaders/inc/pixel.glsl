@@ -1,4 +1,4 @@
-// Per-pixel quantities of MODEL.md sections 4-5 shared by the forward and backward kernels.
+// Per-pixel quantities of engine/docs/model.md sections 4-5 shared by the forward and backward kernels.
 #ifndef SA_PIXEL_GLSL
 #define SA_PIXEL_GLSL
 #include "common.glsl"
@@ -7,7 +7,7 @@
 #define SA_PIXEL_TEXELS 5u
 
 struct PixelSetup {
-    bool on_plate;     // MODEL.md section 4; off-plate pixels are exactly 0 with no gradient
+    bool on_plate;     // engine/docs/model.md section 4; off-plate pixels are exactly 0 with no gradient
     vec2 fp[4];        // footprint corners on the plate: (i,j), (i+1,j), (i+1,j+1), (i,j+1)
     vec2 centre;       // centroid of the corners (for culling only)
     float radius;      // max distance centroid -> corner (for culling only)

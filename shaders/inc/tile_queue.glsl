@@ -85,7 +85,7 @@ void block_tests(uint k, uint si) {
 // with the carved rectangle, and by S_P. A pixel drops pair k (in the order the kernel meets them)
 // when the bounds dropped so far plus b_k stay within CULL_EPS times the NDF integrals it has
 // kept so far (cull_kept): that sum is a lower bound of the pixel's D_P S_P, so culling moves
-// every pixel by at most CULL_EPS of its value: 5e-4, half of MODEL.md section 8's 1e-3, the
+// every pixel by at most CULL_EPS of its value: 5e-4, half of engine/docs/model.md section 8's 1e-3, the
 // closed form's own error (p99 below 4e-5 on the study's regimes) well inside the rest. Only the
 // first pass of a tile culls (a later pass of a dense tile starts without the dropped sum).
 const float CULL_EPS = 5e-4;

@@ -1,4 +1,4 @@
-// Display mapping of MODEL.md section 5, for the viewer's present pass:
+// Display mapping of engine/docs/model.md section 5, for the viewer's present pass:
 // I = L^(1/2.2), byte = round(255 min(1, I)); L <= 0 or NaN gives 0 (as `io::display_byte`).
 // float32 pow can put a value that is within ~1e-6 of a rounding boundary one level away from the
 // engine's float64 `display_byte`; the viewer tests allow that one level.

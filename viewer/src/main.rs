@@ -97,7 +97,7 @@ lists its flags.\n\n",
 keys_text!())
 )]
 pub struct Opts {
-    /// Design file (JSON scene, MODEL.md section 6); default: the built-in demo plate
+    /// Design file (JSON scene, engine/docs/model.md section 6); default: the built-in demo plate
     pub design: Option<PathBuf>,
     /// Start at (window) or render (screenshot) this view: 0-based index or name. A screenshot
     /// then uses the view's camera, light and resolution, matching `scratchart render`
@@ -306,26 +306,18 @@ fn main() -> ExitCode {
         .borrow()
         .as_ref()
         .map(|l: &scratchart::vulkan::ValidationLog| l.messages().len());
-    match r {
-        Ok(()) => {
-            if let Some(n) = n_validation.filter(|_| validation) {
-                eprintln!("validation messages: {n}");
-                if n > 0 {
-                    // (a failure of the run like any other: the contract's runtime class)
-                    eprintln!("error: the Vulkan validation layer reported {n} message(s) (see above)");
-                    return scratchart::exit::Class::Runtime.exit_code();
-                }
-            }
-            ExitCode::SUCCESS
-        }
-        Err(e) => {
-            eprintln!("error: {e:#}");
-            if let Some(n) = n_validation.filter(|_| validation) {
-                eprintln!("validation messages: {n}");
-            }
-            ExitCode::from(scratchart::exit::code_of(&e))
-        }
+    let n_validation = n_validation.filter(|_| validation);
+    if let Some(n) = n_validation {
+        eprintln!("validation messages: {n}");
     }
+    // Validation messages fail a run like any other failure (the contract's runtime class).
+    let r = match (r, n_validation) {
+        (Ok(()), Some(n)) if n > 0 => Err(anyhow::anyhow!(
+            "the Vulkan validation layer reported {n} message(s) (see above)"
+        )),
+        (r, _) => r,
+    };
+    scratchart::exit::finish(r)
 }
 
 fn run(opts: &Opts, log: &std::cell::RefCell<Option<scratchart::vulkan::ValidationLog>>) -> Result<()> {

@@ -4,7 +4,7 @@
 //!
 //! Bands: when commanded depths are known (the design's `z_mm` column, or the tool's curve),
 //! scratches are grouped by commanded depth; otherwise by the groove's visible width
-//! W = w sqrt(1 - exp(-2d/w)) (MODEL.md section 2). With at most [`MAX_BANDS`] distinct values,
+//! W = w sqrt(1 - exp(-2d/w)) (engine/docs/model.md section 2). With at most [`MAX_BANDS`] distinct values,
 //! each value is a band of its own; otherwise the range is cut into [`MAX_BANDS`] equal bands and
 //! empty ones are left out. A band's name says its number and value or range in micrometres
 //! (`p` for a decimal point), e.g. `band2_depth_30um` or `band3_width_41p5-52um`.
@@ -73,7 +73,7 @@ pub struct Drawing {
 /// The layer (SVG group, DXF layer) of the orientation mark.
 pub const MARK_LAYER: &str = "mark_plus_x_edge";
 
-/// Visible width of a groove (MODEL.md section 2), mm.
+/// Visible width of a groove (engine/docs/model.md section 2), mm.
 pub fn visible_width(w: f64, d: f64) -> f64 {
     w * (1.0 - (-2.0 * d / w).exp()).sqrt()
 }

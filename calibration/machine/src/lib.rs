@@ -47,7 +47,7 @@ use scratchart_model::scene::{Scene, SceneError};
 
 /// Loads a design (the `design.json` that `scratchart design` writes, with its scratch CSV, or
 /// any scene file) with the model's reader, which validates every scratch and view against
-/// MODEL.md. Errors name the file and the place, as the engine's do.
+/// engine/docs/model.md. Errors name the file and the place, as the engine's do.
 pub fn load_design(path: &Path) -> Result<Scene, SceneError> {
     Scene::load(path)
 }

@@ -6,7 +6,7 @@
 //! across the cut (`section.rs`): a V-bit of included angle phi with tip flat F, a ball of radius
 //! r, a tapered ball (a ball tangent to cone flanks), or a measured free profile of widths W(z).
 //!
-//! MODEL.md's scratch groove is D_m(u) = d + (w/2) ln(1 - 4u^2/w^2) for |u| <= e, visible width
+//! engine/docs/model.md's scratch groove is D_m(u) = d + (w/2) ln(1 - 4u^2/w^2) for |u| <= e, visible width
 //! W = 2e = w sqrt(1 - exp(-2d/w)). The map from a tool's cut to (w, d) (`fit.rs`): the model
 //! keeps the tool's visible width exactly (so the carved region is the real one), which leaves one
 //! free parameter, w, chosen to minimize the squared depth difference integrated across the cut.
@@ -57,7 +57,7 @@ pub enum Tool {
 /// What a calibration fit adds to `tool.json` beside the tool.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Fitted {
-    /// Roughness of the groove walls (MODEL.md alpha), fitted from the card's photos.
+    /// Roughness of the groove walls (engine/docs/model.md alpha), fitted from the card's photos.
     pub alpha: Option<f64>,
     /// The fit's record: uncertainties, residual, parameters it could not identify.
     pub fit: Option<serde_json::Value>,

@@ -1,4 +1,4 @@
-//! Float64 view geometry exactly as MODEL.md section 4 defines it: the camera basis, pinhole
+//! Float64 view geometry exactly as engine/docs/model.md section 4 defines it: the camera basis, pinhole
 //! camera rays, pixel footprints on the plate plane z = 0, shading points, the on-plate test and
 //! mask, light direction and irradiance. Used by the CPU reference, scene validation, the
 //! engine's GPU cameras (`render::layout`, through [`Camera::basis`]) and the optimizer's masks.
@@ -34,7 +34,7 @@ pub(crate) fn normalize(a: V3) -> V3 {
     scale(a, 1.0 / norm(a))
 }
 
-/// The camera frame of MODEL.md section 4: f = normalize(T - C), r = normalize(f x U),
+/// The camera frame of engine/docs/model.md section 4: f = normalize(T - C), r = normalize(f x U),
 /// up' = r x f.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct CameraBasis {
@@ -149,7 +149,7 @@ impl ViewGeom {
         self.hit(i as f64 + 0.5, j as f64 + 0.5)
     }
 
-    /// Whether pixel (i, j) is on the plate (MODEL.md section 4): X in the closed square
+    /// Whether pixel (i, j) is on the plate (engine/docs/model.md section 4): X in the closed square
     /// [-half, half]^2 and all four corner rays hit with s > 0.
     pub fn on_plate(&self, i: u32, j: u32, half: f64) -> bool {
         match self.shading_point(i, j) {
@@ -254,7 +254,7 @@ mod tests {
         }
     }
 
-    /// The basis is MODEL.md's formula evaluated in plain float64 arithmetic, bit for bit
+    /// The basis is engine/docs/model.md's formula evaluated in plain float64 arithmetic, bit for bit
     /// (f = (T - C) / |T - C| as (T - C) * (1 / |T - C|), the same for r; cross products in the
     /// textbook order).
     #[test]

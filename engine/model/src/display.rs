@@ -1,4 +1,4 @@
-//! The display curve of MODEL.md section 5, I = L^(1/2.2), written once for the whole project
+//! The display curve of engine/docs/model.md section 5, I = L^(1/2.2), written once for the whole project
 //! (the engine's images and PNGs, the reference loss, the calibration's photos; the kernels
 //! have their own GLSL copy of `GAMMA`).
 

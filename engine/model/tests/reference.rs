@@ -1,4 +1,4 @@
-//! Sanity checks of the float64 reference (MODEL.md sections 2-5) against independent
+//! Sanity checks of the float64 reference (engine/docs/model.md sections 2-5) against independent
 //! computations: brute-force 2D quadrature, closed forms, symmetry, and a substitution-based
 //! quadrature for a sharp lobe.
 
@@ -37,7 +37,7 @@ fn scene(eye: [f64; 3], light: [f64; 3], size: u32, scratches: Vec<Scratch>) -> 
     s
 }
 
-/// Literal point NDF of MODEL.md section 3 (fine in float64 for moderate alpha).
+/// Literal point NDF of engine/docs/model.md section 3 (fine in float64 for moderate alpha).
 fn d_literal(c: f64, alpha: f64) -> f64 {
     if c <= 0.0 {
         return 0.0;
@@ -47,7 +47,7 @@ fn d_literal(c: f64, alpha: f64) -> f64 {
     a2 / (PI * q * q)
 }
 
-/// n(u) . h for a scratch, straight from MODEL.md section 2.
+/// n(u) . h for a scratch, straight from engine/docs/model.md section 2.
 fn n_dot_h(s: &Scratch, q: [f64; 2], h: [f64; 3]) -> (f64, bool) {
     let l = s.length();
     let t = [(s.p1[0] - s.p0[0]) / l, (s.p1[1] - s.p0[1]) / l];
@@ -161,7 +161,7 @@ fn patch_integral_matches_brute_force_partial() {
     assert!((p.cov - area / p.s_p).abs() < 1e-14);
 }
 
-/// Independent camera + shading for a bare plate, straight from MODEL.md section 4-5.
+/// Independent camera + shading for a bare plate, straight from engine/docs/model.md section 4-5.
 #[test]
 fn flat_plate_closed_form() {
     let sc = scene(EYE, LIGHT, 32, vec![]);

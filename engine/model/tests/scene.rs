@@ -1,4 +1,4 @@
-//! Scene file reading, validation and writing (MODEL.md section 6).
+//! Scene file reading, validation and writing (engine/docs/model.md section 6).
 
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicUsize, Ordering};

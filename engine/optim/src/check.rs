@@ -1,4 +1,4 @@
-//! The check loss of MODEL.md section 8 as an [`Objective`] on the GPU (`shaders/check_loss.comp`):
+//! The check loss of engine/docs/model.md section 8 as an [`Objective`] on the GPU (`shaders/check_loss.comp`):
 //! E_lin = sum over views of the mean over the view's on-plate pixels of (L - T)^2, for given
 //! linear target images T. The `grad` command reports it and its gradients; the gradient tests
 //! hold it against central differences of the float64 reference.
@@ -131,7 +131,7 @@ pub fn objective_gradients(
     Ok((ev, renderer.download_gradients(gs)?))
 }
 
-/// The check loss of MODEL.md section 8 and its gradients, for the `grad` command:
+/// The check loss of engine/docs/model.md section 8 and its gradients, for the `grad` command:
 /// E_lin = sum over views of the mean over the view's on-plate pixels of (L - T)^2, with T the
 /// given linear target images (one per view, row-major, top row first).
 pub struct CheckLoss {

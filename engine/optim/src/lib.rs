@@ -10,7 +10,7 @@
 //! - [`loss`]: the design loss on the GPU (display transform, blurred squared error, Gram
 //!   matrices of a fixed multi-scale oriented feature bank) and its backward to dE/dL; f64 CPU
 //!   twin for tests.
-//! - [`check`]: the check loss E_lin of MODEL.md section 8 as an objective on the GPU, and the
+//! - [`check`]: the check loss E_lin of engine/docs/model.md section 8 as an objective on the GPU, and the
 //!   gradients of any objective in one submission.
 //! - [`scene_params`]: the design's parameter set (scratches and lights) and its projection.
 //! - [`tool_params`]: fabrication mode's parameter set: one carve depth per scratch through a

@@ -1,4 +1,4 @@
-//! Fabrication mode (`scratchart design --tool tool.json`, MODEL.md section 7): every scratch
+//! Fabrication mode (`scratchart design --tool tool.json`, engine/docs/model.md section 7): every scratch
 //! gets one commanded carve depth z in place of (w, d, alpha); its groove is what the calibrated
 //! tool cuts at z (`scratchart_tool::Tool::model`), with alpha fixed.
 //!

@@ -1,7 +1,7 @@
 //! Image files: PFM (linear float images), PNG (display images), PNG/JPEG targets, resizing,
 //! and the atomic file writer every writer in the engine goes through.
 //!
-//! Conventions (MODEL.md section 6):
+//! Conventions (engine/docs/model.md section 6):
 //! - In memory, images are row-major with row 0 the TOP image row (sy = 0).
 //! - PFM files store rows BOTTOM row first, as the PFM format orders them. [`write_pfm`] writes
 //!   grayscale `Pf` with scale -1.0 (little endian); [`read_pfm`] reads `Pf` and `PF` (colour,
@@ -200,9 +200,9 @@ pub fn decode_pfm(bytes: &[u8]) -> Result<(u32, u32, Vec<f32>), String> {
     Ok((width, height, out))
 }
 
-/// Display value of a linear pixel: round(255 min(1, L^(1/2.2))) (MODEL.md section 5).
+/// Display value of a linear pixel: round(255 min(1, L^(1/2.2))) (engine/docs/model.md section 5).
 /// Negative and NaN inputs give 0.
-/// Display value of MODEL.md section 5, I = L^(1/2.2), unclamped (0 for L <= 0; NaN stays NaN
+/// Display value of engine/docs/model.md section 5, I = L^(1/2.2), unclamped (0 for L <= 0; NaN stays NaN
 /// so that a bad render shows up downstream).
 pub fn display_value(l: f32) -> f32 {
     if l > 0.0 {

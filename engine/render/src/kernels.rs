@@ -13,7 +13,7 @@ use crate::vulkan::DeviceInfo;
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 pub enum Integrator {
     /// Green's theorem with the GGX lobe in closed form and Gauss-Legendre for the smooth part
-    /// (`inc/integrators/closed_form.glsl`). The default; the one MODEL.md's bars are kept with.
+    /// (`inc/integrators/closed_form.glsl`). The default; the one engine/docs/model.md's bars are kept with.
     #[default]
     ClosedForm,
     /// Green's theorem with every edge integral by Gauss-Legendre on panels graded towards the

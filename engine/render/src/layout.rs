@@ -158,7 +158,7 @@ pub struct ViewSlots {
 
 pub fn view_gpu(view: &View, tile_base: u32, pixel_base: u32) -> ViewGpu {
     let cam = &view.camera;
-    // MODEL.md section 4: f = normalize(T - C), r = normalize(f x U), up' = r x f.
+    // engine/docs/model.md section 4: f = normalize(T - C), r = normalize(f x U), up' = r x f.
     let b = cam.basis();
     let (fwd, right, up) = (b.fwd, b.right, b.up);
     let (w, h) = (cam.width, cam.height);

@@ -1,5 +1,5 @@
 //! The GPU renderer: tile binning (pair search), deterministic scan, and the patch-NDF shading
-//! kernels; produces the linear pixel values L of MODEL.md section 5 for every view, and (in
+//! kernels; produces the linear pixel values L of engine/docs/model.md section 5 for every view, and (in
 //! [`grad`]) their gradients.
 //!
 //! Buffers live in a [`GpuScene`] (the binning state private to this module); a [`Renderer`]

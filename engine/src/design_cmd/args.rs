@@ -89,7 +89,7 @@ pub struct DesignArgs {
     /// faces the arc's middle, its +Y up the plate's normal)
     #[arg(long, value_name = "DEG", default_value_t = 0.0, allow_hyphen_values = true)]
     pub object_yaw: f64,
-    /// Views from a file instead: a JSON array of MODEL.md view objects (their lights' intensities are used as given)
+    /// Views from a file instead: a JSON array of engine/docs/model.md view objects (their lights' intensities are used as given)
     #[arg(long, conflicts_with_all = ["views", "res", "elevation", "light_azimuth", "light_elevation", "light_distance"])]
     pub view_file: Option<PathBuf>,
     /// Number of scratches (default 6000; for a walk, 1000 per walk view, at least 6000: a plate

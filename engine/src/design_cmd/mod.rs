@@ -155,7 +155,7 @@ fn design_views(
                 .with_context(|| format!("view file `{}` is not valid JSON", path.display()))?;
             anyhow::ensure!(
                 arr.as_array().is_some_and(|a| !a.is_empty()),
-                "view file `{}` must hold a non-empty JSON array of view objects (MODEL.md section 6)",
+                "view file `{}` must hold a non-empty JSON array of view objects (engine/docs/model.md section 6)",
                 path.display()
             );
             let doc = serde_json::json!({

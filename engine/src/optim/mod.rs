@@ -1,5 +1,5 @@
 //! The optimizer and the design job (`scratchart design`): fits parameters against an objective
-//! on the GPU (MODEL.md section 7 for the design). The generic optimizer is the crate
+//! on the GPU (engine/docs/model.md section 7 for the design). The generic optimizer is the crate
 //! `scratchart-optim` (`engine/optim/`), re-exported here module by module; the design job and
 //! its reports are the application's.
 //!
@@ -13,7 +13,7 @@
 //! - [`loss`]: the design loss on the GPU (display transform, blurred squared error, Gram
 //!   matrices of a fixed multi-scale oriented feature bank) and its backward to dE/dL; f64 CPU
 //!   twin for tests. It is the design's objective.
-//! - [`check`]: the check loss E_lin of MODEL.md section 8 as an objective on the GPU.
+//! - [`check`]: the check loss E_lin of engine/docs/model.md section 8 as an objective on the GPU.
 //! - [`scene_params`]: the design's parameter set (scratches and lights) and its projection.
 //! - [`tool_params`]: fabrication mode's parameter set: one carve depth per scratch through a
 //!   calibrated tool's curve (`design --tool`).

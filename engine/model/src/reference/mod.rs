@@ -1,4 +1,4 @@
-//! The float64 CPU reference of MODEL.md sections 1-5.
+//! The float64 CPU reference of engine/docs/model.md sections 1-5.
 //!
 //! **This is a test oracle only.** It is never used as a fallback for the GPU renderer: when the
 //! GPU path is unavailable the engine reports an error instead of silently computing on the CPU.
@@ -16,7 +16,7 @@
 //!    widths (alpha in angle). The pieces are integrated together by globally adaptive
 //!    Gauss-Kronrod G7/K15 (bisecting the piece with the largest |K15 - G7|) until the summed
 //!    |K15 - G7| is below 1e-12 of the integral: |K15 - G7| grossly over-estimates the K15 error
-//!    of a smooth integrand, so the result is far inside the 1e-9 bar of MODEL.md section 8.
+//!    of a smooth integrand, so the result is far inside the 1e-9 bar of engine/docs/model.md section 8.
 //! 4. D is evaluated with the stable denominator alpha^2 c^2 + |n x h|^2 (section 9), where
 //!    |n x h|^2 = (h.t)^2 + (cos theta h.b + sin theta h.z)^2 is computed from the components.
 //! 5. Coverage uses the exact polygon areas; BRDF, Fresnel, flat-plate term and L per section 5.
@@ -254,7 +254,7 @@ pub fn pixel(scene: &Scene, view: usize, i: u32, j: u32) -> PixelRef {
     prepared.pixel(&g, i, j, &mut Vec::new())
 }
 
-/// The linear check loss of MODEL.md section 8:
+/// The linear check loss of engine/docs/model.md section 8:
 /// E_lin = sum over views j of (mean over view j's on-plate pixels of (L_j - T_j)^2).
 /// `targets[j]` is row-major, top row first, W*H values. A view without on-plate pixels adds 0.
 pub fn check_loss(scene: &Scene, targets: &[Vec<f64>]) -> f64 {

@@ -1,4 +1,4 @@
-//! The scratch CSV file (MODEL.md section 6): header `x0,y0,x1,y1,w,d,alpha`, one scratch per
+//! The scratch CSV file (engine/docs/model.md section 6): header `x0,y0,x1,y1,w,d,alpha`, one scratch per
 //! row, numbers in millimetres.
 //!
 //! Extra named columns may follow the seven (for example `z_mm`, the commanded carve depth that
@@ -12,7 +12,7 @@ use std::path::Path;
 use super::{invalid, SceneError, Scratch, COLS, CSV_HEADER};
 
 /// Read a scratch CSV (header `x0,y0,x1,y1,w,d,alpha`; blank lines and `#` comments skipped).
-/// Checks the syntax and that every number is finite; MODEL.md's range checks against the plate
+/// Checks the syntax and that every number is finite; engine/docs/model.md's range checks against the plate
 /// are done by [`Scene::load`](super::Scene::load) / [`Scene::validate`](super::Scene::validate),
 /// which know the plate.
 pub fn read_scratches_csv(path: &Path) -> Result<Vec<Scratch>, SceneError> {
@@ -20,7 +20,7 @@ pub fn read_scratches_csv(path: &Path) -> Result<Vec<Scratch>, SceneError> {
     Ok(list.into_iter().map(|(s, _)| s).collect())
 }
 
-/// Extra named columns of a scratch CSV, after the seven of MODEL.md: `rows[k]` belongs to
+/// Extra named columns of a scratch CSV, after the seven of engine/docs/model.md: `rows[k]` belongs to
 /// scratch k and has one value per name.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Extra {

@@ -1,4 +1,4 @@
-//! Scene types and the scene file (MODEL.md section 6).
+//! Scene types and the scene file (engine/docs/model.md section 6).
 //!
 //! A scene file is JSON; unknown fields are allowed (the engine may read more than these).
 //! `scratches` is either a CSV path relative to the scene file (header `x0,y0,x1,y1,w,d,alpha`)
@@ -7,7 +7,7 @@
 //!
 //! - this file: the types ([`Scene`], [`View`], [`Scratch`], ...) and [`SceneError`];
 //! - `read.rs`: [`Scene::load`] and [`Scene::from_json_str`] (JSON parsing);
-//! - `validate.rs`: the checks of MODEL.md sections 2, 4 and 6 ([`Scene::validate`],
+//! - `validate.rs`: the checks of engine/docs/model.md sections 2, 4 and 6 ([`Scene::validate`],
 //!   [`camera_sees_plate`]), shared by the reader;
 //! - `csv.rs`: the scratch CSV reader ([`read_scratches_csv`]) and writer;
 //! - `write.rs`: [`Scene::save`] and [`Scene::to_json_inline`].
@@ -23,9 +23,9 @@ mod write;
 pub use csv::{read_scratches_csv, read_scratches_csv_lines, read_scratches_csv_table, Extra};
 pub use validate::camera_sees_plate;
 
-/// Default plate roughness alpha_s (MODEL.md section 6).
+/// Default plate roughness alpha_s (engine/docs/model.md section 6).
 pub const DEFAULT_ROUGHNESS: f64 = 0.02;
-/// Default plate Fresnel f0 (aluminium, MODEL.md section 5).
+/// Default plate Fresnel f0 (aluminium, engine/docs/model.md section 5).
 pub const DEFAULT_F0: f64 = 0.91;
 /// The CSV header line.
 pub const CSV_HEADER: &str = "x0,y0,x1,y1,w,d,alpha";
@@ -249,7 +249,7 @@ fn invalid(file: &str, field: impl Into<String>, msg: impl Into<String>) -> Scen
 }
 
 impl Scratch {
-    /// Half-width of the carved region, e = (w/2) sqrt(1 - exp(-2d/w)) (MODEL.md section 2),
+    /// Half-width of the carved region, e = (w/2) sqrt(1 - exp(-2d/w)) (engine/docs/model.md section 2),
     /// computed as (w/2) sqrt(-expm1(-2d/w)) so that it stays accurate for d << w.
     pub fn half_width(&self) -> f64 {
         0.5 * self.w * (-(-2.0 * self.d / self.w).exp_m1()).sqrt()

@@ -1,11 +1,11 @@
-//! The checks of a scene against MODEL.md (scratch parameters, plate, cameras, lights, view
+//! The checks of a scene against engine/docs/model.md (scratch parameters, plate, cameras, lights, view
 //! names): used by the JSON reader, with file and field names in every message, and by
 //! [`Scene::validate`] for scenes built in code.
 
 use super::{invalid, norm3, LightKind, Plate, Scene, SceneError, Scratch, View, COLS, DEFAULT_F0, DEFAULT_ROUGHNESS};
 use crate::camera::ViewGeom;
 
-/// Check one scratch against MODEL.md section 2 and the plate; returns what is wrong.
+/// Check one scratch against engine/docs/model.md section 2 and the plate; returns what is wrong.
 pub(super) fn check_scratch(s: &Scratch, plate_size: f64) -> Result<(), String> {
     for (name, v) in COLS.iter().zip(s.to_row()) {
         if !v.is_finite() {

@@ -30,7 +30,7 @@ impl Scene {
                     },
                     "light": light
                 });
-                // MODEL.md's view has no exposure: written only where it is not 1.
+                // engine/docs/model.md's view has no exposure: written only where it is not 1.
                 if v.exposure != 1.0 {
                     o["exposure"] = json!(v.exposure);
                 }

@@ -1,4 +1,4 @@
-//! The design loss on the GPU (MODEL.md section 7): values per view and dE/dL per pixel.
+//! The design loss on the GPU (engine/docs/model.md section 7): values per view and dE/dL per pixel.
 //!
 //! E = lambda_p sum_v mean_p (g * (I_v - T_v))^2 + lambda_g sum_v sum_s ||Gram_s(phi(I_v)) - Gram_s(phi(T_v))||^2
 //! with I = L^(1/2.2), g the normalized 3x3 Gaussian (clamp-to-edge borders), and phi the fixed
