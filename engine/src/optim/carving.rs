@@ -15,7 +15,8 @@ use serde_json::{json, Value};
 
 use super::measure::quality;
 use super::problem::Problem;
-use super::tool_params::{Fabrication, ToolTable, TABLE_SAMPLES};
+use super::tool_params::table::ToolTable;
+use super::tool_params::{Fabrication, TABLE_SAMPLES};
 use crate::model::scene::{Scene, Scratch};
 use crate::render::Renderer;
 use crate::scenes::Rng;
