@@ -103,19 +103,19 @@ impl Role<'_> {
 pub(crate) fn shade_buffers<'a>(gs: &'a GpuScene, role: Role<'a>) -> [&'a Buffer; SLOTS.len()] {
     SLOTS.map(|(slot, _)| {
         if slot.owner().is_some_and(|k| k != role.kernel()) {
-            return &gs.unbound;
+            return &gs.shading.unbound;
         }
         match (slot, role) {
-            (Slot::Views, _) => &gs.views,
-            (Slot::Offsets, _) => &gs.hist,
-            (Slot::List | Slot::ListTex, _) => &gs.list,
+            (Slot::Views, _) => &gs.inputs.views,
+            (Slot::Offsets, _) => &gs.bin.hist,
+            (Slot::List | Slot::ListTex, _) => &gs.bin.list,
             (Slot::Stats, _) => &gs.stats,
-            (Slot::Coverage, _) => &gs.cov_raw,
-            (Slot::PairStore | Slot::StoreTex, _) => &gs.pair_store,
-            (Slot::Records, _) => &gs.records,
-            (Slot::PixelRecords, _) => &gs.pixel_records,
-            (Slot::Image, _) => &gs.image,
-            (Slot::Carry, _) => &gs.carry,
+            (Slot::Coverage, _) => &gs.shading.cov_raw,
+            (Slot::PairStore | Slot::StoreTex, _) => &gs.shading.pair_store,
+            (Slot::Records, _) => &gs.inputs.records,
+            (Slot::PixelRecords, _) => &gs.inputs.pixel_records,
+            (Slot::Image, _) => &gs.shading.image,
+            (Slot::Carry, _) => &gs.shading.carry,
             (Slot::Dl, Role::Backward { dl, .. }) => dl,
             (Slot::Partials, Role::Backward { partials, .. }) => partials,
             (Slot::Seeds, Role::Tangent { seeds, .. }) => seeds,

@@ -24,12 +24,12 @@ impl Renderer {
             gs.slots.n_pixels,
             "dE/dL needs one value per pixel of every view"
         );
-        gs.dl = self.ctx.upload("dE/dL", dl)?;
+        gs.backward.dl = self.ctx.upload("dE/dL", dl)?;
         Ok(())
     }
 
     /// Records the backward pass for the forward pass just recorded on `gs` (same tile lists):
-    /// reads `gs.dl`, `gs.image`, `gs.cov_raw`; writes `gs.grad` and `gs.grad_light`.
+    /// reads `gs.backward.dl`, `gs.shading.image`, `gs.shading.cov_raw`; writes `gs.backward.grad` and `gs.backward.grad_light`.
     /// Needs `prepare_backward` first (a contract: it panics otherwise).
     pub fn record_backward(&self, rec: &mut Recorder, gs: &GpuScene) {
         let grad = self
@@ -47,33 +47,39 @@ impl Renderer {
             None => grad,
         };
         let role = super::bindings::Role::Backward {
-            dl: &gs.dl,
-            partials: &gs.partials,
+            dl: &gs.backward.dl,
+            partials: &gs.backward.partials,
         };
         super::record_passes(rec, kernel, gs, role);
         let push = ReducePush {
             n_scratches: gs.n_scratches,
-            capacity: gs.capacity,
+            capacity: gs.bin.capacity,
             n_parts: gs.n_parts(),
             pad: 0,
         };
         rec.dispatch_1d(
             &self.grad_reduce,
-            &[&gs.partials, &gs.sbase, &gs.inv, &gs.grad],
+            &[&gs.backward.partials, &gs.bin.sbase, &gs.bin.inv, &gs.backward.grad],
             bytemuck::bytes_of(&push),
             gs.n_scratches.div_ceil(64),
         );
         rec.dispatch(
             &self.grad_light,
-            &[&gs.views, &gs.image, &gs.dl, &gs.grad_light, &gs.lights],
+            &[
+                &gs.inputs.views,
+                &gs.shading.image,
+                &gs.backward.dl,
+                &gs.backward.grad_light,
+                &gs.inputs.lights,
+            ],
             &[],
-            [gs.shade.n_views, 1, 1],
+            [gs.shading.shade.n_views, 1, 1],
         );
         rec.barrier();
     }
 
     /// Forward + backward for given dE/dL (one value per pixel of every view, concatenated like
-    /// `gs.image`), with results downloaded. For checks and the `grad` command; the optimizer
+    /// `gs.shading.image`), with results downloaded. For checks and the `grad` command; the optimizer
     /// keeps everything on the device.
     pub fn gradients(&self, gs: &mut GpuScene, dl: &[f32]) -> Result<(Vec<Vec<f32>>, Gradients), GpuError> {
         self.prepare_backward()?;
@@ -90,14 +96,14 @@ impl Renderer {
 
     /// The gradients of the last backward pass.
     pub fn download_gradients(&self, gs: &GpuScene) -> Result<Gradients, GpuError> {
-        let g: Vec<[f32; 8]> = self.ctx.download(&gs.grad)?;
+        let g: Vec<[f32; 8]> = self.ctx.download(&gs.backward.grad)?;
         let scratches = g[..gs.n_scratches as usize]
             .iter()
             .map(|r| [r[0], r[1], r[2], r[3], r[4], r[5], r[6]])
             .collect();
-        let mut lights: Vec<f32> = self.ctx.download(&gs.grad_light)?;
+        let mut lights: Vec<f32> = self.ctx.download(&gs.backward.grad_light)?;
         // (buffers may be allocated larger than asked)
-        lights.truncate(gs.shade.n_views as usize);
+        lights.truncate(gs.shading.shade.n_views as usize);
         Ok(Gradients { scratches, lights })
     }
 }

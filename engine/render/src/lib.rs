@@ -209,8 +209,8 @@ impl Renderer {
 
     /// Records binning of `gs` into `rec`, in its [`BinMode`].
     fn record_binning(&self, rec: &mut Recorder, gs: &GpuScene) {
-        match &gs.pair_sort {
-            Some(sort) if gs.mode == BinMode::Pairs => self.record_pair_binning(rec, gs, sort),
+        match &gs.bin.pair_sort {
+            Some(sort) if gs.bin.mode == BinMode::Pairs => self.record_pair_binning(rec, gs, sort),
             _ => self.record_group_binning(rec, gs),
         }
     }
@@ -219,16 +219,16 @@ impl Renderer {
     /// count from zero.
     fn record_count(&self, rec: &mut Recorder, gs: &GpuScene, pipeline: &ComputePipeline) {
         let push = gs.bin_push();
-        rec.fill(&gs.hist, 0);
-        rec.fill(&gs.sbase, 0);
+        rec.fill(&gs.bin.hist, 0);
+        rec.fill(&gs.bin.sbase, 0);
         rec.barrier();
         let bufs = [
-            &gs.views,
-            &gs.scratches,
-            &gs.hist,
-            &gs.list,
-            &gs.sbase,
-            &gs.inv,
+            &gs.inputs.views,
+            &gs.inputs.scratches,
+            &gs.bin.hist,
+            &gs.bin.list,
+            &gs.bin.sbase,
+            &gs.bin.inv,
             &gs.stats,
         ];
         let threads = gs.binning_threads().div_ceil(64) as u32;
@@ -240,28 +240,28 @@ impl Renderer {
     /// scratch-major order, sort them by tile (stable, 8 bits a pass), write the lists.
     fn record_pair_binning(&self, rec: &mut Recorder, gs: &GpuScene, sort: &binning::PairSort) {
         self.record_count(rec, gs, &self.pair_count);
-        self.record_scan(rec, &gs.hist, &gs.sums, &gs.stats, gs.slots.n_tiles as u64 + 1);
-        self.record_scan(rec, &gs.sbase, &gs.sbase_sums, &gs.stats, gs.sbase_len());
+        self.record_scan(rec, &gs.bin.hist, &gs.bin.sums, &gs.stats, gs.slots.n_tiles as u64 + 1);
+        self.record_scan(rec, &gs.bin.sbase, &gs.bin.sbase_sums, &gs.stats, gs.sbase_len());
         // The keys (tiles) to the lists' buffer, the scratches to the sort's.
         let bufs = [
-            &gs.views,
-            &gs.scratches,
-            &gs.hist,
-            &gs.list,
-            &gs.sbase,
+            &gs.inputs.views,
+            &gs.inputs.scratches,
+            &gs.bin.hist,
+            &gs.bin.list,
+            &gs.bin.sbase,
             &sort.scratch_of,
             &gs.stats,
         ];
         let threads = gs.binning_threads().div_ceil(64) as u32;
         rec.dispatch_1d(&self.pair_emit, &bufs, bytemuck::bytes_of(&gs.bin_push()), threads);
         rec.barrier();
-        let keys = [&gs.list, &sort.keys];
+        let keys = [&gs.bin.list, &sort.keys];
         let passes = binning::radix_passes(gs.slots.n_tiles);
         let mut radix = RadixPush {
             n_blocks: sort.blocks,
             shift: 0,
             total_index: (gs.sbase_len() - 1) as u32,
-            capacity: gs.capacity,
+            capacity: gs.bin.capacity,
             first: 1,
             pad: [0; 3],
         };
@@ -274,7 +274,7 @@ impl Renderer {
                 &sort.digits,
                 keys[(p + 1) % 2],
                 &sort.vals[(p + 1) % 2],
-                &gs.sbase,
+                &gs.bin.sbase,
             ];
             rec.dispatch_1d(&self.radix_hist, &bufs, bytemuck::bytes_of(&radix), sort.blocks);
             rec.barrier();
@@ -286,9 +286,9 @@ impl Renderer {
             &sort.scratch_of,
             &sort.vals[passes as usize % 2],
             &sort.digits,
-            &gs.list,
-            &gs.inv,
-            &gs.sbase,
+            &gs.bin.list,
+            &gs.bin.inv,
+            &gs.bin.sbase,
         ];
         rec.dispatch_1d(&self.radix_final, &bufs, bytemuck::bytes_of(&radix), sort.blocks);
         rec.barrier();
@@ -298,17 +298,17 @@ impl Renderer {
     fn record_group_binning(&self, rec: &mut Recorder, gs: &GpuScene) {
         self.record_count(rec, gs, &self.bin_count);
         let n_hist = gs.slots.n_tiles as u64 * gs.n_groups as u64 + 1;
-        self.record_scan(rec, &gs.hist, &gs.sums, &gs.stats, n_hist);
-        self.record_scan(rec, &gs.sbase, &gs.sbase_sums, &gs.stats, gs.sbase_len());
-        rec.copy(&gs.hist, &gs.cursor, gs.hist.size());
+        self.record_scan(rec, &gs.bin.hist, &gs.bin.sums, &gs.stats, n_hist);
+        self.record_scan(rec, &gs.bin.sbase, &gs.bin.sbase_sums, &gs.stats, gs.sbase_len());
+        rec.copy(&gs.bin.hist, &gs.bin.cursor, gs.bin.hist.size());
         rec.barrier();
         let bufs = [
-            &gs.views,
-            &gs.scratches,
-            &gs.cursor,
-            &gs.list,
-            &gs.sbase,
-            &gs.inv,
+            &gs.inputs.views,
+            &gs.inputs.scratches,
+            &gs.bin.cursor,
+            &gs.bin.list,
+            &gs.bin.sbase,
+            &gs.bin.inv,
             &gs.stats,
         ];
         let groups = gs.binning_threads().div_ceil(64) as u32;
@@ -384,14 +384,19 @@ impl Renderer {
         let push = [gs.n_scratches, 0, 0, 0];
         rec.dispatch_1d(
             &self.records,
-            &[&gs.scratches, &gs.records],
+            &[&gs.inputs.scratches, &gs.inputs.records],
             bytemuck::cast_slice(&push),
             gs.n_scratches.div_ceil(64),
         );
         rec.dispatch_1d(
             &self.pixel_records,
-            &[&gs.views, &gs.views64, &gs.lights, &gs.pixel_records],
-            bytemuck::bytes_of(&gs.shade),
+            &[
+                &gs.inputs.views,
+                &gs.inputs.views64,
+                &gs.inputs.lights,
+                &gs.inputs.pixel_records,
+            ],
+            bytemuck::bytes_of(&gs.shading.shade),
             gs.slots.n_tiles,
         );
         rec.barrier();
@@ -447,7 +452,7 @@ impl Renderer {
 
     /// The images of the last render, one per view (row-major, top row first).
     pub fn download_images(&self, gs: &GpuScene) -> Result<Vec<Vec<f32>>, GpuError> {
-        let all: Vec<f32> = self.ctx.download(&gs.image)?;
+        let all: Vec<f32> = self.ctx.download(&gs.shading.image)?;
         Ok(gs
             .slots
             .views
@@ -465,8 +470,8 @@ impl Renderer {
 /// the tangent kernel shares), each followed by a barrier.
 fn record_passes(rec: &mut Recorder, kernel: &ComputePipeline, gs: &GpuScene, role: bindings::Role) {
     let plan = match role {
-        bindings::Role::Forward => gs.fwd_plan,
-        bindings::Role::Backward { .. } | bindings::Role::Tangent { .. } => gs.bwd_plan,
+        bindings::Role::Forward => gs.shading.fwd_plan,
+        bindings::Role::Backward { .. } | bindings::Role::Tangent { .. } => gs.shading.bwd_plan,
     };
     let buffers = bindings::shade_buffers(gs, role);
     for pass in 0..plan.passes {
@@ -474,7 +479,7 @@ fn record_passes(rec: &mut Recorder, kernel: &ComputePipeline, gs: &GpuScene, ro
             chunks_per_pass: plan.chunks_per_pass,
             pass,
             n_passes: plan.passes,
-            ..gs.shade
+            ..gs.shading.shade
         };
         rec.dispatch_1d(kernel, &buffers, bytemuck::bytes_of(&push), gs.slots.n_tiles);
         rec.barrier();

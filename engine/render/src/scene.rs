@@ -71,12 +71,9 @@ impl PassPlan {
     }
 }
 
-/// Device-resident scene: parameters, binning state and images.
-pub struct GpuScene {
-    pub(super) slots: ViewSlots,
-    pub(super) n_scratches: u32,
-    pub(super) n_groups: u32,
-    pub(super) shade: ShadePush,
+/// What every kernel family reads: the cameras, the scratches, the lights, and the records the
+/// shading kernels make of them at the start of every render.
+pub(super) struct SceneInputs {
     pub(super) views: Buffer,
     /// the same cameras in float64 (`ViewGPU64`)
     pub(super) views64: Buffer,
@@ -90,6 +87,11 @@ pub struct GpuScene {
     pub(super) pixel_records: Buffer,
     /// per view: the light's intensity Phi (f32): optimized state, apart from the cameras
     pub(super) lights: Buffer,
+}
+
+/// The pair search's state (binning): which scratches cross which tiles, as tile lists and the
+/// maps between them.
+pub(super) struct Binning {
     /// per (tile, group) counts, scanned in place into list offsets; n_tiles * n_groups + 1 entries
     pub(super) hist: Buffer,
     pub(super) cursor: Buffer,
@@ -100,6 +102,7 @@ pub struct GpuScene {
     /// per (scratch, binning part): entry count, scanned into the first slot of those entries in
     /// `inv`; n * parts + 1 entries
     pub(super) sbase: Buffer,
+    pub(super) sbase_sums: Buffer,
     /// bands of tile rows per view in binning (0: one binning thread per group does every view;
     /// see `shaders/bin.comp` and [`binning_bands`])
     pub(super) n_bands: u32,
@@ -107,37 +110,58 @@ pub struct GpuScene {
     pub(super) mode: BinMode,
     /// the sort's buffers of [`BinMode::Pairs`] (None in [`BinMode::Groups`])
     pub(super) pair_sort: Option<PairSort>,
-    pub(super) sbase_sums: Buffer,
     /// scratch-major entry -> tile-list position (for deterministic gradient sums)
     pub(super) inv: Buffer,
-    /// per tile-list entry: partial gradient (8 f32)
-    pub(super) partials: Buffer,
-    /// raw coverage sum_k area / S_P per pixel (forward output, backward input)
-    pub(super) cov_raw: Buffer,
-    /// dE/dL per pixel (same layout as `image`): input of the backward pass
-    pub(super) dl: Buffer,
-    /// per scratch: dE/d(x0, y0, x1, y1, w, d, alpha), 8 f32 (last unused)
-    pub(super) grad: Buffer,
-    /// per view: dE/dPhi of its light
-    pub(super) grad_light: Buffer,
-    /// L of every view, concatenated (views[v].base[1] is the first pixel of view v)
-    pub(super) image: Buffer,
-    /// the render counters and completeness flags (`shaders/inc/limits.glsl`)
-    pub(super) stats: Buffer,
     /// scratches per binning thread (halved when binning hits a device's loop limit)
     pub(super) group_size: u32,
-    /// how the forward and the backward kernel split a tile's list into passes
-    pub(super) fwd_plan: PassPlan,
-    pub(super) bwd_plan: PassPlan,
+}
+
+/// The shading kernels' state: their push block, how they split a tile's list into passes,
+/// their outputs and what the backward replays.
+pub(super) struct Shading {
+    pub(super) shade: ShadePush,
+    /// raw coverage sum_k area / S_P per pixel (forward output, backward input)
+    pub(super) cov_raw: Buffer,
+    /// L of every view, concatenated (views[v].base[1] is the first pixel of view v)
+    pub(super) image: Buffer,
     /// per pixel: the forward kernel's sums between passes (a placeholder until needed)
     pub(super) carry: Buffer,
     /// The forward's pair queues for the backward's replay (`shaders/inc/tile_queue.glsl`):
     /// 2 words per tile-list entry (the chunk records), then `shade.store_cap` entries. A
     /// placeholder while `shade.store_cap` is 0.
     pub(super) pair_store: Buffer,
+    /// how the forward and the backward kernel split a tile's list into passes
+    pub(super) fwd_plan: PassPlan,
+    pub(super) bwd_plan: PassPlan,
     /// The placeholder of the shading slots a kernel does not declare (`bindings::shade_buffers`):
     /// 16 bytes with an R32_UINT view, so it fills a storage or a texel slot.
     pub(super) unbound: Buffer,
+}
+
+/// The backward pass's buffers: its input dE/dL and the gradients it sums.
+pub(super) struct Backward {
+    /// dE/dL per pixel (same layout as `image`): input of the backward pass
+    pub(super) dl: Buffer,
+    /// per tile-list entry: partial gradient (8 f32)
+    pub(super) partials: Buffer,
+    /// per scratch: dE/d(x0, y0, x1, y1, w, d, alpha), 8 f32 (last unused)
+    pub(super) grad: Buffer,
+    /// per view: dE/dPhi of its light
+    pub(super) grad_light: Buffer,
+}
+
+/// Device-resident scene: parameters, binning state and images, in the parts each kernel
+/// family needs.
+pub struct GpuScene {
+    pub(super) slots: ViewSlots,
+    pub(super) n_scratches: u32,
+    pub(super) n_groups: u32,
+    pub(super) inputs: SceneInputs,
+    pub(super) bin: Binning,
+    pub(super) shading: Shading,
+    pub(super) backward: Backward,
+    /// the render counters and completeness flags (`shaders/inc/limits.glsl`)
+    pub(super) stats: Buffer,
     /// A backward without replay was recorded although the kernels replay: size the store after
     /// the next complete submission ([`after_complete`](Self::after_complete)).
     store_wanted: std::sync::atomic::AtomicBool,
@@ -149,6 +173,8 @@ pub struct GpuScene {
 /// needed, and flags (bit 0: the replay found a chunk not stored; bit 1: the counter wrapped).
 const STAT_STORE_NEEDED: usize = 13;
 const STAT_STORE_FLAGS: usize = 14;
+
+mod store;
 
 impl GpuScene {
     /// Uploads a (validated) scene. Fails with a clear error when a buffer would exceed the
@@ -203,56 +229,83 @@ impl GpuScene {
             b.write(0, bytes)?;
             Ok(b)
         };
+        let views = host("views", bytemuck::cast_slice(&slots.views))?;
+        let views64 = host("views (float64 cameras)", bytemuck::cast_slice(&slots.views64))?;
+        let scratches = ctx.upload("scratches", &scr)?;
+        let records = Buffer::new_texel(ctx, "scratch records", dims.records_bytes(), MemLoc::GpuOnly)?;
+        let pixel_records = Buffer::new_texel(ctx, "pixel records", dims.pixel_records_bytes(), MemLoc::GpuOnly)?;
+        // Host-visible too (the viewer's light slider); Adam writes it on the device.
+        let lights = host("light intensities", bytemuck::cast_slice(&phi))?;
+        let list = Buffer::new_u32_texel(ctx, "tile lists", capacity as u64 * 4, MemLoc::GpuOnly)?;
+        let pair_sort = match mode {
+            BinMode::Pairs => Some(PairSort::new(ctx, capacity)?),
+            BinMode::Groups => None,
+        };
+        let inv = gpu_only("entry inverse map", capacity as u64 * 4)?;
+        let partials = gpu_only("partial gradients", capacity as u64 * 32)?;
+        let cov_raw = gpu_only("coverage", dims.image_bytes())?;
+        let dl = gpu_only("dE/dL", dims.image_bytes())?;
+        let grad = gpu_only("scratch gradients", dims.scratch_bytes())?;
+        let grad_light = gpu_only("light gradients", scene.views.len() as u64 * 4)?;
+        let image = gpu_only("image", dims.image_bytes())?;
+        let stats = Buffer::new(ctx, "stats", 64, MemLoc::GpuToCpu)?;
+        let carry = gpu_only("shading carry (unused: one pass)", 16)?;
+        let pair_store = Buffer::new_u32_texel(ctx, "pair store (unused: no replay yet)", 16, MemLoc::GpuOnly)?;
+        let unbound = Buffer::new_u32_texel(ctx, "unused shading slot", 16, MemLoc::GpuOnly)?;
         Ok(GpuScene {
-            shade: ShadePush {
-                half_plate: (scene.plate.size_mm * 0.5) as f32,
-                alpha_s: scene.plate.roughness as f32,
-                f0: scene.plate.f0 as f32,
-                n_views: scene.views.len() as u32,
-                // the stride of the scanned histogram: per tile in the pairs mode
-                n_groups: if mode == BinMode::Pairs { 1 } else { n_groups },
-                n_tiles: slots.n_tiles,
+            inputs: SceneInputs {
+                views,
+                views64,
+                scratches,
+                records,
+                pixel_records,
+                lights,
+            },
+            bin: Binning {
+                hist,
+                cursor,
+                sums,
+                list,
                 capacity,
-                chunks_per_pass: u32::MAX,
-                pass: 0,
-                n_passes: 1,
-                sentinel: 2,
-                store_cap: 0,
+                sbase,
+                sbase_sums,
+                n_bands,
+                mode,
+                pair_sort,
+                inv,
+                group_size: if mode == BinMode::Pairs { 1 } else { GROUP_SIZE },
             },
-            views: host("views", bytemuck::cast_slice(&slots.views))?,
-            views64: host("views (float64 cameras)", bytemuck::cast_slice(&slots.views64))?,
-            scratches: ctx.upload("scratches", &scr)?,
-            records: Buffer::new_texel(ctx, "scratch records", dims.records_bytes(), MemLoc::GpuOnly)?,
-            pixel_records: Buffer::new_texel(ctx, "pixel records", dims.pixel_records_bytes(), MemLoc::GpuOnly)?,
-            // Host-visible too (the viewer's light slider); Adam writes it on the device.
-            lights: host("light intensities", bytemuck::cast_slice(&phi))?,
-            hist,
-            cursor,
-            sums,
-            list: Buffer::new_u32_texel(ctx, "tile lists", capacity as u64 * 4, MemLoc::GpuOnly)?,
-            capacity,
-            sbase,
-            sbase_sums,
-            n_bands,
-            mode,
-            pair_sort: match mode {
-                BinMode::Pairs => Some(PairSort::new(ctx, capacity)?),
-                BinMode::Groups => None,
+            shading: Shading {
+                shade: ShadePush {
+                    half_plate: (scene.plate.size_mm * 0.5) as f32,
+                    alpha_s: scene.plate.roughness as f32,
+                    f0: scene.plate.f0 as f32,
+                    n_views: scene.views.len() as u32,
+                    // the stride of the scanned histogram: per tile in the pairs mode
+                    n_groups: if mode == BinMode::Pairs { 1 } else { n_groups },
+                    n_tiles: slots.n_tiles,
+                    capacity,
+                    chunks_per_pass: u32::MAX,
+                    pass: 0,
+                    n_passes: 1,
+                    sentinel: 2,
+                    store_cap: 0,
+                },
+                cov_raw,
+                image,
+                carry,
+                pair_store,
+                fwd_plan: PassPlan::ONE,
+                bwd_plan: PassPlan::ONE,
+                unbound,
             },
-            inv: gpu_only("entry inverse map", capacity as u64 * 4)?,
-            partials: gpu_only("partial gradients", capacity as u64 * 32)?,
-            cov_raw: gpu_only("coverage", dims.image_bytes())?,
-            dl: gpu_only("dE/dL", dims.image_bytes())?,
-            grad: gpu_only("scratch gradients", dims.scratch_bytes())?,
-            grad_light: gpu_only("light gradients", scene.views.len() as u64 * 4)?,
-            image: gpu_only("image", dims.image_bytes())?,
-            stats: Buffer::new(ctx, "stats", 64, MemLoc::GpuToCpu)?,
-            group_size: if mode == BinMode::Pairs { 1 } else { GROUP_SIZE },
-            fwd_plan: PassPlan::ONE,
-            bwd_plan: PassPlan::ONE,
-            carry: gpu_only("shading carry (unused: one pass)", 16)?,
-            pair_store: Buffer::new_u32_texel(ctx, "pair store (unused: no replay yet)", 16, MemLoc::GpuOnly)?,
-            unbound: Buffer::new_u32_texel(ctx, "unused shading slot", 16, MemLoc::GpuOnly)?,
+            backward: Backward {
+                dl,
+                partials,
+                grad,
+                grad_light,
+            },
+            stats,
             store_wanted: std::sync::atomic::AtomicBool::new(false),
             store_off: false,
             n_scratches,
@@ -287,7 +340,7 @@ impl GpuScene {
     /// Whether the last render (and the backward pass recorded with it) did all its work: the
     /// tile lists held every entry, and no kernel hit a capacity (`shaders/inc/limits.glsl`).
     pub(super) fn complete(&self, raw: &[u32]) -> bool {
-        raw[2] as u64 <= self.capacity as u64 && raw[5] == 0 && raw[STAT_ENTRIES_WRAPPED as usize] == 0
+        raw[2] as u64 <= self.bin.capacity as u64 && raw[5] == 0 && raw[STAT_ENTRIES_WRAPPED as usize] == 0
     }
 
     /// After an incomplete render: grows the tile lists, splits binning into smaller groups or
@@ -311,19 +364,23 @@ impl GpuScene {
         }
         if raw[7] != 0 {
             // Binning hit the loop limit: fewer scratches per binning thread.
-            if self.group_size == 1 || self.mode == BinMode::Pairs {
+            if self.bin.group_size == 1 || self.bin.mode == BinMode::Pairs {
                 return Err(limit_err("binning a single scratch over every tile it crosses"));
             }
-            self.set_group_size(ctx, self.group_size / 2)?;
+            self.set_group_size(ctx, self.bin.group_size / 2)?;
             return Ok(());
         }
-        if stats.entries > self.capacity as u64 {
+        if stats.entries > self.bin.capacity as u64 {
             return self.grow_list(ctx, stats.entries);
         }
         let max_chunks = raw[4];
         for (hit, plan, what) in [
-            (raw[3], &mut self.fwd_plan, "shading one chunk of 64 scratches"),
-            (raw[6], &mut self.bwd_plan, "the gradient of one chunk of 64 scratches"),
+            (raw[3], &mut self.shading.fwd_plan, "shading one chunk of 64 scratches"),
+            (
+                raw[6],
+                &mut self.shading.bwd_plan,
+                "the gradient of one chunk of 64 scratches",
+            ),
         ] {
             if hit != 0 {
                 let m = plan.split(max_chunks).ok_or_else(|| limit_err(what))?;
@@ -331,11 +388,11 @@ impl GpuScene {
             }
         }
         // Lists that grew since the plans were made.
-        if !self.fwd_plan.covers(max_chunks) {
-            self.fwd_plan = PassPlan::covering(self.fwd_plan.chunks_per_pass, max_chunks);
+        if !self.shading.fwd_plan.covers(max_chunks) {
+            self.shading.fwd_plan = PassPlan::covering(self.shading.fwd_plan.chunks_per_pass, max_chunks);
         }
-        if !self.bwd_plan.covers(max_chunks) {
-            self.bwd_plan = PassPlan::covering(self.bwd_plan.chunks_per_pass, max_chunks);
+        if !self.shading.bwd_plan.covers(max_chunks) {
+            self.shading.bwd_plan = PassPlan::covering(self.shading.bwd_plan.chunks_per_pass, max_chunks);
         }
         if raw[STAT_STORE_FLAGS] & 2 != 0 {
             self.drop_store(ctx, true)?;
@@ -346,93 +403,10 @@ impl GpuScene {
         self.ensure_carry(ctx)
     }
 
-    /// After a complete submission: the pair store, if a backward asked for one
-    /// ([`want_store`](Self::want_store)), sized by this render's pairs (its queues hold a few
-    /// more, pairs whose boxes overlap but not their areas: the slack covers them, and a store
-    /// still too small is grown by the replay's check).
-    pub(super) fn after_complete(&mut self, ctx: &std::sync::Arc<Context>, raw: &[u32]) -> Result<(), GpuError> {
-        if self.store_wanted.swap(false, std::sync::atomic::Ordering::Relaxed)
-            && self.shade.store_cap == 0
-            && !self.store_off
-        {
-            self.size_store(ctx, Self::counters(raw).pairs)?;
-        }
-        Ok(())
-    }
-
-    /// Records that a backward searched the pairs although it could replay them: the next
-    /// complete submission sizes the store.
-    pub(super) fn want_store(&self) {
-        self.store_wanted.store(true, std::sync::atomic::Ordering::Relaxed);
-    }
-
-    /// Whether the forward stores its pair queues, so the backward can replay them.
-    pub fn replay_ready(&self) -> bool {
-        self.shade.store_cap > 0
-    }
-
-    /// Entries the pair store holds (0: none).
-    pub fn store_capacity(&self) -> u32 {
-        self.shade.store_cap
-    }
-
-    /// Test hook: a pair store of `entries` entries, whatever the scene needs (a forward that
-    /// needs more leaves chunks out, and a replay that meets one must not be trusted).
-    #[doc(hidden)]
-    pub fn force_store_capacity(&mut self, ctx: &std::sync::Arc<Context>, entries: u32) -> Result<(), GpuError> {
-        self.alloc_store(ctx, entries)
-    }
-
-    /// Bytes of the pair store: 2 words per tile-list entry, then `entries` entries.
-    fn store_bytes(&self, entries: u64) -> u64 {
-        (2 * self.capacity as u64 + entries) * 4
-    }
-
-    /// A pair store of `entries` entries (the forward stores from the next render).
-    fn alloc_store(&mut self, ctx: &std::sync::Arc<Context>, entries: u32) -> Result<(), GpuError> {
-        let bytes = self.store_bytes(entries as u64);
-        self.pair_store = Buffer::new_u32_texel(ctx, "pair store", bytes, MemLoc::GpuOnly)?;
-        self.shade.store_cap = entries;
-        Ok(())
-    }
-
-    /// Bytes the pair store takes on the device (a 16-byte placeholder without a store).
-    pub fn store_size(&self) -> u64 {
-        self.pair_store.size()
-    }
-
-    /// A pair store for `needed` entries (plus slack), or none when it would pass the device's
-    /// storage-buffer limit (backward passes then search the pairs: slower, same results).
-    fn size_store(&mut self, ctx: &std::sync::Arc<Context>, needed: u64) -> Result<(), GpuError> {
-        let cap = needed + needed / 4 + 4096;
-        // The replay reads it through a texel view too (4-byte texels).
-        let limit = ctx
-            .info()
-            .max_storage_buffer_range
-            .min(ctx.info().max_texel_buffer_elements.saturating_mul(4));
-        if cap > u32::MAX as u64 || self.store_bytes(cap) > limit {
-            return self.drop_store(ctx, true);
-        }
-        match self.alloc_store(ctx, cap as u32) {
-            Ok(()) => Ok(()),
-            // Out of device memory: the replay is an optimization, go on without it.
-            Err(GpuError::OutOfMemory { .. } | GpuError::Allocation { .. }) => self.drop_store(ctx, true),
-            Err(e) => Err(e),
-        }
-    }
-
-    /// No pair store (`off`: not again for this scene; else until a backward asks for one).
-    fn drop_store(&mut self, ctx: &std::sync::Arc<Context>, off: bool) -> Result<(), GpuError> {
-        self.store_off |= off;
-        self.shade.store_cap = 0;
-        self.pair_store = Buffer::new_u32_texel(ctx, "pair store (unused)", 16, MemLoc::GpuOnly)?;
-        Ok(())
-    }
-
     /// The buffer of per-pixel sums between forward passes, once there is more than one.
     fn ensure_carry(&mut self, ctx: &std::sync::Arc<Context>) -> Result<(), GpuError> {
-        if self.fwd_plan.passes > 1 && self.carry.size() < self.slots.n_pixels * 16 {
-            self.carry = Buffer::new(
+        if self.shading.fwd_plan.passes > 1 && self.shading.carry.size() < self.slots.n_pixels * 16 {
+            self.shading.carry = Buffer::new(
                 ctx,
                 "shading carry (sums between passes)",
                 self.slots.n_pixels.max(1) * 16,
@@ -444,9 +418,9 @@ impl GpuScene {
 
     /// Scratches per binning thread; reallocates the per-(tile, group) buffers.
     fn set_group_size(&mut self, ctx: &std::sync::Arc<Context>, group_size: u32) -> Result<(), GpuError> {
-        self.group_size = group_size.max(1);
-        self.n_groups = self.n_scratches.div_ceil(self.group_size).max(1);
-        self.shade.n_groups = self.n_groups;
+        self.bin.group_size = group_size.max(1);
+        self.n_groups = self.n_scratches.div_ceil(self.bin.group_size).max(1);
+        self.shading.shade.n_groups = self.n_groups;
         let hist_len = self.slots.n_tiles as u64 * self.n_groups as u64 + 1;
         if hist_len * 4 > ctx.info().max_storage_buffer_range {
             return Err(GpuError::BufferTooLarge {
@@ -458,7 +432,7 @@ impl GpuScene {
                 limit: ctx.info().max_storage_buffer_range,
             });
         }
-        (self.hist, self.cursor, self.sums) = offset_buffers(ctx, hist_len)?;
+        (self.bin.hist, self.bin.cursor, self.bin.sums) = offset_buffers(ctx, hist_len)?;
         Ok(())
     }
 
@@ -471,52 +445,52 @@ impl GpuScene {
         chunks: u32,
         max_chunks: u32,
     ) -> Result<(), GpuError> {
-        self.fwd_plan = PassPlan::covering(chunks.max(1), max_chunks);
-        self.bwd_plan = self.fwd_plan;
+        self.shading.fwd_plan = PassPlan::covering(chunks.max(1), max_chunks);
+        self.shading.bwd_plan = self.shading.fwd_plan;
         self.ensure_carry(ctx)
     }
 
     /// The passes the forward and the backward kernel run per render (1 unless a device limit
     /// made the host split them).
     pub fn shading_passes(&self) -> (u32, u32) {
-        (self.fwd_plan.passes, self.bwd_plan.passes)
+        (self.shading.fwd_plan.passes, self.shading.bwd_plan.passes)
     }
 
     /// Scratches per binning thread (64 unless a device limit made the host split them).
     pub fn binning_group_size(&self) -> u32 {
-        self.group_size
+        self.bin.group_size
     }
 
     /// Bands of tile rows per view that binning splits its work into (0: none, one thread per
     /// scratch group does every view: CPU drivers).
     pub fn binning_bands(&self) -> u32 {
-        self.n_bands
+        self.bin.n_bands
     }
 
     /// How binning spreads its work over threads ([`BinMode::for_device`] unless forced).
     pub fn binning_mode(&self) -> BinMode {
-        self.mode
+        self.bin.mode
     }
 
     /// Bins in `mode` from the next render, with the device's choice of bands for it (tests
     /// and benchmarks: tile lists, images and gradients must not change).
     pub fn force_binning_mode(&mut self, ctx: &std::sync::Arc<Context>, mode: BinMode) -> Result<(), GpuError> {
-        if mode == self.mode {
+        if mode == self.bin.mode {
             return Ok(());
         }
-        self.mode = mode;
-        let n_views = self.shade.n_views;
+        self.bin.mode = mode;
+        let n_views = self.shading.shade.n_views;
         let max_rows = self.slots.views.iter().map(|v| v.dims[3]).max().unwrap_or(1);
         match mode {
             BinMode::Pairs => {
-                self.group_size = 1;
+                self.bin.group_size = 1;
                 self.n_groups = self.n_scratches.max(1);
-                self.shade.n_groups = 1;
-                (self.hist, self.cursor, self.sums) = offset_buffers(ctx, self.slots.n_tiles as u64 + 1)?;
-                self.pair_sort = Some(PairSort::new(ctx, self.capacity)?);
+                self.shading.shade.n_groups = 1;
+                (self.bin.hist, self.bin.cursor, self.bin.sums) = offset_buffers(ctx, self.slots.n_tiles as u64 + 1)?;
+                self.bin.pair_sort = Some(PairSort::new(ctx, self.bin.capacity)?);
             }
             BinMode::Groups => {
-                self.pair_sort = None;
+                self.bin.pair_sort = None;
                 self.set_group_size(ctx, crate::GROUP_SIZE)?;
             }
         }
@@ -528,12 +502,12 @@ impl GpuScene {
     /// the total, n_tiles + 1 words; the lists; the scratch-major entry -> list position map).
     #[doc(hidden)]
     pub fn tile_lists(&self, ctx: &std::sync::Arc<Context>) -> Result<TileLists, GpuError> {
-        let hist: Vec<u32> = ctx.download(&self.hist)?;
-        let stride = self.shade.n_groups as usize;
+        let hist: Vec<u32> = ctx.download(&self.bin.hist)?;
+        let stride = self.shading.shade.n_groups as usize;
         let offsets: Vec<u32> = (0..=self.slots.n_tiles as usize).map(|t| hist[t * stride]).collect();
         let n = *offsets.last().unwrap_or(&0) as usize;
-        let mut list: Vec<u32> = ctx.download(&self.list)?;
-        let mut inv: Vec<u32> = ctx.download(&self.inv)?;
+        let mut list: Vec<u32> = ctx.download(&self.bin.list)?;
+        let mut inv: Vec<u32> = ctx.download(&self.bin.inv)?;
         list.truncate(n);
         inv.truncate(n);
         Ok(TileLists { offsets, list, inv })
@@ -544,12 +518,12 @@ impl GpuScene {
     pub(super) fn bin_push(&self) -> super::layout::BinPush {
         super::layout::BinPush {
             n_scratches: self.n_scratches,
-            n_views: self.shade.n_views,
+            n_views: self.shading.shade.n_views,
             n_groups: self.n_groups,
-            group_size: self.group_size,
-            capacity: self.capacity,
+            group_size: self.bin.group_size,
+            capacity: self.bin.capacity,
             sentinel: 2,
-            n_bands: self.n_bands,
+            n_bands: self.bin.n_bands,
             pad: 0,
         }
     }
@@ -562,7 +536,7 @@ impl GpuScene {
 
     /// Binning parts per scratch: `binning_bands` x views, or 1.
     pub(super) fn n_parts(&self) -> u32 {
-        binning_parts(self.n_bands, self.shade.n_views)
+        binning_parts(self.bin.n_bands, self.shading.shade.n_views)
     }
 
     /// Entries of `sbase` (per scratch and binning part, plus the total).
@@ -574,8 +548,8 @@ impl GpuScene {
     /// Tile lists, images and gradients must not change.
     #[doc(hidden)]
     pub fn force_binning_bands(&mut self, ctx: &std::sync::Arc<Context>, n_bands: u32) -> Result<(), GpuError> {
-        self.n_bands = n_bands;
-        (self.sbase, self.sbase_sums) = scratch_base_buffers(ctx, self.n_scratches, self.n_parts())?;
+        self.bin.n_bands = n_bands;
+        (self.bin.sbase, self.bin.sbase_sums) = scratch_base_buffers(ctx, self.n_scratches, self.n_parts())?;
         Ok(())
     }
 
@@ -584,7 +558,7 @@ impl GpuScene {
     }
 
     pub fn n_views(&self) -> u32 {
-        self.shade.n_views
+        self.shading.shade.n_views
     }
 
     /// Pixels of all views together (the length of `image`, `dl`).
@@ -599,44 +573,44 @@ impl GpuScene {
 
     /// The cameras on the device (`ViewGPU` per view).
     pub fn views_buffer(&self) -> &Buffer {
-        &self.views
+        &self.inputs.views
     }
 
     /// Half the plate size, mm.
     pub fn half_plate(&self) -> f32 {
-        self.shade.half_plate
+        self.shading.shade.half_plate
     }
 
     /// Scratch parameters, one [`ScratchGpu`] per scratch: read by every kernel, moved by the
     /// optimizer.
     pub fn scratches(&self) -> &Buffer {
-        &self.scratches
+        &self.inputs.scratches
     }
 
     /// Light intensity Phi of each view (f32 each).
     pub fn lights(&self) -> &Buffer {
-        &self.lights
+        &self.inputs.lights
     }
 
     /// L of every view, concatenated (row-major, top row first; view v starts at
     /// `views()[v].base[1]`).
     pub fn image(&self) -> &Buffer {
-        &self.image
+        &self.shading.image
     }
 
     /// dE/dL per pixel, laid out like [`image`](Self::image): the input of the backward pass.
     pub fn dl(&self) -> &Buffer {
-        &self.dl
+        &self.backward.dl
     }
 
     /// Per scratch: dE/d(x0, y0, x1, y1, w, d, alpha) and one unused float (8 f32).
     pub fn scratch_grad(&self) -> &Buffer {
-        &self.grad
+        &self.backward.grad
     }
 
     /// Per view: dE/dPhi of its light.
     pub fn light_grad(&self) -> &Buffer {
-        &self.grad_light
+        &self.backward.grad_light
     }
 
     /// The render counters on the device ([0] candidates, [1] pairs, [2] tile-list entries).
@@ -646,7 +620,7 @@ impl GpuScene {
 
     /// Capacity of the tile lists (entries): a render whose `entries` exceed it is incomplete.
     pub fn capacity(&self) -> u32 {
-        self.capacity
+        self.bin.capacity
     }
 
     /// Replaces the tile-list buffers by ones that hold `entries` (plus slack).
@@ -661,16 +635,16 @@ impl GpuScene {
             });
         }
         // The shading kernels gather the lists through a texel view (`Buffer::new_u32_texel`).
-        self.list = Buffer::new_u32_texel(ctx, "tile lists", want * 4, MemLoc::GpuOnly)?;
-        self.inv = Buffer::new(ctx, "entry inverse map", want * 4, MemLoc::GpuOnly)?;
-        self.partials = Buffer::new(ctx, "partial gradients", want * 32, MemLoc::GpuOnly)?;
-        self.capacity = want as u32;
-        self.shade.capacity = self.capacity;
-        if self.mode == BinMode::Pairs {
-            self.pair_sort = Some(PairSort::new(ctx, self.capacity)?);
+        self.bin.list = Buffer::new_u32_texel(ctx, "tile lists", want * 4, MemLoc::GpuOnly)?;
+        self.bin.inv = Buffer::new(ctx, "entry inverse map", want * 4, MemLoc::GpuOnly)?;
+        self.backward.partials = Buffer::new(ctx, "partial gradients", want * 32, MemLoc::GpuOnly)?;
+        self.bin.capacity = want as u32;
+        self.shading.shade.capacity = self.bin.capacity;
+        if self.bin.mode == BinMode::Pairs {
+            self.bin.pair_sort = Some(PairSort::new(ctx, self.bin.capacity)?);
         }
         // The store's chunk records are laid out by list position: a new store when asked.
-        if self.shade.store_cap > 0 {
+        if self.shading.shade.store_cap > 0 {
             self.want_store();
         }
         self.drop_store(ctx, false)
@@ -684,7 +658,7 @@ impl GpuScene {
             return Ok(false);
         }
         let scr: Vec<ScratchGpu> = scratches.iter().map(ScratchGpu::from).collect();
-        self.scratches = ctx.upload("scratches", &scr)?;
+        self.inputs.scratches = ctx.upload("scratches", &scr)?;
         Ok(true)
     }
 
@@ -704,9 +678,9 @@ impl GpuScene {
         }
         let new64: Vec<_> = views.iter().map(layout::view_gpu64).collect();
         let phi: Vec<f32> = views.iter().map(|v| v.radiance_scale() as f32).collect();
-        self.views.write(0, &new)?;
-        self.views64.write(0, &new64)?;
-        self.lights.write(0, &phi)?;
+        self.inputs.views.write(0, &new)?;
+        self.inputs.views64.write(0, &new64)?;
+        self.inputs.lights.write(0, &phi)?;
         self.slots.views = new;
         self.slots.views64 = new64;
         Ok(true)
