@@ -29,7 +29,7 @@ use scratchart::model::camera::ViewGeom;
 use scratchart::model::scene::View;
 
 use super::card::Card;
-use super::photo::Gray;
+use super::photo::{median, pixel_noise, Gray};
 
 mod blobs;
 pub(crate) mod homography;
@@ -81,16 +81,6 @@ impl Found {
     pub fn count(&self) -> usize {
         self.points.iter().flatten().count()
     }
-}
-
-/// The middle value of an image's pixels (the upper of the two middles; 0 for none): the one
-/// median of the calibration's images (benchmarks use `scratchart::bench::median`).
-pub(crate) fn median(v: &mut [f32]) -> f32 {
-    if v.is_empty() {
-        return 0.0;
-    }
-    let n = v.len();
-    *v.select_nth_unstable_by(n / 2, |a, b| a.total_cmp(b)).1
 }
 
 /// Finds the card's marks in `img`, a photo of view `view` (any size: the capture view's
@@ -579,30 +569,6 @@ pub fn plausible_camera_with_focal(
         ));
     }
     Ok(cam)
-}
-
-/// The photo's own pixel noise (display units): the robust spread of each pixel less the mean
-/// of its four neighbours (sqrt(5/4) sigma for independent noise), over the image.
-pub fn pixel_noise(img: &Gray) -> f64 {
-    pixel_noise_in(img, None)
-}
-
-/// [`pixel_noise`] over the pixels of `mask` only (all when `None`): a photo's dark background
-/// clips its noise at black.
-pub fn pixel_noise_in(img: &Gray, mask: Option<&[bool]>) -> f64 {
-    let (w, h) = (img.width as usize, img.height as usize);
-    let mut d = Vec::with_capacity(w * h / 4);
-    for y in (1..h.saturating_sub(1)).step_by(2) {
-        for x in (1..w.saturating_sub(1)).step_by(2) {
-            let i = y * w + x;
-            if mask.is_some_and(|m| !m[i]) {
-                continue;
-            }
-            let m = 0.25 * (img.data[i - 1] + img.data[i + 1] + img.data[i - w] + img.data[i + w]);
-            d.push((img.data[i] - m).abs());
-        }
-    }
-    1.4826 * median(&mut d) as f64 / 1.25f64.sqrt()
 }
 
 #[cfg(test)]

@@ -118,7 +118,7 @@ pub struct Data<'a> {
     /// image) is added to the model and the refinement runs again, twice (a fixed point of
     /// model + JPEG(model) - model = photo).
     pub jpeg: Vec<Option<u8>>,
-    /// Per view: the photo's own pixel noise (display units, `fiducials::pixel_noise`), for the
+    /// Per view: the photo's own pixel noise (display units, `photo::pixel_noise`), for the
     /// check of what noise, 8-bit steps and JPEG do to the fit (see `fit_kind`).
     pub noise: Vec<f64>,
     /// Per view: the whole factor its photo was shrunk by (1: used as taken). A shrink

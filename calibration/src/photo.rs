@@ -161,8 +161,8 @@ pub fn load_photo_with_channels(path: &Path) -> Result<(Gray, Option<Channels>),
             height: h,
             data: g.as_raw().clone(),
         };
-        let chans: f64 = (0..3).map(|c| crate::fiducials::pixel_noise(&channel(c))).sum::<f64>() / 3.0;
-        let gn = crate::fiducials::pixel_noise(&grey);
+        let chans: f64 = (0..3).map(|c| crate::photo::pixel_noise(&channel(c))).sum::<f64>() / 3.0;
+        let gn = crate::photo::pixel_noise(&grey);
         Some(Channels {
             noise_share: if chans > 0.0 {
                 (gn / chans).clamp(LUMA_NOISE, 1.0)
@@ -420,6 +420,41 @@ pub fn normal_cdf(x: f64) -> f64 {
     } else {
         0.5 * (1.0 - erf)
     }
+}
+
+
+/// The photo's own pixel noise (display units): the robust spread of each pixel less the mean
+/// of its four neighbours (sqrt(5/4) sigma for independent noise), over the image.
+pub fn pixel_noise(img: &Gray) -> f64 {
+    pixel_noise_in(img, None)
+}
+
+/// [`pixel_noise`] over the pixels of `mask` only (all when `None`): a photo's dark background
+/// clips its noise at black.
+pub fn pixel_noise_in(img: &Gray, mask: Option<&[bool]>) -> f64 {
+    let (w, h) = (img.width as usize, img.height as usize);
+    let mut d = Vec::with_capacity(w * h / 4);
+    for y in (1..h.saturating_sub(1)).step_by(2) {
+        for x in (1..w.saturating_sub(1)).step_by(2) {
+            let i = y * w + x;
+            if mask.is_some_and(|m| !m[i]) {
+                continue;
+            }
+            let m = 0.25 * (img.data[i - 1] + img.data[i + 1] + img.data[i - w] + img.data[i + w]);
+            d.push((img.data[i] - m).abs());
+        }
+    }
+    1.4826 * median(&mut d) as f64 / 1.25f64.sqrt()
+}
+
+/// The middle value of an image's pixels (the upper of the two middles; 0 for none): the one
+/// median of the calibration's images (benchmarks use `scratchart::bench::median`).
+pub(crate) fn median(v: &mut [f32]) -> f32 {
+    if v.is_empty() {
+        return 0.0;
+    }
+    let n = v.len();
+    *v.select_nth_unstable_by(n / 2, |a, b| a.total_cmp(b)).1
 }
 
 #[cfg(test)]

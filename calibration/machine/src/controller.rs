@@ -3,6 +3,7 @@
 use std::time::{Duration, Instant};
 
 use crate::plan::{Firmware, MachineProfile};
+use crate::planner::Kinematics;
 use crate::program::Program;
 use crate::transport::{Link, LinkError};
 
@@ -34,33 +35,6 @@ pub struct Status {
     pub state: String,
     /// Machine or work position (mm) when the report has one.
     pub pos: Option<[f64; 3]>,
-}
-
-/// The machine's own motion limits, as its controller reports them: the job time `carve` states
-/// comes from these, not from a profile's defaults.
-#[derive(Clone, Debug, PartialEq)]
-pub struct Kinematics {
-    /// Top rate of each axis (X, Y, Z), mm/min (GRBL `$110-$112`; Marlin `M203`, mm/s there).
-    pub rate_mm_min: [f64; 3],
-    /// Acceleration of each axis, mm/s^2 (GRBL `$120-$122`; Marlin `M201`).
-    pub accel_mm_s2: [f64; 3],
-    /// The planner's junction deviation, mm (GRBL `$11`; Marlin `M205 J`): how fast the machine
-    /// takes a corner ([`crate::planner`]).
-    pub junction_deviation_mm: f64,
-    /// Where they came from, for the user ("the controller's $110-$112 and $120-$122").
-    pub source: String,
-}
-
-impl Kinematics {
-    /// A machine profile's rates: its rapid feed and one acceleration on every axis.
-    pub fn of_profile(m: &MachineProfile) -> Kinematics {
-        Kinematics {
-            rate_mm_min: [m.rapid_mm_min; 3],
-            accel_mm_s2: [m.accel_mm_s2; 3],
-            junction_deviation_mm: m.junction_deviation_mm,
-            source: "the machine profile's rapid feed, acceleration and junction deviation".into(),
-        }
-    }
 }
 
 /// How `carve --resume` re-establishes the position before it cuts again.

@@ -28,8 +28,6 @@ pub struct Options {
     pub home: bool,
 }
 
-/// Seconds the plan waits after starting the spindle (GRBL's `G4 P..`), for it to reach speed.
-pub const SPINDLE_DWELL_S: f64 = 2.0;
 
 /// The G-code of `cuts` (in order) for machine `m`. `summary` lines go into the header as
 /// comments (travel, time, the tool).
@@ -146,7 +144,7 @@ pub fn write_blocks(blocks: &[Block], m: &MachineProfile, plate_mm: f64, summary
     }
     if let (Firmware::Grbl, Some(rpm)) = (m.firmware, m.spindle_rpm) {
         let _ = writeln!(g, "M3 S{}", num(rpm, 0));
-        let _ = writeln!(g, "G4 P{}", num(SPINDLE_DWELL_S, 0));
+        let _ = writeln!(g, "G4 P{}", num(crate::plan::SPINDLE_DWELL_S, 0));
     }
     let xy = |p: &[f64; 3]| format!("X{} Y{}", num(p[0], 4), num(p[1], 4));
     let z_to = |h: &str| match m.firmware {

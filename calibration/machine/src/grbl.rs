@@ -4,7 +4,8 @@
 use std::collections::BTreeMap;
 use std::time::{Duration, Instant};
 
-use crate::controller::{command, Controller, Fault, Kinematics, Reply, Rezero, Status};
+use crate::controller::{command, Controller, Fault, Reply, Rezero, Status};
+use crate::planner::Kinematics;
 use crate::grbl_codes;
 use crate::plan::{Firmware, MachineProfile};
 use crate::program::Program;

@@ -6,7 +6,8 @@ use std::path::PathBuf;
 use std::sync::atomic::Ordering;
 use std::time::{Duration, Instant};
 
-use crate::controller::{Controller, Fault, Kinematics, Rezero};
+use crate::controller::{Controller, Fault, Rezero};
+use crate::planner::Kinematics;
 use crate::journal::{Journal, RESUME_OVERLAP};
 use crate::plan::{Firmware, MachineProfile};
 use crate::program::Program;

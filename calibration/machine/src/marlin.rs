@@ -4,7 +4,8 @@
 //! M410 (quickstop) and raises Z when the printer answers; M112 only when asked.
 use std::time::{Duration, Instant};
 
-use crate::controller::{command, Controller, Fault, Kinematics, Reply, Rezero, Status};
+use crate::controller::{command, Controller, Fault, Reply, Rezero, Status};
+use crate::planner::Kinematics;
 use crate::plan::{Firmware, MachineProfile};
 use crate::program::Program;
 use crate::transport::Link;

@@ -13,6 +13,9 @@
 
 pub use scratchart_tool::machine::{Firmware, MachineProfile};
 
+/// Seconds the plan waits after starting the spindle (GRBL's `G4 P..`), for it to reach speed.
+pub const SPINDLE_DWELL_S: f64 = 2.0;
+
 /// One cut: from `a` to `b` (mm, work coordinates: the plate centre is the origin) at commanded
 /// depth `z` (mm below the surface), and the index of its scratch in the design.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -158,7 +161,7 @@ pub fn program_time(blocks: &[Block], m: &MachineProfile) -> f64 {
 
 /// Where a job's time goes, s: cutting (the G1 moves in the plate), travelling (the rapids in X
 /// and Y), in Z (plunges, retracts, rises to the clearance height and the ways down), and
-/// waiting (the spindle's spin-up dwell, [`crate::gcode::SPINDLE_DWELL_S`]).
+/// waiting (the spindle's spin-up dwell, [`SPINDLE_DWELL_S`]).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct TimeSplit {
     pub cutting: f64,
@@ -201,7 +204,7 @@ enum Doing {
 /// as the controller's planner runs them ([`crate::planner`], with the profile's rates,
 /// acceleration and junction deviation).
 pub fn program_time_split(blocks: &[Block], m: &MachineProfile) -> TimeSplit {
-    let k = crate::controller::Kinematics::of_profile(m);
+    let k = crate::planner::Kinematics::of_profile(m);
     let mv = program_moves(blocks, m, &k);
     let mut t = TimeSplit {
         dwell: spindle_dwell(m),
@@ -222,7 +225,7 @@ pub fn program_time_split(blocks: &[Block], m: &MachineProfile) -> TimeSplit {
 /// diagonal that axes limited one by one allow), s: an upper bound of [`program_time`], and of
 /// any simple sum of the G-code's moves at their feeds.
 pub fn program_time_rest_to_rest(blocks: &[Block], m: &MachineProfile) -> f64 {
-    let k = crate::controller::Kinematics::of_profile(m);
+    let k = crate::planner::Kinematics::of_profile(m);
     program_moves(blocks, m, &k)
         .segs
         .iter()
@@ -234,7 +237,7 @@ pub fn program_time_rest_to_rest(blocks: &[Block], m: &MachineProfile) -> f64 {
 /// The dwell the G-code writer adds after starting the spindle (GRBL with a spindle), s.
 fn spindle_dwell(m: &MachineProfile) -> f64 {
     match (m.firmware, m.spindle_rpm) {
-        (Firmware::Grbl, Some(_)) => crate::gcode::SPINDLE_DWELL_S,
+        (Firmware::Grbl, Some(_)) => SPINDLE_DWELL_S,
         _ => 0.0,
     }
 }
@@ -243,7 +246,7 @@ fn spindle_dwell(m: &MachineProfile) -> f64 {
 fn program_moves<'k>(
     blocks: &[Block],
     m: &MachineProfile,
-    k: &'k crate::controller::Kinematics,
+    k: &'k crate::planner::Kinematics,
 ) -> crate::planner::Moves<'k, Doing> {
     // Z outside the plate: rapids on GRBL, the Z feed on Marlin; Marlin's rapids at the rapid
     // feed (its G0 shares G1's modal feed, which the writer sets).
@@ -500,3 +503,16 @@ pub fn orientation_mark(scratches: &[([f64; 2], [f64; 2], f64)], plate_mm: f64, 
     }
     at(0.0, false)
 }
+
+impl crate::planner::Kinematics {
+    /// A machine profile's rates: its rapid feed and one acceleration on every axis.
+    pub fn of_profile(m: &MachineProfile) -> crate::planner::Kinematics {
+        crate::planner::Kinematics {
+            rate_mm_min: [m.rapid_mm_min; 3],
+            accel_mm_s2: [m.accel_mm_s2; 3],
+            junction_deviation_mm: m.junction_deviation_mm,
+            source: "the machine profile's rapid feed, acceleration and junction deviation".into(),
+        }
+    }
+}
+

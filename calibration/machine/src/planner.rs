@@ -14,10 +14,24 @@
 //! trapezoid (accelerate from the entry speed, cruise, decelerate to the exit speed) or a
 //! triangle where it is too short to cruise.
 //!
-//! A move-by-move sum (each move from rest to rest, [`crate::plan::move_time`]) is an upper
+//! A move-by-move sum (each move from rest to rest, `plan::move_time`) is an upper
 //! bound of this time and the moves' lengths over their top speeds a lower one; the tests check
 //! both, and that moves split along a straight line take the time of the whole.
-use crate::controller::Kinematics;
+/// The machine's own motion limits, as its controller reports them: the job time `carve` states
+/// comes from these, not from a profile's defaults.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Kinematics {
+    /// Top rate of each axis (X, Y, Z), mm/min (GRBL `$110-$112`; Marlin `M203`, mm/s there).
+    pub rate_mm_min: [f64; 3],
+    /// Acceleration of each axis, mm/s^2 (GRBL `$120-$122`; Marlin `M201`).
+    pub accel_mm_s2: [f64; 3],
+    /// The planner's junction deviation, mm (GRBL `$11`; Marlin `M205 J`): how fast the machine
+    /// takes a corner (see this module's doc).
+    pub junction_deviation_mm: f64,
+    /// Where they came from, for the user ("the controller's $110-$112 and $120-$122").
+    pub source: String,
+}
+
 
 /// Moves the planner sees ahead of the one it runs (GRBL 1.1 on an ATmega328P: a buffer of 16
 /// blocks, 15 planned).

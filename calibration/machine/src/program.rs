@@ -3,7 +3,7 @@
 //! `; scratch N (cut K of T)` comment to the next: N the design's number, K the cut order), and
 //! the lines after the last one. Comments and blank lines
 //! are never sent.
-use crate::controller::Kinematics;
+use crate::planner::Kinematics;
 use crate::plan::Firmware;
 use crate::planner::Moves;
 

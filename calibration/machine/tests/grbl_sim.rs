@@ -271,7 +271,7 @@ fn the_real_firmware_checks_holds_and_resumes() {
         "{notes:?}"
     );
     // GRBL 1.1h's defaults: $110-$112 = 500 mm/min, $120-$122 = 10 mm/s^2.
-    let k = scratchart_machine::controller::Kinematics {
+    let k = scratchart_machine::planner::Kinematics {
         rate_mm_min: [500.0; 3],
         accel_mm_s2: [10.0; 3],
         junction_deviation_mm: 0.01,

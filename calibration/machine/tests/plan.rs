@@ -92,7 +92,7 @@ fn time_follows_the_acceleration_model() {
     // speeds, a lower one. Every junction here turns 90 degrees, where GRBL's planner keeps
     // sqrt(a delta sin45 / (1 - sin45)) = 2.2 mm/s: a little less than the sum.
     // The spindle's dwell after M3 (GRBL with a spindle) is a wait in every one of these.
-    let dwell = scratchart_machine::gcode::SPINDLE_DWELL_S;
+    let dwell = scratchart_machine::plan::SPINDLE_DWELL_S;
     let moves = [
         (10.0, m.rapid_mm_min),
         (m.clearance_mm - m.retract_mm, m.rapid_mm_min),
@@ -127,7 +127,7 @@ fn time_follows_the_acceleration_model() {
 /// or spindle command stops it; and it never exceeds a move-by-move sum from rest to rest.
 #[test]
 fn the_planner_follows_grbls_junctions_and_lookahead() {
-    use scratchart_machine::controller::Kinematics;
+    use scratchart_machine::planner::Kinematics;
     use scratchart_machine::planner::{segment_times, Moves, LOOKAHEAD};
     let k = Kinematics {
         rate_mm_min: [600.0; 3],

@@ -503,7 +503,7 @@ fn the_job_time_is_the_machines_own() {
     let slow = stated(["500", "500", "300", "100", "100", "25"]);
     let want = |r: [f64; 3], a: [f64; 3]| {
         program
-            .timing(&scratchart_machine::controller::Kinematics {
+            .timing(&scratchart_machine::planner::Kinematics {
                 rate_mm_min: r,
                 accel_mm_s2: a,
                 junction_deviation_mm: 0.01,

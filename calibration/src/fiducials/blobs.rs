@@ -1,6 +1,7 @@
 //! Bright blobs in a photo, at any scale of a range: the candidates for the card's marks (step
 //! 1 of [`super`]).
-use super::{median, pixel_noise};
+use crate::photo::median;
+use crate::photo::pixel_noise;
 use crate::photo::Gray;
 
 /// A bright blob: a candidate for a mark.

@@ -188,7 +188,7 @@ fn sense_side(k: u32) -> usize {
 }
 
 /// The sensor's noise per channel at a photo's own resolution, from the noise `measured`
-/// (`fiducials::pixel_noise`) on the photo shrunk by `k` (1: as taken). The sigma is the one
+/// (`photo::pixel_noise`) on the photo shrunk by `k` (1: as taken). The sigma is the one
 /// whose simulated photo shows `measured`: a flat patch at the photo's typical display value
 /// `level`, noisy channels (`colour`) clipped and stepped to 8 bits, the JPEG at quality `q`
 /// where it was one, the grey, the shrink by k in light, and the same measure. JPEG's
@@ -222,7 +222,7 @@ fn draws(seed: u64, k: u32, colour: bool) -> Vec<f32> {
         .collect()
 }
 
-/// The noise `fiducials::pixel_noise` measures on a flat photo (of [`sense_side`] k pixels a
+/// The noise `photo::pixel_noise` measures on a flat photo (of [`sense_side`] k pixels a
 /// side) at display value `level` whose channels got the noise `sigma` x `z`, clipped and
 /// stepped to 8 bits, saved as JPEG at `q` (or losslessly), read back as grey and shrunk by `k`
 /// in light.
@@ -239,7 +239,7 @@ fn shown_noise(z: &[f32], sigma: f64, level: f64, colour: bool, k: u32, q: Optio
         data: saved_grey(&bytes, side as u32, side as u32, colour, q)?,
     };
     let small = crate::photo::resize(&full, small_side as u32, small_side as u32);
-    Some(crate::fiducials::pixel_noise(&small))
+    Some(crate::photo::pixel_noise(&small))
 }
 
 /// Photos shrunk by more than this are left as the model has them in the fit's degradation

@@ -143,7 +143,7 @@ fn sensor_noise_at_own_size(
             x < w as usize && y < h as usize && mask[y * w as usize + x]
         })
         .collect();
-    let measured = crate::fiducials::pixel_noise_in(&at_m, Some(&m_mask));
+    let measured = crate::photo::pixel_noise_in(&at_m, Some(&m_mask));
     let mut on: Vec<f32> = small
         .data
         .iter()
@@ -433,7 +433,7 @@ pub fn inspect_photo(
     // How far the camera stood from the capture view's direction, seen from the card.
     let off_deg = degrees_between(&fv.camera, &capture_view.camera);
     refuse_off_view(f, &capture_view.name, off_deg)?;
-    let noise = crate::fiducials::pixel_noise_in(&small, Some(&mask));
+    let noise = crate::photo::pixel_noise_in(&small, Some(&mask));
     let saved_jpeg = std::fs::read(f).ok().and_then(|b| crate::photo::jpeg_table_quality(&b));
     // A colour photo's grey has less noise than the channels that were clipped; a JPEG's
     // quantization took part of the noise after it was clipped, and its chroma's coarse steps

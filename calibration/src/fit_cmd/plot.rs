@@ -61,7 +61,7 @@ pub(super) fn measured_widths(data: &Data, photos: &[Vec<f32>], res: &FitResult,
 
 fn median_masked(img: &[f32], mask: &[bool]) -> f32 {
     let mut v: Vec<f32> = img.iter().zip(mask).filter(|(_, m)| **m).map(|(x, _)| *x).collect();
-    crate::fiducials::median(&mut v)
+    crate::photo::median(&mut v)
 }
 
 /// W(z) and w(z) of the fitted tool against commanded depth, with the measured widths.
