@@ -225,7 +225,7 @@ fn a_photo_design_improves_every_view() {
                         v.name,
                         sign * lost
                     );
-                    let res = scratchart::optim::setup::resolution(axis, safe);
+                    let res = scratchart::optim::tolerance::resolution(axis, safe);
                     assert!(lost - safe <= res + 1e-12, "{} {moved} {axis}: {safe}..{lost}", v.name);
                     bracketed += 1;
                 }

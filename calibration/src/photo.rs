@@ -422,7 +422,6 @@ pub fn normal_cdf(x: f64) -> f64 {
     }
 }
 
-
 /// The photo's own pixel noise (display units): the robust spread of each pixel less the mean
 /// of its four neighbours (sqrt(5/4) sigma for independent noise), over the image.
 pub fn pixel_noise(img: &Gray) -> f64 {

@@ -28,7 +28,7 @@ fn main() -> anyhow::Result<()> {
     };
     let size = args.get(2).map(String::as_str).unwrap_or("M");
     let reps: usize = args.get(3).map(|s| s.parse()).transpose()?.unwrap_or(5);
-    let scene = scratchart::scenes::bench_scene(size).ok_or_else(|| anyhow::anyhow!("unknown size {size}"))?;
+    let scene = scratchart::bench::bench_scene(size).ok_or_else(|| anyhow::anyhow!("unknown size {size}"))?;
     let ctx = Context::new(ContextDesc::default())?;
     let a = Renderer::new(&ctx)?;
     a.prepare_backward()?;

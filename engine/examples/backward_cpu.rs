@@ -17,7 +17,7 @@ fn main() -> anyhow::Result<()> {
     let size = args.get(1).map(String::as_str).unwrap_or("S");
     let reps: usize = args.get(2).map(|s| s.parse().unwrap()).unwrap_or(3);
     let with_dual = args.get(3).map(String::as_str) != Some("--no-dual");
-    let scene = scratchart::scenes::bench_scene(size).expect("size S, M, P, L or NxVxR");
+    let scene = scratchart::bench::bench_scene(size).expect("size S, M, P, L or NxVxR");
     let ctx = Context::new(ContextDesc::default())?;
     let reverse = Renderer::new(&ctx)?;
     reverse.prepare_backward()?;

@@ -360,7 +360,7 @@ fn bench_cmd(
         None => sizes
             .iter()
             .map(|s| {
-                scratchart::scenes::bench_scene(s)
+                scratchart::bench::bench_scene(s)
                     .map(|sc| (if s.len() == 1 { s.to_uppercase() } else { s.clone() }, sc))
                     .ok_or_else(|| {
                         scratchart::exit::UsageError(format!(
@@ -508,7 +508,7 @@ fn grad_command(ctx: &std::sync::Arc<Context>, scene: &Scene, dir: &Path, out: &
 }
 
 fn setup_command(ctx: &std::sync::Arc<Context>, scene: &Scene, dir: &Path, out: &Path) -> Result<()> {
-    use scratchart::optim::setup::SheetInputs;
+    use scratchart::optim::tolerance::SheetInputs;
     let renderer = Renderer::new(ctx)?;
     // The inputs the design wrote beside itself: the sheet is then the design's own, to the digit.
     let inputs = match SheetInputs::load(dir, scene)? {
@@ -538,7 +538,7 @@ fn approximate_sheet_inputs(
     renderer: &Renderer,
     scene: &Scene,
     dir: &Path,
-) -> Result<scratchart::optim::setup::SheetInputs> {
+) -> Result<scratchart::optim::tolerance::SheetInputs> {
     let mut gs = renderer.upload(scene)?;
     let frame = renderer.render(&mut gs)?;
     let mut targets = Vec::new();
@@ -568,7 +568,7 @@ fn approximate_sheet_inputs(
         .and_then(|v| v["blank_views"].as_array().cloned())
         .map(|a| a.iter().filter_map(|x| x.as_str().map(String::from)).collect())
         .unwrap_or_default();
-    Ok(scratchart::optim::setup::SheetInputs {
+    Ok(scratchart::optim::tolerance::SheetInputs {
         targets,
         pictures,
         sigma: scratchart::optim::LossConfig::default().sigma,

@@ -165,66 +165,6 @@ pub fn frame_plate(view: &mut View, plate_mm: f64, fill: f64) {
     }
 }
 
-/// Standard benchmark scenes. S: 4,000 scratches, 2 views of 128x128. M: 40,000 scratches,
-/// 3 views of 256x256. P (paper scale): 40,000 scratches, 3 views of 512x512. L (to fill a big
-/// GPU): 160,000 scratches, 3 views of 1024x1024. `NxVxR`: N scratches, V views of R x R (for
-/// scaling tables). `NxVxRw`: N scratches, V views (2 to 64) of R x R along a walk's 60 degree
-/// arc (`design --walk`; for how the cost grows with the views). All: random
-/// endpoints over a 100 mm plate, lengths 5-30 mm, w = d = 0.05 mm, alpha 0.04, views at 45
-/// degrees elevation and azimuths 0/120/240 (0/180 for S), one point light at 45 degrees.
-pub fn bench_scene(name: &str) -> Option<Scene> {
-    let (name, walk) = match name.strip_suffix(['w', 'W']) {
-        Some(n) => (n, true),
-        None => (name, false),
-    };
-    let (n, views, res) = match name {
-        "S" | "s" | "M" | "m" | "P" | "p" | "L" | "l" if walk => return None,
-        "S" | "s" => (4_000, 2, 128),
-        "M" | "m" => (40_000, 3, 256),
-        "P" | "p" => (40_000, 3, 512),
-        "L" | "l" => (160_000, 3, 1024),
-        _ => {
-            // NxVxR: N scratches, V views (1 to 3) of R x R pixels (for scaling tables)
-            let p: Vec<u32> = name.split(['x', 'X']).map(|t| t.parse().ok()).collect::<Option<_>>()?;
-            match p[..] {
-                [n, v, r] if n > 0 && walk && (2..=64).contains(&v) && (16..=8192).contains(&r) => {
-                    (n as usize, v as usize, r)
-                }
-                [n, v, r] if n > 0 && (1..=3).contains(&v) && (16..=8192).contains(&r) => (n as usize, v as usize, r),
-                _ => return None,
-            }
-        }
-    };
-    let plate = 100.0;
-    let mut rng = Rng::new(0x5C2A7C4 + n as u64);
-    let light = orbit_light(300.0, 45.0, 60.0, 90_000.0);
-    let vs = if walk {
-        let arc = crate::optim::walk::WalkArc {
-            arc_deg: 60.0,
-            centre_azimuth_deg: 0.0,
-            elevation_deg: 45.0,
-            distance_mm: 300.0,
-            views,
-            between: 0,
-            res,
-        };
-        crate::optim::walk::arc_views(&arc, plate, &light).0
-    } else {
-        let mut vs = ring_views(3, 45.0, 300.0, plate, res, &light);
-        vs.truncate(views);
-        vs
-    };
-    Some(Scene {
-        plate: Plate {
-            size_mm: plate,
-            roughness: 0.02,
-            f0: 0.91,
-        },
-        views: vs,
-        scratches: random_scratches(&mut rng, n, plate, 5.0, 30.0, 0.05, 0.05, 0.04),
-    })
-}
-
 /// The demo plate: scratches tangent to concentric circles (a turned finish). Under a point
 /// light it shows the classic bright arc that swings round as the light or the eye moves.
 pub fn demo_scene(res: u32) -> Scene {

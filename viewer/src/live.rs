@@ -565,14 +565,6 @@ pub fn run_headless(o: &LiveOpts, log: &std::cell::RefCell<Option<scratchart::vu
     }
 }
 
-/// `scratchart-view --design ...`: the window, or `--headless`.
-pub fn run(o: &LiveOpts, log: &std::cell::RefCell<Option<scratchart::vulkan::ValidationLog>>) -> Result<()> {
-    if o.headless {
-        return run_headless(o, log);
-    }
-    crate::app::run_live_window(o, log)
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;

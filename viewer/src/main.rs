@@ -291,7 +291,14 @@ fn main() -> ExitCode {
                     };
                 }
             };
-            (live::run(&o, &log), o.validation)
+            (
+                if o.headless {
+                    live::run_headless(&o, &log)
+                } else {
+                    app::run_live_window(&o, &log)
+                },
+                o.validation,
+            )
         }
         None => {
             let opts = match scratchart::exit::parse_args::<Opts>() {

@@ -4,7 +4,8 @@
 //! [`scratchart::optim::setup`] (the sheet's [`Place`] and `summary.json`'s `setup`), so the
 //! viewer shows exactly what the sheet prints. The overlay that draws them is `overlay.rs`.
 use scratchart::model::scene::{LightKind, Scene};
-use scratchart::optim::setup::{setup_json, Place};
+use scratchart::optim::setup::setup_json;
+use scratchart::optim::tolerance::Place;
 
 /// What a marker stands for.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

@@ -74,7 +74,7 @@ impl OrbitCamera {
         OrbitCamera {
             target: a.target * (1.0 - t) + b.target * t,
             distance: mix(a.distance, b.distance),
-            azimuth_deg: a.azimuth_deg + t * crate::walk::short_turn(a.azimuth_deg, b.azimuth_deg),
+            azimuth_deg: a.azimuth_deg + t * short_turn(a.azimuth_deg, b.azimuth_deg),
             elevation_deg: mix(a.elevation_deg, b.elevation_deg),
             fov_y_deg: mix(a.fov_y_deg, b.fov_y_deg),
             up: a.up * (1.0 - t) + b.up * t,
@@ -154,6 +154,16 @@ impl LightRig {
     /// Turns the light about the plate normal by `deg` (its own orbit).
     pub fn rotate(&mut self, deg: f64) {
         self.azimuth_deg = (self.azimuth_deg + deg).rem_euclid(360.0);
+    }
+}
+
+/// The signed turn from azimuth `a` to `b` the shorter way round, in (-180, 180] degrees.
+pub fn short_turn(a: f64, b: f64) -> f64 {
+    let d = (b - a).rem_euclid(360.0);
+    if d > 180.0 {
+        d - 360.0
+    } else {
+        d
     }
 }
 

@@ -10,7 +10,7 @@
 //! is a function of the time into a cycle, so it runs 0 -> N-1 -> 0 with no drift.
 use scratchart::model::scene::View;
 
-use crate::state::OrbitCamera;
+use crate::state::{short_turn, OrbitCamera};
 
 /// Below this many degrees a gap counts as one without an azimuth change.
 const NO_TURN_DEG: f64 = 1e-6;
@@ -149,16 +149,6 @@ impl Walk {
             self.views[b].name,
             100.0 * f
         )
-    }
-}
-
-/// The signed turn from azimuth `a` to `b` the shorter way round, in (-180, 180] degrees.
-pub fn short_turn(a: f64, b: f64) -> f64 {
-    let d = (b - a).rem_euclid(360.0);
-    if d > 180.0 {
-        d - 360.0
-    } else {
-        d
     }
 }
 

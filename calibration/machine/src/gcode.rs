@@ -28,7 +28,6 @@ pub struct Options {
     pub home: bool,
 }
 
-
 /// The G-code of `cuts` (in order) for machine `m`. `summary` lines go into the header as
 /// comments (travel, time, the tool).
 pub fn write(cuts: &[Cut], m: &MachineProfile, plate_mm: f64, summary: &[String]) -> String {

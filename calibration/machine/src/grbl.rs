@@ -5,9 +5,9 @@ use std::collections::BTreeMap;
 use std::time::{Duration, Instant};
 
 use crate::controller::{command, Controller, Fault, Reply, Rezero, Status};
-use crate::planner::Kinematics;
 use crate::grbl_codes;
 use crate::plan::{Firmware, MachineProfile};
+use crate::planner::Kinematics;
 use crate::program::Program;
 use crate::transport::Link;
 

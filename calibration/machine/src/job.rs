@@ -7,9 +7,9 @@ use std::sync::atomic::Ordering;
 use std::time::{Duration, Instant};
 
 use crate::controller::{Controller, Fault, Rezero};
-use crate::planner::Kinematics;
 use crate::journal::{Journal, RESUME_OVERLAP};
 use crate::plan::{Firmware, MachineProfile};
+use crate::planner::Kinematics;
 use crate::program::Program;
 use crate::stream::{stream, Control, End, Observer, Progress};
 use crate::transport::{Link, LinkError};

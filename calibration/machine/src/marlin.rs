@@ -5,8 +5,8 @@
 use std::time::{Duration, Instant};
 
 use crate::controller::{command, Controller, Fault, Reply, Rezero, Status};
-use crate::planner::Kinematics;
 use crate::plan::{Firmware, MachineProfile};
+use crate::planner::Kinematics;
 use crate::program::Program;
 use crate::transport::Link;
 

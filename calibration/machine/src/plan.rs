@@ -515,4 +515,3 @@ impl crate::planner::Kinematics {
         }
     }
 }
-

@@ -32,7 +32,6 @@ pub struct Kinematics {
     pub source: String,
 }
 
-
 /// Moves the planner sees ahead of the one it runs (GRBL 1.1 on an ATmega328P: a buffer of 16
 /// blocks, 15 planned).
 pub const LOOKAHEAD: usize = 15;

@@ -3,8 +3,8 @@
 //! `; scratch N (cut K of T)` comment to the next: N the design's number, K the cut order), and
 //! the lines after the last one. Comments and blank lines
 //! are never sent.
-use crate::planner::Kinematics;
 use crate::plan::Firmware;
+use crate::planner::Kinematics;
 use crate::planner::Moves;
 
 /// One block of the plan: what its opening comment says (`scratch N`, `mark +x edge`), the

@@ -10,12 +10,12 @@ use super::checkpoint::fnv;
 use super::driver::{Driver, DriverConfig};
 pub use super::driver::{Hooks, Rollback};
 use super::error::OptimError;
-pub use super::live::{Live, LiveHook};
+use super::live::{to_scene, Live, LiveHook};
 use super::loss::{Loss, LossValues};
 pub use super::problem::{DesignConfig, DesignReport, Images, IterRecord, Problem, WallTimes};
 use super::scene_params::SceneParams;
 use super::tool_params::{depths_of_kept, ToolParams};
-use crate::model::scene::{Scene, Scratch};
+use crate::model::scene::Scene;
 use crate::observe::Observer;
 use crate::render::layout::{ScratchGpu, ViewGpu};
 use crate::render::{GpuScene, Renderer};
@@ -277,27 +277,6 @@ impl<'e, 'r> LiveEnv<'e, 'r> {
     }
 }
 
-/// Builds a scene from GPU parameters: `template`'s plate and views with the lights' optimized
-/// radiance scales `phi` (one per view: intensity times exposure), split into one intensity per
-/// lamp and an exposure per view ([`Scene::set_radiance`]; `keep_exposures` where the optimizer
-/// kept each lamp's views tied).
-pub fn to_scene(template: &Scene, scr: &[ScratchGpu], phi: &[f32], keep_exposures: bool) -> Scene {
-    let mut scene = template.clone();
-    scene.scratches = scr
-        .iter()
-        .map(|s| Scratch {
-            p0: [s.ends[0] as f64, s.ends[1] as f64],
-            p1: [s.ends[2] as f64, s.ends[3] as f64],
-            w: s.shape[0] as f64,
-            d: s.shape[1] as f64,
-            alpha: s.shape[2] as f64,
-        })
-        .collect();
-    let r: Vec<f64> = phi.iter().map(|&p| p as f64).collect();
-    scene.set_radiance(&r, keep_exposures);
-    scene
-}
-
 /// The whole `design` job: optimize, prune, evaluate and (if configured) write the outputs.
 /// Progress and warnings go to `obs`.
 pub fn run_design(
@@ -490,7 +469,7 @@ fn write_design_outputs(
     t_pruned: std::time::Instant,
 ) -> Result<(), OptimError> {
     // A walk's in-between views were in the loss; the design's files hold its design views.
-    let (wp, wr) = super::walk::design_views_only(problem, report);
+    let (wp, wr) = super::walk_report::design_views_only(problem, report);
     let mut summary = super::report::write_outputs(&cfg.out, &wp, cfg, &wr)?;
     if let (Some(fab), Some(z)) = (&cfg.tool, &report.depths) {
         // The design again, with each scratch's commanded depth as the CSV's column `z_mm`.
@@ -511,14 +490,16 @@ fn write_design_outputs(
         Some(w) => super::walk::judge_probes(renderer, &report.scene, w, cfg.loss.sigma)?,
         None => Vec::new(),
     };
-    if let Some((walk, corr)) = super::walk::walk_summary(problem, &report.final_images, &probe_corr, cfg.loss.sigma) {
+    if let Some((walk, corr)) =
+        super::walk_report::walk_summary(problem, &report.final_images, &probe_corr, cfg.loss.sigma)
+    {
         summary["walk"] = walk;
-        super::walk::walk_plot_png(&cfg.out.join("walk.png"), problem, &corr, &probe_corr)?;
-        super::walk::walk_sheet_png(&cfg.out.join("walk_sheet.png"), problem, &report.final_images)?;
+        super::walk_report::walk_plot_png(&cfg.out.join("walk.png"), problem, &corr, &probe_corr)?;
+        super::walk_report::walk_sheet_png(&cfg.out.join("walk_sheet.png"), problem, &report.final_images)?;
     }
     // Where the lamp and the viewers go, and how precisely (setup.txt, setup.png).
     // Its inputs go beside the design first, so `scratchart setup` computes the same sheet.
-    let inputs = super::setup::SheetInputs {
+    let inputs = super::tolerance::SheetInputs {
         targets: wp.targets.clone(),
         pictures: wp.pictures.clone(),
         sigma: cfg.loss.sigma,

@@ -7,7 +7,6 @@ use crate::render::layout::ScratchGpu;
 use crate::render::Renderer;
 use crate::vulkan::GpuError;
 
-use super::design::to_scene;
 use super::driver::Driver;
 use super::error::OptimError;
 use super::loss::Loss;
@@ -260,4 +259,25 @@ impl Live<'_, '_> {
             .save(&self.out.join("design.json"), "scratches.csv")
             .map_err(|e| OptimError::Report(e.to_string()))
     }
+}
+
+/// Builds a scene from GPU parameters: `template`'s plate and views with the lights' optimized
+/// radiance scales `phi` (one per view: intensity times exposure), split into one intensity per
+/// lamp and an exposure per view ([`Scene::set_radiance`]; `keep_exposures` where the optimizer
+/// kept each lamp's views tied).
+pub fn to_scene(template: &Scene, scr: &[ScratchGpu], phi: &[f32], keep_exposures: bool) -> Scene {
+    let mut scene = template.clone();
+    scene.scratches = scr
+        .iter()
+        .map(|s| Scratch {
+            p0: [s.ends[0] as f64, s.ends[1] as f64],
+            p1: [s.ends[2] as f64, s.ends[3] as f64],
+            w: s.shape[0] as f64,
+            d: s.shape[1] as f64,
+            alpha: s.shape[2] as f64,
+        })
+        .collect();
+    let r: Vec<f64> = phi.iter().map(|&p| p as f64).collect();
+    scene.set_radiance(&r, keep_exposures);
+    scene
 }

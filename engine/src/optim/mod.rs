@@ -57,6 +57,7 @@ pub mod steer;
 pub mod targets;
 pub mod tolerance;
 pub mod walk;
+pub mod walk_report;
 
 pub use adam::AdamConfig;
 pub use design::{DesignConfig, DesignReport, Problem};

@@ -1,12 +1,14 @@
 //! How far the lamp and each eye may move: every view rendered with the lamp or the eye moved
 //! in azimuth, elevation and distance, both ways, and a search (outwards on a grid, then by
-//! bisection) for how far each keeps [`KEEP`] of the view's correlation with its picture. The
-//! set-up sheet ([`super::setup`]) states the results.
+//! bisection) for how far each keeps [`KEEP`] of the view's correlation with its picture, from
+//! what the design wrote beside itself ([`SheetInputs`]); a lamp's or an eye's [`Place`] as a
+//! maker measures it. The set-up sheet (`setup`, `setup_sheet`) states the results.
+use std::path::Path;
+
 use serde_json::{json, Value};
 
 use super::error::OptimError;
 use super::measure::{blur3, correlation};
-use super::setup::{Place, SheetInputs, ADVICE_MIN_CORR};
 use crate::model::scene::{LightKind, Scene, View};
 use crate::render::Renderer;
 
@@ -314,6 +316,143 @@ pub fn sensitivity(renderer: &Renderer, scene: &Scene, inputs: &SheetInputs) -> 
         tolerances,
         samples,
     })
+}
+
+/// A point as a maker measures it from the plate centre.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Place {
+    pub xyz: [f64; 3],
+    pub azimuth_deg: f64,
+    pub elevation_deg: f64,
+    pub distance_mm: f64,
+}
+
+impl Place {
+    pub fn of(p: [f64; 3]) -> Place {
+        let r = (p[0] * p[0] + p[1] * p[1] + p[2] * p[2]).sqrt();
+        Place {
+            xyz: p,
+            azimuth_deg: p[1].atan2(p[0]).to_degrees(),
+            elevation_deg: p[2].atan2(p[0].hypot(p[1])).to_degrees(),
+            distance_mm: r,
+        }
+    }
+
+    /// The point at these spherical coordinates.
+    pub fn at(azimuth_deg: f64, elevation_deg: f64, distance_mm: f64) -> [f64; 3] {
+        crate::model::camera::spherical(distance_mm, azimuth_deg, elevation_deg)
+    }
+}
+
+/// Below this correlation with its picture a view does not show its picture yet, and how far
+/// the lamp may move "to keep 90% of it" says nothing useful (90% of about nothing).
+pub const ADVICE_MIN_CORR: f64 = 0.3;
+
+/// What the set-up sheet is computed from: each view's target exactly as the design's loss saw
+/// it (display values), where its picture is, the blur of the quality measure, and the views left
+/// blank on purpose. `design` writes them beside the design ([`SheetInputs::FILE`],
+/// `NAME_target.pfm`, `NAME_picture.png`: lossless) and `scratchart setup` reads them back, so the
+/// two build the sheet through [`write_setup`] from the same numbers.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SheetInputs {
+    pub targets: Vec<Vec<f32>>,
+    pub pictures: Vec<Vec<bool>>,
+    pub sigma: f32,
+    pub blank_views: Vec<String>,
+}
+
+impl SheetInputs {
+    /// The index file beside the design.
+    pub const FILE: &'static str = "setup_inputs.json";
+
+    /// Writes the inputs into `dir` (atomically, each file).
+    pub fn save(&self, dir: &Path, scene: &Scene) -> Result<(), OptimError> {
+        let mut views = Vec::new();
+        for (j, v) in scene.views.iter().enumerate() {
+            let (w, h) = (v.camera.width, v.camera.height);
+            let (t, m) = (format!("{}_target.pfm", v.name), format!("{}_picture.png", v.name));
+            crate::io::write_pfm(&dir.join(&t), w, h, &self.targets[j])?;
+            let mask: Vec<u8> = self.pictures[j].iter().map(|&p| if p { 255 } else { 0 }).collect();
+            crate::io::write_png_gray(&dir.join(&m), w, h, &mask)?;
+            views.push(json!({"name": v.name, "target": t, "picture": m}));
+        }
+        let index = json!({
+            "what": "the set-up sheet's inputs: each view's target as the design's loss saw it (display values, PFM) and its picture's pixels (PNG, white); `scratchart setup` reads them",
+            "sigma_px": self.sigma,
+            "blank_views": self.blank_views,
+            "views": views,
+        });
+        let text = serde_json::to_string_pretty(&index).expect("the index always serializes");
+        Ok(crate::io::write_atomic(&dir.join(Self::FILE), text.as_bytes())?)
+    }
+
+    /// Reads the inputs a design wrote into `dir`; `Ok(None)` when it wrote none (a design made
+    /// before they were written).
+    pub fn load(dir: &Path, scene: &Scene) -> Result<Option<SheetInputs>, OptimError> {
+        let path = dir.join(Self::FILE);
+        let text = match std::fs::read_to_string(&path) {
+            Ok(t) => t,
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(None),
+            Err(cause) => {
+                return Err(OptimError::Io(crate::io::IoError::Io {
+                    action: "read",
+                    path,
+                    cause,
+                }))
+            }
+        };
+        let bad = |msg: String| {
+            OptimError::Io(crate::io::IoError::Format {
+                kind: "set-up inputs",
+                path: path.clone(),
+                msg,
+            })
+        };
+        let index: Value = serde_json::from_str(&text).map_err(|e| bad(e.to_string()))?;
+        let sigma = index["sigma_px"]
+            .as_f64()
+            .filter(|s| s.is_finite() && *s >= 0.0)
+            .ok_or_else(|| bad("`sigma_px` is not a number >= 0".into()))? as f32;
+        let blank_views = index["blank_views"]
+            .as_array()
+            .map(|a| a.iter().filter_map(|x| x.as_str().map(String::from)).collect())
+            .unwrap_or_default();
+        let listed = index["views"].as_array().cloned().unwrap_or_default();
+        let (mut targets, mut pictures) = (Vec::new(), Vec::new());
+        for v in &scene.views {
+            let entry = listed
+                .iter()
+                .find(|e| e["name"].as_str() == Some(v.name.as_str()))
+                .ok_or_else(|| bad(format!("it lists no view `{}` (the design has it)", v.name)))?;
+            let file = |key: &str| {
+                entry[key]
+                    .as_str()
+                    .map(|f| dir.join(f))
+                    .ok_or_else(|| bad(format!("view `{}` has no `{key}` file", v.name)))
+            };
+            let (w, h) = (v.camera.width, v.camera.height);
+            let tp = file("target")?;
+            let (tw, th, t) = crate::io::read_pfm(&tp)?;
+            let mp = file("picture")?;
+            let (mw, mh, m) = crate::io::read_image_gray(&mp)?;
+            if (tw, th) != (w, h) || (mw, mh) != (w, h) {
+                return Err(bad(format!(
+                    "view `{}` is {w}x{h}, but `{}` is {tw}x{th} and `{}` {mw}x{mh}",
+                    v.name,
+                    tp.display(),
+                    mp.display()
+                )));
+            }
+            targets.push(t);
+            pictures.push(m.iter().map(|&x| x > 0.5).collect());
+        }
+        Ok(Some(SheetInputs {
+            targets,
+            pictures,
+            sigma,
+            blank_views,
+        }))
+    }
 }
 
 #[cfg(test)]

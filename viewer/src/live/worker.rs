@@ -5,7 +5,7 @@ use std::sync::mpsc::Sender;
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
-use scratchart::optim::design::Live;
+use scratchart::optim::live::Live;
 
 use super::{Control, ScriptCmd, Update};
 

@@ -4,7 +4,7 @@ use plotters::prelude::*;
 
 use super::{dashed, view_colour, Placer, Rect};
 use crate::model::scene::Scene;
-use crate::optim::setup::{Sensitivity, ANGLE_RANGE, KEEP};
+use crate::optim::tolerance::{Sensitivity, ANGLE_RANGE, KEEP};
 
 /// One chart: each view's correlation, as a share of the designed one, against how far the
 /// lamp or the eye (`moved`) turned in azimuth (solid) and elevation (dashed); the legend below.

@@ -9,7 +9,7 @@ use plotters::prelude::*;
 
 use crate::model::scene::{LightKind, Scene};
 use crate::optim::error::OptimError;
-use crate::optim::setup::{Place, Sensitivity};
+use crate::optim::tolerance::{Place, Sensitivity};
 
 /// A placed text's box in image pixels: [x0, y0, x1, y1] (x1, y1 exclusive).
 pub type Rect = [i32; 4];
@@ -508,7 +508,7 @@ fn draw_key(pl: &mut Placer, panels: &Panels, items: &[Item]) -> Result<(), Stri
 mod tests {
     use super::*;
     use crate::model::scene::{Camera, Light, Plate, View};
-    use crate::optim::setup::{Moved, Tolerance};
+    use crate::optim::tolerance::{Moved, Tolerance};
 
     fn scene(eyes: &[[f64; 3]], light: LightKind) -> Scene {
         Scene {

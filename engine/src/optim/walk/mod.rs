@@ -20,11 +20,8 @@ use std::path::PathBuf;
 use super::framing::{fit_picture_walk, Fit, Fitted};
 use crate::model::scene::{Light, Scene, View};
 
-mod report;
 #[cfg(test)]
 mod tests;
-
-pub use report::{design_views_only, walk_plot_png, walk_sheet_png, walk_summary};
 
 /// The arc of design views of a walk.
 #[derive(Clone, Debug, PartialEq)]

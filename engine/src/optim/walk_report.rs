@@ -4,7 +4,7 @@ use std::path::Path;
 
 use serde_json::{json, Value};
 
-use super::corr_of;
+use super::walk::corr_of;
 use crate::optim::problem::{DesignReport, IterRecord, Problem};
 
 /// The problem and report of a walk cut down to its design views, for the outputs every design
