@@ -282,6 +282,22 @@ impl<'a, 'r> Evaluator<'a, 'r> {
             compared: None,
         }
     }
+
+    /// The evaluator of a fit of `kind` to `data`: the layout of its parameters with the
+    /// photos' registration and pose refined as the data says, the noise's lift where a photo
+    /// shows it, each photo's tone curve fixed.
+    fn of_kind(renderer: &'r Renderer, data: &'a Data<'a>, kind: Kind) -> Evaluator<'a, 'r> {
+        let lay = Layout::new(
+            kind,
+            data.card,
+            data.capture.views.len(),
+            data.refine_shift,
+            &data.refine_pose,
+            &noise::lift_seen(data),
+            false,
+        );
+        Evaluator::new(renderer, data, lay)
+    }
 }
 
 /// A refinement's starting point: the parameter vector and the z offset's interval (if any).
@@ -323,16 +339,7 @@ pub fn fit_kind(
     obs: &dyn Observer,
     on_starts: &mut dyn FnMut(&[Start]),
 ) -> Result<FitResult, FitError> {
-    let lay = Layout::new(
-        kind,
-        data.card,
-        data.capture.views.len(),
-        data.refine_shift,
-        &data.refine_pose,
-        &noise::lift_seen(data),
-        false,
-    );
-    let mut ev = Evaluator::new(renderer, data, lay);
+    let mut ev = Evaluator::of_kind(renderer, data, kind);
     let intervals = OffsetIntervals::of(data.card);
     // Starting points: those of an interrupted fit, the tool given, or a search.
     let mut starts: Vec<Start> = cfg.starts.clone().unwrap_or_default();
@@ -459,16 +466,7 @@ pub fn fit_kind(
 /// Model display images of a fitted tool and the photos as the fit registered them (for the
 /// residual images).
 pub fn predict(renderer: &Renderer, data: &Data, res: &FitResult) -> Result<(Vec<Vec<f32>>, Vec<Vec<f32>>), FitError> {
-    let lay = Layout::new(
-        res.kind,
-        data.card,
-        data.capture.views.len(),
-        data.refine_shift,
-        &data.refine_pose,
-        &noise::lift_seen(data),
-        false,
-    );
-    let mut ev = Evaluator::new(renderer, data, lay);
+    let mut ev = Evaluator::of_kind(renderer, data, res.kind);
     let x: Vec<f64> = res.params.iter().map(|p| p.1).collect();
     let lin = ev.render(&x)?;
     let photos = (0..data.capture.views.len()).map(|v| data.photos[v].clone()).collect();

@@ -1,32 +1,19 @@
 //! The tool fit recovers known tools from synthetic photos of the card (rendered by the engine,
 //! then degraded as a camera would: exposure, blur, noise, and a photo pose off the capture
 //! position), and refuses input it cannot use with a clear message.
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
-use scratchart::model::scene::{Plate, Scene, View};
+use scratchart::model::scene::View;
 use scratchart::observe::Silent;
 use scratchart::render::Renderer;
 use scratchart_calibration::card::{Card, CardSpec};
 use scratchart_calibration::fit_cmd::{run, FitArgs};
-use scratchart_calibration::simulate::{photos, Camera};
+use scratchart_calibration::simulate::Camera;
 use scratchart_tests::{assert_no_validation, gpu};
 use scratchart_tool::Tool;
 
-fn tmp(tag: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("scratchart-fit-{}-{tag}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
-
-/// Writes card.json (256 px capture views) into `dir`.
-fn card(dir: &Path) -> (Card, Scene, PathBuf) {
-    let card = Card::new(&CardSpec::default());
-    let p = dir.join("card.json");
-    std::fs::write(&p, serde_json::to_string_pretty(&card.to_json(256)).unwrap()).unwrap();
-    let (card, capture) = Card::load(&p).unwrap();
-    (card, capture, p)
-}
+mod common;
+use common::{card, fit, shoot, tmp};
 
 /// The capture views as a hand-held camera would take them: moved `shift_mm` sideways and up,
 /// aimed a little off centre, zoomed by `zoom`.
@@ -40,37 +27,6 @@ fn posed(views: &[View], shift_mm: f64, zoom: f64) -> Vec<View> {
             v.camera.target = [0.02 * shift_mm, -0.03 * shift_mm, 0.0];
             v.camera.fov_y_deg /= zoom;
             v
-        })
-        .collect()
-}
-
-/// Photos of the card cut by `tool`, taken from `views`, written as PNGs named after the views.
-fn shoot(
-    r: &Renderer,
-    card: &Card,
-    capture: &Scene,
-    views: Vec<View>,
-    tool: &Tool,
-    cam: &Camera,
-    dir: &Path,
-) -> Vec<PathBuf> {
-    let scene = Scene {
-        plate: Plate {
-            ..capture.plate.clone()
-        },
-        views,
-        scratches: vec![],
-    };
-    let imgs = photos(r, card, &scene, tool, cam).unwrap();
-    scene
-        .views
-        .iter()
-        .zip(&imgs)
-        .map(|(v, img)| {
-            let bytes: Vec<u8> = img.iter().map(|&x| (255.0 * x).round() as u8).collect();
-            let p = dir.join(format!("{}.png", v.name));
-            scratchart::io::write_png_gray(&p, v.camera.width, v.camera.height, &bytes).unwrap();
-            p
         })
         .collect()
 }
@@ -94,26 +50,6 @@ fn as_phone_jpegs(pngs: &[PathBuf]) -> Vec<PathBuf> {
         .collect()
 }
 
-fn fit(
-    r: &Renderer,
-    card: &Path,
-    images: Vec<PathBuf>,
-    kind: &str,
-    out: &Path,
-) -> anyhow::Result<(Tool, serde_json::Value)> {
-    let args = FitArgs {
-        // A measured profile's deep widths trade with the exposure (about 7%, more than the
-        // 2.5 um a plate's lengths need): the profile tests check them against their stated
-        // uncertainties instead, so they write them anyway.
-        allow_unidentified: kind == "profile" || kind == "auto",
-        // "auto": no --kind, every kind fitted and the best chosen
-        ..FitArgs::quiet(card, images, (kind != "auto").then_some(kind), out)
-    };
-    run(r, &args, &Silent)?;
-    let (tool, fitted) = Tool::load_fitted(out).unwrap();
-    Ok((tool, fitted.fit.unwrap()))
-}
-
 /// A photo taken off the capture pose (moved 6 mm, aimed off centre, zoomed 4%) is registered:
 /// the card's marks are found within 0.35 px of where that camera really sees them (the fit then
 /// refines the registration photometrically), and the
@@ -124,7 +60,7 @@ fn registers_off_pose_photos_to_the_capture_views() {
     use scratchart_calibration::register::{load_photo, nominal_marks, register};
     let ctx = gpu();
     let r = Renderer::new(&ctx).unwrap();
-    let dir = tmp("register");
+    let dir = tmp("fit", "register");
     let (card, capture, _) = card(&dir);
     let tool = Tool::VBit {
         angle_deg: 60.0,
@@ -191,7 +127,7 @@ fn recover_result(
 ) -> (anyhow::Result<(Tool, serde_json::Value)>, PathBuf) {
     let ctx = gpu();
     let r = Renderer::new(&ctx).unwrap();
-    let dir = tmp(tag);
+    let dir = tmp("fit", tag);
     let (card, capture, card_path) = card(&dir);
     let mut views = if off_pose {
         posed(&capture.views, 6.0, 1.04)
@@ -412,145 +348,6 @@ fn recovers_a_tapered_ball() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
-/// Photos as they reach the computer, checked before any fit (`inspect_photo`, which `fit` and
-/// `fit --check` both run): shrunk to half after they were taken (an app, a messenger), they show
-/// the card on fewer pixels per mm than the fit needs and are refused naming both numbers;
-/// enlarged three times in their display encoding (ImageMagick's default), refused as enlarged
-/// (`resampled`: smaller factors and some filters are not yet told apart);
-/// given in another order than the views' and not named after them, each is put in its place
-/// by the card's marks. The photos as taken pass. (Fitted, the shrunk pair gave a 60 degree
-/// V-bit at 48.5 degrees and the enlarged one at 57.3 +- 0.25, written.)
-#[test]
-fn photos_shrunk_enlarged_or_reordered_are_refused_or_placed() {
-    use scratchart_calibration::fit_cmd::inspect_photo;
-    use scratchart_calibration::fit_cmd::photos::order_by_marks;
-    let ctx = gpu();
-    let r = Renderer::new(&ctx).unwrap();
-    let dir = tmp("resized");
-    let (card, capture, _) = card(&dir);
-    let tool = Tool::VBit {
-        angle_deg: 60.0,
-        tip_flat_mm: 0.01,
-        z_offset_mm: 0.005,
-    };
-    let cam = Camera {
-        exposure: 0.8,
-        blur_px: 0.6,
-        ..Camera::default()
-    };
-    let good = shoot(&r, &card, &capture, capture.views.clone(), &tool, &cam, &dir);
-    assert_no_validation(&ctx);
-    for (v, p) in good.iter().enumerate() {
-        assert!(inspect_photo(&card, &capture, &capture.views[v], p).is_ok());
-    }
-    // Shrunk in the display encoding, as an image editor does (bilinear).
-    let resized = |p: &Path, f: f64, tag: &str| {
-        let img = image::open(p).unwrap().to_luma8();
-        let (w, h) = (
-            (img.width() as f64 * f).round() as u32,
-            (img.height() as f64 * f).round() as u32,
-        );
-        let out = image::imageops::resize(&img, w, h, image::imageops::FilterType::Triangle);
-        let q = dir.join(format!("{tag}_{}", p.file_name().unwrap().to_string_lossy()));
-        out.save(&q).unwrap();
-        q
-    };
-    for (v, p) in good.iter().enumerate() {
-        let half = resized(p, 0.5, "half");
-        let e = format!(
-            "{:#}",
-            inspect_photo(&card, &capture, &capture.views[v], &half).err().unwrap()
-        );
-        assert!(
-            e.contains("pixels per mm") && e.contains("the fit needs at least"),
-            "{e}"
-        );
-        // Enlarged as the maker did, with ImageMagick's default (`.ci/setup` installs it).
-        let big = dir.join(format!("big_{}", p.file_name().unwrap().to_string_lossy()));
-        let st = std::process::Command::new("convert")
-            .arg(p)
-            .args(["-resize", "300%"])
-            .arg(&big)
-            .status()
-            .expect("ImageMagick's convert (bash .ci/setup installs it)");
-        assert!(st.success());
-        let e = format!(
-            "{:#}",
-            inspect_photo(&card, &capture, &capture.views[v], &big).err().unwrap()
-        );
-        assert!(e.contains("was enlarged after it was taken"), "{e}");
-    }
-    // The west view first, under names that are not the views'.
-    let a = dir.join("IMG_0001.png");
-    let b = dir.join("IMG_0002.png");
-    std::fs::copy(&good[1], &a).unwrap();
-    std::fs::copy(&good[0], &b).unwrap();
-    let placed = order_by_marks(&card, &capture, vec![a.clone(), b.clone()], &Silent);
-    assert_eq!(placed, vec![b, a]);
-    let _ = std::fs::remove_dir_all(&dir);
-}
-
-/// Too few photos, a photo without the card, saturated photos: clear errors, nothing written.
-#[test]
-fn refuses_what_it_cannot_fit() {
-    let ctx = gpu();
-    let r = Renderer::new(&ctx).unwrap();
-    let dir = tmp("bad");
-    let (card, capture, card_path) = card(&dir);
-    let tool = Tool::VBit {
-        angle_deg: 60.0,
-        tip_flat_mm: 0.01,
-        z_offset_mm: 0.0,
-    };
-    let out = dir.join("tool.json");
-    let good = shoot(
-        &r,
-        &card,
-        &capture,
-        capture.views.clone(),
-        &tool,
-        &Camera {
-            exposure: 3.0,
-            ..Camera::default()
-        },
-        &dir,
-    );
-    let msg = |e: anyhow::Error| format!("{e:#}");
-    // One photo for two capture views.
-    let e = msg(fit(&r, &card_path, vec![good[0].clone()], "v-bit", &out).unwrap_err());
-    assert!(
-        e.contains("one photo per capture view") && e.contains("cam_west"),
-        "{e}"
-    );
-    assert_eq!(
-        scratchart::exit::code(&*fit(&r, &card_path, vec![good[0].clone()], "v-bit", &out).unwrap_err()),
-        3
-    );
-    // A photo of nothing: uniform grey.
-    let blank = dir.join("cam_west.png");
-    scratchart::io::write_png_gray(&blank, 256, 256, &vec![40u8; 256 * 256]).unwrap();
-    let e = msg(fit(&r, &card_path, vec![good[0].clone(), blank], "v-bit", &out).unwrap_err());
-    assert!(e.contains("card not found") && e.contains("cam_west.png"), "{e}");
-    // Saturated: a huge exposure.
-    let sat = shoot(
-        &r,
-        &card,
-        &capture,
-        capture.views.clone(),
-        &tool,
-        &Camera {
-            exposure: 1e6,
-            ..Camera::default()
-        },
-        &dir,
-    );
-    let e = msg(fit(&r, &card_path, sat, "v-bit", &out).unwrap_err());
-    assert!(e.contains("saturated"), "{e}");
-    assert!(!out.exists(), "a failed fit wrote {}", out.display());
-    assert_no_validation(&ctx);
-    let _ = std::fs::remove_dir_all(&dir);
-}
-
 /// The widths W(z) that `tool` cuts at the card's commanded depths, mm (None: no cut).
 fn widths(tool: &Tool, depths: &[f64]) -> Vec<Option<f64>> {
     depths
@@ -694,7 +491,7 @@ impl scratchart::observe::Observer for StopAtRefine {
 fn an_interrupted_fit_resumes_where_it_stopped() {
     let ctx = gpu();
     let r = Renderer::new(&ctx).unwrap();
-    let dir = tmp("resume");
+    let dir = tmp("fit", "resume");
     let (card, capture, card_path) = card(&dir);
     let (truth, cam) = ball_case();
     let imgs = shoot(&r, &card, &capture, capture.views.clone(), &truth, &cam, &dir);
@@ -770,7 +567,7 @@ fn an_interrupted_fit_resumes_where_it_stopped() {
 fn recovers_a_ball_cutter_with_bootstrap_uncertainties() {
     let ctx = gpu();
     let r = Renderer::new(&ctx).unwrap();
-    let dir = tmp("bootstrap");
+    let dir = tmp("fit", "bootstrap");
     let (card, capture, card_path) = card(&dir);
     let (truth, cam) = ball_case();
     let imgs = shoot(&r, &card, &capture, capture.views.clone(), &truth, &cam, &dir);

@@ -7,31 +7,15 @@ use std::path::{Path, PathBuf};
 use scratchart::model::camera::ViewGeom;
 use scratchart::observe::Silent;
 use scratchart::render::Renderer;
-use scratchart_calibration::card::{Card, CardSpec};
-use scratchart_calibration::fit_cmd::{run, FitArgs};
+use scratchart_calibration::card::Card;
+use scratchart_calibration::fit_cmd::run;
 use scratchart_calibration::phone::{take, Pose, Shot};
 use scratchart_calibration::register::{find_marks, load_photo, resize};
 use scratchart_tests::{assert_no_validation, gpu};
 use scratchart_tool::Tool;
 
-fn tmp(tag: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("scratchart-phone-{}-{tag}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
-
-fn card(dir: &Path) -> (Card, scratchart::model::scene::Scene, PathBuf) {
-    let card = Card::new(&CardSpec::default());
-    let p = dir.join("card.json");
-    std::fs::write(&p, serde_json::to_string_pretty(&card.to_json(256)).unwrap()).unwrap();
-    let (card, capture) = Card::load(&p).unwrap();
-    (card, capture, p)
-}
-
-fn args(card: &Path, images: Vec<PathBuf>, kind: &str, out: &Path) -> FitArgs {
-    FitArgs::quiet(card, images, Some(kind), out)
-}
+mod common;
+use common::{args, card, code, tmp};
 
 /// The photos of every capture view, each with its own shot.
 fn shoot(
@@ -47,11 +31,6 @@ fn shoot(
         .collect()
 }
 
-/// The exit code the binaries give an error.
-fn code(e: &anyhow::Error) -> u8 {
-    scratchart::exit::code_of(e)
-}
-
 /// Photos that are not the card: a real photograph (a cat) and a synthetic circuit board (rows
 /// of bright pads and traces on a dark board, the kind of pattern a blob detector loves). Both
 /// are refused with exit 3 before any fit, naming the photo; `--check` says so in seconds.
@@ -59,7 +38,7 @@ fn code(e: &anyhow::Error) -> u8 {
 fn photos_that_are_not_the_card_are_refused() {
     let ctx = gpu();
     let r = Renderer::new(&ctx).unwrap();
-    let dir = tmp("notcard");
+    let dir = tmp("phone", "notcard");
     let (_, _, card_path) = card(&dir);
     // The circuit board: pads in rows, a few larger chips, traces, on dark green.
     let (w, h) = (1600u32, 1200u32);
@@ -121,7 +100,7 @@ fn photos_that_are_not_the_card_are_refused() {
 fn a_camera_far_from_the_capture_view_is_refused() {
     let ctx = gpu();
     let r = Renderer::new(&ctx).unwrap();
-    let dir = tmp("farcam");
+    let dir = tmp("phone", "farcam");
     let (card, capture, card_path) = card(&dir);
     let tool = Tool::VBit {
         angle_deg: 70.0,
@@ -158,7 +137,7 @@ fn a_camera_far_from_the_capture_view_is_refused() {
 fn a_photo_the_model_cannot_explain_is_refused_with_its_residuals() {
     let ctx = gpu();
     let r = Renderer::new(&ctx).unwrap();
-    let dir = tmp("glare");
+    let dir = tmp("phone", "glare");
     let (card, capture, card_path) = card(&dir);
     let tool = Tool::VBit {
         angle_deg: 70.0,
@@ -214,7 +193,7 @@ fn a_photo_the_model_cannot_explain_is_refused_with_its_residuals() {
 fn the_harshest_phone_photos_are_registered_and_never_give_a_wrong_tool() {
     let ctx = gpu();
     let r = Renderer::new(&ctx).unwrap();
-    let dir = tmp("harsh");
+    let dir = tmp("phone", "harsh");
     let (card, capture, card_path) = card(&dir);
     let truth = Tool::VBit {
         angle_deg: 75.0,
@@ -365,7 +344,7 @@ fn the_harshest_phone_photos_are_registered_and_never_give_a_wrong_tool() {
 fn noise_clipped_at_black_is_modelled_and_never_gives_a_wrong_tool() {
     let ctx = gpu();
     let r = Renderer::new(&ctx).unwrap();
-    let dir = tmp("noise");
+    let dir = tmp("phone", "noise");
     let (card, capture, card_path) = card(&dir);
     let truth = Tool::Ball {
         radius_mm: 0.058,
@@ -431,7 +410,7 @@ fn photos_beyond_each_limit_of_the_guide_are_refused_naming_it() {
     use scratchart_calibration::phone::{random_shot_outside, random_shot_within, Violation};
     let ctx = gpu();
     let r = Renderer::new(&ctx).unwrap();
-    let dir = tmp("limits");
+    let dir = tmp("phone", "limits");
     let (card, capture, _) = card(&dir);
     let tool = Tool::Ball {
         radius_mm: 0.1,

@@ -1,0 +1,93 @@
+//! What the calibration's fit tests share: a scratch folder, the card, photos simulated from
+//! given views, a fit run as the command runs it, and the exit code of an error.
+#![allow(dead_code)] // each test file uses its own share of these
+
+use std::path::{Path, PathBuf};
+
+use scratchart::model::scene::{Plate, Scene, View};
+use scratchart::observe::Silent;
+use scratchart::render::Renderer;
+use scratchart_calibration::card::{Card, CardSpec};
+use scratchart_calibration::fit_cmd::{run, FitArgs};
+use scratchart_calibration::simulate::{photos, Camera};
+use scratchart_tool::Tool;
+
+/// An empty scratch folder `scratchart-{group}-{pid}-{tag}` in the system's temp folder.
+pub fn tmp(group: &str, tag: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("scratchart-{group}-{}-{tag}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+/// Writes card.json (256 px capture views) into `dir`.
+pub fn card(dir: &Path) -> (Card, Scene, PathBuf) {
+    let card = Card::new(&CardSpec::default());
+    let p = dir.join("card.json");
+    std::fs::write(&p, serde_json::to_string_pretty(&card.to_json(256)).unwrap()).unwrap();
+    let (card, capture) = Card::load(&p).unwrap();
+    (card, capture, p)
+}
+
+/// Photos of the card cut by `tool`, taken from `views`, written as PNGs named after the views.
+pub fn shoot(
+    r: &Renderer,
+    card: &Card,
+    capture: &Scene,
+    views: Vec<View>,
+    tool: &Tool,
+    cam: &Camera,
+    dir: &Path,
+) -> Vec<PathBuf> {
+    let scene = Scene {
+        plate: Plate {
+            ..capture.plate.clone()
+        },
+        views,
+        scratches: vec![],
+    };
+    let imgs = photos(r, card, &scene, tool, cam).unwrap();
+    scene
+        .views
+        .iter()
+        .zip(&imgs)
+        .map(|(v, img)| {
+            let bytes: Vec<u8> = img.iter().map(|&x| (255.0 * x).round() as u8).collect();
+            let p = dir.join(format!("{}.png", v.name));
+            scratchart::io::write_png_gray(&p, v.camera.width, v.camera.height, &bytes).unwrap();
+            p
+        })
+        .collect()
+}
+
+/// A fit as `scratchart-cal fit` runs it (profiles and `auto` written with their unidentified
+/// widths); the tool written and its fit record.
+pub fn fit(
+    r: &Renderer,
+    card: &Path,
+    images: Vec<PathBuf>,
+    kind: &str,
+    out: &Path,
+) -> anyhow::Result<(Tool, serde_json::Value)> {
+    let args = FitArgs {
+        // A measured profile's deep widths trade with the exposure (about 7%, more than the
+        // 2.5 um a plate's lengths need): the profile tests check them against their stated
+        // uncertainties instead, so they write them anyway.
+        allow_unidentified: kind == "profile" || kind == "auto",
+        // "auto": no --kind, every kind fitted and the best chosen
+        ..FitArgs::quiet(card, images, (kind != "auto").then_some(kind), out)
+    };
+    run(r, &args, &Silent)?;
+    let (tool, fitted) = Tool::load_fitted(out).unwrap();
+    Ok((tool, fitted.fit.unwrap()))
+}
+
+/// The exit code the binaries give an error.
+pub fn code(e: &anyhow::Error) -> u8 {
+    scratchart::exit::code_of(e)
+}
+
+/// `scratchart-cal fit`'s flags for these photos, quiet.
+pub fn args(card: &Path, images: Vec<PathBuf>, kind: &str, out: &Path) -> FitArgs {
+    FitArgs::quiet(card, images, Some(kind), out)
+}
