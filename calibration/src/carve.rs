@@ -287,8 +287,7 @@ pub fn probe(a: &ProbeArgs) -> Result<()> {
     let grid = parse_grid(&a.grid).map_err(UsageError)?;
     let plate = match (a.plate, &a.plan) {
         (Some(p), _) => p,
-        (None, Some(plan)) => scratchart_machine::program::Program::load(plan)
-            .map_err(InputError)?
+        (None, Some(plan)) => scratchart_machine::program::Program::load(plan)?
             .plate_mm
             .ok_or_else(|| InputError(format!("{} does not state its plate size", plan.display())))?,
         (None, None) => return Err(UsageError("give the plate size: --plate MM or --plan PLAN".into()).into()),

@@ -35,6 +35,8 @@ const KNOWN: &[scratchart_exit::Classifier] = &[
     scratchart_exit::classifier::<scratchart_tool::ToolError>,
     scratchart_exit::classifier::<scratchart_machine::job::CarveError>,
     scratchart_exit::classifier::<scratchart_machine::transport::LinkError>,
+    scratchart_exit::classifier::<scratchart_machine::program::ProgramError>,
+    scratchart_exit::classifier::<scratchart_machine::journal::JournalError>,
     clap_class,
 ];
 

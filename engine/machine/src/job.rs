@@ -169,7 +169,7 @@ fn simulated(program: &Program, profile: Option<&MachineProfile>) -> (crate::fak
 
 /// Runs a carving job on `opts.port` (or the simulated controller).
 fn carve_on(opts: &Options, control: &Control, obs: &dyn Observer) -> Result<Summary, CarveError> {
-    let program = Program::load(&opts.plan).map_err(CarveError::Input)?;
+    let program = Program::load(&opts.plan).map_err(|e| CarveError::Input(e.0))?;
     let total = program.blocks.len();
     let Some(mut journal) = open_journal(opts, &program, obs)? else {
         return Ok(Summary {
@@ -209,7 +209,7 @@ fn carve_on(opts: &Options, control: &Control, obs: &dyn Observer) -> Result<Sum
     let lines = program.lines_from(from);
     journal.state = "running".into();
     journal.message.clear();
-    journal.save(&opts.journal).map_err(stopped)?;
+    journal.save(&opts.journal).map_err(|e| stopped(e.to_string()))?;
     let t0 = Instant::now();
     let mut last_save = Instant::now();
     let mut save_err: Option<String> = None;
@@ -221,7 +221,7 @@ fn carve_on(opts: &Options, control: &Control, obs: &dyn Observer) -> Result<Sum
             journal.acked(b, blocks[b].scratch);
             if last_save.elapsed() > Duration::from_millis(200) {
                 if let Err(e) = journal.save(jpath) {
-                    save_err.get_or_insert(e);
+                    save_err.get_or_insert(e.to_string());
                 }
                 last_save = Instant::now();
             }
@@ -249,7 +249,7 @@ fn carve_on(opts: &Options, control: &Control, obs: &dyn Observer) -> Result<Sum
     match outcome {
         None => {
             journal.state = "done".into();
-            journal.save(&opts.journal).map_err(stopped)?;
+            journal.save(&opts.journal).map_err(|e| stopped(e.to_string()))?;
             let dry_run = sim.map(|fake| dry_run_note(&fake, ctl.as_ref(), timing.as_ref().map(|(t, _)| t), from));
             Ok(Summary {
                 dry_run,
@@ -501,7 +501,7 @@ fn open_journal(opts: &Options, program: &Program, obs: &dyn Observer) -> Result
     let fw = Program::firmware_name(program.firmware);
     let total = program.blocks.len();
     Ok(Some(if opts.resume {
-        let j = Journal::load(&opts.journal).map_err(CarveError::Usage)?;
+        let j = Journal::load(&opts.journal).map_err(|e| CarveError::Usage(e.to_string()))?;
         if j.plan_checksum != program.checksum {
             return Err(CarveError::Input(format!(
                 "{} changed since the job in {} started (checksum {} then, {} now): a changed plan \

@@ -48,6 +48,33 @@ pub fn default_path(plan: &Path) -> PathBuf {
     plan.with_file_name(name)
 }
 
+/// A journal that cannot be read (or is damaged: the user's input, exit 3) or written (the
+/// job's failure, exit 1).
+#[derive(Clone, Debug, PartialEq)]
+pub enum JournalError {
+    Read(String),
+    Write(String),
+}
+
+impl std::fmt::Display for JournalError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            JournalError::Read(m) | JournalError::Write(m) => f.write_str(m),
+        }
+    }
+}
+
+impl std::error::Error for JournalError {}
+
+impl scratchart_exit::ExitClass for JournalError {
+    fn exit_class(&self) -> Option<scratchart_exit::Class> {
+        Some(match self {
+            JournalError::Read(_) => scratchart_exit::Class::Input,
+            JournalError::Write(_) => scratchart_exit::Class::Runtime,
+        })
+    }
+}
+
 impl Journal {
     /// The journal of a job starting now: nothing acknowledged yet, "running".
     pub fn new(plan: &str, plan_checksum: &str, firmware: &str, total: usize) -> Journal {
@@ -65,20 +92,21 @@ impl Journal {
         }
     }
 
-    pub fn load(path: &Path) -> Result<Journal, String> {
+    pub fn load(path: &Path) -> Result<Journal, JournalError> {
         let text = std::fs::read_to_string(path).map_err(|e| {
-            format!(
+            JournalError::Read(format!(
                 "cannot read the journal {}: {e} (a job that never started has none: run \
                  without --resume)",
                 path.display()
-            )
+            ))
         })?;
-        serde_json::from_str(&text).map_err(|e| format!("the journal {} is damaged: {e}", path.display()))
+        serde_json::from_str(&text)
+            .map_err(|e| JournalError::Read(format!("the journal {} is damaged: {e}", path.display())))
     }
 
-    pub fn save(&self, path: &Path) -> Result<(), String> {
+    pub fn save(&self, path: &Path) -> Result<(), JournalError> {
         let text = serde_json::to_string_pretty(self).expect("a journal serializes");
-        scratchart_model::fsio::write_atomic(path, text.as_bytes()).map_err(|e| e.to_string())
+        scratchart_model::fsio::write_atomic(path, text.as_bytes()).map_err(|e| JournalError::Write(e.to_string()))
     }
 
     /// Records that block `b` (scratch `scratch` of the design) was acknowledged. The journal
@@ -131,7 +159,7 @@ mod tests {
         assert!(!old.contains("position_lost"), "{old}");
         assert_eq!(serde_json::from_str::<Journal>(&old).unwrap(), j);
         std::fs::write(&path, "{").unwrap();
-        assert!(Journal::load(&path).unwrap_err().contains("damaged"));
+        assert!(Journal::load(&path).unwrap_err().to_string().contains("damaged"));
         let _ = std::fs::remove_dir_all(&dir);
     }
 }

@@ -147,9 +147,32 @@ impl Motion<'_> {
     }
 }
 
+/// A plan file that cannot be read, or is not a plan `scratchart-cal plan` wrote: the user's
+/// input (exit 3). The message names the file, the line and what is wrong.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ProgramError(pub String);
+
+impl std::fmt::Display for ProgramError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.0)
+    }
+}
+
+impl std::error::Error for ProgramError {}
+
+impl scratchart_exit::ExitClass for ProgramError {
+    fn exit_class(&self) -> Option<scratchart_exit::Class> {
+        Some(scratchart_exit::Class::Input)
+    }
+}
+
 impl Program {
     /// Parses a plan written by `scratchart-cal plan`. Errors say which line and what is wrong.
-    pub fn parse(text: &str) -> Result<Program, String> {
+    pub fn parse(text: &str) -> Result<Program, ProgramError> {
+        Program::parse_text(text).map_err(ProgramError)
+    }
+
+    fn parse_text(text: &str) -> Result<Program, String> {
         let first = text.lines().next().unwrap_or("");
         let firmware = match first.trim() {
             "; scratchart plan machine=grbl" => Firmware::Grbl,
@@ -259,9 +282,10 @@ impl Program {
     }
 
     /// Reads and parses a plan file.
-    pub fn load(path: &std::path::Path) -> Result<Program, String> {
-        let text = std::fs::read_to_string(path).map_err(|e| format!("cannot read plan {}: {e}", path.display()))?;
-        Program::parse(&text).map_err(|e| format!("plan {}: {e}", path.display()))
+    pub fn load(path: &std::path::Path) -> Result<Program, ProgramError> {
+        let text = std::fs::read_to_string(path)
+            .map_err(|e| ProgramError(format!("cannot read plan {}: {e}", path.display())))?;
+        Program::parse(&text).map_err(|e| ProgramError(format!("plan {}: {e}", path.display())))
     }
 
     /// The lines to send for a job that starts at block `from` (0 = the whole plan): the
@@ -395,6 +419,6 @@ mod tests {
         let m = crate::gcode::write(&cuts, &MachineProfile::marlin(), 50.0, &[]);
         assert_eq!(Program::parse(&m).unwrap().firmware, Firmware::Marlin);
         assert_ne!(Program::parse(&m).unwrap().checksum, p.checksum);
-        assert!(Program::parse("G0 X1\n").unwrap_err().contains("line 1"));
+        assert!(Program::parse("G0 X1\n").unwrap_err().0.contains("line 1"));
     }
 }
