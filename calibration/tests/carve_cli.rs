@@ -6,37 +6,15 @@
 use std::path::Path;
 use std::process::{Command, Output, Stdio};
 
-use scratchart::model::scene::{Camera, Light, LightKind, Plate, Scene, Scratch, View};
+use scratchart::model::scene::{Scene, Scratch};
 use scratchart_machine::fake::{FakeGrbl, FakeMarlin, GrblConfig, MarlinConfig};
 use scratchart_machine::program::Program;
 
 fn design(plate: f64, n: usize) -> Scene {
     let h = 0.4 * plate;
-    Scene {
-        plate: Plate {
-            size_mm: plate,
-            roughness: 0.02,
-            f0: 0.91,
-        },
-        views: vec![View {
-            exposure: 1.0,
-            name: "v".into(),
-            camera: Camera {
-                eye: [0.0, -3.0 * plate, 3.0 * plate],
-                target: [0.0; 3],
-                up: [0.0, 0.0, 1.0],
-                fov_y_deg: 30.0,
-                width: 8,
-                height: 8,
-            },
-            light: Light {
-                kind: LightKind::Point {
-                    position: [0.0, 3.0 * plate, 3.0 * plate],
-                },
-                intensity: 1.0,
-            },
-        }],
-        scratches: (0..n)
+    Scene::bare(
+        plate,
+        (0..n)
             .map(|k| {
                 let t = k as f64 / n as f64;
                 Scratch {
@@ -48,7 +26,7 @@ fn design(plate: f64, n: usize) -> Scene {
                 }
             })
             .collect(),
-    }
+    )
 }
 
 fn run(bin: &Path, dir: &Path, args: &[&str]) -> Output {

@@ -3,34 +3,12 @@
 //! are read back by independent parsers in the machine crate's tests (tests/export.rs).
 use std::process::Command;
 
-use scratchart::model::scene::{Camera, Extra, Light, LightKind, Plate, Scene, Scratch, View};
+use scratchart::model::scene::{Extra, Scene, Scratch};
 
 fn design() -> Scene {
-    Scene {
-        plate: Plate {
-            size_mm: 60.0,
-            roughness: 0.02,
-            f0: 0.91,
-        },
-        views: vec![View {
-            exposure: 1.0,
-            name: "v".into(),
-            camera: Camera {
-                eye: [0.0, -180.0, 180.0],
-                target: [0.0; 3],
-                up: [0.0, 0.0, 1.0],
-                fov_y_deg: 30.0,
-                width: 8,
-                height: 8,
-            },
-            light: Light {
-                kind: LightKind::Point {
-                    position: [0.0, 180.0, 180.0],
-                },
-                intensity: 1.0,
-            },
-        }],
-        scratches: (0..30)
+    Scene::bare(
+        60.0,
+        (0..30)
             .map(|k| {
                 let t = k as f64 / 30.0;
                 Scratch {
@@ -42,7 +20,7 @@ fn design() -> Scene {
                 }
             })
             .collect(),
-    }
+    )
 }
 
 #[test]

@@ -2,35 +2,13 @@
 //! and plans that leave their bounds are refused with the README's exit codes.
 use std::process::Command;
 
-use scratchart::model::scene::{Camera, Light, LightKind, Plate, Scene, Scratch, View};
+use scratchart::model::scene::{Scene, Scratch};
 
 fn design(plate: f64) -> Scene {
     let h = 0.4 * plate;
-    Scene {
-        plate: Plate {
-            size_mm: plate,
-            roughness: 0.02,
-            f0: 0.91,
-        },
-        views: vec![View {
-            exposure: 1.0,
-            name: "v".into(),
-            camera: Camera {
-                eye: [0.0, -3.0 * plate, 3.0 * plate],
-                target: [0.0; 3],
-                up: [0.0, 0.0, 1.0],
-                fov_y_deg: 30.0,
-                width: 8,
-                height: 8,
-            },
-            light: Light {
-                kind: LightKind::Point {
-                    position: [0.0, 3.0 * plate, 3.0 * plate],
-                },
-                intensity: 1.0,
-            },
-        }],
-        scratches: (0..40)
+    Scene::bare(
+        plate,
+        (0..40)
             .map(|k| {
                 let t = k as f64 / 40.0;
                 Scratch {
@@ -42,7 +20,7 @@ fn design(plate: f64) -> Scene {
                 }
             })
             .collect(),
-    }
+    )
 }
 
 #[test]

@@ -55,7 +55,7 @@ pub fn load_design(path: &Path) -> Result<Scene, SceneError> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use scratchart_model::scene::{Camera, Light, LightKind, Plate, Scratch, View};
+    use scratchart_model::scene::Scratch;
 
     fn tmpdir(tag: &str) -> std::path::PathBuf {
         let d = std::env::temp_dir().join(format!("scratchart_machine_{}_{tag}", std::process::id()));
@@ -65,35 +65,13 @@ mod tests {
     }
 
     fn design() -> Scene {
-        Scene {
-            plate: Plate {
-                size_mm: 100.0,
-                roughness: 0.02,
-                f0: 0.91,
-            },
-            views: vec![View {
-                exposure: 1.0,
-                name: "v0".into(),
-                camera: Camera {
-                    eye: [0.0, -250.0, 250.0],
-                    target: [0.0, 0.0, 0.0],
-                    up: [0.0, 0.0, 1.0],
-                    fov_y_deg: 28.0,
-                    width: 64,
-                    height: 64,
-                },
-                light: Light {
-                    kind: LightKind::Point {
-                        position: [0.0, 250.0, 250.0],
-                    },
-                    intensity: 60000.0,
-                },
-            }],
-            scratches: vec![
+        Scene::bare(
+            100.0,
+            vec![
                 Scratch::from_row([-10.0, 0.0, 10.0, 5.0, 0.05, 0.01, 0.1]),
                 Scratch::from_row([1.0 / 3.0, -2.0, 4.5, 0.1, 0.07, 0.02, 0.3]),
             ],
-        }
+        )
     }
 
     #[test]

@@ -2,7 +2,7 @@
 //! DXF) and compared with the design endpoint by endpoint.
 use scratchart_machine::export::{drawing, dxf, svg, visible_width, BandBy, Drawing, MARK_LAYER, MAX_BANDS};
 use scratchart_machine::plan::{orientation_mark, Mark, MARK_CLEAR_MM};
-use scratchart_model::scene::{Camera, Light, LightKind, Plate, Scene, Scratch, View};
+use scratchart_model::scene::{Scene, Scratch};
 
 const TOL: f64 = 1e-6;
 
@@ -33,32 +33,7 @@ fn design(n: usize, plate: f64) -> Scene {
             }
         })
         .collect();
-    Scene {
-        plate: Plate {
-            size_mm: plate,
-            roughness: 0.02,
-            f0: 0.91,
-        },
-        views: vec![View {
-            exposure: 1.0,
-            name: "v0".into(),
-            camera: Camera {
-                eye: [0.0, -250.0, 250.0],
-                target: [0.0, 0.0, 0.0],
-                up: [0.0, 0.0, 1.0],
-                fov_y_deg: 28.0,
-                width: 16,
-                height: 16,
-            },
-            light: Light {
-                kind: LightKind::Point {
-                    position: [0.0, 250.0, 250.0],
-                },
-                intensity: 1.0,
-            },
-        }],
-        scratches,
-    }
+    Scene::bare(plate, scratches)
 }
 
 fn close(a: [f64; 2], b: [f64; 2]) -> bool {

@@ -128,6 +128,38 @@ pub fn same_lamp(a: &LightKind, b: &LightKind) -> bool {
 }
 
 impl Scene {
+    /// A minimal valid design over a `plate_mm` plate: `scratches` and one view ("v", 8 x 8
+    /// pixels) looking down at 45 degrees from three plate widths away, lit by a point lamp
+    /// opposite it. What the machine's tools read of a design (plan, export, carve) is the plate
+    /// and the scratches; the view makes it a scene file every tool of the project loads.
+    pub fn bare(plate_mm: f64, scratches: Vec<Scratch>) -> Scene {
+        let r = 3.0 * plate_mm;
+        Scene {
+            plate: Plate {
+                size_mm: plate_mm,
+                roughness: DEFAULT_ROUGHNESS,
+                f0: DEFAULT_F0,
+            },
+            views: vec![View {
+                exposure: 1.0,
+                name: "v".into(),
+                camera: Camera {
+                    eye: [0.0, -r, r],
+                    target: [0.0; 3],
+                    up: [0.0, 0.0, 1.0],
+                    fov_y_deg: 30.0,
+                    width: 8,
+                    height: 8,
+                },
+                light: Light {
+                    kind: LightKind::Point { position: [0.0, r, r] },
+                    intensity: 1.0,
+                },
+            }],
+            scratches,
+        }
+    }
+
     /// The lamps a maker sets up: views whose lights stand at one place (within 1 um) or come
     /// from one direction share one lamp, named after the first view it lights. The set-up
     /// sheet, `summary.json` and the viewer's overlay all list these.
