@@ -84,7 +84,7 @@ impl ChannelClip {
     }
 }
 
-pub(super) use scratchart::model::par::par_map;
+use scratchart::model::par::par_map;
 
 impl Evaluator<'_, '_> {
     /// The Jacobian columns (d residual / d x_k) of the camera terms `ks` of photos taken off
@@ -293,40 +293,17 @@ impl Evaluator<'_, '_> {
 /// y down), exactly, with nothing resampled: a kernel moved by a sub-pixel amount blurs by an
 /// amount that changes with the phase, and needed a blur floor that a sharp photo does not have.
 pub(super) fn pan(camera: &mut scratchart::model::scene::Camera, dx: f64, dy: f64) {
-    let sub = |a: [f64; 3], b: [f64; 3]| [a[0] - b[0], a[1] - b[1], a[2] - b[2]];
-    let cross = |a: [f64; 3], b: [f64; 3]| {
-        [
-            a[1] * b[2] - a[2] * b[1],
-            a[2] * b[0] - a[0] * b[2],
-            a[0] * b[1] - a[1] * b[0],
-        ]
-    };
-    let norm = |a: [f64; 3]| {
-        let l = (a[0] * a[0] + a[1] * a[1] + a[2] * a[2]).sqrt();
-        [a[0] / l, a[1] / l, a[2] / l]
-    };
-    let to = sub(camera.target, camera.eye);
-    let dist = (to[0] * to[0] + to[1] * to[1] + to[2] * to[2]).sqrt();
-    let f = norm(to);
-    let r = norm(cross(f, camera.up));
-    let u = cross(r, f);
+    let basis = camera.basis();
+    let (f, r, u) = (basis.fwd, basis.right, basis.up);
+    let dist = (glam::DVec3::from(camera.target) - glam::DVec3::from(camera.eye)).length();
     // Pixels per unit of the image plane at distance 1: H / (2 tan(fov/2)).
     let f_px = 0.5 * camera.height as f64 / (0.5 * camera.fov_y_deg).to_radians().tan();
-    let (a, b) = (dx / f_px, dy / f_px);
-    // The new axis points at what pixel centre + (dx, dy) showed: right by a, down by b.
-    let g = norm([
-        f[0] + a * r[0] - b * u[0],
-        f[1] + a * r[1] - b * u[1],
-        f[2] + a * r[2] - b * u[2],
-    ]);
-    camera.target = [
-        camera.eye[0] + dist * g[0],
-        camera.eye[1] + dist * g[1],
-        camera.eye[2] + dist * g[2],
-    ];
+    // The new axis points at what pixel centre + (dx, dy) showed: right by dx, down by dy.
+    let g = (f + (dx / f_px) * r - (dy / f_px) * u).normalize();
+    camera.target = (glam::DVec3::from(camera.eye) + dist * g).to_array();
     // Keep the frame upright as it was: the up vector stays in the plane of the old up and the
     // new axis (the roll is the pose's own term).
-    camera.up = u;
+    camera.up = u.to_array();
 }
 
 #[cfg(test)]

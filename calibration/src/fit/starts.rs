@@ -140,7 +140,7 @@ pub(super) fn search_starts(
             }
             let lin = ev.render(&x)?;
             let this = &*ev;
-            let exposures = super::camera::par_map(ev.lay.n_views, |v| this.best_exposure(v, &lin[v], &x));
+            let exposures = scratchart::model::par::par_map(ev.lay.n_views, |v| this.best_exposure(v, &lin[v], &x));
             for (v, e) in exposures.into_iter().enumerate() {
                 x[ev.lay.n_tool + 1 + v] = e;
             }

@@ -110,12 +110,10 @@ fn degrees_between(a: &scratchart::model::scene::Camera, b: &scratchart::model::
         .to_degrees()
 }
 
-/// The sensor's noise per channel at the photo's own size (see `inspect_photo`): measured on
-/// `cropped` (the photo as the fit crops it) shrunk by m (1; a JPEG: its shrink `k`, at most 4)
-/// over the pixels under the fit's `mask` (on `small`, the photo shrunk by k), then taken back
-/// through the clip at black and the JPEG to the sensor's (`fit::noise::sensor_noise`).
-/// The sensor's noise in each channel, at the photo's own resolution: measured over the card
-/// on the photo shrunk by m = 1 (a JPEG: m = k, at most 4), where the optics' blur spans k /
+/// The sensor's noise in each channel, at the photo's own resolution: measured on `cropped` (the
+/// photo as the fit crops it) shrunk by m = 1 (a JPEG: m = its shrink `k`, at most 4), over the
+/// pixels under the fit's `mask` (on `small`, the photo shrunk by k), then taken back through
+/// the clip at black and the JPEG to the sensor's (`fit::noise::sensor_noise`). At m the optics' blur spans k /
 /// m times more pixels than in the view and the measure sees noise, not the grooves' edges
 /// (k times the noise of a 24 MP photo shrunk by 23 read its 0.8% as 1.6%). JPEG's steps
 /// take most of the noise at the photo's own pixels but less of what a shrink keeps.
@@ -151,12 +149,7 @@ fn sensor_noise_at_own_size(
         .filter(|(_, m)| **m)
         .map(|(x, _)| *x)
         .collect();
-    let level = if on.is_empty() {
-        0.0
-    } else {
-        let mid = on.len() / 2;
-        *on.select_nth_unstable_by(mid, |a, b| a.total_cmp(b)).1 as f64
-    };
+    let level = crate::photo::median(&mut on) as f64;
     crate::fit::noise::sensor_noise(measured, level, colour, m, saved_jpeg)
 }
 
