@@ -49,7 +49,7 @@ pub fn default_path(plan: &Path) -> PathBuf {
 }
 
 /// A journal that cannot be read (or is damaged: the user's input, exit 3) or written (the
-/// job's failure, exit 1). `carve --resume` says a journal it cannot read as a flag that cannot
+/// job's failure, exit 1). `carve --resume` treats a journal it cannot read as a flag that cannot
 /// work (exit 2: resume without `--resume`), before this class is asked.
 #[derive(Clone, Debug, PartialEq)]
 pub enum JournalError {
