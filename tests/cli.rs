@@ -127,7 +127,7 @@ fn scratchart_exit_codes() {
     // 3: a target of the wrong size for `grad`
     let tdir = d.join("targets");
     std::fs::create_dir_all(&tdir).unwrap();
-    scratchart::io::write_pfm(&tdir.join("v.pfm"), 8, 8, &[0.5; 64]).unwrap();
+    scratchart_render::io::write_pfm(&tdir.join("v.pfm"), 8, 8, &[0.5; 64]).unwrap();
     expect(
         &run(
             "scratchart",

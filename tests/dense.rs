@@ -5,13 +5,13 @@
 //! passes or smaller binning groups (`shaders/inc/limits.glsl`). These tests check the results
 //! against the float64 reference and check that splitting changes no bit. On a device without
 //! such a limit nothing is split, and the same comparisons hold.
-use scratchart::model::reference;
-use scratchart::model::scene::Scene;
-use scratchart::render::Renderer;
-use scratchart::scenes::Rng;
+use scratchart_design::scenes::Rng;
+use scratchart_model::reference;
+use scratchart_model::scene::Scene;
+use scratchart_render::Renderer;
 use scratchart_tests::*;
 
-fn is_llvmpipe(ctx: &scratchart::vulkan::Context) -> bool {
+fn is_llvmpipe(ctx: &scratchart_vulkan::Context) -> bool {
     ctx.info().name.contains("llvmpipe")
 }
 
@@ -86,7 +86,7 @@ fn assert_pixels_match(label: &str, scene: &Scene, image: &[f32], pixels: &[(u32
 
 /// The pixels of view 0 whose footprint centre lies in the `half` mm square at the centre.
 fn pixels_near_centre(scene: &Scene, half: f64) -> Vec<(u32, u32)> {
-    let g = scratchart::model::camera::ViewGeom::new(&scene.views[0]);
+    let g = scratchart_model::camera::ViewGeom::new(&scene.views[0]);
     let c = &scene.views[0].camera;
     let mut v = Vec::new();
     for j in 0..c.height {
@@ -335,7 +335,7 @@ fn views_over_the_loop_limit_are_refused_where_loops_are_capped() {
     scene.views[0].camera.height = 4000;
     let r = Renderer::new(&ctx).unwrap();
     let up = r.upload(&scene);
-    if scratchart::limits::caps_loops(ctx.info()) {
+    if scratchart_render::limits::caps_loops(ctx.info()) {
         let err = up
             .err()
             .expect("a 4000 x 4000 view is over llvmpipe's per-view limit")
@@ -386,7 +386,7 @@ fn binning_bands_change_no_bit() {
 /// more than 256 tiles (two radix passes) and with bands of tile rows.
 #[test]
 fn binning_modes_give_the_same_tile_lists() {
-    use scratchart::render::BinMode;
+    use scratchart_render::BinMode;
     let ctx = gpu();
     let r = Renderer::new(&ctx).unwrap();
     let bits = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
@@ -464,7 +464,7 @@ fn binning_modes_give_the_same_tile_lists() {
 /// modes, with and without bands.
 #[test]
 fn binning_work_is_what_the_device_does() {
-    use scratchart::render::BinMode;
+    use scratchart_render::BinMode;
     let ctx = gpu();
     let r = Renderer::new(&ctx).unwrap();
     let scene = two_view_scene(9, 800, 96, 64);

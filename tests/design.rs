@@ -4,18 +4,19 @@
 use std::path::PathBuf;
 use std::sync::Arc;
 
-use scratchart::model::scene::Scene;
-use scratchart::observe::Silent;
-use scratchart::optim::adam::{Adam, AdamConfig, Moments, ParamBlock, StepCheck};
-use scratchart::optim::design::{run_design, DesignConfig, DesignReport, Hooks, Problem};
-use scratchart::optim::loss::{reference, Loss, LossConfig};
-use scratchart::optim::scene_params::{reference_step, SceneParams};
-use scratchart::optim::targets::{builtin_targets, load_targets, TargetError};
-use scratchart::render::layout::ScratchGpu;
-use scratchart::render::Renderer;
-use scratchart::scenes::{orbit_light, random_scratches, ring_views, Rng};
-use scratchart::vulkan::{Context, Recorder};
+use scratchart_design::design::{run_design, DesignConfig, DesignReport, Problem};
+use scratchart_design::scenes::{orbit_light, random_scratches, ring_views, Rng};
+use scratchart_design::targets::{builtin_targets, load_targets, TargetError};
+use scratchart_model::scene::Scene;
+use scratchart_optim::adam::{Adam, AdamConfig, Moments, ParamBlock, StepCheck};
+use scratchart_optim::driver::Hooks;
+use scratchart_optim::loss::{reference, Loss, LossConfig};
+use scratchart_optim::observe::Silent;
+use scratchart_optim::scene_params::{reference_step, SceneParams};
+use scratchart_render::layout::ScratchGpu;
+use scratchart_render::Renderer;
 use scratchart_tests::{assert_no_validation, gpu, plate};
+use scratchart_vulkan::{Context, Recorder};
 
 fn tmp_dir(name: &str) -> PathBuf {
     let d = std::env::temp_dir().join(format!("scratchart-design-{name}-{}", std::process::id()));
@@ -304,8 +305,8 @@ fn optimization_lowers_loss_and_raises_ssim() {
     assert!(last * 2.5 <= first, "loss only went from {first} to {last}");
     assert!(r.history.iter().all(|h| h.total.is_finite()));
     for v in 0..3 {
-        let s0 = scratchart::optim::report::view_ssim(&p.scene, v, &r.initial_images[v], &p.targets[v], 1.0);
-        let s1 = scratchart::optim::report::view_ssim(&p.scene, v, &r.final_images[v], &p.targets[v], 1.0);
+        let s0 = scratchart_design::report::view_ssim(&p.scene, v, &r.initial_images[v], &p.targets[v], 1.0);
+        let s1 = scratchart_design::report::view_ssim(&p.scene, v, &r.final_images[v], &p.targets[v], 1.0);
         eprintln!("view {v}: SSIM {s0:.3} -> {s1:.3}");
         assert!(s1 >= s0 + 0.05, "view {v}: SSIM {s0:.3} -> {s1:.3}");
     }
@@ -330,7 +331,7 @@ fn optimization_lowers_loss_and_raises_ssim() {
         assert!(out.join(f).is_file(), "missing output {f}");
     }
     // The target PNG (what the viewer shows beside the render) holds the target image.
-    let (tw, th, t0) = scratchart::io::read_image_gray(&out.join("v0_target.png")).unwrap();
+    let (tw, th, t0) = scratchart_render::io::read_image_gray(&out.join("v0_target.png")).unwrap();
     assert_eq!(
         (tw, th),
         (p.scene.views[0].camera.width, p.scene.views[0].camera.height)
@@ -464,7 +465,8 @@ fn bad_targets_give_clear_errors() {
     let p = small_problem(3, 16, 10, 1);
     let dir = tmp_dir("targets");
     let good = dir.join("good.png");
-    scratchart::io::write_png_gray(&good, 4, 3, &[0, 50, 100, 150, 200, 250, 0, 50, 100, 150, 200, 250]).unwrap();
+    scratchart_render::io::write_png_gray(&good, 4, 3, &[0, 50, 100, 150, 200, 250, 0, 50, 100, 150, 200, 250])
+        .unwrap();
     let garbage = dir.join("garbage.png");
     std::fs::write(&garbage, b"this is not an image").unwrap();
     let missing = dir.join("missing.png");
@@ -491,14 +493,14 @@ fn bad_targets_give_clear_errors() {
 /// either way: the exposures kept, or derived (the brightest view 1).
 #[test]
 fn a_shared_lamp_has_one_intensity() {
-    use scratchart::optim::design::Optimizer;
+    use scratchart_design::design::Optimizer;
     let ctx = gpu();
     let renderer = Renderer::new(&ctx).unwrap();
     let mut p = small_problem(3, 24, 300, 5);
     for (v, e) in p.scene.views.iter_mut().zip([1.0, 0.5, 0.25]) {
         v.exposure = e;
     }
-    let slots = scratchart::render::layout::view_slots(&p.scene);
+    let slots = scratchart_render::layout::view_slots(&p.scene);
     let mut ratios = Vec::new();
     for keep in [true, false] {
         let mut cfg = quiet_config(tmp_dir(&format!("tie-{keep}")), 12);

@@ -4,16 +4,17 @@
 //! the derivative of the GPU loss, resume must be bit-exact, and bad tool files exit with 3.
 use std::path::PathBuf;
 
-use scratchart::model::scene::{Scene, Scratch};
-use scratchart::observe::Silent;
-use scratchart::optim::check::CheckObjective;
-use scratchart::optim::design::{run_design, DesignConfig, DesignReport, Problem};
-use scratchart::optim::targets::builtin_targets;
-use scratchart::optim::tool_params::{Fabrication, Fitted, Tool, ToolParams};
-use scratchart::optim::AdamConfig;
-use scratchart::render::Renderer;
-use scratchart::scenes::{orbit_light, random_scratches, ring_views, Rng};
+use scratchart_design::design::{run_design, DesignConfig, DesignReport, Problem};
+use scratchart_design::scenes::{orbit_light, random_scratches, ring_views, Rng};
+use scratchart_design::targets::builtin_targets;
+use scratchart_model::scene::{Scene, Scratch};
+use scratchart_optim::adam::AdamConfig;
+use scratchart_optim::check::CheckObjective;
+use scratchart_optim::observe::Silent;
+use scratchart_optim::tool_params::{Fabrication, ToolParams};
+use scratchart_render::Renderer;
 use scratchart_tests::*;
+use scratchart_tool::{Fitted, Tool};
 
 /// Allowance for the GPU's f32 evaluation of the interpolation (rounding of z, of s =
 /// sqrt(z - z_first) and of the table), on top of the table's own measured error.
@@ -418,10 +419,10 @@ fn ball_tool_through_the_binary_and_bad_tool_files() {
 /// evaluates (or a set without --robust) maps the exact design.
 #[test]
 fn a_robust_step_sees_a_perturbed_carving_and_keeps_the_exact_design() {
-    use scratchart::optim::driver::ParamSet;
-    use scratchart::optim::tool_params::Robust;
-    use scratchart::render::layout::ScratchGpu;
-    use scratchart::vulkan::Recorder;
+    use scratchart_optim::driver::ParamSet;
+    use scratchart_optim::tool_params::Robust;
+    use scratchart_render::layout::ScratchGpu;
+    use scratchart_vulkan::Recorder;
     let ctx = gpu();
     let r = Renderer::new(&ctx).unwrap();
     let p = small_problem(16, 2000, 9);

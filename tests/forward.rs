@@ -2,8 +2,8 @@
 //! seeded scene families: moderate and sharp alpha, grazing views and lights, directional light,
 //! thousands of scratches in one footprint, scratch ends and edges on footprint corners, very
 //! thin and very short scratches.
-use scratchart::model::camera::ViewGeom;
-use scratchart::scenes::Rng;
+use scratchart_design::scenes::Rng;
+use scratchart_model::camera::ViewGeom;
 use scratchart_tests::*;
 
 #[test]
@@ -79,10 +79,10 @@ fn horizon_in_view() {
     let mut view = orbit_view("a", 64, 12.0, 30.0, 40.0, 210.0, 20.0);
     view.camera.fov_y_deg = 30.0;
     let scene = random_scene(17, 400, 20.0, 0.2, 0.15, 0.05, vec![view]);
-    let g = scratchart::model::camera::ViewGeom::new(&scene.views[0]);
+    let g = scratchart_model::camera::ViewGeom::new(&scene.views[0]);
     assert!(g.hit(32.0, 0.0).is_none(), "the test view must see the sky");
     assert!(g.hit(32.0, 40.0).is_some(), "the test view must see the plate");
-    let on = scratchart::model::reference::on_plate_mask(&scene, 0)
+    let on = scratchart_model::reference::on_plate_mask(&scene, 0)
         .iter()
         .filter(|m| **m)
         .count();
@@ -119,7 +119,7 @@ fn thousands_of_scratches_per_footprint() {
             alpha,
         ));
     }
-    let scene = scratchart::model::scene::Scene {
+    let scene = scratchart_model::scene::Scene {
         plate: plate(20.0),
         views: vec![orbit_view("a", 12, 50.0, 30.0, 50.0, 210.0, 20.0)],
         scratches,
@@ -164,7 +164,7 @@ fn ends_and_edges_on_footprint_corners() {
         ));
     }
     assert!(scratches.len() > 50);
-    let scene = scratchart::model::scene::Scene {
+    let scene = scratchart_model::scene::Scene {
         plate: plate(20.0),
         views: vec![view],
         scratches,
@@ -205,16 +205,16 @@ fn very_thin_and_very_short_scratches() {
 #[test]
 fn a_lamp_that_moves_needs_no_new_tile_lists() {
     let ctx = scratchart_tests::gpu();
-    let r = scratchart::render::Renderer::new(&ctx).unwrap();
+    let r = scratchart_render::Renderer::new(&ctx).unwrap();
     let views = vec![orbit_view("a", 48, 45.0, 0.0, 50.0, 20.0, 20.0)];
     let scene = random_scene(7, 600, 20.0, 0.2, 0.15, 0.2, views);
     let mut gs = r.upload(&scene).unwrap();
-    let mut rec = scratchart::vulkan::Recorder::new(&ctx).unwrap();
+    let mut rec = scratchart_vulkan::Recorder::new(&ctx).unwrap();
     r.submit(&mut rec, &mut gs, |rec, gs| r.record_render_with(rec, gs, true))
         .unwrap();
     // The lamp moves; the camera stays.
     let mut lit = scene.clone();
-    lit.views[0].light = scratchart::scenes::orbit_light(60.0, 35.0, 140.0, 2.0e3);
+    lit.views[0].light = scratchart_design::scenes::orbit_light(60.0, 35.0, 140.0, 2.0e3);
     assert!(gs.update_views(&lit.views).unwrap());
     r.submit(&mut rec, &mut gs, |rec, gs| r.record_render_with(rec, gs, false))
         .unwrap();

@@ -4,9 +4,9 @@
 use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::time::{Duration, Instant};
 
-use scratchart::model::scene::Scene;
-use scratchart::render::Renderer;
-use scratchart::scenes::Rng;
+use scratchart_design::scenes::Rng;
+use scratchart_model::scene::Scene;
+use scratchart_render::Renderer;
 use scratchart_tests::*;
 
 const SCENE: &str = r#"{"plate":{"size_mm":20,"roughness":0.03,"f0":0.9},"views":[{"name":"a","camera":{"eye":[0,-40,40],"target":[0,0,0],"up":[0,0,1],"fov_y_deg":30,"width":12,"height":10},"light":{"kind":"point","position":[0,40,40],"intensity":2000}},{"name":"b","camera":{"eye":[30,0,30],"target":[0,0,0],"up":[0,0,1],"fov_y_deg":35,"width":9,"height":9},"light":{"kind":"directional","direction":[0,1,1],"intensity":3}}],"scratches":"s.csv"}"#;
@@ -156,7 +156,7 @@ fn mutated_scene_files_give_clean_errors_or_valid_renders() {
                     // A scene over the device's limits (a mutated width, say) is a clean error.
                     Err(e) => {
                         assert!(
-                            scratchart::exit::class(&e) == scratchart::exit::Class::Device,
+                            scratchart::exit::class(&e) == scratchart_exit::Class::Device,
                             "case {case}: {e}"
                         );
                         errors += 1;

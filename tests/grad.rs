@@ -1,9 +1,9 @@
 //! GPU gradients against central differences of the float64 reference (engine/docs/model.md section 8
 //! gradient bar): for each kind of parameter (endpoints, w, d, alpha, light intensity),
 //! ||g - g_ref|| / ||g_ref|| <= 1e-2 over all scratches, for the check loss E_lin.
-use scratchart::model::reference::{check_loss, on_plate_mask, render_view};
-use scratchart::model::scene::Scene;
-use scratchart::render::Renderer;
+use scratchart_model::reference::{check_loss, on_plate_mask, render_view};
+use scratchart_model::scene::Scene;
+use scratchart_render::Renderer;
 use scratchart_tests::*;
 
 /// dE_lin/dL per pixel for GPU images `l` and targets `t` (off-plate pixels: 0).
@@ -50,7 +50,7 @@ fn central_difference(scene: &Scene, k: usize, p: usize, e: &dyn Fn(&Scene) -> f
         let mut s = scene.clone();
         let mut row = s.scratches[k].to_row();
         row[p] += delta;
-        s.scratches[k] = scratchart::model::scene::Scratch::from_row(row);
+        s.scratches[k] = scratchart_model::scene::Scratch::from_row(row);
         e(&s)
     };
     (at(h) - at(-h)) / (2.0 * h)
@@ -202,7 +202,7 @@ fn grad_command_matches_reference() {
     let t = targets(&scene);
     for (v, view) in scene.views.iter().enumerate() {
         let data: Vec<f32> = t[v].iter().map(|&x| x as f32).collect();
-        scratchart::io::write_pfm(
+        scratchart_render::io::write_pfm(
             &dir.join("targets").join(format!("{}.pfm", view.name)),
             view.camera.width,
             view.camera.height,

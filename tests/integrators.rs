@@ -4,9 +4,9 @@
 //! reference; gradients of the backward kernels built over each integrator agree (reverse mode
 //! for the closed form, dual numbers for the panels), the reverse-mode kernel agrees with the
 //! dual-number one over the same integrator; and `Renderer::new` is exactly the default descriptor.
-use scratchart::model::scene::Scene;
-use scratchart::render::kernels::{Integrator, KernelSet, Mode};
-use scratchart::render::{grad::Gradients, Renderer};
+use scratchart_model::scene::Scene;
+use scratchart_render::kernels::{Integrator, KernelSet, Mode};
+use scratchart_render::{grad::Gradients, Renderer};
 use scratchart_tests::*;
 
 /// The share of on-plate pixels within engine/docs/model.md's forward tolerance (1e-3 relative, or 1e-6 x
@@ -79,7 +79,7 @@ fn integrators_against_reference() {
     for (label, scene) in scenes() {
         scene.validate().expect("valid test scene");
         let refs: Vec<Vec<f64>> = (0..scene.views.len())
-            .map(|v| scratchart::model::reference::render_view(&scene, v))
+            .map(|v| scratchart_model::reference::render_view(&scene, v))
             .collect();
         let mut images = Vec::new();
         for (integrator, bar, r) in &renderers {
@@ -305,7 +305,7 @@ fn reverse_mode_matches_dual_numbers_over_random_regimes() {
     let dual = Renderer::with_kernels(&ctx, KernelSet::with_modes(Integrator::ClosedForm, Mode::BackwardDual)).unwrap();
     let mut worst = [0f64; 4];
     for seed in 0..8u64 {
-        let mut rng = scratchart::scenes::Rng::new(1000 + seed);
+        let mut rng = scratchart_design::scenes::Rng::new(1000 + seed);
         let alpha = 10f64.powf(-3.0 + 2.5 * rng.f64());
         let elev = 5.0 + 85.0 * rng.f64();
         let light_elev = 5.0 + 85.0 * rng.f64();

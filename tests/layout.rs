@@ -10,15 +10,15 @@
 //!   RadixPush (inc/radix_push.glsl).
 use std::sync::Arc;
 
-use scratchart::optim::adam::{AdamGroupGpu, AdamPush};
-use scratchart::optim::check::CheckPush;
-use scratchart::optim::loss::{LossPush, LossSeg};
-use scratchart::optim::scene_params::ProjectPush;
-use scratchart::optim::tool_params::ToolMapPush;
-use scratchart::render::layout::{BinPush, RadixPush, ReducePush, ScanPush, ScratchGpu, ShadePush, ViewGpu, ViewGpu64};
-use scratchart::render::present::PresentPush;
-use scratchart::vulkan::{Buffer, ComputePipeline, Context, MemLoc, Recorder, ShaderCompiler};
+use scratchart_optim::adam::{AdamGroupGpu, AdamPush};
+use scratchart_optim::check::CheckPush;
+use scratchart_optim::loss::{LossPush, LossSeg};
+use scratchart_optim::scene_params::ProjectPush;
+use scratchart_optim::tool_params::ToolMapPush;
+use scratchart_render::layout::{BinPush, RadixPush, ReducePush, ScanPush, ScratchGpu, ShadePush, ViewGpu, ViewGpu64};
+use scratchart_render::present::PresentPush;
 use scratchart_tests::*;
+use scratchart_vulkan::{Buffer, ComputePipeline, Context, MemLoc, Recorder, ShaderCompiler};
 
 #[test]
 fn rust_and_glsl_struct_layouts_agree() {

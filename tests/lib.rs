@@ -2,10 +2,10 @@
 //! (lavapipe in CI), scene builders for the test families, and the engine/docs/model.md section 8 comparison.
 use std::sync::Arc;
 
-use scratchart::model::scene::{Camera, Light, LightKind, Plate, Scene, Scratch, View};
-use scratchart::render::Renderer;
-use scratchart::scenes::{orbit_camera, orbit_light, random_scratches, Rng};
-use scratchart::vulkan::{Context, ContextDesc};
+use scratchart_design::scenes::{orbit_camera, orbit_light, random_scratches, Rng};
+use scratchart_model::scene::{Camera, Light, LightKind, Plate, Scene, Scratch, View};
+use scratchart_render::Renderer;
+use scratchart_vulkan::{Context, ContextDesc};
 
 /// A context with the validation layer on. Tests call [`assert_no_validation`] at the end.
 pub fn gpu() -> Arc<Context> {
@@ -58,7 +58,7 @@ impl Comparison {
 
 /// Compares `gpu` with the float64 reference `reference` of one view.
 pub fn compare(scene: &Scene, view: usize, gpu: &[f32], reference: &[f64]) -> Comparison {
-    let mask = scratchart::model::reference::on_plate_mask(scene, view);
+    let mask = scratchart_model::reference::on_plate_mask(scene, view);
     let w = scene.views[view].camera.width;
     let max_ref = reference.iter().cloned().fold(0.0, f64::max);
     let abs_tol = 1e-6 * max_ref;
@@ -109,7 +109,7 @@ pub fn assert_matches_reference(label: &str, scene: &Scene) {
     let ctx = gpu();
     let images = gpu_render(&ctx, scene);
     for v in 0..scene.views.len() {
-        let reference = scratchart::model::reference::render_view(scene, v);
+        let reference = scratchart_model::reference::render_view(scene, v);
         let c = compare(scene, v, &images[v], &reference);
         eprintln!(
             "{label} view {v}: {}/{} on-plate pixels within the bar ({:.4}%), worst relative error above the 1e-6 x max floor {:.3e} at (i, j, gpu, ref) = {:?}",

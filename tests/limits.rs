@@ -2,10 +2,10 @@
 //! exit codes), not crashes. Lavapipe binds at most 128 MiB per storage buffer.
 use std::process::Command;
 
-use scratchart::model::scene::Scene;
-use scratchart::render::Renderer;
-use scratchart::vulkan::GpuError;
+use scratchart_model::scene::Scene;
+use scratchart_render::Renderer;
 use scratchart_tests::*;
+use scratchart_vulkan::GpuError;
 
 fn small_scene() -> Scene {
     random_scene(

@@ -5,7 +5,7 @@
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
-use scratchart::model::scene::Scene;
+use scratchart_model::scene::Scene;
 use scratchart_tests::*;
 
 fn tmp_dir(name: &str) -> PathBuf {

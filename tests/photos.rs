@@ -2,13 +2,13 @@
 //! a photo design end to end, and awkward image files.
 use std::path::PathBuf;
 
-use scratchart::model::scene::{Scene, View};
-use scratchart::observe::Silent;
-use scratchart::optim::design::{run_design, DesignConfig, Problem};
-use scratchart::optim::framing::{fit_picture, largest_rect, silhouette, Fit};
-use scratchart::optim::targets::load_fitted_targets;
-use scratchart::render::Renderer;
-use scratchart::scenes::{framed_ring_views, orbit_light, random_scratches, silhouette_box, Rng};
+use scratchart_design::design::{run_design, DesignConfig, Problem};
+use scratchart_design::framing::{fit_picture, largest_rect, silhouette, Fit};
+use scratchart_design::scenes::{framed_ring_views, orbit_light, random_scratches, silhouette_box, Rng};
+use scratchart_design::targets::load_fitted_targets;
+use scratchart_model::scene::{Scene, View};
+use scratchart_optim::observe::Silent;
+use scratchart_render::Renderer;
 use scratchart_tests::*;
 
 fn ring(res: u32) -> Vec<View> {
@@ -98,7 +98,7 @@ fn off_plate_pixels_have_no_effect() {
     for fit in [Fit::Contain, Fit::Frame, Fit::Cover, Fit::Printed] {
         for (k, v) in scene.views.iter().enumerate() {
             let f = fit_picture(&src, 64, 40, v, 100.0, fit, 0.3);
-            let mask = scratchart::model::camera::on_plate_mask(&scene, k);
+            let mask = scratchart_model::camera::on_plate_mask(&scene, k);
             assert!(
                 f.image.iter().zip(&mask).all(|(t, m)| *m || *t == 0.0),
                 "{fit:?} view {k}"
@@ -113,12 +113,12 @@ fn off_plate_pixels_have_no_effect() {
     let mut gs = r.upload(&scene).unwrap();
     let mut dl = Vec::new();
     for k in 0..scene.views.len() {
-        let mask = scratchart::model::camera::on_plate_mask(&scene, k);
+        let mask = scratchart_model::camera::on_plate_mask(&scene, k);
         dl.extend(mask.iter().map(|m| if *m { 0.0 } else { 1.0 }));
     }
     let (images, g) = r.gradients(&mut gs, &dl).unwrap();
     for (k, img) in images.iter().enumerate() {
-        let mask = scratchart::model::camera::on_plate_mask(&scene, k);
+        let mask = scratchart_model::camera::on_plate_mask(&scene, k);
         assert!(
             img.iter().zip(&mask).all(|(l, m)| *m || *l == 0.0),
             "view {k}: an off-plate pixel is lit"
@@ -225,7 +225,7 @@ fn a_photo_design_improves_every_view() {
                         v.name,
                         sign * lost
                     );
-                    let res = scratchart::optim::tolerance::resolution(axis, safe);
+                    let res = scratchart_design::tolerance::resolution(axis, safe);
                     assert!(lost - safe <= res + 1e-12, "{} {moved} {axis}: {safe}..{lost}", v.name);
                     bracketed += 1;
                 }
@@ -245,7 +245,7 @@ fn a_photo_design_improves_every_view() {
 /// the micrometre.
 fn setup_is_the_designs(setup: &serde_json::Value, design: &Scene) {
     assert_eq!(setup["mark"], "+x");
-    let scratchart::model::scene::LightKind::Point { position } = design.views[0].light.kind else {
+    let scratchart_model::scene::LightKind::Point { position } = design.views[0].light.kind else {
         panic!("the test design has a point light")
     };
     for a in 0..3 {
@@ -287,10 +287,10 @@ fn corr_moved(
         [r * e.cos() * a.cos(), r * e.cos() * a.sin(), r * e.sin()]
     };
     if moved == "lamp" {
-        let scratchart::model::scene::LightKind::Point { position } = v.light.kind else {
+        let scratchart_model::scene::LightKind::Point { position } = v.light.kind else {
             unreachable!()
         };
-        v.light.kind = scratchart::model::scene::LightKind::Point {
+        v.light.kind = scratchart_model::scene::LightKind::Point {
             position: shift(position),
         };
     } else {
@@ -301,12 +301,12 @@ fn corr_moved(
     let img = &renderer.render(&mut gs).unwrap().images[0];
     let disp: Vec<f32> = img
         .iter()
-        .map(|&l| scratchart::io::display_value(l).clamp(0.0, 1.0))
+        .map(|&l| scratchart_render::io::display_value(l).clamp(0.0, 1.0))
         .collect();
     let (w, h) = (s.views[0].camera.width, s.views[0].camera.height);
     let t: Vec<f64> = p.targets[j].iter().map(|&x| x as f64).collect();
-    scratchart::optim::measure::correlation(
-        &scratchart::optim::measure::blur3(&disp, w, h, sigma),
+    scratchart_design::measure::correlation(
+        &scratchart_design::measure::blur3(&disp, w, h, sigma),
         &t,
         &p.pictures[j],
     )
@@ -357,7 +357,7 @@ fn awkward_target_files() {
     let e = load_fitted_targets(&paths, &scene, Fit::Contain, 0.0, &[]).unwrap_err();
     let msg = e.to_string();
     assert!(
-        matches!(e, scratchart::optim::targets::TargetError::Uniform { .. })
+        matches!(e, scratchart_design::targets::TargetError::Uniform { .. })
             && msg.contains("one.png")
             && msg.contains("is uniform")
             && msg.contains(&format!("--blank-view {}", names[0])),
@@ -367,7 +367,7 @@ fn awkward_target_files() {
     let e = load_fitted_targets(&paths, &scene, Fit::Contain, 0.0, &names[..1]).unwrap_err();
     assert!(e.to_string().contains("deep.png"), "{e}");
     let t = load_fitted_targets(&paths, &scene, Fit::Contain, 0.0, &names).unwrap();
-    let level = |f: &scratchart::optim::framing::Fitted| {
+    let level = |f: &scratchart_design::framing::Fitted| {
         let v: Vec<f32> = f
             .image
             .iter()

@@ -3,8 +3,8 @@
 //! searching the pairs again (`replay_stream` in `shaders/grad.comp`). It must change no
 //! bit of the gradients against the backward that searches, whatever the store holds: sized by
 //! the host, too small for the scene, left over from other scratches, or split into passes.
-use scratchart::render::kernels::KernelSet;
-use scratchart::render::{GpuScene, Renderer};
+use scratchart_render::kernels::KernelSet;
+use scratchart_render::{GpuScene, Renderer};
 use scratchart_tests::*;
 
 /// dE/dL with zeros (a third of the pixels: their pairs are in the forward's queue but not in a
@@ -22,7 +22,7 @@ fn seeds(n: usize) -> Vec<f32> {
 }
 
 /// Images (one per view) and gradients of one forward + backward.
-type Run = (Vec<Vec<f32>>, scratchart::render::grad::Gradients);
+type Run = (Vec<Vec<f32>>, scratchart_render::grad::Gradients);
 
 fn assert_same_bits(label: &str, a: &Run, b: &Run) {
     for (v, (x, y)) in a.0.iter().zip(&b.0).enumerate() {

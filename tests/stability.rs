@@ -21,11 +21,11 @@
 //!   every targeted pixel, and on at least 99% of the on-plate pixels of every scene;
 //! - every method of `scratchart study` renders every scene without a NaN or an infinity;
 //! - the backward kernel's gradients are finite everywhere.
-use scratchart::model::scene::{Plate, Scene, Scratch, View};
-use scratchart::model::ViewGeom;
-use scratchart::render::kernels::{Integrator, KernelSet};
-use scratchart::render::Renderer;
-use scratchart::scenes::{orbit_camera, orbit_light, Rng};
+use scratchart_design::scenes::{orbit_camera, orbit_light, Rng};
+use scratchart_model::scene::{Plate, Scene, Scratch, View};
+use scratchart_model::ViewGeom;
+use scratchart_render::kernels::{Integrator, KernelSet};
+use scratchart_render::Renderer;
 use scratchart_tests::*;
 
 const PLATE: f64 = 20.0;
@@ -395,7 +395,7 @@ fn within(g: f32, r: f64, max_ref: f64) -> bool {
 /// meet the bar on every target and on 99% of the on-plate pixels. Returns the closed form's
 /// worst relative error on the targets (reported).
 fn check(
-    ctx: &std::sync::Arc<scratchart::vulkan::Context>,
+    ctx: &std::sync::Arc<scratchart_vulkan::Context>,
     label: &str,
     scene: &Scene,
     targets: &[(u32, u32)],
@@ -403,12 +403,12 @@ fn check(
     scene
         .validate()
         .unwrap_or_else(|e| panic!("{label}: invalid test scene: {e}"));
-    let reference = scratchart::model::reference::render_view(scene, 0);
+    let reference = scratchart_model::reference::render_view(scene, 0);
     let width = scene.views[0].camera.width;
     let mut worst = 0.0f64;
     let mut bright = 0usize;
     // The bare plate: how much the scratches change each target.
-    let bare = scratchart::model::reference::render_view(
+    let bare = scratchart_model::reference::render_view(
         &Scene {
             scratches: vec![],
             ..scene.clone()

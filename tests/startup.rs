@@ -2,8 +2,8 @@
 //! `engine/build.rs`). A design iteration on this device (renderer, backward, loss, Adam, the
 //! scratch projection) compiles no GLSL at run time, and the built SPIR-V is exactly what the
 //! run-time compiler makes of the same sources with the same options.
-use scratchart::vulkan::ShaderCompiler;
 use scratchart_tests::*;
+use scratchart_vulkan::ShaderCompiler;
 use std::path::Path;
 
 #[test]
@@ -50,7 +50,7 @@ fn a_design_iteration_compiles_no_glsl_and_prebuilt_spirv_matches() {
 /// header for this device; read back by the next context; a damaged file is ignored and replaced.
 #[test]
 fn the_pipeline_cache_persists_and_survives_a_damaged_file() {
-    use scratchart::vulkan::{Context, ContextDesc, PipelineCacheDir};
+    use scratchart_vulkan::{Context, ContextDesc, PipelineCacheDir};
     let dir = std::env::temp_dir().join(format!("scratchart-pipeline-cache-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
     let make = || {
@@ -68,7 +68,7 @@ fn the_pipeline_cache_persists_and_survives_a_damaged_file() {
         file = ctx.pipeline_cache_file().expect("a cache file in the given directory");
         assert!(file.starts_with(&dir));
         assert!(!file.exists(), "nothing is written before the context is dropped");
-        let _r = scratchart::render::Renderer::new(&ctx).unwrap();
+        let _r = scratchart_render::Renderer::new(&ctx).unwrap();
         assert_no_validation(&ctx);
     }
     let first = std::fs::read(&file).expect("the cache is written when the context is dropped");
@@ -80,7 +80,7 @@ fn the_pipeline_cache_persists_and_survives_a_damaged_file() {
     assert_eq!(u(4), 1, "header version one");
     {
         let ctx = make();
-        let _r = scratchart::render::Renderer::new(&ctx).unwrap();
+        let _r = scratchart_render::Renderer::new(&ctx).unwrap();
         assert_no_validation(&ctx);
     }
     // A damaged file: garbage, then a truncated header. Neither stops a context.
@@ -88,7 +88,7 @@ fn the_pipeline_cache_persists_and_survives_a_damaged_file() {
         std::fs::write(&file, &junk).unwrap();
         {
             let ctx = make();
-            let _r = scratchart::render::Renderer::new(&ctx).unwrap();
+            let _r = scratchart_render::Renderer::new(&ctx).unwrap();
             assert_no_validation(&ctx);
         }
         let again = std::fs::read(&file).unwrap();

@@ -2,8 +2,8 @@
 //! renders every regime without a NaN or an infinity, the default closed form stays within
 //! engine/docs/model.md section 8's bar on every regime while the methods it is charted against do not (so
 //! the measure can tell them apart), and the command writes its table, chart and verdict.
-use scratchart::render::kernels::Integrator;
 use scratchart::study::{self, StudyOptions, BAR};
+use scratchart_render::kernels::Integrator;
 use scratchart_tests::*;
 use std::process::Command;
 
@@ -121,13 +121,13 @@ fn the_command_writes_table_chart_and_verdict() {
 /// the render meets engine/docs/model.md's bar against the float64 reference, and the culling really runs.
 #[test]
 fn adaptive_keeps_its_written_bound() {
-    use scratchart::model::reference::render_view;
-    use scratchart::render::kernels::KernelSet;
-    use scratchart::render::Renderer;
+    use scratchart_model::reference::render_view;
+    use scratchart_render::kernels::KernelSet;
+    use scratchart_render::Renderer;
     let ctx = gpu();
     let cf = Renderer::new(&ctx).unwrap();
     let ad = Renderer::with_kernels(&ctx, KernelSet::with_integrator(Integrator::Adaptive)).unwrap();
-    let mut scenes: Vec<(String, scratchart::model::scene::Scene)> = study::regimes(32, 1)
+    let mut scenes: Vec<(String, scratchart_model::scene::Scene)> = study::regimes(32, 1)
         .into_iter()
         .map(|r| (r.name.to_string(), r.scene))
         .collect();
@@ -147,7 +147,7 @@ fn adaptive_keeps_its_written_bound() {
         let x = -10.0 + 0.4 * (i as f64 + 0.5);
         culling.scratches.push(scratch([x, -9.5], [x, 9.5], 0.4, 0.2, 0.004));
     }
-    let mut rng = scratchart::scenes::Rng::new(31);
+    let mut rng = scratchart_design::scenes::Rng::new(31);
     for _ in 0..600 {
         let (x, y) = (rng.range(-8.0, 8.0), rng.range(-9.0, 9.0));
         let (a, l) = (rng.range(-0.2, 0.2), rng.range(1.0, 4.0));

@@ -4,11 +4,11 @@
 //! scratches, w against d, and the zero direction), per view,
 //! ||dL - dL_ref|| / ||dL_ref|| <= 1e-2 (engine/docs/model.md section 8's gradient bar, here per direction);
 //! the zero direction is exactly zero; the images are the forward's; two runs are bit-identical.
-use scratchart::model::reference::render_view;
-use scratchart::model::scene::Scene;
-use scratchart::render::tangent::{ScratchTangent, TANGENT_DIRECTIONS};
-use scratchart::render::Renderer;
-use scratchart::scenes::Rng;
+use scratchart_design::scenes::Rng;
+use scratchart_model::reference::render_view;
+use scratchart_model::scene::Scene;
+use scratchart_render::tangent::{ScratchTangent, TANGENT_DIRECTIONS};
+use scratchart_render::Renderer;
 use scratchart_tests::*;
 
 fn seeds(scene: &Scene) -> Vec<ScratchTangent> {

@@ -17,9 +17,9 @@ use std::process::{Child, Command, Stdio};
 use std::sync::mpsc::{channel, Receiver};
 use std::time::{Duration, Instant};
 
-use scratchart::render::Renderer;
-use scratchart::vulkan::{Context, ContextDesc};
+use scratchart_render::Renderer;
 use scratchart_tests::{viewer_bin, workspace_root, XServer};
+use scratchart_vulkan::{Context, ContextDesc};
 
 fn tmp_dir(name: &str) -> PathBuf {
     let d = std::env::temp_dir().join(format!("scratchart-view-test-{}-{name}", std::process::id()));
@@ -31,7 +31,7 @@ fn tmp_dir(name: &str) -> PathBuf {
 /// Gray bytes of a PNG (any PNG the `image` crate reads; RGB is converted to luma, which for the
 /// viewer's gray output gives back the gray value).
 fn read_gray(path: &Path) -> (u32, u32, Vec<u8>) {
-    let (w, h, d) = scratchart::io::read_image_gray(path).unwrap_or_else(|e| panic!("{e}"));
+    let (w, h, d) = scratchart_render::io::read_image_gray(path).unwrap_or_else(|e| panic!("{e}"));
     (w, h, d.iter().map(|v| (v * 255.0).round() as u8).collect())
 }
 
@@ -87,13 +87,13 @@ fn headless_screenshot_matches_engine_render() {
         ..Default::default()
     })
     .unwrap();
-    let scene = scratchart::scenes::demo_scene(256);
+    let scene = scratchart_design::scenes::demo_scene(256);
     let r = Renderer::new(&ctx).unwrap();
     let mut gs = r.upload(&scene).unwrap();
     let frame = r.render(&mut gs).unwrap();
     let reference: Vec<u8> = frame.images[0]
         .iter()
-        .map(|&l| scratchart::io::display_byte(l))
+        .map(|&l| scratchart_render::io::display_byte(l))
         .collect();
 
     let (w, h, got) = read_gray(&png);

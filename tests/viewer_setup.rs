@@ -9,8 +9,8 @@ use std::process::{Child, Command, Stdio};
 use std::sync::mpsc::{channel, Receiver};
 use std::time::{Duration, Instant};
 
-use scratchart::model::scene::{Camera, LightKind, Scene};
-use scratchart::render::Renderer;
+use scratchart_model::scene::{Camera, LightKind, Scene};
+use scratchart_render::Renderer;
 use scratchart_tests::{assert_no_validation, gpu, viewer_bin, workspace_bin, XServer};
 
 const LAMP: [u8; 3] = [255, 170, 0];
@@ -337,7 +337,7 @@ fn overlay_marks_setup_points_and_numbers_match_the_sheet() {
     let mut gs = r.upload(&s).unwrap();
     let reference: Vec<u8> = r.render(&mut gs).unwrap().images[0]
         .iter()
-        .map(|&l| scratchart::io::display_byte(l))
+        .map(|&l| scratchart_render::io::display_byte(l))
         .collect();
     let diff = off
         .pixels()

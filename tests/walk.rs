@@ -4,8 +4,8 @@
 //! errors, and the flags' checks.
 use std::path::{Path, PathBuf};
 
-use scratchart::model::scene::Scene;
-use scratchart::optim::walk::{arc_views, walk_targets, Frames, Picture, Walk, WalkArc};
+use scratchart_design::walk::{arc_views, walk_targets, Frames, Picture, Walk, WalkArc};
+use scratchart_model::scene::Scene;
 use scratchart_tests::{assert_no_validation, gpu, gpu_render, run_scratchart, write_file};
 
 /// A fresh, empty directory for one test.
@@ -18,10 +18,10 @@ fn tmp(name: &str) -> PathBuf {
 
 /// Writes the built-in shape `shape` (white on black, 48 x 48) as a PNG frame.
 fn frame(dir: &Path, name: &str, shape: &str) -> String {
-    let img = scratchart::optim::targets::draw_shape(shape, 48, 48, 24.0, 24.0, 21.0);
+    let img = scratchart_design::targets::draw_shape(shape, 48, 48, 24.0, 24.0, 21.0);
     let bytes: Vec<u8> = img.iter().map(|v| (255.0 * v).round() as u8).collect();
     let p = dir.join(name);
-    scratchart::io::write_png_gray(&p, 48, 48, &bytes).unwrap();
+    scratchart_render::io::write_png_gray(&p, 48, 48, &bytes).unwrap();
     p.display().to_string()
 }
 
@@ -37,9 +37,9 @@ fn stderr(o: &std::process::Output) -> String {
 /// target over its picture's pixels.
 fn corr(display: &[f32], target: &[f32], picture: &[bool], w: u32, h: u32) -> f64 {
     let clamped: Vec<f32> = display.iter().map(|x| x.clamp(0.0, 1.0)).collect();
-    let blurred = scratchart::optim::measure::blur3(&clamped, w, h, 1.0);
+    let blurred = scratchart_design::measure::blur3(&clamped, w, h, 1.0);
     let t: Vec<f64> = target.iter().map(|&x| x as f64).collect();
-    scratchart::optim::measure::correlation(&blurred, &t, picture)
+    scratchart_design::measure::correlation(&blurred, &t, picture)
 }
 
 /// Four unrelated frames along an 18 degree arc: every design view shows its frame, and a
@@ -173,7 +173,7 @@ fn renders_match_the_reported_correlations(scene: &Scene, frames: &[String], wal
     let pictures: Vec<Picture> = frames
         .iter()
         .map(|f| {
-            let (width, height, data) = scratchart::io::read_image_gray(Path::new(f)).unwrap();
+            let (width, height, data) = scratchart_render::io::read_image_gray(Path::new(f)).unwrap();
             Picture {
                 path: f.into(),
                 width,
@@ -186,7 +186,7 @@ fn renders_match_the_reported_correlations(scene: &Scene, frames: &[String], wal
         &full,
         &walk,
         &Frames::Pictures(pictures),
-        scratchart::optim::framing::Fit::Contain,
+        scratchart_design::framing::Fit::Contain,
         0.0,
         1.0,
     );
@@ -194,7 +194,10 @@ fn renders_match_the_reported_correlations(scene: &Scene, frames: &[String], wal
     let images = gpu_render(&ctx, &full);
     assert_no_validation(&ctx);
     for (k, v) in views.iter().enumerate() {
-        let display: Vec<f32> = images[k].iter().map(|&l| scratchart::io::display_value(l)).collect();
+        let display: Vec<f32> = images[k]
+            .iter()
+            .map(|&l| scratchart_render::io::display_value(l))
+            .collect();
         let c = corr(&display, &targets[k].image, &targets[k].picture, 64, 64);
         let reported = v["corr"].as_f64().unwrap();
         assert!(
@@ -206,7 +209,7 @@ fn renders_match_the_reported_correlations(scene: &Scene, frames: &[String], wal
     for (i, b) in bviews.iter().enumerate() {
         let display: Vec<f32> = images[b.view]
             .iter()
-            .map(|&l| scratchart::io::display_value(l))
+            .map(|&l| scratchart_render::io::display_value(l))
             .collect();
         let c = corr(&display, &targets[b.view].image, &targets[b.view].picture, 64, 64);
         let reported = between[i]["corr"].as_f64().unwrap();

@@ -3,16 +3,16 @@
 //! camera's height, the lamp (a desk lamp or the phone's flash), the distance and the number of
 //! photos, over tools of every kind.
 //! `cargo run --release -p scratchart-calibration --example capture_info -- [res] [noise]`
-use scratchart::model::camera::spherical;
-use scratchart::model::scene::{Camera, Light, LightKind, Plate, Scene, View};
-use scratchart::render::Renderer;
-use scratchart::vulkan::{Context, ContextDesc};
 use scratchart_calibration::card::{Card, CardSpec};
 use scratchart_calibration::fit::information::{information, Truth};
 use scratchart_calibration::fit::Data;
 use scratchart_calibration::fit_cmd::fit_mask;
 use scratchart_calibration::simulate;
+use scratchart_model::camera::spherical;
+use scratchart_model::scene::{Camera, Light, LightKind, Plate, Scene, View};
+use scratchart_render::Renderer;
 use scratchart_tool::Tool;
+use scratchart_vulkan::{Context, ContextDesc};
 
 #[derive(Clone, Copy)]
 enum Lamp {

@@ -1,12 +1,12 @@
 //! Detection of the card's marks on random phone shots, against the truth: `cargo run --release -p scratchart-calibration --example detect_probe -- 20` (20 shots × 3 views).
-use scratchart::model::camera::ViewGeom;
-use scratchart::render::Renderer;
-use scratchart::scenes::Rng;
-use scratchart::vulkan::{Context, ContextDesc};
 use scratchart_calibration::card::{Card, CardSpec};
 use scratchart_calibration::phone::{random_shot, take};
 use scratchart_calibration::register::{find_marks, load_photo, resize};
+use scratchart_design::scenes::Rng;
+use scratchart_model::camera::ViewGeom;
+use scratchart_render::Renderer;
 use scratchart_tool::Tool;
+use scratchart_vulkan::{Context, ContextDesc};
 
 fn main() -> anyhow::Result<()> {
     let n: usize = std::env::args().nth(1).map_or(10, |s| s.parse().unwrap());

@@ -7,14 +7,14 @@
 //! `nojpeg`, `nonoise`, `nopose`, `noblur`, `nolight`, `small`), to find what biases that trial.
 use std::path::Path;
 
-use scratchart::model::scene::Scene;
-use scratchart::observe::Silent;
-use scratchart::render::Renderer;
-use scratchart::vulkan::{Context, ContextDesc};
 use scratchart_calibration::card::{Card, CardSpec};
 use scratchart_calibration::fit_cmd::{run, FitArgs};
 use scratchart_calibration::phone::{take, Pose, Shot};
+use scratchart_model::scene::Scene;
+use scratchart_optim::observe::Silent;
+use scratchart_render::Renderer;
 use scratchart_tool::Tool;
+use scratchart_vulkan::{Context, ContextDesc};
 
 fn variant(name: &str) -> Shot {
     let mut s = Shot {
@@ -142,7 +142,7 @@ fn trial_changes(
     dir: &Path,
 ) -> anyhow::Result<()> {
     // The study's draws, in its order, up to trial t.
-    let mut rng = scratchart::scenes::Rng::new(1);
+    let mut rng = scratchart_design::scenes::Rng::new(1);
     let (mut truth, mut shots) = (None, Vec::new());
     for i in 0..=t {
         let kind = scratchart_calibration::fit::Kind::ALL[i % 4];

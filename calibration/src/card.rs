@@ -10,9 +10,10 @@
 //! any angle, with one mark covered.
 use std::path::Path;
 
-use scratchart::model::scene::{Camera, Light, LightKind, Plate, Scene, View};
 use scratchart_machine::gcode::{write_blocks, Options};
-use scratchart_machine::plan::{self as machine_plan, Block, MachineProfile};
+use scratchart_machine::plan::{self as machine_plan, Block};
+use scratchart_model::scene::{Camera, Light, LightKind, Plate, Scene, View};
+use scratchart_tool::machine::MachineProfile;
 use serde::{Deserialize, Serialize};
 use serde_json::{json, Value};
 
@@ -286,7 +287,7 @@ impl Card {
     /// camera light up, more of them the deeper and wider the cut.
     pub fn views(&self, res: u32) -> Vec<View> {
         let d = 4.0 * self.plate_mm;
-        let place = |az: f64, el: f64| scratchart::model::camera::spherical(d, az, el);
+        let place = |az: f64, el: f64| scratchart_model::camera::spherical(d, az, el);
         [("cam_south", -90.0), ("cam_west", 180.0)]
             .iter()
             .map(|&(name, az)| View {

@@ -12,12 +12,12 @@ use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
 use anyhow::Result;
-use scratchart::exit::{InputError, UsageError};
-use scratchart::observe::Observer as _;
+use scratchart_exit::{InputError, UsageError};
 use scratchart_machine::controller::Rezero;
 use scratchart_machine::job::{carve, Options};
-use scratchart_machine::plan::MachineProfile;
 use scratchart_machine::stream::{Control, Observer, Progress};
+use scratchart_optim::observe::Observer as _;
+use scratchart_tool::machine::MachineProfile;
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
 pub enum RezeroArg {
@@ -122,7 +122,7 @@ impl Observer for Term {
         if let Some(q) = p.pos {
             msg.push_str(&format!(" X{:.2} Y{:.2} Z{:.3}", q[0], q[1], q[2]));
         }
-        self.out.progress(&scratchart::observe::Progress {
+        self.out.progress(&scratchart_optim::observe::Progress {
             task: self.task,
             done: p.done as u64,
             total: p.total as u64,
@@ -172,7 +172,7 @@ fn keys(control: Arc<Control>, asking: Arc<AtomicBool>) -> Receiver<String> {
 fn load_profile(path: &Path) -> Result<MachineProfile> {
     // A profile that names no firmware is read over the GRBL one; `carve` checks it against
     // the controller it finds.
-    crate::plan_cmd::load_profile(path, scratchart_machine::plan::Firmware::Grbl)
+    crate::plan_cmd::load_profile(path, scratchart_tool::machine::Firmware::Grbl)
 }
 
 pub fn run(a: &CarveArgs) -> Result<()> {
@@ -331,7 +331,7 @@ pub fn probe(a: &ProbeArgs) -> Result<()> {
     term.out.finish("probe");
     // (its class decides the exit code: `scratchart::exit`)
     let map = result?;
-    scratchart::io::write_atomic(&a.out, map.to_json().as_bytes())?;
+    scratchart_render::io::write_atomic(&a.out, map.to_json().as_bytes())?;
     let (lo, hi) = map.range();
     println!(
         "wrote {}: {} x {} probes, heights {lo:.4} to {hi:.4} mm (use it with `plan --heightmap`)",

@@ -25,8 +25,8 @@
 //!
 //! Each mark found gets a confidence in [0, 1]: its contrast against the photo's noise and its
 //! distance from where the homography of the other marks puts it.
-use scratchart::model::camera::ViewGeom;
-use scratchart::model::scene::View;
+use scratchart_model::camera::ViewGeom;
+use scratchart_model::scene::View;
 
 use super::card::Card;
 use super::photo::{median, pixel_noise, Gray};
@@ -508,12 +508,7 @@ fn loo_error(pairs: &[(usize, [f64; 2], [f64; 2])], q: usize, p: [f64; 2], c: [f
 /// above the card, its direction from the card within 35 degrees of the capture view's, its
 /// distance within a factor 1.6 of it and its field of view within a factor 3. Says what is
 /// wrong otherwise.
-pub fn plausible_camera(
-    hm: &[f64; 9],
-    w: u32,
-    h: u32,
-    view: &View,
-) -> Result<scratchart::model::scene::Camera, String> {
+pub fn plausible_camera(hm: &[f64; 9], w: u32, h: u32, view: &View) -> Result<scratchart_model::scene::Camera, String> {
     plausible_camera_with_focal(hm, w, h, view, None)
 }
 
@@ -526,7 +521,7 @@ pub fn plausible_camera_with_focal(
     h: u32,
     view: &View,
     exif_focal_px: Option<f64>,
-) -> Result<scratchart::model::scene::Camera, String> {
+) -> Result<scratchart_model::scene::Camera, String> {
     let c = &view.camera;
     // The capture view's focal length on this photo's raster (same height scale).
     let f_hint = 0.5 * h as f64 / (0.5 * c.fov_y_deg).to_radians().tan();

@@ -39,10 +39,10 @@
 //! residual variance); pixel noise is treated as independent, so blur makes them optimistic by
 //! about the blur's width in pixels. A parameter whose uncertainty is larger than its stated
 //! limit is reported as not identified, not as a number.
-use scratchart::model::scene::{Scene, Scratch};
-use scratchart::observe::{Observer, Progress};
-use scratchart::render::tangent::{ScratchTangent, TANGENT_DIRECTIONS};
-use scratchart::render::Renderer;
+use scratchart_model::scene::{Scene, Scratch};
+use scratchart_optim::observe::{Observer, Progress};
+use scratchart_render::tangent::{ScratchTangent, TANGENT_DIRECTIONS};
+use scratchart_render::Renderer;
 use scratchart_tool::Tool;
 use serde::{Deserialize, Serialize};
 
@@ -92,7 +92,7 @@ pub use uncertainty::{CHANGE_TRUST, LIFT_TRUST};
 
 use layout::Layout;
 use lm::refine;
-use scratchart::optim::least_squares::{cauchy, Solution};
+use scratchart_optim::least_squares::{cauchy, Solution};
 use starts::{refine_starts, search_starts, start_from, OffsetIntervals};
 use uncertainty::Uncertainty;
 
@@ -245,7 +245,7 @@ struct Evaluator<'a, 'r> {
     /// Bootstrap weights of the residuals (None: all 1), applied as sqrt(w) r.
     weights: Option<Vec<f64>>,
     /// The card on the device, re-used with new scratch parameters for every render.
-    gs: Option<scratchart::render::GpuScene>,
+    gs: Option<scratchart_render::GpuScene>,
     /// Renders at this many times the photos' resolution (`SUPERSAMPLE`; more for the check
     /// of the model's own error).
     ss: u32,

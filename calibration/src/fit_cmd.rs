@@ -3,9 +3,9 @@
 use std::path::{Path, PathBuf};
 
 use anyhow::{Context as _, Result};
-use scratchart::exit::InputError;
-use scratchart::observe::Observer;
-use scratchart::render::Renderer;
+use scratchart_exit::InputError;
+use scratchart_optim::observe::Observer;
+use scratchart_render::Renderer;
 use scratchart_tool::{Fitted, Tool};
 use serde_json::json;
 
@@ -187,7 +187,7 @@ pub fn run(renderer: &Renderer, args: &FitArgs, obs: &dyn Observer) -> Result<()
     );
     let report_path = PathBuf::from(format!("{}_report.json", stem.display()));
     let report = report_json(&best, &reasons, &allowed, &record)?;
-    scratchart::io::write_atomic(&report_path, serde_json::to_string_pretty(&report)?.as_bytes())?;
+    scratchart_render::io::write_atomic(&report_path, serde_json::to_string_pretty(&report)?.as_bytes())?;
     obs.result(&format!(
         "wrote {} (the fit, its checks and its verdict)",
         report_path.display()
@@ -209,7 +209,7 @@ pub fn run(renderer: &Renderer, args: &FitArgs, obs: &dyn Observer) -> Result<()
         alpha: Some(best.alpha),
         fit: Some(record),
     };
-    scratchart::io::write_atomic(&args.out, best.tool.to_json_fitted(&fitted).as_bytes())?;
+    scratchart_render::io::write_atomic(&args.out, best.tool.to_json_fitted(&fitted).as_bytes())?;
     obs.result(&format!("wrote {}", args.out.display()));
     for a in &allowed {
         obs.result(&format!("  warning (--allow-unidentified): {a}"));
@@ -255,7 +255,7 @@ fn fit_kinds(
     obs: &dyn Observer,
 ) -> Result<Vec<FitResult>> {
     let save = |st: &ResumeState| -> Result<()> {
-        scratchart::io::write_atomic(state_path, serde_json::to_string(st)?.as_bytes())?;
+        scratchart_render::io::write_atomic(state_path, serde_json::to_string(st)?.as_bytes())?;
         Ok(())
     };
     let mut results: Vec<FitResult> = state.done.clone();
@@ -296,7 +296,7 @@ fn fit_kinds(
                     "stopped; `{}` keeps what is done: run the same command with --resume to go on",
                     state_path.display()
                 ));
-                return Err(scratchart::optim::OptimError::Interrupted {
+                return Err(scratchart_optim::error::OptimError::Interrupted {
                     iter: 0,
                     checkpoint: Some(state_path.to_path_buf()),
                 }

@@ -8,7 +8,7 @@ use std::path::Path;
 
 use anyhow::Result;
 use plotters::prelude::*;
-use scratchart::model::scene::{LightKind, Scene};
+use scratchart_model::scene::{LightKind, Scene};
 
 use super::card::Card;
 
@@ -117,7 +117,7 @@ pub fn write_guide_png(path: &Path, card: &Card, capture: &Scene, examples: &[Ve
         root.fill(&WHITE).map_err(pe)?;
         let sheet = Sheet {
             root: &root,
-            font_ok: scratchart::optim::report::plot_font().is_some(),
+            font_ok: scratchart_design::report::plot_font().is_some(),
         };
         sheet.text(
             &format!(
@@ -150,7 +150,7 @@ pub fn write_guide_png(path: &Path, card: &Card, capture: &Scene, examples: &[Ve
             }
         }
     }
-    scratchart::io::write_png_rgb(path, wpx, hpx, &buf)?;
+    scratchart_render::io::write_png_rgb(path, wpx, hpx, &buf)?;
     Ok(())
 }
 

@@ -5,10 +5,10 @@ use std::process::ExitCode;
 use anyhow::{Context as _, Result};
 use clap::{Parser, Subcommand};
 
-use scratchart::vulkan::{Context, ContextDesc};
 use scratchart_calibration::card::{Card, CardSpec};
 use scratchart_calibration::simulate::{photos, Camera};
 use scratchart_tool::Tool;
+use scratchart_vulkan::{Context, ContextDesc};
 
 mod carve;
 mod plan_cmd;
@@ -175,7 +175,7 @@ fn run(cli: Cli) -> Result<()> {
             jpeg,
         } => {
             let (card, capture) = Card::load(card)?;
-            let tool = Tool::load(tool).map_err(|e| scratchart::exit::InputError(e.to_string()))?;
+            let tool = Tool::load(tool).map_err(|e| scratchart_exit::InputError(e.to_string()))?;
             let (_ctx, renderer) = renderer(cli.device.as_deref())?;
             if megapixels.is_some() || jpeg.is_some() {
                 // As a phone takes them (`phone::take`), from the capture pose.
@@ -206,7 +206,7 @@ fn run(cli: Cli) -> Result<()> {
             for (v, img) in capture.views.iter().zip(&imgs) {
                 let bytes: Vec<u8> = img.iter().map(|&x| (255.0 * x).round() as u8).collect();
                 let p = out.join(format!("{}.png", v.name));
-                scratchart::io::write_png_gray(&p, v.camera.width, v.camera.height, &bytes)?;
+                scratchart_render::io::write_png_gray(&p, v.camera.width, v.camera.height, &bytes)?;
                 println!("wrote {}", p.display());
             }
             Ok(())
@@ -215,13 +215,13 @@ fn run(cli: Cli) -> Result<()> {
 }
 
 /// The device (`--device`) and a renderer on it (the context first: the renderer holds it).
-fn renderer(device: Option<&str>) -> Result<(std::sync::Arc<Context>, scratchart::render::Renderer)> {
+fn renderer(device: Option<&str>) -> Result<(std::sync::Arc<Context>, scratchart_render::Renderer)> {
     let ctx = Context::new(ContextDesc {
         device: device.map(String::from),
         notify: Some(scratchart::term::stderr_notices()),
         ..Default::default()
     })?;
-    let renderer = scratchart::render::Renderer::new(&ctx)?;
+    let renderer = scratchart_render::Renderer::new(&ctx)?;
     Ok((ctx, renderer))
 }
 
@@ -253,7 +253,7 @@ fn card_cmd(
     machine: &plan_cmd::MachineArgs,
 ) -> Result<()> {
     if !(plate > 0.0) {
-        return Err(scratchart::exit::UsageError("--plate must be > 0 mm".into()).into());
+        return Err(scratchart_exit::UsageError("--plate must be > 0 mm".into()).into());
     }
     let card = Card::new(&CardSpec {
         plate_mm: plate,
@@ -263,7 +263,7 @@ fn card_cmd(
     std::fs::create_dir_all(out).with_context(|| format!("cannot create output directory {}", out.display()))?;
     let path = out.join("card.json");
     let text = serde_json::to_string_pretty(&card.to_json(res))?;
-    scratchart::io::write_atomic(&path, text.as_bytes())?;
+    scratchart_render::io::write_atomic(&path, text.as_bytes())?;
     println!(
         "wrote {}: {} ladder cuts ({} depths from {} to {} mm, {} orientations x {} repeats) and {} fiducial marks ({} cuts)",
         path.display(),
@@ -294,13 +294,13 @@ fn card_cmd(
             .iter()
             .zip(&mask)
             .filter(|(_, m)| **m)
-            .map(|(x, _)| scratchart::model::display::linear(*x as f64))
+            .map(|(x, _)| scratchart_model::display::linear(*x as f64))
             .collect();
         on.sort_by(|a, b| a.total_cmp(b));
         peak = peak.max(on.get(on.len() * 998 / 1000).copied().unwrap_or(1e-6));
     }
     let cam = Camera {
-        exposure: scratchart::model::display::linear(0.8) / peak,
+        exposure: scratchart_model::display::linear(0.8) / peak,
         blur_px: 0.5,
         noise: 0.004,
         seed: 1,
@@ -309,7 +309,7 @@ fn card_cmd(
     let gp = out.join("capture_guide.png");
     scratchart_calibration::guide::write_guide_png(&gp, &card, &capture, &examples)?;
     let gt = out.join("capture_guide.txt");
-    scratchart::io::write_atomic(
+    scratchart_render::io::write_atomic(
         &gt,
         scratchart_calibration::guide::guide_text(&card, &capture).as_bytes(),
     )?;
@@ -320,13 +320,13 @@ fn card_cmd(
     );
     for v in card.views(res) {
         let lamp = match v.light.kind {
-            scratchart::model::scene::LightKind::Point { position } => {
+            scratchart_model::scene::LightKind::Point { position } => {
                 format!(
                     "lamp at ({:.0}, {:.0}, {:.0}) mm",
                     position[0], position[1], position[2]
                 )
             }
-            scratchart::model::scene::LightKind::Directional { direction } => format!(
+            scratchart_model::scene::LightKind::Directional { direction } => format!(
                 "lamp far away towards ({:.2}, {:.2}, {:.2})",
                 direction[0], direction[1], direction[2]
             ),

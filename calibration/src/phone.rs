@@ -7,10 +7,10 @@
 //! thumb, a clamp).
 use std::path::{Path, PathBuf};
 
-use scratchart::model::camera::ViewGeom;
-use scratchart::model::scene::{Scene, View};
-use scratchart::render::Renderer;
-use scratchart::scenes::Rng;
+use scratchart_design::scenes::Rng;
+use scratchart_model::camera::ViewGeom;
+use scratchart_model::scene::{Scene, View};
+use scratchart_render::Renderer;
 use scratchart_tool::Tool;
 
 use super::card::Card;
@@ -344,7 +344,7 @@ pub fn take(
             let mut sorted = lin.clone();
             let i = ((sorted.len() as f64 * 0.999) as usize).min(sorted.len() - 1);
             let top = *sorted.select_nth_unstable_by(i, |a, b| a.total_cmp(b)).1 as f64;
-            shot.exposure * scratchart::model::display::linear(target) / top.max(1e-12)
+            shot.exposure * scratchart_model::display::linear(target) / top.max(1e-12)
         }
         None => shot.exposure,
     };
@@ -385,13 +385,13 @@ pub fn take(
     let aspect = rw as f64 / rh as f64;
     let ph = ((shot.megapixels * 1e6 / aspect).sqrt().round() as u32).max(32);
     let pw = ((ph as f64 * aspect).round() as u32).max(32);
-    let big = scratchart::io::resize_bilinear(&lin, rw as u32, rh as u32, pw, ph);
+    let big = scratchart_render::io::resize_bilinear(&lin, rw as u32, rh as u32, pw, ph);
     let mut rng = Rng::new(shot.seed);
     let mut gauss = move || rng.normal();
     let mut rgb = Vec::with_capacity(big.len() * 3);
     for &l in &big {
         for c in 0..3 {
-            let d = scratchart::io::display_value((l as f64 * shot.cast[c]) as f32) as f64;
+            let d = scratchart_render::io::display_value((l as f64 * shot.cast[c]) as f32) as f64;
             let v = (d + shot.noise * gauss()).clamp(0.0, 1.0);
             rgb.push((255.0 * v).round() as u8);
         }
@@ -434,13 +434,13 @@ pub fn take(
             enc.set_exif_metadata(crate::exif::exif_blob(shot.exif_orientation, f35.round() as u16, saved))?;
             enc.write_image(img.as_raw(), img.width(), img.height(), image::ExtendedColorType::Rgb8)?;
             let p = dir.join(format!("{}.jpg", base.name));
-            scratchart::io::write_atomic(&p, &buf)?;
+            scratchart_render::io::write_atomic(&p, &buf)?;
             p
         }
         None => {
             // PNG: no orientation tag here, stored upright.
             let p = dir.join(format!("{}.png", base.name));
-            scratchart::io::write_png_rgb(&p, upright.width(), upright.height(), upright.as_raw())?;
+            scratchart_render::io::write_png_rgb(&p, upright.width(), upright.height(), upright.as_raw())?;
             p
         }
     };

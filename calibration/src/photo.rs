@@ -98,7 +98,7 @@ pub struct Channels {
 
 /// The white balance of an RGB photo (see [`Channels::gains`]).
 fn channel_gains(rgb: &image::Rgb32FImage) -> [f64; 3] {
-    let lin = |d: f32| scratchart::model::display::linear(d as f64);
+    let lin = |d: f32| scratchart_model::display::linear(d as f64);
     let n = rgb.width() as usize * rgb.height() as usize;
     // At most about 2 million pixels looked at.
     let stride = n.div_ceil(2_000_000).max(1);
@@ -126,7 +126,7 @@ pub fn load_photo_with_channels(path: &Path) -> Result<(Gray, Option<Channels>),
     use image::ImageDecoder as _;
     let name = path.display();
     let bytes = std::fs::read(path).map_err(|e| format!("cannot read photo `{name}`: {e}"))?;
-    if scratchart::io::jpeg_cut_short(&bytes) {
+    if scratchart_render::io::jpeg_cut_short(&bytes) {
         return Err(format!(
             "photo `{name}` was cut short (a JPEG that ends inside its image data: an interrupted copy or download); copy it again"
         ));
@@ -384,7 +384,7 @@ pub fn resize(img: &Gray, w: u32, h: u32) -> Gray {
     let lin: Vec<f64> = img
         .data
         .iter()
-        .map(|&d| scratchart::model::display::linear(d as f64))
+        .map(|&d| scratchart_model::display::linear(d as f64))
         .collect();
     let iw = img.width as usize;
     let mut tmp = vec![0.0f64; w as usize * img.height as usize];
@@ -397,7 +397,7 @@ pub fn resize(img: &Gray, w: u32, h: u32) -> Gray {
     for (y, span) in rows.iter().enumerate() {
         for x in 0..w as usize {
             let l: f64 = span.iter().map(|&(j, wt)| wt * tmp[j * w as usize + x]).sum();
-            data[y * w as usize + x] = scratchart::model::display::display(l) as f32;
+            data[y * w as usize + x] = scratchart_model::display::display(l) as f32;
         }
     }
     Gray {
@@ -464,8 +464,8 @@ mod photo_tests {
     fn the_white_balance_is_read_from_the_channels() {
         // A photo whose red has 1.2 and blue 0.85 times green's light, over a ramp of levels,
         // with dark and clipped pixels that must not count.
-        let lin = scratchart::model::display::linear;
-        let disp = |l: f64| scratchart::model::display::display(l.min(1.0));
+        let lin = scratchart_model::display::linear;
+        let disp = |l: f64| scratchart_model::display::display(l.min(1.0));
         let img = image::Rgb32FImage::from_fn(64, 64, |x, y| {
             let l = lin(0.05 + 0.9 * (x + 64 * y) as f64 / 4096.0);
             image::Rgb([disp(1.2 * l) as f32, disp(l) as f32, disp(0.85 * l) as f32])

@@ -4,21 +4,22 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{Context as _, Result};
 
-use scratchart::exit::{InputError, UsageError};
-use scratchart::model::scene::Scene;
+use scratchart_exit::{InputError, UsageError};
 use scratchart_machine::gcode::{write_blocks, Options};
 use scratchart_machine::level::{compensate, HeightMap};
 use scratchart_machine::plan::{
     check_bounds, check_moves, nearest_neighbour, orientation_mark, program_time_split, program_travel,
-    surface_depth_mm, travel, two_opt, Block, Cut, Firmware, MachineProfile,
+    surface_depth_mm, travel, two_opt, Block, Cut,
 };
+use scratchart_model::scene::Scene;
+use scratchart_tool::machine::{Firmware, MachineProfile};
 use scratchart_tool::Tool;
 
 /// The levelling tolerance: the measured surface stays within this of every G1 segment, mm.
 pub const LEVEL_TOL_MM: f64 = 0.001;
 /// The orientation mark keeps this much more than half a groove's visible width from every
 /// scratch, mm.
-pub use scratchart_machine::plan::MARK_CLEAR_MM;
+use scratchart_machine::plan::MARK_CLEAR_MM;
 
 /// How the groove ends are handled, stated in every plan's header.
 pub const GROOVE_ENDS: &str = "groove ends: cuts are not shortened. The tool plunges at one designed endpoint \
@@ -142,13 +143,13 @@ pub fn plan(a: &PlanArgs) -> Result<()> {
         .ok_or_else(|| UsageError("give the design to plan".into()))?;
     let out = a.out.clone().unwrap_or_else(|| {
         PathBuf::from(match m.firmware {
-            scratchart_machine::plan::Firmware::Marlin => "plan.gcode",
-            scratchart_machine::plan::Firmware::Grbl => "plan.nc",
+            scratchart_tool::machine::Firmware::Marlin => "plan.gcode",
+            scratchart_tool::machine::Firmware::Grbl => "plan.nc",
         })
     });
     let out = out.as_path();
     let (scene, extra) = Scene::load_extra(design)?;
-    if a.home && m.firmware != scratchart_machine::plan::Firmware::Marlin {
+    if a.home && m.firmware != scratchart_tool::machine::Firmware::Marlin {
         return Err(UsageError("--home is for Marlin printers (GRBL uses its own work offsets)".into()).into());
     }
     let tool = match &a.tool {
@@ -230,7 +231,7 @@ pub fn plan(a: &PlanArgs) -> Result<()> {
     if let Some(dir) = out.parent().filter(|p| !p.as_os_str().is_empty()) {
         std::fs::create_dir_all(dir).with_context(|| format!("cannot create output directory {}", dir.display()))?;
     }
-    scratchart::io::write_atomic(out, g.as_bytes())?;
+    scratchart_render::io::write_atomic(out, g.as_bytes())?;
     let preview = out.with_extension("png");
     let caption = crate::toolpath::Caption {
         plan: out
@@ -242,8 +243,8 @@ pub fn plan(a: &PlanArgs) -> Result<()> {
                 scratchart_machine::program::Program::firmware_name(m.firmware),
                 f.display()
             ),
-            (None, scratchart_machine::plan::Firmware::Grbl) => "GRBL router (built-in profile)".into(),
-            (None, scratchart_machine::plan::Firmware::Marlin) => "Marlin printer (built-in profile)".into(),
+            (None, scratchart_tool::machine::Firmware::Grbl) => "GRBL router (built-in profile)".into(),
+            (None, scratchart_tool::machine::Firmware::Marlin) => "Marlin printer (built-in profile)".into(),
         },
         tool: match &tool {
             Some(t) => describe_tool(t),
@@ -277,7 +278,7 @@ pub fn plan(a: &PlanArgs) -> Result<()> {
 fn plan_depths(
     a: &PlanArgs,
     scene: &Scene,
-    extra: &scratchart::model::scene::Extra,
+    extra: &scratchart_model::scene::Extra,
     tool: Option<&Tool>,
     surface: f64,
     summary: &mut Vec<String>,
@@ -404,10 +405,10 @@ pub fn write_card_gcode(card: &scratchart_calibration::card::Card, dir: &Path, a
         .gcode(&m)
         .map_err(|e| InputError(format!("the card does not fit the machine: {e}")))?;
     let path = dir.join(match m.firmware {
-        scratchart_machine::plan::Firmware::Marlin => "card.gcode",
-        scratchart_machine::plan::Firmware::Grbl => "card.nc",
+        scratchart_tool::machine::Firmware::Marlin => "card.gcode",
+        scratchart_tool::machine::Firmware::Grbl => "card.nc",
     });
-    scratchart::io::write_atomic(&path, g.as_bytes())?;
+    scratchart_render::io::write_atomic(&path, g.as_bytes())?;
     Ok(path)
 }
 
@@ -463,7 +464,7 @@ pub fn export(a: &ExportArgs) -> Result<()> {
                 std::fs::create_dir_all(dir)
                     .with_context(|| format!("cannot create output directory {}", dir.display()))?;
             }
-            scratchart::io::write_atomic(p, t.as_bytes())?;
+            scratchart_render::io::write_atomic(p, t.as_bytes())?;
             println!("wrote {}", p.display());
         }
     }

@@ -9,7 +9,7 @@
 /// and the two rotation columns r1, r2 being orthogonal and of equal length gives f (least
 /// squares over both conditions); the rest follows. `None` when the homography is not that of
 /// a camera looking down at the plate.
-pub fn camera_from_homography(g: &[f64; 9], w: u32, h: u32) -> Option<scratchart::model::scene::Camera> {
+pub fn camera_from_homography(g: &[f64; 9], w: u32, h: u32) -> Option<scratchart_model::scene::Camera> {
     // M = diag(1, -1, 1) T^-1 g: plate -> (u, v, 1).
     let (cx, cy) = (0.5 * w as f64, 0.5 * h as f64);
     let row = |r: usize| [g[3 * r], g[3 * r + 1], g[3 * r + 2]];
@@ -90,7 +90,7 @@ pub fn focal_near(g: &[f64; 9], w: u32, h: u32, f_hint: f64, dist_hint: f64) -> 
 
 /// The camera of focal length `f` pixels whose plate homography is (nearest) `g`, for a `w` x
 /// `h` photo (see [`camera_from_homography`]).
-pub fn camera_with_focal(g: &[f64; 9], w: u32, h: u32, f: f64) -> Option<scratchart::model::scene::Camera> {
+pub fn camera_with_focal(g: &[f64; 9], w: u32, h: u32, f: f64) -> Option<scratchart_model::scene::Camera> {
     let (cx, cy) = (0.5 * w as f64, 0.5 * h as f64);
     let row = |r: usize| [g[3 * r], g[3 * r + 1], g[3 * r + 2]];
     let (r0, r1, r2) = (row(0), row(1), row(2));
@@ -142,7 +142,7 @@ pub fn camera_with_focal(g: &[f64; 9], w: u32, h: u32, f: f64) -> Option<scratch
         return None;
     }
     let dist = tt[2];
-    Some(scratchart::model::scene::Camera {
+    Some(scratchart_model::scene::Camera {
         eye,
         target: std::array::from_fn(|i| eye[i] + dist * forward[i]),
         up,

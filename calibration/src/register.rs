@@ -6,7 +6,7 @@
 //! confidence). Fewer than four marks that fit one view of a flat card means the card was not
 //! found, and says so. From the homography of the plate itself, [`camera_from_homography`]
 //! recovers the camera that took the photo.
-use scratchart::model::scene::View;
+use scratchart_model::scene::View;
 
 pub use super::fiducials::{apply, find_marks, homography_lsq, nominal_marks, Found};
 pub use super::photo::{load_photo, resize, Gray};
@@ -134,7 +134,7 @@ mod tests {
 mod camera_tests {
     use super::*;
     use crate::card::CardSpec;
-    use scratchart::model::camera::ViewGeom;
+    use scratchart_model::camera::ViewGeom;
 
     /// The camera of a capture view comes back from the homography of its own projections.
     #[test]

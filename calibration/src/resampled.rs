@@ -179,7 +179,7 @@ mod tests {
     /// lines on a regular grid (the ladder) is not taken for one.
     #[test]
     fn an_enlargement_shows_its_period_and_a_photo_does_not() {
-        let mut rng = scratchart::scenes::Rng::new(5);
+        let mut rng = scratchart_design::scenes::Rng::new(5);
         let (w, h) = (200usize, 200usize);
         let noise: Vec<f32> = (0..w * h).map(|_| (0.5 + 0.1 * rng.normal()) as f32).collect();
         let img = Gray {

@@ -5,9 +5,9 @@
 //! (optics, before the sensor), the pixels adding up the light over their area, an exposure
 //! factor, the display encoding and Gaussian noise on the encoded values (seeded, so
 //! reproducible). `crate::phone` goes further: a hand-held phone's pose, size, JPEG and more.
-use scratchart::model::scene::{Scene, Scratch};
-use scratchart::render::Renderer;
-use scratchart::scenes::Rng;
+use scratchart_design::scenes::Rng;
+use scratchart_model::scene::{Scene, Scratch};
+use scratchart_render::Renderer;
 use scratchart_tool::Tool;
 
 use super::card::Card;
@@ -151,7 +151,7 @@ pub fn photos(
             }
             small
                 .into_iter()
-                .map(|l| scratchart::io::display_value((l as f64 * camera.exposure) as f32))
+                .map(|l| scratchart_render::io::display_value((l as f64 * camera.exposure) as f32))
                 .map(|x| {
                     // The project's generator (reproducible).
                     let n = if camera.noise > 0.0 { rng.normal() } else { 0.0 };

@@ -10,9 +10,9 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use anyhow::{Context as _, Result};
-use scratchart::observe::{Observer, Silent};
-use scratchart::render::Renderer;
-use scratchart::scenes::Rng;
+use scratchart_design::scenes::Rng;
+use scratchart_optim::observe::{Observer, Silent};
+use scratchart_render::Renderer;
 use scratchart_tool::Tool;
 use serde_json::json;
 
@@ -229,7 +229,7 @@ pub fn run(renderer: &Renderer, args: &StudyArgs, obs: &dyn Observer) -> Result<
     std::fs::create_dir_all(&args.out).with_context(|| format!("cannot create {}", args.out.display()))?;
     let card = Card::new(&CardSpec::default());
     let card_path = args.out.join("card.json");
-    scratchart::io::write_atomic(&card_path, serde_json::to_string_pretty(&card.to_json(256))?.as_bytes())?;
+    scratchart_render::io::write_atomic(&card_path, serde_json::to_string_pretty(&card.to_json(256))?.as_bytes())?;
     let (card, capture) = Card::load(&card_path)?;
     let mut rng = Rng::new(args.seed);
     let mut trials = Vec::new();
@@ -276,7 +276,7 @@ pub fn run(renderer: &Renderer, args: &StudyArgs, obs: &dyn Observer) -> Result<
                 };
                 (o, Some(tool), e)
             }
-            Err(e) if scratchart::exit::class(e.as_ref()) == scratchart::exit::Class::Input => {
+            Err(e) if scratchart::exit::class(e.as_ref()) == scratchart_exit::Class::Input => {
                 let msg = format!("{e:#}");
                 let first = msg
                     .lines()
@@ -538,9 +538,9 @@ fn write_tables(dir: &Path, trials: &[Trial], args: &StudyArgs) -> Result<()> {
         kinds_md.push_str(&format!("| {k} | {n} | {rec} | {} | {wrong} |\n", n - rec - wrong));
     }
     let md = format!("{summary}\n{kinds_md}\n{md}");
-    scratchart::io::write_atomic(&dir.join("study.csv"), csv.as_bytes())?;
-    scratchart::io::write_atomic(&dir.join("study.md"), md.as_bytes())?;
-    scratchart::io::write_atomic(
+    scratchart_render::io::write_atomic(&dir.join("study.csv"), csv.as_bytes())?;
+    scratchart_render::io::write_atomic(&dir.join("study.md"), md.as_bytes())?;
+    scratchart_render::io::write_atomic(
         &dir.join("study.json"),
         serde_json::to_string_pretty(&json!({
             "group": args.group, "trials": n, "recovered": rec, "refused": refused, "wrong_but_accepted": wrong,

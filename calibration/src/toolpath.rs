@@ -138,7 +138,7 @@ pub fn write(path: &Path, blocks: &[Block], plate_mm: f64, cap: &Caption) -> Res
         root.fill(&WHITE).map_err(pe)?;
         let pic = Picture {
             root: &root,
-            font: scratchart::optim::report::plot_font().is_some(),
+            font: scratchart_design::report::plot_font().is_some(),
             plate_mm,
         };
         let cuts: Vec<&Block> = blocks.iter().filter(|b| b.label != Label::Mark).collect();
@@ -153,7 +153,7 @@ pub fn write(path: &Path, blocks: &[Block], plate_mm: f64, cap: &Caption) -> Res
         draw_legend(&pic, cuts.len(), (lo, hi))?;
         root.present().map_err(pe)?;
     }
-    scratchart::io::write_png_rgb(path, W, H, &buf)?;
+    scratchart_render::io::write_png_rgb(path, W, H, &buf)?;
     Ok(())
 }
 

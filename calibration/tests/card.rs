@@ -1,7 +1,7 @@
 //! The calibration card and its simulated photos, on the real engine.
-use scratchart::render::Renderer;
 use scratchart_calibration::card::{Card, CardSpec, CutRole};
 use scratchart_calibration::simulate::{cut_scene, photos, Camera};
+use scratchart_render::Renderer;
 use scratchart_tests::{assert_no_validation, gpu};
 use scratchart_tool::Tool;
 
@@ -98,8 +98,8 @@ fn simulated_photos_depend_on_the_tool() {
     let ctx = gpu();
     let r = Renderer::new(&ctx).unwrap();
     let card = Card::new(&CardSpec::default());
-    let capture = scratchart::model::scene::Scene {
-        plate: scratchart::model::scene::Plate {
+    let capture = scratchart_model::scene::Scene {
+        plate: scratchart_model::scene::Plate {
             size_mm: card.plate_mm,
             roughness: 0.02,
             f0: 0.91,

@@ -6,9 +6,9 @@
 use std::path::Path;
 use std::process::{Command, Output, Stdio};
 
-use scratchart::model::scene::{Scene, Scratch};
 use scratchart_machine::fake::{FakeGrbl, FakeMarlin, GrblConfig, MarlinConfig};
 use scratchart_machine::program::Program;
+use scratchart_model::scene::{Scene, Scratch};
 
 fn design(plate: f64, n: usize) -> Scene {
     let h = 0.4 * plate;

@@ -3,7 +3,7 @@
 //! are read back by independent parsers in the machine crate's tests (tests/export.rs).
 use std::process::Command;
 
-use scratchart::model::scene::{Extra, Scene, Scratch};
+use scratchart_model::scene::{Extra, Scene, Scratch};
 
 fn design() -> Scene {
     Scene::bare(

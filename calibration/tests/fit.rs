@@ -3,12 +3,12 @@
 //! position), and refuses input it cannot use with a clear message.
 use std::path::PathBuf;
 
-use scratchart::model::scene::View;
-use scratchart::observe::Silent;
-use scratchart::render::Renderer;
 use scratchart_calibration::card::{Card, CardSpec};
 use scratchart_calibration::fit_cmd::{run, FitArgs};
 use scratchart_calibration::simulate::Camera;
+use scratchart_model::scene::View;
+use scratchart_optim::observe::Silent;
+use scratchart_render::Renderer;
 use scratchart_tests::{assert_no_validation, gpu};
 use scratchart_tool::Tool;
 
@@ -56,8 +56,8 @@ fn as_phone_jpegs(pngs: &[PathBuf]) -> Vec<PathBuf> {
 /// registered photo matches a photo taken from the capture pose.
 #[test]
 fn registers_off_pose_photos_to_the_capture_views() {
-    use scratchart::model::camera::ViewGeom;
     use scratchart_calibration::register::{load_photo, nominal_marks, register};
+    use scratchart_model::camera::ViewGeom;
     let ctx = gpu();
     let r = Renderer::new(&ctx).unwrap();
     let dir = tmp("fit", "register");
@@ -475,8 +475,8 @@ struct StopAtRefine {
     stop: bool,
 }
 
-impl scratchart::observe::Observer for StopAtRefine {
-    fn progress(&self, p: &scratchart::observe::Progress) {
+impl scratchart_optim::observe::Observer for StopAtRefine {
+    fn progress(&self, p: &scratchart_optim::observe::Progress) {
         self.seen.lock().unwrap().push(format!("{}: {}", p.task, p.message));
     }
     fn should_stop(&self) -> bool {

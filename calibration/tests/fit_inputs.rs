@@ -3,9 +3,9 @@
 //! wrong.
 use std::path::Path;
 
-use scratchart::observe::Silent;
-use scratchart::render::Renderer;
 use scratchart_calibration::simulate::Camera;
+use scratchart_optim::observe::Silent;
+use scratchart_render::Renderer;
 use scratchart_tests::{assert_no_validation, gpu};
 use scratchart_tool::Tool;
 
@@ -128,7 +128,7 @@ fn refuses_what_it_cannot_fit() {
     );
     // A photo of nothing: uniform grey.
     let blank = dir.join("cam_west.png");
-    scratchart::io::write_png_gray(&blank, 256, 256, &vec![40u8; 256 * 256]).unwrap();
+    scratchart_render::io::write_png_gray(&blank, 256, 256, &vec![40u8; 256 * 256]).unwrap();
     let e = msg(fit(&r, &card_path, vec![good[0].clone(), blank], "v-bit", &out).unwrap_err());
     assert!(e.contains("card not found") && e.contains("cam_west.png"), "{e}");
     // Saturated: a huge exposure.

@@ -4,13 +4,13 @@
 //! identified. Each refusal is exit 3 with no tool.json and a message that names the photo.
 use std::path::{Path, PathBuf};
 
-use scratchart::model::camera::ViewGeom;
-use scratchart::observe::Silent;
-use scratchart::render::Renderer;
 use scratchart_calibration::card::Card;
 use scratchart_calibration::fit_cmd::run;
 use scratchart_calibration::phone::{take, Pose, Shot};
 use scratchart_calibration::register::{find_marks, load_photo, resize};
+use scratchart_model::camera::ViewGeom;
+use scratchart_optim::observe::Silent;
+use scratchart_render::Renderer;
 use scratchart_tests::{assert_no_validation, gpu};
 use scratchart_tool::Tool;
 
@@ -21,7 +21,7 @@ use common::{args, card, code, tmp};
 fn shoot(
     r: &Renderer,
     card: &Card,
-    capture: &scratchart::model::scene::Scene,
+    capture: &scratchart_model::scene::Scene,
     tool: &Tool,
     shots: &[Shot],
     dir: &Path,
@@ -42,7 +42,7 @@ fn photos_that_are_not_the_card_are_refused() {
     let (_, _, card_path) = card(&dir);
     // The circuit board: pads in rows, a few larger chips, traces, on dark green.
     let (w, h) = (1600u32, 1200u32);
-    let mut rng = scratchart::scenes::Rng::new(5);
+    let mut rng = scratchart_design::scenes::Rng::new(5);
     let mut img = image::RgbImage::from_pixel(w, h, image::Rgb([20, 60, 30]));
     for _ in 0..400 {
         let (x, y) = (
@@ -416,7 +416,7 @@ fn photos_beyond_each_limit_of_the_guide_are_refused_naming_it() {
         radius_mm: 0.1,
         z_offset_mm: 0.005,
     };
-    let mut rng = scratchart::scenes::Rng::new(3);
+    let mut rng = scratchart_design::scenes::Rng::new(3);
     // (Enlarged: only some enlargements are told apart from a photo's own pixels, see
     // `resampled`; ImageMagick's default by 3 is tested in tests/fit.rs, a JPEG that kept its
     // EXIF below, and the study counts the rest.)

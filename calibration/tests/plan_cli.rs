@@ -2,7 +2,7 @@
 //! and plans that leave their bounds are refused with the README's exit codes.
 use std::process::Command;
 
-use scratchart::model::scene::{Scene, Scratch};
+use scratchart_model::scene::{Scene, Scratch};
 
 fn design(plate: f64) -> Scene {
     let h = 0.4 * plate;
@@ -247,7 +247,7 @@ fn the_mark_is_cut_at_the_plus_x_edge_unless_turned_off() {
 
 #[test]
 fn depths_come_from_the_z_mm_column_and_follow_a_height_map() {
-    use scratchart::model::scene::Extra;
+    use scratchart_model::scene::Extra;
     let (bin, dir) = setup("zmm");
     let scene = design(100.0);
     let z: Vec<f64> = (0..scene.scratches.len()).map(|k| 0.01 + 0.001 * k as f64).collect();
@@ -321,7 +321,7 @@ fn depths_come_from_the_z_mm_column_and_follow_a_height_map() {
 /// the same design without the tool, is refused with exit 3, saying why.
 #[test]
 fn commanded_depths_start_at_the_tools_surface() {
-    use scratchart::model::scene::Extra;
+    use scratchart_model::scene::Extra;
     let (bin, dir) = setup("surface");
     std::fs::write(
         dir.join("raised.json"),
@@ -384,12 +384,12 @@ fn the_machine_profile_is_printed_and_read_back() {
     std::fs::create_dir_all(&dir).unwrap();
     let run = |args: &[&str]| Command::new(&bin).current_dir(&dir).args(args).output().unwrap();
     for (machine, want) in [
-        ("grbl", scratchart_machine::plan::MachineProfile::grbl()),
-        ("marlin", scratchart_machine::plan::MachineProfile::marlin()),
+        ("grbl", scratchart_tool::machine::MachineProfile::grbl()),
+        ("marlin", scratchart_tool::machine::MachineProfile::marlin()),
     ] {
         let o = run(&["plan", "--print-machine", "--machine", machine]);
         assert_eq!(o.status.code(), Some(0), "{}", String::from_utf8_lossy(&o.stderr));
-        let got: scratchart_machine::plan::MachineProfile = serde_json::from_slice(&o.stdout).unwrap();
+        let got: scratchart_tool::machine::MachineProfile = serde_json::from_slice(&o.stdout).unwrap();
         assert_eq!(got, want);
     }
     design(60.0).save(&dir.join("design.json"), "s.csv").unwrap();

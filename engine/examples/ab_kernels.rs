@@ -7,8 +7,8 @@
 //!   cargo run --release -p scratchart --example ab_kernels -- DIR [SIZE [REPEATS]]
 //! (DIR holds a `shaders` tree or is one; SIZE as `bench --sizes`, default M).
 use scratchart::bench::{median, perturbed_target_dl};
-use scratchart::render::Renderer;
-use scratchart::vulkan::{Context, ContextDesc, Recorder, ShaderCompiler};
+use scratchart_render::Renderer;
+use scratchart_vulkan::{Context, ContextDesc, Recorder, ShaderCompiler};
 use std::path::PathBuf;
 use std::time::Instant;
 

@@ -7,9 +7,9 @@
 //!   cargo run --release -p scratchart --example adaptive_gain -- [SCENE ...] [--repeats N]
 //! SCENE: a bench size (S, M, P) or a scene file (a design's `design.json`); default S M.
 use scratchart::bench::median;
-use scratchart::render::kernels::{Integrator, KernelSet};
-use scratchart::render::Renderer;
-use scratchart::vulkan::{Context, ContextDesc};
+use scratchart_render::kernels::{Integrator, KernelSet};
+use scratchart_render::Renderer;
+use scratchart_vulkan::{Context, ContextDesc};
 
 fn main() -> anyhow::Result<()> {
     let (names, reps) = scratchart::bench::example_args(7)?;

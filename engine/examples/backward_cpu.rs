@@ -4,9 +4,9 @@
 //! cores, which GPU timestamps (wall time) do. Run:
 //!   cargo run --release -p scratchart --example backward_cpu -- M 3 [--no-dual]
 use scratchart::bench::{median, perturbed_target_dl};
-use scratchart::render::kernels::{Integrator, KernelSet, Mode};
-use scratchart::render::Renderer;
-use scratchart::vulkan::{Context, ContextDesc, Recorder};
+use scratchart_render::kernels::{Integrator, KernelSet, Mode};
+use scratchart_render::Renderer;
+use scratchart_vulkan::{Context, ContextDesc, Recorder};
 
 #[path = "common/cpu.rs"]
 mod cpu;

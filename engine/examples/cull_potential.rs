@@ -15,14 +15,14 @@
 //!   per-pixel rule with these bounds can drop.
 //!
 //! `cargo run --release -p scratchart --example cull_potential [SCENE.json]`
-use scratchart::model::reference::{ndf, ndf_flat, pixel, scratch_patch_integral};
-use scratchart::model::scene::Scene;
-use scratchart::model::ViewGeom;
+use scratchart_model::reference::{ndf, ndf_flat, pixel, scratch_patch_integral};
+use scratchart_model::scene::Scene;
+use scratchart_model::ViewGeom;
 
 /// Share of engine/docs/model.md's relative bar (1e-3) left to culling.
 const EPS: f64 = 2.5e-4;
 
-fn dmax(s: &scratchart::model::scene::Scratch, h: [f64; 3]) -> f64 {
+fn dmax(s: &scratchart_model::scene::Scratch, h: [f64; 3]) -> f64 {
     let l = s.length();
     let t = [(s.p1[0] - s.p0[0]) / l, (s.p1[1] - s.p0[1]) / l];
     let b = [-t[1], t[0]];

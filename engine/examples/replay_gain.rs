@@ -6,9 +6,9 @@
 //!   cargo run --release -p scratchart --example replay_gain -- [SCENE ...] [--repeats N]
 //! SCENE: a bench size (S, M, P) or a scene file (a design's `design.json`); default S M.
 use scratchart::bench::{median, perturbed_target_dl};
-use scratchart::render::kernels::KernelSet;
-use scratchart::render::Renderer;
-use scratchart::vulkan::{Context, ContextDesc, Recorder};
+use scratchart_render::kernels::KernelSet;
+use scratchart_render::Renderer;
+use scratchart_vulkan::{Context, ContextDesc, Recorder};
 
 fn main() -> anyhow::Result<()> {
     let (names, reps) = scratchart::bench::example_args(5)?;

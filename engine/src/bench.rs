@@ -2,10 +2,10 @@
 use std::fmt::Write as _;
 use std::sync::Arc;
 
-use crate::model::scene::{Plate, Scene};
-use crate::render::Renderer;
-use crate::scenes::{orbit_light, random_scratches, ring_views, Rng};
-use crate::vulkan::{Context, GpuError, Recorder};
+use scratchart_design::scenes::{orbit_light, random_scratches, ring_views, Rng};
+use scratchart_model::scene::{Plate, Scene};
+use scratchart_render::Renderer;
+use scratchart_vulkan::{Context, GpuError, Recorder};
 
 /// Floating-point operations of `forward.comp` per candidate (pixel, scratch) test that is culled
 /// by the footprint's bounding circle: 2 subtractions, 2 dot products (4 mul + 2 add),
@@ -39,7 +39,7 @@ pub struct ForwardRow {
     /// bands of tile rows per view in the pair search (0: none; `GpuScene::binning_bands`)
     pub bands: u32,
     /// the pair search's mode (`GpuScene::binning_mode`)
-    pub mode: crate::render::BinMode,
+    pub mode: scratchart_render::BinMode,
     /// threads of its pass over (scratch, tile) work, and the most tile tests one made
     pub bin_threads: u64,
     pub bin_tests_per_thread: u64,
@@ -77,10 +77,10 @@ pub fn run_forward(
     warmup: usize,
     repeats: usize,
     compare_backward: bool,
-    binning_mode: Option<crate::render::BinMode>,
+    binning_mode: Option<scratchart_render::BinMode>,
     binning_bands: Option<u32>,
 ) -> Result<Vec<ForwardRow>, GpuError> {
-    use crate::render::kernels::{Integrator, KernelSet, Mode};
+    use scratchart_render::kernels::{Integrator, KernelSet, Mode};
     let renderer = Renderer::new(ctx)?;
     renderer.prepare_backward()?;
     let oracle = if compare_backward {
@@ -297,7 +297,11 @@ pub fn bench_targets(
     };
     Ok(lin
         .into_iter()
-        .map(|img| img.into_iter().map(|l| crate::io::display_value(l).min(1.0)).collect())
+        .map(|img| {
+            img.into_iter()
+                .map(|l| scratchart_render::io::display_value(l).min(1.0))
+                .collect()
+        })
         .collect())
 }
 
@@ -310,7 +314,7 @@ pub fn run_iterations(
     warmup: u32,
     iters: u32,
 ) -> anyhow::Result<IterRow> {
-    use crate::optim::design::{DesignConfig, Optimizer, Problem};
+    use scratchart_design::design::{DesignConfig, Optimizer, Problem};
     let renderer = Renderer::new(ctx)?;
     let problem = Problem::new(scene.clone(), targets);
     let mut cfg = DesignConfig::new(scene.plate.size_mm, std::env::temp_dir());
@@ -318,15 +322,15 @@ pub fn run_iterations(
     cfg.write_outputs = false;
     cfg.calibrate_lights = false;
     cfg.checkpoint_every = 0;
-    let loss = crate::optim::loss::Loss::new(
+    let loss = scratchart_optim::loss::Loss::new(
         ctx,
-        &crate::render::layout::view_slots(scene).views,
+        &scratchart_render::layout::view_slots(scene).views,
         &problem.targets,
         cfg.loss,
     )?;
     let mut opt = Optimizer::new(&renderer, &loss, &problem, &cfg)?;
     let t0 = std::time::Instant::now();
-    let (_, _) = opt.run(&crate::observe::Silent)?;
+    let (_, _) = opt.run(&scratchart_optim::observe::Silent)?;
     let wall = t0.elapsed().as_secs_f64();
     let steps: Vec<&Vec<(String, f64)>> = opt
         .driver
@@ -402,9 +406,9 @@ pub fn iteration_table(rows: &[IterRow]) -> String {
 /// that falls on a tile edge may count a tile more or less). It depends on the scene and the
 /// mode only, not on the device; `GpuScene::binning_threads` and `RenderStats::bin_tests_per_thread`
 /// give the device's own figures for a render.
-pub fn binning_work(scene: &Scene, mode: crate::render::BinMode, bands: u32) -> (u64, u64) {
-    use crate::model::camera::ViewGeom;
-    use crate::render::layout::TILE;
+pub fn binning_work(scene: &Scene, mode: scratchart_render::BinMode, bands: u32) -> (u64, u64) {
+    use scratchart_model::camera::ViewGeom;
+    use scratchart_render::layout::TILE;
     let n = scene.scratches.len();
     let nv = scene.views.len();
     let geoms: Vec<ViewGeom> = scene.views.iter().map(ViewGeom::new).collect();
@@ -468,8 +472,8 @@ pub fn binning_work(scene: &Scene, mode: crate::render::BinMode, bands: u32) -> 
         }
     };
     let group = match mode {
-        crate::render::BinMode::Groups => crate::render::GROUP_SIZE as usize,
-        crate::render::BinMode::Pairs => 1,
+        scratchart_render::BinMode::Groups => scratchart_render::GROUP_SIZE as usize,
+        scratchart_render::BinMode::Pairs => 1,
     };
     let n_groups = n.div_ceil(group).max(1);
     let parts = if bands == 0 { 1 } else { nv as u64 * bands as u64 };
@@ -498,7 +502,7 @@ pub fn binning_work(scene: &Scene, mode: crate::render::BinMode, bands: u32) -> 
 /// Markdown table of binning's work for each scene, in both modes, with the bands a GPU
 /// chooses and without bands (a CPU driver's choice for groups).
 pub fn binning_work_table(scenes: &[(String, Scene)]) -> String {
-    use crate::render::{bands_on_gpu, BinMode};
+    use scratchart_render::{bands_on_gpu, BinMode};
     let mut s = String::new();
     let _ = writeln!(
         s,
@@ -509,7 +513,7 @@ pub fn binning_work_table(scenes: &[(String, Scene)]) -> String {
         let max_rows = scene
             .views
             .iter()
-            .map(|v| v.camera.height.div_ceil(crate::render::layout::TILE))
+            .map(|v| v.camera.height.div_ceil(scratchart_render::layout::TILE))
             .max()
             .unwrap_or(1);
         let n = scene.scratches.len() as u32;
@@ -547,9 +551,9 @@ The pairs mode's sort adds {} passes of 8 bits per render here at most, each a t
                 let tiles: u32 = sc
                     .views
                     .iter()
-                    .map(|v| v.camera.width.div_ceil(crate::render::layout::TILE) * v.camera.height.div_ceil(crate::render::layout::TILE))
+                    .map(|v| v.camera.width.div_ceil(scratchart_render::layout::TILE) * v.camera.height.div_ceil(scratchart_render::layout::TILE))
                     .sum();
-                crate::render::radix_passes(tiles)
+                scratchart_render::radix_passes(tiles)
             })
             .max()
             .unwrap_or(1)
@@ -591,7 +595,7 @@ pub fn bench_scene(name: &str) -> Option<Scene> {
     let mut rng = Rng::new(0x5C2A7C4 + n as u64);
     let light = orbit_light(300.0, 45.0, 60.0, 90_000.0);
     let vs = if walk {
-        let arc = crate::optim::walk::WalkArc {
+        let arc = scratchart_design::walk::WalkArc {
             arc_deg: 60.0,
             centre_azimuth_deg: 0.0,
             elevation_deg: 45.0,
@@ -600,7 +604,7 @@ pub fn bench_scene(name: &str) -> Option<Scene> {
             between: 0,
             res,
         };
-        crate::optim::walk::arc_views(&arc, plate, &light).0
+        scratchart_design::walk::arc_views(&arc, plate, &light).0
     } else {
         let mut vs = ring_views(3, 45.0, 300.0, plate, res, &light);
         vs.truncate(views);

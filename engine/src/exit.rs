@@ -14,13 +14,13 @@
 //! calibration), over the error types of every library (engine, tool, machine).
 use std::error::Error;
 
-pub use scratchart_exit::{Class, ExitClass, InputError, UsageError};
+use scratchart_exit::{Class, InputError, UsageError};
 
-use crate::io::IoError;
-use crate::model::scene::SceneError;
-use crate::optim::targets::TargetError;
-use crate::optim::OptimError;
-use crate::vulkan::GpuError;
+use scratchart_design::targets::TargetError;
+use scratchart_model::scene::SceneError;
+use scratchart_optim::error::OptimError;
+use scratchart_render::io::IoError;
+use scratchart_vulkan::GpuError;
 
 /// Every error type of the project's libraries, and clap's.
 const KNOWN: &[scratchart_exit::Classifier] = &[
@@ -29,7 +29,8 @@ const KNOWN: &[scratchart_exit::Classifier] = &[
     scratchart_exit::classifier::<IoError>,
     scratchart_exit::classifier::<SceneError>,
     scratchart_exit::classifier::<TargetError>,
-    scratchart_exit::classifier::<crate::model::mesh::MeshError>,
+    scratchart_exit::classifier::<scratchart_design::SpecError>,
+    scratchart_exit::classifier::<scratchart_model::mesh::MeshError>,
     scratchart_exit::classifier::<GpuError>,
     scratchart_exit::classifier::<OptimError>,
     scratchart_exit::classifier::<scratchart_tool::ToolError>,
@@ -53,15 +54,6 @@ pub fn class(err: &(dyn Error + 'static)) -> Class {
 /// The exit code of an error (see [`class`]).
 pub fn code(err: &(dyn Error + 'static)) -> u8 {
     class(err).code()
-}
-
-impl ExitClass for TargetError {
-    fn exit_class(&self) -> Option<Class> {
-        match self {
-            TargetError::Image(io) => io.exit_class(),
-            TargetError::Count { .. } | TargetError::Uniform { .. } => Some(Class::Input),
-        }
-    }
 }
 
 /// Exit code of an `anyhow` error (what the binaries hold).

@@ -1,35 +1,18 @@
-//! scratchart: a GPU engine for scratch-based reflection art.
+//! scratchart: the program. Its command line (`scratchart render | grad | design | bench | study
+//! ...`), the terminal (progress, Ctrl-C), the benchmarks, the speed-against-accuracy study, and the
+//! one exit mapping of every binary (engine, viewer, calibration). The work is the libraries':
+//! `scratchart-model` (the scene model and the float64 reference), `scratchart-vulkan`,
+//! `scratchart-render`, `scratchart-optim` and `scratchart-design` (the design job); each import
+//! names the crate it comes from.
 //!
-//! - [`vulkan`]: the ash layer (instance, device, buffers, compute pipelines, command recording):
-//!   the crate `scratchart-vulkan` (`engine/vulkan/`), re-exported here.
-//! - [`model`]: the scratch model of `engine/docs/model.md`: scene files, geometry, and the float64 CPU
-//!   reference (a test oracle only; never a fallback for the GPU path). It is the crate
-//!   `scratchart-model` (`engine/model/`), re-exported here so `scratchart::model::...` paths hold;
-//!   it builds without Vulkan, for the crates that need the scene model but no GPU.
-//! - [`render`]: the GPU renderer (pair search, patch-NDF shading, images, gradients): the crate
-//!   `scratchart-render` (`engine/render/`), re-exported here, with [`limits`].
-//! - [`io`]: PFM/PNG image files, written atomically.
-//! - [`optim`]: the generic optimizer (objective and parameter-set interfaces, Adam, rollback,
-//!   checkpoints) and the design job behind `scratchart design`.
-//! - [`observe`]: the [`observe::Observer`] trait: how libraries report progress and warnings
-//!   (they never print).
+//! - [`design_cmd`]: `scratchart design`'s flags, which make a `scratchart_design::DesignSpec`,
+//!   shared with the viewer's live design (`scratchart-view --design`), and its printed summary.
 //! - [`exit`]: the exit-code contract shared by every binary.
-//! - [`limits`]: scene sizes checked against the device and the host before any work.
-//! - [`design_cmd`]: `scratchart design`'s flags, problem and run, shared with the viewer's live
-//!   design (`scratchart-view --design`).
-// The library's own modules name it `scratchart::` as its programs do (`design_cmd`).
-extern crate self as scratchart;
-
+//! - [`term`]: the terminal observer (a progress bar, or lines in a log) and Ctrl-C.
+//! - [`bench`]: the benchmarks (`scratchart bench`).
+//! - [`study`]: the speed-against-accuracy study (`scratchart study`).
 pub mod bench;
 pub mod design_cmd;
 pub mod exit;
-pub use scratchart_model as model;
-pub use scratchart_optim::observe;
-pub use scratchart_render::io;
-pub use scratchart_render::limits;
-pub mod optim;
-pub use scratchart_render as render;
-pub mod scenes;
 pub mod study;
 pub mod term;
-pub use scratchart_vulkan as vulkan;

@@ -9,9 +9,9 @@ use scratchart::design_cmd;
 use scratchart::term;
 
 use scratchart::bench;
-use scratchart::model::scene::Scene;
-use scratchart::render::Renderer;
-use scratchart::vulkan::{Context, ContextDesc};
+use scratchart_model::scene::Scene;
+use scratchart_render::Renderer;
+use scratchart_vulkan::{Context, ContextDesc};
 
 #[derive(Parser)]
 #[command(
@@ -119,7 +119,7 @@ enum Cmd {
         /// sort orders them: the GPUs' default); e.g. `--binning groups,pairs`. Both give the
         /// same tile lists. Default: the device's choice
         #[arg(long, value_delimiter = ',', value_parser = parse_bin_mode)]
-        binning: Vec<scratchart::render::BinMode>,
+        binning: Vec<scratchart_render::BinMode>,
         /// Print binning's work for each scene instead (no device needed): its threads and the
         /// most tile tests one thread makes, in both modes, with the bands a GPU would take
         #[arg(long)]
@@ -190,7 +190,7 @@ fn run(cli: Cli) -> Result<()> {
                 Some(p) => load_scene(p)?,
                 None => {
                     eprintln!("no scene given: rendering the built-in demo plate");
-                    scratchart::scenes::demo_scene(256)
+                    scratchart_design::scenes::demo_scene(256)
                 }
             };
             let ctx = context(&cli)?;
@@ -254,7 +254,7 @@ fn run(cli: Cli) -> Result<()> {
 
 /// `scratchart devices`: the Vulkan devices, the default marked.
 fn devices_cmd() -> Result<()> {
-    let devices = scratchart::vulkan::list_devices()?;
+    let devices = scratchart_vulkan::list_devices()?;
     if devices.is_empty() {
         anyhow::bail!("no Vulkan device found (on Debian, `bash .ci/setup` installs Mesa's lavapipe)");
     }
@@ -286,7 +286,7 @@ fn study_cmd(
     methods: &[String],
     regimes: &[String],
 ) -> Result<()> {
-    use scratchart::render::kernels::Integrator;
+    use scratchart_render::kernels::Integrator;
     let methods: Vec<Integrator> = if methods.is_empty() {
         Integrator::STUDY.to_vec()
     } else {
@@ -295,7 +295,7 @@ fn study_cmd(
             .map(|m| {
                 Integrator::from_name(m).ok_or_else(|| {
                     let names: Vec<String> = Integrator::STUDY.iter().map(|i| i.name()).collect();
-                    scratchart::exit::UsageError(format!(
+                    scratchart_exit::UsageError(format!(
                         "--methods: unknown method '{m}' (choose from {})",
                         names.join(", ")
                     ))
@@ -306,7 +306,7 @@ fn study_cmd(
     };
     let known: Vec<&str> = scratchart::study::regimes(16, 1).iter().map(|r| r.name).collect();
     if let Some(bad) = regimes.iter().find(|r| !known.contains(&r.as_str())) {
-        return Err(scratchart::exit::UsageError(format!(
+        return Err(scratchart_exit::UsageError(format!(
             "--regimes: unknown regime '{bad}' (choose from {})",
             known.join(", ")
         ))
@@ -314,11 +314,11 @@ fn study_cmd(
     }
     for (flag, v) in [("--res", res), ("--time-res", time_res)] {
         if !(16..=1024).contains(&v) {
-            return Err(scratchart::exit::UsageError(format!("{flag} {v}: choose 16 to 1024")).into());
+            return Err(scratchart_exit::UsageError(format!("{flag} {v}: choose 16 to 1024")).into());
         }
     }
     let ctx = context(cli)?;
-    std::fs::create_dir_all(out).map_err(|e| scratchart::exit::InputError(format!("{}: {e}", out.display())))?;
+    std::fs::create_dir_all(out).map_err(|e| scratchart_exit::InputError(format!("{}: {e}", out.display())))?;
     let opt = scratchart::study::StudyOptions {
         res,
         time_res,
@@ -327,9 +327,9 @@ fn study_cmd(
         regimes: (!regimes.is_empty()).then(|| regimes.to_vec()),
     };
     let rows = scratchart::study::run(&ctx, &opt, &mut |line| eprintln!("{line}"))?;
-    scratchart::io::write_atomic(&out.join("study.csv"), scratchart::study::csv(&rows).as_bytes())?;
+    scratchart_render::io::write_atomic(&out.join("study.csv"), scratchart::study::csv(&rows).as_bytes())?;
     let verdict = scratchart::study::verdict(&rows);
-    scratchart::io::write_atomic(&out.join("verdict.txt"), verdict.as_bytes())?;
+    scratchart_render::io::write_atomic(&out.join("verdict.txt"), verdict.as_bytes())?;
     scratchart::study::chart(&rows, &out.join("study.png"))?;
     print!("{verdict}");
     eprintln!(
@@ -353,7 +353,7 @@ fn bench_cmd(
     iters: u32,
     targets: Option<&Path>,
     compare_backward: bool,
-    (binning, binning_bands): (&[scratchart::render::BinMode], Option<u32>),
+    (binning, binning_bands): (&[scratchart_render::BinMode], Option<u32>),
 ) -> Result<()> {
     let scenes: Vec<(String, Scene)> = match scene {
         Some(p) => vec![(p.display().to_string(), load_scene(p)?)],
@@ -363,7 +363,7 @@ fn bench_cmd(
                 scratchart::bench::bench_scene(s)
                     .map(|sc| (if s.len() == 1 { s.to_uppercase() } else { s.clone() }, sc))
                     .ok_or_else(|| {
-                        scratchart::exit::UsageError(format!(
+                        scratchart_exit::UsageError(format!(
                             "--sizes: unknown standard scene '{s}' (choose S, M, P, L, NxVxR such as 20000x3x256 with 1 to 3 views, or NxVxRw such as 10000x24x128w with 2 to 64 views along a walk)"
                         ))
                         .into()
@@ -376,7 +376,7 @@ fn bench_cmd(
         return Ok(());
     }
     let ctx = context(cli)?;
-    let modes: Vec<Option<scratchart::render::BinMode>> = if binning.is_empty() {
+    let modes: Vec<Option<scratchart_render::BinMode>> = if binning.is_empty() {
         vec![None]
     } else {
         binning.iter().map(|m| Some(*m)).collect()
@@ -430,7 +430,7 @@ fn load_scene(path: &Path) -> Result<Scene> {
 
 /// Prints what in a valid scene will surprise its user (see `limits::scene_warnings`).
 fn warn_about(scene: &Scene) {
-    for w in scratchart::limits::scene_warnings(scene) {
+    for w in scratchart_render::limits::scene_warnings(scene) {
         eprintln!("warning: {w}");
     }
 }
@@ -445,8 +445,8 @@ fn render_to_dir(ctx: &std::sync::Arc<Context>, scene: &Scene, out: &Path) -> Re
         let (w, h) = (view.camera.width, view.camera.height);
         let pfm = out.join(format!("{}.pfm", view.name));
         let png = out.join(format!("{}.png", view.name));
-        scratchart::io::write_pfm(&pfm, w, h, img)?;
-        scratchart::io::write_png_display(&png, w, h, img)?;
+        scratchart_render::io::write_pfm(&pfm, w, h, img)?;
+        scratchart_render::io::write_png_display(&png, w, h, img)?;
         eprintln!("wrote {} and {}", pfm.display(), png.display());
     }
     eprintln!(
@@ -465,9 +465,10 @@ fn read_linear_targets(scene: &Scene, dir: &Path) -> Result<Vec<Vec<f32>>> {
     let mut targets = Vec::new();
     for v in &scene.views {
         let p = dir.join(format!("{}.pfm", v.name));
-        let (w, h, data) = scratchart::io::read_pfm(&p).with_context(|| format!("target for view '{}'", v.name))?;
+        let (w, h, data) =
+            scratchart_render::io::read_pfm(&p).with_context(|| format!("target for view '{}'", v.name))?;
         if (w, h) != (v.camera.width, v.camera.height) {
-            return Err(scratchart::exit::InputError(format!(
+            return Err(scratchart_exit::InputError(format!(
                 "target {} is {w}x{h} but view '{}' renders {}x{}",
                 p.display(),
                 v.name,
@@ -488,27 +489,27 @@ fn grad_command(ctx: &std::sync::Arc<Context>, scene: &Scene, dir: &Path, out: &
     }
     let renderer = Renderer::new(ctx)?;
     let mut gs = renderer.upload(scene)?;
-    let r = scratchart::optim::check::check_loss_gradients(&renderer, &mut gs, scene, &targets)?;
+    let r = scratchart_optim::check::check_loss_gradients(&renderer, &mut gs, scene, &targets)?;
     let mut csv = String::from("x0,y0,x1,y1,w,d,alpha\n");
     for g in &r.grads.scratches {
         let row: Vec<String> = g.iter().map(|x| format!("{x:e}")).collect();
         csv += &row.join(",");
         csv.push('\n');
     }
-    scratchart::io::write_atomic(out, csv.as_bytes())?;
+    scratchart_render::io::write_atomic(out, csv.as_bytes())?;
     let mut lights = String::from("view,intensity\n");
     for (v, g) in scene.views.iter().zip(&r.grads.lights) {
         lights += &format!("{},{g:e}\n", v.name);
     }
     let lp = out.with_file_name("grads_lights.csv");
-    scratchart::io::write_atomic(&lp, lights.as_bytes())?;
+    scratchart_render::io::write_atomic(&lp, lights.as_bytes())?;
     println!("E_lin = {:.9e}", r.e_lin);
     eprintln!("wrote {} and {}", out.display(), lp.display());
     Ok(())
 }
 
 fn setup_command(ctx: &std::sync::Arc<Context>, scene: &Scene, dir: &Path, out: &Path) -> Result<()> {
-    use scratchart::optim::tolerance::SheetInputs;
+    use scratchart_design::tolerance::SheetInputs;
     let renderer = Renderer::new(ctx)?;
     // The inputs the design wrote beside itself: the sheet is then the design's own, to the digit.
     let inputs = match SheetInputs::load(dir, scene)? {
@@ -523,7 +524,7 @@ fn setup_command(ctx: &std::sync::Arc<Context>, scene: &Scene, dir: &Path, out: 
             approximate_sheet_inputs(&renderer, scene, dir)?
         }
     };
-    let (setup, _, advice) = scratchart::optim::setup::write_setup(out, &renderer, scene, &inputs)?;
+    let (setup, _, advice) = scratchart_design::setup::write_setup(out, &renderer, scene, &inputs)?;
     for a in advice {
         println!("{a}");
     }
@@ -538,28 +539,28 @@ fn approximate_sheet_inputs(
     renderer: &Renderer,
     scene: &Scene,
     dir: &Path,
-) -> Result<scratchart::optim::tolerance::SheetInputs> {
+) -> Result<scratchart_design::tolerance::SheetInputs> {
     let mut gs = renderer.upload(scene)?;
     let frame = renderer.render(&mut gs)?;
     let mut targets = Vec::new();
     for (v, img) in scene.views.iter().zip(&frame.images) {
         let t = dir.join(format!("{}_target.png", v.name));
         let (w, h) = (v.camera.width, v.camera.height);
-        let target = match scratchart::io::read_image_gray(&t) {
+        let target = match scratchart_render::io::read_image_gray(&t) {
             Ok((tw, th, data)) if (tw, th) == (w, h) => data,
             Ok((tw, th, _)) => {
                 eprintln!(
                     "warning: {} is {tw}x{th}, the view {w}x{h}: using the design's own render",
                     t.display()
                 );
-                img.iter().map(|&l| scratchart::io::display_value(l)).collect()
+                img.iter().map(|&l| scratchart_render::io::display_value(l)).collect()
             }
-            Err(_) => img.iter().map(|&l| scratchart::io::display_value(l)).collect(),
+            Err(_) => img.iter().map(|&l| scratchart_render::io::display_value(l)).collect(),
         };
         targets.push(target);
     }
     let pictures: Vec<Vec<bool>> = (0..scene.views.len())
-        .map(|v| scratchart::model::camera::on_plate_mask(scene, v))
+        .map(|v| scratchart_model::camera::on_plate_mask(scene, v))
         .collect();
     // Views the design left blank on purpose, as its summary.json lists them.
     let blank_views: Vec<String> = std::fs::read_to_string(dir.join("summary.json"))
@@ -568,10 +569,10 @@ fn approximate_sheet_inputs(
         .and_then(|v| v["blank_views"].as_array().cloned())
         .map(|a| a.iter().filter_map(|x| x.as_str().map(String::from)).collect())
         .unwrap_or_default();
-    Ok(scratchart::optim::tolerance::SheetInputs {
+    Ok(scratchart_design::tolerance::SheetInputs {
         targets,
         pictures,
-        sigma: scratchart::optim::LossConfig::default().sigma,
+        sigma: scratchart_optim::loss::LossConfig::default().sigma,
         blank_views,
     })
 }
@@ -585,6 +586,6 @@ fn check_validation(ctx: &Context) -> Result<()> {
 }
 
 /// `--binning`'s values.
-fn parse_bin_mode(s: &str) -> std::result::Result<scratchart::render::BinMode, String> {
-    scratchart::render::BinMode::parse(s).ok_or_else(|| format!("'{s}': choose groups or pairs"))
+fn parse_bin_mode(s: &str) -> std::result::Result<scratchart_render::BinMode, String> {
+    scratchart_render::BinMode::parse(s).ok_or_else(|| format!("'{s}': choose groups or pairs"))
 }

@@ -24,12 +24,12 @@ use anyhow::{Context as _, Result};
 use plotters::prelude::*;
 
 use crate::bench::median;
-use crate::model::reference::render_view;
-use crate::model::scene::{Plate, Scene, Scratch, View};
-use crate::render::kernels::{Integrator, KernelSet};
-use crate::render::Renderer;
-use crate::scenes::{orbit_camera, orbit_light, Rng};
-use crate::vulkan::Context;
+use scratchart_design::scenes::{orbit_camera, orbit_light, Rng};
+use scratchart_model::reference::render_view;
+use scratchart_model::scene::{Plate, Scene, Scratch, View};
+use scratchart_render::kernels::{Integrator, KernelSet};
+use scratchart_render::Renderer;
+use scratchart_vulkan::Context;
 
 /// engine/docs/model.md section 8's forward bar on this study's error measure.
 pub const BAR: f64 = 1e-3;
@@ -374,7 +374,7 @@ pub fn run(ctx: &Arc<Context>, opt: &StudyOptions, progress: &mut dyn FnMut(&str
         }
         progress(&format!("{}: float64 reference ({})", reg.name, reg.what));
         let reference = render_view(&reg.scene, 0);
-        let on_plate = crate::model::camera::on_plate_mask(&reg.scene, 0);
+        let on_plate = scratchart_model::camera::on_plate_mask(&reg.scene, 0);
         // Every method renders the checked scene once and the timed one after a warm-up; then
         // the timed renders go round the methods, repeat after repeat, so that a machine whose
         // speed drifts slows every method alike.
@@ -548,7 +548,7 @@ pub fn chart(rows: &[Row], path: &Path) -> Result<()> {
     {
         let root = BitMapBackend::with_buffer(&mut buf, (w, h)).into_drawing_area();
         root.fill(&WHITE)?;
-        let font = crate::optim::report::plot_font();
+        let font = scratchart_design::report::plot_font();
         let text = font.is_some();
         let font = font.unwrap_or("sans-serif");
         let (title, body) = root.split_vertically(40);
@@ -646,6 +646,6 @@ pub fn chart(rows: &[Row], path: &Path) -> Result<()> {
         }
         root.present()?;
     }
-    crate::io::write_png_rgb(path, w, h, &buf).with_context(|| format!("writing {}", path.display()))?;
+    scratchart_render::io::write_png_rgb(path, w, h, &buf).with_context(|| format!("writing {}", path.display()))?;
     Ok(())
 }

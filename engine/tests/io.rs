@@ -2,7 +2,7 @@
 
 use std::path::PathBuf;
 
-use scratchart::io;
+use scratchart_render::io;
 
 fn tmpdir(tag: &str) -> PathBuf {
     let d = std::env::temp_dir().join(format!("scratchart_io_{}_{tag}", std::process::id()));

@@ -4,7 +4,7 @@
 //! while the objects, device and instance are destroyed.
 use std::sync::Arc;
 
-use scratchart::vulkan::{
+use scratchart_vulkan::{
     Buffer, ComputePipeline, Context, ContextDesc, GpuError, MemLoc, Recorder, ShaderCompiler, ValidationLog,
 };
 

@@ -8,7 +8,7 @@ use std::path::{Path, PathBuf};
 use std::time::SystemTime;
 
 use anyhow::{Context as _, Result};
-use scratchart::model::scene::Scene;
+use scratchart_model::scene::Scene;
 
 /// A target image as display values in [0, 1], top row first.
 #[derive(Clone, Debug)]
@@ -34,7 +34,7 @@ pub const DEMO_RES: u32 = 256;
 
 impl Design {
     pub fn demo() -> Design {
-        let scene = scratchart::scenes::demo_scene(DEMO_RES);
+        let scene = scratchart_design::scenes::demo_scene(DEMO_RES);
         Design {
             path: None,
             targets: vec![None; scene.views.len()],
@@ -45,7 +45,7 @@ impl Design {
 
     /// A live design's problem as the viewer shows it: its views, its initial scratches, and
     /// each view's target as the loss uses it.
-    pub fn live(problem: &scratchart::optim::Problem) -> Design {
+    pub fn live(problem: &scratchart_design::Problem) -> Design {
         let scene = problem.scene.clone();
         let targets = scene
             .views
@@ -94,7 +94,7 @@ impl Design {
                 .clone()
                 .unwrap_or_else(|| dir.join(format!("{}_target.png", view.name)));
             let target = if tpath.exists() {
-                match scratchart::io::read_image_gray(&tpath) {
+                match scratchart_render::io::read_image_gray(&tpath) {
                     Ok((width, height, data)) => Some(Target {
                         path: tpath,
                         width,
@@ -143,7 +143,7 @@ impl Design {
             }
         }
         views.iter().position(|v| v.name == sel).ok_or_else(|| {
-            scratchart::exit::UsageError(format!(
+            scratchart_exit::UsageError(format!(
                 "no view '{sel}' in {} (it has {} views: {})",
                 self.name(),
                 views.len(),

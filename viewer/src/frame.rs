@@ -14,10 +14,10 @@ use std::sync::Arc;
 use std::time::Instant;
 
 use ash::vk;
-use scratchart::model::scene::{Scene, View};
-use scratchart::render::present::PresentPush;
-use scratchart::render::{GpuScene, RenderStats, Renderer};
-use scratchart::vulkan::{Buffer, ComputePipeline, Context, GpuError, MemLoc, Recorder, ShaderCompiler, Timings};
+use scratchart_model::scene::{Scene, View};
+use scratchart_render::present::PresentPush;
+use scratchart_render::{GpuScene, RenderStats, Renderer};
+use scratchart_vulkan::{Buffer, ComputePipeline, Context, GpuError, MemLoc, Recorder, ShaderCompiler, Timings};
 
 use crate::design::Target;
 use crate::overlay::{self, Mark};
@@ -139,7 +139,7 @@ pub struct FrameRenderer {
     /// One uploaded scene per internal size, most recently used last, with the camera its tile
     /// lists were binned for (a frame from the same camera with the same scratches keeps them:
     /// a lamp that moves needs the shading only).
-    cache: Vec<((u32, u32), GpuScene, Option<scratchart::model::scene::Camera>)>,
+    cache: Vec<((u32, u32), GpuScene, Option<scratchart_model::scene::Camera>)>,
     out: Option<Buffer>,
     target: Buffer,
     target_dims: Option<(u32, u32)>,
@@ -151,7 +151,7 @@ pub struct FrameRenderer {
     /// The set-up overlay's pixels, written by the host and copied into the output (grows).
     overlay: Option<Buffer>,
     /// The pair search's mode when not the device's (`--binning`)
-    binning: Option<scratchart::render::BinMode>,
+    binning: Option<scratchart_render::BinMode>,
 }
 
 /// Uploaded scenes kept at once (each holds the scratches and the binning buffers).
@@ -176,14 +176,14 @@ impl FrameRenderer {
     }
 
     /// The binning mode and threads of the scene rendered last.
-    pub fn binning_info(&self) -> Option<(scratchart::render::BinMode, u64)> {
+    pub fn binning_info(&self) -> Option<(scratchart_render::BinMode, u64)> {
         self.cache
             .last()
             .map(|(_, gs, _)| (gs.binning_mode(), gs.binning_threads()))
     }
 
     /// Bins every scene uploaded from now on in `mode` (the same images; for measurements).
-    pub fn set_binning(&mut self, mode: Option<scratchart::render::BinMode>) {
+    pub fn set_binning(&mut self, mode: Option<scratchart_render::BinMode>) {
         self.binning = mode;
         self.cache.clear();
     }

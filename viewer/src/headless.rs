@@ -7,8 +7,8 @@ use std::path::Path;
 use std::sync::Arc;
 
 use anyhow::{Context as _, Result};
-use scratchart::model::scene::View;
-use scratchart::vulkan::{Context, ContextDesc, GpuError, ShaderCompiler, ValidationLog};
+use scratchart_model::scene::View;
+use scratchart_vulkan::{Context, ContextDesc, GpuError, ShaderCompiler, ValidationLog};
 
 use crate::design::Design;
 use crate::frame::{internal_size, FrameInfo, FrameParams, FrameRenderer, Layout};
@@ -145,10 +145,10 @@ pub fn write_frame(
     )?;
     if setup.is_some() {
         let rgb = fr.read_output_rgb(layout.out)?;
-        scratchart::io::write_png_rgb(path, layout.out.0, layout.out.1, &rgb)?;
+        scratchart_render::io::write_png_rgb(path, layout.out.0, layout.out.1, &rgb)?;
     } else {
         let bytes = fr.read_output_gray(layout.out)?;
-        scratchart::io::write_png_gray(path, layout.out.0, layout.out.1, &bytes)?;
+        scratchart_render::io::write_png_gray(path, layout.out.0, layout.out.1, &bytes)?;
     }
     Ok((info, layout.out))
 }
@@ -332,7 +332,7 @@ pub struct BenchRow {
 }
 
 /// Median per label over `frames` (labels in first-seen order).
-pub fn stage_medians(frames: &[scratchart::vulkan::Timings]) -> Vec<(String, f64)> {
+pub fn stage_medians(frames: &[scratchart_vulkan::Timings]) -> Vec<(String, f64)> {
     let mut labels: Vec<String> = Vec::new();
     for t in frames {
         for (l, _) in &t.entries {

@@ -20,9 +20,9 @@ use std::time::{Duration, Instant};
 
 use anyhow::{bail, Result};
 use scratchart::design_cmd::DesignArgs;
-use scratchart::model::scene::Scene;
-use scratchart::optim::design::run_design_live;
-use scratchart::vulkan::Context;
+use scratchart_design::design::run_design_live;
+use scratchart_model::scene::Scene;
+use scratchart_vulkan::Context;
 
 mod worker;
 use worker::hook;
@@ -317,8 +317,8 @@ impl Session {
     /// Starts the optimizer thread on `problem` (from `design_cmd::prepare`).
     pub fn start(
         ctx: Arc<Context>,
-        problem: scratchart::optim::Problem,
-        cfg: scratchart::optim::DesignConfig,
+        problem: scratchart_design::Problem,
+        cfg: scratchart_design::DesignConfig,
         script: Vec<(u32, ScriptCmd)>,
         quiet: bool,
         paused: bool,
@@ -349,7 +349,7 @@ impl Session {
                         .into_iter()
                         .zip(&live.problem.scene.views)
                         .map(|(img, v)| {
-                            let d = img.iter().map(|&l| scratchart::io::display_value(l)).collect();
+                            let d = img.iter().map(|&l| scratchart_render::io::display_value(l)).collect();
                             (v.camera.width, v.camera.height, d)
                         })
                         .collect();
@@ -499,7 +499,7 @@ pub fn context(
     o: &LiveOpts,
     instance_extensions: Vec<&'static std::ffi::CStr>,
     device_extensions: Vec<&'static std::ffi::CStr>,
-    log: &std::cell::RefCell<Option<scratchart::vulkan::ValidationLog>>,
+    log: &std::cell::RefCell<Option<scratchart_vulkan::ValidationLog>>,
 ) -> Result<Arc<Context>> {
     crate::headless::context_for(
         o.validation,
@@ -512,9 +512,9 @@ pub fn context(
 
 /// `--headless`: the live design without a window. Progress goes to the terminal, the script's
 /// items run as in the window, the design is saved when asked and at the end.
-pub fn run_headless(o: &LiveOpts, log: &std::cell::RefCell<Option<scratchart::vulkan::ValidationLog>>) -> Result<()> {
+pub fn run_headless(o: &LiveOpts, log: &std::cell::RefCell<Option<scratchart_vulkan::ValidationLog>>) -> Result<()> {
     let script = match &o.script {
-        Some(s) => parse_script(s).map_err(scratchart::exit::UsageError)?,
+        Some(s) => parse_script(s).map_err(scratchart_exit::UsageError)?,
         None => Vec::new(),
     };
     // Paused, the iterations stand still, so only an item of the same iteration can end a pause.
@@ -525,14 +525,14 @@ pub fn run_headless(o: &LiveOpts, log: &std::cell::RefCell<Option<scratchart::vu
                 .take_while(|(k2, _)| k2 == k)
                 .any(|(_, c2)| matches!(c2, ScriptCmd::Resume | ScriptCmd::Stop))
         {
-            bail!(scratchart::exit::UsageError(format!(
+            bail!(scratchart_exit::UsageError(format!(
                 "--script: the pause at iteration {k} is never resumed: headless, only a `{k}:resume` or \
                  `{k}:stop` after it can end it (the iterations stand still while paused)"
             )));
         }
     }
     if o.paused {
-        bail!(scratchart::exit::UsageError(
+        bail!(scratchart_exit::UsageError(
             "--paused needs the window: headless, nothing would resume it (use --script)".into()
         ));
     }

@@ -1,5 +1,5 @@
 //! `scratchart-view`: a real-time viewer for scratch-art designs. The plate is shaded by the
-//! engine's own kernels (`scratchart::render::Renderer`), so what the viewer shows is what
+//! engine's own kernels (`scratchart_render::Renderer`), so what the viewer shows is what
 //! `scratchart render` computes; see `viewer/README.md`.
 //!
 //! - [`app`]: the winit window, input, adaptive resolution, hot reload.
@@ -148,7 +148,7 @@ pub struct Opts {
     /// the CPU drivers' default) or `pairs` (a thread per scratch, then a radix sort by tile;
     /// the GPUs' default). The images are the same; default: the device's choice
     #[arg(long, value_parser = parse_bin_mode)]
-    pub binning: Option<scratchart::render::BinMode>,
+    pub binning: Option<scratchart_render::BinMode>,
     /// Timed frames per benchmark row (after 3 warm-up frames)
     #[arg(long, default_value_t = 20)]
     pub bench_frames: usize,
@@ -232,7 +232,7 @@ impl Opts {
 
 /// The refusal of `--walk` (or key W's message) for a design with fewer than 2 views.
 pub fn walk_refused(design: &design::Design) -> anyhow::Error {
-    scratchart::exit::UsageError(format!(
+    scratchart_exit::UsageError(format!(
         "--walk needs a design with at least 2 views: {} has {} ({})",
         design.name(),
         design.scene.views.len(),
@@ -285,7 +285,7 @@ fn main() -> ExitCode {
                 Err(e) => {
                     let _ = e.print();
                     return if e.use_stderr() {
-                        scratchart::exit::Class::Usage.exit_code()
+                        scratchart_exit::Class::Usage.exit_code()
                     } else {
                         ExitCode::SUCCESS
                     };
@@ -312,7 +312,7 @@ fn main() -> ExitCode {
     let n_validation = log
         .borrow()
         .as_ref()
-        .map(|l: &scratchart::vulkan::ValidationLog| l.messages().len());
+        .map(|l: &scratchart_vulkan::ValidationLog| l.messages().len());
     let n_validation = n_validation.filter(|_| validation);
     if let Some(n) = n_validation {
         eprintln!("validation messages: {n}");
@@ -327,12 +327,12 @@ fn main() -> ExitCode {
     scratchart::exit::finish(r)
 }
 
-fn run(opts: &Opts, log: &std::cell::RefCell<Option<scratchart::vulkan::ValidationLog>>) -> Result<()> {
+fn run(opts: &Opts, log: &std::cell::RefCell<Option<scratchart_vulkan::ValidationLog>>) -> Result<()> {
     if opts.exposure.is_nan() || opts.exposure <= 0.0 {
         bail!("--exposure must be a positive number");
     }
     if let (Some(d), false) = (opts.frames_dir(), opts.walk) {
-        return Err(scratchart::exit::UsageError(format!(
+        return Err(scratchart_exit::UsageError(format!(
             "--frames {} is a directory, which is where a walk's frames go: add --walk to render \
              the walk there (for a number of window frames give digits, e.g. --frames 10; a \
              directory named only with digits is written ./123)",
@@ -341,10 +341,9 @@ fn run(opts: &Opts, log: &std::cell::RefCell<Option<scratchart::vulkan::Validati
         .into());
     }
     if !(opts.walk_speed.is_finite() && opts.walk_speed > 0.0) {
-        return Err(scratchart::exit::UsageError(
-            "--walk-speed must be a positive number of degrees per second".into(),
-        )
-        .into());
+        return Err(
+            scratchart_exit::UsageError("--walk-speed must be a positive number of degrees per second".into()).into(),
+        );
     }
     let design = match &opts.design {
         Some(p) => design::Design::load(p)?,
@@ -374,6 +373,6 @@ fn run(opts: &Opts, log: &std::cell::RefCell<Option<scratchart::vulkan::Validati
 }
 
 /// `--binning`'s values.
-fn parse_bin_mode(s: &str) -> std::result::Result<scratchart::render::BinMode, String> {
-    scratchart::render::BinMode::parse(s).ok_or_else(|| format!("'{s}': choose groups or pairs"))
+fn parse_bin_mode(s: &str) -> std::result::Result<scratchart_render::BinMode, String> {
+    scratchart_render::BinMode::parse(s).ok_or_else(|| format!("'{s}': choose groups or pairs"))
 }

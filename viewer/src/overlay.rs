@@ -7,8 +7,8 @@
 //! towards it. An eye at the camera itself (the view being looked through) is listed at the top
 //! left. Every overlay pixel has a colour with R, G and B not all equal, so on the viewer's grey
 //! render it is told apart from the plate, and every other pixel is the render, unchanged.
-use scratchart::model::camera::ViewGeom;
-use scratchart::model::scene::{Camera, Light, LightKind, View};
+use scratchart_model::camera::ViewGeom;
+use scratchart_model::scene::{Camera, Light, LightKind, View};
 
 use crate::font;
 use crate::setup::{Kind, SetupInfo};

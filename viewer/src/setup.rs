@@ -1,11 +1,11 @@
 //! The physical set-up of a design, as the set-up sheet (`scratchart setup`) gives it: the lamp
 //! and every viewer's eye as azimuth, elevation, distance and x, y, z in the plate's frame, and
 //! the +x edge that carries the orientation mark. The numbers come from the engine's own
-//! [`scratchart::optim::setup`] (the sheet's [`Place`] and `summary.json`'s `setup`), so the
+//! [`scratchart_design::setup`] (the sheet's [`Place`] and `summary.json`'s `setup`), so the
 //! viewer shows exactly what the sheet prints. The overlay that draws them is `overlay.rs`.
-use scratchart::model::scene::{LightKind, Scene};
-use scratchart::optim::setup::setup_json;
-use scratchart::optim::tolerance::Place;
+use scratchart_design::setup::setup_json;
+use scratchart_design::tolerance::Place;
+use scratchart_model::scene::{LightKind, Scene};
 
 /// What a marker stands for.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

@@ -2,7 +2,7 @@
 //! sphere around the plate centre that can orbit on its own or be dragged. Both convert to and
 //! from the engine's [`Camera`] and [`Light`], so a design view can be jumped to exactly.
 use glam::DVec3;
-use scratchart::model::scene::{Camera, Light, LightKind};
+use scratchart_model::scene::{Camera, Light, LightKind};
 
 /// Degrees of orbit per pixel of mouse drag.
 const DEG_PER_PX: f64 = 0.3;
@@ -23,7 +23,7 @@ pub struct OrbitCamera {
 }
 
 fn spherical(distance: f64, az_deg: f64, el_deg: f64) -> DVec3 {
-    DVec3::from(scratchart::model::camera::spherical(distance, az_deg, el_deg))
+    DVec3::from(scratchart_model::camera::spherical(distance, az_deg, el_deg))
 }
 
 fn to_spherical(v: DVec3) -> (f64, f64, f64) {
@@ -173,7 +173,7 @@ mod tests {
 
     #[test]
     fn camera_round_trips() {
-        let c = scratchart::scenes::orbit_camera(300.0, 45.0, 120.0, 100.0, 256, 256);
+        let c = scratchart_design::scenes::orbit_camera(300.0, 45.0, 120.0, 100.0, 256, 256);
         let o = OrbitCamera::from_camera(&c);
         let back = o.camera(256, 256);
         for i in 0..3 {
@@ -183,7 +183,7 @@ mod tests {
 
     #[test]
     fn light_round_trips() {
-        let l = scratchart::scenes::orbit_light(300.0, 50.0, 200.0, 9e4);
+        let l = scratchart_design::scenes::orbit_light(300.0, 50.0, 200.0, 9e4);
         let back = LightRig::from_light(&l).light();
         let (LightKind::Point { position: a }, LightKind::Point { position: b }) = (l.kind, back.kind) else {
             panic!("kind changed")

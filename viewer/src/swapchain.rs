@@ -11,7 +11,7 @@ use std::sync::Arc;
 use anyhow::{bail, Context as _, Result};
 use ash::vk;
 use raw_window_handle::{HasDisplayHandle, HasWindowHandle};
-use scratchart::vulkan::{Context, GpuError};
+use scratchart_vulkan::{Context, GpuError};
 use winit::window::Window;
 
 /// How long an acquire may block before the frame is skipped.

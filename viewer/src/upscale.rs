@@ -10,7 +10,7 @@
 use std::sync::Arc;
 
 use ash::vk;
-use scratchart::vulkan::{Context, GpuError};
+use scratchart_vulkan::{Context, GpuError};
 
 fn vk_fail(call: &'static str) -> impl Fn(vk::Result) -> GpuError {
     move |result| match result {

@@ -8,7 +8,7 @@
 //! from view k to view k+1 at `k + t`. In the window the walk is timed: a gap takes
 //! `|delta azimuth| / speed` seconds (a gap without an azimuth change takes 1 s), and the ping-pong
 //! is a function of the time into a cycle, so it runs 0 -> N-1 -> 0 with no drift.
-use scratchart::model::scene::View;
+use scratchart_model::scene::View;
 
 use crate::state::{short_turn, OrbitCamera};
 
@@ -155,7 +155,7 @@ impl Walk {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use scratchart::scenes::{orbit_camera, orbit_light};
+    use scratchart_design::scenes::{orbit_camera, orbit_light};
 
     /// A view at azimuth `az`, elevation `el`, distance `dist` around the plate centre.
     fn view(name: &str, az: f64, el: f64, dist: f64) -> View {
@@ -167,7 +167,7 @@ mod tests {
         }
     }
 
-    fn assert_same_eye(what: &str, a: &scratchart::model::scene::Camera, b: &scratchart::model::scene::Camera) {
+    fn assert_same_eye(what: &str, a: &scratchart_model::scene::Camera, b: &scratchart_model::scene::Camera) {
         for i in 0..3 {
             assert!(
                 (a.eye[i] - b.eye[i]).abs() < 1e-9,

@@ -39,7 +39,7 @@ pub fn homography_lsq(src: &[[f64; 2]], dst: &[[f64; 2]]) -> Option<[f64; 9]> {
         }
     }
     let a: Vec<Vec<f64>> = ata.iter().map(|r| r.to_vec()).collect();
-    let hn = scratchart::optim::least_squares::solve_spd(&a, &atb)?;
+    let hn = scratchart_optim::least_squares::solve_spd(&a, &atb)?;
     let hn = [hn[0], hn[1], hn[2], hn[3], hn[4], hn[5], hn[6], hn[7], 1.0];
     // H = Td^-1 Hn Ts.
     let ts = [ss, 0.0, -ss * sx, 0.0, ss, -ss * sy, 0.0, 0.0, 1.0];

@@ -2,11 +2,11 @@
 //! photo shows (the optics' blur and registration shift at the render's resolution, exposure and
 //! shading, the sensor's clipping, the pixels adding up their subpixels, the display encoding),
 //! and the Jacobian columns of an off-pose photo's camera from the image's motion.
-use scratchart::model::camera::ViewGeom;
+use scratchart_model::camera::ViewGeom;
 
 use super::Evaluator;
 use crate::simulate::blur;
-use scratchart::optim::least_squares::cauchy;
+use scratchart_optim::least_squares::cauchy;
 
 /// Table points of a [`ChannelClip`].
 const CLIP_N: usize = 4096;
@@ -36,8 +36,8 @@ impl ChannelClip {
         if !(lo > 0.0) || !hi.is_finite() || hi / lo < 1.01 {
             return None;
         }
-        let disp = scratchart::model::display::display;
-        let lin = scratchart::model::display::linear;
+        let disp = scratchart_model::display::display;
+        let lin = scratchart_model::display::linear;
         let s = Self::gain_scale(gains);
         let top = 1.0 / (s * lo);
         let table = (0..=CLIP_N)
@@ -84,7 +84,7 @@ impl ChannelClip {
     }
 }
 
-use scratchart::model::par::par_map;
+use scratchart_model::par::par_map;
 
 impl Evaluator<'_, '_> {
     /// The Jacobian columns (d residual / d x_k) of the camera terms `ks` of photos taken off
@@ -173,7 +173,7 @@ impl Evaluator<'_, '_> {
             .into_iter()
             .map(|l| {
                 let l = if power != 1.0 && l > 0.0 { l.powf(power) } else { l };
-                let d = scratchart::io::display_value(l).min(1.0);
+                let d = scratchart_render::io::display_value(l).min(1.0);
                 // A photo used as taken: its pixel's expected value under clipped noise.
                 match &self.transfer[v] {
                     Some(t) => t.pixel(d, u),
@@ -292,7 +292,7 @@ impl Evaluator<'_, '_> {
 /// registration shift: the model's pixel p then shows what was at p + (dx, dy), x to the right,
 /// y down), exactly, with nothing resampled: a kernel moved by a sub-pixel amount blurs by an
 /// amount that changes with the phase, and needed a blur floor that a sharp photo does not have.
-pub(super) fn pan(camera: &mut scratchart::model::scene::Camera, dx: f64, dy: f64) {
+pub(super) fn pan(camera: &mut scratchart_model::scene::Camera, dx: f64, dy: f64) {
     let basis = camera.basis();
     let (f, r, u) = (basis.fwd, basis.right, basis.up);
     let dist = (glam::DVec3::from(camera.target) - glam::DVec3::from(camera.eye)).length();

@@ -53,7 +53,7 @@ impl Evaluator<'_, '_> {
 
     /// View v as the fit renders it for `x`: its camera corrected by the pose terms (for a photo
     /// taken off the capture pose), at `SUPERSAMPLE` times the photo's resolution.
-    pub(super) fn render_view(&self, x: &[f64], v: usize) -> scratchart::model::scene::View {
+    pub(super) fn render_view(&self, x: &[f64], v: usize) -> scratchart_model::scene::View {
         let mut view = self.data.capture.views[v].clone();
         view.camera.width *= self.ss;
         view.camera.height *= self.ss;
@@ -141,7 +141,7 @@ impl Evaluator<'_, '_> {
             // The grooves a step up and a step down each parameter cut (each its own fit of
             // the tool's sections: on the host's threads).
             let this = &*self;
-            let stepped = scratchart::model::par::par_map(2 * group.len(), |i| {
+            let stepped = scratchart_model::par::par_map(2 * group.len(), |i| {
                 let k = group[i / 2];
                 let q = &this.lay.params[k];
                 let mut xx = x.to_vec();
@@ -181,7 +181,7 @@ impl Evaluator<'_, '_> {
 
             self.tangent_passes += 1;
             let this = &*self;
-            cols.extend(scratchart::model::par::par_map(group.len(), |j| {
+            cols.extend(scratchart_model::par::par_map(group.len(), |j| {
                 let h = this.lay.params[group[j]].step;
                 let moved = |sign: f64| -> Vec<Vec<f32>> {
                     lin.iter()

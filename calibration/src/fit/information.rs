@@ -1,6 +1,6 @@
 //! What a capture tells of a tool before any photo is taken: the Cramér-Rao bound of every
 //! parameter the fit estimates, from the fit's own Jacobian at the truth.
-use scratchart::render::Renderer;
+use scratchart_render::Renderer;
 use scratchart_tool::Tool;
 
 use super::layout::Layout;
@@ -84,12 +84,12 @@ pub fn information(
     let seen: Vec<usize> = (0..cols.len()).filter(|&k| cols[k].iter().any(|c| *c != 0.0)).collect();
     let used: Vec<Vec<f64>> = seen.iter().map(|&k| cols[k].clone()).collect();
     let ones = vec![1.0; used.first().map_or(0, |c| c.len())];
-    let a = scratchart::optim::least_squares::weighted_gram(&used, &ones);
+    let a = scratchart_optim::least_squares::weighted_gram(&used, &ones);
     let mut out: Vec<(String, Option<f64>)> = ev.lay.params.iter().map(|p| (p.name.clone(), None)).collect();
     for (j, &k) in seen.iter().enumerate() {
         let mut e = vec![0.0; seen.len()];
         e[j] = 1.0;
-        if let Some(col) = scratchart::optim::least_squares::solve_spd(&a, &e) {
+        if let Some(col) = scratchart_optim::least_squares::solve_spd(&a, &e) {
             if col[j] > 0.0 {
                 out[k].1 = Some(noise * col[j].sqrt());
             }

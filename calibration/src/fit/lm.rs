@@ -1,12 +1,12 @@
 //! One refinement of the fit as a least-squares problem for the engine's generic solver
-//! (`scratchart::optim::least_squares`: robust Levenberg-Marquardt within bounds). The Jacobian:
+//! (`scratchart_optim::least_squares`: robust Levenberg-Marquardt within bounds). The Jacobian:
 //! the columns of the parameters that move the grooves (tool, z offset, alpha) from the engine's
 //! directional derivatives (`Evaluator::tangent_columns`, one pass per 7 parameters); the eyes of
 //! photos taken off the capture pose (they move the camera, not the grooves) by forward
 //! differences of renders; exposure, blur and registration by forward differences of the camera
 //! model alone (no render).
-use scratchart::observe::Observer;
-use scratchart::optim::least_squares::{self, Interrupted, LeastSquares, Solution};
+use scratchart_optim::least_squares::{self, Interrupted, LeastSquares, Solution};
+use scratchart_optim::observe::Observer;
 
 use super::{Evaluator, FitError};
 

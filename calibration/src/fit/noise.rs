@@ -58,7 +58,7 @@ impl Transfer {
                 return Some(Transfer::Shrunk(t));
             }
         }
-        let mut rng = scratchart::scenes::Rng::new(0x0c11_9ed0);
+        let mut rng = scratchart_design::scenes::Rng::new(0x0c11_9ed0);
         let z: Vec<[f64; 3]> = (0..DRAWS).map(|_| [rng.normal(), rng.normal(), rng.normal()]).collect();
         let q = |x: f64| (x.clamp(0.0, 1.0) * 255.0).round() / 255.0;
         let shrunk = shrink > 1;
@@ -73,7 +73,7 @@ impl Transfer {
                         q(d + sigma * zc[0])
                     };
                     acc += if shrunk {
-                        scratchart::model::display::linear(g)
+                        scratchart_model::display::linear(g)
                     } else {
                         g
                     };
@@ -99,7 +99,7 @@ impl Transfer {
     /// A shrunk photo's subpixel light `l` (linear) -> its expected light; others unchanged.
     pub(crate) fn subpixel(&self, l: f32) -> f32 {
         match self {
-            Transfer::Shrunk(t) => Self::lookup(t, scratchart::io::display_value(l)),
+            Transfer::Shrunk(t) => Self::lookup(t, scratchart_render::io::display_value(l)),
             Transfer::Taken(_) => l,
         }
     }
@@ -124,7 +124,7 @@ const PATCH: usize = 64;
 /// through a JPEG at quality `q` as the photo was saved (colour or grey), read back as the fit
 /// reads a photo (Rec. 709 grey), and the mean of its light. None where the round trip fails.
 fn shrunk_jpeg_table(sigma: f64, colour: bool, q: u8) -> Option<Vec<f32>> {
-    let mut rng = scratchart::scenes::Rng::new(0x0c11_9ed1);
+    let mut rng = scratchart_design::scenes::Rng::new(0x0c11_9ed1);
     let px = PATCH * PATCH;
     let z: Vec<[f64; 3]> = (0..px).map(|_| [rng.normal(), rng.normal(), rng.normal()]).collect();
     let chans = if colour { 3 } else { 1 };
@@ -144,7 +144,7 @@ fn shrunk_jpeg_table(sigma: f64, colour: bool, q: u8) -> Option<Vec<f32>> {
             .map(|i| {
                 let sum: f64 = g[i * px..(i + 1) * px]
                     .iter()
-                    .map(|&x| scratchart::model::display::linear(x as f64))
+                    .map(|&x| scratchart_model::display::linear(x as f64))
                     .sum();
                 (sum / px as f64) as f32
             })
@@ -216,7 +216,7 @@ pub(crate) fn sensor_noise(measured: f64, level: f64, colour: bool, k: u32, q: O
 /// Normal draws for a simulated photo of [`sense_side`] k pixels a side.
 fn draws(seed: u64, k: u32, colour: bool) -> Vec<f32> {
     let side = sense_side(k) * k as usize;
-    let mut rng = scratchart::scenes::Rng::new(seed);
+    let mut rng = scratchart_design::scenes::Rng::new(seed);
     (0..side * side * if colour { 3 } else { 1 })
         .map(|_| rng.normal() as f32)
         .collect()
@@ -273,7 +273,7 @@ pub(super) fn shrunk_photo_draw(
     let sub = crate::photo::Gray {
         width: ss * w,
         height: ss * h,
-        data: lit.iter().map(|&l| scratchart::io::display_value(l)).collect(),
+        data: lit.iter().map(|&l| scratchart_render::io::display_value(l)).collect(),
     };
     let native = crate::photo::resize(&sub, k * w, k * h);
     let chans = if colour { 3 } else { 1 };
@@ -282,9 +282,9 @@ pub(super) fn shrunk_photo_draw(
     let g: [f64; 3] = if colour { gains.map(|g| g * scale) } else { [1.0; 3] };
     let mut bytes = Vec::with_capacity(native.data.len() * chans);
     for &d in &native.data {
-        let l = scratchart::model::display::linear(d as f64);
+        let l = scratchart_model::display::linear(d as f64);
         for gc in g.iter().take(chans) {
-            let dc = scratchart::model::display::display((l * gc).min(1.0));
+            let dc = scratchart_model::display::display((l * gc).min(1.0));
             bytes.push(((dc + sigma * normal()).clamp(0.0, 1.0) * 255.0).round() as u8);
         }
     }
@@ -360,7 +360,7 @@ impl super::Evaluator<'_, '_> {
         let mut mean = vec![0.0f64; model.len()];
         for p in 0..pairs {
             for &sign in signs {
-                let mut rng = scratchart::scenes::Rng::new(0x5111_f7ed ^ ((v as u64) << 8) ^ p as u64);
+                let mut rng = scratchart_design::scenes::Rng::new(0x5111_f7ed ^ ((v as u64) << 8) ^ p as u64);
                 let draw = self.shrunk_draw(lit, v, sigma, q, &mut || sign * rng.normal())?;
                 if draw.len() != mean.len() {
                     return None;
@@ -496,7 +496,7 @@ mod tests {
         // JPEG, stays).
         let j100 = Transfer::for_photo(0.025, true, 3, Some(100)).unwrap();
         let j70 = Transfer::for_photo(0.025, true, 3, Some(70)).unwrap();
-        let d01 = scratchart::model::display::linear(0.1) as f32;
+        let d01 = scratchart_model::display::linear(0.1) as f32;
         let lift = |t: &Transfer| t.subpixel(d01) - d01;
         assert!(
             (lift(&j100) - lift(&s)).abs() < 0.1 * lift(&s),
@@ -557,7 +557,7 @@ mod tests {
         let lit: Vec<f32> = (0..(ss * w * ss * h) as usize)
             .map(|i| if (i % (ss * w) as usize) % 7 == 3 { 0.6 } else { 0.004 })
             .collect();
-        let mut rng = scratchart::scenes::Rng::new(3);
+        let mut rng = scratchart_design::scenes::Rng::new(3);
         let mut draw = |gains: [f64; 3], q: Option<u8>| {
             shrunk_photo_draw(&lit, ss, (w, h), k, 0.0, true, gains, q, &mut || rng.normal()).unwrap()
         };
@@ -565,7 +565,7 @@ mod tests {
             let sub = crate::photo::Gray {
                 width: ss * w,
                 height: ss * h,
-                data: lit.iter().map(|&l| scratchart::io::display_value(l)).collect(),
+                data: lit.iter().map(|&l| scratchart_render::io::display_value(l)).collect(),
             };
             crate::photo::resize(&sub, w, h).data
         };

@@ -50,11 +50,11 @@ fn smoothed_photo(data: &Data, v: usize, sigma: f64) -> Vec<f32> {
     let (w, h) = (c.width as usize, c.height as usize);
     let lin: Vec<f32> = data.photos[v]
         .iter()
-        .map(|d| scratchart::model::display::linear(*d as f64) as f32)
+        .map(|d| scratchart_model::display::linear(*d as f64) as f32)
         .collect();
     crate::simulate::blur(&lin, w, h, sigma)
         .into_iter()
-        .map(|l| scratchart::io::display_value(l).min(1.0))
+        .map(|l| scratchart_render::io::display_value(l).min(1.0))
         .collect()
 }
 
@@ -140,7 +140,7 @@ pub(super) fn search_starts(
             }
             let lin = ev.render(&x)?;
             let this = &*ev;
-            let exposures = scratchart::model::par::par_map(ev.lay.n_views, |v| this.best_exposure(v, &lin[v], &x));
+            let exposures = scratchart_model::par::par_map(ev.lay.n_views, |v| this.best_exposure(v, &lin[v], &x));
             for (v, e) in exposures.into_iter().enumerate() {
                 x[ev.lay.n_tool + 1 + v] = e;
             }

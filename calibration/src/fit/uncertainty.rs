@@ -1,7 +1,7 @@
 //! The fit's uncertainties at its optimum: the block sandwich covariance, and in quadrature the
 //! model's own error and what the photo's degradations do (see `at_optimum`); and the bootstrap.
-use scratchart::observe::Observer;
-use scratchart::optim::least_squares::{solve_spd, weighted_gradient};
+use scratchart_optim::least_squares::{solve_spd, weighted_gradient};
+use scratchart_optim::observe::Observer;
 
 use super::{lm, refine, Data, Evaluator, FitError, SUPERSAMPLE};
 
@@ -56,9 +56,9 @@ pub(super) fn at_optimum(
     let (r, cols) = lm::jacobian_at(ev, x, best_rg)?;
     let n = r.len();
     let np = ev.lay.params.len();
-    let s_r = scratchart::optim::least_squares::robust_scale(&r, lm::MIN_SCALE);
-    let wts = scratchart::optim::least_squares::cauchy_weights(&r, s_r);
-    let jtj = scratchart::optim::least_squares::weighted_gram(&cols, &wts);
+    let s_r = scratchart_optim::least_squares::robust_scale(&r, lm::MIN_SCALE);
+    let wts = scratchart_optim::least_squares::cauchy_weights(&r, s_r);
+    let jtj = scratchart_optim::least_squares::weighted_gram(&cols, &wts);
     let wsum: f64 = r.iter().zip(&wts).map(|(e, w)| w * e * e).sum();
     let s2 = wsum / (n.saturating_sub(np)).max(1) as f64;
     // Covariance over the parameters the photos see at all (a zero column, such as a profile
@@ -335,7 +335,7 @@ fn degrade_shift(
         }
     };
     use crate::photo::LUMA;
-    let mut rng = scratchart::scenes::Rng::new(0x5eed);
+    let mut rng = scratchart_design::scenes::Rng::new(0x5eed);
     let reps = 4;
     let mut mean = vec![0.0; normal.seen.len()];
     let mut ok = true;
@@ -446,7 +446,7 @@ pub(super) fn bootstrap(
     let mut ids: Vec<u64> = blocks.clone();
     ids.sort_unstable();
     ids.dedup();
-    let mut rng = scratchart::scenes::Rng::new(0);
+    let mut rng = scratchart_design::scenes::Rng::new(0);
     let mut fits: Vec<Vec<f64>> = Vec::new();
     for b in 0..reps {
         let wb: Vec<f64> = ids.iter().map(|_| -(1.0 - rng.f64()).ln()).collect();
@@ -492,7 +492,7 @@ pub(super) fn split_estimates(cols: &[Vec<f64>], r: &[f64], wts: &[f64], blocks:
                 .zip(blocks)
                 .map(|(w, b)| if b >> 40 == view { *w } else { 0.0 })
                 .collect();
-            let gram = scratchart::optim::least_squares::weighted_gram(cols, &gw);
+            let gram = scratchart_optim::least_squares::weighted_gram(cols, &gw);
             let (seen, a) = seen_part(&gram, 1e-9);
             let ns = seen.len();
             let grad = weighted_gradient(seen.iter().map(|&p| &cols[p]), r, &gw);

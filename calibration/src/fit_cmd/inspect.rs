@@ -1,10 +1,10 @@
 //! Each photo as the fit will use it: loaded, shrunk, registered, checked; and `fit --check`.
-use scratchart::observe::Observer;
+use scratchart_optim::observe::Observer;
 use std::path::{Path, PathBuf};
 
 use anyhow::Result;
-use scratchart::exit::InputError;
-use scratchart::model::camera::ViewGeom;
+use scratchart_exit::InputError;
+use scratchart_model::camera::ViewGeom;
 
 use crate::card::Card;
 use crate::register::register;
@@ -20,7 +20,7 @@ pub struct Inspection {
     /// The photo at the capture view's height (its own aspect kept), display values.
     pub image: crate::photo::Gray,
     /// The camera that took it, at `image`'s size, with the capture view's name and lamp.
-    pub view: scratchart::model::scene::View,
+    pub view: scratchart_model::scene::View,
     /// The marks found, with confidences.
     pub found: crate::fiducials::Found,
     /// Taken off the capture pose (its camera from the marks, its eye refined by the fit).
@@ -97,8 +97,8 @@ impl Inspection {
 }
 
 /// The angle (degrees) between two cameras' directions, seen from what they look at.
-fn degrees_between(a: &scratchart::model::scene::Camera, b: &scratchart::model::scene::Camera) -> f64 {
-    let dir = |c: &scratchart::model::scene::Camera| {
+fn degrees_between(a: &scratchart_model::scene::Camera, b: &scratchart_model::scene::Camera) -> f64 {
+    let dir = |c: &scratchart_model::scene::Camera| {
         let d = [c.eye[0] - c.target[0], c.eye[1] - c.target[1], c.eye[2] - c.target[2]];
         let n = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
         [d[0] / n, d[1] / n, d[2] / n]
@@ -162,10 +162,10 @@ fn sensor_noise_at_own_size(
 fn camera_from_marks(
     f: &Path,
     plate_to_image: &[f64; 9],
-    v: &scratchart::model::scene::View,
+    v: &scratchart_model::scene::View,
     taken: (u32, u32),
     k: u32,
-) -> Result<scratchart::model::scene::Camera> {
+) -> Result<scratchart_model::scene::Camera> {
     let camera = crate::fiducials::plausible_camera_with_focal(
         plate_to_image,
         v.camera.width,
@@ -190,7 +190,7 @@ fn camera_from_marks(
 fn refuse_too_small(
     f: &Path,
     view: &str,
-    capture_view: &scratchart::model::scene::View,
+    capture_view: &scratchart_model::scene::View,
     scale: &CardScale,
     needed: f64,
 ) -> Result<()> {
@@ -286,7 +286,7 @@ fn refuse_low_jpeg(f: &Path, view: &str, saved_jpeg: Option<u8>) -> Result<()> {
 /// Refuses a photo enlarged after it was taken: by the period an enlargement leaves in its
 /// pixels' sharpness (`resampled`), or by the EXIF's saved size, where an app kept the EXIF of
 /// an enlargement too smooth to leave a pattern (by 1.25 to 2, or a smooth filter).
-fn refuse_enlarged(f: &Path, v: &scratchart::model::scene::View, img: &crate::photo::Gray) -> Result<()> {
+fn refuse_enlarged(f: &Path, v: &scratchart_model::scene::View, img: &crate::photo::Gray) -> Result<()> {
     if let Some(p) = crate::resampled::enlarged(img) {
         return Err(InputError(format!(
             "photo `{}` (view {}) was enlarged after it was taken: its pixels repeat a pattern every {:.2} pixels \
@@ -323,8 +323,8 @@ fn refuse_enlarged(f: &Path, v: &scratchart::model::scene::View, img: &crate::ph
 /// camera they give is not one near the capture view, or it is saturated.
 pub fn inspect_photo(
     card: &Card,
-    capture: &scratchart::model::scene::Scene,
-    v: &scratchart::model::scene::View,
+    capture: &scratchart_model::scene::Scene,
+    v: &scratchart_model::scene::View,
     f: &Path,
 ) -> Result<Inspection> {
     let half = 0.5 * capture.plate.size_mm;
@@ -417,7 +417,7 @@ pub fn inspect_photo(
     let e = v.camera.eye;
     let moved_mm =
         ((camera.eye[0] - e[0]).powi(2) + (camera.eye[1] - e[1]).powi(2) + (camera.eye[2] - e[2]).powi(2)).sqrt();
-    let fv = scratchart::model::scene::View { camera, ..v.clone() };
+    let fv = scratchart_model::scene::View { camera, ..v.clone() };
     let mask = fit_mask(card, &fv, half);
     // Saturation, over the pixels the fit compares (the marks glint brightest and are left out).
     let bright = small.data.iter().zip(&mask).filter(|(x, m)| **m && **x > 0.25).count();
@@ -512,7 +512,7 @@ pub fn card_scale(plate_to_image: &[f64; 9], shrink: u32) -> CardScale {
 }
 
 /// The card's scale in a capture view (pixels per mm at the card's centre).
-pub fn view_scale(view: &scratchart::model::scene::View) -> f64 {
+pub fn view_scale(view: &scratchart_model::scene::View) -> f64 {
     let g = ViewGeom::new(view);
     px_per_mm(|q| g.project([q[0], q[1], 0.0]).map(|p| [p.0, p.1]))
 }
@@ -522,7 +522,7 @@ pub fn view_scale(view: &scratchart::model::scene::View) -> f64 {
 /// any is unusable.
 pub(super) fn check_photos(
     card: &Card,
-    capture: &scratchart::model::scene::Scene,
+    capture: &scratchart_model::scene::Scene,
     images: &[PathBuf],
     obs: &dyn Observer,
 ) -> Result<()> {
@@ -603,7 +603,7 @@ pub(super) fn check_photos(
 
 /// The pixels of view `view` the fit compares: on the card, and away from the fiducial marks
 /// (their squares widened by 1.5 times their half side, past the blur of their light).
-pub fn fit_mask(card: &Card, view: &scratchart::model::scene::View, half_plate: f64) -> Vec<bool> {
+pub fn fit_mask(card: &Card, view: &scratchart_model::scene::View, half_plate: f64) -> Vec<bool> {
     let g = ViewGeom::new(view);
     let mut mask = g.on_plate_mask(half_plate);
     let w = view.camera.width;

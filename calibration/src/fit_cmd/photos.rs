@@ -3,8 +3,8 @@
 use std::path::PathBuf;
 
 use anyhow::Result;
-use scratchart::exit::{InputError, UsageError};
-use scratchart::observe::Observer;
+use scratchart_exit::{InputError, UsageError};
+use scratchart_optim::observe::Observer;
 use serde_json::json;
 
 use super::inspect_photo;
@@ -58,7 +58,7 @@ pub(super) fn all_named(images: &[PathBuf], names: &[String]) -> bool {
 /// would stand a quarter turn from it).
 pub fn order_by_marks(
     card: &Card,
-    capture: &scratchart::model::scene::Scene,
+    capture: &scratchart_model::scene::Scene,
     files: Vec<PathBuf>,
     obs: &dyn Observer,
 ) -> Vec<PathBuf> {
@@ -150,10 +150,10 @@ pub(super) type PhotoRecord = serde_json::Value;
 /// record of each photo.
 pub(super) fn load_photos(
     card: &Card,
-    capture: &scratchart::model::scene::Scene,
+    capture: &scratchart_model::scene::Scene,
     files: &[PathBuf],
     obs: &dyn Observer,
-) -> Result<(scratchart::model::scene::Scene, PhotoData, Vec<PhotoRecord>)> {
+) -> Result<(scratchart_model::scene::Scene, PhotoData, Vec<PhotoRecord>)> {
     let mut photos = Vec::new();
     let mut masks = Vec::new();
     let mut fit_views = Vec::new();
@@ -196,7 +196,7 @@ pub(super) fn load_photos(
         }));
         fit_views.push(insp.view);
     }
-    let fit_scene = scratchart::model::scene::Scene {
+    let fit_scene = scratchart_model::scene::Scene {
         plate: capture.plate.clone(),
         views: fit_views,
         scratches: vec![],

@@ -4,7 +4,7 @@ use std::path::Path;
 
 use anyhow::Result;
 use plotters::prelude::*;
-use scratchart::model::camera::ViewGeom;
+use scratchart_model::camera::ViewGeom;
 
 use crate::card::{Card, CutRole};
 use crate::fit::{Data, FitResult};
@@ -12,7 +12,7 @@ use crate::fit::{Data, FitResult};
 /// Per ladder depth, the visible width the photos show: the model's width scaled by the ratio of
 /// the photo's to the model's light (above the plate's background) over that rung's cuts.
 pub(super) fn measured_widths(data: &Data, photos: &[Vec<f32>], res: &FitResult, pred: &[Vec<f32>]) -> Vec<(f64, f64)> {
-    let lin = |d: f32| scratchart::model::display::linear(d as f64);
+    let lin = |d: f32| scratchart_model::display::linear(d as f64);
     let mut out = Vec::new();
     for &z in &data.card.depths_mm {
         let Some(m) = res.tool.model(z) else { continue };
@@ -92,7 +92,7 @@ pub(super) fn profile_plot(path: &Path, res: &FitResult, card: &Card, points: &[
             .fold(1.0, f64::max)
             * 1.6;
         let curve: Vec<(f64, f64, f64)> = curve.into_iter().map(|c| (c.0, c.1, c.2.min(top))).collect();
-        let font = scratchart::optim::report::plot_font();
+        let font = scratchart_design::report::plot_font();
         let mut cb = ChartBuilder::on(&root);
         cb.margin(12);
         if let Some(f) = font {
@@ -147,6 +147,6 @@ pub(super) fn profile_plot(path: &Path, res: &FitResult, card: &Card, points: &[
         }
         root.present().map_err(pe)?;
     }
-    scratchart::io::write_png_rgb(path, wpx, hpx, &buf)?;
+    scratchart_render::io::write_png_rgb(path, wpx, hpx, &buf)?;
     Ok(())
 }

@@ -3,7 +3,7 @@
 use std::path::{Path, PathBuf};
 
 use anyhow::Result;
-use scratchart::observe::Observer;
+use scratchart_optim::observe::Observer;
 use serde_json::json;
 
 use scratchart_tool::Fitted;
@@ -118,7 +118,7 @@ pub(super) fn photo_residuals(
 /// The residual image of each photo (`OUT_residual_VIEW.png`: mid grey is no residual).
 pub(super) fn write_residual_images(
     stem: &Path,
-    capture: &scratchart::model::scene::Scene,
+    capture: &scratchart_model::scene::Scene,
     data: &Data,
     pred: &[Vec<f32>],
     registered: &[Vec<f32>],
@@ -138,7 +138,7 @@ pub(super) fn write_residual_images(
             })
             .collect();
         let p = PathBuf::from(format!("{}_residual_{}.png", stem.display(), view.name));
-        scratchart::io::write_png_gray(&p, view.camera.width, view.camera.height, &bytes)?;
+        scratchart_render::io::write_png_gray(&p, view.camera.width, view.camera.height, &bytes)?;
         obs.result(&format!(
             "wrote {} (mid grey: no residual; 1 grey level = 1/510 of full scale)",
             p.display()

@@ -3,8 +3,8 @@
 use std::path::PathBuf;
 
 use anyhow::{Context as _, Result};
-use scratchart::exit::InputError;
-use scratchart::observe::Observer;
+use scratchart_exit::InputError;
+use scratchart_optim::observe::Observer;
 
 use super::FitArgs;
 use crate::fit::{FitResult, Start};
@@ -78,7 +78,7 @@ pub fn resume_path(out: &std::path::Path) -> PathBuf {
 /// A digest of what decides a fit: the card file, every photo's bytes, the kind, the start tool
 /// and the options (FNV-1a 64 of each part's FNV-1a 64, so concatenations differ).
 pub(super) fn resume_key(args: &FitArgs, files: &[PathBuf]) -> Result<String> {
-    use scratchart::optim::checkpoint::fnv;
+    use scratchart_optim::checkpoint::fnv;
     let read = |p: &std::path::Path| std::fs::read(p).with_context(|| format!("cannot read {}", p.display()));
     let mut parts = vec![fnv(&read(&args.card)?)];
     for f in files {

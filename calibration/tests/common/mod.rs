@@ -4,12 +4,12 @@
 
 use std::path::{Path, PathBuf};
 
-use scratchart::model::scene::{Plate, Scene, View};
-use scratchart::observe::Silent;
-use scratchart::render::Renderer;
 use scratchart_calibration::card::{Card, CardSpec};
 use scratchart_calibration::fit_cmd::{run, FitArgs};
 use scratchart_calibration::simulate::{photos, Camera};
+use scratchart_model::scene::{Plate, Scene, View};
+use scratchart_optim::observe::Silent;
+use scratchart_render::Renderer;
 use scratchart_tool::Tool;
 
 /// An empty scratch folder `scratchart-{group}-{pid}-{tag}` in the system's temp folder.
@@ -54,7 +54,7 @@ pub fn shoot(
         .map(|(v, img)| {
             let bytes: Vec<u8> = img.iter().map(|&x| (255.0 * x).round() as u8).collect();
             let p = dir.join(format!("{}.png", v.name));
-            scratchart::io::write_png_gray(&p, v.camera.width, v.camera.height, &bytes).unwrap();
+            scratchart_render::io::write_png_gray(&p, v.camera.width, v.camera.height, &bytes).unwrap();
             p
         })
         .collect()

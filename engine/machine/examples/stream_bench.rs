@@ -11,8 +11,9 @@ mod bench {
     use scratchart_machine::controller::Rezero;
     use scratchart_machine::fake::{FakeGrbl, FakeMarlin, GrblConfig, MarlinConfig};
     use scratchart_machine::job::{carve, Options};
-    use scratchart_machine::plan::{Cut, MachineProfile};
+    use scratchart_machine::plan::Cut;
     use scratchart_machine::stream::{Control, Quiet};
+    use scratchart_tool::machine::MachineProfile;
 
     pub fn main() {
         let n: usize = std::env::args().nth(1).and_then(|s| s.parse().ok()).unwrap_or(5000);

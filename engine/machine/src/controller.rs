@@ -2,10 +2,10 @@
 //! implementation per firmware family: [`crate::grbl::Grbl`] and [`crate::marlin::Marlin`].
 use std::time::{Duration, Instant};
 
-use crate::plan::{Firmware, MachineProfile};
 use crate::planner::Kinematics;
 use crate::program::Program;
 use crate::transport::{Link, LinkError};
+use scratchart_tool::machine::{Firmware, MachineProfile};
 
 /// A line from the controller, as the engine needs to know it.
 #[derive(Clone, Debug, PartialEq)]

@@ -6,7 +6,8 @@
 //! characters and end in `\n` only.
 use std::fmt::Write as _;
 
-use super::plan::{Block, Cut, Firmware, MachineProfile};
+use super::plan::{Block, Cut};
+use scratchart_tool::machine::{Firmware, MachineProfile};
 
 /// Numbers as G-code wants them: fixed decimals, no exponent, no negative zero.
 fn num(x: f64, decimals: usize) -> String {

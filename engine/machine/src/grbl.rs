@@ -6,10 +6,10 @@ use std::time::{Duration, Instant};
 
 use crate::controller::{command, Controller, Fault, Reply, Rezero, Status};
 use crate::grbl_codes;
-use crate::plan::{Firmware, MachineProfile};
 use crate::planner::Kinematics;
 use crate::program::Program;
 use crate::transport::Link;
+use scratchart_tool::machine::{Firmware, MachineProfile};
 
 pub struct Grbl {
     version: String,
@@ -189,7 +189,7 @@ impl Controller for Grbl {
                     accel_mm_s2: [a[0], a[1], a[2]],
                     junction_deviation_mm: get(11)
                         .filter(|j| *j >= 0.0 && j.is_finite())
-                        .unwrap_or(crate::plan::MachineProfile::grbl().junction_deviation_mm),
+                        .unwrap_or(scratchart_tool::machine::MachineProfile::grbl().junction_deviation_mm),
                     source: "the controller's $110-$112 rates, $120-$122 accelerations and $11 junction deviation"
                         .into(),
                 });

@@ -8,11 +8,11 @@ use std::time::{Duration, Instant};
 
 use crate::controller::{Controller, Fault, Rezero};
 use crate::journal::{Journal, RESUME_OVERLAP};
-use crate::plan::{Firmware, MachineProfile};
 use crate::planner::Kinematics;
 use crate::program::Program;
 use crate::stream::{stream, Control, End, Observer, Progress};
 use crate::transport::{Link, LinkError};
+use scratchart_tool::machine::{Firmware, MachineProfile};
 
 #[derive(Clone, Debug)]
 pub struct Options {
@@ -473,16 +473,16 @@ fn reset_to_origin(before: Option<[f64; 3]>, now: Option<[f64; 3]>) -> Option<St
 fn lost_position(why: &str, ctl: &dyn Controller, opts: &Options) -> String {
     let cmd = &opts.resume_command;
     let allows = match (ctl.firmware(), ctl.can_home()) {
-        (crate::plan::Firmware::Grbl, Some(false)) => format!(
+        (scratchart_tool::machine::Firmware::Grbl, Some(false)) => format!(
             "this machine cannot home ($22=0), so nothing restores X and Y by itself: jog the tool \
              over the plate's centre (the plan's X0 Y0) and set the work zero there (G10 L20 P1 X0 \
              Y0), then run {cmd} --rezero probe (it touches the plate and sets Z0)"
         ),
-        (crate::plan::Firmware::Grbl, _) => format!(
+        (scratchart_tool::machine::Firmware::Grbl, _) => format!(
             "run {cmd} --rezero home (homing, $H: the controller's work offset G54 puts the plate \
              back where it was), or set the work zero by hand and run {cmd} --rezero probe"
         ),
-        (crate::plan::Firmware::Marlin, _) => format!(
+        (scratchart_tool::machine::Firmware::Marlin, _) => format!(
             "run {cmd} --rezero home (G28 X Y; where the plate's X0 Y0 was a G92 offset, set it \
              again after homing), or set X0 Y0 by hand and run {cmd} --rezero probe (it touches \
              the plate and sets Z0)"
@@ -640,7 +640,7 @@ fn outcome(
         End::Stopped(e) => Some(CarveError::Stopped(format!(
             "the machine stopped the job: {e}; the tool may still be down: clear the cause, \
              raise it, then {}; {}; {resume_hint}",
-            if ctl.firmware() == crate::plan::Firmware::Grbl {
+            if ctl.firmware() == scratchart_tool::machine::Firmware::Grbl {
                 "unlock ($X) or home ($H)"
             } else {
                 "reset the printer"

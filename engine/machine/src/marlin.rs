@@ -5,10 +5,10 @@
 use std::time::{Duration, Instant};
 
 use crate::controller::{command, Controller, Fault, Reply, Rezero, Status};
-use crate::plan::{Firmware, MachineProfile};
 use crate::planner::Kinematics;
 use crate::program::Program;
 use crate::transport::Link;
+use scratchart_tool::machine::{Firmware, MachineProfile};
 
 pub struct Marlin {
     name: String,
@@ -59,7 +59,7 @@ pub fn kinematics_of_m503(lines: &[String]) -> Option<Kinematics> {
     Some(Kinematics {
         rate_mm_min: rate.map(|v| 60.0 * v),
         accel_mm_s2: accel,
-        junction_deviation_mm: jd.unwrap_or(crate::plan::MachineProfile::marlin().junction_deviation_mm),
+        junction_deviation_mm: jd.unwrap_or(scratchart_tool::machine::MachineProfile::marlin().junction_deviation_mm),
         source: "the printer's M203 rates and M201 accelerations (M503)".into(),
     })
 }

@@ -11,7 +11,7 @@
 //! one move from rest to rest, t(d) = d / v + v / a when d >= v^2 / a, else 2 sqrt(d / a): a
 //! sum of those over the moves is the upper bound the tests hold the planner to.
 
-pub use scratchart_tool::machine::{Firmware, MachineProfile};
+use scratchart_tool::machine::{Firmware, MachineProfile};
 
 /// Seconds the plan waits after starting the spindle (GRBL's `G4 P..`), for it to reach speed.
 pub const SPINDLE_DWELL_S: f64 = 2.0;

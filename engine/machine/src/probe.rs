@@ -6,9 +6,9 @@ use std::time::Duration;
 use crate::controller::{command, Controller, Fault};
 use crate::job::CarveError;
 use crate::level::HeightMap;
-use crate::plan::Firmware;
 use crate::stream::{Control, Observer, Progress};
 use crate::transport::{Link, LinkError};
+use scratchart_tool::machine::Firmware;
 
 pub struct ProbeOptions {
     pub port: String,

@@ -3,9 +3,9 @@
 //! `; scratch N (cut K of T)` comment to the next: N the design's number, K the cut order), and
 //! the lines after the last one. Comments and blank lines
 //! are never sent.
-use crate::plan::Firmware;
 use crate::planner::Kinematics;
 use crate::planner::Moves;
+use scratchart_tool::machine::Firmware;
 
 /// One block of the plan: what its opening comment says (`scratch N`, `mark +x edge`), the
 /// scratch number in the design when it is a scratch, and its G-code lines.
@@ -346,7 +346,8 @@ impl Program {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::plan::{Cut, MachineProfile};
+    use crate::plan::Cut;
+    use scratchart_tool::machine::MachineProfile;
 
     #[test]
     fn blocks_follow_the_scratch_comments() {

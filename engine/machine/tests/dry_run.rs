@@ -5,9 +5,9 @@ mod common;
 
 use common::*;
 use scratchart_machine::job::{carve, CarveError, SIM_PORT};
-use scratchart_machine::plan::MachineProfile;
 use scratchart_machine::program::Program;
 use scratchart_machine::stream::Control;
+use scratchart_tool::machine::MachineProfile;
 
 #[test]
 fn a_dry_run_streams_the_whole_plan_on_either_firmware() {

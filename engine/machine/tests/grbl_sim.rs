@@ -15,8 +15,9 @@ use std::sync::OnceLock;
 use common::*;
 use scratchart_machine::job::carve;
 use scratchart_machine::journal::Journal;
-use scratchart_machine::plan::{Cut, MachineProfile};
+use scratchart_machine::plan::Cut;
 use scratchart_machine::stream::{Control, Observer, Progress};
+use scratchart_tool::machine::MachineProfile;
 
 /// The fixture's folder, when it is there.
 fn fixture() -> Option<PathBuf> {

@@ -5,9 +5,10 @@ use scratchart_machine::gcode::{self, write_blocks, Options};
 use scratchart_machine::level::{compensate, HeightMap};
 use scratchart_machine::plan::{
     check_bounds, check_cuts, check_moves, job_time, move_time, nearest_neighbour, orientation_mark, program_time,
-    program_time_rest_to_rest, program_time_split, travel, two_opt, Block, Cut, Label, MachineProfile,
+    program_time_rest_to_rest, program_time_split, travel, two_opt, Block, Cut, Label,
 };
 use scratchart_model::scene::Scratch;
+use scratchart_tool::machine::MachineProfile;
 use scratchart_tool::Tool;
 
 /// A small deterministic generator (xorshift), so the test needs nothing else.
@@ -599,7 +600,7 @@ fn neighbouring_cuts_hop_at_the_retract_height() {
 /// bad value is an error naming the field. `to_json` prints a profile that reads back the same.
 #[test]
 fn machine_profiles_are_read_over_the_built_in_one() {
-    use scratchart_machine::plan::Firmware;
+    use scratchart_tool::machine::Firmware;
     let (m, w) = MachineProfile::from_json(r#"{"retract_mm": 0.5}"#, Firmware::Grbl).unwrap();
     assert!(w.is_empty());
     assert_eq!(

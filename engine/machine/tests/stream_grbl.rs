@@ -11,8 +11,8 @@ use common::*;
 use scratchart_machine::fake::{FakeGrbl, GrblConfig};
 use scratchart_machine::job::{carve, CarveError, Options};
 use scratchart_machine::journal::Journal;
-use scratchart_machine::plan::MachineProfile;
 use scratchart_machine::stream::Control;
+use scratchart_tool::machine::MachineProfile;
 
 #[test]
 fn streams_every_line_in_order_without_overflow() {

@@ -12,9 +12,9 @@ use std::time::Duration;
 use common::*;
 use scratchart_machine::fake::{FakeMarlin, MarlinConfig};
 use scratchart_machine::job::{carve, CarveError};
-use scratchart_machine::plan::MachineProfile;
 use scratchart_machine::program::Program;
 use scratchart_machine::stream::Control;
+use scratchart_tool::machine::MachineProfile;
 
 /// The plan's motion lines in order, as the printer should execute them.
 fn motions(plan: &std::path::Path) -> Vec<String> {

@@ -1,5 +1,5 @@
 //! The atomic file writer every output of the project goes through (scene files here, images and
-//! checkpoints in the engine through `scratchart::io`, G-code later in the machine crate): a
+//! checkpoints in the engine through `scratchart_render::io`, G-code later in the machine crate): a
 //! reader never sees a partially written file, even when the writer is killed mid-way.
 
 use std::fs;

@@ -1,7 +1,6 @@
 //! `scratchart-model`: the scratch reflection model of `engine/docs/model.md`, with no GPU code
 //! and no image or shader libraries, so the machine driver and other tools that need scenes but
 //! no Vulkan build and test on any machine.
-//! The engine re-exports it as `scratchart::model`.
 //!
 //! - [`scene`]: scene types and the scene file (JSON + scratch CSV), with validation.
 //! - [`camera`]: float64 view geometry (camera basis, rays, footprints, shading points,

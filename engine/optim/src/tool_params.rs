@@ -39,8 +39,8 @@ use std::sync::Arc;
 use bytemuck::{Pod, Zeroable};
 use serde_json::{json, Value};
 
-pub use scratchart_tool::machine::MachineProfile;
-pub use scratchart_tool::{Fitted, Tool, ToolError};
+use scratchart_tool::machine::MachineProfile;
+use scratchart_tool::Tool;
 
 use super::adam::{AdamConfig, AdamGroup, ParamBlock};
 use super::driver::{Evaluation, Objective, ParamSet};

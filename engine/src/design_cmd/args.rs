@@ -1,5 +1,8 @@
-//! The flags of `scratchart design` ([`DesignArgs`]).
+//! The flags of `scratchart design` ([`DesignArgs`]) and the typed specification they make.
 use std::path::PathBuf;
+
+use scratchart_design::spec::{DesignSpec, Exposure};
+use scratchart_tool::machine::Firmware;
 
 /// `design --exposure`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
@@ -24,7 +27,7 @@ pub struct DesignArgs {
     /// filling the plate's silhouette and cropping the picture) or `printed` (laid on the plate
     /// itself and seen in perspective). NAME_target.png shows the result, as the loss uses it
     #[arg(long, default_value = "contain", value_parser = parse_fit)]
-    pub fit: scratchart::optim::framing::Fit,
+    pub fit: scratchart_design::framing::Fit,
     /// Tone curve of the pictures: each display value v becomes v^GAMMA before fitting (below 1
     /// lifts dark mid-tones, which a scratched plate renders poorly; 1 keeps the picture)
     #[arg(long, default_value_t = 1.0)]
@@ -247,6 +250,120 @@ pub struct DesignArgs {
     pub inject_stop_at: Option<u32>,
 }
 
-pub(super) fn parse_fit(s: &str) -> Result<scratchart::optim::framing::Fit, String> {
+impl DesignArgs {
+    /// The design these flags specify (`--quiet` is the terminal's, not the design's).
+    pub fn spec(&self) -> DesignSpec {
+        DesignSpec {
+            targets: self.targets.clone(),
+            fit: self.fit,
+            gamma: self.gamma,
+            background: self.background,
+            blank_view: self.blank_view.clone(),
+            views: self.views,
+            walk: self.walk.clone(),
+            hold: self.hold.clone(),
+            object: self.object.clone(),
+            arc: self.arc,
+            azimuth: self.azimuth,
+            distance: self.distance,
+            walk_views: self.walk_views,
+            between: self.between,
+            walk_probes: self.walk_probes,
+            object_size: self.object_size,
+            object_depth: self.object_depth,
+            object_yaw: self.object_yaw,
+            view_file: self.view_file.clone(),
+            scratches: self.scratches,
+            iters: self.iters,
+            res: self.res,
+            seed: self.seed,
+            elevation: self.elevation,
+            light_azimuth: self.light_azimuth,
+            light_elevation: self.light_elevation,
+            light_distance: self.light_distance,
+            exposure: match self.exposure {
+                ExposureMode::Free => Exposure::Free,
+                ExposureMode::Fixed => Exposure::Fixed,
+            },
+            plate: self.plate,
+            len_min_pct: self.len_min_pct,
+            len_max_pct: self.len_max_pct,
+            init_w: self.init_w,
+            init_d: self.init_d,
+            init_alpha: self.init_alpha,
+            lr_end: self.lr_end,
+            lr_w: self.lr_w,
+            lr_d: self.lr_d,
+            lr_alpha: self.lr_alpha,
+            lr_light: self.lr_light,
+            lambda_p: self.lambda_p,
+            lambda_g: self.lambda_g,
+            blur_sigma: self.blur_sigma,
+            out: self.out.clone(),
+            checkpoint_every: self.checkpoint_every,
+            resume: self.resume,
+            prune_tol: self.prune_tol,
+            prune_trials: self.prune_trials,
+            tool: self.tool.clone(),
+            machine: self.machine.as_deref().map(|m| match m {
+                "marlin" => Firmware::Marlin,
+                _ => Firmware::Grbl,
+            }),
+            machine_file: self.machine_file.clone(),
+            min_length_mm: self.min_length_mm,
+            robust: self.robust,
+            carvings: self.carvings,
+            max_job_min: self.max_job_min,
+            steer: self.steer.clone(),
+            inject_nan_grad_at: self.inject_nan_grad_at,
+            inject_stop_at: self.inject_stop_at,
+        }
+    }
+}
+
+pub(super) fn parse_fit(s: &str) -> Result<scratchart_design::framing::Fit, String> {
     s.parse()
+}
+
+#[cfg(test)]
+mod tests {
+    use clap::Parser;
+
+    #[derive(clap::Parser)]
+    struct Cli {
+        #[command(flatten)]
+        design: super::DesignArgs,
+    }
+
+    /// The flags' defaults are the specification's: a design run without flags is
+    /// `DesignSpec::default()`.
+    #[test]
+    fn no_flags_make_the_default_spec() {
+        let cli = Cli::try_parse_from(["design"]).unwrap();
+        assert_eq!(cli.design.spec(), scratchart_design::DesignSpec::default());
+    }
+
+    #[test]
+    fn flags_reach_the_spec() {
+        let cli = Cli::try_parse_from([
+            "design",
+            "--iters",
+            "7",
+            "--exposure",
+            "free",
+            "--tool",
+            "t.json",
+            "--machine",
+            "marlin",
+            "--res",
+            "64",
+        ])
+        .unwrap();
+        let spec = cli.design.spec();
+        assert_eq!(spec.iters, 7);
+        assert_eq!(spec.res, 64);
+        assert_eq!(spec.exposure, scratchart_design::spec::Exposure::Free);
+        assert_eq!(spec.machine, Some(scratchart_tool::machine::Firmware::Marlin));
+        assert_eq!(spec.tool.as_deref(), Some(std::path::Path::new("t.json")));
+    }
 }

@@ -4,8 +4,8 @@
 use std::time::{Duration, Instant};
 
 use anyhow::Result;
-use scratchart::model::scene::View;
-use scratchart::vulkan::GpuError;
+use scratchart_model::scene::View;
+use scratchart_vulkan::GpuError;
 use winit::event_loop::ActiveEventLoop;
 use winit::window::Window;
 

@@ -17,7 +17,7 @@ use std::sync::Arc;
 use std::time::{Duration, Instant, SystemTime};
 
 use anyhow::{Context as _, Result};
-use scratchart::vulkan::ValidationLog;
+use scratchart_vulkan::ValidationLog;
 use winit::event_loop::{ActiveEventLoop, EventLoop};
 use winit::window::Window;
 
@@ -56,7 +56,7 @@ pub fn run_live_window(o: &crate::live::LiveOpts, log: &RefCell<Option<Validatio
         );
     }
     let script = match &o.script {
-        Some(s) => crate::live::parse_script(s).map_err(scratchart::exit::UsageError)?,
+        Some(s) => crate::live::parse_script(s).map_err(scratchart_exit::UsageError)?,
         None => Vec::new(),
     };
     let event_loop = EventLoop::new().context("cannot connect to the display")?;
@@ -134,7 +134,7 @@ struct WindowBench {
     gpu: Vec<f64>,
     interval: Vec<f64>,
     internal: Vec<(u32, u32)>,
-    timings: Vec<scratchart::vulkan::Timings>,
+    timings: Vec<scratchart_vulkan::Timings>,
     rows: Vec<BenchRow>,
     cam0: OrbitCamera,
     light0: LightRig,

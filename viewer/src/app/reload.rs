@@ -4,7 +4,7 @@
 use std::time::Instant;
 
 use anyhow::Result;
-use scratchart::vulkan::{GpuError, ShaderCompiler};
+use scratchart_vulkan::{GpuError, ShaderCompiler};
 
 use super::{App, POLL};
 use crate::design::{dir_fingerprint, mtimes, Design};

@@ -5,7 +5,7 @@ use std::sync::mpsc::Sender;
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
-use scratchart::optim::live::Live;
+use scratchart_design::live::Live;
 
 use super::{Control, ScriptCmd, Update};
 
@@ -20,9 +20,9 @@ pub(super) fn hook(
     control: &Arc<Mutex<Control>>,
     tx: &Sender<Update>,
     script: &mut std::iter::Peekable<std::vec::IntoIter<(u32, ScriptCmd)>>,
-) -> Result<bool, scratchart::optim::OptimError> {
+) -> Result<bool, scratchart_optim::error::OptimError> {
     let k = live.iteration();
-    let step = |live: &Live, with_scene: bool| -> Result<(), scratchart::optim::OptimError> {
+    let step = |live: &Live, with_scene: bool| -> Result<(), scratchart_optim::error::OptimError> {
         let scene = if with_scene {
             Some(Box::new(live.scene()?))
         } else {
@@ -76,7 +76,7 @@ fn serve(
     control: &Arc<Mutex<Control>>,
     tx: &Sender<Update>,
     block: bool,
-) -> Result<bool, scratchart::optim::OptimError> {
+) -> Result<bool, scratchart_optim::error::OptimError> {
     loop {
         let (save, stop, paused, steer, weights, scratches) = {
             let mut c = control.lock().unwrap();
@@ -104,7 +104,7 @@ fn serve(
                     live.n_scratches(),
                     live.iteration()
                 )),
-                Err(scratchart::optim::OptimError::Usage(m)) => Err(m),
+                Err(scratchart_optim::error::OptimError::Usage(m)) => Err(m),
                 Err(e) => return Err(e),
             };
             let _ = tx.send(Update::Note(r));
@@ -115,7 +115,7 @@ fn serve(
                     "loss weights pixel {p}, Gram {g} from iteration {}",
                     live.iteration()
                 )),
-                Err(scratchart::optim::OptimError::Usage(m)) => Err(m),
+                Err(scratchart_optim::error::OptimError::Usage(m)) => Err(m),
                 Err(e) => return Err(e),
             };
             let _ = tx.send(Update::Note(r));
@@ -133,7 +133,7 @@ fn serve(
                     Ok((v, live.iteration(), live.problem.targets[v].clone()))
                 }
                 // A picture that cannot move is the user's to hear about; the run goes on.
-                Err(scratchart::optim::OptimError::Usage(m)) => Err(m),
+                Err(scratchart_optim::error::OptimError::Usage(m)) => Err(m),
                 Err(e) => return Err(e),
             };
             let _ = tx.send(Update::Steered(r));

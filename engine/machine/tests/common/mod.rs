@@ -6,9 +6,10 @@ use std::time::Duration;
 
 use scratchart_machine::controller::Rezero;
 use scratchart_machine::job::Options;
-use scratchart_machine::plan::{Cut, MachineProfile};
+use scratchart_machine::plan::Cut;
 use scratchart_machine::program::Program;
 use scratchart_machine::stream::{Observer, Progress};
+use scratchart_tool::machine::MachineProfile;
 
 pub fn tmpdir(tag: &str) -> PathBuf {
     let d = std::env::temp_dir().join(format!("scratchart_stream_{}_{tag}", std::process::id()));

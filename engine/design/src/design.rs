@@ -6,20 +6,20 @@ use std::sync::Arc;
 
 use serde_json::{json, Value};
 
-use super::checkpoint::fnv;
-use super::driver::{Driver, DriverConfig};
-pub use super::driver::{Hooks, Rollback};
-use super::error::OptimError;
-use super::live::{to_scene, Live, LiveHook};
-use super::loss::{Loss, LossValues};
-pub use super::problem::{DesignConfig, DesignReport, Images, IterRecord, Problem, WallTimes};
-use super::scene_params::SceneParams;
-use super::tool_params::{depths_of_kept, ToolParams};
-use crate::model::scene::Scene;
-use crate::observe::Observer;
-use crate::render::layout::{ScratchGpu, ViewGpu};
-use crate::render::{GpuScene, Renderer};
-use crate::vulkan::{Context, GpuError};
+use crate::live::{to_scene, Live, LiveHook};
+pub use crate::problem::{DesignConfig, DesignReport, Images, IterRecord, Problem, WallTimes};
+use scratchart_model::scene::Scene;
+use scratchart_optim::checkpoint::fnv;
+use scratchart_optim::driver::Rollback;
+use scratchart_optim::driver::{Driver, DriverConfig};
+use scratchart_optim::error::OptimError;
+use scratchart_optim::loss::{Loss, LossValues};
+use scratchart_optim::observe::Observer;
+use scratchart_optim::scene_params::SceneParams;
+use scratchart_optim::tool_params::{depths_of_kept, ToolParams};
+use scratchart_render::layout::{ScratchGpu, ViewGpu};
+use scratchart_render::{GpuScene, Renderer};
+use scratchart_vulkan::{Context, GpuError};
 
 /// The design optimizer: the driver over the design loss and the scene parameters.
 pub struct Optimizer<'r> {
@@ -54,13 +54,13 @@ impl<'r> Optimizer<'r> {
             }
             None => None,
         };
-        let mut params: Box<dyn super::driver::ParamSet> = match &tool {
+        let mut params: Box<dyn scratchart_optim::driver::ParamSet> = match &tool {
             Some(t) => Box::new(t.clone()),
             None => Box::new(SceneParams::new(&ctx, &cfg.adam)?),
         };
         if cfg.keep_exposures {
             let lamps: Vec<Vec<usize>> = problem.scene.lamps().into_iter().map(|l| l.views).collect();
-            params = Box::new(super::light_tie::TiedLights::new(&ctx, params, &lamps)?);
+            params = Box::new(scratchart_optim::light_tie::TiedLights::new(&ctx, params, &lamps)?);
         }
         let mut tbytes = Vec::new();
         for t in &problem.targets {
@@ -114,7 +114,7 @@ impl<'r> Optimizer<'r> {
         let disp = frame
             .images
             .iter()
-            .map(|img| img.iter().map(|&l| crate::io::display_value(l)).collect())
+            .map(|img| img.iter().map(|&l| scratchart_render::io::display_value(l)).collect())
             .collect();
         Ok((disp, frame.images))
     }
@@ -132,12 +132,12 @@ impl<'r> Optimizer<'r> {
             .zip(targets)
             .enumerate()
             .map(|(v, (img, t))| {
-                let mask = crate::model::camera::on_plate_mask(scene, v);
+                let mask = scratchart_model::camera::on_plate_mask(scene, v);
                 let (mut sl, mut st) = (0.0f64, 0.0f64);
                 for ((&l, &tv), &m) in img.iter().zip(t).zip(&mask) {
                     if m {
                         sl += l as f64;
-                        st += crate::model::display::linear(tv as f64);
+                        st += scratchart_model::display::linear(tv as f64);
                     }
                 }
                 (sl, st)
@@ -204,7 +204,7 @@ impl<'r> Optimizer<'r> {
         obs: &dyn Observer,
         work: &mut Problem,
         loss: &Loss,
-        scheduled: &[super::steer::SteerEvent],
+        scheduled: &[crate::steer::SteerEvent],
         hook: &mut LiveHook<'_>,
     ) -> Result<(f64, u32), OptimError> {
         let Optimizer {
@@ -298,7 +298,7 @@ pub fn run_design_live(
 ) -> Result<DesignReport, OptimError> {
     if cfg.write_outputs {
         std::fs::create_dir_all(&cfg.out).map_err(|source| {
-            OptimError::Io(crate::io::IoError::Io {
+            OptimError::Io(scratchart_render::io::IoError::Io {
                 action: "create output directory",
                 path: cfg.out.clone(),
                 cause: source,
@@ -306,7 +306,7 @@ pub fn run_design_live(
         })?;
     }
     let renderer = Renderer::new(ctx)?;
-    let slots = crate::render::layout::view_slots(&problem.scene);
+    let slots = scratchart_render::layout::view_slots(&problem.scene);
     let loss = Loss::new(ctx, &slots.views, &problem.targets, cfg.loss)?;
     let mut opt = Optimizer::new(&renderer, &loss, problem, cfg)?;
     let resumed_from = start_or_resume(&mut opt, problem, cfg, obs)?;
@@ -329,7 +329,7 @@ pub fn run_design_live(
     drop(opt);
 
     let (scene, prune) = if cfg.prune.enabled() {
-        let (s, st) = super::prune::prune(&renderer, &loss, &unpruned, &cfg.prune, &cfg.adam)?;
+        let (s, st) = scratchart_optim::prune::prune(&renderer, &loss, &unpruned, &cfg.prune, &cfg.adam)?;
         (s, Some(st))
     } else {
         (unpruned.clone(), None)
@@ -343,7 +343,7 @@ pub fn run_design_live(
     let final_images: Vec<Vec<f32>> = frame
         .images
         .iter()
-        .map(|img| img.iter().map(|&l| crate::io::display_value(l)).collect())
+        .map(|img| img.iter().map(|&l| scratchart_render::io::display_value(l)).collect())
         .collect();
     let mut report = DesignReport {
         scene,
@@ -469,11 +469,11 @@ fn write_design_outputs(
     t_pruned: std::time::Instant,
 ) -> Result<(), OptimError> {
     // A walk's in-between views were in the loss; the design's files hold its design views.
-    let (wp, wr) = super::walk_report::design_views_only(problem, report);
-    let mut summary = super::report::write_outputs(&cfg.out, &wp, cfg, &wr)?;
+    let (wp, wr) = crate::walk_report::design_views_only(problem, report);
+    let mut summary = crate::report::write_outputs(&cfg.out, &wp, cfg, &wr)?;
     if let (Some(fab), Some(z)) = (&cfg.tool, &report.depths) {
         // The design again, with each scratch's commanded depth as the CSV's column `z_mm`.
-        let mut extra = crate::model::scene::Extra::default();
+        let mut extra = scratchart_model::scene::Extra::default();
         extra.set_column("z_mm", z);
         wr.scene
             .save_extra(&cfg.out.join("design.json"), "scratches.csv", &extra)
@@ -487,26 +487,26 @@ fn write_design_outputs(
         }
     }
     let probe_corr = match &problem.walk {
-        Some(w) => super::walk::judge_probes(renderer, &report.scene, w, cfg.loss.sigma)?,
+        Some(w) => crate::walk::judge_probes(renderer, &report.scene, w, cfg.loss.sigma)?,
         None => Vec::new(),
     };
     if let Some((walk, corr)) =
-        super::walk_report::walk_summary(problem, &report.final_images, &probe_corr, cfg.loss.sigma)
+        crate::walk_report::walk_summary(problem, &report.final_images, &probe_corr, cfg.loss.sigma)
     {
         summary["walk"] = walk;
-        super::walk_report::walk_plot_png(&cfg.out.join("walk.png"), problem, &corr, &probe_corr)?;
-        super::walk_report::walk_sheet_png(&cfg.out.join("walk_sheet.png"), problem, &report.final_images)?;
+        crate::walk_report::walk_plot_png(&cfg.out.join("walk.png"), problem, &corr, &probe_corr)?;
+        crate::walk_report::walk_sheet_png(&cfg.out.join("walk_sheet.png"), problem, &report.final_images)?;
     }
     // Where the lamp and the viewers go, and how precisely (setup.txt, setup.png).
     // Its inputs go beside the design first, so `scratchart setup` computes the same sheet.
-    let inputs = super::tolerance::SheetInputs {
+    let inputs = crate::tolerance::SheetInputs {
         targets: wp.targets.clone(),
         pictures: wp.pictures.clone(),
         sigma: cfg.loss.sigma,
         blank_views: cfg.blank_views.clone(),
     };
     inputs.save(&cfg.out, &wr.scene)?;
-    let (setup, sensitivity, advice) = super::setup::write_setup(&cfg.out, renderer, &wr.scene, &inputs)?;
+    let (setup, sensitivity, advice) = crate::setup::write_setup(&cfg.out, renderer, &wr.scene, &inputs)?;
     if !problem.steering.is_empty() {
         summary["steering"] = json!(problem.steering);
         summary["steering_is"] =
@@ -518,7 +518,7 @@ fn write_design_outputs(
     summary["setup_advice"] = json!(advice);
     report.wall.reports = t_pruned.elapsed().as_secs_f64();
     summary["wall_s"] = report.wall.to_json();
-    crate::io::write_atomic(
+    scratchart_render::io::write_atomic(
         &cfg.out.join("summary.json"),
         serde_json::to_string_pretty(&summary)
             .expect("the summary always serializes")
@@ -529,17 +529,17 @@ fn write_design_outputs(
 }
 
 /// `summary.json`'s `machine_error`: the written design carved `cfg.carvings` times with the
-/// machine's error ([`super::carving`]).
+/// machine's error ([`crate::carving`]).
 fn machine_error(
     renderer: &Renderer,
     problem: &Problem,
     cfg: &DesignConfig,
-    fab: &super::tool_params::Fabrication,
-    limits: &super::tool_params::MachineLimits,
+    fab: &scratchart_optim::tool_params::Fabrication,
+    limits: &scratchart_optim::tool_params::MachineLimits,
     scene: &Scene,
     depths: &[f64],
 ) -> Result<Value, OptimError> {
-    use super::carving::{carved_quality, carving_table, summary, MachineError};
+    use crate::carving::{carved_quality, carving_table, summary, MachineError};
     let err = MachineError {
         sigma_z_mm: limits.profile.z_repeatability_mm,
         sigma_xy_mm: limits.profile.xy_repeatability_mm,
@@ -564,8 +564,8 @@ fn machine_error(
 /// `summary.json`'s `machine`: the limits a `design --machine` kept and how many scratches each
 /// touched (at the shallowest cut, at the shortest length, moved onto the Z grid).
 fn machine_summary(
-    limits: &super::tool_params::MachineLimits,
-    fab: &super::tool_params::Fabrication,
+    limits: &scratchart_optim::tool_params::MachineLimits,
+    fab: &scratchart_optim::tool_params::Fabrication,
     scene: &Scene,
     depths: &[f64],
     snap: Option<(usize, f64, f32, usize)>,

@@ -1,6 +1,6 @@
 //! What a maker needs beside the plate: where the lamp and each viewer go (`setup.txt`,
 //! `setup.png`, `summary.json` under `setup`), and how far the lamp and each eye may move (the
-//! search is [`super::tolerance`], the drawing [`super::setup_sheet`]). Its inputs
+//! search is [`crate::tolerance`], the drawing [`crate::setup_sheet`]). Its inputs
 //! ([`SheetInputs`]) are written beside the design, so `design` and `setup` give one sheet.
 //!
 //! Angles: azimuth is measured in the plate's plane from +x towards +y, elevation above the plate;
@@ -9,11 +9,11 @@ use std::path::Path;
 
 use serde_json::{json, Value};
 
-use super::error::OptimError;
-use crate::model::scene::{LightKind, Scene};
-use crate::render::Renderer;
+use scratchart_model::scene::{LightKind, Scene};
+use scratchart_optim::error::OptimError;
+use scratchart_render::Renderer;
 
-use super::tolerance::{
+use crate::tolerance::{
     sensitivity, Place, Sensitivity, SheetInputs, Tolerance, ADVICE_MIN_CORR, ANGLE_RANGE, DISTANCE_RANGE, KEEP,
 };
 
@@ -117,7 +117,7 @@ pub fn setup_json(scene: &Scene) -> Value {
 
 /// What the lamp's views look like under it, for the sheet: one line, or none when they all look
 /// equally bright (within 1%).
-pub fn brightness_line(scene: &Scene, lamp: &crate::model::scene::Lamp) -> Option<String> {
+pub fn brightness_line(scene: &Scene, lamp: &scratchart_model::scene::Lamp) -> Option<String> {
     let rel = scene.relative_brightness();
     if lamp.views.len() < 2 || lamp.views.iter().all(|&j| rel[j] > 0.99) {
         return None;
@@ -314,8 +314,8 @@ pub fn write_setup(
         .iter()
         .map(|v| inputs.blank_views.contains(&v.name))
         .collect();
-    crate::io::write_atomic(&out.join("setup.txt"), setup_text(scene, &sens, &blank).as_bytes())?;
-    super::setup_sheet::setup_png(&out.join("setup.png"), scene, &sens)?;
+    scratchart_render::io::write_atomic(&out.join("setup.txt"), setup_text(scene, &sens, &blank).as_bytes())?;
+    crate::setup_sheet::setup_png(&out.join("setup.png"), scene, &sens)?;
     Ok((
         setup_json(scene),
         sensitivity_json(scene, &sens),
@@ -329,7 +329,7 @@ mod tests {
 
     #[test]
     fn summary_lists_the_lamps_the_sheet_lists() {
-        use crate::model::scene::{Camera, Light, Plate, View};
+        use scratchart_model::scene::{Camera, Light, Plate, View};
         let view = |name: &str, kind: LightKind, intensity: f64| View {
             exposure: 1.0,
             name: name.into(),

@@ -1,16 +1,16 @@
 //! The design problem (plate, views, targets, pictures), the design job's configuration, and
-//! what a run produced: the types that the job ([`super::design`]) and its reports
-//! ([`super::report`]) share.
+//! what a run produced: the types that the job ([`crate::design`]) and its reports
+//! ([`crate::report`]) share.
 use std::path::PathBuf;
 
 use serde_json::json;
 
-use super::adam::AdamConfig;
-use super::driver::{Evaluation, Hooks, Rollback};
-use super::loss::{LossConfig, LossValues};
-use super::prune::{PruneConfig, PruneStats};
-use super::tool_params::Fabrication;
-use crate::model::scene::Scene;
+use scratchart_model::scene::Scene;
+use scratchart_optim::adam::AdamConfig;
+use scratchart_optim::driver::{Evaluation, Hooks, Rollback};
+use scratchart_optim::loss::{LossConfig, LossValues};
+use scratchart_optim::prune::{PruneConfig, PruneStats};
+use scratchart_optim::tool_params::Fabrication;
 
 /// One image per view (row-major f32, top row first).
 pub type Images = Vec<Vec<f32>>;
@@ -25,25 +25,25 @@ pub struct Problem {
     /// pixels when the target has no picture region of its own.
     pub pictures: Vec<Vec<bool>>,
     /// Per view, the picture's rectangle in the frame (pixels), when it has one.
-    pub picture_rects: Vec<Option<super::framing::Rect>>,
+    pub picture_rects: Vec<Option<crate::framing::Rect>>,
     /// A walk-past design (`design --walk/--hold/--object`): its arc and its in-between views,
-    /// which follow the design views in `scene` (see [`super::walk`]).
-    pub walk: Option<super::walk::Walk>,
+    /// which follow the design views in `scene` (see [`crate::walk`]).
+    pub walk: Option<crate::walk::Walk>,
     /// Per view, its picture as read from its file, for moving it while the design runs
-    /// ([`super::steer`]); None where a view cannot be steered.
-    pub sources: Vec<Option<super::steer::Source>>,
+    /// ([`crate::steer`]); None where a view cannot be steered.
+    pub sources: Vec<Option<crate::steer::Source>>,
     /// The steering applied so far (a live design's working copy of the problem).
-    pub steering: Vec<super::steer::SteerEvent>,
+    pub steering: Vec<crate::steer::SteerEvent>,
     /// How the first scratches were drawn, so that scratches added while the design runs are
     /// drawn alike (None: scratches cannot be added).
-    pub init: Option<super::steer::ScratchInit>,
+    pub init: Option<crate::steer::ScratchInit>,
 }
 
 impl Problem {
     /// A problem whose pictures cover every on-plate pixel.
     pub fn new(scene: Scene, targets: Vec<Vec<f32>>) -> Problem {
         let pictures = (0..scene.views.len())
-            .map(|v| crate::model::camera::on_plate_mask(&scene, v))
+            .map(|v| scratchart_model::camera::on_plate_mask(&scene, v))
             .collect();
         let picture_rects = vec![None; scene.views.len()];
         Problem {
@@ -96,7 +96,7 @@ pub struct DesignConfig {
     /// times; None: the start-up is not counted.
     pub started: Option<std::time::Instant>,
     /// Steering to replay (`scratchart design --steer`), in the order of its iterations.
-    pub steer: Vec<super::steer::SteerEvent>,
+    pub steer: Vec<crate::steer::SteerEvent>,
 }
 
 impl DesignConfig {

@@ -108,10 +108,10 @@ fn an_in_between_target_is_the_cross_fade_of_its_neighbours() {
     let light = crate::scenes::orbit_light(300.0, 60.0, 10.0, 1e4);
     let (views, between) = arc_views(&a, 100.0, &light);
     let scene = Scene {
-        plate: crate::model::scene::Plate {
+        plate: scratchart_model::scene::Plate {
             size_mm: 100.0,
-            roughness: crate::model::scene::DEFAULT_ROUGHNESS,
-            f0: crate::model::scene::DEFAULT_F0,
+            roughness: scratchart_model::scene::DEFAULT_ROUGHNESS,
+            f0: scratchart_model::scene::DEFAULT_F0,
         },
         views,
         scratches: vec![],

@@ -1,7 +1,7 @@
 //! Built-in scenes: the benchmark scenes S and M (engine/docs/performance.md), the paper-scale scene, and the demo
 //! plate. Generated from a seed with a small deterministic generator, so every machine builds the
 //! same scene.
-use crate::model::scene::{Camera, Light, LightKind, Plate, Scene, Scratch, View};
+use scratchart_model::scene::{Camera, Light, LightKind, Plate, Scene, Scratch, View};
 
 /// SplitMix64: tiny, deterministic, good enough for scene generation.
 #[derive(Clone, Debug)]
@@ -41,7 +41,7 @@ pub fn orbit_camera(
     width: u32,
     height: u32,
 ) -> Camera {
-    let eye = crate::model::camera::spherical(distance, azimuth_deg, elevation_deg);
+    let eye = scratchart_model::camera::spherical(distance, azimuth_deg, elevation_deg);
     // Vertical field of view that holds the plate's half-diagonal with a small margin.
     let fov = 2.0 * ((0.75 * plate_mm) / distance).atan().to_degrees();
     Camera {
@@ -58,7 +58,7 @@ pub fn orbit_camera(
 pub fn orbit_light(distance: f64, elevation_deg: f64, azimuth_deg: f64, intensity: f64) -> Light {
     Light {
         kind: LightKind::Point {
-            position: crate::model::camera::spherical(distance, azimuth_deg, elevation_deg),
+            position: scratchart_model::camera::spherical(distance, azimuth_deg, elevation_deg),
         },
         intensity,
     }
@@ -126,7 +126,7 @@ pub fn framed_ring_views(
 /// The plate's silhouette's bounding box in `view` (pixels: x0, y0, x1, y1), if every corner is
 /// in front of the camera.
 pub fn silhouette_box(view: &View, plate_mm: f64) -> Option<[f64; 4]> {
-    let g = crate::model::camera::ViewGeom::new(view);
+    let g = scratchart_model::camera::ViewGeom::new(view);
     let half = 0.5 * plate_mm;
     let mut b = [f64::INFINITY, f64::INFINITY, f64::NEG_INFINITY, f64::NEG_INFINITY];
     for c in [[-half, -half], [half, -half], [half, half], [-half, half]] {

@@ -2,9 +2,9 @@
 //! turns away from where the design put it.
 use plotters::prelude::*;
 
-use super::{dashed, view_colour, Placer, Rect};
-use crate::model::scene::Scene;
-use crate::optim::tolerance::{Sensitivity, ANGLE_RANGE, KEEP};
+use crate::setup_sheet::{dashed, view_colour, Placer, Rect};
+use crate::tolerance::{Sensitivity, ANGLE_RANGE, KEEP};
+use scratchart_model::scene::Scene;
 
 /// One chart: each view's correlation, as a share of the designed one, against how far the
 /// lamp or the eye (`moved`) turned in azimuth (solid) and elevation (dashed); the legend below.

@@ -12,8 +12,8 @@
 //! bounding box with the picture, aspect kept, cropping what overflows; [`Fit::Printed`] lays the
 //! picture on the plate itself (upright on the plate's +y axis, aspect kept, centred) and shows it
 //! in perspective.
-use crate::model::camera::ViewGeom;
-use crate::model::scene::View;
+use scratchart_model::camera::ViewGeom;
+use scratchart_model::scene::View;
 
 /// How a picture is placed in a view.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
@@ -279,7 +279,7 @@ pub fn picture_rect(view: &View, plate_mm: f64, fit: Fit, aspect: f64) -> Option
 }
 
 /// Places picture `src` in `view` in the rectangle `rect` ([`picture_rect`], or one moved or
-/// scaled by the design's user, [`super::steer`]); `rect` None places nothing but for
+/// scaled by the design's user, [`crate::steer`]); `rect` None places nothing but for
 /// `printed`, which has no rectangle.
 #[allow(clippy::too_many_arguments)] // fit_picture's settings and the rectangle
 pub fn fit_picture_rect(

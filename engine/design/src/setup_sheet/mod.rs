@@ -7,9 +7,9 @@ use std::path::Path;
 
 use plotters::prelude::*;
 
-use crate::model::scene::{LightKind, Scene};
-use crate::optim::error::OptimError;
-use crate::optim::tolerance::{Place, Sensitivity};
+use crate::tolerance::{Place, Sensitivity};
+use scratchart_model::scene::{LightKind, Scene};
+use scratchart_optim::error::OptimError;
 
 /// A placed text's box in image pixels: [x0, y0, x1, y1] (x1, y1 exclusive).
 pub type Rect = [i32; 4];
@@ -507,8 +507,8 @@ fn draw_key(pl: &mut Placer, panels: &Panels, items: &[Item]) -> Result<(), Stri
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::model::scene::{Camera, Light, Plate, View};
-    use crate::optim::tolerance::{Moved, Tolerance};
+    use crate::tolerance::{Moved, Tolerance};
+    use scratchart_model::scene::{Camera, Light, Plate, View};
 
     fn scene(eyes: &[[f64; 3]], light: LightKind) -> Scene {
         Scene {

@@ -13,14 +13,14 @@
 //! correlation, the carvings' mean, spread and worst, per view.
 use serde_json::{json, Value};
 
-use super::measure::quality;
-use super::problem::Problem;
-use super::tool_params::table::ToolTable;
-use super::tool_params::{Fabrication, TABLE_SAMPLES};
-use crate::model::scene::{Scene, Scratch};
-use crate::render::Renderer;
+use crate::measure::quality;
+use crate::problem::Problem;
 use crate::scenes::Rng;
-use crate::vulkan::GpuError;
+use scratchart_model::scene::{Scene, Scratch};
+use scratchart_optim::tool_params::table::ToolTable;
+use scratchart_optim::tool_params::{Fabrication, TABLE_SAMPLES};
+use scratchart_render::Renderer;
+use scratchart_vulkan::GpuError;
 
 /// The error of a machine, one standard deviation, mm.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -91,7 +91,7 @@ pub fn carved_quality(
         Ok(frame
             .images
             .iter()
-            .map(|img| img.iter().map(|&l| crate::io::display_value(l)).collect())
+            .map(|img| img.iter().map(|&l| scratchart_render::io::display_value(l)).collect())
             .collect())
     };
     let score = |s: &Scene| -> Result<Vec<f64>, GpuError> {

@@ -5,13 +5,13 @@
 //! An event states where the picture is from that iteration on, relative to where the design
 //! placed it at the start: shifted by `shift_px` (image pixels, x right, y down) and scaled by
 //! `scale` about its centre. The picture is placed again from its file exactly as at the start
-//! ([`super::framing::fit_picture_rect`], the same tone curve), the loss's targets are replaced
-//! between two iterations ([`super::loss::Loss::set_targets`]), and `summary.json`'s `steering`
+//! ([`crate::framing::fit_picture_rect`], the same tone curve), the loss's targets are replaced
+//! between two iterations ([`scratchart_optim::loss::Loss::set_targets`]), and `summary.json`'s `steering`
 //! lists every event applied. Only designs from `--targets` pictures placed in a rectangle
 //! (`--fit contain`, `cover` or `frame`) can be steered.
 use serde::{Deserialize, Serialize};
 
-use super::framing::{Fit, Fitted, Rect};
+use crate::framing::{Fit, Fitted, Rect};
 
 /// One change, applied before iteration `iteration` runs: a view's picture moved and scaled
 /// (`view`, with `shift_px` [0, 0] and `scale` 1 when absent), the loss's weights changed
@@ -41,7 +41,7 @@ pub struct SteerEvent {
     pub seed: Option<u64>,
 }
 
-/// How a design drew its first scratches (`scratchart::scenes::random_scratches`): scratches
+/// How a design drew its first scratches ([`crate::scenes::random_scratches`]): scratches
 /// added while it runs are drawn the same way.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ScratchInit {
@@ -116,7 +116,7 @@ pub struct Source {
 
 impl Source {
     /// The picture placed in `view` (of a `plate_mm` plate) as `event` says.
-    pub fn place(&self, view: &crate::model::scene::View, plate_mm: f64, shift: [f64; 2], scale: f64) -> Fitted {
+    pub fn place(&self, view: &scratchart_model::scene::View, plate_mm: f64, shift: [f64; 2], scale: f64) -> Fitted {
         let r = self.rect;
         let (w, h) = (r.w * scale, r.h * scale);
         let rect = Rect {
@@ -125,7 +125,7 @@ impl Source {
             w,
             h,
         };
-        let mut f = super::framing::fit_picture_rect(
+        let mut f = crate::framing::fit_picture_rect(
             &self.data,
             self.width,
             self.height,
@@ -151,7 +151,7 @@ impl Source {
 /// view's index, if the event moves a picture.
 pub fn check(
     e: &SteerEvent,
-    views: &[crate::model::scene::View],
+    views: &[scratchart_model::scene::View],
     sources: &[Option<Source>],
 ) -> Result<Option<usize>, String> {
     for (name, w) in [("lambda_p", e.lambda_p), ("lambda_g", e.lambda_g)] {

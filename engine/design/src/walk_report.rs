@@ -4,8 +4,8 @@ use std::path::Path;
 
 use serde_json::{json, Value};
 
-use super::walk::corr_of;
-use crate::optim::problem::{DesignReport, IterRecord, Problem};
+use crate::problem::{DesignReport, IterRecord, Problem};
+use crate::walk::corr_of;
 
 /// The problem and report of a walk cut down to its design views, for the outputs every design
 /// writes (design.json, the per-view images and summary, the set-up sheet): the in-between
@@ -122,7 +122,7 @@ pub fn walk_plot_png(
     problem: &Problem,
     corr: &[f64],
     probe_corr: &[f64],
-) -> Result<(), crate::optim::OptimError> {
+) -> Result<(), scratchart_optim::error::OptimError> {
     use plotters::prelude::*;
     let Some(walk) = &problem.walk else { return Ok(()) };
     let (wpx, hpx) = (900u32, 420u32);
@@ -149,7 +149,7 @@ pub fn walk_plot_png(
         )
         .collect();
     line.sort_by(|a, b| a.0.total_cmp(&b.0));
-    let pe = |e: DrawingAreaErrorKind<_>| crate::optim::OptimError::Report(format!("plot: {e}"));
+    let pe = |e: DrawingAreaErrorKind<_>| scratchart_optim::error::OptimError::Report(format!("plot: {e}"));
     let n = walk.design_views();
     {
         let root = BitMapBackend::with_buffer(&mut buf, (wpx, hpx)).into_drawing_area();
@@ -158,7 +158,7 @@ pub fn walk_plot_png(
         let orange = RGBColor(230, 120, 20);
         let mut builder = ChartBuilder::on(&root);
         builder.margin(16).x_label_area_size(40).y_label_area_size(56);
-        let font = crate::optim::report::plot_font();
+        let font = crate::report::plot_font();
         if let Some(f) = font {
             builder.caption(
                 format!(
@@ -225,12 +225,16 @@ pub fn walk_plot_png(
             .map_err(pe)?;
         root.present().map_err(pe)?;
     }
-    crate::optim::report::write_rgb_png(path, wpx, hpx, buf)
+    crate::report::write_rgb_png(path, wpx, hpx, buf)
 }
 
 /// `walk_sheet.png`: the walk's contact sheet, in arc order, up to 12 views a row: each view's
 /// render above its target, framed blue for a design view and orange for an in-between view.
-pub fn walk_sheet_png(path: &Path, problem: &Problem, displays: &[Vec<f32>]) -> Result<(), crate::optim::OptimError> {
+pub fn walk_sheet_png(
+    path: &Path,
+    problem: &Problem,
+    displays: &[Vec<f32>],
+) -> Result<(), scratchart_optim::error::OptimError> {
     let Some(walk) = &problem.walk else { return Ok(()) };
     const GAP: u32 = 6;
     const BORDER: u32 = 2;
@@ -269,5 +273,5 @@ pub fn walk_sheet_png(path: &Path, problem: &Problem, displays: &[Vec<f32>]) -> 
             }
         }
     }
-    crate::optim::report::write_rgb_png(path, w, h, px)
+    crate::report::write_rgb_png(path, w, h, px)
 }

@@ -4,10 +4,10 @@ use std::path::Path;
 
 use serde_json::json;
 
-use super::error::OptimError;
-pub use super::measure::{blur3, correlation, quality, ssim, view_ssim, ViewQuality};
-use super::problem::{DesignConfig, DesignReport, Problem};
-use crate::model::scene::Scene;
+pub use crate::measure::{blur3, correlation, quality, ssim, view_ssim, ViewQuality};
+use crate::problem::{DesignConfig, DesignReport, Problem};
+use scratchart_model::scene::Scene;
+use scratchart_optim::error::OptimError;
 
 /// A contact sheet: one row per view, `render | target | |render - target|`, 8-bit.
 pub fn contact_sheet_png(
@@ -15,7 +15,7 @@ pub fn contact_sheet_png(
     scene: &Scene,
     displays: &[Vec<f32>],
     targets: &[Vec<f32>],
-) -> Result<(), crate::io::IoError> {
+) -> Result<(), scratchart_render::io::IoError> {
     const GAP: u32 = 4;
     let w = scene.views.iter().map(|v| v.camera.width).max().unwrap_or(1);
     let cw = 3 * w + 2 * GAP;
@@ -37,11 +37,17 @@ pub fn contact_sheet_png(
         }
         y0 += vh + GAP;
     }
-    crate::io::write_png_gray(path, cw, ch, &px)
+    scratchart_render::io::write_png_gray(path, cw, ch, &px)
 }
 
 /// `render | target` side by side (4 gray pixels between), 8-bit.
-pub fn compare_png(path: &Path, w: u32, h: u32, display: &[f32], target: &[f32]) -> Result<(), crate::io::IoError> {
+pub fn compare_png(
+    path: &Path,
+    w: u32,
+    h: u32,
+    display: &[f32],
+    target: &[f32],
+) -> Result<(), scratchart_render::io::IoError> {
     const GAP: u32 = 4;
     let cw = 2 * w + GAP;
     let mut px = vec![128u8; (cw * h) as usize];
@@ -53,12 +59,12 @@ pub fn compare_png(path: &Path, w: u32, h: u32, display: &[f32], target: &[f32])
             px[(y * cw + w + GAP + x) as usize] = byte(target[i]);
         }
     }
-    crate::io::write_png_gray(path, cw, h, &px)
+    scratchart_render::io::write_png_gray(path, cw, h, &px)
 }
 
 /// Writes an RGB plot buffer as a PNG, atomically.
 pub(crate) fn write_rgb_png(path: &Path, w: u32, h: u32, buf: Vec<u8>) -> Result<(), OptimError> {
-    Ok(crate::io::write_png_rgb(path, w, h, &buf)?)
+    Ok(scratchart_render::io::write_png_rgb(path, w, h, &buf)?)
 }
 
 /// DejaVu Sans (Latin, Greek, arrows, mathematical signs; `engine/assets/`), built into the
@@ -254,7 +260,7 @@ pub fn write_outputs(
             .iter()
             .map(|&t| (255.0 * t.clamp(0.0, 1.0)).round() as u8)
             .collect();
-        crate::io::write_png_gray(&out.join(format!("{}_target.png", view.name)), w, h, &bytes)?;
+        scratchart_render::io::write_png_gray(&out.join(format!("{}_target.png", view.name)), w, h, &bytes)?;
         let ssim_final = view_ssim(scene, v, &r.final_images[v], &problem.targets[v], cfg.loss.sigma);
         let ssim_initial = view_ssim(scene, v, &r.initial_images[v], &problem.targets[v], cfg.loss.sigma);
         views_json.push(json!({
@@ -307,7 +313,7 @@ pub fn write_outputs(
             "lr_alpha": cfg.adam.lr_alpha, "lr_light_log": cfg.adam.lr_light, "seed": cfg.seed,
         },
     });
-    crate::io::write_atomic(
+    scratchart_render::io::write_atomic(
         &out.join("summary.json"),
         serde_json::to_string_pretty(&summary)
             .expect("the summary always serializes")

@@ -1,7 +1,7 @@
 //! Image measures: Gaussian blur, SSIM, correlation, and each view's quality (its correlation
 //! with its target and its cross-talk with the others). The design's reports and its set-up
 //! sheet use them; they know nothing of the design job.
-use crate::model::scene::Scene;
+use scratchart_model::scene::Scene;
 
 /// The 3x3 clamp-to-edge Gaussian blur of the loss (sigma in pixels).
 pub fn blur3(img: &[f32], w: u32, h: u32, sigma: f32) -> Vec<f64> {
@@ -80,7 +80,7 @@ pub fn view_ssim(scene: &Scene, v: usize, display: &[f32], target: &[f32], sigma
     let clamped: Vec<f32> = display.iter().map(|x| x.clamp(0.0, 1.0)).collect();
     let a = blur3(&clamped, w, h, sigma);
     let b: Vec<f64> = target.iter().map(|&x| x as f64).collect();
-    let mask = crate::model::camera::on_plate_mask(scene, v);
+    let mask = scratchart_model::camera::on_plate_mask(scene, v);
     ssim(&a, &b, w, h, &mask)
 }
 

@@ -18,7 +18,7 @@
 use std::path::PathBuf;
 
 use super::framing::{fit_picture_walk, Fit, Fitted};
-use crate::model::scene::{Light, Scene, View};
+use scratchart_model::scene::{Light, Scene, View};
 
 #[cfg(test)]
 mod tests;
@@ -234,8 +234,8 @@ pub enum Frames<'a> {
     /// A 3D object, rendered from every view (design and in-between) with a key light fixed in
     /// the world, so it is lit as one real object.
     Object {
-        mesh: &'a crate::model::mesh::Mesh,
-        placement: crate::model::mesh::Placement,
+        mesh: &'a scratchart_model::mesh::Mesh,
+        placement: scratchart_model::mesh::Placement,
         key_light: [f64; 3],
     },
 }
@@ -309,7 +309,7 @@ pub fn target_at(
         }
         f
     };
-    let on = || crate::model::camera::ViewGeom::new(view).on_plate_mask(0.5 * plate_mm);
+    let on = || scratchart_model::camera::ViewGeom::new(view).on_plate_mask(0.5 * plate_mm);
     match frames {
         Frames::Pictures(pics) => {
             let place = |pic: &Picture| {
@@ -344,7 +344,7 @@ pub fn target_at(
             placement,
             key_light,
         } => {
-            let img = crate::model::mesh::render_object(mesh, placement, view, *key_light, background);
+            let img = scratchart_model::mesh::render_object(mesh, placement, view, *key_light, background);
             let on = on();
             let image: Vec<f32> = img
                 .shade
@@ -400,11 +400,11 @@ pub fn probes(
 /// every probe, lit as the probe's left neighbour is, a few views at a time; returns each
 /// probe's correlation with its target.
 pub fn judge_probes(
-    renderer: &crate::render::Renderer,
+    renderer: &scratchart_render::Renderer,
     scene: &Scene,
     walk: &Walk,
     sigma: f32,
-) -> Result<Vec<f64>, crate::vulkan::GpuError> {
+) -> Result<Vec<f64>, scratchart_vulkan::GpuError> {
     const CHUNK: usize = 12;
     let mut out = Vec::with_capacity(walk.probes.len());
     for chunk in walk.probes.chunks(CHUNK) {
@@ -421,7 +421,7 @@ pub fn judge_probes(
         let mut gs = renderer.upload(&s)?;
         let frame = renderer.render(&mut gs)?;
         for (p, img) in chunk.iter().zip(&frame.images) {
-            let display: Vec<f32> = img.iter().map(|&l| crate::io::display_value(l)).collect();
+            let display: Vec<f32> = img.iter().map(|&l| scratchart_render::io::display_value(l)).collect();
             let (w, h) = (p.view.camera.width, p.view.camera.height);
             out.push(corr_of(&display, &p.target, &p.picture, w, h, sigma));
         }

@@ -7,10 +7,10 @@ use std::path::Path;
 
 use serde_json::{json, Value};
 
-use super::error::OptimError;
-use super::measure::{blur3, correlation};
-use crate::model::scene::{LightKind, Scene, View};
-use crate::render::Renderer;
+use crate::measure::{blur3, correlation};
+use scratchart_model::scene::{LightKind, Scene, View};
+use scratchart_optim::error::OptimError;
+use scratchart_render::Renderer;
 
 /// One render of a view with the lamp or the eye moved, and its correlation with its picture.
 #[derive(Clone, Debug, PartialEq)]
@@ -218,7 +218,7 @@ fn render_views(renderer: &Renderer, scene: &Scene, views: Vec<View>) -> Result<
         for img in renderer.render(&mut gs)?.images {
             out.push(
                 img.iter()
-                    .map(|&l| crate::io::display_value(l).clamp(0.0, 1.0))
+                    .map(|&l| scratchart_render::io::display_value(l).clamp(0.0, 1.0))
                     .collect(),
             );
         }
@@ -340,7 +340,7 @@ impl Place {
 
     /// The point at these spherical coordinates.
     pub fn at(azimuth_deg: f64, elevation_deg: f64, distance_mm: f64) -> [f64; 3] {
-        crate::model::camera::spherical(distance_mm, azimuth_deg, elevation_deg)
+        scratchart_model::camera::spherical(distance_mm, azimuth_deg, elevation_deg)
     }
 }
 
@@ -371,9 +371,9 @@ impl SheetInputs {
         for (j, v) in scene.views.iter().enumerate() {
             let (w, h) = (v.camera.width, v.camera.height);
             let (t, m) = (format!("{}_target.pfm", v.name), format!("{}_picture.png", v.name));
-            crate::io::write_pfm(&dir.join(&t), w, h, &self.targets[j])?;
+            scratchart_render::io::write_pfm(&dir.join(&t), w, h, &self.targets[j])?;
             let mask: Vec<u8> = self.pictures[j].iter().map(|&p| if p { 255 } else { 0 }).collect();
-            crate::io::write_png_gray(&dir.join(&m), w, h, &mask)?;
+            scratchart_render::io::write_png_gray(&dir.join(&m), w, h, &mask)?;
             views.push(json!({"name": v.name, "target": t, "picture": m}));
         }
         let index = json!({
@@ -383,7 +383,10 @@ impl SheetInputs {
             "views": views,
         });
         let text = serde_json::to_string_pretty(&index).expect("the index always serializes");
-        Ok(crate::io::write_atomic(&dir.join(Self::FILE), text.as_bytes())?)
+        Ok(scratchart_render::io::write_atomic(
+            &dir.join(Self::FILE),
+            text.as_bytes(),
+        )?)
     }
 
     /// Reads the inputs a design wrote into `dir`; `Ok(None)` when it wrote none (a design made
@@ -394,7 +397,7 @@ impl SheetInputs {
             Ok(t) => t,
             Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(None),
             Err(cause) => {
-                return Err(OptimError::Io(crate::io::IoError::Io {
+                return Err(OptimError::Io(scratchart_render::io::IoError::Io {
                     action: "read",
                     path,
                     cause,
@@ -402,7 +405,7 @@ impl SheetInputs {
             }
         };
         let bad = |msg: String| {
-            OptimError::Io(crate::io::IoError::Format {
+            OptimError::Io(scratchart_render::io::IoError::Format {
                 kind: "set-up inputs",
                 path: path.clone(),
                 msg,
@@ -432,9 +435,9 @@ impl SheetInputs {
             };
             let (w, h) = (v.camera.width, v.camera.height);
             let tp = file("target")?;
-            let (tw, th, t) = crate::io::read_pfm(&tp)?;
+            let (tw, th, t) = scratchart_render::io::read_pfm(&tp)?;
             let mp = file("picture")?;
-            let (mw, mh, m) = crate::io::read_image_gray(&mp)?;
+            let (mw, mh, m) = scratchart_render::io::read_image_gray(&mp)?;
             if (tw, th) != (w, h) || (mw, mh) != (w, h) {
                 return Err(bad(format!(
                     "view `{}` is {w}x{h}, but `{}` is {tw}x{th} and `{}` {mw}x{mh}",

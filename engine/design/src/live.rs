@@ -1,16 +1,16 @@
 //! A live design (`scratchart-view --design`): what its hook sees after each accepted
 //! iteration ([`Live`]: the running optimizer, to read), and the changes it may make between two
-//! iterations, each recorded in the problem's `steering` ([`super::steer`]): a picture moved or
+//! iterations, each recorded in the problem's `steering` ([`crate::steer`]): a picture moved or
 //! scaled, the loss's weights, scratches added or removed.
-use crate::model::scene::{Scene, Scratch};
-use crate::render::layout::ScratchGpu;
-use crate::render::Renderer;
-use crate::vulkan::GpuError;
+use scratchart_model::scene::{Scene, Scratch};
+use scratchart_render::layout::ScratchGpu;
+use scratchart_render::Renderer;
+use scratchart_vulkan::GpuError;
 
-use super::driver::Driver;
-use super::error::OptimError;
-use super::loss::Loss;
-use super::problem::Problem;
+use crate::problem::Problem;
+use scratchart_optim::driver::Driver;
+use scratchart_optim::error::OptimError;
+use scratchart_optim::loss::Loss;
 
 /// What a live design's hook sees after each accepted iteration (`scratchart-view --design`):
 /// the running optimizer, to read (never to change: a run with a hook gives the same bits).
@@ -25,7 +25,7 @@ pub struct Live<'a, 'r> {
     /// The design's output directory.
     pub out: &'a std::path::Path,
     /// The optimizer's learning rates (what ranks scratches for removal).
-    pub adam: &'a super::adam::AdamConfig,
+    pub adam: &'a scratchart_optim::adam::AdamConfig,
     /// Whether scratches can be added or removed (not in fabrication mode, whose depths are a
     /// parameter set of their own).
     pub resizable: bool,
@@ -33,7 +33,7 @@ pub struct Live<'a, 'r> {
 
 /// Called after each accepted iteration of a live design; `Ok(false)` ends the optimization
 /// there (pruning, the final evaluation and the outputs follow as after the last iteration).
-pub type LiveHook<'h> = dyn FnMut(&mut Live, &super::driver::Evaluation) -> Result<bool, OptimError> + 'h;
+pub type LiveHook<'h> = dyn FnMut(&mut Live, &scratchart_optim::driver::Evaluation) -> Result<bool, OptimError> + 'h;
 
 impl Live<'_, '_> {
     /// The next iteration to run (the iterations evaluated so far).
@@ -59,11 +59,11 @@ impl Live<'_, '_> {
         self.renderer.download_images(&self.driver.gs)
     }
 
-    /// Moves or scales view `view`'s picture from this iteration on (see [`super::steer`]):
+    /// Moves or scales view `view`'s picture from this iteration on (see [`crate::steer`]):
     /// placed again from its file, the loss's targets replaced, the event recorded in the
     /// problem's `steering`. A view that cannot be steered is a [`OptimError::Usage`].
     pub fn steer(&mut self, view: &str, shift_px: [f64; 2], scale: f64) -> Result<(), OptimError> {
-        self.steer_event(super::steer::SteerEvent::picture(
+        self.steer_event(crate::steer::SteerEvent::picture(
             self.iteration(),
             view,
             shift_px,
@@ -74,7 +74,7 @@ impl Live<'_, '_> {
     /// Changes the loss's weights (the pixel and Gram terms'; None keeps one) from this
     /// iteration on, recorded in the problem's `steering`.
     pub fn steer_weights(&mut self, lambda_p: Option<f64>, lambda_g: Option<f64>) -> Result<(), OptimError> {
-        self.steer_event(super::steer::SteerEvent::weights(self.iteration(), lambda_p, lambda_g))
+        self.steer_event(crate::steer::SteerEvent::weights(self.iteration(), lambda_p, lambda_g))
     }
 
     /// The scratches of the design as it stands.
@@ -94,12 +94,12 @@ impl Live<'_, '_> {
             )));
         }
         let g: Vec<[f32; 8]> = self.renderer.ctx.download(self.driver.gs.scratch_grad())?;
-        let imp = super::prune::importance(&g[..have as usize], self.adam);
+        let imp = scratchart_optim::prune::importance(&g[..have as usize], self.adam);
         let mut order: Vec<(f64, u32)> = imp.into_iter().zip(0..).collect();
         order.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
         let mut idx: Vec<u32> = order[..n as usize].iter().map(|o| o.1).collect();
         idx.sort_unstable();
-        self.steer_event(super::steer::SteerEvent::scratches(self.iteration(), idx, 0, 0))
+        self.steer_event(crate::steer::SteerEvent::scratches(self.iteration(), idx, 0, 0))
     }
 
     /// Adds `n` scratches, drawn as the design drew its first ones, from this iteration on,
@@ -107,7 +107,7 @@ impl Live<'_, '_> {
     pub fn add_scratches(&mut self, n: u32) -> Result<(), OptimError> {
         // One stream per (iteration, event): a replay draws the same scratches.
         let seed = 0x5eed_0000_0000u64 ^ ((self.iteration() as u64) << 16) ^ self.problem.steering.len() as u64;
-        self.steer_event(super::steer::SteerEvent::scratches(
+        self.steer_event(crate::steer::SteerEvent::scratches(
             self.iteration(),
             Vec::new(),
             n,
@@ -118,7 +118,7 @@ impl Live<'_, '_> {
     /// Removes and adds scratches as `e` says: the design read back, the removed ones left
     /// out, the new ones drawn after the rest, uploaded again, and the optimizer's state
     /// carried over ([`Driver::replace_scene`]).
-    fn resize(&mut self, e: &super::steer::SteerEvent) -> Result<(), OptimError> {
+    fn resize(&mut self, e: &crate::steer::SteerEvent) -> Result<(), OptimError> {
         if !self.resizable {
             return Err(OptimError::Usage(
                 "scratches cannot be added or removed in fabrication mode (--tool): each has a depth of its own".into(),
@@ -144,11 +144,11 @@ impl Live<'_, '_> {
                     "this design cannot add scratches: it does not say how its first ones were drawn".into(),
                 )
             })?;
-            if scratches.len() as u64 + n as u64 > super::steer::MAX_SCRATCHES as u64 {
+            if scratches.len() as u64 + n as u64 > crate::steer::MAX_SCRATCHES as u64 {
                 return Err(OptimError::Usage(format!(
                     "steering at iteration {}: more than {} scratches",
                     e.iteration,
-                    super::steer::MAX_SCRATCHES
+                    crate::steer::MAX_SCRATCHES
                 )));
             }
             let mut rng = crate::scenes::Rng::new(e.seed.unwrap_or(0));
@@ -190,15 +190,15 @@ impl Live<'_, '_> {
 
     /// Applies `e` now, recorded as it is (a replayed event keeps its own iteration, also when
     /// a resumed run applies it before its first iteration).
-    fn steer_event(&mut self, e: super::steer::SteerEvent) -> Result<(), OptimError> {
+    fn steer_event(&mut self, e: crate::steer::SteerEvent) -> Result<(), OptimError> {
         self.steer_event_with(e, true)
     }
 
     /// [`steer_event`](Self::steer_event); `resize` false records a change of the scratches
     /// without making it (the state already holds it: a resumed run).
-    fn steer_event_with(&mut self, e: super::steer::SteerEvent, resize: bool) -> Result<(), OptimError> {
+    fn steer_event_with(&mut self, e: crate::steer::SteerEvent, resize: bool) -> Result<(), OptimError> {
         let view =
-            super::steer::check(&e, &self.problem.scene.views, &self.problem.sources).map_err(OptimError::Usage)?;
+            crate::steer::check(&e, &self.problem.scene.views, &self.problem.sources).map_err(OptimError::Usage)?;
         if e.resizes() && resize {
             self.resize(&e)?;
         }
@@ -228,7 +228,7 @@ impl Live<'_, '_> {
     /// `skip` that change the scratches are only recorded (the state holds them).
     pub(super) fn apply_due(
         &mut self,
-        scheduled: &[super::steer::SteerEvent],
+        scheduled: &[crate::steer::SteerEvent],
         next: &mut usize,
         skip: &mut u32,
     ) -> Result<(), OptimError> {
@@ -248,7 +248,7 @@ impl Live<'_, '_> {
     /// it is (not pruned).
     pub fn save(&self) -> Result<(), OptimError> {
         std::fs::create_dir_all(self.out).map_err(|source| {
-            OptimError::Io(crate::io::IoError::Io {
+            OptimError::Io(scratchart_render::io::IoError::Io {
                 action: "create output directory",
                 path: self.out.to_path_buf(),
                 cause: source,

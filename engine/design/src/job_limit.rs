@@ -19,15 +19,16 @@
 //! deterministic, so a resumed run equals an uninterrupted one).
 use serde_json::{json, Value};
 
-use scratchart_machine::plan::{design_job_time, Cut, MachineProfile, TimeSplit};
+use scratchart_machine::plan::{design_job_time, Cut, TimeSplit};
+use scratchart_tool::machine::MachineProfile;
 
-use super::design::{run_design, DesignConfig, DesignReport, Problem};
-use super::error::OptimError;
-use super::loss::Loss;
-use crate::model::scene::Scene;
-use crate::observe::Observer;
-use crate::render::Renderer;
-use crate::vulkan::Context;
+use crate::design::{run_design, DesignConfig, DesignReport, Problem};
+use scratchart_model::scene::Scene;
+use scratchart_optim::error::OptimError;
+use scratchart_optim::loss::Loss;
+use scratchart_optim::observe::Observer;
+use scratchart_render::Renderer;
+use scratchart_vulkan::Context;
 
 /// Before re-optimizing, the job is trimmed to this share of the limit (the re-optimization may
 /// lengthen scratches).
@@ -59,8 +60,8 @@ pub fn job_time(scene: &Scene, depths: &[f64], m: &MachineProfile) -> (TimeSplit
 /// Each scratch's importance (the pruning's ranking) in `scene`.
 fn importance(renderer: &Renderer, loss: &Loss, scene: &Scene, cfg: &DesignConfig) -> Result<Vec<f64>, OptimError> {
     renderer.prepare_backward()?;
-    let (_, grads) = super::prune::evaluate(renderer, loss, scene)?;
-    Ok(super::prune::importance(&grads, &cfg.adam))
+    let (_, grads) = scratchart_optim::prune::evaluate(renderer, loss, scene)?;
+    Ok(scratchart_optim::prune::importance(&grads, &cfg.adam))
 }
 
 /// The most important scratches of `scene` (kept in order) whose job fits in `secs`; with
@@ -157,7 +158,7 @@ pub fn run_design_within(
     if let (Some(fab), Some(s)) = (
         &cfg.tool,
         problem.scene.scratches.iter().min_by(|a, b| {
-            let len = |s: &crate::model::scene::Scratch| (s.p1[0] - s.p0[0]).hypot(s.p1[1] - s.p0[1]);
+            let len = |s: &scratchart_model::scene::Scratch| (s.p1[0] - s.p0[0]).hypot(s.p1[1] - s.p0[1]);
             len(a).total_cmp(&len(b))
         }),
     ) {
@@ -168,7 +169,7 @@ pub fn run_design_within(
             return Err(too_short(limit, t));
         }
     }
-    let has_checkpoint = |dir: &std::path::Path| super::checkpoint::path(dir).exists();
+    let has_checkpoint = |dir: &std::path::Path| scratchart_optim::checkpoint::path(dir).exists();
     // 1. Without the limit.
     let mut c1 = cfg.clone();
     c1.out = cfg.out.join("unlimited");
@@ -183,7 +184,7 @@ pub fn run_design_within(
     let ta = job_time(&a.scene, &za, &m);
     // 2. Trimmed to fit, optimized again.
     let renderer = Renderer::new(ctx)?;
-    let slots = crate::render::layout::view_slots(&problem.scene);
+    let slots = scratchart_render::layout::view_slots(&problem.scene);
     let loss = Loss::new(ctx, &slots.views, &problem.targets, cfg.loss)?;
     let fits = ta.1 <= limit;
     let (start, refine_iters, trimmed_to) = if fits {
@@ -249,7 +250,7 @@ pub fn run_design_within(
     });
     if let Some(s) = b.summary.as_mut() {
         s["job_limit"] = entry;
-        crate::io::write_atomic(
+        scratchart_render::io::write_atomic(
             &cfg.out.join("summary.json"),
             serde_json::to_string_pretty(s)
                 .expect("the summary always serializes")

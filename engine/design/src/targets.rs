@@ -2,7 +2,7 @@
 //! resized to each view's resolution) or the built-in bold shapes drawn here (no font files).
 use std::path::{Path, PathBuf};
 
-use crate::model::scene::Scene;
+use scratchart_model::scene::Scene;
 
 /// A target set does not fit the views.
 #[derive(Debug, thiserror::Error)]
@@ -16,7 +16,7 @@ pub enum TargetError {
     )]
     Uniform { path: String, view: String, value: f32 },
     #[error(transparent)]
-    Image(#[from] crate::io::IoError),
+    Image(#[from] scratchart_render::io::IoError),
 }
 
 /// A picture whose pixels all lie within half an 8-bit step of one value has nothing to show.
@@ -66,7 +66,7 @@ pub struct Picture {
 /// Reads the picture of view `view`; a uniform one (a 1 x 1 image, a blank frame) is refused
 /// unless the view is named in `blank` (left blank on purpose).
 pub fn read_picture(path: &Path, view: &str, blank: &[String]) -> Result<Picture, TargetError> {
-    let (width, height, data) = crate::io::read_image_gray(path)?;
+    let (width, height, data) = scratchart_render::io::read_image_gray(path)?;
     let data: Vec<f32> = data.into_iter().map(|x| x.clamp(0.0, 1.0)).collect();
     if let Some(value) = is_uniform(&data).filter(|_| !blank.iter().any(|b| b == view)) {
         return Err(TargetError::Uniform {
@@ -93,18 +93,18 @@ pub fn read_pictures(paths: &[PathBuf], scene: &Scene, blank: &[String]) -> Resu
         .collect()
 }
 
-/// Places each view's picture in its view as `fit` says (see [`super::framing`]): the targets
+/// Places each view's picture in its view as `fit` says (see [`crate::framing`]): the targets
 /// the loss uses, with where each picture went.
 pub fn fit_pictures(
     pictures: &[Picture],
     scene: &Scene,
-    fit: super::framing::Fit,
+    fit: crate::framing::Fit,
     background: f32,
-) -> Vec<super::framing::Fitted> {
+) -> Vec<crate::framing::Fitted> {
     pictures
         .iter()
         .zip(&scene.views)
-        .map(|(p, v)| super::framing::fit_picture(&p.data, p.width, p.height, v, scene.plate.size_mm, fit, background))
+        .map(|(p, v)| crate::framing::fit_picture(&p.data, p.width, p.height, v, scene.plate.size_mm, fit, background))
         .collect()
 }
 
@@ -112,10 +112,10 @@ pub fn fit_pictures(
 pub fn load_fitted_targets(
     paths: &[PathBuf],
     scene: &Scene,
-    fit: super::framing::Fit,
+    fit: crate::framing::Fit,
     background: f32,
     blank: &[String],
-) -> Result<Vec<super::framing::Fitted>, TargetError> {
+) -> Result<Vec<crate::framing::Fitted>, TargetError> {
     Ok(fit_pictures(
         &read_pictures(paths, scene, blank)?,
         scene,
@@ -126,11 +126,11 @@ pub fn load_fitted_targets(
 
 /// One target file as display values, resized to `w` x `h` (antialiased bilinear).
 pub fn load_target(path: &Path, w: u32, h: u32) -> Result<Vec<f32>, TargetError> {
-    let (sw, sh, data) = crate::io::read_image_gray(path)?;
+    let (sw, sh, data) = scratchart_render::io::read_image_gray(path)?;
     let img = if (sw, sh) == (w, h) {
         data
     } else {
-        crate::io::resize_bilinear(&data, sw, sh, w, h)
+        scratchart_render::io::resize_bilinear(&data, sw, sh, w, h)
     };
     Ok(img.into_iter().map(|v| v.clamp(0.0, 1.0)).collect())
 }
@@ -221,11 +221,11 @@ pub fn builtin_targets(scene: &Scene) -> Vec<Vec<f32>> {
         .enumerate()
         .map(|(j, v)| {
             let (w, h) = (v.camera.width, v.camera.height);
-            let geom = crate::model::camera::ViewGeom::new(v);
+            let geom = scratchart_model::camera::ViewGeom::new(v);
             let (cx, cy) = geom
                 .project([0.0, 0.0, 0.0])
                 .unwrap_or((w as f64 / 2.0, h as f64 / 2.0));
-            let mask = crate::model::camera::on_plate_mask(scene, j);
+            let mask = scratchart_model::camera::on_plate_mask(scene, j);
             let mut r2 = f64::INFINITY;
             for y in 0..h {
                 for x in 0..w {
