@@ -8,10 +8,10 @@ use scratchart_design::design::{run_design, DesignConfig, DesignReport, Problem}
 use scratchart_design::scenes::{orbit_light, random_scratches, ring_views, Rng};
 use scratchart_design::targets::{builtin_targets, load_targets, TargetError};
 use scratchart_model::scene::Scene;
+use scratchart_observe::Silent;
 use scratchart_optim::adam::{Adam, AdamConfig, Moments, ParamBlock, StepCheck};
 use scratchart_optim::driver::Hooks;
 use scratchart_optim::loss::{reference, Loss, LossConfig};
-use scratchart_optim::observe::Silent;
 use scratchart_optim::scene_params::{reference_step, SceneParams};
 use scratchart_render::layout::ScratchGpu;
 use scratchart_render::Renderer;

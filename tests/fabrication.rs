@@ -8,9 +8,9 @@ use scratchart_design::design::{run_design, DesignConfig, DesignReport, Problem}
 use scratchart_design::scenes::{orbit_light, random_scratches, ring_views, Rng};
 use scratchart_design::targets::builtin_targets;
 use scratchart_model::scene::{Scene, Scratch};
+use scratchart_observe::Silent;
 use scratchart_optim::adam::AdamConfig;
 use scratchart_optim::check::CheckObjective;
-use scratchart_optim::observe::Silent;
 use scratchart_optim::tool_params::{Fabrication, ToolParams};
 use scratchart_render::Renderer;
 use scratchart_tests::*;

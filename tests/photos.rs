@@ -7,7 +7,7 @@ use scratchart_design::framing::{fit_picture, largest_rect, silhouette, Fit};
 use scratchart_design::scenes::{framed_ring_views, orbit_light, random_scratches, silhouette_box, Rng};
 use scratchart_design::targets::load_fitted_targets;
 use scratchart_model::scene::{Scene, View};
-use scratchart_optim::observe::Silent;
+use scratchart_observe::Silent;
 use scratchart_render::Renderer;
 use scratchart_tests::*;
 

@@ -11,7 +11,7 @@ use scratchart_calibration::card::{Card, CardSpec};
 use scratchart_calibration::fit_cmd::{run, FitArgs};
 use scratchart_calibration::phone::{take, Pose, Shot};
 use scratchart_model::scene::Scene;
-use scratchart_optim::observe::Silent;
+use scratchart_observe::Silent;
 use scratchart_render::Renderer;
 use scratchart_tool::Tool;
 use scratchart_vulkan::{Context, ContextDesc};

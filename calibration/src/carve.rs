@@ -15,8 +15,8 @@ use anyhow::Result;
 use scratchart_exit::{InputError, UsageError};
 use scratchart_machine::controller::Rezero;
 use scratchart_machine::job::{carve, Options};
-use scratchart_machine::stream::{Control, Observer, Progress};
-use scratchart_optim::observe::Observer as _;
+use scratchart_machine::stream::Control;
+use scratchart_observe::{Observer, Progress};
 use scratchart_tool::machine::MachineProfile;
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
@@ -99,39 +99,31 @@ fn resume_command(a: &CarveArgs) -> String {
 /// terminal.
 struct Term {
     out: scratchart::term::Terminal,
-    /// What the progress line is labelled ("carve", "probe").
-    task: &'static str,
     ask: bool,
     answers: Option<Mutex<Receiver<String>>>,
     asking: Arc<AtomicBool>,
 }
 
 impl Observer for Term {
+    /// "carve: 370/2701 cuts, last scratch 1234 | ETA ...": the cut order and the design's number.
     fn progress(&self, p: &Progress) {
-        // "carve: 370/2701 cuts, last scratch 1234 | ...": the cut order and the design's number.
-        let mut msg = if p.label.is_empty() {
-            String::new()
-        } else {
-            format!("cuts, last {} | ", p.label)
-        };
-        msg.push_str(&format!(
-            "ETA {} | {}",
-            p.eta_s.map_or("?".into(), scratchart_machine::job::clock),
-            p.state
-        ));
-        if let Some(q) = p.pos {
-            msg.push_str(&format!(" X{:.2} Y{:.2} Z{:.3}", q[0], q[1], q[2]));
-        }
-        self.out.progress(&scratchart_optim::observe::Progress {
-            task: self.task,
-            done: p.done as u64,
-            total: p.total as u64,
-            message: msg,
-        });
+        self.out.progress(p);
     }
 
-    fn note(&self, msg: &str) {
+    fn finish(&self, task: &str) {
+        self.out.finish(task);
+    }
+
+    fn warn(&self, msg: &str) {
+        self.out.warn(msg);
+    }
+
+    fn info(&self, msg: &str) {
         self.out.info(msg);
+    }
+
+    fn result(&self, msg: &str) {
+        self.out.result(msg);
     }
 
     fn confirm(&self, question: &str) -> bool {
@@ -215,7 +207,6 @@ pub fn run(a: &CarveArgs) -> Result<()> {
     }
     let term = Term {
         out: scratchart::term::Terminal::new(false),
-        task: "carve",
         ask: tty && !a.yes,
         answers,
         asking,
@@ -303,7 +294,6 @@ pub fn probe(a: &ProbeArgs) -> Result<()> {
     let asking = Arc::new(AtomicBool::new(false));
     let term = Term {
         out: scratchart::term::Terminal::new(false),
-        task: "probe",
         ask: tty && !a.yes,
         answers: tty.then(|| Mutex::new(keys(control.clone(), asking.clone()))),
         asking,

@@ -40,7 +40,7 @@
 //! about the blur's width in pixels. A parameter whose uncertainty is larger than its stated
 //! limit is reported as not identified, not as a number.
 use scratchart_model::scene::{Scene, Scratch};
-use scratchart_optim::observe::{Observer, Progress};
+use scratchart_observe::{Observer, Progress};
 use scratchart_render::tangent::{ScratchTangent, TANGENT_DIRECTIONS};
 use scratchart_render::Renderer;
 use scratchart_tool::Tool;

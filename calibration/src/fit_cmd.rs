@@ -4,7 +4,7 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{Context as _, Result};
 use scratchart_exit::InputError;
-use scratchart_optim::observe::Observer;
+use scratchart_observe::Observer;
 use scratchart_render::Renderer;
 use scratchart_tool::{Fitted, Tool};
 use serde_json::json;

@@ -11,7 +11,7 @@ use std::time::Instant;
 
 use anyhow::{Context as _, Result};
 use scratchart_design::scenes::Rng;
-use scratchart_optim::observe::{Observer, Silent};
+use scratchart_observe::{Observer, Silent};
 use scratchart_render::Renderer;
 use scratchart_tool::Tool;
 use serde_json::json;

@@ -7,7 +7,7 @@ use scratchart_calibration::card::{Card, CardSpec};
 use scratchart_calibration::fit_cmd::{run, FitArgs};
 use scratchart_calibration::simulate::Camera;
 use scratchart_model::scene::View;
-use scratchart_optim::observe::Silent;
+use scratchart_observe::Silent;
 use scratchart_render::Renderer;
 use scratchart_tests::{assert_no_validation, gpu};
 use scratchart_tool::Tool;
@@ -475,8 +475,8 @@ struct StopAtRefine {
     stop: bool,
 }
 
-impl scratchart_optim::observe::Observer for StopAtRefine {
-    fn progress(&self, p: &scratchart_optim::observe::Progress) {
+impl scratchart_observe::Observer for StopAtRefine {
+    fn progress(&self, p: &scratchart_observe::Progress) {
         self.seen.lock().unwrap().push(format!("{}: {}", p.task, p.message));
     }
     fn should_stop(&self) -> bool {

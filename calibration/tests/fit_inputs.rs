@@ -4,7 +4,7 @@
 use std::path::Path;
 
 use scratchart_calibration::simulate::Camera;
-use scratchart_optim::observe::Silent;
+use scratchart_observe::Silent;
 use scratchart_render::Renderer;
 use scratchart_tests::{assert_no_validation, gpu};
 use scratchart_tool::Tool;

@@ -9,7 +9,7 @@ use scratchart_calibration::fit_cmd::run;
 use scratchart_calibration::phone::{take, Pose, Shot};
 use scratchart_calibration::register::{find_marks, load_photo, resize};
 use scratchart_model::camera::ViewGeom;
-use scratchart_optim::observe::Silent;
+use scratchart_observe::Silent;
 use scratchart_render::Renderer;
 use scratchart_tests::{assert_no_validation, gpu};
 use scratchart_tool::Tool;

@@ -330,7 +330,7 @@ pub fn run_iterations(
     )?;
     let mut opt = Optimizer::new(&renderer, &loss, &problem, &cfg)?;
     let t0 = std::time::Instant::now();
-    let (_, _) = opt.run(&scratchart_optim::observe::Silent)?;
+    let (_, _) = opt.run(&scratchart_observe::Silent)?;
     let wall = t0.elapsed().as_secs_f64();
     let steps: Vec<&Vec<(String, f64)>> = opt
         .driver

@@ -1,4 +1,4 @@
-//! The terminal side of [`scratchart_optim::observe::Observer`] for the `scratchart` binary: a progress
+//! The terminal side of [`scratchart_observe::Observer`] for the `scratchart` binary: a progress
 //! bar when stderr is a terminal, otherwise a plain progress line every few seconds (so logs and
 //! CI show how far a job is); warnings and notes on stderr.
 use std::io::IsTerminal;
@@ -6,7 +6,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Mutex;
 use std::time::{Duration, Instant};
 
-use scratchart_optim::observe::{Observer, Progress};
+use scratchart_observe::{Observer, Progress};
 
 /// How often a plain progress line is printed when stderr is not a terminal.
 const LOG_EVERY: Duration = Duration::from_secs(5);
@@ -26,10 +26,10 @@ pub fn install_interrupt_handler() {
     });
 }
 
-/// The binaries' sink for the Vulkan layer's notices (`ContextDesc::notify`): each on its
-/// own line of stderr.
-pub fn stderr_notices() -> scratchart_vulkan::instance::Notify {
-    std::sync::Arc::new(|msg: &str| eprintln!("{msg}"))
+/// The binaries' observer of the Vulkan layer's notices (`ContextDesc::notify`): each on its
+/// own line of stderr, warnings as `warning: ...` (quiet: it shows no progress).
+pub fn stderr_notices() -> scratchart_observe::SharedObserver {
+    std::sync::Arc::new(Terminal::new(true))
 }
 
 pub struct Terminal {

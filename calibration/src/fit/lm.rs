@@ -5,8 +5,8 @@
 //! photos taken off the capture pose (they move the camera, not the grooves) by forward
 //! differences of renders; exposure, blur and registration by forward differences of the camera
 //! model alone (no render).
+use scratchart_observe::Observer;
 use scratchart_optim::least_squares::{self, Interrupted, LeastSquares, Solution};
-use scratchart_optim::observe::Observer;
 
 use super::{Evaluator, FitError};
 

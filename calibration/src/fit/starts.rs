@@ -127,12 +127,12 @@ pub(super) fn search_starts(
             if obs.should_stop() {
                 return Err(FitError::Interrupted);
             }
-            obs.progress(&Progress {
-                task: "search",
-                done: (i * ev.lay.shapes().len() + j) as u64,
+            obs.progress(&Progress::new(
+                "search",
+                (i * ev.lay.shapes().len() + j) as u64,
                 total,
-                message: format!("{} start points", kind.name()),
-            });
+                format!("{} start points", kind.name()),
+            ));
             let off = rg.map_or(0.0, |(a, b)| 0.5 * (a + b));
             let mut x = ev.lay.start(off, shape);
             for v in 0..ev.lay.n_views {

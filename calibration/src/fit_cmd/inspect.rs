@@ -1,5 +1,5 @@
 //! Each photo as the fit will use it: loaded, shrunk, registered, checked; and `fit --check`.
-use scratchart_optim::observe::Observer;
+use scratchart_observe::Observer;
 use std::path::{Path, PathBuf};
 
 use anyhow::Result;

@@ -4,7 +4,7 @@ use std::path::PathBuf;
 
 use anyhow::Result;
 use scratchart_exit::{InputError, UsageError};
-use scratchart_optim::observe::Observer;
+use scratchart_observe::Observer;
 use serde_json::json;
 
 use super::inspect_photo;

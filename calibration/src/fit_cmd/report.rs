@@ -3,7 +3,7 @@
 use std::path::{Path, PathBuf};
 
 use anyhow::Result;
-use scratchart_optim::observe::Observer;
+use scratchart_observe::Observer;
 use serde_json::json;
 
 use scratchart_tool::Fitted;

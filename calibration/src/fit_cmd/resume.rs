@@ -4,7 +4,7 @@ use std::path::PathBuf;
 
 use anyhow::{Context as _, Result};
 use scratchart_exit::InputError;
-use scratchart_optim::observe::Observer;
+use scratchart_observe::Observer;
 
 use super::FitArgs;
 use crate::fit::{FitResult, Start};

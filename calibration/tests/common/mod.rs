@@ -8,7 +8,7 @@ use scratchart_calibration::card::{Card, CardSpec};
 use scratchart_calibration::fit_cmd::{run, FitArgs};
 use scratchart_calibration::simulate::{photos, Camera};
 use scratchart_model::scene::{Plate, Scene, View};
-use scratchart_optim::observe::Silent;
+use scratchart_observe::Silent;
 use scratchart_render::Renderer;
 use scratchart_tool::Tool;
 

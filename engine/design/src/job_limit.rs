@@ -24,9 +24,9 @@ use scratchart_tool::machine::MachineProfile;
 
 use crate::design::{run_design, DesignConfig, DesignReport, Problem};
 use scratchart_model::scene::Scene;
+use scratchart_observe::Observer;
 use scratchart_optim::error::OptimError;
 use scratchart_optim::loss::Loss;
-use scratchart_optim::observe::Observer;
 use scratchart_render::Renderer;
 use scratchart_vulkan::Context;
 

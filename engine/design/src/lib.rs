@@ -3,7 +3,7 @@
 //! live design fill in) becomes a [`problem::Problem`] and a [`design::DesignConfig`]
 //! ([`spec::prepare`]); [`design::run_design`] optimizes it on the GPU with the generic optimizer of
 //! `scratchart-optim` (the driver, Adam, the losses and the parameter sets named below live there)
-//! and writes the design and its reports. It reports through an [`scratchart_optim::observe::Observer`]
+//! and writes the design and its reports. It reports through an [`scratchart_observe::Observer`]
 //! and never prints; its errors carry their exit class (`scratchart-exit`).
 //!
 //! - [`spec`]: the design's typed specification, checked, and the problem and configuration it

@@ -12,7 +12,8 @@ mod bench {
     use scratchart_machine::fake::{FakeGrbl, FakeMarlin, GrblConfig, MarlinConfig};
     use scratchart_machine::job::{carve, Options};
     use scratchart_machine::plan::Cut;
-    use scratchart_machine::stream::{Control, Quiet};
+    use scratchart_machine::stream::Control;
+    use scratchart_observe::Silent;
     use scratchart_tool::machine::MachineProfile;
 
     pub fn main() {
@@ -58,7 +59,7 @@ mod bench {
                 resume_command: String::new(),
             };
             let t0 = Instant::now();
-            let s = carve(&opts, &Control::default(), &Quiet).expect("the benchmark job runs");
+            let s = carve(&opts, &Control::default(), &Silent).expect("the benchmark job runs");
             let secs = t0.elapsed().as_secs_f64();
             let r = fake.record();
             assert!(r.overflows.is_empty(), "receive buffer overflow: {:?}", r.overflows);

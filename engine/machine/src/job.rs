@@ -10,7 +10,9 @@ use crate::controller::{Controller, Fault, Rezero};
 use crate::journal::{Journal, RESUME_OVERLAP};
 use crate::planner::Kinematics;
 use crate::program::Program;
-use crate::stream::{stream, Control, End, Observer, Progress};
+use scratchart_observe::{clock, MachineState, Observer, Progress};
+
+use crate::stream::{stream, Control, End};
 use crate::transport::{Link, LinkError};
 use scratchart_tool::machine::{Firmware, MachineProfile};
 
@@ -227,13 +229,18 @@ fn carve_on(opts: &Options, control: &Control, obs: &dyn Observer) -> Result<Sum
             }
             let elapsed = t0.elapsed().as_secs_f64();
             let eta = eta_s(timing.as_ref().map(|(t, _)| t), from, b, total, elapsed);
-            obs.progress(&Progress {
-                done: b + 1,
-                total,
+            let machine = MachineState {
                 label: blocks[b].label.clone(),
                 eta_s: Some(eta),
                 state: state.to_string(),
                 pos,
+            };
+            obs.progress(&Progress {
+                task: "carve",
+                done: (b + 1) as u64,
+                total: total as u64,
+                message: machine.message(),
+                machine: Some(machine),
             });
         };
         stream(&mut link, ctl.as_mut(), &lines, control, obs, &mut on_block)
@@ -244,7 +251,7 @@ fn carve_on(opts: &Options, control: &Control, obs: &dyn Observer) -> Result<Sum
     journal.position_lost = ctl.position_lost();
     journal.machine_pos = ctl.machine_pos().or(journal.machine_pos);
     if let Some(e) = save_err {
-        obs.note(&format!("warning: the journal could not be written: {e}"));
+        obs.warn(&format!("the journal could not be written: {e}"));
     }
     match outcome {
         None => {
@@ -286,7 +293,7 @@ fn job_time(
         .or_else(|| opts.profile.as_ref().map(Kinematics::of_profile))
         .map(|k| (program.timing(&k), k.source));
     match &timing {
-        Some((t, source)) => obs.note(&format!(
+        Some((t, source)) => obs.info(&format!(
             "job time on this machine: {} for cuts {} to {total} (by {source}, at the feeds the \
              plan commands{})",
             clock(t.from(from)),
@@ -295,7 +302,7 @@ fn job_time(
                 "; the plan's own estimate, for its profile, was {m} min"
             ))
         )),
-        None => obs.note(
+        None => obs.info(
             "job time: the controller does not report its rates and no --machine-file was given; \
              the progress estimates it from the pace",
         ),
@@ -342,9 +349,9 @@ fn rezero_for_resume(
 ) -> Result<(), Fault> {
     let total = program.blocks.len();
     let did = ctl.rezero(link, opts.rezero, program.max_z, feed_of(program))?;
-    obs.note(&format!("re-established the position: {did}"));
+    obs.info(&format!("re-established the position: {did}"));
     if opts.rezero == Rezero::Keep {
-        obs.note(&format!(
+        obs.info(&format!(
             "--rezero keep: no reset, alarm or quickstop was seen since the last acknowledged \
              line, so the controller's work offset is trusted. If the machine lost its position \
              all the same (a power cut while the port was closed), stop now (Ctrl-C) and run: {} \
@@ -354,7 +361,7 @@ fn rezero_for_resume(
     } else {
         journal.position_lost = None;
     }
-    obs.note(&format!(
+    obs.info(&format!(
         "resuming at cut {} of {total} ({}; the last acknowledged was cut {}{}; up to \
          {RESUME_OVERLAP} cuts before it are cut again so that none is skipped)",
         from + 1,
@@ -411,12 +418,6 @@ fn dry_run_note(
         },
         timing.map_or("?".into(), |t| clock(t.from(from)))
     )
-}
-
-/// Seconds as `H:MM:SS`.
-pub fn clock(s: f64) -> String {
-    let s = s.max(0.0).round() as u64;
-    format!("{}:{:02}:{:02}", s / 3600, s / 60 % 60, s % 60)
 }
 
 /// Before anything moves: on resume, whether the position was lost since the last acknowledged
@@ -513,7 +514,7 @@ fn open_journal(opts: &Options, program: &Program, obs: &dyn Observer) -> Result
             )));
         }
         if j.state == "done" {
-            obs.note(&format!(
+            obs.info(&format!(
                 "the journal {} says the job is finished: nothing to do",
                 opts.journal.display()
             ));
@@ -523,7 +524,7 @@ fn open_journal(opts: &Options, program: &Program, obs: &dyn Observer) -> Result
     } else {
         if let Ok(j) = Journal::load(&opts.journal) {
             if j.state != "done" && j.plan_checksum == program.checksum {
-                obs.note(&format!(
+                obs.info(&format!(
                     "an unfinished job of this plan is recorded in {} ({} of {} cuts); \
                      starting over (to continue it instead: {})",
                     opts.journal.display(),
@@ -547,7 +548,7 @@ fn connect(opts: &Options, program: &Program, obs: &dyn Observer) -> Result<Conn
     let fw = Program::firmware_name(program.firmware);
     let (mut link, sim) = if opts.port == SIM_PORT {
         let (fake, end) = simulated(program, opts.profile.as_ref());
-        obs.note(
+        obs.info(
             "dry run: a simulated controller of the plan's firmware, with the machine profile's \
              travel, rates and accelerations; nothing moves",
         );
@@ -565,7 +566,7 @@ fn connect(opts: &Options, program: &Program, obs: &dyn Observer) -> Result<Conn
     let mut ctl = crate::detect::detect(&mut link, opts.detect_timeout).map_err(|f| match f {
         Fault::Input(m) | Fault::Machine(m) => stopped(m),
     })?;
-    obs.note(&format!("{} answers on {}", ctl.describe(), opts.port));
+    obs.info(&format!("{} answers on {}", ctl.describe(), opts.port));
     if ctl.firmware() != program.firmware {
         return Err(CarveError::Input(format!(
             "{} was planned for {fw} (its first line), but {} answers on {}: plan it again with \
@@ -584,7 +585,7 @@ fn connect(opts: &Options, program: &Program, obs: &dyn Observer) -> Result<Conn
         .check_settings(&mut link, program, opts.profile.as_ref())
         .map_err(fault)?
     {
-        obs.note(&n);
+        obs.info(&n);
     }
     Ok((link, ctl, sim))
 }
@@ -674,7 +675,7 @@ fn check_run(
     match end {
         End::Done => {
             leave.map_err(fault)?;
-            obs.note(&format!("check mode: all {} lines accepted", lines.len()));
+            obs.info(&format!("check mode: all {} lines accepted", lines.len()));
             Ok(())
         }
         End::Refused(e) => Err(CarveError::Stopped(format!(

@@ -6,7 +6,9 @@ use std::time::Duration;
 use crate::controller::{command, Controller, Fault};
 use crate::job::CarveError;
 use crate::level::HeightMap;
-use crate::stream::{Control, Observer, Progress};
+use scratchart_observe::{MachineState, Observer, Progress};
+
+use crate::stream::Control;
 use crate::transport::{Link, LinkError};
 use scratchart_tool::machine::Firmware;
 
@@ -84,7 +86,7 @@ pub fn probe_grid(o: &ProbeOptions, control: &Control, obs: &dyn Observer) -> Re
         Fault::Machine(m) => CarveError::Stopped(format!("probing stopped: {m}")),
     };
     let mut ctl = crate::detect::detect(&mut link, o.detect_timeout).map_err(fault)?;
-    obs.note(&format!("{} answers on {}", ctl.describe(), o.port));
+    obs.info(&format!("{} answers on {}", ctl.describe(), o.port));
     if ctl.firmware() == Firmware::Grbl {
         ctl.begin(&mut link, false).map_err(fault)?;
     }
@@ -114,13 +116,16 @@ pub fn probe_grid(o: &ProbeOptions, control: &Control, obs: &dyn Observer) -> Re
                 .probe_z(&mut link, o.depth_mm, o.feed_mm_min)
                 .map_err(|f| fault(Fault::Machine(format!("at X{:.3} Y{y:.3}: {f}", xs[i]))))?;
             moveto(ctl.as_mut(), &mut link, &safe).map_err(fault)?;
-            obs.progress(&Progress {
-                done: j * xs.len() + k + 1,
-                total,
-                label: String::new(),
-                eta_s: None,
+            let machine = MachineState {
                 state: format!("Z {:.4} at X{:.2} Y{y:.2}", z[j][i], xs[i]),
-                pos: None,
+                ..Default::default()
+            };
+            obs.progress(&Progress {
+                task: "probe",
+                done: (j * xs.len() + k + 1) as u64,
+                total: total as u64,
+                message: machine.message(),
+                machine: Some(machine),
             });
         }
     }

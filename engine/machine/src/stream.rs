@@ -5,6 +5,8 @@ use std::collections::VecDeque;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
+use scratchart_observe::Observer;
+
 use crate::controller::{Controller, Fault, Reply};
 use crate::transport::Link;
 
@@ -17,41 +19,6 @@ pub struct Control {
     pub resume: AtomicBool,
     /// Stop the job now and raise the tool (Ctrl-C).
     pub abort: AtomicBool,
-}
-
-/// How far the job is.
-#[derive(Clone, Debug, Default, PartialEq)]
-pub struct Progress {
-    /// Cuts acknowledged (counting those before a resumed job's start) and in the plan: the
-    /// cut index of the plan's `(cut K of T)` comments.
-    pub done: usize,
-    pub total: usize,
-    /// What the last acknowledged cut is, in the design's numbering (`scratch 1234`,
-    /// `mark +x edge`); empty where there is none (probing).
-    pub label: String,
-    /// Estimated seconds left, from this run's pace.
-    pub eta_s: Option<f64>,
-    /// The machine's state (GRBL's status, or what the sender knows).
-    pub state: String,
-    /// Work position, mm, when the controller reports it.
-    pub pos: Option<[f64; 3]>,
-}
-
-/// What the engine tells the user: progress for a bar, and lines for a log. `confirm` asks
-/// before the first motion (the binary answers yes with `--yes` or without a terminal).
-pub trait Observer {
-    fn progress(&self, p: &Progress);
-    fn note(&self, msg: &str);
-    fn confirm(&self, _question: &str) -> bool {
-        true
-    }
-}
-
-/// An observer that shows nothing.
-pub struct Quiet;
-impl Observer for Quiet {
-    fn progress(&self, _p: &Progress) {}
-    fn note(&self, _msg: &str) {}
 }
 
 /// How a stream ended.
@@ -142,7 +109,7 @@ impl Sender<'_> {
             self.held = true;
             // (only a report after the hold tells what the machine does now)
             self.state.clear();
-            obs.note("feed hold: the machine stops; resume with `~` (or `r`), abort with Ctrl-C");
+            obs.info("feed hold: the machine stops; resume with `~` (or `r`), abort with Ctrl-C");
         }
         if control.resume.swap(false, Ordering::SeqCst) && self.held {
             self.resume_wanted = true;
@@ -153,7 +120,7 @@ impl Sender<'_> {
             }
             self.held = false;
             self.resume_wanted = false;
-            obs.note("resumed");
+            obs.info("resumed");
         }
         None
     }
@@ -244,7 +211,7 @@ impl Sender<'_> {
         match ctl.classify(l) {
             Reply::Ok => {
                 let Some(f) = self.fl.pop_front() else {
-                    obs.note(&format!("an answer with no line waiting for it: `{l}`"));
+                    obs.info(&format!("an answer with no line waiting for it: `{l}`"));
                     return None;
                 };
                 self.used -= f.bytes;
@@ -272,7 +239,7 @@ impl Sender<'_> {
                 self.state = s.state;
                 self.pos = s.pos.or(self.pos);
             }
-            Reply::Info(m) => obs.note(&m),
+            Reply::Info(m) => obs.info(&m),
             Reply::Ignore => {}
         }
         None
@@ -283,7 +250,7 @@ impl Sender<'_> {
     /// than 10 in a row for one line is a link too noisy to carve over).
     fn resend_from(&mut self, n: u64, ctl: &mut dyn Controller, obs: &dyn Observer) -> Option<Ended> {
         let Some(idx) = ctl.resend_index(n).filter(|&i| i < self.next) else {
-            obs.note(&format!("ignored a request for line {n}, which was never sent"));
+            obs.info(&format!("ignored a request for line {n}, which was never sent"));
             return None;
         };
         let pending = self.resend.is_some_and(|r| r.0 == idx) || self.fl.iter().any(|f| !f.stale && f.seq == idx);

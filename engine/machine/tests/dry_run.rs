@@ -32,7 +32,7 @@ fn a_dry_run_streams_the_whole_plan_on_either_firmware() {
         );
         // The job time, stated before the start, is the plan's by the profile's rates.
         let k = scratchart_machine::planner::Kinematics::of_profile(&m);
-        let want = scratchart_machine::job::clock(program.timing(&k).from(0));
+        let want = scratchart_observe::clock(program.timing(&k).from(0));
         assert!(
             log.says(&format!("job time on this machine: {want}")),
             "{want}: {:?}",

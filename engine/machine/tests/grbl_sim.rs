@@ -16,7 +16,8 @@ use common::*;
 use scratchart_machine::job::carve;
 use scratchart_machine::journal::Journal;
 use scratchart_machine::plan::Cut;
-use scratchart_machine::stream::{Control, Observer, Progress};
+use scratchart_machine::stream::Control;
+use scratchart_observe::{Observer, Progress};
 use scratchart_tool::machine::MachineProfile;
 
 /// The fixture's folder, when it is there.
@@ -131,13 +132,16 @@ struct AbortAfter<'a> {
 
 impl Observer for AbortAfter<'_> {
     fn progress(&self, p: &Progress) {
-        if p.done >= self.after {
+        if p.done >= self.after as u64 {
             self.control.abort.store(true, Ordering::SeqCst);
         }
         self.log.progress(p);
     }
-    fn note(&self, msg: &str) {
-        self.log.note(msg);
+    fn info(&self, msg: &str) {
+        self.log.info(msg);
+    }
+    fn warn(&self, msg: &str) {
+        self.log.warn(msg);
     }
 }
 
@@ -230,17 +234,20 @@ struct HoldAfter<'a> {
 
 impl Observer for HoldAfter<'_> {
     fn progress(&self, p: &Progress) {
-        if p.done >= self.after && !self.held.swap(true, Ordering::SeqCst) {
+        if p.done >= self.after as u64 && !self.held.swap(true, Ordering::SeqCst) {
             self.control.hold.store(true, Ordering::SeqCst);
         }
         self.log.progress(p);
     }
-    fn note(&self, msg: &str) {
+    fn warn(&self, msg: &str) {
+        self.log.warn(msg);
+    }
+    fn info(&self, msg: &str) {
         if msg.starts_with("feed hold") {
             // Held: resume after a while.
             self.control.resume.store(true, Ordering::SeqCst);
         }
-        self.log.note(msg);
+        self.log.info(msg);
     }
 }
 
@@ -279,7 +286,7 @@ fn the_real_firmware_checks_holds_and_resumes() {
         source: String::new(),
     };
     let program = scratchart_machine::program::Program::load(&plan).unwrap();
-    let want = scratchart_machine::job::clock(program.timing(&k).from(0));
+    let want = scratchart_observe::clock(program.timing(&k).from(0));
     assert!(
         notes
             .iter()

@@ -24,9 +24,9 @@ use serde::{Deserialize, Serialize};
 use super::adam::{Adam, AdamHyper, Moments, ParamBlock, StepCheck, StepFlags};
 use super::checkpoint::{self, Chunk};
 use super::error::OptimError;
-use crate::observe::{Observer, Progress};
 use crate::render::{GpuScene, RenderStats, Renderer};
 use crate::vulkan::{Buffer, Context, GpuError, MemLoc, Recorder};
+use scratchart_observe::{Observer, Progress};
 
 mod state;
 
@@ -307,12 +307,12 @@ impl<'r> Driver<'r> {
         let task = self.inner.cfg.task;
         let t0 = Instant::now();
         let mut run = 0u32;
-        obs.progress(&Progress {
+        obs.progress(&Progress::new(
             task,
-            done: (self.inner.st.k as u64).min(total),
+            (self.inner.st.k as u64).min(total),
             total,
-            message: String::new(),
-        });
+            String::new(),
+        ));
         while self.inner.st.k <= self.inner.cfg.iters {
             let k = self.inner.st.k;
             let cfg = &self.inner.cfg;
@@ -340,12 +340,12 @@ impl<'r> Driver<'r> {
             }
             let ev = self.iterate(&mut rec, obs)?;
             run += 1;
-            obs.progress(&Progress {
+            obs.progress(&Progress::new(
                 task,
-                done: (self.inner.st.k as u64).min(total),
+                (self.inner.st.k as u64).min(total),
                 total,
-                message: format!("loss {:.5}", ev.total),
-            });
+                format!("loss {:.5}", ev.total),
+            ));
             if !after(self, &ev)? {
                 break;
             }

@@ -15,7 +15,7 @@
 //! little. Steps are clamped to the bounds; the damping is multiplied by 4 after a failed step
 //! and divided by 3 after a good one; a run ends after `iters` iterations or when a step gains
 //! less than 1e-5 of the loss.
-use crate::observe::{Observer, Progress};
+use scratchart_observe::{Observer, Progress};
 
 /// The user asked the run to stop (the observer's `should_stop`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -157,12 +157,12 @@ pub fn solve<P: LeastSquares>(
         if obs.should_stop() {
             return Err(Interrupted.into());
         }
-        obs.progress(&Progress {
-            task: cfg.task,
-            done: it as u64,
-            total: cfg.iters as u64,
-            message: format!("{}: loss {:.3e}", cfg.label, cost / r.len().max(1) as f64),
-        });
+        obs.progress(&Progress::new(
+            cfg.task,
+            it as u64,
+            cfg.iters as u64,
+            format!("{}: loss {:.3e}", cfg.label, cost / r.len().max(1) as f64),
+        ));
         iterations = it + 1;
         s = robust_scale(&r, cfg.min_scale);
         cost = cauchy(&r, s);
@@ -218,7 +218,7 @@ pub fn solve<P: LeastSquares>(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::observe::Silent;
+    use scratchart_observe::Silent;
 
     /// y = a exp(-b t) + c with a few gross outliers, b bounded.
     struct Decay {

@@ -17,7 +17,6 @@
 //!   calibrated tool's curve.
 //! - [`light_tie`]: views that share a lamp share its intensity (a parameter-set wrapper).
 //! - [`prune`]: removal of scratches that barely matter, checked by true forward evaluations.
-//! - [`observe`]: how libraries report progress and warnings (they never print).
 //! - [`error`]: what can stop an optimization.
 //!
 //! Determinism: every GPU reduction runs in a fixed order and the host feeds back only values it
@@ -31,7 +30,6 @@ pub mod error;
 pub mod least_squares;
 pub mod light_tie;
 pub mod loss;
-pub mod observe;
 pub mod prune;
 pub mod scene_params;
 pub mod tool_params;

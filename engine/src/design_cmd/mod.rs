@@ -6,7 +6,7 @@ use std::sync::Arc;
 
 use scratchart_design::design::{run_design, DesignConfig};
 use scratchart_design::{DesignSpec, Problem};
-use scratchart_optim::observe::Observer;
+use scratchart_observe::Observer;
 use scratchart_vulkan::Context;
 
 mod args;

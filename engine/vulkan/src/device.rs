@@ -111,7 +111,7 @@ impl Context {
         let queue = unsafe { device.get_device_queue(queue_family, 0) };
         let debug_device = debug_utils.then(|| ash::ext::debug_utils::Device::new(&instance, &device));
         if let Some(n) = desc.notify.as_ref().filter(|_| !desc.quiet) {
-            n(&format!("device: {} ({})", info.name, info.kind));
+            n.info(&format!("device: {} ({})", info.name, info.kind));
         }
         Ok(Arc::new(Context {
             entry,
@@ -289,10 +289,10 @@ impl Context {
         Ok((pd, device, queue_family, info, allocator))
     }
 
-    /// Gives `msg` to the context's notice sink (`ContextDesc::notify`), if any.
-    pub fn notice(&self, msg: &str) {
+    /// Gives the warning `msg` to the context's observer (`ContextDesc::notify`), if any.
+    pub fn warn(&self, msg: &str) {
         if let Some(n) = &self.log.0.notify {
-            n(msg);
+            n.warn(msg);
         }
     }
 
@@ -376,7 +376,7 @@ impl Drop for Context {
                 .unwrap_or_else(|e| e.into_inner())
                 .save_and_destroy(&self.device);
             if let Some(w) = warning {
-                self.notice(&w);
+                self.warn(&w);
             }
             // The allocator frees its device memory blocks: it must go before the device.
             ManuallyDrop::drop(&mut self.allocator);

@@ -26,10 +26,10 @@ pub(super) struct LogInner {
 }
 
 /// Where the Vulkan layer's notices go (the device chosen, validation messages, a pipeline
-/// cache that cannot be saved, dropped timestamps): the library never prints; the binaries
-/// pass a sink that does (`scratchart::term::stderr_notices`), a library user may log them or
-/// leave them out (`None`; validation messages are still kept in the [`ValidationLog`]).
-pub type Notify = Arc<dyn Fn(&str) + Send + Sync>;
+/// cache that cannot be saved, dropped timestamps): an observer, as for every library. The
+/// binaries pass one that prints (`scratchart::term::stderr_notices`); a library user may log
+/// them or leave them out (`None`; validation messages are still kept in the [`ValidationLog`]).
+pub type Notify = scratchart_observe::SharedObserver;
 
 impl ValidationLog {
     /// Every WARNING or ERROR message seen so far.
@@ -56,7 +56,7 @@ unsafe extern "system" fn debug_callback(
     {
         let log = unsafe { &*(user as *const LogInner) };
         if let Some(n) = &log.notify {
-            n(&format!("vulkan validation: {msg}"));
+            n.warn(&format!("vulkan validation: {msg}"));
         }
         log.messages.lock().unwrap_or_else(|e| e.into_inner()).push(msg);
     }
@@ -105,7 +105,7 @@ impl Instance {
                 .any(|l| l.layer_name_as_c_str().ok() == Some(VALIDATION_LAYER));
         if want_validation && !validation {
             if let Some(n) = notify {
-                n("warning: validation requested but VK_LAYER_KHRONOS_validation is not installed");
+                n.warn("validation requested but VK_LAYER_KHRONOS_validation is not installed");
             }
         }
         let debug_utils = has_ext(&inst_exts, ash::ext::debug_utils::NAME);

@@ -105,10 +105,7 @@ impl PersistentCache {
             if let Ok(data) = unsafe { device.get_pipeline_cache_data(self.cache) } {
                 if data.len() != self.loaded && !data.is_empty() {
                     if let Err(e) = write(path, &data) {
-                        warning = Some(format!(
-                            "warning: cannot save the pipeline cache {}: {e}",
-                            path.display()
-                        ));
+                        warning = Some(format!("cannot save the pipeline cache {}: {e}", path.display()));
                     }
                 }
             }

@@ -398,8 +398,8 @@ impl Recorder {
         let Some(qp) = self.query_pool else { return };
         if self.queries >= MAX_QUERIES {
             if !self.warned_queries {
-                self.ctx.notice(&format!(
-                    "warning: more than {} timestamps in one submission; dropping '{label}'",
+                self.ctx.warn(&format!(
+                    "more than {} timestamps in one submission; dropping '{label}'",
                     MAX_QUERIES - 1
                 ));
                 self.warned_queries = true;

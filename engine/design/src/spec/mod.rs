@@ -13,7 +13,7 @@ use std::sync::Arc;
 use scratchart_exit::{Class, ExitClass};
 use scratchart_model::mesh::MeshError;
 use scratchart_model::scene::SceneError;
-use scratchart_optim::observe::Observer;
+use scratchart_observe::Observer;
 use scratchart_optim::tool_params::{Fabrication, MachineLimits};
 use scratchart_tool::machine::{Firmware, MachineProfile};
 use scratchart_vulkan::Context;

@@ -4,7 +4,7 @@
 use std::path::PathBuf;
 
 use scratchart_model::scene::{Light, Plate, Scene, View};
-use scratchart_optim::observe::Observer;
+use scratchart_observe::Observer;
 use scratchart_render::limits::{largest_fitting, SceneDims};
 use scratchart_vulkan::DeviceInfo;
 

@@ -8,7 +8,7 @@ use scratchart_machine::controller::Rezero;
 use scratchart_machine::job::Options;
 use scratchart_machine::plan::Cut;
 use scratchart_machine::program::Program;
-use scratchart_machine::stream::{Observer, Progress};
+use scratchart_observe::{Observer, Progress};
 use scratchart_tool::machine::MachineProfile;
 
 pub fn tmpdir(tag: &str) -> PathBuf {
@@ -77,18 +77,37 @@ pub fn cut_lines(plan: &Path) -> Vec<String> {
         .collect()
 }
 
+/// A progress report as a test keeps it: cuts done of all, the last cut's name, the ETA.
+#[derive(Clone, Debug)]
+pub struct Seen {
+    pub done: usize,
+    pub total: usize,
+    pub label: String,
+    pub eta_s: Option<f64>,
+}
+
+/// Keeps what a job reports: notes and warnings (warnings as `warning: ...`), and progress.
 #[derive(Default)]
 pub struct Log {
     pub notes: Mutex<Vec<String>>,
-    pub progress: Mutex<Vec<Progress>>,
+    pub progress: Mutex<Vec<Seen>>,
 }
 
 impl Observer for Log {
     fn progress(&self, p: &Progress) {
-        self.progress.lock().unwrap().push(p.clone());
+        let m = p.machine.clone().expect("a machine job reports the machine's state");
+        self.progress.lock().unwrap().push(Seen {
+            done: p.done as usize,
+            total: p.total as usize,
+            label: m.label,
+            eta_s: m.eta_s,
+        });
     }
-    fn note(&self, msg: &str) {
+    fn info(&self, msg: &str) {
         self.notes.lock().unwrap().push(msg.to_string());
+    }
+    fn warn(&self, msg: &str) {
+        self.notes.lock().unwrap().push(format!("warning: {msg}"));
     }
 }
 
