@@ -229,7 +229,7 @@ fn scratches_over_every_tile() {
     let r = Renderer::new(&ctx).unwrap();
     let mut gs = r.upload(&scene).unwrap();
     let frame = r.render(&mut gs).unwrap();
-    let mask = reference::on_plate_mask(&scene, 0);
+    let mask = scratchart_model::camera::on_plate_mask(&scene, 0);
     let on = mask.iter().filter(|m| **m).count() as u64;
     eprintln!(
         "{} pairs for {on} on-plate pixels x 100 scratches; binning group size {}",

@@ -4,7 +4,8 @@
 use std::path::PathBuf;
 use std::sync::Arc;
 
-use scratchart_design::design::{run_design, DesignConfig, DesignReport, Problem};
+use scratchart_design::design::run_design;
+use scratchart_design::problem::{DesignConfig, DesignReport, Problem};
 use scratchart_design::scenes::{orbit_light, random_scratches, ring_views, Rng};
 use scratchart_design::targets::{builtin_targets, load_targets, TargetError};
 use scratchart_model::scene::Scene;
@@ -305,8 +306,8 @@ fn optimization_lowers_loss_and_raises_ssim() {
     assert!(last * 2.5 <= first, "loss only went from {first} to {last}");
     assert!(r.history.iter().all(|h| h.total.is_finite()));
     for v in 0..3 {
-        let s0 = scratchart_design::report::view_ssim(&p.scene, v, &r.initial_images[v], &p.targets[v], 1.0);
-        let s1 = scratchart_design::report::view_ssim(&p.scene, v, &r.final_images[v], &p.targets[v], 1.0);
+        let s0 = scratchart_design::measure::view_ssim(&p.scene, v, &r.initial_images[v], &p.targets[v], 1.0);
+        let s1 = scratchart_design::measure::view_ssim(&p.scene, v, &r.final_images[v], &p.targets[v], 1.0);
         eprintln!("view {v}: SSIM {s0:.3} -> {s1:.3}");
         assert!(s1 >= s0 + 0.05, "view {v}: SSIM {s0:.3} -> {s1:.3}");
     }

@@ -4,7 +4,8 @@
 //! the derivative of the GPU loss, resume must be bit-exact, and bad tool files exit with 3.
 use std::path::PathBuf;
 
-use scratchart_design::design::{run_design, DesignConfig, DesignReport, Problem};
+use scratchart_design::design::run_design;
+use scratchart_design::problem::{DesignConfig, DesignReport, Problem};
 use scratchart_design::scenes::{orbit_light, random_scratches, ring_views, Rng};
 use scratchart_design::targets::builtin_targets;
 use scratchart_model::scene::{Scene, Scratch};

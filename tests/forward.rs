@@ -82,7 +82,7 @@ fn horizon_in_view() {
     let g = scratchart_model::camera::ViewGeom::new(&scene.views[0]);
     assert!(g.hit(32.0, 0.0).is_none(), "the test view must see the sky");
     assert!(g.hit(32.0, 40.0).is_some(), "the test view must see the plate");
-    let on = scratchart_model::reference::on_plate_mask(&scene, 0)
+    let on = scratchart_model::camera::on_plate_mask(&scene, 0)
         .iter()
         .filter(|m| **m)
         .count();

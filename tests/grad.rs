@@ -1,7 +1,8 @@
 //! GPU gradients against central differences of the float64 reference (engine/docs/model.md section 8
 //! gradient bar): for each kind of parameter (endpoints, w, d, alpha, light intensity),
 //! ||g - g_ref|| / ||g_ref|| <= 1e-2 over all scratches, for the check loss E_lin.
-use scratchart_model::reference::{check_loss, on_plate_mask, render_view};
+use scratchart_model::camera::on_plate_mask;
+use scratchart_model::reference::{check_loss, render_view};
 use scratchart_model::scene::Scene;
 use scratchart_render::Renderer;
 use scratchart_tests::*;

@@ -58,7 +58,7 @@ impl Comparison {
 
 /// Compares `gpu` with the float64 reference `reference` of one view.
 pub fn compare(scene: &Scene, view: usize, gpu: &[f32], reference: &[f64]) -> Comparison {
-    let mask = scratchart_model::reference::on_plate_mask(scene, view);
+    let mask = scratchart_model::camera::on_plate_mask(scene, view);
     let w = scene.views[view].camera.width;
     let max_ref = reference.iter().cloned().fold(0.0, f64::max);
     let abs_tol = 1e-6 * max_ref;

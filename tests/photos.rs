@@ -2,8 +2,9 @@
 //! a photo design end to end, and awkward image files.
 use std::path::PathBuf;
 
-use scratchart_design::design::{run_design, DesignConfig, Problem};
+use scratchart_design::design::run_design;
 use scratchart_design::framing::{fit_picture, largest_rect, silhouette, Fit};
+use scratchart_design::problem::{DesignConfig, Problem};
 use scratchart_design::scenes::{framed_ring_views, orbit_light, random_scratches, silhouette_box, Rng};
 use scratchart_design::targets::load_fitted_targets;
 use scratchart_model::scene::{Scene, View};

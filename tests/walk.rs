@@ -4,7 +4,8 @@
 //! errors, and the flags' checks.
 use std::path::{Path, PathBuf};
 
-use scratchart_design::walk::{arc_views, walk_targets, Frames, Picture, Walk, WalkArc};
+use scratchart_design::targets::Picture;
+use scratchart_design::walk::{arc_views, walk_targets, Frames, Walk, WalkArc};
 use scratchart_model::scene::Scene;
 use scratchart_tests::{assert_no_validation, gpu, gpu_render, run_scratchart, write_file};
 

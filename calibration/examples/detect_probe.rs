@@ -1,7 +1,8 @@
 //! Detection of the card's marks on random phone shots, against the truth: `cargo run --release -p scratchart-calibration --example detect_probe -- 20` (20 shots × 3 views).
 use scratchart_calibration::card::{Card, CardSpec};
+use scratchart_calibration::fiducials::find_marks;
 use scratchart_calibration::phone::{random_shot, take};
-use scratchart_calibration::register::{find_marks, load_photo, resize};
+use scratchart_calibration::photo::{load_photo, resize};
 use scratchart_design::scenes::Rng;
 use scratchart_model::camera::ViewGeom;
 use scratchart_render::Renderer;

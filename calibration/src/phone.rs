@@ -16,7 +16,7 @@ use scratchart_tool::Tool;
 use super::card::Card;
 use super::simulate::{blur, cut_scene};
 
-pub use super::simulate::RENDER_SCALE;
+use super::simulate::RENDER_SCALE;
 
 /// Where the phone is held, relative to a capture view.
 #[derive(Clone, Copy, Debug, PartialEq)]

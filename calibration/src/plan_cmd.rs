@@ -278,7 +278,7 @@ pub fn plan(a: &PlanArgs) -> Result<()> {
 fn plan_depths(
     a: &PlanArgs,
     scene: &Scene,
-    extra: &scratchart_model::scene::Extra,
+    extra: &scratchart_model::scene_file::Extra,
     tool: Option<&Tool>,
     surface: f64,
     summary: &mut Vec<String>,

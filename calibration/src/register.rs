@@ -4,13 +4,12 @@
 //! to the capture view by a homography of the plate plane, fitted to the card's fiducial marks
 //! ([`crate::fiducials`]: a robust match of bright blobs to the marks' layout, each mark with a
 //! confidence). Fewer than four marks that fit one view of a flat card means the card was not
-//! found, and says so. From the homography of the plate itself, [`camera_from_homography`]
+//! found, and says so. From the homography of the plate itself, [`crate::pose::camera_from_homography`]
 //! recovers the camera that took the photo.
 use scratchart_model::scene::View;
 
-pub use super::fiducials::{apply, find_marks, homography_lsq, nominal_marks, Found};
-pub use super::photo::{load_photo, resize, Gray};
-pub use super::pose::{camera_from_homography, camera_with_focal, focal_near};
+use super::fiducials::{apply, find_marks, homography_lsq, nominal_marks, Found};
+use super::photo::{resize, Gray};
 
 use super::card::Card;
 
@@ -134,6 +133,7 @@ mod tests {
 mod camera_tests {
     use super::*;
     use crate::card::CardSpec;
+    use crate::pose::camera_from_homography;
     use scratchart_model::camera::ViewGeom;
 
     /// The camera of a capture view comes back from the homography of its own projections.

@@ -3,7 +3,8 @@
 //! are read back by independent parsers in the machine crate's tests (tests/export.rs).
 use std::process::Command;
 
-use scratchart_model::scene::{Extra, Scene, Scratch};
+use scratchart_model::scene::{Scene, Scratch};
+use scratchart_model::scene_file::Extra;
 
 fn design() -> Scene {
     Scene::bare(

@@ -56,7 +56,9 @@ fn as_phone_jpegs(pngs: &[PathBuf]) -> Vec<PathBuf> {
 /// registered photo matches a photo taken from the capture pose.
 #[test]
 fn registers_off_pose_photos_to_the_capture_views() {
-    use scratchart_calibration::register::{load_photo, nominal_marks, register};
+    use scratchart_calibration::fiducials::nominal_marks;
+    use scratchart_calibration::photo::load_photo;
+    use scratchart_calibration::register::register;
     use scratchart_model::camera::ViewGeom;
     let ctx = gpu();
     let r = Renderer::new(&ctx).unwrap();

@@ -5,9 +5,10 @@
 use std::path::{Path, PathBuf};
 
 use scratchart_calibration::card::Card;
+use scratchart_calibration::fiducials::find_marks;
 use scratchart_calibration::fit_cmd::run;
 use scratchart_calibration::phone::{take, Pose, Shot};
-use scratchart_calibration::register::{find_marks, load_photo, resize};
+use scratchart_calibration::photo::{load_photo, resize};
 use scratchart_model::camera::ViewGeom;
 use scratchart_observe::Silent;
 use scratchart_render::Renderer;

@@ -247,7 +247,7 @@ fn the_mark_is_cut_at_the_plus_x_edge_unless_turned_off() {
 
 #[test]
 fn depths_come_from_the_z_mm_column_and_follow_a_height_map() {
-    use scratchart_model::scene::Extra;
+    use scratchart_model::scene_file::Extra;
     let (bin, dir) = setup("zmm");
     let scene = design(100.0);
     let z: Vec<f64> = (0..scene.scratches.len()).map(|k| 0.01 + 0.001 * k as f64).collect();
@@ -321,7 +321,7 @@ fn depths_come_from_the_z_mm_column_and_follow_a_height_map() {
 /// the same design without the tool, is refused with exit 3, saying why.
 #[test]
 fn commanded_depths_start_at_the_tools_surface() {
-    use scratchart_model::scene::Extra;
+    use scratchart_model::scene_file::Extra;
     let (bin, dir) = setup("surface");
     std::fs::write(
         dir.join("raised.json"),

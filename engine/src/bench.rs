@@ -314,7 +314,8 @@ pub fn run_iterations(
     warmup: u32,
     iters: u32,
 ) -> anyhow::Result<IterRow> {
-    use scratchart_design::design::{DesignConfig, Optimizer, Problem};
+    use scratchart_design::design::Optimizer;
+    use scratchart_design::problem::{DesignConfig, Problem};
     let renderer = Renderer::new(ctx)?;
     let problem = Problem::new(scene.clone(), targets);
     let mut cfg = DesignConfig::new(scene.plate.size_mm, std::env::temp_dir());

@@ -30,6 +30,7 @@ const KNOWN: &[scratchart_exit::Classifier] = &[
     scratchart_exit::classifier::<SceneError>,
     scratchart_exit::classifier::<TargetError>,
     scratchart_exit::classifier::<scratchart_design::SpecError>,
+    scratchart_exit::classifier::<scratchart_optim::tool_params::FabricationError>,
     scratchart_exit::classifier::<scratchart_model::mesh::MeshError>,
     scratchart_exit::classifier::<GpuError>,
     scratchart_exit::classifier::<OptimError>,

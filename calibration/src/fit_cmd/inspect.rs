@@ -344,7 +344,7 @@ pub fn inspect_photo(
         let t = (0.5 * v.camera.fov_y_deg).to_radians().tan() * cropped.height as f64 / img.height as f64;
         v.camera.fov_y_deg = 2.0 * t.atan().to_degrees();
         (v.camera.width, v.camera.height) = (w, h);
-        let small = crate::register::resize(&cropped, w, h);
+        let small = crate::photo::resize(&cropped, w, h);
         (v, cropped, small)
     };
     let mut k = img.height.div_ceil(capture_view.camera.height).max(1);

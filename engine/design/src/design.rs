@@ -7,7 +7,7 @@ use std::sync::Arc;
 use serde_json::{json, Value};
 
 use crate::live::{to_scene, Live, LiveHook};
-pub use crate::problem::{DesignConfig, DesignReport, Images, IterRecord, Problem, WallTimes};
+use crate::problem::{DesignConfig, DesignReport, Images, IterRecord, Problem, WallTimes};
 use scratchart_model::scene::Scene;
 use scratchart_observe::Observer;
 use scratchart_optim::checkpoint::fnv;
@@ -473,7 +473,7 @@ fn write_design_outputs(
     let mut summary = crate::report::write_outputs(&cfg.out, &wp, cfg, &wr)?;
     if let (Some(fab), Some(z)) = (&cfg.tool, &report.depths) {
         // The design again, with each scratch's commanded depth as the CSV's column `z_mm`.
-        let mut extra = scratchart_model::scene::Extra::default();
+        let mut extra = scratchart_model::scene_file::Extra::default();
         extra.set_column("z_mm", z);
         wr.scene
             .save_extra(&cfg.out.join("design.json"), "scratches.csv", &extra)

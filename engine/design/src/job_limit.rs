@@ -22,7 +22,8 @@ use serde_json::{json, Value};
 use scratchart_machine::plan::{design_job_time, Cut, TimeSplit};
 use scratchart_tool::machine::MachineProfile;
 
-use crate::design::{run_design, DesignConfig, DesignReport, Problem};
+use crate::design::run_design;
+use crate::problem::{DesignConfig, DesignReport, Problem};
 use scratchart_model::scene::Scene;
 use scratchart_observe::Observer;
 use scratchart_optim::error::OptimError;

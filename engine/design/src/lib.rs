@@ -68,6 +68,7 @@ pub mod tolerance;
 pub mod walk;
 pub mod walk_report;
 
-pub use design::{run_design, DesignConfig, DesignReport};
+pub use design::run_design;
 pub use problem::Problem;
+pub use problem::{DesignConfig, DesignReport};
 pub use spec::{prepare, DesignSpec, SpecError};

@@ -4,7 +4,7 @@ use std::path::Path;
 
 use serde_json::json;
 
-pub use crate::measure::{blur3, correlation, quality, ssim, view_ssim, ViewQuality};
+use crate::measure::{quality, view_ssim};
 use crate::problem::{DesignConfig, DesignReport, Problem};
 use scratchart_model::scene::Scene;
 use scratchart_optim::error::OptimError;

@@ -2,7 +2,8 @@
 //! and no image or shader libraries, so the machine driver and other tools that need scenes but
 //! no Vulkan build and test on any machine.
 //!
-//! - [`scene`]: scene types and the scene file (JSON + scratch CSV), with validation.
+//! - [`scene`]: the scene's types; [`scene_file`]: the scene file (JSON + scratch CSV), read,
+//!   validated (with [`camera`]'s geometry) and written.
 //! - [`camera`]: float64 view geometry (camera basis, rays, footprints, shading points,
 //!   on-plate mask, light).
 //! - [`reference`](mod@reference): the float64 CPU reference renderer — a test oracle only, never a fallback
@@ -21,7 +22,9 @@ pub mod mesh;
 pub mod par;
 pub mod reference;
 pub mod scene;
+pub mod scene_file;
 
 pub use camera::{CameraBasis, LightSample, ViewGeom};
 pub use reference::{check_loss, pixel, render_view, scratch_patch_integral, PixelRef};
-pub use scene::{read_scratches_csv, Camera, Light, LightKind, Plate, Scene, SceneError, Scratch, View};
+pub use scene::{Camera, Light, LightKind, Plate, Scene, SceneError, Scratch, View};
+pub use scene_file::read_scratches_csv;

@@ -4,7 +4,7 @@
 
 use std::f64::consts::PI;
 
-use scratchart_model::reference::{self, check_loss, pixel, render_view, scratch_patch_integral};
+use scratchart_model::reference::{check_loss, pixel, render_view, scratch_patch_integral};
 use scratchart_model::scene::{Camera, Light, LightKind, Plate, Scene, Scratch, View};
 use scratchart_model::ViewGeom;
 
@@ -241,7 +241,7 @@ fn off_plate_pixels_are_exactly_zero() {
     );
     sc.views[0].camera.fov_y_deg = 60.0;
     let img = render_view(&sc, 0);
-    let mask = reference::on_plate_mask(&sc, 0);
+    let mask = scratchart_model::camera::on_plate_mask(&sc, 0);
     let (mut on, mut off) = (0, 0);
     for (v, m) in img.iter().zip(&mask) {
         assert!(v.is_finite());
@@ -412,7 +412,7 @@ fn many_overlapping_scratches_and_check_loss() {
     assert!((img[24 * 48 + 24] - p.l).abs() <= 1e-15 * p.l);
     // check_loss: zero against itself; against zeros it is the mean of L^2 over on-plate pixels.
     assert_eq!(check_loss(&sc, std::slice::from_ref(&img)), 0.0);
-    let mask = reference::on_plate_mask(&sc, 0);
+    let mask = scratchart_model::camera::on_plate_mask(&sc, 0);
     let n = mask.iter().filter(|m| **m).count() as f64;
     let want: f64 = img
         .iter()

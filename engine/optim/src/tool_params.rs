@@ -40,7 +40,7 @@ use bytemuck::{Pod, Zeroable};
 use serde_json::{json, Value};
 
 use scratchart_tool::machine::MachineProfile;
-use scratchart_tool::Tool;
+use scratchart_tool::{Tool, ToolError};
 
 use super::adam::{AdamConfig, AdamGroup, ParamBlock};
 use super::driver::{Evaluation, Objective, ParamSet};
@@ -106,6 +106,31 @@ pub struct Fabrication {
     pub robust: Option<Robust>,
 }
 
+/// Why a tool makes no fabrication-mode design.
+#[derive(Debug, thiserror::Error)]
+pub enum FabricationError {
+    /// The tool file cannot be read or holds no tool.
+    #[error(transparent)]
+    Tool(#[from] ToolError),
+    /// The tool (or the tool within the machine's limits) cuts no groove the design can use, or
+    /// its roughness is out of range: the message names the file and the value.
+    #[error("{0}")]
+    Unusable(String),
+    /// A combination the design cannot make (a robust design without the machine).
+    #[error("{0}")]
+    Usage(String),
+}
+
+impl scratchart_exit::ExitClass for FabricationError {
+    fn exit_class(&self) -> Option<scratchart_exit::Class> {
+        match self {
+            FabricationError::Tool(e) => e.exit_class(),
+            FabricationError::Unusable(_) => Some(scratchart_exit::Class::Input),
+            FabricationError::Usage(_) => Some(scratchart_exit::Class::Usage),
+        }
+    }
+}
+
 /// What `design --machine` keeps every scratch within.
 #[derive(Clone, Debug)]
 pub struct MachineLimits {
@@ -134,13 +159,14 @@ impl Fabrication {
         alpha_from: &str,
         lr_z: f32,
         adam: &AdamConfig,
-    ) -> Result<Fabrication, String> {
+    ) -> Result<Fabrication, FabricationError> {
         if !(alpha > 0.0 && alpha < 1.0) {
-            return Err(format!(
+            return Err(FabricationError::Unusable(format!(
                 "the groove roughness alpha = {alpha} must lie strictly between 0 and 1"
-            ));
+            )));
         }
-        let table = ToolTable::new(&tool, adam.w_bounds.1 as f64, adam.d_bounds.1 as f64, TABLE_SAMPLES)?;
+        let table = ToolTable::new(&tool, adam.w_bounds.1 as f64, adam.d_bounds.1 as f64, TABLE_SAMPLES)
+            .map_err(FabricationError::Unusable)?;
         Ok(Fabrication {
             tool,
             source: source.to_string(),
@@ -155,7 +181,7 @@ impl Fabrication {
 
     /// The same tool within a machine's limits: the depth range starts at the machine's
     /// shallowest trusted cut and both its ends lie on the Z grid.
-    pub fn with_machine(mut self, limits: MachineLimits, adam: &AdamConfig) -> Result<Fabrication, String> {
+    pub fn with_machine(mut self, limits: MachineLimits, adam: &AdamConfig) -> Result<Fabrication, FabricationError> {
         self.table = ToolTable::within(
             &self.tool,
             adam.w_bounds.1 as f64,
@@ -163,18 +189,17 @@ impl Fabrication {
             TABLE_SAMPLES,
             Some(&limits.profile),
         )
-        .map_err(|e| format!("within the machine's limits ({}): {e}", limits.source))?;
+        .map_err(|e| FabricationError::Unusable(format!("within the machine's limits ({}): {e}", limits.source)))?;
         self.machine = Some(limits);
         Ok(self)
     }
 
     /// Trains on carvings perturbed by the machine's repeatability (its profile's
     /// `z_repeatability_mm` and `xy_repeatability_mm`); needs [`with_machine`](Self::with_machine).
-    pub fn with_robust(mut self, seed: u32) -> Result<Fabrication, String> {
-        let m = self
-            .machine
-            .as_ref()
-            .ok_or("a robust design needs the machine whose error it survives (--machine)")?;
+    pub fn with_robust(mut self, seed: u32) -> Result<Fabrication, FabricationError> {
+        let m = self.machine.as_ref().ok_or_else(|| {
+            FabricationError::Usage("a robust design needs the machine whose error it survives (--machine)".into())
+        })?;
         self.robust = Some(Robust {
             sigma_z_mm: m.profile.z_repeatability_mm,
             sigma_xy_mm: m.profile.xy_repeatability_mm,
@@ -196,14 +221,14 @@ impl Fabrication {
         default_from: &str,
         lr_z: f32,
         adam: &AdamConfig,
-    ) -> Result<Fabrication, String> {
-        let (tool, fitted) = Tool::load_fitted(path).map_err(|e| e.to_string())?;
+    ) -> Result<Fabrication, FabricationError> {
+        let (tool, fitted) = Tool::load_fitted(path)?;
         let (alpha, from) = match fitted.alpha {
             Some(a) => (a, format!("{} (fitted)", path.display())),
             None => (default_alpha, default_from.to_string()),
         };
         Fabrication::new(tool, &path.display().to_string(), alpha, &from, lr_z, adam)
-            .map_err(|e| format!("tool file `{}` cannot be used: {e}", path.display()))
+            .map_err(|e| FabricationError::Unusable(format!("tool file `{}` cannot be used: {e}", path.display())))
     }
 
     /// What a checkpoint must agree with.

@@ -4,7 +4,8 @@
 //! design (`scratchart-view --design`) takes the same flags through [`prepare`].
 use std::sync::Arc;
 
-use scratchart_design::design::{run_design, DesignConfig};
+use scratchart_design::design::run_design;
+use scratchart_design::problem::DesignConfig;
 use scratchart_design::{DesignSpec, Problem};
 use scratchart_observe::Observer;
 use scratchart_vulkan::Context;

@@ -14,12 +14,12 @@ use scratchart_exit::{Class, ExitClass};
 use scratchart_model::mesh::MeshError;
 use scratchart_model::scene::SceneError;
 use scratchart_observe::Observer;
-use scratchart_optim::tool_params::{Fabrication, MachineLimits};
+use scratchart_optim::tool_params::{Fabrication, FabricationError, MachineLimits};
 use scratchart_tool::machine::{Firmware, MachineProfile};
 use scratchart_vulkan::Context;
 
-use crate::design::DesignConfig;
 use crate::framing::Fit;
+use crate::problem::DesignConfig;
 use crate::problem::Problem;
 use crate::targets::TargetError;
 use scratchart_optim::driver::Hooks;
@@ -204,6 +204,8 @@ pub enum SpecError {
     Target(#[from] TargetError),
     #[error(transparent)]
     Mesh(#[from] MeshError),
+    #[error(transparent)]
+    Fabrication(#[from] FabricationError),
 }
 
 impl ExitClass for SpecError {
@@ -214,6 +216,7 @@ impl ExitClass for SpecError {
             SpecError::Scene(e) => e.exit_class(),
             SpecError::Target(e) => e.exit_class(),
             SpecError::Mesh(e) => e.exit_class(),
+            SpecError::Fabrication(e) => e.exit_class(),
         }
     }
 }
@@ -298,17 +301,16 @@ pub fn prepare(
             "--init-alpha (the design's default scratch alpha; the tool file has no `alpha`)",
             cfg.adam.lr_d,
             &cfg.adam,
-        )
-        .map_err(SpecError::Input)?;
+        )?;
         let fab = match machine_limits(spec, &fab, obs)? {
             Some(limits) => {
                 // The projection after every step keeps each scratch at least this long.
                 // (2e-4 mm more: the endpoints are f32 on the GPU and 4 decimals in the G-code, so
                 // a scratch read back from either is still no shorter than asked.)
                 cfg.adam.min_len = cfg.adam.min_len.max((limits.min_length_mm + 2e-4) as f32);
-                let fab = fab.with_machine(limits, &cfg.adam).map_err(SpecError::Input)?;
+                let fab = fab.with_machine(limits, &cfg.adam)?;
                 if spec.robust {
-                    fab.with_robust(cfg.seed as u32).map_err(SpecError::Input)?
+                    fab.with_robust(cfg.seed as u32)?
                 } else {
                     fab
                 }

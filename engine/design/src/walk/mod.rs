@@ -225,7 +225,7 @@ pub fn probe_views(arc: &WalkArc, plate_mm: f64, light: &Light, per_pair: usize)
     out
 }
 
-pub use super::targets::Picture;
+use super::targets::Picture;
 
 /// What a walk shows.
 pub enum Frames<'a> {

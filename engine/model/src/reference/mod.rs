@@ -41,9 +41,7 @@ use clip::polygon_area;
 use cull::Grid;
 use integrate::patch_integral;
 
-/// The on-plate mask belongs to the camera geometry; re-exported here for the tests that
-/// compare against the reference.
-pub use crate::camera::on_plate_mask;
+use crate::camera::on_plate_mask;
 
 /// Everything the reference computes for one pixel.
 #[derive(Clone, Debug, Default, PartialEq)]

@@ -1,27 +1,9 @@
-//! Scene types and the scene file (engine/docs/model.md section 6).
-//!
-//! A scene file is JSON; unknown fields are allowed (the engine may read more than these).
-//! `scratches` is either a CSV path relative to the scene file (header `x0,y0,x1,y1,w,d,alpha`)
-//! or an inline array of 7-number rows. Everything read is validated; every error names the file,
-//! the place (field, or CSV data row and line) and what to fix.
-//!
-//! - this file: the types ([`Scene`], [`View`], [`Scratch`], ...) and [`SceneError`];
-//! - `read.rs`: [`Scene::load`] and [`Scene::from_json_str`] (JSON parsing);
-//! - `validate.rs`: the checks of engine/docs/model.md sections 2, 4 and 6 ([`Scene::validate`],
-//!   [`camera_sees_plate`]), shared by the reader;
-//! - `csv.rs`: the scratch CSV reader ([`read_scratches_csv`]) and writer;
-//! - `write.rs`: [`Scene::save`] and [`Scene::to_json_inline`].
+//! The scene's types (engine/docs/model.md section 6): [`Scene`], [`Plate`], [`View`],
+//! [`Camera`], [`Light`], [`Scratch`], and [`SceneError`]. Their geometry is `crate::camera`'s;
+//! the scene file (reading, validation, the scratch CSV, writing) is `crate::scene_file`'s,
+//! which uses both.
 
 use std::path::PathBuf;
-
-mod csv;
-mod read;
-pub use read::unknown_key_warnings;
-mod validate;
-mod write;
-
-pub use csv::{read_scratches_csv, read_scratches_csv_lines, read_scratches_csv_table, Extra};
-pub use validate::camera_sees_plate;
 
 /// Default plate roughness alpha_s (engine/docs/model.md section 6).
 pub const DEFAULT_ROUGHNESS: f64 = 0.02;
@@ -272,7 +254,7 @@ impl scratchart_exit::ExitClass for SceneError {
     }
 }
 
-fn invalid(file: &str, field: impl Into<String>, msg: impl Into<String>) -> SceneError {
+pub(crate) fn invalid(file: &str, field: impl Into<String>, msg: impl Into<String>) -> SceneError {
     SceneError::Invalid {
         file: file.to_string(),
         field: field.into(),
@@ -311,8 +293,8 @@ impl Scratch {
     }
 }
 
-const COLS: [&str; 7] = ["x0", "y0", "x1", "y1", "w", "d", "alpha"];
+pub(crate) const COLS: [&str; 7] = ["x0", "y0", "x1", "y1", "w", "d", "alpha"];
 
-fn norm3(v: [f64; 3]) -> f64 {
+pub(crate) fn norm3(v: [f64; 3]) -> f64 {
     (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt()
 }

@@ -7,7 +7,7 @@ use std::path::{Path, PathBuf};
 use serde_json::{json, Value};
 
 use super::csv::{scratches_csv_text, Extra};
-use super::{LightKind, Scene, SceneError};
+use crate::scene::{LightKind, Scene, SceneError};
 
 impl Scene {
     fn to_value(&self, scratches: Value) -> Value {

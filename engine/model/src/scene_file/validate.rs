@@ -2,8 +2,10 @@
 //! names): used by the JSON reader, with file and field names in every message, and by
 //! [`Scene::validate`] for scenes built in code.
 
-use super::{invalid, norm3, LightKind, Plate, Scene, SceneError, Scratch, View, COLS, DEFAULT_F0, DEFAULT_ROUGHNESS};
 use crate::camera::ViewGeom;
+use crate::scene::{
+    invalid, norm3, LightKind, Plate, Scene, SceneError, Scratch, View, COLS, DEFAULT_F0, DEFAULT_ROUGHNESS,
+};
 
 /// Check one scratch against engine/docs/model.md section 2 and the plate; returns what is wrong.
 pub(super) fn check_scratch(s: &Scratch, plate_size: f64) -> Result<(), String> {

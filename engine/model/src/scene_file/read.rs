@@ -7,7 +7,7 @@ use serde_json::{Map, Value};
 
 use super::csv::{read_scratches_csv_table, Extra};
 use super::validate::{check_scratch, validate_header};
-use super::{
+use crate::scene::{
     invalid, norm3, Camera, Light, LightKind, Plate, Scene, SceneError, Scratch, View, COLS, CSV_HEADER, DEFAULT_F0,
     DEFAULT_ROUGHNESS,
 };

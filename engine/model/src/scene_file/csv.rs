@@ -4,16 +4,16 @@
 //! Extra named columns may follow the seven (for example `z_mm`, the commanded carve depth that
 //! `scratchart design --tool` writes). They need the header to name them, hold finite numbers,
 //! and are kept: [`read_scratches_csv_table`] returns them as an [`Extra`], and
-//! [`Scene::save_extra`](super::Scene::save_extra) writes them back. Readers that only need the
-//! seven ([`read_scratches_csv`], [`Scene::load`](super::Scene::load)) accept and skip them.
+//! [`Scene::save_extra`](crate::scene::Scene::save_extra) writes them back. Readers that only need the
+//! seven ([`read_scratches_csv`], [`Scene::load`](crate::scene::Scene::load)) accept and skip them.
 
 use std::path::Path;
 
-use super::{invalid, SceneError, Scratch, COLS, CSV_HEADER};
+use crate::scene::{invalid, SceneError, Scratch, COLS, CSV_HEADER};
 
 /// Read a scratch CSV (header `x0,y0,x1,y1,w,d,alpha`; blank lines and `#` comments skipped).
 /// Checks the syntax and that every number is finite; engine/docs/model.md's range checks against the plate
-/// are done by [`Scene::load`](super::Scene::load) / [`Scene::validate`](super::Scene::validate),
+/// are done by [`Scene::load`](crate::scene::Scene::load) / [`Scene::validate`](crate::scene::Scene::validate),
 /// which know the plate.
 pub fn read_scratches_csv(path: &Path) -> Result<Vec<Scratch>, SceneError> {
     let list = read_scratches_csv_lines(path)?;
