@@ -521,7 +521,7 @@ fn setup_command(ctx: &std::sync::Arc<Context>, scene: &Scene, dir: &Path, out: 
                  from the design's own sheet",
                 SheetInputs::FILE
             );
-            approximate_sheet_inputs(&renderer, scene, dir)?
+            SheetInputs::approximate(&renderer, scene, dir, &term::Terminal::new(true))?
         }
     };
     let (setup, _, advice) = scratchart_design::setup::write_setup(out, &renderer, scene, &inputs)?;
@@ -531,50 +531,6 @@ fn setup_command(ctx: &std::sync::Arc<Context>, scene: &Scene, dir: &Path, out: 
     println!("{}", serde_json::to_string(&setup)?);
     eprintln!("wrote {0}/setup.txt and {0}/setup.png", out.display());
     Ok(())
-}
-
-/// The sheet's inputs of a design that wrote none: NAME_target.png beside it (else the design's
-/// own render), the whole plate as each picture, the loss's default blur.
-fn approximate_sheet_inputs(
-    renderer: &Renderer,
-    scene: &Scene,
-    dir: &Path,
-) -> Result<scratchart_design::tolerance::SheetInputs> {
-    let mut gs = renderer.upload(scene)?;
-    let frame = renderer.render(&mut gs)?;
-    let mut targets = Vec::new();
-    for (v, img) in scene.views.iter().zip(&frame.images) {
-        let t = dir.join(format!("{}_target.png", v.name));
-        let (w, h) = (v.camera.width, v.camera.height);
-        let target = match scratchart_render::io::read_image_gray(&t) {
-            Ok((tw, th, data)) if (tw, th) == (w, h) => data,
-            Ok((tw, th, _)) => {
-                eprintln!(
-                    "warning: {} is {tw}x{th}, the view {w}x{h}: using the design's own render",
-                    t.display()
-                );
-                img.iter().map(|&l| scratchart_render::io::display_value(l)).collect()
-            }
-            Err(_) => img.iter().map(|&l| scratchart_render::io::display_value(l)).collect(),
-        };
-        targets.push(target);
-    }
-    let pictures: Vec<Vec<bool>> = (0..scene.views.len())
-        .map(|v| scratchart_model::camera::on_plate_mask(scene, v))
-        .collect();
-    // Views the design left blank on purpose, as its summary.json lists them.
-    let blank_views: Vec<String> = std::fs::read_to_string(dir.join("summary.json"))
-        .ok()
-        .and_then(|t| serde_json::from_str::<serde_json::Value>(&t).ok())
-        .and_then(|v| v["blank_views"].as_array().cloned())
-        .map(|a| a.iter().filter_map(|x| x.as_str().map(String::from)).collect())
-        .unwrap_or_default();
-    Ok(scratchart_design::tolerance::SheetInputs {
-        targets,
-        pictures,
-        sigma: scratchart_optim::loss::LossConfig::default().sigma,
-        blank_views,
-    })
 }
 
 fn check_validation(ctx: &Context) -> Result<()> {

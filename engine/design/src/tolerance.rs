@@ -9,6 +9,7 @@ use serde_json::{json, Value};
 
 use crate::measure::{blur3, correlation};
 use scratchart_model::scene::{LightKind, Scene, View};
+use scratchart_observe::Observer;
 use scratchart_optim::error::OptimError;
 use scratchart_render::Renderer;
 
@@ -387,6 +388,53 @@ impl SheetInputs {
             &dir.join(Self::FILE),
             text.as_bytes(),
         )?)
+    }
+
+    /// The sheet's inputs of a design in `dir` that wrote none: NAME_target.png beside it (else
+    /// the design's own render), the whole plate as each picture, the loss's default blur, and
+    /// the views its summary.json lists as blank on purpose.
+    pub fn approximate(
+        renderer: &Renderer,
+        scene: &Scene,
+        dir: &Path,
+        obs: &dyn Observer,
+    ) -> Result<SheetInputs, OptimError> {
+        let mut gs = renderer.upload(scene)?;
+        let frame = renderer.render(&mut gs)?;
+        let mut targets = Vec::new();
+        for (v, img) in scene.views.iter().zip(&frame.images) {
+            let t = dir.join(format!("{}_target.png", v.name));
+            let (w, h) = (v.camera.width, v.camera.height);
+            let own = || img.iter().map(|&l| scratchart_render::io::display_value(l)).collect();
+            let target = match scratchart_render::io::read_image_gray(&t) {
+                Ok((tw, th, data)) if (tw, th) == (w, h) => data,
+                Ok((tw, th, _)) => {
+                    obs.warn(&format!(
+                        "{} is {tw}x{th}, the view {w}x{h}: using the design's own render",
+                        t.display()
+                    ));
+                    own()
+                }
+                Err(_) => own(),
+            };
+            targets.push(target);
+        }
+        let pictures: Vec<Vec<bool>> = (0..scene.views.len())
+            .map(|v| scratchart_model::camera::on_plate_mask(scene, v))
+            .collect();
+        // Views the design left blank on purpose, as its summary.json lists them.
+        let blank_views: Vec<String> = std::fs::read_to_string(dir.join("summary.json"))
+            .ok()
+            .and_then(|t| serde_json::from_str::<Value>(&t).ok())
+            .and_then(|v| v["blank_views"].as_array().cloned())
+            .map(|a| a.iter().filter_map(|x| x.as_str().map(String::from)).collect())
+            .unwrap_or_default();
+        Ok(SheetInputs {
+            targets,
+            pictures,
+            sigma: scratchart_optim::loss::LossConfig::default().sigma,
+            blank_views,
+        })
     }
 
     /// Reads the inputs a design wrote into `dir`; `Ok(None)` when it wrote none (a design made
