@@ -368,3 +368,35 @@ pub fn write_file(dir: &std::path::Path, name: &str, text: &str) -> String {
     std::fs::write(&p, text).unwrap();
     p.to_str().unwrap().to_string()
 }
+
+/// The tool of the machine tests: a 60-degree V-bit with a 10 um flat tip, no z offset, as the
+/// tool.json they write.
+pub const V60_TOOL_JSON: &str = r#"{ "kind": "v-bit", "angle_deg": 60.0, "tip_flat_mm": 0.01, "z_offset_mm": 0.0 }"#;
+
+/// A design `plan` can carve as designed with `tool`: `n` scratches fanned over a plate of
+/// `plate` mm, scratch k the tool's own groove at commanded depth 0.035 + 0.03 k / n mm (deeper
+/// than both built-in machine profiles' shallowest cut, 0.02 and 0.03 mm).
+pub fn carvable_design(plate: f64, n: usize, tool: &scratchart_tool::Tool) -> Scene {
+    let h = 0.4 * plate;
+    Scene::bare(
+        plate,
+        (0..n)
+            .map(|k| {
+                let t = k as f64 / n as f64;
+                let g = tool.model(0.035 + 0.03 * t).expect("the tool reaches the plate");
+                Scratch {
+                    p0: [-h + 2.0 * h * t, -h],
+                    p1: [-h + 2.0 * h * t, h * t],
+                    w: g.w,
+                    d: g.d,
+                    alpha: 0.1,
+                }
+            })
+            .collect(),
+    )
+}
+
+/// [`V60_TOOL_JSON`] as a tool.
+pub fn v60_tool() -> scratchart_tool::Tool {
+    serde_json::from_str(V60_TOOL_JSON).expect("a valid tool")
+}

@@ -77,7 +77,19 @@ pub struct PlanArgs {
     /// Height map of the plate surface (heightmap.json): each cut follows the measured surface
     #[arg(long)]
     pub heightmap: Option<PathBuf>,
+    /// Write the plan even where the design cannot be carved as designed (cuts shallower than
+    /// the machine's smallest trusted cut, grooves off the tool's curve); the plan's header and
+    /// the output say what was forced. Without it such a design is refused (exit 2)
+    #[arg(long)]
+    pub force: bool,
 }
+
+/// How far a scratch's groove may lie from the tool's cut at its commanded depth, relative
+/// (|dw|/w + |dd|/d), before `plan` refuses the design. A design made with `design --tool` holds
+/// the tool's own grooves (to its table's interpolation error, under 0.1%); 5% is well above that
+/// and well below what a design made without the tool, or with another tool, is off by (tens to
+/// hundreds of percent).
+pub const GROOVE_TOLERANCE: f64 = 0.05;
 
 /// `--bed WxH` in mm.
 pub fn parse_bed(s: &str) -> Result<[f64; 2]> {
@@ -162,7 +174,8 @@ pub fn plan(a: &PlanArgs) -> Result<()> {
     };
     let mut summary = Vec::new();
     let surface = surface_depth_mm(tool.as_ref().map(|t| t.z_offset_mm()));
-    let depths = plan_depths(a, &scene, &extra, tool.as_ref(), surface, &mut summary)?;
+    let (depths, mismatch) = plan_depths(a, &scene, &extra, tool.as_ref(), surface, &mut summary)?;
+    carvable_as_designed(a, &m, &depths, &mismatch, surface, &mut summary)?;
     if let Some(t) = &tool {
         // The whole record, spaced so that the header folds it between values.
         let record = serde_json::to_string(t)?.replace(',', ", ").replace("\":", "\": ");
@@ -273,8 +286,73 @@ pub fn plan(a: &PlanArgs) -> Result<()> {
     Ok(())
 }
 
+/// Whether the plan carves the design as it was designed: every cut at least the machine's
+/// smallest trusted cut below the surface, every groove within [`GROOVE_TOLERANCE`] of the
+/// tool's cut at its depth (`mismatch`, each scratch's). Otherwise a usage error naming what is
+/// wrong and the fix, or, with `--force`, a warning and a line in the plan's header.
+fn carvable_as_designed(
+    a: &PlanArgs,
+    m: &MachineProfile,
+    depths: &[f64],
+    mismatch: &[f64],
+    surface: f64,
+    summary: &mut Vec<String>,
+) -> Result<()> {
+    let mut problems = Vec::new();
+    let shallow: Vec<usize> = (0..depths.len())
+        .filter(|&k| depths[k] - surface < m.min_cut_depth_mm - 1e-9)
+        .collect();
+    if let Some(&k0) = shallow.iter().min_by(|&&i, &&j| depths[i].total_cmp(&depths[j])) {
+        problems.push(format!(
+            "{} of {} cuts are shallower than the machine's smallest trusted cut, {} mm below the surface \
+             (the shallowest, scratch {}, {:.4} mm)",
+            shallow.len(),
+            depths.len(),
+            m.min_cut_depth_mm,
+            k0 + 1,
+            depths[k0] - surface
+        ));
+    }
+    let off: Vec<usize> = (0..mismatch.len())
+        .filter(|&k| !(mismatch[k] <= GROOVE_TOLERANCE))
+        .collect();
+    if let Some(&k0) = off.iter().max_by(|&&i, &&j| mismatch[i].total_cmp(&mismatch[j])) {
+        problems.push(format!(
+            "{} of {} grooves are not the tool's cut at their depth (more than {:.0}% off in |dw|/w + |dd|/d; \
+             the worst, scratch {}, {:.1}%): the design was made without this tool",
+            off.len(),
+            mismatch.len(),
+            100.0 * GROOVE_TOLERANCE,
+            k0 + 1,
+            100.0 * mismatch[k0]
+        ));
+    }
+    if problems.is_empty() {
+        return Ok(());
+    }
+    let what = problems.join("; ");
+    if !a.force {
+        return Err(UsageError(format!(
+            "{} cannot be carved as designed: {what}. Design it again for this tool and machine \
+             (`scratchart design ... --tool TOOL.json --machine {}` or `--machine-file machine.json`), whose \
+             depths plan uses as designed; or give --force to write this plan anyway",
+            a.design.as_deref().unwrap_or(Path::new("-")).display(),
+            match m.firmware {
+                scratchart_tool::machine::Firmware::Grbl => "grbl",
+                scratchart_tool::machine::Firmware::Marlin => "marlin",
+            }
+        ))
+        .into());
+    }
+    eprintln!("warning: --force: writing a plan that does not carve the design as designed: {what}");
+    summary.push(format!("forced (--force): {what}"));
+    Ok(())
+}
+
 /// Each scratch's commanded depth: the design's z_mm column when it has one (refused where a
 /// depth lies above the plate's surface), else the tool's curve; what was used goes to `summary`.
+/// With each, how far its groove lies from the tool's cut at that depth (|dw|/w + |dd|/d; empty
+/// without a tool).
 fn plan_depths(
     a: &PlanArgs,
     scene: &Scene,
@@ -282,7 +360,7 @@ fn plan_depths(
     tool: Option<&Tool>,
     surface: f64,
     summary: &mut Vec<String>,
-) -> Result<Vec<f64>> {
+) -> Result<(Vec<f64>, Vec<f64>)> {
     Ok(match extra.column("z_mm") {
         Some(z) => {
             if let Some(k) = z.iter().position(|z| !(*z >= surface)) {
@@ -303,8 +381,9 @@ fn plan_depths(
                 .into());
             }
             let mut line = format!("depths: the design's z_mm column ({} scratches)", z.len());
+            let mut mismatch = Vec::new();
             if let Some(t) = tool {
-                let worst = scene
+                mismatch = scene
                     .scratches
                     .iter()
                     .zip(&z)
@@ -312,11 +391,12 @@ fn plan_depths(
                         t.model(z)
                             .map_or(f64::INFINITY, |g| (g.w - s.w).abs() / s.w + (g.d - s.d).abs() / s.d)
                     })
-                    .fold(0.0f64, f64::max);
+                    .collect();
+                let worst = mismatch.iter().cloned().fold(0.0f64, f64::max);
                 line += &format!("; worst mismatch of the tool's groove at z_mm: {:.1}%", 100.0 * worst);
             }
             summary.push(line);
-            z
+            (z, mismatch)
         }
         None => {
             let t = tool.ok_or_else(|| {
@@ -331,7 +411,7 @@ fn plan_depths(
                 "depths: the tool's curve; worst groove mismatch {:.1}% (|dw|/w + |dd|/d)",
                 100.0 * worst
             ));
-            d.into_iter().map(|d| d.0).collect()
+            d.into_iter().unzip()
         }
     })
 }

@@ -8,25 +8,11 @@ use std::process::{Command, Output, Stdio};
 
 use scratchart_machine::fake::{FakeGrbl, FakeMarlin, GrblConfig, MarlinConfig};
 use scratchart_machine::program::Program;
-use scratchart_model::scene::{Scene, Scratch};
+use scratchart_model::scene::Scene;
 
+/// A design the tests' 60-degree V-bit carves as designed.
 fn design(plate: f64, n: usize) -> Scene {
-    let h = 0.4 * plate;
-    Scene::bare(
-        plate,
-        (0..n)
-            .map(|k| {
-                let t = k as f64 / n as f64;
-                Scratch {
-                    p0: [-h + 2.0 * h * t, -h],
-                    p1: [-h + 2.0 * h * t, h * t],
-                    w: 0.05,
-                    d: 0.05,
-                    alpha: 0.1,
-                }
-            })
-            .collect(),
-    )
+    scratchart_tests::carvable_design(plate, n, &scratchart_tests::v60_tool())
 }
 
 fn run(bin: &Path, dir: &Path, args: &[&str]) -> Output {

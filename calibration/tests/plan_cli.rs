@@ -2,25 +2,21 @@
 //! and plans that leave their bounds are refused with the README's exit codes.
 use std::process::Command;
 
-use scratchart_model::scene::{Scene, Scratch};
+use scratchart_model::scene::Scene;
 
+/// A design the tests' 60-degree V-bit carves as designed.
 fn design(plate: f64) -> Scene {
-    let h = 0.4 * plate;
-    Scene::bare(
-        plate,
-        (0..40)
-            .map(|k| {
-                let t = k as f64 / 40.0;
-                Scratch {
-                    p0: [-h + 2.0 * h * t, -h],
-                    p1: [-h + 2.0 * h * t, h * t],
-                    w: 0.05,
-                    d: 0.02 + 0.03 * t,
-                    alpha: 0.1,
-                }
-            })
-            .collect(),
-    )
+    scratchart_tests::carvable_design(plate, 40, &scratchart_tests::v60_tool())
+}
+
+/// A design made without the tool: every scratch the same (w, d), whatever the depth.
+fn toolless_design(plate: f64) -> Scene {
+    let mut s = design(plate);
+    for sc in &mut s.scratches {
+        sc.w = 0.05;
+        sc.d = 0.05;
+    }
+    s
 }
 
 #[test]
@@ -250,7 +246,7 @@ fn depths_come_from_the_z_mm_column_and_follow_a_height_map() {
     use scratchart_model::scene_file::Extra;
     let (bin, dir) = setup("zmm");
     let scene = design(100.0);
-    let z: Vec<f64> = (0..scene.scratches.len()).map(|k| 0.01 + 0.001 * k as f64).collect();
+    let z: Vec<f64> = (0..scene.scratches.len()).map(|k| 0.025 + 0.001 * k as f64).collect();
     let extra = Extra {
         names: vec!["z_mm".into()],
         rows: z.iter().map(|z| vec![*z]).collect(),
@@ -325,10 +321,19 @@ fn commanded_depths_start_at_the_tools_surface() {
     let (bin, dir) = setup("surface");
     std::fs::write(
         dir.join("raised.json"),
-        r#"{ "kind": "v-bit", "angle_deg": 60.0, "tip_flat_mm": 0.01, "z_offset_mm": 0.004 }"#,
+        r#"{ "kind": "v-bit", "angle_deg": 60.0, "tip_flat_mm": 0.01, "z_offset_mm": 0.03 }"#,
     )
     .unwrap();
-    let scene = design(100.0);
+    let raised: scratchart_tool::Tool =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("raised.json")).unwrap()).unwrap();
+    // The surface at commanded -0.03 mm; the first depths negative, every cut at least 0.022 mm
+    // below the surface, each groove the raised tool's own.
+    let z: Vec<f64> = (0..40).map(|k| -0.008 + 0.001 * k as f64).collect();
+    let mut scene = design(100.0);
+    for (s, &z) in scene.scratches.iter_mut().zip(&z) {
+        let g = raised.model(z).unwrap();
+        (s.w, s.d) = (g.w, g.d);
+    }
     let save = |name: &str, z: &[f64]| {
         let extra = Extra {
             names: vec!["z_mm".into()],
@@ -338,7 +343,6 @@ fn commanded_depths_start_at_the_tools_surface() {
             .save_extra(&dir.join(name), &format!("{name}.csv"), &extra)
             .unwrap();
     };
-    let z: Vec<f64> = (0..scene.scratches.len()).map(|k| -0.003 + 0.001 * k as f64).collect();
     save("shallow.json", &z);
     let run = |args: &[&str]| Command::new(&bin).current_dir(&dir).args(args).output().unwrap();
     let o = run(&[
@@ -361,15 +365,80 @@ fn commanded_depths_start_at_the_tools_surface() {
     let o = run(&["plan", "shallow.json", "--out", "n.nc"]);
     assert_eq!(o.status.code(), Some(3), "{}", String::from_utf8_lossy(&o.stderr));
     let e = String::from_utf8_lossy(&o.stderr);
-    assert!(e.contains("scratch 1 has z_mm = -0.003") && e.contains("--tool"), "{e}");
-    // Above the raised surface (-0.004 mm): refused with the tool too.
+    assert!(e.contains("scratch 1 has z_mm = -0.008") && e.contains("--tool"), "{e}");
+    // Above the raised surface (-0.03 mm): refused with the tool too.
     let mut above = z.clone();
-    above[5] = -0.005;
+    above[5] = -0.035;
     save("above.json", &above);
     let o = run(&["plan", "above.json", "--tool", "raised.json", "--out", "a.nc"]);
     assert_eq!(o.status.code(), Some(3), "{}", String::from_utf8_lossy(&o.stderr));
     let e = String::from_utf8_lossy(&o.stderr);
-    assert!(e.contains("scratch 6") && e.contains("-0.004"), "{e}");
+    assert!(e.contains("scratch 6") && e.contains("-0.03"), "{e}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// A design `plan` cannot carve as designed is refused with exit 2, no G-code written, the
+/// message naming what is wrong and the flags that make a carvable design: one made without the
+/// tool (its grooves far off the tool's cuts), one with another tool, one whose z_mm column cuts
+/// shallower than the machine trusts. `--force` writes it, says so, and the plan's header too.
+#[test]
+fn a_design_not_made_for_the_tool_and_machine_is_refused_unless_forced() {
+    use scratchart_model::scene_file::Extra;
+    let (bin, dir) = setup("force");
+    let run = |args: &[&str]| Command::new(&bin).current_dir(&dir).args(args).output().unwrap();
+    std::fs::write(
+        dir.join("ball.json"),
+        r#"{ "kind": "ball", "radius_mm": 0.1, "z_offset_mm": 0.0 }"#,
+    )
+    .unwrap();
+    toolless_design(100.0).save(&dir.join("plain.json"), "p.csv").unwrap();
+    // The same design checked against the tool it was made for passes (below).
+    design(100.0).save(&dir.join("v60.json"), "v.csv").unwrap();
+    for (design, tool, machine) in [
+        ("plain.json", "tool.json", "grbl"),
+        ("v60.json", "ball.json", "grbl"),
+        ("plain.json", "tool.json", "marlin"),
+    ] {
+        let o = run(&["plan", design, "--tool", tool, "--machine", machine, "--out", "r.nc"]);
+        let e = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{design} with {tool}: {e}");
+        assert!(
+            e.contains("cannot be carved as designed")
+                && e.contains("not the tool's cut")
+                && e.contains(&format!("--tool TOOL.json --machine {machine}"))
+                && e.contains("--force"),
+            "{e}"
+        );
+        assert!(!dir.join("r.nc").exists(), "no G-code for a refused design");
+    }
+    let o = run(&["plan", "v60.json", "--tool", "tool.json", "--out", "ok.nc"]);
+    assert_eq!(o.status.code(), Some(0), "{}", String::from_utf8_lossy(&o.stderr));
+    // Depths shallower than the profile's smallest trusted cut (0.02 mm on GRBL).
+    let scene = design(100.0);
+    let z: Vec<f64> = (0..40).map(|k| if k == 7 { 0.012 } else { 0.03 }).collect();
+    let extra = Extra {
+        names: vec!["z_mm".into()],
+        rows: z.iter().map(|z| vec![*z]).collect(),
+    };
+    scene.save_extra(&dir.join("shallow.json"), "s.csv", &extra).unwrap();
+    let o = run(&["plan", "shallow.json", "--out", "s.nc"]);
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{e}");
+    assert!(
+        e.contains("1 of 40 cuts are shallower than the machine's smallest trusted cut, 0.02 mm")
+            && e.contains("scratch 8"),
+        "{e}"
+    );
+    // Forced: written, with a warning and the header's record.
+    let o = run(&["plan", "plain.json", "--tool", "tool.json", "--out", "f.nc", "--force"]);
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(0), "{e}");
+    assert!(e.contains("warning: --force"), "{e}");
+    let g = std::fs::read_to_string(dir.join("f.nc")).unwrap();
+    assert!(
+        g.contains("forced (--force)") && g.contains("not the tool's cut"),
+        "{g}"
+    );
     let _ = std::fs::remove_dir_all(&dir);
 }
 
