@@ -48,8 +48,13 @@ pub struct CarveArgs {
     #[arg(long)]
     pub check: bool,
     /// Continue the job recorded in the journal, a few scratches before the last acknowledged one
-    #[arg(long)]
+    #[arg(long, conflicts_with = "restart")]
     pub resume: bool,
+    /// Start the plan again from its first cut where the journal records an unfinished job; the
+    /// old journal is kept beside the new (PLAN.journal.json.1, .2, ...). Without --resume or
+    /// --restart, an unfinished job stops carve before anything is sent
+    #[arg(long)]
+    pub restart: bool,
     /// With --resume: how to re-establish the position first (default keep)
     #[arg(long, value_enum)]
     pub rezero: Option<RezeroArg>,
@@ -185,6 +190,7 @@ pub fn run(a: &CarveArgs) -> Result<()> {
             .unwrap_or_else(|| scratchart_machine::journal::default_path(&a.plan)),
         check: a.check,
         resume: a.resume,
+        restart: a.restart,
         rezero: match a.rezero.unwrap_or(RezeroArg::Keep) {
             RezeroArg::Home => Rezero::Home,
             RezeroArg::Probe => Rezero::Probe,

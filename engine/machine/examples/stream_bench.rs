@@ -52,6 +52,7 @@ mod bench {
                 journal: dir.join(format!("bench_{name}.journal.json")),
                 check: false,
                 resume: false,
+                restart: false,
                 rezero: Rezero::Keep,
                 profile: None,
                 emergency: false,

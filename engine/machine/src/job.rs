@@ -2,7 +2,7 @@
 //! plan for the other firmware or settings that contradict it, re-establish the position on
 //! resume, run check mode when asked, stream with the journal, and leave the machine stopped with
 //! the tool raised whenever the job ends early.
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::sync::atomic::Ordering;
 use std::time::{Duration, Instant};
 
@@ -25,6 +25,9 @@ pub struct Options {
     /// Run the plan in GRBL's check mode (`$C`) first.
     pub check: bool,
     pub resume: bool,
+    /// Start again where the journal records an unfinished job, keeping that journal beside
+    /// the new one (without it, or `resume`, such a job is refused before anything is sent).
+    pub restart: bool,
     pub rezero: Rezero,
     /// The machine profile to check the controller against (`--machine-file`).
     pub profile: Option<MachineProfile>,
@@ -351,12 +354,19 @@ fn rezero_for_resume(
     let did = ctl.rezero(link, opts.rezero, program.max_z, feed_of(program))?;
     obs.info(&format!("re-established the position: {did}"));
     if opts.rezero == Rezero::Keep {
+        let cmd = &opts.resume_command;
+        let instead = if ctl.can_home() == Some(false) {
+            format!(
+                "set the work zero by hand over the plate's centre (this machine cannot home) and run: {cmd} \
+                 --rezero probe"
+            )
+        } else {
+            format!("run: {cmd} --rezero home")
+        };
         obs.info(&format!(
             "--rezero keep: no reset, alarm or quickstop was seen since the last acknowledged \
              line, so the controller's work offset is trusted. If the machine lost its position \
-             all the same (a power cut while the port was closed), stop now (Ctrl-C) and run: {} \
-             --rezero home",
-            opts.resume_command
+             all the same (a power cut while the port was closed), stop now (Ctrl-C) and {instead}"
         ));
     } else {
         journal.position_lost = None;
@@ -522,20 +532,62 @@ fn open_journal(opts: &Options, program: &Program, obs: &dyn Observer) -> Result
         }
         j
     } else {
-        if let Ok(j) = Journal::load(&opts.journal) {
-            if j.state != "done" && j.plan_checksum == program.checksum {
+        if opts.journal.exists() {
+            let unfinished = match Journal::load(&opts.journal) {
+                Ok(j) if j.state == "done" => None,
+                Ok(j) => Some(if j.plan_checksum == program.checksum {
+                    format!(
+                        "an unfinished job of this plan is recorded in {} ({} of {} cuts acknowledged). \
+                         Continue it with `{}`",
+                        opts.journal.display(),
+                        j.last_acked.map_or(0, |k| k + 1),
+                        j.total,
+                        opts.resume_command
+                    )
+                } else {
+                    format!(
+                        "an unfinished job of an earlier version of this plan is recorded in {} ({} of {} cuts \
+                         acknowledged; it cannot be resumed: the plan changed)",
+                        opts.journal.display(),
+                        j.last_acked.map_or(0, |k| k + 1),
+                        j.total
+                    )
+                }),
+                Err(e) => Some(format!("the journal {} cannot be read ({e})", opts.journal.display())),
+            };
+            if let Some(what) = unfinished {
+                if !opts.restart {
+                    return Err(CarveError::Usage(format!(
+                        "{what}, or start the job again from its first cut with --restart (the old journal is \
+                         kept beside the new). Nothing was sent"
+                    )));
+                }
+                let kept = keep_beside(&opts.journal).map_err(CarveError::Stopped)?;
                 obs.info(&format!(
-                    "an unfinished job of this plan is recorded in {} ({} of {} cuts); \
-                     starting over (to continue it instead: {})",
-                    opts.journal.display(),
-                    j.last_acked.map_or(0, |k| k + 1),
-                    j.total,
-                    opts.resume_command
+                    "--restart: starting the job again from its first cut; the old journal is kept as {}",
+                    kept.display()
                 ));
             }
         }
         Journal::new(&opts.plan.display().to_string(), &program.checksum, fw, total)
     }))
+}
+
+/// Moves `journal` to the first free `JOURNAL.N` beside it (N = 1, 2, ...); the new name.
+fn keep_beside(journal: &Path) -> Result<PathBuf, String> {
+    let name = journal.file_name().unwrap_or_default().to_string_lossy().to_string();
+    let kept = (1..)
+        .map(|n| journal.with_file_name(format!("{name}.{n}")))
+        .find(|p| !p.exists())
+        .expect("a free name");
+    std::fs::rename(journal, &kept).map_err(|e| {
+        format!(
+            "cannot keep the old journal {} as {}: {e}",
+            journal.display(),
+            kept.display()
+        )
+    })?;
+    Ok(kept)
 }
 
 /// Opens the port, finds out which controller answers (refusing one of the other firmware than

@@ -223,6 +223,89 @@ fn disconnect_then_resume_skips_nothing() {
     assert!(e.to_string().contains("changed"), "{e}");
 }
 
+/// An unfinished job is never started again silently: without `--resume` or `--restart`, carve
+/// stops before anything is sent (exit 2), naming both and leaving the journal as it was; the
+/// resume advice on a machine that cannot home ($22=0) names `--rezero probe`, never `home`;
+/// `--restart` runs the plan from its first cut and keeps the old journal beside the new.
+#[test]
+fn an_unfinished_job_is_resumed_or_restarted_never_overwritten() {
+    let dir = tmpdir("grbl_restart");
+    let plan = plan(&dir, "p.nc", 20, &MachineProfile::grbl());
+    let mut cfg = GrblConfig {
+        disconnect_after: Some(30),
+        ..GrblConfig::default()
+    };
+    cfg.settings.insert(22, "0".into());
+    let fake = FakeGrbl::start(cfg.clone()).unwrap();
+    carve(&options(&plan, fake.path()), &Control::default(), &Log::default()).unwrap_err();
+    let journal = options(&plan, "").journal;
+    let text = std::fs::read_to_string(&journal).unwrap();
+    let before = Journal::load(&journal).unwrap();
+    assert!(before.state != "done" && before.last_acked.is_some(), "{text}");
+    let (shared, sent) = (fake.shared(), fake.record().executed.len());
+    drop(fake);
+    cfg.disconnect_after = None;
+    let fake = FakeGrbl::start_with(cfg.clone(), shared).unwrap();
+    let e = carve(&options(&plan, fake.path()), &Control::default(), &Log::default()).unwrap_err();
+    let msg = e.to_string();
+    assert_eq!(e.exit_code(), 2, "{msg}");
+    assert!(
+        msg.contains("unfinished job")
+            && msg.contains("--resume")
+            && msg.contains("--restart")
+            && msg.contains("Nothing was sent"),
+        "{msg}"
+    );
+    assert_eq!(fake.record().executed.len(), sent, "nothing moved");
+    assert_eq!(
+        std::fs::read_to_string(&journal).unwrap(),
+        text,
+        "the journal is as it was"
+    );
+    // Resumed with the default --rezero keep: the advice names what this machine can do.
+    let log = Log::default();
+    carve(&resume_options(&plan, fake.path()), &Control::default(), &log).unwrap();
+    let notes = log.notes.lock().unwrap().clone();
+    let keep = notes
+        .iter()
+        .find(|n| n.starts_with("--rezero keep"))
+        .expect("the keep note");
+    assert!(
+        keep.contains("--rezero probe") && !keep.contains("--rezero home"),
+        "{keep}"
+    );
+    // Finished: a new run starts afresh without asking (nothing is lost).
+    assert_eq!(Journal::load(&journal).unwrap().state, "done");
+    let shared = fake.shared();
+    drop(fake);
+    // An unfinished journal again, then --restart: from the first cut, the old journal kept.
+    cfg.disconnect_after = Some(30);
+    let fake = FakeGrbl::start_with(cfg.clone(), shared).unwrap();
+    carve(&options(&plan, fake.path()), &Control::default(), &Log::default()).unwrap_err();
+    let unfinished = std::fs::read_to_string(&journal).unwrap();
+    let (shared, sent) = (fake.shared(), fake.record().executed.len());
+    drop(fake);
+    cfg.disconnect_after = None;
+    let fake = FakeGrbl::start_with(cfg, shared).unwrap();
+    let log = Log::default();
+    let opts = Options {
+        restart: true,
+        ..options(&plan, fake.path())
+    };
+    let s = carve(&opts, &Control::default(), &log).unwrap();
+    assert_eq!(s.from, 0, "from the first cut");
+    assert!(log.says("--restart"), "{:?}", log.notes);
+    let kept = journal.with_file_name(format!("{}.1", journal.file_name().unwrap().to_string_lossy()));
+    assert_eq!(
+        std::fs::read_to_string(&kept).unwrap(),
+        unfinished,
+        "the old journal kept beside"
+    );
+    assert_eq!(Journal::load(&journal).unwrap().state, "done");
+    let executed = &fake.record().executed[sent..];
+    assert_eq!(assert_all_cut(&plan, executed), 1, "every cut once more");
+}
+
 /// A board that resets when the port opens (an Arduino Uno's DTR line) has lost its position:
 /// a resume with the default `--rezero keep` stops before any motion (exit 1, saying why and
 /// which `--rezero` this machine allows), also on a later port that does not reset (the journal

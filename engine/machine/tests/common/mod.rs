@@ -51,6 +51,7 @@ pub fn options(plan: &Path, port: &str) -> Options {
         journal: scratchart_machine::journal::default_path(plan),
         check: false,
         resume: false,
+        restart: false,
         rezero: Rezero::Keep,
         profile: None,
         emergency: false,
