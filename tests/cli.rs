@@ -6,10 +6,10 @@ use std::process::{Command, Output};
 use std::time::{Duration, Instant};
 
 fn bin(name: &str) -> PathBuf {
-    let package = if name == "scratchart-view" {
-        "scratchart-view"
-    } else {
-        "scratchart"
+    let package = match name {
+        "scratchart-view" => "scratchart-view",
+        "scratchart-cal" => "scratchart-calibration",
+        _ => "scratchart",
     };
     scratchart_tests::workspace_bin(package, name)
 }
@@ -84,6 +84,13 @@ fn scratchart_exit_codes() {
         2,
         "--init-alpha",
         "--init-alpha 1.5",
+    );
+    // A negative number reaches the range check that says what works (not "unexpected argument").
+    expect(
+        &run("scratchart", &["design", "--plate", "-5", "--out", out]),
+        2,
+        "--plate must be > 0 mm",
+        "--plate -5",
     );
     // 1: an output that cannot be written (/dev/null is a file, not a directory)
     expect(
@@ -210,6 +217,27 @@ fn viewer_exit_codes() {
         2,
         "no-such-flag",
         "viewer unknown flag",
+    );
+    // A screenshot is a PNG: another name is refused before anything renders.
+    let jpg = d.join("y.jpg");
+    expect(
+        &run(
+            "scratchart-view",
+            &[&scene, "--view", "0", "--screenshot", jpg.to_str().unwrap()],
+        ),
+        2,
+        "ending in .png",
+        "viewer --screenshot y.jpg",
+    );
+    assert!(!jpg.exists(), "nothing written under a .jpg name");
+    expect(
+        &run(
+            "scratchart-view",
+            &[&scene, "--view", "0", "--screenshot", png, "--exposure", "-1"],
+        ),
+        2,
+        "--exposure -1",
+        "viewer --exposure -1",
     );
     expect(
         &run(
@@ -596,4 +624,41 @@ fn design_and_setup_write_the_same_sheet() {
     let o = setup(&dir.join("u"));
     expect(&o, 3, "setup_inputs.json", "damaged inputs");
     let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// The calibration's camera flags out of what a camera can be, negative ones included, are
+/// refused with exit 2 before any work, naming the range; the card's set-up lines never print -0.
+#[test]
+fn calibration_flags_out_of_range_and_the_cards_numbers() {
+    let d = tmp("cal-flags");
+    for (flag, value, says) in [
+        ("--blur", "-1", "--blur -1: a Gaussian blur of 0 to 20 pixels"),
+        ("--noise", "5", "--noise 5: a standard deviation of 0 to 0.5"),
+        ("--exposure", "0", "--exposure 0: a factor above 0"),
+        ("--megapixels", "-3", "--megapixels -3"),
+    ] {
+        let o = run(
+            "scratchart-cal",
+            &[
+                "simulate",
+                "--card",
+                "no-card.json",
+                "--tool",
+                "no-tool.json",
+                flag,
+                value,
+            ],
+        );
+        expect(&o, 2, says, &format!("simulate {flag} {value}"));
+    }
+    let out = d.join("card");
+    let o = run("scratchart-cal", &["card", "--out", out.to_str().unwrap()]);
+    let text = String::from_utf8_lossy(&o.stdout);
+    assert_eq!(o.status.code(), Some(0), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(text.contains("lamp at ("), "{text}");
+    assert!(
+        !text.contains("(-0,") && !text.contains(" -0,") && !text.contains(" -0)"),
+        "{text}"
+    );
+    let _ = std::fs::remove_dir_all(&d);
 }

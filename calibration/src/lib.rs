@@ -1,7 +1,7 @@
 //! Carving-tool calibration (see calibration/README.md):
 //!
 //! - [`card`]: the calibration card: a ladder of commanded depths straddling the plate surface,
-//!   each at several orientations and repeated, corner fiducials, and the capture set-up (camera
+//!   each at several orientations and repeated, six fiducial marks, and the capture set-up (camera
 //!   and lamp places) as engine/docs/model.md views. `card.json` is a engine/docs/model.md scene (a bare plate) with the
 //!   card's own fields under `card`.
 //! - [`simulate`]: the card as a given tool would cut it, rendered by the engine from each

@@ -22,8 +22,8 @@ mod toolpath;
     long_about = r#"Calibrate the carving tool before a carving session, in this order:
 
   1. scratchart-cal card --out DIR       writes DIR/card.json: the test card (a ladder of commanded depths
-                                         straddling the plate surface, at several orientations, with corner
-                                         fiducials) and where the camera and the lamp go to photograph it,
+                                         straddling the plate surface, at several orientations, with six
+                                         fiducial marks) and where the camera and the lamp go to photograph it,
                                          and its G-code DIR/card.nc (card.gcode with --machine marlin).
   2. cut the card on the machine, and photograph it from each capture view of card.json.
   3. scratchart-cal simulate --card DIR/card.json --tool tool.json --out IMGDIR
@@ -174,6 +174,7 @@ fn run(cli: Cli) -> Result<()> {
             megapixels,
             jpeg,
         } => {
+            check_camera_flags(*exposure, *blur, *noise, *megapixels)?;
             let (card, capture) = Card::load(card)?;
             let tool = Tool::load(tool).map_err(|e| scratchart_exit::InputError(e.to_string()))?;
             let (_ctx, renderer) = renderer(cli.device.as_deref())?;
@@ -321,9 +322,13 @@ fn card_cmd(
     for v in card.views(res) {
         let lamp = match v.light.kind {
             scratchart_model::scene::LightKind::Point { position } => {
+                // Rounded first, so that a coordinate just below zero reads 0, not -0.
+                let mm = |x: f64| x.round() + 0.0;
                 format!(
                     "lamp at ({:.0}, {:.0}, {:.0}) mm",
-                    position[0], position[1], position[2]
+                    mm(position[0]),
+                    mm(position[1]),
+                    mm(position[2])
                 )
             }
             scratchart_model::scene::LightKind::Directional { direction } => format!(
@@ -336,6 +341,32 @@ fn card_cmd(
             "  capture view {}: camera at ({:.0}, {:.0}, {:.0}) mm, {lamp}, both from the card's centre",
             v.name, e[0], e[1], e[2]
         );
+    }
+    Ok(())
+}
+
+/// The camera flags of `simulate`, each within what a camera can be (exit 2 otherwise).
+fn check_camera_flags(exposure: f64, blur: f64, noise: f64, megapixels: Option<f64>) -> Result<()> {
+    let usage = |m: String| Err(scratchart_exit::UsageError(m).into());
+    if !(exposure.is_finite() && exposure > 0.0) {
+        return usage(format!(
+            "--exposure {exposure}: a factor above 0 on the linear image (1 as rendered, 2 one stop brighter)"
+        ));
+    }
+    if !(blur.is_finite() && (0.0..=20.0).contains(&blur)) {
+        return usage(format!("--blur {blur}: a Gaussian blur of 0 to 20 pixels (0: sharp)"));
+    }
+    if !(noise.is_finite() && (0.0..=0.5).contains(&noise)) {
+        return usage(format!(
+            "--noise {noise}: a standard deviation of 0 to 0.5 in display values (0 black .. 1 white; 0.01 is a phone's)"
+        ));
+    }
+    if let Some(mp) = megapixels {
+        if !(mp.is_finite() && mp > 0.0 && mp <= 200.0) {
+            return usage(format!(
+                "--megapixels {mp}: a photo of more than 0 and at most 200 megapixels"
+            ));
+        }
     }
     Ok(())
 }

@@ -466,7 +466,9 @@ fn describe_tool(t: &Tool) -> String {
             continue;
         }
         match (x.as_f64(), x.as_array()) {
-            (Some(f), _) if k.ends_with("_deg") => parts.push(format!("{} {f} deg", &k[..k.len() - 4])),
+            (Some(f), _) if k.ends_with("_deg") => {
+                parts.push(format!("{} {} deg", &k[..k.len() - 4], (f * 100.0).round() / 100.0))
+            }
             (Some(f), _) if k.ends_with("_mm") => {
                 parts.push(format!("{} {} um", &k[..k.len() - 3], (f * 1e4).round() / 10.0))
             }
@@ -556,4 +558,19 @@ pub fn export(a: &ExportArgs) -> Result<()> {
         d.bands.iter().map(|b| b.name.as_str()).collect::<Vec<_>>().join(", ")
     );
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    /// The title's numbers are as a maker reads them, not as a fit left them.
+    #[test]
+    fn the_tool_in_the_title_is_rounded() {
+        let t = scratchart_tool::Tool::VBit {
+            angle_deg: 59.99613414773586,
+            tip_flat_mm: 0.012345,
+            z_offset_mm: 0.0,
+        };
+        let s = super::describe_tool(&t);
+        assert!(s.contains("angle 60 deg") && s.contains("tip_flat 12.3 um"), "{s}");
+    }
 }

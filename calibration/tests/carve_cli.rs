@@ -109,9 +109,21 @@ fn carve_streams_a_plan_to_grbl_and_marlin_and_resumes_after_a_disconnect() {
     assert_eq!(o.status.code(), Some(0), "{}", String::from_utf8_lossy(&o.stderr));
     assert_eq!(all_cut(&dir.join("plan.gcode"), &fake.record().executed), 1);
 
-    // The other firmware's plan: 3.
+    // The other firmware's plan: 3, told to plan again for this machine.
     let o = run(&bin, &dir, &["carve", "plan.nc", "--port", fake.path()]);
-    assert_eq!(o.status.code(), Some(3), "{}", String::from_utf8_lossy(&o.stderr));
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(3), "{e}");
+    assert!(e.contains("scratchart-cal plan ... --machine marlin"), "{e}");
+    // A GRBL test card on the Marlin printer: made again with `card`, not `plan`.
+    let o = run(&bin, &dir, &["card", "--out", "card", "--machine", "grbl"]);
+    assert_eq!(o.status.code(), Some(0), "{}", String::from_utf8_lossy(&o.stderr));
+    let o = run(&bin, &dir, &["carve", "card/card.nc", "--port", fake.path()]);
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(3), "{e}");
+    assert!(
+        e.contains("was written for grbl") && e.contains("scratchart-cal card --out DIR --machine marlin"),
+        "{e}"
+    );
     drop(fake);
 
     // A disconnect: 1 and the resume command; that command on the new port finishes the job.

@@ -74,17 +74,31 @@ pub fn process_start() -> std::time::Instant {
     *PROCESS_START.get_or_init(std::time::Instant::now)
 }
 
+/// `command` and every subcommand of it taking negative numbers as values (`--plate -5` reaches
+/// the range check that says what works, not clap's "unexpected argument '-5'").
+pub fn negative_numbers(command: clap::Command) -> clap::Command {
+    let names: Vec<String> = command.get_subcommands().map(|s| s.get_name().to_string()).collect();
+    let mut command = command.allow_negative_numbers(true);
+    for n in names {
+        command = command.mut_subcommand(n, negative_numbers);
+    }
+    command
+}
+
 /// Parses the command line (see the contract above) and records the start time.
 pub fn parse_args<P: clap::Parser>() -> Result<P, std::process::ExitCode> {
     let _ = PROCESS_START.set(std::time::Instant::now());
-    P::try_parse().map_err(|e| {
-        let _ = e.print();
-        if e.use_stderr() {
-            Class::Usage.exit_code()
-        } else {
-            std::process::ExitCode::SUCCESS
-        }
-    })
+    negative_numbers(P::command())
+        .try_get_matches()
+        .and_then(|m| P::from_arg_matches(&m))
+        .map_err(|e| {
+            let _ = e.print();
+            if e.use_stderr() {
+                Class::Usage.exit_code()
+            } else {
+                std::process::ExitCode::SUCCESS
+            }
+        })
 }
 
 /// The end of a binary's `main`: success, or the error printed (with its causes) and its code.

@@ -28,7 +28,7 @@ mod walk;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
-use anyhow::{bail, Result};
+use anyhow::Result;
 use clap::Parser;
 
 /// The key list, shared by `--help` and the H key.
@@ -328,8 +328,19 @@ fn main() -> ExitCode {
 }
 
 fn run(opts: &Opts, log: &std::cell::RefCell<Option<scratchart_vulkan::ValidationLog>>) -> Result<()> {
-    if opts.exposure.is_nan() || opts.exposure <= 0.0 {
-        bail!("--exposure must be a positive number");
+    if !(opts.exposure.is_finite() && opts.exposure > 0.0) {
+        return Err(scratchart_exit::UsageError(format!("--exposure {}: a positive number", opts.exposure)).into());
+    }
+    if let Some(p) = &opts.screenshot {
+        let png = p.extension().is_some_and(|e| e.eq_ignore_ascii_case("png"));
+        if !png {
+            return Err(scratchart_exit::UsageError(format!(
+                "--screenshot {}: a screenshot is written as PNG (lossless, as `scratchart render` writes); \
+                 give a name ending in .png",
+                p.display()
+            ))
+            .into());
+        }
     }
     if let (Some(d), false) = (opts.frames_dir(), opts.walk) {
         return Err(scratchart_exit::UsageError(format!(

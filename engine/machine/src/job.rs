@@ -620,13 +620,24 @@ fn connect(opts: &Options, program: &Program, obs: &dyn Observer) -> Result<Conn
     })?;
     obs.info(&format!("{} answers on {}", ctl.describe(), opts.port));
     if ctl.firmware() != program.firmware {
+        let other = Program::firmware_name(ctl.firmware());
+        // A calibration card says so in its header; it is made again with `card`, not `plan`.
+        let card = std::fs::read_to_string(&opts.plan).is_ok_and(|t| {
+            t.lines()
+                .take_while(|l| l.starts_with(';'))
+                .any(|l| l.starts_with("; calibration card"))
+        });
+        let again = if card {
+            format!("write the card again for it with `scratchart-cal card --out DIR --machine {other}`")
+        } else {
+            format!("plan it again with `scratchart-cal plan ... --machine {other}`")
+        };
         return Err(CarveError::Input(format!(
-            "{} was planned for {fw} (its first line), but {} answers on {}: plan it again with \
-             `scratchart-cal plan ... --machine {}`",
+            "{} was {} for {fw} (its first line), but {} answers on {}: {again}",
             opts.plan.display(),
+            if card { "written" } else { "planned" },
             ctl.describe(),
             opts.port,
-            Program::firmware_name(ctl.firmware())
         )));
     }
     let fault = |f: Fault| match f {
