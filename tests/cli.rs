@@ -85,13 +85,6 @@ fn scratchart_exit_codes() {
         "--init-alpha",
         "--init-alpha 1.5",
     );
-    // A negative number reaches the range check that says what works (not "unexpected argument").
-    expect(
-        &run("scratchart", &["design", "--plate", "-5", "--out", out]),
-        2,
-        "--plate must be > 0 mm",
-        "--plate -5",
-    );
     // 1: an output that cannot be written (/dev/null is a file, not a directory)
     expect(
         &run("scratchart", &["render", &scene, "--out", "/dev/null/out"]),
@@ -624,6 +617,24 @@ fn design_and_setup_write_the_same_sheet() {
     let o = setup(&dir.join("u"));
     expect(&o, 3, "setup_inputs.json", "damaged inputs");
     let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// A negative number reaches the range check that says what works (not clap's "unexpected
+/// argument '-5'").
+#[test]
+fn negative_numbers_reach_the_range_checks() {
+    let d = tmp("negative");
+    let out = d.join("out");
+    expect(
+        &run(
+            "scratchart",
+            &["design", "--plate", "-5", "--out", out.to_str().unwrap()],
+        ),
+        2,
+        "--plate must be > 0 mm",
+        "--plate -5",
+    );
+    let _ = std::fs::remove_dir_all(&d);
 }
 
 /// The calibration's camera flags out of what a camera can be, negative ones included, are
