@@ -166,6 +166,20 @@ fn a_machine_design_keeps_the_machines_limits() {
         }
     }
     assert_eq!(cuts, z.len());
+    // The job time the design states is the one `plan` states for the same machine (with the mark).
+    let g = plan(&out, &["--tool", &tool]);
+    let stated: f64 = g
+        .lines()
+        .find_map(|l| l.strip_prefix("; estimated job time "))
+        .and_then(|r| r.split(' ').next())
+        .and_then(|v| v.parse().ok())
+        .expect("the plan states its job time");
+    let job_min = m["job_min"].as_f64().unwrap();
+    assert!(
+        job_min > 0.0 && (job_min - stated).abs() <= 0.051 + 0.01 * stated,
+        "design says {job_min} min, plan {stated} min"
+    );
+    assert!(m["job_min_upper_bound"].as_f64().unwrap() >= job_min, "{m}");
 }
 
 /// `design --robust` through the command line: a design trained on carvings with the

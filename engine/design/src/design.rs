@@ -589,7 +589,12 @@ fn machine_summary(
         .count();
     let shallowest_cut = depths.iter().cloned().fold(f64::INFINITY, f64::min) + fab.tool.z_offset_mm();
     let (snapped, largest_snap, loss_before, optimized) = snap.unwrap_or((0, 0.0, f32::NAN, depths.len()));
+    // The job as `scratchart-cal plan` makes it for this machine: the planner's estimate.
+    let (split, upper) = crate::job_time::job_time(scene, depths, m);
     json!({
+        "job_min": split.total() / 60.0,
+        "job_min_upper_bound": upper / 60.0,
+        "job_time_shares": split.shares(),
         "profile": limits.source,
         "firmware": m.firmware,
         "min_cut_depth_mm": m.min_cut_depth_mm,

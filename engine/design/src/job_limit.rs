@@ -19,7 +19,9 @@
 //! deterministic, so a resumed run equals an uninterrupted one).
 use serde_json::{json, Value};
 
-use scratchart_machine::plan::{design_job_time, Cut, TimeSplit};
+use scratchart_machine::plan::TimeSplit;
+
+use crate::job_time::job_time;
 use scratchart_tool::machine::MachineProfile;
 
 use crate::design::run_design;
@@ -34,29 +36,6 @@ use scratchart_vulkan::Context;
 /// Before re-optimizing, the job is trimmed to this share of the limit (the re-optimization may
 /// lengthen scratches).
 pub const TRIM_TARGET: f64 = 0.92;
-
-/// A design's job time as `plan` makes it for machine `m`: the planner's estimate and the
-/// move-by-move upper bound, s.
-pub fn job_time(scene: &Scene, depths: &[f64], m: &MachineProfile) -> (TimeSplit, f64) {
-    let cuts: Vec<Cut> = scene
-        .scratches
-        .iter()
-        .zip(depths)
-        .enumerate()
-        .map(|(k, (s, &z))| Cut {
-            a: s.p0,
-            b: s.p1,
-            z,
-            scratch: k,
-        })
-        .collect();
-    let widths: Vec<f64> = scene
-        .scratches
-        .iter()
-        .map(|s| scratchart_machine::export::visible_width(s.w, s.d))
-        .collect();
-    design_job_time(&cuts, &widths, scene.plate.size_mm, m)
-}
 
 /// Each scratch's importance (the pruning's ranking) in `scene`.
 fn importance(renderer: &Renderer, loss: &Loss, scene: &Scene, cfg: &DesignConfig) -> Result<Vec<f64>, OptimError> {

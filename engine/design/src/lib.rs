@@ -33,6 +33,7 @@
 //! - [`carving`]: what the machine's error costs a design: perturbed carvings rendered and
 //!   scored (`design --machine`).
 //! - [`design`]: the design job: the driver with the design loss and the scene's (or the tool's) parameters, then pruning and the reports.
+//! - [`job_time`]: a design's job time as `plan` makes it for a machine.
 //! - [`job_limit`]: a design sized to the job time the maker has (`design --max-job-min`).
 //! - [`targets`]: target images (files, or the built-in circle / triangle / star).
 //! - [`framing`]: where a picture goes in a view (upright and as large as fits inside the
@@ -54,6 +55,7 @@ pub mod carving;
 pub mod design;
 pub mod framing;
 pub mod job_limit;
+pub mod job_time;
 pub mod live;
 pub mod measure;
 pub mod problem;

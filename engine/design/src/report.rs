@@ -322,6 +322,51 @@ pub fn write_outputs(
     Ok(summary)
 }
 
+/// Below this correlation with its picture a view shows nothing a viewer recognizes.
+pub const USEFUL_CORRELATION: f64 = 0.1;
+
+/// Why a finished design is a failure, from its summary: every view that is asked to show a
+/// picture ends below [`USEFUL_CORRELATION`], or it keeps almost none of its scratches (under 1%
+/// of those optimized, and under 10). None for a design worth carving.
+pub fn verdict(summary: &serde_json::Value) -> Option<String> {
+    let blank: Vec<&str> = summary["blank_views"]
+        .as_array()
+        .map(|a| a.iter().filter_map(|b| b.as_str()).collect())
+        .unwrap_or_default();
+    let views: Vec<(&str, f64)> = summary["per_view"]
+        .as_array()
+        .into_iter()
+        .flatten()
+        .filter_map(|v| Some((v["name"].as_str()?, v["corr_final"].as_f64().unwrap_or(f64::NAN))))
+        .filter(|(n, _)| !blank.contains(n))
+        .collect();
+    let mut why = Vec::new();
+    if !views.is_empty() && views.iter().all(|(_, c)| !(*c >= USEFUL_CORRELATION)) {
+        why.push(format!(
+            "no view shows its picture: every correlation is below {USEFUL_CORRELATION} ({})",
+            views
+                .iter()
+                .map(|(n, c)| format!("{n} {c:.3}"))
+                .collect::<Vec<_>>()
+                .join(", ")
+        ));
+    }
+    let (written, optimized) = (
+        summary["scratches_written"].as_u64().unwrap_or(0),
+        summary["scratches_optimized"].as_u64().unwrap_or(0),
+    );
+    if optimized > 0 && written < 10 && (written as f64) < 0.01 * optimized as f64 {
+        why.push(format!("it keeps {written} of its {optimized} scratches"));
+    }
+    (!why.is_empty()).then(|| {
+        format!(
+            "this design failed: {} (a plate too small for its views, too few iterations, or pictures \
+             the plate cannot show; see summary.json)",
+            why.join("; ")
+        )
+    })
+}
+
 /// The summary of a design run as the `design` command prints it.
 pub fn summary_text(s: &serde_json::Value, out: &Path) -> String {
     let mut text = String::new();
@@ -436,6 +481,31 @@ pub fn summary_text(s: &serde_json::Value, out: &Path) -> String {
 
 #[cfg(test)]
 mod tests {
+
+    /// A design that shows none of its pictures, or keeps almost none of its scratches, is a
+    /// failure; a view left blank on purpose does not count.
+    #[test]
+    fn the_verdict_of_a_design() {
+        let summary = |corrs: &[(&str, f64)], blank: &[&str], written: u64| {
+            serde_json::json!({
+                "per_view": corrs.iter().map(|(n, c)| serde_json::json!({"name": n, "corr_final": c})).collect::<Vec<_>>(),
+                "blank_views": blank,
+                "scratches_written": written,
+                "scratches_optimized": 200,
+            })
+        };
+        assert_eq!(super::verdict(&summary(&[("v0", 0.8), ("v1", 0.05)], &[], 120)), None);
+        let v = super::verdict(&summary(&[("v0", -0.2), ("v1", 0.05)], &[], 120)).unwrap();
+        assert!(
+            v.contains("no view shows its picture") && v.contains("v0 -0.200"),
+            "{v}"
+        );
+        let v = super::verdict(&summary(&[("v0", 0.5)], &[], 1)).unwrap();
+        assert!(v.contains("keeps 1 of its 200 scratches"), "{v}");
+        // A blank view's correlation is not asked for; NaN is no correlation.
+        assert_eq!(super::verdict(&summary(&[("v0", 0.4), ("v1", 0.0)], &["v1"], 50)), None);
+        assert!(super::verdict(&summary(&[("v0", f64::NAN)], &[], 50)).is_some());
+    }
     /// The built-in font registers and draws text: the plots have their labels on a machine with
     /// no fonts installed (a GPU server had none, and the set-up sheet failed there).
     #[test]

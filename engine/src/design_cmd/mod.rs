@@ -23,7 +23,16 @@ pub fn run(ctx: &Arc<Context>, args: &DesignArgs, obs: &dyn Observer) -> anyhow:
         Some(limit) => scratchart_design::job_limit::run_design_within(ctx, &problem, &cfg, limit, obs),
         None => run_design(ctx, &problem, &cfg, obs),
     };
-    finish(result, &cfg)
+    let summary = finish(result, &cfg)?;
+    // A design that shows none of its pictures is said to be one (the exit stays 0 for now: the
+    // suite's shortest designs end there on purpose; see issue 49's note).
+    if let Some(why) = summary.as_ref().and_then(scratchart_design::report::verdict) {
+        obs.warn(&format!(
+            "{why}; the design is written to {} for inspection, but it is not worth carving",
+            cfg.out.display()
+        ));
+    }
+    Ok(())
 }
 
 /// The problem and configuration of `scratchart design ARGS` (every flag checked: see
@@ -81,7 +90,7 @@ fn resume_command() -> String {
 pub fn finish(
     result: Result<scratchart_design::DesignReport, scratchart_optim::error::OptimError>,
     cfg: &DesignConfig,
-) -> anyhow::Result<()> {
+) -> anyhow::Result<Option<serde_json::Value>> {
     let report = match result {
         Ok(r) => r,
         Err(
@@ -115,7 +124,8 @@ pub fn finish(
             let n = |v: &serde_json::Value| v.as_f64().unwrap_or(f64::NAN);
             println!(
                 "  machine ({}): cuts {:.4} mm or deeper below the surface on a {} mm Z grid, scratches {:.3} mm or longer ({}); \
-                 {} of {} scratches at the shallowest cut, {} at the shortest length, {} of the {} optimized moved onto the Z grid (at most {:.2} um)",
+                 {} of {} scratches at the shallowest cut, {} at the shortest length, {} of the {} optimized moved onto the Z grid (at most {:.2} um); \
+                 job about {:.1} min on this machine (the planner's estimate, as `scratchart-cal plan` makes it: {})",
                 m["profile"].as_str().unwrap_or("?"),
                 n(&m["min_cut_depth_mm"]),
                 n(&m["z_step_mm"]),
@@ -127,6 +137,8 @@ pub fn finish(
                 m["moved_onto_z_grid"],
                 m["scratches_optimized"],
                 n(&m["largest_z_grid_move_um"]),
+                n(&m["job_min"]),
+                m["job_time_shares"].as_str().unwrap_or("?"),
             );
         }
         if let Some(e) = s.get("machine_error") {
@@ -139,5 +151,5 @@ pub fn finish(
             print!("{}", walk_text(w, &cfg.out));
         }
     }
-    Ok(())
+    Ok(report.summary)
 }
