@@ -520,40 +520,10 @@ fn a_uniform_picture_is_refused_unless_its_view_is_blank_on_purpose() {
 #[test]
 fn design_and_setup_write_the_same_sheet() {
     let dir = tmp("sheet");
-    let data = |f: &str| Path::new(env!("CARGO_MANIFEST_DIR")).join("data").join(f);
     let out = dir.join("d");
-    let mut args: Vec<String> = vec!["design".into(), "--targets".into()];
-    for f in ["astronaut.png", "chelsea.png", "coffee.png"] {
-        args.push(data(f).display().to_string());
-    }
-    for s in [
-        "--scratches",
-        "1500",
-        "--iters",
-        "30",
-        "--res",
-        "48",
-        "--quiet",
-        "--out",
-    ] {
-        args.push(s.into());
-    }
-    args.push(out.display().to_string());
-    let o = Command::new(bin("scratchart")).args(&args).output().unwrap();
-    assert_eq!(o.status.code(), Some(0), "{}", String::from_utf8_lossy(&o.stderr));
+    photo_design(&out);
     let again = dir.join("s");
-    let setup = |d: &Path| {
-        run(
-            "scratchart",
-            &[
-                "setup",
-                out.join("design.json").to_str().unwrap(),
-                "--out",
-                d.to_str().unwrap(),
-            ],
-        )
-    };
-    let o = setup(&again);
+    let o = setup_of(&out, &again);
     assert_eq!(o.status.code(), Some(0), "{}", String::from_utf8_lossy(&o.stderr));
     assert!(
         !String::from_utf8_lossy(&o.stderr).contains("warning"),
@@ -600,10 +570,53 @@ fn design_and_setup_write_the_same_sheet() {
     assert_eq!(text.matches("\nLamp: ").count(), 1, "{text}");
     assert!(text.contains("Most sensitive: "), "{text}");
     assert!(text.contains("the eye may move"), "{text}");
-    // Without the inputs (a design of an older version), a sheet with a warning.
+    older_and_damaged_inputs(&dir, &out);
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// A 3-view design of the test photos into `out` (30 iterations at 48 px).
+fn photo_design(out: &Path) {
+    let data = |f: &str| Path::new(env!("CARGO_MANIFEST_DIR")).join("data").join(f);
+    let mut args: Vec<String> = vec!["design".into(), "--targets".into()];
+    for f in ["astronaut.png", "chelsea.png", "coffee.png"] {
+        args.push(data(f).display().to_string());
+    }
+    for s in [
+        "--scratches",
+        "1500",
+        "--iters",
+        "30",
+        "--res",
+        "48",
+        "--quiet",
+        "--out",
+    ] {
+        args.push(s.into());
+    }
+    args.push(out.display().to_string());
+    let o = Command::new(bin("scratchart")).args(&args).output().unwrap();
+    assert_eq!(o.status.code(), Some(0), "{}", String::from_utf8_lossy(&o.stderr));
+}
+
+/// `scratchart setup OUT/design.json --out DIR`.
+fn setup_of(out: &Path, dir: &Path) -> Output {
+    run(
+        "scratchart",
+        &[
+            "setup",
+            out.join("design.json").to_str().unwrap(),
+            "--out",
+            dir.to_str().unwrap(),
+        ],
+    )
+}
+
+/// The design in `out` without the sheet's inputs (a design of an older version): a sheet with
+/// a warning; with damaged inputs: a clear error (exit 3) naming the file.
+fn older_and_damaged_inputs(dir: &Path, out: &Path) {
     std::fs::remove_file(out.join("setup_inputs.json")).unwrap();
     let third = dir.join("t");
-    let o = setup(&third);
+    let o = setup_of(out, &third);
     assert_eq!(o.status.code(), Some(0), "{}", String::from_utf8_lossy(&o.stderr));
     expect(
         &o,
@@ -612,11 +625,9 @@ fn design_and_setup_write_the_same_sheet() {
         "an older design",
     );
     assert!(third.join("setup.txt").exists());
-    // Damaged inputs are a clear error (exit 3) naming the file.
     std::fs::write(out.join("setup_inputs.json"), "{\"sigma_px\": \"x\"}").unwrap();
-    let o = setup(&dir.join("u"));
+    let o = setup_of(out, &dir.join("u"));
     expect(&o, 3, "setup_inputs.json", "damaged inputs");
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 /// A negative number reaches the range check that says what works (not clap's "unexpected

@@ -337,10 +337,7 @@ fn carvable_as_designed(
              (`scratchart design ... --tool TOOL.json --machine {}` or `--machine-file machine.json`), whose \
              depths plan uses as designed; or give --force to write this plan anyway",
             a.design.as_deref().unwrap_or(Path::new("-")).display(),
-            match m.firmware {
-                scratchart_tool::machine::Firmware::Grbl => "grbl",
-                scratchart_tool::machine::Firmware::Marlin => "marlin",
-            }
+            scratchart_machine::program::Program::firmware_name(m.firmware)
         ))
         .into());
     }

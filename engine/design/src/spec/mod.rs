@@ -378,10 +378,7 @@ fn machine_limits(
             MachineProfile::builtin(firmware),
             format!(
                 "built-in {}",
-                match firmware {
-                    Firmware::Grbl => "grbl",
-                    Firmware::Marlin => "marlin",
-                }
+                scratchart_machine::program::Program::firmware_name(firmware)
             ),
         ),
     };
