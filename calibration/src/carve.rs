@@ -68,6 +68,40 @@ pub struct CarveArgs {
     /// reset) instead of M410 quickstop and a raise
     #[arg(long)]
     pub emergency_stop: bool,
+    /// Trace the frame before the first cut, on the same connection: the job's bounding box,
+    /// then the plate's outline, at the clearance height (the --machine-file's, else the plan's),
+    /// then back to X0 Y0; nothing is cut. It asks before the trace and again before carving
+    /// (with --resume: after the re-zero)
+    #[arg(long)]
+    pub frame: bool,
+    /// The frame trace's feed, mm/min
+    #[arg(long, default_value_t = scratchart_machine::job::frame::DEFAULT_FEED)]
+    pub frame_feed: f64,
+}
+
+#[derive(clap::Args, Debug)]
+pub struct FrameArgs {
+    /// The plan (as for `carve`)
+    pub plan: PathBuf,
+    /// Serial port of the controller, or `sim` for a dry run
+    #[arg(long)]
+    pub port: String,
+    /// Baud rate
+    #[arg(long, default_value_t = 115200)]
+    pub baud: u32,
+    /// The trace's feed, mm/min
+    #[arg(long, default_value_t = scratchart_machine::job::frame::DEFAULT_FEED)]
+    pub feed: f64,
+    /// Machine profile (JSON): its clearance height is the trace's, and the controller's settings
+    /// are checked against it
+    #[arg(long)]
+    pub machine_file: Option<PathBuf>,
+    /// Ask nothing
+    #[arg(long)]
+    pub yes: bool,
+    /// Marlin: Ctrl-C sends M112 instead of M410 quickstop and a raise
+    #[arg(long)]
+    pub emergency_stop: bool,
 }
 
 fn quote(s: &str) -> String {
@@ -179,6 +213,10 @@ pub fn run(a: &CarveArgs) -> Result<()> {
     if a.baud == 0 {
         return Err(UsageError("--baud must be > 0".into()).into());
     }
+    let frame = a.frame.then_some(a.frame_feed);
+    if a.frame {
+        check_feed("--frame-feed", a.frame_feed)?;
+    }
     let profile = a.machine_file.as_deref().map(load_profile).transpose()?;
     let opts = Options {
         plan: a.plan.clone(),
@@ -200,23 +238,9 @@ pub fn run(a: &CarveArgs) -> Result<()> {
         emergency: a.emergency_stop,
         detect_timeout: Duration::from_secs(4),
         resume_command: resume_command(a),
+        frame,
     };
-    let control = Arc::new(Control::default());
-    stop_on_ctrl_c(control.clone()).map_err(anyhow::Error::msg)?;
-    let tty = std::io::stdin().is_terminal();
-    let asking = Arc::new(AtomicBool::new(false));
-    let answers = tty.then(|| Mutex::new(keys(control.clone(), asking.clone())));
-    if tty {
-        eprintln!(
-            "while carving: `!` + Enter holds, `~` + Enter resumes, Ctrl-C stops the machine and raises the tool"
-        );
-    }
-    let term = Term {
-        out: scratchart::term::Terminal::new(false),
-        ask: tty && !a.yes,
-        answers,
-        asking,
-    };
+    let (control, term) = terminal(a.yes)?;
     let result = carve(&opts, &control, &term);
     term.out.finish("carve");
     match result {
@@ -239,6 +263,76 @@ pub fn run(a: &CarveArgs) -> Result<()> {
         // (its class decides the exit code: `scratchart::exit`)
         Err(e) => Err(e.into()),
     }
+}
+
+fn check_feed(name: &str, v: f64) -> Result<()> {
+    if v > 0.0 && v.is_finite() {
+        Ok(())
+    } else {
+        Err(UsageError(format!("{name} must be > 0 mm/min")).into())
+    }
+}
+
+/// Ctrl-C stops the machine; on a terminal, keys hold and resume and questions are asked
+/// (unless `yes`).
+fn terminal(yes: bool) -> Result<(Arc<Control>, Term)> {
+    let control = Arc::new(Control::default());
+    stop_on_ctrl_c(control.clone()).map_err(anyhow::Error::msg)?;
+    let tty = std::io::stdin().is_terminal();
+    let asking = Arc::new(AtomicBool::new(false));
+    let answers = tty.then(|| Mutex::new(keys(control.clone(), asking.clone())));
+    if tty {
+        eprintln!(
+            "while the machine moves: `!` + Enter holds, `~` + Enter resumes, Ctrl-C stops the machine and raises the tool"
+        );
+    }
+    let term = Term {
+        out: scratchart::term::Terminal::new(false),
+        ask: tty && !yes,
+        answers,
+        asking,
+    };
+    Ok((control, term))
+}
+
+/// `scratchart-cal frame PLAN --port PORT`: the frame trace alone (nothing is cut).
+pub fn frame(a: &FrameArgs) -> Result<()> {
+    if a.baud == 0 {
+        return Err(UsageError("--baud must be > 0".into()).into());
+    }
+    check_feed("--feed", a.feed)?;
+    let profile = a.machine_file.as_deref().map(load_profile).transpose()?;
+    let opts = Options {
+        plan: a.plan.clone(),
+        port: a.port.clone(),
+        baud: a.baud,
+        journal: scratchart_machine::journal::default_path(&a.plan),
+        check: false,
+        resume: false,
+        restart: false,
+        rezero: Rezero::Keep,
+        profile,
+        emergency: a.emergency_stop,
+        detect_timeout: Duration::from_secs(4),
+        resume_command: String::new(),
+        frame: Some(a.feed),
+    };
+    let (control, term) = terminal(a.yes)?;
+    let result = scratchart_machine::job::frame::frame(&opts, a.feed, &control, &term);
+    term.out.finish("frame");
+    let s = result?;
+    if let Some(d) = &s.dry_run {
+        println!("{d}");
+    }
+    println!(
+        "frame traced on {} ({} lines in {:.1} s); nothing was cut. Carve with: scratchart-cal carve {} --port {}",
+        if s.controller.is_empty() { "-" } else { &s.controller },
+        s.lines,
+        s.seconds,
+        quote(&a.plan.display().to_string()),
+        quote(&a.port)
+    );
+    Ok(())
 }
 
 #[derive(clap::Args, Debug)]
@@ -294,16 +388,7 @@ pub fn probe(a: &ProbeArgs) -> Result<()> {
             return Err(UsageError(format!("{name} must be > 0")).into());
         }
     }
-    let control = Arc::new(Control::default());
-    stop_on_ctrl_c(control.clone()).map_err(anyhow::Error::msg)?;
-    let tty = std::io::stdin().is_terminal();
-    let asking = Arc::new(AtomicBool::new(false));
-    let term = Term {
-        out: scratchart::term::Terminal::new(false),
-        ask: tty && !a.yes,
-        answers: tty.then(|| Mutex::new(keys(control.clone(), asking.clone()))),
-        asking,
-    };
+    let (control, term) = terminal(a.yes)?;
     let question = format!(
         "probe {} x {} points on the {plate} mm plate with G38.2? The probe must be wired, X0 Y0 at \
          the plate centre and Z0 near its surface",

@@ -57,6 +57,11 @@ enum Cmd {
     /// the plan; --resume continues a stopped job. Exit 1 when the machine stops the job (with the
     /// --resume command), 130 after Ctrl-C (machine stopped, tool raised).
     Carve(carve::CarveArgs),
+    /// Trace a plan's frame on the machine without cutting: the job's bounding box, then the
+    /// plate's outline, at the clearance height, then back to X0 Y0, to see that the plate sits
+    /// where the plan expects (`carve --frame` does the same before carving, on one connection).
+    /// Exit 1 when the machine stops it, 130 after Ctrl-C.
+    Frame(carve::FrameArgs),
     /// List the serial ports this computer has (USB ones first, with their USB ids and names):
     /// what `carve --port` and `probe --port` take. Exit 1 when the system cannot list them.
     Ports,
@@ -136,6 +141,7 @@ fn run(cli: Cli) -> Result<()> {
     match &cli.cmd {
         Cmd::Carve(args) => carve::run(args),
         Cmd::Probe(args) => carve::probe(args),
+        Cmd::Frame(args) => carve::frame(args),
         Cmd::Ports => ports_cmd(),
         Cmd::Fit(args) => {
             let (_ctx, renderer) = renderer(cli.device.as_deref())?;

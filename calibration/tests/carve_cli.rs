@@ -295,3 +295,57 @@ fn ports_lists_the_serial_ports_by_name() {
         );
     }
 }
+
+/// `frame` traces the plan's frame on the machine and cuts nothing (every Z it is sent at the
+/// clearance height, none below); `carve --frame` traces and then carves; bad values exit 2.
+#[test]
+fn frame_traces_the_outline_at_the_clearance_and_cuts_nothing() {
+    let bin = scratchart_tests::workspace_bin("scratchart-calibration", "scratchart-cal");
+    let dir = std::env::temp_dir().join(format!("scratchart-frame-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    design(60.0, 12).save(&dir.join("design.json"), "s.csv").unwrap();
+    std::fs::write(dir.join("tool.json"), scratchart_tests::V60_TOOL_JSON).unwrap();
+    let o = run(
+        &bin,
+        &dir,
+        &["plan", "design.json", "--tool", "tool.json", "--out", "plan.nc"],
+    );
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+
+    let fake = FakeGrbl::start(GrblConfig::default()).unwrap();
+    let o = run(&bin, &dir, &["frame", "plan.nc", "--port", fake.path()]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(0), "{err}");
+    assert!(String::from_utf8_lossy(&o.stdout).contains("nothing was cut"));
+    assert!(err.contains("frame: tracing the job's bounding box"), "{err}");
+    let r = fake.record();
+    let zs: Vec<f64> = r
+        .executed
+        .iter()
+        .filter_map(|l| l.split_whitespace().find_map(|w| w.strip_prefix('Z')?.parse().ok()))
+        .collect();
+    assert!(!zs.is_empty() && zs.iter().all(|&z| z >= 2.0), "{:?}", r.executed);
+    assert!(r.received.iter().all(|l| !l.starts_with("M3")), "{:?}", r.received);
+    assert_eq!((r.pos[0], r.pos[1]), (0.0, 0.0));
+    assert!(!dir.join("plan.nc.journal.json").exists());
+
+    let o = run(&bin, &dir, &["carve", "plan.nc", "--port", "sim", "--frame"]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(0), "{err}");
+    assert!(err.contains("frame: tracing") && err.contains("carve: "), "{err}");
+
+    for bad in [
+        &["frame", "plan.nc", "--port", "sim", "--feed", "0"][..],
+        &["frame", "plan.nc", "--port", "sim", "--feed", "-5"],
+        &["carve", "plan.nc", "--port", "sim", "--frame", "--frame-feed", "0"],
+    ] {
+        let o = run(&bin, &dir, bad);
+        assert_eq!(
+            o.status.code(),
+            Some(2),
+            "{bad:?}: {}",
+            String::from_utf8_lossy(&o.stderr)
+        );
+    }
+}

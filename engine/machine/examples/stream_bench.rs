@@ -58,6 +58,7 @@ mod bench {
                 emergency: false,
                 detect_timeout: Duration::from_secs(4),
                 resume_command: String::new(),
+                frame: None,
             };
             let t0 = Instant::now();
             let s = carve(&opts, &Control::default(), &Silent).expect("the benchmark job runs");

@@ -93,6 +93,12 @@ pub trait Controller {
     fn begin(&mut self, link: &mut Link, unlock: bool) -> Result<(), Fault>;
     /// The bytes for the job's line `seq` (line numbers and checksums where the protocol has them).
     fn frame(&mut self, seq: usize, line: &str) -> Vec<u8>;
+    /// Before each stream: where the firmware numbers lines (Marlin), start the numbering again,
+    /// so a second stream on the same connection (the cuts after a frame trace) is numbered as
+    /// the first.
+    fn restart_numbering(&mut self, _link: &mut Link) -> Result<(), Fault> {
+        Ok(())
+    }
     /// The job line a `Resend: N` asks for.
     fn resend_index(&self, n: u64) -> Option<usize>;
     /// Classifies a line from the controller.

@@ -206,6 +206,10 @@ impl Controller for Marlin {
     }
 
     fn begin(&mut self, link: &mut Link, _unlock: bool) -> Result<(), Fault> {
+        self.restart_numbering(link)
+    }
+
+    fn restart_numbering(&mut self, link: &mut Link) -> Result<(), Fault> {
         // Numbered itself (`N0 M110 N0*..`), as hosts send it: the next line is N1.
         let m110 = frame_line(0, "M110 N0");
         command(self, link, m110.trim_end(), Duration::from_secs(3))?;

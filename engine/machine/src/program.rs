@@ -334,6 +334,20 @@ impl Program {
         }
     }
 
+    /// The rectangle the cuts' X and Y words span, `[x_min, y_min, x_max, y_max]` in mm (the
+    /// job's bounding box: every block's moves, the marks' included); `None` for a plan
+    /// without blocks.
+    pub fn xy_bounds(&self) -> Option<[f64; 4]> {
+        let mut b: Option<[f64; 4]> = None;
+        for l in self.blocks.iter().flat_map(|b| &b.lines) {
+            if let (Some(x), Some(y)) = (word(l, 'X'), word(l, 'Y')) {
+                let r = b.get_or_insert([x, y, x, y]);
+                *r = [r[0].min(x), r[1].min(y), r[2].max(x), r[3].max(y)];
+            }
+        }
+        b
+    }
+
     /// The firmware's name as the plan writes it.
     pub fn firmware_name(f: Firmware) -> &'static str {
         match f {

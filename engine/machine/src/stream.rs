@@ -73,6 +73,17 @@ struct Sender<'a> {
     /// The machine's state and position from its last status report.
     state: String,
     pos: Option<[f64; 3]>,
+    /// Every line answered, the machine still moving what it took ([`Drain`]).
+    drain: Option<Drain>,
+}
+
+/// After the last answer: a controller that reports its status has only planned the last moves,
+/// so the stream goes on (holds, Ctrl-C, progress with the position) until a status asked for
+/// after the last answer says the machine is idle.
+#[derive(Clone, Copy, Default)]
+struct Drain {
+    polled: bool,
+    idle: bool,
 }
 
 /// How a step of the sender ends the stream: how it ended and the lines still unanswered.
@@ -186,6 +197,9 @@ impl Sender<'_> {
                     return Some(self.lost(e));
                 }
                 self.last_poll = Instant::now();
+                if let Some(d) = self.drain.as_mut() {
+                    d.polled = true;
+                }
             }
             if self.last_status.elapsed() > Duration::from_secs(10) && self.last_rx.elapsed() > Duration::from_secs(10)
             {
@@ -238,6 +252,14 @@ impl Sender<'_> {
                 }
                 self.state = s.state;
                 self.pos = s.pos.or(self.pos);
+                if let Some(d) = self.drain.as_mut() {
+                    // (GRBL's check mode reports `Check` where it would be idle)
+                    d.idle = d.polled && (self.state == "Idle" || self.state == "Check");
+                    // The last block again, with where the machine now is.
+                    if let Some(b) = self.lines.iter().rev().find_map(|l| l.1) {
+                        acked(b, &self.state, self.pos);
+                    }
+                }
             }
             Reply::Info(m) => obs.info(&m),
             Reply::Ignore => {}
@@ -278,8 +300,9 @@ impl Sender<'_> {
 }
 
 /// Streams `lines` (each with the plan block it belongs to). `acked(block, progress_state)` is
-/// called when the last line of a block is acknowledged. Returns how it ended and how many
-/// lines were still unanswered.
+/// called when the last line of a block is acknowledged (and, once every line is answered, for
+/// the last block on each status report until the machine is idle: [`Drain`]). Returns how it
+/// ended and how many lines were still unanswered.
 pub fn stream(
     link: &mut Link,
     ctl: &mut dyn Controller,
@@ -288,6 +311,9 @@ pub fn stream(
     obs: &dyn Observer,
     acked: &mut dyn FnMut(usize, &str, Option<[f64; 3]>),
 ) -> (End, usize) {
+    if let Err(f) = ctl.restart_numbering(link) {
+        return (End::from(f), 0);
+    }
     let now = Instant::now();
     let mut tx = Sender {
         lines,
@@ -304,6 +330,7 @@ pub fn stream(
         last_rx: now,
         state: String::from("Run"),
         pos: None,
+        drain: None,
     };
     let poll = ctl.status_request();
     loop {
@@ -315,7 +342,12 @@ pub fn stream(
             return end;
         }
         if tx.next == lines.len() && tx.fl.is_empty() {
-            return (End::Done, 0);
+            match (poll, tx.drain) {
+                (None, _) => return (End::Done, 0),
+                (Some(_), Some(d)) if d.idle => return (End::Done, 0),
+                (Some(_), None) => tx.drain = Some(Drain::default()),
+                _ => {}
+            }
         }
         if let Some(end) = tx.poll(link, poll) {
             return end;

@@ -300,3 +300,118 @@ fn the_real_firmware_checks_holds_and_resumes() {
     );
     drop(sim);
 }
+
+/// Keeps every position the job reports, and its notes.
+#[derive(Default)]
+struct Positions {
+    log: Log,
+    seen: std::sync::Mutex<Vec<(String, [f64; 3])>>,
+}
+
+impl Observer for Positions {
+    fn progress(&self, p: &Progress) {
+        if let Some(q) = p.machine.as_ref().and_then(|m| m.pos) {
+            self.seen.lock().unwrap().push((p.task.to_string(), q));
+        }
+        self.log.progress(p);
+    }
+    fn info(&self, msg: &str) {
+        self.log.info(msg);
+    }
+    fn warn(&self, msg: &str) {
+        self.log.warn(msg);
+    }
+}
+
+/// The real firmware traces the frame (the job's box and a 20 mm plate's outline at the
+/// clearance height, then back to X0 Y0) without cutting: every position it reports away from
+/// X0 Y0 (where the tool first rises from the surface) is at the clearance height, and the
+/// trace ends there. Then `carve --frame` traces again and carves every cut on the same
+/// connection.
+#[test]
+fn the_real_firmware_traces_the_frame_without_cutting() {
+    let dir = tmpdir("grbl_sim_frame");
+    let Some(sim) = Sim::start(&dir, "uart", &[]) else {
+        return;
+    };
+    let cuts: Vec<Cut> = (0..4)
+        .map(|k| Cut {
+            a: [-4.0 + 2.5 * k as f64, -3.0],
+            b: [-3.0 + 2.5 * k as f64, 3.0],
+            z: 0.02,
+            scratch: k,
+        })
+        .collect();
+    let m = MachineProfile::grbl();
+    let g = scratchart_machine::gcode::write(&cuts, &m, 20.0, &["grbl-sim frame test".into()]);
+    let plan = dir.join("frame.nc");
+    std::fs::write(&plan, g).unwrap();
+    let clear = m.clearance_mm;
+
+    let obs = Positions::default();
+    let s = scratchart_machine::job::frame::frame(&options(&plan, &sim.port()), 500.0, &Control::default(), &obs)
+        .unwrap_or_else(|e| panic!("{e}\nnotes: {:?}", obs.log.notes.lock().unwrap()));
+    assert!(s.controller.contains("1.1h"), "{}", s.controller);
+    let seen = obs.seen.lock().unwrap().clone();
+    assert!(!seen.is_empty(), "the firmware reported no position");
+    for (_, q) in &seen {
+        let home = q[0].abs() < 1e-3 && q[1].abs() < 1e-3;
+        assert!(
+            home || q[2] >= clear - 1e-3,
+            "below the clearance during the trace: {seen:?}"
+        );
+    }
+    // The status reports caught the tool out on the trace, up at the clearance.
+    assert!(
+        seen.iter()
+            .any(|(_, q)| q[0].abs() > 1.0 && (q[2] - clear).abs() < 1e-3),
+        "{seen:?}"
+    );
+    let p = obs.log.progress.lock().unwrap().clone();
+    assert_eq!(p.last().map(|s| (s.done, s.total)), Some((3, 3)));
+    // Nothing was cut: the job has no journal.
+    assert!(!scratchart_machine::journal::default_path(&plan).exists());
+
+    let obs = Positions::default();
+    let opts = scratchart_machine::job::Options {
+        frame: Some(500.0),
+        ..options(&plan, &sim.port())
+    };
+    let s = carve(&opts, &Control::default(), &obs)
+        .unwrap_or_else(|e| panic!("{e}\nnotes: {:?}", obs.log.notes.lock().unwrap()));
+    assert_eq!((s.from, s.total), (0, 4));
+    let seen = obs.seen.lock().unwrap().clone();
+    for (task, q) in seen.iter().filter(|(t, _)| t == "frame") {
+        let home = q[0].abs() < 1e-3 && q[1].abs() < 1e-3;
+        assert!(home || q[2] >= clear - 1e-3, "{task} below the clearance: {seen:?}");
+    }
+    let j = Journal::load(&scratchart_machine::journal::default_path(&plan)).unwrap();
+    assert_eq!((j.state.as_str(), j.last_acked), ("done", Some(3)));
+
+    // Ctrl-C while the tool is out on the trace (every line already taken by the firmware's
+    // planner): the machine is stopped and nothing is cut.
+    let control = Control::default();
+    let obs = AbortOnTrace {
+        control: &control,
+        inner: Positions::default(),
+    };
+    let e = scratchart_machine::job::frame::frame(&options(&plan, &sim.port()), 500.0, &control, &obs).unwrap_err();
+    assert_eq!(e.exit_code(), 130, "{e}");
+    assert!(e.to_string().contains("nothing was cut"), "{e}");
+    drop(sim);
+}
+
+/// Asks for Ctrl-C once the tool is reported out on the frame trace.
+struct AbortOnTrace<'a> {
+    control: &'a Control,
+    inner: Positions,
+}
+
+impl Observer for AbortOnTrace<'_> {
+    fn progress(&self, p: &Progress) {
+        if p.machine.as_ref().and_then(|m| m.pos).is_some_and(|q| q[0].abs() > 1.0) {
+            self.control.abort.store(true, Ordering::SeqCst);
+        }
+        self.inner.progress(p);
+    }
+}

@@ -42,7 +42,9 @@ fn streams_every_line_in_order_without_overflow() {
     assert_eq!(assert_all_cut(&plan, &r.executed), 1);
     let p = log.progress.lock().unwrap();
     assert_eq!(p.last().unwrap().done, 60);
-    assert!(p.windows(2).all(|w| w[0].done < w[1].done));
+    // Each cut once, in order; the last may repeat while the machine finishes its moves.
+    assert!(p.windows(2).all(|w| w[0].done < w[1].done || w[0].done == 60));
+    assert_eq!(p.iter().filter(|s| s.done < 60).count(), 59);
     let j = scratchart_machine::journal::Journal::load(&options(&plan, "").journal).unwrap();
     assert_eq!((j.state.as_str(), j.last_acked), ("done", Some(59)));
 }

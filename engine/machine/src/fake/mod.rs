@@ -86,6 +86,11 @@ impl Fake {
         self.record.lock().unwrap().clone()
     }
 
+    /// Where the tool stands now (work coordinates), without copying the record.
+    pub fn pos(&self) -> [f64; 3] {
+        self.record.lock().unwrap().pos
+    }
+
     /// The shared record, to hand to the fake that replaces this one.
     pub fn shared(&self) -> Shared {
         self.record.clone()

@@ -14,6 +14,7 @@ use scratchart_observe::{clock, MachineState, Observer, Progress};
 
 use crate::stream::{stream, Control, End};
 
+pub mod frame;
 mod open;
 use crate::transport::{Link, LinkError};
 use open::open_journal;
@@ -40,6 +41,9 @@ pub struct Options {
     pub detect_timeout: Duration,
     /// The command that continues this job, printed when it stops.
     pub resume_command: String,
+    /// Trace the frame ([`frame`]) at this feed (mm/min) before the first cut, on the same
+    /// connection (`--frame`); `None`: no trace.
+    pub frame: Option<f64>,
 }
 
 /// Why `carve` failed, with the exit code DECISIONS.md gives it.
@@ -123,7 +127,13 @@ pub fn carve(opts: &Options, control: &Control, obs: &dyn Observer) -> Result<Su
             "--port sim is a dry run of the whole plan: it cannot --resume a job".into(),
         ));
     }
-    let journal = std::env::temp_dir().join(format!("scratchart-dry-run-{}.journal.json", std::process::id()));
+    // One per run: dry runs at once in one process (a program's threads, tests) never share it.
+    static RUNS: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
+    let journal = std::env::temp_dir().join(format!(
+        "scratchart-dry-run-{}-{}.journal.json",
+        std::process::id(),
+        RUNS.fetch_add(1, Ordering::SeqCst)
+    ));
     let dry = Options {
         journal: journal.clone(),
         ..opts.clone()
@@ -209,9 +219,41 @@ fn carve_on(opts: &Options, control: &Control, obs: &dyn Observer) -> Result<Sum
         check_run(&mut link, ctl.as_mut(), &program, control, obs)?;
     }
     let timing = job_time(opts, ctl.as_ref(), &program, from, obs);
+    // The frame is traced where the position is the job's: before the question for a new job
+    // (the maker answers having seen it), after the re-zero for a resumed one (which asks again).
+    if let (Some(feed), false) = (opts.frame, opts.resume) {
+        frame::trace(
+            opts,
+            &program,
+            &mut link,
+            ctl.as_mut(),
+            control,
+            obs,
+            feed,
+            sim.as_ref(),
+        )?;
+    }
     ask_to_start(opts, &program, from, obs)?;
     if opts.resume {
         rezero_for_resume(opts, &mut link, ctl.as_mut(), &mut journal, &program, from, obs).map_err(fault)?;
+        if let Some(feed) = opts.frame {
+            frame::trace(
+                opts,
+                &program,
+                &mut link,
+                ctl.as_mut(),
+                control,
+                obs,
+                feed,
+                sim.as_ref(),
+            )?;
+            if opts.port != SIM_PORT && !obs.confirm("the frame is traced: go on cutting?") {
+                return Err(CarveError::Stopped(format!(
+                    "not resumed after the frame trace: the answer was no; to continue: {}",
+                    opts.resume_command
+                )));
+            }
+        }
     }
 
     let lines = program.lines_from(from);
@@ -239,7 +281,8 @@ fn carve_on(opts: &Options, control: &Control, obs: &dyn Observer) -> Result<Sum
                 label: blocks[b].label.clone(),
                 eta_s: Some(eta),
                 state: state.to_string(),
-                pos,
+                // A dry run outpaces the status polls: the simulated controller's own position.
+                pos: sim.as_ref().map(|f| f.pos()).or(pos),
             };
             obs.progress(&Progress {
                 task: "carve",

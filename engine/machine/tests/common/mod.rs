@@ -57,6 +57,7 @@ pub fn options(plan: &Path, port: &str) -> Options {
         emergency: false,
         detect_timeout: Duration::from_secs(3),
         resume_command: format!("scratchart-cal carve {} --port {port} --resume", plan.display()),
+        frame: None,
     }
 }
 
@@ -85,6 +86,7 @@ pub struct Seen {
     pub total: usize,
     pub label: String,
     pub eta_s: Option<f64>,
+    pub pos: Option<[f64; 3]>,
 }
 
 /// Keeps what a job reports: notes and warnings (warnings as `warning: ...`), and progress.
@@ -102,6 +104,7 @@ impl Observer for Log {
             total: p.total as usize,
             label: m.label,
             eta_s: m.eta_s,
+            pos: m.pos,
         });
     }
     fn info(&self, msg: &str) {
