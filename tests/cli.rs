@@ -471,7 +471,8 @@ fn a_uniform_picture_is_refused_unless_its_view_is_blank_on_purpose() {
         for p in [&a, &one, &c] {
             v.push(p.display().to_string());
         }
-        for s in ["--scratches", "60", "--iters", "2", "--res", "32", "--out"] {
+        // (30 iterations: enough for a view to show its picture; a design that shows none fails)
+        for s in ["--scratches", "60", "--iters", "30", "--res", "32", "--out"] {
             v.push(s.into());
         }
         v.push(out.display().to_string());
@@ -683,4 +684,34 @@ fn calibration_flags_out_of_range_and_the_cards_numbers() {
         "{text}"
     );
     let _ = std::fs::remove_dir_all(&d);
+}
+
+/// A design that shows none of its pictures (one iteration from a random start) is written for
+/// inspection but exits 1, saying why: a script that carves what `design` made never carves it.
+#[test]
+fn a_design_that_shows_no_picture_exits_1() {
+    let dir = tmp("failed");
+    let out = dir.join("d");
+    let o = run(
+        "scratchart",
+        &[
+            "design",
+            "--scratches",
+            "60",
+            "--iters",
+            "1",
+            "--res",
+            "32",
+            "--out",
+            out.to_str().unwrap(),
+        ],
+    );
+    expect(
+        &o,
+        1,
+        "this design failed: no view shows its picture",
+        "a failed design",
+    );
+    expect(&o, 1, "not worth carving", "a failed design");
+    assert!(out.join("design.json").exists() && out.join("summary.json").exists());
 }

@@ -24,10 +24,10 @@ pub fn run(ctx: &Arc<Context>, args: &DesignArgs, obs: &dyn Observer) -> anyhow:
         None => run_design(ctx, &problem, &cfg, obs),
     };
     let summary = finish(result, &cfg)?;
-    // A design that shows none of its pictures is said to be one (the exit stays 0 for now: the
-    // suite's shortest designs end there on purpose; see issue 49's note).
+    // A design that shows none of its pictures, or keeps almost none of its scratches, is a
+    // failure: written for inspection, exit 1 (a script never carves it by mistake).
     if let Some(why) = summary.as_ref().and_then(scratchart_design::report::verdict) {
-        obs.warn(&format!(
+        return Err(anyhow::anyhow!(
             "{why}; the design is written to {} for inspection, but it is not worth carving",
             cfg.out.display()
         ));
