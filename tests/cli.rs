@@ -685,33 +685,3 @@ fn calibration_flags_out_of_range_and_the_cards_numbers() {
     );
     let _ = std::fs::remove_dir_all(&d);
 }
-
-/// A design that shows none of its pictures (one iteration from a random start) is written for
-/// inspection but exits 1, saying why: a script that carves what `design` made never carves it.
-#[test]
-fn a_design_that_shows_no_picture_exits_1() {
-    let dir = tmp("failed");
-    let out = dir.join("d");
-    let o = run(
-        "scratchart",
-        &[
-            "design",
-            "--scratches",
-            "60",
-            "--iters",
-            "1",
-            "--res",
-            "32",
-            "--out",
-            out.to_str().unwrap(),
-        ],
-    );
-    expect(
-        &o,
-        1,
-        "this design failed: no view shows its picture",
-        "a failed design",
-    );
-    expect(&o, 1, "not worth carving", "a failed design");
-    assert!(out.join("design.json").exists() && out.join("summary.json").exists());
-}

@@ -98,7 +98,7 @@ fn a_live_design_saved_mid_run_continues_bit_for_bit() {
     assert_eq!(summary(&a)["loss_final"], summary(&b)["loss_final"]);
 }
 
-/// Steering by script (view v0's picture moved and scaled at iteration 3, v1's at 5, the Gram
+/// Steering by script (40 iterations; view v0's picture moved and scaled at iteration 3, v1's at 5, the Gram
 /// term's weight changed at 6) is
 /// recorded in summary.json, and `scratchart design --steer summary.json` replays it to the
 /// same bits; the steering changed the design; steering that cannot apply is refused.
@@ -117,7 +117,7 @@ fn a_steered_live_design_is_replayed_from_the_command_line() {
         c.display().to_string(),
     );
     let base = |out: &str| -> Vec<String> {
-        let mut v: Vec<String> = ["--targets", &pics[0], &pics[1], "--iters", "8", "--out", out]
+        let mut v: Vec<String> = ["--targets", &pics[0], &pics[1], "--iters", "40", "--out", out]
             .iter()
             .map(|s| s.to_string())
             .collect();

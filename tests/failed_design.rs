@@ -1,0 +1,39 @@
+//! A design that fails is said to fail: written for inspection, exit 1.
+use scratchart_tests::run_scratchart;
+
+/// A design that shows none of its pictures (one iteration from a random start) is written for
+/// inspection but exits 1, saying why: a script that carves what `design` made never carves it.
+#[test]
+fn a_design_that_shows_no_picture_exits_1() {
+    let out = std::env::temp_dir().join(format!("scratchart-failed-design-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&out);
+    let o = run_scratchart(&[
+        "design",
+        "--scratches",
+        "60",
+        "--iters",
+        "1",
+        "--res",
+        "32",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(err.contains("this design failed: no view shows its picture"), "{err}");
+    assert!(err.contains("not worth carving"), "{err}");
+    assert!(out.join("design.json").exists() && out.join("summary.json").exists());
+    // The same job with enough iterations shows its pictures and exits 0.
+    let o = run_scratchart(&[
+        "design",
+        "--scratches",
+        "60",
+        "--iters",
+        "30",
+        "--res",
+        "32",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", String::from_utf8_lossy(&o.stderr));
+}
