@@ -86,10 +86,12 @@ pub fn guide_text(card: &Card, capture: &Scene) -> String {
         .map(|v| MIN_SCALE * view_scale(v))
         .fold(0.0f64, f64::max);
     let (noise, jpeg, off, sat) = (100.0 * MAX_NOISE, MIN_JPEG_QUALITY, MAX_OFF_DEG, 100.0 * MAX_SATURATED);
+    let share = 100.0 * card_share(card, capture);
     s.push_str(&format!(
         "\nA good photo: all six hatched marks glint as bright squares (one may be covered); the flat \
          card is dark (the lamp's reflection goes away from the camera); some ladder rungs glint; no part \
-         of the ladder is pure white (lower the exposure if it is); the card fills most of the frame; the \
+         of the ladder is pure white (lower the exposure if it is); the card spans about {share:.0}% of the \
+         frame's width, as in the example photos (nearer or zoomed in is fine: more pixels per mm); the \
          phone is held still (or on a stand), focused on the card. Any phone, JPEG or PNG.\n\
          \nThe guide's limits (`fit --check` measures each photo against them, and the fit refuses a \
          photo beyond one, naming it): the card at least {min_px:.2} pixels per mm at its centre (any phone \
@@ -101,6 +103,25 @@ pub fn guide_text(card: &Card, capture: &Scene) -> String {
          before fitting.\n",
     ));
     s
+}
+
+/// How much of the frame's width the card spans in the capture views as the guide places the
+/// camera (the widest of them, 0 to 1): what its example photos show.
+pub fn card_share(card: &Card, capture: &Scene) -> f64 {
+    let h = 0.5 * card.plate_mm;
+    capture
+        .views
+        .iter()
+        .map(|v| {
+            let g = scratchart_model::camera::ViewGeom::new(v);
+            let xs: Vec<f64> = [[-h, -h], [h, -h], [h, h], [-h, h]]
+                .iter()
+                .filter_map(|c| g.project([c[0], c[1], 0.0]).map(|p| p.0))
+                .collect();
+            let span = xs.iter().cloned().fold(f64::MIN, f64::max) - xs.iter().cloned().fold(f64::MAX, f64::min);
+            (span / v.camera.width as f64).clamp(0.0, 1.0)
+        })
+        .fold(0.0, f64::max)
 }
 
 /// Writes the guide PNG (`examples` are display images of the capture views, as a good photo
@@ -130,7 +151,7 @@ pub fn write_guide_png(path: &Path, card: &Card, capture: &Scene, examples: &[Ve
         )?;
         let (reach, bar_mm) = top_view(&sheet, card, capture)?;
         side_view(&sheet, card, capture, reach, bar_mm)?;
-        good_photo(&sheet, capture, examples.len(), &thumbs_at, thumb)?;
+        good_photo(&sheet, card, capture, examples.len(), &thumbs_at, thumb)?;
         root.present().map_err(pe)?;
     }
     // The example photos, scaled into their frames (nearest pixel).
@@ -336,7 +357,14 @@ fn side_view(sheet: &Sheet, card: &Card, capture: &Scene, reach: f64, bar_mm: f6
 
 /// The frames of the example photos (`n` of them, at `thumbs_at`, `thumb` pixels square) and
 /// the checklist before each photo.
-fn good_photo(sheet: &Sheet, capture: &Scene, n: usize, thumbs_at: &[(i32, i32)], thumb: i32) -> Result<()> {
+fn good_photo(
+    sheet: &Sheet,
+    card: &Card,
+    capture: &Scene,
+    n: usize,
+    thumbs_at: &[(i32, i32)],
+    thumb: i32,
+) -> Result<()> {
     // What a good photo looks like.
     for (k, view) in capture.views.iter().enumerate().take(n) {
         let (x, y) = thumbs_at[k];
@@ -354,13 +382,17 @@ fn good_photo(sheet: &Sheet, capture: &Scene, n: usize, thumbs_at: &[(i32, i32)]
             ))
             .map_err(pe)?;
     }
+    let span = format!(
+        "- the card spans about {:.0}% of the width (as here), in focus",
+        100.0 * card_share(card, capture)
+    );
     let notes = [
         "Before each photo:",
         "- room dark, the lamp the only light",
         "- all six hatched marks glint (one may be covered)",
         "- the flat card stays dark",
         "- no part of the ladder is pure white",
-        "- the card fills most of the frame, in focus",
+        span.as_str(),
         "- name it after its view: cam_south.jpg, cam_west.jpg",
         "- check: scratchart-cal fit --check --card card.json *.jpg",
     ];
@@ -368,4 +400,45 @@ fn good_photo(sheet: &Sheet, capture: &Scene, n: usize, thumbs_at: &[(i32, i32)]
         sheet.text(n, (720, 520 + 26 * i as i32), 17, &BLACK)?;
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::card::CardSpec;
+
+    /// The guide's words on framing are the share its own example photos show (the capture
+    /// views as the guide places the camera), not "most of the frame".
+    #[test]
+    fn the_guide_states_the_framing_its_examples_show() {
+        for plate in [50.0, 70.0, 120.0] {
+            let card = Card::new(&CardSpec {
+                plate_mm: plate,
+                ..CardSpec::default()
+            });
+            let dir = std::env::temp_dir().join(format!("scratchart-guide-{}-{plate}", std::process::id()));
+            std::fs::create_dir_all(&dir).unwrap();
+            let path = dir.join("card.json");
+            std::fs::write(&path, serde_json::to_string(&card.to_json(256)).unwrap()).unwrap();
+            let (card, capture) = Card::load(&path).unwrap();
+            let share = card_share(&card, &capture);
+            assert!(share > 0.2 && share < 0.95, "{plate} mm: {share}");
+            // The widest edge of the card in the example, measured on the view's own geometry.
+            let v = &capture.views[0];
+            let g = scratchart_model::camera::ViewGeom::new(v);
+            let h = 0.5 * card.plate_mm;
+            let a = g.project([-h, -h, 0.0]).unwrap();
+            let b = g.project([h, -h, 0.0]).unwrap();
+            let c = g.project([-h, h, 0.0]).unwrap();
+            let d = g.project([h, h, 0.0]).unwrap();
+            let widest = (b.0 - a.0).abs().max((d.0 - c.0).abs()) / v.camera.width as f64;
+            assert!(share + 1e-9 >= widest, "{plate} mm: {share} < {widest}");
+            let text = guide_text(&card, &capture);
+            assert!(
+                text.contains(&format!("spans about {:.0}% of the frame's width", 100.0 * share)),
+                "{text}"
+            );
+            assert!(!text.contains("most of the frame"), "{text}");
+        }
+    }
 }
