@@ -233,13 +233,30 @@ fn render_views(renderer: &Renderer, scene: &Scene, views: Vec<View>) -> Result<
 /// to [`ANGLE_RANGE`] and [`DISTANCE_RANGE`], then by bisection. All searches step together, one
 /// batched render per step.
 pub fn sensitivity(renderer: &Renderer, scene: &Scene, inputs: &SheetInputs) -> Result<Sensitivity, OptimError> {
-    let corr_of = |img: &[f32], j: usize| {
+    let half = 0.5 * scene.plate.size_mm;
+    // A render from view j as designed, or from `eye`, a view with its eye moved: against the
+    // picture as it appears from there (a move that only makes the picture larger, smaller or
+    // foreshortened is no loss; what the reflection does there is).
+    let corr_of = |img: &[f32], j: usize, eye: Option<&View>| {
         let (w, h) = (scene.views[j].camera.width, scene.views[j].camera.height);
-        let t: Vec<f64> = inputs.targets[j].iter().map(|&x| x as f64).collect();
-        correlation(&blur3(img, w, h, inputs.sigma), &t, &inputs.pictures[j])
+        let blurred = blur3(img, w, h, inputs.sigma);
+        match eye {
+            None => {
+                let t: Vec<f64> = inputs.targets[j].iter().map(|&x| x as f64).collect();
+                correlation(&blurred, &t, &inputs.pictures[j])
+            }
+            Some(moved) => {
+                let (t, m) = as_seen_from(&scene.views[j], moved, &inputs.targets[j], &inputs.pictures[j], half);
+                correlation(&blurred, &t, &m)
+            }
+        }
     };
     let images = render_views(renderer, scene, scene.views.clone())?;
-    let base: Vec<f64> = images.iter().enumerate().map(|(j, img)| corr_of(img, j)).collect();
+    let base: Vec<f64> = images
+        .iter()
+        .enumerate()
+        .map(|(j, img)| corr_of(img, j, None))
+        .collect();
     let mut searches = Vec::new();
     for (j, v) in scene.views.iter().enumerate() {
         if inputs.blank_views.contains(&v.name) || !(base[j] >= ADVICE_MIN_CORR) {
@@ -282,10 +299,10 @@ pub fn sensitivity(renderer: &Renderer, scene: &Scene, inputs: &SheetInputs) -> 
                 variant(&scene.views[s.view], s.moved, s.axis, s.sign * size)
             })
             .collect();
-        let images = render_views(renderer, scene, views)?;
-        for (&(i, size), img) in step.iter().zip(&images) {
+        let images = render_views(renderer, scene, views.clone())?;
+        for ((&(i, size), img), view) in step.iter().zip(&images).zip(&views) {
             let s = &mut searches[i];
-            let corr = corr_of(img, s.view);
+            let corr = corr_of(img, s.view, (s.moved == "eye").then_some(view));
             samples.push(Moved {
                 view: scene.views[s.view].name.clone(),
                 moved: s.moved,
@@ -317,6 +334,58 @@ pub fn sensitivity(renderer: &Renderer, scene: &Scene, inputs: &SheetInputs) -> 
         tolerances,
         samples,
     })
+}
+
+/// View `designed`'s picture (its target, display values, and its picture's pixels) as it
+/// appears from `moved` (the same view with the eye elsewhere, same image size): each pixel of
+/// `moved` takes the target where `designed` saw the same point of the plate (bilinear), and
+/// belongs to the picture where that point did (all four pixels it is taken from). Pixels off the plate, or whose point `designed`
+/// did not see, are left out.
+pub fn as_seen_from(
+    designed: &View,
+    moved: &View,
+    target: &[f32],
+    picture: &[bool],
+    half: f64,
+) -> (Vec<f64>, Vec<bool>) {
+    let (a, b) = (
+        scratchart_model::camera::ViewGeom::new(designed),
+        scratchart_model::camera::ViewGeom::new(moved),
+    );
+    let (w, h) = (moved.camera.width as usize, moved.camera.height as usize);
+    let (dw, dh) = (designed.camera.width as usize, designed.camera.height as usize);
+    let mut t = vec![0.0; w * h];
+    let mut m = vec![false; w * h];
+    for y in 0..h {
+        for x in 0..w {
+            let Some(p) = b.shading_point(x as u32, y as u32) else {
+                continue;
+            };
+            if p[0].abs() > half || p[1].abs() > half {
+                continue;
+            }
+            let Some((sx, sy)) = a.project([p[0], p[1], 0.0]) else {
+                continue;
+            };
+            // Bilinear between the four pixel centres around (sx, sy).
+            let (fx, fy) = (sx - 0.5, sy - 0.5);
+            let (x0, y0) = (fx.floor(), fy.floor());
+            if !(x0 >= 0.0 && y0 >= 0.0 && x0 + 1.0 < dw as f64 && y0 + 1.0 < dh as f64) {
+                continue;
+            }
+            let (x0, y0) = (x0 as usize, y0 as usize);
+            let (u, v) = (fx - x0 as f64, fy - y0 as f64);
+            let at = |i: usize, j: usize| target[j * dw + i] as f64;
+            let k = y * w + x;
+            t[k] = (1.0 - v) * ((1.0 - u) * at(x0, y0) + u * at(x0 + 1, y0))
+                + v * ((1.0 - u) * at(x0, y0 + 1) + u * at(x0 + 1, y0 + 1));
+            // (only where all four are the picture's: its edge mixes in what lies beyond it)
+            m[k] = [(x0, y0), (x0 + 1, y0), (x0, y0 + 1), (x0 + 1, y0 + 1)]
+                .iter()
+                .all(|&(i, j)| picture[j * dw + i]);
+        }
+    }
+    (t, m)
 }
 
 /// A point as a maker measures it from the plate centre.
@@ -509,6 +578,86 @@ impl SheetInputs {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use scratchart_model::camera::ViewGeom;
+    use scratchart_model::scene::{Camera, Light};
+
+    fn view(eye: [f64; 3]) -> View {
+        View {
+            exposure: 1.0,
+            name: "v0".into(),
+            camera: Camera {
+                eye,
+                target: [0.0; 3],
+                up: [0.0, 0.0, 1.0],
+                fov_y_deg: 30.0,
+                width: 96,
+                height: 96,
+            },
+            light: Light {
+                kind: LightKind::Point {
+                    position: [0.0, 0.0, 300.0],
+                },
+                intensity: 1.0e5,
+            },
+        }
+    }
+
+    /// The picture as it appears from a moved eye: a pattern drawn on the plate, seen from the
+    /// designed eye, is found again from an eye 3% nearer or farther (or 5 degrees round), where
+    /// the picture in the designed frame differs from what that eye sees.
+    #[test]
+    fn the_picture_as_seen_from_a_moved_eye() {
+        let half = 40.0;
+        let f = |p: [f64; 2]| 0.5 + 0.4 * (0.05 * p[0]).sin() * (0.04 * p[1] + 0.3).cos();
+        let designed = view(Place::at(0.0, 45.0, 250.0));
+        let seen = |v: &View| -> (Vec<f64>, Vec<bool>) {
+            let g = ViewGeom::new(v);
+            let (w, h) = (v.camera.width, v.camera.height);
+            let mut t = vec![0.0; (w * h) as usize];
+            let mut m = vec![false; (w * h) as usize];
+            for y in 0..h {
+                for x in 0..w {
+                    if let Some(p) = g
+                        .shading_point(x, y)
+                        .filter(|p| p[0].abs() <= half && p[1].abs() <= half)
+                    {
+                        t[(y * w + x) as usize] = f(p);
+                        m[(y * w + x) as usize] = true;
+                    }
+                }
+            }
+            (t, m)
+        };
+        let (t0, m0) = seen(&designed);
+        let target: Vec<f32> = t0.iter().map(|&x| x as f32).collect();
+        // Unmoved: the picture itself.
+        let (t, m) = as_seen_from(&designed, &designed, &target, &m0, half);
+        for k in (0..t.len()).filter(|&k| m[k]) {
+            assert!(m0[k] && (t[k] - t0[k]).abs() < 1e-4, "pixel {k}: {} {}", t[k], t0[k]);
+        }
+        let count = |m: &[bool]| m.iter().filter(|&&o| o).count() as f64;
+        assert!(count(&m) > 0.9 * count(&m0), "{} of {}", count(&m), count(&m0));
+        for (axis, delta) in [("distance", 0.03), ("distance", -0.03), ("azimuth", 5.0)] {
+            let moved = variant(&designed, "eye", axis, delta);
+            let (truth, on) = seen(&moved);
+            let (t, m) = as_seen_from(&designed, &moved, &target, &m0, half);
+            let (mut err, mut unwarped, mut n) = (0.0, 0.0, 0.0);
+            for k in 0..t.len() {
+                if m[k] {
+                    assert!(on[k], "{axis} {delta}: pixel {k} is off the plate from there");
+                    err += (t[k] - truth[k]).abs();
+                    unwarped += (t0[k] - truth[k]).abs();
+                    n += 1.0;
+                }
+            }
+            assert!(n > 0.8 * count(&on), "{axis} {delta}: {n}");
+            let (err, unwarped) = (err / n, unwarped / n);
+            assert!(
+                err < 0.001 && unwarped > 10.0 * err,
+                "{axis} {delta}: {err} (the frame as designed: {unwarped})"
+            );
+        }
+    }
 
     #[test]
     fn the_search_bisects_to_its_resolution() {

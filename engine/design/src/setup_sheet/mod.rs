@@ -27,6 +27,9 @@ pub struct Layout {
     pub charts: Vec<Rect>,
     /// Everything drawn that a text must not cover: marks, the plate, the scale bar, the charts.
     pub obstacles: Vec<Rect>,
+    /// Where the side view drew each lamp's and eye's mark (by name): apart even where several
+    /// stand at one height and distance (at different azimuths).
+    pub side_marks: Vec<(String, (i32, i32))>,
 }
 
 fn overlaps(a: &Rect, b: &Rect) -> bool {
@@ -401,7 +404,7 @@ fn draw_side_view(pl: &mut Placer, panels: &Panels, items: &[Item]) -> Result<()
     let (side, mmpp, plate_px) = (panels.side, panels.mmpp, panels.plate_px());
     let root = pl.root;
     pl.put(
-        "Side view (height against distance from the plate centre, all azimuths)",
+        "Side view (height against distance from the plate centre, all azimuths; marks at one place side by side)",
         (side[0], side[1] - 26),
         14,
         BLACK,
@@ -437,8 +440,16 @@ fn draw_side_view(pl: &mut Placer, panels: &Panels, items: &[Item]) -> Result<()
             sp(it.xyz[0].hypot(it.xyz[1]), it.xyz[2])
         };
         dashed(root, o, p, it.colour.mix(0.6).stroke_width(1))?;
-        draw_mark(pl, it, p)?;
-        smarks.push(p);
+        // Marks at one place (eyes at one height and distance, other azimuths) drawn side by
+        // side, each joined to the place by a short line.
+        let at = apart(p, &smarks, it.direction.then_some(o));
+        if at != p {
+            root.draw(&PathElement::new(vec![p, at], it.colour.stroke_width(1)))
+                .map_err(|e| e.to_string())?;
+        }
+        draw_mark(pl, it, at)?;
+        smarks.push(at);
+        pl.layout.side_marks.push((it.name.clone(), at));
     }
     for (it, &p) in items.iter().zip(&smarks) {
         let q = Place::of(it.xyz);
@@ -450,6 +461,40 @@ fn draw_side_view(pl: &mut Placer, panels: &Panels, items: &[Item]) -> Result<()
         pl.label(&t, p, 13, it.colour, side_in)?;
     }
     Ok(())
+}
+
+/// Where a mark for `p` goes so that it keeps clear of the marks already drawn (`taken`): `p`
+/// itself where it is free, else the nearest free spot on rings around it (away from `from`,
+/// the origin of a direction's ray, where it has one).
+fn apart(p: (i32, i32), taken: &[(i32, i32)], from: Option<(i32, i32)>) -> (i32, i32) {
+    const CLEAR: i32 = 18;
+    let free = |q: (i32, i32)| {
+        taken
+            .iter()
+            .all(|t| (t.0 - q.0).abs() >= CLEAR || (t.1 - q.1).abs() >= CLEAR)
+    };
+    if free(p) {
+        return p;
+    }
+    let away = from.map_or(0.0, |o| ((o.1 - p.1) as f64).atan2((p.0 - o.0) as f64));
+    for ring in 1..=6 {
+        let r = (CLEAR * ring) as f64;
+        let n = 8 * ring;
+        for k in 0..n {
+            // alternate either side of the first direction: 0, +1, -1, +2, ...
+            let step = if k % 2 == 0 {
+                (k / 2) as f64
+            } else {
+                -(((k + 1) / 2) as f64)
+            };
+            let a = away + step * std::f64::consts::TAU / n as f64;
+            let q = (p.0 + (r * a.cos()).round() as i32, p.1 - (r * a.sin()).round() as i32);
+            if free(q) {
+                return q;
+            }
+        }
+    }
+    p
 }
 
 /// The key: the scale, then every lamp and eye with its numbers; labels that found no place in
@@ -640,6 +685,15 @@ mod tests {
                 },
             ),
         );
+        // Every mark of the side view apart, though the three eyes (and the lamp in v0's eye)
+        // stand at one height and distance there.
+        for (i, (a, p)) in l.side_marks.iter().enumerate() {
+            for (b, q) in &l.side_marks[..i] {
+                let d = (p.0 - q.0).abs().max((p.1 - q.1).abs());
+                assert!(d >= 18, "{a} at {p:?} and {b} at {q:?} are drawn on one another");
+            }
+        }
+        assert_eq!(l.side_marks.len(), 4);
         // A lamp far away and eyes close by.
         let eyes = ring(2, 120.0, 70.0);
         assert_clean(
