@@ -305,12 +305,20 @@ fn corr_moved(
         .map(|&l| scratchart_render::io::display_value(l).clamp(0.0, 1.0))
         .collect();
     let (w, h) = (s.views[0].camera.width, s.views[0].camera.height);
-    let t: Vec<f64> = p.targets[j].iter().map(|&x| x as f64).collect();
-    scratchart_design::measure::correlation(
-        &scratchart_design::measure::blur3(&disp, w, h, sigma),
-        &t,
-        &p.pictures[j],
-    )
+    // A moved eye is judged against the picture as it appears from there (a picture only made
+    // larger or foreshortened is no loss: `tolerance::as_seen_from`, unit-tested on a pattern).
+    let (t, mask) = if moved == "eye" {
+        scratchart_design::tolerance::as_seen_from(
+            &design.views[j],
+            &s.views[0],
+            &p.targets[j],
+            &p.pictures[j],
+            0.5 * design.plate.size_mm,
+        )
+    } else {
+        (p.targets[j].iter().map(|&x| x as f64).collect(), p.pictures[j].clone())
+    };
+    scratchart_design::measure::correlation(&scratchart_design::measure::blur3(&disp, w, h, sigma), &t, &mask)
 }
 
 /// Awkward image files: a corrupt one is a clear error naming it; a 1x1 picture fills its
