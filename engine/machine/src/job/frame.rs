@@ -127,7 +127,7 @@ pub(super) fn trace(
             // A dry run outpaces the status polls: the simulated controller's own position.
             pos: sim.map(|f| f.pos()).or(pos),
         };
-        let mut message = format!("parts, traced {} | {state}", PARTS[part]);
+        let mut message = format!("parts sent, the last {} | {state}", PARTS[part]);
         if let Some(q) = machine.pos {
             message.push_str(&format!(" X{:.2} Y{:.2} Z{:.3}", q[0], q[1], q[2]));
         }
