@@ -36,4 +36,32 @@ fn a_design_that_shows_no_picture_exits_1() {
         out.to_str().unwrap(),
     ]);
     assert_eq!(o.status.code(), Some(0), "{}", String::from_utf8_lossy(&o.stderr));
+    // The report says how far each view is from what its picture allows, and what the walls can
+    // reach, with the reach map beside it.
+    let said = format!(
+        "{}{}",
+        String::from_utf8_lossy(&o.stdout),
+        String::from_utf8_lossy(&o.stderr)
+    );
+    assert!(
+        said.contains("below what its picture allows") && said.contains("within the walls' reach"),
+        "{said}"
+    );
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    let lighting: u64 = summary["per_view"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|v| v["reach"]["scratches_lighting"].as_u64().unwrap())
+        .sum();
+    assert!(lighting > 0, "no scratch lights any view: {summary}");
+    for v in summary["per_view"].as_array().unwrap() {
+        let r = &v["reach"];
+        let share = r["share"].as_f64().unwrap();
+        assert!((0.0..=1.0).contains(&share), "{r}");
+        // Free grooves may take any wall: every bright pixel is within reach.
+        assert_eq!(r["unreachable_pixels"], 0, "{r}");
+        assert!(out.join(r["map_png"].as_str().unwrap()).exists());
+    }
 }

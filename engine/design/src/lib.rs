@@ -59,6 +59,7 @@ pub mod job_time;
 pub mod live;
 pub mod measure;
 pub mod problem;
+pub mod reach;
 pub mod report;
 pub mod scenes;
 pub mod setup;

@@ -245,6 +245,7 @@ pub fn write_outputs(
         cfg.loss.sigma,
     );
     contact_sheet_png(&out.join("contact_sheet.png"), scene, &r.final_images, &problem.targets)?;
+    let reach = crate::reach::report(out, scene, &problem.targets, &problem.pictures, cfg.tool.as_ref())?;
     for (v, view) in scene.views.iter().enumerate() {
         let (w, h) = (view.camera.width, view.camera.height);
         compare_png(
@@ -281,6 +282,7 @@ pub fn write_outputs(
             "plate_fills_frame": crate::scenes::silhouette_box(view, scene.plate.size_mm)
                 .map(|b| ((b[2] - b[0]) / w as f64).max((b[3] - b[1]) / h as f64)),
             "light_intensity": view.light.intensity,
+            "reach": reach[v],
         }));
     }
     loss_curve_png(&out.join("loss_curve.png"), r)?;
@@ -452,6 +454,30 @@ pub fn summary_text(s: &serde_json::Value, out: &Path) -> String {
                 f(&v["corr_perfect"])
             );
         }
+    }
+    for v in s["per_view"].as_array().into_iter().flatten() {
+        let r = &v["reach"];
+        if r.is_null() {
+            continue;
+        }
+        let (fin, cap) = (f(&v["corr_final"]), f(&v["corr_perfect"]));
+        let _ = writeln!(
+            text,
+            "  {}: ends {:.3} below what its picture allows ({:.3} of {:.3}); {:.0}% of its bright pixels within the walls' reach (up to {:.0} deg{}); {} scratches can light it, {} of them another view too",
+            v["name"].as_str().unwrap_or("?"),
+            (cap - fin).max(0.0),
+            fin,
+            cap,
+            100.0 * f(&r["share"]),
+            f(&r["steepest_wall_deg"]),
+            if f(&r["share"]) < 1.0 {
+                format!("; the rest is red in {}", r["map_png"].as_str().unwrap_or("?"))
+            } else {
+                String::new()
+            },
+            r["scratches_lighting"],
+            r["also_lighting_another_view"]
+        );
     }
     if let Some(p) = s["pruning"].as_object() {
         let _ = writeln!(
