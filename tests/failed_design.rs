@@ -53,9 +53,9 @@ fn a_design_that_shows_no_picture_exits_1() {
         .as_array()
         .unwrap()
         .iter()
-        .map(|v| v["reach"]["scratches_lighting"].as_u64().unwrap())
+        .map(|v| v["reach"]["scratches_facing"].as_u64().unwrap())
         .sum();
-    assert!(lighting > 0, "no scratch lights any view: {summary}");
+    assert!(lighting > 0, "no scratch faces any view: {summary}");
     for v in summary["per_view"].as_array().unwrap() {
         let r = &v["reach"];
         let share = r["share"].as_f64().unwrap();

@@ -4,10 +4,12 @@
 //! steepest wall (engine/docs/model.md section 2: theta = 2 atan(2u/w), steepest at the visible
 //! edge). So a pixel of a picture can be lit only where h tilts no more than the steepest wall
 //! the scratches may have (the tool's range in fabrication mode; any tilt for free grooves), and
-//! a scratch lights a view only where h lies in its normal plane, within its roughness lobe.
+//! a scratch faces a view where h lies in its normal plane, within its roughness lobe (a
+//! geometric test: the far tails of a sharp lobe still send some light elsewhere, which the
+//! renders count and this does not).
 //!
 //! The reach map (per view: the picture's bright pixels no scratch can light from that eye and
-//! lamp) and the scratches' service (which views each scratch can light at its midpoint) are
+//! lamp) and the scratches' service (which views each scratch's walls face) are
 //! what `design` reports beside the correlations (`summary.json` `per_view[].reach`,
 //! `NAME_reach.png`), so a maker sees before carving which part of which picture the plate cannot
 //! show, and how the scratches are shared among the views.
@@ -20,6 +22,9 @@ use scratchart_model::scene::Scene;
 use scratchart_optim::error::OptimError;
 use scratchart_optim::tool_params::Fabrication;
 
+/// Points along a scratch, less one, at which its service is judged.
+pub const SAMPLES: usize = 16;
+
 /// A target value (display, 0..1) at or above which a picture's pixel is bright: one the plate
 /// must light.
 pub const BRIGHT: f32 = 0.25;
@@ -28,6 +33,13 @@ pub const BRIGHT: f32 = 0.25;
 /// theta = 2 atan(sqrt(1 - exp(-2 d / w))) (model.md section 2).
 pub fn steepest_wall(w: f64, d: f64) -> f64 {
     2.0 * (-(-2.0 * d / w).exp_m1()).max(0.0).sqrt().atan()
+}
+
+/// The half-width of a wall's reflection lobe of roughness `alpha`, radians: where GGX falls to
+/// 1% of its peak (tan = 3 alpha), which the display's 1/2.2 power still shows at 12% of the
+/// peak's brightness.
+pub fn lobe(alpha: f64) -> f64 {
+    (3.0 * alpha).atan()
 }
 
 /// The half vector at plate point `x` of view `g`.
@@ -61,12 +73,12 @@ impl Reach {
 
 /// View `j`'s reach map: where its picture (`target`, display values; `picture`, its pixels)
 /// is bright, whether h tilts from the plate's normal by no more than `max_tilt` (radians) plus
-/// the roughness lobe's half-width atan(`alpha`) (where GGX falls to a quarter of its peak).
+/// the roughness lobe's half-width ([`lobe`]).
 pub fn reach_map(scene: &Scene, j: usize, target: &[f32], picture: &[bool], max_tilt: f64, alpha: f64) -> Reach {
     let v = &scene.views[j];
     let g = ViewGeom::new(v);
     let half = 0.5 * scene.plate.size_mm;
-    let limit = max_tilt + alpha.atan();
+    let limit = max_tilt + lobe(alpha);
     let (w, h) = (v.camera.width, v.camera.height);
     let mut map = vec![0u8; (w * h) as usize];
     let (mut bright, mut unreachable) = (0, 0);
@@ -96,8 +108,9 @@ pub fn reach_map(scene: &Scene, j: usize, target: &[f32], picture: &[bool], max_
     }
 }
 
-/// Which views each scratch of `scene` can light, at an end or its middle: h of the view lies within the
-/// scratch's roughness lobe of its normal plane (|h . t| <= sin atan(alpha)) and tilts in that
+/// Which views each scratch of `scene` can light, anywhere along it ([`SAMPLES`] + 1 points, and
+/// where h . t changes sign between two): h of the view lies within the
+/// scratch's roughness lobe of its normal plane (|h . t| <= sin [`lobe`]) and tilts in that
 /// plane by no more than its steepest wall plus the lobe. One bit per view (at most 64 views
 /// counted; later views are left out).
 pub fn service(scene: &Scene) -> Vec<u64> {
@@ -109,17 +122,23 @@ pub fn service(scene: &Scene) -> Vec<u64> {
             let (dx, dy) = (s.p1[0] - s.p0[0], s.p1[1] - s.p0[1]);
             let l = dx.hypot(dy).max(1e-300);
             let (t, b) = ([dx / l, dy / l], [-dy / l, dx / l]);
-            let m = [0.5 * (s.p0[0] + s.p1[0]), 0.5 * (s.p0[1] + s.p1[1])];
-            let lobe = s.alpha.atan();
+            let lobe = lobe(s.alpha);
             let wall = steepest_wall(s.w, s.d);
             let mut bits = 0u64;
             for (j, g) in geoms.iter().enumerate() {
-                // At either end or the middle (h turns along a scratch under a near lamp).
-                let lights = [s.p0, m, s.p1].iter().any(|&x| {
+                // Anywhere along it: h turns along a scratch under a near lamp or eye, so a
+                // sharp wall lights a view where h . t passes through 0 (a glint), which the
+                // samples bracket.
+                let mut prev: Option<f64> = None;
+                let lights = (0..=SAMPLES).any(|k| {
+                    let f = k as f64 / SAMPLES as f64;
+                    let x = [s.p0[0] + f * (s.p1[0] - s.p0[0]), s.p0[1] + f * (s.p1[1] - s.p0[1])];
                     let h = half_vector(g, x);
-                    let along = (h[0] * t[0] + h[1] * t[1]).abs();
+                    let along = h[0] * t[0] + h[1] * t[1];
                     let across = (h[0] * b[0] + h[1] * b[1]).abs();
-                    along.asin() <= lobe && across.atan2(h[2]) <= wall + lobe
+                    let crossed = prev.is_some_and(|p| p * along <= 0.0);
+                    prev = Some(along);
+                    (along.abs().asin() <= lobe || crossed) && across.atan2(h[2]) <= wall + lobe
                 });
                 if lights {
                     bits |= 1 << j;
@@ -205,9 +224,10 @@ pub fn report(
             "share": r.share(),
             "steepest_wall_deg": wall.to_degrees(),
             "lobe_alpha": alpha,
-            "scratches_lighting": n,
-            "also_lighting_another_view": shared,
+            "scratches_facing": n,
+            "also_facing_another_view": shared,
             "map_png": format!("{}_reach.png", v.name),
+            "scratches_facing_no_view": bits.iter().filter(|b| **b == 0).count(),
         }));
     }
     Ok(all)

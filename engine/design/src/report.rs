@@ -455,6 +455,13 @@ pub fn summary_text(s: &serde_json::Value, out: &Path) -> String {
             );
         }
     }
+    if let Some(n) = s["per_view"][0]["reach"]["scratches_facing_no_view"].as_u64() {
+        let _ = writeln!(
+            text,
+            "  {n} of {} scratches face no view anywhere along them (h not within 3 alpha of their walls' normals): their light reaches the views only through their lobes' tails",
+            s["scratches_written"]
+        );
+    }
     for v in s["per_view"].as_array().into_iter().flatten() {
         let r = &v["reach"];
         if r.is_null() {
@@ -463,7 +470,7 @@ pub fn summary_text(s: &serde_json::Value, out: &Path) -> String {
         let (fin, cap) = (f(&v["corr_final"]), f(&v["corr_perfect"]));
         let _ = writeln!(
             text,
-            "  {}: ends {:.3} below what its picture allows ({:.3} of {:.3}); {:.0}% of its bright pixels within the walls' reach (up to {:.0} deg{}); {} scratches can light it, {} of them another view too",
+            "  {}: ends {:.3} below what its picture allows ({:.3} of {:.3}); {:.0}% of its bright pixels within the walls' reach (up to {:.0} deg{}); the walls of {} scratches face it, {} of them another view's too",
             v["name"].as_str().unwrap_or("?"),
             (cap - fin).max(0.0),
             fin,
@@ -475,8 +482,8 @@ pub fn summary_text(s: &serde_json::Value, out: &Path) -> String {
             } else {
                 String::new()
             },
-            r["scratches_lighting"],
-            r["also_lighting_another_view"]
+            r["scratches_facing"],
+            r["also_facing_another_view"]
         );
     }
     if let Some(p) = s["pruning"].as_object() {
