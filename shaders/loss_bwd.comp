@@ -17,7 +17,7 @@
 // Full symmetric R_ij of segment sg.
 float rmat(uint sg, uint i, uint j) {
     uint e = i <= j ? gram_idx(i, j) : gram_idx(j, i);
-    return 2.0 * pc.lambda_g * (gram[sg * NPART + e] - gramT[sg * NPART + e]);
+    return 2.0 * pc.lambda_g * segs[sg].weight * (gram[sg * NPART + e] - gramT[sg * NPART + e]);
 }
 
 void main() {
@@ -52,7 +52,7 @@ void main() {
     int x = int((i - S.off) % S.w), y = int((i - S.off) / S.w);
     int W = int(S.w), H = int(S.h);
     float g1[3] = float[3](pc.g_s, pc.g_c, pc.g_s);
-    float pix_scale = 2.0 * pc.lambda_p / float(S.w * S.h);
+    float pix_scale = 2.0 * pc.lambda_p * S.weight / float(S.w * S.h);
     float acc = 0.0, accp = 0.0;
     // Output pixel p reads input clamp(p + o); collect every (p, o) that reads this pixel. Per axis
     // these are p = x - o for the three offsets, plus at a border the output on the border

@@ -95,7 +95,7 @@ void main() {
     // One workgroup; thread v handles view v, thread 0 then adds the views in order.
     uint v = gl_LocalInvocationID.x;
     for (uint vv = v; vv < pc.n_views; vv += 256u) {
-        float lp = pc.lambda_p * gram[vv * NPART + NGRAM];
+        float lp = pc.lambda_p * segs[vv].weight * gram[vv * NPART + NGRAM];
         float lg = 0.0;
         for (uint s = 0u; s < pc.n_levels; ++s) {
             uint sg = s * pc.n_views + vv;
@@ -103,7 +103,7 @@ void main() {
             for (uint ci = 0u; ci < NCH; ++ci)
                 for (uint cj = ci; cj < NCH; ++cj, ++e) {
                     float d = gram[sg * NPART + e] - gramT[sg * NPART + e];
-                    lg += (ci == cj ? 1.0 : 2.0) * d * d;
+                    lg += (ci == cj ? 1.0 : 2.0) * segs[sg].weight * d * d;
                 }
         }
         outv[2u * vv] = lp;

@@ -207,7 +207,7 @@ fn push_constant_layouts_agree() {
             level: u(),
             blk0: u(),
             nblk: u(),
-            pad: u(),
+            weight: u() as f32,
         })
         .collect();
     let present = PresentPush {

@@ -12,7 +12,7 @@ struct LossSeg {
     uint level;
     uint blk0;   // first reduction block
     uint nblk;   // number of reduction blocks
-    uint pad;
+    float weight;  // the view's weight in the loss (1 unless `design --balance` moves it)
 };
 
 layout(push_constant) uniform Push {

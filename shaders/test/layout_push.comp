@@ -60,7 +60,7 @@ void main() {
     put(pc.lambda_p); put(pc.lambda_g); put(pc.g_c); put(pc.g_s); put(pc.n_segs); put(pc.pad);
     for (int k = 0; k < 2; ++k) {
         LossSeg S = segs[k];
-        put(S.off); put(S.w); put(S.h); put(S.view); put(S.level); put(S.blk0); put(S.nblk); put(S.pad);
+        put(S.off); put(S.w); put(S.h); put(S.view); put(S.level); put(S.blk0); put(S.nblk); put(S.weight);
     }
 #elif defined(PRESENT)
     put4(pc.dims); put4(pc.view_rect); put4(pc.tgt_rect); put4(pc.misc); put4(pc.params);

@@ -228,9 +228,15 @@ impl<'r> Optimizer<'r> {
         // What was due before the first iteration of this run (all of it up to a resumed
         // run's iteration, so the targets are those of the run that stopped).
         env.live(driver, work).apply_due(scheduled, &mut next, &mut skip)?;
+        let balance = cfg
+            .balance
+            .then(|| crate::balance::Balance::new(work, &cfg.blank_views, cfg.iters, cfg.loss.sigma));
         driver.run_with(obs, &mut |d, ev| {
             let mut l = env.live(d, work);
             l.apply_due(scheduled, &mut next, &mut skip)?;
+            if let Some(b) = &balance {
+                b.apply(&mut l, obs)?;
+            }
             hook(&mut l, ev)
         })
     }
@@ -361,6 +367,7 @@ pub fn run_design_live(
         resumed_from,
         summary: None,
         depths,
+        view_weights: loss.view_weights(),
         wall: WallTimes {
             start_up: cfg.started.map_or(0.0, |s| t_loop.duration_since(s).as_secs_f64()),
             iterations: t_loop_end.duration_since(t_loop).as_secs_f64(),
@@ -513,6 +520,12 @@ fn write_design_outputs(
             json!("what was changed while the design ran (pictures moved, loss weights, scratches added or removed): `scratchart design [the same flags] --steer summary.json` replays it");
     }
     summary["blank_views"] = json!(cfg.blank_views);
+    if cfg.balance {
+        summary["balance"] = json!({
+            "view_weights": report.view_weights,
+            "rule": "each view's weight follows its shortfall against what its picture allows (clamped to 0.5..3, mean 1), updated every tenth of the run from 30% on (engine/design/src/balance.rs)",
+        });
+    }
     summary["setup"] = setup;
     summary["sensitivity"] = sensitivity;
     summary["setup_advice"] = json!(advice);

@@ -51,6 +51,7 @@
 //! Determinism: every GPU reduction runs in a fixed order and the host feeds back only values it
 //! read from the GPU, so a run is bit-reproducible on one device, and a resumed run equals an
 //! uninterrupted one bit for bit.
+pub mod balance;
 pub mod carving;
 pub mod design;
 pub mod framing;

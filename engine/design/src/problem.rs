@@ -97,6 +97,9 @@ pub struct DesignConfig {
     pub started: Option<std::time::Instant>,
     /// Steering to replay (`scratchart design --steer`), in the order of its iterations.
     pub steer: Vec<crate::steer::SteerEvent>,
+    /// Each view's weight follows its shortfall against its cap (`design --balance`,
+    /// [`crate::balance`]).
+    pub balance: bool,
 }
 
 impl DesignConfig {
@@ -120,6 +123,7 @@ impl DesignConfig {
             carvings: 8,
             started: None,
             steer: Vec::new(),
+            balance: false,
         }
     }
 }
@@ -195,6 +199,8 @@ pub struct DesignReport {
     pub summary: Option<serde_json::Value>,
     /// Fabrication mode: the commanded depth of every written scratch, mm.
     pub depths: Option<Vec<f64>>,
+    /// Each view's weight in the loss at the end of the run (all 1 without `--balance`).
+    pub view_weights: Vec<f32>,
     /// Wall time by phase.
     pub wall: WallTimes,
 }

@@ -168,6 +168,10 @@ pub struct DesignArgs {
     /// Weight of the Gram-matrix (feature statistics) term
     #[arg(long, default_value_t = 0.01)]
     pub lambda_g: f32,
+    /// Weigh each view in the loss by how far it stands below what its picture allows, from 30%
+    /// of the run on (every tenth of the run; engine/docs/worst_view.md measures it)
+    #[arg(long)]
+    pub balance: bool,
     /// Standard deviation of the loss's 3x3 Gaussian blur, pixels
     #[arg(long, default_value_t = 1.0)]
     pub blur_sigma: f32,
@@ -298,6 +302,7 @@ impl DesignArgs {
             lr_light: self.lr_light,
             lambda_p: self.lambda_p,
             lambda_g: self.lambda_g,
+            balance: self.balance,
             blur_sigma: self.blur_sigma,
             out: self.out.clone(),
             checkpoint_every: self.checkpoint_every,

@@ -102,6 +102,8 @@ pub struct DesignSpec {
     pub lr_light: Option<f32>,
     pub lambda_p: f32,
     pub lambda_g: f32,
+    /// Each view's weight follows its shortfall against its cap ([`crate::balance`]).
+    pub balance: bool,
     pub blur_sigma: f32,
     pub out: PathBuf,
     pub checkpoint_every: u32,
@@ -168,6 +170,7 @@ impl Default for DesignSpec {
             lr_light: None,
             lambda_p: 1.0,
             lambda_g: 0.01,
+            balance: false,
             blur_sigma: 1.0,
             out: PathBuf::from("out"),
             checkpoint_every: 50,
@@ -250,6 +253,7 @@ pub fn config(spec: &DesignSpec) -> DesignConfig {
     cfg.prune.max_trials = spec.prune_trials;
     cfg.calibrate_lights = spec.view_file.is_none();
     cfg.blank_views = spec.blank_view.clone();
+    cfg.balance = spec.balance;
     cfg.keep_exposures = spec.exposure == Exposure::Fixed;
     cfg.hooks = Hooks {
         nan_grad_at: spec.inject_nan_grad_at,

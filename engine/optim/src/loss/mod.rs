@@ -61,7 +61,8 @@ pub struct LossSeg {
     pub level: u32,
     pub blk0: u32,
     pub nblk: u32,
-    pub pad: u32,
+    /// The view's weight in both terms (1 unless [`Loss::set_view_weights`] moves it).
+    pub weight: f32,
 }
 
 /// `#[repr(C)]` twin of the push block in `shaders/inc/loss_push.glsl`.
@@ -114,7 +115,7 @@ impl Pyramid {
                     level,
                     blk0: blk,
                     nblk,
-                    pad: 0,
+                    weight: 1.0,
                 });
                 blk += nblk;
                 off = o + w * h;
@@ -197,6 +198,8 @@ pub struct Loss {
     /// The weights of the pixel and Gram terms as f32 bits: `cfg`'s, until a steered design
     /// changes them between iterations ([`Loss::set_weights`]).
     weights: [std::sync::atomic::AtomicU32; 2],
+    /// Each view's weight as last set ([`Loss::set_view_weights`]).
+    view_w: std::sync::Mutex<Vec<f32>>,
 }
 
 const NUM_BUFFERS: u32 = 13;
@@ -264,6 +267,7 @@ impl Loss {
                 std::sync::atomic::AtomicU32::new(cfg.lambda_p.to_bits()),
                 std::sync::atomic::AtomicU32::new(cfg.lambda_g.to_bits()),
             ],
+            view_w: std::sync::Mutex::new(vec![1.0; views.len()]),
             pyr,
             pipes,
         };
@@ -305,6 +309,40 @@ impl Loss {
         rec.barrier();
         self.record_features(&mut rec, &self.tpyr, &self.gram_t, &self.tpyr);
         rec.submit_and_wait()?;
+        Ok(())
+    }
+
+    /// Each view's weight in the loss (both terms, every level), 1 where never set.
+    pub fn view_weights(&self) -> Vec<f32> {
+        let w = self.view_w.lock().unwrap();
+        w.clone()
+    }
+
+    /// Sets each view's weight in both terms from the next evaluation on (`design --balance`):
+    /// the loss becomes sum_v weight_v (pixel_v + Gram_v). Weights of 1 give the loss bit for
+    /// bit as before.
+    pub fn set_view_weights(&self, ctx: &Arc<Context>, weights: &[f32]) -> Result<(), GpuError> {
+        assert_eq!(
+            weights.len(),
+            self.pyr.n_views as usize,
+            "Loss::set_view_weights: one weight per view"
+        );
+        let segs: Vec<LossSeg> = self
+            .pyr
+            .segs
+            .iter()
+            .map(|s| LossSeg {
+                weight: weights[s.view as usize],
+                ..*s
+            })
+            .collect();
+        let staging = ctx.upload("loss view weights", &segs)?;
+        let mut rec = Recorder::new(ctx)?;
+        rec.begin()?;
+        rec.copy(&staging, &self.segs, std::mem::size_of_val(segs.as_slice()) as u64);
+        rec.barrier();
+        rec.submit_and_wait()?;
+        *self.view_w.lock().unwrap() = weights.to_vec();
         Ok(())
     }
 

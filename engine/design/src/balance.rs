@@ -1,0 +1,146 @@
+//! `design --balance`: each view's weight in the loss follows how far it stands below what its
+//! picture allows (its cap: the correlation a render equal to the picture would have), so the
+//! views that lag get more of the scratches' attention (issue 50's lever "weights that follow
+//! each view's shortfall against its own cap").
+//!
+//! From [`START`] of the run on, every [`every`] iterations: each view's correlation with its
+//! picture is measured on the render just accepted, its shortfall s_v = max(cap_v - corr_v, 0),
+//! and its weight w_v = clamp(s_v / mean s, [`MIN_WEIGHT`], [`MAX_WEIGHT`]), scaled to a mean of
+//! 1 (views blank on purpose, or with no shortfall to share, keep 1). The weights are a function
+//! of the state at each update: a run resumed from a checkpoint taken between two updates starts
+//! from weights measured at its own iteration, so it is close to, not the bits of, an
+//! uninterrupted one.
+use crate::live::Live;
+use crate::measure::quality;
+use scratchart_observe::Observer;
+use scratchart_optim::error::OptimError;
+
+/// The share of the run after which the weights start to move (before it every view is far from
+/// its cap and the shortfalls say little).
+pub const START: f64 = 0.3;
+pub const MIN_WEIGHT: f64 = 0.5;
+pub const MAX_WEIGHT: f64 = 3.0;
+
+/// Iterations between two updates in a run of `iters`.
+pub fn every(iters: u32) -> u32 {
+    (iters / 10).max(5)
+}
+
+/// Weights from shortfalls (see the module's rule); `None` entries (blank views) keep 1.
+pub fn weights(shortfalls: &[Option<f64>]) -> Vec<f32> {
+    let used: Vec<f64> = shortfalls.iter().flatten().copied().collect();
+    let mean = used.iter().sum::<f64>() / used.len().max(1) as f64;
+    if !(mean > 1e-6) {
+        return vec![1.0; shortfalls.len()];
+    }
+    let raw: Vec<Option<f64>> = shortfalls
+        .iter()
+        .map(|s| s.map(|s| (s / mean).clamp(MIN_WEIGHT, MAX_WEIGHT)))
+        .collect();
+    let n = raw.iter().flatten().count().max(1) as f64;
+    let scale = n / raw.iter().flatten().sum::<f64>();
+    raw.iter().map(|w| w.map_or(1.0, |w| (w * scale) as f32)).collect()
+}
+
+/// The balancing of one run: each view's cap, once.
+pub struct Balance {
+    caps: Vec<f64>,
+    blank: Vec<bool>,
+    iters: u32,
+    sigma: f32,
+}
+
+impl Balance {
+    pub fn new(problem: &crate::problem::Problem, blank_views: &[String], iters: u32, sigma: f32) -> Balance {
+        let caps = quality(
+            &problem.scene,
+            &problem.targets,
+            &problem.targets,
+            &problem.pictures,
+            sigma,
+        )
+        .iter()
+        .map(|q| q.corr)
+        .collect();
+        Balance {
+            caps,
+            blank: problem
+                .scene
+                .views
+                .iter()
+                .map(|v| blank_views.contains(&v.name))
+                .collect(),
+            iters,
+            sigma,
+        }
+    }
+
+    /// Whether the weights are updated before iteration `k`.
+    pub fn due(&self, k: u32) -> bool {
+        let start = (START * self.iters as f64).ceil() as u32;
+        k >= start && k < self.iters && (k - start) % every(self.iters) == 0
+    }
+
+    /// Updates the loss's view weights where due (see the module's rule).
+    pub fn apply(&self, live: &mut Live, obs: &dyn Observer) -> Result<(), OptimError> {
+        let k = live.iteration();
+        if !self.due(k) {
+            return Ok(());
+        }
+        let displays: Vec<Vec<f32>> = live
+            .images()?
+            .iter()
+            .map(|img| {
+                img.iter()
+                    .map(|&l| scratchart_render::io::display_value(l).clamp(0.0, 1.0))
+                    .collect()
+            })
+            .collect();
+        let p = &*live.problem;
+        let q = quality(&p.scene, &displays, &p.targets, &p.pictures, self.sigma);
+        let short: Vec<Option<f64>> = q
+            .iter()
+            .zip(&self.caps)
+            .zip(&self.blank)
+            .map(|((q, cap), blank)| (!blank && q.corr.is_finite() && cap.is_finite()).then(|| (cap - q.corr).max(0.0)))
+            .collect();
+        let w = weights(&short);
+        live.loss.set_view_weights(&live.renderer.ctx, &w)?;
+        obs.info(&format!(
+            "balance at iteration {k}: view weights {}",
+            w.iter().map(|x| format!("{x:.2}")).collect::<Vec<_>>().join(" ")
+        ));
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn weights_follow_the_shortfalls() {
+        // Equal shortfalls, or none: all 1.
+        assert_eq!(weights(&[Some(0.02), Some(0.02), Some(0.02)]), vec![1.0; 3]);
+        assert_eq!(weights(&[Some(0.0), Some(0.0)]), vec![1.0; 2]);
+        // The lagging view gets more, within the bounds, the mean stays 1, blank views keep 1.
+        let w = weights(&[Some(0.001), Some(0.03), None, Some(0.01)]);
+        assert_eq!(w[2], 1.0);
+        let used = [w[0], w[1], w[3]];
+        assert!((used.iter().sum::<f32>() / 3.0 - 1.0).abs() < 1e-5, "{w:?}");
+        assert!(w[1] > w[3] && w[3] > w[0], "{w:?}");
+        assert!(w[1] / w[0] <= (MAX_WEIGHT / MIN_WEIGHT) as f32 + 1e-4, "{w:?}");
+    }
+
+    #[test]
+    fn updates_start_late_and_come_regularly() {
+        let b = Balance {
+            caps: vec![],
+            blank: vec![],
+            iters: 100,
+            sigma: 1.0,
+        };
+        let due: Vec<u32> = (0..=100).filter(|&k| b.due(k)).collect();
+        assert_eq!(due, vec![30, 40, 50, 60, 70, 80, 90]);
+    }
+}
