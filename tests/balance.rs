@@ -1,6 +1,6 @@
 //! `design --balance`: each view's weight in the loss (`Loss::set_view_weights`) scales that
-//! view's terms and its share of dE/dL exactly, weights of 1 are the loss as before, and the
-//! command line records the weights it ended with.
+//! view's terms and its share of dE/dL exactly, weights of 1 are the loss as before, the command
+//! line records the weights it ended with, and a stopped balanced run resumes bit for bit.
 use scratchart_design::scenes::{orbit_light, random_scratches, ring_views, Rng};
 use scratchart_design::targets::builtin_targets;
 use scratchart_model::scene::Scene;
@@ -96,4 +96,47 @@ fn design_balance_records_the_weights_it_ended_with() {
     assert!((w.iter().sum::<f64>() / 3.0 - 1.0).abs() < 1e-4, "{w:?}");
     assert!(w.iter().all(|&x| (0.5 / 3.0..=3.0).contains(&x)), "{w:?}");
     assert!(w.iter().any(|&x| (x - 1.0).abs() > 1e-3), "the weights moved: {w:?}");
+}
+
+/// Stopped between two updates and at one (checkpoints every 6 iterations; updates at 12, 17,
+/// 22, ...), a balanced run resumed with `--resume` writes the scratches of an uninterrupted one,
+/// byte for byte (the weights come back from balance.json).
+#[test]
+fn a_balanced_run_resumes_bit_for_bit() {
+    let dir = std::env::temp_dir().join(format!("scratchart-balance-resume-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    let design = |out: &std::path::Path, extra: &[&str]| {
+        let mut a = vec![
+            "design",
+            "--balance",
+            "--scratches",
+            "300",
+            "--iters",
+            "40",
+            "--res",
+            "32",
+            "--checkpoint-every",
+            "6",
+            "--quiet",
+            "--out",
+            out.to_str().unwrap(),
+        ];
+        a.extend(extra);
+        run_scratchart(&a)
+    };
+    let whole = dir.join("whole");
+    assert_eq!(design(&whole, &[]).status.code(), Some(0));
+    let csv = |d: &std::path::Path| std::fs::read(d.join("scratches.csv")).unwrap();
+    for stop in ["13", "20"] {
+        let part = dir.join(format!("stopped{stop}"));
+        let o = design(&part, &["--inject-stop-at", stop]);
+        assert_ne!(o.status.code(), Some(0), "the hook stops the run");
+        assert!(part.join("balance.json").exists());
+        let o = design(&part, &["--resume"]);
+        assert_eq!(o.status.code(), Some(0), "{}", String::from_utf8_lossy(&o.stderr));
+        assert!(
+            csv(&part) == csv(&whole),
+            "stopped at {stop}: the resumed design differs"
+        );
+    }
 }

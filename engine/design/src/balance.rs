@@ -6,10 +6,10 @@
 //! From [`START`] of the run on, every [`every`] iterations: each view's correlation with its
 //! picture is measured on the render just accepted, its shortfall s_v = max(cap_v - corr_v, 0),
 //! and its weight w_v = clamp(s_v / mean s, [`MIN_WEIGHT`], [`MAX_WEIGHT`]), scaled to a mean of
-//! 1 (views blank on purpose, or with no shortfall to share, keep 1). The weights are a function
-//! of the state at each update: a run resumed from a checkpoint taken between two updates starts
-//! from weights measured at its own iteration, so it is close to, not the bits of, an
-//! uninterrupted one.
+//! 1 (views blank on purpose, or with no shortfall to share, keep 1). Every update is written to
+//! `balance.json` beside the checkpoint (atomically), and a resumed run takes the weights of the
+//! last update at or before its iteration from it, so it continues bit for bit; without the
+//! file (a run made before it) the weights are measured at once from the resumed state.
 use crate::live::Live;
 use crate::measure::quality;
 use scratchart_observe::Observer;
@@ -42,16 +42,29 @@ pub fn weights(shortfalls: &[Option<f64>]) -> Vec<f32> {
     raw.iter().map(|w| w.map_or(1.0, |w| (w * scale) as f32)).collect()
 }
 
-/// The balancing of one run: each view's cap, once.
+/// The balancing of one run: each view's cap, once, and the updates so far.
 pub struct Balance {
     caps: Vec<f64>,
     blank: Vec<bool>,
     iters: u32,
     sigma: f32,
+    /// Where `balance.json` goes (None: nowhere, a run that writes no files).
+    file: Option<std::path::PathBuf>,
+    /// (iteration, weights) of every update, in order.
+    updates: std::sync::Mutex<Vec<(u32, Vec<f32>)>>,
 }
 
+/// The record of the updates beside the checkpoint.
+pub const FILE: &str = "balance.json";
+
 impl Balance {
-    pub fn new(problem: &crate::problem::Problem, blank_views: &[String], iters: u32, sigma: f32) -> Balance {
+    pub fn new(
+        problem: &crate::problem::Problem,
+        blank_views: &[String],
+        iters: u32,
+        sigma: f32,
+        out: Option<&std::path::Path>,
+    ) -> Balance {
         let caps = quality(
             &problem.scene,
             &problem.targets,
@@ -72,7 +85,48 @@ impl Balance {
                 .collect(),
             iters,
             sigma,
+            file: out.map(|d| d.join(FILE)),
+            updates: std::sync::Mutex::new(Vec::new()),
         }
+    }
+
+    /// A resumed run at iteration `k`: the updates the stopped run made up to `k`, read back
+    /// from `balance.json`, and the weights of the last of them (None without the file or an
+    /// update).
+    pub fn resumed(&self, k: u32) -> Option<Vec<f32>> {
+        let text = std::fs::read_to_string(self.file.as_ref()?).ok()?;
+        let v: serde_json::Value = serde_json::from_str(&text).ok()?;
+        let updates: Vec<(u32, Vec<f32>)> = v["updates"]
+            .as_array()?
+            .iter()
+            .filter_map(|u| {
+                let i = u["iteration"].as_u64()? as u32;
+                let w: Option<Vec<f32>> = u["weights"]
+                    .as_array()?
+                    .iter()
+                    .map(|x| x.as_f64().map(|x| x as f32))
+                    .collect();
+                Some((i, w?))
+            })
+            .filter(|(i, _)| *i <= k)
+            .collect();
+        let last = updates.last()?.1.clone();
+        *self.updates.lock().unwrap() = updates;
+        Some(last)
+    }
+
+    /// Records an update and writes `balance.json` (atomically).
+    fn record(&self, k: u32, w: &[f32]) -> Result<(), OptimError> {
+        let mut u = self.updates.lock().unwrap();
+        u.push((k, w.to_vec()));
+        if let Some(f) = &self.file {
+            let doc = serde_json::json!({
+                "what": "design --balance: each view's loss weight from each update on (engine/design/src/balance.rs); a resumed run reads it",
+                "updates": u.iter().map(|(i, w)| serde_json::json!({"iteration": i, "weights": w})).collect::<Vec<_>>(),
+            });
+            scratchart_render::io::write_atomic(f, doc.to_string().as_bytes())?;
+        }
+        Ok(())
     }
 
     /// Whether the weights are updated before iteration `k`.
@@ -81,10 +135,16 @@ impl Balance {
         k >= start && k < self.iters && (k - start) % every(self.iters) == 0
     }
 
-    /// Updates the loss's view weights where due (see the module's rule).
-    pub fn apply(&self, live: &mut Live, obs: &dyn Observer) -> Result<(), OptimError> {
+    /// Whether a run resumed at iteration `k` (to evaluate it next) runs on weights of an update
+    /// at or before it.
+    pub fn started(&self, k: u32) -> bool {
+        k >= (START * self.iters as f64).ceil() as u32 && k < self.iters
+    }
+
+    /// Updates the loss's view weights where due, or at once with `now` (see the module's rule).
+    pub fn apply(&self, live: &mut Live, obs: &dyn Observer, now: bool) -> Result<(), OptimError> {
         let k = live.iteration();
-        if !self.due(k) {
+        if !(now || self.due(k)) {
             return Ok(());
         }
         let displays: Vec<Vec<f32>> = live
@@ -106,6 +166,7 @@ impl Balance {
             .collect();
         let w = weights(&short);
         live.loss.set_view_weights(&live.renderer.ctx, &w)?;
+        self.record(k, &w)?;
         obs.info(&format!(
             "balance at iteration {k}: view weights {}",
             w.iter().map(|x| format!("{x:.2}")).collect::<Vec<_>>().join(" ")
@@ -139,6 +200,8 @@ mod tests {
             blank: vec![],
             iters: 100,
             sigma: 1.0,
+            file: None,
+            updates: Default::default(),
         };
         let due: Vec<u32> = (0..=100).filter(|&k| b.due(k)).collect();
         assert_eq!(due, vec![30, 40, 50, 60, 70, 80, 90]);

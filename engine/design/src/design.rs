@@ -228,14 +228,23 @@ impl<'r> Optimizer<'r> {
         // What was due before the first iteration of this run (all of it up to a resumed
         // run's iteration, so the targets are those of the run that stopped).
         env.live(driver, work).apply_due(scheduled, &mut next, &mut skip)?;
-        let balance = cfg
-            .balance
-            .then(|| crate::balance::Balance::new(work, &cfg.blank_views, cfg.iters, cfg.loss.sigma));
+        let balance = cfg.balance.then(|| {
+            let out = cfg.write_outputs.then_some(cfg.out.as_path());
+            crate::balance::Balance::new(work, &cfg.blank_views, cfg.iters, cfg.loss.sigma, out)
+        });
+        // A run resumed past the first update takes the stopped run's weights from balance.json
+        // (measured at once where there is none: see crate::balance).
+        if let Some(b) = balance.as_ref().filter(|b| b.started(driver.next_iter())) {
+            match b.resumed(driver.next_iter()) {
+                Some(w) => loss.set_view_weights(&renderer.ctx, &w)?,
+                None => b.apply(&mut env.live(driver, work), obs, true)?,
+            }
+        }
         driver.run_with(obs, &mut |d, ev| {
             let mut l = env.live(d, work);
             l.apply_due(scheduled, &mut next, &mut skip)?;
             if let Some(b) = &balance {
-                b.apply(&mut l, obs)?;
+                b.apply(&mut l, obs, false)?;
             }
             hook(&mut l, ev)
         })
