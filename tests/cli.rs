@@ -543,16 +543,27 @@ fn design_and_setup_write_the_same_sheet() {
         read(out.join("setup.png")) == read(again.join("setup.png")),
         "the drawings differ"
     );
-    // The summary's setup, as `setup` prints it, is the design's.
+    one_lamp_as_printed(&out, &String::from_utf8_lossy(&o.stdout));
+    // The sheet names tolerances found for the lamp and the eye, and the tightest of all.
+    let text = String::from_utf8_lossy(&t1);
+    assert_eq!(text.matches("\nLamp: ").count(), 1, "{text}");
+    assert!(text.contains("Most sensitive: "), "{text}");
+    assert!(text.contains("the eye may move"), "{text}");
+    older_and_damaged_inputs(&dir, &out);
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// The summary's setup, as `setup` printed it (`printed`), is the design's in `out`: one lamp with
+/// one intensity (the default `--exposure fixed`: the views keep exposure 1) for all three views.
+fn one_lamp_as_printed(out: &Path, printed: &str) {
+    let read = |p: PathBuf| std::fs::read(&p).unwrap_or_else(|e| panic!("{}: {e}", p.display()));
     let summary: serde_json::Value = serde_json::from_slice(&read(out.join("summary.json"))).unwrap();
-    let printed = String::from_utf8_lossy(&o.stdout);
     let line = printed
         .lines()
-        .find(|l| l.starts_with('{'))
+        .find(|l| l.trim_start().starts_with("{\""))
         .expect("setup prints its JSON");
     let setup_json: serde_json::Value = serde_json::from_str(line).unwrap();
     assert_eq!(setup_json, summary["setup"]);
-    // One lamp with one intensity (the default `--exposure fixed`: the views keep exposure 1).
     let design: serde_json::Value = serde_json::from_slice(&read(out.join("design.json"))).unwrap();
     let views = design["views"].as_array().unwrap();
     assert!(
@@ -566,13 +577,6 @@ fn design_and_setup_write_the_same_sheet() {
         summary["setup"]["lamps"][0]["views"],
         serde_json::json!(["v0", "v1", "v2"])
     );
-    // The sheet names tolerances found for the lamp and the eye, and the tightest of all.
-    let text = String::from_utf8_lossy(&t1);
-    assert_eq!(text.matches("\nLamp: ").count(), 1, "{text}");
-    assert!(text.contains("Most sensitive: "), "{text}");
-    assert!(text.contains("the eye may move"), "{text}");
-    older_and_damaged_inputs(&dir, &out);
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 /// A 3-view design of the test photos into `out` (30 iterations at 48 px).

@@ -236,9 +236,11 @@ pub fn report(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use scratchart_model::scene::{Camera, Light, LightKind, Plate, Scratch, View};
+    use scratchart_model::scene::{Plate, Scratch, View};
 
-    fn scene(eye: [f64; 3], lamp: [f64; 3], scratches: Vec<Scratch>) -> Scene {
+    /// One 32-px view of a 100 mm plate: the eye and a point lamp at (azimuth, elevation) in
+    /// degrees, 300 mm from the centre.
+    fn scene(eye: [f64; 2], lamp: [f64; 2], scratches: Vec<Scratch>) -> Scene {
         Scene {
             plate: Plate {
                 size_mm: 100.0,
@@ -248,18 +250,8 @@ mod tests {
             views: vec![View {
                 exposure: 1.0,
                 name: "v0".into(),
-                camera: Camera {
-                    eye,
-                    target: [0.0; 3],
-                    up: [0.0, 0.0, 1.0],
-                    fov_y_deg: 30.0,
-                    width: 32,
-                    height: 32,
-                },
-                light: Light {
-                    kind: LightKind::Point { position: lamp },
-                    intensity: 1.0e5,
-                },
+                camera: crate::scenes::orbit_camera(300.0, eye[1], eye[0], 100.0, 32, 32),
+                light: crate::scenes::orbit_light(300.0, lamp[1], lamp[0], 1.0e5),
             }],
             scratches,
         }
@@ -280,8 +272,8 @@ mod tests {
     /// only across the plane of eye and lamp, and only with walls steep enough.
     #[test]
     fn reach_and_service_follow_the_half_vector() {
-        let eye = [300.0 * 30f64.to_radians().sin(), 0.0, 300.0 * 30f64.to_radians().cos()];
-        let mirror = [-eye[0], 0.0, eye[2]];
+        // The eye 30 degrees from the normal (60 up), its mirror image across it.
+        let (eye, mirror) = ([0.0, 60.0], [180.0, 60.0]);
         let t = vec![1.0f32; 32 * 32];
         let s = scene(eye, mirror, vec![]);
         let p = ViewGeom::new(&s.views[0]).on_plate_mask(50.0);

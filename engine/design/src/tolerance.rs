@@ -594,26 +594,14 @@ impl SheetInputs {
 mod tests {
     use super::*;
     use scratchart_model::camera::ViewGeom;
-    use scratchart_model::scene::{Camera, Light};
 
-    fn view(eye: [f64; 3]) -> View {
+    /// A 96-px view of an 80 mm plate from (azimuth, elevation, distance), the lamp overhead.
+    fn view(azimuth: f64, elevation: f64, distance: f64) -> View {
         View {
             exposure: 1.0,
             name: "v0".into(),
-            camera: Camera {
-                eye,
-                target: [0.0; 3],
-                up: [0.0, 0.0, 1.0],
-                fov_y_deg: 30.0,
-                width: 96,
-                height: 96,
-            },
-            light: Light {
-                kind: LightKind::Point {
-                    position: [0.0, 0.0, 300.0],
-                },
-                intensity: 1.0e5,
-            },
+            camera: crate::scenes::orbit_camera(distance, elevation, azimuth, 80.0, 96, 96),
+            light: crate::scenes::orbit_light(300.0, 90.0, 0.0, 1.0e5),
         }
     }
 
@@ -624,7 +612,7 @@ mod tests {
     fn the_picture_as_seen_from_a_moved_eye() {
         let half = 40.0;
         let f = |p: [f64; 2]| 0.5 + 0.4 * (0.05 * p[0]).sin() * (0.04 * p[1] + 0.3).cos();
-        let designed = view(Place::at(0.0, 45.0, 250.0));
+        let designed = view(0.0, 45.0, 250.0);
         let seen = |v: &View| -> (Vec<f64>, Vec<bool>) {
             let g = ViewGeom::new(v);
             let (w, h) = (v.camera.width, v.camera.height);

@@ -8,7 +8,7 @@ use scratchart_observe::{MachineState, Observer, Progress};
 use scratchart_tool::machine::Firmware;
 
 use super::{CarveError, Options, SIM_PORT};
-use crate::controller::{Controller, Fault};
+use crate::controller::Controller;
 use crate::program::Program;
 use crate::stream::{stream, Control, End};
 use crate::transport::Link;
@@ -84,7 +84,7 @@ pub fn lines(program: &Program, clear: f64, feed: f64) -> Result<Vec<(String, Op
 
 /// Traces the frame on a connected controller whose position is set (the tool may stand
 /// anywhere; its first move is the rise to the clearance height). Asks first, except on a dry
-/// run. Progress is reported as task `frame`, one step per part.
+/// run. Progress is reported as task `frame`, one step per part. Returns the lines sent.
 pub(super) fn trace(
     opts: &Options,
     program: &Program,
@@ -94,7 +94,7 @@ pub(super) fn trace(
     obs: &dyn Observer,
     feed: f64,
     sim: Option<&crate::fake::Fake>,
-) -> Result<(), CarveError> {
+) -> Result<usize, CarveError> {
     let clear = clearance(opts, program);
     let lines = lines(program, clear, feed).map_err(CarveError::Input)?;
     let b = program.xy_bounds().unwrap_or_default();
@@ -147,6 +147,7 @@ pub(super) fn trace(
     match end {
         End::Done => ctl
             .wait_idle(link)
+            .map(|()| lines.len())
             .map_err(|f| CarveError::Stopped(format!("at the end of the frame trace: {f}"))),
         End::Abort => {
             let did = stop(ctl, link);
@@ -177,13 +178,9 @@ pub fn frame(opts: &Options, feed: f64, control: &Control, obs: &dyn Observer) -
     let program = Program::load(&opts.plan).map_err(|e| CarveError::Input(e.0))?;
     let t0 = std::time::Instant::now();
     let (mut link, mut ctl, sim) = super::connect(opts, &program, obs)?;
-    let fault = |f: Fault| match f {
-        Fault::Input(m) => CarveError::Input(m),
-        Fault::Machine(m) => CarveError::Stopped(m),
-    };
-    ctl.begin(&mut link, false).map_err(fault)?;
+    ctl.begin(&mut link, false)?;
     ctl.position_set();
-    trace(
+    let sent = trace(
         opts,
         &program,
         &mut link,
@@ -210,7 +207,7 @@ pub fn frame(opts: &Options, feed: f64, control: &Control, obs: &dyn Observer) -
         }),
         from: 0,
         total: PARTS.len(),
-        lines: lines(&program, clearance(opts, &program), feed).map_or(0, |l| l.len()),
+        lines: sent,
         seconds: t0.elapsed().as_secs_f64(),
     })
 }

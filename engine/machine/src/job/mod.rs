@@ -91,6 +91,16 @@ impl std::fmt::Display for CarveError {
 
 impl std::error::Error for CarveError {}
 
+/// A controller's fault as the job's error: bad input is 3, the machine's or the link's is 1.
+impl From<Fault> for CarveError {
+    fn from(f: Fault) -> CarveError {
+        match f {
+            Fault::Input(m) => CarveError::Input(m),
+            Fault::Machine(m) => CarveError::Stopped(m),
+        }
+    }
+}
+
 /// What a finished job did.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Summary {
@@ -162,17 +172,13 @@ fn carve_on(opts: &Options, control: &Control, obs: &dyn Observer) -> Result<Sum
     let from = if opts.resume { journal.resume_from() } else { 0 };
 
     let (mut link, mut ctl, sim) = connect(opts, &program, obs)?;
-    let fault = |f: Fault| match f {
-        Fault::Input(m) => CarveError::Input(m),
-        Fault::Machine(m) => CarveError::Stopped(m),
-    };
     let stopped = |m: String| CarveError::Stopped(m);
     if opts.check && opts.resume {
         return Err(CarveError::Usage(
             "--check and --resume together: check the plan in a run of its own".into(),
         ));
     }
-    ctl.begin(&mut link, opts.resume).map_err(fault)?;
+    ctl.begin(&mut link, opts.resume)?;
     check_position(opts, &mut journal, ctl.as_mut())?;
     let safe_z = program.max_z;
     if opts.check {
@@ -195,7 +201,7 @@ fn carve_on(opts: &Options, control: &Control, obs: &dyn Observer) -> Result<Sum
     }
     ask_to_start(opts, &program, from, obs)?;
     if opts.resume {
-        rezero_for_resume(opts, &mut link, ctl.as_mut(), &mut journal, &program, from, obs).map_err(fault)?;
+        rezero_for_resume(opts, &mut link, ctl.as_mut(), &mut journal, &program, from, obs)?;
         if let Some(feed) = opts.frame {
             frame::trace(
                 opts,
@@ -536,14 +542,7 @@ fn connect(opts: &Options, program: &Program, obs: &dyn Observer) -> Result<Conn
             opts.port,
         )));
     }
-    let fault = |f: Fault| match f {
-        Fault::Input(m) => CarveError::Input(m),
-        Fault::Machine(m) => CarveError::Stopped(m),
-    };
-    for n in ctl
-        .check_settings(&mut link, program, opts.profile.as_ref())
-        .map_err(fault)?
-    {
+    for n in ctl.check_settings(&mut link, program, opts.profile.as_ref())? {
         obs.info(&n);
     }
     Ok((link, ctl, sim))
