@@ -89,10 +89,12 @@ void main() {
             ViewGPU V = views[vi];
             // The band's tile rows, [r_lo, r_hi): contiguous, so the enumeration order is the
             // same with or without bands.
-            uint r_lo = 0u, r_hi = V.dims.w;
+            // (Rows and columns of tiles in the image; the view's tiles are its window's: base.zw
+            // its first column and row, dims.zw its size.)
+            uint r_lo = V.base.w, r_hi = V.base.w + V.dims.w;
             if (pc.n_bands != 0u) {
-                r_lo = (band * V.dims.w) / pc.n_bands;
-                r_hi = ((band + 1u) * V.dims.w) / pc.n_bands;
+                r_lo = V.base.w + (band * V.dims.w) / pc.n_bands;
+                r_hi = V.base.w + ((band + 1u) * V.dims.w) / pc.n_bands;
             }
             vec2 q[4];
             bool all_ok = true;
@@ -101,16 +103,16 @@ void main() {
                 q[c] = project(V, rc[c], ok);
                 all_ok = all_ok && ok;
             }
-            uint tx0 = 0u, ty0 = 0u, tx1 = V.dims.z - 1u, ty1 = V.dims.w - 1u;
+            uint tx0 = V.base.z, ty0 = V.base.w, tx1 = V.base.z + V.dims.z - 1u, ty1 = V.base.w + V.dims.w - 1u;
             float orient = 0.0;  // 0: no separating-axis test (conservative)
             if (all_ok) {
                 vec2 qmin = min(min(q[0], q[1]), min(q[2], q[3])) - 0.5;
                 vec2 qmax = max(max(q[0], q[1]), max(q[2], q[3])) + 0.5;
                 if (qmax.x < 0.0 || qmax.y < 0.0 || qmin.x > float(V.dims.x) || qmin.y > float(V.dims.y)) continue;
-                tx0 = uint(max(qmin.x, 0.0)) / TILE;
-                ty0 = uint(max(qmin.y, 0.0)) / TILE;
-                tx1 = min(uint(min(qmax.x, float(V.dims.x))) / TILE, V.dims.z - 1u);
-                ty1 = min(uint(min(qmax.y, float(V.dims.y))) / TILE, V.dims.w - 1u);
+                tx0 = max(uint(max(qmin.x, 0.0)) / TILE, tx0);
+                ty0 = max(uint(max(qmin.y, 0.0)) / TILE, ty0);
+                tx1 = min(uint(min(qmax.x, float(V.dims.x))) / TILE, tx1);
+                ty1 = min(uint(min(qmax.y, float(V.dims.y))) / TILE, ty1);
                 float a2 = 0.0;
                 for (int c = 0; c < 4; ++c) a2 += (q[c].x - q[(c + 1) & 3].x) * (q[c].y + q[(c + 1) & 3].y);
                 orient = a2 > 0.0 ? 1.0 : -1.0;  // CCW (a2 > 0): outward normal of a->b is (dy, -dx)
@@ -131,7 +133,7 @@ void main() {
                         vec2 hi = vec2(float((tx + 1u) * TILE), float((ty + 1u) * TILE)) + 0.5;
                         if (!quad_meets_rect(q, orient, lo, hi)) continue;
                     }
-                    uint tile = V.base.x + ty * V.dims.z + tx;
+                    uint tile = V.base.x + (ty - V.base.w) * V.dims.z + (tx - V.base.z);
 #if defined(PAIRS) && defined(COUNT)
                     atomicAdd(hist[tile], 1u);  // a sum of ones: the same whatever the order
 #elif defined(PAIRS)

@@ -12,12 +12,14 @@ uvec2 tile_pixel(uint lid) {
     return uvec2((lid & 3u) | ((lid >> 2) & 12u), ((lid >> 2) & 3u) | ((lid >> 4) & 12u));
 }
 
-// The view that holds `tile`, and the tile's first pixel.
+// The view that holds `tile`, and the tile's first pixel. A view's tiles are those of its window
+// (base.zw its first tile's column and row in the image, dims.zw the window's tiles across and
+// down; the whole image unless a render asked for less: `render::layout::TileWindow`).
 uint tile_view(uint tile, out uvec2 t0) {
     uint vi = 0u;
     for (uint v = 1u; v < pc.n_views; ++v) if (tile >= views[v].base.x) vi = v;
     uint lt = tile - views[vi].base.x;
-    t0 = uvec2((lt % views[vi].dims.z) * TILE, (lt / views[vi].dims.z) * TILE);
+    t0 = uvec2((lt % views[vi].dims.z + views[vi].base.z) * TILE, (lt / views[vi].dims.z + views[vi].base.w) * TILE);
     return vi;
 }
 

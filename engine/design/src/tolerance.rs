@@ -11,6 +11,7 @@ use crate::measure::{blur3, correlation};
 use scratchart_model::scene::{LightKind, Scene, View};
 use scratchart_observe::Observer;
 use scratchart_optim::error::OptimError;
+use scratchart_render::layout::TileWindow;
 use scratchart_render::Renderer;
 
 /// One render of a view with the lamp or the eye moved, and its correlation with its picture.
@@ -209,13 +210,21 @@ impl Sensitivity {
     }
 }
 
-/// Renders `views` of `scene` (in batches) and returns each one's display image.
-fn render_views(renderer: &Renderer, scene: &Scene, views: Vec<View>) -> Result<Vec<Vec<f32>>, OptimError> {
+/// Renders `views` of `scene` (in batches) and returns each one's display image. View k's render
+/// computes only the tiles that hold `masks[k]`'s pixels and their neighbours (what
+/// [`blur3`] reads for them): the pixels there are the whole render's, bit for bit; elsewhere 0.
+fn render_views(
+    renderer: &Renderer,
+    scene: &Scene,
+    views: Vec<View>,
+    masks: &[&[bool]],
+) -> Result<Vec<Vec<f32>>, OptimError> {
     let mut out = Vec::with_capacity(views.len());
-    for chunk in views.chunks(BATCH_VIEWS) {
+    for (chunk, masks) in views.chunks(BATCH_VIEWS).zip(masks.chunks(BATCH_VIEWS)) {
         let mut batch = scene.clone();
         batch.views = chunk.to_vec();
-        let mut gs = renderer.upload(&batch)?;
+        let windows: Vec<Option<TileWindow>> = chunk.iter().zip(masks).map(|(v, m)| mask_window(v, m)).collect();
+        let mut gs = renderer.upload_windowed(&batch, &windows)?;
         for img in renderer.render(&mut gs)?.images {
             out.push(
                 img.iter()
@@ -225,6 +234,27 @@ fn render_views(renderer: &Renderer, scene: &Scene, views: Vec<View>) -> Result<
         }
     }
     Ok(out)
+}
+
+/// The tiles of view `v` that hold the pixels of `mask` and the pixels next to them (None for
+/// an empty mask: nothing there is compared).
+fn mask_window(v: &View, mask: &[bool]) -> Option<TileWindow> {
+    let w = v.camera.width as usize;
+    let (mut x0, mut y0, mut x1, mut y1) = (usize::MAX, usize::MAX, 0, 0);
+    for (k, _) in mask.iter().enumerate().filter(|(_, &m)| m) {
+        let (x, y) = (k % w, k / w);
+        (x0, y0, x1, y1) = (x0.min(x), y0.min(y), x1.max(x + 1), y1.max(y + 1));
+    }
+    (x0 < x1).then(|| {
+        TileWindow::covering(
+            v.camera.width,
+            v.camera.height,
+            x0.saturating_sub(1) as u32,
+            y0.saturating_sub(1) as u32,
+            (x1 + 1) as u32,
+            (y1 + 1) as u32,
+        )
+    })
 }
 
 /// Each view's correlation with its picture as designed and, for every view that shows its
@@ -237,25 +267,26 @@ pub fn sensitivity(renderer: &Renderer, scene: &Scene, inputs: &SheetInputs) -> 
     // A render from view j as designed, or from `eye`, a view with its eye moved: against the
     // picture as it appears from there (a move that only makes the picture larger, smaller or
     // foreshortened is no loss; what the reflection does there is).
-    let corr_of = |img: &[f32], j: usize, eye: Option<&View>| {
-        let (w, h) = (scene.views[j].camera.width, scene.views[j].camera.height);
-        let blurred = blur3(img, w, h, inputs.sigma);
-        match eye {
-            None => {
-                let t: Vec<f64> = inputs.targets[j].iter().map(|&x| x as f64).collect();
-                correlation(&blurred, &t, &inputs.pictures[j])
-            }
-            Some(moved) => {
-                let (t, m) = as_seen_from(&scene.views[j], moved, &inputs.targets[j], &inputs.pictures[j], half);
-                correlation(&blurred, &t, &m)
-            }
-        }
+    // The picture view j is compared with, as seen from `eye` (view j itself when None): its
+    // target and the pixels it covers.
+    let picture_of = |j: usize, eye: Option<&View>| match eye {
+        None => (
+            inputs.targets[j].iter().map(|&x| x as f64).collect(),
+            inputs.pictures[j].clone(),
+        ),
+        Some(moved) => as_seen_from(&scene.views[j], moved, &inputs.targets[j], &inputs.pictures[j], half),
     };
-    let images = render_views(renderer, scene, scene.views.clone())?;
+    let corr_of = |img: &[f32], j: usize, (t, m): &(Vec<f64>, Vec<bool>)| {
+        let (w, h) = (scene.views[j].camera.width, scene.views[j].camera.height);
+        correlation(&blur3(img, w, h, inputs.sigma), t, m)
+    };
+    let designed: Vec<(Vec<f64>, Vec<bool>)> = (0..scene.views.len()).map(|j| picture_of(j, None)).collect();
+    let masks: Vec<&[bool]> = designed.iter().map(|(_, m)| m.as_slice()).collect();
+    let images = render_views(renderer, scene, scene.views.clone(), &masks)?;
     let base: Vec<f64> = images
         .iter()
         .enumerate()
-        .map(|(j, img)| corr_of(img, j, None))
+        .map(|(j, img)| corr_of(img, j, &designed[j]))
         .collect();
     let mut searches = Vec::new();
     for (j, v) in scene.views.iter().enumerate() {
@@ -299,10 +330,22 @@ pub fn sensitivity(renderer: &Renderer, scene: &Scene, inputs: &SheetInputs) -> 
                 variant(&scene.views[s.view], s.moved, s.axis, s.sign * size)
             })
             .collect();
-        let images = render_views(renderer, scene, views.clone())?;
-        for ((&(i, size), img), view) in step.iter().zip(&images).zip(&views) {
+        let pictures: Vec<(Vec<f64>, Vec<bool>)> = step
+            .iter()
+            .zip(&views)
+            .map(|(&(i, _), view)| {
+                let s = &searches[i];
+                match s.moved {
+                    "eye" => picture_of(s.view, Some(view)),
+                    _ => designed[s.view].clone(),
+                }
+            })
+            .collect();
+        let masks: Vec<&[bool]> = pictures.iter().map(|(_, m)| m.as_slice()).collect();
+        let images = render_views(renderer, scene, views, &masks)?;
+        for ((&(i, size), img), picture) in step.iter().zip(&images).zip(&pictures) {
             let s = &mut searches[i];
-            let corr = corr_of(img, s.view, (s.moved == "eye").then_some(view));
+            let corr = corr_of(img, s.view, picture);
             samples.push(Moved {
                 view: scene.views[s.view].name.clone(),
                 moved: s.moved,
@@ -591,98 +634,4 @@ impl SheetInputs {
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-    use scratchart_model::camera::ViewGeom;
-
-    /// A 96-px view of an 80 mm plate from (azimuth, elevation, distance), the lamp overhead.
-    fn view(azimuth: f64, elevation: f64, distance: f64) -> View {
-        View {
-            exposure: 1.0,
-            name: "v0".into(),
-            camera: crate::scenes::orbit_camera(distance, elevation, azimuth, 80.0, 96, 96),
-            light: crate::scenes::orbit_light(300.0, 90.0, 0.0, 1.0e5),
-        }
-    }
-
-    /// The picture as it appears from a moved eye: a pattern drawn on the plate, seen from the
-    /// designed eye, is found again from an eye 3% nearer or farther (or 5 degrees round), where
-    /// the picture in the designed frame differs from what that eye sees.
-    #[test]
-    fn the_picture_as_seen_from_a_moved_eye() {
-        let half = 40.0;
-        let f = |p: [f64; 2]| 0.5 + 0.4 * (0.05 * p[0]).sin() * (0.04 * p[1] + 0.3).cos();
-        let designed = view(0.0, 45.0, 250.0);
-        let seen = |v: &View| -> (Vec<f64>, Vec<bool>) {
-            let g = ViewGeom::new(v);
-            let (w, h) = (v.camera.width, v.camera.height);
-            let mut t = vec![0.0; (w * h) as usize];
-            let mut m = vec![false; (w * h) as usize];
-            for y in 0..h {
-                for x in 0..w {
-                    if let Some(p) = g
-                        .shading_point(x, y)
-                        .filter(|p| p[0].abs() <= half && p[1].abs() <= half)
-                    {
-                        t[(y * w + x) as usize] = f(p);
-                        m[(y * w + x) as usize] = true;
-                    }
-                }
-            }
-            (t, m)
-        };
-        let (t0, m0) = seen(&designed);
-        let target: Vec<f32> = t0.iter().map(|&x| x as f32).collect();
-        // Unmoved: the picture itself.
-        let (t, m) = as_seen_from(&designed, &designed, &target, &m0, half);
-        assert_eq!(m, m0, "an unmoved eye sees the picture's own pixels");
-        for k in (0..t.len()).filter(|&k| m[k]) {
-            assert!((t[k] - t0[k]).abs() < 1e-6, "pixel {k}: {} {}", t[k], t0[k]);
-        }
-        let count = |m: &[bool]| m.iter().filter(|&&o| o).count() as f64;
-        for (axis, delta) in [("distance", 0.03), ("distance", -0.03), ("azimuth", 5.0)] {
-            let moved = variant(&designed, "eye", axis, delta);
-            let (truth, on) = seen(&moved);
-            let (t, m) = as_seen_from(&designed, &moved, &target, &m0, half);
-            let (mut err, mut unwarped, mut n) = (0.0, 0.0, 0.0);
-            for k in 0..t.len() {
-                if m[k] {
-                    assert!(on[k], "{axis} {delta}: pixel {k} is off the plate from there");
-                    err += (t[k] - truth[k]).abs();
-                    unwarped += (t0[k] - truth[k]).abs();
-                    n += 1.0;
-                }
-            }
-            assert!(n > 0.8 * count(&on), "{axis} {delta}: {n}");
-            let (err, unwarped) = (err / n, unwarped / n);
-            assert!(
-                err < 0.001 && unwarped > 10.0 * err,
-                "{axis} {delta}: {err} (the frame as designed: {unwarped})"
-            );
-        }
-    }
-
-    #[test]
-    fn the_search_bisects_to_its_resolution() {
-        // A correlation that keeps 90% up to 3.3 degrees: the search finds 3.3 within 0.33.
-        let mut s = Search {
-            view: 0,
-            moved: "lamp",
-            axis: "azimuth",
-            sign: 1.0,
-            safe: 0.0,
-            lost: None,
-            next_grid: 0,
-        };
-        let mut tried = Vec::new();
-        while let Some(x) = s.next() {
-            tried.push(x);
-            s.record(x, x <= 3.3);
-        }
-        assert_eq!(&tried[..3], &[1.0, 2.0, 5.0]);
-        let lost = s.lost.unwrap();
-        assert!(s.safe <= 3.3 && lost > 3.3, "{} {lost}", s.safe);
-        assert!(lost - s.safe <= resolution("azimuth", s.safe), "{} {lost}", s.safe);
-        assert!(tried.len() <= 9, "{tried:?}");
-    }
-}
+mod tests;

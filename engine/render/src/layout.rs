@@ -29,10 +29,66 @@ pub struct ViewGpu {
     pub up: [f32; 4],
     /// xyz light position (point) or unit direction towards the light (directional)
     pub light: [f32; 4],
-    /// W, H, tiles_x, tiles_y
+    /// W, H, and the tiles across and down that a render computes (the whole image's, or its
+    /// [`TileWindow`]'s)
     pub dims: [u32; 4],
-    /// first tile index, first pixel index, 0, 0
+    /// first tile index, first pixel index, and the column and row (in tiles) of the first tile
+    /// a render computes (0, 0 for the whole image)
     pub base: [u32; 4],
+}
+
+/// The part of a view's image that a forward render computes: tiles `[x0, x0 + nx)` across and
+/// `[y0, y0 + ny)` down (16-pixel tiles). Pixels outside it come back as 0. A search that only
+/// compares part of each image (the set-up sheet's tolerances) renders just that part; the
+/// pixels inside are bit for bit those of the whole image's render (`tests/render_window.rs`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct TileWindow {
+    pub x0: u32,
+    pub y0: u32,
+    pub nx: u32,
+    pub ny: u32,
+}
+
+impl TileWindow {
+    /// The tiles of a `width` x `height` image that cover the pixels `[x0, x1) x [y0, y1)`
+    /// (clipped to the image; at least one tile).
+    pub fn covering(width: u32, height: u32, x0: u32, y0: u32, x1: u32, y1: u32) -> TileWindow {
+        let (tw, th) = (width.div_ceil(TILE).max(1), height.div_ceil(TILE).max(1));
+        let (tx0, ty0) = ((x0 / TILE).min(tw - 1), (y0 / TILE).min(th - 1));
+        let (tx1, ty1) = (
+            x1.div_ceil(TILE).clamp(tx0 + 1, tw),
+            y1.div_ceil(TILE).clamp(ty0 + 1, th),
+        );
+        TileWindow {
+            x0: tx0,
+            y0: ty0,
+            nx: tx1 - tx0,
+            ny: ty1 - ty0,
+        }
+    }
+
+    /// The whole image of a `width` x `height` view.
+    pub fn whole(width: u32, height: u32) -> TileWindow {
+        TileWindow {
+            x0: 0,
+            y0: 0,
+            nx: width.div_ceil(TILE),
+            ny: height.div_ceil(TILE),
+        }
+    }
+
+    /// This window clipped to a `width` x `height` image (at least one tile): what a render
+    /// computes when asked for it.
+    pub fn clipped(&self, width: u32, height: u32) -> TileWindow {
+        let (x1, y1) = ((self.x0 + self.nx) * TILE, (self.y0 + self.ny) * TILE);
+        TileWindow::covering(width, height, self.x0 * TILE, self.y0 * TILE, x1, y1)
+    }
+
+    /// Whether pixel (x, y) lies in one of the window's tiles.
+    pub fn contains(&self, x: u32, y: u32) -> bool {
+        let (tx, ty) = (x / TILE, y / TILE);
+        tx >= self.x0 && tx < self.x0 + self.nx && ty >= self.y0 && ty < self.y0 + self.ny
+    }
 }
 
 /// The camera of a view in float64 (`ViewGPU64`): footprint corners and shading points are ray
@@ -157,13 +213,18 @@ pub struct ViewSlots {
 }
 
 pub fn view_gpu(view: &View, tile_base: u32, pixel_base: u32) -> ViewGpu {
+    view_gpu_in(view, tile_base, pixel_base, None)
+}
+
+/// [`view_gpu`] whose renders compute only `window`'s tiles (None: the whole image).
+pub fn view_gpu_in(view: &View, tile_base: u32, pixel_base: u32, window: Option<TileWindow>) -> ViewGpu {
     let cam = &view.camera;
     // engine/docs/model.md section 4: f = normalize(T - C), r = normalize(f x U), up' = r x f.
     let b = cam.basis();
     let (fwd, right, up) = (b.fwd, b.right, b.up);
     let (w, h) = (cam.width, cam.height);
-    let tiles_x = w.div_ceil(TILE);
-    let tiles_y = h.div_ceil(TILE);
+    // (A window is clipped to the image and holds at least one tile, as `covering` makes it.)
+    let win = window.map_or_else(|| TileWindow::whole(w, h), |t| t.clipped(w, h));
     let f3 = |v: [f64; 3], w: f32| [v[0] as f32, v[1] as f32, v[2] as f32, w];
     let (kind, light) = match view.light.kind {
         LightKind::Point { position } => (0.0, position),
@@ -175,8 +236,8 @@ pub fn view_gpu(view: &View, tile_base: u32, pixel_base: u32) -> ViewGpu {
         right: f3(right.to_array(), 0.0),
         up: f3(up.to_array(), kind),
         light: f3(light, 0.0),
-        dims: [w, h, tiles_x, tiles_y],
-        base: [tile_base, pixel_base, 0, 0],
+        dims: [w, h, win.nx, win.ny],
+        base: [tile_base, pixel_base, win.x0, win.y0],
     }
 }
 
@@ -194,11 +255,17 @@ pub fn view_gpu64(view: &View) -> ViewGpu64 {
 }
 
 pub fn view_slots(scene: &Scene) -> ViewSlots {
+    view_slots_in(scene, &[])
+}
+
+/// [`view_slots`] where view v's renders compute only `windows[v]`'s tiles (None, or past the
+/// end of `windows`: the whole image).
+pub fn view_slots_in(scene: &Scene, windows: &[Option<TileWindow>]) -> ViewSlots {
     let mut views = Vec::with_capacity(scene.views.len());
     let views64 = scene.views.iter().map(view_gpu64).collect();
     let (mut tiles, mut pixels) = (0u32, 0u64);
-    for v in &scene.views {
-        let gv = view_gpu(v, tiles, pixels as u32);
+    for (k, v) in scene.views.iter().enumerate() {
+        let gv = view_gpu_in(v, tiles, pixels as u32, windows.get(k).copied().flatten());
         tiles += gv.dims[2] * gv.dims[3];
         pixels += v.camera.width as u64 * v.camera.height as u64;
         views.push(gv);

@@ -207,6 +207,14 @@ impl Renderer {
         GpuScene::new(&self.ctx, scene)
     }
 
+    /// [`Renderer::upload`] for forward renders of part of each image: view v's renders compute
+    /// only `windows[v]`'s tiles (None, or past the end of `windows`: the whole image), and
+    /// [`Renderer::render`] returns 0 outside them. Inside, the pixels are those of the whole
+    /// image's render, bit for bit.
+    pub fn upload_windowed(&self, scene: &Scene, windows: &[Option<layout::TileWindow>]) -> Result<GpuScene, GpuError> {
+        GpuScene::new_in(&self.ctx, scene, windows)
+    }
+
     /// Records binning of `gs` into `rec`, in its [`BinMode`].
     fn record_binning(&self, rec: &mut Recorder, gs: &GpuScene) {
         match &gs.bin.pair_sort {
@@ -459,7 +467,22 @@ impl Renderer {
             .iter()
             .map(|v| {
                 let n = v.dims[0] as usize * v.dims[1] as usize;
-                all[v.base[1] as usize..v.base[1] as usize + n].to_vec()
+                let mut img = all[v.base[1] as usize..v.base[1] as usize + n].to_vec();
+                // A window's render leaves the pixels outside it unwritten: 0 there.
+                let win = layout::TileWindow {
+                    x0: v.base[2],
+                    y0: v.base[3],
+                    nx: v.dims[2],
+                    ny: v.dims[3],
+                };
+                if win != layout::TileWindow::whole(v.dims[0], v.dims[1]) {
+                    for (k, p) in img.iter_mut().enumerate() {
+                        if !win.contains(k as u32 % v.dims[0], k as u32 / v.dims[0]) {
+                            *p = 0.0;
+                        }
+                    }
+                }
+                img
             })
             .collect())
     }

@@ -180,9 +180,19 @@ impl GpuScene {
     /// Uploads a (validated) scene. Fails with a clear error when a buffer would exceed the
     /// device's storage-buffer limit.
     pub(super) fn new(ctx: &std::sync::Arc<Context>, scene: &Scene) -> Result<GpuScene, GpuError> {
+        GpuScene::new_in(ctx, scene, &[])
+    }
+
+    /// [`GpuScene::new`] whose renders compute only each view's window (`windows[v]`; None or
+    /// past the end: the whole image): see [`layout::TileWindow`].
+    pub(super) fn new_in(
+        ctx: &std::sync::Arc<Context>,
+        scene: &Scene,
+        windows: &[Option<layout::TileWindow>],
+    ) -> Result<GpuScene, GpuError> {
         // Every size against the device before anything is allocated.
         let sizes: Vec<(u32, u32)> = scene.views.iter().map(|v| (v.camera.width, v.camera.height)).collect();
-        let dims = crate::limits::SceneDims::new(&sizes, scene.scratches.len() as u64, false);
+        let mut dims = crate::limits::SceneDims::new(&sizes, scene.scratches.len() as u64, false);
         if let Some((what, size, limit)) = dims.over_device_limit(ctx.info()) {
             return Err(GpuError::BufferTooLarge {
                 name: format!(
@@ -196,12 +206,11 @@ impl GpuScene {
         if let Some(why) = dims.over_loop_limit(ctx.info()) {
             return Err(GpuError::Capacity(format!("{why}; use smaller views")));
         }
-        let slots = layout::view_slots(scene);
-        assert_eq!(
-            (slots.n_pixels, slots.n_tiles as u64),
-            (dims.pixels, dims.tiles),
-            "one count of pixels and tiles"
-        );
+        let slots = layout::view_slots_in(scene, windows);
+        assert_eq!(slots.n_pixels, dims.pixels, "one count of pixels");
+        assert!(slots.n_tiles as u64 <= dims.tiles, "a window is part of its image");
+        // The tiles a render computes: the windows' (the limits above held for whole images).
+        dims.tiles = slots.n_tiles as u64;
         let n_scratches = scene.scratches.len() as u32;
         let mode = BinMode::for_device(ctx.info());
         let n_groups = dims.groups() as u32;
@@ -674,7 +683,10 @@ impl GpuScene {
             if v.camera.width != old.dims[0] || v.camera.height != old.dims[1] {
                 return Ok(false);
             }
-            new.push(layout::view_gpu(v, old.base[0], old.base[1]));
+            let mut gv = layout::view_gpu(v, old.base[0], old.base[1]);
+            // The same window as uploaded.
+            (gv.dims[2], gv.dims[3], gv.base[2], gv.base[3]) = (old.dims[2], old.dims[3], old.base[2], old.base[3]);
+            new.push(gv);
         }
         let new64: Vec<_> = views.iter().map(layout::view_gpu64).collect();
         let phi: Vec<f32> = views.iter().map(|v| v.radiance_scale() as f32).collect();
