@@ -173,7 +173,7 @@ pub fn plan(a: &PlanArgs) -> Result<()> {
         None => None,
     };
     let mut summary = Vec::new();
-    let surface = surface_depth_mm(tool.as_ref().map(|t| t.z_offset_mm()));
+    let surface = plate_surface(tool.as_ref(), &extra, design, &mut summary);
     let (depths, mismatch) = plan_depths(a, &scene, &extra, tool.as_ref(), surface, &mut summary)?;
     carvable_as_designed(a, &m, &depths, &mismatch, surface, &mut summary)?;
     if let Some(t) = &tool {
@@ -284,6 +284,36 @@ pub fn plan(a: &PlanArgs) -> Result<()> {
         }
     }
     Ok(())
+}
+
+/// The commanded depth of the plate's surface: where the tool's z offset puts it (`--tool`),
+/// or without --tool, for a design whose commanded depths are its z_mm column, where the z
+/// offset of the tool it was made with puts it (its summary.json); else commanded zero.
+fn plate_surface(
+    tool: Option<&Tool>,
+    extra: &scratchart_model::scene_file::Extra,
+    design: &Path,
+    summary: &mut Vec<String>,
+) -> f64 {
+    let offset = tool.map(|t| t.z_offset_mm()).or_else(|| {
+        let o = extra.column("z_mm").and_then(|_| design_tool_offset(design))?;
+        summary.push(format!(
+            "the surface at commanded depth {:.4} mm: the z offset of the tool the design was made with (its summary.json)",
+            -o
+        ));
+        Some(o)
+    });
+    surface_depth_mm(offset)
+}
+
+/// The z offset of the tool that `design` was made with (`summary.json` beside it,
+/// `fabrication.tool`), if it says.
+fn design_tool_offset(design: &Path) -> Option<f64> {
+    let text = std::fs::read_to_string(design.parent()?.join("summary.json")).ok()?;
+    let v: serde_json::Value = serde_json::from_str(&text).ok()?;
+    v["fabrication"]["tool"]["z_offset_mm"]
+        .as_f64()
+        .filter(|o| o.is_finite())
 }
 
 /// Whether the plan carves the design as it was designed: every cut at least the machine's

@@ -429,6 +429,26 @@ fn a_design_not_made_for_the_tool_and_machine_is_refused_unless_forced() {
             && e.contains("scratch 8"),
         "{e}"
     );
+    // The same depths from a design made with a tool whose z offset puts the surface 0.01 mm
+    // above commanded zero (its summary.json says so): 0.012 commanded is 0.022 below the
+    // surface, and the plan is written, saying where it took the surface from.
+    std::fs::create_dir_all(dir.join("made")).unwrap();
+    scene
+        .save_extra(&dir.join("made/shallow.json"), "s.csv", &extra)
+        .unwrap();
+    std::fs::write(
+        dir.join("made/summary.json"),
+        r#"{"fabrication": {"tool": {"kind": "v-bit", "angle_deg": 60.0, "tip_flat_mm": 0.01, "z_offset_mm": 0.01}}}"#,
+    )
+    .unwrap();
+    let o = run(&["plan", "made/shallow.json", "--out", "made/s.nc"]);
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(0), "{e}");
+    let g = std::fs::read_to_string(dir.join("made/s.nc")).unwrap();
+    assert!(
+        format!("{e}{g}").contains("the surface at commanded depth -0.0100 mm"),
+        "{e}\n{g}"
+    );
     // Forced: written, with a warning and the header's record.
     let o = run(&["plan", "plain.json", "--tool", "tool.json", "--out", "f.nc", "--force"]);
     let e = String::from_utf8_lossy(&o.stderr);

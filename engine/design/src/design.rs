@@ -198,7 +198,7 @@ impl<'r> Optimizer<'r> {
 
     /// [`Optimizer::run`] with a live hook after each accepted iteration (see [`Live`]). `work`
     /// is the problem as the run goes (its targets change when the design is steered); the
-    /// `scheduled` steering is applied where due, before the user's hook.
+    /// `scheduled` steering is applied where due, after the loss's balance and before the user's hook.
     pub fn run_live(
         &mut self,
         obs: &dyn Observer,
@@ -242,10 +242,13 @@ impl<'r> Optimizer<'r> {
         }
         driver.run_with(obs, &mut |d, ev| {
             let mut l = env.live(d, work);
-            l.apply_due(scheduled, &mut next, &mut skip)?;
+            // The balance first: it measures the render of the iteration just accepted, before
+            // any steering (scheduled here, or live in the hook) changes the scratches or the
+            // targets, so a live run and its replay weigh alike.
             if let Some(b) = &balance {
                 b.apply(&mut l, obs, false)?;
             }
+            l.apply_due(scheduled, &mut next, &mut skip)?;
             hook(&mut l, ev)
         })
     }

@@ -95,12 +95,13 @@ pub struct DesignArgs {
     /// Views from a file instead: a JSON array of engine/docs/model.md view objects (their lights' intensities are used as given)
     #[arg(long, conflicts_with_all = ["views", "res", "elevation", "light_azimuth", "light_elevation", "light_distance"])]
     pub view_file: Option<PathBuf>,
-    /// Number of scratches (default 6000; for a walk, 1000 per walk view, at least 6000: a plate
-    /// that shows more pictures needs more scratches)
+    /// Number of scratches (default 10000; for a walk, 1000 per walk view, at least 10000: a
+    /// plate that shows more pictures needs more scratches)
     #[arg(long)]
     pub scratches: Option<usize>,
-    /// Optimization iterations
-    #[arg(long, default_value_t = 200)]
+    /// Optimization iterations (the default's 10,000 scratches and 140 iterations are where the
+    /// 2-core machine's time pays most: engine/docs/worst_view.md)
+    #[arg(long, default_value_t = 140)]
     pub iters: u32,
     /// View resolution (square), pixels
     #[arg(long, default_value_t = 112)]
@@ -169,9 +170,13 @@ pub struct DesignArgs {
     #[arg(long, default_value_t = 0.01)]
     pub lambda_g: f32,
     /// Weigh each view in the loss by how far it stands below what its picture allows, from 30%
-    /// of the run on (every tenth of the run; engine/docs/worst_view.md measures it)
-    #[arg(long)]
+    /// of the run on (every tenth of the run; engine/docs/worst_view.md measures it). The
+    /// default; --no-balance weighs every view alike
+    #[arg(long, overrides_with = "no_balance")]
     pub balance: bool,
+    /// Weigh every view alike in the loss (the loss before --balance became the default)
+    #[arg(long)]
+    pub no_balance: bool,
     /// Standard deviation of the loss's 3x3 Gaussian blur, pixels
     #[arg(long, default_value_t = 1.0)]
     pub blur_sigma: f32,
@@ -302,7 +307,7 @@ impl DesignArgs {
             lr_light: self.lr_light,
             lambda_p: self.lambda_p,
             lambda_g: self.lambda_g,
-            balance: self.balance,
+            balance: !self.no_balance,
             blur_sigma: self.blur_sigma,
             out: self.out.clone(),
             checkpoint_every: self.checkpoint_every,
@@ -370,5 +375,11 @@ mod tests {
         assert_eq!(spec.exposure, scratchart_design::spec::Exposure::Free);
         assert_eq!(spec.machine, Some(scratchart_tool::machine::Firmware::Marlin));
         assert_eq!(spec.tool.as_deref(), Some(std::path::Path::new("t.json")));
+        // The loss's balance is on unless --no-balance (the last of the two wins).
+        assert!(spec.balance);
+        let balance_of = |flags: &[&str]| Cli::try_parse_from(flags).unwrap().design.spec().balance;
+        assert!(!balance_of(&["design", "--no-balance"]));
+        assert!(balance_of(&["design", "--no-balance", "--balance"]));
+        assert!(!balance_of(&["design", "--balance", "--no-balance"]));
     }
 }

@@ -43,7 +43,11 @@ pub const LIGHT_ELEVATION_ABOVE_VIEWS: f64 = 20.0;
 /// ... and this many times the views' distance from the plate centre.
 pub const LIGHT_DISTANCE_FACTOR: f64 = 1.0;
 /// Scratches of a design without `scratches` (a walk has 1000 per walk view, at least this).
-pub const DEFAULT_SCRATCHES: usize = 6000;
+/// With [`DEFAULT_ITERS`] and the loss's balance, where the 2-core machine's 16 seconds pay
+/// most (engine/docs/worst_view.md: the worst view 0.006 to 0.054 higher than 6,000 x 200).
+pub const DEFAULT_SCRATCHES: usize = 10_000;
+/// Iterations of a design without `iters`.
+pub const DEFAULT_ITERS: u32 = 140;
 
 /// How each view's brightness is set (`--exposure`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -149,7 +153,7 @@ impl Default for DesignSpec {
             object_yaw: 0.0,
             view_file: None,
             scratches: None,
-            iters: 200,
+            iters: DEFAULT_ITERS,
             res: 112,
             seed: 1,
             elevation: 45.0,
@@ -170,7 +174,7 @@ impl Default for DesignSpec {
             lr_light: None,
             lambda_p: 1.0,
             lambda_g: 0.01,
-            balance: false,
+            balance: true,
             blur_sigma: 1.0,
             out: PathBuf::from("out"),
             checkpoint_every: 50,
