@@ -95,17 +95,22 @@ pub struct DesignArgs {
     /// Views from a file instead: a JSON array of engine/docs/model.md view objects (their lights' intensities are used as given)
     #[arg(long, conflicts_with_all = ["views", "res", "elevation", "light_azimuth", "light_elevation", "light_distance"])]
     pub view_file: Option<PathBuf>,
-    /// Number of scratches (default 10000; for a walk, 1000 per walk view, at least 10000: a
-    /// plate that shows more pictures needs more scratches)
+    /// The design's size where --scratches, --iters and --res do not say: `default` (10,000
+    /// scratches, 140 iterations, 112 px: where a 2-core CPU's 16 seconds pay most,
+    /// engine/docs/worst_view.md) or `paper` (the paper's scale for a GPU: 40,000 scratches, 300
+    /// iterations, 512 px; a few seconds on a large GPU, hours on a CPU)
+    #[arg(long, value_enum, default_value_t = Preset::Default)]
+    pub preset: Preset,
+    /// Number of scratches (default 10000, --preset paper 40000; for a walk, 1000 per walk view,
+    /// at least that: a plate that shows more pictures needs more scratches)
     #[arg(long)]
     pub scratches: Option<usize>,
-    /// Optimization iterations (the default's 10,000 scratches and 140 iterations are where the
-    /// 2-core machine's time pays most: engine/docs/worst_view.md)
-    #[arg(long, default_value_t = 140)]
-    pub iters: u32,
-    /// View resolution (square), pixels
-    #[arg(long, default_value_t = 112)]
-    pub res: u32,
+    /// Optimization iterations (default 140, --preset paper 300)
+    #[arg(long)]
+    pub iters: Option<u32>,
+    /// View resolution (square), pixels (default 112, --preset paper 512)
+    #[arg(long)]
+    pub res: Option<u32>,
     /// Seed of the random initial scratches
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
@@ -259,7 +264,44 @@ pub struct DesignArgs {
     pub inject_stop_at: Option<u32>,
 }
 
+/// `--preset`: the design's size where its flags do not say.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum Preset {
+    /// 10,000 scratches (a walk: 1000 per view, at least that), 140 iterations, 112 px.
+    Default,
+    /// The paper's scale: 40,000 scratches, 300 iterations, 512 px.
+    Paper,
+}
+
+impl Preset {
+    /// Scratches (None: the default's rule, which floors a walk's at 1000 per view).
+    pub fn scratches(self) -> Option<usize> {
+        match self {
+            Preset::Default => None,
+            Preset::Paper => Some(40_000),
+        }
+    }
+    pub fn iters(self) -> u32 {
+        match self {
+            Preset::Default => scratchart_design::spec::DEFAULT_ITERS,
+            Preset::Paper => 300,
+        }
+    }
+    pub fn res(self) -> u32 {
+        match self {
+            Preset::Default => scratchart_design::spec::DEFAULT_RES,
+            Preset::Paper => 512,
+        }
+    }
+}
+
 impl DesignArgs {
+    /// Whether the flags leave the design's size to the default preset (no --preset, --scratches,
+    /// --iters or --res).
+    pub fn default_size(&self) -> bool {
+        self.preset == Preset::Default && self.scratches.is_none() && self.iters.is_none() && self.res.is_none()
+    }
+
     /// The design these flags specify (`--quiet` is the terminal's, not the design's).
     pub fn spec(&self) -> DesignSpec {
         DesignSpec {
@@ -282,9 +324,9 @@ impl DesignArgs {
             object_depth: self.object_depth,
             object_yaw: self.object_yaw,
             view_file: self.view_file.clone(),
-            scratches: self.scratches,
-            iters: self.iters,
-            res: self.res,
+            scratches: self.scratches.or(self.preset.scratches()),
+            iters: self.iters.unwrap_or(self.preset.iters()),
+            res: self.res.unwrap_or(self.preset.res()),
             seed: self.seed,
             elevation: self.elevation,
             light_azimuth: self.light_azimuth,
@@ -381,5 +423,20 @@ mod tests {
         assert!(!balance_of(&["design", "--no-balance"]));
         assert!(balance_of(&["design", "--no-balance", "--balance"]));
         assert!(!balance_of(&["design", "--balance", "--no-balance"]));
+    }
+
+    #[test]
+    fn a_preset_sizes_what_the_flags_leave() {
+        let spec = |flags: &[&str]| Cli::try_parse_from(flags).unwrap().design.spec();
+        let paper = spec(&["design", "--preset", "paper"]);
+        assert_eq!((paper.scratches, paper.iters, paper.res), (Some(40_000), 300, 512));
+        let mixed = spec(&["design", "--preset", "paper", "--iters", "50", "--scratches", "900"]);
+        assert_eq!((mixed.scratches, mixed.iters, mixed.res), (Some(900), 50, 512));
+        let default = spec(&["design", "--res", "64"]);
+        assert_eq!((default.scratches, default.iters, default.res), (None, 140, 64));
+        let args = |flags: &[&str]| Cli::try_parse_from(flags).unwrap().design;
+        assert!(args(&["design"]).default_size());
+        assert!(!args(&["design", "--iters", "140"]).default_size());
+        assert!(!args(&["design", "--preset", "paper"]).default_size());
     }
 }

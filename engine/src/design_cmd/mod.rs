@@ -40,6 +40,13 @@ pub fn run(ctx: &Arc<Context>, args: &DesignArgs, obs: &dyn Observer) -> anyhow:
 /// --design` runs the same.
 pub fn prepare(ctx: &Arc<Context>, args: &DesignArgs, obs: &dyn Observer) -> anyhow::Result<(Problem, DesignConfig)> {
     let spec: DesignSpec = args.spec();
+    // A GPU runs the default size in a blink: say what it can do instead.
+    if args.default_size() && matches!(ctx.info().kind.as_str(), "discrete" | "integrated") {
+        obs.info(&format!(
+            "{} is a GPU: --preset paper designs at the paper's scale (40,000 scratches, 512 px, 300 iterations)",
+            ctx.info().name
+        ));
+    }
     let (problem, mut cfg) = scratchart_design::spec::prepare(ctx, &spec, obs)?;
     cfg.started = Some(crate::exit::process_start());
     Ok((problem, cfg))

@@ -48,6 +48,8 @@ pub const LIGHT_DISTANCE_FACTOR: f64 = 1.0;
 pub const DEFAULT_SCRATCHES: usize = 10_000;
 /// Iterations of a design without `iters`.
 pub const DEFAULT_ITERS: u32 = 140;
+/// View resolution (square, pixels) of a design without `res`.
+pub const DEFAULT_RES: u32 = 112;
 
 /// How each view's brightness is set (`--exposure`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -154,7 +156,7 @@ impl Default for DesignSpec {
             view_file: None,
             scratches: None,
             iters: DEFAULT_ITERS,
-            res: 112,
+            res: DEFAULT_RES,
             seed: 1,
             elevation: 45.0,
             light_azimuth: None,
