@@ -32,6 +32,13 @@ for run in 1 2; do
   { time "$BIN/scratchart" design $DESIGN --quiet --out "/tmp/design$run"; } >> "$OUT/design.log" 2>&1
   grep -o '"wall_s":{[^}]*}' "/tmp/design$run/summary.json" >> "$OUT/design.log" 2>/dev/null
 done
+# 3b. Issue 50's GPU preset on the default pictures: wall time, and each view's correlation
+#     against its cap (the bar: every view within 0.015 of it).
+if [ "$QUICK" != quick ]; then
+  rm -rf /tmp/paper
+  { echo "preset paper:"; time "$BIN/scratchart" design --preset paper --quiet --out /tmp/paper; } >> "$OUT/design.log" 2>&1
+  grep -o '"corr_final": [0-9.]*\|"corr_perfect": [0-9.]*' /tmp/paper/summary.json >> "$OUT/design.log" 2>/dev/null
+fi
 # 4. The viewer, headless (no display there): the demo plate (8,171 scratches) at 1920x1080, then
 #    issue 32's cases, 100,000 scratches at 1920x1080 and 400,000 at 3840x2160 (unoptimized,
 #    unpruned designs of random scratches).
@@ -62,7 +69,7 @@ fi
   echo "# GPU measurements ($(date -u +%F))"
   echo; echo "## bench (default bands)"; grep -E '^\||^device' "$OUT/bench.md"
   echo; echo "## bench, pair search in the groups mode (with the GPU's bands, then none)"; grep -E '^\| [A-Z]' "$OUT/bench_nobands.md" | head -10
-  echo; echo "## design $DESIGN"; grep -E 'wall' "$OUT/design.log"
+  echo; echo "## design $DESIGN, then --preset paper"; grep -E 'wall|preset|corr_' "$OUT/design.log"
   echo; echo "## viewer"; grep -E '^###|^mode|^headless|^device|^  [0-9]' "$OUT/viewer.md"
   echo; echo "## adaptive against the closed form; the backward's replay against search"; cat "$OUT/adaptive.md" 2>/dev/null
   echo; echo "## study verdict"; tail -n 4 "$OUT/study_verdict.txt" 2>/dev/null
