@@ -65,24 +65,26 @@ fn a_view_weight_scales_its_terms_and_its_gradient() {
 fn design_balance_records_the_weights_it_ended_with() {
     let out = std::env::temp_dir().join(format!("scratchart-balance-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&out);
-    let o = run_scratchart(&[
-        "design",
-        "--balance",
-        "--scratches",
-        "300",
-        "--iters",
-        "40",
-        "--res",
-        "32",
-        "--out",
-        out.to_str().unwrap(),
-    ]);
-    let said = format!(
-        "{}{}",
-        String::from_utf8_lossy(&o.stdout),
-        String::from_utf8_lossy(&o.stderr)
-    );
-    assert_eq!(o.status.code(), Some(0), "{said}");
+    // The default (no flag) balances; --no-balance does not.
+    let run = |extra: &[&str]| {
+        let mut a = vec!["design", "--scratches", "300", "--iters", "40", "--res", "32"];
+        a.extend(extra);
+        a.extend(["--out", out.to_str().unwrap()]);
+        let o = run_scratchart(&a);
+        let said = format!(
+            "{}{}",
+            String::from_utf8_lossy(&o.stdout),
+            String::from_utf8_lossy(&o.stderr)
+        );
+        assert_eq!(o.status.code(), Some(0), "{said}");
+        said
+    };
+    let said = run(&["--no-balance"]);
+    assert!(!said.contains("balance at iteration"), "{said}");
+    let s: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    assert!(s.get("balance").is_none(), "{s}");
+    let said = run(&[]);
     assert!(said.contains("balance at iteration 12: view weights"), "{said}");
     let s: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();

@@ -330,18 +330,19 @@ pub fn sensitivity(renderer: &Renderer, scene: &Scene, inputs: &SheetInputs) -> 
                 variant(&scene.views[s.view], s.moved, s.axis, s.sign * size)
             })
             .collect();
-        let pictures: Vec<(Vec<f64>, Vec<bool>)> = step
+        // (A moved lamp leaves the picture where it was: the designed view's, not copied.)
+        let pictures: Vec<std::borrow::Cow<(Vec<f64>, Vec<bool>)>> = step
             .iter()
             .zip(&views)
             .map(|(&(i, _), view)| {
                 let s = &searches[i];
                 match s.moved {
-                    "eye" => picture_of(s.view, Some(view)),
-                    _ => designed[s.view].clone(),
+                    "eye" => std::borrow::Cow::Owned(picture_of(s.view, Some(view))),
+                    _ => std::borrow::Cow::Borrowed(&designed[s.view]),
                 }
             })
             .collect();
-        let masks: Vec<&[bool]> = pictures.iter().map(|(_, m)| m.as_slice()).collect();
+        let masks: Vec<&[bool]> = pictures.iter().map(|p| p.1.as_slice()).collect();
         let images = render_views(renderer, scene, views, &masks)?;
         for ((&(i, size), img), picture) in step.iter().zip(&images).zip(&pictures) {
             let s = &mut searches[i];

@@ -37,6 +37,18 @@ pub struct ViewGpu {
     pub base: [u32; 4],
 }
 
+impl ViewGpu {
+    /// The tiles a render of this view computes.
+    pub fn window(&self) -> TileWindow {
+        TileWindow {
+            x0: self.base[2],
+            y0: self.base[3],
+            nx: self.dims[2],
+            ny: self.dims[3],
+        }
+    }
+}
+
 /// The part of a view's image that a forward render computes: tiles `[x0, x0 + nx)` across and
 /// `[y0, y0 + ny)` down (16-pixel tiles). Pixels outside it come back as 0. A search that only
 /// compares part of each image (the set-up sheet's tolerances) renders just that part; the

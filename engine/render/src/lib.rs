@@ -469,12 +469,7 @@ impl Renderer {
                 let n = v.dims[0] as usize * v.dims[1] as usize;
                 let mut img = all[v.base[1] as usize..v.base[1] as usize + n].to_vec();
                 // A window's render leaves the pixels outside it unwritten: 0 there.
-                let win = layout::TileWindow {
-                    x0: v.base[2],
-                    y0: v.base[3],
-                    nx: v.dims[2],
-                    ny: v.dims[3],
-                };
+                let win = v.window();
                 if win != layout::TileWindow::whole(v.dims[0], v.dims[1]) {
                     for (k, p) in img.iter_mut().enumerate() {
                         if !win.contains(k as u32 % v.dims[0], k as u32 / v.dims[0]) {

@@ -683,10 +683,8 @@ impl GpuScene {
             if v.camera.width != old.dims[0] || v.camera.height != old.dims[1] {
                 return Ok(false);
             }
-            let mut gv = layout::view_gpu(v, old.base[0], old.base[1]);
             // The same window as uploaded.
-            (gv.dims[2], gv.dims[3], gv.base[2], gv.base[3]) = (old.dims[2], old.dims[3], old.base[2], old.base[3]);
-            new.push(gv);
+            new.push(layout::view_gpu_in(v, old.base[0], old.base[1], Some(old.window())));
         }
         let new64: Vec<_> = views.iter().map(layout::view_gpu64).collect();
         let phi: Vec<f32> = views.iter().map(|v| v.radiance_scale() as f32).collect();

@@ -82,93 +82,106 @@ pub fn lines(program: &Program, clear: f64, feed: f64) -> Result<Vec<(String, Op
     Ok(out)
 }
 
-/// Traces the frame on a connected controller whose position is set (the tool may stand
-/// anywhere; its first move is the rise to the clearance height). Asks first, except on a dry
-/// run. Progress is reported as task `frame`, one step per part. Returns the lines sent.
-pub(super) fn trace(
-    opts: &Options,
-    program: &Program,
-    link: &mut Link,
-    ctl: &mut dyn Controller,
-    control: &Control,
-    obs: &dyn Observer,
-    feed: f64,
-    sim: Option<&crate::fake::Fake>,
-) -> Result<usize, CarveError> {
-    let clear = clearance(opts, program);
-    let lines = lines(program, clear, feed).map_err(CarveError::Input)?;
-    let b = program.xy_bounds().unwrap_or_default();
-    let what = format!(
-        "the job's bounding box (X {:.1} to {:.1}, Y {:.1} to {:.1} mm){} at Z{clear:.3} (clearance), \
+/// What a frame trace needs beside the connection: the job, its options, the feed.
+pub(super) struct Tracer<'a> {
+    pub(super) opts: &'a Options,
+    pub(super) program: &'a Program,
+    pub(super) control: &'a Control,
+    pub(super) obs: &'a dyn Observer,
+    /// mm/min along the frame
+    pub(super) feed: f64,
+    /// The simulated controller of a dry run (its own position in the progress).
+    pub(super) sim: Option<&'a crate::fake::Fake>,
+}
+
+impl Tracer<'_> {
+    /// Traces the frame on a connected controller whose position is set (the tool may stand
+    /// anywhere; its first move is the rise to the clearance height). Asks first, except on a
+    /// dry run. Progress is reported as task `frame`, one step per part. Returns the lines sent.
+    pub(super) fn trace(&self, link: &mut Link, ctl: &mut dyn Controller) -> Result<usize, CarveError> {
+        let Tracer {
+            opts,
+            program,
+            control,
+            obs,
+            feed,
+            sim,
+        } = *self;
+        let clear = clearance(opts, program);
+        let lines = lines(program, clear, feed).map_err(CarveError::Input)?;
+        let b = program.xy_bounds().unwrap_or_default();
+        let what = format!(
+            "the job's bounding box (X {:.1} to {:.1}, Y {:.1} to {:.1} mm){} at Z{clear:.3} (clearance), \
          at {feed:.0} mm/min, then back to X0 Y0",
-        b[0],
-        b[2],
-        b[1],
-        b[3],
-        program
-            .plate_mm
-            .map_or(String::new(), |p| format!(", then the {p} mm plate's outline"))
-    );
-    if opts.port != SIM_PORT
-        && !obs.confirm(&format!(
-            "trace {what} on {}? The work zero must be set: X0 Y0 at the plate centre, Z0 on its surface",
-            opts.port
-        ))
-    {
-        return Err(CarveError::Stopped("frame not traced: the answer was no".into()));
-    }
-    obs.info(&format!("frame: tracing {what}"));
-    let parts = PARTS.len() as u64;
-    let mut on_part = |part: usize, state: &str, pos: Option<[f64; 3]>| {
-        let machine = MachineState {
-            label: PARTS[part].to_string(),
-            eta_s: None,
-            state: state.to_string(),
-            // A dry run outpaces the status polls: the simulated controller's own position.
-            pos: sim.map(|f| f.pos()).or(pos),
+            b[0],
+            b[2],
+            b[1],
+            b[3],
+            program
+                .plate_mm
+                .map_or(String::new(), |p| format!(", then the {p} mm plate's outline"))
+        );
+        if opts.port != SIM_PORT
+            && !obs.confirm(&format!(
+                "trace {what} on {}? The work zero must be set: X0 Y0 at the plate centre, Z0 on its surface",
+                opts.port
+            ))
+        {
+            return Err(CarveError::Stopped("frame not traced: the answer was no".into()));
+        }
+        obs.info(&format!("frame: tracing {what}"));
+        let parts = PARTS.len() as u64;
+        let mut on_part = |part: usize, state: &str, pos: Option<[f64; 3]>| {
+            let machine = MachineState {
+                label: PARTS[part].to_string(),
+                eta_s: None,
+                state: state.to_string(),
+                // A dry run outpaces the status polls: the simulated controller's own position.
+                pos: sim.map(|f| f.pos()).or(pos),
+            };
+            let mut message = format!("parts sent, the last {} | {state}", PARTS[part]);
+            if let Some(q) = machine.pos {
+                message.push_str(&format!(" X{:.2} Y{:.2} Z{:.3}", q[0], q[1], q[2]));
+            }
+            obs.progress(&Progress {
+                task: "frame",
+                done: part as u64 + 1,
+                total: parts,
+                message,
+                machine: Some(machine),
+            });
         };
-        let mut message = format!("parts sent, the last {} | {state}", PARTS[part]);
-        if let Some(q) = machine.pos {
-            message.push_str(&format!(" X{:.2} Y{:.2} Z{:.3}", q[0], q[1], q[2]));
-        }
-        obs.progress(&Progress {
-            task: "frame",
-            done: part as u64 + 1,
-            total: parts,
-            message,
-            machine: Some(machine),
-        });
-    };
-    let (end, pending) = stream(link, ctl, &lines, control, obs, &mut on_part);
-    let stop = |ctl: &mut dyn Controller, link: &mut Link| {
-        ctl.stop_and_raise(link, pending, clear, opts.emergency)
-            .unwrap_or_else(|f| format!("the stop sequence failed ({f}): stop the machine by hand"))
-    };
-    match end {
-        End::Done => ctl
-            .wait_idle(link)
-            .map(|()| lines.len())
-            .map_err(|f| CarveError::Stopped(format!("at the end of the frame trace: {f}"))),
-        End::Abort => {
-            let did = stop(ctl, link);
-            control.abort.store(false, Ordering::SeqCst);
-            Err(CarveError::Interrupted(format!(
-                "interrupted while tracing the frame: {did}; nothing was cut"
-            )))
-        }
-        End::Refused(e) => {
-            let did = stop(ctl, link);
-            Err(CarveError::Stopped(format!(
-                "{} refused {e} while tracing the frame; stopped: {did}; nothing was cut. A soft \
+        let (end, pending) = stream(link, ctl, &lines, control, obs, &mut on_part);
+        let stop = |ctl: &mut dyn Controller, link: &mut Link| {
+            ctl.stop_and_raise(link, pending, clear, opts.emergency)
+                .unwrap_or_else(|f| format!("the stop sequence failed ({f}): stop the machine by hand"))
+        };
+        match end {
+            End::Done => ctl
+                .wait_idle(link)
+                .map(|()| lines.len())
+                .map_err(|f| CarveError::Stopped(format!("at the end of the frame trace: {f}"))),
+            End::Abort => {
+                let did = stop(ctl, link);
+                control.abort.store(false, Ordering::SeqCst);
+                Err(CarveError::Interrupted(format!(
+                    "interrupted while tracing the frame: {did}; nothing was cut"
+                )))
+            }
+            End::Refused(e) => {
+                let did = stop(ctl, link);
+                Err(CarveError::Stopped(format!(
+                    "{} refused {e} while tracing the frame; stopped: {did}; nothing was cut. A soft \
                  limit or a travel error here means the plate, as placed, is outside what the \
                  machine reaches from this work zero",
-                ctl.describe()
-            )))
+                    ctl.describe()
+                )))
+            }
+            End::Stopped(e) | End::Lost(e) => Err(CarveError::Stopped(format!(
+                "the frame trace stopped: {e}; nothing was cut"
+            ))),
+            End::Input(e) => Err(CarveError::Input(e)),
         }
-        End::Stopped(e) | End::Lost(e) => Err(CarveError::Stopped(format!(
-            "the frame trace stopped: {e}; nothing was cut"
-        ))),
-        End::Input(e) => Err(CarveError::Input(e)),
     }
 }
 
@@ -180,16 +193,15 @@ pub fn frame(opts: &Options, feed: f64, control: &Control, obs: &dyn Observer) -
     let (mut link, mut ctl, sim) = super::connect(opts, &program, obs)?;
     ctl.begin(&mut link, false)?;
     ctl.position_set();
-    let sent = trace(
+    let sent = Tracer {
         opts,
-        &program,
-        &mut link,
-        ctl.as_mut(),
+        program: &program,
         control,
         obs,
         feed,
-        sim.as_ref(),
-    )?;
+        sim: sim.as_ref(),
+    }
+    .trace(&mut link, ctl.as_mut())?;
     Ok(super::Summary {
         controller: ctl.describe(),
         dry_run: sim.map(|f| {

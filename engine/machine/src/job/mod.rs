@@ -187,32 +187,22 @@ fn carve_on(opts: &Options, control: &Control, obs: &dyn Observer) -> Result<Sum
     let timing = job_time(opts, ctl.as_ref(), &program, from, obs);
     // The frame is traced where the position is the job's: before the question for a new job
     // (the maker answers having seen it), after the re-zero for a resumed one (which asks again).
-    if let (Some(feed), false) = (opts.frame, opts.resume) {
-        frame::trace(
-            opts,
-            &program,
-            &mut link,
-            ctl.as_mut(),
-            control,
-            obs,
-            feed,
-            sim.as_ref(),
-        )?;
+    let tracer = opts.frame.map(|feed| frame::Tracer {
+        opts,
+        program: &program,
+        control,
+        obs,
+        feed,
+        sim: sim.as_ref(),
+    });
+    if let (Some(t), false) = (&tracer, opts.resume) {
+        t.trace(&mut link, ctl.as_mut())?;
     }
     ask_to_start(opts, &program, from, obs)?;
     if opts.resume {
         rezero_for_resume(opts, &mut link, ctl.as_mut(), &mut journal, &program, from, obs)?;
-        if let Some(feed) = opts.frame {
-            frame::trace(
-                opts,
-                &program,
-                &mut link,
-                ctl.as_mut(),
-                control,
-                obs,
-                feed,
-                sim.as_ref(),
-            )?;
+        if let Some(t) = &tracer {
+            t.trace(&mut link, ctl.as_mut())?;
             if opts.port != SIM_PORT && !obs.confirm("the frame is traced: go on cutting?") {
                 return Err(CarveError::Stopped(format!(
                     "not resumed after the frame trace: the answer was no; to continue: {}",
