@@ -4,14 +4,12 @@
 //! follow on the same connection, and Ctrl-C during the trace stops before any cut.
 mod common;
 
-use std::sync::atomic::Ordering;
-
 use common::*;
 use scratchart_machine::job::frame::{frame, lines, lowest_z};
 use scratchart_machine::job::{carve, Options, SIM_PORT};
 use scratchart_machine::program::Program;
 use scratchart_machine::stream::Control;
-use scratchart_observe::{Observer, Progress};
+use scratchart_observe::Progress;
 use scratchart_tool::machine::MachineProfile;
 
 /// Every (X, Y) that the absolute motion lines reach, in order.
@@ -140,33 +138,13 @@ fn carve_with_a_frame_traces_then_cuts_on_one_connection() {
     }
 }
 
-/// Stops the job (as Ctrl-C does) at the first report of the frame trace.
-struct AbortInFrame<'a> {
-    control: &'a Control,
-    log: Log,
-}
-
-impl Observer for AbortInFrame<'_> {
-    fn progress(&self, p: &Progress) {
-        if p.task == "frame" {
-            self.control.abort.store(true, Ordering::SeqCst);
-        }
-        self.log.progress(p);
-    }
-    fn info(&self, msg: &str) {
-        self.log.info(msg);
-    }
-}
-
 #[test]
 fn ctrl_c_in_the_frame_stops_before_any_cut() {
     let dir = tmpdir("frame_abort");
     let plan = plan(&dir, "p.nc", 30, &MachineProfile::grbl());
     let control = Control::default();
-    let obs = AbortInFrame {
-        control: &control,
-        log: Log::default(),
-    };
+    // Ctrl-C at the first report of the frame trace.
+    let obs = AbortWhen::new(&control, |p: &Progress| p.task == "frame");
     let opts = Options {
         frame: Some(600.0),
         ..options(&plan, SIM_PORT)

@@ -123,28 +123,6 @@ fn small_plan(dir: &Path) -> PathBuf {
     p
 }
 
-/// An observer that asks for Ctrl-C once `after` scratches are acknowledged.
-struct AbortAfter<'a> {
-    after: usize,
-    control: &'a Control,
-    log: Log,
-}
-
-impl Observer for AbortAfter<'_> {
-    fn progress(&self, p: &Progress) {
-        if p.done >= self.after as u64 {
-            self.control.abort.store(true, Ordering::SeqCst);
-        }
-        self.log.progress(p);
-    }
-    fn info(&self, msg: &str) {
-        self.log.info(msg);
-    }
-    fn warn(&self, msg: &str) {
-        self.log.warn(msg);
-    }
-}
-
 /// The real firmware carves a plan to the end.
 #[test]
 fn the_real_firmware_carves_a_plan_to_the_end() {
@@ -181,11 +159,8 @@ fn a_resume_after_a_board_reset_never_cuts_on_with_a_lost_position() {
         };
         let plan = small_plan(&dir);
         let control = Control::default();
-        let obs = AbortAfter {
-            after: 2,
-            control: &control,
-            log: Log::default(),
-        };
+        // Ctrl-C once 2 scratches are acknowledged.
+        let obs = AbortWhen::new(&control, |p: &Progress| p.done >= 2);
         let e = carve(&options(&plan, &sim.port()), &control, &obs).unwrap_err();
         assert_eq!(e.exit_code(), 130, "{e}");
         let j = Journal::load(&scratchart_machine::journal::default_path(&plan)).unwrap();
@@ -302,27 +277,6 @@ fn the_real_firmware_checks_holds_and_resumes() {
 }
 
 /// Keeps every position the job reports, and its notes.
-#[derive(Default)]
-struct Positions {
-    log: Log,
-    seen: std::sync::Mutex<Vec<(String, [f64; 3])>>,
-}
-
-impl Observer for Positions {
-    fn progress(&self, p: &Progress) {
-        if let Some(q) = p.machine.as_ref().and_then(|m| m.pos) {
-            self.seen.lock().unwrap().push((p.task.to_string(), q));
-        }
-        self.log.progress(p);
-    }
-    fn info(&self, msg: &str) {
-        self.log.info(msg);
-    }
-    fn warn(&self, msg: &str) {
-        self.log.warn(msg);
-    }
-}
-
 /// The real firmware traces the frame (the job's box and a 20 mm plate's outline at the
 /// clearance height, then back to X0 Y0) without cutting: every position it reports away from
 /// X0 Y0 (where the tool first rises from the surface) is at the clearance height, and the
@@ -348,11 +302,11 @@ fn the_real_firmware_traces_the_frame_without_cutting() {
     std::fs::write(&plan, g).unwrap();
     let clear = m.clearance_mm;
 
-    let obs = Positions::default();
+    let obs = Log::default();
     let s = scratchart_machine::job::frame::frame(&options(&plan, &sim.port()), 500.0, &Control::default(), &obs)
-        .unwrap_or_else(|e| panic!("{e}\nnotes: {:?}", obs.log.notes.lock().unwrap()));
+        .unwrap_or_else(|e| panic!("{e}\nnotes: {:?}", obs.notes.lock().unwrap()));
     assert!(s.controller.contains("1.1h"), "{}", s.controller);
-    let seen = obs.seen.lock().unwrap().clone();
+    let seen = obs.positions();
     assert!(!seen.is_empty(), "the firmware reported no position");
     for (_, q) in &seen {
         let home = q[0].abs() < 1e-3 && q[1].abs() < 1e-3;
@@ -367,20 +321,21 @@ fn the_real_firmware_traces_the_frame_without_cutting() {
             .any(|(_, q)| q[0].abs() > 1.0 && (q[2] - clear).abs() < 1e-3),
         "{seen:?}"
     );
-    let p = obs.log.progress.lock().unwrap().clone();
+    let p = obs.progress.lock().unwrap();
     assert_eq!(p.last().map(|s| (s.done, s.total)), Some((3, 3)));
+    drop(p);
     // Nothing was cut: the job has no journal.
     assert!(!scratchart_machine::journal::default_path(&plan).exists());
 
-    let obs = Positions::default();
+    let obs = Log::default();
     let opts = scratchart_machine::job::Options {
         frame: Some(500.0),
         ..options(&plan, &sim.port())
     };
     let s = carve(&opts, &Control::default(), &obs)
-        .unwrap_or_else(|e| panic!("{e}\nnotes: {:?}", obs.log.notes.lock().unwrap()));
+        .unwrap_or_else(|e| panic!("{e}\nnotes: {:?}", obs.notes.lock().unwrap()));
     assert_eq!((s.from, s.total), (0, 4));
-    let seen = obs.seen.lock().unwrap().clone();
+    let seen = obs.positions();
     for (task, q) in seen.iter().filter(|(t, _)| t == "frame") {
         let home = q[0].abs() < 1e-3 && q[1].abs() < 1e-3;
         assert!(home || q[2] >= clear - 1e-3, "{task} below the clearance: {seen:?}");
@@ -391,27 +346,11 @@ fn the_real_firmware_traces_the_frame_without_cutting() {
     // Ctrl-C while the tool is out on the trace (every line already taken by the firmware's
     // planner): the machine is stopped and nothing is cut.
     let control = Control::default();
-    let obs = AbortOnTrace {
-        control: &control,
-        inner: Positions::default(),
-    };
+    let obs = AbortWhen::new(&control, |p: &Progress| {
+        p.machine.as_ref().and_then(|m| m.pos).is_some_and(|q| q[0].abs() > 1.0)
+    });
     let e = scratchart_machine::job::frame::frame(&options(&plan, &sim.port()), 500.0, &control, &obs).unwrap_err();
     assert_eq!(e.exit_code(), 130, "{e}");
     assert!(e.to_string().contains("nothing was cut"), "{e}");
     drop(sim);
-}
-
-/// Asks for Ctrl-C once the tool is reported out on the frame trace.
-struct AbortOnTrace<'a> {
-    control: &'a Control,
-    inner: Positions,
-}
-
-impl Observer for AbortOnTrace<'_> {
-    fn progress(&self, p: &Progress) {
-        if p.machine.as_ref().and_then(|m| m.pos).is_some_and(|q| q[0].abs() > 1.0) {
-            self.control.abort.store(true, Ordering::SeqCst);
-        }
-        self.inner.progress(p);
-    }
 }

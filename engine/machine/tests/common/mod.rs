@@ -1,6 +1,7 @@
 //! Helpers shared by the streaming tests: plans, options, an observer that keeps what it is told.
 #![allow(dead_code)]
 use std::path::{Path, PathBuf};
+use std::sync::atomic::Ordering;
 use std::sync::Mutex;
 use std::time::Duration;
 
@@ -8,6 +9,7 @@ use scratchart_machine::controller::Rezero;
 use scratchart_machine::job::Options;
 use scratchart_machine::plan::Cut;
 use scratchart_machine::program::Program;
+use scratchart_machine::stream::Control;
 use scratchart_observe::{Observer, Progress};
 use scratchart_tool::machine::MachineProfile;
 
@@ -82,6 +84,8 @@ pub fn cut_lines(plan: &Path) -> Vec<String> {
 /// A progress report as a test keeps it: cuts done of all, the last cut's name, the ETA.
 #[derive(Clone, Debug)]
 pub struct Seen {
+    /// The job's task (`carve`, `frame`, ...).
+    pub task: String,
     pub done: usize,
     pub total: usize,
     pub label: String,
@@ -100,6 +104,7 @@ impl Observer for Log {
     fn progress(&self, p: &Progress) {
         let m = p.machine.clone().expect("a machine job reports the machine's state");
         self.progress.lock().unwrap().push(Seen {
+            task: p.task.to_string(),
             done: p.done as usize,
             total: p.total as usize,
             label: m.label,
@@ -118,6 +123,45 @@ impl Observer for Log {
 impl Log {
     pub fn says(&self, what: &str) -> bool {
         self.notes.lock().unwrap().iter().any(|n| n.contains(what))
+    }
+
+    /// Every position the job reported, with its task.
+    pub fn positions(&self) -> Vec<(String, [f64; 3])> {
+        let p = self.progress.lock().unwrap();
+        p.iter().filter_map(|s| s.pos.map(|q| (s.task.clone(), q))).collect()
+    }
+}
+
+/// A [`Log`] that asks for Ctrl-C (`control.abort`) at every progress report for which `when`
+/// holds.
+pub struct AbortWhen<'a, F: Fn(&Progress) -> bool> {
+    pub control: &'a Control,
+    pub when: F,
+    pub log: Log,
+}
+
+impl<'a, F: Fn(&Progress) -> bool> AbortWhen<'a, F> {
+    pub fn new(control: &'a Control, when: F) -> Self {
+        AbortWhen {
+            control,
+            when,
+            log: Log::default(),
+        }
+    }
+}
+
+impl<F: Fn(&Progress) -> bool> Observer for AbortWhen<'_, F> {
+    fn progress(&self, p: &Progress) {
+        if (self.when)(p) {
+            self.control.abort.store(true, Ordering::SeqCst);
+        }
+        self.log.progress(p);
+    }
+    fn info(&self, msg: &str) {
+        self.log.info(msg);
+    }
+    fn warn(&self, msg: &str) {
+        self.log.warn(msg);
     }
 }
 
