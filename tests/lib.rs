@@ -138,6 +138,7 @@ pub fn plate(size: f64) -> Plate {
         size_mm: size,
         roughness: 0.02,
         f0: 0.91,
+        shape: Default::default(),
     }
 }
 

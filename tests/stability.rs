@@ -35,6 +35,7 @@ fn plate() -> Plate {
         size_mm: PLATE,
         roughness: 0.02,
         f0: 0.91,
+        shape: Default::default(),
     }
 }
 

@@ -65,6 +65,7 @@ fn main() -> anyhow::Result<()> {
         size_mm: card.plate_mm,
         roughness: 0.02,
         f0: 0.91,
+        shape: Default::default(),
     };
     let d = 4.0 * card.plate_mm;
     println!(

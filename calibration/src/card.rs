@@ -319,6 +319,7 @@ impl Card {
                 size_mm: self.plate_mm,
                 roughness: 0.02,
                 f0: 0.91,
+                shape: Default::default(),
             },
             views: self.views(res),
             scratches: vec![],

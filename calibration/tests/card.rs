@@ -103,6 +103,7 @@ fn simulated_photos_depend_on_the_tool() {
             size_mm: card.plate_mm,
             roughness: 0.02,
             f0: 0.91,
+            shape: Default::default(),
         },
         views: card.views(96),
         scratches: vec![],

@@ -616,6 +616,7 @@ pub fn bench_scene(name: &str) -> Option<Scene> {
             size_mm: plate,
             roughness: 0.02,
             f0: 0.91,
+            shape: Default::default(),
         },
         views: vs,
         scratches: random_scratches(&mut rng, n, plate, 5.0, 30.0, 0.05, 0.05, 0.04),

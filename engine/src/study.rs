@@ -146,6 +146,7 @@ fn regime(name: &'static str, what: &'static str, seed: u64, v: View, sc: &dyn F
                 size_mm: REGIME_PLATE_MM,
                 roughness: 0.02,
                 f0: 0.91,
+                shape: Default::default(),
             },
             views: vec![v],
             scratches: sc(&mut rng),

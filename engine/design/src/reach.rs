@@ -246,6 +246,7 @@ mod tests {
                 size_mm: 100.0,
                 roughness: 0.02,
                 f0: 0.9,
+                shape: Default::default(),
             },
             views: vec![View {
                 exposure: 1.0,

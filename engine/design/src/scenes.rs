@@ -196,6 +196,7 @@ pub fn demo_scene(res: u32) -> Scene {
             size_mm: plate,
             roughness: 0.02,
             f0: 0.91,
+            shape: Default::default(),
         },
         views: ring_views(3, 45.0, 300.0, plate, res, &light),
         scratches,

@@ -351,6 +351,7 @@ mod tests {
                 size_mm: 50.0,
                 roughness: 0.02,
                 f0: 0.9,
+                shape: Default::default(),
             },
             views: vec![
                 view("a", at(10.0), 1.0e6),

@@ -5,7 +5,8 @@
 
 use glam::DVec3;
 
-use crate::scene::{Camera, LightKind, Scene, View};
+use crate::scene::{Camera, LightKind, Plate, Scene, View};
+use crate::surface::{PlateShape, SurfacePoint};
 
 pub(crate) type V3 = [f64; 3];
 
@@ -83,6 +84,11 @@ pub struct ViewGeom {
     pub tan_half: f64,
     pub light_kind: LightKind,
     pub intensity: f64,
+    /// The plate's shape: rays hit it, and [`hit`](Self::hit) gives sheet coordinates.
+    pub shape: PlateShape,
+    /// The sheet's side (mm): what a bent sheet's edges hide (`f64::INFINITY` where unknown:
+    /// [`ViewGeom::new`] on a flat plate, where nothing hides anything).
+    pub sheet_mm: f64,
 }
 
 impl ViewGeom {
@@ -108,6 +114,17 @@ impl ViewGeom {
             tan_half: (0.5 * c.fov_y_deg.to_radians()).tan(),
             light_kind,
             intensity: view.radiance_scale(),
+            shape: PlateShape::Flat,
+            sheet_mm: f64::INFINITY,
+        }
+    }
+
+    /// The geometry of a view of `plate` (its shape and size; [`new`](Self::new) is a flat plate).
+    pub fn of(view: &View, plate: &Plate) -> ViewGeom {
+        ViewGeom {
+            shape: plate.shape,
+            sheet_mm: plate.size_mm,
+            ..ViewGeom::new(view)
         }
     }
 
@@ -119,18 +136,36 @@ impl ViewGeom {
         normalize(add(self.forward, add(scale(self.right, kx), scale(self.up, ky))))
     }
 
-    /// Where the ray through (sx, sy) hits the plane z = 0: C + s dir with s = -C.z / dir.z,
-    /// valid when dir.z != 0 and s > 0.
+    /// Where the ray through (sx, sy) hits the plate, in sheet coordinates: on a flat plate the
+    /// plane z = 0, C + s dir with s = -C.z / dir.z, valid when dir.z != 0 and s > 0; on a bent
+    /// one the surface's scratched face (section 10).
     pub fn hit(&self, sx: f64, sy: f64) -> Option<[f64; 2]> {
-        let d = self.ray_dir(sx, sy);
-        if d[2] == 0.0 {
-            return None;
+        self.surface_hit(sx, sy).map(|q| q.uv)
+    }
+
+    /// [`hit`](Self::hit) with the world point and the surface frame there.
+    pub fn surface_hit(&self, sx: f64, sy: f64) -> Option<SurfacePoint> {
+        self.shape.hit(self.eye, self.ray_dir(sx, sy))
+    }
+
+    /// Whether the sheet itself hides surface point `x` from the eye (a concave sheet's raised
+    /// edges; section 10).
+    pub fn hidden(&self, x: &SurfacePoint) -> bool {
+        let d = sub(self.eye, x.p);
+        let len = norm(d);
+        self.shape.blocked(x, scale(d, 1.0 / len), len, self.sheet_mm)
+    }
+
+    /// Whether the sheet itself shades surface point `x` from the view's light.
+    pub fn shaded(&self, x: &SurfacePoint) -> bool {
+        match self.light_kind {
+            LightKind::Point { position } => {
+                let d = sub(position, x.p);
+                let len = norm(d);
+                self.shape.blocked(x, scale(d, 1.0 / len), len, self.sheet_mm)
+            }
+            LightKind::Directional { direction } => self.shape.blocked(x, direction, f64::INFINITY, self.sheet_mm),
         }
-        let s = -self.eye[2] / d[2];
-        if !(s > 0.0) || !s.is_finite() {
-            return None;
-        }
-        Some([self.eye[0] + s * d[0], self.eye[1] + s * d[1]])
     }
 
     /// Footprint of pixel (i, j): hits of corners (i,j), (i+1,j), (i+1,j+1), (i,j+1).
@@ -151,9 +186,12 @@ impl ViewGeom {
 
     /// Whether pixel (i, j) is on the plate (engine/docs/model.md section 4): X in the closed square
     /// [-half, half]^2 and all four corner rays hit with s > 0.
+    /// On a bent sheet the sheet must not hide X from the eye either.
     pub fn on_plate(&self, i: u32, j: u32, half: f64) -> bool {
-        match self.shading_point(i, j) {
-            Some(x) if x[0].abs() <= half && x[1].abs() <= half => self.footprint(i, j).is_some(),
+        match self.surface_hit(i as f64 + 0.5, j as f64 + 0.5) {
+            Some(x) if x.uv[0].abs() <= half && x.uv[1].abs() <= half => {
+                self.footprint(i, j).is_some() && !self.hidden(&x)
+            }
             _ => false,
         }
     }
@@ -171,16 +209,27 @@ impl ViewGeom {
         m
     }
 
-    /// omega_o = normalize(C - X).
+    /// omega_o = normalize(C - X), X the world point of sheet point x (world vectors).
     pub fn omega_o(&self, x: [f64; 2]) -> [f64; 3] {
-        normalize(sub(self.eye, [x[0], x[1], 0.0]))
+        self.omega_o_at(self.shape.to_world(x))
     }
 
-    /// Light direction and irradiance at plate point x.
+    /// omega_o = normalize(C - X) at world point X.
+    pub fn omega_o_at(&self, p: [f64; 3]) -> [f64; 3] {
+        normalize(sub(self.eye, p))
+    }
+
+    /// Light direction (world) and irradiance at sheet point x (no shading by the sheet: see
+    /// [`shaded`](Self::shaded)).
     pub fn light_at(&self, x: [f64; 2]) -> LightSample {
+        self.light_at_point(self.shape.to_world(x))
+    }
+
+    /// Light direction (world) and irradiance at world point p.
+    pub fn light_at_point(&self, p: [f64; 3]) -> LightSample {
         match self.light_kind {
             LightKind::Point { position } => {
-                let d = sub(position, [x[0], x[1], 0.0]);
+                let d = sub(position, p);
                 let r2 = dot(d, d);
                 LightSample {
                     omega_i: scale(d, 1.0 / r2.sqrt()),
@@ -225,7 +274,7 @@ pub fn spherical(distance_mm: f64, azimuth_deg: f64, elevation_deg: f64) -> [f64
 /// On-plate mask of view `view` of `scene` (row-major, top row first); see
 /// [`ViewGeom::on_plate_mask`].
 pub fn on_plate_mask(scene: &Scene, view: usize) -> Vec<bool> {
-    ViewGeom::new(&scene.views[view]).on_plate_mask(0.5 * scene.plate.size_mm)
+    ViewGeom::of(&scene.views[view], &scene.plate).on_plate_mask(0.5 * scene.plate.size_mm)
 }
 
 #[cfg(test)]
@@ -292,6 +341,7 @@ mod tests {
                 size_mm: 30.0,
                 roughness: 0.02,
                 f0: 0.91,
+                shape: Default::default(),
             },
             views: vec![v.clone()],
             scratches: Vec::new(),

@@ -10,6 +10,7 @@
 //!   for the GPU path.
 //! - [`mesh`]: OBJ meshes: reading, placing behind the plate and rendering their views (the target
 //!   images of a scratch hologram).
+//! - [`surface`]: the plate's shape (flat, or bent into a cylinder after carving) in float64.
 //! - [`fsio`]: the atomic file writer (temporary file, fsync, rename) every output goes through.
 
 // `!(x > 0.0)` is used on purpose throughout: it also rejects NaN.
@@ -23,8 +24,10 @@ pub mod par;
 pub mod reference;
 pub mod scene;
 pub mod scene_file;
+pub mod surface;
 
 pub use camera::{CameraBasis, LightSample, ViewGeom};
 pub use reference::{check_loss, pixel, render_view, scratch_patch_integral, PixelRef};
 pub use scene::{Camera, Light, LightKind, Plate, Scene, SceneError, Scratch, View};
+pub use surface::{BendAxis, PlateShape};
 pub use scene_file::read_scratches_csv;

@@ -14,6 +14,7 @@ fn scene(eye: [f64; 3], light: [f64; 3], size: u32, scratches: Vec<Scratch>) -> 
             size_mm: 20.0,
             roughness: 0.02,
             f0: 0.91,
+            shape: Default::default(),
         },
         views: vec![View {
             exposure: 1.0,

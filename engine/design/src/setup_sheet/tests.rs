@@ -9,6 +9,7 @@ fn scene(eyes: &[[f64; 3]], light: LightKind) -> Scene {
             size_mm: 80.0,
             roughness: 0.02,
             f0: 0.9,
+            shape: Default::default(),
         },
         views: eyes
             .iter()

@@ -49,6 +49,7 @@ pub fn problem(spec: &DesignSpec, info: &DeviceInfo, obs: &dyn Observer) -> Resu
         size_mm: plate_mm,
         roughness: scratchart_model::scene::DEFAULT_ROUGHNESS,
         f0: scratchart_model::scene::DEFAULT_F0,
+        shape: Default::default(),
     };
     let (views, between) = design_views(spec, walk.as_ref(), &plate)?;
     check_size(spec, &views, n_scratches, info)?;

@@ -112,6 +112,7 @@ fn an_in_between_target_is_the_cross_fade_of_its_neighbours() {
             size_mm: 100.0,
             roughness: scratchart_model::scene::DEFAULT_ROUGHNESS,
             f0: scratchart_model::scene::DEFAULT_F0,
+            shape: Default::default(),
         },
         views,
         scratches: vec![],

@@ -34,7 +34,8 @@ mod integrate;
 
 use std::f64::consts::PI;
 
-use crate::camera::{dot, normalize, ViewGeom};
+use crate::camera::{dot, normalize, LightSample, ViewGeom};
+use crate::surface::SurfacePoint;
 use crate::scene::Scene;
 
 use clip::polygon_area;
@@ -148,30 +149,25 @@ impl<'a> Prepared<'a> {
     fn pixel(&self, g: &ViewGeom, i: u32, j: u32, cand: &mut Vec<u32>) -> PixelRef {
         let mut out = PixelRef::default();
         let half = 0.5 * self.scene.plate.size_mm;
-        let x = match g.shading_point(i, j) {
+        let xs = match g.surface_hit(i as f64 + 0.5, j as f64 + 0.5) {
             Some(x) => x,
             None => return out,
         };
+        let x = xs.uv;
         out.x = x;
         let foot = match g.footprint(i, j) {
             Some(f) => f,
             None => return out,
         };
         out.s_p = polygon_area(&foot);
-        out.on_plate = x[0].abs() <= half && x[1].abs() <= half;
-        let wo = g.omega_o(x);
-        let light = g.light_at(x);
-        let h = normalize([
-            light.omega_i[0] + wo[0],
-            light.omega_i[1] + wo[1],
-            light.omega_i[2] + wo[2],
-        ]);
+        out.on_plate = x[0].abs() <= half && x[1].abs() <= half && !g.hidden(&xs);
+        let (h, wo, light) = shading(g, &xs);
         out.h = h;
-        out.cos_i = light.omega_i[2];
-        out.cos_o = wo[2];
+        out.cos_i = dot(light.omega_i, xs.n);
+        out.cos_o = dot(wo, xs.n);
         out.e_irr = light.e;
         let f0 = self.scene.plate.f0;
-        out.fresnel = f0 + (1.0 - f0) * (1.0 - dot(wo, h)).powi(5);
+        out.fresnel = f0 + (1.0 - f0) * (1.0 - dot(xs.local(wo), h)).powi(5);
         if !out.on_plate {
             return out;
         }
@@ -211,7 +207,7 @@ pub fn render_view(scene: &Scene, view: usize) -> Vec<f64> {
 }
 
 fn render_prepared(prepared: &Prepared, view: usize) -> Vec<f64> {
-    let g = ViewGeom::new(&prepared.scene.views[view]);
+    let g = ViewGeom::of(&prepared.scene.views[view], &prepared.scene.plate);
     let (w, h) = (g.width as usize, g.height as usize);
     let mut out = vec![0.0f64; w * h];
     let threads = std::thread::available_parallelism()
@@ -248,7 +244,7 @@ fn render_prepared(prepared: &Prepared, view: usize) -> Vec<f64> {
 /// Everything the reference computes for pixel (i, j) of view `view`.
 pub fn pixel(scene: &Scene, view: usize, i: u32, j: u32) -> PixelRef {
     let prepared = Prepared::new(scene);
-    let g = ViewGeom::new(&scene.views[view]);
+    let g = ViewGeom::of(&scene.views[view], &scene.plate);
     prepared.pixel(&g, i, j, &mut Vec::new())
 }
 
@@ -283,13 +279,26 @@ pub fn check_loss(scene: &Scene, targets: &[Vec<f64>]) -> f64 {
 /// area(F ∩ R_k)). Computed whenever all four corner rays hit (the pixel need not be on the
 /// plate); (0, 0) otherwise.
 pub fn scratch_patch_integral(scene: &Scene, view: usize, i: u32, j: u32, k: usize) -> (f64, f64) {
-    let g = ViewGeom::new(&scene.views[view]);
-    let (foot, x) = match (g.footprint(i, j), g.shading_point(i, j)) {
+    let g = ViewGeom::of(&scene.views[view], &scene.plate);
+    let (foot, x) = match (g.footprint(i, j), g.surface_hit(i as f64 + 0.5, j as f64 + 0.5)) {
         (Some(f), Some(x)) => (f, x),
         _ => return (0.0, 0.0),
     };
-    let wo = g.omega_o(x);
-    let wi = g.light_at(x).omega_i;
-    let h = normalize([wi[0] + wo[0], wi[1] + wo[1], wi[2] + wo[2]]);
-    patch_integral(&prep(&scene.scratches[k]), &foot, h)
+    patch_integral(&prep(&scene.scratches[k]), &foot, shading(&g, &x).0)
+}
+
+/// The half vector in the surface frame at `x` (what the scratches' NDFs see: on a flat plate the
+/// world's), omega_o and the light (world), with E = 0 where the sheet shades x (section 10).
+fn shading(g: &ViewGeom, x: &SurfacePoint) -> ([f64; 3], [f64; 3], LightSample) {
+    let wo = g.omega_o_at(x.p);
+    let mut light = g.light_at_point(x.p);
+    if g.shaded(x) {
+        light.e = 0.0;
+    }
+    let h = normalize([
+        light.omega_i[0] + wo[0],
+        light.omega_i[1] + wo[1],
+        light.omega_i[2] + wo[2],
+    ]);
+    (x.local(h), wo, light)
 }

@@ -5,6 +5,8 @@
 
 use std::path::PathBuf;
 
+pub use crate::surface::{BendAxis, PlateShape};
+
 /// Default plate roughness alpha_s (engine/docs/model.md section 6).
 pub const DEFAULT_ROUGHNESS: f64 = 0.02;
 /// Default plate Fresnel f0 (aluminium, engine/docs/model.md section 5).
@@ -17,6 +19,8 @@ pub struct Plate {
     pub size_mm: f64,
     pub roughness: f64,
     pub f0: f64,
+    /// Flat, or the sheet bent into a cylinder after carving (engine/docs/model.md section 10).
+    pub shape: PlateShape,
 }
 
 #[derive(Clone, Debug, PartialEq)]
@@ -121,6 +125,7 @@ impl Scene {
                 size_mm: plate_mm,
                 roughness: DEFAULT_ROUGHNESS,
                 f0: DEFAULT_F0,
+                shape: Default::default(),
             },
             views: vec![View {
                 exposure: 1.0,

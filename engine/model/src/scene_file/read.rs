@@ -8,7 +8,7 @@ use serde_json::{Map, Value};
 use super::csv::{read_scratches_csv_table, Extra};
 use super::validate::{check_scratch, validate_header};
 use crate::scene::{
-    invalid, norm3, Camera, Light, LightKind, Plate, Scene, SceneError, Scratch, View, COLS, CSV_HEADER, DEFAULT_F0,
+    invalid, norm3, BendAxis, Camera, Light, LightKind, Plate, PlateShape, Scene, SceneError, Scratch, View, COLS, CSV_HEADER, DEFAULT_F0,
     DEFAULT_ROUGHNESS,
 };
 
@@ -17,7 +17,8 @@ use crate::scene::{
 /// reserved for the project's own extensions (calibration cards, set-up data); a view's `target`
 /// names its target image (read by the viewer).
 const TOP_KEYS: &[&str] = &["plate", "views", "scratches", "card", "setup"];
-const PLATE_KEYS: &[&str] = &["size_mm", "roughness", "f0"];
+const PLATE_KEYS: &[&str] = &["size_mm", "roughness", "f0", "shape"];
+const SHAPE_KEYS: &[&str] = &["kind", "radius_mm", "axis", "convex"];
 const VIEW_KEYS: &[&str] = &["name", "camera", "light", "target", "exposure"];
 const CAMERA_KEYS: &[&str] = &["eye", "target", "up", "fov_y_deg", "width", "height"];
 const LIGHT_KEYS: &[&str] = &["kind", "position", "direction", "intensity"];
@@ -64,6 +65,9 @@ pub fn unknown_key_warnings(root: &Value, file: &str) -> Vec<String> {
     check_keys(o, TOP_KEYS, "the top level", file, &mut out);
     if let Some(p) = o.get("plate").and_then(|p| p.as_object()) {
         check_keys(p, PLATE_KEYS, "plate", file, &mut out);
+        if let Some(sh) = p.get("shape").and_then(|s| s.as_object()) {
+            check_keys(sh, SHAPE_KEYS, "plate.shape", file, &mut out);
+        }
     }
     if let Some(views) = o.get("views").and_then(|v| v.as_array()) {
         for (k, v) in views.iter().enumerate() {
@@ -145,6 +149,7 @@ impl Scene {
             size_mm: req_num(po, "size_mm", "plate", file)?,
             roughness: opt_num(po, "roughness", "plate", file)?.unwrap_or(DEFAULT_ROUGHNESS),
             f0: opt_num(po, "f0", "plate", file)?.unwrap_or(DEFAULT_F0),
+            shape: parse_shape(po.get("shape"), file)?,
         };
 
         // Views.
@@ -219,6 +224,60 @@ impl Scene {
             },
             extra,
         ))
+    }
+}
+
+/// `plate.shape` (engine/docs/model.md section 10): absent or `{"kind": "flat"}`, or
+/// `{"kind": "cylinder", "radius_mm": R, "axis": "x" | "y", "convex": true | false}` (the axis
+/// defaults to "y", convex to true).
+fn parse_shape(v: Option<&Value>, file: &str) -> Result<PlateShape, SceneError> {
+    let Some(v) = v.filter(|v| !v.is_null()) else { return Ok(PlateShape::Flat) };
+    let o = v.as_object().ok_or_else(|| {
+        invalid(
+            file,
+            "plate.shape",
+            format!("`{v}` must be an object such as {{\"kind\": \"cylinder\", \"radius_mm\": 80, \"axis\": \"y\"}}"),
+        )
+    })?;
+    let kind = o.get("kind").and_then(|k| k.as_str()).unwrap_or("");
+    match kind {
+        "flat" => Ok(PlateShape::Flat),
+        "cylinder" => {
+            let radius_mm = req_num(o, "radius_mm", "plate.shape", file)?;
+            let axis = match o.get("axis") {
+                None | Some(Value::Null) => BendAxis::Y,
+                Some(a) => match a.as_str() {
+                    Some("x") => BendAxis::X,
+                    Some("y") => BendAxis::Y,
+                    _ => {
+                        return Err(invalid(
+                            file,
+                            "plate.shape.axis",
+                            format!("`{a}` must be \"x\" or \"y\" (the sheet's axis the bend runs along)"),
+                        ))
+                    }
+                },
+            };
+            let convex = match o.get("convex") {
+                None | Some(Value::Null) => true,
+                Some(c) => c.as_bool().ok_or_else(|| {
+                    invalid(file, "plate.shape.convex", format!("`{c}` must be true or false"))
+                })?,
+            };
+            Ok(PlateShape::Cylinder {
+                radius_mm,
+                axis,
+                convex,
+            })
+        }
+        _ => Err(invalid(
+            file,
+            "plate.shape.kind",
+            format!(
+                "`{}` is not a plate shape: use \"flat\" or \"cylinder\"",
+                o.get("kind").map_or("(missing)".to_string(), |k| k.to_string())
+            ),
+        )),
     }
 }
 

@@ -3,8 +3,9 @@
 //! [`Scene::validate`] for scenes built in code.
 
 use crate::camera::ViewGeom;
+use crate::surface::MAX_WRAP_RAD;
 use crate::scene::{
-    invalid, norm3, LightKind, Plate, Scene, SceneError, Scratch, View, COLS, DEFAULT_F0, DEFAULT_ROUGHNESS,
+    invalid, norm3, LightKind, Plate, PlateShape, Scene, SceneError, Scratch, View, COLS, DEFAULT_F0, DEFAULT_ROUGHNESS,
 };
 
 /// Check one scratch against engine/docs/model.md section 2 and the plate; returns what is wrong.
@@ -73,6 +74,20 @@ fn check_plate(p: &Plate) -> Result<(), (&'static str, String)> {
             "plate.f0",
             format!("Fresnel f0 {} must lie in [0, 1] (default {DEFAULT_F0})", p.f0),
         ));
+    }
+    if let PlateShape::Cylinder { radius_mm, .. } = p.shape {
+        let least = p.size_mm / MAX_WRAP_RAD;
+        if !(radius_mm.is_finite() && radius_mm >= least) {
+            return Err((
+                "plate.shape.radius_mm",
+                format!(
+                    "bend radius {radius_mm} mm is too small for a {} mm sheet: at least {least:.1} mm, \
+                     where the sheet spans {:.0} degrees about the axis",
+                    p.size_mm,
+                    MAX_WRAP_RAD.to_degrees()
+                ),
+            ));
+        }
     }
     Ok(())
 }
@@ -205,13 +220,13 @@ fn check_view(v: &View) -> Result<(), (String, String)> {
 
 /// Whether at least one pixel-centre ray of the view hits the plate square. Samples a grid of
 /// up to 64x64 pixel centres, plus the pixels that the plate corners and centre project into.
-pub fn camera_sees_plate(view: &View, plate_size: f64) -> bool {
-    let g = ViewGeom::new(view);
-    let half = 0.5 * plate_size;
+pub fn camera_sees_plate(view: &View, plate: &Plate) -> bool {
+    let g = ViewGeom::of(view, plate);
+    let half = 0.5 * plate.size_mm;
     let (w, h) = (view.camera.width, view.camera.height);
     let on = |i: u32, j: u32| -> bool {
-        match g.shading_point(i, j) {
-            Some(x) => x[0].abs() <= half && x[1].abs() <= half,
+        match g.surface_hit(i as f64 + 0.5, j as f64 + 0.5) {
+            Some(x) => x.uv[0].abs() <= half && x.uv[1].abs() <= half && !g.hidden(&x),
             None => false,
         }
     };
@@ -236,7 +251,7 @@ pub fn camera_sees_plate(view: &View, plate_size: f64) -> bool {
         [-half * pull, half * pull],
     ];
     for p in pts {
-        if let Some((sx, sy)) = g.project([p[0], p[1], 0.0]) {
+        if let Some((sx, sy)) = g.project(plate.shape.to_world(p)) {
             if sx >= 0.0 && sy >= 0.0 && sx < w as f64 && sy < h as f64 {
                 for (di, dj) in [(0i64, 0i64), (-1, 0), (1, 0), (0, -1), (0, 1)] {
                     let i = sx.floor() as i64 + di;
@@ -277,7 +292,7 @@ pub(super) fn validate_header(plate: &Plate, views: &[View], file: &str) -> Resu
             ));
         }
         seen.push(low);
-        if !camera_sees_plate(v, plate.size_mm) {
+        if !camera_sees_plate(v, plate) {
             return Err(invalid(
                 file,
                 format!("views[{k}] (`{}`) camera", v.name),

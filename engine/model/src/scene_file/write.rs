@@ -7,7 +7,7 @@ use std::path::{Path, PathBuf};
 use serde_json::{json, Value};
 
 use super::csv::{scratches_csv_text, Extra};
-use crate::scene::{LightKind, Scene, SceneError};
+use crate::scene::{LightKind, PlateShape, Scene, SceneError};
 
 impl Scene {
     fn to_value(&self, scratches: Value) -> Value {
@@ -37,12 +37,22 @@ impl Scene {
                 o
             })
             .collect();
+        let mut plate = json!({
+            "size_mm": self.plate.size_mm,
+            "roughness": self.plate.roughness,
+            "f0": self.plate.f0
+        });
+        // engine/docs/model.md's plate has no shape: written only where it is not flat.
+        if let PlateShape::Cylinder {
+            radius_mm,
+            axis,
+            convex,
+        } = self.plate.shape
+        {
+            plate["shape"] = json!({"kind": "cylinder", "radius_mm": radius_mm, "axis": axis.name(), "convex": convex});
+        }
         json!({
-            "plate": {
-                "size_mm": self.plate.size_mm,
-                "roughness": self.plate.roughness,
-                "f0": self.plate.f0
-            },
+            "plate": plate,
             "views": views,
             "scratches": scratches
         })
