@@ -50,6 +50,39 @@ bool quad_meets_rect(vec2 q[4], float orient, vec2 lo, vec2 hi) {
     return true;
 }
 
+// The image bounds of a carved rectangle rc (sheet coordinates) on a bent sheet: the corners of a
+// world box holding the cylinder patch over rc's wrapped and along-axis ranges, projected, grown by
+// half a pixel. ok = false when a corner is not in front of the camera (then every tile is tested).
+bool bent_bounds(ViewGPU V, vec2 rc[4], out vec2 qmin, out vec2 qmax) {
+    bool ax = bent_about_x(V);
+    float rad = abs(V.right.w), s = sign(V.right.w);
+    vec2 lo = min(min(rc[0], rc[1]), min(rc[2], rc[3])), hi = max(max(rc[0], rc[1]), max(rc[2], rc[3]));
+    if (ax) { lo = lo.yx; hi = hi.yx; }  // (wrapped, along)
+    float t0 = lo.x / rad, t1 = hi.x / rad;
+    // a = rad sin(theta) over [t0, t1] (|theta| < 150 degrees: a quarter turn may lie inside)
+    float a0 = rad * sin(t0), a1 = rad * sin(t1);
+    float amin = min(a0, a1), amax = max(a0, a1);
+    if (t0 < -0.5 * PI && t1 > -0.5 * PI) amin = -rad;
+    if (t0 < 0.5 * PI && t1 > 0.5 * PI) amax = rad;
+    // 1 - cos(theta): least at the theta nearest 0, most at the farthest
+    float tn = (t0 <= 0.0 && t1 >= 0.0) ? 0.0 : min(abs(t0), abs(t1));
+    float tf = max(abs(t0), abs(t1));
+    float zc0 = -s * rad * (1.0 - cos(tn)), zc1 = -s * rad * (1.0 - cos(tf));
+    float pad = 1e-5 * rad;  // float rounding of the box against the rays' hits
+    vec3 bmin = vec3(amin, lo.y, min(zc0, zc1)) - pad, bmax = vec3(amax, hi.y, max(zc0, zc1)) + pad;
+    qmin = vec2(1e30); qmax = vec2(-1e30);
+    bool all_ok = true;
+    for (int c = 0; c < 8; ++c) {
+        vec3 H = vec3((c & 1) != 0 ? bmax.x : bmin.x, (c & 2) != 0 ? bmax.y : bmin.y, (c & 4) != 0 ? bmax.z : bmin.z);
+        bool ok;
+        vec2 q = project3(V, ax ? H.yxz : H, ok);
+        all_ok = all_ok && ok;
+        qmin = min(qmin, q); qmax = max(qmax, q);
+    }
+    qmin -= 0.5; qmax += 0.5;
+    return all_ok;
+}
+
 void main() {
     uint id = gl_GlobalInvocationID.x + gl_GlobalInvocationID.y * gl_NumWorkGroups.x * gl_WorkGroupSize.x;
     uint n_parts = pc.n_bands == 0u ? 1u : pc.n_views * pc.n_bands;
@@ -98,16 +131,22 @@ void main() {
             }
             vec2 q[4];
             bool all_ok = true;
-            for (int c = 0; c < 4; ++c) {
-                bool ok;
-                q[c] = project(V, rc[c], ok);
-                all_ok = all_ok && ok;
+            vec2 qmin, qmax;
+            if (bent(V)) {
+                // On a bent sheet the rectangle's image is curved: its box's, no separating axes.
+                all_ok = bent_bounds(V, rc, qmin, qmax);
+            } else {
+                for (int c = 0; c < 4; ++c) {
+                    bool ok;
+                    q[c] = project(V, rc[c], ok);
+                    all_ok = all_ok && ok;
+                }
+                qmin = min(min(q[0], q[1]), min(q[2], q[3])) - 0.5;
+                qmax = max(max(q[0], q[1]), max(q[2], q[3])) + 0.5;
             }
             uint tx0 = V.base.z, ty0 = V.base.w, tx1 = V.base.z + V.dims.z - 1u, ty1 = V.base.w + V.dims.w - 1u;
             float orient = 0.0;  // 0: no separating-axis test (conservative)
             if (all_ok) {
-                vec2 qmin = min(min(q[0], q[1]), min(q[2], q[3])) - 0.5;
-                vec2 qmax = max(max(q[0], q[1]), max(q[2], q[3])) + 0.5;
                 if (qmax.x < 0.0 || qmax.y < 0.0 || qmin.x > float(V.dims.x) || qmin.y > float(V.dims.y)) continue;
                 tx0 = max(uint(max(qmin.x, 0.0)) / TILE, tx0);
                 ty0 = max(uint(max(qmin.y, 0.0)) / TILE, ty0);
@@ -116,7 +155,7 @@ void main() {
                 float a2 = 0.0;
                 for (int c = 0; c < 4; ++c) a2 += (q[c].x - q[(c + 1) & 3].x) * (q[c].y + q[(c + 1) & 3].y);
                 orient = a2 > 0.0 ? 1.0 : -1.0;  // CCW (a2 > 0): outward normal of a->b is (dy, -dx)
-                if (a2 == 0.0) orient = 0.0;
+                if (a2 == 0.0 || bent(V)) orient = 0.0;
             }
             if (r_hi <= r_lo) continue;  // more bands than tile rows
             ty0 = max(ty0, r_lo);

@@ -146,6 +146,29 @@ fn gradients_sharp_alpha_and_grazing() {
     check_gradients("sharp/grazing", &scene);
 }
 
+/// Bent plates (engine/docs/model.md section 10): the same bar, convex about the sheet's y and
+/// concave about its x with a low eye and lamp (the sheet's edges hide and shade part of it).
+#[test]
+fn gradients_on_bent_sheets() {
+    use scratchart_model::surface::{BendAxis, PlateShape};
+    let views = vec![
+        orbit_view("a", 24, 45.0, 0.0, 45.0, 180.0, 20.0),
+        orbit_view("b", 24, 25.0, 100.0, 20.0, 280.0, 20.0),
+    ];
+    let mut scene = random_scene(14, 24, 20.0, 0.4, 0.3, 0.2, views);
+    for (k, s) in scene.scratches.iter_mut().enumerate() {
+        s.alpha = [0.01, 0.1, 0.3][k % 3];
+    }
+    for (radius_mm, axis, convex) in [(12.0, BendAxis::Y, true), (15.0, BendAxis::X, false)] {
+        scene.plate.shape = PlateShape::Cylinder {
+            radius_mm,
+            axis,
+            convex,
+        };
+        check_gradients(&format!("bent R {radius_mm} about {}", axis.name()), &scene);
+    }
+}
+
 #[test]
 fn gradients_directional_light() {
     let views = vec![directional_view("a", 24, 40.0, 30.0, 50.0, 210.0, 20.0)];

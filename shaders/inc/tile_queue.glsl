@@ -50,7 +50,9 @@ void setup_blocks(ViewGPU V, uvec2 t0, uint lid) {
         vec2 c2 = ray_hit(V, vec2(b0) + vec2(4.0), k2), c3 = ray_hit(V, vec2(b0) + vec2(0.0, 4.0), k3);
         sh_blk01[lid] = vec4(c0, c1);
         sh_blk23[lid] = vec4(c2, c3);
-        sh_blk_all[lid] = !(k0 && k1 && k2 && k3);
+        // On a bent sheet a block's part of the sheet is not the quad of its corners' hits on the
+        // plane: every scratch is tested (engine/docs/model.md section 10).
+        sh_blk_all[lid] = !(k0 && k1 && k2 && k3) || bent(V);
     }
     if (lid < 32u) sh_blk_hits[lid] = 0u;
 }

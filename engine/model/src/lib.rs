@@ -29,5 +29,5 @@ pub mod surface;
 pub use camera::{CameraBasis, LightSample, ViewGeom};
 pub use reference::{check_loss, pixel, render_view, scratch_patch_integral, PixelRef};
 pub use scene::{Camera, Light, LightKind, Plate, Scene, SceneError, Scratch, View};
-pub use surface::{BendAxis, PlateShape};
 pub use scene_file::read_scratches_csv;
+pub use surface::{BendAxis, PlateShape};

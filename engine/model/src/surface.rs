@@ -13,7 +13,17 @@
 //!   normal (a, z) = (s sin theta, cos theta), tangent along x_sheet (a, z) = (cos theta, -s sin theta).
 //! `BendAxis::X` is the same with the sheet's y wrapping (a = world y, b = world x).
 
-use crate::camera::{add, dot, scale, V3};
+type V3 = [f64; 3];
+
+fn dot(a: V3, b: V3) -> f64 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+fn add(a: V3, b: V3) -> V3 {
+    [a[0] + b[0], a[1] + b[1], a[2] + b[2]]
+}
+fn scale(a: V3, s: f64) -> V3 {
+    [a[0] * s, a[1] * s, a[2] * s]
+}
 
 /// Which of the sheet's axes the cylinder's axis runs along: `Y` wraps the sheet's x (the
 /// sheet's left and right edges rise or fall), `X` wraps its y.
@@ -41,7 +51,11 @@ pub enum PlateShape {
     /// The sheet bent into a cylinder of radius `radius_mm` about an axis parallel to its x or y
     /// axis, with its centre staying at the origin and its normal +z there; `convex`: the
     /// scratched face on the outside.
-    Cylinder { radius_mm: f64, axis: BendAxis, convex: bool },
+    Cylinder {
+        radius_mm: f64,
+        axis: BendAxis,
+        convex: bool,
+    },
 }
 
 /// The largest angle a bent sheet may span about its axis (radians): 300 degrees, so that the
@@ -155,7 +169,10 @@ impl Cyl {
         let (sin, cos) = (a / self.r, self.s * (z - self.c()) / self.r);
         let theta = sin.atan2(cos);
         // The point itself, not its re-projection: the ray's hit stays where the ray says.
-        SurfacePoint { p, ..self.point(sin, cos, b, theta) }
+        SurfacePoint {
+            p,
+            ..self.point(sin, cos, b, theta)
+        }
     }
 }
 
@@ -255,8 +272,8 @@ impl PlateShape {
             return false;
         }
         let t = -2.0 * (xa * da + (xz - c.c()) * dz) / a2;
-        // (A tolerance of 1 nm for the root at x itself.)
-        if !(t > 1e-6) || !(t < max_t) {
+        // (A sheet closer than 1 um along the ray is x itself, met by a ray along the surface.)
+        if !(t > 1e-3) || !(t < max_t) {
             return false;
         }
         let q = c.at(add(x.p, scale(d, t)));
@@ -288,7 +305,10 @@ impl PlateShape {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::camera::sub;
+
+    fn sub(a: V3, b: V3) -> V3 {
+        add(a, scale(b, -1.0))
+    }
 
     fn dist(a: V3, b: V3) -> f64 {
         let d = sub(a, b);
@@ -315,7 +335,10 @@ mod tests {
     fn the_bend_is_an_isometry_with_a_right_handed_frame() {
         for shape in shapes() {
             let o = shape.at_sheet([0.0, 0.0]);
-            assert!(dist(o.p, [0.0; 3]) < 1e-12 && dist(o.n, [0.0, 0.0, 1.0]) < 1e-12, "{shape:?}");
+            assert!(
+                dist(o.p, [0.0; 3]) < 1e-12 && dist(o.n, [0.0, 0.0, 1.0]) < 1e-12,
+                "{shape:?}"
+            );
             for uv in [[10.0, -20.0], [-37.0, 5.0], [45.0, 45.0]] {
                 let q = shape.at_sheet(uv);
                 assert!((q.uv[0] - uv[0]).abs() < 1e-12 && (q.uv[1] - uv[1]).abs() < 1e-12);

@@ -626,3 +626,73 @@ fn extra_named_columns_are_read_kept_and_checked() {
         &["header", "z_mm"],
     );
 }
+
+/// `plate.shape` (engine/docs/model.md section 10): a cylinder reads with its defaults, round-trips
+/// exactly, and a wrong shape is refused naming the field and what to write.
+#[test]
+fn plate_shape_reads_round_trips_and_refuses_what_is_wrong() {
+    use scratchart_model::surface::{BendAxis, PlateShape};
+    let mut v = base();
+    v["plate"]["shape"] = json!({"kind": "cylinder", "radius_mm": 80.0});
+    let (s, _) = load_value("shape_ok", &v, None);
+    let s = s.unwrap();
+    assert_eq!(
+        s.plate.shape,
+        PlateShape::Cylinder {
+            radius_mm: 80.0,
+            axis: BendAxis::Y,
+            convex: true
+        }
+    );
+    let mut bent = s.clone();
+    bent.plate.shape = PlateShape::Cylinder {
+        radius_mm: 61.5,
+        axis: BendAxis::X,
+        convex: false,
+    };
+    let back = Scene::from_json_str(&bent.to_json_inline(), Path::new("/nonexistent"), "inline").unwrap();
+    assert_eq!(back, bent);
+    // Flat stays as MODEL.md writes it: no shape key.
+    let mut flat = s.clone();
+    flat.plate.shape = PlateShape::Flat;
+    assert!(!flat.to_json_inline().contains("shape"));
+    v["plate"]["shape"] = json!({"kind": "flat"});
+    assert_eq!(
+        load_value("shape_flat", &v, None).0.unwrap().plate.shape,
+        PlateShape::Flat
+    );
+    for (shape, words) in [
+        (
+            json!({"kind": "cone", "radius_mm": 80.0}),
+            ["plate.shape.kind", "cylinder"],
+        ),
+        (json!({"kind": "cylinder"}), ["radius_mm", "required"]),
+        (
+            json!({"kind": "cylinder", "radius_mm": 80.0, "axis": "z"}),
+            ["plate.shape.axis", "\"x\" or \"y\""],
+        ),
+        (
+            json!({"kind": "cylinder", "radius_mm": 80.0, "convex": "yes"}),
+            ["convex", "true or false"],
+        ),
+        (
+            json!({"kind": "cylinder", "radius_mm": 10.0}),
+            ["radius_mm", "at least 19.1"],
+        ),
+        (
+            json!({"kind": "cylinder", "radius_mm": -80.0}),
+            ["radius_mm", "too small"],
+        ),
+        (json!("cylinder"), ["plate.shape", "must be an object"]),
+    ] {
+        v["plate"]["shape"] = shape.clone();
+        let msg = load_value("shape_bad", &v, None).0.unwrap_err();
+        for w in words {
+            assert!(msg.contains(w), "{shape}: `{w}` not in: {msg}");
+        }
+    }
+    // A misspelt key warns with the closest one.
+    v["plate"]["shape"] = json!({"kind": "cylinder", "radius_mm": 80.0, "convx": false});
+    let w = scratchart_model::scene_file::unknown_key_warnings(&v, "s.json");
+    assert!(w.iter().any(|m| m.contains("convx") && m.contains("`convex`")), "{w:?}");
+}

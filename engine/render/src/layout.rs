@@ -6,6 +6,7 @@ use bytemuck::{Pod, Zeroable};
 use glam::DVec3;
 
 use crate::model::scene::{LightKind, Scene, Scratch, View};
+use crate::model::surface::{BendAxis, PlateShape};
 
 pub const TILE: u32 = 16;
 
@@ -23,11 +24,13 @@ pub struct ViewGpu {
     pub eye: [f32; 4],
     /// xyz forward; w = aspect W / H
     pub fwd: [f32; 4],
-    /// xyz right; w unused (0): light intensities live in their own buffer (`GpuScene::lights`)
+    /// xyz right; w = the plate's signed bend radius: 0 flat, +R convex, -R concave
+    /// (engine/docs/model.md section 10; light intensities live in their own buffer)
     pub right: [f32; 4],
     /// xyz up'; w = light kind (0 point, 1 directional)
     pub up: [f32; 4],
-    /// xyz light position (point) or unit direction towards the light (directional)
+    /// xyz light position (point) or unit direction towards the light (directional); w = the
+    /// bend's axis: 0 the sheet's y (its x wraps), 1 its x
     pub light: [f32; 4],
     /// W, H, and the tiles across and down that a render computes (the whole image's, or its
     /// [`TileWindow`]'s)
@@ -112,9 +115,9 @@ pub struct ViewGpu64 {
     pub eye: [f64; 4],
     /// xyz forward; w = aspect W / H
     pub fwd: [f64; 4],
-    /// xyz right
+    /// xyz right; w = the signed bend radius, as `ViewGpu::right`'s
     pub right: [f64; 4],
-    /// xyz up'
+    /// xyz up'; w = the bend's axis code, as `ViewGpu::light`'s
     pub up: [f64; 4],
 }
 
@@ -224,12 +227,34 @@ pub struct ViewSlots {
     pub n_pixels: u64,
 }
 
-pub fn view_gpu(view: &View, tile_base: u32, pixel_base: u32) -> ViewGpu {
-    view_gpu_in(view, tile_base, pixel_base, None)
+/// The bend as the views carry it: (signed radius, axis code) (`ViewGpu::right`'s and
+/// `light`'s w).
+pub fn bend_code(shape: &PlateShape) -> (f64, f32) {
+    match *shape {
+        PlateShape::Flat => (0.0, 0.0),
+        PlateShape::Cylinder {
+            radius_mm,
+            axis,
+            convex,
+        } => (
+            if convex { radius_mm } else { -radius_mm },
+            match axis {
+                BendAxis::Y => 0.0,
+                BendAxis::X => 1.0,
+            },
+        ),
+    }
 }
 
-/// [`view_gpu`] whose renders compute only `window`'s tiles (None: the whole image).
-pub fn view_gpu_in(view: &View, tile_base: u32, pixel_base: u32, window: Option<TileWindow>) -> ViewGpu {
+/// The GPU view of `view` of a plate of shape `shape`, whose renders compute only `window`'s
+/// tiles (None: the whole image).
+pub fn view_gpu_in(
+    view: &View,
+    shape: &PlateShape,
+    tile_base: u32,
+    pixel_base: u32,
+    window: Option<TileWindow>,
+) -> ViewGpu {
     let cam = &view.camera;
     // engine/docs/model.md section 4: f = normalize(T - C), r = normalize(f x U), up' = r x f.
     let b = cam.basis();
@@ -242,18 +267,19 @@ pub fn view_gpu_in(view: &View, tile_base: u32, pixel_base: u32, window: Option<
         LightKind::Point { position } => (0.0, position),
         LightKind::Directional { direction } => (1.0, direction),
     };
+    let (radius, axis) = bend_code(shape);
     ViewGpu {
         eye: f3(cam.eye, (cam.fov_y_deg.to_radians() * 0.5).tan() as f32),
         fwd: f3(fwd.to_array(), (w as f64 / h as f64) as f32),
-        right: f3(right.to_array(), 0.0),
+        right: f3(right.to_array(), radius as f32),
         up: f3(up.to_array(), kind),
-        light: f3(light, 0.0),
+        light: f3(light, axis),
         dims: [w, h, win.nx, win.ny],
         base: [tile_base, pixel_base, win.x0, win.y0],
     }
 }
 
-pub fn view_gpu64(view: &View) -> ViewGpu64 {
+pub fn view_gpu64(view: &View, shape: &PlateShape) -> ViewGpu64 {
     let cam = &view.camera;
     let b = cam.basis();
     let (fwd, right, up) = (b.fwd, b.right, b.up);
@@ -261,8 +287,8 @@ pub fn view_gpu64(view: &View) -> ViewGpu64 {
     ViewGpu64 {
         eye: c(DVec3::from(cam.eye), (cam.fov_y_deg.to_radians() * 0.5).tan()),
         fwd: c(fwd, cam.width as f64 / cam.height as f64),
-        right: c(right, 0.0),
-        up: c(up, 0.0),
+        right: c(right, bend_code(shape).0),
+        up: c(up, bend_code(shape).1 as f64),
     }
 }
 
@@ -274,10 +300,11 @@ pub fn view_slots(scene: &Scene) -> ViewSlots {
 /// end of `windows`: the whole image).
 pub fn view_slots_in(scene: &Scene, windows: &[Option<TileWindow>]) -> ViewSlots {
     let mut views = Vec::with_capacity(scene.views.len());
-    let views64 = scene.views.iter().map(view_gpu64).collect();
+    let shape = &scene.plate.shape;
+    let views64 = scene.views.iter().map(|v| view_gpu64(v, shape)).collect();
     let (mut tiles, mut pixels) = (0u32, 0u64);
     for (k, v) in scene.views.iter().enumerate() {
-        let gv = view_gpu_in(v, tiles, pixels as u32, windows.get(k).copied().flatten());
+        let gv = view_gpu_in(v, shape, tiles, pixels as u32, windows.get(k).copied().flatten());
         tiles += gv.dims[2] * gv.dims[3];
         pixels += v.camera.width as u64 * v.camera.height as u64;
         views.push(gv);

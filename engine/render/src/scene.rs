@@ -167,6 +167,8 @@ pub struct GpuScene {
     store_wanted: std::sync::atomic::AtomicBool,
     /// The store does not fit the device (or its counter wrapped): backward passes search.
     store_off: bool,
+    /// The plate's shape (the views carry it; `update_views` keeps it).
+    shape: crate::model::surface::PlateShape,
 }
 
 /// Stats words of the pair store (`shaders/inc/tile_queue.glsl`): entries the forward's chunks
@@ -175,6 +177,7 @@ const STAT_STORE_NEEDED: usize = 13;
 const STAT_STORE_FLAGS: usize = 14;
 
 mod store;
+mod update;
 
 impl GpuScene {
     /// Uploads a (validated) scene. Fails with a clear error when a buffer would exceed the
@@ -317,6 +320,7 @@ impl GpuScene {
             stats,
             store_wanted: std::sync::atomic::AtomicBool::new(false),
             store_off: false,
+            shape: scene.plate.shape,
             n_scratches,
             // binning threads per part: scratch groups, or scratches in the pairs mode
             n_groups: threads,
@@ -657,42 +661,5 @@ impl GpuScene {
             self.want_store();
         }
         self.drop_store(ctx, false)
-    }
-
-    /// Replaces the scratches (same number: the binning's sizes depend on it). Returns false
-    /// (and changes nothing) when the number differs, in which case the caller uploads the scene
-    /// again. For fits that re-render one scene with new scratch parameters many times.
-    pub fn update_scratches(&mut self, ctx: &std::sync::Arc<Context>, scratches: &[Scratch]) -> Result<bool, GpuError> {
-        if scratches.len() != self.n_scratches as usize {
-            return Ok(false);
-        }
-        let scr: Vec<ScratchGpu> = scratches.iter().map(ScratchGpu::from).collect();
-        self.inputs.scratches = ctx.upload("scratches", &scr)?;
-        Ok(true)
-    }
-
-    /// Replaces the cameras and lights (same number of views, same image sizes): cheap enough
-    /// for every frame of a viewer. Returns false (and changes nothing) when the sizes differ, in
-    /// which case the caller uploads the scene again.
-    pub fn update_views(&mut self, views: &[View]) -> Result<bool, GpuError> {
-        if views.len() != self.slots.views.len() {
-            return Ok(false);
-        }
-        let mut new = Vec::with_capacity(views.len());
-        for (v, old) in views.iter().zip(&self.slots.views) {
-            if v.camera.width != old.dims[0] || v.camera.height != old.dims[1] {
-                return Ok(false);
-            }
-            // The same window as uploaded.
-            new.push(layout::view_gpu_in(v, old.base[0], old.base[1], Some(old.window())));
-        }
-        let new64: Vec<_> = views.iter().map(layout::view_gpu64).collect();
-        let phi: Vec<f32> = views.iter().map(|v| v.radiance_scale() as f32).collect();
-        self.inputs.views.write(0, &new)?;
-        self.inputs.views64.write(0, &new64)?;
-        self.inputs.lights.write(0, &phi)?;
-        self.slots.views = new;
-        self.slots.views64 = new64;
-        Ok(true)
     }
 }

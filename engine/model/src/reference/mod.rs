@@ -35,8 +35,8 @@ mod integrate;
 use std::f64::consts::PI;
 
 use crate::camera::{dot, normalize, LightSample, ViewGeom};
-use crate::surface::SurfacePoint;
 use crate::scene::Scene;
+use crate::surface::SurfacePoint;
 
 use clip::polygon_area;
 use cull::Grid;

@@ -5,7 +5,7 @@
 
 use std::path::PathBuf;
 
-pub use crate::surface::{BendAxis, PlateShape};
+use crate::surface::PlateShape;
 
 /// Default plate roughness alpha_s (engine/docs/model.md section 6).
 pub const DEFAULT_ROUGHNESS: f64 = 0.02;

@@ -8,9 +8,10 @@ use serde_json::{Map, Value};
 use super::csv::{read_scratches_csv_table, Extra};
 use super::validate::{check_scratch, validate_header};
 use crate::scene::{
-    invalid, norm3, BendAxis, Camera, Light, LightKind, Plate, PlateShape, Scene, SceneError, Scratch, View, COLS, CSV_HEADER, DEFAULT_F0,
+    invalid, norm3, Camera, Light, LightKind, Plate, Scene, SceneError, Scratch, View, COLS, CSV_HEADER, DEFAULT_F0,
     DEFAULT_ROUGHNESS,
 };
+use crate::surface::{BendAxis, PlateShape};
 
 /// The keys the reader knows, per object. Keys elsewhere get a warning naming the closest known
 /// key (a typo such as `roughnes` would otherwise be ignored silently). `card` and `setup` are
@@ -231,7 +232,9 @@ impl Scene {
 /// `{"kind": "cylinder", "radius_mm": R, "axis": "x" | "y", "convex": true | false}` (the axis
 /// defaults to "y", convex to true).
 fn parse_shape(v: Option<&Value>, file: &str) -> Result<PlateShape, SceneError> {
-    let Some(v) = v.filter(|v| !v.is_null()) else { return Ok(PlateShape::Flat) };
+    let Some(v) = v.filter(|v| !v.is_null()) else {
+        return Ok(PlateShape::Flat);
+    };
     let o = v.as_object().ok_or_else(|| {
         invalid(
             file,
@@ -260,9 +263,9 @@ fn parse_shape(v: Option<&Value>, file: &str) -> Result<PlateShape, SceneError> 
             };
             let convex = match o.get("convex") {
                 None | Some(Value::Null) => true,
-                Some(c) => c.as_bool().ok_or_else(|| {
-                    invalid(file, "plate.shape.convex", format!("`{c}` must be true or false"))
-                })?,
+                Some(c) => c
+                    .as_bool()
+                    .ok_or_else(|| invalid(file, "plate.shape.convex", format!("`{c}` must be true or false")))?,
             };
             Ok(PlateShape::Cylinder {
                 radius_mm,

@@ -3,10 +3,10 @@
 //! [`Scene::validate`] for scenes built in code.
 
 use crate::camera::ViewGeom;
-use crate::surface::MAX_WRAP_RAD;
 use crate::scene::{
-    invalid, norm3, LightKind, Plate, PlateShape, Scene, SceneError, Scratch, View, COLS, DEFAULT_F0, DEFAULT_ROUGHNESS,
+    invalid, norm3, LightKind, Plate, Scene, SceneError, Scratch, View, COLS, DEFAULT_F0, DEFAULT_ROUGHNESS,
 };
+use crate::surface::{PlateShape, MAX_WRAP_RAD};
 
 /// Check one scratch against engine/docs/model.md section 2 and the plate; returns what is wrong.
 pub(super) fn check_scratch(s: &Scratch, plate_size: f64) -> Result<(), String> {

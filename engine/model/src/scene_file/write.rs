@@ -7,7 +7,8 @@ use std::path::{Path, PathBuf};
 use serde_json::{json, Value};
 
 use super::csv::{scratches_csv_text, Extra};
-use crate::scene::{LightKind, PlateShape, Scene, SceneError};
+use crate::scene::{LightKind, Scene, SceneError};
+use crate::surface::PlateShape;
 
 impl Scene {
     fn to_value(&self, scratches: Value) -> Value {
