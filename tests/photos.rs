@@ -7,14 +7,14 @@ use scratchart_design::framing::{fit_picture, largest_rect, silhouette, Fit};
 use scratchart_design::problem::{DesignConfig, Problem};
 use scratchart_design::scenes::{framed_ring_views, orbit_light, random_scratches, silhouette_box, Rng};
 use scratchart_design::targets::load_fitted_targets;
-use scratchart_model::scene::{Scene, View};
+use scratchart_model::scene::{Plate, Scene, View};
 use scratchart_observe::Silent;
 use scratchart_render::Renderer;
 use scratchart_tests::*;
 
 fn ring(res: u32) -> Vec<View> {
     let light = orbit_light(300.0, 45.0, 0.0, 1.0e4);
-    framed_ring_views(3, 45.0, 300.0, 100.0, res, &light, 0.95)
+    framed_ring_views(3, 45.0, 300.0, &Plate::flat(100.0), res, &light, 0.95)
 }
 
 fn data(name: &str) -> PathBuf {
@@ -41,7 +41,7 @@ fn inside_by(q: &[[f64; 2]; 4], p: [f64; 2]) -> f64 {
 #[test]
 fn framing_in_every_view_of_the_ring() {
     for v in ring(112) {
-        let b = silhouette_box(&v, 100.0).unwrap();
+        let b = silhouette_box(&v, &Plate::flat(100.0)).unwrap();
         let fill = ((b[2] - b[0]) / 112.0).max((b[3] - b[1]) / 112.0);
         eprintln!("view {}: silhouette fills {:.1}% of the frame", v.name, 100.0 * fill);
         assert!((0.9..=1.0 + 1e-9).contains(&fill), "view {}: fill {fill}", v.name);
@@ -69,7 +69,7 @@ fn framing_in_every_view_of_the_ring() {
             assert!((r.w / r.h - aspect).abs() < 1e-9);
             // The pixels that show the picture keep the aspect to one pixel.
             let src = vec![0.5f32; 16 * 10];
-            let f = fit_picture(&src, 16, 10, &v, 100.0, Fit::Contain, 0.0);
+            let f = fit_picture(&src, 16, 10, &v, &Plate::flat(100.0), Fit::Contain, 0.0);
             let cols = (0..112).filter(|&i| (0..112).any(|j| f.picture[j * 112 + i])).count() as f64;
             let rows = (0..112).filter(|&j| (0..112).any(|i| f.picture[j * 112 + i])).count() as f64;
             let want = rows * 1.6;
@@ -98,7 +98,7 @@ fn off_plate_pixels_have_no_effect() {
     let src: Vec<f32> = (0..64 * 40).map(|i| (i % 7) as f32 / 7.0 + 0.1).collect();
     for fit in [Fit::Contain, Fit::Frame, Fit::Cover, Fit::Printed] {
         for (k, v) in scene.views.iter().enumerate() {
-            let f = fit_picture(&src, 64, 40, v, 100.0, fit, 0.3);
+            let f = fit_picture(&src, 64, 40, v, &Plate::flat(100.0), fit, 0.3);
             let mask = scratchart_model::camera::on_plate_mask(&scene, k);
             assert!(
                 f.image.iter().zip(&mask).all(|(t, m)| *m || *t == 0.0),
@@ -141,7 +141,7 @@ fn off_plate_pixels_have_no_effect() {
 fn a_photo_design_improves_every_view() {
     let ctx = gpu();
     let light = orbit_light(300.0, 45.0, 0.0, 1.0e4);
-    let views = framed_ring_views(3, 45.0, 300.0, 100.0, 48, &light, 0.95);
+    let views = framed_ring_views(3, 45.0, 300.0, &Plate::flat(100.0), 48, &light, 0.95);
     let mut rng = Rng::new(1);
     let scene = Scene {
         plate: plate(100.0),
@@ -313,7 +313,7 @@ fn corr_moved(
             &s.views[0],
             &p.targets[j],
             &p.pictures[j],
-            0.5 * design.plate.size_mm,
+            &design.plate,
         )
     } else {
         (p.targets[j].iter().map(|&x| x as f64).collect(), p.pictures[j].clone())

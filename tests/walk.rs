@@ -158,7 +158,7 @@ fn renders_match_the_reported_correlations(scene: &Scene, frames: &[String], wal
         between: 1,
         res: 64,
     };
-    let (all, bviews) = arc_views(&arc, scene.plate.size_mm, &scene.views[0].light);
+    let (all, bviews) = arc_views(&arc, &scene.plate, &scene.views[0].light);
     for (k, v) in scene.views.iter().enumerate() {
         assert_eq!(v.camera, all[k].camera, "view {k}'s camera");
     }

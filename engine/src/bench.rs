@@ -605,7 +605,7 @@ pub fn bench_scene(name: &str) -> Option<Scene> {
             between: 0,
             res,
         };
-        scratchart_design::walk::arc_views(&arc, plate, &light).0
+        scratchart_design::walk::arc_views(&arc, &scratchart_model::scene::Plate::flat(plate), &light).0
     } else {
         let mut vs = ring_views(3, 45.0, 300.0, plate, res, &light);
         vs.truncate(views);

@@ -13,7 +13,7 @@
 //! picture on the plate itself (upright on the plate's +y axis, aspect kept, centred) and shows it
 //! in perspective.
 use scratchart_model::camera::ViewGeom;
-use scratchart_model::scene::View;
+use scratchart_model::scene::{Plate, View};
 
 /// How a picture is placed in a view.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
@@ -62,6 +62,73 @@ pub fn silhouette(view: &View, plate_mm: f64) -> Option<[[f64; 2]; 4]> {
         q[k] = [x, y];
     }
     Some(q)
+}
+
+/// The largest rectangle of aspect `aspect` (width / height) whose pixels all see the plate, for a
+/// bent plate (its silhouette is curved, and a concave sheet's may not be convex): pixel-aligned,
+/// the largest height by bisection (a height that fits means every smaller one does), and of the
+/// places that fit, the one nearest column `cx` (None: the on-plate pixels' middle) and the
+/// on-plate pixels' middle row.
+pub fn largest_rect_on_plate(view: &View, plate: &Plate, aspect: f64, cx: Option<f64>) -> Option<Rect> {
+    let (w, h) = (view.camera.width as usize, view.camera.height as usize);
+    let on = ViewGeom::of(view, plate).on_plate_mask(0.5 * plate.size_mm);
+    // Prefix sums of the off-plate pixels: off(x0, y0, x1, y1) counts them in [x0, x1) x [y0, y1).
+    let mut sum = vec![0u32; (w + 1) * (h + 1)];
+    let (mut n_on, mut mx, mut my) = (0.0f64, 0.0f64, 0.0f64);
+    for y in 0..h {
+        for x in 0..w {
+            let o = !on[y * w + x];
+            if !o {
+                n_on += 1.0;
+                mx += x as f64 + 0.5;
+                my += y as f64 + 0.5;
+            }
+            sum[(y + 1) * (w + 1) + x + 1] =
+                o as u32 + sum[y * (w + 1) + x + 1] + sum[(y + 1) * (w + 1) + x] - sum[y * (w + 1) + x];
+        }
+    }
+    if n_on == 0.0 {
+        return None;
+    }
+    let (mx, my) = (cx.unwrap_or(mx / n_on), my / n_on);
+    let off = |x0: usize, y0: usize, x1: usize, y1: usize| {
+        sum[y1 * (w + 1) + x1] + sum[y0 * (w + 1) + x0] - sum[y0 * (w + 1) + x1] - sum[y1 * (w + 1) + x0]
+    };
+    // The best place for a rectangle of height rh (None: none fits).
+    let place = |rh: usize| -> Option<(usize, usize, usize)> {
+        let rw = ((rh as f64 * aspect).floor() as usize).max(1);
+        if rw > w || rh > h {
+            return None;
+        }
+        let mut best: Option<(f64, usize, usize)> = None;
+        for y0 in 0..=h - rh {
+            for x0 in 0..=w - rw {
+                if off(x0, y0, x0 + rw, y0 + rh) == 0 {
+                    let d = (x0 as f64 + 0.5 * rw as f64 - mx).powi(2) + (y0 as f64 + 0.5 * rh as f64 - my).powi(2);
+                    if best.is_none_or(|b| d < b.0) {
+                        best = Some((d, x0, y0));
+                    }
+                }
+            }
+        }
+        best.map(|(_, x0, y0)| (x0, y0, rw))
+    };
+    let (mut lo, mut hi) = (0usize, h + 1); // lo fits (0: trivially), hi does not
+    while hi - lo > 1 {
+        let mid = (lo + hi) / 2;
+        if place(mid).is_some() {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    let (x0, y0, rw) = place(lo.max(1))?;
+    Some(Rect {
+        x0: x0 as f64,
+        y0: y0 as f64,
+        w: rw as f64,
+        h: lo.max(1) as f64,
+    })
 }
 
 /// The largest rectangle of aspect `aspect` (width / height) inside the convex quadrilateral
@@ -208,13 +275,13 @@ pub struct Fitted {
     pub picture: Vec<bool>,
 }
 
-/// Places picture `src` (`sw` x `sh` display values) in `view` of a `plate_mm` plate.
+/// Places picture `src` (`sw` x `sh` display values) in `view` of `plate`.
 /// `background`: the level of on-plate pixels outside the picture. Off-plate pixels are 0.
 /// A picture smaller than the rectangle it fills is scaled up, a larger one down (an area
 /// average over the source pixels a target pixel covers, so nothing aliases).
-pub fn fit_picture(src: &[f32], sw: u32, sh: u32, view: &View, plate_mm: f64, fit: Fit, background: f32) -> Fitted {
-    let rect = picture_rect(view, plate_mm, fit, sw as f64 / sh as f64);
-    fit_picture_rect(src, sw, sh, view, plate_mm, fit, background, rect)
+pub fn fit_picture(src: &[f32], sw: u32, sh: u32, view: &View, plate: &Plate, fit: Fit, background: f32) -> Fitted {
+    let rect = picture_rect(view, plate, fit, sw as f64 / sh as f64);
+    fit_picture_rect(src, sw, sh, view, plate, fit, background, rect)
 }
 
 /// [`fit_picture`] for a walk's view: `contain` keeps the picture centred on the column of the
@@ -225,25 +292,27 @@ pub fn fit_picture_walk(
     sw: u32,
     sh: u32,
     view: &View,
-    plate_mm: f64,
+    plate: &Plate,
     fit: Fit,
     background: f32,
 ) -> Fitted {
     let aspect = sw as f64 / sh as f64;
+    let cx = ViewGeom::new(view).project([0.0, 0.0, 0.0]).map(|p| p.0);
     let rect = match fit {
-        Fit::Contain => silhouette(view, plate_mm).and_then(|q| {
+        Fit::Contain if !plate.shape.is_flat() => largest_rect_on_plate(view, plate, aspect, cx),
+        Fit::Contain => silhouette(view, plate.size_mm).and_then(|q| {
             let (w, h) = (view.camera.width as f64, view.camera.height as f64);
-            let cx = ViewGeom::new(view).project([0.0, 0.0, 0.0]).map(|p| p.0);
             largest_rect_with(&q, aspect, w, h, cx)
         }),
-        _ => picture_rect(view, plate_mm, fit, aspect),
+        _ => picture_rect(view, plate, fit, aspect),
     };
-    fit_picture_rect(src, sw, sh, view, plate_mm, fit, background, rect)
+    fit_picture_rect(src, sw, sh, view, plate, fit, background, rect)
 }
 
 /// Where a picture of `aspect` (width / height) goes in `view` for `fit` (see [`Fitted::rect`]).
-pub fn picture_rect(view: &View, plate_mm: f64, fit: Fit, aspect: f64) -> Option<Rect> {
+pub fn picture_rect(view: &View, plate: &Plate, fit: Fit, aspect: f64) -> Option<Rect> {
     let (w, h) = (view.camera.width, view.camera.height);
+    let plate_mm = plate.size_mm;
     match fit {
         Fit::Frame => Some(Rect {
             x0: 0.0,
@@ -251,15 +320,10 @@ pub fn picture_rect(view: &View, plate_mm: f64, fit: Fit, aspect: f64) -> Option
             w: w as f64,
             h: h as f64,
         }),
+        Fit::Contain if !plate.shape.is_flat() => largest_rect_on_plate(view, plate, aspect, None),
         Fit::Contain => silhouette(view, plate_mm).and_then(|q| largest_rect(&q, aspect, w as f64, h as f64)),
-        Fit::Cover => silhouette(view, plate_mm).map(|q| {
-            let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
-            for p in q {
-                for a in 0..2 {
-                    lo[a] = lo[a].min(p[a]);
-                    hi[a] = hi[a].max(p[a]);
-                }
-            }
+        Fit::Cover => crate::scenes::silhouette_box(view, plate).map(|b| {
+            let (lo, hi) = ([b[0], b[1]], [b[2], b[3]]);
             let (bw, bh) = (hi[0] - lo[0], hi[1] - lo[1]);
             // The smallest rectangle of the picture's aspect that covers the box.
             let (rw, rh) = if bw / bh > aspect {
@@ -287,13 +351,14 @@ pub fn fit_picture_rect(
     sw: u32,
     sh: u32,
     view: &View,
-    plate_mm: f64,
+    plate: &Plate,
     fit: Fit,
     background: f32,
     rect: Option<Rect>,
 ) -> Fitted {
     let (w, h) = (view.camera.width, view.camera.height);
-    let g = ViewGeom::new(view);
+    let plate_mm = plate.size_mm;
+    let g = ViewGeom::of(view, plate);
     let on = g.on_plate_mask(0.5 * plate_mm);
     let aspect = sw as f64 / sh as f64;
     let mut image = vec![0f32; (w * h) as usize];

@@ -52,6 +52,7 @@
 //! read from the GPU, so a run is bit-reproducible on one device, and a resumed run equals an
 //! uninterrupted one bit for bit.
 pub mod balance;
+pub mod bend;
 pub mod carving;
 pub mod design;
 pub mod framing;

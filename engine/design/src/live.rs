@@ -206,7 +206,7 @@ impl Live<'_, '_> {
             let src = self.problem.sources[v].as_ref().expect("checked");
             let f = src.place(
                 &self.problem.scene.views[v],
-                self.problem.scene.plate.size_mm,
+                &self.problem.scene.plate,
                 e.shift(),
                 e.scale(),
             );

@@ -44,10 +44,12 @@ pub fn lobe(alpha: f64) -> f64 {
 
 /// The half vector at plate point `x` of view `g`.
 fn half_vector(g: &ViewGeom, x: [f64; 2]) -> [f64; 3] {
-    let (o, i) = (g.omega_o(x), g.light_at(x).omega_i);
+    // In the surface frame at x (the world's on a flat plate): what the grooves there see.
+    let q = g.shape.at_sheet(x);
+    let (o, i) = (g.omega_o_at(q.p), g.light_at_point(q.p).omega_i);
     let h = [o[0] + i[0], o[1] + i[1], o[2] + i[2]];
     let n = (h[0] * h[0] + h[1] * h[1] + h[2] * h[2]).sqrt().max(1e-300);
-    [h[0] / n, h[1] / n, h[2] / n]
+    q.local([h[0] / n, h[1] / n, h[2] / n])
 }
 
 /// One view's reach: each pixel's state and the counts.
@@ -76,7 +78,7 @@ impl Reach {
 /// the roughness lobe's half-width ([`lobe`]).
 pub fn reach_map(scene: &Scene, j: usize, target: &[f32], picture: &[bool], max_tilt: f64, alpha: f64) -> Reach {
     let v = &scene.views[j];
-    let g = ViewGeom::new(v);
+    let g = ViewGeom::of(v, &scene.plate);
     let half = 0.5 * scene.plate.size_mm;
     let limit = max_tilt + lobe(alpha);
     let (w, h) = (v.camera.width, v.camera.height);
@@ -114,7 +116,12 @@ pub fn reach_map(scene: &Scene, j: usize, target: &[f32], picture: &[bool], max_
 /// plane by no more than its steepest wall plus the lobe. One bit per view (at most 64 views
 /// counted; later views are left out).
 pub fn service(scene: &Scene) -> Vec<u64> {
-    let geoms: Vec<ViewGeom> = scene.views.iter().take(64).map(ViewGeom::new).collect();
+    let geoms: Vec<ViewGeom> = scene
+        .views
+        .iter()
+        .take(64)
+        .map(|v| ViewGeom::of(v, &scene.plate))
+        .collect();
     scene
         .scratches
         .iter()

@@ -279,7 +279,7 @@ pub fn write_outputs(
             "crosstalk": q_final[v].crosstalk.iter().map(|&(k, x, raw)| json!({"other_view": scene.views[k].name, "crosstalk": x, "raw_correlation": raw})).collect::<Vec<_>>(),
             "picture_pixels": problem.pictures[v].iter().filter(|p| **p).count(),
             "picture_rect_px": problem.picture_rects[v].map(|r| [r.x0, r.y0, r.w, r.h]),
-            "plate_fills_frame": crate::scenes::silhouette_box(view, scene.plate.size_mm)
+            "plate_fills_frame": crate::scenes::silhouette_box(view, &scene.plate)
                 .map(|b| ((b[2] - b[0]) / w as f64).max((b[3] - b[1]) / h as f64)),
             "light_intensity": view.light.intensity,
             "reach": reach[v],

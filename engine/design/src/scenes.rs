@@ -111,27 +111,35 @@ pub fn framed_ring_views(
     m: usize,
     elev: f64,
     distance: f64,
-    plate_mm: f64,
+    plate: &Plate,
     res: u32,
     light: &Light,
     fill: f64,
 ) -> Vec<View> {
-    let mut views = ring_views(m, elev, distance, plate_mm, res, light);
+    let mut views = ring_views(m, elev, distance, plate.size_mm, res, light);
     for v in &mut views {
-        frame_plate(v, plate_mm, fill);
+        frame_plate(v, plate, fill);
     }
     views
 }
 
 /// The plate's silhouette's bounding box in `view` (pixels: x0, y0, x1, y1), if every corner is
-/// in front of the camera.
-pub fn silhouette_box(view: &View, plate_mm: f64) -> Option<[f64; 4]> {
+/// in front of the camera: its four corners' on a flat plate, a bent sheet's outline's (its
+/// edges, 64 points each; the sheet's straight edges along the axis are straight in the world).
+pub fn silhouette_box(view: &View, plate: &Plate) -> Option<[f64; 4]> {
     let g = scratchart_model::camera::ViewGeom::new(view);
-    let half = 0.5 * plate_mm;
+    let half = 0.5 * plate.size_mm;
+    let n = if plate.shape.is_flat() { 1 } else { 64 };
     let mut b = [f64::INFINITY, f64::INFINITY, f64::NEG_INFINITY, f64::NEG_INFINITY];
-    for c in [[-half, -half], [half, -half], [half, half], [-half, half]] {
-        let (x, y) = g.project([c[0], c[1], 0.0])?;
-        b = [b[0].min(x), b[1].min(y), b[2].max(x), b[3].max(y)];
+    let corners = [[-half, -half], [half, -half], [half, half], [-half, half]];
+    for (k, c) in corners.iter().enumerate() {
+        let e = corners[(k + 1) % 4];
+        for i in 0..n {
+            let f = i as f64 / n as f64;
+            let q = [c[0] + f * (e[0] - c[0]), c[1] + f * (e[1] - c[1])];
+            let (x, y) = g.project(plate.shape.to_world(q))?;
+            b = [b[0].min(x), b[1].min(y), b[2].max(x), b[3].max(y)];
+        }
     }
     Some(b)
 }
@@ -140,9 +148,9 @@ pub fn silhouette_box(view: &View, plate_mm: f64) -> Option<[f64; 4]> {
 /// that the silhouette's bounding box fills `fill` of the binding frame dimension (a few fixed
 /// point steps: aiming moves the perspective a little). Leaves the camera as it is when a plate
 /// corner is behind it.
-pub fn frame_plate(view: &mut View, plate_mm: f64, fill: f64) {
+pub fn frame_plate(view: &mut View, plate: &Plate, fill: f64) {
     for _ in 0..6 {
-        let Some(b) = silhouette_box(view, plate_mm) else {
+        let Some(b) = silhouette_box(view, plate) else {
             return;
         };
         let cam = &mut view.camera;

@@ -115,8 +115,14 @@ pub struct Source {
 }
 
 impl Source {
-    /// The picture placed in `view` (of a `plate_mm` plate) as `event` says.
-    pub fn place(&self, view: &scratchart_model::scene::View, plate_mm: f64, shift: [f64; 2], scale: f64) -> Fitted {
+    /// The picture placed in `view` (of `plate`) as `event` says.
+    pub fn place(
+        &self,
+        view: &scratchart_model::scene::View,
+        plate: &scratchart_model::scene::Plate,
+        shift: [f64; 2],
+        scale: f64,
+    ) -> Fitted {
         let r = self.rect;
         let (w, h) = (r.w * scale, r.h * scale);
         let rect = Rect {
@@ -130,7 +136,7 @@ impl Source {
             self.width,
             self.height,
             view,
-            plate_mm,
+            plate,
             self.fit,
             self.background,
             Some(rect),

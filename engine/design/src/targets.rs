@@ -104,7 +104,7 @@ pub fn fit_pictures(
     pictures
         .iter()
         .zip(&scene.views)
-        .map(|(p, v)| crate::framing::fit_picture(&p.data, p.width, p.height, v, scene.plate.size_mm, fit, background))
+        .map(|(p, v)| crate::framing::fit_picture(&p.data, p.width, p.height, v, &scene.plate, fit, background))
         .collect()
 }
 

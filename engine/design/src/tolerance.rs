@@ -263,7 +263,6 @@ fn mask_window(v: &View, mask: &[bool]) -> Option<TileWindow> {
 /// to [`ANGLE_RANGE`] and [`DISTANCE_RANGE`], then by bisection. All searches step together, one
 /// batched render per step.
 pub fn sensitivity(renderer: &Renderer, scene: &Scene, inputs: &SheetInputs) -> Result<Sensitivity, OptimError> {
-    let half = 0.5 * scene.plate.size_mm;
     // A render from view j as designed, or from `eye`, a view with its eye moved: against the
     // picture as it appears from there (a move that only makes the picture larger, smaller or
     // foreshortened is no loss; what the reflection does there is).
@@ -274,7 +273,13 @@ pub fn sensitivity(renderer: &Renderer, scene: &Scene, inputs: &SheetInputs) -> 
             inputs.targets[j].iter().map(|&x| x as f64).collect(),
             inputs.pictures[j].clone(),
         ),
-        Some(moved) => as_seen_from(&scene.views[j], moved, &inputs.targets[j], &inputs.pictures[j], half),
+        Some(moved) => as_seen_from(
+            &scene.views[j],
+            moved,
+            &inputs.targets[j],
+            &inputs.pictures[j],
+            &scene.plate,
+        ),
     };
     let corr_of = |img: &[f32], j: usize, (t, m): &(Vec<f64>, Vec<bool>)| {
         let (w, h) = (scene.views[j].camera.width, scene.views[j].camera.height);
@@ -390,11 +395,12 @@ pub fn as_seen_from(
     moved: &View,
     target: &[f32],
     picture: &[bool],
-    half: f64,
+    plate: &scratchart_model::scene::Plate,
 ) -> (Vec<f64>, Vec<bool>) {
+    let half = 0.5 * plate.size_mm;
     let (a, b) = (
-        scratchart_model::camera::ViewGeom::new(designed),
-        scratchart_model::camera::ViewGeom::new(moved),
+        scratchart_model::camera::ViewGeom::of(designed, plate),
+        scratchart_model::camera::ViewGeom::of(moved, plate),
     );
     let (w, h) = (moved.camera.width as usize, moved.camera.height as usize);
     let (dw, dh) = (designed.camera.width as usize, designed.camera.height as usize);
@@ -408,7 +414,7 @@ pub fn as_seen_from(
             if p[0].abs() > half || p[1].abs() > half {
                 continue;
             }
-            let Some((sx, sy)) = a.project([p[0], p[1], 0.0]) else {
+            let Some((sx, sy)) = a.project(plate.shape.to_world(p)) else {
                 continue;
             };
             // Seen by the designed view: inside its image.

@@ -43,7 +43,7 @@ impl CheckObjective {
         for (v, view) in scene.views.iter().enumerate() {
             let (vw, vh) = (view.camera.width, view.camera.height);
             assert_eq!(targets[v].len(), (vw * vh) as usize, "target {v} has the wrong size");
-            let mask = crate::model::camera::ViewGeom::new(view).on_plate_mask(half);
+            let mask = crate::model::camera::ViewGeom::of(view, &scene.plate).on_plate_mask(half);
             let n = mask.iter().filter(|m| **m).count().max(1) as f64;
             w.extend(mask.iter().map(|&m| if m { (1.0 / n) as f32 } else { 0.0 }));
             t.extend_from_slice(&targets[v]);

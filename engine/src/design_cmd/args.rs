@@ -13,6 +13,20 @@ pub enum ExposureMode {
     Fixed,
 }
 
+/// `design --plate-shape`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum PlateShapeArg {
+    Flat,
+    Cylinder,
+}
+
+/// `design --bend-axis`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum BendAxisArg {
+    X,
+    Y,
+}
+
 /// Flags of `scratchart design`. Without any, designs the built-in 3-view demo (circle, triangle,
 /// star) into ./out in a few minutes on a CPU (lavapipe).
 #[derive(clap::Args, Clone, Debug)]
@@ -141,6 +155,22 @@ pub struct DesignArgs {
     /// Plate size, mm
     #[arg(long, default_value_t = 100.0)]
     pub plate: f64,
+    /// The plate's shape once carved: `flat` (the default), or `cylinder`: the flat sheet, carved
+    /// as usual, then bent around a form of --radius mm (a can, a pipe, a printed form) about
+    /// the sheet's --bend-axis, the scratched face outside (or inside with --concave). The plan
+    /// carves the flat sheet; the set-up sheet says how to bend it and where to stand
+    #[arg(long, value_enum, default_value_t = PlateShapeArg::Flat)]
+    pub plate_shape: PlateShapeArg,
+    /// The bend's radius, mm (with --plate-shape cylinder; at least --plate / 5.24)
+    #[arg(long)]
+    pub radius: Option<f64>,
+    /// The sheet's axis the bend runs along: `y` (default: the sheet's left and right edges
+    /// curve) or `x` (its top and bottom edges curve)
+    #[arg(long, value_enum)]
+    pub bend_axis: Option<BendAxisArg>,
+    /// The scratched face inside the bend (a bowl, a reflector), not outside (a vase, a bracelet)
+    #[arg(long)]
+    pub concave: bool,
     /// Initial scratch length range, percent of the plate size
     #[arg(long, default_value_t = 2.0)]
     pub len_min_pct: f64,
@@ -337,6 +367,13 @@ impl DesignArgs {
                 ExposureMode::Fixed => Exposure::Fixed,
             },
             plate: self.plate,
+            cylinder: self.plate_shape == PlateShapeArg::Cylinder,
+            radius: self.radius,
+            bend_axis: self.bend_axis.map(|a| match a {
+                BendAxisArg::X => scratchart_model::surface::BendAxis::X,
+                BendAxisArg::Y => scratchart_model::surface::BendAxis::Y,
+            }),
+            concave: self.concave,
             len_min_pct: self.len_min_pct,
             len_max_pct: self.len_max_pct,
             init_w: self.init_w,

@@ -13,6 +13,7 @@ use std::sync::Arc;
 use scratchart_exit::{Class, ExitClass};
 use scratchart_model::mesh::MeshError;
 use scratchart_model::scene::SceneError;
+use scratchart_model::surface::{BendAxis, PlateShape, MAX_WRAP_RAD};
 use scratchart_observe::Observer;
 use scratchart_optim::tool_params::{Fabrication, FabricationError, MachineLimits};
 use scratchart_tool::machine::{Firmware, MachineProfile};
@@ -96,6 +97,12 @@ pub struct DesignSpec {
     pub light_distance: Option<f64>,
     pub exposure: Exposure,
     pub plate: f64,
+    /// `--plate-shape cylinder` (false: flat), `--radius`, `--bend-axis`, `--concave`: see
+    /// [`DesignSpec::plate_shape`].
+    pub cylinder: bool,
+    pub radius: Option<f64>,
+    pub bend_axis: Option<BendAxis>,
+    pub concave: bool,
     pub len_min_pct: f64,
     pub len_max_pct: f64,
     pub init_w: f64,
@@ -132,6 +139,40 @@ pub struct DesignSpec {
     pub inject_stop_at: Option<u32>,
 }
 
+impl DesignSpec {
+    /// The plate's shape the flags say: flat, or the carved sheet bent into a cylinder of
+    /// `--radius` about `--bend-axis` (convex unless `--concave`), engine/docs/model.md section 10.
+    pub fn plate_shape(&self) -> Result<PlateShape, SpecError> {
+        if !self.cylinder {
+            ensure_flag!(
+                self.radius.is_none() && self.bend_axis.is_none() && !self.concave,
+                "--radius, --bend-axis and --concave describe a bent plate: add --plate-shape cylinder"
+            );
+            return Ok(PlateShape::Flat);
+        }
+        let Some(radius_mm) = self.radius else {
+            return Err(SpecError::Usage(
+                "--plate-shape cylinder needs --radius MM: the radius of the form the sheet is bent around \
+                 (a can is about 33 mm, a vase band 60 to 150)"
+                    .into(),
+            ));
+        };
+        let least = self.plate / MAX_WRAP_RAD;
+        ensure_flag!(
+            radius_mm.is_finite() && radius_mm >= least,
+            "--radius {radius_mm} is too small for a {} mm plate: at least {least:.1} mm (the sheet may span {:.0} \
+             degrees of the cylinder)",
+            self.plate,
+            MAX_WRAP_RAD.to_degrees()
+        );
+        Ok(PlateShape::Cylinder {
+            radius_mm,
+            axis: self.bend_axis.unwrap_or(BendAxis::Y),
+            convex: !self.concave,
+        })
+    }
+}
+
 impl Default for DesignSpec {
     fn default() -> DesignSpec {
         DesignSpec {
@@ -164,6 +205,10 @@ impl Default for DesignSpec {
             light_distance: None,
             exposure: Exposure::Fixed,
             plate: 100.0,
+            cylinder: false,
+            radius: None,
+            bend_axis: None,
+            concave: false,
             len_min_pct: 2.0,
             len_max_pct: 8.0,
             init_w: 0.05,

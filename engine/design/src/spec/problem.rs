@@ -3,7 +3,7 @@
 //! checked against the device's limits before anything is computed.
 use std::path::PathBuf;
 
-use scratchart_model::scene::{Light, Plate, Scene, View};
+use scratchart_model::scene::{Light, LightKind, Plate, Scene, View};
 use scratchart_observe::Observer;
 use scratchart_render::limits::{largest_fitting, SceneDims};
 use scratchart_vulkan::DeviceInfo;
@@ -46,12 +46,25 @@ pub fn problem(spec: &DesignSpec, info: &DeviceInfo, obs: &dyn Observer) -> Resu
     ensure_flag!(n_scratches > 0, "--scratches must be at least 1");
     check_scratch_flags(spec)?;
     let plate = Plate {
-        size_mm: plate_mm,
-        roughness: scratchart_model::scene::DEFAULT_ROUGHNESS,
-        f0: scratchart_model::scene::DEFAULT_F0,
-        shape: Default::default(),
+        shape: spec.plate_shape()?,
+        ..Plate::flat(plate_mm)
     };
-    let (views, between) = design_views(spec, walk.as_ref(), &plate)?;
+    let (mut views, between) = design_views(spec, walk.as_ref(), &plate)?;
+    if !plate.shape.is_flat() && spec.view_file.is_none() && spec.light_azimuth.is_none() {
+        // A bent sheet mirrors the lamp along a line for every eye: the lamp goes where no view
+        // sees that line (crate::bend).
+        let (lamp, margin) = crate::bend::glint_free_lamp(&views, &plate, &views[0].light);
+        if let LightKind::Point { position } = lamp.kind {
+            let r = (position[0] * position[0] + position[1] * position[1] + position[2] * position[2]).sqrt();
+            obs.info(&format!(
+                "bent plate: the lamp stands at azimuth {:.0} and elevation {:.0} degrees, where the sheet's own \
+                 mirror glint is {margin:.1} degrees from every view's half vector (--light-azimuth sets it)",
+                position[1].atan2(position[0]).to_degrees(),
+                (position[2] / r).asin().to_degrees()
+            ));
+        }
+        views.iter_mut().for_each(|v| v.light = lamp.clone());
+    }
     check_size(spec, &views, n_scratches, info)?;
     for w in views.iter().flat_map(scratchart_render::limits::view_warnings) {
         obs.warn(&w);
@@ -134,7 +147,7 @@ fn design_views(
                 )));
             }
             let doc = serde_json::json!({
-                "plate": {"size_mm": plate.size_mm, "roughness": plate.roughness, "f0": plate.f0},
+                "plate": plate.to_value(),
                 "views": arr,
                 "scratches": [],
             });
@@ -150,7 +163,7 @@ fn design_views(
             match walk {
                 Some(arc) => {
                     let light = lamp(spec, arc.distance_mm, arc.centre_azimuth_deg)?;
-                    let (views, b) = crate::walk::arc_views(arc, plate_mm, &light);
+                    let (views, b) = crate::walk::arc_views(arc, plate, &light);
                     between = b;
                     views
                 }
@@ -159,7 +172,7 @@ fn design_views(
                     // Initial intensity: a placeholder, calibrated against the targets before the first step.
                     let light = lamp(spec, distance, 0.0)?;
                     // The plate's silhouette fills 95% of each frame (width or height, whichever binds).
-                    framed_ring_views(spec.views, spec.elevation, distance, plate_mm, spec.res, &light, 0.95)
+                    framed_ring_views(spec.views, spec.elevation, distance, plate, spec.res, &light, 0.95)
                 }
             }
         }

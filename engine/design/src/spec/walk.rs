@@ -118,7 +118,7 @@ pub(super) fn walk_problem(
             Frames::Pictures(pictures),
         )
     };
-    let probe_views = probe_views(&arc, scene.plate.size_mm, &scene.views[0].light, spec.walk_probes);
+    let probe_views = probe_views(&arc, &scene.plate, &scene.views[0].light, spec.walk_probes);
     let mut walk = Walk {
         arc,
         source: source.into(),
@@ -129,7 +129,7 @@ pub(super) fn walk_problem(
     let fitted = walk_targets(&scene, &walk, &frames, spec.fit, spec.background, spec.gamma);
     walk.probes = probes(
         probe_views,
-        scene.plate.size_mm,
+        &scene.plate,
         &frames,
         spec.fit,
         spec.background,

@@ -1,6 +1,7 @@
 //! Unit tests of the tolerance searches and of the picture as seen from a moved eye.
 use super::*;
 use scratchart_model::camera::ViewGeom;
+use scratchart_model::scene::Plate;
 
 /// A 96-px view of an 80 mm plate from (azimuth, elevation, distance), the lamp overhead.
 fn view(azimuth: f64, elevation: f64, distance: f64) -> View {
@@ -41,7 +42,7 @@ fn the_picture_as_seen_from_a_moved_eye() {
     let (t0, m0) = seen(&designed);
     let target: Vec<f32> = t0.iter().map(|&x| x as f32).collect();
     // Unmoved: the picture itself.
-    let (t, m) = as_seen_from(&designed, &designed, &target, &m0, half);
+    let (t, m) = as_seen_from(&designed, &designed, &target, &m0, &Plate::flat(2.0 * half));
     assert_eq!(m, m0, "an unmoved eye sees the picture's own pixels");
     for k in (0..t.len()).filter(|&k| m[k]) {
         assert!((t[k] - t0[k]).abs() < 1e-6, "pixel {k}: {} {}", t[k], t0[k]);
@@ -50,7 +51,7 @@ fn the_picture_as_seen_from_a_moved_eye() {
     for (axis, delta) in [("distance", 0.03), ("distance", -0.03), ("azimuth", 5.0)] {
         let moved = variant(&designed, "eye", axis, delta);
         let (truth, on) = seen(&moved);
-        let (t, m) = as_seen_from(&designed, &moved, &target, &m0, half);
+        let (t, m) = as_seen_from(&designed, &moved, &target, &m0, &Plate::flat(2.0 * half));
         let (mut err, mut unwarped, mut n) = (0.0, 0.0, 0.0);
         for k in 0..t.len() {
             if m[k] {

@@ -18,7 +18,7 @@
 use std::path::PathBuf;
 
 use super::framing::{fit_picture_walk, Fit, Fitted};
-use scratchart_model::scene::{Light, Scene, View};
+use scratchart_model::scene::{Light, Plate, Scene, View};
 
 #[cfg(test)]
 mod tests;
@@ -169,22 +169,22 @@ fn between_name(left: usize, i: usize, per_pair: usize) -> String {
 }
 
 /// A view at azimuth `az` on the arc: the ring's camera, framed as the ring's views are.
-fn arc_view(name: String, arc: &WalkArc, az: f64, plate_mm: f64, light: &Light) -> View {
+fn arc_view(name: String, arc: &WalkArc, az: f64, plate: &Plate, light: &Light) -> View {
     let mut v = View {
         exposure: 1.0,
         name,
-        camera: crate::scenes::orbit_camera(arc.distance_mm, arc.elevation_deg, az, plate_mm, arc.res, arc.res),
+        camera: crate::scenes::orbit_camera(arc.distance_mm, arc.elevation_deg, az, plate.size_mm, arc.res, arc.res),
         light: light.clone(),
     };
-    crate::scenes::frame_plate(&mut v, plate_mm, 0.95);
+    crate::scenes::frame_plate(&mut v, plate, 0.95);
     v
 }
 
 /// The walk's views: the design views v0 .. v{N-1} along the arc, then the in-between views
 /// (`arc.between` per pair, evenly spaced), all lit by `light`.
-pub fn arc_views(arc: &WalkArc, plate_mm: f64, light: &Light) -> (Vec<View>, Vec<BetweenView>) {
+pub fn arc_views(arc: &WalkArc, plate: &Plate, light: &Light) -> (Vec<View>, Vec<BetweenView>) {
     let mut views: Vec<View> = (0..arc.views)
-        .map(|k| arc_view(format!("v{k}"), arc, arc.azimuth_at(k as f64), plate_mm, light))
+        .map(|k| arc_view(format!("v{k}"), arc, arc.azimuth_at(k as f64), plate, light))
         .collect();
     let mut between = Vec::new();
     for left in 0..arc.views - 1 {
@@ -199,7 +199,7 @@ pub fn arc_views(arc: &WalkArc, plate_mm: f64, light: &Light) -> (Vec<View>, Vec
                 between_name(left, i, arc.between),
                 arc,
                 arc.azimuth_at(left as f64 + t),
-                plate_mm,
+                plate,
                 light,
             ));
         }
@@ -209,7 +209,7 @@ pub fn arc_views(arc: &WalkArc, plate_mm: f64, light: &Light) -> (Vec<View>, Vec
 
 /// The probe views of `arc`: `per_pair` per pair of neighbouring design views, at the fractions
 /// i / (per_pair + 1), named `v0-v1@0.25` and so on; each pair's left view index and fraction.
-pub fn probe_views(arc: &WalkArc, plate_mm: f64, light: &Light, per_pair: usize) -> Vec<(usize, f64, View)> {
+pub fn probe_views(arc: &WalkArc, plate: &Plate, light: &Light, per_pair: usize) -> Vec<(usize, f64, View)> {
     let mut out = Vec::new();
     for left in 0..arc.views.saturating_sub(1) {
         for i in 1..=per_pair {
@@ -218,7 +218,7 @@ pub fn probe_views(arc: &WalkArc, plate_mm: f64, light: &Light, per_pair: usize)
             out.push((
                 left,
                 t,
-                arc_view(name, arc, arc.azimuth_at(left as f64 + t), plate_mm, light),
+                arc_view(name, arc, arc.azimuth_at(left as f64 + t), plate, light),
             ));
         }
     }
@@ -291,7 +291,7 @@ pub fn read_pictures(files: &[PathBuf], blank: &[String]) -> Result<Vec<Picture>
 #[allow(clippy::too_many_arguments)] // the placement's settings, named at the one call site
 pub fn target_at(
     view: &View,
-    plate_mm: f64,
+    plate: &Plate,
     left: usize,
     t: f64,
     frames: &Frames,
@@ -309,12 +309,12 @@ pub fn target_at(
         }
         f
     };
-    let on = || scratchart_model::camera::ViewGeom::new(view).on_plate_mask(0.5 * plate_mm);
+    let on = || scratchart_model::camera::ViewGeom::of(view, plate).on_plate_mask(0.5 * plate.size_mm);
     match frames {
         Frames::Pictures(pics) => {
             let place = |pic: &Picture| {
                 tone(fit_picture_walk(
-                    &pic.data, pic.width, pic.height, view, plate_mm, fit, background,
+                    &pic.data, pic.width, pic.height, view, plate, fit, background,
                 ))
             };
             if t == 0.0 {
@@ -363,7 +363,7 @@ pub fn target_at(
 
 /// Every view's target (design views, then in-between views); see [`target_at`].
 pub fn walk_targets(scene: &Scene, walk: &Walk, frames: &Frames, fit: Fit, background: f32, gamma: f32) -> Vec<Fitted> {
-    let plate = scene.plate.size_mm;
+    let plate = &scene.plate;
     let n = walk.design_views();
     let at = |v: usize, left: usize, t: f64| target_at(&scene.views[v], plate, left, t, frames, fit, background, gamma);
     (0..n)
@@ -375,7 +375,7 @@ pub fn walk_targets(scene: &Scene, walk: &Walk, frames: &Frames, fit: Fit, backg
 /// The probes of `views` ([`probe_views`]) with their targets.
 pub fn probes(
     views: Vec<(usize, f64, View)>,
-    plate_mm: f64,
+    plate: &Plate,
     frames: &Frames,
     fit: Fit,
     background: f32,
@@ -384,7 +384,7 @@ pub fn probes(
     views
         .into_iter()
         .map(|(left, t, view)| {
-            let f = target_at(&view, plate_mm, left, t, frames, fit, background, gamma);
+            let f = target_at(&view, plate, left, t, frames, fit, background, gamma);
             Probe {
                 left,
                 t,

@@ -20,7 +20,7 @@ fn arc(views: usize, between: usize) -> WalkArc {
 fn the_arcs_cameras_stand_where_the_flags_put_them() {
     let a = arc(5, 2);
     let light = crate::scenes::orbit_light(300.0, 60.0, 10.0, 1e4);
-    let (views, between) = arc_views(&a, 100.0, &light);
+    let (views, between) = arc_views(&a, &Plate::flat(100.0), &light);
     assert_eq!(views.len(), 5 + 4 * 2);
     assert_eq!(between.len(), 8);
     let names: Vec<&str> = views.iter().map(|v| v.name.as_str()).collect();
@@ -65,8 +65,8 @@ fn a_walks_pictures_move_smoothly_along_the_arc() {
     let centre = |az: f64| {
         let mut a = a.clone();
         a.res = 64;
-        let v = arc_view("x".into(), &a, az, 100.0, &light);
-        let f = fit_picture_walk(&[1.0; 4], 2, 2, &v, 100.0, Fit::Contain, 0.0);
+        let v = arc_view("x".into(), &a, az, &Plate::flat(100.0), &light);
+        let f = fit_picture_walk(&[1.0; 4], 2, 2, &v, &Plate::flat(100.0), Fit::Contain, 0.0);
         let r = f.rect.expect("a rectangle");
         (r.x0 + 0.5 * r.w, r.y0 + 0.5 * r.h, r.w)
     };
@@ -106,7 +106,7 @@ fn a_bad_arc_is_refused_with_its_flag() {
 fn an_in_between_target_is_the_cross_fade_of_its_neighbours() {
     let a = arc(3, 1);
     let light = crate::scenes::orbit_light(300.0, 60.0, 10.0, 1e4);
-    let (views, between) = arc_views(&a, 100.0, &light);
+    let (views, between) = arc_views(&a, &Plate::flat(100.0), &light);
     let scene = Scene {
         plate: scratchart_model::scene::Plate {
             size_mm: 100.0,

@@ -23,6 +23,18 @@ pub struct Plate {
     pub shape: PlateShape,
 }
 
+impl Plate {
+    /// A flat plate of side `size_mm` with the default roughness and Fresnel f0.
+    pub fn flat(size_mm: f64) -> Plate {
+        Plate {
+            size_mm,
+            roughness: DEFAULT_ROUGHNESS,
+            f0: DEFAULT_F0,
+            shape: PlateShape::Flat,
+        }
+    }
+}
+
 #[derive(Clone, Debug, PartialEq)]
 pub struct Camera {
     pub eye: [f64; 3],

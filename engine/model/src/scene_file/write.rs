@@ -7,7 +7,7 @@ use std::path::{Path, PathBuf};
 use serde_json::{json, Value};
 
 use super::csv::{scratches_csv_text, Extra};
-use crate::scene::{LightKind, Scene, SceneError};
+use crate::scene::{LightKind, Plate, Scene, SceneError};
 use crate::surface::PlateShape;
 
 impl Scene {
@@ -38,20 +38,7 @@ impl Scene {
                 o
             })
             .collect();
-        let mut plate = json!({
-            "size_mm": self.plate.size_mm,
-            "roughness": self.plate.roughness,
-            "f0": self.plate.f0
-        });
-        // engine/docs/model.md's plate has no shape: written only where it is not flat.
-        if let PlateShape::Cylinder {
-            radius_mm,
-            axis,
-            convex,
-        } = self.plate.shape
-        {
-            plate["shape"] = json!({"kind": "cylinder", "radius_mm": radius_mm, "axis": axis.name(), "convex": convex});
-        }
+        let plate = self.plate.to_value();
         json!({
             "plate": plate,
             "views": views,
@@ -91,5 +78,27 @@ impl Scene {
         text.push('\n');
         crate::fsio::write_atomic(json_path, text.as_bytes())?;
         Ok(())
+    }
+}
+
+impl Plate {
+    /// The scene file's `plate` object (`shape` only where the plate is bent: engine/docs/model.md's
+    /// plate has none).
+    pub fn to_value(&self) -> Value {
+        let mut plate = json!({
+            "size_mm": self.size_mm,
+            "roughness": self.roughness,
+            "f0": self.f0
+        });
+        // engine/docs/model.md's plate has no shape: written only where it is not flat.
+        if let PlateShape::Cylinder {
+            radius_mm,
+            axis,
+            convex,
+        } = self.shape
+        {
+            plate["shape"] = json!({"kind": "cylinder", "radius_mm": radius_mm, "axis": axis.name(), "convex": convex});
+        }
+        plate
     }
 }
