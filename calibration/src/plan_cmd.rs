@@ -283,6 +283,13 @@ pub fn plan(a: &PlanArgs) -> Result<()> {
             println!("  {s}");
         }
     }
+    if !scene.plate.shape.is_flat() {
+        println!(
+            "  the design is for a bent plate ({}): the plan carves the flat sheet; bend it after carving as \
+             the design's setup.txt says (bend_template.svg is the form at 1:1)",
+            scene.plate.shape.describe()
+        );
+    }
     Ok(())
 }
 

@@ -8,8 +8,22 @@
 //! the cylinder's normals seen from each eye, the half vector leaves the arc of normals and the
 //! band leaves the sheet. [`glint_free_lamp`] searches the lamp's azimuth for that.
 
+use std::fmt::Write as _;
+use std::path::Path;
+
+use serde_json::{json, Value};
+
 use scratchart_model::camera::ViewGeom;
-use scratchart_model::scene::{Light, LightKind, Plate, View};
+use scratchart_model::scene::{Light, LightKind, Plate, Scene, View};
+use scratchart_model::surface::{BendAxis, PlateShape};
+use scratchart_optim::error::OptimError;
+use scratchart_render::Renderer;
+
+use crate::measure::{blur3, correlation};
+use crate::tolerance::SheetInputs;
+
+/// The radius errors the set-up sheet reports (a maker bends by hand): factors on the radius.
+pub const RADIUS_ERRORS: [f64; 4] = [0.9, 0.95, 1.05, 1.1];
 
 /// Sheet points per side where the glint is sought.
 const GRID: usize = 24;
@@ -110,6 +124,222 @@ pub fn glint_free_lamp(views: &[View], plate: &Plate, light: &Light) -> (Light, 
         }
     }
     best.unwrap_or_else(|| (light.clone(), margin(light)))
+}
+
+/// Each view's correlation with its picture (blurred as the sheet's searches blur) when the sheet
+/// is bent to each of [`RADIUS_ERRORS`] times its radius: (factor, correlation per view). Empty
+/// for a flat plate.
+pub fn radius_tolerance(
+    renderer: &Renderer,
+    scene: &Scene,
+    inputs: &SheetInputs,
+) -> Result<Vec<(f64, Vec<f64>)>, OptimError> {
+    let PlateShape::Cylinder {
+        radius_mm,
+        axis,
+        convex,
+    } = scene.plate.shape
+    else {
+        return Ok(Vec::new());
+    };
+    let masks: Vec<&[bool]> = inputs.pictures.iter().map(|m| m.as_slice()).collect();
+    let mut out = Vec::new();
+    for f in RADIUS_ERRORS {
+        let mut s = scene.clone();
+        s.plate.shape = PlateShape::Cylinder {
+            radius_mm: radius_mm * f,
+            axis,
+            convex,
+        };
+        let images = crate::tolerance::render_views(renderer, &s, s.views.clone(), &masks)?;
+        let corr = images
+            .iter()
+            .enumerate()
+            .map(|(j, img)| {
+                let v = &scene.views[j].camera;
+                let t: Vec<f64> = inputs.targets[j].iter().map(|&x| x as f64).collect();
+                correlation(&blur3(img, v.width, v.height, inputs.sigma), &t, &inputs.pictures[j])
+            })
+            .collect();
+        out.push((f, corr));
+    }
+    Ok(out)
+}
+
+/// The sheet's numbers once bent: the angle it spans (degrees), its chord and its depth
+/// (sagitta) across the bend, mm.
+fn arc_numbers(size_mm: f64, radius_mm: f64) -> (f64, f64, f64) {
+    let half = 0.5 * size_mm / radius_mm;
+    (
+        (2.0 * half).to_degrees(),
+        2.0 * radius_mm * half.sin(),
+        radius_mm * (1.0 - half.cos()),
+    )
+}
+
+/// The set-up sheet's bending section (empty for a flat plate): how to bend the carved sheet,
+/// the template, the frame the positions are given in, and how exact the radius must be.
+pub fn bend_text(scene: &Scene, base: &[f64], tol: &[(f64, Vec<f64>)]) -> String {
+    let PlateShape::Cylinder {
+        radius_mm,
+        axis,
+        convex,
+    } = scene.plate.shape
+    else {
+        return String::new();
+    };
+    let size = scene.plate.size_mm;
+    let (span, chord, depth) = arc_numbers(size, radius_mm);
+    let (edges, along) = match axis {
+        BendAxis::Y => ("-x and +x", "y"),
+        BendAxis::X => ("-y and +y", "x"),
+    };
+    let mut t = String::new();
+    let _ = writeln!(
+        t,
+        "Bending: carve the sheet flat (the plan cuts it as it lies), then bend it into a cylinder of"
+    );
+    let _ = writeln!(
+        t,
+        "  radius {radius_mm:.1} mm about an axis along its {along} axis: its {edges} edges curve {}, the scratched face {}.",
+        if convex { "down" } else { "up" },
+        if convex { "outside (convex, as round a can)" } else { "inside (concave, as in a bowl)" }
+    );
+    let _ = writeln!(
+        t,
+        "  Bend it round a form of radius {radius_mm:.1} mm (a can, a pipe, a printed form): bend_template.svg, printed at 100%,"
+    );
+    let _ = writeln!(
+        t,
+        "  is that curve at full size (check its 50 mm bar). The sheet spans {span:.0} deg of the cylinder: its {size:.0} mm side"
+    );
+    let _ = writeln!(t, "  becomes a chord of {chord:.1} mm, {depth:.1} mm deep.");
+    let _ = writeln!(
+        t,
+        "  Positions below are in the bent sheet's frame: its centre at the origin, its normal there straight up"
+    );
+    let _ = writeln!(
+        t,
+        "  (elevation 90 deg), the bend's axis along azimuth {}.",
+        if along == "y" { "90 deg (+y)" } else { "0 deg (+x)" }
+    );
+    if !tol.is_empty() {
+        let worst = |c: &[f64]| c.iter().cloned().fold(f64::INFINITY, f64::min);
+        let _ = writeln!(
+            t,
+            "  How exact the bend must be (each view's correlation with its picture; as designed {}):",
+            fmt_corr(base)
+        );
+        for (f, c) in tol {
+            let _ = writeln!(
+                t,
+                "    radius {:+.0}% ({:.1} mm): {} (worst {:.3}, {:+.3} from the design's)",
+                100.0 * (f - 1.0),
+                radius_mm * f,
+                fmt_corr(c),
+                worst(c),
+                worst(c) - worst(base)
+            );
+        }
+    }
+    let _ = writeln!(t);
+    t
+}
+
+fn fmt_corr(c: &[f64]) -> String {
+    c.iter().map(|x| format!("{x:.3}")).collect::<Vec<_>>().join(" / ")
+}
+
+/// `summary.json`'s `setup.bend` (null for a flat plate).
+pub fn bend_json(scene: &Scene, base: &[f64], tol: &[(f64, Vec<f64>)]) -> Value {
+    let PlateShape::Cylinder {
+        radius_mm,
+        axis,
+        convex,
+    } = scene.plate.shape
+    else {
+        return Value::Null;
+    };
+    let (span, chord, depth) = arc_numbers(scene.plate.size_mm, radius_mm);
+    json!({
+        "radius_mm": radius_mm, "axis": axis.name(), "convex": convex,
+        "span_deg": span, "chord_mm": chord, "depth_mm": depth,
+        "template": "bend_template.svg",
+        "corr_designed": base,
+        "radius_error": tol.iter().map(|(f, c)| json!({"factor": f, "radius_mm": radius_mm * f, "corr": c})).collect::<Vec<_>>(),
+    })
+}
+
+/// `bend_template.svg`: the form's curve at full size (mm units: print at 100%), the sheet's
+/// arc on it with its ends marked, the centre, and a 50 mm bar to check the print's scale.
+pub fn write_template(path: &Path, scene: &Scene) -> Result<(), OptimError> {
+    let PlateShape::Cylinder {
+        radius_mm: r, convex, ..
+    } = scene.plate.shape
+    else {
+        return Ok(());
+    };
+    let half = 0.5 * scene.plate.size_mm / r;
+    let m = 10.0; // margin, mm
+    let (w, h) = (2.0 * r + 2.0 * m, 2.0 * r + 2.0 * m + 25.0);
+    let (cx, cy) = (m + r, m + r);
+    // The sheet's arc as it stands, scratched face up: over the top of the form for a convex
+    // bend, along the bottom of its inside for a concave one.
+    let up = if convex { -1.0 } else { 1.0 };
+    let p = |a: f64| (cx + r * a.sin(), cy + up * r * a.cos());
+    let sweep = i32::from(convex);
+    let (x0, y0) = p(-half);
+    let (x1, y1) = p(half);
+    let large = if 2.0 * half > std::f64::consts::PI { 1 } else { 0 };
+    let mut svg = String::new();
+    let _ = writeln!(
+        svg,
+        r#"<svg xmlns="http://www.w3.org/2000/svg" width="{w:.1}mm" height="{h:.1}mm" viewBox="0 0 {w:.3} {h:.3}">"#
+    );
+    let _ = writeln!(
+        svg,
+        r#"<circle cx="{cx:.3}" cy="{cy:.3}" r="{r:.3}" fill="none" stroke="black" stroke-width="0.3" stroke-dasharray="2 2"/>"#
+    );
+    let _ = writeln!(
+        svg,
+        r#"<path d="M {x0:.3} {y0:.3} A {r:.3} {r:.3} 0 {large} {sweep} {x1:.3} {y1:.3}" fill="none" stroke="black" stroke-width="0.8"/>"#
+    );
+    for (x, y) in [(x0, y0), (x1, y1)] {
+        let _ = writeln!(
+            svg,
+            r#"<line x1="{:.3}" y1="{:.3}" x2="{:.3}" y2="{:.3}" stroke="black" stroke-width="0.5"/>"#,
+            x + 4.0 * (x - cx) / r,
+            y + 4.0 * (y - cy) / r,
+            x - 4.0 * (x - cx) / r,
+            y - 4.0 * (y - cy) / r
+        );
+    }
+    let _ = writeln!(
+        svg,
+        r#"<path d="M {:.3} {cy:.3} H {:.3} M {cx:.3} {:.3} V {:.3}" stroke="black" stroke-width="0.3"/>"#,
+        cx - 3.0,
+        cx + 3.0,
+        cy - 3.0,
+        cy + 3.0
+    );
+    let by = 2.0 * r + 2.0 * m + 8.0;
+    let _ = writeln!(
+        svg,
+        r#"<path d="M {m:.3} {by:.3} h 50 M {m:.3} {:.3} v 4 M {:.3} {:.3} v 4" stroke="black" stroke-width="0.5"/>"#,
+        by - 2.0,
+        m + 50.0,
+        by - 2.0
+    );
+    let _ = writeln!(
+        svg,
+        r#"<text x="{m:.3}" y="{:.3}" font-size="3.5" font-family="sans-serif">50 mm. Form radius {r:.1} mm; the thick arc is the {:.0} mm sheet, scratched face {}.</text>"#,
+        by + 7.0,
+        scene.plate.size_mm,
+        if convex { "outside" } else { "inside" }
+    );
+    let _ = writeln!(svg, "</svg>");
+    scratchart_render::io::write_atomic(path, svg.as_bytes())?;
+    Ok(())
 }
 
 #[cfg(test)]

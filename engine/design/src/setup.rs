@@ -182,7 +182,12 @@ pub fn setup_text(scene: &Scene, sens: &Sensitivity, blank: &[bool]) -> String {
     let _ = writeln!(t);
     let _ = writeln!(
         t,
-        "Plate: flat, scratched face up. Its +x edge carries the orientation mark; azimuths are measured"
+        "Plate: {}, scratched face up. Its +x edge carries the orientation mark; azimuths are measured",
+        if scene.plate.shape.is_flat() {
+            "flat"
+        } else {
+            "bent (see Bending below)"
+        }
     );
     let _ = writeln!(
         t,
@@ -314,13 +319,20 @@ pub fn write_setup(
         .iter()
         .map(|v| inputs.blank_views.contains(&v.name))
         .collect();
-    scratchart_render::io::write_atomic(&out.join("setup.txt"), setup_text(scene, &sens, &blank).as_bytes())?;
+    // A bent plate: how to bend it, its template, and how exact the radius must be.
+    let bend = crate::bend::radius_tolerance(renderer, scene, inputs)?;
+    let mut text = setup_text(scene, &sens, &blank);
+    let at = text
+        .find("faces the first viewer")
+        .and_then(|k| text[k..].find("\n\n").map(|e| k + e + 2))
+        .unwrap_or(text.len());
+    text.insert_str(at, &crate::bend::bend_text(scene, &sens.base, &bend));
+    scratchart_render::io::write_atomic(&out.join("setup.txt"), text.as_bytes())?;
+    crate::bend::write_template(&out.join("bend_template.svg"), scene)?;
     crate::setup_sheet::setup_png(&out.join("setup.png"), scene, &sens)?;
-    Ok((
-        setup_json(scene),
-        sensitivity_json(scene, &sens),
-        advice(scene, &sens, &blank),
-    ))
+    let mut setup = setup_json(scene);
+    setup["bend"] = crate::bend::bend_json(scene, &sens.base, &bend);
+    Ok((setup, sensitivity_json(scene, &sens), advice(scene, &sens, &blank)))
 }
 
 #[cfg(test)]

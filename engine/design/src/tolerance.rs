@@ -213,7 +213,7 @@ impl Sensitivity {
 /// Renders `views` of `scene` (in batches) and returns each one's display image. View k's render
 /// computes only the tiles that hold `masks[k]`'s pixels and their neighbours (what
 /// [`blur3`] reads for them): the pixels there are the whole render's, bit for bit; elsewhere 0.
-fn render_views(
+pub(crate) fn render_views(
     renderer: &Renderer,
     scene: &Scene,
     views: Vec<View>,
