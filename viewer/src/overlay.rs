@@ -398,8 +398,8 @@ pub fn draw(info: &SetupInfo, camera: &Camera) -> Overlay {
     // The +x edge of the plate (over the labels), clipped to the space in front of the camera,
     // with "+X" beside its middle, on the side away from the plate.
     let hp = info.half_plate_mm;
-    let (a, b) = (cam.local([hp, -hp, 0.0]), cam.local([hp, hp, 0.0]));
-    let (mid, out) = (cam.local([hp, 0.0, 0.0]), cam.local([1.1 * hp, 0.0, 0.0]));
+    let at = |x: f64, y: f64| cam.local(info.shape.to_world([x, y]));
+    let (mid, out) = (at(hp, 0.0), at(1.1 * hp, 0.0));
     if mid[2] >= NEAR_MM && out[2] >= NEAR_MM {
         let ((mx, my), (ox, oy)) = (cam.pixel(mid), cam.pixel(out));
         let n = (ox - mx).hypot(oy - my).max(1e-9);
@@ -412,16 +412,22 @@ pub fn draw(info: &SetupInfo, camera: &Camera) -> Overlay {
             scale,
         );
     }
-    if a[2] >= NEAR_MM || b[2] >= NEAR_MM {
-        let cut = |p: [f64; 3], q: [f64; 3]| {
-            if p[2] >= NEAR_MM {
-                p
-            } else {
-                let t = (NEAR_MM - p[2]) / (q[2] - p[2]);
-                [p[0] + t * (q[0] - p[0]), p[1] + t * (q[1] - p[1]), NEAR_MM]
-            }
-        };
-        o.line(cam.pixel(cut(a, b)), cam.pixel(cut(b, a)), 1.5, MARK);
+    // (In pieces: on a sheet bent about its x axis the edge is an arc.)
+    let pieces = if info.shape.is_flat() { 1 } else { 32 };
+    for k in 0..pieces {
+        let y = |i: usize| -hp + 2.0 * hp * i as f64 / pieces as f64;
+        let (a, b) = (at(hp, y(k)), at(hp, y(k + 1)));
+        if a[2] >= NEAR_MM || b[2] >= NEAR_MM {
+            let cut = |p: [f64; 3], q: [f64; 3]| {
+                if p[2] >= NEAR_MM {
+                    p
+                } else {
+                    let t = (NEAR_MM - p[2]) / (q[2] - p[2]);
+                    [p[0] + t * (q[0] - p[0]), p[1] + t * (q[1] - p[1]), NEAR_MM]
+                }
+            };
+            o.line(cam.pixel(cut(a, b)), cam.pixel(cut(b, a)), 1.5, MARK);
+        }
     }
     for m in &marks {
         match m.placed {

@@ -29,6 +29,8 @@ pub struct Point {
 #[derive(Clone, Debug, PartialEq)]
 pub struct SetupInfo {
     pub half_plate_mm: f64,
+    /// The plate's shape (the +x edge is drawn on the bent sheet).
+    pub shape: scratchart_model::surface::PlateShape,
     pub points: Vec<Point>,
     /// `summary.json`'s `setup` of this design.
     pub json: serde_json::Value,
@@ -67,6 +69,7 @@ impl SetupInfo {
         }));
         SetupInfo {
             half_plate_mm: 0.5 * scene.plate.size_mm,
+            shape: scene.plate.shape,
             points,
             json: setup_json(scene),
         }
