@@ -45,6 +45,27 @@ fn convex_and_concave_about_either_axis_match_the_reference() {
     }
 }
 
+/// The sizes a maker bends: a 100 mm sheet at 60 mm (a vase band, nearly a half turn) and at
+/// 300 mm (a lamp shade), about either axis, either way.
+#[test]
+fn a_100_mm_sheet_at_60_and_300_mm() {
+    let views = vec![
+        orbit_view("a", 40, 45.0, 0.0, 45.0, 180.0, 100.0),
+        orbit_view("b", 40, 30.0, 200.0, 60.0, 40.0, 100.0),
+    ];
+    let flat = random_scene(54, 300, 100.0, 0.15, 0.08, 0.05, views);
+    for (radius, axis, convex) in [
+        (60.0, BendAxis::Y, true),
+        (60.0, BendAxis::X, false),
+        (300.0, BendAxis::X, true),
+        (300.0, BendAxis::Y, false),
+    ] {
+        let scene = bent(&flat, radius, axis, convex);
+        let label = format!("100 mm at R {radius} about {} {}", axis.name(), if convex { "convex" } else { "concave" });
+        assert_matches_reference(&label, &scene);
+    }
+}
+
 #[test]
 fn sharp_lobes_and_a_directional_lamp_on_a_bent_sheet() {
     let mut scene = random_scene(

@@ -36,23 +36,43 @@ uint chunk_scratch(uint k) { return texelFetch(list_tex, int((k < CHUNK ? g_chun
 shared vec4 sh_blk01[16];          // plate-space corners of the tile's 4x4-pixel blocks
 shared vec4 sh_blk23[16];
 shared bool sh_blk_all[16];        // a block whose corner rays miss the plate: test every scratch
+shared float sh_blk_margin[16];    // how far the block's part of the sheet may reach past its quad (bent sheets)
 shared uint sh_blk_hits[32];       // per block, two words: chunk scratches that may meet it
 shared uint sh_base[256];          // queue_slots: per subgroup, its packed counts; free after it
 shared uint sh_queue[QCAP];        // (pixel << 8) | scratch-in-chunk
 
 // Threads 0..15: plate quads of the 16 blocks; threads 0..31 clear the block masks (both
-// visible after the chunk loop's first barrier).
+// visible after the chunk loop's first barrier). On a bent sheet (engine/docs/model.md section 10)
+// a block's part of the sheet is not the quad of its corners' hits: the quad is grown by twice the
+// largest distance of the edges' midpoints and the centre from where the corners put them (the
+// map from image to sheet is smooth, so its bend over 4 pixels shows there), plus a float32 margin.
 void setup_blocks(ViewGPU V, uvec2 t0, uint lid) {
     if (lid < 16u) {
         uvec2 b0 = t0 + 4u * uvec2(lid & 3u, lid >> 2);
         bool k0, k1, k2, k3;
-        vec2 c0 = ray_hit(V, vec2(b0), k0), c1 = ray_hit(V, vec2(b0) + vec2(4.0, 0.0), k1);
-        vec2 c2 = ray_hit(V, vec2(b0) + vec2(4.0), k2), c3 = ray_hit(V, vec2(b0) + vec2(0.0, 4.0), k3);
+        vec2 c0, c1, c2, c3;
+        float margin = 0.0;
+        if (bent(V)) {
+            vec3 p;
+            vec2 o = vec2(b0);
+            c0 = sheet_hit(V, o, k0, p); c1 = sheet_hit(V, o + vec2(4.0, 0.0), k1, p);
+            c2 = sheet_hit(V, o + vec2(4.0), k2, p); c3 = sheet_hit(V, o + vec2(0.0, 4.0), k3, p);
+            bool km = true, k;
+            vec2 m = sheet_hit(V, o + vec2(2.0, 0.0), k, p); km = km && k; margin = max(margin, distance(m, 0.5 * (c0 + c1)));
+            m = sheet_hit(V, o + vec2(4.0, 2.0), k, p); km = km && k; margin = max(margin, distance(m, 0.5 * (c1 + c2)));
+            m = sheet_hit(V, o + vec2(2.0, 4.0), k, p); km = km && k; margin = max(margin, distance(m, 0.5 * (c2 + c3)));
+            m = sheet_hit(V, o + vec2(0.0, 2.0), k, p); km = km && k; margin = max(margin, distance(m, 0.5 * (c3 + c0)));
+            m = sheet_hit(V, o + vec2(2.0), k, p); km = km && k; margin = max(margin, distance(m, 0.25 * (c0 + c1 + c2 + c3)));
+            margin = 2.0 * margin + 1e-4 * (distance(c0, c2) + distance(c1, c3)) + 1e-5 * abs(V.right.w);
+            k0 = k0 && km;
+        } else {
+            c0 = ray_hit(V, vec2(b0), k0); c1 = ray_hit(V, vec2(b0) + vec2(4.0, 0.0), k1);
+            c2 = ray_hit(V, vec2(b0) + vec2(4.0), k2); c3 = ray_hit(V, vec2(b0) + vec2(0.0, 4.0), k3);
+        }
         sh_blk01[lid] = vec4(c0, c1);
         sh_blk23[lid] = vec4(c2, c3);
-        // On a bent sheet a block's part of the sheet is not the quad of its corners' hits on the
-        // plane: every scratch is tested (engine/docs/model.md section 10).
-        sh_blk_all[lid] = !(k0 && k1 && k2 && k3) || bent(V);
+        sh_blk_margin[lid] = margin;
+        sh_blk_all[lid] = !(k0 && k1 && k2 && k3);
     }
     if (lid < 32u) sh_blk_hits[lid] = 0u;
 }
@@ -68,10 +88,11 @@ void block_tests(uint k, uint si) {
         bool hit = sh_blk_all[blk];
         if (!hit) {
             vec4 qa = sh_blk01[blk], qb = sh_blk23[blk];
+            float mg = sh_blk_margin[blk];  // 0 on a flat plate
             vec4 us = vec4(dot(qa.xy - p0, b), dot(qa.zw - p0, b), dot(qb.xy - p0, b), dot(qb.zw - p0, b));
             vec4 vs = vec4(dot(qa.xy - p0, t), dot(qa.zw - p0, t), dot(qb.xy - p0, t), dot(qb.zw - p0, t));
-            hit = !(min(min(us.x, us.y), min(us.z, us.w)) >= e || max(max(us.x, us.y), max(us.z, us.w)) <= -e ||
-                    min(min(vs.x, vs.y), min(vs.z, vs.w)) >= len || max(max(vs.x, vs.y), max(vs.z, vs.w)) <= 0.0);
+            hit = !(min(min(us.x, us.y), min(us.z, us.w)) >= e + mg || max(max(us.x, us.y), max(us.z, us.w)) <= -e - mg ||
+                    min(min(vs.x, vs.y), min(vs.z, vs.w)) >= len + mg || max(max(vs.x, vs.y), max(vs.z, vs.w)) <= -mg);
         }
         if (hit) atomicOr(sh_blk_hits[2u * blk + (k >> 5)], 1u << (k & 31u));
     }
