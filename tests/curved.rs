@@ -61,7 +61,11 @@ fn a_100_mm_sheet_at_60_and_300_mm() {
         (300.0, BendAxis::Y, false),
     ] {
         let scene = bent(&flat, radius, axis, convex);
-        let label = format!("100 mm at R {radius} about {} {}", axis.name(), if convex { "convex" } else { "concave" });
+        let label = format!(
+            "100 mm at R {radius} about {} {}",
+            axis.name(),
+            if convex { "convex" } else { "concave" }
+        );
         assert_matches_reference(&label, &scene);
     }
 }

@@ -9,6 +9,7 @@ use plotters::prelude::*;
 
 use crate::tolerance::{Place, Sensitivity};
 use scratchart_model::scene::{LightKind, Scene};
+use scratchart_model::surface::{BendAxis, PlateShape};
 use scratchart_optim::error::OptimError;
 
 /// A placed text's box in image pixels: [x0, y0, x1, y1] (x1, y1 exclusive).
@@ -231,6 +232,8 @@ struct Panels {
     half: f64,
     /// The furthest lamp or eye from the centre along x or y (mm), at least `half`.
     reach: f64,
+    /// The plate's shape: a bent sheet is drawn as it stands.
+    shape: PlateShape,
 }
 
 impl Panels {
@@ -263,7 +266,45 @@ impl Panels {
             mmpp,
             half,
             reach,
+            shape: scene.plate.shape,
         }
+    }
+
+    /// The plate seen from above, half its extent along x and y in pixels: a bent sheet's
+    /// wrapped side is its chord's (or its diameter's, past half a turn).
+    fn plate_px_xy(&self) -> (i32, i32) {
+        let px = |mm: f64| (mm / self.mmpp).round() as i32;
+        match self.shape {
+            PlateShape::Flat => (px(self.half), px(self.half)),
+            PlateShape::Cylinder { radius_mm, axis, .. } => {
+                let wrapped = radius_mm * (self.half / radius_mm).min(0.5 * std::f64::consts::PI).sin();
+                match axis {
+                    BendAxis::Y => (px(wrapped), px(self.half)),
+                    BendAxis::X => (px(self.half), px(wrapped)),
+                }
+            }
+        }
+    }
+
+    /// A bent sheet's profile across its bend, as the side view draws it: (distance from the
+    /// centre along the wrapped axis, height), mm; None for a flat plate.
+    fn bend_profile(&self) -> Option<Vec<(f64, f64)>> {
+        let PlateShape::Cylinder {
+            radius_mm: r, convex, ..
+        } = self.shape
+        else {
+            return None;
+        };
+        let s = if convex { 1.0 } else { -1.0 };
+        let a = self.half / r;
+        Some(
+            (0..=64)
+                .map(|k| {
+                    let t = -a + 2.0 * a * k as f64 / 64.0;
+                    (r * t.sin(), -s * r * (1.0 - t.cos()))
+                })
+                .collect(),
+        )
     }
 
     /// The plate's half side in pixels.
@@ -339,8 +380,8 @@ fn draw_top_view(pl: &mut Placer, panels: &Panels, items: &[Item]) -> Result<(),
             .map_err(|e| e.to_string())?;
         r += ring;
     }
-    let plate_px = panels.plate_px();
-    let plate_r = [c.0 - plate_px, c.1 - plate_px, c.0 + plate_px, c.1 + plate_px];
+    let (plate_px, plate_py) = panels.plate_px_xy();
+    let plate_r = [c.0 - plate_px, c.1 - plate_py, c.0 + plate_px, c.1 + plate_py];
     root.draw(&Rectangle::new(
         [(plate_r[0], plate_r[1]), (plate_r[2], plate_r[3])],
         RGBColor(120, 120, 120).filled(),
@@ -417,12 +458,26 @@ fn draw_side_view(pl: &mut Placer, panels: &Panels, items: &[Item]) -> Result<()
     let o = (side[0] + 30 + plate_px, side[3] - 30);
     let sp = |d: f64, z: f64| (o.0 + (d / mmpp).round() as i32, o.1 - (z / mmpp).round() as i32);
     let plate_s = [o.0 - plate_px, o.1 - 2, o.0 + plate_px, o.1 + 3];
-    root.draw(&Rectangle::new(
-        [(plate_s[0], plate_s[1]), (plate_s[2], plate_s[3])],
-        RGBColor(120, 120, 120).filled(),
-    ))
-    .map_err(|e| e.to_string())?;
-    pl.block(plate_s);
+    match panels.bend_profile() {
+        // A bent sheet: its profile across the bend, as it stands.
+        Some(profile) => {
+            let pts: Vec<(i32, i32)> = profile.iter().map(|&(d, z)| sp(d, z)).collect();
+            let (lo, hi) = pts.iter().fold((pts[0], pts[0]), |(lo, hi), p| {
+                ((lo.0.min(p.0), lo.1.min(p.1)), (hi.0.max(p.0), hi.1.max(p.1)))
+            });
+            root.draw(&PathElement::new(pts, RGBColor(120, 120, 120).stroke_width(4)))
+                .map_err(|e| e.to_string())?;
+            pl.block([lo.0 - 2, lo.1 - 2, hi.0 + 2, hi.1 + 2]);
+        }
+        None => {
+            root.draw(&Rectangle::new(
+                [(plate_s[0], plate_s[1]), (plate_s[2], plate_s[3])],
+                RGBColor(120, 120, 120).filled(),
+            ))
+            .map_err(|e| e.to_string())?;
+            pl.block(plate_s);
+        }
+    }
     root.draw(&PathElement::new(
         vec![(side[0] + 2, o.1 + 3), (side[2] - 2, o.1 + 3)],
         BLACK.mix(0.4),
