@@ -331,7 +331,10 @@ pub fn write_setup(
     crate::bend::write_template(&out.join("bend_template.svg"), scene)?;
     crate::setup_sheet::setup_png(&out.join("setup.png"), scene, &sens)?;
     let mut setup = setup_json(scene);
-    setup["bend"] = crate::bend::bend_json(scene, &sens.base, &bend);
+    // (Only for a bent plate: a flat plate's set-up is what the viewer prints, unchanged.)
+    if !scene.plate.shape.is_flat() {
+        setup["bend"] = crate::bend::bend_json(scene, &sens.base, &bend);
+    }
     Ok((setup, sensitivity_json(scene, &sens), advice(scene, &sens, &blank)))
 }
 
