@@ -319,6 +319,7 @@ pub fn sensitivity(renderer: &Renderer, scene: &Scene, inputs: &SheetInputs) -> 
         }
     }
     let mut samples = Vec::new();
+    let mut lamps = lamp::LampRenders::default();
     loop {
         let step: Vec<(usize, f64)> = searches
             .iter()
@@ -348,7 +349,28 @@ pub fn sensitivity(renderer: &Renderer, scene: &Scene, inputs: &SheetInputs) -> 
             })
             .collect();
         let masks: Vec<&[bool]> = pictures.iter().map(|p| p.1.as_slice()).collect();
-        let images = render_views(renderer, scene, views, &masks)?;
+        // The lamp searches keep their tile lists between steps ([`lamp`]); the eye searches
+        // bin each step (their cameras move).
+        let is_lamp: Vec<bool> = step.iter().map(|&(i, _)| searches[i].moved == "lamp").collect();
+        let pick = |want: bool| -> Vec<usize> { (0..step.len()).filter(|&k| is_lamp[k] == want).collect() };
+        let (lamp_k, eye_k) = (pick(true), pick(false));
+        let lamp_imgs = lamps.render(
+            renderer,
+            scene,
+            &lamp_k.iter().map(|&k| step[k].0).collect::<Vec<_>>(),
+            lamp_k.iter().map(|&k| views[k].clone()).collect(),
+            &lamp_k.iter().map(|&k| masks[k]).collect::<Vec<_>>(),
+        )?;
+        let eye_imgs = render_views(
+            renderer,
+            scene,
+            eye_k.iter().map(|&k| views[k].clone()).collect(),
+            &eye_k.iter().map(|&k| masks[k]).collect::<Vec<_>>(),
+        )?;
+        let mut images: Vec<Vec<f32>> = vec![Vec::new(); step.len()];
+        for (k, img) in lamp_k.into_iter().zip(lamp_imgs).chain(eye_k.into_iter().zip(eye_imgs)) {
+            images[k] = img;
+        }
         for ((&(i, size), img), picture) in step.iter().zip(&images).zip(&pictures) {
             let s = &mut searches[i];
             let corr = corr_of(img, s.view, picture);
@@ -639,6 +661,8 @@ impl SheetInputs {
         }))
     }
 }
+
+mod lamp;
 
 #[cfg(test)]
 mod tests;

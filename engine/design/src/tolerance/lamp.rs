@@ -1,0 +1,70 @@
+//! The lamp searches' renders: a lamp that moves changes neither the cameras nor the scratches,
+//! so the tile lists of the designed views stay valid (`Renderer::record_render_with`, bin =
+//! false): the scenes of the active lamp searches are uploaded and binned once, and each later
+//! step moves their lamps and shades again, the same bits as binning again
+//! (`tests/forward.rs`, `a_lamp_that_moves_needs_no_new_tile_lists`). A new upload happens only
+//! when the set of active searches changes (a search ends).
+use scratchart_model::scene::{Scene, View};
+use scratchart_optim::error::OptimError;
+use scratchart_render::GpuScene;
+use scratchart_render::Renderer;
+use scratchart_vulkan::Recorder;
+
+use super::{mask_window, BATCH_VIEWS};
+
+#[derive(Default)]
+pub(super) struct LampRenders {
+    /// The searches (indices) the scenes hold, in slot order.
+    slots: Vec<usize>,
+    /// The scenes, [`BATCH_VIEWS`] slots each.
+    scenes: Vec<GpuScene>,
+}
+
+impl LampRenders {
+    /// Display images of `views` (each the designed view of search `searches[k]` with its lamp
+    /// moved), compared over `masks`.
+    pub(super) fn render(
+        &mut self,
+        renderer: &Renderer,
+        scene: &Scene,
+        searches: &[usize],
+        views: Vec<View>,
+        masks: &[&[bool]],
+    ) -> Result<Vec<Vec<f32>>, OptimError> {
+        let mut keep = self.slots == searches;
+        if keep {
+            // The same cameras and windows: only the lamps move.
+            for (gs, chunk) in self.scenes.iter_mut().zip(views.chunks(BATCH_VIEWS)) {
+                keep = keep && gs.update_views(chunk)?;
+            }
+        }
+        if !keep {
+            self.scenes.clear();
+            for (chunk, masks) in views.chunks(BATCH_VIEWS).zip(masks.chunks(BATCH_VIEWS)) {
+                let mut batch = scene.clone();
+                batch.views = chunk.to_vec();
+                let windows: Vec<_> = chunk.iter().zip(masks).map(|(v, m)| mask_window(v, m)).collect();
+                self.scenes.push(renderer.upload_windowed(&batch, &windows)?);
+            }
+            self.slots = searches.to_vec();
+        }
+        let mut out = Vec::with_capacity(views.len());
+        let mut rec = Recorder::new(&renderer.ctx)?;
+        for gs in self.scenes.iter_mut() {
+            // Bin on a fresh upload, and on any retry (a retry may have changed the lists).
+            let mut first = keep;
+            renderer.submit(&mut rec, gs, |rec, gs| {
+                renderer.record_render_with(rec, gs, !first);
+                first = false;
+            })?;
+            for img in renderer.download_images(gs)? {
+                out.push(
+                    img.iter()
+                        .map(|&l| scratchart_render::io::display_value(l).clamp(0.0, 1.0))
+                        .collect(),
+                );
+            }
+        }
+        Ok(out)
+    }
+}
