@@ -197,15 +197,9 @@ vec2 project3(ViewGPU v, vec3 q, out bool ok) {
                 (1.0 - ky / v.eye.w) * 0.5 * float(v.dims.y));
 }
 
-// Plate point -> image point; ok = false when the point is not in front of the camera.
+// Flat-plate point -> image point; ok = false when the point is not in front of the camera.
 vec2 project(ViewGPU v, vec2 q, out bool ok) {
-    vec3 d = vec3(q, 0.0) - v.eye.xyz;
-    float z = dot(d, v.fwd.xyz);
-    ok = z > 1e-6 * length(d);
-    float kx = dot(d, v.right.xyz) / z;
-    float ky = dot(d, v.up.xyz) / z;
-    return vec2((kx / (v.eye.w * v.fwd.w) + 1.0) * 0.5 * float(v.dims.x),
-                (1.0 - ky / v.eye.w) * 0.5 * float(v.dims.y));
+    return project3(v, vec3(q, 0.0), ok);
 }
 
 // GGX point NDF (engine/docs/model.md section 3) of the macro normal z, with the stable denominator of

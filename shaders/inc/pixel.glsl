@@ -47,7 +47,7 @@ PixelSetup pixel_setup(ViewGPU V, ViewGPU64 V64, float phi, uvec2 ij, float half
     if (abs(X.x) > half_plate || abs(X.y) > half_plate) return P;
     vec3 wo = normalize(V.eye.xyz - X3);
     // A concave sheet's raised edge may hide X: then the pixel sees the sheet's back (off the plate).
-    if (sheet_blocks(V, X3, wo, length(V.eye.xyz - X3), half_plate)) return P;
+    if (bent(V) && sheet_blocks(V, X3, wo, length(V.eye.xyz - X3), half_plate)) return P;
     P.on_plate = true;
     // Footprint area relative to its first corner (keeps the products small).
     vec2 a = P.fp[1] - P.fp[0], b = P.fp[2] - P.fp[0], c = P.fp[3] - P.fp[0];

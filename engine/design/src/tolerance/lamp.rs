@@ -18,6 +18,8 @@ pub(super) struct LampRenders {
     slots: Vec<usize>,
     /// The scenes, [`BATCH_VIEWS`] slots each.
     scenes: Vec<GpuScene>,
+    /// One recorder for every step.
+    rec: Option<Recorder>,
 }
 
 impl LampRenders {
@@ -49,11 +51,14 @@ impl LampRenders {
             self.slots = searches.to_vec();
         }
         let mut out = Vec::with_capacity(views.len());
-        let mut rec = Recorder::new(&renderer.ctx)?;
+        if self.rec.is_none() {
+            self.rec = Some(Recorder::new(&renderer.ctx)?);
+        }
+        let rec = self.rec.as_mut().expect("made above");
         for gs in self.scenes.iter_mut() {
             // Bin on a fresh upload, and on any retry (a retry may have changed the lists).
             let mut first = keep;
-            renderer.submit(&mut rec, gs, |rec, gs| {
+            renderer.submit(rec, gs, |rec, gs| {
                 renderer.record_render_with(rec, gs, !first);
                 first = false;
             })?;
