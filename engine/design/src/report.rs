@@ -509,6 +509,13 @@ pub fn summary_text(s: &serde_json::Value, out: &Path) -> String {
         "  wrote {0}/design.json, {0}/scratches.csv, {0}/*_compare.png (render | target), {0}/*_target.png, {0}/loss_curve.png, {0}/contact_sheet.png (render | target | difference), {0}/setup.txt and {0}/setup.png (where the lamp and viewers go, and how far they may move; its inputs: {0}/setup_inputs.json, {0}/*_target.pfm, {0}/*_picture.png), {0}/summary.json",
         out.display()
     );
+    if s["setup"]["bend"].is_object() {
+        let _ = writeln!(
+            text,
+            "  bent plate: setup.txt says how to bend the carved sheet; {}/bend_template.svg is the form at 1:1 (print at 100%)",
+            out.display()
+        );
+    }
     text
 }
 
