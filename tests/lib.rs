@@ -223,7 +223,14 @@ pub fn camera(eye: [f64; 3], res: u32, fov: f64) -> Camera {
 }
 
 pub fn scratch(p0: [f64; 2], p1: [f64; 2], w: f64, d: f64, alpha: f64) -> Scratch {
-    Scratch { p0, p1, w, d, alpha }
+    Scratch {
+        p0,
+        p1,
+        w,
+        d,
+        alpha,
+        bulge: 0.0,
+    }
 }
 
 /// The workspace's root directory.
@@ -391,6 +398,7 @@ pub fn carvable_design(plate: f64, n: usize, tool: &scratchart_tool::Tool) -> Sc
                     w: g.w,
                     d: g.d,
                     alpha: 0.1,
+                    bulge: 0.0,
                 }
             })
             .collect(),

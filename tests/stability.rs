@@ -135,6 +135,7 @@ fn through(q: [f64; 2], a: f64, u: f64, v: f64, l: f64, w: f64, d: f64, alpha: f
         w,
         d,
         alpha,
+        bulge: 0.0,
     }
 }
 
@@ -311,7 +312,14 @@ fn edge_cases(tilted: &View) -> Vec<Case> {
                 let p1 = [mid[0] + s * overlap * b[0], mid[1] + s * overlap * b[1]];
                 let l = 2.0 * p.size;
                 let p0 = [p1[0] + dir * l * t2[0], p1[1] + dir * l * t2[1]];
-                sc.push(Scratch { p0, p1, w, d, alpha });
+                sc.push(Scratch {
+                    p0,
+                    p1,
+                    w,
+                    d,
+                    alpha,
+                    bulge: 0.0,
+                });
             }
             targets.push((p.i, p.j));
         }
@@ -377,6 +385,7 @@ fn random_case(seed: u64) -> Scene {
             w,
             d,
             alpha: logu(&mut r, 1e-3, 0.9),
+            bulge: 0.0,
         });
     }
     Scene {

@@ -138,6 +138,20 @@ pub fn load_profile(f: &Path, default: Firmware) -> Result<MachineProfile> {
 }
 
 /// Visible width of a scratch (engine/docs/model.md section 2): W = w sqrt(1 - exp(-2d/w)).
+/// Arc scratches (a nonzero `bulge`) are not carved or drawn yet: refused, not cut straight.
+fn refuse_arcs(scene: &Scene, design: &Path, what: &str) -> Result<()> {
+    let n = scene.scratches.iter().filter(|s| s.is_arc()).count();
+    if n > 0 {
+        return Err(InputError(format!(
+            "{}: {n} of its scratches are arcs (a nonzero `bulge`), which cannot be {what} yet; \
+             straighten them (bulge 0) to carve this design",
+            design.display()
+        ))
+        .into());
+    }
+    Ok(())
+}
+
 fn visible_width(w: f64, d: f64) -> f64 {
     w * (1.0 - (-2.0 * d / w).exp()).sqrt()
 }
@@ -161,6 +175,7 @@ pub fn plan(a: &PlanArgs) -> Result<()> {
     });
     let out = out.as_path();
     let (scene, extra) = Scene::load_extra(design)?;
+    refuse_arcs(&scene, design, "planned")?;
     if a.home && m.firmware != scratchart_tool::machine::Firmware::Marlin {
         return Err(UsageError("--home is for Marlin printers (GRBL uses its own work offsets)".into()).into());
     }
@@ -554,6 +569,7 @@ pub fn export(a: &ExportArgs) -> Result<()> {
         return Err(UsageError("export needs --svg FILE.svg and/or --dxf FILE.dxf".into()).into());
     }
     let (scene, extra) = Scene::load_extra(&a.design)?;
+    refuse_arcs(&scene, &a.design, "exported")?;
     let depths = match (extra.column("z_mm"), &a.tool) {
         (Some(z), _) => Some(z),
         (None, Some(t)) => {

@@ -57,6 +57,7 @@ pub fn cut_scene(card: &Card, capture: &Scene, tool: &Tool) -> Scene {
                 w: m.w,
                 d: m.d,
                 alpha: card.alpha,
+                bulge: 0.0,
             })
         })
         .collect();

@@ -18,6 +18,7 @@ fn design() -> Scene {
                     w: 0.04 + 0.002 * k as f64,
                     d: 0.03,
                     alpha: 0.1,
+                    bulge: 0.0,
                 }
             })
             .collect(),

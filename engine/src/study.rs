@@ -118,6 +118,7 @@ fn scratches(
                 w,
                 d,
                 alpha: al,
+                bulge: 0.0,
             });
         }
     }

@@ -46,6 +46,7 @@ impl Evaluator<'_, '_> {
                     w,
                     d,
                     alpha,
+                    bulge: 0.0,
                 }
             })
             .collect()

@@ -59,7 +59,14 @@ pub fn perturbed(
             continue;
         }
         let [w, d] = table.eval(z);
-        out.push(Scratch { p0, p1, w, d, alpha });
+        out.push(Scratch {
+            p0,
+            p1,
+            w,
+            d,
+            alpha,
+            bulge: 0.0,
+        });
     }
     out
 }

@@ -275,6 +275,7 @@ pub fn to_scene(template: &Scene, scr: &[ScratchGpu], phi: &[f32], keep_exposure
             w: s.shape[0] as f64,
             d: s.shape[1] as f64,
             alpha: s.shape[2] as f64,
+            bulge: 0.0,
         })
         .collect();
     let r: Vec<f64> = phi.iter().map(|&p| p as f64).collect();

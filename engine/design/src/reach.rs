@@ -303,6 +303,7 @@ mod tests {
             w: 0.1,
             d,
             alpha: 0.05,
+            bulge: 0.0,
         };
         let s = scene(
             eye,

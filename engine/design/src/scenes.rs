@@ -85,7 +85,14 @@ pub fn random_scratches(
         let l = rng.range(len_lo, len_hi);
         let p1 = [p0[0] + l * a.cos(), p0[1] + l * a.sin()];
         if p1[0].abs() <= h && p1[1].abs() <= h {
-            out.push(Scratch { p0, p1, w, d, alpha });
+            out.push(Scratch {
+                p0,
+                p1,
+                w,
+                d,
+                alpha,
+                bulge: 0.0,
+            });
         }
     }
     out
@@ -194,6 +201,7 @@ pub fn demo_scene(res: u32) -> Scene {
                 w: 0.06,
                 d: 0.04,
                 alpha: 0.05,
+                bulge: 0.0,
             });
         }
         r += 0.35;

@@ -30,6 +30,7 @@ fn design(n: usize, plate: f64) -> Scene {
                 w: 0.03 + 0.1 * r.f(),
                 d: 0.005 + 0.05 * r.f(),
                 alpha: 0.1,
+                bulge: 0.0,
             }
         })
         .collect();

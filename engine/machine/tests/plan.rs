@@ -253,6 +253,7 @@ fn depths_come_from_the_tool_curve() {
                 w: m.w,
                 d: m.d,
                 alpha: 0.1,
+                bulge: 0.0,
             }
         })
         .collect();

@@ -10,12 +10,14 @@
 //!   for the GPU path.
 //! - [`mesh`]: OBJ meshes: reading, placing behind the plate and rendering their views (the target
 //!   images of a scratch hologram).
+//! - [`arc`](mod@arc): arc scratches' geometry (bulge, centre, sweep, chords, carved box).
 //! - [`surface`]: the plate's shape (flat, or bent into a cylinder after carving) in float64.
 //! - [`fsio`]: the atomic file writer (temporary file, fsync, rename) every output goes through.
 
 // `!(x > 0.0)` is used on purpose throughout: it also rejects NaN.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
+pub mod arc;
 pub mod camera;
 pub mod display;
 pub mod fsio;

@@ -107,6 +107,7 @@ fn patch_integral_matches_brute_force_full_cover() {
         w: 5.0,
         d: 5.0,
         alpha: 0.3,
+        bulge: 0.0,
     };
     let sc = scene(EYE, LIGHT, 48, vec![s]);
     let (i, j) = (24, 23);
@@ -137,6 +138,7 @@ fn patch_integral_matches_brute_force_partial() {
         w: 0.8,
         d: 0.3,
         alpha: 0.3,
+        bulge: 0.0,
     };
     let e = s.half_width();
     // Shift sideways so the groove's edge passes near X.
@@ -238,6 +240,7 @@ fn off_plate_pixels_are_exactly_zero() {
             w: 0.2,
             d: 0.1,
             alpha: 0.05,
+            bulge: 0.0,
         }],
     );
     sc.views[0].camera.fov_y_deg = 60.0;
@@ -287,6 +290,7 @@ fn some_scratches(n: usize) -> Vec<Scratch> {
                 w: 0.05 + 0.3 * ((k * 3 % 7) as f64 / 7.0),
                 d: 0.02 + 0.1 * ((k * 5 % 9) as f64 / 9.0),
                 alpha: [0.001, 0.01, 0.1, 0.5][k % 4],
+                bulge: 0.0,
             }
         })
         .collect()
@@ -354,6 +358,7 @@ fn sharp_lobe_matches_substitution() {
             w: 0.02,
             d,
             alpha: 1e-3,
+            bulge: 0.0,
         };
         let sc = scene([-40.0, 0.0, 60.0], [20.0, 0.0, 70.0], 49, vec![s]);
         let p = pixel(&sc, 0, 24, 24);
@@ -397,6 +402,7 @@ fn many_overlapping_scratches_and_check_loss() {
                 w: 0.01 + 0.002 * (k % 5) as f64,
                 d: 0.003,
                 alpha: [0.001, 0.003, 0.03][k % 3],
+                bulge: 0.0,
             }
         })
         .collect();

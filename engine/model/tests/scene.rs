@@ -379,6 +379,7 @@ fn half_width_is_stable() {
         w: 1.0,
         d: 1e-12,
         alpha: 0.5,
+        bulge: 0.0,
     };
     // e ~ (w/2) sqrt(2d/w) for d << w.
     let e = s.half_width();
@@ -412,6 +413,7 @@ fn awkward_scene() -> Scene {
                 w: 0.01 + 1e-3 / (k as f64 + 1.0),
                 d: 1e-5 * (k as f64 + 1.0).sqrt(),
                 alpha: 1.0 / (k as f64 + 2.0),
+                bulge: 0.0,
             }
         })
         .collect();

@@ -226,6 +226,7 @@ impl<'r> Driver<'r> {
         cfg: DriverConfig,
         fingerprint: serde_json::Value,
     ) -> Result<Driver<'r>, GpuError> {
+        gs.refuse_arcs("optimization")?;
         let ctx = renderer.ctx.clone();
         renderer.prepare_backward()?;
         let mut blocks = Vec::new();

@@ -82,6 +82,7 @@ impl Renderer {
     /// `gs.shading.image`), with results downloaded. For checks and the `grad` command; the optimizer
     /// keeps everything on the device.
     pub fn gradients(&self, gs: &mut GpuScene, dl: &[f32]) -> Result<(Vec<Vec<f32>>, Gradients), GpuError> {
+        gs.refuse_arcs("gradients")?;
         self.prepare_backward()?;
         self.upload_dl(gs, dl)?;
         let mut rec = Recorder::new(&self.ctx)?;

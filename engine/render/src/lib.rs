@@ -15,6 +15,7 @@
 //! (`pair_integrate` in `shaders/inc/patch_ndf.glsl`), differing only in their hooks: the forward
 //! kernel sums per pixel in float, the backward one per scratch (reverse mode, or dual numbers
 //! for the oracle).
+pub mod arcs;
 mod bindings;
 mod binning;
 pub mod grad;

@@ -169,6 +169,9 @@ pub struct GpuScene {
     store_off: bool,
     /// The plate's shape (the views carry it; `update_views` keeps it).
     shape: crate::model::surface::PlateShape,
+    /// Some(n) when the scene's n scratches include arcs, uploaded as their chords
+    /// (`crate::arcs`): the kernels' scratches are then chords, not the scene's.
+    arcs: Option<u32>,
 }
 
 /// Stats words of the pair store (`shaders/inc/tile_queue.glsl`): entries the forward's chunks
@@ -193,6 +196,13 @@ impl GpuScene {
         scene: &Scene,
         windows: &[Option<layout::TileWindow>],
     ) -> Result<GpuScene, GpuError> {
+        if crate::arcs::any_arc(&scene.scratches) {
+            let mut chords = scene.clone();
+            chords.scratches = crate::arcs::expand(&scene.scratches)?;
+            let mut gs = GpuScene::new_in(ctx, &chords, windows)?;
+            gs.arcs = Some(scene.scratches.len() as u32);
+            return Ok(gs);
+        }
         // Every size against the device before anything is allocated.
         let sizes: Vec<(u32, u32)> = scene.views.iter().map(|v| (v.camera.width, v.camera.height)).collect();
         let mut dims = crate::limits::SceneDims::new(&sizes, scene.scratches.len() as u64, false);
@@ -321,6 +331,7 @@ impl GpuScene {
             store_wanted: std::sync::atomic::AtomicBool::new(false),
             store_off: false,
             shape: scene.plate.shape,
+            arcs: None,
             n_scratches,
             // binning threads per part: scratch groups, or scratches in the pairs mode
             n_groups: threads,
@@ -568,6 +579,25 @@ impl GpuScene {
 
     pub fn n_scratches(&self) -> u32 {
         self.n_scratches
+    }
+
+    /// Whether the scene's scratches include arcs (uploaded as chords: the kernels' scratches,
+    /// their gradients and tangents are the chords', so nothing may read them as the scene's).
+    pub fn has_arcs(&self) -> bool {
+        self.arcs.is_some()
+    }
+
+    /// An error for work that needs the scene's own scratches on the device (gradients,
+    /// tangents, optimization) when they include arcs.
+    pub fn refuse_arcs(&self, what: &str) -> Result<(), GpuError> {
+        match self.arcs {
+            Some(n) => Err(GpuError::Capacity(format!(
+                "{what} of arc scratches is not available yet: the scene's {n} scratches include arcs \
+                 (a nonzero `bulge`), which render as {} chords; straighten them (bulge 0) for {what}",
+                self.n_scratches
+            ))),
+            None => Ok(()),
+        }
     }
 
     pub fn n_views(&self) -> u32 {

@@ -40,6 +40,7 @@ impl Renderer {
         gs: &mut GpuScene,
         seeds: &[ScratchTangent],
     ) -> Result<(Vec<Vec<f32>>, Vec<Vec<[f32; TANGENT_DIRECTIONS]>>), GpuError> {
+        gs.refuse_arcs("tangents")?;
         assert_eq!(
             seeds.len(),
             gs.n_scratches as usize,

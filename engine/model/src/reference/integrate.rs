@@ -11,17 +11,17 @@ use crate::camera::dot;
 
 /// The scratch's NDF along u for a fixed h: D(n(u) . h; alpha).
 #[derive(Clone, Copy)]
-struct Profile {
-    hz: f64,
-    hb: f64,
-    ht2: f64,
-    inv_half_w: f64, // 2 / w
-    alpha: f64,
+pub(super) struct Profile {
+    pub hz: f64,
+    pub hb: f64,
+    pub ht2: f64,
+    pub inv_half_w: f64, // 2 / w
+    pub alpha: f64,
 }
 
 impl Profile {
     #[inline]
-    fn d(&self, u: f64) -> f64 {
+    pub(super) fn d(&self, u: f64) -> f64 {
         let s = u * self.inv_half_w;
         let s2 = s * s;
         let q = 1.0 + s2;
@@ -86,7 +86,7 @@ fn gk15(f: &dyn Fn(f64) -> f64, a: f64, b: f64) -> (f64, f64) {
 
 /// Globally adaptive G7/K15 over consecutive breakpoints `pts` (sorted). Stops when the summed
 /// |K15 - G7| is below `rel` times the integral's magnitude (or below `abs`).
-fn integrate(f: &dyn Fn(f64) -> f64, pts: &[f64], rel: f64, abs: f64) -> f64 {
+pub(super) fn integrate(f: &dyn Fn(f64) -> f64, pts: &[f64], rel: f64, abs: f64) -> f64 {
     let mut iv: Vec<(f64, f64, f64, f64)> = Vec::with_capacity(pts.len() + 64);
     for w in pts.windows(2) {
         if w[1] > w[0] {
@@ -119,7 +119,8 @@ fn integrate(f: &dyn Fn(f64) -> f64, pts: &[f64], rel: f64, abs: f64) -> f64 {
     iv.iter().map(|x| x.2).sum()
 }
 
-/// (∫ D dA over F ∩ R, area(F ∩ R)) for one prepared scratch and a footprint in plate coords.
+/// (∫ D dA over F ∩ R, area(F ∩ R)) for one prepared straight scratch and a footprint in plate
+/// coords.
 pub(super) fn patch_integral(p: &Prep, foot: &[[f64; 2]; 4], h: [f64; 3]) -> (f64, f64) {
     patch_integral_with(p, foot, h, 1e-12, 0)
 }
@@ -274,6 +275,7 @@ mod tests {
                 w,
                 d,
                 alpha,
+                bulge: 0.0,
             };
             let pr = prep(&s);
             // A random convex quad near the scratch.

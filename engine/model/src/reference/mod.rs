@@ -21,6 +21,10 @@
 //!    |n x h|^2 = (h.t)^2 + (cos theta h.b + sin theta h.z)^2 is computed from the components.
 //! 5. Coverage uses the exact polygon areas; BRDF, Fresnel, flat-plate term and L per section 5.
 //!
+//! An arc scratch (crate::arc) is integrated in its own polar coordinates instead
+//! (`arc_integral.rs`: nested adaptive Gauss-Kronrod over radius and sweep, exact footprint
+//! crossings).
+//!
 //! Scratches are culled per pixel with a uniform grid over the plate holding each carved
 //! rectangle's axis-aligned bounding box (exact: culling only skips pairs with empty F ∩ R_k).
 //!
@@ -28,6 +32,7 @@
 //! culling grid; `clip.rs` the polygon clipping and chords; `integrate.rs` the adaptive
 //! Gauss-Kronrod quadrature of one (footprint, scratch) pair.
 
+mod arc_integral;
 mod clip;
 mod cull;
 mod integrate;
@@ -40,7 +45,6 @@ use crate::surface::SurfacePoint;
 
 use clip::polygon_area;
 use cull::Grid;
-use integrate::patch_integral;
 
 use crate::camera::on_plate_mask;
 
@@ -97,6 +101,8 @@ struct Prep {
     w: f64,
     alpha: f64,
     bbox: [f64; 4], // xmin, ymin, xmax, ymax
+    /// An arc scratch's polar set-up (`arc_integral.rs`); None for a straight one.
+    arc: Option<arc_integral::ArcPrep>,
 }
 
 fn prep(s: &crate::scene::Scratch) -> Prep {
@@ -104,16 +110,7 @@ fn prep(s: &crate::scene::Scratch) -> Prep {
     let t = [(s.p1[0] - s.p0[0]) / l, (s.p1[1] - s.p0[1]) / l];
     let b = [-t[1], t[0]];
     let e = s.half_width();
-    let mut bbox = [f64::INFINITY, f64::INFINITY, f64::NEG_INFINITY, f64::NEG_INFINITY];
-    for p in [s.p0, s.p1] {
-        for sg in [-1.0, 1.0] {
-            let q = [p[0] + sg * e * b[0], p[1] + sg * e * b[1]];
-            bbox[0] = bbox[0].min(q[0]);
-            bbox[1] = bbox[1].min(q[1]);
-            bbox[2] = bbox[2].max(q[0]);
-            bbox[3] = bbox[3].max(q[1]);
-        }
-    }
+    let mut bbox = s.carved_bbox();
     // Pad by a relative epsilon so rounding in the bbox never culls a touching pair.
     let pad = 1e-12 * (1.0 + bbox[2].abs().max(bbox[3].abs()).max(bbox[0].abs()).max(bbox[1].abs()));
     bbox[0] -= pad;
@@ -129,6 +126,30 @@ fn prep(s: &crate::scene::Scratch) -> Prep {
         w: s.w,
         alpha: s.alpha,
         bbox,
+        arc: s.arc().map(|g| arc_integral::ArcPrep {
+            g,
+            e,
+            w: s.w,
+            alpha: s.alpha,
+            chord_measure: false,
+        }),
+    }
+}
+
+/// (∫ D dA over F ∩ R, area(F ∩ R)) for one prepared scratch, straight or arc.
+fn patch_integral(p: &Prep, foot: &[[f64; 2]; 4], h: [f64; 3]) -> (f64, f64) {
+    match &p.arc {
+        None => integrate::patch_integral(p, foot, h),
+        Some(a) => {
+            let mut bb = [f64::INFINITY, f64::INFINITY, f64::NEG_INFINITY, f64::NEG_INFINITY];
+            for q in foot {
+                bb = [bb[0].min(q[0]), bb[1].min(q[1]), bb[2].max(q[0]), bb[3].max(q[1])];
+            }
+            if p.bbox[0] > bb[2] || p.bbox[2] < bb[0] || p.bbox[1] > bb[3] || p.bbox[3] < bb[1] {
+                return (0.0, 0.0);
+            }
+            arc_integral::arc_patch_integral(a, foot, h)
+        }
     }
 }
 

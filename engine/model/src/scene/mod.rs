@@ -88,6 +88,10 @@ pub struct Scratch {
     pub w: f64,
     pub d: f64,
     pub alpha: f64,
+    /// 0 for a straight scratch; else an arc from p0 to p1 with DXF's bulge tan(included angle
+    /// / 4), positive counter-clockwise seen from +z (crate::arc, engine/docs/model.md section
+    /// 11). Written as the scratch CSV's optional `bulge` column.
+    pub bulge: f64,
 }
 
 #[derive(Clone, Debug, PartialEq)]
@@ -286,19 +290,20 @@ impl Scratch {
         0.5 * self.w * (-(-2.0 * self.d / self.w).exp_m1()).sqrt()
     }
 
-    /// Length l = |p1 - p0|.
+    /// Length l = |p1 - p0| (the chord of an arc: `path_length` is the arc's).
     pub fn length(&self) -> f64 {
         (self.p1[0] - self.p0[0]).hypot(self.p1[1] - self.p0[1])
     }
 
-    /// The row as written in files: [x0, y0, x1, y1, w, d, alpha].
+    /// The row as written in files: [x0, y0, x1, y1, w, d, alpha] (an arc's bulge is the
+    /// optional `bulge` column after them).
     pub fn to_row(&self) -> [f64; 7] {
         [
             self.p0[0], self.p0[1], self.p1[0], self.p1[1], self.w, self.d, self.alpha,
         ]
     }
 
-    /// Build from a row [x0, y0, x1, y1, w, d, alpha] (no validation).
+    /// Build a straight scratch from a row [x0, y0, x1, y1, w, d, alpha] (no validation).
     pub fn from_row(r: [f64; 7]) -> Scratch {
         Scratch {
             p0: [r[0], r[1]],
@@ -306,11 +311,14 @@ impl Scratch {
             w: r[4],
             d: r[5],
             alpha: r[6],
+            bulge: 0.0,
         }
     }
 }
 
 pub(crate) const COLS: [&str; 7] = ["x0", "y0", "x1", "y1", "w", "d", "alpha"];
+/// The optional column of an arc's bulge (crate::arc), after the seven.
+pub const BULGE_COL: &str = "bulge";
 
 pub(crate) fn norm3(v: [f64; 3]) -> f64 {
     (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt()

@@ -6,10 +6,14 @@
 //! and are kept: [`read_scratches_csv_table`] returns them as an [`Extra`], and
 //! [`Scene::save_extra`](crate::scene::Scene::save_extra) writes them back. Readers that only need the
 //! seven ([`read_scratches_csv`], [`Scene::load`](crate::scene::Scene::load)) accept and skip them.
+//!
+//! One named column is the scratches' own: `bulge`, an arc's (crate::arc; 0 for a straight
+//! scratch). It is read into [`Scratch::bulge`](crate::scene::Scratch) (not kept as an extra)
+//! and written, right after the seven, whenever a scratch is an arc.
 
 use std::path::Path;
 
-use crate::scene::{invalid, SceneError, Scratch, COLS, CSV_HEADER};
+use crate::scene::{invalid, SceneError, Scratch, BULGE_COL, COLS, CSV_HEADER};
 
 /// Read a scratch CSV (header `x0,y0,x1,y1,w,d,alpha`; blank lines and `#` comments skipped).
 /// Checks the syntax and that every number is finite; engine/docs/model.md's range checks against the plate
@@ -162,7 +166,22 @@ pub fn read_scratches_csv_table(path: &Path) -> Result<(Vec<(Scratch, usize)>, E
         }
         out.push((Scratch::from_row(r), line_no));
     }
+    take_bulge(&mut out, &mut extra);
     Ok((out, extra))
+}
+
+/// The `bulge` column (an arc's, crate::arc) is the scratches' own, not an extra one.
+fn take_bulge(out: &mut [(Scratch, usize)], extra: &mut Extra) {
+    let Some(c) = extra.names.iter().position(|n| n.eq_ignore_ascii_case(BULGE_COL)) else {
+        return;
+    };
+    extra.names.remove(c);
+    for (k, (s, _)) in out.iter_mut().enumerate() {
+        s.bulge = extra.rows[k].remove(c);
+    }
+    if extra.names.is_empty() {
+        extra.rows.clear();
+    }
 }
 
 /// The CSV text of `scratches`: the header, then one row per scratch with every number in
@@ -170,7 +189,12 @@ pub fn read_scratches_csv_table(path: &Path) -> Result<(Vec<(Scratch, usize)>, E
 pub(super) fn scratches_csv_text(scratches: &[Scratch], extra: &Extra) -> String {
     let mut csv = String::with_capacity(32 + scratches.len() * 80);
     csv.push_str(CSV_HEADER);
-    for n in &extra.names {
+    let arcs = scratches.iter().any(Scratch::is_arc);
+    if arcs {
+        csv.push(',');
+        csv.push_str(BULGE_COL);
+    }
+    for n in extra.names.iter().filter(|n| !n.eq_ignore_ascii_case(BULGE_COL)) {
         csv.push(',');
         csv.push_str(n);
     }
@@ -178,8 +202,16 @@ pub(super) fn scratches_csv_text(scratches: &[Scratch], extra: &Extra) -> String
     for (k, s) in scratches.iter().enumerate() {
         let r = s.to_row();
         let mut cells: Vec<String> = r.iter().map(|x| format!("{x}")).collect();
+        if arcs {
+            cells.push(format!("{}", s.bulge));
+        }
         if let Some(ex) = extra.rows.get(k) {
-            cells.extend(ex.iter().map(|x| format!("{x}")));
+            let kept = extra
+                .names
+                .iter()
+                .zip(ex)
+                .filter(|(n, _)| !n.eq_ignore_ascii_case(BULGE_COL));
+            cells.extend(kept.map(|(_, x)| format!("{x}")));
         }
         csv.push_str(&cells.join(","));
         csv.push('\n');

@@ -8,8 +8,8 @@ use serde_json::{Map, Value};
 use super::csv::{read_scratches_csv_table, Extra};
 use super::validate::{check_scratch, validate_header};
 use crate::scene::{
-    invalid, norm3, Camera, Light, LightKind, Plate, Scene, SceneError, Scratch, View, COLS, CSV_HEADER, DEFAULT_F0,
-    DEFAULT_ROUGHNESS,
+    invalid, norm3, Camera, Light, LightKind, Plate, Scene, SceneError, Scratch, View, BULGE_COL, COLS, CSV_HEADER,
+    DEFAULT_F0, DEFAULT_ROUGHNESS,
 };
 use crate::surface::{BendAxis, PlateShape};
 
@@ -194,16 +194,22 @@ impl Scene {
                 let mut out = Vec::with_capacity(rows.len());
                 for (k, r) in rows.iter().enumerate() {
                     let field = format!("scratches row {} (1-based)", k + 1);
-                    let arr = r.as_array().filter(|a| a.len() == 7).ok_or_else(|| {
-                        invalid(file, &field, format!("must be an array of 7 numbers [{CSV_HEADER}]"))
+                    let arr = r.as_array().filter(|a| a.len() == 7 || a.len() == 8).ok_or_else(|| {
+                        invalid(
+                            file,
+                            &field,
+                            format!("must be an array of 7 numbers [{CSV_HEADER}], or 8 with an arc's bulge last"),
+                        )
                     })?;
-                    let mut row = [0.0; 7];
+                    let mut row = [0.0; 8];
                     for (c, x) in arr.iter().enumerate() {
+                        let name = COLS.get(c).copied().unwrap_or(BULGE_COL);
                         row[c] = x
                             .as_f64()
-                            .ok_or_else(|| invalid(file, &field, format!("{} = {x} is not a number", COLS[c])))?;
+                            .ok_or_else(|| invalid(file, &field, format!("{name} = {x} is not a number")))?;
                     }
-                    let s = Scratch::from_row(row);
+                    let mut s = Scratch::from_row([row[0], row[1], row[2], row[3], row[4], row[5], row[6]]);
+                    s.bulge = row[7];
                     check_scratch(&s, plate.size_mm).map_err(|msg| invalid(file, &field, msg))?;
                     out.push(s);
                 }

@@ -2,6 +2,7 @@
 //! names): used by the JSON reader, with file and field names in every message, and by
 //! [`Scene::validate`] for scenes built in code.
 
+use crate::arc::MAX_BULGE;
 use crate::camera::ViewGeom;
 use crate::scene::{
     invalid, norm3, LightKind, Plate, Scene, SceneError, Scratch, View, COLS, DEFAULT_F0, DEFAULT_ROUGHNESS,
@@ -48,6 +49,38 @@ pub(super) fn check_scratch(s: &Scratch, plate_size: f64) -> Result<(), String> 
         return Err(format!(
             "carved half-width e = {e} is not positive (w = {}, d = {} underflow); increase d",
             s.w, s.d
+        ));
+    }
+    check_arc(s, plate_size)
+}
+
+/// An arc's bulge (crate::arc): finite, at most MAX_BULGE, a radius no less than the groove's
+/// width, and the whole arc on the plate.
+fn check_arc(s: &Scratch, plate_size: f64) -> Result<(), String> {
+    if !s.bulge.is_finite() {
+        return Err(format!("bulge = {} is not a finite number", s.bulge));
+    }
+    if s.bulge.abs() > MAX_BULGE {
+        return Err(format!(
+            "bulge = {} is beyond +-{MAX_BULGE:.4} (an arc of at most 270 degrees); split a longer arc in two",
+            s.bulge
+        ));
+    }
+    let Some(a) = s.arc() else { return Ok(()) };
+    if a.radius < s.w {
+        return Err(format!(
+            "the arc's radius {:.4} mm (bulge {}) is under the groove's width w = {} mm: the tool \
+             cannot turn that tightly; use a smaller |bulge| or a longer chord",
+            a.radius, s.bulge, s.w
+        ));
+    }
+    let half = 0.5 * plate_size;
+    let bb = a.band_bbox(0.0);
+    if bb[0] < -half || bb[1] < -half || bb[2] > half || bb[3] > half {
+        return Err(format!(
+            "the arc (bulge {}) runs off the plate: it reaches x {:.3} to {:.3}, y {:.3} to {:.3} mm, \
+             and |x| and |y| must be <= {half}; use a smaller |bulge|",
+            s.bulge, bb[0], bb[2], bb[1], bb[3]
         ));
     }
     Ok(())

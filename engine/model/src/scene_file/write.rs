@@ -48,7 +48,18 @@ impl Scene {
 
     /// The scene as JSON with the scratches inline (numbers round-trip exactly).
     pub fn to_json_inline(&self) -> String {
-        let rows: Vec<Value> = self.scratches.iter().map(|s| json!(s.to_row())).collect();
+        let rows: Vec<Value> = self
+            .scratches
+            .iter()
+            .map(|s| {
+                let r = s.to_row();
+                if s.is_arc() {
+                    json!([r[0], r[1], r[2], r[3], r[4], r[5], r[6], s.bulge])
+                } else {
+                    json!(r)
+                }
+            })
+            .collect();
         serde_json::to_string_pretty(&self.to_value(Value::Array(rows))).expect("serialize scene")
     }
 

@@ -6,12 +6,22 @@ impl GpuScene {
     /// Replaces the scratches (same number: the binning's sizes depend on it). Returns false
     /// (and changes nothing) when the number differs, in which case the caller uploads the scene
     /// again. For fits that re-render one scene with new scratch parameters many times.
+    /// Arcs count as their chords (`crate::arcs`).
     pub fn update_scratches(&mut self, ctx: &std::sync::Arc<Context>, scratches: &[Scratch]) -> Result<bool, GpuError> {
-        if scratches.len() != self.n_scratches as usize {
+        let arcs = crate::arcs::any_arc(scratches);
+        let chords;
+        let kernel_scratches = if arcs {
+            chords = crate::arcs::expand(scratches)?;
+            &chords[..]
+        } else {
+            scratches
+        };
+        if kernel_scratches.len() != self.n_scratches as usize {
             return Ok(false);
         }
-        let scr: Vec<ScratchGpu> = scratches.iter().map(ScratchGpu::from).collect();
+        let scr: Vec<ScratchGpu> = kernel_scratches.iter().map(ScratchGpu::from).collect();
         self.inputs.scratches = ctx.upload("scratches", &scr)?;
+        self.arcs = arcs.then_some(scratches.len() as u32);
         Ok(true)
     }
 

@@ -1,0 +1,241 @@
+//! Arc scratches (engine/docs/model.md section 11): a scratch whose path is a circular arc from
+//! p0 to p1, given by DXF's bulge b = tan(included angle / 4), positive when the arc runs
+//! counter-clockwise (seen from +z) from p0 to p1; b = 0 is the straight scratch. The groove's
+//! cross-section (w, d, alpha) holds along the arc: at a point at distance rho from the arc's
+//! centre, the across coordinate of the straight scratch's frame is u = sign(b) (r - rho) (the
+//! left of the direction of travel points to the centre of a counter-clockwise arc), and the
+//! groove's ends are cut along the radii through p0 and p1.
+
+use crate::scene::Scratch;
+
+/// The largest |bulge| accepted: an included angle of 270 degrees (tan(67.5 degrees)). A larger
+/// one nearly closes the circle, which no carving or optimization needs.
+pub const MAX_BULGE: f64 = 2.414_213_562_373_095;
+
+/// An arc scratch's circle and the part of it the scratch runs along.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ArcGeom {
+    pub centre: [f64; 2],
+    pub radius: f64,
+    /// Polar angle of p0 about the centre (radians).
+    pub phi0: f64,
+    /// Signed included angle (radians): positive counter-clockwise, 4 atan(bulge).
+    pub sweep: f64,
+}
+
+impl ArcGeom {
+    /// The point at fraction `t` of the way along the arc.
+    pub fn point(&self, t: f64) -> [f64; 2] {
+        let phi = self.phi0 + self.sweep * t;
+        [
+            self.centre[0] + self.radius * phi.cos(),
+            self.centre[1] + self.radius * phi.sin(),
+        ]
+    }
+
+    /// The unit direction of travel at fraction `t`.
+    pub fn tangent(&self, t: f64) -> [f64; 2] {
+        let phi = self.phi0 + self.sweep * t;
+        let sg = self.sweep.signum();
+        [-sg * phi.sin(), sg * phi.cos()]
+    }
+
+    /// Arc length.
+    pub fn length(&self) -> f64 {
+        self.radius * self.sweep.abs()
+    }
+
+    /// Whether polar angle `phi` lies on the arc's sweep, and at which fraction of it.
+    pub fn fraction_of(&self, phi: f64) -> Option<f64> {
+        let tau = std::f64::consts::TAU;
+        let d = (phi - self.phi0) * self.sweep.signum();
+        let d = d.rem_euclid(tau);
+        let t = d / self.sweep.abs();
+        (t <= 1.0).then_some(t)
+    }
+
+    /// Axis-aligned box [xmin, ymin, xmax, ymax] of the band within `e` of the arc (the carved
+    /// region): its four corners and the outer circle's extremes within the sweep.
+    pub fn band_bbox(&self, e: f64) -> [f64; 4] {
+        let mut bb = [f64::INFINITY, f64::INFINITY, f64::NEG_INFINITY, f64::NEG_INFINITY];
+        let mut add = |q: [f64; 2]| {
+            bb[0] = bb[0].min(q[0]);
+            bb[1] = bb[1].min(q[1]);
+            bb[2] = bb[2].max(q[0]);
+            bb[3] = bb[3].max(q[1]);
+        };
+        for t in [0.0, 1.0] {
+            let phi = self.phi0 + self.sweep * t;
+            for r in [self.radius - e, self.radius + e] {
+                add([self.centre[0] + r * phi.cos(), self.centre[1] + r * phi.sin()]);
+            }
+        }
+        for k in 0..4 {
+            let phi = k as f64 * std::f64::consts::FRAC_PI_2;
+            if self.fraction_of(phi).is_some() {
+                let r = self.radius + e;
+                add([self.centre[0] + r * phi.cos(), self.centre[1] + r * phi.sin()]);
+            }
+        }
+        bb
+    }
+}
+
+impl Scratch {
+    /// Whether this scratch is an arc (bulge != 0).
+    pub fn is_arc(&self) -> bool {
+        self.bulge != 0.0
+    }
+
+    /// The arc's circle and sweep; None for a straight scratch (or coincident endpoints).
+    pub fn arc(&self) -> Option<ArcGeom> {
+        let c = self.length();
+        if self.bulge == 0.0 || !(c > 0.0) {
+            return None;
+        }
+        let sweep = 4.0 * self.bulge.atan();
+        let half = 0.5 * sweep;
+        let radius = 0.5 * c / half.sin().abs();
+        // Centre: the chord's midpoint moved along its left normal by (c/2) cot(sweep/2), signed
+        // (left of p0 -> p1 for a counter-clockwise arc under half a turn).
+        let (dx, dy) = ((self.p1[0] - self.p0[0]) / c, (self.p1[1] - self.p0[1]) / c);
+        let off = 0.5 * c * half.cos() / half.sin();
+        let centre = [
+            0.5 * (self.p0[0] + self.p1[0]) - dy * off,
+            0.5 * (self.p0[1] + self.p1[1]) + dx * off,
+        ];
+        let phi0 = (self.p0[1] - centre[1]).atan2(self.p0[0] - centre[0]);
+        Some(ArcGeom {
+            centre,
+            radius,
+            phi0,
+            sweep,
+        })
+    }
+
+    /// Length along the scratch's path: the arc's for an arc, |p1 - p0| for a straight one.
+    pub fn path_length(&self) -> f64 {
+        match self.arc() {
+            Some(a) => a.length(),
+            None => self.length(),
+        }
+    }
+
+    /// Axis-aligned box [xmin, ymin, xmax, ymax] of the carved region (the band of half-width
+    /// `half_width()` along the path).
+    pub fn carved_bbox(&self) -> [f64; 4] {
+        let e = self.half_width();
+        if let Some(a) = self.arc() {
+            return a.band_bbox(e);
+        }
+        let l = self.length();
+        let (tx, ty) = if l > 0.0 {
+            ((self.p1[0] - self.p0[0]) / l, (self.p1[1] - self.p0[1]) / l)
+        } else {
+            (1.0, 0.0)
+        };
+        let mut bb = [f64::INFINITY, f64::INFINITY, f64::NEG_INFINITY, f64::NEG_INFINITY];
+        for p in [self.p0, self.p1] {
+            for sg in [-1.0, 1.0] {
+                let q = [p[0] - sg * e * ty, p[1] + sg * e * tx];
+                bb[0] = bb[0].min(q[0]);
+                bb[1] = bb[1].min(q[1]);
+                bb[2] = bb[2].max(q[0]);
+                bb[3] = bb[3].max(q[1]);
+            }
+        }
+        bb
+    }
+
+    /// The arc as `n` straight scratches along its chords (endpoints on the arc at equal angles,
+    /// the same w, d and alpha); a straight scratch is itself.
+    pub fn chords(&self, n: usize) -> Vec<Scratch> {
+        let a = match self.arc() {
+            Some(a) if n > 1 => a,
+            _ => {
+                let mut s = *self;
+                s.bulge = 0.0;
+                return vec![s];
+            }
+        };
+        (0..n)
+            .map(|k| {
+                let p0 = if k == 0 { self.p0 } else { a.point(k as f64 / n as f64) };
+                let p1 = if k + 1 == n {
+                    self.p1
+                } else {
+                    a.point((k + 1) as f64 / n as f64)
+                };
+                Scratch {
+                    p0,
+                    p1,
+                    bulge: 0.0,
+                    ..*self
+                }
+            })
+            .collect()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn arc(p0: [f64; 2], p1: [f64; 2], bulge: f64) -> Scratch {
+        Scratch {
+            p0,
+            p1,
+            w: 0.1,
+            d: 0.02,
+            alpha: 0.1,
+            bulge,
+        }
+    }
+
+    #[test]
+    fn half_circle_counter_clockwise() {
+        // From (1, 0) to (-1, 0) counter-clockwise: the upper half circle about the origin.
+        let a = arc([1.0, 0.0], [-1.0, 0.0], 1.0).arc().unwrap();
+        assert!((a.radius - 1.0).abs() < 1e-15);
+        assert!(a.centre[0].abs() < 1e-15 && a.centre[1].abs() < 1e-15, "{:?}", a.centre);
+        let mid = a.point(0.5);
+        assert!((mid[0]).abs() < 1e-15 && (mid[1] - 1.0).abs() < 1e-15, "{mid:?}");
+        assert!((a.length() - std::f64::consts::PI).abs() < 1e-14);
+        // Clockwise: the lower half.
+        let b = arc([1.0, 0.0], [-1.0, 0.0], -1.0).arc().unwrap();
+        assert!((b.point(0.5)[1] + 1.0).abs() < 1e-15);
+        let t = b.tangent(0.0);
+        assert!((t[1] + 1.0).abs() < 1e-15, "{t:?}");
+    }
+
+    #[test]
+    fn ends_and_sagitta() {
+        for &b in &[0.05, -0.3, 0.9, -2.0, 2.4] {
+            let s = arc([-2.0, 0.5], [3.0, -1.0], b);
+            let a = s.arc().unwrap();
+            for (t, p) in [(0.0, s.p0), (1.0, s.p1)] {
+                let q = a.point(t);
+                assert!(
+                    (q[0] - p[0]).abs() < 1e-12 && (q[1] - p[1]).abs() < 1e-12,
+                    "b {b} t {t}: {q:?}"
+                );
+            }
+            // The sagitta is b times half the chord, on the right of p0 -> p1 for b > 0.
+            let m = a.point(0.5);
+            let c = s.length();
+            let (dx, dy) = ((s.p1[0] - s.p0[0]) / c, (s.p1[1] - s.p0[1]) / c);
+            let mid = [0.5 * (s.p0[0] + s.p1[0]), 0.5 * (s.p0[1] + s.p1[1])];
+            let left = (m[0] - mid[0]) * -dy + (m[1] - mid[1]) * dx;
+            assert!((left + b * 0.5 * c).abs() < 1e-12, "b {b}: {left}");
+            let chords = s.chords(7);
+            assert_eq!(chords.len(), 7);
+            assert_eq!(chords[0].p0, s.p0);
+            assert_eq!(chords[6].p1, s.p1);
+            let bb = s.carved_bbox();
+            for k in 0..=100 {
+                let q = a.point(k as f64 / 100.0);
+                assert!(q[0] >= bb[0] && q[0] <= bb[2] && q[1] >= bb[1] && q[1] <= bb[3]);
+            }
+        }
+    }
+}

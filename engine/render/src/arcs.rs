@@ -1,0 +1,64 @@
+//! Arc scratches on the GPU (engine/docs/model.md section 11): each arc is uploaded as straight
+//! scratches along its chords, endpoints on the arc at equal angles, each turning by at most
+//! [`max_turn`] from the last: the shading kernels see only straight scratches. What the chords
+//! leave out, and its measured size against the float64 reference's exact arc, is written in
+//! the model's documentation: the direction of the groove is constant along a chord (the
+//! reason the turn per chord follows the groove's roughness), and the chords' rectangles weigh
+//! the groove's inner side by r / rho against the annulus (e / r of a footprint that sees one
+//! side only).
+use crate::model::scene::Scratch;
+use crate::vulkan::GpuError;
+
+/// The most chords one arc is cut into.
+pub const MAX_CHORDS_PER_ARC: usize = 4096;
+
+/// The largest turn of one chord (radians) for a groove of roughness `alpha`: alpha / 40 (the
+/// groove's lobe, seen along the plate, is about alpha / |h_xy| wide in the direction of
+/// travel), from 1e-4 to 0.1 degree.
+pub fn max_turn(alpha: f64) -> f64 {
+    (alpha / 40.0).clamp(1e-4, std::f64::consts::PI / 1800.0)
+}
+
+/// The longest chord (mm): a footprint's edge cuts a chord, which holds one direction where the
+/// arc turns, so chords are kept well under a pixel's footprint.
+pub const MAX_CHORD_MM: f64 = 0.02;
+
+/// How many chords scratch `s` is uploaded as (1 for a straight scratch); more than
+/// [`MAX_CHORDS_PER_ARC`] is refused by [`expand`].
+pub fn chord_count(s: &Scratch) -> usize {
+    match s.arc() {
+        None => 1,
+        Some(a) => {
+            let by_turn = a.sweep.abs() / max_turn(s.alpha);
+            let by_length = a.length() / MAX_CHORD_MM;
+            by_turn.max(by_length).ceil().max(1.0) as usize
+        }
+    }
+}
+
+/// The scratches the kernels render: straight ones as they are, each arc as its chords. An arc
+/// that needs more than [`MAX_CHORDS_PER_ARC`] chords is refused, naming it.
+pub fn expand(scratches: &[Scratch]) -> Result<Vec<Scratch>, GpuError> {
+    let mut out = Vec::with_capacity(scratches.len());
+    for (k, s) in scratches.iter().enumerate() {
+        let n = chord_count(s);
+        if n > MAX_CHORDS_PER_ARC {
+            return Err(GpuError::Capacity(format!(
+                "arc scratch {} (0-based; bulge {}, {:.2} mm long, alpha {}) needs {n} chords to render \
+                 within the accuracy bar, over the renderer's {MAX_CHORDS_PER_ARC} per arc \
+                 (engine/render/src/arcs.rs); split it into shorter arcs or give it a larger alpha",
+                k,
+                s.bulge,
+                s.path_length(),
+                s.alpha
+            )));
+        }
+        out.extend(s.chords(n));
+    }
+    Ok(out)
+}
+
+/// Whether any scratch is an arc.
+pub fn any_arc(scratches: &[Scratch]) -> bool {
+    scratches.iter().any(Scratch::is_arc)
+}

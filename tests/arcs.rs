@@ -1,0 +1,132 @@
+//! Arc scratches (engine/docs/model.md section 11): the GPU renderer (each arc uploaded as its
+//! chords, engine/render/src/arcs.rs) against the float64 reference's exact arc, on plates of
+//! arcs of either sense from a few degrees to 180, with straight scratches among them; the
+//! scene file and CSV round trip; and the refusals (gradients of arcs, bad bulges).
+use scratchart_design::scenes::Rng;
+use scratchart_model::scene::{Scene, Scratch};
+use scratchart_tests::*;
+
+/// Bends a share of `scene`'s scratches into arcs with |bulge| in [lo, hi] (either sense),
+/// keeping those the plate and the groove's width allow.
+fn with_arcs(scene: &Scene, seed: u64, share: f64, lo: f64, hi: f64) -> Scene {
+    let mut rng = Rng::new(seed);
+    let mut out = scene.clone();
+    for s in &mut out.scratches {
+        if rng.f64() >= share {
+            continue;
+        }
+        let b = rng.range(lo, hi) * if rng.f64() < 0.5 { -1.0 } else { 1.0 };
+        let mut t: Scratch = *s;
+        t.bulge = b;
+        if let Some(a) = t.arc() {
+            let bb = a.band_bbox(t.half_width());
+            let h = 0.5 * scene.plate.size_mm;
+            if a.radius >= t.w && bb[0] >= -h && bb[1] >= -h && bb[2] <= h && bb[3] <= h {
+                *s = t;
+            }
+        }
+    }
+    out
+}
+
+fn tmp(name: &str) -> std::path::PathBuf {
+    let d = std::env::temp_dir().join(format!("scratchart_arcs_{name}_{}", std::process::id()));
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+fn views() -> Vec<scratchart_model::scene::View> {
+    vec![
+        orbit_view("a", 40, 45.0, 0.0, 45.0, 180.0, 20.0),
+        orbit_view("b", 40, 60.0, 110.0, 30.0, 300.0, 20.0),
+    ]
+}
+
+/// Thin grooves (w 0.05, d 0.02 mm: e 0.02 mm) on arcs of 2 to 45 degrees per 3 mm, sharp to
+/// broad lobes: within the bar in every view.
+#[test]
+fn arcs_match_the_reference() {
+    for alpha in [0.03, 0.1, 0.3] {
+        let straight = random_scene(61, 120, 20.0, 0.05, 0.02, alpha, views());
+        let scene = with_arcs(&straight, 5, 0.8, 0.02, 0.2);
+        let arcs = scene.scratches.iter().filter(|s| s.is_arc()).count();
+        assert!(arcs >= 80, "only {arcs} arcs");
+        assert_matches_reference(&format!("arcs, alpha {alpha}"), &scene);
+    }
+}
+
+/// A scene file with arcs (CSV `bulge` column, and inline rows of 8) reads back exactly, and
+/// straight scenes keep the seven columns.
+#[test]
+fn scene_files_keep_the_bulge() {
+    let dir = tmp("files");
+    let straight = random_scene(62, 20, 20.0, 0.05, 0.02, 0.1, views());
+    let scene = with_arcs(&straight, 6, 0.5, 0.02, 0.5);
+    assert!(scene.scratches.iter().any(|s| s.is_arc()));
+    let json = dir.join("s.json");
+    scene.save(&json, "s.csv").unwrap();
+    let csv = std::fs::read_to_string(dir.join("s.csv")).unwrap();
+    assert!(csv.starts_with("x0,y0,x1,y1,w,d,alpha,bulge\n"), "{}", &csv[..60]);
+    assert_eq!(Scene::load(&json).unwrap(), scene);
+    let inline = dir.join("inline.json");
+    std::fs::write(&inline, scene.to_json_inline()).unwrap();
+    assert_eq!(Scene::load(&inline).unwrap(), scene);
+    straight.save(&json, "s.csv").unwrap();
+    let csv = std::fs::read_to_string(dir.join("s.csv")).unwrap();
+    assert!(csv.starts_with("x0,y0,x1,y1,w,d,alpha\n"));
+}
+
+/// Bulges the tool cannot carve or the plate cannot hold are refused, naming the row and why.
+#[test]
+fn bad_bulges_are_refused() {
+    let dir = tmp("bad");
+    let scene = random_scene(63, 1, 20.0, 0.05, 0.02, 0.1, views());
+    let json = dir.join("s.json");
+    scene.save(&json, "s.csv").unwrap();
+    let csv_path = dir.join("s.csv");
+    for (row, want) in [
+        ("-9,5,9,5,0.05,0.02,0.1,-1", "runs off the plate"),
+        ("0,0,0.06,0,0.05,0.02,0.1,2.4", "under the groove's width"),
+        ("0,0,1,0,0.05,0.02,0.1,3", "270 degrees"),
+        ("0,0,1,0,0.05,0.02,0.1,nan", "not a finite number"),
+    ] {
+        std::fs::write(&csv_path, format!("x0,y0,x1,y1,w,d,alpha,bulge\n{row}\n")).unwrap();
+        let err = Scene::load(&json).unwrap_err().to_string();
+        assert!(err.contains(want), "{row}: {err}");
+        assert!(err.contains("row 1"), "{row}: {err}");
+    }
+}
+
+/// What the device cannot do yet with arcs is refused, not done wrong: gradients and tangents
+/// (the kernels see chords), and an arc that needs more chords than the renderer cuts.
+#[test]
+fn arcs_refuse_what_they_cannot_do_yet() {
+    let ctx = gpu();
+    let r = scratchart_render::Renderer::new(&ctx).unwrap();
+    let straight = random_scene(64, 10, 20.0, 0.05, 0.02, 0.1, views());
+    let scene = with_arcs(&straight, 7, 1.0, 0.1, 0.3);
+    let mut gs = r.upload(&scene).unwrap();
+    assert!(gs.has_arcs());
+    assert!(gs.n_scratches() as usize > scene.scratches.len());
+    let dl = vec![0.0f32; gs.n_pixels() as usize];
+    let err = r.gradients(&mut gs, &dl).unwrap_err().to_string();
+    assert!(err.contains("arc"), "{err}");
+    // Replacing the arcs by straight scratches of another count asks for a new upload; the
+    // same arcs update in place.
+    assert!(gs.update_scratches(&ctx, &scene.scratches).unwrap());
+    assert!(!gs.update_scratches(&ctx, &straight.scratches).unwrap());
+    // A half circle of 18 mm at alpha 1e-3: 0.1 degree turns would need 1800 chords, and 0.02 mm
+    // chords 1414; at alpha 1e-4 (turns of 1e-4 rad) 31416: refused.
+    let mut sharp = straight.clone();
+    sharp.scratches = vec![Scratch {
+        p0: [-9.0, 0.0],
+        p1: [9.0, 0.0],
+        w: 0.05,
+        d: 0.02,
+        alpha: 1e-4,
+        bulge: 1.0,
+    }];
+    let err = r.upload(&sharp).err().expect("refused").to_string();
+    assert!(err.contains("chords") && err.contains("4096"), "{err}");
+    assert_no_validation(&ctx);
+}
