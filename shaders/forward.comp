@@ -43,6 +43,9 @@ void pair_eval(uint i, uint px, uint k, bool fast) {
     vec2 fp[4];
     vec3 h;
     pixel_pair_data(px, fp, h);
+#ifdef SA_ARCS
+    g_arc_k = rec_shape(si).w;  // an arc's chord weight (patch_ndf.glsl), 0 for a straight scratch
+#endif
     float I, A;
     pair_integrate(ca.x, ca.y, ca.z, ca.w, cb.x, cb.y, cb.z, cb.w, fp, h, fast, I, A);
     sh_res[i] = vec2(I, A);

@@ -94,7 +94,7 @@ struct ViewGPU64 { uvec4 pad[8]; };
 // One scratch as the user gives it (engine/docs/model.md section 2).
 struct ScratchGPU {
     vec4 ends;   // p0.x, p0.y, p1.x, p1.y (mm)
-    vec4 shape;  // w, d, alpha, unused
+    vec4 shape;  // w, d, alpha, an arc chord's area weight k (patch_ndf.glsl; 0: straight)
 };
 
 // Image point (sx, sy) -> unnormalized ray direction (normalization does not move the hit).

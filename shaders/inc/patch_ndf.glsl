@@ -27,6 +27,15 @@
 #include "common.glsl"
 #include "real.glsl"
 
+// The area weight of an arc's chord (engine/docs/model.md section 11, engine/render/src/arcs.rs):
+// the pair integral is of D (1 - k s) dA, k = sign(bulge) w / (2 r) in s units (the annulus's
+// rho / r against the chord's rectangle); 0 for a straight scratch. The forward sets it per pair
+// (ScratchGPU.shape.w); the gradient and tangent kernels leave it 0 (arcs are not
+// differentiated). Only the closed-form integrator's float walk applies it, and only in the build
+// with SA_ARCS (engine/render/src/lib.rs builds it for scenes with arcs): without it the kernel
+// has no trace of arcs.
+float g_arc_k = 0.0;
+
 // Per-pair constants of the integrand (depend on h in the scratch frame and on alpha).
 struct PairGeom {
     R alpha, beta, hb, ht, hz;

@@ -5,7 +5,8 @@
 //! the model's documentation: the direction of the groove is constant along a chord (the
 //! reason the turn per chord follows the groove's roughness), and the chords' rectangles weigh
 //! the groove's inner side by r / rho against the annulus (e / r of a footprint that sees one
-//! side only).
+//! side only) unless weighted: each chord carries the weight that restores the annulus's area
+//! element (`expand`), which the closed-form integrator applies.
 use crate::model::scene::Scratch;
 use crate::vulkan::GpuError;
 
@@ -36,10 +37,13 @@ pub fn chord_count(s: &Scratch) -> usize {
     }
 }
 
-/// The scratches the kernels render: straight ones as they are, each arc as its chords. An arc
-/// that needs more than [`MAX_CHORDS_PER_ARC`] chords is refused, naming it.
-pub fn expand(scratches: &[Scratch]) -> Result<Vec<Scratch>, GpuError> {
+/// The kernels' scratches: straight ones as they are, each arc as its chords, with each one's
+/// area weight k (`shaders/inc/patch_ndf.glsl`: the pair integral is of D (1 - k s) dA, s = 2u/w,
+/// k = sign(bulge) w / (2 r) for an arc's chord, 0 for a straight scratch). An arc that needs
+/// more than [`MAX_CHORDS_PER_ARC`] chords is refused, naming it.
+pub fn expand(scratches: &[Scratch]) -> Result<(Vec<Scratch>, Vec<f32>), GpuError> {
     let mut out = Vec::with_capacity(scratches.len());
+    let mut weights = Vec::with_capacity(scratches.len());
     for (k, s) in scratches.iter().enumerate() {
         let n = chord_count(s);
         if n > MAX_CHORDS_PER_ARC {
@@ -53,9 +57,11 @@ pub fn expand(scratches: &[Scratch]) -> Result<Vec<Scratch>, GpuError> {
                 s.alpha
             )));
         }
+        let k = s.arc().map_or(0.0, |a| a.sweep.signum() * s.w / (2.0 * a.radius));
         out.extend(s.chords(n));
+        weights.resize(out.len(), k as f32);
     }
-    Ok(out)
+    Ok((out, weights))
 }
 
 /// Whether any scratch is an arc.

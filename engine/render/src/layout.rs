@@ -126,7 +126,8 @@ pub struct ViewGpu64 {
 pub struct ScratchGpu {
     /// p0.x, p0.y, p1.x, p1.y
     pub ends: [f32; 4],
-    /// w, d, alpha, unused
+    /// w, d, alpha, and an arc chord's area weight k (`crate::arcs::expand`; 0 for a straight
+    /// scratch)
     pub shape: [f32; 4],
 }
 

@@ -77,6 +77,9 @@ pub struct Renderer {
     grad_light: ComputePipeline,
     /// The tangent kernel (`tangent.comp`), compiled on first use ([`Renderer::tangents`]).
     tangent: std::sync::OnceLock<ComputePipeline>,
+    /// The forward kernel's build for scenes with arcs (`shade_pipeline_with`), compiled by the
+    /// first upload of one.
+    forward_arcs: std::sync::OnceLock<ComputePipeline>,
 }
 
 /// Compute shared memory the shading kernels need (lavapipe and desktop GPUs have 32 KiB or more).
@@ -90,11 +93,27 @@ fn shade_pipeline(
     k: &ShadeKernel,
     replay: bool,
 ) -> Result<ComputePipeline, GpuError> {
-    let (name, defines) = if replay {
+    shade_pipeline_with(ctx, sc, k, replay, false)
+}
+
+/// [`shade_pipeline`], with `arcs`: the build that weighs arc chords (`SA_ARCS`,
+/// `shaders/inc/patch_ndf.glsl`); without it the kernel has no trace of them.
+fn shade_pipeline_with(
+    ctx: &Arc<Context>,
+    sc: &ShaderCompiler,
+    k: &ShadeKernel,
+    replay: bool,
+    arcs: bool,
+) -> Result<ComputePipeline, GpuError> {
+    let (mut name, mut defines) = if replay {
         (k.replay_name(), k.replay_defines(ctx.info()))
     } else {
         (k.name(), k.defines(ctx.info()))
     };
+    if arcs {
+        name.push_str(" (arcs)");
+        defines.push(("SA_ARCS", "1"));
+    }
     let spirv = sc.compile(k.file(), &defines)?;
     ComputePipeline::with_texels(
         ctx,
@@ -177,6 +196,7 @@ impl Renderer {
             grad_reduce: ComputePipeline::new(ctx, &sc, "grad_reduce.comp", &[], 4, scan_push)?,
             grad_light: ComputePipeline::new(ctx, &sc, "grad_light.comp", &[], 5, 0)?,
             tangent: std::sync::OnceLock::new(),
+            forward_arcs: std::sync::OnceLock::new(),
         })
     }
 
@@ -205,7 +225,19 @@ impl Renderer {
     /// Uploads a (validated) scene. Fails with a clear error when a buffer would exceed the
     /// device's storage-buffer limit.
     pub fn upload(&self, scene: &Scene) -> Result<GpuScene, GpuError> {
+        self.prepare_arcs(scene)?;
         GpuScene::new(&self.ctx, scene)
+    }
+
+    /// Compiles the forward kernel's arc build if `scene` has arcs and it is not compiled yet.
+    fn prepare_arcs(&self, scene: &Scene) -> Result<(), GpuError> {
+        if self.forward_arcs.get().is_some() || !arcs::any_arc(&scene.scratches) {
+            return Ok(());
+        }
+        let sc = ShaderCompiler::embedded()?;
+        let p = shade_pipeline_with(&self.ctx, &sc, &self.kernels.forward, false, true)?;
+        let _ = self.forward_arcs.set(p);
+        Ok(())
     }
 
     /// [`Renderer::upload`] for forward renders of part of each image: view v's renders compute
@@ -213,6 +245,7 @@ impl Renderer {
     /// [`Renderer::render`] returns 0 outside them. Inside, the pixels are those of the whole
     /// image's render, bit for bit.
     pub fn upload_windowed(&self, scene: &Scene, windows: &[Option<layout::TileWindow>]) -> Result<GpuScene, GpuError> {
+        self.prepare_arcs(scene)?;
         GpuScene::new_in(&self.ctx, scene, windows)
     }
 
@@ -373,7 +406,14 @@ impl Renderer {
 
     /// Records the shading kernel (writes the image, the coverage and the counters).
     fn record_shading(&self, rec: &mut Recorder, gs: &GpuScene) {
-        record_passes(rec, &self.forward, gs, bindings::Role::Forward);
+        let kernel = if gs.has_arcs() {
+            self.forward_arcs
+                .get()
+                .expect("an upload of arcs builds the arc kernel")
+        } else {
+            &self.forward
+        };
+        record_passes(rec, kernel, gs, bindings::Role::Forward);
     }
 
     /// Records one render of `gs` (counters cleared, pair search, shading), with the timestamps

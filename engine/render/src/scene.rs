@@ -179,6 +179,7 @@ pub struct GpuScene {
 const STAT_STORE_NEEDED: usize = 13;
 const STAT_STORE_FLAGS: usize = 14;
 
+mod arcs;
 mod store;
 mod update;
 
@@ -198,11 +199,23 @@ impl GpuScene {
     ) -> Result<GpuScene, GpuError> {
         if crate::arcs::any_arc(&scene.scratches) {
             let mut chords = scene.clone();
-            chords.scratches = crate::arcs::expand(&scene.scratches)?;
-            let mut gs = GpuScene::new_in(ctx, &chords, windows)?;
+            let weights;
+            (chords.scratches, weights) = crate::arcs::expand(&scene.scratches)?;
+            let mut gs = GpuScene::new_kernel_scene(ctx, &chords, windows, &weights)?;
             gs.arcs = Some(scene.scratches.len() as u32);
             return Ok(gs);
         }
+        GpuScene::new_kernel_scene(ctx, scene, windows, &[])
+    }
+
+    /// [`GpuScene::new_in`] of the kernels' own scratches (straight; `weights`: each one's arc
+    /// chord weight, `crate::arcs::expand`, or empty for none).
+    fn new_kernel_scene(
+        ctx: &std::sync::Arc<Context>,
+        scene: &Scene,
+        windows: &[Option<layout::TileWindow>],
+        weights: &[f32],
+    ) -> Result<GpuScene, GpuError> {
         // Every size against the device before anything is allocated.
         let sizes: Vec<(u32, u32)> = scene.views.iter().map(|v| (v.camera.width, v.camera.height)).collect();
         let mut dims = crate::limits::SceneDims::new(&sizes, scene.scratches.len() as u64, false);
@@ -235,7 +248,10 @@ impl GpuScene {
         let n_bands = binning_bands(ctx.info(), n_scratches, threads, scene.views.len() as u32, max_rows);
         let (sbase, sbase_sums) =
             scratch_base_buffers(ctx, n_scratches, binning_parts(n_bands, scene.views.len() as u32))?;
-        let scr: Vec<ScratchGpu> = scene.scratches.iter().map(ScratchGpu::from).collect();
+        let mut scr: Vec<ScratchGpu> = scene.scratches.iter().map(ScratchGpu::from).collect();
+        for (g, &k) in scr.iter_mut().zip(weights) {
+            g.shape[3] = k;
+        }
         let phi: Vec<f32> = scene.views.iter().map(|v| v.radiance_scale() as f32).collect();
         let hist_len = match mode {
             BinMode::Groups => dims.offsets_len(),
@@ -579,25 +595,6 @@ impl GpuScene {
 
     pub fn n_scratches(&self) -> u32 {
         self.n_scratches
-    }
-
-    /// Whether the scene's scratches include arcs (uploaded as chords: the kernels' scratches,
-    /// their gradients and tangents are the chords', so nothing may read them as the scene's).
-    pub fn has_arcs(&self) -> bool {
-        self.arcs.is_some()
-    }
-
-    /// An error for work that needs the scene's own scratches on the device (gradients,
-    /// tangents, optimization) when they include arcs.
-    pub fn refuse_arcs(&self, what: &str) -> Result<(), GpuError> {
-        match self.arcs {
-            Some(n) => Err(GpuError::Capacity(format!(
-                "{what} of arc scratches is not available yet: the scene's {n} scratches include arcs \
-                 (a nonzero `bulge`), which render as {} chords; straighten them (bulge 0) for {what}",
-                self.n_scratches
-            ))),
-            None => Ok(()),
-        }
     }
 
     pub fn n_views(&self) -> u32 {

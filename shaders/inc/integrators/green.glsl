@@ -282,6 +282,10 @@ void patch_walk(R fs_[4], R fv_[4], R se, R len, R half_w, PairGeom G, bool try_
     float vref = 0.0;
     bool have_vref = fast;
     if (fast) A = se * (c0 + c1);
+#ifdef SA_ARCS
+    // An arc's chord (g_arc_k, patch_ndf.glsl): the area of (1 - k s) ds dv.
+    if (fast && g_arc_k != 0.0) A = A - g_arc_k * (c1 - c0) * se * se / 3.0;
+#endif
     int j = fast ? 6 : 0, jend = fast ? 7 : 6;
     [[dont_unroll]] do {
         // This piece's edge integral: (lo, hi, V(lo), V(hi)) and the sign it enters I with.
@@ -306,6 +310,13 @@ void patch_walk(R fs_[4], R fv_[4], R se, R len, R half_w, PairGeom G, bool try_
             float ds = bs - as;
             float k = (bv - av) / ds;
             if (inside) A = A - 0.5 * ds * (av + bv - 2.0 * vref);
+#ifdef SA_ARCS
+            if (inside && g_arc_k != 0.0) {  // - ∫ (-k s) (v - vref) ds along the piece
+                float va = av - vref, vb = bv - vref;
+                float sv = as * va + 0.5 * (as * (vb - va) + ds * va) + ds * (vb - va) / 3.0;
+                A = A + g_arc_k * ds * sv;
+            }
+#endif
             lo = max(min(as, bs), G.chi_lo);
             hi = min(max(as, bs), G.chi_hi);
             float a0 = av - vref;

@@ -6,20 +6,28 @@ impl GpuScene {
     /// Replaces the scratches (same number: the binning's sizes depend on it). Returns false
     /// (and changes nothing) when the number differs, in which case the caller uploads the scene
     /// again. For fits that re-render one scene with new scratch parameters many times.
-    /// Arcs count as their chords (`crate::arcs`).
+    /// Arcs count as their chords (`crate::arcs`); scratches with arcs where the upload had none
+    /// need a new upload too (its kernel is built then).
     pub fn update_scratches(&mut self, ctx: &std::sync::Arc<Context>, scratches: &[Scratch]) -> Result<bool, GpuError> {
         let arcs = crate::arcs::any_arc(scratches);
-        let chords;
+        if arcs && self.arcs.is_none() {
+            return Ok(false);
+        }
+        let (chords, weights);
         let kernel_scratches = if arcs {
-            chords = crate::arcs::expand(scratches)?;
+            (chords, weights) = crate::arcs::expand(scratches)?;
             &chords[..]
         } else {
+            weights = Vec::new();
             scratches
         };
         if kernel_scratches.len() != self.n_scratches as usize {
             return Ok(false);
         }
-        let scr: Vec<ScratchGpu> = kernel_scratches.iter().map(ScratchGpu::from).collect();
+        let mut scr: Vec<ScratchGpu> = kernel_scratches.iter().map(ScratchGpu::from).collect();
+        for (g, &k) in scr.iter_mut().zip(&weights) {
+            g.shape[3] = k;
+        }
         self.inputs.scratches = ctx.upload("scratches", &scr)?;
         self.arcs = arcs.then_some(scratches.len() as u32);
         Ok(true)
