@@ -344,6 +344,7 @@ impl Card {
                 b: c.p1,
                 z: c.z_mm,
                 scratch: k,
+                bulge: 0.0,
             })
             .collect();
         machine_plan::check_cuts(&cuts, self.plate_mm, m, -MAX_ABOVE_ZERO_MM)?;

@@ -138,20 +138,6 @@ pub fn load_profile(f: &Path, default: Firmware) -> Result<MachineProfile> {
 }
 
 /// Visible width of a scratch (engine/docs/model.md section 2): W = w sqrt(1 - exp(-2d/w)).
-/// Arc scratches (a nonzero `bulge`) are not carved or drawn yet: refused, not cut straight.
-fn refuse_arcs(scene: &Scene, design: &Path, what: &str) -> Result<()> {
-    let n = scene.scratches.iter().filter(|s| s.is_arc()).count();
-    if n > 0 {
-        return Err(InputError(format!(
-            "{}: {n} of its scratches are arcs (a nonzero `bulge`), which cannot be {what} yet; \
-             straighten them (bulge 0) to carve this design",
-            design.display()
-        ))
-        .into());
-    }
-    Ok(())
-}
-
 fn visible_width(w: f64, d: f64) -> f64 {
     w * (1.0 - (-2.0 * d / w).exp()).sqrt()
 }
@@ -175,7 +161,6 @@ pub fn plan(a: &PlanArgs) -> Result<()> {
     });
     let out = out.as_path();
     let (scene, extra) = Scene::load_extra(design)?;
-    refuse_arcs(&scene, design, "planned")?;
     if a.home && m.firmware != scratchart_tool::machine::Firmware::Marlin {
         return Err(UsageError("--home is for Marlin printers (GRBL uses its own work offsets)".into()).into());
     }
@@ -206,6 +191,7 @@ pub fn plan(a: &PlanArgs) -> Result<()> {
             b: s.p1,
             z: *z,
             scratch: k,
+            bulge: s.bulge,
         })
         .collect();
     let plate = scene.plate.size_mm;
@@ -214,11 +200,8 @@ pub fn plan(a: &PlanArgs) -> Result<()> {
     let ordered = two_opt(nearest_neighbour(&cuts), 200);
     let mut blocks: Vec<Block> = ordered.iter().map(Block::flat).collect();
     let mark = (!a.no_mark).then(|| {
-        let sc: Vec<_> = scene
-            .scratches
-            .iter()
-            .map(|s| (s.p0, s.p1, visible_width(s.w, s.d)))
-            .collect();
+        let widths: Vec<f64> = scene.scratches.iter().map(|s| visible_width(s.w, s.d)).collect();
+        let sc = scratchart_machine::plan::mark_segments(&cuts, &widths);
         let deepest = depths.iter().cloned().fold(0.0f64, f64::max);
         orientation_mark(&sc, plate, deepest, MARK_CLEAR_MM)
     });
@@ -466,14 +449,21 @@ fn plan_depths(
 }
 
 /// Levels every cut by the probed height map (`--heightmap`): each becomes G1 segments that
-/// follow the surface within `LEVEL_TOL_MM`; the correction's range goes to `summary`.
+/// follow the surface within `LEVEL_TOL_MM` (an arc first becomes the lines a controller would
+/// cut it into, within `ARC_TOL_MM`); the correction's range goes to `summary`.
 fn level(map: &HeightMap, blocks: &mut [Block], a: &PlanArgs, summary: &mut Vec<String>) -> Result<()> {
     let (mut lo, mut hi, mut outside, mut segs) = (f64::INFINITY, f64::NEG_INFINITY, 0usize, 0usize);
     for b in blocks.iter_mut() {
-        let (p, q) = (b.path[0], b.path[b.path.len() - 1]);
-        let depth = -p[2];
-        let path = compensate(map, [p[0], p[1]], [q[0], q[1]], depth, LEVEL_TOL_MM)
-            .map_err(|e| InputError(format!("{}: {e}", b.label)))?;
+        let lines = b.moves(scratchart_machine::plan::ARC_TOL_MM);
+        let depth = -lines[0][2];
+        let mut path: Vec<[f64; 3]> = Vec::new();
+        for w in lines.windows(2) {
+            let piece = compensate(map, [w[0][0], w[0][1]], [w[1][0], w[1][1]], depth, LEVEL_TOL_MM)
+                .map_err(|e| InputError(format!("{}: {e}", b.label)))?;
+            let skip = usize::from(!path.is_empty());
+            path.extend(piece.into_iter().skip(skip));
+        }
+        b.bulge = 0.0;
         for v in &path {
             lo = lo.min(v[2] + depth);
             hi = hi.max(v[2] + depth);
@@ -569,7 +559,6 @@ pub fn export(a: &ExportArgs) -> Result<()> {
         return Err(UsageError("export needs --svg FILE.svg and/or --dxf FILE.dxf".into()).into());
     }
     let (scene, extra) = Scene::load_extra(&a.design)?;
-    refuse_arcs(&scene, &a.design, "exported")?;
     let depths = match (extra.column("z_mm"), &a.tool) {
         (Some(z), _) => Some(z),
         (None, Some(t)) => {

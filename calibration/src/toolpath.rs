@@ -200,7 +200,7 @@ fn draw_plate(pic: &Picture, blocks: &[Block], cuts: &[&Block], (lo, hi): (f64, 
     // Cuts by depth.
     for b in cuts {
         let c = colour(depth(b), lo, hi);
-        let pts: Vec<(i32, i32)> = b.path.iter().map(|p| pic.to(xy(p))).collect();
+        let pts: Vec<(i32, i32)> = b.moves(0.01).iter().map(|p| pic.to(xy(p))).collect();
         pic.line(pts, ShapeStyle::from(&c).stroke_width(2))?;
     }
     // The work zero.

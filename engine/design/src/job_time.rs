@@ -18,6 +18,7 @@ pub fn job_time(scene: &Scene, depths: &[f64], m: &MachineProfile) -> (TimeSplit
             b: s.p1,
             z,
             scratch: k,
+            bulge: s.bulge,
         })
         .collect();
     let widths: Vec<f64> = scene

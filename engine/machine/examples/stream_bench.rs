@@ -28,6 +28,7 @@ mod bench {
                     b: [-40.0 + 80.0 * t, 40.0 - 10.0 * t],
                     z: 0.02,
                     scratch: k,
+                    bulge: 0.0,
                 }
             })
             .collect();

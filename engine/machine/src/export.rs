@@ -1,6 +1,7 @@
 //! Vector export of a design for other toolchains (Inkscape, LightBurn, a plotter, a drag knife,
 //! LibreCAD): each scratch one straight line at true size in millimetres, seen from above the
 //! plate (+x to the right, +y up the page), grouped by depth band; the plate outline on its own.
+//! An arc scratch is an SVG `<path>` with one `A` command and a DXF `ARC`, at true size.
 //!
 //! Bands: when commanded depths are known (the design's `z_mm` column, or the tool's curve),
 //! scratches are grouped by commanded depth; otherwise by the groove's visible width
@@ -49,13 +50,15 @@ pub struct Band {
     pub hi: f64,
 }
 
-/// One scratch as drawn: endpoints (plate coordinates, mm), visible width (mm), band index.
+/// One scratch as drawn: endpoints (plate coordinates, mm), visible width (mm), band index, and
+/// its bulge (0: a line; else an arc, `scratchart_model::arc`).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Line {
     pub a: [f64; 2],
     pub b: [f64; 2],
     pub width: f64,
     pub band: usize,
+    pub bulge: f64,
 }
 
 /// A design ready to export.
@@ -150,9 +153,14 @@ pub fn drawing(scene: &Scene, depths: Option<&[f64]>) -> Result<Drawing, String>
             b: s.p1,
             width: w,
             band,
+            bulge: s.bulge,
         })
         .collect();
-    let sc: Vec<_> = lines.iter().map(|l: &Line| (l.a, l.b, l.width)).collect();
+    let mut sc: Vec<([f64; 2], [f64; 2], f64)> = Vec::with_capacity(lines.len());
+    for l in &lines {
+        let p = crate::plan::arc_points(l.a, l.b, l.bulge, 0.1);
+        sc.extend(p.windows(2).map(|q| (q[0], q[1], l.width)));
+    }
     let deepest = depths.map_or(0.0, |z| z.iter().cloned().fold(0.0f64, f64::max));
     let mark = Some(orientation_mark(&sc, scene.plate.size_mm, deepest, MARK_CLEAR_MM));
     Ok(Drawing {
@@ -230,6 +238,24 @@ pub fn svg(d: &Drawing) -> String {
             COLOURS[bi % MAX_BANDS].0
         );
         for (k, ln) in d.lines.iter().enumerate().filter(|(_, ln)| ln.band == bi) {
+            if let Some(g) = scratchart_model::arc::ArcGeom::of(ln.a, ln.b, ln.bulge) {
+                // SVG's y runs down the page: a counter-clockwise arc on the plate is drawn with
+                // the sweep flag 0 (the negative-angle direction there).
+                let _ = writeln!(
+                    s,
+                    r#"<path id="s{}" d="M {} {} A {r} {r} 0 {} {} {} {}" stroke-width="{}"/>"#,
+                    k + 1,
+                    n(ln.a[0] + h),
+                    n(h - ln.a[1]),
+                    u8::from(ln.bulge.abs() > 1.0),
+                    u8::from(ln.bulge < 0.0),
+                    n(ln.b[0] + h),
+                    n(h - ln.b[1]),
+                    n(ln.width),
+                    r = n(g.radius)
+                );
+                continue;
+            }
             let _ = writeln!(
                 s,
                 r#"<line id="s{}" x1="{}" y1="{}" x2="{}" y2="{}" stroke-width="{}"/>"#,
@@ -470,12 +496,49 @@ fn dxf_entities(b: &mut Dxf, d: &Drawing, ms: &str) {
         line(b, "plate", p, q);
     }
     for ln in &d.lines {
-        line(b, &d.bands[ln.band].name, ln.a, ln.b);
+        match scratchart_model::arc::ArcGeom::of(ln.a, ln.b, ln.bulge) {
+            None => line(b, &d.bands[ln.band].name, ln.a, ln.b),
+            Some(g) => dxf_arc(b, ms, &d.bands[ln.band].name, ln, &g),
+        }
     }
     if let Some(mk) = &d.mark {
         line(b, MARK_LAYER, mk.a, mk.b);
     }
     b.pair(0, "ENDSEC");
+}
+
+/// An arc scratch as a DXF ARC: centre, radius, and the start and end angles (degrees) of its
+/// counter-clockwise sweep (a clockwise arc from a to b runs counter-clockwise from b to a).
+fn dxf_arc(b: &mut Dxf, ms: &str, layer: &str, ln: &Line, g: &scratchart_model::arc::ArcGeom) {
+    let ang = |p: [f64; 2]| {
+        (p[1] - g.centre[1])
+            .atan2(p[0] - g.centre[0])
+            .to_degrees()
+            .rem_euclid(360.0)
+    };
+    let (start, end) = if ln.bulge > 0.0 {
+        (ang(ln.a), ang(ln.b))
+    } else {
+        (ang(ln.b), ang(ln.a))
+    };
+    let ha = b.h();
+    b.pairs(&[
+        (0, "ARC"),
+        (5, &ha),
+        (330, ms),
+        (100, "AcDbEntity"),
+        (8, layer),
+        (100, "AcDbCircle"),
+    ]);
+    b.pairs(&[
+        (10, &n(g.centre[0])),
+        (20, &n(g.centre[1])),
+        (30, "0"),
+        (40, &n(g.radius)),
+        (100, "AcDbArc"),
+        (50, &n(start)),
+        (51, &n(end)),
+    ]);
 }
 
 /// The OBJECTS section: the root dictionary and its group dictionary.

@@ -67,6 +67,21 @@ fn comment(g: &mut String, s: &str) {
     }
 }
 
+/// One arc move from `a` to `b` (the same Z) with DXF's `bulge`: G3 counter-clockwise (bulge >
+/// 0), G2 clockwise, I and J the centre relative to `a` (GRBL's and Marlin's incremental arc
+/// centre, the default).
+fn arc_line(a: &[f64; 3], b: &[f64; 3], bulge: f64, feed: &str) -> String {
+    let g = scratchart_model::arc::ArcGeom::of([a[0], a[1]], [b[0], b[1]], bulge).expect("an arc block has an arc");
+    format!(
+        "{} X{} Y{} I{} J{} F{feed}",
+        if bulge > 0.0 { "G3" } else { "G2" },
+        num(b[0], 4),
+        num(b[1], 4),
+        num(g.centre[0] - a[0], 4),
+        num(g.centre[1] - a[1], 4)
+    )
+}
+
 /// The G-code of a program of blocks (in order) for machine `m`.
 ///
 /// GRBL: `G21 G90 G94`, `G54` (the work offset the user set), rapids (`G0`) at safe Z, plunges
@@ -77,7 +92,7 @@ fn comment(g: &mut String, s: &str) {
 ///
 /// Every block ends with its retract `G0 Z<safe>`; the orientation mark comes after the last
 /// scratch, so a streamer that splits the plan at `; scratch N` comments keeps it with the last
-/// scratch and never replays it with the preamble.
+/// scratch and never replays it with the preamble. An arc block is one G2 or G3 move.
 pub fn write_blocks(blocks: &[Block], m: &MachineProfile, plate_mm: f64, summary: &[String], opt: &Options) -> String {
     let mut g = String::new();
     let fw = match m.firmware {
@@ -172,6 +187,14 @@ pub fn write_blocks(blocks: &[Block], m: &MachineProfile, plate_mm: f64, summary
         }
         let _ = writeln!(g, "G1 Z{} F{zf}", num(first[2], 4));
         let mut z = first[2];
+        if b.bulge != 0.0 && b.path.len() == 2 {
+            let _ = writeln!(g, "{}", arc_line(first, &b.path[1], b.bulge, &cf));
+            let last = b.path[1];
+            let _ = writeln!(g, "{}", z_to(&retract));
+            at = [last[0], last[1]];
+            high = false;
+            continue;
+        }
         for p in &b.path[1..] {
             if num(p[2], 4) == num(z, 4) {
                 let _ = writeln!(g, "G1 {} F{cf}", xy(p));

@@ -1,6 +1,8 @@
 //! A carving plan: the order the scratches are cut in, the travel between them, the time the job
 //! takes, and the bounds it must keep. Each scratch is one straight cut between its endpoints, in
-//! either direction.
+//! either direction; a scratch that is an arc (a nonzero bulge, DXF's convention) is one G2 or G3
+//! move with I and J, which the controller cuts into lines within its arc tolerance (GRBL's `$12`,
+//! [`ARC_TOL_MM`] here for the job's time and bounds).
 //!
 //! Order: greedy nearest neighbour from the work zero, choosing each cut's direction, then 2-opt
 //! (reversing a run of cuts also reverses each cut) until no improvement, with the partner search
@@ -24,14 +26,42 @@ pub struct Cut {
     pub b: [f64; 2],
     pub z: f64,
     pub scratch: usize,
+    /// 0: a straight cut; else an arc from `a` to `b` with this bulge (tan of a quarter of its
+    /// included angle, positive counter-clockwise seen from +z: `scratchart_model::arc`).
+    pub bulge: f64,
 }
+
+/// The arc tolerance the job's time and bounds assume, mm: GRBL's default `$12` (how far the
+/// lines a controller cuts an arc into stray from it).
+pub const ARC_TOL_MM: f64 = 0.002;
 
 impl Cut {
     fn reversed(self) -> Cut {
         Cut {
             a: self.b,
             b: self.a,
+            bulge: -self.bulge,
             ..self
+        }
+    }
+
+    /// The points the cut passes through: its ends, and for an arc the points of the lines a
+    /// controller cuts it into within `tol` (ends exact).
+    pub fn points(&self, tol: f64) -> Vec<[f64; 2]> {
+        arc_points(self.a, self.b, self.bulge, tol)
+    }
+}
+
+/// `a` and `b`, and between them for an arc (`bulge` != 0) the points of its lines within `tol`.
+pub fn arc_points(a: [f64; 2], b: [f64; 2], bulge: f64, tol: f64) -> Vec<[f64; 2]> {
+    match scratchart_model::arc::ArcGeom::of(a, b, bulge) {
+        None => vec![a, b],
+        Some(g) => {
+            let mut p = g.polyline(tol);
+            let n = p.len();
+            p[0] = a;
+            p[n - 1] = b;
+            p
         }
     }
 }
@@ -268,7 +298,7 @@ fn program_moves<'k>(
             mv.go([first[0], first[1], m.retract_mm], z_feed, Doing::Z);
         }
         mv.go(first, Some(m.plunge_mm_min), Doing::Z);
-        for p in &b.path[1..] {
+        for p in &b.moves(ARC_TOL_MM)[1..] {
             mv.go(*p, Some(m.cut_mm_min), Doing::Cutting);
         }
         mv.go([last[0], last[1], m.retract_mm], z_feed, Doing::Z);
@@ -291,7 +321,7 @@ pub fn design_job_time(cuts: &[Cut], widths: &[f64], plate_mm: f64, m: &MachineP
     let ordered = two_opt(nearest_neighbour(cuts), 200);
     let mut blocks: Vec<Block> = ordered.iter().map(Block::flat).collect();
     if !cuts.is_empty() {
-        let sc: Vec<_> = cuts.iter().zip(widths).map(|(c, &w)| (c.a, c.b, w)).collect();
+        let sc = mark_segments(cuts, widths);
         let deepest = cuts.iter().map(|c| c.z).fold(0.0f64, f64::max);
         blocks.push(orientation_mark(&sc, plate_mm, deepest, MARK_CLEAR_MM).block());
     }
@@ -318,7 +348,7 @@ pub fn program_travel(blocks: &[Block]) -> f64 {
 pub fn check_cuts(cuts: &[Cut], plate_mm: f64, m: &MachineProfile, min_depth_mm: f64) -> Result<(), String> {
     let h = 0.5 * plate_mm;
     for c in cuts {
-        for p in [c.a, c.b] {
+        for p in c.points(ARC_TOL_MM) {
             if !(p[0].abs() <= h + 1e-9 && p[1].abs() <= h + 1e-9) {
                 return Err(format!(
                     "scratch {} reaches ({:.3}, {:.3}) mm, off the {plate_mm} mm plate",
@@ -371,7 +401,7 @@ pub fn check_moves(blocks: &[Block], m: &MachineProfile) -> Result<(), String> {
         if b.path.is_empty() {
             return Err(format!("{} has no moves", b.label));
         }
-        for p in &b.path {
+        for p in &b.moves(ARC_TOL_MM) {
             if !(p[0].abs() <= hx + 1e-9 && p[1].abs() <= hy + 1e-9) {
                 return Err(format!(
                     "{}: the move to ({:.3}, {:.3}) mm leaves the {} x {} mm bed centred on the work zero",
@@ -408,20 +438,38 @@ impl std::fmt::Display for Label {
 }
 
 /// One block of the program: the tool plunges at the path's first point and follows it with G1
-/// moves; points are commanded (X, Y, Z) in work coordinates, Z < 0 below commanded zero.
+/// moves; points are commanded (X, Y, Z) in work coordinates, Z < 0 below commanded zero. With a
+/// nonzero `bulge` the path is two points joined by one arc (G2 or G3).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Block {
     pub label: Label,
     pub path: Vec<[f64; 3]>,
+    pub bulge: f64,
 }
 
 impl Block {
-    /// A cut on a flat plate: one G1 line at Z = -depth.
+    /// A cut on a flat plate: one G1 line, or one arc, at Z = -depth.
     pub fn flat(c: &Cut) -> Block {
         Block {
             label: Label::Scratch(c.scratch),
             path: vec![[c.a[0], c.a[1], -c.z], [c.b[0], c.b[1], -c.z]],
+            bulge: c.bulge,
         }
+    }
+
+    /// The path as the controller moves along it: an arc's lines within `tol` (Z as at its
+    /// start), else the path itself.
+    pub fn moves(&self, tol: f64) -> Vec<[f64; 3]> {
+        if self.bulge == 0.0 || self.path.len() != 2 {
+            return self.path.clone();
+        }
+        let (a, b) = (self.path[0], self.path[1]);
+        let pts = arc_points([a[0], a[1]], [b[0], b[1]], self.bulge, tol);
+        let n = pts.len();
+        pts.iter()
+            .enumerate()
+            .map(|(k, q)| [q[0], q[1], if k + 1 == n { b[2] } else { a[2] }])
+            .collect()
     }
 }
 
@@ -446,6 +494,7 @@ impl Mark {
         Block {
             label: Label::Mark,
             path: vec![[self.a[0], self.a[1], -self.z], [self.b[0], self.b[1], -self.z]],
+            bulge: 0.0,
         }
     }
 }
@@ -467,6 +516,17 @@ fn seg_dist(a: [f64; 2], b: [f64; 2], c: [f64; 2], d: [f64; 2]) -> f64 {
         dist(p, [a[0] + t * vx, a[1] + t * vy])
     };
     pt(a, c, d).min(pt(b, c, d)).min(pt(c, a, b)).min(pt(d, a, b))
+}
+
+/// The segments the orientation mark keeps clear of (endpoints and visible width): each cut's,
+/// an arc's lines within a tenth of a millimetre.
+pub fn mark_segments(cuts: &[Cut], widths: &[f64]) -> Vec<([f64; 2], [f64; 2], f64)> {
+    let mut out = Vec::with_capacity(cuts.len());
+    for (c, &w) in cuts.iter().zip(widths) {
+        let p = c.points(0.1);
+        out.extend(p.windows(2).map(|q| (q[0], q[1], w)));
+    }
+    out
 }
 
 /// The room the orientation mark keeps from every scratch (beyond half its visible width), mm.

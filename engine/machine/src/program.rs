@@ -83,8 +83,27 @@ struct Motion<'k> {
     dwell: Vec<f64>,
     feed: Option<f64>,
     rapid: bool,
+    /// The modal arc (G2: Some(false), clockwise; G3: Some(true)), or None for G0 and G1.
+    arc: Option<bool>,
     relative: bool,
     marlin: bool,
+}
+
+/// The bulge of the arc from `a` to `b` about `centre`, counter-clockwise when `ccw` (a full turn
+/// where the ends meet, as GRBL reads it).
+fn bulge_of(a: [f64; 2], b: [f64; 2], centre: [f64; 2], ccw: bool) -> f64 {
+    let tau = std::f64::consts::TAU;
+    let p0 = (a[1] - centre[1]).atan2(a[0] - centre[0]);
+    let p1 = (b[1] - centre[1]).atan2(b[0] - centre[0]);
+    let mut sweep = if ccw {
+        (p1 - p0).rem_euclid(tau)
+    } else {
+        -(p0 - p1).rem_euclid(tau)
+    };
+    if sweep.abs() < 1e-9 {
+        sweep = if ccw { tau } else { -tau };
+    }
+    (0.25 * sweep).tan()
 }
 
 impl Motion<'_> {
@@ -130,8 +149,13 @@ impl Motion<'_> {
         }
         if has("G0") || has("G00") {
             self.rapid = true;
+            self.arc = None;
         } else if has("G1") || has("G01") {
             self.rapid = false;
+            self.arc = None;
+        } else if has("G2") || has("G02") || has("G3") || has("G03") {
+            self.rapid = false;
+            self.arc = Some(has("G3") || has("G03"));
         } else if !['X', 'Y', 'Z'].iter().any(|c| word(line, *c).is_some()) {
             return;
         }
@@ -143,6 +167,22 @@ impl Motion<'_> {
         }
         // GRBL's G0 runs at the axes' rates; Marlin's G0 shares G1's modal feed.
         let feed = if !self.rapid || self.marlin { self.feed } else { None };
+        if let Some(ccw) = self.arc {
+            // The lines the controller cuts the arc into (its Z moves along with them).
+            let at = self.moves.at;
+            let centre = [
+                at[0] + word(line, 'I').unwrap_or(0.0),
+                at[1] + word(line, 'J').unwrap_or(0.0),
+            ];
+            let bulge = bulge_of([at[0], at[1]], [to[0], to[1]], centre, ccw);
+            let pts = crate::plan::arc_points([at[0], at[1]], [to[0], to[1]], bulge, crate::plan::ARC_TOL_MM);
+            let n = pts.len() - 1;
+            for (k, q) in pts.iter().enumerate().skip(1) {
+                let z = at[2] + (to[2] - at[2]) * k as f64 / n as f64;
+                self.moves.go([q[0], q[1], z], feed, sec);
+            }
+            return;
+        }
         self.moves.go(to, feed, sec);
     }
 }
@@ -312,6 +352,7 @@ impl Program {
             dwell: vec![0.0; sections],
             feed: None,
             rapid: true,
+            arc: None,
             relative: false,
             marlin: self.firmware == Firmware::Marlin,
         };
@@ -339,10 +380,25 @@ impl Program {
     /// without blocks.
     pub fn xy_bounds(&self) -> Option<[f64; 4]> {
         let mut b: Option<[f64; 4]> = None;
+        let mut at = [0.0, 0.0];
         for l in self.blocks.iter().flat_map(|b| &b.lines) {
             if let (Some(x), Some(y)) = (word(l, 'X'), word(l, 'Y')) {
-                let r = b.get_or_insert([x, y, x, y]);
-                *r = [r[0].min(x), r[1].min(y), r[2].max(x), r[3].max(y)];
+                // An arc's way between its ends counts too (G2 and G3 name their motion).
+                let words: Vec<&str> = l.split_whitespace().collect();
+                let ccw = words.iter().any(|w| matches!(*w, "G3" | "G03"));
+                let cw = words.iter().any(|w| matches!(*w, "G2" | "G02"));
+                let pts = if ccw || cw {
+                    let centre = [at[0] + word(l, 'I').unwrap_or(0.0), at[1] + word(l, 'J').unwrap_or(0.0)];
+                    let bulge = bulge_of(at, [x, y], centre, ccw);
+                    crate::plan::arc_points(at, [x, y], bulge, crate::plan::ARC_TOL_MM)
+                } else {
+                    vec![[x, y]]
+                };
+                for q in pts {
+                    let r = b.get_or_insert([q[0], q[1], q[0], q[1]]);
+                    *r = [r[0].min(q[0]), r[1].min(q[1]), r[2].max(q[0]), r[3].max(q[1])];
+                }
+                at = [x, y];
             }
         }
         b
@@ -371,12 +427,14 @@ mod tests {
                 b: [1.0, 0.0],
                 z: 0.02,
                 scratch: 4,
+                bulge: 0.0,
             },
             Cut {
                 a: [2.0, 1.0],
                 b: [-3.0, 1.0],
                 z: 0.05,
                 scratch: 0,
+                bulge: 0.0,
             },
         ];
         let g = crate::gcode::write(&cuts, &MachineProfile::grbl(), 50.0, &["a note".into()]);

@@ -220,3 +220,107 @@ fn svg_and_dxf_read_back_banded_by_depth() {
         .unwrap_err()
         .contains("10 depths for 120 scratches"));
 }
+
+/// Arc scratches read back at true size: each SVG `<path>`'s one `A` command, converted to its
+/// centre by the SVG specification's rule (F.6.5), and each DXF `ARC` pass through the scratch's
+/// ends and its arc's midpoint (so the sense is right, not only the circle).
+#[test]
+fn arcs_read_back_at_true_size() {
+    let mut scene = design(60, 60.0);
+    let h = 0.5 * scene.plate.size_mm;
+    for (k, s) in scene.scratches.iter_mut().enumerate() {
+        let b = [0.2, -0.6, 1.0, -1.5, 2.2, 0.0][k % 6];
+        let mut t = *s;
+        t.bulge = b;
+        let bb = t.carved_bbox();
+        if bb[0] >= -h && bb[1] >= -h && bb[2] <= h && bb[3] <= h {
+            *s = t;
+        }
+    }
+    let arcs = scene.scratches.iter().filter(|s| s.is_arc()).count();
+    assert!(arcs >= 40, "{arcs} arcs");
+    let d = drawing(&scene, None).unwrap();
+    let mid = |s: &Scratch| {
+        s.arc()
+            .map_or([0.5 * (s.p0[0] + s.p1[0]), 0.5 * (s.p0[1] + s.p1[1])], |a| a.point(0.5))
+    };
+    // SVG.
+    let text = svg(&d);
+    let doc = roxmltree::Document::parse(&text).expect("the SVG parses");
+    let l = scene.plate.size_mm;
+    let back = |x: f64, y: f64| [x - 0.5 * l, 0.5 * l - y];
+    let mut paths = 0;
+    for p in doc.descendants().filter(|n| n.has_tag_name("path")) {
+        let k: usize = p.attribute("id").unwrap()[1..].parse::<usize>().unwrap() - 1;
+        let s = &scene.scratches[k];
+        let w: Vec<&str> = p.attribute("d").unwrap().split_whitespace().collect();
+        assert_eq!((w[0], w[3]), ("M", "A"), "{w:?}");
+        let f = |i: usize| -> f64 { w[i].parse().unwrap() };
+        let (x1, y1, r, large, sweep, x2, y2) = (f(1), f(2), f(4), f(7), f(8), f(9), f(10));
+        assert!(
+            close(back(x1, y1), s.p0) && close(back(x2, y2), s.p1),
+            "scratch {}",
+            k + 1
+        );
+        assert!((r - s.arc().unwrap().radius).abs() <= TOL);
+        // Centre (F.6.5, rx = ry = r, no rotation), then the drawn arc's midpoint.
+        let (xp, yp) = (0.5 * (x1 - x2), 0.5 * (y1 - y2));
+        let sq = ((r * r - xp * xp - yp * yp) / (xp * xp + yp * yp)).max(0.0).sqrt();
+        let sg = if large != sweep { 1.0 } else { -1.0 };
+        let (cx, cy) = (sg * sq * yp + 0.5 * (x1 + x2), -sg * sq * xp + 0.5 * (y1 + y2));
+        let t1 = (y1 - cy).atan2(x1 - cx);
+        let mut dt = (y2 - cy).atan2(x2 - cx) - t1;
+        if sweep == 1.0 && dt < 0.0 {
+            dt += std::f64::consts::TAU;
+        }
+        if sweep == 0.0 && dt > 0.0 {
+            dt -= std::f64::consts::TAU;
+        }
+        let m = back(cx + r * (t1 + 0.5 * dt).cos(), cy + r * (t1 + 0.5 * dt).sin());
+        assert!(
+            close2(m, mid(s)),
+            "scratch {}: SVG midpoint {m:?} vs {:?}",
+            k + 1,
+            mid(s)
+        );
+        paths += 1;
+    }
+    assert_eq!(paths, arcs);
+    // DXF.
+    let path = std::env::temp_dir().join(format!("scratchart_export_{}_arcs.dxf", std::process::id()));
+    std::fs::write(&path, dxf(&d)).unwrap();
+    let back_dxf = dxf::Drawing::load_file(&path).expect("the DXF parses");
+    let _ = std::fs::remove_file(&path);
+    let mut read = 0;
+    let on_layers: Vec<&Scratch> = scene.scratches.iter().filter(|s| s.is_arc()).collect();
+    for e in back_dxf.entities() {
+        if let dxf::entities::EntityType::Arc(a) = &e.specific {
+            let s = on_layers[read];
+            let at = |deg: f64| {
+                [
+                    a.center.x + a.radius * deg.to_radians().cos(),
+                    a.center.y + a.radius * deg.to_radians().sin(),
+                ]
+            };
+            let mut span = a.end_angle - a.start_angle;
+            if span <= 0.0 {
+                span += 360.0;
+            }
+            let (from, to) = if s.bulge > 0.0 { (s.p0, s.p1) } else { (s.p1, s.p0) };
+            assert!(
+                close2(at(a.start_angle), from) && close2(at(a.end_angle), to),
+                "arc {read}"
+            );
+            assert!(close2(at(a.start_angle + 0.5 * span), mid(s)), "arc {read}: midpoint");
+            read += 1;
+        }
+    }
+    assert_eq!(read, arcs);
+}
+
+/// Within 0.1 um: the drawings' numbers have 9 decimals, and a half circle's centre found from
+/// its ends and radius (the SVG rule) takes the square root of a difference near 0, which turns
+/// 1e-9 mm of rounding into 3e-5 mm.
+fn close2(a: [f64; 2], b: [f64; 2]) -> bool {
+    (a[0] - b[0]).abs() <= 1e-4 && (a[1] - b[1]).abs() <= 1e-4
+}

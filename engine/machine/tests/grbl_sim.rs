@@ -107,6 +107,7 @@ fn small_plan(dir: &Path) -> PathBuf {
                 b: [x + 1.0, 3.0],
                 z: 0.02,
                 scratch: k,
+                bulge: 0.0,
             }
         })
         .collect();
@@ -294,6 +295,7 @@ fn the_real_firmware_traces_the_frame_without_cutting() {
             b: [-3.0 + 2.5 * k as f64, 3.0],
             z: 0.02,
             scratch: k,
+            bulge: 0.0,
         })
         .collect();
     let m = MachineProfile::grbl();
@@ -353,4 +355,50 @@ fn the_real_firmware_traces_the_frame_without_cutting() {
     assert_eq!(e.exit_code(), 130, "{e}");
     assert!(e.to_string().contains("nothing was cut"), "{e}");
     drop(sim);
+}
+
+/// Arc scratches are one G2 or G3 move each: the real firmware takes them (an arc whose centre
+/// does not fit its ends is GRBL's error:33) and carves the plan to the end.
+#[test]
+fn the_real_firmware_carves_arcs() {
+    let dir = tmpdir("grbl_sim_arcs");
+    let Some(sim) = Sim::start(&dir, "uart", &[]) else {
+        return;
+    };
+    let bulges = [0.3, -0.3, 1.0, -1.0, 2.0, -0.05];
+    let cuts: Vec<Cut> = bulges
+        .iter()
+        .enumerate()
+        .map(|(k, &bulge)| {
+            let x = -7.0 + 2.5 * k as f64;
+            Cut {
+                a: [x, -2.0],
+                b: [x + 1.0, 2.0],
+                z: 0.02,
+                scratch: k,
+                bulge,
+            }
+        })
+        .collect();
+    let g = scratchart_machine::gcode::write(&cuts, &MachineProfile::grbl(), 60.0, &["grbl-sim arcs".into()]);
+    assert_eq!(g.lines().filter(|l| l.starts_with("G3 ")).count(), 3, "{g}");
+    assert_eq!(g.lines().filter(|l| l.starts_with("G2 ")).count(), 3, "{g}");
+    // The firmware checks arcs: a centre 0.5 mm off is refused.
+    let bad = dir.join("bad_arc.nc");
+    let first = g.lines().find(|l| l.starts_with("G3 ")).unwrap().to_string();
+    let j_word = first.split_whitespace().find(|w| w.starts_with('J')).unwrap();
+    let moved = format!("J{:.4}", j_word[1..].parse::<f64>().unwrap() + 0.5);
+    std::fs::write(&bad, g.replacen(&first, &first.replace(j_word, &moved), 1)).unwrap();
+    let err = carve(&options(&bad, &sim.port()), &Control::default(), &Log::default())
+        .expect_err("a bad arc is refused by the firmware")
+        .to_string();
+    assert!(err.contains("error:33") || err.contains("33"), "{err}");
+    let plan = dir.join("arcs.nc");
+    std::fs::write(&plan, g).unwrap();
+    let log = Log::default();
+    let s = carve(&options(&plan, &sim.port()), &Control::default(), &log)
+        .unwrap_or_else(|e| panic!("{e}\nnotes: {:?}", log.notes.lock().unwrap()));
+    assert_eq!((s.from, s.total), (0, 6));
+    let j = Journal::load(&scratchart_machine::journal::default_path(&plan)).unwrap();
+    assert_eq!((j.state.as_str(), j.last_acked), ("done", Some(5)));
 }

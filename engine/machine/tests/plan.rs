@@ -35,6 +35,7 @@ fn random_cuts(n: usize, plate: f64) -> Vec<Cut> {
                 b: [(a[0] + l * t.cos()).clamp(-h, h), (a[1] + l * t.sin()).clamp(-h, h)],
                 z: 0.05,
                 scratch: k,
+                bulge: 0.0,
             }
         })
         .collect()
@@ -86,6 +87,7 @@ fn time_follows_the_acceleration_model() {
         b: [20.0, 0.0],
         z: 0.05,
         scratch: 0,
+        bulge: 0.0,
     };
     // From the work zero at the clearance height: the rapid, down to the retract height, the
     // plunge, the cut, the retract; then up to the clearance height and home. Summed move by
@@ -526,6 +528,7 @@ fn neighbouring_cuts_hop_at_the_retract_height() {
         b: [x + 1.0, y],
         z: 0.03,
         scratch: k,
+        bulge: 0.0,
     };
     // Two neighbours 2 mm apart, then one 40 mm away (a long travel).
     let cuts = [cut(0.0, 0.0, 0), cut(0.0, 2.0, 1), cut(0.0, 42.0, 2)];

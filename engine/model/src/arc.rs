@@ -24,6 +24,42 @@ pub struct ArcGeom {
 }
 
 impl ArcGeom {
+    /// The arc from `p0` to `p1` with DXF's `bulge`; None for bulge 0 or coincident endpoints.
+    pub fn of(p0: [f64; 2], p1: [f64; 2], bulge: f64) -> Option<ArcGeom> {
+        let c = (p1[0] - p0[0]).hypot(p1[1] - p0[1]);
+        if bulge == 0.0 || !(c > 0.0) {
+            return None;
+        }
+        let sweep = 4.0 * bulge.atan();
+        let half = 0.5 * sweep;
+        let radius = 0.5 * c / half.sin().abs();
+        // Centre: the chord's midpoint moved along its left normal by (c/2) cot(sweep/2), signed
+        // (left of p0 -> p1 for a counter-clockwise arc under half a turn).
+        let (dx, dy) = ((p1[0] - p0[0]) / c, (p1[1] - p0[1]) / c);
+        let off = 0.5 * c * half.cos() / half.sin();
+        let centre = [0.5 * (p0[0] + p1[0]) - dy * off, 0.5 * (p0[1] + p1[1]) + dx * off];
+        let phi0 = (p0[1] - centre[1]).atan2(p0[0] - centre[0]);
+        Some(ArcGeom {
+            centre,
+            radius,
+            phi0,
+            sweep,
+        })
+    }
+
+    /// Points along the arc, its ends included, whose chords stray at most `tol` from it (as a
+    /// controller cuts an arc into lines: GRBL's `$12` arc tolerance).
+    pub fn polyline(&self, tol: f64) -> Vec<[f64; 2]> {
+        // A chord turning by t strays r (1 - cos(t / 2)) from the arc.
+        let t = 2.0 * (1.0 - tol / self.radius).clamp(-1.0, 1.0).acos();
+        let n = if t > 0.0 {
+            (self.sweep.abs() / t).ceil().max(1.0) as usize
+        } else {
+            1
+        };
+        (0..=n).map(|k| self.point(k as f64 / n as f64)).collect()
+    }
+
     /// The point at fraction `t` of the way along the arc.
     pub fn point(&self, t: f64) -> [f64; 2] {
         let phi = self.phi0 + self.sweep * t;
@@ -89,28 +125,7 @@ impl Scratch {
 
     /// The arc's circle and sweep; None for a straight scratch (or coincident endpoints).
     pub fn arc(&self) -> Option<ArcGeom> {
-        let c = self.length();
-        if self.bulge == 0.0 || !(c > 0.0) {
-            return None;
-        }
-        let sweep = 4.0 * self.bulge.atan();
-        let half = 0.5 * sweep;
-        let radius = 0.5 * c / half.sin().abs();
-        // Centre: the chord's midpoint moved along its left normal by (c/2) cot(sweep/2), signed
-        // (left of p0 -> p1 for a counter-clockwise arc under half a turn).
-        let (dx, dy) = ((self.p1[0] - self.p0[0]) / c, (self.p1[1] - self.p0[1]) / c);
-        let off = 0.5 * c * half.cos() / half.sin();
-        let centre = [
-            0.5 * (self.p0[0] + self.p1[0]) - dy * off,
-            0.5 * (self.p0[1] + self.p1[1]) + dx * off,
-        ];
-        let phi0 = (self.p0[1] - centre[1]).atan2(self.p0[0] - centre[0]);
-        Some(ArcGeom {
-            centre,
-            radius,
-            phi0,
-            sweep,
-        })
+        ArcGeom::of(self.p0, self.p1, self.bulge)
     }
 
     /// Length along the scratch's path: the arc's for an arc, |p1 - p0| for a straight one.

@@ -284,7 +284,7 @@ impl Printer {
                 }
                 None => w.say("Error:Probing Failed\nok\n"),
             },
-            "G0" | "G1" => {
+            "G0" | "G1" | "G2" | "G3" => {
                 if cfg.busy {
                     w.say("echo:busy: processing\n");
                 }

@@ -38,7 +38,7 @@ impl Plane {
 /// disconnect, so a test sees the whole job.
 #[derive(Clone, Debug, Default)]
 pub struct Record {
-    /// Motion lines executed (G0/G1), in order, without line numbers or checksums.
+    /// Motion lines executed (G0/G1/G2/G3), in order, without line numbers or checksums.
     pub executed: Vec<String>,
     /// Every line taken from the receive buffer, as received.
     pub received: Vec<String>,
@@ -252,11 +252,12 @@ pub(crate) fn word(line: &str, letter: char) -> Option<f64> {
         .and_then(|w| w[1..].parse().ok())
 }
 
-/// Applies a G0/G1 line to the position; true when it is a motion line.
+/// Applies a G0/G1 line (or a G2/G3 arc, to its end) to the position; true when it is a motion
+/// line.
 pub(crate) fn apply_motion(line: &str, pos: &mut [f64; 3]) -> bool {
     let motion = line
         .split_whitespace()
-        .any(|w| matches!(w, "G0" | "G1" | "G00" | "G01"));
+        .any(|w| matches!(w, "G0" | "G1" | "G00" | "G01" | "G2" | "G3" | "G02" | "G03"));
     if !motion {
         return false;
     }

@@ -33,6 +33,7 @@ pub fn cuts(n: usize) -> Vec<Cut> {
             b: [r(), r()],
             z: 0.01 + 0.0001 * k as f64,
             scratch: k,
+            bulge: 0.0,
         })
         .collect()
 }
