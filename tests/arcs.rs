@@ -139,8 +139,8 @@ fn arcs_refuse_what_they_cannot_do_yet() {
     // same arcs update in place.
     assert!(gs.update_scratches(&ctx, &scene.scratches).unwrap());
     assert!(!gs.update_scratches(&ctx, &straight.scratches).unwrap());
-    // A half circle of 18 mm at alpha 1e-3: 0.1 degree turns would need 1800 chords, and 0.02 mm
-    // chords 1414; at alpha 1e-4 (turns of 1e-4 rad) 31416: refused.
+    // A half circle of 18 mm at alpha 1e-4 turns by at most 1e-4 rad per chord: 31416 chords,
+    // over the 4096 per arc: refused.
     let mut sharp = straight.clone();
     sharp.scratches = vec![Scratch {
         p0: [-9.0, 0.0],

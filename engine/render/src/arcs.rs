@@ -13,16 +13,16 @@ use crate::vulkan::GpuError;
 /// The most chords one arc is cut into.
 pub const MAX_CHORDS_PER_ARC: usize = 4096;
 
-/// The largest turn of one chord (radians) for a groove of roughness `alpha`: alpha / 40 (the
+/// The largest turn of one chord (radians) for a groove of roughness `alpha`: alpha / 20 (the
 /// groove's lobe, seen along the plate, is about alpha / |h_xy| wide in the direction of
-/// travel), from 1e-4 to 0.1 degree.
+/// travel), from 1e-4 to 0.25 degree.
 pub fn max_turn(alpha: f64) -> f64 {
-    (alpha / 40.0).clamp(1e-4, std::f64::consts::PI / 1800.0)
+    (alpha / 20.0).clamp(1e-4, std::f64::consts::PI / 720.0)
 }
 
 /// The longest chord (mm): a footprint's edge cuts a chord, which holds one direction where the
-/// arc turns, so chords are kept well under a pixel's footprint.
-pub const MAX_CHORD_MM: f64 = 0.02;
+/// arc turns, so chords are kept under a pixel's footprint.
+pub const MAX_CHORD_MM: f64 = 0.05;
 
 /// How many chords scratch `s` is uploaded as (1 for a straight scratch); more than
 /// [`MAX_CHORDS_PER_ARC`] is refused by [`expand`].
