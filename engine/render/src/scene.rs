@@ -180,6 +180,7 @@ const STAT_STORE_NEEDED: usize = 13;
 const STAT_STORE_FLAGS: usize = 14;
 
 mod arcs;
+use arcs::arcs_named;
 mod store;
 mod update;
 
@@ -201,7 +202,8 @@ impl GpuScene {
             let mut chords = scene.clone();
             let weights;
             (chords.scratches, weights) = crate::arcs::expand(&scene.scratches)?;
-            let mut gs = GpuScene::new_kernel_scene(ctx, &chords, windows, &weights)?;
+            let mut gs = GpuScene::new_kernel_scene(ctx, &chords, windows, &weights)
+                .map_err(|e| arcs_named(e, scene.scratches.len(), chords.scratches.len()))?;
             gs.arcs = Some(scene.scratches.len() as u32);
             return Ok(gs);
         }

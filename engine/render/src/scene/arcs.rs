@@ -22,3 +22,20 @@ impl GpuScene {
         }
     }
 }
+
+/// A size error of a scene with arcs, saying that its scratches are counted as their chords.
+pub(super) fn arcs_named(e: GpuError, scratches: usize, chords: usize) -> GpuError {
+    let why = format!(
+        "the scene's {scratches} scratches include arcs, uploaded as {chords} chords \
+         (engine/docs/model.md section 11): fewer or shorter arcs, or larger alpha, take fewer"
+    );
+    match e {
+        GpuError::BufferTooLarge { name, size, limit } => GpuError::BufferTooLarge {
+            name: format!("{name}; {why}"),
+            size,
+            limit,
+        },
+        GpuError::Capacity(msg) => GpuError::Capacity(format!("{msg}; {why}")),
+        other => other,
+    }
+}
