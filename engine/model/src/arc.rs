@@ -192,6 +192,68 @@ impl Scratch {
     }
 }
 
+/// The point at fraction `t` of the way along the arc from `p0` to `p1` with `bulge`, and its
+/// derivatives with respect to (x0, y0, x1, y1, bulge): the chain rule from a chord's endpoints
+/// to its arc's parameters. In complex numbers P(t) = p0 + (p1 - p0) g(t), with
+/// g = rho e^{i a}, rho = sin(theta t / 2) / sin(theta / 2), a = theta (t - 1) / 2 and
+/// theta = 4 atan(bulge) (the chord from p0 to P(t) is |p1 - p0| rho long and turned by a from
+/// the chord p0 -> p1); at bulge 0, g = t.
+pub fn point_and_jacobian(p0: [f64; 2], p1: [f64; 2], bulge: f64, t: f64) -> ([f64; 2], [[f64; 5]; 2]) {
+    let theta = 4.0 * bulge.atan();
+    let dtheta = 4.0 / (1.0 + bulge * bulge);
+    let (rho, drho) = if theta.abs() < 1e-6 {
+        // rho = t (1 + (1 - t^2) theta^2 / 24 + ...)
+        (
+            t * (1.0 + (1.0 - t * t) * theta * theta / 24.0),
+            t * (1.0 - t * t) * theta / 12.0,
+        )
+    } else {
+        let (sh, ch) = (0.5 * theta).sin_cos();
+        let (st, ct) = (0.5 * theta * t).sin_cos();
+        (st / sh, (0.5 * t * ct * sh - 0.5 * st * ch) / (sh * sh))
+    };
+    let a = 0.5 * theta * (t - 1.0);
+    let da = 0.5 * (t - 1.0);
+    let g = [rho * a.cos(), rho * a.sin()];
+    // dg/dtheta = (rho' + i rho a') e^{i a}
+    let dg = [drho * a.cos() - rho * da * a.sin(), drho * a.sin() + rho * da * a.cos()];
+    let c = [p1[0] - p0[0], p1[1] - p0[1]];
+    let p = [p0[0] + c[0] * g[0] - c[1] * g[1], p0[1] + c[0] * g[1] + c[1] * g[0]];
+    // d/dp1 is multiplication by g; d/dp0 is 1 - that.
+    let db = [
+        (c[0] * dg[0] - c[1] * dg[1]) * dtheta,
+        (c[0] * dg[1] + c[1] * dg[0]) * dtheta,
+    ];
+    let jac = [
+        [1.0 - g[0], g[1], g[0], -g[1], db[0]],
+        [-g[1], 1.0 - g[0], g[1], g[0], db[1]],
+    ];
+    (p, jac)
+}
+
+/// An arc chord's area weight k = sign(bulge) w / (2 r) = w sin(theta / 2) / |p1 - p0|
+/// (`scratchart-render`'s chords), and its derivatives with respect to (x0, y0, x1, y1, w, bulge).
+pub fn chord_weight_and_gradient(p0: [f64; 2], p1: [f64; 2], w: f64, bulge: f64) -> (f64, [f64; 6]) {
+    let c = [p1[0] - p0[0], p1[1] - p0[1]];
+    let len = c[0].hypot(c[1]);
+    let theta = 4.0 * bulge.atan();
+    let (sh, ch) = (0.5 * theta).sin_cos();
+    let k = w * sh / len;
+    let dlen = [-c[0] / len, -c[1] / len, c[0] / len, c[1] / len];
+    let dk_dlen = -k / len;
+    (
+        k,
+        [
+            dk_dlen * dlen[0],
+            dk_dlen * dlen[1],
+            dk_dlen * dlen[2],
+            dk_dlen * dlen[3],
+            sh / len,
+            w * 0.5 * ch / len * 4.0 / (1.0 + bulge * bulge),
+        ],
+    )
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -250,6 +312,62 @@ mod tests {
             for k in 0..=100 {
                 let q = a.point(k as f64 / 100.0);
                 assert!(q[0] >= bb[0] && q[0] <= bb[2] && q[1] >= bb[1] && q[1] <= bb[3]);
+            }
+        }
+    }
+
+    /// The chain rule's Jacobians agree with central differences, and the points with the arc's.
+    #[test]
+    fn jacobians_match_central_differences() {
+        let p0 = [-1.3, 0.4];
+        let p1 = [2.1, -0.7];
+        for &b in &[0.0, 1e-9, 0.3, -0.8, 1.0, -2.2] {
+            for &t in &[0.0, 0.17, 0.5, 0.93, 1.0] {
+                let (p, j) = point_and_jacobian(p0, p1, b, t);
+                // (The centre form loses digits for tiny bulges, whose radius is huge.)
+                if let Some(a) = ArcGeom::of(p0, p1, b).filter(|_| b.abs() > 1e-3) {
+                    let q = a.point(t);
+                    assert!(
+                        (p[0] - q[0]).abs() < 1e-12 && (p[1] - q[1]).abs() < 1e-12,
+                        "b {b} t {t}"
+                    );
+                }
+                let h = 1e-6;
+                for v in 0..5 {
+                    let mut x = [p0[0], p0[1], p1[0], p1[1], b];
+                    x[v] += h;
+                    let up = point_and_jacobian([x[0], x[1]], [x[2], x[3]], x[4], t).0;
+                    x[v] -= 2.0 * h;
+                    let down = point_and_jacobian([x[0], x[1]], [x[2], x[3]], x[4], t).0;
+                    for c in 0..2 {
+                        let fd = (up[c] - down[c]) / (2.0 * h);
+                        assert!(
+                            (fd - j[c][v]).abs() < 1e-7 * (1.0 + fd.abs()),
+                            "b {b} t {t} d{c}/d{v}: {fd} vs {}",
+                            j[c][v]
+                        );
+                    }
+                }
+            }
+            if b != 0.0 {
+                let w = 0.07;
+                let (k, g) = chord_weight_and_gradient(p0, p1, w, b);
+                let a = ArcGeom::of(p0, p1, b).unwrap();
+                assert!((k - b.signum() * w / (2.0 * a.radius)).abs() < 1e-14);
+                let h = 1e-6;
+                for v in 0..6 {
+                    let mut x = [p0[0], p0[1], p1[0], p1[1], w, b];
+                    x[v] += h;
+                    let up = chord_weight_and_gradient([x[0], x[1]], [x[2], x[3]], x[4], x[5]).0;
+                    x[v] -= 2.0 * h;
+                    let down = chord_weight_and_gradient([x[0], x[1]], [x[2], x[3]], x[4], x[5]).0;
+                    let fd = (up - down) / (2.0 * h);
+                    assert!(
+                        (fd - g[v]).abs() < 1e-7 * (1.0 + fd.abs()),
+                        "b {b} dk/d{v}: {fd} vs {}",
+                        g[v]
+                    );
+                }
             }
         }
     }
