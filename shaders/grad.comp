@@ -54,6 +54,9 @@ const uint QCAP = GRAD_QCAP;
 
 shared vec4 sh_c0[QCAP];           // per-pair contribution d/d(x0, y0, x1, y1)
 shared vec4 sh_c1[QCAP];           // d/d(w, d, alpha); w (bits): the chunk scratch, then the list link
+#ifdef SA_ARCS
+shared float sh_ck[QCAP];          // d/d(kappa) of an arc's chord (the dual build with SA_ARCS)
+#endif
 // Scratches a round can hold: one chunk's in the search; in the replay the end of one chunk and
 // the start of the next, the second's scratches numbered k + CHUNK (chunk_scratch).
 #ifdef SA_REPLAY
@@ -84,10 +87,20 @@ void pair_eval(uint i, uint px, uint k, bool fast) {
     pair_adjoint(E, S, fp, h, g.x, g.y, fast, r0, r1);
 #else
     Dual I, A;
+#ifdef SA_ARCS
+    // k = kappa w / 2 (patch_ndf.glsl): its derivative through w, and d/dkappa as the 8th partial.
+    g_arc_k = mul(seed(2.0 * S.w / S.x, 7), mul(0.5, seed(S.x, 4)));
+#endif
     pair_from_params(seed(E.x, 0), seed(E.y, 1), seed(E.z, 2), seed(E.w, 3), seed(S.x, 4), seed(S.y, 5), seed(S.z, 6),
                      fp, h, fast, I, A);
     r0 = g.x * I.g0 + g.y * A.g0;
+#ifdef SA_ARCS
+    vec4 r1k = g.x * I.g1 + g.y * A.g1;
+    r1 = r1k.xyz;
+    sh_ck[i] = g.x == 0.0 ? 0.0 : r1k.w;
+#else
     r1 = g.x * I.g1 + g.y * A.g1;
+#endif
 #endif
 #ifdef SA_REPLAY
     // A pixel with a zero seed (gI = 0, so gA = 0) has no pairs in tile_loop's queue; here it
@@ -123,7 +136,11 @@ void round_accumulate(uint lid, uint r0, uint n, uint cnt, uvec2 fmask, uint fba
         if (i != LIST_END) do {
             vec4 c1 = sh_c1[i];
             acc0 += sh_c0[i];
+#ifdef SA_ARCS
+            acc1 += vec4(c1.xyz, sh_ck[i]);
+#else
             acc1 += vec4(c1.xyz, 0.0);
+#endif
             i = floatBitsToUint(c1.w);
         } while (i != LIST_END);
     }

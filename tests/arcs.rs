@@ -121,8 +121,8 @@ fn bad_bulges_are_refused() {
     }
 }
 
-/// What the device cannot do yet with arcs is refused, not done wrong: gradients and tangents
-/// (the kernels see chords), and an arc that needs more chords than the renderer cuts.
+/// What the device cannot do yet with arcs is refused, not done wrong: tangents (the kernels see
+/// chords), and an arc that needs more chords than the renderer cuts.
 #[test]
 fn arcs_refuse_what_they_cannot_do_yet() {
     let ctx = gpu();
@@ -132,8 +132,8 @@ fn arcs_refuse_what_they_cannot_do_yet() {
     let mut gs = r.upload(&scene).unwrap();
     assert!(gs.has_arcs());
     assert!(gs.n_scratches() as usize > scene.scratches.len());
-    let dl = vec![0.0f32; gs.n_pixels() as usize];
-    let err = r.gradients(&mut gs, &dl).unwrap_err().to_string();
+    let seeds: Vec<scratchart_render::tangent::ScratchTangent> = vec![Default::default(); gs.n_scratches() as usize];
+    let err = r.tangents(&mut gs, &seeds).unwrap_err().to_string();
     assert!(err.contains("arc"), "{err}");
     // Replacing the arcs by straight scratches of another count asks for a new upload; the
     // same arcs update in place.
@@ -152,5 +152,113 @@ fn arcs_refuse_what_they_cannot_do_yet() {
     }];
     let err = r.upload(&sharp).err().expect("refused").to_string();
     assert!(err.contains("chords") && err.contains("4096"), "{err}");
+    assert_no_validation(&ctx);
+}
+
+/// dE_lin/dL per pixel for GPU images `l` and targets `t` (off-plate pixels: 0).
+fn dl_of(scene: &Scene, l: &[Vec<f32>], t: &[Vec<f64>]) -> Vec<f32> {
+    let mut out = Vec::new();
+    for v in 0..scene.views.len() {
+        let mask = scratchart_model::camera::on_plate_mask(scene, v);
+        let n = mask.iter().filter(|m| **m).count().max(1) as f64;
+        for (i, &m) in mask.iter().enumerate() {
+            out.push(if m {
+                (2.0 * (l[v][i] as f64 - t[v][i]) / n) as f32
+            } else {
+                0.0
+            });
+        }
+    }
+    out
+}
+
+fn rel(a: &[f64], b: &[f64]) -> f64 {
+    let num: f64 = a.iter().zip(b).map(|(x, y)| (x - y) * (x - y)).sum::<f64>().sqrt();
+    let den: f64 = b.iter().map(|y| y * y).sum::<f64>().sqrt();
+    num / den
+}
+
+/// Gradients of arcs (engine/docs/model.md section 8's bar, extended to the bulge): the chords'
+/// dual-number backward chained to each arc's ends, width, depth, roughness and bulge, against
+/// central differences of the float64 reference's exact arcs, for wide grooves on tight arcs
+/// (where the chords' area weight matters) among straight scratches.
+#[test]
+fn arc_gradients_match_central_differences() {
+    let views = vec![
+        orbit_view("a", 24, 45.0, 0.0, 45.0, 180.0, 20.0),
+        orbit_view("b", 24, 60.0, 120.0, 40.0, 300.0, 20.0),
+    ];
+    let straight = random_scene(11, 16, 20.0, 0.4, 0.3, 0.2, views);
+    let scene = with_arcs(&straight, 12, 0.75, 0.1, 0.6);
+    scene.validate().unwrap();
+    assert!(scene.scratches.iter().filter(|s| s.is_arc()).count() >= 8);
+    // Targets: the reference render of the scene with its arcs bent and moved.
+    let mut moved = scene.clone();
+    for (k, s) in moved.scratches.iter_mut().enumerate() {
+        let d = if k % 2 == 0 { 0.15 } else { -0.1 };
+        s.p0[0] += d;
+        s.p1[1] -= d;
+        s.w *= 1.1;
+        s.bulge *= 0.8;
+    }
+    let t: Vec<Vec<f64>> = (0..2)
+        .map(|v| scratchart_model::reference::render_view(&moved, v))
+        .collect();
+    let ctx = gpu();
+    let r = scratchart_render::Renderer::new(&ctx).unwrap();
+    let mut gs = r.upload(&scene).unwrap();
+    let first = r.render(&mut gs).unwrap().images;
+    let (_, g) = r.gradients(&mut gs, &dl_of(&scene, &first, &t)).unwrap();
+    let e = |s: &Scene| scratchart_model::reference::check_loss(s, &t);
+    let names = ["endpoints", "w", "d", "alpha", "bulge"];
+    let mut gpu_kind: [Vec<f64>; 5] = Default::default();
+    let mut ref_kind: [Vec<f64>; 5] = Default::default();
+    for (k, s) in scene.scratches.iter().enumerate() {
+        let params = if s.is_arc() { 8 } else { 7 };
+        for p in 0..params {
+            let at = |delta: f64| {
+                let mut sc = scene.clone();
+                let x = &mut sc.scratches[k];
+                match p {
+                    0 => x.p0[0] += delta,
+                    1 => x.p0[1] += delta,
+                    2 => x.p1[0] += delta,
+                    3 => x.p1[1] += delta,
+                    4 => x.w += delta,
+                    5 => x.d += delta,
+                    6 => x.alpha += delta,
+                    _ => x.bulge += delta,
+                }
+                e(&sc)
+            };
+            let base = [s.p0[0], s.p0[1], s.p1[0], s.p1[1], s.w, s.d, s.alpha, s.bulge][p];
+            let h = if p < 4 || p == 7 { 1e-5 } else { 1e-5 * base };
+            let fd = (at(h) - at(-h)) / (2.0 * h);
+            let kind = [0, 0, 0, 0, 1, 2, 3, 4][p];
+            gpu_kind[kind].push(if p < 7 { g.scratches[k][p] } else { g.bulges[k] } as f64);
+            ref_kind[kind].push(fd);
+        }
+        assert_eq!(
+            s.is_arc(),
+            g.bulges[k].is_finite(),
+            "scratch {k}: dE/dbulge only for arcs"
+        );
+    }
+    for i in 0..5 {
+        let err = rel(&gpu_kind[i], &ref_kind[i]);
+        let norm: f64 = ref_kind[i].iter().map(|x| x * x).sum::<f64>().sqrt();
+        eprintln!(
+            "arcs: {}: relative gradient error {err:.3e} (|g_ref| = {norm:.3e})",
+            names[i]
+        );
+        assert!(norm > 0.0, "zero reference gradient for {}", names[i]);
+        assert!(
+            err <= 1e-2,
+            "{} gradient off by {err:.3e}: gpu {:?} vs reference {:?}",
+            names[i],
+            &gpu_kind[i][..6.min(gpu_kind[i].len())],
+            &ref_kind[i][..6.min(ref_kind[i].len())]
+        );
+    }
     assert_no_validation(&ctx);
 }

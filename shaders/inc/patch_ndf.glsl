@@ -33,8 +33,14 @@
 // (ScratchGPU.shape.w); the gradient and tangent kernels leave it 0 (arcs are not
 // differentiated). Only the closed-form integrator's float walk applies it, and only in the build
 // with SA_ARCS (engine/render/src/lib.rs builds it for scenes with arcs): without it the kernel
-// has no trace of arcs.
+// has no trace of arcs. The dual-number backward (grad.comp with SA_DUAL and SA_ARCS) makes it a
+// dual number, k = kappa w / 2 with kappa = 2 k / w the chord's signed curvature, so that its
+// derivatives carry k's through w and give dE/dkappa (the 8th partial).
+#if defined(SA_DUAL) && defined(SA_ARCS)
+Dual g_arc_k = Dual(0.0, vec4(0.0), vec4(0.0));
+#else
 float g_arc_k = 0.0;
+#endif
 
 // Per-pair constants of the integrand (depend on h in the scratch frame and on alpha).
 struct PairGeom {

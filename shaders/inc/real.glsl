@@ -27,13 +27,19 @@ float fma3(float a, float b, float c) { return a * b + c; }
 float dot2(float ax, float ay, float bx, float by) { return dot(vec2(ax, ay), vec2(bx, by)); }
 
 #ifdef SA_DUAL
+// With SA_ARCS an 8th partial: d/d(kappa), an arc chord's curvature (inc/patch_ndf.glsl).
+#ifdef SA_ARCS
+#define SA_G1 vec4
+#else
+#define SA_G1 vec3
+#endif
 struct Dual {
     float v;   // value
     vec4 g0;   // d/d(x0, y0, x1, y1)
-    vec3 g1;   // d/d(w, d, alpha)
+    SA_G1 g1;  // d/d(w, d, alpha[, kappa])
 };
 #define R Dual
-Dual rc(float a) { return Dual(a, vec4(0.0), vec3(0.0)); }
+Dual rc(float a) { return Dual(a, vec4(0.0), SA_G1(0.0)); }
 Dual seed(float a, int k) {
     Dual r = rc(a);
     if (k < 4) r.g0[k] = 1.0; else r.g1[k - 4] = 1.0;

@@ -12,6 +12,9 @@ use crate::vulkan::{GpuError, Recorder};
 pub struct Gradients {
     /// per scratch: dE/d(x0, y0, x1, y1, w, d, alpha)
     pub scratches: Vec<[f32; 7]>,
+    /// per scratch of a scene with arcs: dE/dbulge (NaN for its straight scratches, whose one
+    /// chord cannot bend); empty for a scene without arcs
+    pub bulges: Vec<f32>,
     /// per view: dE/dPhi
     pub lights: Vec<f32>,
 }
@@ -39,6 +42,11 @@ impl Renderer {
         // Replay the forward's pair queues where the scene has them; else search the pairs (and,
         // if the kernels replay, have the next complete submission size the store).
         let kernel = match self.grad_replay.get() {
+            // Arcs: the dual-number build that weighs chords and gives dE/dkappa (no replay).
+            _ if gs.has_arcs() => self
+                .grad_arcs
+                .get()
+                .expect("Renderer::gradients builds the arc backward before recording it"),
             Some(replay) if gs.replay_ready() => replay,
             Some(_) => {
                 gs.want_store();
@@ -82,7 +90,9 @@ impl Renderer {
     /// `gs.shading.image`), with results downloaded. For checks and the `grad` command; the optimizer
     /// keeps everything on the device.
     pub fn gradients(&self, gs: &mut GpuScene, dl: &[f32]) -> Result<(Vec<Vec<f32>>, Gradients), GpuError> {
-        gs.refuse_arcs("gradients")?;
+        if gs.has_arcs() {
+            self.prepare_arc_backward()?;
+        }
         self.prepare_backward()?;
         self.upload_dl(gs, dl)?;
         let mut rec = Recorder::new(&self.ctx)?;
@@ -98,13 +108,24 @@ impl Renderer {
     /// The gradients of the last backward pass.
     pub fn download_gradients(&self, gs: &GpuScene) -> Result<Gradients, GpuError> {
         let g: Vec<[f32; 8]> = self.ctx.download(&gs.backward.grad)?;
-        let scratches = g[..gs.n_scratches as usize]
-            .iter()
-            .map(|r| [r[0], r[1], r[2], r[3], r[4], r[5], r[6]])
-            .collect();
+        let (scratches, bulges) = match gs.arc_layout() {
+            // The chords' gradients chained to their arcs'.
+            Some(layout) => layout.chain(&g[..gs.n_scratches as usize]),
+            None => (
+                g[..gs.n_scratches as usize]
+                    .iter()
+                    .map(|r| [r[0], r[1], r[2], r[3], r[4], r[5], r[6]])
+                    .collect(),
+                Vec::new(),
+            ),
+        };
         let mut lights: Vec<f32> = self.ctx.download(&gs.backward.grad_light)?;
         // (buffers may be allocated larger than asked)
         lights.truncate(gs.shading.shade.n_views as usize);
-        Ok(Gradients { scratches, lights })
+        Ok(Gradients {
+            scratches,
+            bulges,
+            lights,
+        })
     }
 }

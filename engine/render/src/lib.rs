@@ -80,6 +80,9 @@ pub struct Renderer {
     /// The forward kernel's build for scenes with arcs (`shade_pipeline_with`), compiled by the
     /// first upload of one.
     forward_arcs: std::sync::OnceLock<ComputePipeline>,
+    /// The backward for scenes with arcs: the dual-number kernel with `SA_ARCS` (the chords'
+    /// weights and dE/dkappa), compiled by the first `gradients` of one.
+    grad_arcs: std::sync::OnceLock<ComputePipeline>,
 }
 
 /// Compute shared memory the shading kernels need (lavapipe and desktop GPUs have 32 KiB or more).
@@ -197,6 +200,7 @@ impl Renderer {
             grad_light: ComputePipeline::new(ctx, &sc, "grad_light.comp", &[], 5, 0)?,
             tangent: std::sync::OnceLock::new(),
             forward_arcs: std::sync::OnceLock::new(),
+            grad_arcs: std::sync::OnceLock::new(),
         })
     }
 
@@ -229,10 +233,33 @@ impl Renderer {
         GpuScene::new(&self.ctx, scene)
     }
 
+    /// Compiles the backward for scenes with arcs (`grad_arcs`) if it is not compiled yet.
+    fn prepare_arc_backward(&self) -> Result<(), GpuError> {
+        if self.grad_arcs.get().is_some() {
+            return Ok(());
+        }
+        let sc = ShaderCompiler::embedded()?;
+        let k = kernels::ShadeKernel {
+            integrator: kernels::Integrator::ClosedForm,
+            mode: kernels::Mode::BackwardDual,
+        };
+        let _ = self
+            .grad_arcs
+            .set(shade_pipeline_with(&self.ctx, &sc, &k, false, true)?);
+        Ok(())
+    }
+
     /// Compiles the forward kernel's arc build if `scene` has arcs and it is not compiled yet.
+    /// Arcs need the closed-form integrator (the one that weighs chords).
     fn prepare_arcs(&self, scene: &Scene) -> Result<(), GpuError> {
         if self.forward_arcs.get().is_some() || !arcs::any_arc(&scene.scratches) {
             return Ok(());
+        }
+        if self.kernels.forward.integrator != kernels::Integrator::ClosedForm {
+            return Err(GpuError::Capacity(format!(
+                "arc scratches render with the closed-form integrator only, not {}",
+                self.kernels.forward.integrator.name()
+            )));
         }
         let sc = ShaderCompiler::embedded()?;
         let p = shade_pipeline_with(&self.ctx, &sc, &self.kernels.forward, false, true)?;

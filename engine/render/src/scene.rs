@@ -169,9 +169,9 @@ pub struct GpuScene {
     store_off: bool,
     /// The plate's shape (the views carry it; `update_views` keeps it).
     shape: crate::model::surface::PlateShape,
-    /// Some(n) when the scene's n scratches include arcs, uploaded as their chords
-    /// (`crate::arcs`): the kernels' scratches are then chords, not the scene's.
-    arcs: Option<u32>,
+    /// Some when the scene's scratches include arcs, uploaded as their chords (`crate::arcs`):
+    /// the kernels' scratches are then chords, not the scene's.
+    arcs: Option<arcs::ArcLayout>,
 }
 
 /// Stats words of the pair store (`shaders/inc/tile_queue.glsl`): entries the forward's chunks
@@ -204,7 +204,7 @@ impl GpuScene {
             (chords.scratches, weights) = crate::arcs::expand(&scene.scratches)?;
             let mut gs = GpuScene::new_kernel_scene(ctx, &chords, windows, &weights)
                 .map_err(|e| arcs_named(e, scene.scratches.len(), chords.scratches.len()))?;
-            gs.arcs = Some(scene.scratches.len() as u32);
+            gs.arcs = Some(arcs::ArcLayout::of(&scene.scratches));
             return Ok(gs);
         }
         GpuScene::new_kernel_scene(ctx, scene, windows, &[])

@@ -40,7 +40,7 @@ R edge_integral(PairGeom G, R lo, R hi, R Vlo, R Vhi) {
         R side = add(mul(ndf_at(G, sub(mid, mul(X3, hw))), sub(Vm, mul(X3, dV))),
                      mul(ndf_at(G, add(mid, mul(X3, hw))), add(Vm, mul(X3, dV))));
 #ifdef SA_ARCS
-        if (g_arc_k != 0.0) {  // an arc's chord: the nodes weighted by 1 - k s
+        if (val(g_arc_k) != 0.0) {  // an arc's chord: the nodes weighted by 1 - k s
             R sl = sub(mid, mul(X3, hw)), sh = add(mid, mul(X3, hw));
             r = mul(r, sub(1.0, mul(g_arc_k, mid)));
             side = add(mul(mul(ndf_at(G, sl), sub(Vm, mul(X3, dV))), sub(1.0, mul(g_arc_k, sl))),
@@ -86,7 +86,7 @@ R edge_integral(PairGeom G, R lo, R hi, R Vlo, R Vhi) {
     }
     J2 = mul(J2, hw);
 #ifdef SA_ARCS
-    if (g_arc_k != 0.0) {
+    if (val(g_arc_k) != 0.0) {
         // An arc's chord: ∫ D V (1 - k s) ds with s = y + s0, so J1 takes (1 - k s0) J1 - k ∫ Q1 y V
         // dy, which needs the Q1 part's second moment Y2S = ∫ y^2 (...) dy (y^2 / (y^2 + g^2) =
         // 1 - g^2 / (y^2 + g^2), and so on), and the Q2 part's nodes are weighted.

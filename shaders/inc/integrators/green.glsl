@@ -23,6 +23,13 @@ void add_segment(PairGeom G, R as, R av, R bs, R bv, R vref, inout R I, inout R 
     R ds = sub(bs, as);
     R k = dv(sub(bv, av), ds);
     A = sub(A, mul(mul(0.5, ds), sub(add(av, bv), mul(2.0, vref))));
+#ifdef SA_ARCS
+    if (val(g_arc_k) != 0.0) {  // an arc's chord (patch_ndf.glsl): - ∫ (-k s) (v - vref) ds
+        R va = sub(av, vref), vb = sub(bv, vref);
+        R sv = add(add(mul(as, va), mul(0.5, add(mul(as, sub(vb, va)), mul(ds, va)))), dv(mul(ds, sub(vb, va)), 3.0));
+        A = add(A, mul(g_arc_k, mul(ds, sv)));
+    }
+#endif
     R lo = d_min(as, bs), hi = d_max(as, bs);
     R clo = d_max(lo, G.chi_lo), chi = d_min(hi, G.chi_hi);
     if (val(clo) >= val(chi)) return;
@@ -147,6 +154,10 @@ bool patch_fast(R fs[4], R fv[4], R se, R len, R half_w, PairGeom G, out R I, ou
     if (!(n0 == 2 && n1 == 2 && val(lo0) > 0.0 && val(lo1) > 0.0 && val(hi0) < val(len) && val(hi1) < val(len))) return false;
     R c0 = sub(hi0, lo0), c1 = sub(hi1, lo1);
     A = mul(mul(se, add(c0, c1)), half_w);
+#ifdef SA_ARCS
+    // An arc's chord (patch_ndf.glsl): the area of (1 - k s) ds dv.
+    if (val(g_arc_k) != 0.0) A = sub(A, mul(mul(g_arc_k, mul(sub(c1, c0), dv(mul(se, se), 3.0))), half_w));
+#endif
     R clo = d_max(neg(se), G.chi_lo), chi = d_min(se, G.chi_hi);
     if (val(clo) < val(chi)) {
         R k = dv(sub(c1, c0), mul(2.0, se));

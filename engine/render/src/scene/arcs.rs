@@ -2,7 +2,72 @@
 //! may not be read of it.
 use super::*;
 
+/// The scene's scratches when they include arcs, and how many chords each is uploaded as (in
+/// order: scratch k's chords follow scratch k - 1's).
+#[derive(Clone, Debug)]
+pub(crate) struct ArcLayout {
+    pub(crate) scratches: Vec<crate::model::scene::Scratch>,
+    pub(crate) chords: Vec<u32>,
+}
+
+impl ArcLayout {
+    pub(crate) fn of(scratches: &[crate::model::scene::Scratch]) -> ArcLayout {
+        ArcLayout {
+            scratches: scratches.to_vec(),
+            chords: scratches.iter().map(|s| crate::arcs::chord_count(s) as u32).collect(),
+        }
+    }
+
+    /// The scene's scratches' gradients from their chords' (`g`: 8 per chord, dE/d(x0, y0, x1,
+    /// y1, w, d, alpha, kappa)): each chord's endpoints and curvature are functions of its arc's
+    /// ends and bulge (`scratchart_model::arc::point_and_jacobian`, `chord_weight_and_gradient`;
+    /// the weight's dependence on w is in the chord's own dE/dw). Returns dE/d(x0, y0, x1, y1, w,
+    /// d, alpha) per scratch and dE/dbulge (NaN for a straight scratch: one chord cannot bend).
+    pub(crate) fn chain(&self, g: &[[f32; 8]]) -> (Vec<[f32; 7]>, Vec<f32>) {
+        use crate::model::arc::{chord_weight_and_gradient, point_and_jacobian};
+        let mut out = Vec::with_capacity(self.scratches.len());
+        let mut bulges = Vec::with_capacity(self.scratches.len());
+        let mut at = 0usize;
+        for (s, &n) in self.scratches.iter().zip(&self.chords) {
+            let n = n as usize;
+            let mut acc = [0.0f64; 8]; // x0, y0, x1, y1, w, d, alpha, bulge
+            let dkappa = if s.is_arc() {
+                let (_, dk) = chord_weight_and_gradient(s.p0, s.p1, s.w, s.bulge);
+                // kappa = 2 k / w: no w in it.
+                [dk[0], dk[1], dk[2], dk[3], 0.0, dk[5]].map(|d| 2.0 * d / s.w)
+            } else {
+                [0.0; 6]
+            };
+            for (j, c) in g[at..at + n].iter().enumerate() {
+                let c: [f64; 8] = c.map(f64::from);
+                for (end, t) in [(0usize, j as f64 / n as f64), (2, (j + 1) as f64 / n as f64)] {
+                    let (_, jac) = point_and_jacobian(s.p0, s.p1, s.bulge, t);
+                    for v in 0..5 {
+                        let d = c[end] * jac[0][v] + c[end + 1] * jac[1][v];
+                        acc[if v < 4 { v } else { 7 }] += d;
+                    }
+                }
+                for v in 4..7 {
+                    acc[v] += c[v];
+                }
+                for (v, dk) in [(0, 0), (1, 1), (2, 2), (3, 3), (7, 5)] {
+                    acc[v] += c[7] * dkappa[dk];
+                }
+            }
+            at += n;
+            out.push([acc[0], acc[1], acc[2], acc[3], acc[4], acc[5], acc[6]].map(|x| x as f32));
+            bulges.push(if s.is_arc() { acc[7] as f32 } else { f32::NAN });
+        }
+        (out, bulges)
+    }
+}
+
 impl GpuScene {
+    /// The layout of a scene with arcs (None for straight scratches only).
+    pub(crate) fn arc_layout(&self) -> Option<&ArcLayout> {
+        self.arcs.as_ref()
+    }
+
     /// Whether the scene's scratches include arcs (uploaded as chords: the kernels' scratches,
     /// their gradients and tangents are the chords', so nothing may read them as the scene's).
     pub fn has_arcs(&self) -> bool {
@@ -12,10 +77,11 @@ impl GpuScene {
     /// An error for work that needs the scene's own scratches on the device (gradients,
     /// tangents, optimization) when they include arcs.
     pub fn refuse_arcs(&self, what: &str) -> Result<(), GpuError> {
-        match self.arcs {
-            Some(n) => Err(GpuError::Capacity(format!(
-                "{what} of arc scratches is not available yet: the scene's {n} scratches include arcs \
+        match &self.arcs {
+            Some(a) => Err(GpuError::Capacity(format!(
+                "{what} of arc scratches is not available yet: the scene's {} scratches include arcs \
                  (a nonzero `bulge`), which render as {} chords; straighten them (bulge 0) for {what}",
+                a.scratches.len(),
                 self.n_scratches
             ))),
             None => Ok(()),

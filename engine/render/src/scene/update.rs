@@ -29,7 +29,7 @@ impl GpuScene {
             g.shape[3] = k;
         }
         self.inputs.scratches = ctx.upload("scratches", &scr)?;
-        self.arcs = arcs.then_some(scratches.len() as u32);
+        self.arcs = arcs.then(|| super::arcs::ArcLayout::of(scratches));
         Ok(true)
     }
 
