@@ -490,9 +490,19 @@ fn grad_command(ctx: &std::sync::Arc<Context>, scene: &Scene, dir: &Path, out: &
     let renderer = Renderer::new(ctx)?;
     let mut gs = renderer.upload(scene)?;
     let r = scratchart_optim::check::check_loss_gradients(&renderer, &mut gs, scene, &targets)?;
-    let mut csv = String::from("x0,y0,x1,y1,w,d,alpha\n");
-    for g in &r.grads.scratches {
-        let row: Vec<String> = g.iter().map(|x| format!("{x:e}")).collect();
+    // A scene with arcs gets dE/dbulge too (empty where a scratch is straight).
+    let arcs = !r.grads.bulges.is_empty();
+    let mut csv = String::from(if arcs {
+        "x0,y0,x1,y1,w,d,alpha,bulge\n"
+    } else {
+        "x0,y0,x1,y1,w,d,alpha\n"
+    });
+    for (k, g) in r.grads.scratches.iter().enumerate() {
+        let mut row: Vec<String> = g.iter().map(|x| format!("{x:e}")).collect();
+        if arcs {
+            let b = r.grads.bulges[k];
+            row.push(if b.is_finite() { format!("{b:e}") } else { String::new() });
+        }
         csv += &row.join(",");
         csv.push('\n');
     }

@@ -119,7 +119,7 @@ pub fn objective_gradients(
     gs: &mut GpuScene,
     objective: &dyn Objective,
 ) -> Result<(Evaluation, Gradients), GpuError> {
-    renderer.prepare_backward()?;
+    renderer.prepare_backward_of(gs)?;
     let mut rec = Recorder::new(&renderer.ctx)?;
     renderer.submit(&mut rec, gs, |rec, gs| {
         renderer.record_render(rec, gs);

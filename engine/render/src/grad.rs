@@ -46,7 +46,7 @@ impl Renderer {
             _ if gs.has_arcs() => self
                 .grad_arcs
                 .get()
-                .expect("Renderer::gradients builds the arc backward before recording it"),
+                .expect("Renderer::prepare_backward_of(gs) must be called before record_backward on arcs"),
             Some(replay) if gs.replay_ready() => replay,
             Some(_) => {
                 gs.want_store();
@@ -90,10 +90,7 @@ impl Renderer {
     /// `gs.shading.image`), with results downloaded. For checks and the `grad` command; the optimizer
     /// keeps everything on the device.
     pub fn gradients(&self, gs: &mut GpuScene, dl: &[f32]) -> Result<(Vec<Vec<f32>>, Gradients), GpuError> {
-        if gs.has_arcs() {
-            self.prepare_arc_backward()?;
-        }
-        self.prepare_backward()?;
+        self.prepare_backward_of(gs)?;
         self.upload_dl(gs, dl)?;
         let mut rec = Recorder::new(&self.ctx)?;
         // One submission, so an incomplete render or backward is redone as a whole.

@@ -233,6 +233,15 @@ impl Renderer {
         GpuScene::new(&self.ctx, scene)
     }
 
+    /// [`prepare_backward`](Self::prepare_backward) for scene `gs`: with arcs, the backward that
+    /// weighs chords too. Call before `record_backward` on a scene that may hold arcs.
+    pub fn prepare_backward_of(&self, gs: &GpuScene) -> Result<(), GpuError> {
+        if gs.has_arcs() {
+            self.prepare_arc_backward()?;
+        }
+        self.prepare_backward()
+    }
+
     /// Compiles the backward for scenes with arcs (`grad_arcs`) if it is not compiled yet.
     fn prepare_arc_backward(&self) -> Result<(), GpuError> {
         if self.grad_arcs.get().is_some() {
