@@ -155,29 +155,6 @@ fn arcs_refuse_what_they_cannot_do_yet() {
     assert_no_validation(&ctx);
 }
 
-/// dE_lin/dL per pixel for GPU images `l` and targets `t` (off-plate pixels: 0).
-fn dl_of(scene: &Scene, l: &[Vec<f32>], t: &[Vec<f64>]) -> Vec<f32> {
-    let mut out = Vec::new();
-    for v in 0..scene.views.len() {
-        let mask = scratchart_model::camera::on_plate_mask(scene, v);
-        let n = mask.iter().filter(|m| **m).count().max(1) as f64;
-        for (i, &m) in mask.iter().enumerate() {
-            out.push(if m {
-                (2.0 * (l[v][i] as f64 - t[v][i]) / n) as f32
-            } else {
-                0.0
-            });
-        }
-    }
-    out
-}
-
-fn rel(a: &[f64], b: &[f64]) -> f64 {
-    let num: f64 = a.iter().zip(b).map(|(x, y)| (x - y) * (x - y)).sum::<f64>().sqrt();
-    let den: f64 = b.iter().map(|y| y * y).sum::<f64>().sqrt();
-    num / den
-}
-
 /// Gradients of arcs (engine/docs/model.md section 8's bar, extended to the bulge): the chords'
 /// dual-number backward chained to each arc's ends, width, depth, roughness and bulge, against
 /// central differences of the float64 reference's exact arcs, for wide grooves on tight arcs

@@ -1,34 +1,10 @@
 //! GPU gradients against central differences of the float64 reference (engine/docs/model.md section 8
 //! gradient bar): for each kind of parameter (endpoints, w, d, alpha, light intensity),
 //! ||g - g_ref|| / ||g_ref|| <= 1e-2 over all scratches, for the check loss E_lin.
-use scratchart_model::camera::on_plate_mask;
 use scratchart_model::reference::{check_loss, render_view};
 use scratchart_model::scene::Scene;
 use scratchart_render::Renderer;
 use scratchart_tests::*;
-
-/// dE_lin/dL per pixel for GPU images `l` and targets `t` (off-plate pixels: 0).
-fn dl_of(scene: &Scene, l: &[Vec<f32>], t: &[Vec<f64>]) -> Vec<f32> {
-    let mut out = Vec::new();
-    for v in 0..scene.views.len() {
-        let mask = on_plate_mask(scene, v);
-        let n = mask.iter().filter(|m| **m).count().max(1) as f64;
-        for (i, &m) in mask.iter().enumerate() {
-            out.push(if m {
-                (2.0 * (l[v][i] as f64 - t[v][i]) / n) as f32
-            } else {
-                0.0
-            });
-        }
-    }
-    out
-}
-
-fn rel(a: &[f64], b: &[f64]) -> f64 {
-    let num: f64 = a.iter().zip(b).map(|(x, y)| (x - y) * (x - y)).sum::<f64>().sqrt();
-    let den: f64 = b.iter().map(|y| y * y).sum::<f64>().sqrt();
-    num / den
-}
 
 /// Targets: the reference render of a perturbed copy of the scene (so residuals are structured).
 fn targets(scene: &Scene) -> Vec<Vec<f64>> {

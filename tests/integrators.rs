@@ -149,12 +149,6 @@ fn gradients_with(r: &Renderer, scene: &Scene) -> (Vec<Vec<f32>>, Gradients) {
     r.gradients(&mut gs, &dl).unwrap()
 }
 
-fn rel(a: &[f64], b: &[f64]) -> f64 {
-    let num: f64 = a.iter().zip(b).map(|(x, y)| (x - y) * (x - y)).sum::<f64>().sqrt();
-    let den: f64 = b.iter().map(|y| y * y).sum::<f64>().sqrt();
-    num / den
-}
-
 /// The gradients of one kind of parameter (0 endpoints, 1 w, 2 d, 3 alpha) of every scratch.
 fn kind(g: &Gradients, kind: usize) -> Vec<f64> {
     const COLS: [&[usize]; 4] = [&[0, 1, 2, 3], &[4], &[5], &[6]];

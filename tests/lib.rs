@@ -409,3 +409,27 @@ pub fn carvable_design(plate: f64, n: usize, tool: &scratchart_tool::Tool) -> Sc
 pub fn v60_tool() -> scratchart_tool::Tool {
     serde_json::from_str(V60_TOOL_JSON).expect("a valid tool")
 }
+
+/// dE_lin/dL per pixel for GPU images `l` and targets `t` (off-plate pixels: 0).
+pub fn dl_of(scene: &Scene, l: &[Vec<f32>], t: &[Vec<f64>]) -> Vec<f32> {
+    let mut out = Vec::new();
+    for v in 0..scene.views.len() {
+        let mask = scratchart_model::camera::on_plate_mask(scene, v);
+        let n = mask.iter().filter(|m| **m).count().max(1) as f64;
+        for (i, &m) in mask.iter().enumerate() {
+            out.push(if m {
+                (2.0 * (l[v][i] as f64 - t[v][i]) / n) as f32
+            } else {
+                0.0
+            });
+        }
+    }
+    out
+}
+
+/// ||a - b|| / ||b||.
+pub fn rel(a: &[f64], b: &[f64]) -> f64 {
+    let num: f64 = a.iter().zip(b).map(|(x, y)| (x - y) * (x - y)).sum::<f64>().sqrt();
+    let den: f64 = b.iter().map(|y| y * y).sum::<f64>().sqrt();
+    num / den
+}
