@@ -93,6 +93,11 @@ pub fn run_forward(
     let mut rows = Vec::new();
     for (name, scene) in scenes {
         let mut gs = renderer.upload(scene)?;
+        // A scene with arcs takes the backward that weighs chords (both renderers).
+        renderer.prepare_backward_of(&gs)?;
+        if let Some(o) = &oracle {
+            o.prepare_backward_of(&gs)?;
+        }
         if let Some(m) = binning_mode {
             gs.force_binning_mode(ctx, m)?;
         }
