@@ -186,6 +186,26 @@ fn arc_gradients_match_central_differences() {
     let mut gs = r.upload(&scene).unwrap();
     let first = r.render(&mut gs).unwrap().images;
     let (_, g) = r.gradients(&mut gs, &dl_of(&scene, &first, &t)).unwrap();
+    // The device's chain rule (shaders/arc_map.comp) against the host's in float64, on the same
+    // chord gradients.
+    let chords: Vec<[f32; 8]> = ctx.download(gs.scratch_grad()).unwrap();
+    let (host, host_bulges) = gs.arc_chain_on_host(&chords[..gs.n_scratches() as usize]).unwrap();
+    for (k, (a, b)) in g.scratches.iter().zip(&host).enumerate() {
+        let scale = b.iter().fold(1e-12f32, |m, x| m.max(x.abs()));
+        for p in 0..7 {
+            assert!(
+                (a[p] - b[p]).abs() <= 1e-4 * scale,
+                "scratch {k} parameter {p}: device {} host {}",
+                a[p],
+                b[p]
+            );
+        }
+        let (gb, hb) = (g.bulges[k], host_bulges[k]);
+        assert!(
+            gb.is_nan() == hb.is_nan() && (gb.is_nan() || (gb - hb).abs() <= 1e-4 * hb.abs().max(scale)),
+            "scratch {k} bulge: device {gb} host {hb}"
+        );
+    }
     let e = |s: &Scene| scratchart_model::reference::check_loss(s, &t);
     let names = ["endpoints", "w", "d", "alpha", "bulge"];
     let mut gpu_kind: [Vec<f64>; 5] = Default::default();

@@ -84,6 +84,10 @@ impl Renderer {
             [gs.shading.shade.n_views, 1, 1],
         );
         rec.barrier();
+        if let Some(a) = gs.arc_layout() {
+            // The chords' gradients into their arcs' (`shaders/arc_map.comp`).
+            self.record_arc_map(rec, gs, a, 1);
+        }
     }
 
     /// Forward + backward for given dE/dL (one value per pixel of every view, concatenated like
@@ -104,17 +108,34 @@ impl Renderer {
 
     /// The gradients of the last backward pass.
     pub fn download_gradients(&self, gs: &GpuScene) -> Result<Gradients, GpuError> {
-        let g: Vec<[f32; 8]> = self.ctx.download(&gs.backward.grad)?;
         let (scratches, bulges) = match gs.arc_layout() {
-            // The chords' gradients chained to their arcs'.
-            Some(layout) => layout.chain(&g[..gs.n_scratches as usize]),
-            None => (
-                g[..gs.n_scratches as usize]
+            // The arcs' own, chained from their chords' on the device.
+            Some(layout) => {
+                let g: Vec<[f32; 8]> = self.ctx.download(&layout.grad)?;
+                let n = layout.scratches.len();
+                let bulges = g[..n]
                     .iter()
-                    .map(|r| [r[0], r[1], r[2], r[3], r[4], r[5], r[6]])
-                    .collect(),
-                Vec::new(),
-            ),
+                    .zip(&layout.scratches)
+                    .map(|(r, s)| if s.is_arc() { r[7] } else { f32::NAN })
+                    .collect();
+                (
+                    g[..n]
+                        .iter()
+                        .map(|r| [r[0], r[1], r[2], r[3], r[4], r[5], r[6]])
+                        .collect(),
+                    bulges,
+                )
+            }
+            None => {
+                let g: Vec<[f32; 8]> = self.ctx.download(&gs.backward.grad)?;
+                (
+                    g[..gs.n_scratches as usize]
+                        .iter()
+                        .map(|r| [r[0], r[1], r[2], r[3], r[4], r[5], r[6]])
+                        .collect(),
+                    Vec::new(),
+                )
+            }
         };
         let mut lights: Vec<f32> = self.ctx.download(&gs.backward.grad_light)?;
         // (buffers may be allocated larger than asked)

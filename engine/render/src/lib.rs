@@ -64,6 +64,9 @@ pub struct Renderer {
     /// `pixel_records.comp`).
     records: ComputePipeline,
     pixel_records: ComputePipeline,
+    /// Arcs: the chords from the scene's scratches before a render, the scratches' gradients
+    /// from the chords' after a backward (`shaders/arc_map.comp`).
+    arc_map: ComputePipeline,
     /// The shading kernels this renderer builds (`forward` at once, the backward on first use).
     kernels: KernelSet,
     forward: ComputePipeline,
@@ -184,6 +187,7 @@ impl Renderer {
             scan_sums: ComputePipeline::new(ctx, &sc, "scan.comp", &[("SUMS", "1")], 3, scan_push)?,
             scan_apply: ComputePipeline::new(ctx, &sc, "scan.comp", &[("APPLY", "1")], 3, scan_push)?,
             records: ComputePipeline::new(ctx, &sc, "scratch_records.comp", &[], 2, 16)?,
+            arc_map: ComputePipeline::new(ctx, &sc, "arc_map.comp", &[], 6, 16)?,
             pixel_records: ComputePipeline::with_texels(
                 ctx,
                 "pixel_records.comp",
@@ -240,6 +244,27 @@ impl Renderer {
             self.prepare_arc_backward()?;
         }
         self.prepare_backward()
+    }
+
+    /// Records `shaders/arc_map.comp` in `mode` (0: the chords from the arcs, 1: the arcs'
+    /// gradients from the chords'), then a barrier.
+    fn record_arc_map(&self, rec: &mut Recorder, gs: &GpuScene, a: &scene::arcs::ArcLayout, mode: u32) {
+        let n = if mode == 0 { a.n_chords() } else { a.chords.len() as u32 };
+        let push = [n, mode, 0, 0];
+        rec.dispatch_1d(
+            &self.arc_map,
+            &[
+                &a.params,
+                &gs.inputs.scratches,
+                &a.chord_of,
+                &a.arc_chords,
+                &gs.backward.grad,
+                &a.grad,
+            ],
+            bytemuck::cast_slice(&push),
+            n.div_ceil(64),
+        );
+        rec.barrier();
     }
 
     /// Compiles the backward for scenes with arcs (`grad_arcs`) if it is not compiled yet.
@@ -466,6 +491,9 @@ impl Renderer {
     /// timestamp is still written (an empty span).
     pub fn record_render_with(&self, rec: &mut Recorder, gs: &GpuScene, bin: bool) {
         rec.fill(&gs.stats, 0);
+        if let Some(a) = gs.arc_layout() {
+            self.record_arc_map(rec, gs, a, 0);
+        }
         let push = [gs.n_scratches, 0, 0, 0];
         rec.dispatch_1d(
             &self.records,

@@ -179,7 +179,7 @@ pub struct GpuScene {
 const STAT_STORE_NEEDED: usize = 13;
 const STAT_STORE_FLAGS: usize = 14;
 
-mod arcs;
+pub(crate) mod arcs;
 use arcs::arcs_named;
 mod store;
 mod update;
@@ -204,7 +204,7 @@ impl GpuScene {
             (chords.scratches, weights) = crate::arcs::expand(&scene.scratches)?;
             let mut gs = GpuScene::new_kernel_scene(ctx, &chords, windows, &weights)
                 .map_err(|e| arcs_named(e, scene.scratches.len(), chords.scratches.len()))?;
-            gs.arcs = Some(arcs::ArcLayout::of(&scene.scratches));
+            gs.arcs = Some(arcs::ArcLayout::new(ctx, &scene.scratches)?);
             return Ok(gs);
         }
         GpuScene::new_kernel_scene(ctx, scene, windows, &[])

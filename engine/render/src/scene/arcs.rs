@@ -3,19 +3,81 @@
 use super::*;
 
 /// The scene's scratches when they include arcs, and how many chords each is uploaded as (in
-/// order: scratch k's chords follow scratch k - 1's).
-#[derive(Clone, Debug)]
+/// order: scratch k's chords follow scratch k - 1's); on the device, the scratches themselves
+/// (`params`, shape.w = bulge), which chord belongs to which (`chord_of`: (arc, j | n << 16);
+/// `arc_chords`: (first chord, n)), and the scratches' gradients (`grad`: 8 per scratch, dE/d(x0,
+/// y0, x1, y1, w, d, alpha, bulge)). `shaders/arc_map.comp` writes the chords from `params`
+/// before every render and `grad` from the chords' after every backward.
 pub(crate) struct ArcLayout {
     pub(crate) scratches: Vec<crate::model::scene::Scratch>,
     pub(crate) chords: Vec<u32>,
+    pub(crate) params: Buffer,
+    pub(crate) chord_of: Buffer,
+    pub(crate) arc_chords: Buffer,
+    pub(crate) grad: Buffer,
+}
+
+/// The scratches as the arc map reads them: ScratchGpu with shape.w = bulge.
+fn arc_params(scratches: &[crate::model::scene::Scratch]) -> Vec<ScratchGpu> {
+    scratches
+        .iter()
+        .map(|s| {
+            let mut g = ScratchGpu::from(s);
+            g.shape[3] = s.bulge as f32;
+            g
+        })
+        .collect()
 }
 
 impl ArcLayout {
-    pub(crate) fn of(scratches: &[crate::model::scene::Scratch]) -> ArcLayout {
-        ArcLayout {
-            scratches: scratches.to_vec(),
-            chords: scratches.iter().map(|s| crate::arcs::chord_count(s) as u32).collect(),
+    pub(crate) fn new(
+        ctx: &std::sync::Arc<Context>,
+        scratches: &[crate::model::scene::Scratch],
+    ) -> Result<ArcLayout, GpuError> {
+        let chords: Vec<u32> = scratches.iter().map(|s| crate::arcs::chord_count(s) as u32).collect();
+        let mut chord_of = Vec::new();
+        let mut arc_chords = Vec::with_capacity(chords.len());
+        for (a, &n) in chords.iter().enumerate() {
+            arc_chords.push([chord_of.len() as u32, n]);
+            chord_of.extend((0..n).map(|j| [a as u32, j | (n << 16)]));
         }
+        Ok(ArcLayout {
+            scratches: scratches.to_vec(),
+            params: ctx.upload("arc scratches", &arc_params(scratches))?,
+            chord_of: ctx.upload("arc chords' owners", &chord_of)?,
+            arc_chords: ctx.upload("arcs' chords", &arc_chords)?,
+            grad: Buffer::new(
+                ctx,
+                "arc gradients",
+                (scratches.len().max(1) * 32) as u64,
+                MemLoc::GpuOnly,
+            )?,
+            chords,
+        })
+    }
+
+    /// Replaces the scratches when each keeps its number of chords (else false: upload again).
+    pub(crate) fn update(
+        &mut self,
+        ctx: &std::sync::Arc<Context>,
+        scratches: &[crate::model::scene::Scratch],
+    ) -> Result<bool, GpuError> {
+        let same = scratches.len() == self.chords.len()
+            && scratches
+                .iter()
+                .zip(&self.chords)
+                .all(|(s, &n)| crate::arcs::chord_count(s) as u32 == n);
+        if !same {
+            return Ok(false);
+        }
+        self.params = ctx.upload("arc scratches", &arc_params(scratches))?;
+        self.scratches = scratches.to_vec();
+        Ok(true)
+    }
+
+    /// Chords in all.
+    pub(crate) fn n_chords(&self) -> u32 {
+        self.chords.iter().sum()
     }
 
     /// The scene's scratches' gradients from their chords' (`g`: 8 per chord, dE/d(x0, y0, x1,
@@ -23,7 +85,7 @@ impl ArcLayout {
     /// ends and bulge (`scratchart_model::arc::point_and_jacobian`, `chord_weight_and_gradient`;
     /// the weight's dependence on w is in the chord's own dE/dw). Returns dE/d(x0, y0, x1, y1, w,
     /// d, alpha) per scratch and dE/dbulge (NaN for a straight scratch: one chord cannot bend).
-    pub(crate) fn chain(&self, g: &[[f32; 8]]) -> (Vec<[f32; 7]>, Vec<f32>) {
+    pub fn chain(&self, g: &[[f32; 8]]) -> (Vec<[f32; 7]>, Vec<f32>) {
         use crate::model::arc::{chord_weight_and_gradient, point_and_jacobian};
         let mut out = Vec::with_capacity(self.scratches.len());
         let mut bulges = Vec::with_capacity(self.scratches.len());
@@ -66,6 +128,13 @@ impl GpuScene {
     /// The layout of a scene with arcs (None for straight scratches only).
     pub(crate) fn arc_layout(&self) -> Option<&ArcLayout> {
         self.arcs.as_ref()
+    }
+
+    /// Test hook: the float64 chain rule of the host (`ArcLayout::chain`) over the chords'
+    /// gradients `g` (8 per chord), the oracle of `shaders/arc_map.comp`'s mode 1.
+    #[doc(hidden)]
+    pub fn arc_chain_on_host(&self, g: &[[f32; 8]]) -> Option<(Vec<[f32; 7]>, Vec<f32>)> {
+        self.arcs.as_ref().map(|a| a.chain(g))
     }
 
     /// Whether the scene's scratches include arcs (uploaded as chords: the kernels' scratches,

@@ -13,23 +13,15 @@ impl GpuScene {
         if arcs && self.arcs.is_none() {
             return Ok(false);
         }
-        let (chords, weights);
-        let kernel_scratches = if arcs {
-            (chords, weights) = crate::arcs::expand(scratches)?;
-            &chords[..]
-        } else {
-            weights = Vec::new();
-            scratches
-        };
-        if kernel_scratches.len() != self.n_scratches as usize {
+        if let Some(layout) = self.arcs.as_mut() {
+            // The chords come from the arcs on the device (`shaders/arc_map.comp`).
+            return if arcs { layout.update(ctx, scratches) } else { Ok(false) };
+        }
+        if scratches.len() != self.n_scratches as usize {
             return Ok(false);
         }
-        let mut scr: Vec<ScratchGpu> = kernel_scratches.iter().map(ScratchGpu::from).collect();
-        for (g, &k) in scr.iter_mut().zip(&weights) {
-            g.shape[3] = k;
-        }
+        let scr: Vec<ScratchGpu> = scratches.iter().map(ScratchGpu::from).collect();
         self.inputs.scratches = ctx.upload("scratches", &scr)?;
-        self.arcs = arcs.then(|| super::arcs::ArcLayout::of(scratches));
         Ok(true)
     }
 
