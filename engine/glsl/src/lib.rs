@@ -21,6 +21,7 @@ pub const PRECOMPILED: &[(&str, &[(&str, &str)])] = &[
     ("scan.comp", &[("APPLY", "1")]),
     ("grad_reduce.comp", &[]),
     ("scratch_records.comp", &[]),
+    ("arc_map.comp", &[]),
     ("pixel_records.comp", &[]),
     ("grad_light.comp", &[]),
     ("light_tie.comp", &[]),
