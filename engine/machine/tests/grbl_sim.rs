@@ -97,20 +97,28 @@ impl Drop for Sim {
     }
 }
 
-/// Six short cuts near the plate centre (a few seconds of machine time).
-fn small_plan(dir: &Path) -> PathBuf {
-    let cuts: Vec<Cut> = (0..6)
-        .map(|k| {
-            let x = -6.0 + 2.5 * k as f64;
+/// A row of cuts 2.5 mm apart from x = `x0`, each from (x, -h) to (x + 1, h), 20 um deep, with
+/// the given bulges (0: straight).
+fn row_of_cuts(x0: f64, h: f64, bulges: &[f64]) -> Vec<Cut> {
+    bulges
+        .iter()
+        .enumerate()
+        .map(|(k, &bulge)| {
+            let x = x0 + 2.5 * k as f64;
             Cut {
-                a: [x, -3.0],
-                b: [x + 1.0, 3.0],
+                a: [x, -h],
+                b: [x + 1.0, h],
                 z: 0.02,
                 scratch: k,
-                bulge: 0.0,
+                bulge,
             }
         })
-        .collect();
+        .collect()
+}
+
+/// Six short cuts near the plate centre (a few seconds of machine time).
+fn small_plan(dir: &Path) -> PathBuf {
+    let cuts = row_of_cuts(-6.0, 3.0, &[0.0; 6]);
     // Hops at the clearance height (2 mm), as plans made before the retract height did: the
     // tests that stop a job after two acknowledged cuts need the rest to take a while (with
     // 0.3 mm hops the simulated board can finish the six cuts before the stop arrives).
@@ -365,21 +373,7 @@ fn the_real_firmware_carves_arcs() {
     let Some(sim) = Sim::start(&dir, "uart", &[]) else {
         return;
     };
-    let bulges = [0.3, -0.3, 1.0, -1.0, 2.0, -0.05];
-    let cuts: Vec<Cut> = bulges
-        .iter()
-        .enumerate()
-        .map(|(k, &bulge)| {
-            let x = -7.0 + 2.5 * k as f64;
-            Cut {
-                a: [x, -2.0],
-                b: [x + 1.0, 2.0],
-                z: 0.02,
-                scratch: k,
-                bulge,
-            }
-        })
-        .collect();
+    let cuts = row_of_cuts(-7.0, 2.0, &[0.3, -0.3, 1.0, -1.0, 2.0, -0.05]);
     let g = scratchart_machine::gcode::write(&cuts, &MachineProfile::grbl(), 60.0, &["grbl-sim arcs".into()]);
     assert_eq!(g.lines().filter(|l| l.starts_with("G3 ")).count(), 3, "{g}");
     assert_eq!(g.lines().filter(|l| l.starts_with("G2 ")).count(), 3, "{g}");

@@ -55,7 +55,7 @@ pub struct PruneStats {
 pub fn evaluate(renderer: &Renderer, loss: &Loss, scene: &Scene) -> Result<(LossValues, Vec<[f32; 8]>), GpuError> {
     let ctx = &renderer.ctx;
     let mut gs = renderer.upload(scene)?;
-    gs.refuse_arcs("gradients")?;
+    gs.refuse_arcs("pruning")?;
     let mut rec = Recorder::new(ctx)?;
     renderer.submit(&mut rec, &mut gs, |rec, gs| {
         renderer.record_render(rec, gs);

@@ -6,7 +6,7 @@
 //! reason the turn per chord follows the groove's roughness), and the chords' rectangles weigh
 //! the groove's inner side by r / rho against the annulus (e / r of a footprint that sees one
 //! side only) unless weighted: each chord carries the weight that restores the annulus's area
-//! element (`expand`), which the closed-form integrator applies.
+//! element (`shaders/arc_map.comp`), which the closed-form integrator applies.
 use crate::model::scene::Scratch;
 use crate::vulkan::GpuError;
 
@@ -37,13 +37,12 @@ pub fn chord_count(s: &Scratch) -> usize {
     }
 }
 
-/// The kernels' scratches: straight ones as they are, each arc as its chords, with each one's
-/// area weight k (`shaders/inc/patch_ndf.glsl`: the pair integral is of D (1 - k s) dA, s = 2u/w,
-/// k = sign(bulge) w / (2 r) for an arc's chord, 0 for a straight scratch). An arc that needs
-/// more than [`MAX_CHORDS_PER_ARC`] chords is refused, naming it.
-pub fn expand(scratches: &[Scratch]) -> Result<(Vec<Scratch>, Vec<f32>), GpuError> {
+/// The kernels' scratches: straight ones as they are, each arc as its chords (what sizes the
+/// scene on the device; `shaders/arc_map.comp` writes the chords again from the arcs before every
+/// render, with each one's area weight k = sign(bulge) w / (2 r)). An arc that needs more than
+/// [`MAX_CHORDS_PER_ARC`] chords is refused, naming it.
+pub fn expand(scratches: &[Scratch]) -> Result<Vec<Scratch>, GpuError> {
     let mut out = Vec::with_capacity(scratches.len());
-    let mut weights = Vec::with_capacity(scratches.len());
     for (k, s) in scratches.iter().enumerate() {
         let n = chord_count(s);
         if n > MAX_CHORDS_PER_ARC {
@@ -57,11 +56,9 @@ pub fn expand(scratches: &[Scratch]) -> Result<(Vec<Scratch>, Vec<f32>), GpuErro
                 s.alpha
             )));
         }
-        let k = s.arc().map_or(0.0, |a| a.sweep.signum() * s.w / (2.0 * a.radius));
         out.extend(s.chords(n));
-        weights.resize(out.len(), k as f32);
     }
-    Ok((out, weights))
+    Ok(out)
 }
 
 /// Whether any scratch is an arc.

@@ -200,23 +200,21 @@ impl GpuScene {
     ) -> Result<GpuScene, GpuError> {
         if crate::arcs::any_arc(&scene.scratches) {
             let mut chords = scene.clone();
-            let weights;
-            (chords.scratches, weights) = crate::arcs::expand(&scene.scratches)?;
-            let mut gs = GpuScene::new_kernel_scene(ctx, &chords, windows, &weights)
+            chords.scratches = crate::arcs::expand(&scene.scratches)?;
+            let mut gs = GpuScene::new_kernel_scene(ctx, &chords, windows)
                 .map_err(|e| arcs_named(e, scene.scratches.len(), chords.scratches.len()))?;
             gs.arcs = Some(arcs::ArcLayout::new(ctx, &scene.scratches)?);
             return Ok(gs);
         }
-        GpuScene::new_kernel_scene(ctx, scene, windows, &[])
+        GpuScene::new_kernel_scene(ctx, scene, windows)
     }
 
-    /// [`GpuScene::new_in`] of the kernels' own scratches (straight; `weights`: each one's arc
-    /// chord weight, `crate::arcs::expand`, or empty for none).
+    /// [`GpuScene::new_in`] of the kernels' own scratches (straight; for a scene with arcs, its
+    /// chords, which `shaders/arc_map.comp` writes again with their weights before every render).
     fn new_kernel_scene(
         ctx: &std::sync::Arc<Context>,
         scene: &Scene,
         windows: &[Option<layout::TileWindow>],
-        weights: &[f32],
     ) -> Result<GpuScene, GpuError> {
         // Every size against the device before anything is allocated.
         let sizes: Vec<(u32, u32)> = scene.views.iter().map(|v| (v.camera.width, v.camera.height)).collect();
@@ -250,10 +248,7 @@ impl GpuScene {
         let n_bands = binning_bands(ctx.info(), n_scratches, threads, scene.views.len() as u32, max_rows);
         let (sbase, sbase_sums) =
             scratch_base_buffers(ctx, n_scratches, binning_parts(n_bands, scene.views.len() as u32))?;
-        let mut scr: Vec<ScratchGpu> = scene.scratches.iter().map(ScratchGpu::from).collect();
-        for (g, &k) in scr.iter_mut().zip(weights) {
-            g.shape[3] = k;
-        }
+        let scr: Vec<ScratchGpu> = scene.scratches.iter().map(ScratchGpu::from).collect();
         let phi: Vec<f32> = scene.views.iter().map(|v| v.radiance_scale() as f32).collect();
         let hist_len = match mode {
             BinMode::Groups => dims.offsets_len(),

@@ -27,6 +27,14 @@ R tail_T(R x) {
 #include "closed_form_adjoint.glsl"
 #endif
 
+// A term at s of a Gauss rule, weighted by an arc chord's 1 - k s (g_arc_k, patch_ndf.glsl) in the
+// build with SA_ARCS (exactly the term where k = 0); the term itself in every other build.
+#ifdef SA_ARCS
+#define SA_ARC_W(x, s) mul(x, sub(1.0, mul(g_arc_k, s)))
+#else
+#define SA_ARC_W(x, s) (x)
+#endif
+
 // ∫_lo^hi D(s) V(s) ds with V linear, V(lo) = Vlo, V(hi) = Vhi, chi_lo <= lo < hi <= chi_hi.
 R edge_integral(PairGeom G, R lo, R hi, R Vlo, R Vhi) {
     R dy = sub(hi, lo);
@@ -36,17 +44,10 @@ R edge_integral(PairGeom G, R lo, R hi, R Vlo, R Vhi) {
     float lam = max(val(G.g), max(abs(val(yl)), abs(val(yh))));
     if (val(dy) < 0.25 * lam) {
         const float X3 = 0.7745966692414834;
-        R r = mul(8.0 / 9.0, mul(ndf_at(G, mid), Vm));
-        R side = add(mul(ndf_at(G, sub(mid, mul(X3, hw))), sub(Vm, mul(X3, dV))),
-                     mul(ndf_at(G, add(mid, mul(X3, hw))), add(Vm, mul(X3, dV))));
-#ifdef SA_ARCS
-        if (val(g_arc_k) != 0.0) {  // an arc's chord: the nodes weighted by 1 - k s
-            R sl = sub(mid, mul(X3, hw)), sh = add(mid, mul(X3, hw));
-            r = mul(r, sub(1.0, mul(g_arc_k, mid)));
-            side = add(mul(mul(ndf_at(G, sl), sub(Vm, mul(X3, dV))), sub(1.0, mul(g_arc_k, sl))),
-                       mul(mul(ndf_at(G, sh), add(Vm, mul(X3, dV))), sub(1.0, mul(g_arc_k, sh))));
-        }
-#endif
+        R r = SA_ARC_W(mul(8.0 / 9.0, mul(ndf_at(G, mid), Vm)), mid);
+        R sl = sub(mid, mul(X3, hw)), sh = add(mid, mul(X3, hw));
+        R side = add(SA_ARC_W(mul(ndf_at(G, sl), sub(Vm, mul(X3, dV))), sl),
+                     SA_ARC_W(mul(ndf_at(G, sh), add(Vm, mul(X3, dV))), sh));
         return mul(add(r, mul(5.0 / 9.0, side)), hw);
     }
     // Q1 part, closed form.
@@ -82,28 +83,19 @@ R edge_integral(PairGeom G, R lo, R hi, R Vlo, R Vhi) {
         R s2 = mul(s, s);
         R c = dv(sub(mul(G.hz, sub(1.0, s2)), mul(mul(2.0, s), G.hb)), add(1.0, s2));
         R t = dv(1.0, add(1.0, mul(G.beta, c)));
-        J2 = add(J2, mul(GW[k], mul(add(t, mul(t, t)), add(Vm, mul(GX[k], dV)))));
+        J2 = add(J2, SA_ARC_W(mul(GW[k], mul(add(t, mul(t, t)), add(Vm, mul(GX[k], dV)))), s));
     }
     J2 = mul(J2, hw);
 #ifdef SA_ARCS
     if (val(g_arc_k) != 0.0) {
         // An arc's chord: ∫ D V (1 - k s) ds with s = y + s0, so J1 takes (1 - k s0) J1 - k ∫ Q1 y V
         // dy, which needs the Q1 part's second moment Y2S = ∫ y^2 (...) dy (y^2 / (y^2 + g^2) =
-        // 1 - g^2 / (y^2 + g^2), and so on), and the Q2 part's nodes are weighted.
+        // 1 - g^2 / (y^2 + g^2), and so on); the Q2 part's nodes are weighted in its loop above.
         R B2 = dv(sub(mul(yh, mul(yh, yh)), mul(yl, mul(yl, yl))), 3.0);
         R Y2S = add(add(add(mul(G.c0, B2), mul(G.c1, sub(B1, mul(g2, K1)))), add(mul(G.c2, K2), mul(G.c3, sub(K1, mul(g2, M1))))),
                     mul(G.c4, M2));
         R JY = add(mul(Vlo, YS), mul(dv(sub(Vhi, Vlo), dy), sub(Y2S, mul(yl, YS))));
         J1 = sub(mul(sub(1.0, mul(g_arc_k, G.s0)), J1), mul(g_arc_k, JY));
-        R J2w = rc(0.0);
-        for (int k = 0; k < 5; ++k) {
-            R s = add(mid, mul(hw, GX[k]));
-            R s2 = mul(s, s);
-            R c = dv(sub(mul(G.hz, sub(1.0, s2)), mul(mul(2.0, s), G.hb)), add(1.0, s2));
-            R t = dv(1.0, add(1.0, mul(G.beta, c)));
-            J2w = add(J2w, mul(mul(GW[k], mul(add(t, mul(t, t)), add(Vm, mul(GX[k], dV)))), sub(1.0, mul(g_arc_k, s))));
-        }
-        J2 = mul(J2w, hw);
     }
 #endif
     return mul(mul(mul(G.alpha, G.alpha), 0.25 / PI), add(J1, J2));
