@@ -76,7 +76,7 @@ void main() {
     // dkappa/d(x0, y0, x1, y1) and dkappa/dbulge (kappa = 2 sin(theta / 2) / len).
     vec4 dk_e = vec4(0.0);
     float dk_b = 0.0;
-    if (bulge != 0.0 && len > 0.0) {
+    if (len > 0.0) {  // at bulge 0 too: a straight scratch of n > 1 chords can bend
         float kap = 2.0 * sin(0.5 * theta) / len;
         vec2 dl = c / len;  // d len / d p1 (and minus it for p0)
         dk_e = -kap / len * vec4(-dl, dl);

@@ -6,10 +6,11 @@ use std::sync::Arc;
 
 use serde_json::{json, Value};
 
-use crate::live::{to_scene, Live, LiveHook};
+use crate::live::{read_design, Live, LiveHook};
 use crate::problem::{DesignConfig, DesignReport, Images, IterRecord, Problem, WallTimes};
 use scratchart_model::scene::Scene;
 use scratchart_observe::Observer;
+use scratchart_optim::arc_params::ArcParams;
 use scratchart_optim::checkpoint::fnv;
 use scratchart_optim::driver::Rollback;
 use scratchart_optim::driver::{Driver, DriverConfig};
@@ -17,7 +18,7 @@ use scratchart_optim::error::OptimError;
 use scratchart_optim::loss::{Loss, LossValues};
 use scratchart_optim::scene_params::SceneParams;
 use scratchart_optim::tool_params::{depths_of_kept, ToolParams};
-use scratchart_render::layout::{ScratchGpu, ViewGpu};
+use scratchart_render::layout::ViewGpu;
 use scratchart_render::{GpuScene, Renderer};
 use scratchart_vulkan::{Context, GpuError};
 
@@ -43,7 +44,10 @@ impl<'r> Optimizer<'r> {
         cfg: &DesignConfig,
     ) -> Result<Optimizer<'r>, GpuError> {
         let ctx = renderer.ctx.clone();
-        let gs = renderer.upload(&problem.scene)?;
+        let gs = match &cfg.arcs {
+            Some(a) => renderer.upload_bendable(&problem.scene, a.chords)?,
+            None => renderer.upload(&problem.scene)?,
+        };
         let tool = match &cfg.tool {
             Some(fab) => {
                 let t = ToolParams::new(&ctx, &cfg.adam, fab, &problem.scene.scratches)?;
@@ -56,7 +60,10 @@ impl<'r> Optimizer<'r> {
         };
         let mut params: Box<dyn scratchart_optim::driver::ParamSet> = match &tool {
             Some(t) => Box::new(t.clone()),
-            None => Box::new(SceneParams::new(&ctx, &cfg.adam)?),
+            None => match &cfg.arcs {
+                Some(a) => Box::new(ArcParams::new(&ctx, &cfg.adam, a)?),
+                None => Box::new(SceneParams::new(&ctx, &cfg.adam)?),
+            },
         };
         if cfg.keep_exposures {
             let lamps: Vec<Vec<usize>> = problem.scene.lamps().into_iter().map(|l| l.views).collect();
@@ -84,6 +91,9 @@ impl<'r> Optimizer<'r> {
         });
         if let Some(fab) = &cfg.tool {
             fingerprint["fabrication"] = fab.fingerprint();
+        }
+        if let Some(a) = &cfg.arcs {
+            fingerprint["arcs"] = json!(format!("{a:?}"));
         }
         let dcfg = DriverConfig {
             iters: cfg.iters,
@@ -163,15 +173,7 @@ impl<'r> Optimizer<'r> {
 
     /// The current design as a scene (parameters and light intensities read back).
     pub fn scene(&self, template: &Scene) -> Result<Scene, GpuError> {
-        let gs = &self.driver.gs;
-        let scr: Vec<ScratchGpu> = self.renderer.ctx.download(gs.scratches())?;
-        let phi: Vec<f32> = gs.lights().read()?;
-        Ok(to_scene(
-            template,
-            &scr[..gs.n_scratches() as usize],
-            &phi,
-            self.cfg.keep_exposures,
-        ))
+        read_design(&self.renderer.ctx, &self.driver.gs, template, self.cfg.keep_exposures)
     }
 
     pub fn history(&self) -> Vec<IterRecord> {
@@ -214,7 +216,7 @@ impl<'r> Optimizer<'r> {
             tool,
             ..
         } = self;
-        let resizable = tool.is_none();
+        let resizable = tool.is_none() && cfg.arcs.is_none();
         // Scheduled events that change the scratches and that the state already holds (a
         // resumed run's checkpoint counts them): recorded, not applied again.
         let mut skip = driver.times_resized();
@@ -257,7 +259,7 @@ impl<'r> Optimizer<'r> {
     /// design added or removed some before it was saved).
     pub fn resume(&mut self) -> Result<(), OptimError> {
         let (n, _) = self.driver.checkpoint_scratches(&self.cfg.out)?;
-        if let Some(n) = n.filter(|&n| n != self.driver.gs.n_scratches()) {
+        if let Some(n) = n.filter(|&n| n != self.driver.gs.n_scene_scratches()) {
             // Any n scratches: the checkpoint's state replaces them.
             let mut scene = self.template.clone();
             let first = scene.scratches.first().copied().ok_or_else(|| {
@@ -324,6 +326,8 @@ pub fn run_design_live(
         })?;
     }
     let renderer = Renderer::new(ctx)?;
+    // A design with arcs renders and judges them at its own chords (summary.json's `arcs`).
+    renderer.set_arc_chords(cfg.arcs.map(|a| a.chords));
     let slots = scratchart_render::layout::view_slots(&problem.scene);
     let loss = Loss::new(ctx, &slots.views, &problem.targets, cfg.loss)?;
     let mut opt = Optimizer::new(&renderer, &loss, problem, cfg)?;
@@ -346,7 +350,9 @@ pub fn run_design_live(
     let rollbacks = opt.rollbacks().to_vec();
     drop(opt);
 
-    let (scene, prune) = if cfg.prune.enabled() {
+    // Pruning judges straight scratches only (scratchart_optim::prune): a design with arcs
+    // keeps all of its scratches.
+    let (scene, prune) = if cfg.prune.enabled() && cfg.arcs.is_none() {
         let (s, st) = scratchart_optim::prune::prune(&renderer, &loss, &unpruned, &cfg.prune, &cfg.adam)?;
         (s, Some(st))
     } else {
@@ -531,6 +537,9 @@ fn write_design_outputs(
         summary["steering_is"] =
             json!("what was changed while the design ran (pictures moved, loss weights, scratches added or removed): `scratchart design [the same flags] --steer summary.json` replays it");
     }
+    if let Some(a) = &cfg.arcs {
+        summary["arcs"] = arcs_summary(a, &report.scene);
+    }
     summary["blank_views"] = json!(cfg.blank_views);
     if cfg.balance {
         summary["balance"] = json!({
@@ -640,5 +649,27 @@ fn machine_summary(
         "off_z_grid": off_grid,
         "shallowest_cut_below_surface_mm": shallowest_cut,
         "shortest_scratch_mm": shortest,
+    })
+}
+
+/// `summary.json`'s `arcs` (`design --arcs`): how many scratches bent and how far.
+fn arcs_summary(a: &scratchart_optim::arc_params::ArcConfig, scene: &Scene) -> Value {
+    let b: Vec<f64> = scene.scratches.iter().map(|s| s.bulge.abs()).collect();
+    let bent = b.iter().filter(|&&x| x > 1e-3).count();
+    let sweep = |x: f64| 4.0 * x.atan().to_degrees();
+    let mut sorted = b.clone();
+    sorted.sort_by(f64::total_cmp);
+    let median = sorted.get(sorted.len() / 2).copied().unwrap_or(0.0);
+    json!({
+        "bent": bent,
+        "scratches": b.len(),
+        "at_max_bulge": b.iter().filter(|&&x| x >= a.max_bulge as f64 - 1e-4).count(),
+        "max_bulge": a.max_bulge,
+        "median_turn_deg": sweep(median),
+        "largest_turn_deg": sweep(sorted.last().copied().unwrap_or(0.0)),
+        "chords_per_arc": a.chords,
+        "judged_at": "every correlation of this design renders each arc as chords_per_arc chords, as the optimizer did (engine/docs/model.md section 11; the accuracy bar's rule needs far more chords for long arcs with sharp lobes)",
+        "pruning": "off: a design with arcs keeps every scratch",
+        "rule": "bulge = tan(included angle / 4), + counter-clockwise from +z (engine/docs/model.md section 11); an arc the optimizer left off the plate or tighter than its groove's width is written with the largest legal bulge of its sense",
     })
 }

@@ -43,15 +43,12 @@ impl Live<'_, '_> {
 
     /// The design as it stands (parameters and light intensities read back).
     pub fn scene(&self) -> Result<Scene, GpuError> {
-        let gs = &self.driver.gs;
-        let scr: Vec<ScratchGpu> = self.renderer.ctx.download(gs.scratches())?;
-        let phi: Vec<f32> = gs.lights().read()?;
-        Ok(to_scene(
+        read_design(
+            &self.renderer.ctx,
+            &self.driver.gs,
             &self.problem.scene,
-            &scr[..gs.n_scratches() as usize],
-            &phi,
             self.keep_exposures,
-        ))
+        )
     }
 
     /// Each view's last render (linear L, the evaluation just accepted).
@@ -79,7 +76,7 @@ impl Live<'_, '_> {
 
     /// The scratches of the design as it stands.
     pub fn n_scratches(&self) -> u32 {
-        self.driver.gs.n_scratches()
+        self.driver.gs.n_scene_scratches()
     }
 
     /// Removes the `n` scratches that matter least now (the pruning's ranking: how far the
@@ -121,7 +118,9 @@ impl Live<'_, '_> {
     fn resize(&mut self, e: &crate::steer::SteerEvent) -> Result<(), OptimError> {
         if !self.resizable {
             return Err(OptimError::Usage(
-                "scratches cannot be added or removed in fabrication mode (--tool): each has a depth of its own".into(),
+                "scratches cannot be added or removed in fabrication mode (--tool: each has a depth of its own) \
+                 or with --arcs (each is laid out as its chords on the device)"
+                    .into(),
             ));
         }
         let have = self.n_scratches();
@@ -258,6 +257,35 @@ impl Live<'_, '_> {
         self.scene()?
             .save(&self.out.join("design.json"), "scratches.csv")
             .map_err(|e| OptimError::Report(e.to_string()))
+    }
+}
+
+/// The design on the device as a scene: its scratches (a scene whose scratches bend: the arcs'
+/// own, each bulge made legal by [`scratchart_model::scene_file::legal_bulge`]) and its lights, with
+/// `template`'s plate and views ([`to_scene`]).
+pub fn read_design(
+    ctx: &std::sync::Arc<scratchart_vulkan::Context>,
+    gs: &scratchart_render::GpuScene,
+    template: &Scene,
+    keep_exposures: bool,
+) -> Result<Scene, GpuError> {
+    let phi: Vec<f32> = gs.lights().read()?;
+    let n = gs.n_scene_scratches() as usize;
+    match gs.arc_params() {
+        Some(arcs) => {
+            let scr: Vec<ScratchGpu> = ctx.download(arcs)?;
+            let mut scene = to_scene(template, &scr[..n], &phi, keep_exposures);
+            let plate = scene.plate.size_mm;
+            for (s, g) in scene.scratches.iter_mut().zip(&scr) {
+                s.bulge = g.shape[3] as f64;
+                s.bulge = scratchart_model::scene_file::legal_bulge(s, plate);
+            }
+            Ok(scene)
+        }
+        None => {
+            let scr: Vec<ScratchGpu> = ctx.download(gs.scratches())?;
+            Ok(to_scene(template, &scr[..n], &phi, keep_exposures))
+        }
     }
 }
 

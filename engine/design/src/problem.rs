@@ -100,6 +100,8 @@ pub struct DesignConfig {
     /// Each view's weight follows its shortfall against its cap (`design --balance`,
     /// [`crate::balance`]).
     pub balance: bool,
+    /// Scratches may bend (`design --arcs`): each bulge is a parameter too.
+    pub arcs: Option<scratchart_optim::arc_params::ArcConfig>,
 }
 
 impl DesignConfig {
@@ -124,6 +126,7 @@ impl DesignConfig {
             started: None,
             steer: Vec::new(),
             balance: false,
+            arcs: None,
         }
     }
 }

@@ -78,6 +78,12 @@ pub trait ParamSet {
     /// `step`: whether it steps (the last iteration only evaluates). A set that draws something
     /// per iteration (a perturbed carving) draws it from `k`, so a resumed run draws the same.
     fn begin_iteration(&self, _k: u32, _step: bool) {}
+    /// Whether the set moves the scratches of a scene with arcs (their own buffer,
+    /// [`GpuScene::arc_params`]); a set that does not is refused on such a scene, since the
+    /// kernels' scratches there are the chords, written again before every render.
+    fn moves_arcs(&self) -> bool {
+        false
+    }
     /// Records the map from the parameters to the scene before the render (nothing when the
     /// parameters are the scene's own buffers).
     fn record_to_scene(&self, _rec: &mut Recorder, _gs: &GpuScene) {}
@@ -226,9 +232,11 @@ impl<'r> Driver<'r> {
         cfg: DriverConfig,
         fingerprint: serde_json::Value,
     ) -> Result<Driver<'r>, GpuError> {
-        gs.refuse_arcs("optimization")?;
+        if !params.moves_arcs() {
+            gs.refuse_arcs("optimization")?;
+        }
         let ctx = renderer.ctx.clone();
-        renderer.prepare_backward()?;
+        renderer.prepare_backward_of(&gs)?;
         let mut blocks = Vec::new();
         for b in params.blocks(&gs) {
             let moments = Moments::zeros(&ctx, b.name, b.len)?;

@@ -13,6 +13,7 @@
 //! - [`check`]: the check loss E_lin of engine/docs/model.md section 8 as an objective on the GPU, and the
 //!   gradients of any objective in one submission.
 //! - [`scene_params`]: the design's parameter set (scratches and lights) and its projection.
+//! - [`arc_params`]: the same where scratches may bend (`design --arcs`): the bulge too.
 //! - [`tool_params`]: fabrication mode's parameter set: one carve depth per scratch through a
 //!   calibrated tool's curve.
 //! - [`light_tie`]: views that share a lamp share its intensity (a parameter-set wrapper).
@@ -23,6 +24,7 @@
 //! read from the GPU, so a run is bit-reproducible on one device, and a resumed run equals an
 //! uninterrupted one bit for bit.
 pub mod adam;
+pub mod arc_params;
 pub mod check;
 pub mod checkpoint;
 pub mod driver;

@@ -49,6 +49,10 @@ impl ParamSet for TiedLights {
         self.inner.begin_iteration(k, step)
     }
 
+    fn moves_arcs(&self) -> bool {
+        self.inner.moves_arcs()
+    }
+
     fn record_to_scene(&self, rec: &mut Recorder, gs: &GpuScene) {
         self.inner.record_to_scene(rec, gs)
     }

@@ -68,17 +68,31 @@ impl SceneParams {
     /// Records the projection of the scratches after a step; `before` holds them as they were
     /// before it, `flags` Adam's flags (a refused step is not projected).
     pub fn record_projection(&self, rec: &mut Recorder, gs: &GpuScene, before: &Buffer, flags: &Buffer) {
+        self.record_projection_of(rec, gs.scratches(), gs.n_scratches(), gs.half_plate(), before, flags);
+    }
+
+    /// [`record_projection`](Self::record_projection) of `n` scratches in `scratches` (one
+    /// `ScratchGpu` each) on a plate of half size `half_plate`.
+    pub fn record_projection_of(
+        &self,
+        rec: &mut Recorder,
+        scratches: &Buffer,
+        n: u32,
+        half_plate: f32,
+        before: &Buffer,
+        flags: &Buffer,
+    ) {
         let push = ProjectPush {
-            n_scratches: gs.n_scratches(),
-            half_plate: gs.half_plate(),
+            n_scratches: n,
+            half_plate,
             min_len: self.cfg.min_len,
             pad0: 0,
         };
         rec.dispatch_1d(
             &self.project,
-            &[gs.scratches(), before, flags],
+            &[scratches, before, flags],
             bytemuck::bytes_of(&push),
-            gs.n_scratches().div_ceil(256),
+            n.div_ceil(256),
         );
         rec.barrier();
     }

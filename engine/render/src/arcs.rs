@@ -65,3 +65,28 @@ pub fn expand(scratches: &[Scratch]) -> Result<Vec<Scratch>, GpuError> {
 pub fn any_arc(scratches: &[Scratch]) -> bool {
     scratches.iter().any(Scratch::is_arc)
 }
+
+/// The kernels' scratches of a scene whose every scratch may bend (`design --arcs`): each as `n`
+/// chords, a straight one cut into `n` equal pieces (the arc map writes them again from the
+/// scratches before every render). More than [`MAX_CHORDS_PER_ARC`] is refused.
+pub fn expand_bendable(scratches: &[Scratch], n: usize) -> Result<Vec<Scratch>, GpuError> {
+    if n == 0 || n > MAX_CHORDS_PER_ARC {
+        return Err(GpuError::Capacity(format!(
+            "{n} chords per scratch: the renderer takes 1 to {MAX_CHORDS_PER_ARC} (engine/render/src/arcs.rs)"
+        )));
+    }
+    let mut out = Vec::with_capacity(scratches.len() * n);
+    for s in scratches {
+        if s.is_arc() {
+            out.extend(s.chords(n));
+            continue;
+        }
+        let at = |t: f64| [s.p0[0] + t * (s.p1[0] - s.p0[0]), s.p0[1] + t * (s.p1[1] - s.p0[1])];
+        out.extend((0..n).map(|k| Scratch {
+            p0: at(k as f64 / n as f64),
+            p1: at((k + 1) as f64 / n as f64),
+            ..*s
+        }));
+    }
+    Ok(out)
+}

@@ -115,8 +115,8 @@ impl Renderer {
                 let n = layout.scratches.len();
                 let bulges = g[..n]
                     .iter()
-                    .zip(&layout.scratches)
-                    .map(|(r, s)| if s.is_arc() { r[7] } else { f32::NAN })
+                    .zip(&layout.chords)
+                    .map(|(r, &c)| if c > 1 { r[7] } else { f32::NAN })
                     .collect();
                 (
                     g[..n]

@@ -86,6 +86,8 @@ pub struct Renderer {
     /// The backward for scenes with arcs: the dual-number kernel with `SA_ARCS` (the chords'
     /// weights and dE/dkappa), compiled by the first `gradients` of one.
     grad_arcs: std::sync::OnceLock<ComputePipeline>,
+    /// Chords per arc of every upload ([`Renderer::set_arc_chords`]); 0: the accuracy bar's rule.
+    arc_chords: std::sync::atomic::AtomicU32,
 }
 
 /// Compute shared memory the shading kernels need (lavapipe and desktop GPUs have 32 KiB or more).
@@ -205,6 +207,7 @@ impl Renderer {
             tangent: std::sync::OnceLock::new(),
             forward_arcs: std::sync::OnceLock::new(),
             grad_arcs: std::sync::OnceLock::new(),
+            arc_chords: std::sync::atomic::AtomicU32::new(0),
         })
     }
 
@@ -234,7 +237,34 @@ impl Renderer {
     /// device's storage-buffer limit.
     pub fn upload(&self, scene: &Scene) -> Result<GpuScene, GpuError> {
         self.prepare_arcs(scene)?;
-        GpuScene::new(&self.ctx, scene)
+        GpuScene::new_in(&self.ctx, scene, &[], self.arc_chords())
+    }
+
+    /// Every later upload of this renderer renders each arc as `n` chords (equal angles) instead
+    /// of the accuracy bar's rule ([`arcs::chord_count`]; None restores it): for a job that
+    /// renders arcs many times and states the layout it judged them at (`design --arcs`;
+    /// engine/docs/model.md section 11 measures what the count costs in accuracy).
+    pub fn set_arc_chords(&self, n: Option<u32>) {
+        let n = n.map_or(0, |n| n.clamp(1, arcs::MAX_CHORDS_PER_ARC as u32));
+        self.arc_chords.store(n, std::sync::atomic::Ordering::Relaxed);
+    }
+
+    /// The chords per arc of this renderer's uploads (None: the accuracy bar's rule).
+    pub fn arc_chords(&self) -> Option<u32> {
+        match self.arc_chords.load(std::sync::atomic::Ordering::Relaxed) {
+            0 => None,
+            n => Some(n),
+        }
+    }
+
+    /// [`Renderer::upload`] of a scene whose every scratch may bend (`design --arcs`): each is
+    /// uploaded as `chords` chords whatever its bulge, straight ones too, so an optimizer moves
+    /// the bulges in [`GpuScene::arc_params`] without a new upload. The chords follow the arcs on
+    /// the device at every render; how close `chords` renders an arc is the caller's choice
+    /// (engine/docs/model.md section 11: [`arcs::chord_count`] is the accuracy bar's).
+    pub fn upload_bendable(&self, scene: &Scene, chords: u32) -> Result<GpuScene, GpuError> {
+        self.prepare_arc_forward()?;
+        GpuScene::new_bendable(&self.ctx, scene, chords)
     }
 
     /// [`prepare_backward`](Self::prepare_backward) for scene `gs`: with arcs, the backward that
@@ -286,7 +316,15 @@ impl Renderer {
     /// Compiles the forward kernel's arc build if `scene` has arcs and it is not compiled yet.
     /// Arcs need the closed-form integrator (the one that weighs chords).
     fn prepare_arcs(&self, scene: &Scene) -> Result<(), GpuError> {
-        if self.forward_arcs.get().is_some() || !arcs::any_arc(&scene.scratches) {
+        if !arcs::any_arc(&scene.scratches) {
+            return Ok(());
+        }
+        self.prepare_arc_forward()
+    }
+
+    /// Compiles the forward kernel's arc build if it is not compiled yet.
+    fn prepare_arc_forward(&self) -> Result<(), GpuError> {
+        if self.forward_arcs.get().is_some() {
             return Ok(());
         }
         if self.kernels.forward.integrator != kernels::Integrator::ClosedForm {
@@ -307,7 +345,7 @@ impl Renderer {
     /// image's render, bit for bit.
     pub fn upload_windowed(&self, scene: &Scene, windows: &[Option<layout::TileWindow>]) -> Result<GpuScene, GpuError> {
         self.prepare_arcs(scene)?;
-        GpuScene::new_in(&self.ctx, scene, windows)
+        GpuScene::new_in(&self.ctx, scene, windows, self.arc_chords())
     }
 
     /// Records binning of `gs` into `rec`, in its [`BinMode`].

@@ -180,31 +180,32 @@ const STAT_STORE_NEEDED: usize = 13;
 const STAT_STORE_FLAGS: usize = 14;
 
 pub(crate) mod arcs;
-use arcs::arcs_named;
 mod store;
 mod update;
 
 impl GpuScene {
-    /// Uploads a (validated) scene. Fails with a clear error when a buffer would exceed the
-    /// device's storage-buffer limit.
-    pub(super) fn new(ctx: &std::sync::Arc<Context>, scene: &Scene) -> Result<GpuScene, GpuError> {
-        GpuScene::new_in(ctx, scene, &[])
-    }
-
-    /// [`GpuScene::new`] whose renders compute only each view's window (`windows[v]`; None or
-    /// past the end: the whole image): see [`layout::TileWindow`].
+    /// Uploads a (validated) scene whose renders compute only each view's window (`windows[v]`; None or
+    /// past the end: the whole image): see [`layout::TileWindow`]. Arcs as `arc_chords` chords
+    /// each (None: the accuracy bar's rule, [`crate::arcs::chord_count`]).
     pub(super) fn new_in(
         ctx: &std::sync::Arc<Context>,
         scene: &Scene,
         windows: &[Option<layout::TileWindow>],
+        arc_chords: Option<u32>,
     ) -> Result<GpuScene, GpuError> {
         if crate::arcs::any_arc(&scene.scratches) {
             let mut chords = scene.clone();
-            chords.scratches = crate::arcs::expand(&scene.scratches)?;
-            let mut gs = GpuScene::new_kernel_scene(ctx, &chords, windows)
-                .map_err(|e| arcs_named(e, scene.scratches.len(), chords.scratches.len()))?;
-            gs.arcs = Some(arcs::ArcLayout::new(ctx, &scene.scratches)?);
-            return Ok(gs);
+            let mode = match arc_chords {
+                Some(n) => {
+                    chords.scratches = scene.scratches.iter().flat_map(|s| s.chords(n as usize)).collect();
+                    arcs::ChordMode::PerArc(n)
+                }
+                None => {
+                    chords.scratches = crate::arcs::expand(&scene.scratches)?;
+                    arcs::ChordMode::Rule
+                }
+            };
+            return GpuScene::new_arcs(ctx, scene, chords, mode, windows);
         }
         GpuScene::new_kernel_scene(ctx, scene, windows)
     }

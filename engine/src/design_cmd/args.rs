@@ -212,6 +212,18 @@ pub struct DesignArgs {
     /// Weigh every view alike in the loss (the loss before --balance became the default)
     #[arg(long)]
     pub no_balance: bool,
+    /// Let scratches bend: each scratch's bulge (an arc through its two ends, DXF's convention)
+    /// is optimized with its ends, from straight; the design writes a `bulge` column and the
+    /// plan carves G2/G3 arcs (engine/docs/model.md section 11). No pruning; not with --tool
+    #[arg(long)]
+    pub arcs: bool,
+    /// --arcs: chords each scratch is rendered as while the design runs (the written design is
+    /// judged at the accuracy bar's own count)
+    #[arg(long, default_value_t = 8, value_name = "N")]
+    pub arc_chords: u32,
+    /// --arcs: the largest |bulge| (0.5: a 106 degree arc; at most 2.4142, 270 degrees)
+    #[arg(long, default_value_t = 0.5, value_name = "B")]
+    pub max_bulge: f64,
     /// Standard deviation of the loss's 3x3 Gaussian blur, pixels
     #[arg(long, default_value_t = 1.0)]
     pub blur_sigma: f32,
@@ -387,6 +399,8 @@ impl DesignArgs {
             lambda_p: self.lambda_p,
             lambda_g: self.lambda_g,
             balance: !self.no_balance,
+            arcs: self.arcs.then_some(self.arc_chords),
+            max_bulge: self.max_bulge,
             blur_sigma: self.blur_sigma,
             out: self.out.clone(),
             checkpoint_every: self.checkpoint_every,

@@ -117,6 +117,11 @@ pub struct DesignSpec {
     pub lambda_g: f32,
     /// Each view's weight follows its shortfall against its cap ([`crate::balance`]).
     pub balance: bool,
+    /// `--arcs`: scratches may bend, rendered as this many chords each while the design runs
+    /// (None: straight scratches).
+    pub arcs: Option<u32>,
+    /// `--max-bulge`: the largest |bulge| of a design with arcs.
+    pub max_bulge: f64,
     pub blur_sigma: f32,
     pub out: PathBuf,
     pub checkpoint_every: u32,
@@ -222,6 +227,8 @@ impl Default for DesignSpec {
             lambda_p: 1.0,
             lambda_g: 0.01,
             balance: true,
+            arcs: None,
+            max_bulge: 0.5,
             blur_sigma: 1.0,
             out: PathBuf::from("out"),
             checkpoint_every: 50,
@@ -305,6 +312,11 @@ pub fn config(spec: &DesignSpec) -> DesignConfig {
     cfg.calibrate_lights = spec.view_file.is_none();
     cfg.blank_views = spec.blank_view.clone();
     cfg.balance = spec.balance;
+    cfg.arcs = spec.arcs.map(|chords| scratchart_optim::arc_params::ArcConfig {
+        chords,
+        max_bulge: spec.max_bulge as f32,
+        ..Default::default()
+    });
     cfg.keep_exposures = spec.exposure == Exposure::Fixed;
     cfg.hooks = Hooks {
         nan_grad_at: spec.inject_nan_grad_at,
@@ -332,6 +344,23 @@ pub fn prepare(
         ensure_flag!(
             !given || machine_given,
             "{flag} needs the machine: --machine grbl|marlin or --machine-file machine.json (with --tool)"
+        );
+    }
+    if let Some(n) = spec.arcs {
+        ensure_flag!(
+            (1..=64).contains(&n),
+            "--arc-chords {n}: a design renders each scratch as 1 to 64 chords while it runs"
+        );
+        ensure_flag!(
+            spec.max_bulge > 0.0 && spec.max_bulge <= scratchart_model::arc::MAX_BULGE,
+            "--max-bulge {}: must lie in (0, {:.4}] (an arc of at most 270 degrees)",
+            spec.max_bulge,
+            scratchart_model::arc::MAX_BULGE
+        );
+        ensure_flag!(
+            spec.tool.is_none(),
+            "--arcs with --tool is not available yet: fabrication mode moves one depth per straight scratch; \
+             design with --arcs alone, or with --tool alone"
         );
     }
     ensure_flag!(

@@ -19,4 +19,4 @@ mod write;
 
 pub use csv::{read_scratches_csv, read_scratches_csv_lines, read_scratches_csv_table, Extra};
 pub use read::unknown_key_warnings;
-pub use validate::camera_sees_plate;
+pub use validate::{camera_sees_plate, legal_bulge};

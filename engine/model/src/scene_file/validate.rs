@@ -54,6 +54,33 @@ pub(super) fn check_scratch(s: &Scratch, plate_size: f64) -> Result<(), String> 
     check_arc(s, plate_size)
 }
 
+/// The bulge of `s` if it is a legal arc on a plate of side `plate_size` (finite, at most
+/// [`crate::arc::MAX_BULGE`], a radius no less than w, the whole arc on the plate); otherwise the largest
+/// |bulge| of the same sign that is (bisection to 1e-6 of the bulge; 0, straight, is always
+/// legal where the endpoints are on the plate). What an optimizer that moved bulges writes.
+pub fn legal_bulge(s: &Scratch, plate_size: f64) -> f64 {
+    let with = |b: f64| Scratch { bulge: b, ..*s };
+    if !s.bulge.is_finite() {
+        return 0.0;
+    }
+    if check_arc(s, plate_size).is_ok() {
+        return s.bulge;
+    }
+    let (mut lo, mut hi) = (0.0f64, s.bulge.abs().min(crate::arc::MAX_BULGE));
+    if check_arc(&with(hi.copysign(s.bulge)), plate_size).is_ok() {
+        return hi.copysign(s.bulge);
+    }
+    while hi - lo > 1e-6 * hi.max(1e-3) {
+        let mid = 0.5 * (lo + hi);
+        if check_arc(&with(mid.copysign(s.bulge)), plate_size).is_ok() {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    lo.copysign(s.bulge)
+}
+
 /// An arc's bulge (crate::arc): finite, at most MAX_BULGE, a radius no less than the groove's
 /// width, and the whole arc on the plate.
 fn check_arc(s: &Scratch, plate_size: f64) -> Result<(), String> {

@@ -15,6 +15,40 @@ pub(crate) struct ArcLayout {
     pub(crate) chord_of: Buffer,
     pub(crate) arc_chords: Buffer,
     pub(crate) grad: Buffer,
+    /// How many chords each scratch is laid out as.
+    pub(crate) mode: ChordMode,
+}
+
+/// How a scene's scratches are laid out as chords.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) enum ChordMode {
+    /// The accuracy bar's rule ([`crate::arcs::chord_count`]).
+    Rule,
+    /// Each arc as n chords, straight scratches as one ([`crate::Renderer::set_arc_chords`]).
+    PerArc(u32),
+    /// Every scratch as n chords whatever its bulge (a scene whose bulges an optimizer moves:
+    /// [`GpuScene::new_bendable`]).
+    All(u32),
+}
+
+impl ChordMode {
+    /// The chords of each scratch.
+    pub(crate) fn counts(self, scratches: &[crate::model::scene::Scratch]) -> Vec<u32> {
+        scratches
+            .iter()
+            .map(|s| match self {
+                ChordMode::Rule => crate::arcs::chord_count(s) as u32,
+                ChordMode::PerArc(n) => {
+                    if s.is_arc() {
+                        n
+                    } else {
+                        1
+                    }
+                }
+                ChordMode::All(n) => n,
+            })
+            .collect()
+    }
 }
 
 /// The scratches as the arc map reads them: ScratchGpu with shape.w = bulge.
@@ -33,8 +67,9 @@ impl ArcLayout {
     pub(crate) fn new(
         ctx: &std::sync::Arc<Context>,
         scratches: &[crate::model::scene::Scratch],
+        mode: ChordMode,
     ) -> Result<ArcLayout, GpuError> {
-        let chords: Vec<u32> = scratches.iter().map(|s| crate::arcs::chord_count(s) as u32).collect();
+        let chords = mode.counts(scratches);
         let mut chord_of = Vec::new();
         let mut arc_chords = Vec::with_capacity(chords.len());
         for (a, &n) in chords.iter().enumerate() {
@@ -53,6 +88,7 @@ impl ArcLayout {
                 MemLoc::GpuOnly,
             )?,
             chords,
+            mode,
         })
     }
 
@@ -62,11 +98,7 @@ impl ArcLayout {
         ctx: &std::sync::Arc<Context>,
         scratches: &[crate::model::scene::Scratch],
     ) -> Result<bool, GpuError> {
-        let same = scratches.len() == self.chords.len()
-            && scratches
-                .iter()
-                .zip(&self.chords)
-                .all(|(s, &n)| crate::arcs::chord_count(s) as u32 == n);
+        let same = scratches.len() == self.chords.len() && self.mode.counts(scratches) == self.chords;
         if !same {
             return Ok(false);
         }
@@ -84,7 +116,7 @@ impl ArcLayout {
     /// y1, w, d, alpha, kappa)): each chord's endpoints and curvature are functions of its arc's
     /// ends and bulge (`scratchart_model::arc::point_and_jacobian`, `chord_weight_and_gradient`;
     /// the weight's dependence on w is in the chord's own dE/dw). Returns dE/d(x0, y0, x1, y1, w,
-    /// d, alpha) per scratch and dE/dbulge (NaN for a straight scratch: one chord cannot bend).
+    /// d, alpha) per scratch and dE/dbulge (NaN for a scratch of one chord: it cannot bend).
     pub fn chain(&self, g: &[[f32; 8]]) -> (Vec<[f32; 7]>, Vec<f32>) {
         use crate::model::arc::{chord_weight_and_gradient, point_and_jacobian};
         let mut out = Vec::with_capacity(self.scratches.len());
@@ -93,7 +125,7 @@ impl ArcLayout {
         for (s, &n) in self.scratches.iter().zip(&self.chords) {
             let n = n as usize;
             let mut acc = [0.0f64; 8]; // x0, y0, x1, y1, w, d, alpha, bulge
-            let dkappa = if s.is_arc() {
+            let dkappa = if n > 1 {
                 let (_, dk) = chord_weight_and_gradient(s.p0, s.p1, s.w, s.bulge);
                 // kappa = 2 k / w: no w in it.
                 [dk[0], dk[1], dk[2], dk[3], 0.0, dk[5]].map(|d| 2.0 * d / s.w)
@@ -118,13 +150,36 @@ impl ArcLayout {
             }
             at += n;
             out.push([acc[0], acc[1], acc[2], acc[3], acc[4], acc[5], acc[6]].map(|x| x as f32));
-            bulges.push(if s.is_arc() { acc[7] as f32 } else { f32::NAN });
+            bulges.push(if n > 1 { acc[7] as f32 } else { f32::NAN });
         }
         (out, bulges)
     }
 }
 
 impl GpuScene {
+    /// A scene whose every scratch may bend (`design --arcs`): each is uploaded as `n` chords
+    /// whatever its bulge (straight ones too), so an optimizer can move every bulge without a new
+    /// upload (`crate::arcs::expand_bendable`).
+    pub(crate) fn new_bendable(ctx: &std::sync::Arc<Context>, scene: &Scene, n: u32) -> Result<GpuScene, GpuError> {
+        let mut chords = scene.clone();
+        chords.scratches = crate::arcs::expand_bendable(&scene.scratches, n as usize)?;
+        GpuScene::new_arcs(ctx, scene, chords, arcs::ChordMode::All(n), &[])
+    }
+
+    /// The kernels' scene of `chords` with the arc layout of `scene`'s scratches.
+    pub(super) fn new_arcs(
+        ctx: &std::sync::Arc<Context>,
+        scene: &Scene,
+        chords: Scene,
+        mode: arcs::ChordMode,
+        windows: &[Option<layout::TileWindow>],
+    ) -> Result<GpuScene, GpuError> {
+        let mut gs = GpuScene::new_kernel_scene(ctx, &chords, windows)
+            .map_err(|e| arcs_named(e, scene.scratches.len(), chords.scratches.len()))?;
+        gs.arcs = Some(arcs::ArcLayout::new(ctx, &scene.scratches, mode)?);
+        Ok(gs)
+    }
+
     /// The layout of a scene with arcs (None for straight scratches only).
     pub(crate) fn arc_layout(&self) -> Option<&ArcLayout> {
         self.arcs.as_ref()
@@ -135,6 +190,23 @@ impl GpuScene {
     #[doc(hidden)]
     pub fn arc_chain_on_host(&self, g: &[[f32; 8]]) -> Option<(Vec<[f32; 7]>, Vec<f32>)> {
         self.arcs.as_ref().map(|a| a.chain(g))
+    }
+
+    /// The scratches of a scene with arcs as the arc map reads them (one [`ScratchGpu`] each,
+    /// shape.w = bulge): what an optimizer of arcs moves. None without arcs.
+    pub fn arc_params(&self) -> Option<&Buffer> {
+        self.arcs.as_ref().map(|a| &a.params)
+    }
+
+    /// Per scratch of a scene with arcs: dE/d(x0, y0, x1, y1, w, d, alpha, bulge) after a
+    /// backward (8 f32). None without arcs.
+    pub fn arc_grad(&self) -> Option<&Buffer> {
+        self.arcs.as_ref().map(|a| &a.grad)
+    }
+
+    /// The scene's own scratches (an arc counted once; `n_scratches` counts the kernels' chords).
+    pub fn n_scene_scratches(&self) -> u32 {
+        self.arcs.as_ref().map_or(self.n_scratches, |a| a.chords.len() as u32)
     }
 
     /// Whether the scene's scratches include arcs (uploaded as chords: the kernels' scratches,

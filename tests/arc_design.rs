@@ -1,0 +1,156 @@
+//! Designs whose scratches bend (`design --arcs`, engine/docs/model.md section 11): every
+//! scratch uploaded as a fixed number of chords that follow its bulge on the device
+//! (`Renderer::upload_bendable`), so a straight scratch can start to bend; the gradient of its
+//! bulge at 0 against central differences of the float64 reference's exact arcs; and the design
+//! job end to end: the bulges move, and the written design holds legal arcs that load again.
+use scratchart_model::scene::Scene;
+use scratchart_tests::*;
+
+/// dE/dbulge of straight scratches (bulge 0, each laid out as n chords) and the rest of their
+/// gradients, against central differences of the reference (whose bulge +-h is an exact arc):
+/// within the bar at 64 chords; at a design's 8 the chords' own shape is measured (the bulge's
+/// error falls about as 1/n: 4.4e-2 at 8, 1.3e-2 at 32 chords).
+#[test]
+fn straight_scratches_laid_out_to_bend_have_bulge_gradients() {
+    let views = vec![
+        orbit_view("a", 24, 45.0, 0.0, 45.0, 180.0, 20.0),
+        orbit_view("b", 24, 60.0, 120.0, 40.0, 300.0, 20.0),
+    ];
+    let scene = random_scene(21, 12, 20.0, 0.4, 0.3, 0.2, views);
+    assert!(scene.scratches.iter().all(|s| !s.is_arc()));
+    // Targets: the reference render of the scene bent a little, either way.
+    let mut moved = scene.clone();
+    for (k, s) in moved.scratches.iter_mut().enumerate() {
+        s.bulge = if k % 2 == 0 { 0.15 } else { -0.1 };
+        s.bulge = scratchart_model::scene_file::legal_bulge(s, scene.plate.size_mm);
+    }
+    assert!(moved.scratches.iter().filter(|s| s.is_arc()).count() >= 8);
+    let t: Vec<Vec<f64>> = (0..2)
+        .map(|v| scratchart_model::reference::render_view(&moved, v))
+        .collect();
+    let ctx = gpu();
+    let r = scratchart_render::Renderer::new(&ctx).unwrap();
+    for (nch, bar) in [(64u32, 1e-2), (8, 0.1)] {
+        let mut gs = r.upload_bendable(&scene, nch).unwrap();
+        assert!(gs.has_arcs());
+        assert_eq!(gs.n_scratches(), nch * 12);
+        assert_eq!(gs.n_scene_scratches(), 12);
+        // Rendered as 8 collinear chords each, the scene is the straight one.
+        let first = r.render(&mut gs).unwrap().images;
+        let mut plain = r.upload(&scene).unwrap();
+        let straight = r.render(&mut plain).unwrap().images;
+        for (a, b) in first.iter().zip(&straight) {
+            let worst = a.iter().zip(b).map(|(x, y)| (x - y).abs()).fold(0.0f32, f32::max);
+            let top = b.iter().fold(1e-6f32, |m, x| m.max(*x));
+            assert!(
+                worst <= 1e-3 * top,
+                "chords of a straight scratch render it: off by {worst} of {top}"
+            );
+        }
+        let (_, g) = r.gradients(&mut gs, &dl_of(&scene, &first, &t)).unwrap();
+        let chords: Vec<[f32; 8]> = ctx.download(gs.scratch_grad()).unwrap();
+        let (_, host_bulges) = gs.arc_chain_on_host(&chords[..gs.n_scratches() as usize]).unwrap();
+        let e = |s: &Scene| scratchart_model::reference::check_loss(s, &t);
+        let (mut gpu_b, mut ref_b, mut gpu_e, mut ref_e) = (vec![], vec![], vec![], vec![]);
+        for k in 0..scene.scratches.len() {
+            let at = |p: usize, delta: f64| {
+                let mut sc = scene.clone();
+                let x = &mut sc.scratches[k];
+                match p {
+                    0 => x.p0[0] += delta,
+                    1 => x.p1[1] += delta,
+                    _ => x.bulge += delta,
+                }
+                e(&sc)
+            };
+            let h = 1e-5;
+            let (gb, hb) = (g.bulges[k], host_bulges[k]);
+            assert!(
+                gb.is_finite() && (gb - hb).abs() <= 1e-3 * hb.abs().max(1e-6),
+                "scratch {k}: device {gb} host {hb}"
+            );
+            gpu_b.push(gb as f64);
+            ref_b.push((at(2, h) - at(2, -h)) / (2.0 * h));
+            for (p, q) in [(0, 0), (1, 3)] {
+                gpu_e.push(g.scratches[k][q] as f64);
+                ref_e.push((at(p, h) - at(p, -h)) / (2.0 * h));
+            }
+        }
+        for (name, a, b) in [("bulge", &gpu_b, &ref_b), ("endpoints", &gpu_e, &ref_e)] {
+            let err = rel(a, b);
+            let norm: f64 = b.iter().map(|x| x * x).sum::<f64>().sqrt();
+            eprintln!("bendable, {nch} chords: {name}: relative gradient error {err:.3e} (|g_ref| = {norm:.3e})");
+            assert!(norm > 0.0, "zero reference gradient for {name}");
+            assert!(
+                err <= bar,
+                "{nch} chords: {name} gradient off by {err:.3e}: gpu {a:?} vs reference {b:?}"
+            );
+        }
+    }
+    assert_no_validation(&ctx);
+}
+
+/// `design --arcs` from straight scratches: the bulges move, the design written holds legal arcs
+/// (on the plate, radii at least the groove's width) that load again, with the `bulge` column,
+/// and the flags' mistakes are refused with exit 2.
+#[test]
+fn a_design_with_arcs_bends_its_scratches() {
+    let dir = std::env::temp_dir().join(format!("scratchart_arc_design_{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let out = dir.join("d");
+    let out_s = out.to_str().unwrap();
+    let args = [
+        "design",
+        "--arcs",
+        "--views",
+        "2",
+        "--scratches",
+        "400",
+        "--iters",
+        "30",
+        "--res",
+        "48",
+        "--out",
+        out_s,
+    ];
+    let o = run_scratchart(&args);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let scene = Scene::load(&out.join("design.json")).unwrap();
+    assert_eq!(scene.scratches.len(), 400, "a design with arcs is not pruned");
+    let bent = scene.scratches.iter().filter(|s| s.bulge.abs() > 1e-3).count();
+    assert!(bent >= 100, "only {bent} of 400 scratches bent");
+    assert!(scene.scratches.iter().all(|s| s.bulge.abs() <= 0.5 + 1e-6));
+    let csv = std::fs::read_to_string(out.join("scratches.csv")).unwrap();
+    assert!(csv.lines().next().unwrap().contains("bulge"), "{}", &csv[..200]);
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    assert!(
+        summary["arcs"]["bent"].as_u64().unwrap() as usize == bent,
+        "{}",
+        summary["arcs"]
+    );
+    for (flags, says) in [
+        (vec!["--arcs", "--arc-chords", "0"], "--arc-chords"),
+        (vec!["--arcs", "--max-bulge", "3"], "--max-bulge"),
+    ] {
+        let mut a = vec![
+            "design",
+            "--views",
+            "2",
+            "--scratches",
+            "50",
+            "--iters",
+            "2",
+            "--res",
+            "32",
+            "--out",
+            out_s,
+        ];
+        a.extend(flags);
+        let o = run_scratchart(&a);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{err}");
+        assert!(err.contains(says), "{err}");
+    }
+}
