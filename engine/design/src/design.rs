@@ -326,7 +326,7 @@ pub fn run_design_live(
         })?;
     }
     let renderer = Renderer::new(ctx)?;
-    // A design with arcs renders and judges them at its own chords (summary.json's `arcs`).
+    // A design with arcs renders them at its own chords while it runs (summary.json's `arcs`).
     renderer.set_arc_chords(cfg.arcs.map(|a| a.chords));
     let slots = scratchart_render::layout::view_slots(&problem.scene);
     let loss = Loss::new(ctx, &slots.views, &problem.targets, cfg.loss)?;
@@ -350,6 +350,9 @@ pub fn run_design_live(
     let rollbacks = opt.rollbacks().to_vec();
     drop(opt);
 
+    // ... and is judged at four times as many (at least 32), where renders of designs with arcs
+    // agree with 128 chords within 0.002 of correlation (engine/docs/model.md section 11).
+    renderer.set_arc_chords(cfg.arcs.map(|a| a.judged_chords()));
     // Pruning judges straight scratches only (scratchart_optim::prune): a design with arcs
     // keeps all of its scratches.
     let (scene, prune) = if cfg.prune.enabled() && cfg.arcs.is_none() {
@@ -668,7 +671,8 @@ fn arcs_summary(a: &scratchart_optim::arc_params::ArcConfig, scene: &Scene) -> V
         "median_turn_deg": sweep(median),
         "largest_turn_deg": sweep(sorted.last().copied().unwrap_or(0.0)),
         "chords_per_arc": a.chords,
-        "judged_at": "every correlation of this design renders each arc as chords_per_arc chords, as the optimizer did (engine/docs/model.md section 11; the accuracy bar's rule needs far more chords for long arcs with sharp lobes)",
+        "judged_chords_per_arc": a.judged_chords(),
+        "judged_at": "the optimizer renders each arc as chords_per_arc chords; the final loss, every correlation of this summary, the set-up sheet and the walk's probes render it as judged_chords_per_arc (engine/docs/model.md section 11: the accuracy bar's own rule needs far more chords for long arcs with sharp lobes)",
         "pruning": "off: a design with arcs keeps every scratch",
         "rule": "bulge = tan(included angle / 4), + counter-clockwise from +z (engine/docs/model.md section 11); an arc the optimizer left off the plate or tighter than its groove's width is written with the largest legal bulge of its sense",
     })
