@@ -154,3 +154,51 @@ fn a_design_with_arcs_bends_its_scratches() {
         assert!(err.contains(says), "{err}");
     }
 }
+
+/// The whole chain with arcs: `design --arcs --tool --machine grbl` bends scratches and writes
+/// each one's commanded depth beside its bulge, and `scratchart-cal plan` carves the bent ones
+/// as G2/G3 arcs through their ends (the real firmware carving arcs is tests in
+/// engine/machine/tests/grbl_sim.rs).
+#[test]
+fn a_design_with_arcs_for_a_tool_plans_arcs() {
+    let dir = std::env::temp_dir().join(format!("scratchart_arc_tool_{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let tool = write_file(&dir, "tool.json", V60_TOOL_JSON);
+    let out = dir.join("d");
+    let out_s = out.to_str().unwrap();
+    let mut args = tool_design_args(&tool, out_s);
+    for a in args.iter_mut() {
+        if *a == "3" {
+            *a = "25"; // iterations
+        }
+    }
+    args.extend(["--arcs", "--machine", "grbl"]);
+    let o = run_scratchart(&args);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let csv = std::fs::read_to_string(out.join("scratches.csv")).unwrap();
+    let head = csv.lines().next().unwrap();
+    assert!(head.contains("bulge") && head.contains("z_mm"), "{head}");
+    let scene = Scene::load(&out.join("design.json")).unwrap();
+    let bent = scene.scratches.iter().filter(|s| s.bulge.abs() > 1e-3).count();
+    assert!(bent >= 20, "only {bent} of {} scratches bent", scene.scratches.len());
+    let cal = workspace_bin("scratchart-calibration", "scratchart-cal");
+    let o = std::process::Command::new(&cal)
+        .args([
+            "plan",
+            out.join("design.json").to_str().unwrap(),
+            "--tool",
+            &tool,
+            "--out",
+        ])
+        .arg(dir.join("job.nc"))
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let nc = std::fs::read_to_string(dir.join("job.nc")).unwrap();
+    let arcs = nc
+        .lines()
+        .filter(|l| (l.starts_with("G2 ") || l.starts_with("G3 ")) && l.contains(" I") && l.contains(" J"))
+        .count();
+    assert!(arcs >= bent.min(20), "{arcs} G2/G3 moves for {bent} bent scratches");
+}

@@ -50,7 +50,10 @@ impl<'r> Optimizer<'r> {
         };
         let tool = match &cfg.tool {
             Some(fab) => {
-                let t = ToolParams::new(&ctx, &cfg.adam, fab, &problem.scene.scratches)?;
+                let mut t = ToolParams::new(&ctx, &cfg.adam, fab, &problem.scene.scratches)?;
+                if let Some(a) = cfg.arcs {
+                    t = t.with_arcs(a);
+                }
                 Some(Arc::new(match fab.robust {
                     Some(r) => t.with_robust(&ctx, r)?,
                     None => t,

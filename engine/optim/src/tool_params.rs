@@ -282,6 +282,18 @@ pub struct ToolParams {
     /// [`ParamSet::begin_iteration`]; atomic so that a shared set stays `Sync`).
     carving: AtomicU32,
     n: u32,
+    /// Scratches may bend (`design --arcs --tool`): the scene was uploaded with
+    /// `Renderer::upload_bendable`, and the bulge moves as in [`ArcParams`](super::arc_params::ArcParams).
+    arcs: Option<super::arc_params::ArcConfig>,
+}
+
+/// The scratches the set moves and their gradients in `gs` (a scene whose scratches bend: the
+/// arcs' own buffers), and how many.
+fn scratch_buffers(gs: &GpuScene) -> (&Buffer, &Buffer, u32) {
+    match (gs.arc_params(), gs.arc_grad()) {
+        (Some(p), Some(g)) => (p, g, gs.n_scene_scratches()),
+        _ => (gs.scratches(), gs.scratch_grad(), gs.n_scratches()),
+    }
 }
 
 impl ToolParams {
@@ -338,7 +350,14 @@ impl ToolParams {
             robust: None,
             carving: AtomicU32::new(0),
             n,
+            arcs: None,
         })
+    }
+
+    /// Lets the scratches bend: for a scene uploaded with `Renderer::upload_bendable`.
+    pub fn with_arcs(mut self, arcs: super::arc_params::ArcConfig) -> ToolParams {
+        self.arcs = Some(arcs);
+        self
     }
 
     /// Trains on perturbed carvings (see [`Robust`]).
@@ -409,12 +428,13 @@ impl ToolParams {
     }
 
     fn record_map_as(&self, rec: &mut Recorder, gs: &GpuScene, mode: u32, perturbed: bool) {
-        assert_eq!(gs.n_scratches(), self.n, "the depths belong to another scene");
+        let (scratches, grad, n) = scratch_buffers(gs);
+        assert_eq!(n, self.n, "the depths belong to another scene");
         let bufs = [
-            gs.scratches(),
+            scratches,
             &self.depths,
             &self.table,
-            gs.scratch_grad(),
+            grad,
             &self.depth_grad,
             &self.saved,
         ];
@@ -445,7 +465,7 @@ impl ToolParams {
         objective: &dyn Objective,
         grad: bool,
     ) -> Result<(Evaluation, Option<Vec<f32>>), GpuError> {
-        renderer.prepare_backward()?;
+        renderer.prepare_backward_of(gs)?;
         let mut rec = Recorder::new(&renderer.ctx)?;
         renderer.submit(&mut rec, gs, |rec, gs| {
             self.record_map(rec, gs, 0);
@@ -471,17 +491,21 @@ impl ToolParams {
 
 impl ParamSet for ToolParams {
     fn blocks<'a>(&'a self, gs: &'a GpuScene) -> Vec<ParamBlock<'a>> {
-        let mut groups = SceneParams::scratch_groups(&self.cfg, gs.half_plate());
+        let mut groups = match &self.arcs {
+            Some(a) => super::arc_params::ArcParams::scratch_groups(&self.cfg, a, gs.half_plate()),
+            None => SceneParams::scratch_groups(&self.cfg, gs.half_plate()),
+        };
         for g in &mut groups[4..7] {
             *g = AdamGroup::frozen();
         }
         let (lo, hi) = (self.fab.table.z_lo as f32, self.fab.table.z_hi as f32);
+        let (params, grad, n) = scratch_buffers(gs);
         vec![
             ParamBlock {
                 name: "scratches",
-                params: gs.scratches(),
-                grad: gs.scratch_grad(),
-                len: 8 * gs.n_scratches(),
+                params,
+                grad,
+                len: 8 * n,
                 groups,
             },
             ParamBlock {
@@ -517,8 +541,14 @@ impl ParamSet for ToolParams {
         self.record_map_as(rec, gs, 1, true);
     }
 
+    fn moves_arcs(&self) -> bool {
+        self.arcs.is_some()
+    }
+
     fn record_project(&self, rec: &mut Recorder, gs: &GpuScene, before: &[&Buffer], flags: &Buffer) {
-        self.scene.record_projection(rec, gs, before[0], flags);
+        let (scratches, _, n) = scratch_buffers(gs);
+        self.scene
+            .record_projection_of(rec, scratches, n, gs.half_plate(), before[0], flags);
         // The scene keeps the grooves of the depths just stepped to (a refused step rewrites
         // the same values), so every saved state is consistent.
         self.record_map(rec, gs, 0);
@@ -533,6 +563,9 @@ impl ParamSet for Arc<ToolParams> {
     }
     fn begin_iteration(&self, k: u32, step: bool) {
         (**self).begin_iteration(k, step)
+    }
+    fn moves_arcs(&self) -> bool {
+        (**self).moves_arcs()
     }
     fn record_to_scene(&self, rec: &mut Recorder, gs: &GpuScene) {
         (**self).record_to_scene(rec, gs)

@@ -214,11 +214,11 @@ pub struct DesignArgs {
     pub no_balance: bool,
     /// Let scratches bend: each scratch's bulge (an arc through its two ends, DXF's convention)
     /// is optimized with its ends, from straight; the design writes a `bulge` column and the
-    /// plan carves G2/G3 arcs (engine/docs/model.md section 11). No pruning; not with --tool
+    /// plan carves G2/G3 arcs (engine/docs/model.md section 11). No pruning
     #[arg(long)]
     pub arcs: bool,
-    /// --arcs: chords each scratch is rendered as while the design runs (the written design is
-    /// judged at the accuracy bar's own count)
+    /// --arcs: chords each scratch is rendered as while the design runs (the finished design is
+    /// judged at four times as many, at least 32)
     #[arg(long, default_value_t = 8, value_name = "N")]
     pub arc_chords: u32,
     /// --arcs: the largest |bulge| (0.5: a 106 degree arc; at most 2.4142, 270 degrees)

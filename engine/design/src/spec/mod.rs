@@ -357,11 +357,6 @@ pub fn prepare(
             spec.max_bulge,
             scratchart_model::arc::MAX_BULGE
         );
-        ensure_flag!(
-            spec.tool.is_none(),
-            "--arcs with --tool is not available yet: fabrication mode moves one depth per straight scratch; \
-             design with --arcs alone, or with --tool alone"
-        );
     }
     ensure_flag!(
         spec.tool.is_some() || !machine_given,
