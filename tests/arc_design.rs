@@ -202,3 +202,39 @@ fn a_design_with_arcs_for_a_tool_plans_arcs() {
         .count();
     assert!(arcs >= bent.min(20), "{arcs} G2/G3 moves for {bent} bent scratches");
 }
+
+/// `Renderer::fits` says what `upload` does, with arcs counted as the renderer lays them out
+/// (`set_arc_chords`): the set-up sheet and the walk's probes size their batches of views by it.
+#[test]
+fn fits_agrees_with_upload() {
+    let views: Vec<_> = (0..48)
+        .map(|j| orbit_view(&format!("v{j}"), 64, 45.0, 7.5 * j as f64, 45.0, 180.0, 100.0))
+        .collect();
+    let mut scene = random_scene(5, 3000, 100.0, 0.1, 0.05, 0.05, views);
+    for s in &mut scene.scratches {
+        s.bulge =
+            scratchart_model::scene_file::legal_bulge(&scratchart_model::scene::Scratch { bulge: 0.2, ..*s }, 100.0);
+    }
+    let ctx = gpu();
+    let r = scratchart_render::Renderer::new(&ctx).unwrap();
+    let mut seen = [false; 2];
+    for n in [1u32, 4, 16, 64] {
+        r.set_arc_chords(Some(n));
+        let fits = r.fits(&scene);
+        let up = r.upload(&scene);
+        assert_eq!(
+            fits,
+            up.is_ok(),
+            "{n} chords per arc: fits {fits}, upload {:?}",
+            up.err()
+        );
+        seen[fits as usize] = true;
+    }
+    assert!(
+        seen[0] && seen[1],
+        "the scene should fit at 1 chord per arc and not at 64"
+    );
+    r.set_arc_chords(None);
+    assert_eq!(r.arc_chords(), None);
+    assert_no_validation(&ctx);
+}

@@ -354,8 +354,18 @@ pub fn run_design_live(
     drop(opt);
 
     // ... and is judged at four times as many (at least 32), where renders of designs with arcs
-    // agree with 128 chords within 0.002 of correlation (engine/docs/model.md section 11).
-    renderer.set_arc_chords(cfg.arcs.map(|a| a.judged_chords()));
+    // agree with 128 chords within 0.002 of correlation (engine/docs/model.md section 11), or
+    // at the most of 4N, 2N, N that fits the device with every view of the design at once.
+    if let Some(a) = &cfg.arcs {
+        let mut n = a.judged_chords();
+        loop {
+            renderer.set_arc_chords(Some(n));
+            if n <= a.chords || renderer.fits(&unpruned) {
+                break;
+            }
+            n = (n / 2).max(a.chords);
+        }
+    }
     // Pruning judges straight scratches only (scratchart_optim::prune): a design with arcs
     // keeps all of its scratches.
     let (scene, prune) = if cfg.prune.enabled() && cfg.arcs.is_none() {
@@ -544,7 +554,7 @@ fn write_design_outputs(
             json!("what was changed while the design ran (pictures moved, loss weights, scratches added or removed): `scratchart design [the same flags] --steer summary.json` replays it");
     }
     if let Some(a) = &cfg.arcs {
-        summary["arcs"] = arcs_summary(a, &report.scene);
+        summary["arcs"] = arcs_summary(a, renderer.arc_chords().unwrap_or(a.chords), &report.scene);
     }
     summary["blank_views"] = json!(cfg.blank_views);
     if cfg.balance {
@@ -659,7 +669,7 @@ fn machine_summary(
 }
 
 /// `summary.json`'s `arcs` (`design --arcs`): how many scratches bent and how far.
-fn arcs_summary(a: &scratchart_optim::arc_params::ArcConfig, scene: &Scene) -> Value {
+fn arcs_summary(a: &scratchart_optim::arc_params::ArcConfig, judged: u32, scene: &Scene) -> Value {
     let b: Vec<f64> = scene.scratches.iter().map(|s| s.bulge.abs()).collect();
     let bent = b.iter().filter(|&&x| x > 1e-3).count();
     let sweep = |x: f64| 4.0 * x.atan().to_degrees();
@@ -674,8 +684,8 @@ fn arcs_summary(a: &scratchart_optim::arc_params::ArcConfig, scene: &Scene) -> V
         "median_turn_deg": sweep(median),
         "largest_turn_deg": sweep(sorted.last().copied().unwrap_or(0.0)),
         "chords_per_arc": a.chords,
-        "judged_chords_per_arc": a.judged_chords(),
-        "judged_at": "the optimizer renders each arc as chords_per_arc chords; the final loss, every correlation of this summary, the set-up sheet and the walk's probes render it as judged_chords_per_arc (engine/docs/model.md section 11: the accuracy bar's own rule needs far more chords for long arcs with sharp lobes)",
+        "judged_chords_per_arc": judged,
+        "judged_at": "the optimizer renders each arc as chords_per_arc chords; the final loss, every correlation of this summary, the set-up sheet and the walk's probes render it as judged_chords_per_arc: four times as many, at least 32, or fewer where the device cannot hold every view at once (engine/docs/model.md section 11: the accuracy bar's own rule needs far more chords for long arcs with sharp lobes)",
         "pruning": "off: a design with arcs keeps every scratch",
         "rule": "bulge = tan(included angle / 4), + counter-clockwise from +z (engine/docs/model.md section 11); an arc the optimizer left off the plate or tighter than its groove's width is written with the largest legal bulge of its sense",
     })

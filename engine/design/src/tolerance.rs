@@ -39,6 +39,22 @@ const DISTANCE_GRID: [f64; 5] = [0.02, 0.05, 0.1, 0.2, DISTANCE_RANGE];
 /// Views rendered per batch (bounds the batch's buffers whatever the number of views).
 const BATCH_VIEWS: usize = 48;
 
+/// Views rendered per batch of `scene`'s views: [`BATCH_VIEWS`], halved until a batch of the
+/// first views fits the device (a design with many scratches, or arcs as many chords); at least 1
+/// (an upload that still does not fit names its limit).
+pub(crate) fn batch_views(renderer: &scratchart_render::Renderer, scene: &Scene, views: &[View]) -> usize {
+    let mut n = BATCH_VIEWS;
+    while n > 1 {
+        let mut batch = scene.clone();
+        batch.views = views.iter().take(n).cloned().collect();
+        if renderer.fits(&batch) {
+            break;
+        }
+        n /= 2;
+    }
+    n
+}
+
 /// How finely a tolerance of about `safe` is found: 10% of it, at least 0.25 degrees or 1% of the
 /// distance.
 pub fn resolution(axis: &str, safe: f64) -> f64 {
@@ -220,7 +236,8 @@ pub(crate) fn render_views(
     masks: &[&[bool]],
 ) -> Result<Vec<Vec<f32>>, OptimError> {
     let mut out = Vec::with_capacity(views.len());
-    for (chunk, masks) in views.chunks(BATCH_VIEWS).zip(masks.chunks(BATCH_VIEWS)) {
+    let batch = batch_views(renderer, scene, &views);
+    for (chunk, masks) in views.chunks(batch).zip(masks.chunks(batch)) {
         let mut batch = scene.clone();
         batch.views = chunk.to_vec();
         let windows: Vec<Option<TileWindow>> = chunk.iter().zip(masks).map(|(v, m)| mask_window(v, m)).collect();

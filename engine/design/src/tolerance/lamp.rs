@@ -10,13 +10,13 @@ use scratchart_render::GpuScene;
 use scratchart_render::Renderer;
 use scratchart_vulkan::Recorder;
 
-use super::{mask_window, BATCH_VIEWS};
+use super::{batch_views, mask_window};
 
 #[derive(Default)]
 pub(super) struct LampRenders {
     /// The searches (indices) the scenes hold, in slot order.
     slots: Vec<usize>,
-    /// The scenes, [`BATCH_VIEWS`] slots each.
+    /// The scenes, [`batch_views`] slots each.
     scenes: Vec<GpuScene>,
     /// One recorder for every step.
     rec: Option<Recorder>,
@@ -34,15 +34,16 @@ impl LampRenders {
         masks: &[&[bool]],
     ) -> Result<Vec<Vec<f32>>, OptimError> {
         let mut keep = self.slots == searches;
+        let batch = batch_views(renderer, scene, &views);
         if keep {
             // The same cameras and windows: only the lamps move.
-            for (gs, chunk) in self.scenes.iter_mut().zip(views.chunks(BATCH_VIEWS)) {
+            for (gs, chunk) in self.scenes.iter_mut().zip(views.chunks(batch)) {
                 keep = keep && gs.update_views(chunk)?;
             }
         }
         if !keep {
             self.scenes.clear();
-            for (chunk, masks) in views.chunks(BATCH_VIEWS).zip(masks.chunks(BATCH_VIEWS)) {
+            for (chunk, masks) in views.chunks(batch).zip(masks.chunks(batch)) {
                 let mut batch = scene.clone();
                 batch.views = chunk.to_vec();
                 let windows: Vec<_> = chunk.iter().zip(masks).map(|(v, m)| mask_window(v, m)).collect();

@@ -405,9 +405,10 @@ pub fn judge_probes(
     walk: &Walk,
     sigma: f32,
 ) -> Result<Vec<f64>, scratchart_vulkan::GpuError> {
-    const CHUNK: usize = 12;
+    let probe_views: Vec<scratchart_model::scene::View> = walk.probes.iter().map(|p| p.view.clone()).collect();
+    let batch = crate::tolerance::batch_views(renderer, scene, &probe_views).min(12);
     let mut out = Vec::with_capacity(walk.probes.len());
-    for chunk in walk.probes.chunks(CHUNK) {
+    for chunk in walk.probes.chunks(batch) {
         let mut s = scene.clone();
         s.views = chunk
             .iter()
