@@ -130,6 +130,19 @@ fn a_design_with_arcs_bends_its_scratches() {
         "{}",
         summary["arcs"]
     );
+    assert_eq!(summary["arcs"]["judged_chords_per_arc"], 32, "{}", summary["arcs"]);
+    // `render` of the design shows its arcs as the design judged them.
+    let o = run_scratchart(&[
+        "render",
+        out.join("design.json").to_str().unwrap(),
+        "--out",
+        dir.join("r").to_str().unwrap(),
+    ]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        o.status.success() && err.contains("arcs rendered as 32 chords each"),
+        "{err}"
+    );
     for (flags, says) in [
         (vec!["--arcs", "--arc-chords", "0"], "--arc-chords"),
         (vec!["--arcs", "--max-bulge", "3"], "--max-bulge"),

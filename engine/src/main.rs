@@ -49,6 +49,11 @@ enum Cmd {
         /// Output directory (created if missing)
         #[arg(long, default_value = "out")]
         out: PathBuf,
+        /// Render each arc scratch as N chords (default: a design made with --arcs as its
+        /// summary.json says it was judged, else the accuracy bar's rule, engine/docs/model.md
+        /// section 11)
+        #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..=4096))]
+        arc_chords: Option<u32>,
     },
     /// Write the check loss E_lin of engine/docs/model.md section 8 and its gradient with respect to every
     /// scratch (grads.csv: x0,y0,x1,y1,w,d,alpha per scratch, in input order) and every view's
@@ -185,7 +190,8 @@ fn run(cli: Cli) -> Result<()> {
             design_cmd::run(&ctx, args, &term::Terminal::new(args.quiet))?;
             check_validation(&ctx)
         }
-        Cmd::Render { scene, out } => {
+        Cmd::Render { scene, out, arc_chords } => {
+            let chords = arc_chords.or_else(|| scene.as_deref().and_then(scratchart_design::design::judged_arc_chords));
             let scene = match scene {
                 Some(p) => load_scene(p)?,
                 None => {
@@ -194,7 +200,7 @@ fn run(cli: Cli) -> Result<()> {
                 }
             };
             let ctx = context(&cli)?;
-            render_to_dir(&ctx, &scene, out)?;
+            render_to_dir(&ctx, &scene, out, chords)?;
             check_validation(&ctx)
         }
         Cmd::Setup { design, out } => {
@@ -208,7 +214,13 @@ fn run(cli: Cli) -> Result<()> {
             let out = out.clone().unwrap_or_else(|| dir.clone());
             std::fs::create_dir_all(&out)
                 .with_context(|| format!("cannot create output directory {}", out.display()))?;
-            setup_command(&ctx, &scene, &dir, &out)?;
+            setup_command(
+                &ctx,
+                &scene,
+                &dir,
+                &out,
+                scratchart_design::design::judged_arc_chords(design),
+            )?;
             check_validation(&ctx)
         }
         Cmd::Devices => devices_cmd(),
@@ -435,10 +447,14 @@ fn warn_about(scene: &Scene) {
     }
 }
 
-fn render_to_dir(ctx: &std::sync::Arc<Context>, scene: &Scene, out: &Path) -> Result<()> {
+fn render_to_dir(ctx: &std::sync::Arc<Context>, scene: &Scene, out: &Path, arc_chords: Option<u32>) -> Result<()> {
     warn_about(scene);
     std::fs::create_dir_all(out).with_context(|| format!("cannot create output directory {}", out.display()))?;
     let renderer = Renderer::new(ctx)?;
+    if let Some(n) = arc_chords.filter(|_| scene.scratches.iter().any(|s| s.is_arc())) {
+        eprintln!("arcs rendered as {n} chords each");
+        renderer.set_arc_chords(Some(n));
+    }
     let mut gs = renderer.upload(scene)?;
     let frame = renderer.render(&mut gs)?;
     for (view, img) in scene.views.iter().zip(&frame.images) {
@@ -518,9 +534,17 @@ fn grad_command(ctx: &std::sync::Arc<Context>, scene: &Scene, dir: &Path, out: &
     Ok(())
 }
 
-fn setup_command(ctx: &std::sync::Arc<Context>, scene: &Scene, dir: &Path, out: &Path) -> Result<()> {
+fn setup_command(
+    ctx: &std::sync::Arc<Context>,
+    scene: &Scene,
+    dir: &Path,
+    out: &Path,
+    arc_chords: Option<u32>,
+) -> Result<()> {
     use scratchart_design::tolerance::SheetInputs;
     let renderer = Renderer::new(ctx)?;
+    // A design with arcs: as its design job judged them.
+    renderer.set_arc_chords(arc_chords);
     // The inputs the design wrote beside itself: the sheet is then the design's own, to the digit.
     let inputs = match SheetInputs::load(dir, scene)? {
         Some(inputs) => inputs,

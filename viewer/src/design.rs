@@ -27,6 +27,9 @@ pub struct Design {
     pub targets: Vec<Option<Target>>,
     /// The design file and a scratch CSV it names: reloaded when one of their mtimes changes.
     pub watched: Vec<PathBuf>,
+    /// Arcs rendered as this many chords each: a design made with `--arcs` as its summary.json
+    /// says it was judged (None: the accuracy bar's rule).
+    pub arc_chords: Option<u32>,
 }
 
 /// Resolution of the built-in demo's views (only `--view N` screenshots use it).
@@ -40,6 +43,7 @@ impl Design {
             targets: vec![None; scene.views.len()],
             scene,
             watched: Vec::new(),
+            arc_chords: None,
         }
     }
 
@@ -65,6 +69,7 @@ impl Design {
             scene,
             targets,
             watched: Vec::new(),
+            arc_chords: None,
         }
     }
 
@@ -120,6 +125,7 @@ impl Design {
         }
         Ok(Design {
             path: Some(path.to_path_buf()),
+            arc_chords: scratchart_design::design::judged_arc_chords(path),
             scene,
             targets,
             watched,

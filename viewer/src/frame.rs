@@ -182,6 +182,13 @@ impl FrameRenderer {
             .map(|(_, gs, _)| (gs.binning_mode(), gs.binning_threads()))
     }
 
+    /// Renders each arc as `n` chords from now on (None: the accuracy bar's rule; see
+    /// `Renderer::set_arc_chords`).
+    pub fn set_arc_chords(&mut self, n: Option<u32>) {
+        self.pipes.renderer.set_arc_chords(n);
+        self.cache.clear();
+    }
+
     /// Bins every scene uploaded from now on in `mode` (the same images; for measurements).
     pub fn set_binning(&mut self, mode: Option<scratchart_render::BinMode>) {
         self.binning = mode;

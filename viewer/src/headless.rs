@@ -65,14 +65,19 @@ pub fn context_for(
 /// the directory's sources do not compile, says why and falls back to the embedded copy.
 pub fn make_frame_renderer(ctx: &Arc<Context>, design: &Design, shaders: Option<&Path>) -> Result<FrameRenderer> {
     ShaderCompiler::override_embedded(shaders.map(Path::to_path_buf));
-    match FrameRenderer::new(ctx, &design.scene) {
+    let mut fr = match FrameRenderer::new(ctx, &design.scene) {
         Err(e @ GpuError::Shader { .. }) if shaders.is_some() => {
             eprintln!("warning: {e}\nwarning: using the shaders built into the binary instead");
             ShaderCompiler::override_embedded(None);
-            Ok(FrameRenderer::new(ctx, &design.scene)?)
+            FrameRenderer::new(ctx, &design.scene)?
         }
-        r => Ok(r?),
+        r => r?,
+    };
+    if let Some(n) = design.arc_chords {
+        eprintln!("arcs rendered as {n} chords each, as the design judged them (its summary.json)");
+        fr.set_arc_chords(Some(n));
     }
+    Ok(fr)
 }
 
 /// The interactive camera and light a session starts with: view `idx`'s, as orbit parameters,

@@ -690,3 +690,18 @@ fn arcs_summary(a: &scratchart_optim::arc_params::ArcConfig, judged: u32, scene:
         "rule": "bulge = tan(included angle / 4), + counter-clockwise from +z (engine/docs/model.md section 11); an arc the optimizer left off the plate or tighter than its groove's width is written with the largest legal bulge of its sense",
     })
 }
+
+/// The chords per arc a design with arcs was judged at (`summary.json`'s
+/// `arcs.judged_chords_per_arc` beside `design`), for the programs that render it again
+/// (`scratchart render`, `scratchart setup`, the viewer) so they show what the design judged;
+/// None for a design without arcs, or without its summary.
+pub fn judged_arc_chords(design: &std::path::Path) -> Option<u32> {
+    let dir = design
+        .parent()
+        .filter(|p| !p.as_os_str().is_empty())
+        .unwrap_or(std::path::Path::new("."));
+    let text = std::fs::read_to_string(dir.join("summary.json")).ok()?;
+    let v: Value = serde_json::from_str(&text).ok()?;
+    let n = v["arcs"]["judged_chords_per_arc"].as_u64()?;
+    u32::try_from(n).ok().filter(|&n| n > 0)
+}

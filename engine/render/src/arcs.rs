@@ -49,7 +49,9 @@ pub fn expand(scratches: &[Scratch]) -> Result<Vec<Scratch>, GpuError> {
             return Err(GpuError::Capacity(format!(
                 "arc scratch {} (0-based; bulge {}, {:.2} mm long, alpha {}) needs {n} chords to render \
                  within the accuracy bar, over the renderer's {MAX_CHORDS_PER_ARC} per arc \
-                 (engine/render/src/arcs.rs); split it into shorter arcs or give it a larger alpha",
+                 (engine/render/src/arcs.rs); split it into shorter arcs or give it a larger alpha, or render \
+                 each arc as fewer chords than the bar asks (`scratchart render --arc-chords N`; a design made \
+                 with --arcs is rendered as its summary.json's arcs.judged_chords_per_arc)",
                 k,
                 s.bulge,
                 s.path_length(),
