@@ -191,7 +191,7 @@ fn run(cli: Cli) -> Result<()> {
             check_validation(&ctx)
         }
         Cmd::Render { scene, out, arc_chords } => {
-            let chords = arc_chords.or_else(|| scene.as_deref().and_then(scratchart_design::design::judged_arc_chords));
+            let chords = arc_chords.or_else(|| scene.as_deref().and_then(scratchart_design::arcs::judged_arc_chords));
             let scene = match scene {
                 Some(p) => load_scene(p)?,
                 None => {
@@ -219,7 +219,7 @@ fn run(cli: Cli) -> Result<()> {
                 &scene,
                 &dir,
                 &out,
-                scratchart_design::design::judged_arc_chords(design),
+                scratchart_design::arcs::judged_arc_chords(design),
             )?;
             check_validation(&ctx)
         }

@@ -125,7 +125,7 @@ impl Design {
         }
         Ok(Design {
             path: Some(path.to_path_buf()),
-            arc_chords: scratchart_design::design::judged_arc_chords(path),
+            arc_chords: scratchart_design::arcs::judged_arc_chords(path),
             scene,
             targets,
             watched,

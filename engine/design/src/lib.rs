@@ -33,6 +33,8 @@
 //! - [`carving`]: what the machine's error costs a design: perturbed carvings rendered and
 //!   scored (`design --machine`).
 //! - [`design`]: the design job: the driver with the design loss and the scene's (or the tool's) parameters, then pruning and the reports.
+//! - [`arcs`]: designs whose scratches bend (`--arcs`): their summary and the chords per arc they
+//!   were judged at.
 //! - [`job_time`]: a design's job time as `plan` makes it for a machine.
 //! - [`job_limit`]: a design sized to the job time the maker has (`design --max-job-min`).
 //! - [`targets`]: target images (files, or the built-in circle / triangle / star).
@@ -51,6 +53,7 @@
 //! Determinism: every GPU reduction runs in a fixed order and the host feeds back only values it
 //! read from the GPU, so a run is bit-reproducible on one device, and a resumed run equals an
 //! uninterrupted one bit for bit.
+pub mod arcs;
 pub mod balance;
 pub mod bend;
 pub mod carving;
