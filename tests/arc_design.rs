@@ -30,8 +30,8 @@ fn straight_scratches_laid_out_to_bend_have_bulge_gradients() {
         .collect();
     let ctx = gpu();
     let r = scratchart_render::Renderer::new(&ctx).unwrap();
-    for (nch, bar) in [(64u32, 1e-2), (8, 0.1)] {
-        let mut gs = r.upload_bendable(&scene, nch).unwrap();
+    for (nch, weighted, bar) in [(64u32, true, 1e-2), (8, true, 0.1), (64, false, 0.1)] {
+        let mut gs = r.upload_bendable(&scene, nch, weighted).unwrap();
         assert!(gs.has_arcs());
         assert_eq!(gs.n_scratches(), nch * 12);
         assert_eq!(gs.n_scene_scratches(), 12);
@@ -79,7 +79,7 @@ fn straight_scratches_laid_out_to_bend_have_bulge_gradients() {
         for (name, a, b) in [("bulge", &gpu_b, &ref_b), ("endpoints", &gpu_e, &ref_e)] {
             let err = rel(a, b);
             let norm: f64 = b.iter().map(|x| x * x).sum::<f64>().sqrt();
-            eprintln!("bendable, {nch} chords: {name}: relative gradient error {err:.3e} (|g_ref| = {norm:.3e})");
+            eprintln!("bendable, {nch} chords, weighted {weighted}: {name}: relative gradient error {err:.3e} (|g_ref| = {norm:.3e})");
             assert!(norm > 0.0, "zero reference gradient for {name}");
             assert!(
                 err <= bar,

@@ -45,7 +45,7 @@ impl<'r> Optimizer<'r> {
     ) -> Result<Optimizer<'r>, GpuError> {
         let ctx = renderer.ctx.clone();
         let gs = match &cfg.arcs {
-            Some(a) => renderer.upload_bendable(&problem.scene, a.chords)?,
+            Some(a) => renderer.upload_bendable(&problem.scene, a.chords, a.weighted)?,
             None => renderer.upload(&problem.scene)?,
         };
         let tool = match &cfg.tool {

@@ -28,6 +28,9 @@ pub struct ArcConfig {
     pub max_bulge: f32,
     /// Adam's learning rate for the bulge.
     pub lr_bulge: f32,
+    /// Whether the optimizer renders the chords with their area weights (the arc kernels);
+    /// false: the straight kernels (engine/docs/model.md section 11 measures the difference).
+    pub weighted: bool,
 }
 
 impl Default for ArcConfig {
@@ -36,6 +39,7 @@ impl Default for ArcConfig {
             chords: 8,
             max_bulge: 0.5,
             lr_bulge: 0.01,
+            weighted: false,
         }
     }
 }

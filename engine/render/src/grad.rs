@@ -43,7 +43,7 @@ impl Renderer {
         // if the kernels replay, have the next complete submission size the store).
         let kernel = match self.grad_replay.get() {
             // Arcs: the dual-number build that weighs chords and gives dE/dkappa (no replay).
-            _ if gs.has_arcs() => self
+            _ if gs.arc_kernels() => self
                 .grad_arcs
                 .get()
                 .expect("Renderer::prepare_backward_of(gs) must be called before record_backward on arcs"),

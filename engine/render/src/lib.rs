@@ -279,15 +279,23 @@ impl Renderer {
     /// the bulges in [`GpuScene::arc_params`] without a new upload. The chords follow the arcs on
     /// the device at every render; how close `chords` renders an arc is the caller's choice
     /// (engine/docs/model.md section 11: [`arcs::chord_count`] is the accuracy bar's).
-    pub fn upload_bendable(&self, scene: &Scene, chords: u32) -> Result<GpuScene, GpuError> {
-        self.prepare_arc_forward()?;
-        GpuScene::new_bendable(&self.ctx, scene, chords)
+    ///
+    /// `weighted` false renders the chords without their area weights (the straight kernels,
+    /// forward and reverse-mode backward: 15 times cheaper an iteration for a design's arcs,
+    /// engine/BENCHMARKS.md), so dE/dbulge leaves out the weight's part; true, the arc kernels.
+    pub fn upload_bendable(&self, scene: &Scene, chords: u32, weighted: bool) -> Result<GpuScene, GpuError> {
+        if weighted {
+            self.prepare_arc_forward()?;
+        }
+        let mut gs = GpuScene::new_bendable(&self.ctx, scene, chords)?;
+        gs.weigh_arcs(weighted);
+        Ok(gs)
     }
 
     /// [`prepare_backward`](Self::prepare_backward) for scene `gs`: with arcs, the backward that
     /// weighs chords too. Call before `record_backward` on a scene that may hold arcs.
     pub fn prepare_backward_of(&self, gs: &GpuScene) -> Result<(), GpuError> {
-        if gs.has_arcs() {
+        if gs.arc_kernels() {
             self.prepare_arc_backward()?;
         }
         self.prepare_backward()
@@ -522,7 +530,7 @@ impl Renderer {
 
     /// Records the shading kernel (writes the image, the coverage and the counters).
     fn record_shading(&self, rec: &mut Recorder, gs: &GpuScene) {
-        let kernel = if gs.has_arcs() {
+        let kernel = if gs.arc_kernels() {
             self.forward_arcs
                 .get()
                 .expect("an upload of arcs builds the arc kernel")

@@ -17,6 +17,9 @@ pub(crate) struct ArcLayout {
     pub(crate) grad: Buffer,
     /// How many chords each scratch is laid out as.
     pub(crate) mode: ChordMode,
+    /// Whether the chords are rendered with their area weights (the arc kernels, `SA_ARCS`);
+    /// false: the straight kernels, which ignore the weight (`Renderer::upload_bendable`).
+    pub(crate) weighted: bool,
 }
 
 /// How a scene's scratches are laid out as chords.
@@ -89,6 +92,7 @@ impl ArcLayout {
             )?,
             chords,
             mode,
+            weighted: true,
         })
     }
 
@@ -207,6 +211,19 @@ impl GpuScene {
     /// The scene's own scratches (an arc counted once; `n_scratches` counts the kernels' chords).
     pub fn n_scene_scratches(&self) -> u32 {
         self.arcs.as_ref().map_or(self.n_scratches, |a| a.chords.len() as u32)
+    }
+
+    /// Whether the chords of a scene with arcs are rendered by the arc kernels (with their area
+    /// weights); false for a scene without arcs, or one whose weights were switched off.
+    pub fn arc_kernels(&self) -> bool {
+        self.arcs.as_ref().is_some_and(|a| a.weighted)
+    }
+
+    /// Renders the chords with (true) or without their area weights from now on.
+    pub(crate) fn weigh_arcs(&mut self, on: bool) {
+        if let Some(a) = self.arcs.as_mut() {
+            a.weighted = on;
+        }
     }
 
     /// Whether the scene's scratches include arcs (uploaded as chords: the kernels' scratches,
