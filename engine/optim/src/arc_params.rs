@@ -97,13 +97,7 @@ impl ParamSet for ArcParams {
                 len: 8 * gs.n_scene_scratches(),
                 groups: Self::scratch_groups(&self.cfg, &self.arcs, gs.half_plate()),
             },
-            ParamBlock {
-                name: "lights",
-                params: gs.lights(),
-                grad: gs.light_grad(),
-                len: gs.n_views(),
-                groups: vec![SceneParams::light_group(&self.cfg)],
-            },
+            SceneParams::light_block(&self.cfg, gs),
         ]
     }
 

@@ -65,6 +65,18 @@ impl SceneParams {
         }
     }
 
+    /// The block of the lights' intensities of `gs` ([`light_group`](Self::light_group)), which
+    /// every design parameter set moves alike.
+    pub fn light_block<'a>(cfg: &AdamConfig, gs: &'a GpuScene) -> ParamBlock<'a> {
+        ParamBlock {
+            name: "lights",
+            params: gs.lights(),
+            grad: gs.light_grad(),
+            len: gs.n_views(),
+            groups: vec![Self::light_group(cfg)],
+        }
+    }
+
     /// Records the projection of the scratches after a step; `before` holds them as they were
     /// before it, `flags` Adam's flags (a refused step is not projected).
     pub fn record_projection(&self, rec: &mut Recorder, gs: &GpuScene, before: &Buffer, flags: &Buffer) {
@@ -108,13 +120,7 @@ impl ParamSet for SceneParams {
                 len: 8 * gs.n_scratches(),
                 groups: Self::scratch_groups(&self.cfg, gs.half_plate()),
             },
-            ParamBlock {
-                name: "lights",
-                params: gs.lights(),
-                grad: gs.light_grad(),
-                len: gs.n_views(),
-                groups: vec![Self::light_group(&self.cfg)],
-            },
+            Self::light_block(&self.cfg, gs),
         ]
     }
 

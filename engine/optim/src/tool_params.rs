@@ -515,13 +515,7 @@ impl ParamSet for ToolParams {
                 len: self.n,
                 groups: vec![AdamGroup::linear(self.fab.lr_z, (lo, hi))],
             },
-            ParamBlock {
-                name: "lights",
-                params: gs.lights(),
-                grad: gs.light_grad(),
-                len: gs.n_views(),
-                groups: vec![SceneParams::light_group(&self.cfg)],
-            },
+            SceneParams::light_block(&self.cfg, gs),
         ]
     }
 
