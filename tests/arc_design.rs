@@ -116,6 +116,11 @@ fn a_design_with_arcs_bends_its_scratches() {
     ];
     let o = run_scratchart(&args);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let printed = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        printed.contains("of 400 scratches bent") && printed.contains("judged at 32"),
+        "{printed}"
+    );
     let scene = Scene::load(&out.join("design.json")).unwrap();
     assert_eq!(scene.scratches.len(), 400, "a design with arcs is not pruned");
     let bent = scene.scratches.iter().filter(|s| s.bulge.abs() > 1e-3).count();

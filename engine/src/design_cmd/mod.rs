@@ -14,7 +14,7 @@ mod args;
 mod print;
 
 pub use args::{DesignArgs, ExposureMode};
-use print::{job_limit_text, machine_error_text, walk_text};
+use print::{arcs_text, job_limit_text, machine_error_text, walk_text};
 
 /// Runs `scratchart design`.
 pub fn run(ctx: &Arc<Context>, args: &DesignArgs, obs: &dyn Observer) -> anyhow::Result<()> {
@@ -156,6 +156,9 @@ pub fn finish(
         }
         if let Some(w) = s.get("walk") {
             print!("{}", walk_text(w, &cfg.out));
+        }
+        if let Some(a) = s.get("arcs") {
+            print!("{}", arcs_text(a));
         }
     }
     Ok(report.summary)

@@ -1,5 +1,5 @@
 //! The lines `scratchart design` prints for the parts of `summary.json` beyond the views'
-//! table: the machine's error, a job limit, a walk.
+//! table: the machine's error, a job limit, a walk, arcs.
 
 /// The lines that say what the machine's error costs each view (summary.json's `machine_error`).
 pub(super) fn machine_error_text(e: &serde_json::Value) -> String {
@@ -101,4 +101,20 @@ pub(super) fn job_limit_text(j: &serde_json::Value) -> String {
         .collect();
     out += &format!("    what the limit cost in correlation: {}\n", costs.join(", "));
     out
+}
+
+/// The line that says how far a design with arcs bent its scratches (summary.json's `arcs`).
+pub(super) fn arcs_text(a: &serde_json::Value) -> String {
+    let n = |v: &serde_json::Value| v.as_f64().unwrap_or(f64::NAN);
+    format!(
+        "  arcs: {} of {} scratches bent (median turn {:.1} degrees, largest {:.1}; {} at --max-bulge {}), rendered as {} chords each while designing, judged at {}\n",
+        a["bent"],
+        a["scratches"],
+        n(&a["median_turn_deg"]),
+        n(&a["largest_turn_deg"]),
+        a["at_max_bulge"],
+        n(&a["max_bulge"]),
+        a["chords_per_arc"],
+        a["judged_chords_per_arc"],
+    )
 }
