@@ -186,11 +186,8 @@ fn a_design_with_arcs_for_a_tool_plans_arcs() {
     let out = dir.join("d");
     let out_s = out.to_str().unwrap();
     let mut args = tool_design_args(&tool, out_s);
-    for a in args.iter_mut() {
-        if *a == "3" {
-            *a = "25"; // iterations
-        }
-    }
+    let at = args.iter().position(|a| *a == "--iters").unwrap() + 1;
+    args[at] = "25";
     args.extend(["--arcs", "--machine", "grbl"]);
     let o = run_scratchart(&args);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));

@@ -253,14 +253,8 @@ impl Renderer {
     /// counted as the chords this renderer lays them out as): for callers that choose how many
     /// views to render at once.
     pub fn fits(&self, scene: &Scene) -> bool {
-        let scratches: u64 = match self.arc_chords() {
-            Some(n) => scene
-                .scratches
-                .iter()
-                .map(|s| if s.is_arc() { n as u64 } else { 1 })
-                .sum(),
-            None => scene.scratches.iter().map(|s| arcs::chord_count(s) as u64).sum(),
-        };
+        let mode = scene::arcs::ChordMode::of(self.arc_chords());
+        let scratches: u64 = mode.counts(&scene.scratches).iter().map(|&n| n as u64).sum();
         let sizes: Vec<(u32, u32)> = scene.views.iter().map(|v| (v.camera.width, v.camera.height)).collect();
         let dims = limits::SceneDims::new(&sizes, scratches, false);
         dims.over_device_limit(self.ctx.info()).is_none() && dims.over_loop_limit(self.ctx.info()).is_none()

@@ -194,16 +194,17 @@ impl GpuScene {
         arc_chords: Option<u32>,
     ) -> Result<GpuScene, GpuError> {
         if crate::arcs::any_arc(&scene.scratches) {
+            let mode = arcs::ChordMode::of(arc_chords);
             let mut chords = scene.clone();
-            let mode = match arc_chords {
-                Some(n) => {
-                    chords.scratches = scene.scratches.iter().flat_map(|s| s.chords(n as usize)).collect();
-                    arcs::ChordMode::PerArc(n)
-                }
-                None => {
-                    chords.scratches = crate::arcs::expand(&scene.scratches)?;
-                    arcs::ChordMode::Rule
-                }
+            chords.scratches = match mode {
+                // The rule's expansion names an arc over the cap.
+                arcs::ChordMode::Rule => crate::arcs::expand(&scene.scratches)?,
+                _ => scene
+                    .scratches
+                    .iter()
+                    .zip(mode.counts(&scene.scratches))
+                    .flat_map(|(s, n)| s.chords(n as usize))
+                    .collect(),
             };
             return GpuScene::new_arcs(ctx, scene, chords, mode, windows);
         }

@@ -35,6 +35,11 @@ pub(crate) enum ChordMode {
 }
 
 impl ChordMode {
+    /// The layout of an upload: each arc as `arc_chords` chords, or (None) the rule's.
+    pub(crate) fn of(arc_chords: Option<u32>) -> ChordMode {
+        arc_chords.map_or(ChordMode::Rule, ChordMode::PerArc)
+    }
+
     /// The chords of each scratch.
     pub(crate) fn counts(self, scratches: &[crate::model::scene::Scratch]) -> Vec<u32> {
         scratches
