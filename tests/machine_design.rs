@@ -5,6 +5,7 @@
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
+use scratchart_machine::marks::plate_marks;
 use scratchart_model::scene::Scene;
 use scratchart_tests::*;
 
@@ -142,11 +143,16 @@ fn a_machine_design_keeps_the_machines_limits() {
     assert!(m["at_min_length"].as_u64().unwrap() > 0, "{m}");
     assert!(m["scratches"].as_u64() == Some(z.len() as u64));
     eprintln!("{m}");
-    // The plan's G-code, read line by line: each plunge's depth below the surface and each cut's length.
+    // The plan's G-code, read line by line: each plunge's depth below the surface (the
+    // registration marks' too) and each scratch's length.
     let g = plan(&out, &["--tool", &tool, "--no-mark"]);
     let (mut at, mut cuts) = ([0.0f64; 2], 0);
-    let mut depth = 0.0;
-    for l in g.lines().filter(|l| !l.starts_with(';')) {
+    let (mut depth, mut scratch, mut marks) = (0.0, false, 0);
+    for l in g.lines() {
+        if let Some(c) = l.strip_prefix("; ") {
+            (scratch, marks) = (c.starts_with("scratch "), marks + usize::from(c.starts_with("mark ")));
+            continue;
+        }
         let (x, y) = (word(l, 'X'), word(l, 'Y'));
         if l.starts_with("G1 Z") {
             depth = -word(l, 'Z').unwrap();
@@ -155,7 +161,7 @@ fn a_machine_design_keeps_the_machines_limits() {
                 "`{l}`: {} mm below the surface",
                 depth + offset
             );
-        } else if l.starts_with("G1 X") {
+        } else if l.starts_with("G1 X") && scratch {
             let b = [x.unwrap(), y.unwrap()];
             let len = (b[0] - at[0]).hypot(b[1] - at[1]);
             assert!(len >= min_len, "`{l}`: a cut {len} mm long at depth {depth}");
@@ -166,18 +172,43 @@ fn a_machine_design_keeps_the_machines_limits() {
         }
     }
     assert_eq!(cuts, z.len());
-    // The job time the design states is the one `plan` states for the same machine (with the mark).
-    let g = plan(&out, &["--tool", &tool]);
-    let stated: f64 = g
-        .lines()
-        .find_map(|l| l.strip_prefix("; estimated job time "))
-        .and_then(|r| r.split(' ').next())
-        .and_then(|v| v.parse().ok())
-        .expect("the plan states its job time");
+    assert!(marks > 6, "the registration marks' hatch lines: {marks}");
+    // The job time the design states is the one `plan` states for the same machine by default:
+    // the +x mark and the registration marks included, whose share both state. `--no-marks`
+    // leaves theirs out: the plan without them takes that much less.
+    let stated = |g: &str| -> (f64, f64) {
+        let header = g
+            .lines()
+            .filter_map(|l| l.strip_prefix("; "))
+            .collect::<Vec<_>>()
+            .join(" ");
+        let after = |key: &str| {
+            header
+                .split(key)
+                .nth(1)
+                .and_then(|r| r.split(' ').next())
+                .and_then(|v| v.parse().ok())
+        };
+        (
+            after("estimated job time ").expect("the plan states its job time"),
+            after("the registration marks take ").unwrap_or(0.0),
+        )
+    };
+    let (with, share) = stated(&plan(&out, &["--tool", &tool]));
     let job_min = m["job_min"].as_f64().unwrap();
+    let marks_min = m["registration_marks_min"].as_f64().unwrap();
     assert!(
-        job_min > 0.0 && (job_min - stated).abs() <= 0.051 + 0.01 * stated,
-        "design says {job_min} min, plan {stated} min"
+        job_min > 0.0 && (job_min - with).abs() <= 0.051 + 0.01 * with,
+        "design says {job_min} min, plan {with} min"
+    );
+    assert!(
+        share > 0.0 && (marks_min - share).abs() <= 0.051 + 0.01 * share,
+        "the registration marks: design says {marks_min} min, plan {share} min"
+    );
+    let (bare, none) = stated(&plan(&out, &["--tool", &tool, "--no-marks"]));
+    assert!(
+        none == 0.0 && (with - share - bare).abs() <= 0.16,
+        "the plan with the registration marks: {with} min, {share} min of it theirs; {bare} min without"
     );
     assert!(m["job_min_upper_bound"].as_f64().unwrap() >= job_min, "{m}");
 }
@@ -334,7 +365,20 @@ fn a_job_limit_design_fits_its_plan_and_says_what_it_cost() {
         }
         at = to;
     }
-    assert_eq!(cuts as u64, n + 1, "the design's cuts and the +x mark");
+    // The design's cuts, the +x mark and the registration marks' hatch lines (as the machine
+    // crate lays them out for the design's plate and views), the limit holding them all.
+    let scene = Scene::load(Path::new(&format!("{out}/design.json"))).unwrap();
+    let hatch = plate_marks(scene.plate.size_mm, &scene.views).hatch_cuts();
+    let said = summary(&out)["machine"]["registration_hatch_cuts"].as_u64();
+    assert!(
+        hatch > 0 && said == Some(hatch as u64),
+        "{hatch} hatch cuts, the summary says {said:?}"
+    );
+    assert_eq!(
+        cuts as u64,
+        n + 1 + hatch as u64,
+        "the design's cuts, the +x mark and the registration marks"
+    );
     let mins = secs / 60.0; // (the spindle's dwell included)
     eprintln!("limit {limit:.3} min; the plan summed move by move: {mins:.3} min");
     assert!(

@@ -7,10 +7,14 @@
 //! (the tool's angle or radius). Odd repeats sit at the point mirror of the even ones, so every
 //! depth is seen on both sides of the card. Six fiducial marks (hatched squares, cut deep, see
 //! [`Mark`]) in the margin register a photo taken from anywhere near a capture view, turned by
-//! any angle, with one mark covered.
+//! any angle, with one mark covered. The same six marks go on every design's plate
+//! ([`plate_marks`]): `scratchart-cal plan` carves them and `inspect` finds the plate by them.
+//! Their geometry lives in `scratchart_machine::marks`, which `plan` and a design's job time
+//! share.
 use std::path::Path;
 
 use scratchart_machine::gcode::{write_blocks, Options};
+use scratchart_machine::marks::{glint_orientations_spread, Mark, PlateMarks};
 use scratchart_machine::plan::{self as machine_plan, Block};
 use scratchart_model::scene::{Camera, Light, LightKind, Plate, Scene, View};
 use scratchart_tool::machine::MachineProfile;
@@ -55,108 +59,14 @@ pub struct Card {
     pub marks: Vec<Mark>,
 }
 
-/// A fiducial mark: a square of the plate, `half_mm` either side of `centre`, densely hatched
-/// with parallel cuts at the orientations that glint under the capture lamps. In the dark-field
-/// capture views the flat plate is dark and a cut shows only where its walls face the
-/// half-vector; a single cross (the first cards' marks) then shows one faint arm or nothing. A
-/// hatched square shows a bright filled square in every capture view, also with the camera 20
-/// degrees off (the hatches cover the glinting orientation +- 15 degrees), bright enough to be
-/// found through blur, noise and JPEG, and its centre is the centroid of its light. Six marks
-/// (four corners and two in the margin at places no rotation of the card maps onto another mark)
-/// fix the card's orientation, and any four of them still give the camera when one is covered.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-pub struct Mark {
-    pub label: String,
-    pub centre: [f64; 2],
-    pub half_mm: f64,
-}
-
-/// Half the side of a mark, as a fraction of the plate (2.1 mm on the 70 mm card).
-const MARK_HALF: f64 = 0.03;
-/// Hatch lines across a mark per orientation (0.42 mm apart on the 70 mm card).
-const MARK_LINES: f64 = 10.0;
-
-impl Mark {
-    /// The six marks of a card of `plate_mm` whose margin (outside the ladder) is `margin_mm`
-    /// wide: four corners, one on the top edge left of centre and one on the right edge below
-    /// centre. Turned by 90, 180 or 270 degrees, the two keys land at least 0.3 of the marks'
-    /// spacing from any mark, so a wrong rotation matches at most four of the six.
-    pub fn layout(plate_mm: f64, margin_mm: f64) -> Vec<Mark> {
-        let f = 0.5 * plate_mm - 0.5 * margin_mm;
-        let half = MARK_HALF * plate_mm;
-        let m = |label: &str, x: f64, y: f64| Mark {
-            label: label.into(),
-            centre: [x * f, y * f],
-            half_mm: half,
-        };
-        vec![
-            m("corner -x -y", -1.0, -1.0),
-            m("corner +x -y", 1.0, -1.0),
-            m("corner +x +y", 1.0, 1.0),
-            m("corner -x +y", -1.0, 1.0),
-            m("key top edge", -0.7, 1.0),
-            m("key right edge", 1.0, -0.35),
-        ]
-    }
-
-    /// The mark's hatch: for each orientation (degrees), parallel cuts across the square
-    /// `MARK_LINES` to a side, clipped to it, at commanded depth `z_mm`.
-    pub fn hatch(&self, orientations_deg: &[f64], z_mm: f64) -> Vec<Cut> {
-        let h = self.half_mm;
-        let spacing = 2.0 * h / MARK_LINES;
-        let mut cuts = Vec::new();
-        for &deg in orientations_deg {
-            let a = deg.to_radians();
-            let (t, n) = ([a.cos(), a.sin()], [-a.sin(), a.cos()]);
-            // Offsets along n that cross the square: |c| < h (|n.x| + |n.y|).
-            let reach = h * (n[0].abs() + n[1].abs());
-            let k_max = (reach / spacing).floor() as i64;
-            for k in -k_max..=k_max {
-                let c = k as f64 * spacing;
-                // Points c n + s t inside the square: intersect the s-intervals of both axes.
-                let (mut lo, mut hi) = (f64::NEG_INFINITY, f64::INFINITY);
-                for ax in 0..2 {
-                    let base = c * n[ax];
-                    if t[ax].abs() < 1e-12 {
-                        if base.abs() > h {
-                            lo = f64::INFINITY;
-                        }
-                        continue;
-                    }
-                    let (s0, s1) = ((-h - base) / t[ax], (h - base) / t[ax]);
-                    lo = lo.max(s0.min(s1));
-                    hi = hi.min(s0.max(s1));
-                }
-                if hi - lo < 0.3 * h {
-                    continue;
-                }
-                let p = |s: f64| {
-                    [
-                        self.centre[0] + c * n[0] + s * t[0],
-                        self.centre[1] + c * n[1] + s * t[1],
-                    ]
-                };
-                cuts.push(Cut {
-                    p0: p(lo),
-                    p1: p(hi),
-                    z_mm,
-                    role: CutRole::Fiducial,
-                });
-            }
-        }
-        cuts
-    }
-
-    /// Whether plate point `q` lies within `pad_mm` of the mark's square.
-    pub fn covers(&self, q: [f64; 2], pad_mm: f64) -> bool {
-        let r = self.half_mm + pad_mm;
-        (q[0] - self.centre[0]).abs() <= r && (q[1] - self.centre[1]).abs() <= r
-    }
+/// The registration marks of a design's plate (`scratchart_machine::marks::plate_marks`, which
+/// this calls): where `inspect` finds the plate in photos, as `plan` carves them.
+pub fn plate_marks(plate_mm: f64, views: &[View]) -> PlateMarks {
+    scratchart_machine::marks::plate_marks(plate_mm, views)
 }
 
 /// The cut orientations (degrees, in [0, 180)) that glint at the card's centre in the capture
-/// views, +- 15 degrees each: a cut shows where its walls face the half-vector h of the camera
-/// and the lamp, i.e. when it runs across h's horizontal direction.
+/// views ([`glint_orientations_in`] of [`Card::views`]).
 pub fn glint_orientations(plate_mm: f64) -> Vec<f64> {
     let probe = Card {
         plate_mm,
@@ -168,30 +78,18 @@ pub fn glint_orientations(plate_mm: f64) -> Vec<f64> {
         cuts: vec![],
         marks: vec![],
     };
-    let mut out: Vec<f64> = Vec::new();
-    for v in probe.views(64) {
-        let norm = |p: [f64; 3]| {
-            let l = (p[0] * p[0] + p[1] * p[1] + p[2] * p[2]).sqrt();
-            [p[0] / l, p[1] / l, p[2] / l]
-        };
-        let o = norm(v.camera.eye);
-        let i = match v.light.kind {
-            LightKind::Point { position } => norm(position),
-            LightKind::Directional { direction } => norm(direction),
-        };
-        let h = [o[0] + i[0], o[1] + i[1]];
-        let across = h[1].atan2(h[0]).to_degrees() + 90.0;
-        for d in [-15.0, 0.0, 15.0] {
-            let a = (across + d).rem_euclid(180.0);
-            if !out.iter().any(|b| {
-                let diff = (a - b).rem_euclid(180.0);
-                diff.min(180.0 - diff) < 5.0
-            }) {
-                out.push((a * 10.0).round() / 10.0);
-            }
-        }
-    }
-    out
+    glint_orientations_in(&probe.views(64))
+}
+
+/// The cut orientations (degrees, in [0, 180), to 0.1 degree) that glint at the plate's centre
+/// (the origin) in `views`, +- 15 degrees each, in the views' order, orientations within 5
+/// degrees of one already taken left out ([`glint_orientations_spread`]): a cut shows where its
+/// walls face the half-vector h of the camera and the lamp, i.e. when it runs across h's
+/// horizontal direction. A view whose h is (within 0.06 degree) vertical, its camera seeing the
+/// lamp's reflection in the plate, has no such direction: every groove then shows dark on the
+/// bright plate, and it takes 0 and 90 degrees (a cross-hatch), as do no views at all.
+pub fn glint_orientations_in(views: &[View]) -> Vec<f64> {
+    glint_orientations_spread(views, &[-15.0, 0.0, 15.0])
 }
 
 /// How far above commanded zero a card's rung may sit, mm. A design's commanded depths start at
@@ -267,7 +165,12 @@ impl Card {
         let marks = Mark::layout(spec.plate_mm, margin);
         let orientations = glint_orientations(spec.plate_mm);
         for m in &marks {
-            cuts.extend(m.hatch(&orientations, deep));
+            cuts.extend(m.hatch(&orientations).into_iter().map(|(p0, p1)| Cut {
+                p0,
+                p1,
+                z_mm: deep,
+                role: CutRole::Fiducial,
+            }));
         }
         Card {
             plate_mm: spec.plate_mm,
@@ -412,5 +315,63 @@ impl Card {
             );
         }
         Ok((card, scene))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The card's capture views, as `glint_orientations` takes them.
+    fn card_views(plate_mm: f64) -> Vec<View> {
+        Card::new(&CardSpec {
+            plate_mm,
+            ..CardSpec::default()
+        })
+        .views(64)
+    }
+
+    /// The card's fiducial cuts are its marks' hatches (`scratchart_machine::marks`) at the
+    /// card's orientations, cut to the deepest rung; a design's plate seen from the card's views
+    /// takes each view's own orientation (the card's, without its +-15 degrees).
+    #[test]
+    fn the_cards_marks_are_the_machine_crates() {
+        let card = Card::new(&CardSpec::default());
+        let fid: Vec<&Cut> = card.cuts.iter().filter(|c| c.role == CutRole::Fiducial).collect();
+        let hatch: Vec<_> = card
+            .marks
+            .iter()
+            .flat_map(|m| m.hatch(&glint_orientations(70.0)))
+            .collect();
+        assert_eq!(fid.len(), hatch.len());
+        for (c, (p0, p1)) in fid.iter().zip(&hatch) {
+            assert!(c.p0 == *p0 && c.p1 == *p1 && c.z_mm == 0.1, "{c:?}");
+        }
+        let pm = plate_marks(100.0, &card_views(70.0));
+        let centres: Vec<f64> = glint_orientations(70.0).into_iter().skip(1).step_by(3).collect();
+        assert_eq!(pm.orientations_deg, centres);
+        assert_eq!(pm, scratchart_machine::marks::plate_marks(100.0, &card_views(70.0)));
+    }
+
+    /// The card's orientations are the general rule's on its views; a view that sees the lamp's
+    /// reflection in the plate (no horizontal half-vector), and no view at all, take a cross-hatch.
+    #[test]
+    fn glint_orientations_follow_the_views() {
+        let card = glint_orientations(70.0);
+        assert_eq!(card, glint_orientations_in(&card_views(70.0)));
+        assert_eq!(card.len(), 6, "{card:?}");
+        let mut mirror = card_views(70.0)[0].clone();
+        let e = mirror.camera.eye;
+        mirror.light.kind = LightKind::Point {
+            position: [-e[0], -e[1], e[2]],
+        };
+        assert_eq!(glint_orientations_in(std::slice::from_ref(&mirror)), vec![0.0, 90.0]);
+        assert_eq!(glint_orientations_in(&[]), vec![0.0, 90.0]);
+        // A directional lamp is read as the direction towards it, as a point lamp's position.
+        let mut dir = card_views(70.0)[0].clone();
+        if let LightKind::Point { position } = dir.light.kind {
+            dir.light.kind = LightKind::Directional { direction: position };
+        }
+        assert_eq!(glint_orientations_in(&[dir]), card[..3].to_vec());
     }
 }

@@ -1,5 +1,5 @@
-//! The card's fiducial marks in a photo (see [`crate::card::Mark`]; [`crate::register`] uses
-//! what is found here).
+//! The card's fiducial marks in a photo (see [`scratchart_machine::marks::Mark`];
+//! [`crate::register`] uses what is found here).
 //!
 //! 1. **Candidates.** The marks are bright filled squares on a dark card. A scale space of
 //!    differences of Gaussians (scales from 0.4 to 2.5 times the mark's size in the capture view,

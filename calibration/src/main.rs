@@ -13,6 +13,7 @@ use scratchart_vulkan::{Context, ContextDesc};
 mod carve;
 mod plan_cmd;
 mod toolpath;
+mod touch_up_cmd;
 
 #[derive(Parser)]
 #[command(
@@ -37,6 +38,11 @@ mod toolpath;
                                          after Ctrl-C, the same command with --resume goes on.
   5. scratchart-cal plan DESIGN.json --tool tool.json --out plan.nc, then scratchart-cal carve plan.nc
                                          --port PORT (see calibration/README.md).
+  6. scratchart-cal inspect DESIGN.json v0.jpg v1.jpg ... --tool tool.json --out DIR
+                                         compares photos of the carved plate with the design and finds what the
+                                         carving did differently; scratchart-cal plan DESIGN.json --tool tool.json
+                                         --touch-up DIR/inspect.json --out touch.nc plans what can still be done
+                                         (simulate-plate tries the loop in simulation; calibration/docs/closed_loop.md).
 
 Exit codes: 0 success, 1 runtime failure, 2 bad command line, 3 bad input file, 4 GPU/device failure."#
 )]
@@ -97,6 +103,19 @@ enum Cmd {
     /// Export a design as a drawing for other toolchains: SVG and/or DXF, true size in mm, one
     /// group or layer per depth band, the plate outline on its own.
     Export(plan_cmd::ExportArgs),
+    /// Carve a design's plans in simulation with TOOL (the tool that really cuts: a mismatch with
+    /// the calibrated one is what `inspect` finds) and photograph the plate from each of the
+    /// design's views under its lamp: DIR/<view>.png (exactly the views' cameras and size) and
+    /// DIR/carved.json, the grooves as carved. Plans carve in the order given; a later cut along
+    /// a groove deepens it.
+    SimulatePlate(scratchart_calibration::simulate_plate::SimulatePlateArgs),
+    /// Compare photos of a carved plate (one per design view, as simulate-plate names them) with
+    /// its design: per photo its correlation with the design's render and picture and a
+    /// difference image, and what the carving did differently from the calibrated tool (a
+    /// depth change and a width scale, with uncertainties): DIR/inspect.json and
+    /// DIR/tool_as_carved.json for `plan --touch-up`. Exit 3 (no inspect.json) when the photos
+    /// do not pin them.
+    Inspect(scratchart_calibration::inspect_plate::InspectArgs),
     /// Render the card as TOOL cuts it, from every capture view, as PNG photos named after the views.
     Simulate {
         /// The card (card.json from `scratchart-cal card`)
@@ -168,6 +187,15 @@ fn run(cli: Cli) -> Result<()> {
             Ok(())
         }
         Cmd::Plan(args) => plan_cmd::plan(args),
+        Cmd::Inspect(args) => {
+            let (_ctx, renderer) = renderer(cli.device.as_deref())?;
+            scratchart_calibration::inspect_plate::run(args, &renderer, &scratchart::term::Terminal::new(false))
+        }
+        Cmd::SimulatePlate(args) => {
+            check_camera_flags(args.exposure, args.blur, args.noise, args.megapixels)?;
+            let (_ctx, renderer) = renderer(cli.device.as_deref())?;
+            scratchart_calibration::simulate_plate::run(args, &renderer, &scratchart::term::Terminal::new(false))
+        }
         Cmd::Export(args) => plan_cmd::export(args),
         Cmd::Simulate {
             card,

@@ -318,7 +318,21 @@ pub fn take(
     shot: &Shot,
     dir: &Path,
 ) -> anyhow::Result<(PathBuf, View)> {
-    let base = &capture.views[view];
+    let marks: Vec<([f64; 2], f64)> = card.marks.iter().map(|m| (m.centre, m.half_mm)).collect();
+    take_of(renderer, &cut_scene(card, capture, tool), &marks, view, shot, dir)
+}
+
+/// [`take`] of any plate: `plate` holds the grooves and the views, `marks` the marks a shot may
+/// cover (`shot.cover` indexes them: each its centre and half side, mm).
+pub fn take_of(
+    renderer: &Renderer,
+    plate: &Scene,
+    marks: &[([f64; 2], f64)],
+    view: usize,
+    shot: &Shot,
+    dir: &Path,
+) -> anyhow::Result<(PathBuf, View)> {
+    let base = &plate.views[view];
     // Rendered at RENDER_SCALE times the capture view's height (the blur is given at the
     // view's scale), then resampled to the photo's size: a camera's optics are continuous, and
     // the fit models them at SUPERSAMPLE (2) times the view's resolution, so the photos are made
@@ -328,7 +342,7 @@ pub fn take(
     let (rw, rh) = (pv.camera.width as usize, pv.camera.height as usize);
     let scene = Scene {
         views: vec![pv.clone()],
-        ..cut_scene(card, capture, tool)
+        ..plate.clone()
     };
     let mut gs = renderer.upload(&scene)?;
     let frame = renderer.render(&mut gs)?;
@@ -362,16 +376,13 @@ pub fn take(
     // A covered mark: a black patch (a thumb in shadow, a clamp) over its square and beyond it
     // towards the card's edge, so that nothing of the mark shows and the patch is not centred
     // on it.
-    if let Some(k) = shot.cover {
+    if let Some(k) = shot.cover.filter(|_| !marks.is_empty()) {
         let g = ViewGeom::new(&pv);
-        let mk = &card.marks[k % card.marks.len()];
-        let pad = 1.3 * mk.half_mm;
-        let out = [mk.centre[0].signum(), mk.centre[1].signum()];
-        let c = [
-            mk.centre[0] + out[0] * 1.5 * mk.half_mm,
-            mk.centre[1] + out[1] * 1.5 * mk.half_mm,
-        ];
-        let reach = pad + 1.5 * mk.half_mm;
+        let (centre, half_mm) = marks[k % marks.len()];
+        let pad = 1.3 * half_mm;
+        let out = [centre[0].signum(), centre[1].signum()];
+        let c = [centre[0] + out[0] * 1.5 * half_mm, centre[1] + out[1] * 1.5 * half_mm];
+        let reach = pad + 1.5 * half_mm;
         for (i, l) in lin.iter_mut().enumerate() {
             let (x, y) = ((i % rw) as u32, (i / rw) as u32);
             if let Some(q) = g.shading_point(x, y) {

@@ -8,18 +8,17 @@ use scratchart_exit::{InputError, UsageError};
 use scratchart_machine::gcode::{write_blocks, Options};
 use scratchart_machine::level::{compensate, HeightMap};
 use scratchart_machine::plan::{
-    check_bounds, check_moves, nearest_neighbour, orientation_mark, program_time_split, program_travel,
-    surface_depth_mm, travel, two_opt, Block, Cut,
+    check_bounds, check_moves, nearest_neighbour, program_time_split, program_travel, surface_depth_mm, travel,
+    two_opt, Block, Cut, Label,
 };
 use scratchart_model::scene::Scene;
 use scratchart_tool::machine::{Firmware, MachineProfile};
 use scratchart_tool::Tool;
 
+mod marks;
+
 /// The levelling tolerance: the measured surface stays within this of every G1 segment, mm.
 pub const LEVEL_TOL_MM: f64 = 0.001;
-/// The orientation mark keeps this much more than half a groove's visible width from every
-/// scratch, mm.
-use scratchart_machine::plan::MARK_CLEAR_MM;
 
 /// How the groove ends are handled, stated in every plan's header.
 pub const GROOVE_ENDS: &str = "groove ends: cuts are not shortened. The tool plunges at one designed endpoint \
@@ -74,9 +73,23 @@ pub struct PlanArgs {
     /// Leave out the orientation mark at the plate's +x edge
     #[arg(long)]
     pub no_mark: bool,
+    /// Leave out the registration marks: the calibration card's six hatched squares, carved after
+    /// the scratches in the plate's corners (inside its edges by 2% of the plate, at least 0.5 mm),
+    /// by which `scratchart-cal inspect` finds the carved plate in photos. The job is then shorter
+    /// than the job time `scratchart design --machine` states (and holds to --max-job-min), which
+    /// counts them
+    #[arg(long)]
+    pub no_marks: bool,
     /// Height map of the plate surface (heightmap.json): each cut follows the measured surface
     #[arg(long)]
     pub heightmap: Option<PathBuf>,
+    /// The touch-up of a carved plate: inspect.json from `scratchart-cal inspect` (what the
+    /// carving did differently from the tool's calibration). The plan then only recuts the
+    /// design's scratches deeper along their own paths (metal cannot be put back), as far as that
+    /// brings the plate's render closer to the pictures, and says what the views gain and what it
+    /// cannot fix; no marks (the plate has them). Needs the same --tool as inspect
+    #[arg(long, value_name = "INSPECT_JSON")]
+    pub touch_up: Option<PathBuf>,
     /// Write the plan even where the design cannot be carved as designed (cuts shallower than
     /// the machine's smallest trusted cut, grooves off the tool's curve); the plan's header and
     /// the output say what was forced. Without it such a design is refused (exit 2)
@@ -137,11 +150,6 @@ pub fn load_profile(f: &Path, default: Firmware) -> Result<MachineProfile> {
     Ok(m)
 }
 
-/// Visible width of a scratch (engine/docs/model.md section 2): W = w sqrt(1 - exp(-2d/w)).
-fn visible_width(w: f64, d: f64) -> f64 {
-    w * (1.0 - (-2.0 * d / w).exp()).sqrt()
-}
-
 /// `scratchart-cal plan`.
 pub fn plan(a: &PlanArgs) -> Result<()> {
     let m = machine_profile(&a.machine.machine, a.machine.machine_file.as_deref(), a.bed.as_deref())?;
@@ -160,6 +168,13 @@ pub fn plan(a: &PlanArgs) -> Result<()> {
         })
     });
     let out = out.as_path();
+    if let Some(inspect) = &a.touch_up {
+        let tool = match &a.tool {
+            Some(t) => Some(Tool::load(t).map_err(|e| InputError(e.to_string()))?),
+            None => None,
+        };
+        return crate::touch_up_cmd::plan_touch_up(design, tool.as_ref(), inspect, &m, out);
+    }
     let (scene, extra) = Scene::load_extra(design)?;
     if a.home && m.firmware != scratchart_tool::machine::Firmware::Marlin {
         return Err(UsageError("--home is for Marlin printers (GRBL uses its own work offsets)".into()).into());
@@ -199,31 +214,15 @@ pub fn plan(a: &PlanArgs) -> Result<()> {
     let t0 = travel(&cuts);
     let ordered = two_opt(nearest_neighbour(&cuts), 200);
     let mut blocks: Vec<Block> = ordered.iter().map(Block::flat).collect();
-    let mark = (!a.no_mark).then(|| {
-        let widths: Vec<f64> = scene.scratches.iter().map(|s| visible_width(s.w, s.d)).collect();
-        let sc = scratchart_machine::plan::mark_segments(&cuts, &widths);
-        let deepest = depths.iter().cloned().fold(0.0f64, f64::max);
-        orientation_mark(&sc, plate, deepest, MARK_CLEAR_MM)
-    });
-    if let Some(mk) = &mark {
-        blocks.push(mk.block());
-        summary.push(format!(
-            "mark: one cut at the +x edge from ({:.3}, {:.3}) to ({:.3}, {:.3}) mm, {:.4} mm deep, pointing +x; {}",
-            mk.a[0],
-            mk.a[1],
-            mk.b[0],
-            mk.b[1],
-            mk.z,
-            if mk.clear {
-                "clear of every scratch"
-            } else {
-                "the scratches fill the edge: it crosses them"
-            }
-        ));
-        if !mk.clear {
-            eprintln!("warning: the design leaves no room at the +x edge: the orientation mark crosses scratches");
-        }
-    }
+    let deepest = depths.iter().cloned().fold(0.0f64, f64::max);
+    let added = marks::add_marks(
+        &scene,
+        &cuts,
+        deepest,
+        (a.no_mark, a.no_marks),
+        &mut blocks,
+        &mut summary,
+    )?;
     if let Some(map) = &map {
         level(map, &mut blocks, a, &mut summary)?;
     }
@@ -233,9 +232,10 @@ pub fn plan(a: &PlanArgs) -> Result<()> {
     let secs = split.total();
     summary.push(format!("travel {t0:.0} mm in design order, {t1:.0} mm ordered"));
     summary.push(format!(
-        "estimated job time {:.1} min for the profile's rates (carve states the machine's own): {}",
+        "estimated job time {:.1} min for the profile's rates (carve states the machine's own): {}{}",
         secs / 60.0,
-        split.shares()
+        split.shares(),
+        registration_share(&blocks, &m)
     ));
     summary.push(GROOVE_ENDS.to_string());
     let g = write_blocks(&blocks, &m, plate, &summary, &Options { home: a.home });
@@ -265,10 +265,14 @@ pub fn plan(a: &PlanArgs) -> Result<()> {
     };
     crate::toolpath::write(&preview, &blocks, plate, &caption)?;
     println!(
-        "wrote {} ({} cuts{}) and {}",
+        "wrote {} ({} cuts{}{}) and {}",
         out.display(),
         ordered.len(),
-        if mark.is_some() { " and the +x mark" } else { "" },
+        if added.orientation { ", the +x mark" } else { "" },
+        match added.hatch_cuts {
+            0 => String::new(),
+            n => format!(", the registration marks in {n} hatch cuts"),
+        },
         preview.display()
     );
     println!(
@@ -289,6 +293,18 @@ pub fn plan(a: &PlanArgs) -> Result<()> {
         );
     }
     Ok(())
+}
+
+/// The registration marks' part of the job time (`scratchart_machine::marks::registration_time`),
+/// for the header's job time line; empty without them.
+fn registration_share(blocks: &[Block], m: &MachineProfile) -> String {
+    if !blocks.iter().any(|b| matches!(b.label, Label::Registration { .. })) {
+        return String::new();
+    }
+    format!(
+        "; the registration marks take {:.1} min of it",
+        scratchart_machine::marks::registration_time(blocks, m) / 60.0
+    )
 }
 
 /// The commanded depth of the plate's surface: where the tool's z offset puts it (`--tool`),
@@ -533,8 +549,15 @@ pub fn write_card_gcode(card: &scratchart_calibration::card::Card, dir: &Path, a
     Ok(path)
 }
 
-/// `scratchart-cal export`'s flags.
+/// `scratchart-cal export`'s flags. The drawing holds the design's scratches and the +x mark,
+/// never the registration marks `plan` carves in the plate's corners (they serve photos of the
+/// carved plate, `scratchart-cal inspect`); its --help says so.
 #[derive(clap::Args, Debug)]
+#[command(
+    after_help = "The drawing leaves out the registration marks that `scratchart-cal plan` carves \
+    after the scratches (six hatched squares in the plate's corners, by which `scratchart-cal inspect` \
+    registers photos of the carved plate): a plate carved from this drawing has none."
+)]
 pub struct ExportArgs {
     /// The design (design.json from `scratchart design`)
     pub design: PathBuf,
@@ -547,7 +570,8 @@ pub struct ExportArgs {
     /// The tool (tool.json): band by commanded depth when the design has no z_mm column
     #[arg(long)]
     pub tool: Option<PathBuf>,
-    /// Leave out the orientation mark at the plate's +x edge (as `plan --no-mark`)
+    /// Leave out the orientation mark at the plate's +x edge (as `plan --no-mark`). The
+    /// registration marks `plan` carves in the corners are never in the drawing
     #[arg(long)]
     pub no_mark: bool,
 }

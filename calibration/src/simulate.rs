@@ -126,31 +126,19 @@ pub fn photos(
     // light added up over its area: a camera's optics are continuous, and a render at the
     // photo's own resolution has already added up the light of a groove a pixel wide before the
     // blur (the fit models that at twice the resolution; photos made at its own would flatter it).
-    let k = RENDER_SCALE;
-    let mut scene = cut_scene(card, capture, tool);
-    for v in &mut scene.views {
-        v.camera.width *= k;
-        v.camera.height *= k;
-    }
-    let mut gs = renderer.upload(&scene)?;
-    let frame = renderer.render(&mut gs)?;
+    photos_of(renderer, &cut_scene(card, capture, tool), camera)
+}
+
+/// Renders every view of `scene` as `camera` would take it (see [`photos`]): display images in
+/// [0, 1], one per view, each the view's size.
+pub fn photos_of(renderer: &Renderer, scene: &Scene, camera: &Camera) -> anyhow::Result<Vec<Vec<f32>>> {
+    let hi = render_fine(renderer, scene)?;
     let mut rng = Rng::new(camera.seed);
-    Ok(frame
-        .images
+    Ok(hi
         .iter()
-        .zip(&capture.views)
+        .zip(&scene.views)
         .map(|(img, v)| {
-            let (w, h) = (v.camera.width as usize, v.camera.height as usize);
-            let ku = k as usize;
-            // The optics blur light (linear), the pixels add it up, then the exposure and the
-            // display encoding.
-            let b = blur(img, ku * w, ku * h, k as f64 * camera.blur_px);
-            let mut small = vec![0f32; w * h];
-            for (i, l) in b.iter().enumerate() {
-                let (x, y) = ((i % (ku * w)) / ku, (i / (ku * w)) / ku);
-                small[y * w + x] += l / (ku * ku) as f32;
-            }
-            small
+            develop(img, v.camera.width as usize, v.camera.height as usize, camera.blur_px)
                 .into_iter()
                 .map(|l| scratchart_render::io::display_value((l as f64 * camera.exposure) as f32))
                 .map(|x| {
@@ -161,4 +149,33 @@ pub fn photos(
                 .collect()
         })
         .collect())
+}
+
+/// Every view of `scene` rendered at [`RENDER_SCALE`] times its resolution (linear light).
+pub fn render_fine(renderer: &Renderer, scene: &Scene) -> anyhow::Result<Vec<Vec<f32>>> {
+    // Rendered at RENDER_SCALE times each view's resolution, blurred there and each pixel's
+    // light added up over its area: a camera's optics are continuous, and a render at the
+    // photo's own resolution has already added up the light of a groove a pixel wide before the
+    // blur (the fit models that at twice the resolution; photos made at its own would flatter it).
+    let k = RENDER_SCALE;
+    let mut scene = scene.clone();
+    for v in &mut scene.views {
+        v.camera.width *= k;
+        v.camera.height *= k;
+    }
+    let mut gs = renderer.upload(&scene)?;
+    Ok(renderer.render(&mut gs)?.images)
+}
+
+/// A fine render ([`render_fine`]) of a `w` x `h` view as its camera records the light: the
+/// optics' blur (`blur_px` in the view's pixels), then each pixel adding up its light (linear).
+pub fn develop(fine: &[f32], w: usize, h: usize, blur_px: f64) -> Vec<f32> {
+    let ku = RENDER_SCALE as usize;
+    let b = blur(fine, ku * w, ku * h, ku as f64 * blur_px);
+    let mut small = vec![0f32; w * h];
+    for (i, l) in b.iter().enumerate() {
+        let (x, y) = ((i % (ku * w)) / ku, (i / (ku * w)) / ku);
+        small[y * w + x] += l / (ku * ku) as f32;
+    }
+    small
 }

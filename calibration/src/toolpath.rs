@@ -1,7 +1,7 @@
 //! The toolpath picture `plan` writes beside the G-code (`plan.png`): the plate from above to
 //! scale (+x to the right, +y up, X0 Y0 at its centre) with a scale bar; each cut coloured by its
 //! commanded depth, with the legend; the travel between cuts (faint); the first and the last cut;
-//! the +x orientation mark; and a title with the machine, the tool and the estimated time. A
+//! the +x orientation mark; the registration marks' hatches (orange); and a title with the machine, the tool and the estimated time. A
 //! maker reads it without the README.
 use std::path::Path;
 
@@ -32,6 +32,8 @@ const TRAVEL: RGBColor = RGBColor(200, 200, 200);
 const FIRST: RGBColor = RGBColor(0, 150, 60);
 const LAST: RGBColor = RGBColor(210, 30, 30);
 const INK: RGBColor = RGBColor(40, 40, 40);
+/// The registration marks' hatch lines: a colour the depth scale (viridis) never takes.
+const REGISTRATION: RGBColor = RGBColor(235, 110, 0);
 
 fn pe<E: std::fmt::Debug>(e: E) -> anyhow::Error {
     anyhow::anyhow!("toolpath picture: {e:?}")
@@ -141,7 +143,7 @@ pub fn write(path: &Path, blocks: &[Block], plate_mm: f64, cap: &Caption) -> Res
             font: scratchart_design::report::plot_font().is_some(),
             plate_mm,
         };
-        let cuts: Vec<&Block> = blocks.iter().filter(|b| b.label != Label::Mark).collect();
+        let cuts: Vec<&Block> = blocks.iter().filter(|b| matches!(b.label, Label::Scratch(_))).collect();
         let (lo, hi) = cuts
             .iter()
             .map(|b| depth(b))
@@ -182,7 +184,7 @@ fn draw_title(pic: &Picture, cap: &Caption, cuts: usize) -> Result<()> {
 }
 
 /// The plate seen from above: travel between cuts, the cuts coloured by depth (`lo..hi`), the
-/// work zero, the first and the last cut, and the +x mark.
+/// registration marks' hatches, the work zero, the first and the last cut, and the +x mark.
 fn draw_plate(pic: &Picture, blocks: &[Block], cuts: &[&Block], (lo, hi): (f64, f64)) -> Result<()> {
     let root = pic.root;
     root.draw(&Rectangle::new(
@@ -202,6 +204,10 @@ fn draw_plate(pic: &Picture, blocks: &[Block], cuts: &[&Block], (lo, hi): (f64, 
         let c = colour(depth(b), lo, hi);
         let pts: Vec<(i32, i32)> = b.moves(0.01).iter().map(|p| pic.to(xy(p))).collect();
         pic.line(pts, ShapeStyle::from(&c).stroke_width(2))?;
+    }
+    for b in blocks.iter().filter(|b| matches!(b.label, Label::Registration { .. })) {
+        let pts: Vec<(i32, i32)> = b.moves(0.01).iter().map(|p| pic.to(xy(p))).collect();
+        pic.line(pts, ShapeStyle::from(&REGISTRATION).stroke_width(1))?;
     }
     // The work zero.
     let z = pic.to([0.0, 0.0]);
@@ -302,8 +308,17 @@ fn draw_legend(pic: &Picture, cuts: usize, (lo, hi): (f64, f64)) -> Result<()> {
     ky += 28;
     key_line(ky, BLACK, 4)?;
     pic.text("+x mark: the plate edge facing +x", (lx + 38, ky - 8), 15, &INK)?;
-    ky += 40;
-    pic.text(&format!("{cuts} cuts in this order;"), (lx, ky), 15, &INK)?;
+    ky += 28;
+    key_line(ky, REGISTRATION, 2)?;
+    pic.text("registration marks (hatched squares,", (lx + 38, ky - 8), 15, &INK)?;
+    pic.text(
+        "cut last): inspect finds the plate by them",
+        (lx + 38, ky + 10),
+        15,
+        &INK,
+    )?;
+    ky += 48;
+    pic.text(&format!("{cuts} scratches in this order;"), (lx, ky), 15, &INK)?;
     pic.text("labels: the design's scratch numbers", (lx, ky + 20), 15, &INK)
 }
 

@@ -2,6 +2,8 @@
 //! and plans that leave their bounds are refused with the README's exit codes.
 use std::process::Command;
 
+use scratchart_machine::marks::plate_marks;
+use scratchart_machine::program::Program;
 use scratchart_model::scene::Scene;
 
 /// A design the tests' 60-degree V-bit carves as designed.
@@ -237,7 +239,11 @@ fn the_mark_is_cut_at_the_plus_x_edge_unless_turned_off() {
     ]);
     assert!(o.status.success());
     let g = std::fs::read_to_string(dir.join("n.nc")).unwrap();
-    assert!(!g.contains("; mark"));
+    assert!(!g.contains("; mark +x edge"));
+    assert!(
+        g.contains("; mark corner -x -y hatch 1 "),
+        "--no-mark leaves the registration marks"
+    );
     let _ = std::fs::remove_dir_all(&dir);
 }
 
@@ -254,7 +260,7 @@ fn depths_come_from_the_z_mm_column_and_follow_a_height_map() {
     scene.save_extra(&dir.join("design.json"), "s.csv", &extra).unwrap();
     let run = |args: &[&str]| Command::new(&bin).current_dir(&dir).args(args).output().unwrap();
     // No tool needed.
-    let o = run(&["plan", "design.json", "--out", "z.nc", "--no-mark"]);
+    let o = run(&["plan", "design.json", "--out", "z.nc", "--no-mark", "--no-marks"]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let g = std::fs::read_to_string(dir.join("z.nc")).unwrap();
     assert!(g.contains("depths: the design's z_mm column"));
@@ -279,15 +285,20 @@ fn depths_come_from_the_z_mm_column_and_follow_a_height_map() {
     assert!(String::from_utf8_lossy(&o.stdout).contains("levelling: correction from"));
     let g = std::fs::read_to_string(dir.join("l.nc")).unwrap();
     let blocks = blocks_of(&g);
-    assert_eq!(blocks.len(), 41);
+    // The 40 scratches, the +x mark and the registration marks' hatch lines, every one levelled:
+    // the marks at the deepest depth below the measured surface.
+    let hatch: usize = plate_marks(100.0, &scene.views).hatch_cuts();
+    assert_eq!(blocks.len(), 41 + hatch);
+    let deepest = z.iter().cloned().fold(0.0, f64::max);
     for (label, pts) in &blocks {
-        if let Some(k) = label.strip_prefix("scratch ") {
-            let k: usize = k.parse::<usize>().unwrap() - 1;
-            for p in pts {
-                let depth = plane(p[0], p[1]) - p[2];
-                // Z is written to 0.1 um (rounding 5e-5 mm), X and Y too (5e-5 mm x slope 0.003).
-                assert!((depth - z[k]).abs() < 5.1e-5, "{label}: depth {depth} vs {}", z[k]);
-            }
+        let want = match label.strip_prefix("scratch ") {
+            Some(k) => z[k.parse::<usize>().unwrap() - 1],
+            None => deepest,
+        };
+        for p in pts {
+            let depth = plane(p[0], p[1]) - p[2];
+            // Z is written to 0.1 um (rounding 5e-5 mm), X and Y too (5e-5 mm x slope 0.003).
+            assert!((depth - want).abs() < 5.1e-5, "{label}: depth {depth} vs {want}");
         }
     }
     // A malformed height map: 3, saying what is wrong.
@@ -353,6 +364,7 @@ fn commanded_depths_start_at_the_tools_surface() {
         "--out",
         "s.nc",
         "--no-mark",
+        "--no-marks",
     ]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let blocks = blocks_of(&std::fs::read_to_string(dir.join("s.nc")).unwrap());
@@ -531,5 +543,117 @@ fn the_machine_profile_is_printed_and_read_back() {
         String::from_utf8_lossy(&o.stderr)
     );
     assert!(!dir.join("q.nc").exists());
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// Every plan carves the registration marks (the card's six hatched squares in the plate's
+/// corners, by which `inspect` finds the plate in photos) after the scratches: each hatch line a
+/// block `; mark LABEL hatch K` inside its mark's square, at least 0.5 mm inside the plate, at the
+/// design's deepest depth; the plan reads back for `carve` with them; the header counts them and
+/// the scratches that cross a square (which stay in the plan). `--no-marks` leaves them out.
+#[test]
+fn registration_marks_are_cut_after_the_scratches_unless_turned_off() {
+    let (bin, dir) = setup("registration");
+    let run = |args: &[&str]| Command::new(&bin).current_dir(&dir).args(args).output().unwrap();
+    for plate in [40.0, 100.0] {
+        let mut scene = design(plate);
+        // One more scratch, across the -x -y corner's mark.
+        let mut across = scene.scratches[0];
+        (across.p0, across.p1) = ([-0.49 * plate, -0.49 * plate], [-0.4 * plate, -0.43 * plate]);
+        scene.scratches.push(across);
+        scene.save(&dir.join("design.json"), "s.csv").unwrap();
+        let o = run(&["plan", "design.json", "--tool", "tool.json", "--out", "p.nc"]);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let g = std::fs::read_to_string(dir.join("p.nc")).unwrap();
+        let blocks = blocks_of(&g);
+        let reg = plate_marks(plate, &scene.views);
+        let hatches = reg.hatches();
+        assert_eq!(reg.marks.len(), 6);
+        let is_hatch = |l: &str| l.starts_with("mark ") && l != "mark +x edge";
+        let first = blocks.iter().position(|b| is_hatch(&b.0)).expect("registration marks");
+        assert!(
+            blocks[..first].iter().filter(|b| b.0.starts_with("scratch ")).count() == 41
+                && blocks[first..].iter().all(|b| is_hatch(&b.0)),
+            "the marks come after every scratch (and the +x mark)"
+        );
+        assert_eq!(blocks.len() - first, hatches.iter().map(Vec::len).sum::<usize>());
+        let deepest = blocks
+            .iter()
+            .filter(|b| b.0.starts_with("scratch "))
+            .flat_map(|b| b.1.iter().map(|p| -p[2]))
+            .fold(0.0, f64::max);
+        let h = 0.5 * plate - 0.5;
+        for (m, hatch) in reg.marks.iter().zip(&hatches) {
+            assert!(
+                m.centre[0].abs() + m.half_mm <= h && m.centre[1].abs() + m.half_mm <= h,
+                "{plate} mm: {m:?} is not 0.5 mm inside the plate"
+            );
+            let mine: Vec<_> = blocks[first..]
+                .iter()
+                .filter(|b| b.0.strip_prefix("mark ").unwrap().rsplit_once(" hatch ").unwrap().0 == m.label)
+                .collect();
+            assert!(
+                hatch.len() >= 10 && mine.len() == hatch.len(),
+                "{}: {}",
+                m.label,
+                mine.len()
+            );
+            for (k, (label, pts)) in mine.iter().enumerate() {
+                assert_eq!(*label, format!("mark {} hatch {}", m.label, k + 1));
+                assert_eq!(pts.len(), 2, "{label}: one plunge and one line");
+                for p in pts {
+                    assert!(m.covers([p[0], p[1]], 1e-4), "{label}: {p:?} outside {m:?}");
+                    assert!((p[2] + deepest).abs() < 1e-4, "{label}: at {} mm, not {deepest}", -p[2]);
+                }
+            }
+        }
+        // `carve` reads the plan back with every mark's block (and streams each block it reads).
+        let p = Program::parse(&g).unwrap();
+        assert_eq!(p.blocks.len(), blocks.len());
+        let read: Vec<&str> = p.blocks.iter().map(|b| b.label.as_str()).collect();
+        assert_eq!(read, blocks.iter().map(|b| b.0.as_str()).collect::<Vec<_>>());
+        assert!(p.blocks[first..]
+            .iter()
+            .all(|b| b.scratch.is_none() && b.lines.iter().any(|l| l.starts_with("G1 X"))));
+        let header = g
+            .lines()
+            .take_while(|l| l.starts_with(';'))
+            .map(|l| &l[2..])
+            .collect::<Vec<_>>()
+            .join(" ");
+        let n = blocks.len() - first;
+        let side = 2.0 * reg.marks[0].half_mm;
+        assert!(
+            header.contains(&format!("6 hatched squares of {side:.2} mm"))
+                && header.contains(&format!("{n} hatch cuts"))
+                && header.contains("1 of the design's 41 scratches cross a square")
+                && header.contains("they stay in the plan")
+                && header.contains("the registration marks take"),
+            "{header}"
+        );
+        // The preview draws their hatches (orange, a colour the depth scale never takes).
+        let png = image::open(dir.join("p.png")).unwrap().to_rgb8();
+        assert!(png.pixels().filter(|p| p.0 == [235, 110, 0]).count() > 100);
+        let said = String::from_utf8_lossy(&o.stdout);
+        assert!(
+            said.contains(&format!("the registration marks in {n} hatch cuts")),
+            "{said}"
+        );
+        // --no-marks: the same plan without them; the +x mark stays.
+        let o = run(&[
+            "plan",
+            "design.json",
+            "--tool",
+            "tool.json",
+            "--out",
+            "n.nc",
+            "--no-marks",
+        ]);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let n = std::fs::read_to_string(dir.join("n.nc")).unwrap();
+        let without = blocks_of(&n);
+        assert_eq!(without, blocks[..first].to_vec());
+        assert!(!n.contains("registration marks"));
+    }
     let _ = std::fs::remove_dir_all(&dir);
 }

@@ -639,12 +639,18 @@ fn machine_summary(
         .count();
     let shallowest_cut = depths.iter().cloned().fold(f64::INFINITY, f64::min) + fab.tool.z_offset_mm();
     let (snapped, largest_snap, loss_before, optimized) = snap.unwrap_or((0, 0.0, f32::NAN, depths.len()));
-    // The job as `scratchart-cal plan` makes it for this machine: the planner's estimate.
-    let (split, upper) = crate::job_time::job_time(scene, depths, m);
+    // The job as `scratchart-cal plan` makes it by default for this machine (the +x mark and
+    // the registration marks included): the planner's estimate.
+    let t = crate::job_time::job_time(scene, depths, m);
     json!({
-        "job_min": split.total() / 60.0,
-        "job_min_upper_bound": upper / 60.0,
-        "job_time_shares": split.shares(),
+        "job_min": t.split.total() / 60.0,
+        "job_min_upper_bound": t.upper_s / 60.0,
+        "job_time_shares": t.split.shares(),
+        "job_includes": "the design's scratches, the +x mark and the registration marks (the calibration card's six \
+             hatched squares, by which scratchart-cal inspect finds the plate in photos), as scratchart-cal plan \
+             carves them by default; plan --no-marks leaves the registration marks out",
+        "registration_marks_min": t.registration_s / 60.0,
+        "registration_hatch_cuts": t.hatch_cuts,
         "profile": limits.source,
         "firmware": m.firmware,
         "min_cut_depth_mm": m.min_cut_depth_mm,

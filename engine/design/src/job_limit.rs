@@ -3,12 +3,14 @@
 //!
 //! 1. The design as asked, without the limit, in `OUT/unlimited/` (its own checkpoints and
 //!    reports): what the limit is measured against.
-//! 2. Its job time as `plan` would make it for the same machine ([`job_time`]: the cuts ordered
-//!    as `plan` orders them, the +x mark, the controller's planner). The limit holds the
-//!    move-by-move sum from rest to rest, an upper bound of the planner's estimate that a
-//!    maker's own sum of the G-code will not exceed either.
+//! 2. Its job time as `plan` would make it by default for the same machine ([`job_time`]: the
+//!    cuts ordered as `plan` orders them, the +x mark and the registration marks, the
+//!    controller's planner). The limit holds the move-by-move sum from rest to rest, an upper
+//!    bound of the planner's estimate that a maker's own sum of the G-code will not exceed
+//!    either; a plan with `--no-marks` takes less.
 //! 3. Over the limit: the scratches that matter least (the pruning's ranking: how far each one's
-//!    gradient would move it) go until the job fits in [`TRIM_TARGET`] of it, and the rest is
+//!    gradient would move it) go until the job fits in [`TRIM_TARGET`] of it (the registration
+//!    marks' time is the same whatever is left: only the rest shrinks), and the rest is
 //!    optimized again for half the iterations (lengths may grow while it is); still over, the
 //!    least important go again until it fits, with a final evaluation. Within the limit from
 //!    the start: the same design, evaluated again.
@@ -19,7 +21,7 @@
 //! deterministic, so a resumed run equals an uninterrupted one).
 use serde_json::{json, Value};
 
-use scratchart_machine::plan::TimeSplit;
+use scratchart_machine::marks::JobTime;
 
 use crate::job_time::job_time;
 use scratchart_tool::machine::MachineProfile;
@@ -44,15 +46,15 @@ fn importance(renderer: &Renderer, loss: &Loss, scene: &Scene, cfg: &DesignConfi
     Ok(scratchart_optim::prune::importance(&grads, &cfg.adam))
 }
 
-/// The most important scratches of `scene` (kept in order) whose job fits in `secs`; with
-/// their depths and the job's times. An error when not even one scratch fits.
+/// The most important scratches of `scene` (kept in order) whose job (with its marks) fits in
+/// `secs`; with their depths and the job's times. An error when not even one scratch fits.
 fn trim(
     scene: &Scene,
     depths: &[f64],
     rank: &[f64],
     m: &MachineProfile,
     secs: f64,
-) -> Result<(Scene, Vec<f64>, (TimeSplit, f64)), OptimError> {
+) -> Result<(Scene, Vec<f64>, JobTime), OptimError> {
     let mut order: Vec<usize> = (0..scene.scratches.len()).collect();
     order.sort_by(|&a, &b| rank[b].total_cmp(&rank[a]).then(a.cmp(&b)));
     let keep = |n: usize| -> (Scene, Vec<f64>) {
@@ -64,12 +66,15 @@ fn trim(
     };
     let (mut n, mut t) = (scene.scratches.len(), job_time(scene, depths, m));
     for _ in 0..12 {
-        if t.1 <= secs {
+        if t.upper_s <= secs {
             break;
         }
-        // The time is about proportional to the scratches left (a few percent of it is the
-        // start, the end and the mark): shrink by the ratio, and by at least one.
-        let next = ((n as f64 * secs / t.1).floor() as usize).min(n - 1);
+        // Past the registration marks' time (the same whatever is left), the time is about
+        // proportional to the scratches left (a few percent of it is the start, the end and the
+        // +x mark): shrink by the ratio, and by at least one.
+        let fixed = t.registration_upper_s;
+        let ratio = ((secs - fixed) / (t.upper_s - fixed)).max(0.0);
+        let next = ((n as f64 * ratio).floor() as usize).min(n - 1);
         if next == 0 {
             break;
         }
@@ -77,28 +82,30 @@ fn trim(
         let (s, z) = keep(n);
         t = job_time(&s, &z, m);
     }
-    if t.1 > secs {
+    if t.upper_s > secs {
         let (s, z) = keep(1);
-        return Err(too_short(secs, job_time(&s, &z, m).1));
+        return Err(too_short(secs, job_time(&s, &z, m).upper_s));
     }
     let (s, z) = keep(n);
     Ok((s, z, t))
 }
 
 /// One design's entry in `job_limit`.
-fn side(scene: &Scene, t: &(TimeSplit, f64), corr: &[f64]) -> Value {
+fn side(scene: &Scene, t: &JobTime, corr: &[f64]) -> Value {
     json!({
         "scratches": scene.scratches.len(),
-        "job_min": t.0.total() / 60.0,
-        "job_min_upper": t.1 / 60.0,
-        "shares": t.0.shares(),
+        "job_min": t.split.total() / 60.0,
+        "job_min_upper": t.upper_s / 60.0,
+        "registration_marks_min": t.registration_s / 60.0,
+        "shares": t.split.shares(),
         "corr": corr,
     })
 }
 
 fn too_short(limit_s: f64, one_s: f64) -> OptimError {
     OptimError::Usage(format!(
-        "the job limit ({} min) is shorter than a job of one scratch ({:.2} min on this machine): give a longer --max-job-min",
+        "the job limit ({} min) is shorter than a job of one scratch ({:.2} min on this machine with the marks \
+         `scratchart-cal plan` carves after it): give a longer --max-job-min",
         limit_s / 60.0,
         one_s / 60.0
     ))
@@ -144,7 +151,7 @@ pub fn run_design_within(
     ) {
         let mut one = problem.scene.clone();
         one.scratches = vec![*s];
-        let t = job_time(&one, &[fab.table.z_lo], &m).1;
+        let t = job_time(&one, &[fab.table.z_lo], &m).upper_s;
         if t > limit {
             return Err(too_short(limit, t));
         }
@@ -166,20 +173,20 @@ pub fn run_design_within(
     let renderer = Renderer::new(ctx)?;
     let slots = scratchart_render::layout::view_slots(&problem.scene);
     let loss = Loss::new(ctx, &slots.views, &problem.targets, cfg.loss)?;
-    let fits = ta.1 <= limit;
+    let fits = ta.upper_s <= limit;
     let (start, refine_iters, trimmed_to) = if fits {
         (a.scene.clone(), 0, None)
     } else {
         let rank = importance(&renderer, &loss, &a.scene, cfg)?;
         let (s, _, t) = trim(&a.scene, &za, &rank, &m, TRIM_TARGET * limit)?;
         let n = s.scratches.len();
-        (s, (cfg.iters / 2).max(10), Some((n, t.1)))
+        (s, (cfg.iters / 2).max(10), Some((n, t.upper_s)))
     };
     obs.info(&format!(
         "job limit {max_min} min: without it {} scratches, {:.1} min (at most {:.1}); {}",
         a.scene.scratches.len(),
-        ta.0.total() / 60.0,
-        ta.1 / 60.0,
+        ta.split.total() / 60.0,
+        ta.upper_s / 60.0,
         match trimmed_to {
             None => "it fits".to_string(),
             Some((n, t)) => format!(
@@ -207,7 +214,7 @@ pub fn run_design_within(
     let mut zb = b.depths.clone().expect("a machine design has depths");
     let mut tb = job_time(&b.scene, &zb, &m);
     let mut final_trim = None;
-    if tb.1 > limit {
+    if tb.upper_s > limit {
         // 3. Lengthened past the limit while it was optimized: the least important go again.
         let rank = importance(&renderer, &loss, &b.scene, cfg)?;
         let (s, _, _) = trim(&b.scene, &zb, &rank, &m, limit)?;
@@ -219,7 +226,7 @@ pub fn run_design_within(
     let (ca, cb) = (corr(&a.summary), corr(&b.summary));
     let entry = json!({
         "max_job_min": max_min,
-        "what": "the design without the limit (in unlimited/) and within it: scratches, job time as plan makes it for this machine (the planner's estimate, and the move-by-move sum from rest that the limit holds), each view's correlation with its picture",
+        "what": "the design without the limit (in unlimited/) and within it: scratches, job time as plan makes it for this machine by default, the +x mark and the registration marks included (the planner's estimate, and the move-by-move sum from rest that the limit holds; registration_marks_min: the registration marks' part of the estimate, which plan --no-marks leaves out), each view's correlation with its picture",
         "fits_without_trimming": fits,
         "refine_iterations": refine_iters,
         "final_trim": final_trim.map(|(from, to)| json!({"from": from, "to": to})),

@@ -2,7 +2,8 @@
 //! GRBL- or Marlin-flavoured G-code. The first line names the firmware (`carve` refuses a plan
 //! made for the other one); the header says where the work zero is; each block opens with its
 //! comment (`; scratch N (cut K of T)`: N the design's scratch number, K the place in the cut
-//! order; or `; mark +x edge (cut K of T)` for the orientation mark). Lines stay under 80
+//! order; `; mark +x edge (cut K of T)` for the orientation mark, `; mark corner -x -y hatch 3
+//! (cut K of T)` for a registration mark's hatch line). Lines stay under 80
 //! characters and end in `\n` only.
 use std::fmt::Write as _;
 

@@ -4,6 +4,9 @@
 //!   with reversal, then 2-opt), travel, bounds and the job time with acceleration.
 //! - [`gcode`]: the one G-code writer (GRBL and Marlin flavours).
 //! - [`depths`]: one commanded depth per scratch from the tool profile.
+//! - [`marks`]: the marks `scratchart-cal plan` carves after a design's scratches (the +x mark and
+//!   the calibration card's hatched squares as registration marks), and the design's job time
+//!   with them.
 //!
 //! Streaming a plan to the controller (`scratchart-cal carve`):
 //! - [`program`]: a plan read back: firmware, preamble, one block per scratch, postamble.
@@ -21,6 +24,7 @@
 //! tests without Vulkan, shaderc or a GPU: `cargo build -p scratchart-machine` pulls no Vulkan
 //! crate (check with `cargo tree -p scratchart-machine`).
 
+pub mod carved;
 pub mod controller;
 pub mod depths;
 pub mod detect;
@@ -33,6 +37,7 @@ pub mod grbl_codes;
 pub mod job;
 pub mod journal;
 pub mod level;
+pub mod marks;
 pub mod marlin;
 pub mod plan;
 pub mod planner;

@@ -11,7 +11,9 @@
 //! Time: the moves the G-code writer makes, as the controller's planner runs them
 //! ([`crate::planner`]: GRBL's junction speeds, acceleration and lookahead). [`move_time`] is
 //! one move from rest to rest, t(d) = d / v + v / a when d >= v^2 / a, else 2 sqrt(d / a): a
-//! sum of those over the moves is the upper bound the tests hold the planner to.
+//! sum of those over the moves is the upper bound the tests hold the planner to. A design's job
+//! time with the marks `scratchart-cal plan` carves after its scratches (the +x mark and the
+//! registration marks) is [`crate::marks::design_job_time`].
 
 use scratchart_tool::machine::{Firmware, MachineProfile};
 
@@ -36,7 +38,7 @@ pub struct Cut {
 pub const ARC_TOL_MM: f64 = 0.002;
 
 impl Cut {
-    fn reversed(self) -> Cut {
+    pub fn reversed(self) -> Cut {
         Cut {
             a: self.b,
             b: self.a,
@@ -314,20 +316,6 @@ fn program_moves<'k>(
     mv
 }
 
-/// The job time of a design's cuts as `plan` makes it: ordered (nearest neighbour, then 2-opt),
-/// the +x mark after them (`widths`: each scratch's visible groove width, where the mark keeps
-/// clear of), no levelling. Returns the planner's estimate and the move-by-move upper bound, s.
-pub fn design_job_time(cuts: &[Cut], widths: &[f64], plate_mm: f64, m: &MachineProfile) -> (TimeSplit, f64) {
-    let ordered = two_opt(nearest_neighbour(cuts), 200);
-    let mut blocks: Vec<Block> = ordered.iter().map(Block::flat).collect();
-    if !cuts.is_empty() {
-        let sc = mark_segments(cuts, widths);
-        let deepest = cuts.iter().map(|c| c.z).fold(0.0f64, f64::max);
-        blocks.push(orientation_mark(&sc, plate_mm, deepest, MARK_CLEAR_MM).block());
-    }
-    (program_time_split(&blocks, m), program_time_rest_to_rest(&blocks, m))
-}
-
 /// Rapid travel of a program starting and ending at the work zero, mm.
 pub fn program_travel(blocks: &[Block]) -> f64 {
     let mut at = [0.0, 0.0];
@@ -420,12 +408,20 @@ pub fn check_moves(blocks: &[Block], m: &MachineProfile) -> Result<(), String> {
 }
 
 /// What a block of the program cuts: a scratch of the design (or a cut of the calibration card),
-/// or the orientation mark. The G-code comment that opens the block is `; scratch N` (N from 1)
-/// or `; mark +x edge`.
+/// the orientation mark, or one hatch line of a registration mark (the calibration card's hatched
+/// squares, which `scratchart-cal plan` carves in every plate's corners). The G-code comment that
+/// opens the block is `; scratch N` (N from 1), `; mark +x edge` or `; mark LABEL hatch K` (the
+/// mark's label, `corner -x -y`, and the line's place, from 1, in the mark's cut order).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Label {
     Scratch(usize),
     Mark,
+    Registration {
+        /// The mark's label (`corner -x -y`).
+        mark: &'static str,
+        /// The line's place in the mark's cut order, from 0.
+        line: usize,
+    },
 }
 
 impl std::fmt::Display for Label {
@@ -433,6 +429,7 @@ impl std::fmt::Display for Label {
         match self {
             Label::Scratch(k) => write!(f, "scratch {}", k + 1),
             Label::Mark => f.write_str("mark +x edge"),
+            Label::Registration { mark, line } => write!(f, "mark {mark} hatch {}", line + 1),
         }
     }
 }

@@ -53,7 +53,7 @@ pub fn checksum(bytes: &[u8]) -> String {
     format!("{h:016x}")
 }
 
-fn word(line: &str, letter: char) -> Option<f64> {
+pub(crate) fn word(line: &str, letter: char) -> Option<f64> {
     line.split_whitespace()
         .find(|w| w.starts_with(letter))
         .and_then(|w| w[1..].parse().ok())
@@ -91,7 +91,7 @@ struct Motion<'k> {
 
 /// The bulge of the arc from `a` to `b` about `centre`, counter-clockwise when `ccw` (a full turn
 /// where the ends meet, as GRBL reads it).
-fn bulge_of(a: [f64; 2], b: [f64; 2], centre: [f64; 2], ccw: bool) -> f64 {
+pub(crate) fn bulge_of(a: [f64; 2], b: [f64; 2], centre: [f64; 2], ccw: bool) -> f64 {
     let tau = std::f64::consts::TAU;
     let p0 = (a[1] - centre[1]).atan2(a[0] - centre[0]);
     let p1 = (b[1] - centre[1]).atan2(b[0] - centre[0]);

@@ -280,7 +280,7 @@ pub struct DesignArgs {
     pub carvings: u32,
     /// With --machine: the longest job the maker has, minutes. The design is made as asked (in
     /// OUT/unlimited/), its job time taken as `scratchart-cal plan` makes it for the same
-    /// machine, and if it is longer, the scratches that matter least go and the rest is
+    /// machine (the +x mark and the registration marks included), and if it is longer, the scratches that matter least go and the rest is
     /// optimized again, until the job (summed move by move from rest, an upper bound of the
     /// planner's estimate) fits. summary.json's `job_limit` says what the limit cost each view
     #[arg(long)]

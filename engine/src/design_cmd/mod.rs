@@ -132,7 +132,9 @@ pub fn finish(
             println!(
                 "  machine ({}): cuts {:.4} mm or deeper below the surface on a {} mm Z grid, scratches {:.3} mm or longer ({}); \
                  {} of {} scratches at the shallowest cut, {} at the shortest length, {} of the {} optimized moved onto the Z grid (at most {:.2} um); \
-                 job about {:.1} min on this machine (the planner's estimate, as `scratchart-cal plan` makes it: {})",
+                 job about {:.1} min on this machine (the planner's estimate, as `scratchart-cal plan` makes it: {}; \
+                 the +x mark and the registration marks included: the registration marks take {:.1} min of it, \
+                 `plan --no-marks` leaves them out)",
                 m["profile"].as_str().unwrap_or("?"),
                 n(&m["min_cut_depth_mm"]),
                 n(&m["z_step_mm"]),
@@ -146,6 +148,7 @@ pub fn finish(
                 n(&m["largest_z_grid_move_um"]),
                 n(&m["job_min"]),
                 m["job_time_shares"].as_str().unwrap_or("?"),
+                n(&m["registration_marks_min"]),
             );
         }
         if let Some(e) = s.get("machine_error") {

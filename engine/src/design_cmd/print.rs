@@ -76,11 +76,12 @@ pub(super) fn job_limit_text(j: &serde_json::Value) -> String {
     let n = |v: &serde_json::Value| v.as_f64().unwrap_or(f64::NAN);
     let side = |k: &str| {
         format!(
-            "{} scratches, {:.1} min ({:.1} at most; {})",
+            "{} scratches, {:.1} min ({:.1} at most; {}; the registration marks {:.1} min of it)",
             j[k]["scratches"],
             n(&j[k]["job_min"]),
             n(&j[k]["job_min_upper"]),
-            j[k]["shares"].as_str().unwrap_or("?")
+            j[k]["shares"].as_str().unwrap_or("?"),
+            n(&j[k]["registration_marks_min"]),
         )
     };
     let mut out = format!(

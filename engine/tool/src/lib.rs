@@ -200,6 +200,59 @@ impl Tool {
         serde_json::to_string_pretty(&v).expect("a tool always serializes")
     }
 
+    /// The tool as a carving found it (`scratchart-cal inspect`): its grooves `width_scale` times
+    /// as wide at the same depth, and every cut `dz_mm` deeper (its z offset moved by that much).
+    /// The width scale is exact where the tool's shape allows: a V-bit's walls and tip flat (its
+    /// half angle's tangent scaled), a measured profile's widths; for a ball, the radius
+    /// `width_scale^2` times as large (a shallow cut's width grows as the root of the radius, so
+    /// shallow grooves are `width_scale` times as wide, the deepest a little less); a tapered
+    /// ball both. Scale 1 and offset 0 give the tool itself.
+    pub fn as_carved(&self, width_scale: f64, dz_mm: f64) -> Tool {
+        let s = width_scale;
+        let angle = |a: f64| {
+            if s == 1.0 {
+                a
+            } else {
+                (2.0 * (s * (0.5 * a.to_radians()).tan()).atan()).to_degrees()
+            }
+        };
+        match self {
+            Tool::VBit {
+                angle_deg,
+                tip_flat_mm,
+                z_offset_mm,
+            } => Tool::VBit {
+                angle_deg: angle(*angle_deg),
+                tip_flat_mm: s * tip_flat_mm,
+                z_offset_mm: z_offset_mm + dz_mm,
+            },
+            Tool::Ball { radius_mm, z_offset_mm } => Tool::Ball {
+                radius_mm: s * s * radius_mm,
+                z_offset_mm: z_offset_mm + dz_mm,
+            },
+            Tool::TaperedBall {
+                radius_mm,
+                angle_deg,
+                z_offset_mm,
+            } => Tool::TaperedBall {
+                radius_mm: s * s * radius_mm,
+                angle_deg: angle(*angle_deg),
+                z_offset_mm: z_offset_mm + dz_mm,
+            },
+            Tool::Profile {
+                points,
+                w_over_w,
+                z_offset_mm,
+            } => Tool::Profile {
+                // A profile's points are at commanded depths: a cut dz deeper reaches at z what
+                // the profile lists at z + dz.
+                points: points.iter().map(|p| [p[0] - dz_mm, s * p[1]]).collect(),
+                w_over_w: *w_over_w,
+                z_offset_mm: z_offset_mm + dz_mm,
+            },
+        }
+    }
+
     /// The groove cut at commanded depth `z_mm`; `None` when the tool does not reach the plate.
     pub fn section(&self, z_mm: f64) -> Option<Section> {
         Section::of(self, z_mm)
@@ -220,6 +273,40 @@ impl Tool {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A carving `s` times as wide and `dz` deeper: the V-bit's and profile's grooves exactly,
+    /// a ball's shallow ones nearly; scale 1 and offset 0 are the tool itself.
+    #[test]
+    fn as_carved_widens_and_deepens() {
+        let (s, dz) = (1.1, 0.015);
+        let width = |t: &Tool, z: f64| t.section(z).map_or(0.0, |c| c.width);
+        let v = Tool::VBit {
+            angle_deg: 60.0,
+            tip_flat_mm: 0.01,
+            z_offset_mm: -0.002,
+        };
+        let p = Tool::Profile {
+            points: vec![[0.0, 0.02], [0.05, 0.08], [0.1, 0.12]],
+            w_over_w: 1.3,
+            z_offset_mm: 0.001,
+        };
+        for t in [&v, &p] {
+            let c = t.as_carved(s, dz);
+            for z in [0.01, 0.03, 0.06] {
+                let (a, b) = (width(&c, z), s * width(t, z + dz));
+                assert!((a - b).abs() < 1e-12 * b.max(1.0), "{t:?} at {z}: {a} vs {b}");
+                let (da, db) = (c.section(z).unwrap().depth, t.section(z + dz).unwrap().depth);
+                assert!((da - db).abs() < 1e-15, "{da} vs {db}");
+            }
+            assert_eq!(&t.as_carved(1.0, 0.0), t);
+        }
+        let b = Tool::Ball {
+            radius_mm: 0.1,
+            z_offset_mm: 0.0,
+        };
+        let r = width(&b.as_carved(s, 0.0), 0.002) / width(&b, 0.002);
+        assert!((r - s).abs() < 0.01 * s, "{r}");
+    }
 
     #[test]
     fn tool_files_round_trip_and_bad_ones_are_named() {

@@ -1,0 +1,169 @@
+//! What `inspect` writes: per photo how the plate compares with the design's render and with
+//! its picture, a difference image, and what the carving did differently (inspect.json and
+//! tool_as_carved.json), or a refusal naming what the photos do not pin.
+use super::*;
+
+/// Each photo's numbers.
+struct PhotoReport {
+    /// Correlation of the photo with the design's render (as designed), with the fitted
+    /// carving's render, and with the view's picture as the design measures (`touch_up::Goal`);
+    /// the design's own render against the picture, for comparison.
+    with_design: f64,
+    with_fit: f64,
+    with_picture: f64,
+    design_with_picture: f64,
+}
+
+/// The difference image photo - gain x render, mid grey for 0 and for what the fit left out.
+fn difference_png(path: &Path, w: u32, h: u32, photo: &Photo, render: &[f32], gain: f64) -> Result<()> {
+    let bytes: Vec<u8> = (0..photo.pixels.len())
+        .map(|i| {
+            if !photo.used[i] {
+                return 128;
+            }
+            let d = photo.pixels[i] as f64 - gain * render[i] as f64;
+            (128.0 + 255.0 * d).round().clamp(0.0, 255.0) as u8
+        })
+        .collect();
+    scratchart_render::io::write_png_gray(path, w, h, &bytes)?;
+    Ok(())
+}
+
+/// Writes the difference images, and inspect.json and tool_as_carved.json when the photos pin
+/// what the carving did; else a refusal (exit 3).
+pub(super) fn write(a: &InspectArgs, p: &Problem, found: &Found, at: &Eval) -> Result<()> {
+    let designed = p.images_of(&p.seen_by_photos(p.design.clone()))?;
+    let designed_eval = p.compare(designed);
+    // The pictures as the design measures them, and the design's own render at its exposure.
+    let goal = crate::touch_up::Goal::of(&a.design, &p.design);
+    let own = crate::touch_up::display_renders(p.renderer, &p.design)?;
+    let mut photos = Vec::new();
+    for (k, ph) in p.photos.iter().enumerate() {
+        let v = &p.design.views[ph.view];
+        let (w, h) = (ph.camera.camera.width as usize, ph.camera.camera.height as usize);
+        let r = PhotoReport {
+            with_design: correlation(&ph.pixels, &designed_eval.images[k], &ph.used),
+            with_fit: correlation(&ph.pixels, &at.images[k], &ph.used),
+            with_picture: goal.correlation(&p.design, ph.view, &ph.on_view, &own[ph.view]),
+            design_with_picture: goal.correlation(&p.design, ph.view, &own[ph.view], &own[ph.view]),
+        };
+        let stem = ph
+            .file
+            .file_stem()
+            .map_or("photo".into(), |s| s.to_string_lossy().to_string());
+        let diff = a.out.join(format!("{stem}_diff.png"));
+        difference_png(
+            &diff,
+            w as u32,
+            h as u32,
+            ph,
+            &designed_eval.images[k],
+            designed_eval.gain[k],
+        )?;
+        println!(
+            "  {} (view {}): correlates {:.3} with the design's render, {:.3} with the carving as fitted, {:.3} with \
+             {} (the design: {:.3}); {}",
+            ph.file.display(),
+            v.name,
+            r.with_design,
+            r.with_fit,
+            r.with_picture,
+            goal.against(),
+            r.design_with_picture,
+            diff.display()
+        );
+        photos.push((ph, r, at.gain[k]));
+    }
+    let pinned = found.dz_sd_mm <= DZ_TOLERANCE_MM && found.width_scale_sd <= SCALE_TOLERANCE;
+    let inside = found.dz_mm.abs() < DZ_RANGE_MM - 1e-9
+        && found.width_scale > SCALE_RANGE.0 + 1e-9
+        && found.width_scale < SCALE_RANGE.1 - 1e-9;
+    println!(
+        "  the carving: cuts {:+.1} +- {:.1} um deeper than the tool's calibration, grooves {:.3} +- {:.3} times as wide \
+         (correlation {:+.2}; residual {:.4} rms; {} renders)",
+        1e3 * found.dz_mm,
+        1e3 * found.dz_sd_mm,
+        found.width_scale,
+        found.width_scale_sd,
+        found.correlation,
+        found.residual_sd,
+        found.renders
+    );
+    if !(pinned && inside) {
+        let mut why = Vec::new();
+        if found.dz_sd_mm > DZ_TOLERANCE_MM || !found.dz_sd_mm.is_finite() {
+            why.push(format!(
+                "the depth change to {:.1} um (needed: {:.1})",
+                1e3 * found.dz_sd_mm,
+                1e3 * DZ_TOLERANCE_MM
+            ));
+        }
+        if found.width_scale_sd > SCALE_TOLERANCE || !found.width_scale_sd.is_finite() {
+            why.push(format!(
+                "the width scale to {:.3} (needed: {SCALE_TOLERANCE})",
+                found.width_scale_sd
+            ));
+        }
+        if !inside {
+            why.push(format!(
+                "a value inside the range looked at (depth change within +-{} um, width scale {} to {})",
+                1e3 * DZ_RANGE_MM,
+                SCALE_RANGE.0,
+                SCALE_RANGE.1
+            ));
+        }
+        return Err(InputError(format!(
+            "the photos do not pin what the carving did: they pin {}. No inspect.json written. Photograph the plate \
+             from every view of the design, sharp and not clipped, or check that the photos are of this design's plate",
+            why.join(" and ")
+        ))
+        .into());
+    }
+    let carved_tool = p.tool.as_carved(found.width_scale, found.dz_mm);
+    let tool_file = a.out.join("tool_as_carved.json");
+    scratchart_render::io::write_atomic(&tool_file, carved_tool.to_json().as_bytes())?;
+    let v = json!({
+        "design": a.design.display().to_string(),
+        "tool": a.tool.display().to_string(),
+        "tool_as_calibrated": serde_json::to_value(&p.tool)?,
+        "tool_as_carved": serde_json::to_value(&carved_tool)?,
+        "tool_as_carved_file": tool_file.display().to_string(),
+        "grooves_from": if a.plan.is_empty() { json!("the design's commanded depths (as plan carves them)") }
+            else { json!(a.plan.iter().map(|p| p.display().to_string()).collect::<Vec<_>>()) },
+        "found": {
+            "dz_mm": found.dz_mm, "dz_sd_mm": found.dz_sd_mm,
+            "width_scale": found.width_scale, "width_scale_sd": found.width_scale_sd,
+            "correlation": found.correlation,
+            "meaning": "every cut reached dz_mm deeper than the calibrated tool's z offset says (+: deeper), and its \
+                        groove was width_scale times as wide at that depth (Tool::as_carved)",
+            "tolerances": {"dz_sd_mm": DZ_TOLERANCE_MM, "width_scale_sd": SCALE_TOLERANCE},
+        },
+        "residual_sd": found.residual_sd,
+        "renders": found.renders,
+        "blur_px": p.blur_px,
+        "alpha": p.alpha,
+        "photos": photos.iter().map(|(ph, r, gain)| json!({
+            "file": ph.file.display().to_string(),
+            "view": p.design.views[ph.view].name,
+            "placed": ph.how,
+            "camera": {"eye": ph.camera.camera.eye, "target": ph.camera.camera.target,
+                "fov_y_deg": ph.camera.camera.fov_y_deg, "size": [ph.camera.camera.width, ph.camera.camera.height]},
+            "pixels_compared": ph.used.iter().filter(|u| **u).count(),
+            "exposure_gain": gain,
+            "correlation_with_design_render": r.with_design,
+            "correlation_with_fitted_carving": r.with_fit,
+            "correlation_with_picture": r.with_picture,
+            "design_correlation_with_picture": r.design_with_picture,
+        })).collect::<Vec<_>>(),
+    });
+    scratchart_render::io::write_atomic(
+        &a.out.join("inspect.json"),
+        serde_json::to_string_pretty(&v)?.as_bytes(),
+    )?;
+    println!(
+        "wrote {} and {} (for plan --touch-up)",
+        a.out.join("inspect.json").display(),
+        tool_file.display()
+    );
+    Ok(())
+}

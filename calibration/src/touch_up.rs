@@ -1,0 +1,244 @@
+//! The touch-up of a carved plate (`scratchart-cal plan --touch-up inspect.json`): what can
+//! still be done to it with what `inspect` found (the tool as carved). Metal cannot be put
+//! back: a groove only deepens along its own path.
+//!
+//! The design asked for each scratch's groove (its (w, d), what the calibrated tool cuts at its
+//! commanded depth); the plate holds what the tool as carved cut there. Under a wall of fixed
+//! slopes a groove's light grows with its visible width, so the plate shows the design (up to
+//! its exposure) when every groove is c times as wide as designed, for one c for the whole
+//! plate. The touch-up recuts each scratch at the depth whose groove (by the tool as carved)
+//! is c times the designed width, where that is deeper than its cut (a groove already wider
+//! stays: it is what the touch-up cannot fix), on the machine's Z grid. c is searched: each
+//! candidate's plate is rendered from every view at the design's own exposure and the one
+//! whose worst view correlates best with its picture, as the design measures ([`Goal`]), is
+//! kept, "no touch-up" among the candidates, so the touch-up never plans a plate that renders
+//! worse than the one it has.
+use anyhow::Result;
+use scratchart_model::scene::Scene;
+use scratchart_render::Renderer;
+use scratchart_tool::Tool;
+
+use scratchart_design::measure::{blur3, correlation as measure_correlation};
+use scratchart_design::tolerance::SheetInputs;
+use scratchart_model::camera::on_plate_mask;
+
+/// The width ratios searched (1: the designed widths where the carving left them narrower).
+pub const RATIOS: [f64; 9] = [1.0, 1.05, 1.1, 1.15, 1.2, 1.3, 1.4, 1.6, 1.8];
+
+/// The touch-up planned.
+#[derive(Clone, Debug)]
+pub struct TouchUp {
+    /// Every scratch's commanded depth after the touch-up (>= its cut's).
+    pub depths: Vec<f64>,
+    /// The scratches recut (indices into the design's).
+    pub recut: Vec<usize>,
+    /// The width ratio kept (None: no touch-up helps).
+    pub ratio: Option<f64>,
+    /// Grooves already wider than the ratio asks (the touch-up cannot narrow them).
+    pub too_wide: usize,
+    /// Per view, the worst-view measure's correlation before and after.
+    pub before: Vec<f64>,
+    pub after: Vec<f64>,
+    /// What the correlations are measured against.
+    pub against: &'static str,
+}
+
+/// What the plate is compared with: each view's target and picture as the design's loss saw
+/// them (`SheetInputs` beside the design: `<view>_target.pfm`, `<view>_picture.png`), measured
+/// as the design measures (`scratchart_design::measure`: the display render clamped to [0, 1],
+/// blurred by the loss's Gaussian, correlated with the target over the picture); without them,
+/// the design's own render over the plate.
+pub struct Goal {
+    inputs: Option<SheetInputs>,
+}
+
+impl Goal {
+    /// The goal of the design in `design_file`.
+    pub fn of(design_file: &std::path::Path, design: &Scene) -> Goal {
+        let dir = design_file.parent().unwrap_or(std::path::Path::new("."));
+        Goal {
+            inputs: SheetInputs::load(dir, design).ok().flatten(),
+        }
+    }
+
+    /// What the correlations are against.
+    pub fn against(&self) -> &'static str {
+        match self.inputs {
+            Some(_) => "each view's picture, measured as the design measures",
+            None => "the design's own render (the design has no set-up inputs beside it)",
+        }
+    }
+
+    /// View `v`'s correlation of the display image `seen` with its goal (`designed`: the design's
+    /// own display render of the view, the goal without inputs).
+    pub fn correlation(&self, scene: &Scene, v: usize, seen: &[f32], designed: &[f32]) -> f64 {
+        let (w, h) = (scene.views[v].camera.width, scene.views[v].camera.height);
+        let prep = |x: &[f32]| -> Vec<f64> {
+            let c: Vec<f32> = x.iter().map(|v| v.clamp(0.0, 1.0)).collect();
+            blur3(&c, w, h, self.inputs.as_ref().map_or(1.0, |i| i.sigma))
+        };
+        match &self.inputs {
+            Some(i) => {
+                let t: Vec<f64> = i.targets[v].iter().map(|&x| x as f64).collect();
+                measure_correlation(&prep(seen), &t, &i.pictures[v])
+            }
+            None => measure_correlation(&prep(seen), &prep(designed), &on_plate_mask(scene, v)),
+        }
+    }
+}
+
+/// The commanded depth at which `tool` cuts a groove `width` wide, at least `from` (bisection;
+/// the deepest looked at, `from` + 0.3 mm, when it never gets that wide).
+fn depth_for_width(tool: &Tool, width: f64, from: f64) -> f64 {
+    let w = |z: f64| tool.section(z).map_or(0.0, |s| s.width);
+    if w(from) >= width {
+        return from;
+    }
+    let (mut a, mut b) = (from, from + 0.3);
+    if w(b) < width {
+        return b;
+    }
+    for _ in 0..60 {
+        let m = 0.5 * (a + b);
+        if w(m) >= width {
+            b = m;
+        } else {
+            a = m;
+        }
+    }
+    b
+}
+
+/// The plate's grooves for commanded depths `z` cut by `tool`.
+fn plate(design: &Scene, z: &[f64], tool: &Tool, alpha: f64) -> Scene {
+    let mut models = std::collections::HashMap::new();
+    let scratches = design
+        .scratches
+        .iter()
+        .zip(z)
+        .filter_map(|(s, &z)| {
+            let m = (*models.entry(z.to_bits()).or_insert_with(|| tool.model(z)))?;
+            Some(scratchart_model::scene::Scratch {
+                w: m.w,
+                d: m.d,
+                alpha,
+                ..*s
+            })
+        })
+        .collect();
+    Scene {
+        scratches,
+        ..design.clone()
+    }
+}
+
+/// Each view's display render of `scene` (the view's resolution and exposure, as the design
+/// renders).
+pub fn display_renders(renderer: &Renderer, scene: &Scene) -> Result<Vec<Vec<f32>>> {
+    let mut gs = renderer.upload(scene)?;
+    Ok(renderer
+        .render(&mut gs)?
+        .images
+        .into_iter()
+        .map(|img| img.into_iter().map(scratchart_render::io::display_value).collect())
+        .collect())
+}
+
+/// Each view's correlation of `scene`'s render with the goal.
+fn measure(renderer: &Renderer, scene: &Scene, goal: &Goal, designed: &[Vec<f32>]) -> Result<Vec<f64>> {
+    let seen = display_renders(renderer, scene)?;
+    Ok((0..scene.views.len())
+        .map(|v| goal.correlation(scene, v, &seen[v], &designed[v]))
+        .collect())
+}
+
+/// The plate as carved: the commanded depths it was cut at, the tool the design assumed, the
+/// tool as `inspect` found it, the walls' roughness and the machine's Z grid (mm).
+#[derive(Clone, Copy)]
+pub struct Carving<'a> {
+    pub cut: &'a [f64],
+    pub calibrated: &'a Tool,
+    pub carved: &'a Tool,
+    pub alpha: f64,
+    pub z_step: f64,
+}
+
+/// Plans the touch-up of the plate `c` carved from `design` (see the module doc).
+pub fn plan(
+    renderer: &Renderer,
+    design: &Scene,
+    c: &Carving,
+    goal: &Goal,
+    obs: &dyn scratchart_observe::Observer,
+) -> Result<TouchUp> {
+    let Carving {
+        cut,
+        calibrated,
+        carved,
+        alpha,
+        z_step,
+    } = *c;
+    let designed_scene = plate(design, cut, calibrated, alpha);
+    let designed = display_renders(renderer, &designed_scene)?;
+    let against = goal.against();
+    let before = measure(renderer, &plate(design, cut, carved, alpha), goal, &designed)?;
+    let worst = |v: &[f64]| v.iter().cloned().fold(f64::INFINITY, f64::min);
+    let mut best = TouchUp {
+        depths: cut.to_vec(),
+        recut: vec![],
+        ratio: None,
+        too_wide: 0,
+        before: before.clone(),
+        after: before.clone(),
+        against,
+    };
+    let grid = |z: f64| {
+        if z_step > 0.0 {
+            (z / z_step - 1e-9).ceil() * z_step
+        } else {
+            z
+        }
+    };
+    for &ratio in &RATIOS {
+        let mut z = cut.to_vec();
+        let (mut recut, mut too_wide) = (Vec::new(), 0);
+        for (k, &zc) in cut.iter().enumerate() {
+            let Some(want) = calibrated.section(zc).map(|s| ratio * s.width) else {
+                continue;
+            };
+            let now = carved.section(zc).map_or(0.0, |s| s.width);
+            if now > want * 1.001 {
+                too_wide += 1;
+                continue;
+            }
+            let zt = grid(depth_for_width(carved, want, zc));
+            if zt >= zc + 0.5 * z_step.max(1e-4) {
+                z[k] = zt;
+                recut.push(k);
+            }
+        }
+        if recut.is_empty() {
+            continue;
+        }
+        let after = measure(renderer, &plate(design, &z, carved, alpha), goal, &designed)?;
+        obs.info(&format!(
+            "touch-up at {ratio:.2} x the designed widths: {} of {} scratches recut, {too_wide} already wider; worst view {:.4} (now {:.4})",
+            recut.len(),
+            cut.len(),
+            worst(&after),
+            worst(&before)
+        ));
+        if worst(&after) > worst(&best.after) + 1e-4 {
+            best = TouchUp {
+                depths: z,
+                recut,
+                ratio: Some(ratio),
+                too_wide,
+                before: before.clone(),
+                after,
+                against,
+            };
+        }
+    }
+    Ok(best)
+}

@@ -1,0 +1,158 @@
+//! `scratchart-cal plan DESIGN.json --tool tool.json --touch-up DIR/inspect.json --out touch.nc`:
+//! the G-code of the touch-up ([`scratchart_calibration::touch_up`]): only recuts of existing
+//! scratches along their own paths, deeper, in the plan's order and with the plan's checks; no
+//! marks (the plate has them).
+use std::path::Path;
+
+use anyhow::{Context as _, Result};
+use scratchart_exit::{InputError, UsageError};
+use scratchart_machine::gcode::{write_blocks, Options};
+use scratchart_machine::plan::{
+    check_bounds, check_moves, nearest_neighbour, program_time_split, surface_depth_mm, two_opt, Block, Cut,
+};
+use scratchart_model::scene::Scene;
+use scratchart_tool::machine::MachineProfile;
+use scratchart_tool::Tool;
+
+use scratchart_calibration::touch_up::{self, Goal};
+
+/// What `inspect` found, from its inspect.json.
+struct Inspection {
+    carved: Tool,
+    calibrated: Tool,
+    alpha: f64,
+}
+
+fn read_inspection(path: &Path) -> Result<Inspection> {
+    let bad = |why: String| {
+        InputError(format!(
+            "{}: {why} (write it with `scratchart-cal inspect`)",
+            path.display()
+        ))
+    };
+    let text = std::fs::read_to_string(path).map_err(|e| bad(format!("cannot read it: {e}")))?;
+    let v: serde_json::Value = serde_json::from_str(&text).map_err(|e| bad(format!("not JSON: {e}")))?;
+    let tool = |key: &str| -> Result<Tool> {
+        let t: Tool = serde_json::from_value(v[key].clone()).map_err(|e| bad(format!("no valid `{key}`: {e}")))?;
+        t.validate().map_err(|e| bad(format!("`{key}`: {e}")))?;
+        Ok(t)
+    };
+    let alpha = v["alpha"]
+        .as_f64()
+        .filter(|a| *a > 0.0 && *a < 1.0)
+        .ok_or_else(|| bad("no valid `alpha`".into()))?;
+    Ok(Inspection {
+        carved: tool("tool_as_carved")?,
+        calibrated: tool("tool_as_calibrated")?,
+        alpha,
+    })
+}
+
+/// Writes the touch-up plan of `design` to `out`.
+pub fn plan_touch_up(
+    design_file: &Path,
+    tool: Option<&Tool>,
+    inspect: &Path,
+    m: &MachineProfile,
+    out: &Path,
+) -> Result<()> {
+    let ins = read_inspection(inspect)?;
+    let tool = tool.ok_or_else(|| {
+        UsageError("--touch-up needs the calibrated tool the plate was cut with (--tool tool.json)".into())
+    })?;
+    if *tool != ins.calibrated {
+        return Err(UsageError(format!(
+            "--tool is not the tool {} inspected the plate with: give the same tool.json",
+            inspect.display()
+        ))
+        .into());
+    }
+    let (design, extra) = Scene::load_extra(design_file)?;
+    let cut: Vec<f64> = match extra.column("z_mm") {
+        Some(z) => z,
+        None => scratchart_machine::depths::depths(&design.scratches, tool, 0.5)
+            .into_iter()
+            .map(|d| d.0)
+            .collect(),
+    };
+    let ctx = scratchart_vulkan::Context::new(scratchart_vulkan::ContextDesc {
+        notify: Some(scratchart::term::stderr_notices()),
+        ..Default::default()
+    })?;
+    let renderer = scratchart_render::Renderer::new(&ctx)?;
+    let goal = Goal::of(design_file, &design);
+    let obs = scratchart::term::Terminal::new(false);
+    let carving = touch_up::Carving {
+        cut: &cut,
+        calibrated: tool,
+        carved: &ins.carved,
+        alpha: ins.alpha,
+        z_step: m.z_step_mm,
+    };
+    let t = touch_up::plan(&renderer, &design, &carving, &goal, &obs)?;
+    let views: Vec<String> = design
+        .views
+        .iter()
+        .zip(t.before.iter().zip(&t.after))
+        .map(|(v, (b, a))| format!("{} {b:.3} -> {a:.3}", v.name))
+        .collect();
+    let Some(ratio) = t.ratio else {
+        println!(
+            "no touch-up helps this plate: no deepening of its grooves renders closer to {} ({}); no plan written",
+            t.against,
+            views.join(", ")
+        );
+        return Ok(());
+    };
+    let cuts: Vec<Cut> = t
+        .recut
+        .iter()
+        .map(|&k| Cut {
+            a: design.scratches[k].p0,
+            b: design.scratches[k].p1,
+            z: t.depths[k],
+            scratch: k,
+            bulge: design.scratches[k].bulge,
+        })
+        .collect();
+    let plate = design.plate.size_mm;
+    let surface = surface_depth_mm(Some(ins.carved.z_offset_mm()));
+    check_bounds(&cuts, plate, m, surface).map_err(|e| InputError(format!("the touch-up leaves its bounds: {e}")))?;
+    let ordered = two_opt(nearest_neighbour(&cuts), 200);
+    let blocks: Vec<Block> = ordered.iter().map(Block::flat).collect();
+    check_moves(&blocks, m).map_err(|e| InputError(format!("the touch-up leaves its bounds: {e}")))?;
+    let split = program_time_split(&blocks, m);
+    let record = |t: &Tool| {
+        serde_json::to_string(t)
+            .unwrap_or_default()
+            .replace(',', ", ")
+            .replace("\":", "\": ")
+    };
+    let summary = vec![
+        format!("touch-up of {} by {}", design_file.display(), inspect.display()),
+        format!("tool as carved {}", record(&ins.carved)),
+        format!(
+            "{} of {} scratches recut deeper along their own paths, to {ratio:.2} times the designed groove widths; \
+             {} grooves are already wider than that and stay (metal cannot be put back)",
+            cuts.len(),
+            design.scratches.len(),
+            t.too_wide
+        ),
+        format!("correlation with {}: {}", t.against, views.join(", ")),
+        "no marks: the plate has them. Zero Z on the plate's surface as for the first carving".to_string(),
+        format!("estimated job time {:.1} min: {}", split.total() / 60.0, split.shares()),
+    ];
+    let g = write_blocks(&blocks, m, plate, &summary, &Options::default());
+    if let Some(dir) = out.parent().filter(|p| !p.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir).with_context(|| format!("cannot create output directory {}", dir.display()))?;
+    }
+    scratchart_render::io::write_atomic(out, g.as_bytes())?;
+    println!(
+        "wrote {} ({} recuts at {ratio:.2} x the designed widths; {} grooves already wider stay)",
+        out.display(),
+        cuts.len(),
+        t.too_wide
+    );
+    println!("  correlation with {}: {}", t.against, views.join(", "));
+    Ok(())
+}
