@@ -74,6 +74,7 @@ fn photograph_and_inspect(
     tool: &str,
     design: &str,
     calibrated: &str,
+    extra: &[&str],
 ) -> (Option<i32>, String, Option<serde_json::Value>) {
     let photos = dir.join(format!("{name}_photos"));
     let mut args = vec!["simulate-plate"];
@@ -95,6 +96,7 @@ fn photograph_and_inspect(
         "--seed",
         "7",
     ]);
+    args.extend(extra);
     ok(cal(&args), "simulate-plate");
     let out = dir.join(format!("{name}_inspect"));
     let o_s = out.display().to_string();
@@ -153,7 +155,7 @@ fn the_loop_finds_a_hidden_mismatch_and_touches_it_up() {
     let plan = dir.join("plan.nc").display().to_string();
     ok(cal(&["plan", &design, "--tool", &tool, "--out", &plan]), "plan");
     // The plate as the calibrated tool would have cut it: what the design shows when carved.
-    let (code, text, exact) = photograph_and_inspect(&dir, "exact", &[&plan], &tool, &design, &tool);
+    let (code, text, exact) = photograph_and_inspect(&dir, "exact", &[&plan], &tool, &design, &tool, &[]);
     assert_eq!(code, Some(0), "{text}");
     let exact = exact.unwrap();
     let found = &exact["found"];
@@ -163,12 +165,27 @@ fn the_loop_finds_a_hidden_mismatch_and_touches_it_up() {
     );
     let baseline = worst(&with_pictures(&exact));
     let (wa, wf) = widened(1.1);
-    for (name, hidden, dz, s) in [
-        ("wide", vbit(&dir, "wide.json", wa, wf, 0.0), 0.0, 1.1),
-        ("shallow", vbit(&dir, "shallow.json", 60.0, 0.01, -0.015), -0.015, 1.0),
-        ("deep", vbit(&dir, "deep.json", 60.0, 0.01, 0.015), 0.015, 1.0),
+    // The deep carving also sits shifted and turned (a zero off the plate's centre, a plate
+    // clamped askew): found, and the touch-up, carved with the same set-up, lands on its grooves.
+    let askew = ["--shift", "0.3,-0.2", "--turn", "0.3"];
+    for (name, hidden, dz, s, moved) in [
+        ("wide", vbit(&dir, "wide.json", wa, wf, 0.0), 0.0, 1.1, &[][..]),
+        (
+            "shallow",
+            vbit(&dir, "shallow.json", 60.0, 0.01, -0.015),
+            -0.015,
+            1.0,
+            &[][..],
+        ),
+        (
+            "deep",
+            vbit(&dir, "deep.json", 60.0, 0.01, 0.015),
+            0.015,
+            1.0,
+            &askew[..],
+        ),
     ] {
-        let (code, text, got) = photograph_and_inspect(&dir, name, &[&plan], &hidden, &design, &tool);
+        let (code, text, got) = photograph_and_inspect(&dir, name, &[&plan], &hidden, &design, &tool, moved);
         assert_eq!(code, Some(0), "{name}: {text}");
         let got = got.unwrap();
         let f = &got["found"];
@@ -177,6 +194,17 @@ fn the_loop_finds_a_hidden_mismatch_and_touches_it_up() {
             (gdz - dz).abs() <= 0.005 && (gs - s).abs() <= 0.05 * s,
             "{name}: found {f}, truth dz {dz} s {s}"
         );
+        let (shift, turn) = (&f["shift_mm"], f["turn_deg"].as_f64().unwrap());
+        let (sx, sy) = (shift[0].as_f64().unwrap(), shift[1].as_f64().unwrap());
+        if moved.is_empty() {
+            assert!(
+                !f["moved"].as_bool().unwrap() && sx.abs() < 0.03 && sy.abs() < 0.03,
+                "{name}: {f}"
+            );
+        } else {
+            let close = (sx - 0.3).abs() < 0.03 && (sy + 0.2).abs() < 0.03 && (turn - 0.3).abs() < 0.03;
+            assert!(f["moved"].as_bool().unwrap() && close, "{name}: {f}");
+        }
         let before = worst(&with_pictures(&got));
         let inspect = dir.join(format!("{name}_inspect/inspect.json")).display().to_string();
         let touch = dir.join(format!("{name}_touch.nc")).display().to_string();
@@ -210,6 +238,7 @@ fn the_loop_finds_a_hidden_mismatch_and_touches_it_up() {
             &hidden,
             &design,
             &tool,
+            moved,
         );
         assert_eq!(code, Some(0), "{name} touched: {text}");
         let after = worst(&with_pictures(&after.unwrap()));

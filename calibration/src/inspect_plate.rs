@@ -26,10 +26,11 @@ use serde_json::json;
 
 use crate::simulate::{develop, render_fine};
 
+mod fit;
 mod photos;
 mod report;
 
-use crate::simulate_plate::{carved_scene, groove_alpha, plate_grooves, MachineError};
+use crate::simulate_plate::{carved_scene, groove_alpha, moved_point, plate_grooves, MachineError};
 use photos::{mark_cuts, photo_views, read_photo, Photo};
 
 /// The largest uncertainty (1 sigma) of the depth change that `inspect` states, mm: half the
@@ -41,6 +42,9 @@ pub const SCALE_TOLERANCE: f64 = 0.025;
 /// How far the fit looks: depth changes within +-this, mm, and width scales within its range.
 const DZ_RANGE_MM: f64 = 0.1;
 const SCALE_RANGE: (f64, f64) = (0.6, 1.6);
+/// The carving's shift (mm, each axis) and turn (degrees) looked at.
+const SHIFT_RANGE_MM: f64 = 2.0;
+const TURN_RANGE_DEG: f64 = 2.0;
 /// Pixels within this of a mark's square (or the +x mark's cut), mm, are left out of the fit.
 const MARK_PAD_MM: f64 = 1.0;
 
@@ -107,9 +111,20 @@ impl Problem<'_> {
             .collect())
     }
 
-    fn carved(&self, s: f64, dz: f64) -> Scene {
-        let tool = self.tool.as_carved(s, dz);
-        self.seen_by_photos(carved_scene(&self.design, &self.grooves, &tool, self.alpha, &MachineError::default()).0)
+    fn carved(&self, x: &fit::X) -> Scene {
+        let c = fit::meaning(x);
+        let tool = self.tool.as_carved(c.width_scale, c.dz_mm);
+        let moved: Vec<CarvedCut> = self
+            .grooves
+            .iter()
+            .map(|g| {
+                let mut g = g.clone();
+                g.cut.a = moved_point(g.cut.a, c.shift_mm, c.turn_deg);
+                g.cut.b = moved_point(g.cut.b, c.shift_mm, c.turn_deg);
+                g
+            })
+            .collect();
+        self.seen_by_photos(carved_scene(&self.design, &moved, &tool, self.alpha, &MachineError::default()).0)
     }
 
     /// `scene` seen by the photos' cameras: one view per photo.
@@ -144,10 +159,9 @@ impl Problem<'_> {
         Eval { images, gain, residual }
     }
 
-    /// The evaluation at x = (dz in um, 100 ln s).
-    fn eval(&self, x: [f64; 2]) -> Result<Eval> {
-        let scene = self.carved((x[1] / 100.0).exp(), x[0] * 1e-3);
-        Ok(self.compare(self.images_of(&scene)?))
+    /// The evaluation at x (see [`fit`]).
+    fn eval(&self, x: &fit::X) -> Result<Eval> {
+        Ok(self.compare(self.images_of(&self.carved(x))?))
     }
 }
 
@@ -162,123 +176,28 @@ pub struct Found {
     pub dz_sd_mm: f64,
     pub width_scale: f64,
     pub width_scale_sd: f64,
-    /// Their correlation.
+    /// The whole carving's shift (mm) and turn about the plate's centre (degrees, + counter-
+    /// clockwise seen from +z), with their uncertainties.
+    pub shift_mm: [f64; 2],
+    pub shift_sd_mm: [f64; 2],
+    pub turn_deg: f64,
+    pub turn_sd_deg: f64,
+    /// The correlation of the depth change and the width scale.
     pub correlation: f64,
     /// Residual's standard deviation (display values).
     pub residual_sd: f64,
     pub renders: usize,
+    /// The parameter the fit left at the edge of the range it looks at, if one.
+    pub at_edge: Option<&'static str>,
 }
 
-/// The grid, then damped Gauss-Newton on central differences (see the module doc).
-fn fit(p: &Problem, obs: &dyn Observer) -> Result<(Found, Eval)> {
-    let mut renders = 0;
-    let mut best: Option<([f64; 2], f64)> = None;
-    for dz in [-30.0, -15.0, 0.0, 15.0, 30.0] {
-        for ls in [-15.0, 0.0, 15.0] {
-            let e = p.eval([dz, ls])?;
-            renders += 1;
-            let f = ssr(&e.residual);
-            if best.is_none_or(|b| f < b.1) {
-                best = Some(([dz, ls], f));
-            }
-        }
+impl Found {
+    /// Whether the shift or the turn is told apart from none: beyond 3 sigma and beyond what
+    /// matters to a groove (20 um, 0.02 degrees).
+    pub fn moved(&self) -> bool {
+        let shift = (0..2).any(|k| self.shift_mm[k].abs() > (3.0 * self.shift_sd_mm[k]).max(0.02));
+        shift || self.turn_deg.abs() > (3.0 * self.turn_sd_deg).max(0.02)
     }
-    let (mut x, mut f) = best.expect("a grid");
-    obs.info(&format!(
-        "grid: best at {:+.0} um deeper, width x{:.3} (residual {:.4} rms)",
-        x[0],
-        (x[1] / 100.0).exp(),
-        (f / p.eval(x)?.residual.len() as f64).sqrt()
-    ));
-    let h = 0.5;
-    let mut lambda = 1e-3;
-    let mut jtj = [[0.0; 2]; 2];
-    for it in 0..15 {
-        let mut cols = Vec::new();
-        for k in 0..2 {
-            let (mut a, mut b) = (x, x);
-            a[k] += h;
-            b[k] -= h;
-            let (ra, rb) = (p.eval(a)?.residual, p.eval(b)?.residual);
-            renders += 2;
-            cols.push(
-                ra.iter()
-                    .zip(&rb)
-                    .map(|(u, v)| (u - v) / (2.0 * h))
-                    .collect::<Vec<f64>>(),
-            );
-        }
-        let r = p.eval(x)?.residual;
-        renders += 1;
-        let dot = |u: &[f64], v: &[f64]| u.iter().zip(v).map(|(a, b)| a * b).sum::<f64>();
-        jtj = [
-            [dot(&cols[0], &cols[0]), dot(&cols[0], &cols[1])],
-            [dot(&cols[1], &cols[0]), dot(&cols[1], &cols[1])],
-        ];
-        let g = [dot(&cols[0], &r), dot(&cols[1], &r)];
-        let mut moved = false;
-        for _ in 0..8 {
-            let a = [
-                [jtj[0][0] * (1.0 + lambda), jtj[0][1]],
-                [jtj[1][0], jtj[1][1] * (1.0 + lambda)],
-            ];
-            let det = a[0][0] * a[1][1] - a[0][1] * a[1][0];
-            if !(det.abs() > 0.0) {
-                break;
-            }
-            let step = [
-                -(a[1][1] * g[0] - a[0][1] * g[1]) / det,
-                -(-a[1][0] * g[0] + a[0][0] * g[1]) / det,
-            ];
-            let mut y = [x[0] + step[0], x[1] + step[1]];
-            y[0] = y[0].clamp(-DZ_RANGE_MM * 1e3, DZ_RANGE_MM * 1e3);
-            y[1] = y[1].clamp(100.0 * SCALE_RANGE.0.ln(), 100.0 * SCALE_RANGE.1.ln());
-            let fy = ssr(&p.eval(y)?.residual);
-            renders += 1;
-            if fy < f {
-                moved = (y[0] - x[0]).abs() > 0.02 || (y[1] - x[1]).abs() > 0.02;
-                (x, f) = (y, fy);
-                lambda = (lambda * 0.3).max(1e-6);
-                break;
-            }
-            lambda *= 10.0;
-        }
-        obs.info(&format!(
-            "step {}: {:+.2} um deeper, width x{:.4}, residual {:.5} rms",
-            it + 1,
-            x[0],
-            (x[1] / 100.0).exp(),
-            (f / r.len() as f64).sqrt()
-        ));
-        if !moved {
-            break;
-        }
-    }
-    let e = p.eval(x)?;
-    renders += 1;
-    let n = e.residual.len();
-    let dof = n.saturating_sub(2 + p.photos.len()).max(1);
-    let s2 = ssr(&e.residual) / dof as f64;
-    let det = jtj[0][0] * jtj[1][1] - jtj[0][1] * jtj[1][0];
-    let cov = if det > 0.0 {
-        [jtj[1][1] / det * s2, -jtj[0][1] / det * s2, jtj[0][0] / det * s2]
-    } else {
-        [f64::INFINITY, 0.0, f64::INFINITY]
-    };
-    let s = (x[1] / 100.0).exp();
-    Ok((
-        Found {
-            dz_mm: x[0] * 1e-3,
-            dz_sd_mm: cov[0].sqrt() * 1e-3,
-            width_scale: s,
-            // d s = s d(ln s) = s/100 d x1
-            width_scale_sd: s * cov[2].sqrt() / 100.0,
-            correlation: cov[1] / (cov[0] * cov[2]).sqrt(),
-            residual_sd: s2.sqrt(),
-            renders,
-        },
-        e,
-    ))
 }
 
 /// Pearson's correlation of `a` and `b` over `used`.
@@ -355,7 +274,7 @@ pub fn run(a: &InspectArgs, renderer: &Renderer, obs: &dyn Observer) -> Result<(
             .map(|p| p.used.iter().filter(|u| **u).count())
             .sum::<usize>()
     ));
-    let (found, at) = fit(&p, obs)?;
+    let (found, at) = fit::fit(&p, obs)?;
     report::write(a, &p, &found, &at)
 }
 

@@ -55,6 +55,13 @@ pub struct SimulatePlateArgs {
     /// Gaussian noise on display values (0..1)
     #[arg(long, default_value_t = 0.0)]
     pub noise: f64,
+    /// The whole carving shifted by X,Y mm (a work zero set off the plate's centre)
+    #[arg(long, value_name = "X,Y", value_parser = parse_pair, allow_hyphen_values = true)]
+    pub shift: Option<[f64; 2]>,
+    /// The whole carving turned by this many degrees about the plate's centre (a plate clamped
+    /// askew), counter-clockwise seen from +z
+    #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
+    pub turn: f64,
     /// Seed of the noise and of the machine's error
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
@@ -67,12 +74,34 @@ pub struct SimulatePlateArgs {
     pub jpeg: Option<u8>,
 }
 
-/// The machine's error on each cut (normal, one draw per cut end and per depth).
+/// `--shift X,Y`.
+fn parse_pair(t: &str) -> Result<[f64; 2], String> {
+    let v: Vec<f64> = t
+        .split(',')
+        .map(|x| x.trim().parse::<f64>())
+        .collect::<Result<_, _>>()
+        .map_err(|e| e.to_string())?;
+    match v[..] {
+        [x, y] if x.is_finite() && y.is_finite() => Ok([x, y]),
+        _ => Err(format!("`{t}`: give X,Y in mm, for example 0.3,-0.2")),
+    }
+}
+
+/// Plate point `p` moved by the carving's turn (about the centre) and shift.
+pub fn moved_point(p: [f64; 2], shift_mm: [f64; 2], turn_deg: f64) -> [f64; 2] {
+    let (sn, cs) = turn_deg.to_radians().sin_cos();
+    [cs * p[0] - sn * p[1] + shift_mm[0], sn * p[0] + cs * p[1] + shift_mm[1]]
+}
+
+/// The machine's error on each cut (normal, one draw per cut end and per depth), and the whole
+/// carving's shift (mm) and turn (degrees, about the plate's centre).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct MachineError {
     pub z_mm: f64,
     pub xy_mm: f64,
     pub seed: u64,
+    pub shift_mm: [f64; 2],
+    pub turn_deg: f64,
 }
 
 /// The design's plate with `grooves` cut by `tool` (each at its commanded depth, perturbed by
@@ -95,8 +124,12 @@ pub fn carved_scene(
         let c = &g.cut;
         let mut jitter = |v: f64, s: f64| if s > 0.0 { v + s * rng.normal() } else { v };
         let z = jitter(c.z, error.z_mm);
-        let p0 = [jitter(c.a[0], error.xy_mm), jitter(c.a[1], error.xy_mm)].map(|v| v.clamp(-half, half));
-        let p1 = [jitter(c.b[0], error.xy_mm), jitter(c.b[1], error.xy_mm)].map(|v| v.clamp(-half, half));
+        let (a, b) = (
+            moved_point(c.a, error.shift_mm, error.turn_deg),
+            moved_point(c.b, error.shift_mm, error.turn_deg),
+        );
+        let p0 = [jitter(a[0], error.xy_mm), jitter(a[1], error.xy_mm)].map(|v| v.clamp(-half, half));
+        let p1 = [jitter(b[0], error.xy_mm), jitter(b[1], error.xy_mm)].map(|v| v.clamp(-half, half));
         let m = *models.entry(z.to_bits()).or_insert_with(|| tool.model(z));
         match m {
             Some(m) if m.width > 1e-6 && m.w > 0.0 && m.d > 0.0 => scratches.push(Scratch {
@@ -169,7 +202,12 @@ pub fn run(a: &SimulatePlateArgs, renderer: &Renderer, obs: &dyn Observer) -> Re
         z_mm: a.z_noise,
         xy_mm: a.xy_noise,
         seed: a.seed,
+        shift_mm: a.shift.unwrap_or([0.0; 2]),
+        turn_deg: a.turn,
     };
+    if !(a.turn.abs() <= 45.0) || error.shift_mm.iter().any(|v| v.abs() > 0.5 * design.plate.size_mm) {
+        return Err(UsageError("--turn is at most 45 degrees and --shift within the plate".into()).into());
+    }
     let (scene, missed) = carved_scene(&design, &grooves, &tool, alpha, &error);
     obs.info(&format!(
         "{} grooves from {} plan(s) ({deepened} cuts deepened a groove already cut; {missed} did not reach the plate), \

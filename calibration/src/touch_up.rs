@@ -153,9 +153,13 @@ fn measure(renderer: &Renderer, scene: &Scene, goal: &Goal, designed: &[Vec<f32>
 }
 
 /// The plate as carved: the commanded depths it was cut at, the tool the design assumed, the
-/// tool as `inspect` found it, the walls' roughness and the machine's Z grid (mm).
+/// tool as `inspect` found it, the walls' roughness and the machine's Z grid (mm), and where
+/// the carving put the scratches.
 #[derive(Clone, Copy)]
 pub struct Carving<'a> {
+    /// The design's scratches where the carving put them (the design itself unless `inspect`
+    /// found the carving shifted or turned).
+    pub placed: &'a Scene,
     pub cut: &'a [f64],
     pub calibrated: &'a Tool,
     pub carved: &'a Tool,
@@ -172,6 +176,7 @@ pub fn plan(
     obs: &dyn scratchart_observe::Observer,
 ) -> Result<TouchUp> {
     let Carving {
+        placed,
         cut,
         calibrated,
         carved,
@@ -181,7 +186,7 @@ pub fn plan(
     let designed_scene = plate(design, cut, calibrated, alpha);
     let designed = display_renders(renderer, &designed_scene)?;
     let against = goal.against();
-    let before = measure(renderer, &plate(design, cut, carved, alpha), goal, &designed)?;
+    let before = measure(renderer, &plate(placed, cut, carved, alpha), goal, &designed)?;
     let worst = |v: &[f64]| v.iter().cloned().fold(f64::INFINITY, f64::min);
     let mut best = TouchUp {
         depths: cut.to_vec(),
@@ -220,7 +225,7 @@ pub fn plan(
         if recut.is_empty() {
             continue;
         }
-        let after = measure(renderer, &plate(design, &z, carved, alpha), goal, &designed)?;
+        let after = measure(renderer, &plate(placed, &z, carved, alpha), goal, &designed)?;
         obs.info(&format!(
             "touch-up at {ratio:.2} x the designed widths: {} of {} scratches recut, {too_wide} already wider; worst view {:.4} (now {:.4})",
             recut.len(),

@@ -21,6 +21,8 @@ struct Inspection {
     carved: Tool,
     calibrated: Tool,
     alpha: f64,
+    /// The carving's shift (mm) and turn (degrees) when it sits off the design.
+    moved: Option<([f64; 2], f64)>,
 }
 
 fn read_inspection(path: &Path) -> Result<Inspection> {
@@ -41,10 +43,21 @@ fn read_inspection(path: &Path) -> Result<Inspection> {
         .as_f64()
         .filter(|a| *a > 0.0 && *a < 1.0)
         .ok_or_else(|| bad("no valid `alpha`".into()))?;
+    let f = &v["found"];
+    let moved = match (
+        f["moved"].as_bool(),
+        f["shift_mm"][0].as_f64(),
+        f["shift_mm"][1].as_f64(),
+        f["turn_deg"].as_f64(),
+    ) {
+        (Some(true), Some(x), Some(y), Some(t)) => Some(([x, y], t)),
+        _ => None,
+    };
     Ok(Inspection {
         carved: tool("tool_as_carved")?,
         calibrated: tool("tool_as_calibrated")?,
         alpha,
+        moved,
     })
 }
 
@@ -82,7 +95,16 @@ pub fn plan_touch_up(
     let renderer = scratchart_render::Renderer::new(&ctx)?;
     let goal = Goal::of(design_file, &design);
     let obs = scratchart::term::Terminal::new(false);
+    // Where the carving put the scratches: the recuts follow the grooves, not the design.
+    let mut placed = design.clone();
+    if let Some((shift, turn)) = ins.moved {
+        for sc in &mut placed.scratches {
+            sc.p0 = scratchart_calibration::simulate_plate::moved_point(sc.p0, shift, turn);
+            sc.p1 = scratchart_calibration::simulate_plate::moved_point(sc.p1, shift, turn);
+        }
+    }
     let carving = touch_up::Carving {
+        placed: &placed,
         cut: &cut,
         calibrated: tool,
         carved: &ins.carved,
@@ -104,18 +126,31 @@ pub fn plan_touch_up(
         );
         return Ok(());
     };
-    let cuts: Vec<Cut> = t
-        .recut
-        .iter()
-        .map(|&k| Cut {
-            a: design.scratches[k].p0,
-            b: design.scratches[k].p1,
-            z: t.depths[k],
-            scratch: k,
-            bulge: design.scratches[k].bulge,
-        })
-        .collect();
     let plate = design.plate.size_mm;
+    // A groove the shifted or turned carving ran off the plate's edge is not recut (the machine
+    // would cut beyond the plate).
+    let on_plate = |c: &Cut| {
+        c.points(0.01)
+            .iter()
+            .all(|p| p[0].abs() <= 0.5 * plate && p[1].abs() <= 0.5 * plate)
+    };
+    // The recuts in the plan's own coordinates: carved with the plate where it was and the same
+    // zero, the machine puts them where it put the grooves (shifted and turned with them).
+    let cut_of = |k: usize, sc: &[scratchart_model::scene::Scratch]| Cut {
+        a: sc[k].p0,
+        b: sc[k].p1,
+        z: t.depths[k],
+        scratch: k,
+        bulge: sc[k].bulge,
+    };
+    let (kept, off): (Vec<usize>, Vec<usize>) = t.recut.iter().partition(|&&k| on_plate(&cut_of(k, &placed.scratches)));
+    let cuts: Vec<Cut> = kept.iter().map(|&k| cut_of(k, &design.scratches)).collect();
+    if !off.is_empty() {
+        eprintln!(
+            "warning: {} recuts left out: the carving's shift or turn ran their grooves off the plate's edge",
+            off.len()
+        );
+    }
     let surface = surface_depth_mm(Some(ins.carved.z_offset_mm()));
     check_bounds(&cuts, plate, m, surface).map_err(|e| InputError(format!("the touch-up leaves its bounds: {e}")))?;
     let ordered = two_opt(nearest_neighbour(&cuts), 200);
@@ -131,6 +166,15 @@ pub fn plan_touch_up(
     let summary = vec![
         format!("touch-up of {} by {}", design_file.display(), inspect.display()),
         format!("tool as carved {}", record(&ins.carved)),
+        match ins.moved {
+            Some((s, t)) => format!(
+                "the carving sits shifted ({:+.3}, {:+.3}) mm and turned {t:+.3} deg off the design (a zero off the \
+                 plate's centre, a plate clamped askew): carve this touch-up with the plate where it was and the same \
+                 zero, so that the recuts land on the grooves as the first cuts did",
+                s[0], s[1]
+            ),
+            None => "the carving sits where the design puts it".to_string(),
+        },
         format!(
             "{} of {} scratches recut deeper along their own paths, to {ratio:.2} times the designed groove widths; \
              {} grooves are already wider than that and stay (metal cannot be put back)",
@@ -139,6 +183,7 @@ pub fn plan_touch_up(
             t.too_wide
         ),
         format!("correlation with {}: {}", t.against, views.join(", ")),
+        format!("{} recuts left out: their grooves run off the plate's edge", off.len()),
         "no marks: the plate has them. Zero Z on the plate's surface as for the first carving".to_string(),
         format!("estimated job time {:.1} min: {}", split.total() / 60.0, split.shares()),
     ];

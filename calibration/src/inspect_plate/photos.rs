@@ -182,7 +182,21 @@ pub(super) fn read_photo(
     let (cw, ch) = (camera.camera.width, camera.camera.height);
     let geom = ViewGeom::of(&camera, &design.plate);
     let half = 0.5 * design.plate.size_mm;
-    let pad = MARK_PAD_MM + 3.0 * blur_px * design.plate.size_mm / v.camera.width as f64;
+    // A pixel adds up the light of its footprint (and the blur spreads it): the marks' light
+    // reaches pixels whose centre lies a footprint or two off the mark.
+    let (si, sj) = ((cw / 8).max(1) as usize, (ch / 8).max(1) as usize);
+    let foot = (0..ch)
+        .step_by(sj)
+        .flat_map(|j| (0..cw).step_by(si).map(move |i| (i, j)))
+        .filter(|&(i, j)| geom.on_plate(i, j, half))
+        .filter_map(|(i, j)| geom.footprint(i, j))
+        .map(|f| {
+            (0..4)
+                .map(|e| (f[e][0] - f[(e + 1) % 4][0]).hypot(f[e][1] - f[(e + 1) % 4][1]))
+                .fold(0.0, f64::max)
+        })
+        .fold(0.0, f64::max);
+    let pad = MARK_PAD_MM + (2.0 + 3.0 * blur_px) * foot;
     let mut used = Vec::with_capacity(pixels.len());
     for j in 0..ch {
         for i in 0..cw {

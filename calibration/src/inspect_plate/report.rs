@@ -75,9 +75,7 @@ pub(super) fn write(a: &InspectArgs, p: &Problem, found: &Found, at: &Eval) -> R
         photos.push((ph, r, at.gain[k]));
     }
     let pinned = found.dz_sd_mm <= DZ_TOLERANCE_MM && found.width_scale_sd <= SCALE_TOLERANCE;
-    let inside = found.dz_mm.abs() < DZ_RANGE_MM - 1e-9
-        && found.width_scale > SCALE_RANGE.0 + 1e-9
-        && found.width_scale < SCALE_RANGE.1 - 1e-9;
+    let inside = found.at_edge.is_none();
     println!(
         "  the carving: cuts {:+.1} +- {:.1} um deeper than the tool's calibration, grooves {:.3} +- {:.3} times as wide \
          (correlation {:+.2}; residual {:.4} rms; {} renders)",
@@ -88,6 +86,21 @@ pub(super) fn write(a: &InspectArgs, p: &Problem, found: &Found, at: &Eval) -> R
         found.correlation,
         found.residual_sd,
         found.renders
+    );
+    println!(
+        "  the carving's place: shifted ({:+.3}, {:+.3}) +- ({:.3}, {:.3}) mm, turned {:+.3} +- {:.3} deg about the plate's \
+         centre: {}",
+        found.shift_mm[0],
+        found.shift_mm[1],
+        found.shift_sd_mm[0],
+        found.shift_sd_mm[1],
+        found.turn_deg,
+        found.turn_sd_deg,
+        if found.moved() {
+            "it sits off the design (the touch-up recuts where the grooves are)"
+        } else {
+            "where the design puts it"
+        }
     );
     if !(pinned && inside) {
         let mut why = Vec::new();
@@ -104,9 +117,10 @@ pub(super) fn write(a: &InspectArgs, p: &Problem, found: &Found, at: &Eval) -> R
                 found.width_scale_sd
             ));
         }
-        if !inside {
+        if let Some(what) = found.at_edge {
             why.push(format!(
-                "a value inside the range looked at (depth change within +-{} um, width scale {} to {})",
+                "the {what} inside the range looked at (depth change within +-{} um, width scale {} to {}, shift \
+                 within +-{SHIFT_RANGE_MM} mm, turn within +-{TURN_RANGE_DEG} degrees)",
                 1e3 * DZ_RANGE_MM,
                 SCALE_RANGE.0,
                 SCALE_RANGE.1
@@ -122,11 +136,33 @@ pub(super) fn write(a: &InspectArgs, p: &Problem, found: &Found, at: &Eval) -> R
     let carved_tool = p.tool.as_carved(found.width_scale, found.dz_mm);
     let tool_file = a.out.join("tool_as_carved.json");
     scratchart_render::io::write_atomic(&tool_file, carved_tool.to_json().as_bytes())?;
-    let v = json!({
+    let v = inspect_json(a, p, found, &carved_tool, &tool_file, &photos)?;
+    scratchart_render::io::write_atomic(
+        &a.out.join("inspect.json"),
+        serde_json::to_string_pretty(&v)?.as_bytes(),
+    )?;
+    println!(
+        "wrote {} and {} (for plan --touch-up)",
+        a.out.join("inspect.json").display(),
+        tool_file.display()
+    );
+    Ok(())
+}
+
+/// inspect.json's contents.
+fn inspect_json(
+    a: &InspectArgs,
+    p: &Problem,
+    found: &Found,
+    carved_tool: &Tool,
+    tool_file: &Path,
+    photos: &[(&Photo, PhotoReport, f64)],
+) -> Result<serde_json::Value> {
+    Ok(json!({
         "design": a.design.display().to_string(),
         "tool": a.tool.display().to_string(),
         "tool_as_calibrated": serde_json::to_value(&p.tool)?,
-        "tool_as_carved": serde_json::to_value(&carved_tool)?,
+        "tool_as_carved": serde_json::to_value(carved_tool)?,
         "tool_as_carved_file": tool_file.display().to_string(),
         "grooves_from": if a.plan.is_empty() { json!("the design's commanded depths (as plan carves them)") }
             else { json!(a.plan.iter().map(|p| p.display().to_string()).collect::<Vec<_>>()) },
@@ -134,6 +170,9 @@ pub(super) fn write(a: &InspectArgs, p: &Problem, found: &Found, at: &Eval) -> R
             "dz_mm": found.dz_mm, "dz_sd_mm": found.dz_sd_mm,
             "width_scale": found.width_scale, "width_scale_sd": found.width_scale_sd,
             "correlation": found.correlation,
+            "shift_mm": found.shift_mm, "shift_sd_mm": found.shift_sd_mm,
+            "turn_deg": found.turn_deg, "turn_sd_deg": found.turn_sd_deg,
+            "moved": found.moved(),
             "meaning": "every cut reached dz_mm deeper than the calibrated tool's z offset says (+: deeper), and its \
                         groove was width_scale times as wide at that depth (Tool::as_carved)",
             "tolerances": {"dz_sd_mm": DZ_TOLERANCE_MM, "width_scale_sd": SCALE_TOLERANCE},
@@ -155,15 +194,5 @@ pub(super) fn write(a: &InspectArgs, p: &Problem, found: &Found, at: &Eval) -> R
             "correlation_with_picture": r.with_picture,
             "design_correlation_with_picture": r.design_with_picture,
         })).collect::<Vec<_>>(),
-    });
-    scratchart_render::io::write_atomic(
-        &a.out.join("inspect.json"),
-        serde_json::to_string_pretty(&v)?.as_bytes(),
-    )?;
-    println!(
-        "wrote {} and {} (for plan --touch-up)",
-        a.out.join("inspect.json").display(),
-        tool_file.display()
-    );
-    Ok(())
+    }))
 }
