@@ -69,10 +69,10 @@ pub fn plan_touch_up(
     m: &MachineProfile,
     out: &Path,
 ) -> Result<()> {
-    let ins = read_inspection(inspect)?;
     let tool = tool.ok_or_else(|| {
         UsageError("--touch-up needs the calibrated tool the plate was cut with (--tool tool.json)".into())
     })?;
+    let ins = read_inspection(inspect)?;
     if *tool != ins.calibrated {
         return Err(UsageError(format!(
             "--tool is not the tool {} inspected the plate with: give the same tool.json",
