@@ -45,6 +45,8 @@ const SCALE_RANGE: (f64, f64) = (0.6, 1.6);
 /// The carving's shift (mm, each axis) and turn (degrees) looked at.
 const SHIFT_RANGE_MM: f64 = 2.0;
 const TURN_RANGE_DEG: f64 = 2.0;
+/// The depth scales looked at.
+const DEPTH_SCALE_RANGE: (f64, f64) = (0.7, 1.4);
 /// Pixels within this of a mark's square (or the +x mark's cut), mm, are left out of the fit.
 const MARK_PAD_MM: f64 = 1.0;
 
@@ -73,6 +75,11 @@ pub struct InspectArgs {
     /// Roughness of the groove walls (default: the tool's fitted alpha, else the design's median)
     #[arg(long)]
     pub alpha: Option<f64>,
+    /// Also fit the machine's depth scale (its Z moving more or less than told: steps per mm
+    /// off). Off by default: for a V-bit it is nearly the same number as the bit's width, so the
+    /// photos tell the two apart only from a carving that matches the model exactly
+    #[arg(long)]
+    pub depth_scale: bool,
 }
 
 /// What the photos are compared with: the design, its cuts and the tool.
@@ -84,6 +91,8 @@ struct Problem<'a> {
     alpha: f64,
     blur_px: f64,
     photos: Vec<Photo>,
+    /// Whether the depth scale is fitted (`--depth-scale`).
+    fit_depth_scale: bool,
 }
 
 /// One evaluation: per photo its developed display image (before exposure), the fitted
@@ -119,6 +128,7 @@ impl Problem<'_> {
             .iter()
             .map(|g| {
                 let mut g = g.clone();
+                g.cut.z *= c.depth_scale;
                 g.cut.a = moved_point(g.cut.a, c.shift_mm, c.turn_deg);
                 g.cut.b = moved_point(g.cut.b, c.shift_mm, c.turn_deg);
                 g
@@ -182,6 +192,11 @@ pub struct Found {
     pub shift_sd_mm: [f64; 2],
     pub turn_deg: f64,
     pub turn_sd_deg: f64,
+    /// The machine's Z moving this many times what it is told (its steps per mm off), and its
+    /// uncertainty; held at 1 (uncertainty 0) when the photos do not pin it.
+    pub depth_scale: f64,
+    pub depth_scale_sd: f64,
+    pub depth_scale_held: bool,
     /// The correlation of the depth change and the width scale.
     pub correlation: f64,
     /// Residual's standard deviation (display values).
@@ -264,6 +279,7 @@ pub fn run(a: &InspectArgs, renderer: &Renderer, obs: &dyn Observer) -> Result<(
         alpha,
         blur_px: a.blur,
         photos,
+        fit_depth_scale: a.depth_scale,
     };
     obs.info(&format!(
         "{} photos, {} grooves, {} pixels compared",

@@ -62,6 +62,9 @@ pub struct SimulatePlateArgs {
     /// askew), counter-clockwise seen from +z
     #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
     pub turn: f64,
+    /// The machine's Z moving this many times what it is told (its steps per mm off; 1: exact)
+    #[arg(long, default_value_t = 1.0)]
+    pub z_scale: f64,
     /// Seed of the noise and of the machine's error
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
@@ -95,13 +98,28 @@ pub fn moved_point(p: [f64; 2], shift_mm: [f64; 2], turn_deg: f64) -> [f64; 2] {
 
 /// The machine's error on each cut (normal, one draw per cut end and per depth), and the whole
 /// carving's shift (mm) and turn (degrees, about the plate's centre).
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub struct MachineError {
     pub z_mm: f64,
     pub xy_mm: f64,
     pub seed: u64,
     pub shift_mm: [f64; 2],
     pub turn_deg: f64,
+    /// The machine's Z moving this many times what it is told (1: exact).
+    pub z_scale: f64,
+}
+
+impl Default for MachineError {
+    fn default() -> MachineError {
+        MachineError {
+            z_mm: 0.0,
+            xy_mm: 0.0,
+            seed: 0,
+            shift_mm: [0.0; 2],
+            turn_deg: 0.0,
+            z_scale: 1.0,
+        }
+    }
 }
 
 /// The design's plate with `grooves` cut by `tool` (each at its commanded depth, perturbed by
@@ -123,7 +141,7 @@ pub fn carved_scene(
     for g in grooves {
         let c = &g.cut;
         let mut jitter = |v: f64, s: f64| if s > 0.0 { v + s * rng.normal() } else { v };
-        let z = jitter(c.z, error.z_mm);
+        let z = jitter(error.z_scale * c.z, error.z_mm);
         let (a, b) = (
             moved_point(c.a, error.shift_mm, error.turn_deg),
             moved_point(c.b, error.shift_mm, error.turn_deg),
@@ -204,7 +222,11 @@ pub fn run(a: &SimulatePlateArgs, renderer: &Renderer, obs: &dyn Observer) -> Re
         seed: a.seed,
         shift_mm: a.shift.unwrap_or([0.0; 2]),
         turn_deg: a.turn,
+        z_scale: a.z_scale,
     };
+    if !(a.z_scale > 0.5 && a.z_scale < 2.0) {
+        return Err(UsageError(format!("--z-scale {}: between 0.5 and 2", a.z_scale)).into());
+    }
     if !(a.turn.abs() <= 45.0) || error.shift_mm.iter().any(|v| v.abs() > 0.5 * design.plate.size_mm) {
         return Err(UsageError("--turn is at most 45 degrees and --shift within the plate".into()).into());
     }

@@ -165,6 +165,8 @@ pub struct Carving<'a> {
     pub carved: &'a Tool,
     pub alpha: f64,
     pub z_step: f64,
+    /// The machine's Z moves this many times what it is told (`inspect`'s depth scale).
+    pub depth_scale: f64,
 }
 
 /// Plans the touch-up of the plate `c` carved from `design` (see the module doc).
@@ -182,11 +184,14 @@ pub fn plan(
         carved,
         alpha,
         z_step,
+        depth_scale,
     } = *c;
+    // The depths the machine reaches when told z.
+    let reached = |z: &[f64]| -> Vec<f64> { z.iter().map(|v| v * depth_scale).collect() };
     let designed_scene = plate(design, cut, calibrated, alpha);
     let designed = display_renders(renderer, &designed_scene)?;
     let against = goal.against();
-    let before = measure(renderer, &plate(placed, cut, carved, alpha), goal, &designed)?;
+    let before = measure(renderer, &plate(placed, &reached(cut), carved, alpha), goal, &designed)?;
     let worst = |v: &[f64]| v.iter().cloned().fold(f64::INFINITY, f64::min);
     let mut best = TouchUp {
         depths: cut.to_vec(),
@@ -211,12 +216,12 @@ pub fn plan(
             let Some(want) = calibrated.section(zc).map(|s| ratio * s.width) else {
                 continue;
             };
-            let now = carved.section(zc).map_or(0.0, |s| s.width);
+            let now = carved.section(depth_scale * zc).map_or(0.0, |s| s.width);
             if now > want * 1.001 {
                 too_wide += 1;
                 continue;
             }
-            let zt = grid(depth_for_width(carved, want, zc));
+            let zt = grid(depth_for_width(carved, want, depth_scale * zc) / depth_scale);
             if zt >= zc + 0.5 * z_step.max(1e-4) {
                 z[k] = zt;
                 recut.push(k);
@@ -225,7 +230,7 @@ pub fn plan(
         if recut.is_empty() {
             continue;
         }
-        let after = measure(renderer, &plate(placed, &z, carved, alpha), goal, &designed)?;
+        let after = measure(renderer, &plate(placed, &reached(&z), carved, alpha), goal, &designed)?;
         obs.info(&format!(
             "touch-up at {ratio:.2} x the designed widths: {} of {} scratches recut, {too_wide} already wider; worst view {:.4} (now {:.4})",
             recut.len(),

@@ -23,6 +23,8 @@ struct Inspection {
     alpha: f64,
     /// The carving's shift (mm) and turn (degrees) when it sits off the design.
     moved: Option<([f64; 2], f64)>,
+    /// The machine's Z moves this many times what it is told.
+    depth_scale: f64,
 }
 
 fn read_inspection(path: &Path) -> Result<Inspection> {
@@ -58,6 +60,10 @@ fn read_inspection(path: &Path) -> Result<Inspection> {
         calibrated: tool("tool_as_calibrated")?,
         alpha,
         moved,
+        depth_scale: f["depth_scale"]
+            .as_f64()
+            .filter(|a| *a > 0.0 && a.is_finite())
+            .unwrap_or(1.0),
     })
 }
 
@@ -110,6 +116,7 @@ pub fn plan_touch_up(
         carved: &ins.carved,
         alpha: ins.alpha,
         z_step: m.z_step_mm,
+        depth_scale: ins.depth_scale,
     };
     let t = touch_up::plan(&renderer, &design, &carving, &goal, &obs)?;
     let views: Vec<String> = design
@@ -166,6 +173,10 @@ pub fn plan_touch_up(
     let summary = vec![
         format!("touch-up of {} by {}", design_file.display(), inspect.display()),
         format!("tool as carved {}", record(&ins.carved)),
+        format!(
+            "the machine's Z moves {:.4} times what it is told (inspect's depth scale): the recuts' depths allow for it",
+            ins.depth_scale
+        ),
         match ins.moved {
             Some((s, t)) => format!(
                 "the carving sits shifted ({:+.3}, {:+.3}) mm and turned {t:+.3} deg off the design (a zero off the \

@@ -74,7 +74,9 @@ pub(super) fn write(a: &InspectArgs, p: &Problem, found: &Found, at: &Eval) -> R
         );
         photos.push((ph, r, at.gain[k]));
     }
-    let pinned = found.dz_sd_mm <= DZ_TOLERANCE_MM && found.width_scale_sd <= SCALE_TOLERANCE;
+    let pinned = found.dz_sd_mm <= DZ_TOLERANCE_MM
+        && found.width_scale_sd <= SCALE_TOLERANCE
+        && found.depth_scale_sd <= fit::DEPTH_SCALE_TOLERANCE;
     let inside = found.at_edge.is_none();
     println!(
         "  the carving: cuts {:+.1} +- {:.1} um deeper than the tool's calibration, grooves {:.3} +- {:.3} times as wide \
@@ -86,6 +88,17 @@ pub(super) fn write(a: &InspectArgs, p: &Problem, found: &Found, at: &Eval) -> R
         found.correlation,
         found.residual_sd,
         found.renders
+    );
+    println!(
+        "  the machine's Z: {}",
+        if found.depth_scale_held {
+            "as told (assumed: its depth scale held at 1; --depth-scale fits it)".to_string()
+        } else {
+            format!(
+                "moves {:.4} +- {:.4} times what it is told (1: as its steps per mm say)",
+                found.depth_scale, found.depth_scale_sd
+            )
+        }
     );
     println!(
         "  the carving's place: shifted ({:+.3}, {:+.3}) +- ({:.3}, {:.3}) mm, turned {:+.3} +- {:.3} deg about the plate's \
@@ -115,6 +128,13 @@ pub(super) fn write(a: &InspectArgs, p: &Problem, found: &Found, at: &Eval) -> R
             why.push(format!(
                 "the width scale to {:.3} (needed: {SCALE_TOLERANCE})",
                 found.width_scale_sd
+            ));
+        }
+        if !(found.depth_scale_sd <= fit::DEPTH_SCALE_TOLERANCE) {
+            why.push(format!(
+                "the machine's depth scale to {:.3} (needed: {}; without --depth-scale it is held at 1)",
+                found.depth_scale_sd,
+                fit::DEPTH_SCALE_TOLERANCE
             ));
         }
         if let Some(what) = found.at_edge {
@@ -172,6 +192,8 @@ fn inspect_json(
             "correlation": found.correlation,
             "shift_mm": found.shift_mm, "shift_sd_mm": found.shift_sd_mm,
             "turn_deg": found.turn_deg, "turn_sd_deg": found.turn_sd_deg,
+            "depth_scale": found.depth_scale, "depth_scale_sd": found.depth_scale_sd,
+            "depth_scale_held": found.depth_scale_held,
             "moved": found.moved(),
             "meaning": "every cut reached dz_mm deeper than the calibrated tool's z offset says (+: deeper), and its \
                         groove was width_scale times as wide at that depth (Tool::as_carved)",
