@@ -160,7 +160,11 @@ pub struct Carving<'a> {
     /// The design's scratches where the carving put them (the design itself unless `inspect`
     /// found the carving shifted or turned).
     pub placed: &'a Scene,
+    /// The commanded depths the plate's grooves were cut at (the design's, or deeper where an
+    /// earlier touch-up recut them).
     pub cut: &'a [f64],
+    /// The design's commanded depths: the grooves it asked for.
+    pub designed: &'a [f64],
     pub calibrated: &'a Tool,
     pub carved: &'a Tool,
     pub alpha: f64,
@@ -180,6 +184,7 @@ pub fn plan(
     let Carving {
         placed,
         cut,
+        designed: designed_z,
         calibrated,
         carved,
         alpha,
@@ -188,7 +193,7 @@ pub fn plan(
     } = *c;
     // The depths the machine reaches when told z.
     let reached = |z: &[f64]| -> Vec<f64> { z.iter().map(|v| v * depth_scale).collect() };
-    let designed_scene = plate(design, cut, calibrated, alpha);
+    let designed_scene = plate(design, designed_z, calibrated, alpha);
     let designed = display_renders(renderer, &designed_scene)?;
     let against = goal.against();
     let before = measure(renderer, &plate(placed, &reached(cut), carved, alpha), goal, &designed)?;
@@ -213,7 +218,7 @@ pub fn plan(
         let mut z = cut.to_vec();
         let (mut recut, mut too_wide) = (Vec::new(), 0);
         for (k, &zc) in cut.iter().enumerate() {
-            let Some(want) = calibrated.section(zc).map(|s| ratio * s.width) else {
+            let Some(want) = calibrated.section(designed_z[k]).map(|s| ratio * s.width) else {
                 continue;
             };
             let now = carved.section(depth_scale * zc).map_or(0.0, |s| s.width);

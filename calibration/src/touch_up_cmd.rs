@@ -25,6 +25,8 @@ struct Inspection {
     moved: Option<([f64; 2], f64)>,
     /// The machine's Z moves this many times what it is told.
     depth_scale: f64,
+    /// The plans the plate was inspected as carved by (`inspect --plan`), if any.
+    plans: Vec<std::path::PathBuf>,
 }
 
 fn read_inspection(path: &Path) -> Result<Inspection> {
@@ -60,6 +62,15 @@ fn read_inspection(path: &Path) -> Result<Inspection> {
         calibrated: tool("tool_as_calibrated")?,
         alpha,
         moved,
+        plans: v["grooves_from"]
+            .as_array()
+            .map(|a| {
+                a.iter()
+                    .filter_map(|p| p.as_str())
+                    .map(std::path::PathBuf::from)
+                    .collect()
+            })
+            .unwrap_or_default(),
         depth_scale: f["depth_scale"]
             .as_f64()
             .filter(|a| *a > 0.0 && a.is_finite())
@@ -87,13 +98,24 @@ pub fn plan_touch_up(
         .into());
     }
     let (design, extra) = Scene::load_extra(design_file)?;
-    let cut: Vec<f64> = match extra.column("z_mm") {
+    let designed: Vec<f64> = match extra.column("z_mm") {
         Some(z) => z,
         None => scratchart_machine::depths::depths(&design.scratches, tool, 0.5)
             .into_iter()
             .map(|d| d.0)
             .collect(),
     };
+    let mut cut = designed.clone();
+    // A plate inspected with the plans it was carved with (`inspect --plan`, an earlier
+    // touch-up among them): its grooves are as deep as those plans left them.
+    if !ins.plans.is_empty() {
+        let (grooves, _) = scratchart_calibration::simulate_plate::plate_grooves(&ins.plans)?;
+        for g in grooves.iter().filter(|g| g.label.starts_with("scratch")) {
+            if let Some(z) = g.cut.scratch.checked_sub(1).and_then(|k| cut.get_mut(k)) {
+                *z = z.max(g.cut.z);
+            }
+        }
+    }
     let ctx = scratchart_vulkan::Context::new(scratchart_vulkan::ContextDesc {
         notify: Some(scratchart::term::stderr_notices()),
         ..Default::default()
@@ -112,6 +134,7 @@ pub fn plan_touch_up(
     let carving = touch_up::Carving {
         placed: &placed,
         cut: &cut,
+        designed: &designed,
         calibrated: tool,
         carved: &ins.carved,
         alpha: ins.alpha,
@@ -173,6 +196,14 @@ pub fn plan_touch_up(
     let summary = vec![
         format!("touch-up of {} by {}", design_file.display(), inspect.display()),
         format!("tool as carved {}", record(&ins.carved)),
+        if ins.plans.is_empty() {
+            "the plate's grooves as the design's depths cut them".to_string()
+        } else {
+            format!(
+                "the plate's grooves as {} cut them",
+                ins.plans.iter().map(|p| p.display().to_string()).collect::<Vec<_>>().join(" then ")
+            )
+        },
         format!(
             "the machine's Z moves {:.4} times what it is told (inspect's depth scale): the recuts' depths allow for it",
             ins.depth_scale
