@@ -78,6 +78,35 @@ fn read_inspection(path: &Path) -> Result<Inspection> {
     })
 }
 
+/// The design's commanded depths (the grooves it asked for) and the grooves' present depths:
+/// the plans' that `inspect` read (`--plan`, an earlier touch-up among them), else the design's.
+fn depths(
+    design: &Scene,
+    extra: &scratchart_model::scene_file::Extra,
+    tool: &Tool,
+    ins: &Inspection,
+) -> Result<(Vec<f64>, Vec<f64>)> {
+    let designed: Vec<f64> = match extra.column("z_mm") {
+        Some(z) => z,
+        None => scratchart_machine::depths::depths(&design.scratches, tool, 0.5)
+            .into_iter()
+            .map(|d| d.0)
+            .collect(),
+    };
+    let mut cut = designed.clone();
+    // A plate inspected with the plans it was carved with (`inspect --plan`, an earlier
+    // touch-up among them): its grooves are as deep as those plans left them.
+    if !ins.plans.is_empty() {
+        let (grooves, _) = scratchart_calibration::simulate_plate::plate_grooves(&ins.plans)?;
+        for g in grooves.iter().filter(|g| g.label.starts_with("scratch")) {
+            if let Some(z) = g.cut.scratch.checked_sub(1).and_then(|k| cut.get_mut(k)) {
+                *z = z.max(g.cut.z);
+            }
+        }
+    }
+    Ok((designed, cut))
+}
+
 /// Writes the touch-up plan of `design` to `out`.
 pub fn plan_touch_up(
     design_file: &Path,
@@ -98,24 +127,7 @@ pub fn plan_touch_up(
         .into());
     }
     let (design, extra) = Scene::load_extra(design_file)?;
-    let designed: Vec<f64> = match extra.column("z_mm") {
-        Some(z) => z,
-        None => scratchart_machine::depths::depths(&design.scratches, tool, 0.5)
-            .into_iter()
-            .map(|d| d.0)
-            .collect(),
-    };
-    let mut cut = designed.clone();
-    // A plate inspected with the plans it was carved with (`inspect --plan`, an earlier
-    // touch-up among them): its grooves are as deep as those plans left them.
-    if !ins.plans.is_empty() {
-        let (grooves, _) = scratchart_calibration::simulate_plate::plate_grooves(&ins.plans)?;
-        for g in grooves.iter().filter(|g| g.label.starts_with("scratch")) {
-            if let Some(z) = g.cut.scratch.checked_sub(1).and_then(|k| cut.get_mut(k)) {
-                *z = z.max(g.cut.z);
-            }
-        }
-    }
+    let (designed, cut) = depths(&design, &extra, tool, &ins)?;
     let ctx = scratchart_vulkan::Context::new(scratchart_vulkan::ContextDesc {
         notify: Some(scratchart::term::stderr_notices()),
         ..Default::default()
