@@ -215,27 +215,11 @@ impl Found {
     }
 }
 
-/// Pearson's correlation of `a` and `b` over `used`.
+/// Pearson's correlation of `a` and `b` over `used` (`scratchart_design::measure::correlation`,
+/// the design's own, on these f32 images).
 pub fn correlation(a: &[f32], b: &[f32], used: &[bool]) -> f64 {
-    let (mut n, mut sa, mut sb) = (0.0f64, 0.0, 0.0);
-    for i in 0..a.len() {
-        if used[i] {
-            n += 1.0;
-            sa += a[i] as f64;
-            sb += b[i] as f64;
-        }
-    }
-    let (ma, mb) = (sa / n.max(1.0), sb / n.max(1.0));
-    let (mut ab, mut aa, mut bb) = (0.0, 0.0, 0.0);
-    for i in 0..a.len() {
-        if used[i] {
-            let (x, y) = (a[i] as f64 - ma, b[i] as f64 - mb);
-            ab += x * y;
-            aa += x * x;
-            bb += y * y;
-        }
-    }
-    ab / (aa * bb).sqrt().max(1e-300)
+    let wide = |x: &[f32]| x.iter().map(|&v| v as f64).collect::<Vec<f64>>();
+    scratchart_design::measure::correlation(&wide(a), &wide(b), used)
 }
 
 /// `scratchart-cal inspect`.
