@@ -1,7 +1,7 @@
 //! The closed loop (issue 54): a design carved with a hidden tool mismatch and the machine's
 //! error (`scratchart-cal simulate-plate`), photographed with noise, inspected (`inspect`
-//! recovers the mismatch or refuses), touched up (`plan --touch-up`: only deeper recuts along
-//! the scratches' own paths) and photographed again; the touch-up's G-code carved on the real
+//! recovers the mismatch or refuses), touched up (`plan --touch-up`: deeper recuts along the
+//! scratches' own paths and new scratches) and photographed again; the touch-up's G-code carved on the real
 //! GRBL 1.1h firmware (`../shared/grbl-sim`).
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
@@ -121,9 +121,10 @@ fn photograph_and_inspect(
 }
 
 /// Hidden mismatches (a bit 10% wider than calibrated; a z offset 15 um off, both ways) are
-/// recovered within 5% and 5 um; the touch-up recuts only deeper along the scratches' own paths
-/// and recovers at least half of what the mismatch cost the worst view (measured on new photos
-/// of the touched-up plate); a design whose photos are mostly noise is refused, exit 3, with no
+/// recovered within 5% and 5 um; the touch-up recuts only deeper along the scratches' own paths,
+/// adds new scratches on the plate and off its marks, and recovers at least half of what the
+/// mismatch cost the worst view, in fact all of it (measured on new photos of the touched-up
+/// plate); a design whose photos are mostly noise is refused, exit 3, with no
 /// inspect.json.
 #[test]
 fn the_loop_finds_a_hidden_mismatch_and_touches_it_up() {
@@ -164,6 +165,7 @@ fn the_loop_finds_a_hidden_mismatch_and_touches_it_up() {
         "{found}"
     );
     let baseline = worst(&with_pictures(&exact));
+    let plate_mm = json(Path::new(&design))["plate"]["size_mm"].as_f64().unwrap();
     let (wa, wf) = widened(1.1);
     // The deep carving also sits shifted and turned (a zero off the plate's centre, a plate
     // clamped askew): found, and the touch-up, carved with the same set-up, lands on its grooves.
@@ -230,7 +232,7 @@ fn the_loop_finds_a_hidden_mismatch_and_touches_it_up() {
             );
             continue;
         }
-        only_deeper_recuts(name, Path::new(&plan), Path::new(&touch));
+        let new = only_deeper_recuts_and_new_scratches(name, Path::new(&plan), Path::new(&touch), plate_mm);
         let (code, text, after) = photograph_and_inspect(
             &dir,
             &format!("{name}_touched"),
@@ -246,10 +248,18 @@ fn the_loop_finds_a_hidden_mismatch_and_touches_it_up() {
             carve_on_grbl_sim(&dir, Path::new(&touch), 6);
         }
         let cost = baseline - before;
-        eprintln!("{name}: worst view {baseline:.4} as designed, {before:.4} as carved, {after:.4} touched up");
+        eprintln!(
+            "{name}: worst view {baseline:.4} as designed, {before:.4} as carved, {after:.4} touched up ({new} new scratches)"
+        );
         assert!(
             after >= before + 0.5 * cost.max(0.0) - 1e-3,
             "{name}: {after} after, {before} before, {baseline} as designed"
+        );
+        // With new scratches where a view lacks light, the touched-up plate shows its pictures
+        // better than the design did (measured: 0.78 to 0.84 against 0.707).
+        assert!(
+            after >= baseline,
+            "{name}: {after} after, {baseline} as designed ({new} new scratches)"
         );
     }
     refused_or_right_on_poor_photos(&dir, &plan, &design, &tool);
@@ -369,23 +379,67 @@ fn carve_on_grbl_sim(dir: &Path, plan: &Path, n: usize) {
     assert!(said.contains("1.1h"), "{said}");
 }
 
-/// The touch-up `touch` only recuts the scratches of `plan`, along their paths, deeper.
-fn only_deeper_recuts(name: &str, plan: &Path, touch: &Path) {
+/// The touch-up `touch` recuts scratches of `plan` only along their paths, deeper, and its new
+/// scratches (numbered past the plan's) lie on the plate and cross no registration mark.
+/// Returns how many new scratches it cuts.
+fn only_deeper_recuts_and_new_scratches(name: &str, plan: &Path, touch: &Path, plate_mm: f64) -> usize {
     let cuts = scratchart_machine::carved::cuts(&Program::load(plan).unwrap());
+    let last = cuts.iter().map(|c| c.cut.scratch).max().unwrap();
+    // Each mark's box (its hatch's extent).
+    let marks: Vec<[f64; 4]> = {
+        let mut by: std::collections::BTreeMap<String, [f64; 4]> = Default::default();
+        for c in cuts.iter().filter(|c| c.label.starts_with("mark")) {
+            let key = c.label.split(" hatch").next().unwrap().to_string();
+            let b = by
+                .entry(key)
+                .or_insert([f64::INFINITY, f64::INFINITY, f64::NEG_INFINITY, f64::NEG_INFINITY]);
+            for p in [c.cut.a, c.cut.b] {
+                *b = [b[0].min(p[0]), b[1].min(p[1]), b[2].max(p[0]), b[3].max(p[1])];
+            }
+        }
+        by.into_values().collect()
+    };
+    assert!(
+        marks.len() >= 4,
+        "{name}: the plan has its registration marks: {marks:?}"
+    );
+    let mut new = 0;
     for c in scratchart_machine::carved::cuts(&Program::load(touch).unwrap()) {
         assert!(c.label.starts_with("scratch"), "{}", c.label);
-        let was = cuts
-            .iter()
-            .find(|o| o.cut.scratch == c.cut.scratch)
-            .expect("a scratch of the plan");
-        let same = (was.cut.a == c.cut.a && was.cut.b == c.cut.b) || (was.cut.a == c.cut.b && was.cut.b == c.cut.a);
-        assert!(
-            same && c.cut.z > was.cut.z,
-            "{name}: {:?} recut as {:?}",
-            was.cut,
-            c.cut
-        );
+        match cuts.iter().find(|o| o.cut.scratch == c.cut.scratch) {
+            Some(was) => {
+                let same =
+                    (was.cut.a == c.cut.a && was.cut.b == c.cut.b) || (was.cut.a == c.cut.b && was.cut.b == c.cut.a);
+                assert!(
+                    same && c.cut.z > was.cut.z,
+                    "{name}: {:?} recut as {:?}",
+                    was.cut,
+                    c.cut
+                );
+            }
+            None => {
+                new += 1;
+                assert!(c.cut.scratch > last, "{name}: a new scratch numbered {}", c.cut.scratch);
+                for t in 0..=20 {
+                    let f = t as f64 / 20.0;
+                    let p = [
+                        c.cut.a[0] + f * (c.cut.b[0] - c.cut.a[0]),
+                        c.cut.a[1] + f * (c.cut.b[1] - c.cut.a[1]),
+                    ];
+                    assert!(
+                        p[0].abs() <= 0.5 * plate_mm && p[1].abs() <= 0.5 * plate_mm,
+                        "{name}: {:?}",
+                        c.cut
+                    );
+                    let inside = marks
+                        .iter()
+                        .any(|b| p[0] >= b[0] && p[0] <= b[2] && p[1] >= b[1] && p[1] <= b[3]);
+                    assert!(!inside, "{name}: new scratch {:?} crosses a registration mark", c.cut);
+                }
+            }
+        }
     }
+    new
 }
 
 /// Phone photos (1 MP JPEGs, located by the registration marks) of the plate carved 15 um
@@ -482,7 +536,7 @@ fn refused_or_right_on_poor_photos(dir: &Path, plan: &str, design: &str, tool: &
 
 /// Bad inputs to the loop's commands get a clear error and the exit code of their kind: a file
 /// that is not a plan and a malformed inspect.json (3), a NaN machine error, a touch-up without
-/// the tool and more photos than views with names that are not the views' (2), a photo that is
+/// the tool or with a share of new scratches out of range, and more photos than views with names that are not the views' (2), a photo that is
 /// not a view's and shows no marks (3, no inspect.json).
 #[test]
 fn the_loops_bad_inputs_are_named() {
@@ -567,6 +621,24 @@ fn the_loops_bad_inputs_are_named() {
     );
     let (code, text) = said(cal(&["plan", &design, "--touch-up", &bad, "--out", &touch]));
     assert!(code == Some(2) && text.contains("--tool"), "{code:?} {text}");
+    for share in ["-0.5", "nan", "7"] {
+        let (code, text) = said(cal(&[
+            "plan",
+            &design,
+            "--tool",
+            &tool,
+            "--touch-up",
+            &bad,
+            "--touch-up-new",
+            share,
+            "--out",
+            &touch,
+        ]));
+        assert!(
+            code == Some(2) && text.contains("--touch-up-new") && !Path::new(&touch).exists(),
+            "{share}: {code:?} {text}"
+        );
+    }
     ok(
         cal(&[
             "simulate-plate",

@@ -85,11 +85,20 @@ pub struct PlanArgs {
     pub heightmap: Option<PathBuf>,
     /// The touch-up of a carved plate: inspect.json from `scratchart-cal inspect` (what the
     /// carving did differently from the tool's calibration). The plan then only recuts the
-    /// design's scratches deeper along their own paths (metal cannot be put back), as far as that
-    /// brings the plate's render closer to the pictures, and says what the views gain and what it
-    /// cannot fix; no marks (the plate has them). Needs the same --tool as inspect
+    /// design's scratches deeper along their own paths (metal cannot be put back) and adds new
+    /// scratches where a view lacks light, as far as that brings the plate's render closer to
+    /// the pictures, and says what the views gain and what it cannot fix; no marks (the plate
+    /// has them). Needs the same --tool as inspect
     #[arg(long, value_name = "INSPECT_JSON")]
     pub touch_up: Option<PathBuf>,
+    /// Iterations of the touch-up's optimizer (after the width ratio search): every groove's
+    /// depth (never shallower than its cut) and new scratches where a view lacks light, kept only
+    /// where the worst view gains. 0: the width ratio alone
+    #[arg(long, default_value_t = 100, value_name = "N")]
+    pub touch_up_iters: u32,
+    /// New scratches the touch-up tries, as a share of the design's (0: only deeper recuts)
+    #[arg(long, default_value_t = 0.25, value_name = "SHARE")]
+    pub touch_up_new: f64,
     /// Write the plan even where the design cannot be carved as designed (cuts shallower than
     /// the machine's smallest trusted cut, grooves off the tool's curve); the plan's header and
     /// the output say what was forced. Without it such a design is refused (exit 2)
@@ -169,11 +178,7 @@ pub fn plan(a: &PlanArgs) -> Result<()> {
     });
     let out = out.as_path();
     if let Some(inspect) = &a.touch_up {
-        let tool = match &a.tool {
-            Some(t) => Some(Tool::load(t).map_err(|e| InputError(e.to_string()))?),
-            None => None,
-        };
-        return crate::touch_up_cmd::plan_touch_up(design, tool.as_ref(), inspect, &m, out);
+        return touch_up(a, design, inspect, &m, out);
     }
     let (scene, extra) = Scene::load_extra(design)?;
     if a.home && m.firmware != scratchart_tool::machine::Firmware::Marlin {
@@ -297,6 +302,27 @@ pub fn plan(a: &PlanArgs) -> Result<()> {
 
 /// The registration marks' part of the job time (`scratchart_machine::marks::registration_time`),
 /// for the header's job time line; empty without them.
+/// `plan --touch-up`: the options checked, then [`crate::touch_up_cmd::plan_touch_up`].
+fn touch_up(a: &PlanArgs, design: &Path, inspect: &Path, m: &MachineProfile, out: &Path) -> Result<()> {
+    let tool = match &a.tool {
+        Some(t) => Some(Tool::load(t).map_err(|e| InputError(e.to_string()))?),
+        None => None,
+    };
+    if !(a.touch_up_new.is_finite() && (0.0..=2.0).contains(&a.touch_up_new)) {
+        return Err(UsageError(format!(
+            "--touch-up-new {}: give a share of the design's scratches from 0 to 2",
+            a.touch_up_new
+        ))
+        .into());
+    }
+    let opts = scratchart_calibration::touch_up::refine::Options {
+        iters: a.touch_up_iters,
+        new_share: a.touch_up_new,
+        ..Default::default()
+    };
+    crate::touch_up_cmd::plan_touch_up(design, tool.as_ref(), inspect, m, &opts, out)
+}
+
 fn registration_share(blocks: &[Block], m: &MachineProfile) -> String {
     if !blocks.iter().any(|b| matches!(b.label, Label::Registration { .. })) {
         return String::new();

@@ -13,6 +13,10 @@
 //! whose worst view correlates best with its picture, as the design measures ([`Goal`]), is
 //! kept, "no touch-up" among the candidates, so the touch-up never plans a plate that renders
 //! worse than the one it has.
+//!
+//! Then the optimizer ([`refine`]): from the ratio's depths, the design's loss over every
+//! groove's depth (never shallower) and new scratches where a view lacks light; its plan
+//! replaces the ratio's only where the worst view, measured the same way, is better.
 use anyhow::Result;
 use scratchart_model::scene::Scene;
 use scratchart_render::Renderer;
@@ -21,6 +25,9 @@ use scratchart_tool::Tool;
 use scratchart_design::measure::{blur3, correlation as measure_correlation};
 use scratchart_design::tolerance::SheetInputs;
 use scratchart_model::camera::on_plate_mask;
+
+pub mod refine;
+use refine::Added;
 
 /// The width ratios searched (1: the designed widths where the carving left them narrower).
 pub const RATIOS: [f64; 9] = [1.0, 1.05, 1.1, 1.15, 1.2, 1.3, 1.4, 1.6, 1.8];
@@ -36,6 +43,10 @@ pub struct TouchUp {
     pub ratio: Option<f64>,
     /// Grooves already wider than the ratio asks (the touch-up cannot narrow them).
     pub too_wide: usize,
+    /// New scratches (the carving's frame; depths on the Z grid), by the optimizer.
+    pub added: Vec<Added>,
+    /// Whether the optimizer's plan was kept (else the ratio's, or none).
+    pub optimized: bool,
     /// Per view, the worst-view measure's correlation before and after.
     pub before: Vec<f64>,
     pub after: Vec<f64>,
@@ -59,6 +70,11 @@ impl Goal {
         Goal {
             inputs: SheetInputs::load(dir, design).ok().flatten(),
         }
+    }
+
+    /// The design's inputs, where it wrote them.
+    pub fn inputs(&self) -> Option<&SheetInputs> {
+        self.inputs.as_ref()
     }
 
     /// What the correlations are against.
@@ -107,6 +123,23 @@ fn depth_for_width(tool: &Tool, width: f64, from: f64) -> f64 {
         }
     }
     b
+}
+
+/// [`plate`] with the new scratches `added` (commanded depths as the machine reaches them).
+fn plate_with(design: &Scene, z: &[f64], tool: &Tool, alpha: f64, added: &[Added]) -> Scene {
+    let mut s = plate(design, z, tool, alpha);
+    s.scratches.extend(added.iter().filter_map(|a| {
+        let m = tool.model(a.z)?;
+        Some(scratchart_model::scene::Scratch {
+            p0: a.p0,
+            p1: a.p1,
+            w: m.w,
+            d: m.d,
+            alpha,
+            bulge: 0.0,
+        })
+    }));
+    s
 }
 
 /// The plate's grooves for commanded depths `z` cut by `tool`.
@@ -171,14 +204,141 @@ pub struct Carving<'a> {
     pub z_step: f64,
     /// The machine's Z moves this many times what it is told (`inspect`'s depth scale).
     pub depth_scale: f64,
+    /// The plate's registration marks where the carving put them (new scratches keep off them).
+    pub marks: Option<&'a scratchart_machine::marks::PlateMarks>,
+    /// The shortest scratch the machine cuts, mm.
+    pub min_length_mm: f64,
 }
 
-/// Plans the touch-up of the plate `c` carved from `design` (see the module doc).
+/// Plans the touch-up of the plate `c` carved from `design` (see the module doc): the best width
+/// ratio, then the optimizer ([`refine`], with `opts`; not for a design of arcs or without its
+/// inputs), each kept only where the worst view gains.
 pub fn plan(
     renderer: &Renderer,
     design: &Scene,
     c: &Carving,
     goal: &Goal,
+    opts: &refine::Options,
+    obs: &dyn scratchart_observe::Observer,
+) -> Result<TouchUp> {
+    let designed_scene = plate(design, c.designed, c.calibrated, c.alpha);
+    let designed = display_renders(renderer, &designed_scene)?;
+    let best = ratio_search(renderer, c, goal, &designed, obs)?;
+    let arcs = design.scratches.iter().any(|s| s.bulge != 0.0);
+    match goal.inputs() {
+        Some(inputs) if opts.iters > 0 && !arcs => optimized(renderer, c, goal, inputs, &designed, best, opts, obs),
+        _ => {
+            obs.info(if arcs {
+                "the touch-up's optimizer is not run on a design of arcs: the width ratio alone"
+            } else {
+                "the touch-up's optimizer needs the design's inputs (setup_inputs.json beside it): the width ratio alone"
+            });
+            Ok(best)
+        }
+    }
+}
+
+/// The commanded depth `z` on the machine's Z grid of `step`, up (the touch-up never asks for
+/// less than it computed).
+fn grid_up(z: f64, step: f64) -> f64 {
+    if step > 0.0 {
+        (z / step - 1e-9).ceil() * step
+    } else {
+        z
+    }
+}
+
+/// The depths the machine reaches when told `z`.
+fn reached(z: &[f64], depth_scale: f64) -> Vec<f64> {
+    z.iter().map(|v| v * depth_scale).collect()
+}
+
+fn worst(v: &[f64]) -> f64 {
+    v.iter().cloned().fold(f64::INFINITY, f64::min)
+}
+
+/// The optimizer's plan from `best` (the ratio's), on the Z grid, kept where its worst view
+/// beats `best`'s.
+#[allow(clippy::too_many_arguments)]
+fn optimized(
+    renderer: &Renderer,
+    c: &Carving,
+    goal: &Goal,
+    inputs: &SheetInputs,
+    designed: &[Vec<f32>],
+    best: TouchUp,
+    opts: &refine::Options,
+    obs: &dyn scratchart_observe::Observer,
+) -> Result<TouchUp> {
+    // Each view weighted by how far it falls short, the worst most (as the design's balance).
+    let short: Vec<f64> = best.after.iter().map(|v| (1.0 - v).max(1e-3)).collect();
+    let mean = short.iter().sum::<f64>() / short.len().max(1) as f64;
+    let weights: Vec<f32> = short.iter().map(|s| (s / mean).clamp(0.5, 3.0) as f32).collect();
+    let problem = refine::Problem {
+        carving: c,
+        inputs,
+        weights: &weights,
+    };
+    let r = refine::refine(renderer, &problem, &best.depths, opts, obs)?;
+    let step = c.z_step;
+    let tol = 0.5 * step.max(1e-4);
+    let mut z = c.cut.to_vec();
+    let mut recut = Vec::new();
+    for (k, &zr) in r.depths.iter().enumerate() {
+        let zt = grid_up(zr, step);
+        if zt >= c.cut[k] + tol {
+            z[k] = zt;
+            recut.push(k);
+        }
+    }
+    let added: Vec<Added> = r
+        .added
+        .iter()
+        .map(|a| Added {
+            z: grid_up(a.z, step),
+            ..*a
+        })
+        .collect();
+    let after = measure(
+        renderer,
+        &plate_with(c.placed, &reached(&z, c.depth_scale), c.carved, c.alpha, &added),
+        goal,
+        designed,
+    )?;
+    obs.info(&format!(
+        "touch-up by the optimizer: {} of {} scratches recut, {} new of {} tried; loss {:.6} -> {:.6}; worst view {:.4} (the width ratio's {:.4})",
+        recut.len(),
+        c.cut.len(),
+        added.len(),
+        r.tried,
+        r.loss[0],
+        r.loss[1],
+        worst(&after),
+        worst(&best.after)
+    ));
+    if worst(&after) > worst(&best.after) + 1e-4 && !(recut.is_empty() && added.is_empty()) {
+        let too_wide = best.too_wide;
+        return Ok(TouchUp {
+            depths: z,
+            recut,
+            ratio: best.ratio,
+            too_wide,
+            added,
+            optimized: true,
+            before: best.before,
+            after,
+            against: best.against,
+        });
+    }
+    Ok(best)
+}
+
+/// The width ratio's touch-up (see the module doc): the best of [`RATIOS`], or none.
+fn ratio_search(
+    renderer: &Renderer,
+    c: &Carving,
+    goal: &Goal,
+    designed: &[Vec<f32>],
     obs: &dyn scratchart_observe::Observer,
 ) -> Result<TouchUp> {
     let Carving {
@@ -190,29 +350,25 @@ pub fn plan(
         alpha,
         z_step,
         depth_scale,
+        ..
     } = *c;
-    // The depths the machine reaches when told z.
-    let reached = |z: &[f64]| -> Vec<f64> { z.iter().map(|v| v * depth_scale).collect() };
-    let designed_scene = plate(design, designed_z, calibrated, alpha);
-    let designed = display_renders(renderer, &designed_scene)?;
     let against = goal.against();
-    let before = measure(renderer, &plate(placed, &reached(cut), carved, alpha), goal, &designed)?;
-    let worst = |v: &[f64]| v.iter().cloned().fold(f64::INFINITY, f64::min);
+    let before = measure(
+        renderer,
+        &plate(placed, &reached(cut, depth_scale), carved, alpha),
+        goal,
+        designed,
+    )?;
     let mut best = TouchUp {
         depths: cut.to_vec(),
         recut: vec![],
         ratio: None,
         too_wide: 0,
+        added: vec![],
+        optimized: false,
         before: before.clone(),
         after: before.clone(),
         against,
-    };
-    let grid = |z: f64| {
-        if z_step > 0.0 {
-            (z / z_step - 1e-9).ceil() * z_step
-        } else {
-            z
-        }
     };
     for &ratio in &RATIOS {
         let mut z = cut.to_vec();
@@ -226,7 +382,7 @@ pub fn plan(
                 too_wide += 1;
                 continue;
             }
-            let zt = grid(depth_for_width(carved, want, depth_scale * zc) / depth_scale);
+            let zt = grid_up(depth_for_width(carved, want, depth_scale * zc) / depth_scale, z_step);
             if zt >= zc + 0.5 * z_step.max(1e-4) {
                 z[k] = zt;
                 recut.push(k);
@@ -235,7 +391,12 @@ pub fn plan(
         if recut.is_empty() {
             continue;
         }
-        let after = measure(renderer, &plate(placed, &reached(&z), carved, alpha), goal, &designed)?;
+        let after = measure(
+            renderer,
+            &plate(placed, &reached(&z, depth_scale), carved, alpha),
+            goal,
+            designed,
+        )?;
         obs.info(&format!(
             "touch-up at {ratio:.2} x the designed widths: {} of {} scratches recut, {too_wide} already wider; worst view {:.4} (now {:.4})",
             recut.len(),
@@ -249,6 +410,8 @@ pub fn plan(
                 recut,
                 ratio: Some(ratio),
                 too_wide,
+                added: vec![],
+                optimized: false,
                 before: before.clone(),
                 after,
                 against,

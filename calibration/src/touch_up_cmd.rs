@@ -1,7 +1,7 @@
 //! `scratchart-cal plan DESIGN.json --tool tool.json --touch-up DIR/inspect.json --out touch.nc`:
-//! the G-code of the touch-up ([`scratchart_calibration::touch_up`]): only recuts of existing
-//! scratches along their own paths, deeper, in the plan's order and with the plan's checks; no
-//! marks (the plate has them).
+//! the G-code of the touch-up ([`scratchart_calibration::touch_up`]): recuts of existing
+//! scratches along their own paths, deeper, and new scratches (numbered past the design's),
+//! in the plan's order and with the plan's checks; no marks (the plate has them).
 use std::path::Path;
 
 use anyhow::{Context as _, Result};
@@ -80,13 +80,15 @@ fn read_inspection(path: &Path) -> Result<Inspection> {
 
 /// The design's commanded depths (the grooves it asked for) and the grooves' present depths:
 /// the plans' that `inspect` read (`--plan`, an earlier touch-up among them), else the design's.
+/// The new scratches of an earlier touch-up (numbered past the design's) join `design` as
+/// scratches of their own, designed as they were cut.
 fn depths(
-    design: &Scene,
+    design: &mut Scene,
     extra: &scratchart_model::scene_file::Extra,
     tool: &Tool,
     ins: &Inspection,
 ) -> Result<(Vec<f64>, Vec<f64>)> {
-    let designed: Vec<f64> = match extra.column("z_mm") {
+    let mut designed: Vec<f64> = match extra.column("z_mm") {
         Some(z) => z,
         None => scratchart_machine::depths::depths(&design.scratches, tool, 0.5)
             .into_iter()
@@ -98,9 +100,27 @@ fn depths(
     // touch-up among them): its grooves are as deep as those plans left them.
     if !ins.plans.is_empty() {
         let (grooves, _) = scratchart_calibration::simulate_plate::plate_grooves(&ins.plans)?;
+        let n = design.scratches.len();
+        let mut added: Vec<&scratchart_machine::carved::CarvedCut> = Vec::new();
         for g in grooves.iter().filter(|g| g.label.starts_with("scratch")) {
-            if let Some(z) = g.cut.scratch.checked_sub(1).and_then(|k| cut.get_mut(k)) {
-                *z = z.max(g.cut.z);
+            match g.cut.scratch.checked_sub(1) {
+                Some(k) if k < n => cut[k] = cut[k].max(g.cut.z),
+                Some(_) => added.push(g),
+                None => {}
+            }
+        }
+        added.sort_by_key(|g| g.cut.scratch);
+        let like = design.scratches.first().copied();
+        for g in added {
+            if let Some(s) = like {
+                design.scratches.push(scratchart_model::scene::Scratch {
+                    p0: g.cut.a,
+                    p1: g.cut.b,
+                    bulge: g.cut.bulge,
+                    ..s
+                });
+                designed.push(g.cut.z);
+                cut.push(g.cut.z);
             }
         }
     }
@@ -113,6 +133,7 @@ pub fn plan_touch_up(
     tool: Option<&Tool>,
     inspect: &Path,
     m: &MachineProfile,
+    opts: &touch_up::refine::Options,
     out: &Path,
 ) -> Result<()> {
     let tool = tool.ok_or_else(|| {
@@ -126,8 +147,8 @@ pub fn plan_touch_up(
         ))
         .into());
     }
-    let (design, extra) = Scene::load_extra(design_file)?;
-    let (designed, cut) = depths(&design, &extra, tool, &ins)?;
+    let (mut design, extra) = Scene::load_extra(design_file)?;
+    let (designed, cut) = depths(&mut design, &extra, tool, &ins)?;
     let ctx = scratchart_vulkan::Context::new(scratchart_vulkan::ContextDesc {
         notify: Some(scratchart::term::stderr_notices()),
         ..Default::default()
@@ -143,7 +164,22 @@ pub fn plan_touch_up(
             sc.p1 = scratchart_calibration::simulate_plate::moved_point(sc.p1, shift, turn);
         }
     }
+    // The marks where the carving put them, and the design's shortest scratch (what the
+    // machine was trusted to cut): the new scratches keep to both.
+    let mut marks = scratchart_machine::marks::plate_marks(design.plate.size_mm, &design.views);
+    if let Some((shift, turn)) = ins.moved {
+        for mk in &mut marks.marks {
+            mk.centre = scratchart_calibration::simulate_plate::moved_point(mk.centre, shift, turn);
+        }
+    }
+    let min_length_mm = design
+        .scratches
+        .iter()
+        .map(|s| ((s.p1[0] - s.p0[0]).powi(2) + (s.p1[1] - s.p0[1]).powi(2)).sqrt())
+        .fold(f64::INFINITY, f64::min);
     let carving = touch_up::Carving {
+        marks: Some(&marks),
+        min_length_mm,
         placed: &placed,
         cut: &cut,
         designed: &designed,
@@ -153,21 +189,59 @@ pub fn plan_touch_up(
         z_step: m.z_step_mm,
         depth_scale: ins.depth_scale,
     };
-    let t = touch_up::plan(&renderer, &design, &carving, &goal, &obs)?;
+    let t = touch_up::plan(&renderer, &design, &carving, &goal, opts, &obs)?;
     let views: Vec<String> = design
         .views
         .iter()
         .zip(t.before.iter().zip(&t.after))
         .map(|(v, (b, a))| format!("{} {b:.3} -> {a:.3}", v.name))
         .collect();
-    let Some(ratio) = t.ratio else {
+    if t.recut.is_empty() && t.added.is_empty() {
         println!(
-            "no touch-up helps this plate: no deepening of its grooves renders closer to {} ({}); no plan written",
+            "no touch-up helps this plate: no deepening of its grooves and no new scratch renders closer to {} ({}); no plan written",
             t.against,
             views.join(", ")
         );
         return Ok(());
+    }
+    let written = Written {
+        design_file,
+        inspect,
+        design: &design,
+        placed: &placed,
+        ins: &ins,
     };
+    write_touch_up(&written, &t, &views, m, out)
+}
+
+/// What the touch-up's G-code is written from.
+struct Written<'a> {
+    design_file: &'a Path,
+    inspect: &'a Path,
+    design: &'a Scene,
+    /// The design's scratches where the carving put them.
+    placed: &'a Scene,
+    ins: &'a Inspection,
+}
+
+/// The plan's header line that says what is cut.
+fn what_is_cut(t: &touch_up::TouchUp, recuts: usize, added: usize, n: usize) -> String {
+    let how = match (t.optimized, t.ratio) {
+        (true, _) => "to the depths the touch-up's optimizer found".to_string(),
+        (false, Some(r)) => format!("to {r:.2} times the designed groove widths"),
+        (false, None) => "deeper".to_string(),
+    };
+    format!(
+        "{recuts} of {n} scratches recut deeper along their own paths, {how}; {added} new scratches (numbered from {}) \
+         where a view lacked light; {} grooves are already wider than the design asks and stay (metal cannot be put back)",
+        n + 1,
+        t.too_wide
+    )
+}
+
+/// Writes the touch-up `t` as G-code to `out` (see the module doc).
+fn write_touch_up(w: &Written, t: &touch_up::TouchUp, views: &[String], m: &MachineProfile, out: &Path) -> Result<()> {
+    let (design, placed, ins) = (w.design, w.placed, w.ins);
     let plate = design.plate.size_mm;
     // A groove the shifted or turned carving ran off the plate's edge is not recut (the machine
     // would cut beyond the plate).
@@ -186,7 +260,22 @@ pub fn plan_touch_up(
         bulge: sc[k].bulge,
     };
     let (kept, off): (Vec<usize>, Vec<usize>) = t.recut.iter().partition(|&&k| on_plate(&cut_of(k, &placed.scratches)));
-    let cuts: Vec<Cut> = kept.iter().map(|&k| cut_of(k, &design.scratches)).collect();
+    let mut cuts: Vec<Cut> = kept.iter().map(|&k| cut_of(k, &design.scratches)).collect();
+    // The new scratches, found where the carving is, in the plan's coordinates too.
+    let unmoved = |p: [f64; 2]| match ins.moved {
+        Some((s, turn)) => {
+            scratchart_calibration::simulate_plate::moved_point([p[0] - s[0], p[1] - s[1]], [0.0; 2], -turn)
+        }
+        None => p,
+    };
+    let n = design.scratches.len();
+    cuts.extend(t.added.iter().enumerate().map(|(j, a)| Cut {
+        a: unmoved(a.p0),
+        b: unmoved(a.p1),
+        z: a.z,
+        scratch: n + j,
+        bulge: 0.0,
+    }));
     if !off.is_empty() {
         eprintln!(
             "warning: {} recuts left out: the carving's shift or turn ran their grooves off the plate's edge",
@@ -206,7 +295,7 @@ pub fn plan_touch_up(
             .replace("\":", "\": ")
     };
     let summary = vec![
-        format!("touch-up of {} by {}", design_file.display(), inspect.display()),
+        format!("touch-up of {} by {}", w.design_file.display(), w.inspect.display()),
         format!("tool as carved {}", record(&ins.carved)),
         if ins.plans.is_empty() {
             "the plate's grooves as the design's depths cut them".to_string()
@@ -229,13 +318,7 @@ pub fn plan_touch_up(
             ),
             None => "the carving sits where the design puts it".to_string(),
         },
-        format!(
-            "{} of {} scratches recut deeper along their own paths, to {ratio:.2} times the designed groove widths; \
-             {} grooves are already wider than that and stay (metal cannot be put back)",
-            cuts.len(),
-            design.scratches.len(),
-            t.too_wide
-        ),
+        what_is_cut(t, kept.len(), t.added.len(), design.scratches.len()),
         format!("correlation with {}: {}", t.against, views.join(", ")),
         format!("{} recuts left out: their grooves run off the plate's edge", off.len()),
         "no marks: the plate has them. Zero Z on the plate's surface as for the first carving".to_string(),
@@ -247,9 +330,15 @@ pub fn plan_touch_up(
     }
     scratchart_render::io::write_atomic(out, g.as_bytes())?;
     println!(
-        "wrote {} ({} recuts at {ratio:.2} x the designed widths; {} grooves already wider stay)",
+        "wrote {} ({} recuts, {} new scratches{}; {} grooves already wider stay)",
         out.display(),
-        cuts.len(),
+        kept.len(),
+        t.added.len(),
+        match (t.optimized, t.ratio) {
+            (true, _) => " by the touch-up's optimizer".to_string(),
+            (false, Some(r)) => format!(" at {r:.2} x the designed widths"),
+            (false, None) => String::new(),
+        },
         t.too_wide
     );
     println!("  correlation with {}: {}", t.against, views.join(", "));
