@@ -282,7 +282,10 @@ fn seed(p: &Problem, seen: &[Vec<f32>], n: usize, length: f64, rng: &mut Rng) ->
                 u <= 0.0
             });
             let Some(k) = k else { continue };
-            let Some(x) = geom.shading_point((k % w) as u32, (k / w) as u32) else {
+            // A point drawn within the pixel: a pixel drawn twice seeds two scratches, not one
+            // twice (two identical scratches move as one and cut one groove).
+            let (i, j) = ((k % w) as f64 + rng.f64(), (k / w) as f64 + rng.f64());
+            let Some(x) = geom.hit(i, j) else {
                 continue;
             };
             let (o, i) = (geom.omega_o(x), geom.light_at(x).omega_i);
@@ -354,20 +357,24 @@ pub fn refine(
         .collect();
     let mut state = State { z, new: Vec::new() };
     let loss = loss_of(renderer, &state.scene(c, &table), p.inputs, p.weights)?;
-    // The new scratches' depths: the design's own range.
-    let (dlo, dhi) = c
-        .designed
-        .iter()
-        .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), &z| (l.min(z), h.max(z)));
+    // The new scratches' grooves: the design's own range of widths, at the depths where the
+    // tool as carved cuts them (a carving found shallow cuts the same groove deeper).
+    let mut designed: Vec<f64> = c.designed.to_vec();
+    designed.sort_by(f64::total_cmp);
+    let as_carved = |q: f64| {
+        let w = c.calibrated.section(q).map_or(0.0, |s| s.width);
+        (super::depth_for_width(c.carved, w, a * z_min) / a).clamp(z_min, z_max)
+    };
+    let (dlo, dhi, z0) = match (designed.first(), designed.last()) {
+        (Some(&l), Some(&h)) => (as_carved(l), as_carved(h), as_carved(designed[designed.len() / 2])),
+        _ => (f64::NAN, f64::NAN, f64::NAN),
+    };
     let n_new = (opts.new_share * scene.scratches.len() as f64).round() as usize;
     if n_new > 0 && dlo.is_finite() {
         let seen = super::display_renders(renderer, &state.scene(c, &table))?;
         let mut rng = Rng::new(opts.seed);
         let length = median_length(scene);
-        let mut mid: Vec<f64> = c.designed.to_vec();
-        mid.sort_by(f64::total_cmp);
-        let z0 = mid[mid.len() / 2];
-        let (lo, hi) = (dlo.max(z_min), dhi.min(z_max).max(dlo.max(z_min)));
+        let (lo, hi) = (dlo, dhi.max(dlo));
         let lr_end = adam.lr_end as f64;
         let half = 0.5 * scene.plate.size_mm;
         for [p0, p1] in seed(p, &seen, n_new, length, &mut rng) {
@@ -422,7 +429,7 @@ pub fn refine(
     }
     let (kept, depths, added) = best.ok_or_else(|| anyhow!("the touch-up optimizer found no finite loss"))?;
     let half = 0.5 * scene.plate.size_mm;
-    let floor = dlo.max(z_min) + 1e-4;
+    let floor = dlo + 1e-4;
     let added = added
         .into_iter()
         .filter(|s| s.z > floor && usable(p, s.p0, s.p1, half))
