@@ -170,8 +170,11 @@ fn the_loop_finds_a_hidden_mismatch_and_touches_it_up() {
     // The deep carving also sits shifted and turned (a zero off the plate's centre, a plate
     // clamped askew): found, and the touch-up, carved with the same set-up, lands on its grooves.
     let askew = ["--shift", "0.3,-0.2", "--turn", "0.3"];
+    // The wide carving is photographed under a lamp set up 3 degrees further round and 2 lower
+    // than the design's (found, and not read as a deeper or wider carving).
+    let lamp_off = ["--lamp-turn", "3", "--lamp-tilt", "-2"];
     for (name, hidden, dz, s, moved) in [
-        ("wide", vbit(&dir, "wide.json", wa, wf, 0.0), 0.0, 1.1, &[][..]),
+        ("wide", vbit(&dir, "wide.json", wa, wf, 0.0), 0.0, 1.1, &lamp_off[..]),
         (
             "shallow",
             vbit(&dir, "shallow.json", 60.0, 0.01, -0.015),
@@ -198,7 +201,19 @@ fn the_loop_finds_a_hidden_mismatch_and_touches_it_up() {
         );
         let (shift, turn) = (&f["shift_mm"], f["turn_deg"].as_f64().unwrap());
         let (sx, sy) = (shift[0].as_f64().unwrap(), shift[1].as_f64().unwrap());
-        if moved.is_empty() {
+        let given = |flag: &str| {
+            moved
+                .iter()
+                .position(|a| *a == flag)
+                .map_or(0.0, |i| moved[i + 1].parse::<f64>().unwrap())
+        };
+        let lamp = &f["lamp_deg"];
+        let (lt, ll) = (lamp["turn"].as_f64().unwrap(), lamp["tilt"].as_f64().unwrap());
+        assert!(
+            (lt - given("--lamp-turn")).abs() < 0.5 && (ll - given("--lamp-tilt")).abs() < 0.5,
+            "{name}: the lamp found at {lamp}"
+        );
+        if !moved.contains(&"--shift") {
             assert!(
                 !f["moved"].as_bool().unwrap() && sx.abs() < 0.03 && sy.abs() < 0.03,
                 "{name}: {f}"

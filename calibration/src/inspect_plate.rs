@@ -30,7 +30,7 @@ mod fit;
 mod photos;
 mod report;
 
-use crate::simulate_plate::{carved_scene, groove_alpha, moved_point, plate_grooves, MachineError};
+use crate::simulate_plate::{carved_scene, groove_alpha, lamp_moved, moved_point, plate_grooves, MachineError};
 use photos::{mark_cuts, photo_views, read_photo, Photo};
 
 /// The largest uncertainty (1 sigma) of the depth change that `inspect` states, mm: half the
@@ -47,6 +47,8 @@ const SHIFT_RANGE_MM: f64 = 2.0;
 const TURN_RANGE_DEG: f64 = 2.0;
 /// The depth scales looked at.
 const DEPTH_SCALE_RANGE: (f64, f64) = (0.7, 1.4);
+/// The lamp's turn and tilt looked at, degrees each way.
+const LAMP_RANGE_DEG: f64 = 10.0;
 /// Pixels within this of a mark's square (or the +x mark's cut), mm, are left out of the fit.
 const MARK_PAD_MM: f64 = 1.0;
 
@@ -80,6 +82,11 @@ pub struct InspectArgs {
     /// photos tell the two apart only from a carving that matches the model exactly
     #[arg(long)]
     pub depth_scale: bool,
+    /// Hold the lamp where the design puts it (by default its turn about the plate's normal and
+    /// its height are fitted with the rest: a lamp set up a few degrees off lights other grooves,
+    /// which would otherwise read as a deeper or wider carving)
+    #[arg(long)]
+    pub lamp_as_designed: bool,
 }
 
 /// What the photos are compared with: the design, its cuts and the tool.
@@ -93,6 +100,8 @@ struct Problem<'a> {
     photos: Vec<Photo>,
     /// Whether the depth scale is fitted (`--depth-scale`).
     fit_depth_scale: bool,
+    /// Whether the lamp's turn and tilt are fitted (not `--lamp-as-designed`).
+    fit_lamp: bool,
 }
 
 /// One evaluation: per photo its developed display image (before exposure), the fitted
@@ -134,13 +143,19 @@ impl Problem<'_> {
                 g
             })
             .collect();
-        self.seen_by_photos(carved_scene(&self.design, &moved, &tool, self.alpha, &MachineError::default()).0)
+        let scene = carved_scene(&self.design, &moved, &tool, self.alpha, &MachineError::default()).0;
+        self.seen_by_photos(scene, c.lamp_deg)
     }
 
-    /// `scene` seen by the photos' cameras: one view per photo.
-    fn seen_by_photos(&self, scene: Scene) -> Scene {
+    /// `scene` seen by the photos' cameras (one view per photo), under the lamp turned and
+    /// raised by `lamp_deg` from where the design puts it.
+    fn seen_by_photos(&self, scene: Scene, lamp_deg: [f64; 2]) -> Scene {
         Scene {
-            views: self.photos.iter().map(|p| p.camera.clone()).collect(),
+            views: self
+                .photos
+                .iter()
+                .map(|p| lamp_moved(&p.camera, lamp_deg[0], lamp_deg[1]))
+                .collect(),
             ..scene
         }
     }
@@ -197,6 +212,11 @@ pub struct Found {
     pub depth_scale: f64,
     pub depth_scale_sd: f64,
     pub depth_scale_held: bool,
+    /// The lamp as it stood (turned about the plate's normal, raised; degrees) and the
+    /// uncertainties; held where the design puts it (uncertainties 0) with `--lamp-as-designed`.
+    pub lamp_deg: [f64; 2],
+    pub lamp_sd_deg: [f64; 2],
+    pub lamp_held: bool,
     /// The correlation of the depth change and the width scale.
     pub correlation: f64,
     /// Residual's standard deviation (display values).
@@ -264,6 +284,7 @@ pub fn run(a: &InspectArgs, renderer: &Renderer, obs: &dyn Observer) -> Result<(
         blur_px: a.blur,
         photos,
         fit_depth_scale: a.depth_scale,
+        fit_lamp: !a.lamp_as_designed,
     };
     obs.info(&format!(
         "{} photos, {} grooves, {} pixels compared",

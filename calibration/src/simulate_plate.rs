@@ -65,6 +65,13 @@ pub struct SimulatePlateArgs {
     /// The machine's Z moving this many times what it is told (its steps per mm off; 1: exact)
     #[arg(long, default_value_t = 1.0)]
     pub z_scale: f64,
+    /// The lamp set up this many degrees further round than the design's (about the plate's
+    /// normal, counter-clockwise seen from +z)
+    #[arg(long, default_value_t = 0.0, allow_hyphen_values = true, value_name = "DEG")]
+    pub lamp_turn: f64,
+    /// The lamp set up this many degrees higher than the design's (at the same distance)
+    #[arg(long, default_value_t = 0.0, allow_hyphen_values = true, value_name = "DEG")]
+    pub lamp_tilt: f64,
     /// Seed of the noise and of the machine's error
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
@@ -94,6 +101,29 @@ fn parse_pair(t: &str) -> Result<[f64; 2], String> {
 pub fn moved_point(p: [f64; 2], shift_mm: [f64; 2], turn_deg: f64) -> [f64; 2] {
     let (sn, cs) = turn_deg.to_radians().sin_cos();
     [cs * p[0] - sn * p[1] + shift_mm[0], sn * p[0] + cs * p[1] + shift_mm[1]]
+}
+
+/// `view` under its lamp moved: turned `turn_deg` about the plate's normal through its centre
+/// (counter-clockwise seen from +z) and raised `tilt_deg` in elevation at the same distance
+/// from the centre (a lamp set up off the sheet's place); a directional light's direction the
+/// same way.
+pub fn lamp_moved(view: &scratchart_model::scene::View, turn_deg: f64, tilt_deg: f64) -> scratchart_model::scene::View {
+    use scratchart_model::scene::LightKind;
+    let mv = |p: [f64; 3]| {
+        let r = (p[0] * p[0] + p[1] * p[1] + p[2] * p[2]).sqrt();
+        if !(r > 0.0) {
+            return p;
+        }
+        let az = p[1].atan2(p[0]) + turn_deg.to_radians();
+        let el = ((p[2] / r).clamp(-1.0, 1.0).asin() + tilt_deg.to_radians()).clamp(-1.5, 1.5);
+        [r * el.cos() * az.cos(), r * el.cos() * az.sin(), r * el.sin()]
+    };
+    let mut v = view.clone();
+    v.light.kind = match view.light.kind {
+        LightKind::Point { position } => LightKind::Point { position: mv(position) },
+        LightKind::Directional { direction } => LightKind::Directional { direction: mv(direction) },
+    };
+    v
 }
 
 /// The machine's error on each cut (normal, one draw per cut end and per depth), and the whole
@@ -230,7 +260,17 @@ pub fn run(a: &SimulatePlateArgs, renderer: &Renderer, obs: &dyn Observer) -> Re
     if !(a.turn.abs() <= 45.0) || error.shift_mm.iter().any(|v| v.abs() > 0.5 * design.plate.size_mm) {
         return Err(UsageError("--turn is at most 45 degrees and --shift within the plate".into()).into());
     }
-    let (scene, missed) = carved_scene(&design, &grooves, &tool, alpha, &error);
+    if !(a.lamp_turn.abs() <= 45.0 && a.lamp_tilt.abs() <= 30.0) {
+        return Err(UsageError(format!(
+            "--lamp-turn {} --lamp-tilt {}: at most 45 and 30 degrees",
+            a.lamp_turn, a.lamp_tilt
+        ))
+        .into());
+    }
+    let (mut scene, missed) = carved_scene(&design, &grooves, &tool, alpha, &error);
+    for v in &mut scene.views {
+        *v = lamp_moved(v, a.lamp_turn, a.lamp_tilt);
+    }
     obs.info(&format!(
         "{} grooves from {} plan(s) ({deepened} cuts deepened a groove already cut; {missed} did not reach the plate), \
          roughness {alpha}",

@@ -14,7 +14,7 @@
 use super::*;
 
 /// The fitted parameters' count and names.
-pub(super) const N: usize = 6;
+pub(super) const N: usize = 8;
 const NAMES: [&str; N] = [
     "depth change",
     "width scale",
@@ -22,7 +22,11 @@ const NAMES: [&str; N] = [
     "shift along y",
     "turn",
     "depth scale",
+    "lamp's turn",
+    "lamp's tilt",
 ];
+/// Degrees of the lamp's turn and tilt per fit unit.
+const LAMP_UNIT_DEG: f64 = 0.2;
 /// The largest uncertainty of the depth scale (1 sigma) that `inspect --depth-scale` states.
 pub(super) const DEPTH_SCALE_TOLERANCE: f64 = 0.025;
 
@@ -36,6 +40,8 @@ pub(super) struct Carving {
     pub(super) shift_mm: [f64; 2],
     pub(super) turn_deg: f64,
     pub(super) depth_scale: f64,
+    /// The lamp as it stood: turned about the plate's normal and raised, degrees.
+    pub(super) lamp_deg: [f64; 2],
 }
 
 pub(super) fn meaning(x: &X) -> Carving {
@@ -45,6 +51,7 @@ pub(super) fn meaning(x: &X) -> Carving {
         shift_mm: [x[2] * 0.01, x[3] * 0.01],
         turn_deg: x[4] * 0.01,
         depth_scale: (x[5] / 100.0).exp(),
+        lamp_deg: [x[6] * LAMP_UNIT_DEG, x[7] * LAMP_UNIT_DEG],
     }
 }
 
@@ -96,6 +103,9 @@ fn clamp(mut x: X) -> X {
     }
     x[4] = x[4].clamp(-100.0 * TURN_RANGE_DEG, 100.0 * TURN_RANGE_DEG);
     x[5] = x[5].clamp(100.0 * DEPTH_SCALE_RANGE.0.ln(), 100.0 * DEPTH_SCALE_RANGE.1.ln());
+    for k in 6..8 {
+        x[k] = x[k].clamp(-LAMP_RANGE_DEG / LAMP_UNIT_DEG, LAMP_RANGE_DEG / LAMP_UNIT_DEG);
+    }
     x
 }
 
@@ -155,7 +165,7 @@ fn grid(p: &Problem, renders: &mut usize) -> Result<(X, f64)> {
     let mut best: Option<(X, f64)> = None;
     for dz in [-30.0, -15.0, 0.0, 15.0, 30.0] {
         for ls in [-15.0, 0.0, 15.0] {
-            let x = [dz, ls, 0.0, 0.0, 0.0, 0.0];
+            let x = [dz, ls, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0];
             let f = ssr(&p.eval(&x)?.residual);
             *renders += 1;
             if best.is_none_or(|b| f < b.1) {
@@ -170,14 +180,16 @@ fn grid(p: &Problem, renders: &mut usize) -> Result<(X, f64)> {
 fn describe(x: &X, f: f64, n: usize) -> String {
     let c = meaning(x);
     format!(
-        "{:+.2} um deeper, width x{:.4}, shifted ({:+.3}, {:+.3}) mm, turned {:+.3} deg, depths x{:.4}; residual \
-         {:.5} rms",
+        "{:+.2} um deeper, width x{:.4}, shifted ({:+.3}, {:+.3}) mm, turned {:+.3} deg, depths x{:.4}, lamp \
+         {:+.2} deg round and {:+.2} up; residual {:.5} rms",
         1e3 * c.dz_mm,
         c.width_scale,
         c.shift_mm[0],
         c.shift_mm[1],
         c.turn_deg,
         c.depth_scale,
+        c.lamp_deg[0],
+        c.lamp_deg[1],
         (f / n.max(1) as f64).sqrt()
     )
 }
@@ -251,6 +263,9 @@ fn found_at(p: &Problem, x: &X, jtj: &[[f64; N]; N], free: &[bool; N], renders: 
             depth_scale: c.depth_scale,
             depth_scale_sd: c.depth_scale * sd(5) / 100.0,
             depth_scale_held: !free[5],
+            lamp_deg: c.lamp_deg,
+            lamp_sd_deg: [sd(6) * LAMP_UNIT_DEG, sd(7) * LAMP_UNIT_DEG],
+            lamp_held: !free[6],
             correlation: cov.map_or(0.0, |c| c[0][1] / (c[0][0] * c[1][1]).sqrt()),
             residual_sd: s2.sqrt(),
             renders: renders + 1,
@@ -262,8 +277,9 @@ fn found_at(p: &Problem, x: &X, jtj: &[[f64; N]; N], free: &[bool; N], renders: 
 
 /// The grid, then damped Gauss-Newton with the depth scale held at 1: the machine's Z moving as
 /// told is assumed (a maker checks it with a known move; see the module doc). Asked for
-/// (`--depth-scale`), the fit goes on over all six from there and that is what it found (the
-/// report refuses it when the depth scale is not pinned).
+/// (`--depth-scale`), the fit goes on with it free from there and that is what it found (the
+/// report refuses it when the depth scale is not pinned). The lamp's turn and tilt are free
+/// with the rest unless held (`--lamp-as-designed`).
 pub(super) fn fit(p: &Problem, obs: &dyn Observer) -> Result<(Found, Eval)> {
     let mut renders = 0;
     let start = grid(p, &mut renders)?;
@@ -271,7 +287,9 @@ pub(super) fn fit(p: &Problem, obs: &dyn Observer) -> Result<(Found, Eval)> {
         "grid: {}",
         describe(&start.0, start.1, p.eval(&start.0)?.residual.len())
     ));
-    let all = [true; N];
+    let mut all = [true; N];
+    all[6] = p.fit_lamp;
+    all[7] = p.fit_lamp;
     let mut held = all;
     held[5] = false;
     let (xh, jh) = descend(p, start, &held, &mut renders, obs)?;

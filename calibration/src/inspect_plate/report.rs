@@ -32,7 +32,7 @@ fn difference_png(path: &Path, w: u32, h: u32, photo: &Photo, render: &[f32], ga
 /// Writes the difference images, and inspect.json and tool_as_carved.json when the photos pin
 /// what the carving did; else a refusal (exit 3).
 pub(super) fn write(a: &InspectArgs, p: &Problem, found: &Found, at: &Eval) -> Result<()> {
-    let designed = p.images_of(&p.seen_by_photos(p.design.clone()))?;
+    let designed = p.images_of(&p.seen_by_photos(p.design.clone(), [0.0; 2]))?;
     let designed_eval = p.compare(designed);
     // The pictures as the design measures them, and the design's own render at its exposure.
     let goal = crate::touch_up::Goal::of(&a.design, &p.design);
@@ -115,6 +115,25 @@ pub(super) fn write(a: &InspectArgs, p: &Problem, found: &Found, at: &Eval) -> R
             "where the design puts it"
         }
     );
+    println!(
+        "  the lamp: {}",
+        if found.lamp_held {
+            "where the design puts it (held: --lamp-as-designed)".to_string()
+        } else {
+            format!(
+                "{:+.2} +- {:.2} deg further round and {:+.2} +- {:.2} deg higher than the design puts it{}",
+                found.lamp_deg[0],
+                found.lamp_sd_deg[0],
+                found.lamp_deg[1],
+                found.lamp_sd_deg[1],
+                if (0..2).any(|k| found.lamp_deg[k].abs() > (3.0 * found.lamp_sd_deg[k]).max(0.5)) {
+                    " (set it as the set-up sheet says before the touch-up is judged by eye)"
+                } else {
+                    ""
+                }
+            )
+        }
+    );
     if !(pinned && inside) {
         let mut why = Vec::new();
         if found.dz_sd_mm > DZ_TOLERANCE_MM || !found.dz_sd_mm.is_finite() {
@@ -140,7 +159,8 @@ pub(super) fn write(a: &InspectArgs, p: &Problem, found: &Found, at: &Eval) -> R
         if let Some(what) = found.at_edge {
             why.push(format!(
                 "the {what} inside the range looked at (depth change within +-{} um, width scale {} to {}, shift \
-                 within +-{SHIFT_RANGE_MM} mm, turn within +-{TURN_RANGE_DEG} degrees)",
+                 within +-{SHIFT_RANGE_MM} mm, turn within +-{TURN_RANGE_DEG} degrees, the lamp within \
+                 +-{LAMP_RANGE_DEG} degrees of its place)",
                 1e3 * DZ_RANGE_MM,
                 SCALE_RANGE.0,
                 SCALE_RANGE.1
@@ -194,6 +214,10 @@ fn inspect_json(
             "turn_deg": found.turn_deg, "turn_sd_deg": found.turn_sd_deg,
             "depth_scale": found.depth_scale, "depth_scale_sd": found.depth_scale_sd,
             "depth_scale_held": found.depth_scale_held,
+            "lamp_deg": {"turn": found.lamp_deg[0], "tilt": found.lamp_deg[1],
+                "turn_sd": found.lamp_sd_deg[0], "tilt_sd": found.lamp_sd_deg[1], "held": found.lamp_held,
+                "meaning": "the lamp stood turned this far about the plate's normal (+: counter-clockwise seen from +z) \
+                            and raised this far, at its distance, from where the design puts it"},
             "moved": found.moved(),
             "meaning": "every cut reached dz_mm deeper than the calibrated tool's z offset says (+: deeper), and its \
                         groove was width_scale times as wide at that depth (Tool::as_carved)",
