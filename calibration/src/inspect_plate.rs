@@ -3,7 +3,9 @@
 //! carved is modelled as the design's cuts (its commanded depths, or the plans given with
 //! `--plan`) cut by the calibrated tool *as the carving found it*: every groove `width_scale`
 //! times as wide and every cut `dz` deeper (`Tool::as_carved`: a bit that wore or differs from
-//! its calibration, a z offset that drifted). Those two numbers are fitted to the photos, each
+//! its calibration, a z offset that drifted), the carving shifted and turned, under the lamp
+//! turned and raised from the design's place (`simulate_plate::lamp_moved`; see [`fit`]).
+//! Those numbers are fitted to the photos, each
 //! photo's exposure free (solved in closed form at every step: the display encoding is a power
 //! law, so a linear factor on the display values), rendered as `simulate-plate` photographs
 //! (`simulate::render_fine` and `develop`), the registration marks and the +x mark masked out.

@@ -121,7 +121,9 @@ pub fn lamp_moved(view: &scratchart_model::scene::View, turn_deg: f64, tilt_deg:
     let mut v = view.clone();
     v.light.kind = match view.light.kind {
         LightKind::Point { position } => LightKind::Point { position: mv(position) },
-        LightKind::Directional { direction } => LightKind::Directional { direction: mv(direction) },
+        LightKind::Directional { direction } => LightKind::Directional {
+            direction: mv(direction),
+        },
     };
     v
 }
