@@ -4,47 +4,13 @@
 //! scratches' own paths and new scratches) and photographed again; the touch-up's G-code carved on the real
 //! GRBL 1.1h firmware (`../shared/grbl-sim`).
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::process::Command;
 
 use scratchart_machine::program::Program;
 use scratchart_tests::*;
 
-fn tmp_dir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("scratchart-loop-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
-
-fn cal(args: &[&str]) -> Output {
-    Command::new(workspace_bin("scratchart-calibration", "scratchart-cal"))
-        .args(args)
-        .output()
-        .unwrap()
-}
-
-fn ok(o: Output, what: &str) -> String {
-    let text = format!(
-        "{}{}",
-        String::from_utf8_lossy(&o.stdout),
-        String::from_utf8_lossy(&o.stderr)
-    );
-    assert!(o.status.success(), "{what} failed ({:?}): {text}", o.status.code());
-    text
-}
-
-fn json(p: &Path) -> serde_json::Value {
-    serde_json::from_str(&std::fs::read_to_string(p).unwrap()).unwrap()
-}
-
-/// A V-bit of `angle` degrees with a `flat` mm tip and z offset `off` mm, as a tool file.
-fn vbit(dir: &Path, name: &str, angle: f64, flat: f64, off: f64) -> String {
-    write_file(
-        dir,
-        name,
-        &format!(r#"{{"kind": "v-bit", "angle_deg": {angle}, "tip_flat_mm": {flat}, "z_offset_mm": {off}}}"#),
-    )
-}
+mod loop_util;
+use loop_util::*;
 
 /// The 60-degree V-bit `vbit` made `s` times as wide (its flat too).
 fn widened(s: f64) -> (f64, f64) {
@@ -199,29 +165,7 @@ fn the_loop_finds_a_hidden_mismatch_and_touches_it_up() {
             (gdz - dz).abs() <= 0.005 && (gs - s).abs() <= 0.05 * s,
             "{name}: found {f}, truth dz {dz} s {s}"
         );
-        let (shift, turn) = (&f["shift_mm"], f["turn_deg"].as_f64().unwrap());
-        let (sx, sy) = (shift[0].as_f64().unwrap(), shift[1].as_f64().unwrap());
-        let given = |flag: &str| {
-            moved
-                .iter()
-                .position(|a| *a == flag)
-                .map_or(0.0, |i| moved[i + 1].parse::<f64>().unwrap())
-        };
-        let lamp = &f["lamp_deg"];
-        let (lt, ll) = (lamp["turn"].as_f64().unwrap(), lamp["tilt"].as_f64().unwrap());
-        assert!(
-            (lt - given("--lamp-turn")).abs() < 0.5 && (ll - given("--lamp-tilt")).abs() < 0.5,
-            "{name}: the lamp found at {lamp}"
-        );
-        if !moved.contains(&"--shift") {
-            assert!(
-                !f["moved"].as_bool().unwrap() && sx.abs() < 0.03 && sy.abs() < 0.03,
-                "{name}: {f}"
-            );
-        } else {
-            let close = (sx - 0.3).abs() < 0.03 && (sy + 0.2).abs() < 0.03 && (turn - 0.3).abs() < 0.03;
-            assert!(f["moved"].as_bool().unwrap() && close, "{name}: {f}");
-        }
+        placed_and_lit_as_set_up(name, f, moved);
         let before = worst(&with_pictures(&got));
         let inspect = dir.join(format!("{name}_inspect/inspect.json")).display().to_string();
         let touch = dir.join(format!("{name}_touch.nc")).display().to_string();
@@ -394,6 +338,36 @@ fn carve_on_grbl_sim(dir: &Path, plan: &Path, n: usize) {
     assert!(said.contains("1.1h"), "{said}");
 }
 
+/// The carving's place and the lamp as `inspect` found them (`f`, inspect.json's `found`) are
+/// those `moved` (simulate-plate's arguments) set up: shifted (0.3, -0.2) mm and turned 0.3
+/// degrees with `--shift`, else in place; the lamp turned and tilted as `--lamp-turn` and
+/// `--lamp-tilt` say (else where the design puts it), within 0.5 degrees.
+fn placed_and_lit_as_set_up(name: &str, f: &serde_json::Value, moved: &[&str]) {
+    let (shift, turn) = (&f["shift_mm"], f["turn_deg"].as_f64().unwrap());
+    let (sx, sy) = (shift[0].as_f64().unwrap(), shift[1].as_f64().unwrap());
+    let given = |flag: &str| {
+        moved
+            .iter()
+            .position(|a| *a == flag)
+            .map_or(0.0, |i| moved[i + 1].parse::<f64>().unwrap())
+    };
+    let lamp = &f["lamp_deg"];
+    let (lt, ll) = (lamp["turn"].as_f64().unwrap(), lamp["tilt"].as_f64().unwrap());
+    assert!(
+        (lt - given("--lamp-turn")).abs() < 0.5 && (ll - given("--lamp-tilt")).abs() < 0.5,
+        "{name}: the lamp found at {lamp}"
+    );
+    if !moved.contains(&"--shift") {
+        assert!(
+            !f["moved"].as_bool().unwrap() && sx.abs() < 0.03 && sy.abs() < 0.03,
+            "{name}: {f}"
+        );
+    } else {
+        let close = (sx - 0.3).abs() < 0.03 && (sy + 0.2).abs() < 0.03 && (turn - 0.3).abs() < 0.03;
+        assert!(f["moved"].as_bool().unwrap() && close, "{name}: {f}");
+    }
+}
+
 /// The touch-up `touch` recuts scratches of `plan` only along their paths, deeper, and its new
 /// scratches (numbered past the plan's) lie on the plate and cross no registration mark.
 /// Returns how many new scratches it cuts.
@@ -547,148 +521,4 @@ fn refused_or_right_on_poor_photos(dir: &Path, plan: &str, design: &str, tool: &
         text.contains("do not pin") && !Path::new(&format!("{noisy}/in/inspect.json")).exists(),
         "{text}"
     );
-}
-
-/// Bad inputs to the loop's commands get a clear error and the exit code of their kind: a file
-/// that is not a plan and a malformed inspect.json (3), a NaN machine error, a touch-up without
-/// the tool or with a share of new scratches out of range, and more photos than views with names that are not the views' (2), a photo that is
-/// not a view's and shows no marks (3, no inspect.json).
-#[test]
-fn the_loops_bad_inputs_are_named() {
-    let dir = tmp_dir("bad");
-    let tool = vbit(&dir, "tool.json", 60.0, 0.01, 0.0);
-    let out = dir.join("d").display().to_string();
-    let o = run_scratchart(&[
-        "design",
-        "--views",
-        "2",
-        "--res",
-        "32",
-        "--scratches",
-        "200",
-        "--iters",
-        "10",
-        "--prune-tol",
-        "0",
-        "--quiet",
-        "--tool",
-        &tool,
-        "--machine",
-        "grbl",
-        "--out",
-        &out,
-    ]);
-    ok(o, "design");
-    let design = format!("{out}/design.json");
-    let said = |o: Output| {
-        (
-            o.status.code(),
-            format!(
-                "{}{}",
-                String::from_utf8_lossy(&o.stdout),
-                String::from_utf8_lossy(&o.stderr)
-            ),
-        )
-    };
-    let not_plan = write_file(&dir, "notes.nc", "G1 X1 Y1\n");
-    let photos = dir.join("photos").display().to_string();
-    let (code, text) = said(cal(&[
-        "simulate-plate",
-        &not_plan,
-        "--design",
-        &design,
-        "--tool",
-        &tool,
-        "--out",
-        &photos,
-    ]));
-    assert!(code == Some(3) && text.contains("notes.nc"), "{code:?} {text}");
-    let plan = dir.join("plan.nc").display().to_string();
-    ok(cal(&["plan", &design, "--tool", &tool, "--out", &plan]), "plan");
-    let (code, text) = said(cal(&[
-        "simulate-plate",
-        &plan,
-        "--design",
-        &design,
-        "--tool",
-        &tool,
-        "--out",
-        &photos,
-        "--z-noise",
-        "nan",
-    ]));
-    assert!(code == Some(2) && text.contains("--z-noise"), "{code:?} {text}");
-    let bad = write_file(&dir, "inspect.json", r#"{"tool_as_carved": 3, "alpha": 0.06}"#);
-    let touch = dir.join("touch.nc").display().to_string();
-    let (code, text) = said(cal(&[
-        "plan",
-        &design,
-        "--tool",
-        &tool,
-        "--touch-up",
-        &bad,
-        "--out",
-        &touch,
-    ]));
-    assert!(
-        code == Some(3) && text.contains("tool_as_carved") && !Path::new(&touch).exists(),
-        "{code:?} {text}"
-    );
-    let (code, text) = said(cal(&["plan", &design, "--touch-up", &bad, "--out", &touch]));
-    assert!(code == Some(2) && text.contains("--tool"), "{code:?} {text}");
-    for share in ["-0.5", "nan", "7"] {
-        let (code, text) = said(cal(&[
-            "plan",
-            &design,
-            "--tool",
-            &tool,
-            "--touch-up",
-            &bad,
-            "--touch-up-new",
-            share,
-            "--out",
-            &touch,
-        ]));
-        assert!(
-            code == Some(2) && text.contains("--touch-up-new") && !Path::new(&touch).exists(),
-            "{share}: {code:?} {text}"
-        );
-    }
-    ok(
-        cal(&[
-            "simulate-plate",
-            &plan,
-            "--design",
-            &design,
-            "--tool",
-            &tool,
-            "--out",
-            &photos,
-        ]),
-        "simulate-plate",
-    );
-    let v0 = format!("{photos}/v0.png");
-    let inspected = dir.join("in").display().to_string();
-    let (code, text) = said(cal(&[
-        "inspect", &design, &v0, &v0, &not_plan, "--tool", &tool, "--out", &inspected,
-    ]));
-    assert!(
-        code == Some(2) && text.contains("photos for a design of 2 views"),
-        "{code:?} {text}"
-    );
-    // A quarter of the photo, saved under another name: not the view's camera, no marks to find.
-    let img = image::open(&v0).unwrap().crop_imm(0, 0, 16, 32);
-    let part = dir.join("part.png");
-    img.save(&part).unwrap();
-    let (code, text) = said(cal(&[
-        "inspect",
-        &design,
-        &part.display().to_string(),
-        "--tool",
-        &tool,
-        "--out",
-        &inspected,
-    ]));
-    assert!(code == Some(3) && text.contains("part.png"), "{code:?} {text}");
-    assert!(!Path::new(&inspected).join("inspect.json").exists());
 }

@@ -29,55 +29,8 @@ fn difference_png(path: &Path, w: u32, h: u32, photo: &Photo, render: &[f32], ga
     Ok(())
 }
 
-/// Writes the difference images, and inspect.json and tool_as_carved.json when the photos pin
-/// what the carving did; else a refusal (exit 3).
-pub(super) fn write(a: &InspectArgs, p: &Problem, found: &Found, at: &Eval) -> Result<()> {
-    let designed = p.images_of(&p.seen_by_photos(p.design.clone(), [0.0; 2]))?;
-    let designed_eval = p.compare(designed);
-    // The pictures as the design measures them, and the design's own render at its exposure.
-    let goal = crate::touch_up::Goal::of(&a.design, &p.design);
-    let own = crate::touch_up::display_renders(p.renderer, &p.design)?;
-    let mut photos = Vec::new();
-    for (k, ph) in p.photos.iter().enumerate() {
-        let v = &p.design.views[ph.view];
-        let (w, h) = (ph.camera.camera.width as usize, ph.camera.camera.height as usize);
-        let r = PhotoReport {
-            with_design: correlation(&ph.pixels, &designed_eval.images[k], &ph.used),
-            with_fit: correlation(&ph.pixels, &at.images[k], &ph.used),
-            with_picture: goal.correlation(&p.design, ph.view, &ph.on_view, &own[ph.view]),
-            design_with_picture: goal.correlation(&p.design, ph.view, &own[ph.view], &own[ph.view]),
-        };
-        let stem = ph
-            .file
-            .file_stem()
-            .map_or("photo".into(), |s| s.to_string_lossy().to_string());
-        let diff = a.out.join(format!("{stem}_diff.png"));
-        difference_png(
-            &diff,
-            w as u32,
-            h as u32,
-            ph,
-            &designed_eval.images[k],
-            designed_eval.gain[k],
-        )?;
-        println!(
-            "  {} (view {}): correlates {:.3} with the design's render, {:.3} with the carving as fitted, {:.3} with \
-             {} (the design: {:.3}); {}",
-            ph.file.display(),
-            v.name,
-            r.with_design,
-            r.with_fit,
-            r.with_picture,
-            goal.against(),
-            r.design_with_picture,
-            diff.display()
-        );
-        photos.push((ph, r, at.gain[k]));
-    }
-    let pinned = found.dz_sd_mm <= DZ_TOLERANCE_MM
-        && found.width_scale_sd <= SCALE_TOLERANCE
-        && found.depth_scale_sd <= fit::DEPTH_SCALE_TOLERANCE;
-    let inside = found.at_edge.is_none();
+/// Prints what the fit found: the carving, the machine's Z, the carving's place, the lamp.
+fn print_found(found: &Found) {
     println!(
         "  the carving: cuts {:+.1} +- {:.1} um deeper than the tool's calibration, grooves {:.3} +- {:.3} times as wide \
          (correlation {:+.2}; residual {:.4} rms; {} renders)",
@@ -134,6 +87,58 @@ pub(super) fn write(a: &InspectArgs, p: &Problem, found: &Found, at: &Eval) -> R
             )
         }
     );
+}
+
+/// Writes the difference images, and inspect.json and tool_as_carved.json when the photos pin
+/// what the carving did; else a refusal (exit 3).
+pub(super) fn write(a: &InspectArgs, p: &Problem, found: &Found, at: &Eval) -> Result<()> {
+    let designed = p.images_of(&p.seen_by_photos(p.design.clone(), [0.0; 2]))?;
+    let designed_eval = p.compare(designed);
+    // The pictures as the design measures them, and the design's own render at its exposure.
+    let goal = crate::touch_up::Goal::of(&a.design, &p.design);
+    let own = crate::touch_up::display_renders(p.renderer, &p.design)?;
+    let mut photos = Vec::new();
+    for (k, ph) in p.photos.iter().enumerate() {
+        let v = &p.design.views[ph.view];
+        let (w, h) = (ph.camera.camera.width as usize, ph.camera.camera.height as usize);
+        let r = PhotoReport {
+            with_design: correlation(&ph.pixels, &designed_eval.images[k], &ph.used),
+            with_fit: correlation(&ph.pixels, &at.images[k], &ph.used),
+            with_picture: goal.correlation(&p.design, ph.view, &ph.on_view, &own[ph.view]),
+            design_with_picture: goal.correlation(&p.design, ph.view, &own[ph.view], &own[ph.view]),
+        };
+        let stem = ph
+            .file
+            .file_stem()
+            .map_or("photo".into(), |s| s.to_string_lossy().to_string());
+        let diff = a.out.join(format!("{stem}_diff.png"));
+        difference_png(
+            &diff,
+            w as u32,
+            h as u32,
+            ph,
+            &designed_eval.images[k],
+            designed_eval.gain[k],
+        )?;
+        println!(
+            "  {} (view {}): correlates {:.3} with the design's render, {:.3} with the carving as fitted, {:.3} with \
+             {} (the design: {:.3}); {}",
+            ph.file.display(),
+            v.name,
+            r.with_design,
+            r.with_fit,
+            r.with_picture,
+            goal.against(),
+            r.design_with_picture,
+            diff.display()
+        );
+        photos.push((ph, r, at.gain[k]));
+    }
+    let pinned = found.dz_sd_mm <= DZ_TOLERANCE_MM
+        && found.width_scale_sd <= SCALE_TOLERANCE
+        && found.depth_scale_sd <= fit::DEPTH_SCALE_TOLERANCE;
+    let inside = found.at_edge.is_none();
+    print_found(found);
     if !(pinned && inside) {
         let mut why = Vec::new();
         if found.dz_sd_mm > DZ_TOLERANCE_MM || !found.dz_sd_mm.is_finite() {

@@ -1,0 +1,43 @@
+//! What the closed loop's tests share: a fresh folder, `scratchart-cal`, its output checked,
+//! JSON read, a V-bit tool file.
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+use scratchart_tests::*;
+
+pub fn tmp_dir(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("scratchart-loop-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+pub fn cal(args: &[&str]) -> Output {
+    Command::new(workspace_bin("scratchart-calibration", "scratchart-cal"))
+        .args(args)
+        .output()
+        .unwrap()
+}
+
+pub fn ok(o: Output, what: &str) -> String {
+    let text = format!(
+        "{}{}",
+        String::from_utf8_lossy(&o.stdout),
+        String::from_utf8_lossy(&o.stderr)
+    );
+    assert!(o.status.success(), "{what} failed ({:?}): {text}", o.status.code());
+    text
+}
+
+pub fn json(p: &Path) -> serde_json::Value {
+    serde_json::from_str(&std::fs::read_to_string(p).unwrap()).unwrap()
+}
+
+/// A V-bit of `angle` degrees with a `flat` mm tip and z offset `off` mm, as a tool file.
+pub fn vbit(dir: &Path, name: &str, angle: f64, flat: f64, off: f64) -> String {
+    write_file(
+        dir,
+        name,
+        &format!(r#"{{"kind": "v-bit", "angle_deg": {angle}, "tip_flat_mm": {flat}, "z_offset_mm": {off}}}"#),
+    )
+}
