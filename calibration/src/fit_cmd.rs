@@ -16,7 +16,7 @@ pub mod photos;
 mod plot;
 mod report;
 mod resume;
-mod verdict;
+pub(crate) mod verdict;
 
 use inspect::check_photos;
 pub use inspect::{fit_mask, inspect_photo, Inspection};

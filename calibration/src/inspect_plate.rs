@@ -112,6 +112,8 @@ struct Eval {
     images: Vec<Vec<f32>>,
     gain: Vec<f64>,
     residual: Vec<f64>,
+    /// Per photo the shift its render was moved by onto it, pixels (0 for a view's own camera).
+    shift_px: Vec<[f64; 2]>,
 }
 
 impl Problem<'_> {
@@ -162,11 +164,22 @@ impl Problem<'_> {
         }
     }
 
-    /// Each photo against `images`: the exposure in closed form, the residual.
-    fn compare(&self, images: Vec<Vec<f32>>) -> Eval {
+    /// Each photo against `images`: a photo located by the marks with its render moved onto it
+    /// ([`photos::registered`]), the exposure in closed form, the residual.
+    fn compare(&self, mut images: Vec<Vec<f32>>) -> Eval {
         let mut gain = Vec::new();
         let mut residual = Vec::new();
+        let mut shift_px = Vec::new();
         for (k, p) in self.photos.iter().enumerate() {
+            let d = if p.located {
+                let (w, h) = (p.camera.camera.width as usize, p.camera.camera.height as usize);
+                let (m, d) = photos::registered(&images[k], w, h, p);
+                images[k] = m;
+                d
+            } else {
+                [0.0; 2]
+            };
+            shift_px.push(d);
             let m = &images[k];
             let (mut mp, mut mm) = (0.0, 0.0);
             for i in 0..m.len() {
@@ -183,7 +196,12 @@ impl Problem<'_> {
                 }
             }
         }
-        Eval { images, gain, residual }
+        Eval {
+            images,
+            gain,
+            residual,
+            shift_px,
+        }
     }
 
     /// The evaluation at x (see [`fit`]).

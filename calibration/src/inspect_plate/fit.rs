@@ -279,7 +279,8 @@ fn found_at(p: &Problem, x: &X, jtj: &[[f64; N]; N], free: &[bool; N], renders: 
 /// told is assumed (a maker checks it with a known move; see the module doc). Asked for
 /// (`--depth-scale`), the fit goes on with it free from there and that is what it found (the
 /// report refuses it when the depth scale is not pinned). The lamp's turn and tilt are free
-/// with the rest unless held (`--lamp-as-designed`).
+/// with the rest unless held (`--lamp-as-designed`). The carving's shift and turn are held
+/// at none where every photo was located by the marks (the marks moved with it).
 pub(super) fn fit(p: &Problem, obs: &dyn Observer) -> Result<(Found, Eval)> {
     let mut renders = 0;
     let start = grid(p, &mut renders)?;
@@ -290,6 +291,12 @@ pub(super) fn fit(p: &Problem, obs: &dyn Observer) -> Result<(Found, Eval)> {
     let mut all = [true; N];
     all[6] = p.fit_lamp;
     all[7] = p.fit_lamp;
+    // Photos located by the marks see the marks moved with the carving: its place against them
+    // is none, and only a view's own camera sees where it sits.
+    let placed_by_marks = p.photos.iter().all(|ph| ph.located);
+    for k in 2..5 {
+        all[k] = !placed_by_marks;
+    }
     let mut held = all;
     held[5] = false;
     let (xh, jh) = descend(p, start, &held, &mut renders, obs)?;

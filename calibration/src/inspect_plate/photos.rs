@@ -22,6 +22,9 @@ pub(super) struct Photo {
     pub(super) used: Vec<bool>,
     /// How it was placed, in words.
     pub(super) how: String,
+    /// Located by the marks (not the view's own camera): its registration is refined per
+    /// evaluation ([`registered`]).
+    pub(super) located: bool,
     /// The photo seen on its view's raster (through the plate: each view pixel's plate point
     /// where the photo shows it), for the comparison with the view's picture.
     pub(super) on_view: Vec<f32>,
@@ -219,9 +222,99 @@ pub(super) fn read_photo(
         camera,
         pixels,
         used,
+        located: (cw, ch) != (v.camera.width, v.camera.height),
         how,
         on_view,
     })
+}
+
+/// The largest shift [`registered`] applies, pixels.
+const MAX_SHIFT_PX: f64 = 3.0;
+
+/// `m` (a render at `photo`'s camera, `w` x `h`) shifted by `d` pixels: m(x - d), bilinear,
+/// edges clamped.
+fn shifted(m: &[f32], w: usize, h: usize, d: [f64; 2]) -> Vec<f32> {
+    let mut out = Vec::with_capacity(m.len());
+    for j in 0..h {
+        for i in 0..w {
+            out.push(sample(
+                m,
+                w as u32,
+                h as u32,
+                i as f64 + 0.5 - d[0],
+                j as f64 + 0.5 - d[1],
+            ));
+        }
+    }
+    out
+}
+
+/// A render of a photo located by the marks, moved onto the photo: the marks' homography places
+/// the camera to a fraction of a pixel, and a fraction of a pixel of a thin groove's light is
+/// much of the residual. The shift d minimizing |c m(x - d) - photo| over the used pixels, by
+/// three Gauss-Newton steps on the render's gradient (each a linear regression of the photo
+/// on the shifted render and its two gradients: the exposure c with it), at most
+/// [`MAX_SHIFT_PX`]. Returns the shifted render and d.
+pub(super) fn registered(m: &[f32], w: usize, h: usize, photo: &Photo) -> (Vec<f32>, [f64; 2]) {
+    let mut d = [0.0f64; 2];
+    for _ in 0..3 {
+        let ms = shifted(m, w, h, d);
+        let at = |i: usize, j: usize| ms[j.min(h - 1) * w + i.min(w - 1)] as f64;
+        let mut a = [[0.0f64; 3]; 3];
+        let mut b = [0.0f64; 3];
+        for j in 0..h {
+            for i in 0..w {
+                let k = j * w + i;
+                if !photo.used[k] {
+                    continue;
+                }
+                let gx = 0.5 * (at(i + 1, j) - at(i.saturating_sub(1), j));
+                let gy = 0.5 * (at(i, j + 1) - at(i, j.saturating_sub(1)));
+                let f = [ms[k] as f64, gx, gy];
+                for r in 0..3 {
+                    for c in 0..3 {
+                        a[r][c] += f[r] * f[c];
+                    }
+                    b[r] += f[r] * photo.pixels[k] as f64;
+                }
+            }
+        }
+        let Some(x) = solve3(a, b) else { break };
+        if !(x[0] > 0.0) {
+            break;
+        }
+        // photo = c ms(x - delta) = c ms - c delta . grad ms: delta = -(x1, x2) / c.
+        let step = [-x[1] / x[0], -x[2] / x[0]];
+        d = [
+            (d[0] + step[0]).clamp(-MAX_SHIFT_PX, MAX_SHIFT_PX),
+            (d[1] + step[1]).clamp(-MAX_SHIFT_PX, MAX_SHIFT_PX),
+        ];
+        if step[0].abs().max(step[1].abs()) < 1e-3 {
+            break;
+        }
+    }
+    (shifted(m, w, h, d), d)
+}
+
+/// Solves the 3 x 3 system a x = b (Cramer's rule); None when singular.
+fn solve3(a: [[f64; 3]; 3], b: [f64; 3]) -> Option<[f64; 3]> {
+    let det = |m: [[f64; 3]; 3]| {
+        m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1]) - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0])
+            + m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0])
+    };
+    let d = det(a);
+    if !(d.abs() > 1e-300) {
+        return None;
+    }
+    let mut x = [0.0; 3];
+    for (c, xc) in x.iter_mut().enumerate() {
+        let mut m = a;
+        for r in 0..3 {
+            m[r][c] = b[r];
+        }
+        *xc = det(m) / d;
+    }
+    Some(x)
 }
 
 /// Which view each photo shows: by its file name (`v1.png` is view v1), else in the views' order.

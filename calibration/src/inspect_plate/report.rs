@@ -2,6 +2,7 @@
 //! its picture, a difference image, and what the carving did differently (inspect.json and
 //! tool_as_carved.json), or a refusal naming what the photos do not pin.
 use super::*;
+use crate::fit_cmd::verdict::{RESIDUAL_FLOOR, RESIDUAL_MAX};
 
 /// Each photo's numbers.
 struct PhotoReport {
@@ -89,6 +90,36 @@ fn print_found(found: &Found) {
     );
 }
 
+/// Each photo whose residual at the fit is more than the tool fit allows
+/// ([`RESIDUAL_MAX`] times its own pixel noise, at least [`RESIDUAL_FLOOR`]): what the model
+/// does not explain there may be what moved the numbers (a blur, a lamp, a plate not as carved).
+fn unexplained(p: &Problem, at: &Eval) -> Vec<String> {
+    let mut out = Vec::new();
+    let mut off = 0;
+    for ph in &p.photos {
+        let n = ph.used.iter().filter(|u| **u).count();
+        let r = &at.residual[off..(off + n).min(at.residual.len())];
+        off += n;
+        let rms = (ssr(r) / n.max(1) as f64).sqrt();
+        let img = crate::photo::Gray {
+            width: ph.camera.camera.width,
+            height: ph.camera.camera.height,
+            data: ph.pixels.clone(),
+        };
+        let noise = crate::photo::pixel_noise_in(&img, Some(&ph.used));
+        let against = noise.max(RESIDUAL_FLOOR);
+        if !(rms <= RESIDUAL_MAX * against) {
+            out.push(format!(
+                "{} leaves a residual of rms {rms:.4}, {:.1} times what its own noise ({noise:.4}) explains (at most \
+                 {RESIDUAL_MAX})",
+                ph.file.display(),
+                rms / against
+            ));
+        }
+    }
+    out
+}
+
 /// Writes the difference images, and inspect.json and tool_as_carved.json when the photos pin
 /// what the carving did; else a refusal (exit 3).
 pub(super) fn write(a: &InspectArgs, p: &Problem, found: &Found, at: &Eval) -> Result<()> {
@@ -132,13 +163,23 @@ pub(super) fn write(a: &InspectArgs, p: &Problem, found: &Found, at: &Eval) -> R
             r.design_with_picture,
             diff.display()
         );
-        photos.push((ph, r, at.gain[k]));
+        photos.push((ph, r, at.gain[k], at.shift_px[k]));
     }
     let pinned = found.dz_sd_mm <= DZ_TOLERANCE_MM
         && found.width_scale_sd <= SCALE_TOLERANCE
         && found.depth_scale_sd <= fit::DEPTH_SCALE_TOLERANCE;
     let inside = found.at_edge.is_none();
     print_found(found);
+    let unexplained = unexplained(p, at);
+    if !unexplained.is_empty() {
+        return Err(InputError(format!(
+            "the plate as fitted does not explain the photos: {}. No inspect.json written. Give --blur as the \
+             photos' blur in pixels of the view (0 for a photo shrunk to the view's size), set the lamp as the \
+             set-up sheet says, or check that the photos are of this design's plate as the plans carved it",
+            unexplained.join("; ")
+        ))
+        .into());
+    }
     if !(pinned && inside) {
         let mut why = Vec::new();
         if found.dz_sd_mm > DZ_TOLERANCE_MM || !found.dz_sd_mm.is_finite() {
@@ -201,7 +242,7 @@ fn inspect_json(
     found: &Found,
     carved_tool: &Tool,
     tool_file: &Path,
-    photos: &[(&Photo, PhotoReport, f64)],
+    photos: &[(&Photo, PhotoReport, f64, [f64; 2])],
 ) -> Result<serde_json::Value> {
     Ok(json!({
         "design": a.design.display().to_string(),
@@ -232,7 +273,7 @@ fn inspect_json(
         "renders": found.renders,
         "blur_px": p.blur_px,
         "alpha": p.alpha,
-        "photos": photos.iter().map(|(ph, r, gain)| json!({
+        "photos": photos.iter().map(|(ph, r, gain, shift)| json!({
             "file": ph.file.display().to_string(),
             "view": p.design.views[ph.view].name,
             "placed": ph.how,
@@ -240,6 +281,7 @@ fn inspect_json(
                 "fov_y_deg": ph.camera.camera.fov_y_deg, "size": [ph.camera.camera.width, ph.camera.camera.height]},
             "pixels_compared": ph.used.iter().filter(|u| **u).count(),
             "exposure_gain": gain,
+            "registration_shift_px": if ph.located { json!(shift) } else { json!(null) },
             "correlation_with_design_render": r.with_design,
             "correlation_with_fitted_carving": r.with_fit,
             "correlation_with_picture": r.with_picture,
