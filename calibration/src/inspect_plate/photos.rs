@@ -228,15 +228,26 @@ pub(super) fn read_photo(
     })
 }
 
-/// The largest shift [`registered`] applies, pixels.
+/// The largest shift [`registered`] applies anywhere in the image, pixels.
 const MAX_SHIFT_PX: f64 = 3.0;
 
-/// `m` (a render at `photo`'s camera, `w` x `h`) shifted by `d` pixels: m(x - d), bilinear,
-/// edges clamped.
-fn shifted(m: &[f32], w: usize, h: usize, d: [f64; 2]) -> Vec<f32> {
+/// A small affine warp of the image plane: the shift at pixel (x, y) is
+/// (a[0] + a[1] u + a[2] v, a[3] + a[4] u + a[5] v), u and v the pixel's place from the image's
+/// centre in image heights.
+type Warp = [f64; 6];
+
+fn warp_at(a: &Warp, u: f64, v: f64) -> [f64; 2] {
+    [a[0] + a[1] * u + a[2] * v, a[3] + a[4] * u + a[5] * v]
+}
+
+/// `m` (a render at `photo`'s camera, `w` x `h`) warped by `a`: m(x - d(x)), bilinear, edges
+/// clamped.
+fn warped(m: &[f32], w: usize, h: usize, a: &Warp) -> Vec<f32> {
     let mut out = Vec::with_capacity(m.len());
     for j in 0..h {
         for i in 0..w {
+            let (u, v) = uv(i, j, w, h);
+            let d = warp_at(a, u, v);
             out.push(sample(
                 m,
                 w as u32,
@@ -249,19 +260,27 @@ fn shifted(m: &[f32], w: usize, h: usize, d: [f64; 2]) -> Vec<f32> {
     out
 }
 
+fn uv(i: usize, j: usize, w: usize, h: usize) -> (f64, f64) {
+    (
+        (i as f64 + 0.5 - 0.5 * w as f64) / h as f64,
+        (j as f64 + 0.5 - 0.5 * h as f64) / h as f64,
+    )
+}
+
 /// A render of a photo located by the marks, moved onto the photo: the marks' homography places
 /// the camera to a fraction of a pixel, and a fraction of a pixel of a thin groove's light is
-/// much of the residual. The shift d minimizing |c m(x - d) - photo| over the used pixels, by
-/// three Gauss-Newton steps on the render's gradient (each a linear regression of the photo
-/// on the shifted render and its two gradients: the exposure c with it), at most
-/// [`MAX_SHIFT_PX`]. Returns the shifted render and d.
+/// much of the residual. The small affine warp of the image (a shift, and the turn, scale and
+/// shear left by the homography) minimizing |c m(x - d(x)) - photo| over the used pixels, by
+/// three Gauss-Newton steps on the render's gradient (each a linear regression of the photo on
+/// the warped render and its gradients times 1, u and v: the exposure c with it), at most
+/// [`MAX_SHIFT_PX`] anywhere. Returns the warped render and its shift at the image's centre.
 pub(super) fn registered(m: &[f32], w: usize, h: usize, photo: &Photo) -> (Vec<f32>, [f64; 2]) {
-    let mut d = [0.0f64; 2];
+    let mut a: Warp = [0.0; 6];
     for _ in 0..3 {
-        let ms = shifted(m, w, h, d);
+        let ms = warped(m, w, h, &a);
         let at = |i: usize, j: usize| ms[j.min(h - 1) * w + i.min(w - 1)] as f64;
-        let mut a = [[0.0f64; 3]; 3];
-        let mut b = [0.0f64; 3];
+        let mut ata = [[0.0f64; 7]; 7];
+        let mut atb = [0.0f64; 7];
         for j in 0..h {
             for i in 0..w {
                 let k = j * w + i;
@@ -270,49 +289,66 @@ pub(super) fn registered(m: &[f32], w: usize, h: usize, photo: &Photo) -> (Vec<f
                 }
                 let gx = 0.5 * (at(i + 1, j) - at(i.saturating_sub(1), j));
                 let gy = 0.5 * (at(i, j + 1) - at(i, j.saturating_sub(1)));
-                let f = [ms[k] as f64, gx, gy];
-                for r in 0..3 {
-                    for c in 0..3 {
-                        a[r][c] += f[r] * f[c];
+                let (u, v) = uv(i, j, w, h);
+                let f = [ms[k] as f64, gx, gx * u, gx * v, gy, gy * u, gy * v];
+                for r in 0..7 {
+                    for c in 0..7 {
+                        ata[r][c] += f[r] * f[c];
                     }
-                    b[r] += f[r] * photo.pixels[k] as f64;
+                    atb[r] += f[r] * photo.pixels[k] as f64;
                 }
             }
         }
-        let Some(x) = solve3(a, b) else { break };
+        let Some(x) = solve7(ata, atb) else { break };
         if !(x[0] > 0.0) {
             break;
         }
-        // photo = c ms(x - delta) = c ms - c delta . grad ms: delta = -(x1, x2) / c.
-        let step = [-x[1] / x[0], -x[2] / x[0]];
-        d = [
-            (d[0] + step[0]).clamp(-MAX_SHIFT_PX, MAX_SHIFT_PX),
-            (d[1] + step[1]).clamp(-MAX_SHIFT_PX, MAX_SHIFT_PX),
-        ];
-        if step[0].abs().max(step[1].abs()) < 1e-3 {
+        // photo = c ms(x - delta) = c ms - c delta . grad ms: delta = -(x1..x6) / c.
+        let step: Warp = std::array::from_fn(|q| -x[q + 1] / x[0]);
+        let next: Warp = std::array::from_fn(|q| a[q] + step[q]);
+        // Within the largest shift at the image's corners.
+        let (cu, cv) = (0.5 * w as f64 / h as f64, 0.5);
+        let worst = [(-cu, -cv), (cu, -cv), (-cu, cv), (cu, cv)]
+            .iter()
+            .map(|&(u, v)| {
+                let d = warp_at(&next, u, v);
+                d[0].abs().max(d[1].abs())
+            })
+            .fold(0.0, f64::max);
+        if !(worst <= MAX_SHIFT_PX) {
+            break;
+        }
+        a = next;
+        if step.iter().all(|v| v.abs() < 1e-3) {
             break;
         }
     }
-    (shifted(m, w, h, d), d)
+    (warped(m, w, h, &a), [a[0], a[3]])
 }
 
-/// Solves the 3 x 3 system a x = b (Cramer's rule); None when singular.
-fn solve3(a: [[f64; 3]; 3], b: [f64; 3]) -> Option<[f64; 3]> {
-    let det = |m: [[f64; 3]; 3]| {
-        m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1]) - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0])
-            + m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0])
-    };
-    let d = det(a);
-    if !(d.abs() > 1e-300) {
-        return None;
-    }
-    let mut x = [0.0; 3];
-    for (c, xc) in x.iter_mut().enumerate() {
-        let mut m = a;
-        for r in 0..3 {
-            m[r][c] = b[r];
+/// Solves the 7 x 7 system a x = b (Gaussian elimination with partial pivoting); None when
+/// singular.
+fn solve7(mut a: [[f64; 7]; 7], mut b: [f64; 7]) -> Option<[f64; 7]> {
+    const N: usize = 7;
+    for c in 0..N {
+        let p = (c..N).max_by(|&i, &j| a[i][c].abs().total_cmp(&a[j][c].abs()))?;
+        if !(a[p][c].abs() > 1e-300) {
+            return None;
         }
-        *xc = det(m) / d;
+        a.swap(c, p);
+        b.swap(c, p);
+        for r in c + 1..N {
+            let f = a[r][c] / a[c][c];
+            for k in c..N {
+                a[r][k] -= f * a[c][k];
+            }
+            b[r] -= f * b[c];
+        }
+    }
+    let mut x = [0.0; N];
+    for c in (0..N).rev() {
+        let s: f64 = (c + 1..N).map(|k| a[c][k] * x[k]).sum();
+        x[c] = (b[c] - s) / a[c][c];
     }
     Some(x)
 }
