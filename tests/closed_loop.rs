@@ -96,29 +96,7 @@ fn photograph_and_inspect(
 fn the_loop_finds_a_hidden_mismatch_and_touches_it_up() {
     let dir = tmp_dir("loop");
     let tool = vbit(&dir, "tool.json", 60.0, 0.01, 0.0);
-    let out = dir.join("d").display().to_string();
-    let o = run_scratchart(&[
-        "design",
-        "--views",
-        "3",
-        "--res",
-        "64",
-        "--scratches",
-        "600",
-        "--iters",
-        "80",
-        "--prune-tol",
-        "0",
-        "--quiet",
-        "--tool",
-        &tool,
-        "--machine",
-        "grbl",
-        "--out",
-        &out,
-    ]);
-    ok(o, "design");
-    let design = format!("{out}/design.json");
+    let design = tool_design(&dir, &tool, 3, 64, 600, 80);
     let plan = dir.join("plan.nc").display().to_string();
     ok(cal(&["plan", &design, "--tool", &tool, "--out", &plan]), "plan");
     // The plate as the calibrated tool would have cut it: what the design shows when carved.

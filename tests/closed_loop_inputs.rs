@@ -15,29 +15,7 @@ use loop_util::*;
 fn the_loops_bad_inputs_are_named() {
     let dir = tmp_dir("bad");
     let tool = vbit(&dir, "tool.json", 60.0, 0.01, 0.0);
-    let out = dir.join("d").display().to_string();
-    let o = run_scratchart(&[
-        "design",
-        "--views",
-        "2",
-        "--res",
-        "32",
-        "--scratches",
-        "200",
-        "--iters",
-        "10",
-        "--prune-tol",
-        "0",
-        "--quiet",
-        "--tool",
-        &tool,
-        "--machine",
-        "grbl",
-        "--out",
-        &out,
-    ]);
-    ok(o, "design");
-    let design = format!("{out}/design.json");
+    let design = tool_design(&dir, &tool, 2, 32, 200, 10);
     let said = |o: Output| {
         (
             o.status.code(),
@@ -162,29 +140,7 @@ fn photos_the_fit_does_not_explain_are_refused() {
     let dir = tmp_dir("unexplained");
     let tool = vbit(&dir, "tool.json", 60.0, 0.01, 0.0);
     let shallow = vbit(&dir, "shallow.json", 60.0, 0.01, -0.015);
-    let out = dir.join("d").display().to_string();
-    let o = run_scratchart(&[
-        "design",
-        "--views",
-        "3",
-        "--res",
-        "64",
-        "--scratches",
-        "600",
-        "--iters",
-        "40",
-        "--prune-tol",
-        "0",
-        "--quiet",
-        "--tool",
-        &tool,
-        "--machine",
-        "grbl",
-        "--out",
-        &out,
-    ]);
-    ok(o, "design");
-    let design = format!("{out}/design.json");
+    let design = tool_design(&dir, &tool, 3, 64, 600, 40);
     let plan = dir.join("plan.nc").display().to_string();
     ok(cal(&["plan", &design, "--tool", &tool, "--out", &plan]), "plan");
     let photos = dir.join("photos").display().to_string();

@@ -41,3 +41,37 @@ pub fn vbit(dir: &Path, name: &str, angle: f64, flat: f64, off: f64) -> String {
         &format!(r#"{{"kind": "v-bit", "angle_deg": {angle}, "tip_flat_mm": {flat}, "z_offset_mm": {off}}}"#),
     )
 }
+
+/// A fabrication design for the GRBL router in `dir/d` (`views` views of `res` px, `scratches`
+/// scratches, `iters` iterations, no pruning, through `tool`): its design.json.
+pub fn tool_design(dir: &Path, tool: &str, views: u32, res: u32, scratches: u32, iters: u32) -> String {
+    let out = dir.join("d").display().to_string();
+    let (v, r, s, i) = (
+        views.to_string(),
+        res.to_string(),
+        scratches.to_string(),
+        iters.to_string(),
+    );
+    let o = run_scratchart(&[
+        "design",
+        "--views",
+        &v,
+        "--res",
+        &r,
+        "--scratches",
+        &s,
+        "--iters",
+        &i,
+        "--prune-tol",
+        "0",
+        "--quiet",
+        "--tool",
+        tool,
+        "--machine",
+        "grbl",
+        "--out",
+        &out,
+    ]);
+    ok(o, "design");
+    format!("{out}/design.json")
+}

@@ -55,26 +55,27 @@ pub(super) fn meaning(x: &X) -> Carving {
     }
 }
 
-/// Solves a x = b (Gaussian elimination with partial pivoting); None when singular.
-fn solve(mut a: [[f64; N]; N], mut b: [f64; N]) -> Option<[f64; N]> {
-    for c in 0..N {
-        let p = (c..N).max_by(|&i, &j| a[i][c].abs().total_cmp(&a[j][c].abs()))?;
+/// Solves a x = b for any size K (Gaussian elimination with partial pivoting); None when
+/// singular (also the registration's warp, [`super::photos`]).
+pub(super) fn solve<const K: usize>(mut a: [[f64; K]; K], mut b: [f64; K]) -> Option<[f64; K]> {
+    for c in 0..K {
+        let p = (c..K).max_by(|&i, &j| a[i][c].abs().total_cmp(&a[j][c].abs()))?;
         if !(a[p][c].abs() > 1e-300) {
             return None;
         }
         a.swap(c, p);
         b.swap(c, p);
-        for r in c + 1..N {
+        for r in c + 1..K {
             let f = a[r][c] / a[c][c];
-            for k in c..N {
+            for k in c..K {
                 a[r][k] -= f * a[c][k];
             }
             b[r] -= f * b[c];
         }
     }
-    let mut x = [0.0; N];
-    for c in (0..N).rev() {
-        let s: f64 = (c + 1..N).map(|k| a[c][k] * x[k]).sum();
+    let mut x = [0.0; K];
+    for c in (0..K).rev() {
+        let s: f64 = (c + 1..K).map(|k| a[c][k] * x[k]).sum();
         x[c] = (b[c] - s) / a[c][c];
     }
     Some(x)

@@ -299,7 +299,7 @@ pub(super) fn registered(m: &[f32], w: usize, h: usize, photo: &Photo) -> (Vec<f
                 }
             }
         }
-        let Some(x) = solve7(ata, atb) else { break };
+        let Some(x) = super::fit::solve(ata, atb) else { break };
         if !(x[0] > 0.0) {
             break;
         }
@@ -324,33 +324,6 @@ pub(super) fn registered(m: &[f32], w: usize, h: usize, photo: &Photo) -> (Vec<f
         }
     }
     (warped(m, w, h, &a), [a[0], a[3]])
-}
-
-/// Solves the 7 x 7 system a x = b (Gaussian elimination with partial pivoting); None when
-/// singular.
-fn solve7(mut a: [[f64; 7]; 7], mut b: [f64; 7]) -> Option<[f64; 7]> {
-    const N: usize = 7;
-    for c in 0..N {
-        let p = (c..N).max_by(|&i, &j| a[i][c].abs().total_cmp(&a[j][c].abs()))?;
-        if !(a[p][c].abs() > 1e-300) {
-            return None;
-        }
-        a.swap(c, p);
-        b.swap(c, p);
-        for r in c + 1..N {
-            let f = a[r][c] / a[c][c];
-            for k in c..N {
-                a[r][k] -= f * a[c][k];
-            }
-            b[r] -= f * b[c];
-        }
-    }
-    let mut x = [0.0; N];
-    for c in (0..N).rev() {
-        let s: f64 = (c + 1..N).map(|k| a[c][k] * x[k]).sum();
-        x[c] = (b[c] - s) / a[c][c];
-    }
-    Some(x)
 }
 
 /// Which view each photo shows: by its file name (`v1.png` is view v1), else in the views' order.
