@@ -125,37 +125,26 @@ fn depth_for_width(tool: &Tool, width: f64, from: f64) -> f64 {
     b
 }
 
-/// [`plate`] with the new scratches `added` (commanded depths as the machine reaches them).
+/// The plate's grooves for depths `z` (as the machine reaches them) cut by `tool`, and the
+/// new scratches `added` (their depths likewise); each depth's groove fitted once.
 fn plate_with(design: &Scene, z: &[f64], tool: &Tool, alpha: f64, added: &[Added]) -> Scene {
-    let mut s = plate(design, z, tool, alpha);
-    s.scratches.extend(added.iter().filter_map(|a| {
-        let m = tool.model(a.z)?;
-        Some(scratchart_model::scene::Scratch {
-            p0: a.p0,
-            p1: a.p1,
-            w: m.w,
-            d: m.d,
-            alpha,
-            bulge: 0.0,
-        })
-    }));
-    s
-}
-
-/// The plate's grooves for commanded depths `z` cut by `tool`.
-fn plate(design: &Scene, z: &[f64], tool: &Tool, alpha: f64) -> Scene {
     let mut models = std::collections::HashMap::new();
-    let scratches = design
+    let ends = design
         .scratches
         .iter()
         .zip(z)
-        .filter_map(|(s, &z)| {
+        .map(|(s, &z)| (s.p0, s.p1, s.bulge, z))
+        .chain(added.iter().map(|a| (a.p0, a.p1, 0.0, a.z)));
+    let scratches = ends
+        .filter_map(|(p0, p1, bulge, z)| {
             let m = (*models.entry(z.to_bits()).or_insert_with(|| tool.model(z)))?;
             Some(scratchart_model::scene::Scratch {
+                p0,
+                p1,
                 w: m.w,
                 d: m.d,
                 alpha,
-                ..*s
+                bulge,
             })
         })
         .collect();
@@ -163,6 +152,11 @@ fn plate(design: &Scene, z: &[f64], tool: &Tool, alpha: f64) -> Scene {
         scratches,
         ..design.clone()
     }
+}
+
+/// [`plate_with`] without new scratches.
+fn plate(design: &Scene, z: &[f64], tool: &Tool, alpha: f64) -> Scene {
+    plate_with(design, z, tool, alpha, &[])
 }
 
 /// Each view's display render of `scene` (the view's resolution and exposure, as the design
@@ -299,14 +293,23 @@ fn optimized(
             ..*a
         })
         .collect();
+    // The new grooves as deep as the machine cuts them (its depth scale), as the recuts.
+    let reached_added: Vec<Added> = added
+        .iter()
+        .map(|a| Added {
+            z: a.z * c.depth_scale,
+            ..*a
+        })
+        .collect();
     let after = measure(
         renderer,
-        &plate_with(c.placed, &reached(&z, c.depth_scale), c.carved, c.alpha, &added),
+        &plate_with(c.placed, &reached(&z, c.depth_scale), c.carved, c.alpha, &reached_added),
         goal,
         designed,
     )?;
     obs.info(&format!(
-        "touch-up by the optimizer: {} of {} scratches recut, {} new of {} tried; loss {:.6} -> {:.6}; worst view {:.4} (the width ratio's {:.4})",
+        "touch-up by the optimizer: {} of {} scratches recut, {} new of {} tried; loss {:.6} -> {:.6} (its last stage, against the \
+         targets matched last); worst view {:.4} (the width ratio's {:.4})",
         recut.len(),
         c.cut.len(),
         added.len(),

@@ -62,7 +62,8 @@ pub struct Refined {
     pub added: Vec<Added>,
     /// New scratches tried.
     pub tried: usize,
-    /// The loss at the start and at the state kept.
+    /// The loss at the start of the last stage (the targets matched last) and at the state kept
+    /// (against the same targets).
     pub loss: [f32; 2],
 }
 
@@ -392,7 +393,7 @@ pub fn refine(
     let mut first = f32::NAN;
     for t in 0..=opts.iters {
         let (lv, grads) = scratchart_optim::prune::evaluate(renderer, &loss, &state.scene(c, &table))?;
-        if t == 0 {
+        if first.is_nan() {
             first = lv.total;
         }
         let better = match &best {
@@ -413,17 +414,20 @@ pub fn refine(
         }
         if t % 10 == 0 || t == opts.iters {
             obs.info(&format!(
-                "touch-up optimizer {t}/{}: loss {:.6} (start {first:.6}), {tried} new scratches tried",
+                "touch-up optimizer {t}/{}: loss {:.6} (this stage's start {first:.6}), {tried} new scratches tried",
                 opts.iters, lv.total
             ));
         }
         if t < opts.iters {
             state.step(&grads, c, &table, t as i32 + 1);
-            if (t + 1) % RETARGET == 0 {
+            // (Not before the last evaluation: the last stage takes RETARGET steps, and the
+            // state kept is the best of them.)
+            if (t + 1) % RETARGET == 0 && t + 1 < opts.iters {
                 let seen = super::display_renders(renderer, &state.scene(c, &table))?;
                 loss.set_targets(&renderer.ctx, &matched_targets(p.inputs, &seen))?;
-                // The kept state's loss was against the old targets.
+                // The kept state's loss, and the stage's first, were against the old targets.
                 best = None;
+                first = f32::NAN;
             }
         }
     }
