@@ -438,7 +438,18 @@ fn refused_or_right_on_poor_photos(dir: &Path, plan: &str, design: &str, tool: &
         ]),
         "simulate-plate as a phone",
     );
-    let shots: Vec<String> = ["v0", "v1", "v2"].iter().map(|v| format!("{phone}/{v}.jpg")).collect();
+    // Named as a phone names them and given out of the views' order (IMG_0001 is v2): each is
+    // placed as its view by its marks, or the whole is refused.
+    let truth = ["v2", "v0", "v1"];
+    let shots: Vec<String> = truth
+        .iter()
+        .enumerate()
+        .map(|(k, v)| {
+            let to = format!("{phone}/IMG_000{}.jpg", k + 1);
+            std::fs::copy(format!("{phone}/{v}.jpg"), &to).unwrap();
+            to
+        })
+        .collect();
     let mut args = vec!["inspect", design];
     args.extend(shots.iter().map(|s| s.as_str()));
     let phone_out = format!("{phone}/in");
@@ -451,7 +462,11 @@ fn refused_or_right_on_poor_photos(dir: &Path, plan: &str, design: &str, tool: &
     );
     match o.status.code() {
         Some(0) => {
-            let f = json(&Path::new(&phone_out).join("inspect.json"))["found"].clone();
+            let report = json(&Path::new(&phone_out).join("inspect.json"));
+            for (ph, v) in report["photos"].as_array().unwrap().iter().zip(truth) {
+                assert_eq!(ph["view"].as_str(), Some(v), "{ph}");
+            }
+            let f = report["found"].clone();
             let (gdz, gs) = (f["dz_mm"].as_f64().unwrap(), f["width_scale"].as_f64().unwrap());
             assert!(
                 (gdz + 0.015).abs() <= 0.005 && (gs - 1.0).abs() <= 0.05,

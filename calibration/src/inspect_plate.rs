@@ -33,7 +33,7 @@ mod photos;
 mod report;
 
 use crate::simulate_plate::{carved_scene, groove_alpha, lamp_moved, moved_point, plate_grooves, MachineError};
-use photos::{mark_cuts, photo_views, read_photo, Photo};
+use photos::{mark_cuts, photo_views, read_photo_of_any, Photo};
 
 /// The largest uncertainty (1 sigma) of the depth change that `inspect` states, mm: half the
 /// 5 um a touch-up needs.
@@ -288,12 +288,12 @@ pub fn run(a: &InspectArgs, renderer: &Renderer, obs: &dyn Observer) -> Result<(
     };
     let marks = mark_cuts(&design, &grooves, !a.plan.is_empty());
     let scratch_grooves: Vec<CarvedCut> = grooves.into_iter().filter(|g| g.label.starts_with("scratch")).collect();
-    let views = photo_views(&a.photos, &design)?;
+    let (views, by_name) = photo_views(&a.photos, &design)?;
     let photos = a
         .photos
         .iter()
         .zip(&views)
-        .map(|(f, &v)| read_photo(f, v, &design, &marks, a.blur))
+        .map(|(f, &v)| read_photo_of_any(f, v, by_name, &design, &marks, a.blur))
         .collect::<Result<Vec<_>>>()?;
     let p = Problem {
         renderer,

@@ -140,13 +140,7 @@ fn on_view(
 }
 
 /// Reads photo `file` of design view `view` (see the module doc).
-pub(super) fn read_photo(
-    file: &Path,
-    view: usize,
-    design: &Scene,
-    marks: &[(Cut, f64)],
-    blur_px: f64,
-) -> Result<Photo> {
+fn read_photo(file: &Path, view: usize, design: &Scene, marks: &[(Cut, f64)], blur_px: f64) -> Result<Photo> {
     let (w, h, px) = scratchart_render::io::read_image_gray(file)?;
     let v = &design.views[view];
     let (camera, pixels, how) = if (w, h) == (v.camera.width, v.camera.height) {
@@ -326,8 +320,51 @@ pub(super) fn registered(m: &[f32], w: usize, h: usize, photo: &Photo) -> (Vec<f
     (warped(m, w, h, &a), [a[0], a[3]])
 }
 
-/// Which view each photo shows: by its file name (`v1.png` is view v1), else in the views' order.
-pub(super) fn photo_views(photos: &[PathBuf], design: &Scene) -> Result<Vec<usize>> {
+/// Reads photo `file`, of view `view` by its name, or by its place among the photos
+/// (`by_name` false): then, when the marks do not place it as that view, as whichever other
+/// view they do place it as (a phone's or a messenger's names keep no order), said so; a
+/// photo no view places is refused with the first view's reason and the hint to name it.
+pub(super) fn read_photo_of_any(
+    file: &Path,
+    view: usize,
+    by_name: bool,
+    design: &Scene,
+    marks: &[(Cut, f64)],
+    blur_px: f64,
+) -> Result<Photo> {
+    let first = match read_photo(file, view, design, marks, blur_px) {
+        Ok(p) => return Ok(p),
+        Err(e) => e,
+    };
+    if !by_name {
+        for other in (0..design.views.len()).filter(|&o| o != view) {
+            if let Ok(mut p) = read_photo(file, other, design, marks, blur_px) {
+                if p.located {
+                    p.how = format!(
+                        "{} (view {} by its marks, not {} as its place among the photos says)",
+                        p.how, design.views[other].name, design.views[view].name
+                    );
+                    return Ok(p);
+                }
+            }
+        }
+    }
+    Err(InputError(format!(
+        "{first}{}",
+        if by_name {
+            String::new()
+        } else {
+            " (no other view of the design places it either; name each photo after its view, v0.jpg, v1.jpg, ..., \
+             if you know which is which)"
+                .to_string()
+        }
+    ))
+    .into())
+}
+
+/// Which view each photo shows: by its file name (`v1.png` is view v1), else in the views' order
+/// (the bool: whether by name).
+pub(super) fn photo_views(photos: &[PathBuf], design: &Scene) -> Result<(Vec<usize>, bool)> {
     let by_name: Vec<Option<usize>> = photos
         .iter()
         .map(|p| {
@@ -339,7 +376,7 @@ pub(super) fn photo_views(photos: &[PathBuf], design: &Scene) -> Result<Vec<usiz
         })
         .collect();
     if by_name.iter().all(|v| v.is_some()) {
-        return Ok(by_name.into_iter().flatten().collect());
+        return Ok((by_name.into_iter().flatten().collect(), true));
     }
     if photos.len() > design.views.len() {
         return Err(UsageError(format!(
@@ -356,5 +393,5 @@ pub(super) fn photo_views(photos: &[PathBuf], design: &Scene) -> Result<Vec<usiz
         ))
         .into());
     }
-    Ok((0..photos.len()).collect())
+    Ok(((0..photos.len()).collect(), false))
 }
