@@ -2,8 +2,10 @@
 //! (`fit::information`, the fit's own Jacobian at the truth) for captures that differ in the
 //! camera's height, the lamp (a desk lamp or the phone's flash), the distance and the number of
 //! photos, over tools of every kind.
-//! `cargo run --release -p scratchart-calibration --example capture_info -- [res] [noise]`
+//! `cargo run --release -p scratchart-calibration --example capture_info -- [res] [noise] [capture]
+//! [brightest groove level, 0.8] [srgb]`
 use scratchart_calibration::card::{Card, CardSpec};
+use scratchart_calibration::encoding;
 use scratchart_calibration::fit::information::{information, Truth};
 use scratchart_calibration::fit::Data;
 use scratchart_calibration::fit_cmd::fit_mask;
@@ -58,6 +60,10 @@ fn main() -> anyhow::Result<()> {
     let res: u32 = args.first().and_then(|s| s.parse().ok()).unwrap_or(256);
     let noise: f64 = args.get(1).and_then(|s| s.parse().ok()).unwrap_or(0.01);
     let only: Option<String> = args.get(2).cloned();
+    // `srgb` as the fifth argument: photos encoded, and the model reading them, with sRGB's curve.
+    if args.get(4).is_some_and(|a| a == "srgb") {
+        encoding::set(encoding::Encoding::Srgb);
+    }
     let ctx = Context::new(ContextDesc::default())?;
     let renderer = Renderer::new(&ctx)?;
     let card = Card::new(&CardSpec::default());
@@ -224,6 +230,12 @@ fn tools() -> Vec<(String, Tool)> {
     ]
 }
 
+/// The light (over full scale) at which each view's brightest groove pixels sit: the fourth
+/// argument, 0.8 without it (above 1 they clip).
+fn top_level() -> f64 {
+    std::env::args().nth(4).and_then(|s| s.parse().ok()).unwrap_or(0.8)
+}
+
 /// One row's cells: the tool parameters' bounds for `capture` with each photo's tone curve
 /// fixed and free, each view exposed so its brightest groove pixels sit near 0.8 of full scale.
 fn bounds(renderer: &Renderer, card: &Card, capture: &Scene, tool: &Tool, noise: f64) -> anyhow::Result<Vec<String>> {
@@ -248,11 +260,11 @@ fn bounds(renderer: &Renderer, card: &Card, capture: &Scene, tool: &Tool, noise:
                 .iter()
                 .zip(m)
                 .filter(|(_, m)| **m)
-                .map(|(d, _)| (*d as f64).powf(2.2))
+                .map(|(d, _)| encoding::decode(*d as f64))
                 .collect();
             lit.sort_by(f64::total_cmp);
             let top = lit[(lit.len() as f64 * 0.998) as usize].max(1e-9);
-            0.8 / top
+            top_level() / top
         })
         .collect();
     let photos: Vec<Vec<f32>> = raw
@@ -260,7 +272,7 @@ fn bounds(renderer: &Renderer, card: &Card, capture: &Scene, tool: &Tool, noise:
         .zip(&exposure)
         .map(|(img, e)| {
             img.iter()
-                .map(|d| ((*d as f64).powf(2.2) * e).powf(1.0 / 2.2).min(1.0) as f32)
+                .map(|d| encoding::encode(encoding::decode(*d as f64) * e).min(1.0) as f32)
                 .collect()
         })
         .collect();

@@ -5,8 +5,9 @@
 //! Forward model, per capture view v: the engine renders the card as the tool cuts it (every
 //! ladder cut and fiducial becomes the scratch model's groove for the tool at its commanded depth),
 //! the linear image is blurred by a Gaussian of sigma b px (the optics blur light, before the
-//! sensor), scaled by the exposure E_v, mapped to display values (1/2.2 power) and clipped at 1 as
-//! a sensor clips, as `scratchart-cal simulate` does. The Gaussian's centre is moved by a fitted
+//! sensor), scaled by the exposure E_v, clipped at 1 as a sensor clips, raised to the photo's
+//! own tone power e^-t_v (free: no phone encodes exactly as one curve says) and encoded
+//! (`encoding`), as `scratchart-cal simulate` does with t = 0. The Gaussian's centre is moved by a fitted
 //! sub-pixel shift per view: the photometric registration, with no resampling of anything
 //! (resampling blurs by an amount that changes with the sub-pixel phase and biased the groove
 //! shapes). Each view is the camera that took its photo (`fit_cmd`: the capture view, or the
@@ -285,7 +286,10 @@ impl<'a, 'r> Evaluator<'a, 'r> {
 
     /// The evaluator of a fit of `kind` to `data`: the layout of its parameters with the
     /// photos' registration and pose refined as the data says, the noise's lift where a photo
-    /// shows it, each photo's tone curve fixed.
+    /// shows it, and each photo's tone curve free (`Layout::tone`: no phone encodes exactly as
+    /// the curve the fit assumes, and an edit or an app changes it; a tool read from how bright the rungs are
+    /// under one assumed curve was written 10 degrees off with exit 0 when the curve was a
+    /// tenth steeper, calibration/docs/fit.md "The photo's encoding").
     fn of_kind(renderer: &'r Renderer, data: &'a Data<'a>, kind: Kind) -> Evaluator<'a, 'r> {
         let lay = Layout::new(
             kind,
@@ -294,7 +298,7 @@ impl<'a, 'r> Evaluator<'a, 'r> {
             data.refine_shift,
             &data.refine_pose,
             &noise::lift_seen(data),
-            false,
+            true,
         );
         Evaluator::new(renderer, data, lay)
     }

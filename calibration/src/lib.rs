@@ -15,6 +15,7 @@
 //! - [`fit`]: the tool's parameters, z offset, wall roughness, exposures and blur fitted to the
 //!   registered photos by rendering the card with the engine; [`fit_cmd`] is `scratchart-cal fit`.
 pub mod card;
+pub mod encoding;
 pub mod exif;
 pub mod fiducials;
 pub mod fit;

@@ -329,13 +329,13 @@ fn card_cmd(
             .iter()
             .zip(&mask)
             .filter(|(_, m)| **m)
-            .map(|(x, _)| scratchart_model::display::linear(*x as f64))
+            .map(|(x, _)| scratchart_calibration::encoding::decode(*x as f64))
             .collect();
         on.sort_by(|a, b| a.total_cmp(b));
         peak = peak.max(on.get(on.len() * 998 / 1000).copied().unwrap_or(1e-6));
     }
     let cam = Camera {
-        exposure: scratchart_model::display::linear(0.8) / peak,
+        exposure: scratchart_calibration::encoding::decode(0.8) / peak,
         blur_px: 0.5,
         noise: 0.004,
         seed: 1,

@@ -358,7 +358,7 @@ pub fn take_of(
             let mut sorted = lin.clone();
             let i = ((sorted.len() as f64 * 0.999) as usize).min(sorted.len() - 1);
             let top = *sorted.select_nth_unstable_by(i, |a, b| a.total_cmp(b)).1 as f64;
-            shot.exposure * scratchart_model::display::linear(target) / top.max(1e-12)
+            shot.exposure * crate::encoding::decode(target) / top.max(1e-12)
         }
         None => shot.exposure,
     };
@@ -402,7 +402,7 @@ pub fn take_of(
     let mut rgb = Vec::with_capacity(big.len() * 3);
     for &l in &big {
         for c in 0..3 {
-            let d = scratchart_render::io::display_value((l as f64 * shot.cast[c]) as f32) as f64;
+            let d = crate::encoding::encode(l as f64 * shot.cast[c]);
             let v = (d + shot.noise * gauss()).clamp(0.0, 1.0);
             rgb.push((255.0 * v).round() as u8);
         }

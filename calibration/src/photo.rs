@@ -98,7 +98,7 @@ pub struct Channels {
 
 /// The white balance of an RGB photo (see [`Channels::gains`]).
 fn channel_gains(rgb: &image::Rgb32FImage) -> [f64; 3] {
-    let lin = |d: f32| scratchart_model::display::linear(d as f64);
+    let lin = |d: f32| crate::encoding::decode(d as f64);
     let n = rgb.width() as usize * rgb.height() as usize;
     // At most about 2 million pixels looked at.
     let stride = n.div_ceil(2_000_000).max(1);
@@ -381,11 +381,7 @@ pub fn resize(img: &Gray, w: u32, h: u32) -> Gray {
             .collect()
     };
     let (cols, rows) = (spans(w, sx, img.width), spans(h, sy, img.height));
-    let lin: Vec<f64> = img
-        .data
-        .iter()
-        .map(|&d| scratchart_model::display::linear(d as f64))
-        .collect();
+    let lin: Vec<f64> = img.data.iter().map(|&d| crate::encoding::decode(d as f64)).collect();
     let iw = img.width as usize;
     let mut tmp = vec![0.0f64; w as usize * img.height as usize];
     for y in 0..img.height as usize {
@@ -397,7 +393,7 @@ pub fn resize(img: &Gray, w: u32, h: u32) -> Gray {
     for (y, span) in rows.iter().enumerate() {
         for x in 0..w as usize {
             let l: f64 = span.iter().map(|&(j, wt)| wt * tmp[j * w as usize + x]).sum();
-            data[y * w as usize + x] = scratchart_model::display::display(l) as f32;
+            data[y * w as usize + x] = crate::encoding::encode(l) as f32;
         }
     }
     Gray {
@@ -464,8 +460,8 @@ mod photo_tests {
     fn the_white_balance_is_read_from_the_channels() {
         // A photo whose red has 1.2 and blue 0.85 times green's light, over a ramp of levels,
         // with dark and clipped pixels that must not count.
-        let lin = scratchart_model::display::linear;
-        let disp = |l: f64| scratchart_model::display::display(l.min(1.0));
+        let lin = crate::encoding::decode;
+        let disp = |l: f64| crate::encoding::encode(l.min(1.0));
         let img = image::Rgb32FImage::from_fn(64, 64, |x, y| {
             let l = lin(0.05 + 0.9 * (x + 64 * y) as f64 / 4096.0);
             image::Rgb([disp(1.2 * l) as f32, disp(l) as f32, disp(0.85 * l) as f32])
@@ -594,14 +590,14 @@ mod photo_tests {
         };
         let s = resize(&g, 4, 4);
         // Column 5 falls in output column 1 and covers a quarter of it: linear 0.25.
-        let expect = 0.25f64.powf(1.0 / 2.2) as f32;
+        let expect = crate::encoding::encode(0.25) as f32;
         for y in 0..4 {
             assert!((s.data[y * 4 + 1] - expect).abs() < 1e-6, "{}", s.data[y * 4 + 1]);
             assert_eq!(s.data[y * 4], 0.0);
         }
         // A non-integer factor keeps the total light too.
         let t = resize(&g, 6, 6);
-        let total: f64 = t.data.iter().map(|&d| (d as f64).powf(2.2)).sum::<f64>() * (16.0 * 16.0) / 36.0;
+        let total: f64 = t.data.iter().map(|&d| crate::encoding::decode(d as f64)).sum::<f64>() * (16.0 * 16.0) / 36.0;
         assert!((total - 16.0).abs() < 1e-6, "{total}");
     }
 }

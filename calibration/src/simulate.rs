@@ -140,7 +140,7 @@ pub fn photos_of(renderer: &Renderer, scene: &Scene, camera: &Camera) -> anyhow:
         .map(|(img, v)| {
             develop(img, v.camera.width as usize, v.camera.height as usize, camera.blur_px)
                 .into_iter()
-                .map(|l| scratchart_render::io::display_value((l as f64 * camera.exposure) as f32))
+                .map(|l| crate::encoding::encode_f32((l as f64 * camera.exposure) as f32))
                 .map(|x| {
                     // The project's generator (reproducible).
                     let n = if camera.noise > 0.0 { rng.normal() } else { 0.0 };

@@ -1,7 +1,7 @@
 //! The tool fit recovers known tools from synthetic photos of the card (rendered by the engine,
 //! then degraded as a camera would: exposure, blur, noise, and a photo pose off the capture
 //! position), and refuses input it cannot use with a clear message.
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use scratchart_calibration::card::{Card, CardSpec};
 use scratchart_calibration::fit_cmd::{run, FitArgs};
@@ -166,13 +166,54 @@ fn recover(
     (tool, record, dir)
 }
 
+/// The fit's stated value and standard deviation of parameter `name` (tool_report.json, written
+/// whether the fit is accepted or refused).
+fn stated(dir: &Path, name: &str) -> (f64, f64) {
+    let report: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(dir.join("fit/tool_report.json")).unwrap()).unwrap();
+    let p = report["params"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|p| p["name"] == name)
+        .unwrap_or_else(|| panic!("{name} in {report}"))
+        .clone();
+    (p["value"].as_f64().unwrap(), p["sd"].as_f64().unwrap_or(f64::INFINITY))
+}
+
+/// Never a wrong tool: for each (parameter, truth, window), a written fit holds it within the
+/// window and within three of its stated standard deviations; a refused one exits 3 as not
+/// identified, writes no tool.json, and states the truth within three of its standard
+/// deviations. Returns whether the tool was written.
+fn right_or_refused(got: &anyhow::Result<(Tool, serde_json::Value)>, dir: &Path, truth: &[(&str, f64, f64)]) -> bool {
+    for &(name, t, window) in truth {
+        let (v, sd) = stated(dir, name);
+        eprintln!("{name}: {v} +- {sd} (truth {t})");
+        assert!(
+            (v - t).abs() <= 3.0 * sd,
+            "{name} {v} +- {sd}: the truth {t} lies outside three sigmas"
+        );
+        if got.is_ok() {
+            assert!((v - t).abs() < window, "{name} written as {v} for {t}");
+        }
+    }
+    if let Err(e) = got {
+        assert_eq!(scratchart::exit::code_of(e), 3, "{e:#}");
+        assert!(format!("{e:#}").contains("not identified"), "{e:#}");
+        assert!(!dir.join("fit/tool.json").exists());
+    }
+    got.is_ok()
+}
+
 /// A V-bit photographed off the capture pose (moved 6 mm, aimed off centre, zoomed 4%) with
 /// another exposure, blur and noise: the camera is recovered from the card's hatched marks and its eye
-/// refined by the fit; angle within 1 degree, tip flat within 5 um, z offset within 3 um,
-/// exposure within 3%, near the noise floor, and tool.json, the residual images and the plot
-/// are written.
+/// refined by the fit, exposure within 3%, near the noise floor, the residual images and the
+/// plot written; the tool within 1 degree, 5 um and 3 um, or refused as not identified (with
+/// each photo's tone curve free the guide's capture reads the angle from the rungs' brightness:
+/// +- 0.502 degrees here, where 0.5 is allowed; calibration/docs/fit.md, "The photo's
+/// encoding").
 #[test]
-fn recovers_a_v_bit_from_degraded_off_pose_photos() {
+fn a_v_bit_from_degraded_off_pose_photos_is_right_or_refused() {
     let truth = Tool::VBit {
         angle_deg: 75.0,
         tip_flat_mm: 0.012,
@@ -184,25 +225,24 @@ fn recovers_a_v_bit_from_degraded_off_pose_photos() {
         noise: 0.008,
         seed: 7,
     };
-    let (tool, record, dir) = recover("vbit", &truth, &cam, true, false, "v-bit");
-    let Tool::VBit {
-        angle_deg,
-        tip_flat_mm,
-        z_offset_mm,
-    } = tool
-    else {
-        panic!("{tool:?}")
-    };
-    assert!((angle_deg - 75.0).abs() < 1.0, "angle {angle_deg}");
-    assert!((tip_flat_mm - 0.012).abs() < 0.005, "tip flat {tip_flat_mm}");
-    assert!((z_offset_mm - 0.0035).abs() < 0.003, "z offset {z_offset_mm}");
+    let (got, dir) = recover_result("vbit", &truth, &cam, true, false, "v-bit");
+    right_or_refused(
+        &got,
+        &dir,
+        &[
+            ("angle_deg", 75.0, 1.0),
+            ("tip_flat_mm", 0.012, 0.005),
+            ("z_offset_mm", 0.0035, 0.003),
+        ],
+    );
+    let report: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(dir.join("fit/tool_report.json")).unwrap()).unwrap();
     for v in 0..2 {
-        let e = record["exposure"][v].as_f64().unwrap();
+        let e = report["fit"]["exposure"][v].as_f64().unwrap();
         assert!((e / 3.0 - 1.0).abs() < 0.03, "exposure {e}");
     }
-    let rms = record["rms_residual"].as_f64().unwrap();
+    let rms = report["fit"]["rms_residual"].as_f64().unwrap();
     assert!(rms < 0.01, "rms residual {rms}");
-    assert!(record["uncertainty"]["angle_deg"].is_number(), "{record}");
     for f in [
         "tool_residual_cam_south.png",
         "tool_residual_cam_west.png",
@@ -215,29 +255,30 @@ fn recovers_a_v_bit_from_degraded_off_pose_photos() {
 
 /// A perfectly sharp photo (`simulate`'s defaults: no blur, no noise, exposure 1) is its pixels'
 /// own footprint, which the fit models (blur from 0, the registration a turn of the camera):
-/// the V-bit of the README is recovered and written. With a blur floor of a quarter pixel and
-/// the shift in the blur's kernel it was refused, 26.4 +- 7.6 degrees, 16.8 times the noise.
+/// fitted sharp, at the noise floor, the README's V-bit within 1 degree, 5 um and 3 um or
+/// refused as not identified (with the tone free, the model's own error moves the angle by
+/// about 2 degrees: calibration/docs/fit.md, "The photo's encoding"). With a blur floor of a
+/// quarter pixel and the shift in the blur's kernel it was refused, 26.4 +- 7.6 degrees, 16.8
+/// times the noise.
 #[test]
-fn recovers_a_v_bit_from_perfectly_sharp_photos() {
+fn a_v_bit_from_perfectly_sharp_photos_is_fitted_sharp() {
     let truth = Tool::VBit {
         angle_deg: 75.0,
         tip_flat_mm: 0.015,
         z_offset_mm: 0.007,
     };
-    let (tool, record, dir) = recover("sharp", &truth, &Camera::default(), false, false, "v-bit");
-    let Tool::VBit {
-        angle_deg,
-        tip_flat_mm,
-        z_offset_mm,
-    } = tool
-    else {
-        panic!("{tool:?}")
-    };
-    assert!((angle_deg - 75.0).abs() < 1.0, "angle {angle_deg}");
-    assert!((tip_flat_mm - 0.015).abs() < 0.005, "tip flat {tip_flat_mm}");
-    assert!((z_offset_mm - 0.007).abs() < 0.003, "z offset {z_offset_mm}");
+    let (got, dir) = recover_result("sharp", &truth, &Camera::default(), false, false, "v-bit");
+    right_or_refused(
+        &got,
+        &dir,
+        &[
+            ("angle_deg", 75.0, 1.0),
+            ("tip_flat_mm", 0.015, 0.005),
+            ("z_offset_mm", 0.007, 0.003),
+        ],
+    );
     for v in 0..2 {
-        let b = record["blur_px"][v].as_f64().unwrap();
+        let (b, _) = stated(&dir, &format!("blur_px[{v}]"));
         assert!(b < 0.25, "blur {b} px: a sharp photo is fitted sharp");
     }
     let _ = std::fs::remove_dir_all(&dir);
@@ -245,14 +286,14 @@ fn recovers_a_v_bit_from_perfectly_sharp_photos() {
 
 /// A V-bit photographed as a phone stores it: 640 x 480 (another size and aspect than the
 /// 256 x 256 views, shrunk in linear light), colour JPEG, blurred by 1.2 px, 0.8% noise: never a
-/// wrong tool. The fit lands within 1 degree, 5 um and 3 um of the truth, and either writes it
-/// with the truth inside three of its stated uncertainties or refuses it (exit 3, no tool.json)
-/// as not identified, the truth inside its stated uncertainty. Measured: the noise's clipping
+/// wrong tool: written within 1 degree, 5 um and 3 um and three of its stated uncertainties, or
+/// refused (exit 3, no tool.json) as not identified, the truth within three of its stated
+/// uncertainties (with the tone free: 73.40 +- 0.73 degrees, refused). Measured before: the noise's clipping
 /// at black lifts the dark plate by 0.001 of display, which moves the angle by 1.8 degrees:
 /// without it in the model the fit wrote 74.02 +- 0.14 degrees (7 of its sigmas off); with it,
 /// 75.78 +- 0.89 (half the lift's shift is in the uncertainty), refused as not identified.
 #[test]
-fn recovers_a_v_bit_from_larger_colour_jpegs() {
+fn a_v_bit_from_larger_colour_jpegs_is_right_or_refused() {
     let truth = Tool::VBit {
         angle_deg: 75.0,
         tip_flat_mm: 0.012,
@@ -265,45 +306,66 @@ fn recovers_a_v_bit_from_larger_colour_jpegs() {
         seed: 5,
     };
     let (got, dir) = recover_result("phone", &truth, &cam, false, true, "v-bit");
-    let report: serde_json::Value =
-        serde_json::from_slice(&std::fs::read(dir.join("fit/tool_report.json")).unwrap()).unwrap();
-    let param = |name: &str| {
-        let p = report["params"]
-            .as_array()
-            .unwrap()
-            .iter()
-            .find(|p| p["name"] == name)
-            .unwrap_or_else(|| panic!("{name} in {report}"))
-            .clone();
-        (p["value"].as_f64().unwrap(), p["sd"].as_f64().unwrap())
-    };
-    let ((angle, sd_a), (flat, sd_f), (offset, sd_o)) =
-        (param("angle_deg"), param("tip_flat_mm"), param("z_offset_mm"));
-    eprintln!("angle {angle} +- {sd_a}, tip flat {flat} +- {sd_f}, z offset {offset} +- {sd_o}");
-    assert!((angle - 75.0).abs() < 1.0, "angle {angle}");
-    assert!((flat - 0.012).abs() < 0.005, "tip flat {flat}");
-    assert!((offset - 0.0035).abs() < 0.003, "z offset {offset}");
-    match got {
-        Ok((_, record)) => {
-            assert!(
-                (angle - 75.0).abs() <= 3.0 * sd_a,
-                "written 3 sigmas off: {angle} +- {sd_a}"
-            );
-            assert!(
-                record["photos"][0]["file"].as_str().unwrap().ends_with(".jpg"),
-                "{record}"
-            );
-        }
-        Err(e) => {
-            assert_eq!(scratchart::exit::code_of(&e), 3, "{e:#}");
-            assert!(format!("{e:#}").contains("not identified"), "{e:#}");
-            assert!(!dir.join("fit/tool.json").exists());
-            assert!(
-                (angle - 75.0).abs() <= sd_a,
-                "refused, but the truth lies outside +- {sd_a}"
-            );
-        }
+    if right_or_refused(
+        &got,
+        &dir,
+        &[
+            ("angle_deg", 75.0, 1.0),
+            ("tip_flat_mm", 0.012, 0.005),
+            ("z_offset_mm", 0.0035, 0.003),
+        ],
+    ) {
+        let record = &got.as_ref().unwrap().1;
+        assert!(
+            record["photos"][0]["file"].as_str().unwrap().ends_with(".jpg"),
+            "{record}"
+        );
     }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// Photos whose tone curve is a tenth steeper than the one the fit assumes (an edit, or a
+/// phone's own curve: each value d becomes d^(1/1.1), as ImageMagick's `-gamma 1.1` makes it):
+/// never a wrong tool. With each photo's curve fixed, the fit wrote this 60 degree V-bit as
+/// 49.43 +- 0.44 degrees with exit 0 (its flat and offset right); with the curve free it is
+/// refused, the angle not identified.
+#[test]
+fn a_steeper_tone_curve_is_never_written_wrong() {
+    let truth = Tool::VBit {
+        angle_deg: 60.0,
+        tip_flat_mm: 0.01,
+        z_offset_mm: 0.005,
+    };
+    let cam = Camera {
+        exposure: 0.8,
+        blur_px: 0.6,
+        noise: 0.0,
+        seed: 1,
+    };
+    let ctx = gpu();
+    let r = Renderer::new(&ctx).unwrap();
+    let dir = tmp("fit", "tone");
+    let (card, capture, card_path) = card(&dir);
+    let imgs = shoot(&r, &card, &capture, capture.views.clone(), &truth, &cam, &dir);
+    for p in &imgs {
+        let (w, h, px) = scratchart_render::io::read_image_gray(p).unwrap();
+        let bytes: Vec<u8> = px
+            .iter()
+            .map(|&d| (255.0 * (d as f64).powf(1.0 / 1.1)).round() as u8)
+            .collect();
+        scratchart_render::io::write_png_gray(p, w, h, &bytes).unwrap();
+    }
+    let got = fit(&r, &card_path, imgs, "v-bit", &dir.join("fit/tool.json"));
+    assert_no_validation(&ctx);
+    right_or_refused(
+        &got,
+        &dir,
+        &[
+            ("angle_deg", 60.0, 1.0),
+            ("tip_flat_mm", 0.01, 0.005),
+            ("z_offset_mm", 0.005, 0.003),
+        ],
+    );
     let _ = std::fs::remove_dir_all(&dir);
 }
 
@@ -324,9 +386,10 @@ fn ball_case() -> (Tool, Camera) {
 }
 
 /// A tapered ball (ball tip on a cone) above commanded zero: tip radius within 5 um, z offset
-/// within 3 um. (The issue sets no bar for its cone angle; it is printed.)
+/// within 3 um, the cone within 1 degree, or refused as not identified (with each photo's tone
+/// curve free the cone is +- 0.57 degrees here, where 0.5 is allowed).
 #[test]
-fn recovers_a_tapered_ball() {
+fn a_tapered_ball_is_right_or_refused() {
     let truth = Tool::TaperedBall {
         radius_mm: 0.03,
         angle_deg: 40.0,
@@ -338,15 +401,16 @@ fn recovers_a_tapered_ball() {
         noise: 0.006,
         seed: 11,
     };
-    let (tool, _, dir) = recover("tapered", &truth, &cam, false, false, "tapered-ball");
-    let Tool::TaperedBall {
-        radius_mm, z_offset_mm, ..
-    } = tool
-    else {
-        panic!("{tool:?}")
-    };
-    assert!((radius_mm - 0.03).abs() < 0.005, "radius {radius_mm}");
-    assert!((z_offset_mm - 0.002).abs() < 0.003, "z offset {z_offset_mm}");
+    let (got, dir) = recover_result("tapered", &truth, &cam, false, false, "tapered-ball");
+    right_or_refused(
+        &got,
+        &dir,
+        &[
+            ("radius_mm", 0.03, 0.005),
+            ("angle_deg", 40.0, 1.0),
+            ("z_offset_mm", 0.002, 0.003),
+        ],
+    );
     let _ = std::fs::remove_dir_all(&dir);
 }
 

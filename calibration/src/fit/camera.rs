@@ -36,8 +36,8 @@ impl ChannelClip {
         if !(lo > 0.0) || !hi.is_finite() || hi / lo < 1.01 {
             return None;
         }
-        let disp = scratchart_model::display::display;
-        let lin = scratchart_model::display::linear;
+        let disp = crate::encoding::encode;
+        let lin = crate::encoding::decode;
         let s = Self::gain_scale(gains);
         let top = 1.0 / (s * lo);
         let table = (0..=CLIP_N)
@@ -173,7 +173,7 @@ impl Evaluator<'_, '_> {
             .into_iter()
             .map(|l| {
                 let l = if power != 1.0 && l > 0.0 { l.powf(power) } else { l };
-                let d = scratchart_render::io::display_value(l).min(1.0);
+                let d = crate::encoding::encode_f32(l).min(1.0);
                 // A photo used as taken: its pixel's expected value under clipped noise.
                 match &self.transfer[v] {
                     Some(t) => t.pixel(d, u),

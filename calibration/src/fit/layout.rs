@@ -171,12 +171,13 @@ impl Layout {
                 params.push(p(&format!("ln_noise[{v}]"), -NOISE_SPAN, NOISE_SPAN, 0.01, false, 10.0));
             }
         }
-        // The photo's tone curve (only in `fit::information`'s analysis of a capture, not in the
-        // fit): its display value is the light to the power 1 / (2.2 e^t), t free per photo. A
-        // phone's encoding is not exactly the display's 2.2 power (sRGB's toe, its tone
-        // mapping), and an app that resampled a photo in its encoding changed thin grooves'
-        // light more than wide ones': how well a capture pins the tool with the tone free says
-        // how much of what it tells is geometry rather than brightness.
+        // The photo's tone curve: its value is the encoding's (`crate::encoding`) of the light
+        // to the power e^-t, t free per photo (in the fit; `fit::information` analyses a
+        // capture with it fixed or free). No phone encodes exactly as one curve says (its tone
+        // mapping, an edit), and an app that resampled a photo in its encoding changed thin
+        // grooves' light more than wide ones': with the tone free, what the fit states is what
+        // the capture tells by geometry and by the width law's shape rather than by an assumed
+        // curve.
         let tone_at = params.len();
         if tone_free {
             for v in 0..n_views {
@@ -285,8 +286,8 @@ impl Layout {
         x
     }
 
-    /// The tone term of view v (0 where it is not free): its display value is the light to the
-    /// power 1 / (2.2 e^t).
+    /// The tone term t of view v (0 where it is not free): its value is the encoding's of the
+    /// light to the power e^-t.
     pub(super) fn tone(&self, x: &[f64], v: usize) -> f64 {
         if self.tone_free {
             x[self.tone_at + v]

@@ -72,11 +72,7 @@ impl Transfer {
                     } else {
                         q(d + sigma * zc[0])
                     };
-                    acc += if shrunk {
-                        scratchart_model::display::linear(g)
-                    } else {
-                        g
-                    };
+                    acc += if shrunk { crate::encoding::decode(g) } else { g };
                 }
                 (acc / DRAWS as f64) as f32
             })
@@ -99,7 +95,7 @@ impl Transfer {
     /// A shrunk photo's subpixel light `l` (linear) -> its expected light; others unchanged.
     pub(crate) fn subpixel(&self, l: f32) -> f32 {
         match self {
-            Transfer::Shrunk(t) => Self::lookup(t, scratchart_render::io::display_value(l)),
+            Transfer::Shrunk(t) => Self::lookup(t, crate::encoding::encode_f32(l)),
             Transfer::Taken(_) => l,
         }
     }
@@ -144,7 +140,7 @@ fn shrunk_jpeg_table(sigma: f64, colour: bool, q: u8) -> Option<Vec<f32>> {
             .map(|i| {
                 let sum: f64 = g[i * px..(i + 1) * px]
                     .iter()
-                    .map(|&x| scratchart_model::display::linear(x as f64))
+                    .map(|&x| crate::encoding::decode(x as f64))
                     .sum();
                 (sum / px as f64) as f32
             })
@@ -273,7 +269,7 @@ pub(super) fn shrunk_photo_draw(
     let sub = crate::photo::Gray {
         width: ss * w,
         height: ss * h,
-        data: lit.iter().map(|&l| scratchart_render::io::display_value(l)).collect(),
+        data: lit.iter().map(|&l| crate::encoding::encode_f32(l)).collect(),
     };
     let native = crate::photo::resize(&sub, k * w, k * h);
     let chans = if colour { 3 } else { 1 };
@@ -282,9 +278,9 @@ pub(super) fn shrunk_photo_draw(
     let g: [f64; 3] = if colour { gains.map(|g| g * scale) } else { [1.0; 3] };
     let mut bytes = Vec::with_capacity(native.data.len() * chans);
     for &d in &native.data {
-        let l = scratchart_model::display::linear(d as f64);
+        let l = crate::encoding::decode(d as f64);
         for gc in g.iter().take(chans) {
-            let dc = scratchart_model::display::display((l * gc).min(1.0));
+            let dc = crate::encoding::encode((l * gc).min(1.0));
             bytes.push(((dc + sigma * normal()).clamp(0.0, 1.0) * 255.0).round() as u8);
         }
     }
@@ -496,7 +492,7 @@ mod tests {
         // JPEG, stays).
         let j100 = Transfer::for_photo(0.025, true, 3, Some(100)).unwrap();
         let j70 = Transfer::for_photo(0.025, true, 3, Some(70)).unwrap();
-        let d01 = scratchart_model::display::linear(0.1) as f32;
+        let d01 = crate::encoding::decode(0.1) as f32;
         let lift = |t: &Transfer| t.subpixel(d01) - d01;
         assert!(
             (lift(&j100) - lift(&s)).abs() < 0.1 * lift(&s),
@@ -565,7 +561,7 @@ mod tests {
             let sub = crate::photo::Gray {
                 width: ss * w,
                 height: ss * h,
-                data: lit.iter().map(|&l| scratchart_render::io::display_value(l)).collect(),
+                data: lit.iter().map(|&l| crate::encoding::encode_f32(l)).collect(),
             };
             crate::photo::resize(&sub, w, h).data
         };

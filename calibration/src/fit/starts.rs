@@ -50,11 +50,11 @@ fn smoothed_photo(data: &Data, v: usize, sigma: f64) -> Vec<f32> {
     let (w, h) = (c.width as usize, c.height as usize);
     let lin: Vec<f32> = data.photos[v]
         .iter()
-        .map(|d| scratchart_model::display::linear(*d as f64) as f32)
+        .map(|d| crate::encoding::decode(*d as f64) as f32)
         .collect();
     crate::simulate::blur(&lin, w, h, sigma)
         .into_iter()
-        .map(|l| scratchart_render::io::display_value(l).min(1.0))
+        .map(|l| crate::encoding::encode_f32(l).min(1.0))
         .collect()
 }
 

@@ -12,7 +12,7 @@ use crate::fit::{Data, FitResult};
 /// Per ladder depth, the visible width the photos show: the model's width scaled by the ratio of
 /// the photo's to the model's light (above the plate's background) over that rung's cuts.
 pub(super) fn measured_widths(data: &Data, photos: &[Vec<f32>], res: &FitResult, pred: &[Vec<f32>]) -> Vec<(f64, f64)> {
-    let lin = |d: f32| scratchart_model::display::linear(d as f64);
+    let lin = |d: f32| crate::encoding::decode(d as f64);
     let mut out = Vec::new();
     for &z in &data.card.depths_mm {
         let Some(m) = res.tool.model(z) else { continue };

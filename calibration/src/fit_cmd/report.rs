@@ -81,8 +81,21 @@ pub(super) fn print_fit(best: &FitResult, results: &[FitResult], obs: &dyn Obser
     } else {
         String::new()
     };
+    // Each photo's tone curve as fitted (`tone[v]`: its value is the encoding of the light to
+    // the power e^-t), as that power.
+    let tone: Vec<String> = best
+        .params
+        .iter()
+        .filter(|(name, _, _)| name.starts_with("tone["))
+        .map(|(_, t, _)| format!("{:.3}", (-t).exp()))
+        .collect();
+    let tone_note = if tone.is_empty() {
+        String::new()
+    } else {
+        format!(", tone: light to the power [{}] before the encoding", tone.join(", "))
+    };
     obs.result(&format!(
-        "  exposure {:?}, camera blur {:?} px{noise_note}",
+        "  exposure {:?}, camera blur {:?} px{noise_note}{tone_note}",
         best.exposure
             .iter()
             .map(|e| (e * 1000.0).round() / 1000.0)

@@ -179,6 +179,16 @@ fn unidentified_reason(best: &FitResult, name: &str, photos: &[String]) -> Strin
                      shift of {c:.5}) but cannot follow it closely. Save the photo as PNG or at the highest \
                      JPEG quality"
                 )
+            } else if let Some(m) = most(&best.model_error, 1.0) {
+                // The model's own error, where the tone curve is free: a capture that reads the
+                // parameter from the rungs' brightness (calibration/docs/fit.md, "The photo's
+                // encoding"). Another photo of the same capture tells the same.
+                format!(
+                    "the capture tells it by how bright the rungs are, which the phone's own tone curve changes \
+                     as well (the fit leaves each photo's curve free: no phone encodes exactly as one curve says), and \
+                     the model's own approximation then moves it by {m:.5}; photographing the card again the same \
+                     way will not pin it ({TONE_DOC})"
+                )
             } else {
                 "the grooves that tell it are too dim, saturated, noisy or compressed in the photos, or missing"
                     .to_string()
@@ -186,12 +196,14 @@ fn unidentified_reason(best: &FitResult, name: &str, photos: &[String]) -> Strin
         }
     };
     let mut msg = format!(
-        "{name} is not identified: +- {} where a plate needs at most {:.5}: {cause}. Photograph again with the \
-         lamp and exposure of the capture guide, the phone steady (less noise), saved at full size as PNG or \
-         the highest JPEG quality",
+        "{name} is not identified: +- {} where a plate needs at most {:.5}: {cause}",
         sd.map_or("undefined".to_string(), |s| format!("{s:.5}")),
         best.limits.get(k).copied().unwrap_or(f64::NAN)
     );
+    if !cause.contains(TONE_DOC) {
+        msg += ". Photograph again with the lamp and exposure of the capture guide, the phone steady (less noise), \
+                saved at full size as PNG or the highest JPEG quality";
+    }
     if best.at_bound.iter().any(|n| n == name) {
         msg += &format!(
             " (it ran to a bound of its range, {:.5}: the value written is where its range ends, not what the \
@@ -250,6 +262,9 @@ fn shrinking_profile(best: &FitResult) -> Option<String> {
 
 /// The residual's RMS may be at most this many times the photo's own pixel noise (or
 /// `RESIDUAL_FLOOR`, whichever is larger): beyond it the model does not explain the photo.
+/// Where the docs say why the guide's capture reads some parameters from the rungs' brightness.
+const TONE_DOC: &str = "calibration/docs/fit.md, \"The photo's encoding\"";
+
 pub const RESIDUAL_MAX: f64 = 3.0;
 /// The smallest noise the residual is compared with (display units): 8-bit steps, JPEG and the
 /// model's own error leave about this much even in a clean photo (a clean PNG: 0.0012 rms; a

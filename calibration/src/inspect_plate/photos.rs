@@ -176,6 +176,9 @@ fn read_photo(file: &Path, view: usize, design: &Scene, marks: &[(Cut, f64)], bl
         );
         (ins.view, ins.image.data, how)
     };
+    // The photo's pixels are encoded as a phone encodes them (sRGB); the comparison is in the
+    // engine's display values of the same light.
+    let pixels: Vec<f32> = pixels.into_iter().map(crate::encoding::to_display).collect();
     let (cw, ch) = (camera.camera.width, camera.camera.height);
     let geom = ViewGeom::of(&camera, &design.plate);
     let half = 0.5 * design.plate.size_mm;
