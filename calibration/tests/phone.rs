@@ -16,7 +16,7 @@ use scratchart_tests::{assert_no_validation, gpu};
 use scratchart_tool::Tool;
 
 mod common;
-use common::{args, card, code, tmp};
+use common::{args, card, code, stated, tmp};
 
 /// The photos of every capture view, each with its own shot.
 fn shoot(
@@ -370,17 +370,7 @@ fn noise_clipped_at_black_is_modelled_and_never_gives_a_wrong_tool() {
         let got = run(&r, &args(&card_path, imgs, "ball", &out), &Silent);
         let report: serde_json::Value =
             serde_json::from_slice(&std::fs::read(d.join("fit/tool_report.json")).unwrap()).unwrap();
-        let param = |name: &str| {
-            let p = report["params"]
-                .as_array()
-                .unwrap()
-                .iter()
-                .find(|p| p["name"] == name)
-                .unwrap_or_else(|| panic!("{name} in {report}"))
-                .clone();
-            (p["value"].as_f64().unwrap(), p["sd"].as_f64().unwrap())
-        };
-        let (radius, sd) = param("radius_mm");
+        let (radius, sd) = stated(&d, "radius_mm");
         eprintln!("{tag}: radius {radius:.5} +- {sd:.5} (truth 0.058)");
         assert!((radius - 0.058).abs() < 0.005, "{tag}: radius {radius}");
         assert!(got.is_ok(), "{tag}: {:?}", got.err());

@@ -91,3 +91,18 @@ pub fn code(e: &anyhow::Error) -> u8 {
 pub fn args(card: &Path, images: Vec<PathBuf>, kind: &str, out: &Path) -> FitArgs {
     FitArgs::quiet(card, images, Some(kind), out)
 }
+
+/// The fit's stated value and standard deviation of parameter `name` (tool_report.json, written
+/// whether the fit is accepted or refused).
+pub fn stated(dir: &Path, name: &str) -> (f64, f64) {
+    let report: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(dir.join("fit/tool_report.json")).unwrap()).unwrap();
+    let p = report["params"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|p| p["name"] == name)
+        .unwrap_or_else(|| panic!("{name} in {report}"))
+        .clone();
+    (p["value"].as_f64().unwrap(), p["sd"].as_f64().unwrap_or(f64::INFINITY))
+}
