@@ -13,7 +13,7 @@ use scratchart_tests::{assert_no_validation, gpu};
 use scratchart_tool::Tool;
 
 mod common;
-use common::{card, fit, shoot, stated, tmp};
+use common::{card, fit, right_or_refused, shoot, stated, tmp};
 
 /// The capture views as a hand-held camera would take them: moved `shift_mm` sideways and up,
 /// aimed a little off centre, zoomed by `zoom`.
@@ -164,30 +164,6 @@ fn recover(
     let (tool, record) = got.unwrap();
     eprintln!("fitted {tool:?}; record {record}");
     (tool, record, dir)
-}
-
-/// Never a wrong tool: for each (parameter, truth, window), a written fit holds it within the
-/// window and within three of its stated standard deviations; a refused one exits 3 as not
-/// identified, writes no tool.json, and states the truth within three of its standard
-/// deviations. Returns whether the tool was written.
-fn right_or_refused(got: &anyhow::Result<(Tool, serde_json::Value)>, dir: &Path, truth: &[(&str, f64, f64)]) -> bool {
-    for &(name, t, window) in truth {
-        let (v, sd) = stated(dir, name);
-        eprintln!("{name}: {v} +- {sd} (truth {t})");
-        assert!(
-            (v - t).abs() <= 3.0 * sd,
-            "{name} {v} +- {sd}: the truth {t} lies outside three sigmas"
-        );
-        if got.is_ok() {
-            assert!((v - t).abs() < window, "{name} written as {v} for {t}");
-        }
-    }
-    if let Err(e) = got {
-        assert_eq!(scratchart::exit::code_of(e), 3, "{e:#}");
-        assert!(format!("{e:#}").contains("not identified"), "{e:#}");
-        assert!(!dir.join("fit/tool.json").exists());
-    }
-    got.is_ok()
 }
 
 /// A V-bit photographed off the capture pose (moved 6 mm, aimed off centre, zoomed 4%) with

@@ -106,3 +106,31 @@ pub fn stated(dir: &Path, name: &str) -> (f64, f64) {
         .clone();
     (p["value"].as_f64().unwrap(), p["sd"].as_f64().unwrap_or(f64::INFINITY))
 }
+
+/// Never a wrong tool: for each (parameter, truth, window), a written fit holds it within the
+/// window and within three of its stated standard deviations; a refused one exits 3 as not
+/// identified, writes no tool.json, and states the truth within three of its standard
+/// deviations. Returns whether the tool was written.
+pub fn right_or_refused(
+    got: &anyhow::Result<(Tool, serde_json::Value)>,
+    dir: &Path,
+    truth: &[(&str, f64, f64)],
+) -> bool {
+    for &(name, t, window) in truth {
+        let (v, sd) = stated(dir, name);
+        eprintln!("{name}: {v} +- {sd} (truth {t})");
+        assert!(
+            (v - t).abs() <= 3.0 * sd,
+            "{name} {v} +- {sd}: the truth {t} lies outside three sigmas"
+        );
+        if got.is_ok() {
+            assert!((v - t).abs() < window, "{name} written as {v} for {t}");
+        }
+    }
+    if let Err(e) = got {
+        assert_eq!(scratchart::exit::code_of(e), 3, "{e:#}");
+        assert!(format!("{e:#}").contains("not identified"), "{e:#}");
+        assert!(!dir.join("fit/tool.json").exists());
+    }
+    got.is_ok()
+}
