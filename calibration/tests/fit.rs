@@ -168,7 +168,8 @@ fn recover(
 
 /// A V-bit photographed off the capture pose (moved 6 mm, aimed off centre, zoomed 4%) with
 /// another exposure, blur and noise: the camera is recovered from the card's hatched marks and its eye
-/// refined by the fit, exposure within 3%, near the noise floor, the residual images and the
+/// refined by the fit, the exposure read to 5% (the truth within three of its stated
+/// uncertainties; within 3% while the tone curve was fixed), near the noise floor, the residual images and the
 /// plot written; the tool within 1 degree, 5 um and 3 um, or refused as not identified (with
 /// each photo's tone curve free the guide's capture reads the angle from the rungs' brightness:
 /// +- 0.502 degrees here, where 0.5 is allowed; calibration/docs/fit.md, "The photo's
@@ -198,9 +199,14 @@ fn a_v_bit_from_degraded_off_pose_photos_is_right_or_refused() {
     );
     let report: serde_json::Value =
         serde_json::from_slice(&std::fs::read(dir.join("fit/tool_report.json")).unwrap()).unwrap();
+    // The exposure, read to 5%, the truth within three of its stated uncertainties (it trades
+    // with the photo's free tone curve: 2.84 +- 2.5% for 3 here).
     for v in 0..2 {
         let e = report["fit"]["exposure"][v].as_f64().unwrap();
-        assert!((e / 3.0 - 1.0).abs() < 0.03, "exposure {e}");
+        let (ln, sd) = stated(&dir, &format!("ln_exposure[{v}]"));
+        assert!((e.ln() - ln).abs() < 1e-9, "exposure {e}, ln_exposure {ln}");
+        assert!(sd < 0.05, "exposure {e} read to +- {sd} only");
+        assert!((ln - 3f64.ln()).abs() <= 3.0 * sd, "exposure {e} +- {sd} (in ln) for 3");
     }
     let rms = report["fit"]["rms_residual"].as_f64().unwrap();
     assert!(rms < 0.01, "rms residual {rms}");

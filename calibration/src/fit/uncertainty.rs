@@ -52,7 +52,11 @@ pub(super) fn at_optimum(
     // w r J (W the robust weights). Unlike the curvature's s^2 A^-1 it holds where neighbouring
     // pixels are not independent (the camera's blur, JPEG's 8 x 8 blocks, a phone's
     // demosaicing: blocks of 16 x 16 pixels at the fit's scale) and where the model misses
-    // something the photo has; both are given, the sandwich is the one used.
+    // something the photo has; both are given, and the larger is the one used: the sandwich
+    // estimates B from the blocks the grooves cross, few enough to fall short by chance (the
+    // tests' V 75 off the pose with 0.8% noise: +- 0.35 degrees by the sandwich, 0.59 by the
+    // curvature, written 1.37 degrees off once a change of the blur's kernel moved the noise's
+    // draw), and the curvature misses correlated noise.
     let (r, cols) = lm::jacobian_at(ev, x, best_rg)?;
     let n = r.len();
     let np = ev.lay.params.len();
@@ -105,6 +109,7 @@ pub(super) fn at_optimum(
             (Some(a), Some(sw)) => {
                 let var = sw.cov(a, a);
                 let vc = s2 * sw.ainv[a][a];
+                let base = var.max(vc);
                 let m = model_shift.as_ref().map_or(0.0, |d| d[a]);
                 let dg = degrade_shift.as_ref().map_or(0.0, |d| d[a]);
                 noise_lift[k] = lift_shift.as_ref().map(|d| d[a]);
@@ -123,7 +128,7 @@ pub(super) fn at_optimum(
                 if seen_by > 1 {
                     disagreement[k] = Some(excess.sqrt());
                 }
-                let var = var + m * m + dg * dg + lf * lf + ch * ch + if seen_by > 1 { excess } else { 0.0 };
+                let var = base + m * m + dg * dg + lf * lf + ch * ch + if seen_by > 1 { excess } else { 0.0 };
                 (
                     (var.is_finite() && var >= 0.0).then(|| var.sqrt()),
                     (vc.is_finite() && vc >= 0.0).then(|| vc.sqrt()),

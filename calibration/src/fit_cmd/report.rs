@@ -182,7 +182,7 @@ pub(super) fn fit_record(
         "pixels": best.pixels,
         "uncertainty": best.params.iter().filter(|p| is_tool_param(&p.0))
             .map(|p| (p.0.clone(), p.2.map_or(json!("not identified"), |s| json!(s)))).collect::<serde_json::Map<_, _>>(),
-        "uncertainty_method": "block sandwich (16 x 16 pixel blocks) at the optimum, with the model's own error, the photos' degradations and the photos' disagreement in quadrature",
+        "uncertainty_method": "the larger of the block sandwich (16 x 16 pixel blocks) and the curvature at the optimum, with the model's own error, the photos' degradations and the photos' disagreement in quadrature",
         "curvature_uncertainty": best.params.iter().zip(&best.curvature).filter(|(p, _)| is_tool_param(&p.0))
             .map(|(p, s)| (p.0.clone(), json!(s))).collect::<serde_json::Map<_, _>>(),
         "not_identified": unidentified,
