@@ -193,6 +193,11 @@ pub struct FitResult {
     /// joint optimum on its residuals; None where it does not see the parameter).
     #[serde(default)]
     pub per_photo: Vec<Vec<Option<f64>>>,
+    /// Per photo, the RMS of the model's own error over its pixels (display units): the change
+    /// a render at four times the photos' resolution makes to the model image. Part of what
+    /// the residual may be (`fit_cmd::verdict`).
+    #[serde(default)]
+    pub model_error_rms: Vec<f64>,
     /// Each parameter's limit of identification (its standard deviation at most this).
     #[serde(default)]
     pub limits: Vec<f64>,
@@ -402,6 +407,7 @@ pub fn fit_kind(
         degradation,
         jpeg_change,
         per_photo,
+        model_error_rms,
         unseen,
         residuals: r,
         in_valley,
@@ -461,6 +467,7 @@ pub fn fit_kind(
         degradation,
         jpeg_change,
         per_photo,
+        model_error_rms,
         limits: ev.lay.params.iter().map(|q| q.limit).collect(),
         unseen,
         at_bound,

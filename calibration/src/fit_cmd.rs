@@ -147,9 +147,10 @@ pub fn run(renderer: &Renderer, args: &FitArgs, obs: &dyn Observer) -> Result<()
     let residual = photo_residuals(&data, &pred, &registered, &noise);
     for (v, (rms, nz)) in residual.iter().enumerate() {
         obs.result(&format!(
-            "  photo {}: residual rms {rms:.4}, its own noise {nz:.4} ({:.1} times)",
+            "  photo {}: residual rms {rms:.4}, its own noise {nz:.4}, the model's own error {:.4} ({:.1} times both)",
             files[v].display(),
-            rms / nz.max(RESIDUAL_FLOOR)
+            best.model_error_rms.get(v).copied().unwrap_or(0.0),
+            rms / verdict::explained(*nz, best.model_error_rms.get(v).copied())
         ));
     }
     let photo_names: Vec<String> = files

@@ -28,6 +28,8 @@ pub(super) struct Uncertainty {
     pub(super) jpeg_change: Vec<Option<f64>>,
     /// Per photo (view), per parameter: where that photo alone puts it (see `disagreement`).
     pub(super) per_photo: Vec<Vec<Option<f64>>>,
+    /// Per photo, the RMS of the model's own error over its pixels (see `model_shift`).
+    pub(super) model_error_rms: Vec<f64>,
     pub(super) unseen: Vec<String>,
     pub(super) residuals: Vec<f64>,
     /// Per parameter: it trades with a parameter of the grooves that is not identified (their
@@ -76,7 +78,7 @@ pub(super) fn at_optimum(
         cols: &cols,
         wts: &wts,
     };
-    let model_shift = model_shift(ev, x, &r, &normal)?;
+    let (model_shift, model_error_rms) = model_shift(ev, x, &r, &normal)?;
     let (degrade_shift, lift_shift, change_shift) = degrade_shift(ev, data, x, &normal)?;
     // What the photos say each on its own: a bias that one photo's degradations bring (clipped
     // noise averaged by a shrink, JPEG, blur the model does not follow) moves that photo's answer
@@ -155,6 +157,7 @@ pub(super) fn at_optimum(
         degradation,
         jpeg_change,
         per_photo,
+        model_error_rms,
         unseen,
         residuals: r,
         in_valley,
@@ -272,7 +275,15 @@ impl Normal<'_> {
 /// is not the camera's continuous optics. The shift of the parameters that the residual
 /// change to a render at twice that resolution asks for, A^-1 J^T W (r_fine - r), is added in
 /// quadrature to each standard deviation (it is a bias no pixel noise shows).
-fn model_shift(ev: &mut Evaluator, x: &[f64], r: &[f64], normal: &Normal) -> Result<Option<Vec<f64>>, FitError> {
+/// Also returns, per photo, the RMS of that change over the pixels compared (display units,
+/// unweighted): how far the model's own approximation leaves it from a finer model of the same
+/// tool, a part of the residual that no noise makes.
+fn model_shift(
+    ev: &mut Evaluator,
+    x: &[f64],
+    r: &[f64],
+    normal: &Normal,
+) -> Result<(Option<Vec<f64>>, Vec<f64>), FitError> {
     ev.ss = 2 * SUPERSAMPLE;
     ev.gs = None;
     let fine = ev.eval(x);
@@ -280,7 +291,21 @@ fn model_shift(ev: &mut Evaluator, x: &[f64], r: &[f64], normal: &Normal) -> Res
     ev.gs = None;
     let (rf, _) = fine?;
     let shift: Vec<f64> = rf.iter().zip(r).map(|(a, b)| a - b).collect();
-    Ok(normal.step(&shift))
+    let mut rms = Vec::with_capacity(ev.data.masks.len());
+    let mut i = 0;
+    for mask in &ev.data.masks {
+        let (mut sum, mut n) = (0.0f64, 0usize);
+        for _ in mask.iter().filter(|ok| **ok) {
+            let w = ev.weights.as_ref().map_or(1.0, |w| w[i]);
+            if w > 0.0 {
+                sum += shift[i] * shift[i] / w;
+                n += 1;
+            }
+            i += 1;
+        }
+        rms.push((sum / n.max(1) as f64).sqrt());
+    }
+    Ok((normal.step(&shift), rms))
 }
 
 /// What the photo's own degradations do to the fit beyond what the model expects of them (the

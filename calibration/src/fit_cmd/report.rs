@@ -198,6 +198,7 @@ pub(super) fn fit_record(
             }
             p["noise"] = json!(nz);
             p["residual_rms"] = json!(rms);
+            p["model_error_rms"] = json!(best.model_error_rms.get(v));
             p
         }).collect::<Vec<_>>(),
         "card": args.card.display().to_string(),

@@ -48,20 +48,28 @@ pub fn verdict(best: &FitResult, residual: &[(f64, f64)], photos: &[String], all
     }
 }
 
-/// Each photo whose residual is above [`RESIDUAL_MAX`] times its own noise (at least
-/// [`RESIDUAL_FLOOR`]).
+/// What a photo's residual may be: its own noise (at least [`RESIDUAL_FLOOR`]) and the model's
+/// own error on it (`FitResult::model_error_rms`: a render at four times the photo's resolution
+/// against the fit's twice; a low-noise photo of wide grooves shows it), in quadrature.
+pub fn explained(nz: f64, model_error_rms: Option<f64>) -> f64 {
+    nz.max(RESIDUAL_FLOOR).hypot(model_error_rms.unwrap_or(0.0))
+}
+
+/// Each photo whose residual is above [`RESIDUAL_MAX`] times what [`explained`] allows.
 fn residual_reasons(best: &FitResult, residual: &[(f64, f64)], photos: &[String]) -> Vec<String> {
     let mut reasons: Vec<String> = Vec::new();
     for (v, (rms, nz)) in residual.iter().enumerate() {
-        let floor = nz.max(RESIDUAL_FLOOR);
+        let me = best.model_error_rms.get(v).copied();
+        let floor = explained(*nz, me);
         if !(rms / floor <= RESIDUAL_MAX) {
             reasons.push(format!(
                 "{}: the fit leaves a residual of rms {rms:.4}, {:.1} times what the photo's own noise ({nz:.4}) \
-                 explains (at most {RESIDUAL_MAX}): this is not the card as a {} cuts it (another tool, another \
-                 card, not a card), or the photo has what the model lacks (glare, a smudge, a card that is not \
-                 flat); see the residual image",
+                 and the model's own error ({:.4}) explain (at most {RESIDUAL_MAX}): this is not the card as a {} \
+                 cuts it (another tool, another card, not a card), or the photo has what the model lacks (glare, a \
+                 smudge, a card that is not flat); see the residual image",
                 photos[v],
                 rms / floor,
+                me.unwrap_or(0.0),
                 best.kind.name()
             ));
         }
@@ -314,6 +322,7 @@ mod verdict_tests {
             degradation: vec![None; 5],
             jpeg_change: vec![None; 5],
             per_photo: vec![],
+            model_error_rms: vec![],
             limits: limits.to_vec(),
             unseen: vec![],
             at_bound: at_bound.iter().map(|s| s.to_string()).collect(),
@@ -368,6 +377,17 @@ mod verdict_tests {
             false,
         );
         assert_eq!(v.reasons.len(), 1, "{v:?}");
+        // The model's own error is part of what a residual may be: 0.007 against a clean
+        // photo whose model moves by 0.004 at four times the resolution is 1.7 times both, and
+        // the same with 0.0005 of the model's error is 5.4 times.
+        let mut fine = result([0.1, 0.001, 0.0005], &[]);
+        fine.model_error_rms = vec![0.004, 0.0005];
+        let v = verdict(&fine, &[(0.007, 0.0), (0.007, 0.0)], &photos(), false);
+        assert_eq!(v.reasons.len(), 1, "{v:?}");
+        assert!(
+            v.reasons[0].contains("b.jpg") && v.reasons[0].contains("5.4 times") && v.reasons[0].contains("0.0005"),
+            "{v:?}"
+        );
         // NaN is refused, not passed.
         let v = verdict(
             &result([0.1, 0.001, 0.0005], &[]),
