@@ -167,10 +167,12 @@ pub struct FitResult {
     #[serde(default)]
     pub bootstrap: Option<Vec<f64>>,
     /// The curvature's standard deviations (s^2 (J^T W J)^-1, pixels taken as independent), in
-    /// `params`' order: beside the sandwich's in `params`, for comparison.
+    /// `params`' order; `sd` is the larger of this and the sandwich's, with the systematic
+    /// terms in quadrature.
     #[serde(default)]
     pub curvature: Vec<Option<f64>>,
-    /// The sandwich's standard deviations before the limits (`params` holds `None` above them).
+    /// The standard deviations before the limits (`params` holds `None` above them): the larger
+    /// of the block sandwich's and the curvature's, the systematic terms in quadrature.
     #[serde(default)]
     pub sd: Vec<Option<f64>>,
     /// Per parameter, the largest step one photo alone takes from the joint optimum beyond what

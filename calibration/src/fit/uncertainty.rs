@@ -1,5 +1,5 @@
-//! The fit's uncertainties at its optimum: the block sandwich covariance, and in quadrature the
-//! model's own error and what the photo's degradations do (see `at_optimum`); and the bootstrap.
+//! The fit's uncertainties at its optimum: the block sandwich covariance or the curvature's,
+//! whichever is larger, and in quadrature the model's own error and what the photo's degradations do (see `at_optimum`); and the bootstrap.
 use scratchart_observe::Observer;
 use scratchart_optim::least_squares::{solve_spd, weighted_gradient};
 

@@ -2,7 +2,7 @@
 //! its picture, a difference image, and what the carving did differently (inspect.json and
 //! tool_as_carved.json), or a refusal naming what the photos do not pin.
 use super::*;
-use crate::fit_cmd::verdict::{RESIDUAL_FLOOR, RESIDUAL_MAX};
+use crate::fit_cmd::verdict::{explained, RESIDUAL_MAX};
 
 /// Each photo's numbers.
 struct PhotoReport {
@@ -91,7 +91,7 @@ fn print_found(found: &Found) {
 }
 
 /// Each photo whose residual at the fit is more than the tool fit allows
-/// ([`RESIDUAL_MAX`] times its own pixel noise, at least [`RESIDUAL_FLOOR`]): what the model
+/// ([`RESIDUAL_MAX`] times what [`explained`] allows: its own pixel noise, floored): what the model
 /// does not explain there may be what moved the numbers (a blur, a lamp, a plate not as carved).
 fn unexplained(p: &Problem, at: &Eval) -> Vec<String> {
     let mut out = Vec::new();
@@ -107,7 +107,7 @@ fn unexplained(p: &Problem, at: &Eval) -> Vec<String> {
             data: ph.pixels.clone(),
         };
         let noise = crate::photo::pixel_noise_in(&img, Some(&ph.used));
-        let against = noise.max(RESIDUAL_FLOOR);
+        let against = explained(noise, None);
         if !(rms <= RESIDUAL_MAX * against) {
             out.push(format!(
                 "{} leaves a residual of rms {rms:.4}, {:.1} times what its own noise ({noise:.4}) explains (at most \
