@@ -5,6 +5,9 @@
 //   PRE_GRAD    at every pyramid pixel: dE/d(filter response), written over `pre` in place.
 //               With R = 2 lambda_g (G - G_T) (9 x 9, symmetric), dE/dc_k(p) = (2 / N_s) sum_j R_kj c_j(p),
 //               then through the half-wave rectifiers.
+//   XGRAD       (with cross-talk pairs) at every level-0 pixel of view v: B_v += sum_k c_vk u_vk,
+//               in place, so that LEVEL_GRAD's pixel term carries the cross-talk term's gradient
+//               (d/dB of c_vk^2 is 2 c_vk u_vk; recorded once per forward).
 //   LEVEL_GRAD  once per level, coarsest first: dE/dX at each pixel of the level = the transposed
 //               clamp-to-edge filters applied to those gradients + 1/4 of the gradient of the
 //               pooled pixel above it; at level 0 plus the pixel term's
@@ -44,6 +47,19 @@ void main() {
         else if (r[k] < 0.0) gk = -dc[2u * k];
         pre[i * NPRE + k] = gk;
     }
+#elif defined(XGRAD)
+    uint i = flat_id();
+    if (i >= pc.lvl_end) return;  // level 0's pixels
+    uint v = seg_of(i);           // a level-0 segment: the coarser levels lie after level 0
+    LossSeg V = segs[v];
+    uint li = i - V.off;
+    if (li >= V.w * V.h) return;
+    float add = 0.0;
+    for (uint p = 0u; p < pc.n_pairs; ++p) {
+        XPair P = xpairs[p];
+        if (P.v == v) add += xc[p] * (xmask[i] * (tpyr[segs[P.k].off + li] - P.mu) * P.s);
+    }
+    bbuf[i] += add;
 #elif defined(LEVEL_GRAD)
     uint i = pc.lvl_begin + flat_id();
     if (i >= pc.lvl_end) return;

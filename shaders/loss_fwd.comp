@@ -6,8 +6,11 @@
 //   FEAT     5 filter responses at every pyramid pixel; at level 0 also B = g * (I - T)
 //   PARTIAL  per block of <= 256 pixels of one segment: 45 Gram sums and sum B^2, in pixel order
 //   GRAM     per segment: its blocks' partial sums in block order, divided by the pixel count
-//   FINAL    per view: pixel loss lambda_p mean B^2 and Gram loss lambda_g sum_s ||G - G_T||^2;
-//            outv[2 n_views] = their total (views in order)
+//   XPART    (with cross-talk pairs) per pair (v, k) and block of <= 256 pixels of view v:
+//            sum B_v u_vk in pixel order (inc/loss_push.glsl XPair)
+//   XSUM     per pair: c_vk = its blocks' partial sums in block order
+//   FINAL    per view: pixel loss lambda_p (mean B^2 + sum_k c_vk^2 / N_v) and Gram loss
+//            lambda_g sum_s ||G - G_T||^2; outv[2 n_views] = their total (views in order)
 // Every sum runs in a fixed order, so the loss is bit-reproducible (no float atomics).
 #extension GL_GOOGLE_include_directive : require
 #include "inc/loss_bindings.glsl"
@@ -91,11 +94,37 @@ void main() {
     float acc = 0.0;
     for (uint b = 0u; b < S.nblk; ++b) acc += part[(S.blk0 + b) * NPART + e];
     gram[t] = acc / float(S.w * S.h);
+#elif defined(XPART)
+    uint t = flat_id();
+    if (t >= pc.lvl_end) return;  // lvl_end: the number of partial sums
+    uint p = 0u;
+    for (uint q = 1u; q < pc.n_pairs; ++q)
+        if (t >= xpairs[q].part0) p = q;
+    XPair P = xpairs[p];
+    LossSeg V = segs[P.v];
+    uint ko = segs[P.k].off;
+    uint i0 = (t - P.part0) * BLOCK, i1 = min(i0 + BLOCK, V.w * V.h);
+    float acc = 0.0;
+    for (uint i = i0; i < i1; ++i) acc += bbuf[V.off + i] * (xmask[V.off + i] * (tpyr[ko + i] - P.mu) * P.s);
+    xpart[t] = acc;
+#elif defined(XSUM)
+    uint p = flat_id();
+    if (p >= pc.n_pairs) return;
+    XPair P = xpairs[p];
+    float acc = 0.0;
+    for (uint b = 0u; b < segs[P.v].nblk; ++b) acc += xpart[P.part0 + b];
+    xc[p] = acc;
 #elif defined(FINAL)
     // One workgroup; thread v handles view v, thread 0 then adds the views in order.
     uint v = gl_LocalInvocationID.x;
     for (uint vv = v; vv < pc.n_views; vv += 256u) {
         float lp = pc.lambda_p * segs[vv].weight * gram[vv * NPART + NGRAM];
+        if (pc.n_pairs > 0u) {
+            float xs = 0.0;
+            for (uint p = 0u; p < pc.n_pairs; ++p)
+                if (xpairs[p].v == vv) xs += xc[p] * xc[p];
+            lp += pc.lambda_p * segs[vv].weight * (xs / float(segs[vv].w * segs[vv].h));
+        }
         float lg = 0.0;
         for (uint s = 0u; s < pc.n_levels; ++s) {
             uint sg = s * pc.n_views + vv;

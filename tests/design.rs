@@ -69,6 +69,7 @@ fn loss_and_its_gradient_match_the_cpu_reference() {
         lambda_g: 5.0,
         sigma: 0.8,
         levels: 3,
+        crosstalk: 0.0,
     };
     let r = Renderer::new(&ctx).unwrap();
     let mut gs = r.upload(&p.scene).unwrap();

@@ -196,7 +196,7 @@ fn push_constant_layouts_agree() {
         g_c: u() as f32,
         g_s: u() as f32,
         n_segs: u(),
-        pad: u(),
+        n_pairs: u(),
     };
     let segs: Vec<LossSeg> = (0..2)
         .map(|_| LossSeg {

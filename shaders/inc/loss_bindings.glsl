@@ -1,5 +1,5 @@
 // Storage buffers and push constants shared by loss_fwd.comp and loss_bwd.comp (one pipeline
-// layout of 13 buffers for every loss pass; a pass ignores what it does not use). Twin:
+// layout of 17 buffers for every loss pass; a pass ignores what it does not use). Twin:
 // engine/optim/src/loss/mod.rs (binding order in `Loss::bufs`; LossSeg and LossPush, declared in
 // inc/loss_push.glsl).
 #ifndef SA_LOSS_BINDINGS_GLSL
@@ -22,6 +22,10 @@ layout(std430, binding = 9) readonly buffer GramT { float gramT[]; };     // the
 layout(std430, binding = 10) buffer Out { float outv[]; };                // per view (pixel, gram) loss; [2 n_views] = total
 layout(std430, binding = 11) buffer Gx { float gx[]; };                   // dE/d(pyramid value), levels >= 1
 layout(std430, binding = 12) buffer Dl { float dl[]; };                   // dE/dL (level 0 layout = image layout)
+layout(std430, binding = 13) readonly buffer XMask { float xmask[]; };    // level 0: 1 inside the view's picture, else 0
+layout(std430, binding = 14) readonly buffer XPairs { XPair xpairs[]; };  // cross-talk pairs (v, k), by v then k
+layout(std430, binding = 15) buffer XPart { float xpart[]; };             // per pair and block of v: partial <B_v, u>
+layout(std430, binding = 16) buffer XC { float xc[]; };                   // per pair: c = <B_v, u>
 
 uint flat_id() {
     return (gl_WorkGroupID.x + gl_WorkGroupID.y * gl_NumWorkGroups.x) * 256u + gl_LocalInvocationID.x;

@@ -15,6 +15,20 @@ struct LossSeg {
     float weight;  // the view's weight in the loss (1 unless `design --balance` moves it)
 };
 
+// One cross-talk pair (engine/docs/model.md section 7): view v's blurred error B_v projected on
+// u(i) = mask_v(i) (T_k(i) - mu) * s, view k's target centred over view v's picture and scaled
+// to norm sqrt(kappa) (s = sqrt(kappa) / its norm; 0 where T_k is flat there).
+struct XPair {
+    uint v;      // the view whose error is projected
+    uint k;      // the other view, whose target gives the direction (same size as v)
+    uint part0;  // first of its partial sums in XPart (one per 256-pixel block of v's level 0)
+    uint pad;
+    float mu;
+    float s;
+    float pad1;
+    float pad2;
+};
+
 layout(push_constant) uniform Push {
     uint n_views;
     uint n_levels;
@@ -27,7 +41,7 @@ layout(push_constant) uniform Push {
     float g_c;       // 1D Gaussian weights: centre ...
     float g_s;       // ... and side (g_c + 2 g_s = 1); the 3x3 blur is their outer product
     uint n_segs;
-    uint pad;
+    uint n_pairs;    // cross-talk pairs (XPart, XC; 0: no cross-talk term)
 } pc;
 
 #endif

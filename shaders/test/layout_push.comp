@@ -57,7 +57,7 @@ void main() {
     put(pc.n); put(pc.n_blocks); put(pc.flag_index); put(pc.pad1);
 #elif defined(LOSS)
     put(pc.n_views); put(pc.n_levels); put(pc.level); put(pc.n_blocks); put(pc.lvl_begin); put(pc.lvl_end);
-    put(pc.lambda_p); put(pc.lambda_g); put(pc.g_c); put(pc.g_s); put(pc.n_segs); put(pc.pad);
+    put(pc.lambda_p); put(pc.lambda_g); put(pc.g_c); put(pc.g_s); put(pc.n_segs); put(pc.n_pairs);
     for (int k = 0; k < 2; ++k) {
         LossSeg S = segs[k];
         put(S.off); put(S.w); put(S.h); put(S.view); put(S.level); put(S.blk0); put(S.nblk); put(S.weight);

@@ -300,6 +300,26 @@ impl<'e, 'r> LiveEnv<'e, 'r> {
     }
 }
 
+/// The design's loss: with its cross-talk term (`cfg.loss.crosstalk`) among the design views
+/// (a walk's in-between views judge the arc and are not paired), over each view's picture.
+pub fn design_loss(
+    ctx: &Arc<Context>,
+    views: &[scratchart_render::layout::ViewGpu],
+    problem: &Problem,
+    cfg: &DesignConfig,
+) -> Result<Loss, OptimError> {
+    let design_views = problem.scene.views.len() - problem.walk.as_ref().map_or(0, |w| w.between.len());
+    let among: Vec<usize> = (0..design_views).collect();
+    Ok(Loss::with_crosstalk(
+        ctx,
+        views,
+        &problem.targets,
+        cfg.loss,
+        &problem.pictures,
+        &among,
+    )?)
+}
+
 /// The whole `design` job: optimize, prune, evaluate and (if configured) write the outputs.
 /// Progress and warnings go to `obs`.
 pub fn run_design(
@@ -332,7 +352,7 @@ pub fn run_design_live(
     // A design with arcs renders them at its own chords while it runs (summary.json's `arcs`).
     renderer.set_arc_chords(cfg.arcs.map(|a| a.chords));
     let slots = scratchart_render::layout::view_slots(&problem.scene);
-    let loss = Loss::new(ctx, &slots.views, &problem.targets, cfg.loss)?;
+    let loss = design_loss(ctx, &slots.views, problem, cfg)?;
     let mut opt = Optimizer::new(&renderer, &loss, problem, cfg)?;
     let resumed_from = start_or_resume(&mut opt, problem, cfg, obs)?;
     let (initial_images, _) = opt.render()?;

@@ -172,7 +172,7 @@ pub fn run_design_within(
     // 2. Trimmed to fit, optimized again.
     let renderer = Renderer::new(ctx)?;
     let slots = scratchart_render::layout::view_slots(&problem.scene);
-    let loss = Loss::new(ctx, &slots.views, &problem.targets, cfg.loss)?;
+    let loss = crate::design::design_loss(ctx, &slots.views, problem, cfg)?;
     let fits = ta.upper_s <= limit;
     let (start, refine_iters, trimmed_to) = if fits {
         (a.scene.clone(), 0, None)

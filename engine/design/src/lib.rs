@@ -61,6 +61,7 @@ pub mod design;
 pub mod framing;
 pub mod job_limit;
 pub mod job_time;
+pub mod lamp_place;
 pub mod live;
 pub mod measure;
 pub mod problem;

@@ -212,6 +212,7 @@ impl Live<'_, '_> {
             self.problem.targets[v] = f.image;
             self.problem.pictures[v] = f.picture;
             self.problem.picture_rects[v] = f.rect;
+            self.loss.set_pictures(&self.renderer.ctx, &self.problem.pictures)?;
             self.loss.set_targets(&self.renderer.ctx, &self.problem.targets)?;
         }
         if e.lambda_p.is_some() || e.lambda_g.is_some() {

@@ -132,14 +132,15 @@ pub struct DesignArgs {
     #[arg(long, default_value_t = 45.0)]
     pub elevation: f64,
     /// Azimuth of the lamp, degrees (views sit at 0, 360/N, ...; a walk's lamp defaults to its
-    /// arc's middle). The default, 0, puts it on view
-    /// 0's side: its mirror direction then falls between views, so no view sees the plate's own
-    /// specular highlight (at 30 degrees one view does, and its target dims)
+    /// arc's middle). Without this and --light-elevation, a ring of two or more views gets the
+    /// lamp where their grooves differ most in direction, clear of every eye and of the plate's
+    /// own highlight (three views: overhead; engine/docs/worst_view.md); with one of them, 0
+    /// puts it on view 0's side
     #[arg(long, allow_hyphen_values = true)]
     pub light_azimuth: Option<f64>,
-    /// Elevation of the lamp, degrees (default: 20 degrees above the views', at most 80: a lamp on
-    /// a stand above the first viewer's head, where a person can stand beside it; the views' own
-    /// elevation puts it in view 0's eye, as designs did before)
+    /// Elevation of the lamp, degrees (default for a ring of two or more views: see
+    /// --light-azimuth; otherwise 20 degrees above the views', at most 80; the views' own
+    /// elevation puts it in view 0's eye)
     #[arg(long)]
     pub light_elevation: Option<f64>,
     /// Distance of the lamp from the plate centre, mm (default: the views' distance)
@@ -227,6 +228,11 @@ pub struct DesignArgs {
     /// Standard deviation of the loss's 3x3 Gaussian blur, pixels
     #[arg(long, default_value_t = 1.0)]
     pub blur_sigma: f32,
+    /// Weight K of the loss's cross-talk term: the part of each view's error that looks like
+    /// another view's picture counts 1 + K times (the quality report's cross-talk; 0: none;
+    /// engine/docs/worst_view.md measures it)
+    #[arg(long, default_value_t = 0.0, value_name = "K")]
+    pub crosstalk: f32,
     /// Output directory
     #[arg(long, default_value = "out")]
     pub out: PathBuf,
@@ -402,6 +408,7 @@ impl DesignArgs {
             arcs: self.arcs.then_some(self.arc_chords),
             max_bulge: self.max_bulge,
             blur_sigma: self.blur_sigma,
+            crosstalk: self.crosstalk,
             out: self.out.clone(),
             checkpoint_every: self.checkpoint_every,
             resume: self.resume,

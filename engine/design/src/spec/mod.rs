@@ -123,6 +123,8 @@ pub struct DesignSpec {
     /// `--max-bulge`: the largest |bulge| of a design with arcs.
     pub max_bulge: f64,
     pub blur_sigma: f32,
+    /// `--crosstalk`: the loss's cross-talk weight kappa (0: none; `LossConfig::crosstalk`).
+    pub crosstalk: f32,
     pub out: PathBuf,
     pub checkpoint_every: u32,
     pub resume: bool,
@@ -230,6 +232,7 @@ impl Default for DesignSpec {
             arcs: None,
             max_bulge: 0.5,
             blur_sigma: 1.0,
+            crosstalk: 0.0,
             out: PathBuf::from("out"),
             checkpoint_every: 50,
             resume: false,
@@ -299,6 +302,7 @@ pub fn config(spec: &DesignSpec) -> DesignConfig {
     cfg.loss.lambda_p = spec.lambda_p;
     cfg.loss.lambda_g = spec.lambda_g;
     cfg.loss.sigma = spec.blur_sigma;
+    cfg.loss.crosstalk = spec.crosstalk;
     let a = &mut cfg.adam;
     a.lr_end = spec.lr_end.unwrap_or(a.lr_end);
     a.lr_w = spec.lr_w.unwrap_or(a.lr_w);
@@ -334,6 +338,10 @@ pub fn prepare(
     obs: &dyn Observer,
 ) -> Result<(Problem, DesignConfig), SpecError> {
     ensure_flag!(spec.blur_sigma > 0.0, "--blur-sigma must be > 0");
+    ensure_flag!(
+        spec.crosstalk >= 0.0 && spec.crosstalk.is_finite(),
+        "--crosstalk must be a finite number >= 0 (0: no cross-talk term)"
+    );
     // What only a design for a machine has.
     let machine_given = spec.machine.is_some() || spec.machine_file.is_some();
     for (given, flag) in [

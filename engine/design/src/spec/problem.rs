@@ -50,6 +50,27 @@ pub fn problem(spec: &DesignSpec, info: &DeviceInfo, obs: &dyn Observer) -> Resu
         ..Plate::flat(plate_mm)
     };
     let (mut views, between) = design_views(spec, walk.as_ref(), &plate)?;
+    if walk.is_none()
+        && spec.view_file.is_none()
+        && views.len() >= 2
+        && plate.shape.is_flat()
+        && spec.light_elevation.is_none()
+        && spec.light_azimuth.is_none()
+    {
+        if let LightKind::Point { position } = views[0].light.kind {
+            let eyes: Vec<[f64; 3]> = views.iter().map(|v| v.camera.eye).collect();
+            let q = crate::tolerance::Place::of(position);
+            obs.info(&format!(
+                "lamp at azimuth {:.0} and elevation {:.0} degrees, {:.0} mm from the plate centre: there the \
+                 views' grooves differ by at least {:.0} degrees in direction, so few scratches serve two views \
+                 (--light-azimuth / --light-elevation place it yourself)",
+                q.azimuth_deg,
+                q.elevation_deg,
+                q.distance_mm,
+                crate::lamp_place::least_separation(position, &eyes)
+            ));
+        }
+    }
     if !plate.shape.is_flat() && spec.view_file.is_none() && spec.light_azimuth.is_none() {
         // A bent sheet mirrors the lamp along a line for every eye: the lamp goes where no view
         // sees that line (crate::bend).
@@ -170,7 +191,27 @@ fn design_views(
                 None => {
                     ensure_flag!(spec.views >= 1, "--views must be at least 1");
                     // Initial intensity: a placeholder, calibrated against the targets before the first step.
-                    let light = lamp(spec, distance, 0.0)?;
+                    let mut light = lamp(spec, distance, 0.0)?;
+                    if spec.views >= 2
+                        && spec.light_elevation.is_none()
+                        && spec.light_azimuth.is_none()
+                        && plate.shape.is_flat()
+                    {
+                        // Where the views' grooves differ most in direction (crate::lamp_place).
+                        let eyes: Vec<[f64; 3]> = (0..spec.views)
+                            .map(|j| {
+                                scratchart_model::camera::spherical(
+                                    distance,
+                                    360.0 * j as f64 / spec.views as f64,
+                                    spec.elevation,
+                                )
+                            })
+                            .collect();
+                        if let Some((az, el, _)) = crate::lamp_place::separating_lamp(&eyes) {
+                            let r = spec.light_distance.unwrap_or(LIGHT_DISTANCE_FACTOR * distance);
+                            light = orbit_light(r, el, az, 1.0e4);
+                        }
+                    }
                     // The plate's silhouette fills 95% of each frame (width or height, whichever binds).
                     framed_ring_views(spec.views, spec.elevation, distance, plate, spec.res, &light, 0.95)
                 }

@@ -5,6 +5,9 @@
 //! feature bank of `shaders/inc/loss_bank.glsl` (3 scales x 9 rectified oriented channels). The
 //! kernels are `shaders/loss_fwd.comp` and `shaders/loss_bwd.comp`; [`reference`] is their f64 CPU
 //! twin (a test oracle). Off-plate pixels (L = 0) count in the loss like any other pixel.
+//! With the cross-talk term (`LossConfig::crosstalk` = kappa > 0, [`Loss::with_crosstalk`]),
+//! view v's pixel term is lambda_p (mean B_v^2 + sum_k c_vk^2 / N_v), B_v = g * (I_v - T_v),
+//! c_vk = sum_p B_v(p) u_vk(p), u_vk = mask_v (T_k - mean) scaled to norm sqrt(kappa).
 use std::sync::Arc;
 
 use bytemuck::{Pod, Zeroable};
@@ -28,6 +31,10 @@ pub struct LossConfig {
     pub sigma: f32,
     /// Pyramid levels of the feature bank (scales 1, 1/2, 1/4 for 3).
     pub levels: u32,
+    /// Weight kappa of the cross-talk term (0: none): the part of each view's blurred error
+    /// along another view's picture (centred over this view's picture) counts 1 + kappa times
+    /// in the pixel term ([`Loss::with_crosstalk`] names the views and their pictures).
+    pub crosstalk: f32,
 }
 
 impl Default for LossConfig {
@@ -37,6 +44,7 @@ impl Default for LossConfig {
             lambda_g: 0.01,
             sigma: 1.0,
             levels: 3,
+            crosstalk: 0.0,
         }
     }
 }
@@ -80,7 +88,8 @@ pub struct LossPush {
     pub g_c: f32,
     pub g_s: f32,
     pub n_segs: u32,
-    pub pad: u32,
+    /// Cross-talk pairs (0: no cross-talk term).
+    pub n_pairs: u32,
 }
 
 /// Pyramid geometry: segments (level-major, view-minor) and the pixel range of each level.
@@ -173,6 +182,9 @@ struct Pipes {
     partial: ComputePipeline,
     gram: ComputePipeline,
     final_: ComputePipeline,
+    xpart: ComputePipeline,
+    xsum: ComputePipeline,
+    xgrad: ComputePipeline,
     pre_grad: ComputePipeline,
     level_grad: ComputePipeline,
 }
@@ -200,15 +212,39 @@ pub struct Loss {
     weights: [std::sync::atomic::AtomicU32; 2],
     /// Each view's weight as last set ([`Loss::set_view_weights`]).
     view_w: std::sync::Mutex<Vec<f32>>,
+    /// The cross-talk term (None: none; its buffers are then placeholders).
+    cross: Option<std::sync::Mutex<Cross>>,
+    n_pairs: u32,
+    xmask: Buffer,
+    xpairs: Buffer,
+    xpart: Buffer,
+    xc: Buffer,
 }
 
-const NUM_BUFFERS: u32 = 13;
+const NUM_BUFFERS: u32 = 17;
 
 impl Loss {
     /// Builds the pipelines and buffers for the views of an uploaded scene (their `dims` and
     /// `base`) and uploads the targets (display values in [0, 1], one image per view, W x H each,
     /// top row first), computing their pyramid and Gram matrices once.
     pub fn new(ctx: &Arc<Context>, views: &[ViewGpu], targets: &[Vec<f32>], cfg: LossConfig) -> Result<Loss, GpuError> {
+        Self::with_crosstalk(ctx, views, targets, cfg, &[], &[])
+    }
+
+    /// [`Loss::new`] with the cross-talk term when `cfg.crosstalk` > 0: for every ordered pair
+    /// (v, k) of `among` (views of the same size), the component of view v's blurred error
+    /// g * (I_v - T_v) along view k's target, centred over view v's picture (`pictures[v]`) and
+    /// scaled to norm sqrt(kappa), adds its square to view v's pixel term: the error that looks
+    /// like another view's picture (what the quality report calls cross-talk) counts 1 + kappa
+    /// times. `pictures` holds one mask per view (W x H) when `among` is not empty.
+    pub fn with_crosstalk(
+        ctx: &Arc<Context>,
+        views: &[ViewGpu],
+        targets: &[Vec<f32>],
+        cfg: LossConfig,
+        pictures: &[Vec<bool>],
+        among: &[usize],
+    ) -> Result<Loss, GpuError> {
         assert_eq!(targets.len(), views.len(), "Loss::new: one target per view");
         for (v, (t, view)) in targets.iter().zip(views).enumerate() {
             assert_eq!(
@@ -229,6 +265,9 @@ impl Loss {
             partial: p("loss_fwd.comp", "PARTIAL")?,
             gram: p("loss_fwd.comp", "GRAM")?,
             final_: p("loss_fwd.comp", "FINAL")?,
+            xpart: p("loss_fwd.comp", "XPART")?,
+            xsum: p("loss_fwd.comp", "XSUM")?,
+            xgrad: p("loss_bwd.comp", "XGRAD")?,
             pre_grad: p("loss_bwd.comp", "PRE_GRAD")?,
             level_grad: p("loss_bwd.comp", "LEVEL_GRAD")?,
         };
@@ -240,7 +279,59 @@ impl Loss {
             let b = view.base[1] as usize;
             t0[b..b + t.len()].copy_from_slice(t);
         }
+        let pairs: Vec<(usize, usize)> = if cfg.crosstalk > 0.0 {
+            among
+                .iter()
+                .flat_map(|&v| among.iter().map(move |&k| (v, k)))
+                .filter(|&(v, k)| v != k && views[v].dims[..2] == views[k].dims[..2])
+                .collect()
+        } else {
+            Vec::new()
+        };
+        let cross = (!pairs.is_empty()).then(|| {
+            assert_eq!(
+                pictures.len(),
+                views.len(),
+                "Loss::with_crosstalk: one picture per view"
+            );
+            let n_parts = pairs.iter().map(|&(v, _)| pyr.segs[v].nblk).sum();
+            Cross {
+                kappa: cfg.crosstalk,
+                pairs: pairs.clone(),
+                pictures: pictures.to_vec(),
+                targets: targets.to_vec(),
+                n_parts,
+            }
+        });
+        let (xmask, xpairs, n_parts) = match &cross {
+            Some(c) => (
+                ctx.upload("loss cross-talk masks", &c.mask(&pyr))?,
+                ctx.upload("loss cross-talk pairs", &c.pair_data(&pyr))?,
+                c.n_parts,
+            ),
+            None => (
+                Buffer::new(ctx, "loss cross-talk masks (none)", 16, MemLoc::GpuOnly)?,
+                Buffer::new(ctx, "loss cross-talk pairs (none)", 32, MemLoc::GpuOnly)?,
+                0,
+            ),
+        };
         let loss = Loss {
+            n_pairs: pairs.len() as u32,
+            xmask,
+            xpairs,
+            xpart: Buffer::new(
+                ctx,
+                "loss cross-talk partial sums",
+                n_parts.max(1) as u64 * 4,
+                MemLoc::GpuOnly,
+            )?,
+            xc: Buffer::new(
+                ctx,
+                "loss cross-talk projections",
+                pairs.len().max(1) as u64 * 4,
+                MemLoc::GpuOnly,
+            )?,
+            cross: cross.map(std::sync::Mutex::new),
             cfg,
             segs: ctx.upload("loss segments", &pyr.segs)?,
             blocks: ctx.upload("loss blocks", &pyr.blocks())?,
@@ -306,10 +397,50 @@ impl Loss {
         let mut rec = Recorder::new(ctx)?;
         rec.begin()?;
         rec.copy(&staging, &self.tpyr, (n * 4) as u64);
+        let pairs = match &self.cross {
+            Some(c) => {
+                let mut c = c.lock().unwrap();
+                c.targets = targets.to_vec();
+                Some(ctx.upload("loss cross-talk pairs", &c.pair_data(&self.pyr))?)
+            }
+            None => None,
+        };
+        if let Some(p) = &pairs {
+            rec.copy(p, &self.xpairs, p.size());
+        }
         rec.barrier();
         self.record_features(&mut rec, &self.tpyr, &self.gram_t, &self.tpyr);
         rec.submit_and_wait()?;
         Ok(())
+    }
+
+    /// Moves the pictures the cross-talk term centres and masks over (a steered design: call
+    /// before [`Loss::set_targets`] with the targets that go with them); nothing without the term.
+    pub fn set_pictures(&self, ctx: &Arc<Context>, pictures: &[Vec<bool>]) -> Result<(), GpuError> {
+        let Some(c) = &self.cross else { return Ok(()) };
+        let mut c = c.lock().unwrap();
+        assert_eq!(
+            pictures.len(),
+            c.pictures.len(),
+            "Loss::set_pictures: one picture per view"
+        );
+        c.pictures = pictures.to_vec();
+        let staging = ctx.upload("loss cross-talk masks", &c.mask(&self.pyr))?;
+        let pairs = ctx.upload("loss cross-talk pairs", &c.pair_data(&self.pyr))?;
+        let mut rec = Recorder::new(ctx)?;
+        rec.begin()?;
+        rec.copy(&staging, &self.xmask, staging.size());
+        rec.copy(&pairs, &self.xpairs, pairs.size());
+        rec.barrier();
+        rec.submit_and_wait()?;
+        Ok(())
+    }
+
+    /// The ordered pairs (v, k) of the cross-talk term (empty without it).
+    pub fn crosstalk_pairs(&self) -> Vec<(usize, usize)> {
+        self.cross
+            .as_ref()
+            .map_or(Vec::new(), |c| c.lock().unwrap().pairs.clone())
     }
 
     /// Each view's weight in the loss (both terms, every level), 1 where never set.
@@ -377,12 +508,12 @@ impl Loss {
             g_c,
             g_s,
             n_segs: self.pyr.segs.len() as u32,
-            pad: 0,
+            n_pairs: self.n_pairs,
         }
     }
 
     /// Binding order of every loss kernel (see `shaders/inc/loss_bindings.glsl`).
-    fn bufs<'a>(&'a self, img: &'a Buffer, pyr: &'a Buffer, gram: &'a Buffer, dl: &'a Buffer) -> [&'a Buffer; 13] {
+    fn bufs<'a>(&'a self, img: &'a Buffer, pyr: &'a Buffer, gram: &'a Buffer, dl: &'a Buffer) -> [&'a Buffer; 17] {
         [
             &self.segs,
             &self.blocks,
@@ -397,6 +528,10 @@ impl Loss {
             &self.out,
             &self.gx,
             dl,
+            &self.xmask,
+            &self.xpairs,
+            &self.xpart,
+            &self.xc,
         ]
     }
 
@@ -432,6 +567,11 @@ impl Loss {
         let b = self.bufs(image, &self.disp, &self.gram, image);
         self.dispatch(rec, &self.pipes.display, &b, self.push(0, 0, n0), n0);
         self.record_features(rec, &self.disp, &self.gram, image);
+        if self.n_pairs > 0 {
+            let n_parts = self.cross.as_ref().map_or(0, |c| c.lock().unwrap().n_parts);
+            self.dispatch(rec, &self.pipes.xpart, &b, self.push(0, 0, n_parts), n_parts);
+            self.dispatch(rec, &self.pipes.xsum, &b, self.push(0, 0, 0), self.n_pairs);
+        }
         rec.dispatch(
             &self.pipes.final_,
             &b,
@@ -447,6 +587,10 @@ impl Loss {
     pub fn record_backward(&self, rec: &mut Recorder, image: &Buffer, dl: &Buffer) {
         let n = self.pyr.n_pixels();
         let b = self.bufs(image, &self.disp, &self.gram, dl);
+        if self.n_pairs > 0 {
+            let n0 = self.pyr.levels[0].1;
+            self.dispatch(rec, &self.pipes.xgrad, &b, self.push(0, 0, n0), n0);
+        }
         self.dispatch(rec, &self.pipes.pre_grad, &b, self.push(0, 0, n), n);
         for (level, &(begin, end)) in self.pyr.levels.iter().enumerate().rev() {
             self.dispatch(
@@ -485,6 +629,10 @@ impl Loss {
 
 /// Float64 CPU twin of the loss kernels (test oracle, never a fallback).
 pub mod reference;
+
+mod cross;
+use cross::Cross;
+pub use cross::XPair;
 
 /// The design loss as the optimizer's objective: terms are, per view, the pixel and the Gram term.
 impl crate::driver::Objective for Loss {

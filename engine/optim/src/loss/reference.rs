@@ -100,6 +100,19 @@ fn gram(ch: &[[f64; 9]]) -> [[f64; 9]; 9] {
 /// Loss of one view and dE/dL of its pixels: (pixel term, Gram term, gradient).
 /// `l`: linear render, `t`: target display values, both W x H top row first.
 pub fn view_loss(l: &[f64], t: &[f64], w: u32, h: u32, cfg: &LossConfig) -> (f64, f64, Vec<f64>) {
+    view_loss_crosstalk(l, t, w, h, cfg, &[])
+}
+
+/// [`view_loss`] with the cross-talk term: `dirs` are this view's directions u_vk (W x H each,
+/// norm sqrt(kappa)); the pixel term adds lambda_p sum_k (B . u_vk)^2 / N.
+pub fn view_loss_crosstalk(
+    l: &[f64],
+    t: &[f64],
+    w: u32,
+    h: u32,
+    cfg: &LossConfig,
+    dirs: &[Vec<f64>],
+) -> (f64, f64, Vec<f64>) {
     let (gc, gs) = {
         let s = (-0.5 / (cfg.sigma as f64).powi(2)).exp();
         (1.0 / (1.0 + 2.0 * s), s / (1.0 + 2.0 * s))
@@ -121,11 +134,20 @@ pub fn view_loss(l: &[f64], t: &[f64], w: u32, h: u32, cfg: &LossConfig) -> (f64
             bimg[(y * w as i64 + x) as usize] = acc;
         }
     }
-    let lp = cfg.lambda_p as f64 * bimg.iter().map(|b| b * b).sum::<f64>() / n as f64;
+    let c: Vec<f64> = dirs
+        .iter()
+        .map(|u| u.iter().zip(&bimg).map(|(a, b)| a * b).sum())
+        .collect();
+    let lp = cfg.lambda_p as f64 * (bimg.iter().map(|b| b * b).sum::<f64>() + c.iter().map(|c| c * c).sum::<f64>())
+        / n as f64;
+    // dE/dB = 2 lambda_p / N (B + sum_k c_k u_k)
+    let beff: Vec<f64> = (0..n)
+        .map(|i| bimg[i] + c.iter().zip(dirs).map(|(c, u)| c * u[i]).sum::<f64>())
+        .collect();
     let mut d_img = vec![0.0; n];
     for y in 0..h as i64 {
         for x in 0..w as i64 {
-            let gp = 2.0 * cfg.lambda_p as f64 / n as f64 * bimg[(y * w as i64 + x) as usize];
+            let gp = 2.0 * cfg.lambda_p as f64 / n as f64 * beff[(y * w as i64 + x) as usize];
             for oy in -1..=1i64 {
                 for ox in -1..=1i64 {
                     let c = cl(y + oy, h) * w as usize + cl(x + ox, w);
@@ -220,6 +242,40 @@ pub fn view_loss(l: &[f64], t: &[f64], w: u32, h: u32, cfg: &LossConfig) -> (f64
 
 /// The loss of every view of a render laid out as `pyr` level 0 (the renderer's image).
 pub fn loss(image: &[f32], targets: &[Vec<f32>], pyr: &Pyramid, cfg: &LossConfig) -> (Vec<(f64, f64)>, Vec<f64>) {
+    loss_crosstalk(image, targets, pyr, cfg, &[], &[])
+}
+
+/// View k's target over view v's picture, centred and scaled to norm sqrt(kappa) (0 where flat):
+/// the direction u_vk of the cross-talk term.
+pub fn crosstalk_direction(t_k: &[f32], picture_v: &[bool], kappa: f64) -> Vec<f64> {
+    let n = picture_v.iter().filter(|&&b| b).count().max(1) as f64;
+    let mu = t_k
+        .iter()
+        .zip(picture_v)
+        .filter(|(_, &b)| b)
+        .map(|(&x, _)| x as f64)
+        .sum::<f64>()
+        / n;
+    let u: Vec<f64> = t_k
+        .iter()
+        .zip(picture_v)
+        .map(|(&x, &b)| if b { x as f64 - mu } else { 0.0 })
+        .collect();
+    let norm = u.iter().map(|x| x * x).sum::<f64>().sqrt();
+    let s = if norm > 0.0 { kappa.sqrt() / norm } else { 0.0 };
+    u.iter().map(|x| x * s).collect()
+}
+
+/// [`loss`] with the cross-talk term of `cfg.crosstalk` over every ordered pair of `among`
+/// (views of the same size), each view's picture in `pictures`.
+pub fn loss_crosstalk(
+    image: &[f32],
+    targets: &[Vec<f32>],
+    pyr: &Pyramid,
+    cfg: &LossConfig,
+    pictures: &[Vec<bool>],
+    among: &[usize],
+) -> (Vec<(f64, f64)>, Vec<f64>) {
     let mut per_view = Vec::new();
     let mut dl = vec![0.0; image.len()];
     for (v, t) in targets.iter().enumerate() {
@@ -227,7 +283,16 @@ pub fn loss(image: &[f32], targets: &[Vec<f32>], pyr: &Pyramid, cfg: &LossConfig
         let (o, n) = (s.off as usize, (s.w * s.h) as usize);
         let l: Vec<f64> = image[o..o + n].iter().map(|&x| x as f64).collect();
         let t: Vec<f64> = t.iter().map(|&x| x as f64).collect();
-        let (lp, lg, d) = view_loss(&l, &t, s.w, s.h, cfg);
+        let dirs: Vec<Vec<f64>> = if cfg.crosstalk > 0.0 && among.contains(&v) {
+            among
+                .iter()
+                .filter(|&&k| k != v && targets[k].len() == n && pyr.segs[k].w == s.w)
+                .map(|&k| crosstalk_direction(&targets[k], &pictures[v], cfg.crosstalk as f64))
+                .collect()
+        } else {
+            Vec::new()
+        };
+        let (lp, lg, d) = view_loss_crosstalk(&l, &t, s.w, s.h, cfg, &dirs);
         dl[o..o + n].copy_from_slice(&d);
         per_view.push((lp, lg));
     }
