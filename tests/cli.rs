@@ -471,8 +471,10 @@ fn a_uniform_picture_is_refused_unless_its_view_is_blank_on_purpose() {
         for p in [&a, &one, &c] {
             v.push(p.display().to_string());
         }
-        // (30 iterations: enough for a view to show its picture; a design that shows none fails)
-        for s in ["--scratches", "60", "--iters", "30", "--res", "32", "--out"] {
+        // (200 scratches and 30 iterations: enough for a view to show its picture under the
+        // lamp overhead (60 were, barely, under the lamp 65 degrees up); a design that shows
+        // none fails)
+        for s in ["--scratches", "200", "--iters", "30", "--res", "32", "--out"] {
             v.push(s.into());
         }
         v.push(out.display().to_string());

@@ -43,7 +43,8 @@ pub fn vbit(dir: &Path, name: &str, angle: f64, flat: f64, off: f64) -> String {
 }
 
 /// A fabrication design for the GRBL router in `dir/d` (`views` views of `res` px, `scratches`
-/// scratches, `iters` iterations, no pruning, through `tool`): its design.json.
+/// scratches, `iters` iterations, no pruning, through `tool`, the lamp 65 degrees up at azimuth
+/// 0): its design.json.
 pub fn tool_design(dir: &Path, tool: &str, views: u32, res: u32, scratches: u32, iters: u32) -> String {
     let out = dir.join("d").display().to_string();
     let (v, r, s, i) = (
@@ -63,6 +64,12 @@ pub fn tool_design(dir: &Path, tool: &str, views: u32, res: u32, scratches: u32,
         "--iters",
         &i,
         "--prune-tol",
+        "0",
+        // The lamp 65 degrees up on view 0's side (not overhead, the default for three views,
+        // where turning it about the normal moves nothing): the loop's tests find it turned.
+        "--light-elevation",
+        "65",
+        "--light-azimuth",
         "0",
         "--quiet",
         "--tool",

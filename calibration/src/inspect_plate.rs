@@ -117,6 +117,20 @@ struct Eval {
 }
 
 impl Problem<'_> {
+    /// Whether the design's lamp stands within 3 degrees of overhead (of the plate's normal),
+    /// where turning it about the normal does not move it.
+    fn lamp_overhead(&self) -> bool {
+        use scratchart_model::scene::LightKind;
+        self.design.views.iter().all(|v| {
+            let p = match v.light.kind {
+                LightKind::Point { position } => position,
+                LightKind::Directional { direction } => direction,
+            };
+            let r = (p[0] * p[0] + p[1] * p[1] + p[2] * p[2]).sqrt();
+            r > 0.0 && p[2] / r >= 3f64.to_radians().cos()
+        })
+    }
+
     /// The design's plate as carved with width scale `s` and depth change `dz`, as the photos'
     /// cameras record it (display values before each photo's exposure).
     fn images_of(&self, scene: &Scene) -> Result<Vec<Vec<f32>>> {

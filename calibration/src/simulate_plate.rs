@@ -115,7 +115,9 @@ pub fn lamp_moved(view: &scratchart_model::scene::View, turn_deg: f64, tilt_deg:
             return p;
         }
         let az = p[1].atan2(p[0]) + turn_deg.to_radians();
-        let el = ((p[2] / r).clamp(-1.0, 1.0).asin() + tilt_deg.to_radians()).clamp(-1.5, 1.5);
+        // Raised past overhead it comes down on the other side (cos el < 0 turns it round);
+        // kept above the plate.
+        let el = ((p[2] / r).clamp(-1.0, 1.0).asin() + tilt_deg.to_radians()).clamp(0.01, std::f64::consts::PI - 0.01);
         [r * el.cos() * az.cos(), r * el.cos() * az.sin(), r * el.sin()]
     };
     let mut v = view.clone();

@@ -266,7 +266,7 @@ fn found_at(p: &Problem, x: &X, jtj: &[[f64; N]; N], free: &[bool; N], renders: 
             depth_scale_held: !free[5],
             lamp_deg: c.lamp_deg,
             lamp_sd_deg: [sd(6) * LAMP_UNIT_DEG, sd(7) * LAMP_UNIT_DEG],
-            lamp_held: !free[6],
+            lamp_held: !free[7],
             correlation: cov.map_or(0.0, |c| c[0][1] / (c[0][0] * c[1][1]).sqrt()),
             residual_sd: s2.sqrt(),
             renders: renders + 1,
@@ -290,7 +290,9 @@ pub(super) fn fit(p: &Problem, obs: &dyn Observer) -> Result<(Found, Eval)> {
         describe(&start.0, start.1, p.eval(&start.0)?.residual.len())
     ));
     let mut all = [true; N];
-    all[6] = p.fit_lamp;
+    // A lamp overhead does not move when turned about the plate's normal: its turn is held
+    // there (its tilt still moves it).
+    all[6] = p.fit_lamp && !p.lamp_overhead();
     all[7] = p.fit_lamp;
     // Photos located by the marks see the marks moved with the carving: its place against them
     // is none, and only a view's own camera sees where it sits.

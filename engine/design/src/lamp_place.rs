@@ -41,6 +41,12 @@ fn angle(a: [f64; 3], b: [f64; 3]) -> f64 {
     (dot / n).clamp(-1.0, 1.0).acos().to_degrees()
 }
 
+/// The least spread of the groove directions for which the default lamp is placed by
+/// [`separating_lamp`] (two views: 90 degrees; three: 60); a ring of four or more views, whose
+/// best spread is 45 degrees or less with the lamp at their height between two of them, keeps
+/// the lamp 20 degrees above the views (measured in engine/docs/worst_view.md, "The lamp").
+pub const LEAST_USEFUL_SEPARATION_DEG: f64 = 59.5;
+
 /// No closer to an eye than this, degrees: the lamp, or its mirror image in the plate (where an
 /// eye would see the flat plate's own highlight).
 pub const EYE_CLEARANCE_DEG: f64 = 10.0;

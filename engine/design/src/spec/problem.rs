@@ -57,8 +57,15 @@ pub fn problem(spec: &DesignSpec, info: &DeviceInfo, obs: &dyn Observer) -> Resu
         && spec.light_elevation.is_none()
         && spec.light_azimuth.is_none()
     {
-        if let LightKind::Point { position } = views[0].light.kind {
-            let eyes: Vec<[f64; 3]> = views.iter().map(|v| v.camera.eye).collect();
+        let eyes: Vec<[f64; 3]> = views.iter().map(|v| v.camera.eye).collect();
+        let spread = |p: [f64; 3]| crate::lamp_place::least_separation(p, &eyes);
+        let placed = match views[0].light.kind {
+            LightKind::Point { position } => {
+                Some(position).filter(|&p| spread(p) >= crate::lamp_place::LEAST_USEFUL_SEPARATION_DEG)
+            }
+            LightKind::Directional { .. } => None,
+        };
+        if let Some(position) = placed {
             let q = crate::tolerance::Place::of(position);
             obs.info(&format!(
                 "lamp at azimuth {:.0} and elevation {:.0} degrees, {:.0} mm from the plate centre: there the \
@@ -67,7 +74,7 @@ pub fn problem(spec: &DesignSpec, info: &DeviceInfo, obs: &dyn Observer) -> Resu
                 q.azimuth_deg,
                 q.elevation_deg,
                 q.distance_mm,
-                crate::lamp_place::least_separation(position, &eyes)
+                spread(position)
             ));
         }
     }
@@ -207,7 +214,12 @@ fn design_views(
                                 )
                             })
                             .collect();
-                        if let Some((az, el, _)) = crate::lamp_place::separating_lamp(&eyes) {
+                        // Measured (engine/docs/worst_view.md, "The lamp"): two and three views
+                        // gain; four, whose best spread (45 degrees) puts the lamp at their
+                        // height between two of them, trade one view for another.
+                        let spread = crate::lamp_place::separating_lamp(&eyes)
+                            .filter(|c| c.2 >= crate::lamp_place::LEAST_USEFUL_SEPARATION_DEG);
+                        if let Some((az, el, _)) = spread {
                             let r = spec.light_distance.unwrap_or(LIGHT_DISTANCE_FACTOR * distance);
                             light = orbit_light(r, el, az, 1.0e4);
                         }
