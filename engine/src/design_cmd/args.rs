@@ -109,20 +109,21 @@ pub struct DesignArgs {
     /// Views from a file instead: a JSON array of engine/docs/model.md view objects (their lights' intensities are used as given)
     #[arg(long, conflicts_with_all = ["views", "res", "elevation", "light_azimuth", "light_elevation", "light_distance"])]
     pub view_file: Option<PathBuf>,
-    /// The design's size where --scratches, --iters and --res do not say: `default` (10,000
-    /// scratches, 140 iterations, 112 px: where a 2-core CPU's 16 seconds pay most,
-    /// engine/docs/worst_view.md) or `paper` (the paper's scale for a GPU: 40,000 scratches, 300
+    /// The design's size where --scratches, --iters and --res do not say: `default` (9,000
+    /// scratches, 130 iterations, 120 px: where a 2-core CPU's 20 seconds pay most,
+    /// engine/docs/worst_view.md; a walk, a hold or an object: 1000 scratches per view, at least
+    /// 10,000, 140 iterations, 112 px) or `paper` (the paper's scale for a GPU: 40,000 scratches, 300
     /// iterations, 512 px; a few seconds on a large GPU, hours on a CPU)
     #[arg(long, value_enum, default_value_t = Preset::Default)]
     pub preset: Preset,
-    /// Number of scratches (default 10000, --preset paper 40000; for a walk, 1000 per walk view,
-    /// at least that: a plate that shows more pictures needs more scratches)
+    /// Number of scratches (default 9000, --preset paper 40000; for a walk, 1000 per walk view,
+    /// at least 10000: a plate that shows more pictures needs more scratches)
     #[arg(long)]
     pub scratches: Option<usize>,
-    /// Optimization iterations (default 140, --preset paper 300)
+    /// Optimization iterations (default 130, a walk's 140, --preset paper 300)
     #[arg(long)]
     pub iters: Option<u32>,
-    /// View resolution (square), pixels (default 112, --preset paper 512)
+    /// View resolution (square), pixels (default 120, a walk's 112, --preset paper 512)
     #[arg(long)]
     pub res: Option<u32>,
     /// Seed of the random initial scratches
@@ -315,7 +316,8 @@ pub struct DesignArgs {
 /// `--preset`: the design's size where its flags do not say.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
 pub enum Preset {
-    /// 10,000 scratches (a walk: 1000 per view, at least that), 140 iterations, 112 px.
+    /// 9,000 scratches, 130 iterations, 120 px (a walk: 1000 scratches per view, at least
+    /// 10,000, 140 iterations, 112 px).
     Default,
     /// The paper's scale: 40,000 scratches, 300 iterations, 512 px.
     Paper,
@@ -329,14 +331,16 @@ impl Preset {
             Preset::Paper => Some(40_000),
         }
     }
-    pub fn iters(self) -> u32 {
+    pub fn iters(self, walk: bool) -> u32 {
         match self {
+            Preset::Default if walk => scratchart_design::spec::WALK_ITERS,
             Preset::Default => scratchart_design::spec::DEFAULT_ITERS,
             Preset::Paper => 300,
         }
     }
-    pub fn res(self) -> u32 {
+    pub fn res(self, walk: bool) -> u32 {
         match self {
+            Preset::Default if walk => scratchart_design::spec::WALK_RES,
             Preset::Default => scratchart_design::spec::DEFAULT_RES,
             Preset::Paper => 512,
         }
@@ -352,6 +356,7 @@ impl DesignArgs {
 
     /// The design these flags specify (`--quiet` is the terminal's, not the design's).
     pub fn spec(&self) -> DesignSpec {
+        let walk = !self.walk.is_empty() || self.hold.is_some() || self.object.is_some();
         DesignSpec {
             targets: self.targets.clone(),
             fit: self.fit,
@@ -373,8 +378,8 @@ impl DesignArgs {
             object_yaw: self.object_yaw,
             view_file: self.view_file.clone(),
             scratches: self.scratches.or(self.preset.scratches()),
-            iters: self.iters.unwrap_or(self.preset.iters()),
-            res: self.res.unwrap_or(self.preset.res()),
+            iters: self.iters.unwrap_or(self.preset.iters(walk)),
+            res: self.res.unwrap_or(self.preset.res(walk)),
             seed: self.seed,
             elevation: self.elevation,
             light_azimuth: self.light_azimuth,
@@ -491,7 +496,12 @@ mod tests {
         let mixed = spec(&["design", "--preset", "paper", "--iters", "50", "--scratches", "900"]);
         assert_eq!((mixed.scratches, mixed.iters, mixed.res), (Some(900), 50, 512));
         let default = spec(&["design", "--res", "64"]);
-        assert_eq!((default.scratches, default.iters, default.res), (None, 140, 64));
+        assert_eq!((default.scratches, default.iters, default.res), (None, 130, 64));
+        let ring = spec(&["design"]);
+        assert_eq!((ring.iters, ring.res), (130, 120));
+        // A walk (many views) keeps its own size; its scratches follow its views.
+        let walk = spec(&["design", "--walk", "a.png", "b.png", "c.png"]);
+        assert_eq!((walk.scratches, walk.iters, walk.res), (None, 140, 112));
         let args = |flags: &[&str]| Cli::try_parse_from(flags).unwrap().design;
         assert!(args(&["design"]).default_size());
         assert!(!args(&["design", "--iters", "140"]).default_size());

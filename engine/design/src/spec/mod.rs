@@ -43,14 +43,18 @@ pub use problem::problem;
 pub const LIGHT_ELEVATION_ABOVE_VIEWS: f64 = 20.0;
 /// ... and this many times the views' distance from the plate centre.
 pub const LIGHT_DISTANCE_FACTOR: f64 = 1.0;
-/// Scratches of a design without `scratches` (a walk has 1000 per walk view, at least this).
-/// With [`DEFAULT_ITERS`] and the loss's balance, where the 2-core machine's 16 seconds pay
-/// most (engine/docs/worst_view.md: the worst view 0.006 to 0.054 higher than 6,000 x 200).
-pub const DEFAULT_SCRATCHES: usize = 10_000;
-/// Iterations of a design without `iters`.
-pub const DEFAULT_ITERS: u32 = 140;
-/// View resolution (square, pixels) of a design without `res`.
-pub const DEFAULT_RES: u32 = 112;
+/// Scratches, iterations and view resolution (square, pixels) of a ring design without
+/// `scratches`, `iters` or `res`: where a 2-core CPU's 20 seconds pay most (9,000 x 130 at 120
+/// px beat 10,000 x 140 at 112 px on every photo set measured, in less time;
+/// engine/docs/worst_view.md).
+pub const DEFAULT_SCRATCHES: usize = 9_000;
+pub const DEFAULT_ITERS: u32 = 130;
+pub const DEFAULT_RES: u32 = 120;
+/// The same for a walk, a hold or an object (many views): 1000 scratches per view, at least
+/// this many; 140 iterations; 112 px.
+pub const WALK_MIN_SCRATCHES: usize = 10_000;
+pub const WALK_ITERS: u32 = 140;
+pub const WALK_RES: u32 = 112;
 
 /// How each view's brightness is set (`--exposure`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

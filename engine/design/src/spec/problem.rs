@@ -9,7 +9,9 @@ use scratchart_render::limits::{largest_fitting, SceneDims};
 use scratchart_vulkan::DeviceInfo;
 
 use super::walk::{walk_arc, walk_problem};
-use super::{DesignSpec, SpecError, DEFAULT_SCRATCHES, LIGHT_DISTANCE_FACTOR, LIGHT_ELEVATION_ABOVE_VIEWS};
+use super::{
+    DesignSpec, SpecError, DEFAULT_SCRATCHES, LIGHT_DISTANCE_FACTOR, LIGHT_ELEVATION_ABOVE_VIEWS, WALK_MIN_SCRATCHES,
+};
 use crate::problem::Problem;
 use crate::scenes::{framed_ring_views, orbit_light, random_scratches, Rng};
 
@@ -41,7 +43,7 @@ pub fn problem(spec: &DesignSpec, info: &DeviceInfo, obs: &dyn Observer) -> Resu
     let walk = walk_arc(spec)?;
     let n_scratches = spec.scratches.unwrap_or_else(|| {
         walk.as_ref()
-            .map_or(DEFAULT_SCRATCHES, |a| (1000 * a.views).max(DEFAULT_SCRATCHES))
+            .map_or(DEFAULT_SCRATCHES, |a| (1000 * a.views).max(WALK_MIN_SCRATCHES))
     });
     ensure_flag!(n_scratches > 0, "--scratches must be at least 1");
     check_scratch_flags(spec)?;
