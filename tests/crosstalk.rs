@@ -6,7 +6,7 @@ use scratchart_design::scenes::{orbit_light, random_scratches, ring_views, Rng};
 use scratchart_design::targets::builtin_targets;
 use scratchart_model::scene::Scene;
 use scratchart_optim::loss::{reference, Loss, LossConfig};
-use scratchart_render::Renderer;
+use scratchart_render::{GpuScene, Renderer};
 use scratchart_tests::{assert_no_validation, gpu, plate};
 
 fn rel_err(a: &[f64], b: &[f64]) -> f64 {
@@ -45,14 +45,21 @@ fn scene_and_pictures() -> (Scene, Vec<Vec<f32>>, Vec<Vec<bool>>) {
     (scene, targets, pictures)
 }
 
-#[test]
-fn the_crosstalk_term_matches_its_cpu_twin() {
-    let ctx = gpu();
+/// The scene of [`scene_and_pictures`] uploaded and rendered: the GPU scene, the targets, the
+/// pictures and the linear image.
+fn rendered(ctx: &std::sync::Arc<scratchart_vulkan::Context>) -> (GpuScene, Vec<Vec<f32>>, Vec<Vec<bool>>, Vec<f32>) {
     let (scene, targets, pictures) = scene_and_pictures();
-    let r = Renderer::new(&ctx).unwrap();
+    let r = Renderer::new(ctx).unwrap();
     let mut gs = r.upload(&scene).unwrap();
     r.render(&mut gs).unwrap();
     let image: Vec<f32> = ctx.download(gs.image()).unwrap();
+    (gs, targets, pictures, image)
+}
+
+#[test]
+fn the_crosstalk_term_matches_its_cpu_twin() {
+    let ctx = gpu();
+    let (gs, targets, pictures, image) = rendered(&ctx);
     let among = [0usize, 1, 2, 3];
     let plain_cfg = LossConfig::default();
     let plain = Loss::new(&ctx, gs.views(), &targets, plain_cfg).unwrap();
@@ -113,11 +120,7 @@ fn the_crosstalk_term_matches_its_cpu_twin() {
 #[test]
 fn the_cpu_twins_crosstalk_gradient_matches_central_differences() {
     let ctx = gpu();
-    let (scene, targets, pictures) = scene_and_pictures();
-    let r = Renderer::new(&ctx).unwrap();
-    let mut gs = r.upload(&scene).unwrap();
-    r.render(&mut gs).unwrap();
-    let image: Vec<f32> = ctx.download(gs.image()).unwrap();
+    let (gs, targets, pictures, image) = rendered(&ctx);
     let cfg = LossConfig {
         crosstalk: 6.0,
         ..LossConfig::default()
