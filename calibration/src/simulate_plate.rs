@@ -318,3 +318,49 @@ pub fn run(a: &SimulatePlateArgs, renderer: &Renderer, obs: &dyn Observer) -> Re
     }
     Ok(())
 }
+
+#[cfg(test)]
+mod tests {
+    use super::lamp_moved;
+    use scratchart_model::scene::{Light, LightKind, View};
+
+    fn view_lit_from(position: [f64; 3]) -> View {
+        View {
+            exposure: 1.0,
+            name: "v0".into(),
+            camera: scratchart_design::scenes::orbit_camera(300.0, 45.0, 0.0, 100.0, 16, 16),
+            light: Light {
+                kind: LightKind::Point { position },
+                intensity: 1.0e4,
+            },
+        }
+    }
+
+    fn at(v: &View) -> [f64; 3] {
+        match v.light.kind {
+            LightKind::Point { position } => position,
+            LightKind::Directional { direction } => direction,
+        }
+    }
+
+    /// A lamp overhead stays there unmoved (it used to be clamped to 85.9 degrees), is raised
+    /// past overhead down the other side, and keeps its distance.
+    #[test]
+    fn a_lamp_overhead_moves_only_as_told() {
+        let top = view_lit_from([0.0, 0.0, 300.0]);
+        let p = at(&lamp_moved(&top, 0.0, 0.0));
+        assert!(
+            p[0].abs() < 1e-9 && p[1].abs() < 1e-9 && (p[2] - 300.0).abs() < 1e-9,
+            "{p:?}"
+        );
+        // From 80 degrees up at azimuth 0, raised 20: 80 degrees up at azimuth 180.
+        let el80 = view_lit_from(scratchart_model::camera::spherical(300.0, 0.0, 80.0));
+        let q = at(&lamp_moved(&el80, 0.0, 20.0));
+        let want = scratchart_model::camera::spherical(300.0, 180.0, 80.0);
+        assert!((0..3).all(|k| (q[k] - want[k]).abs() < 1e-9), "{q:?} vs {want:?}");
+        // Turned and raised a little from 45 degrees, it keeps its distance.
+        let el45 = view_lit_from(scratchart_model::camera::spherical(300.0, 30.0, 45.0));
+        let r = at(&lamp_moved(&el45, 3.0, -2.0));
+        assert!(((r[0] * r[0] + r[1] * r[1] + r[2] * r[2]).sqrt() - 300.0).abs() < 1e-9);
+    }
+}
