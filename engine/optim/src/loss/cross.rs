@@ -28,8 +28,6 @@ pub(super) struct Cross {
     /// Per view, its picture's pixels (level 0, W x H).
     pub(super) pictures: Vec<Vec<bool>>,
     pub(super) targets: Vec<Vec<f32>>,
-    /// Partial sums in all (one per pair and 256-pixel block of its view).
-    pub(super) n_parts: u32,
 }
 
 impl Cross {

@@ -215,6 +215,8 @@ pub struct Loss {
     /// The cross-talk term (None: none; its buffers are then placeholders).
     cross: Option<std::sync::Mutex<Cross>>,
     n_pairs: u32,
+    /// Its partial sums in all (one per pair and 256-pixel block of the pair's view).
+    n_parts: u32,
     xmask: Buffer,
     xpairs: Buffer,
     xpart: Buffer,
@@ -294,29 +296,27 @@ impl Loss {
                 views.len(),
                 "Loss::with_crosstalk: one picture per view"
             );
-            let n_parts = pairs.iter().map(|&(v, _)| pyr.segs[v].nblk).sum();
             Cross {
                 kappa: cfg.crosstalk,
                 pairs: pairs.clone(),
                 pictures: pictures.to_vec(),
                 targets: targets.to_vec(),
-                n_parts,
             }
         });
-        let (xmask, xpairs, n_parts) = match &cross {
+        let n_parts: u32 = pairs.iter().map(|&(v, _)| pyr.segs[v].nblk).sum();
+        let (xmask, xpairs) = match &cross {
             Some(c) => (
                 ctx.upload("loss cross-talk masks", &c.mask(&pyr))?,
                 ctx.upload("loss cross-talk pairs", &c.pair_data(&pyr))?,
-                c.n_parts,
             ),
             None => (
                 Buffer::new(ctx, "loss cross-talk masks (none)", 16, MemLoc::GpuOnly)?,
                 Buffer::new(ctx, "loss cross-talk pairs (none)", 32, MemLoc::GpuOnly)?,
-                0,
             ),
         };
         let loss = Loss {
             n_pairs: pairs.len() as u32,
+            n_parts,
             xmask,
             xpairs,
             xpart: Buffer::new(
@@ -568,8 +568,7 @@ impl Loss {
         self.dispatch(rec, &self.pipes.display, &b, self.push(0, 0, n0), n0);
         self.record_features(rec, &self.disp, &self.gram, image);
         if self.n_pairs > 0 {
-            let n_parts = self.cross.as_ref().map_or(0, |c| c.lock().unwrap().n_parts);
-            self.dispatch(rec, &self.pipes.xpart, &b, self.push(0, 0, n_parts), n_parts);
+            self.dispatch(rec, &self.pipes.xpart, &b, self.push(0, 0, self.n_parts), self.n_parts);
             self.dispatch(rec, &self.pipes.xsum, &b, self.push(0, 0, 0), self.n_pairs);
         }
         rec.dispatch(
