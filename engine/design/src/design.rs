@@ -405,6 +405,7 @@ pub fn run_design_live(
         .iter()
         .map(|img| img.iter().map(|&l| scratchart_render::io::display_value(l)).collect())
         .collect();
+    let final_render = t_pruned.elapsed().as_secs_f64();
     let mut report = DesignReport {
         scene,
         unpruned,
@@ -427,6 +428,8 @@ pub fn run_design_live(
             iterations: t_loop_end.duration_since(t_loop).as_secs_f64(),
             pruning: t_pruned.duration_since(t_loop_end).as_secs_f64(),
             reports: 0.0,
+            final_render,
+            set_up_sheet: 0.0,
         },
     };
     if cfg.write_outputs {
@@ -567,7 +570,9 @@ fn write_design_outputs(
         blank_views: cfg.blank_views.clone(),
     };
     inputs.save(&cfg.out, &wr.scene)?;
+    let t_sheet = std::time::Instant::now();
     let (setup, sensitivity, advice) = crate::setup::write_setup(&cfg.out, renderer, &wr.scene, &inputs)?;
+    report.wall.set_up_sheet = t_sheet.elapsed().as_secs_f64();
     if !problem.steering.is_empty() {
         summary["steering"] = json!(problem.steering);
         summary["steering_is"] =

@@ -5,23 +5,39 @@ use scratchart_model::scene::Scene;
 
 /// The 3x3 clamp-to-edge Gaussian blur of the loss (sigma in pixels).
 pub fn blur3(img: &[f32], w: u32, h: u32, sigma: f32) -> Vec<f64> {
-    let s = (-0.5 / (sigma as f64 * sigma as f64)).exp();
-    let g = [s / (1.0 + 2.0 * s), 1.0 / (1.0 + 2.0 * s), s / (1.0 + 2.0 * s)];
-    let (wi, hi) = (w as i64, h as i64);
+    let g = blur3_weights(sigma);
+    (0..img.len()).map(|k| blur3_at(img, w, h, &g, k)).collect()
+}
+
+/// [`blur3`] at the pixels of `mask` only (the same values there, bit for bit), 0 elsewhere:
+/// what a correlation over `mask` reads.
+pub fn blur3_within(img: &[f32], w: u32, h: u32, sigma: f32, mask: &[bool]) -> Vec<f64> {
+    let g = blur3_weights(sigma);
     let mut out = vec![0.0; img.len()];
-    for y in 0..hi {
-        for x in 0..wi {
-            let mut acc = 0.0;
-            for oy in -1..=1i64 {
-                for ox in -1..=1i64 {
-                    let c = (y + oy).clamp(0, hi - 1) * wi + (x + ox).clamp(0, wi - 1);
-                    acc += g[(ox + 1) as usize] * g[(oy + 1) as usize] * img[c as usize] as f64;
-                }
-            }
-            out[(y * wi + x) as usize] = acc;
-        }
+    for (k, _) in mask.iter().enumerate().filter(|(_, &m)| m) {
+        out[k] = blur3_at(img, w, h, &g, k);
     }
     out
+}
+
+/// The 3-tap Gaussian's weights (normalized) for `sigma` pixels.
+fn blur3_weights(sigma: f32) -> [f64; 3] {
+    let s = (-0.5 / (sigma as f64 * sigma as f64)).exp();
+    [s / (1.0 + 2.0 * s), 1.0 / (1.0 + 2.0 * s), s / (1.0 + 2.0 * s)]
+}
+
+/// Pixel `k` of [`blur3`] (the image's edge pixels repeated beyond it).
+fn blur3_at(img: &[f32], w: u32, h: u32, g: &[f64; 3], k: usize) -> f64 {
+    let (wi, hi) = (w as i64, h as i64);
+    let (x, y) = (k as i64 % wi, k as i64 / wi);
+    let mut acc = 0.0;
+    for oy in -1..=1i64 {
+        for ox in -1..=1i64 {
+            let c = (y + oy).clamp(0, hi - 1) * wi + (x + ox).clamp(0, wi - 1);
+            acc += g[(ox + 1) as usize] * g[(oy + 1) as usize] * img[c as usize] as f64;
+        }
+    }
+    acc
 }
 
 /// SSIM (Wang et al. 2004: 11x11 Gaussian window, sigma 1.5, K1 = 0.01, K2 = 0.03, range 1) of

@@ -162,6 +162,10 @@ pub struct WallTimes {
     pub pruning: f64,
     /// The final render, the quality report, images, plots and the set-up sheet (0 until written).
     pub reports: f64,
+    /// Of `reports`: the final render (upload, render, loss, read-back) and the set-up sheet
+    /// (its searches' renders and measures, its text and picture).
+    pub final_render: f64,
+    pub set_up_sheet: f64,
 }
 
 impl WallTimes {
@@ -171,6 +175,8 @@ impl WallTimes {
             "iterations": self.iterations,
             "pruning": self.pruning,
             "final_render_and_reports": self.reports,
+            "final_render": self.final_render,
+            "set_up_sheet": self.set_up_sheet,
             "total": self.start_up + self.iterations + self.pruning + self.reports,
         })
     }

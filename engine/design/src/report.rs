@@ -246,7 +246,9 @@ pub fn write_outputs(
     );
     contact_sheet_png(&out.join("contact_sheet.png"), scene, &r.final_images, &problem.targets)?;
     let reach = crate::reach::report(out, scene, &problem.targets, &problem.pictures, cfg.tool.as_ref())?;
-    for (v, view) in scene.views.iter().enumerate() {
+    // Each view's images and SSIM: host work of a pixel each, spread over the cores.
+    let per_view = scratchart_model::par::par_map(scene.views.len(), |v| -> Result<(f64, f64), OptimError> {
+        let view = &scene.views[v];
         let (w, h) = (view.camera.width, view.camera.height);
         compare_png(
             &out.join(format!("{}_compare.png", view.name)),
@@ -262,8 +264,14 @@ pub fn write_outputs(
             .map(|&t| (255.0 * t.clamp(0.0, 1.0)).round() as u8)
             .collect();
         scratchart_render::io::write_png_gray(&out.join(format!("{}_target.png", view.name)), w, h, &bytes)?;
-        let ssim_final = view_ssim(scene, v, &r.final_images[v], &problem.targets[v], cfg.loss.sigma);
-        let ssim_initial = view_ssim(scene, v, &r.initial_images[v], &problem.targets[v], cfg.loss.sigma);
+        Ok((
+            view_ssim(scene, v, &r.final_images[v], &problem.targets[v], cfg.loss.sigma),
+            view_ssim(scene, v, &r.initial_images[v], &problem.targets[v], cfg.loss.sigma),
+        ))
+    });
+    for ((v, view), ssims) in scene.views.iter().enumerate().zip(per_view) {
+        let (w, h) = (view.camera.width, view.camera.height);
+        let (ssim_final, ssim_initial) = ssims?;
         views_json.push(json!({
             "name": view.name,
             "loss_initial": first.map(|f| (f.pixel[v] + f.gram[v]) as f64),
@@ -369,6 +377,24 @@ pub fn verdict(summary: &serde_json::Value) -> Option<String> {
     })
 }
 
+/// The wall-time line of the summary: the phases of summary.json's `wall_s`, and the final
+/// render's and set-up sheet's parts of the reports where it has them.
+fn wall_line(w: &serde_json::Value) -> String {
+    let f = |v: &serde_json::Value| v.as_f64().unwrap_or(f64::NAN);
+    format!(
+        "  wall time {:.1} s: start-up {:.1} s (device, kernels, uploads, first render), iterations {:.1} s, pruning {:.1} s, final render and reports {:.1} s{}",
+        f(&w["total"]),
+        f(&w["start_up"]),
+        f(&w["iterations"]),
+        f(&w["pruning"]),
+        f(&w["final_render_and_reports"]),
+        match (w["final_render"].as_f64(), w["set_up_sheet"].as_f64()) {
+            (Some(r), Some(s)) => format!(" (the final render {r:.2} s, the set-up sheet {s:.2} s)"),
+            _ => String::new(),
+        }
+    )
+}
+
 /// The summary of a design run as the `design` command prints it.
 pub fn summary_text(s: &serde_json::Value, out: &Path) -> String {
     let mut text = String::new();
@@ -394,16 +420,7 @@ pub fn summary_text(s: &serde_json::Value, out: &Path) -> String {
         let _ = writeln!(text, "  GPU ms per iteration: {}", p.join(", "));
     }
     if s["wall_s"].is_object() {
-        let w = &s["wall_s"];
-        let _ = writeln!(
-            text,
-            "  wall time {:.1} s: start-up {:.1} s (device, kernels, uploads, first render), iterations {:.1} s, pruning {:.1} s, final render and reports {:.1} s",
-            f(&w["total"]),
-            f(&w["start_up"]),
-            f(&w["iterations"]),
-            f(&w["pruning"]),
-            f(&w["final_render_and_reports"])
-        );
+        let _ = writeln!(text, "{}", wall_line(&s["wall_s"]));
     }
     let _ = writeln!(
         text,

@@ -3,13 +3,10 @@
 //! bisection) for how far each keeps [`KEEP`] of the view's correlation with its picture, from
 //! what the design wrote beside itself ([`SheetInputs`]); a lamp's or an eye's [`Place`] as a
 //! maker measures it. The set-up sheet (`setup`, `setup_sheet`) states the results.
-use std::path::Path;
-
 use serde_json::{json, Value};
 
-use crate::measure::{blur3, correlation};
+use crate::measure::{blur3_within, correlation};
 use scratchart_model::scene::{LightKind, Scene, View};
-use scratchart_observe::Observer;
 use scratchart_optim::error::OptimError;
 use scratchart_render::layout::TileWindow;
 use scratchart_render::Renderer;
@@ -75,6 +72,9 @@ fn range_of(axis: &str) -> f64 {
 fn moved(p: [f64; 3], axis: &str, delta: f64) -> [f64; 3] {
     let q = Place::of(p);
     match axis {
+        // A point on the vertical axis (an overhead lamp) turns onto itself, not onto its
+        // rounding error's circle.
+        "azimuth" if p[0].hypot(p[1]) <= 1e-12 * q.distance_mm => p,
         "azimuth" => Place::at(q.azimuth_deg + delta, q.elevation_deg, q.distance_mm),
         "elevation" => Place::at(q.azimuth_deg, (q.elevation_deg + delta).clamp(0.5, 89.9), q.distance_mm),
         _ => Place::at(q.azimuth_deg, q.elevation_deg, q.distance_mm * (1.0 + delta)),
@@ -242,15 +242,19 @@ pub(crate) fn render_views(
         batch.views = chunk.to_vec();
         let windows: Vec<Option<TileWindow>> = chunk.iter().zip(masks).map(|(v, m)| mask_window(v, m)).collect();
         let mut gs = renderer.upload_windowed(&batch, &windows)?;
-        for img in renderer.render(&mut gs)?.images {
-            out.push(
-                img.iter()
-                    .map(|&l| scratchart_render::io::display_value(l).clamp(0.0, 1.0))
-                    .collect(),
-            );
-        }
+        out.extend(display_images(renderer.render(&mut gs)?.images));
     }
     Ok(out)
+}
+
+/// Rendered images (linear) as display values in [0, 1], converted on all cores.
+pub(crate) fn display_images(images: Vec<Vec<f32>>) -> Vec<Vec<f32>> {
+    scratchart_model::par::par_map(images.len(), |k| {
+        images[k]
+            .iter()
+            .map(|&l| scratchart_render::io::display_value(l).clamp(0.0, 1.0))
+            .collect()
+    })
 }
 
 /// The tiles of view `v` that hold the pixels of `mask` and the pixels next to them (None for
@@ -274,18 +278,28 @@ fn mask_window(v: &View, mask: &[bool]) -> Option<TileWindow> {
     })
 }
 
-/// Each view's correlation with its picture as designed and, for every view that shows its
-/// picture (and is not blank on purpose), how far the lamp and the eye may move in azimuth,
-/// elevation and distance and keep [`KEEP`] of it: each found by search, outwards on a grid up
-/// to [`ANGLE_RANGE`] and [`DISTANCE_RANGE`], then by bisection. All searches step together, one
-/// batched render per step.
-pub fn sensitivity(renderer: &Renderer, scene: &Scene, inputs: &SheetInputs) -> Result<Sensitivity, OptimError> {
-    // A render from view j as designed, or from `eye`, a view with its eye moved: against the
-    // picture as it appears from there (a move that only makes the picture larger, smaller or
-    // foreshortened is no loss; what the reflection does there is).
-    // The picture view j is compared with, as seen from `eye` (view j itself when None): its
-    // target and the pixels it covers.
-    let picture_of = |j: usize, eye: Option<&View>| match eye {
+/// A view's picture as the designed view shows it, or as it appears from a moved eye (see
+/// [`as_seen_from`]): its target (display values) and the pixels it covers.
+type Picture = (Vec<f64>, Vec<bool>);
+
+/// What a moved view's render depends on beside its view's scratches: the view, its lamp and its
+/// eye (the bits of each coordinate). Two moves with one key render the same image.
+type MoveKey = (usize, [u64; 6]);
+
+fn move_key(j: usize, v: &View) -> MoveKey {
+    let l = match v.light.kind {
+        LightKind::Point { position } => position,
+        LightKind::Directional { direction } => direction,
+    };
+    let e = v.camera.eye;
+    (j, [l[0], l[1], l[2], e[0], e[1], e[2]].map(f64::to_bits))
+}
+
+/// The picture view `j` is compared with, as seen from `eye` (view j itself when None). A move
+/// that only makes the picture larger, smaller or foreshortened is no loss; what the reflection
+/// does there is.
+fn picture_of(scene: &Scene, inputs: &SheetInputs, j: usize, eye: Option<&View>) -> Picture {
+    match eye {
         None => (
             inputs.targets[j].iter().map(|&x| x as f64).collect(),
             inputs.pictures[j].clone(),
@@ -297,18 +311,32 @@ pub fn sensitivity(renderer: &Renderer, scene: &Scene, inputs: &SheetInputs) -> 
             &inputs.pictures[j],
             &scene.plate,
         ),
-    };
-    let corr_of = |img: &[f32], j: usize, (t, m): &(Vec<f64>, Vec<bool>)| {
-        let (w, h) = (scene.views[j].camera.width, scene.views[j].camera.height);
-        correlation(&blur3(img, w, h, inputs.sigma), t, m)
-    };
-    let designed: Vec<(Vec<f64>, Vec<bool>)> = (0..scene.views.len()).map(|j| picture_of(j, None)).collect();
+    }
+}
+
+/// View `j`'s render (display values), blurred as the loss blurs, against its picture.
+fn corr_of(scene: &Scene, inputs: &SheetInputs, img: &[f32], j: usize, (t, m): &Picture) -> f64 {
+    let (w, h) = (scene.views[j].camera.width, scene.views[j].camera.height);
+    correlation(&blur3_within(img, w, h, inputs.sigma, m), t, m)
+}
+
+/// Each view's correlation with its picture as designed and, for every view that shows its
+/// picture (and is not blank on purpose), how far the lamp and the eye may move in azimuth,
+/// elevation and distance and keep [`KEEP`] of it: each found by search, outwards on a grid up
+/// to [`ANGLE_RANGE`] and [`DISTANCE_RANGE`], then by bisection. All searches step together, one
+/// batched render per step. Each move is rendered once: one that leaves its view as designed (an
+/// overhead lamp turned in azimuth) or as an earlier step had it (an elevation held at its limit)
+/// takes that render's correlation, the same bits (a render depends only on its view).
+pub fn sensitivity(renderer: &Renderer, scene: &Scene, inputs: &SheetInputs) -> Result<Sensitivity, OptimError> {
+    let designed: Vec<Picture> = (0..scene.views.len())
+        .map(|j| picture_of(scene, inputs, j, None))
+        .collect();
     let masks: Vec<&[bool]> = designed.iter().map(|(_, m)| m.as_slice()).collect();
     let images = render_views(renderer, scene, scene.views.clone(), &masks)?;
     let base: Vec<f64> = images
         .iter()
         .enumerate()
-        .map(|(j, img)| corr_of(img, j, &designed[j]))
+        .map(|(j, img)| corr_of(scene, inputs, img, j, &designed[j]))
         .collect();
     let mut searches = Vec::new();
     for (j, v) in scene.views.iter().enumerate() {
@@ -337,6 +365,9 @@ pub fn sensitivity(renderer: &Renderer, scene: &Scene, inputs: &SheetInputs) -> 
     }
     let mut samples = Vec::new();
     let mut lamps = lamp::LampRenders::default();
+    let mut memo: std::collections::HashMap<MoveKey, f64> = (0..scene.views.len())
+        .map(|j| (move_key(j, &scene.views[j]), base[j]))
+        .collect();
     loop {
         let step: Vec<(usize, f64)> = searches
             .iter()
@@ -353,44 +384,33 @@ pub fn sensitivity(renderer: &Renderer, scene: &Scene, inputs: &SheetInputs) -> 
                 variant(&scene.views[s.view], s.moved, s.axis, s.sign * size)
             })
             .collect();
-        // (A moved lamp leaves the picture where it was: the designed view's, not copied.)
-        let pictures: Vec<std::borrow::Cow<(Vec<f64>, Vec<bool>)>> = step
+        let keys: Vec<MoveKey> = step
             .iter()
             .zip(&views)
-            .map(|(&(i, _), view)| {
-                let s = &searches[i];
-                match s.moved {
-                    "eye" => std::borrow::Cow::Owned(picture_of(s.view, Some(view))),
-                    _ => std::borrow::Cow::Borrowed(&designed[s.view]),
-                }
+            .map(|(&(i, _), v)| move_key(searches[i].view, v))
+            .collect();
+        let mut fresh: Vec<usize> = Vec::new();
+        for (k, key) in keys.iter().enumerate() {
+            if !memo.contains_key(key) && !fresh.iter().any(|&f| keys[f] == *key) {
+                fresh.push(k);
+            }
+        }
+        let moves: Vec<Move> = fresh
+            .iter()
+            .map(|&k| Move {
+                search: step[k].0,
+                view: searches[step[k].0].view,
+                lamp: searches[step[k].0].moved == "lamp",
+                moved: views[k].clone(),
             })
             .collect();
-        let masks: Vec<&[bool]> = pictures.iter().map(|p| p.1.as_slice()).collect();
-        // The lamp searches keep their tile lists between steps ([`lamp`]); the eye searches
-        // bin each step (their cameras move).
-        let is_lamp: Vec<bool> = step.iter().map(|&(i, _)| searches[i].moved == "lamp").collect();
-        let pick = |want: bool| -> Vec<usize> { (0..step.len()).filter(|&k| is_lamp[k] == want).collect() };
-        let (lamp_k, eye_k) = (pick(true), pick(false));
-        let lamp_imgs = lamps.render(
-            renderer,
-            scene,
-            &lamp_k.iter().map(|&k| step[k].0).collect::<Vec<_>>(),
-            lamp_k.iter().map(|&k| views[k].clone()).collect(),
-            &lamp_k.iter().map(|&k| masks[k]).collect::<Vec<_>>(),
-        )?;
-        let eye_imgs = render_views(
-            renderer,
-            scene,
-            eye_k.iter().map(|&k| views[k].clone()).collect(),
-            &eye_k.iter().map(|&k| masks[k]).collect::<Vec<_>>(),
-        )?;
-        let mut images: Vec<Vec<f32>> = vec![Vec::new(); step.len()];
-        for (k, img) in lamp_k.into_iter().zip(lamp_imgs).chain(eye_k.into_iter().zip(eye_imgs)) {
-            images[k] = img;
+        let corrs = render_moves(renderer, scene, inputs, &designed, &mut lamps, &moves)?;
+        for (&k, corr) in fresh.iter().zip(corrs) {
+            memo.insert(keys[k], corr);
         }
-        for ((&(i, size), img), picture) in step.iter().zip(&images).zip(&pictures) {
+        for (&(i, size), key) in step.iter().zip(&keys) {
             let s = &mut searches[i];
-            let corr = corr_of(img, s.view, picture);
+            let corr = memo[key];
             samples.push(Moved {
                 view: scene.views[s.view].name.clone(),
                 moved: s.moved,
@@ -422,6 +442,52 @@ pub fn sensitivity(renderer: &Renderer, scene: &Scene, inputs: &SheetInputs) -> 
         tolerances,
         samples,
     })
+}
+
+/// One move of a search step to render: the search, its view, whether the lamp moved (else the
+/// eye), and the view so moved.
+struct Move {
+    search: usize,
+    view: usize,
+    lamp: bool,
+    moved: View,
+}
+
+/// Each move's correlation with its picture: the lamp moves rendered on their kept tile lists
+/// ([`lamp`]), the eye moves binned afresh (their cameras move); the moved eyes' pictures and
+/// every correlation computed on all cores.
+fn render_moves(
+    renderer: &Renderer,
+    scene: &Scene,
+    inputs: &SheetInputs,
+    designed: &[Picture],
+    lamps: &mut lamp::LampRenders,
+    moves: &[Move],
+) -> Result<Vec<f64>, OptimError> {
+    // (A moved lamp leaves the picture where it was: the designed view's, not copied.)
+    let own = scratchart_model::par::par_map(moves.len(), |k| {
+        let m = &moves[k];
+        (!m.lamp).then(|| picture_of(scene, inputs, m.view, Some(&m.moved)))
+    });
+    let pictures: Vec<&Picture> = moves
+        .iter()
+        .zip(&own)
+        .map(|(m, own)| own.as_ref().unwrap_or(&designed[m.view]))
+        .collect();
+    let pick = |lamp: bool| -> Vec<usize> { (0..moves.len()).filter(|&k| moves[k].lamp == lamp).collect() };
+    let (lamp_k, eye_k) = (pick(true), pick(false));
+    let views_of = |ks: &[usize]| ks.iter().map(|&k| moves[k].moved.clone()).collect::<Vec<_>>();
+    let masks_of = |ks: &[usize]| ks.iter().map(|&k| pictures[k].1.as_slice()).collect::<Vec<_>>();
+    let searches: Vec<usize> = lamp_k.iter().map(|&k| moves[k].search).collect();
+    let lamp_imgs = lamps.render(renderer, scene, &searches, views_of(&lamp_k), &masks_of(&lamp_k))?;
+    let eye_imgs = render_views(renderer, scene, views_of(&eye_k), &masks_of(&eye_k))?;
+    let mut images: Vec<Vec<f32>> = vec![Vec::new(); moves.len()];
+    for (k, img) in lamp_k.into_iter().zip(lamp_imgs).chain(eye_k.into_iter().zip(eye_imgs)) {
+        images[k] = img;
+    }
+    Ok(scratchart_model::par::par_map(moves.len(), |k| {
+        corr_of(scene, inputs, &images[k], moves[k].view, pictures[k])
+    }))
 }
 
 /// View `designed`'s picture (its target, display values, and its picture's pixels) as it
@@ -522,164 +588,10 @@ impl Place {
 /// the lamp may move "to keep 90% of it" says nothing useful (90% of about nothing).
 pub const ADVICE_MIN_CORR: f64 = 0.3;
 
-/// What the set-up sheet is computed from: each view's target exactly as the design's loss saw
-/// it (display values), where its picture is, the blur of the quality measure, and the views left
-/// blank on purpose. `design` writes them beside the design ([`SheetInputs::FILE`],
-/// `NAME_target.pfm`, `NAME_picture.png`: lossless) and `scratchart setup` reads them back, so the
-/// two build the sheet through [`write_setup`] from the same numbers.
-#[derive(Clone, Debug, PartialEq)]
-pub struct SheetInputs {
-    pub targets: Vec<Vec<f32>>,
-    pub pictures: Vec<Vec<bool>>,
-    pub sigma: f32,
-    pub blank_views: Vec<String>,
-}
-
-impl SheetInputs {
-    /// The index file beside the design.
-    pub const FILE: &'static str = "setup_inputs.json";
-
-    /// Writes the inputs into `dir` (atomically, each file).
-    pub fn save(&self, dir: &Path, scene: &Scene) -> Result<(), OptimError> {
-        let mut views = Vec::new();
-        for (j, v) in scene.views.iter().enumerate() {
-            let (w, h) = (v.camera.width, v.camera.height);
-            let (t, m) = (format!("{}_target.pfm", v.name), format!("{}_picture.png", v.name));
-            scratchart_render::io::write_pfm(&dir.join(&t), w, h, &self.targets[j])?;
-            let mask: Vec<u8> = self.pictures[j].iter().map(|&p| if p { 255 } else { 0 }).collect();
-            scratchart_render::io::write_png_gray(&dir.join(&m), w, h, &mask)?;
-            views.push(json!({"name": v.name, "target": t, "picture": m}));
-        }
-        let index = json!({
-            "what": "the set-up sheet's inputs: each view's target as the design's loss saw it (display values, PFM) and its picture's pixels (PNG, white); `scratchart setup` reads them",
-            "sigma_px": self.sigma,
-            "blank_views": self.blank_views,
-            "views": views,
-        });
-        let text = serde_json::to_string_pretty(&index).expect("the index always serializes");
-        Ok(scratchart_render::io::write_atomic(
-            &dir.join(Self::FILE),
-            text.as_bytes(),
-        )?)
-    }
-
-    /// The sheet's inputs of a design in `dir` that wrote none: NAME_target.png beside it (else
-    /// the design's own render), the whole plate as each picture, the loss's default blur, and
-    /// the views its summary.json lists as blank on purpose.
-    pub fn approximate(
-        renderer: &Renderer,
-        scene: &Scene,
-        dir: &Path,
-        obs: &dyn Observer,
-    ) -> Result<SheetInputs, OptimError> {
-        let mut gs = renderer.upload(scene)?;
-        let frame = renderer.render(&mut gs)?;
-        let mut targets = Vec::new();
-        for (v, img) in scene.views.iter().zip(&frame.images) {
-            let t = dir.join(format!("{}_target.png", v.name));
-            let (w, h) = (v.camera.width, v.camera.height);
-            let own = || img.iter().map(|&l| scratchart_render::io::display_value(l)).collect();
-            let target = match scratchart_render::io::read_image_gray(&t) {
-                Ok((tw, th, data)) if (tw, th) == (w, h) => data,
-                Ok((tw, th, _)) => {
-                    obs.warn(&format!(
-                        "{} is {tw}x{th}, the view {w}x{h}: using the design's own render",
-                        t.display()
-                    ));
-                    own()
-                }
-                Err(_) => own(),
-            };
-            targets.push(target);
-        }
-        let pictures: Vec<Vec<bool>> = (0..scene.views.len())
-            .map(|v| scratchart_model::camera::on_plate_mask(scene, v))
-            .collect();
-        // Views the design left blank on purpose, as its summary.json lists them.
-        let blank_views: Vec<String> = std::fs::read_to_string(dir.join("summary.json"))
-            .ok()
-            .and_then(|t| serde_json::from_str::<Value>(&t).ok())
-            .and_then(|v| v["blank_views"].as_array().cloned())
-            .map(|a| a.iter().filter_map(|x| x.as_str().map(String::from)).collect())
-            .unwrap_or_default();
-        Ok(SheetInputs {
-            targets,
-            pictures,
-            sigma: scratchart_optim::loss::LossConfig::default().sigma,
-            blank_views,
-        })
-    }
-
-    /// Reads the inputs a design wrote into `dir`; `Ok(None)` when it wrote none (a design made
-    /// before they were written).
-    pub fn load(dir: &Path, scene: &Scene) -> Result<Option<SheetInputs>, OptimError> {
-        let path = dir.join(Self::FILE);
-        let text = match std::fs::read_to_string(&path) {
-            Ok(t) => t,
-            Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(None),
-            Err(cause) => {
-                return Err(OptimError::Io(scratchart_render::io::IoError::Io {
-                    action: "read",
-                    path,
-                    cause,
-                }))
-            }
-        };
-        let bad = |msg: String| {
-            OptimError::Io(scratchart_render::io::IoError::Format {
-                kind: "set-up inputs",
-                path: path.clone(),
-                msg,
-            })
-        };
-        let index: Value = serde_json::from_str(&text).map_err(|e| bad(e.to_string()))?;
-        let sigma = index["sigma_px"]
-            .as_f64()
-            .filter(|s| s.is_finite() && *s >= 0.0)
-            .ok_or_else(|| bad("`sigma_px` is not a number >= 0".into()))? as f32;
-        let blank_views = index["blank_views"]
-            .as_array()
-            .map(|a| a.iter().filter_map(|x| x.as_str().map(String::from)).collect())
-            .unwrap_or_default();
-        let listed = index["views"].as_array().cloned().unwrap_or_default();
-        let (mut targets, mut pictures) = (Vec::new(), Vec::new());
-        for v in &scene.views {
-            let entry = listed
-                .iter()
-                .find(|e| e["name"].as_str() == Some(v.name.as_str()))
-                .ok_or_else(|| bad(format!("it lists no view `{}` (the design has it)", v.name)))?;
-            let file = |key: &str| {
-                entry[key]
-                    .as_str()
-                    .map(|f| dir.join(f))
-                    .ok_or_else(|| bad(format!("view `{}` has no `{key}` file", v.name)))
-            };
-            let (w, h) = (v.camera.width, v.camera.height);
-            let tp = file("target")?;
-            let (tw, th, t) = scratchart_render::io::read_pfm(&tp)?;
-            let mp = file("picture")?;
-            let (mw, mh, m) = scratchart_render::io::read_image_gray(&mp)?;
-            if (tw, th) != (w, h) || (mw, mh) != (w, h) {
-                return Err(bad(format!(
-                    "view `{}` is {w}x{h}, but `{}` is {tw}x{th} and `{}` {mw}x{mh}",
-                    v.name,
-                    tp.display(),
-                    mp.display()
-                )));
-            }
-            targets.push(t);
-            pictures.push(m.iter().map(|&x| x > 0.5).collect());
-        }
-        Ok(Some(SheetInputs {
-            targets,
-            pictures,
-            sigma,
-            blank_views,
-        }))
-    }
-}
-
+mod inputs;
 mod lamp;
+
+pub use inputs::SheetInputs;
 
 #[cfg(test)]
 mod tests;

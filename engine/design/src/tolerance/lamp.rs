@@ -10,7 +10,7 @@ use scratchart_render::GpuScene;
 use scratchart_render::Renderer;
 use scratchart_vulkan::Recorder;
 
-use super::{batch_views, mask_window};
+use super::{batch_views, display_images, mask_window};
 
 #[derive(Default)]
 pub(super) struct LampRenders {
@@ -63,13 +63,7 @@ impl LampRenders {
                 renderer.record_render_with(rec, gs, !first);
                 first = false;
             })?;
-            for img in renderer.download_images(gs)? {
-                out.push(
-                    img.iter()
-                        .map(|&l| scratchart_render::io::display_value(l).clamp(0.0, 1.0))
-                        .collect(),
-                );
-            }
+            out.extend(display_images(renderer.download_images(gs)?));
         }
         Ok(out)
     }

@@ -93,3 +93,35 @@ fn the_search_bisects_to_its_resolution() {
     assert!(lost - s.safe <= resolution("azimuth", s.safe), "{} {lost}", s.safe);
     assert!(tried.len() <= 9, "{tried:?}");
 }
+
+/// Moves that leave a view as it was, or as another move had it, share a render (their
+/// [`MoveKey`]): an overhead lamp turned in azimuth is the designed view; raised past the
+/// elevation limit by 5 or 10 degrees it stands at the limit both times. Every other move is
+/// rendered.
+#[test]
+fn moves_that_change_nothing_share_a_render() {
+    let designed = view(0.0, 45.0, 250.0);
+    let key = |what: &str, axis: &str, delta: f64| move_key(0, &variant(&designed, what, axis, delta));
+    let as_designed = move_key(0, &designed);
+    for delta in [-20.0, -1.0, 0.25, 10.0] {
+        assert_eq!(
+            key("lamp", "azimuth", delta),
+            as_designed,
+            "overhead lamp turned {delta}"
+        );
+        assert_ne!(key("eye", "azimuth", delta), as_designed, "eye turned {delta}");
+        assert_ne!(
+            key("lamp", "elevation", -delta.abs()),
+            as_designed,
+            "lamp lowered {delta}"
+        );
+    }
+    assert_eq!(key("lamp", "elevation", 5.0), key("lamp", "elevation", 10.0));
+    assert_ne!(key("lamp", "elevation", 5.0), as_designed);
+    assert_ne!(key("lamp", "distance", 0.02), as_designed);
+    assert_ne!(move_key(1, &designed), as_designed, "another view");
+    // A lamp off the axis turns.
+    let mut side = designed.clone();
+    side.light = crate::scenes::orbit_light(300.0, 60.0, 30.0, 1.0e5);
+    assert_ne!(move_key(0, &variant(&side, "lamp", "azimuth", 1.0)), move_key(0, &side));
+}
