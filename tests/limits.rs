@@ -133,3 +133,36 @@ fn cli_devices_lists_the_default() {
         ctx.info().name
     );
 }
+
+/// The device memory a job states before it starts (`SceneDims::device_bytes`) is what an
+/// upload takes from the allocator, at least and within a few percent, in both binning modes.
+#[test]
+fn the_stated_device_memory_is_what_an_upload_takes() {
+    use scratchart_render::limits::SceneDims;
+    use scratchart_render::BinMode;
+    let ctx = gpu();
+    let r = Renderer::new(&ctx).unwrap();
+    for (n, side, views) in [(10usize, 16u32, 1usize), (5000, 128, 3), (40000, 256, 2)] {
+        let vs = (0..views)
+            .map(|k| orbit_view(&format!("v{k}"), side, 45.0, 120.0 * k as f64, 45.0, 180.0, 20.0))
+            .collect();
+        let scene = random_scene(5, n, 20.0, 0.2, 0.2, 0.1, vs);
+        let sizes = vec![(side, side); views];
+        let dims = SceneDims::new(&sizes, n as u64, false);
+        let before = ctx.allocated_bytes();
+        let mut gs = r.upload(&scene).unwrap();
+        for mode in [BinMode::Groups, BinMode::Pairs] {
+            gs.force_binning_mode(&ctx, mode).unwrap();
+            let took = ctx.allocated_bytes() - before;
+            let stated = dims.device_bytes_in(ctx.info(), mode);
+            println!("{n} scratches, {views} x {side}^2, {mode:?}: stated {stated}, took {took}");
+            assert!(stated <= took, "{n} scratches {mode:?}: stated {stated} > took {took}");
+            assert!(
+                took <= stated + stated / 20 + (1 << 20),
+                "{n} scratches {mode:?}: took {took}, stated only {stated}"
+            );
+        }
+        drop(gs);
+    }
+    assert_no_validation(&ctx);
+}

@@ -280,6 +280,9 @@ pub struct IterRow {
     /// wall-clock seconds of the timed iterations (host work and read-backs included)
     pub wall_s: f64,
     pub pairs_per_iter: f64,
+    /// Device memory: what the job states before it starts (a lower bound,
+    /// `SceneDims::device_bytes`) and what its buffers held after the iterations.
+    pub device_bytes: (u64, u64),
 }
 
 /// Display-value targets for a benchmark: given linear targets (`--targets`), or the scene's own
@@ -362,6 +365,8 @@ pub fn run_iterations(
     let n_all = (warmup + iters + 1) as f64;
     let wall_s = wall * (iters as f64 / n_all);
     let report_pairs = opt.driver.gs.stats()?.pairs as f64;
+    let sizes: Vec<(u32, u32)> = scene.views.iter().map(|v| (v.camera.width, v.camera.height)).collect();
+    let stated = scratchart_render::limits::SceneDims::new(&sizes, scene.scratches.len() as u64, true);
     Ok(IterRow {
         name: name.to_string(),
         scratches: scene.scratches.len(),
@@ -376,6 +381,7 @@ pub fn run_iterations(
         gpu_ms,
         wall_s,
         pairs_per_iter: report_pairs,
+        device_bytes: (stated.device_bytes(ctx.info()), ctx.allocated_bytes()),
     })
 }
 
@@ -384,14 +390,14 @@ pub fn iteration_table(rows: &[IterRow]) -> String {
     let mut s = String::new();
     let _ = writeln!(
         s,
-        "| scene | scratches | views x pixels | pairs/iter | binning | forward | loss | loss bwd | backward | Adam | GPU ms/iter | wall s for iters |"
+        "| scene | scratches | views x pixels | pairs/iter | binning | forward | loss | loss bwd | backward | Adam | GPU ms/iter | wall s for iters | device memory stated / held |"
     );
-    let _ = writeln!(s, "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
+    let _ = writeln!(s, "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
     for r in rows {
         let st: Vec<String> = r.stages.iter().map(|(_, ms)| format!("{ms:.1}")).collect();
         let _ = writeln!(
             s,
-            "| {} | {} | {} x {} | {:.3e} | {} | {:.1} | {:.2} s for {} |",
+            "| {} | {} | {} x {} | {:.3e} | {} | {:.1} | {:.2} s for {} | {} / {} |",
             r.name,
             r.scratches,
             r.views,
@@ -400,7 +406,9 @@ pub fn iteration_table(rows: &[IterRow]) -> String {
             st.join(" | "),
             r.gpu_ms,
             r.wall_s,
-            r.iters
+            r.iters,
+            scratchart_render::limits::mib(r.device_bytes.0),
+            scratchart_render::limits::mib(r.device_bytes.1)
         );
     }
     s

@@ -155,3 +155,35 @@ pub fn summary(scene: &Scene, err: MachineError, robust: bool, carvings: u32, vi
         })).collect::<Vec<_>>(),
     })
 }
+
+/// `summary.json`'s `machine_error`: the written design carved `cfg.carvings` times with the
+/// machine's error ([`crate::carving`]).
+pub(crate) fn machine_error(
+    renderer: &Renderer,
+    problem: &Problem,
+    cfg: &crate::problem::DesignConfig,
+    fab: &scratchart_optim::tool_params::Fabrication,
+    limits: &scratchart_optim::tool_params::MachineLimits,
+    scene: &Scene,
+    depths: &[f64],
+) -> Result<Value, scratchart_optim::error::OptimError> {
+    let err = MachineError {
+        sigma_z_mm: limits.profile.z_repeatability_mm,
+        sigma_xy_mm: limits.profile.xy_repeatability_mm,
+    };
+    let table = carving_table(fab, cfg.adam.w_bounds.1 as f64, cfg.adam.d_bounds.1 as f64)
+        .map_err(|e| scratchart_optim::error::OptimError::Report(format!("the carvings' tool table: {e}")))?;
+    let views = carved_quality(
+        renderer,
+        problem,
+        scene,
+        depths,
+        fab,
+        &table,
+        err,
+        cfg.carvings,
+        cfg.seed,
+        cfg.loss.sigma,
+    )?;
+    Ok(summary(scene, err, fab.robust.is_some(), cfg.carvings, &views))
+}

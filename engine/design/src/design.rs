@@ -362,6 +362,7 @@ pub fn run_design_live(
     // From here on the problem is the steered one (the targets the loss ended with).
     let problem = &work;
     let t_loop_end = std::time::Instant::now();
+    let device_bytes = ctx.allocated_bytes();
     let snap = snap_depths_to_machine(ctx, &opt, cfg)?;
     let unpruned = opt.scene(&problem.scene)?;
     let depths = commanded_depths(ctx, &opt, cfg)?;
@@ -431,6 +432,7 @@ pub fn run_design_live(
             final_render,
             set_up_sheet: 0.0,
         },
+        device_bytes,
     };
     if cfg.write_outputs {
         write_design_outputs(&renderer, problem, cfg, &mut report, snap, t_pruned)?;
@@ -546,7 +548,8 @@ fn write_design_outputs(
         if let Some(limits) = &fab.machine {
             summary["machine"] = machine_summary(limits, fab, &wr.scene, z, snap, report.final_loss.total);
             if cfg.carvings > 0 {
-                summary["machine_error"] = machine_error(renderer, &wp, cfg, fab, limits, &wr.scene, z)?;
+                summary["machine_error"] =
+                    crate::carving::machine_error(renderer, &wp, cfg, fab, limits, &wr.scene, z)?;
             }
         }
     }
@@ -601,39 +604,6 @@ fn write_design_outputs(
     )?;
     report.summary = Some(summary);
     Ok(())
-}
-
-/// `summary.json`'s `machine_error`: the written design carved `cfg.carvings` times with the
-/// machine's error ([`crate::carving`]).
-fn machine_error(
-    renderer: &Renderer,
-    problem: &Problem,
-    cfg: &DesignConfig,
-    fab: &scratchart_optim::tool_params::Fabrication,
-    limits: &scratchart_optim::tool_params::MachineLimits,
-    scene: &Scene,
-    depths: &[f64],
-) -> Result<Value, OptimError> {
-    use crate::carving::{carved_quality, carving_table, summary, MachineError};
-    let err = MachineError {
-        sigma_z_mm: limits.profile.z_repeatability_mm,
-        sigma_xy_mm: limits.profile.xy_repeatability_mm,
-    };
-    let table = carving_table(fab, cfg.adam.w_bounds.1 as f64, cfg.adam.d_bounds.1 as f64)
-        .map_err(|e| OptimError::Report(format!("the carvings' tool table: {e}")))?;
-    let views = carved_quality(
-        renderer,
-        problem,
-        scene,
-        depths,
-        fab,
-        &table,
-        err,
-        cfg.carvings,
-        cfg.seed,
-        cfg.loss.sigma,
-    )?;
-    Ok(summary(scene, err, fab.robust.is_some(), cfg.carvings, &views))
 }
 
 /// `summary.json`'s `machine`: the limits a `design --machine` kept and how many scratches each

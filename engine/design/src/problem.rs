@@ -212,4 +212,7 @@ pub struct DesignReport {
     pub view_weights: Vec<f32>,
     /// Wall time by phase.
     pub wall: WallTimes,
+    /// Bytes of device memory the job's buffers held when the iterations ended (the tile lists
+    /// grown to the design's pairs, the loss, the optimizer).
+    pub device_bytes: u64,
 }

@@ -307,6 +307,7 @@ pub fn write_outputs(
         "ms_per_iteration": per_iter_ms,
         "gpu_ms_per_iteration": r.gpu_ms.iter().map(|(l, ms)| json!({"phase": l, "ms": ms})).collect::<Vec<_>>(),
         "pairs_per_iteration": r.mean_pairs,
+        "device_memory_bytes": r.device_bytes,
         "loss_initial": first.map(|f| f.total as f64),
         "loss_final": r.final_loss.total as f64,
         "per_view": views_json,
@@ -418,6 +419,13 @@ pub fn summary_text(s: &serde_json::Value, out: &Path) -> String {
             .map(|p| format!("{} {:.1}", p["phase"].as_str().unwrap_or("?"), f(&p["ms"])))
             .collect();
         let _ = writeln!(text, "  GPU ms per iteration: {}", p.join(", "));
+    }
+    if let Some(b) = s["device_memory_bytes"].as_u64() {
+        let _ = writeln!(
+            text,
+            "  device memory held at the end of the iterations: {}",
+            scratchart_render::limits::mib(b)
+        );
     }
     if s["wall_s"].is_object() {
         let _ = writeln!(text, "{}", wall_line(&s["wall_s"]));

@@ -95,11 +95,25 @@ impl SceneDims {
         (self.scratches * self.views * 4).max(1 << 16).min(max_range / 32) as u32
     }
 
-    /// The device buffers that grow with the scene: (what, bytes), largest first.
-    pub fn buffers(&self) -> Vec<(&'static str, u64)> {
+    /// Entries of the pair search's offsets in `mode`: per tile and scratch group (groups), or
+    /// per tile (pairs), and one past the end.
+    pub fn offsets_len_in(&self, mode: crate::BinMode) -> u64 {
+        match mode {
+            crate::BinMode::Groups => self.offsets_len(),
+            crate::BinMode::Pairs => self.tiles + 1,
+        }
+    }
+
+    /// The device buffers that grow with the scene on `info`'s device (its binning mode): (what,
+    /// bytes), largest first.
+    pub fn buffers(&self, info: &DeviceInfo) -> Vec<(&'static str, u64)> {
+        let offsets = match crate::BinMode::for_device(info) {
+            crate::BinMode::Groups => ("pair-search offsets (tiles x scratch groups)", self.offsets_len() * 4),
+            crate::BinMode::Pairs => ("pair-search offsets (one per tile)", (self.tiles + 1) * 4),
+        };
         let mut b = vec![
             ("per-pixel images (image, coverage, dE/dL), each", self.image_bytes()),
-            ("pair-search offsets (tiles x scratch groups)", self.offsets_len() * 4),
+            offsets,
             ("scratch parameters and gradients, each", self.scratch_bytes()),
             (RECORDS, self.records_bytes()),
             // A lower bound: every visible scratch is listed in at least one tile per view; the
@@ -124,7 +138,7 @@ impl SceneDims {
         // The records are also texel buffers: 16-byte texels, at most maxTexelBufferElements.
         let texel_limit = info.max_texel_buffer_elements.saturating_mul(16);
         let texels = [(PIXEL_RECORDS, self.pixel_records_bytes())];
-        self.buffers()
+        self.buffers(info)
             .into_iter()
             .find_map(|(n, b)| {
                 let limit = if n == RECORDS { limit.min(texel_limit) } else { limit };
@@ -135,6 +149,55 @@ impl SceneDims {
                     .into_iter()
                     .find_map(|(n, b)| (b > texel_limit).then_some((n, b, texel_limit)))
             })
+    }
+
+    /// Device memory the scene's buffers take at least on `info`'s device: every buffer of an
+    /// upload at its first size (the tile lists and what goes with them grow with the pairs
+    /// after the first render; the backward's pair store is taken only where memory is left),
+    /// and the design loss's where it is allocated. Checked against the allocator in
+    /// `tests/limits.rs`.
+    pub fn device_bytes(&self, info: &DeviceInfo) -> u64 {
+        self.device_bytes_in(info, crate::BinMode::for_device(info))
+    }
+
+    /// [`device_bytes`](Self::device_bytes) with binning in `mode`.
+    pub fn device_bytes_in(&self, info: &DeviceInfo, mode: crate::BinMode) -> u64 {
+        let cap = self.first_list_capacity(info.max_storage_buffer_range) as u64;
+        // list, inverse map and partial gradients per entry; the sort's keys, two values and
+        // scratches, and its digit counts, in the pairs mode
+        let per_entry = match mode {
+            crate::BinMode::Groups => 4 + 4 + 32,
+            crate::BinMode::Pairs => 4 + 4 + 32 + 16 + 4,
+        };
+        let offsets = self.offsets_len_in(mode);
+        let mut bytes = 3 * self.image_bytes()
+            + 2 * self.scratch_bytes()
+            + self.records_bytes()
+            + self.pixel_records_bytes()
+            + 2 * offsets * 4
+            + (self.scratches + 1) * 4
+            + cap * per_entry;
+        if self.with_loss {
+            // Its pyramid's filter responses (a lower bound of the loss's buffers).
+            bytes += (self.pixels + self.pixels / 3) * 5 * 4;
+        }
+        bytes
+    }
+
+    /// Where the buffers need more than the device's memory (a lower bound, see
+    /// [`device_bytes`](Self::device_bytes)): what they need and what it has.
+    pub fn over_device_memory(&self, info: &DeviceInfo) -> Option<String> {
+        let need = self.device_bytes(info);
+        (info.device_memory > 0 && need > info.device_memory).then(|| {
+            format!(
+                "the buffers of {} pixels in {} views and {} scratches need at least {} of device memory but this device has {}",
+                self.pixels,
+                self.views,
+                self.scratches,
+                mib(need),
+                mib(info.device_memory)
+            )
+        })
     }
 
     /// Host memory the job needs at least (targets, images read back, reports): a lower bound.
@@ -166,6 +229,9 @@ impl SceneDims {
         if let Some(why) = self.over_loop_limit(info) {
             return Err(why);
         }
+        if let Some(why) = self.over_device_memory(info) {
+            return Err(why);
+        }
         if let Some(avail) = host_available() {
             if self.host_bytes() > avail {
                 return Err(format!(
@@ -194,7 +260,8 @@ pub fn largest_fitting(hi: u64, fits: impl Fn(u64) -> bool) -> u64 {
     lo
 }
 
-fn mib(bytes: u64) -> String {
+/// `bytes` as MiB or GiB, one decimal.
+pub fn mib(bytes: u64) -> String {
     if bytes >= 1 << 30 {
         format!("{:.1} GiB", bytes as f64 / (1u64 << 30) as f64)
     } else {
@@ -247,4 +314,59 @@ pub fn view_warnings(v: &crate::model::scene::View) -> Vec<String> {
         ));
     }
     w
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A GPU of `memory` bytes binding up to 4 GiB per buffer.
+    fn gpu(memory: u64) -> DeviceInfo {
+        DeviceInfo {
+            name: "a GPU".into(),
+            kind: "discrete".into(),
+            api_version: "1.3.0".into(),
+            max_storage_buffer_range: (1 << 32) - 1,
+            max_texel_buffer_elements: 1 << 30,
+            max_workgroup_count: [65535; 3],
+            max_workgroup_invocations: 1024,
+            max_shared_memory: 49152,
+            max_push_constants_size: 256,
+            timestamp_period_ns: 1.0,
+            timestamps: true,
+            timestamp_valid_bits: 64,
+            subgroup_size: 32,
+            subgroup_arithmetic: true,
+            float64: true,
+            int64: true,
+            float32_atomic_add: true,
+            device_memory: memory,
+        }
+    }
+
+    /// A GPU bins by pairs: its offsets are one word per tile, so the groups mode's tiles x
+    /// groups table (2.9 GiB for a million scratches on 3 x 2048^2) limits nothing there; what
+    /// does is the device's memory, stated and checked before anything is allocated.
+    #[test]
+    fn a_gpu_is_held_to_its_memory_not_to_the_groups_table() {
+        let big = SceneDims::new(&[(2048, 2048); 3], 4_000_000, true);
+        assert!(
+            big.offsets_len() * 4 > (1 << 32),
+            "the groups table would not fit one buffer"
+        );
+        let roomy = gpu(140 << 30);
+        assert_eq!(big.over_device_limit(&roomy), None);
+        assert_eq!(big.check(&roomy), Ok(()));
+        let need = big.device_bytes(&roomy);
+        assert!(need > 2 << 30 && need < 140 << 30, "{need}");
+        let small = gpu(need - 1);
+        let err = big.check(&small).expect_err("over the device's memory");
+        assert!(err.contains("device memory") && err.contains(&mib(need)), "{err}");
+        // The CPU driver bins by groups, and its table is checked.
+        let mut cpu = roomy.clone();
+        cpu.kind = "cpu".into();
+        assert!(big
+            .over_device_limit(&cpu)
+            .is_some_and(|(what, _, _)| what.contains("groups")));
+    }
 }

@@ -234,6 +234,11 @@ impl GpuScene {
         if let Some(why) = dims.over_loop_limit(ctx.info()) {
             return Err(GpuError::Capacity(format!("{why}; use smaller views")));
         }
+        if let Some(why) = dims.over_device_memory(ctx.info()) {
+            return Err(GpuError::Capacity(format!(
+                "{why}; reduce the scene (fewer scratches, views or pixels)"
+            )));
+        }
         let slots = layout::view_slots_in(scene, windows);
         assert_eq!(slots.n_pixels, dims.pixels, "one count of pixels");
         assert!(slots.n_tiles as u64 <= dims.tiles, "a window is part of its image");

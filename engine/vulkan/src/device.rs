@@ -278,7 +278,7 @@ impl Context {
             }
         };
 
-        let info = DeviceInfo::new(
+        let mut info = DeviceInfo::new(
             &props,
             &family_props,
             subgroup_size,
@@ -286,6 +286,13 @@ impl Context {
             &en_core,
             &en_af,
         );
+        let mem = unsafe { instance.get_physical_device_memory_properties(pd) };
+        info.device_memory = mem.memory_heaps[..mem.memory_heap_count as usize]
+            .iter()
+            .filter(|h| h.flags.contains(vk::MemoryHeapFlags::DEVICE_LOCAL))
+            .map(|h| h.size)
+            .max()
+            .unwrap_or(0);
         Ok((pd, device, queue_family, info, allocator))
     }
 
@@ -325,6 +332,11 @@ impl Context {
             .object_name(&cname);
         // A failure to name an object is harmless; ignore it.
         let _ = unsafe { dd.set_debug_utils_object_name(&info) };
+    }
+
+    /// Bytes of device memory this context's buffers hold now (their allocations' sizes).
+    pub fn allocated_bytes(&self) -> u64 {
+        self.allocator().generate_report().total_allocated_bytes
     }
 
     pub(crate) fn allocator(&self) -> MutexGuard<'_, Allocator> {

@@ -34,6 +34,9 @@ pub struct DeviceInfo {
     /// `VK_EXT_shader_atomic_float` with `shaderBufferFloat32AtomicAdd` enabled
     /// (`atomicAdd` on `float` in storage buffers, GLSL `GL_EXT_shader_atomic_float`).
     pub float32_atomic_add: bool,
+    /// Bytes of the device's largest device-local memory heap: what one job's buffers share
+    /// (0 where the device reports none).
+    pub device_memory: u64,
 }
 
 pub(super) fn kind_name(t: vk::PhysicalDeviceType) -> &'static str {
@@ -310,6 +313,7 @@ impl DeviceInfo {
             float64: en_core.shader_float64 == vk::TRUE,
             int64: en_core.shader_int64 == vk::TRUE,
             float32_atomic_add: en_af.shader_buffer_float32_atomic_add == vk::TRUE,
+            device_memory: 0,
         }
     }
 }

@@ -96,6 +96,12 @@ pub fn problem(spec: &DesignSpec, info: &DeviceInfo, obs: &dyn Observer) -> Resu
         views.iter_mut().for_each(|v| v.light = lamp.clone());
     }
     check_size(spec, &views, n_scratches, info)?;
+    let sizes: Vec<(u32, u32)> = views.iter().map(|v| (v.camera.width, v.camera.height)).collect();
+    obs.info(&format!(
+        "device memory: at least {} of the device's {} (the tile lists grow with the pairs)",
+        scratchart_render::limits::mib(SceneDims::new(&sizes, n_scratches as u64, true).device_bytes(info)),
+        scratchart_render::limits::mib(info.device_memory)
+    ));
     for w in views.iter().flat_map(scratchart_render::limits::view_warnings) {
         obs.warn(&w);
     }
