@@ -44,12 +44,12 @@ pub const LIGHT_ELEVATION_ABOVE_VIEWS: f64 = 20.0;
 /// ... and this many times the views' distance from the plate centre.
 pub const LIGHT_DISTANCE_FACTOR: f64 = 1.0;
 /// Scratches, iterations and view resolution (square, pixels) of a ring design without
-/// `scratches`, `iters` or `res`: where a 2-core CPU's 20 seconds pay most (9,000 x 130 at 120
-/// px beat 10,000 x 140 at 112 px on every photo set measured, in less time;
-/// engine/docs/worst_view.md).
-pub const DEFAULT_SCRATCHES: usize = 9_000;
-pub const DEFAULT_ITERS: u32 = 130;
-pub const DEFAULT_RES: u32 = 120;
+/// `scratches`, `iters` or `res`: where a 2-core CPU's 20 seconds pay most (18,000 x 70 at 128
+/// px beat 9,000 x 130 at 120 px on every photo set measured, in the same time: small pictures
+/// of fine detail need scratches more than iterations; engine/docs/worst_view.md).
+pub const DEFAULT_SCRATCHES: usize = 18_000;
+pub const DEFAULT_ITERS: u32 = 70;
+pub const DEFAULT_RES: u32 = 128;
 /// The same for a walk, a hold or an object (many views): 1000 scratches per view, at least
 /// this many; 140 iterations; 112 px.
 pub const WALK_MIN_SCRATCHES: usize = 10_000;
