@@ -15,6 +15,10 @@ if [ "$QUICK" = quick ]; then SIZES=S; DESIGN="--scratches 2000 --res 64 --iters
 
 # 1. Binning, forward and backward per view, with the backward/forward ratios (default bands).
 "$BIN/scratchart" bench --sizes "$SIZES" --iters 10 --compare-backward > "$OUT/bench.md" 2>&1
+#    The backward with each round's lists built by thread 0 alone (the CPU drivers' build, the
+#    GPUs' before 2026-11-29), for the comparison with the default's lists by every thread.
+echo "### backward with --links one" >> "$OUT/bench.md"
+"$BIN/scratchart" bench --sizes "$SIZES" --iters 0 --compare-backward --links one >> "$OUT/bench.md" 2>&1
 #    and four times L's scratches (640,000 on 3 x 1024^2, 290 M pairs), the largest figure kept.
 if [ "$QUICK" != quick ]; then
   "$BIN/scratchart" bench --sizes 640000x3x1024 --iters 3 --repeats 3 --warmup 1 >> "$OUT/bench.md" 2>&1
@@ -71,7 +75,7 @@ fi
 
 {
   echo "# GPU measurements ($(date -u +%F))"
-  echo; echo "## bench (default bands)"; grep -E '^\||^device' "$OUT/bench.md"
+  echo; echo "## bench (default bands)"; grep -E '^\||^device|^###' "$OUT/bench.md"
   echo; echo "## bench, pair search in the groups mode (with the GPU's bands, then none)"; grep -E '^\| [A-Z]' "$OUT/bench_nobands.md" | head -10
   echo; echo "## design $DESIGN, then --preset paper"; grep -E 'wall|preset|corr_' "$OUT/design.log"
   echo; echo "## viewer"; grep -E '^###|^mode|^headless|^device|^  [0-9]' "$OUT/viewer.md"

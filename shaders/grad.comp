@@ -65,6 +65,9 @@ const uint NK = 2u * CHUNK;
 const uint NK = CHUNK;
 #endif
 shared uint sh_head[NK];           // per scratch of the round: its first entry in the round
+#ifdef SA_PARALLEL_LINKS
+shared uint sh_tail[NK];           // per scratch of the round: its last entry (where it has one)
+#endif
 const uint LIST_END = 0xFFFFFFFFu;  // the end of a scratch's list (sh_head, the links)
 // Thread k < NK: scratch k's contributions so far (private: only thread k touches them).
 vec4 acc0 = vec4(0.0), acc1 = vec4(0.0);
@@ -112,13 +115,46 @@ void pair_eval(uint i, uint px, uint k, bool fast) {
     sh_c1[i] = vec4(r1, uintBitsToFloat(k));  // w: the chunk scratch, replaced by the list link
 }
 
-// Scratch k's contributions of this round, in queue order, into thread k's private acc0/acc1.
-// Thread 0 first links each scratch's entries into a list in queue order (one pass over the
-// round, backwards; the link replaces the chunk scratch pair_eval left in the 4th float of
-// sh_c1); thread k then walks only its own entries, instead of every thread testing every entry.
-// The loops test at the bottom: on CPU drivers one that tests at the top runs its body once more
-// with every lane off.
-void round_accumulate(uint lid, uint r0, uint n, uint cnt, uvec2 fmask, uint fbase, uvec2 gmask, uint gbase) {
+#ifdef SA_PARALLEL_LINKS
+// The chunk scratch of the round's entry i (pair_eval left it in the 4th float of sh_c1).
+uint entry_scratch(uint i) { return floatBitsToUint(sh_c1[i].w); }
+
+// link_lists's successor of entry i: the next entry of its scratch, or LIST_END after its last.
+uint successor(uint i) {
+    uint kk = entry_scratch(i);
+    if (i == sh_tail[kk]) return LIST_END;
+    uint j = i + 1u;
+    while (entry_scratch(j) != kk) ++j;  // ends: a later entry of kk exists
+    return j;
+}
+
+// The lists of link_lists below built by every thread at once (GPUs, where thread 0 alone walking
+// the round left the others waiting): each scratch's first and last entries by atomicMin and
+// atomicMax (whose results do not depend on the order they run in), each entry's successor by a
+// scan forward to the next entry of its scratch. The same lists, so the same sums and bits
+// (tests/replay.rs).
+void link_lists(uint lid, uint n) {
+    if (lid < NK) { sh_head[lid] = LIST_END; sh_tail[lid] = 0u; }
+    barrier();
+    uint i = lid;
+    if (i < n) do {
+        atomicMin(sh_head[entry_scratch(i)], i);
+        atomicMax(sh_tail[entry_scratch(i)], i);
+        i += 256u;
+    } while (i < n);
+    barrier();
+    // Every successor is found before any link replaces a scratch that a scan reads.
+    uint nx[QCAP / 256u];
+    for (uint r = 0u; r < QCAP / 256u; ++r) nx[r] = lid + 256u * r < n ? successor(lid + 256u * r) : LIST_END;
+    barrier();
+    for (uint r = 0u; r < QCAP / 256u; ++r) {
+        if (lid + 256u * r < n) sh_c1[lid + 256u * r].w = uintBitsToFloat(nx[r]);
+    }
+}
+#else
+// Thread 0 links each scratch's entries into a list in queue order (one pass over the round,
+// backwards; the link replaces the chunk scratch pair_eval left in the 4th float of sh_c1).
+void link_lists(uint lid, uint n) {
     if (lid == 0u) {
         uint k = 0u;
         do { sh_head[k] = LIST_END; ++k; } while (k < NK);
@@ -130,6 +166,16 @@ void round_accumulate(uint lid, uint r0, uint n, uint cnt, uvec2 fmask, uint fba
             sh_head[kk] = i;
         } while (i > 0u);
     }
+}
+#endif
+
+// Scratch k's contributions of this round, in queue order, into thread k's private acc0/acc1:
+// the round's entries linked into a list per scratch in queue order (link_lists), thread k then
+// walks only its own entries, instead of every thread testing every entry. The loops test at
+// the bottom: on CPU drivers one that tests at the top runs its body once more with every lane
+// off.
+void round_accumulate(uint lid, uint r0, uint n, uint cnt, uvec2 fmask, uint fbase, uvec2 gmask, uint gbase) {
+    link_lists(lid, n);
     barrier();
     if (lid < NK) {  // a scratch with no entries has an empty list
         uint i = sh_head[lid];

@@ -142,3 +142,34 @@ fn a_store_that_lacks_chunks_is_grown_not_trusted() {
     assert_same_bits("a store sized for shorter scratches", &a2, &b2);
     assert_no_validation(&ctx);
 }
+
+/// The backward's round lists built by every thread (`SA_PARALLEL_LINKS`, GPUs) or by thread 0
+/// (CPU drivers) are the same lists: gradients equal bit for bit, searching and replaying, on
+/// a scene whose tiles hold many scratches (full rounds, scratches far apart in a round) and in
+/// passes of one chunk.
+#[test]
+fn lists_built_by_every_thread_change_no_bit() {
+    let ctx = gpu();
+    for (seed, n) in [(3, 1500), (8, 6000)] {
+        let scene = two_view_scene(seed, n, 40, 33);
+        for replay in [false, true] {
+            let run = |parallel: bool| -> Run {
+                let mut k = KernelSet::default().with_links(parallel);
+                if !replay {
+                    k = k.without_replay();
+                }
+                let r = Renderer::with_kernels(&ctx, k).unwrap();
+                let mut gs = r.upload(&scene).unwrap();
+                let dl = seeds(gs.n_pixels() as usize);
+                if replay {
+                    replayed(&r, &mut gs, &dl)
+                } else {
+                    r.gradients(&mut gs, &dl).unwrap()
+                }
+            };
+            let label = format!("{n} scratches, replay {replay}");
+            assert_same_bits(&label, &run(false), &run(true));
+        }
+    }
+    assert_no_validation(&ctx);
+}

@@ -69,6 +69,8 @@ pub fn median(mut v: Vec<f64>) -> f64 {
 /// Times binning and shading of each scene: `warmup` untimed runs, then the median of `repeats`.
 /// With `compare_backward`, every submission also runs the all-dual-number backward kernel
 /// (the oracle of the default one) after the default backward, so the two are timed side by side.
+/// `links`: the default backward's round lists built by every thread or by one (None: the
+/// device's choice).
 /// `binning_mode` and `binning_bands` override the device's choice of binning mode and of bands
 /// of tile rows in the pair search.
 pub fn run_forward(
@@ -76,12 +78,15 @@ pub fn run_forward(
     scenes: &[(String, Scene)],
     warmup: usize,
     repeats: usize,
-    compare_backward: bool,
+    (compare_backward, links): (bool, Option<bool>),
     binning_mode: Option<scratchart_render::BinMode>,
     binning_bands: Option<u32>,
 ) -> Result<Vec<ForwardRow>, GpuError> {
     use scratchart_render::kernels::{Integrator, KernelSet, Mode};
-    let renderer = Renderer::new(ctx)?;
+    let renderer = match links {
+        Some(parallel) => Renderer::with_kernels(ctx, KernelSet::default().with_links(parallel))?,
+        None => Renderer::new(ctx)?,
+    };
     renderer.prepare_backward()?;
     let oracle = if compare_backward {
         let r = Renderer::with_kernels(ctx, KernelSet::with_modes(Integrator::ClosedForm, Mode::BackwardDual))?;

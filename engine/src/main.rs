@@ -113,6 +113,11 @@ enum Cmd {
         /// in the same submissions, and print the ratios
         #[arg(long)]
         compare_backward: bool,
+        /// How the backward of the forward table builds each round's per-scratch lists: `every`
+        /// thread at once (GPUs' default) or thread `one` (CPU drivers' default); the same
+        /// gradients either way. Default: the device's choice
+        #[arg(long, value_parser = ["every", "one"])]
+        links: Option<String>,
         /// Bands of tile rows per view for the pair search of the forward table (0: none, one
         /// thread per scratch group does every view). Default: the device's choice (none on a CPU
         /// driver; on a GPU, enough for about 64k binning threads). For comparing the two
@@ -247,6 +252,7 @@ fn run(cli: Cli) -> Result<()> {
             iters,
             targets,
             compare_backward,
+            links,
             binning_bands,
             binning,
             binning_work,
@@ -258,7 +264,7 @@ fn run(cli: Cli) -> Result<()> {
             *warmup,
             *iters,
             targets.as_deref(),
-            *compare_backward,
+            (*compare_backward, links.as_deref().map(|l| l == "every")),
             (binning, *binning_bands),
         ),
     }
@@ -364,7 +370,7 @@ fn bench_cmd(
     warmup: usize,
     iters: u32,
     targets: Option<&Path>,
-    compare_backward: bool,
+    (compare_backward, links): (bool, Option<bool>),
     (binning, binning_bands): (&[scratchart_render::BinMode], Option<u32>),
 ) -> Result<()> {
     let scenes: Vec<(String, Scene)> = match scene {
@@ -400,7 +406,7 @@ fn bench_cmd(
             &scenes,
             warmup,
             repeats.max(1),
-            compare_backward,
+            (compare_backward, links),
             *m,
             binning_bands,
         )?);

@@ -102,6 +102,47 @@ pub const PRECOMPILED: &[(&str, &[(&str, &str)])] = &[
             ("SA_REPLAY", "1"),
         ],
     ),
+    // A GPU's backward: each round's lists built by every thread (SA_PARALLEL_LINKS).
+    (
+        "grad.comp",
+        &[
+            ("SA_INTEGRATOR_CLOSED_FORM", "1"),
+            ("SA_EDGE_ADJOINT", "1"),
+            ("GRAD_QCAP", "512"),
+            ("SA_PARALLEL_LINKS", "1"),
+        ],
+    ),
+    (
+        "grad.comp",
+        &[
+            ("SA_INTEGRATOR_CLOSED_FORM", "1"),
+            ("SA_EDGE_ADJOINT", "1"),
+            ("GRAD_QCAP", "512"),
+            ("SA_PARALLEL_LINKS", "1"),
+            ("SA_REPLAY", "1"),
+        ],
+    ),
+    (
+        "grad.comp",
+        &[
+            ("SA_INTEGRATOR_CLOSED_FORM", "1"),
+            ("SA_EDGE_ADJOINT", "1"),
+            ("GRAD_QCAP", "512"),
+            ("SA_PARALLEL_LINKS", "1"),
+            ("SA_NO_F64", "1"),
+        ],
+    ),
+    (
+        "grad.comp",
+        &[
+            ("SA_INTEGRATOR_CLOSED_FORM", "1"),
+            ("SA_EDGE_ADJOINT", "1"),
+            ("GRAD_QCAP", "512"),
+            ("SA_PARALLEL_LINKS", "1"),
+            ("SA_NO_F64", "1"),
+            ("SA_REPLAY", "1"),
+        ],
+    ),
     (
         "tangent.comp",
         &[("SA_INTEGRATOR_CLOSED_FORM", "1"), ("SA_EDGE_ADJOINT", "1")],

@@ -215,6 +215,11 @@ impl ShadeKernel {
                 "256"
             };
             defs.push(("GRAD_QCAP", qcap));
+            // A round's lists by every thread on a GPU; by thread 0 on a CPU driver, where a
+            // thread is a SIMD lane and the scans of every lane cost more than one walk.
+            if info.kind != "cpu" {
+                defs.push((PARALLEL_LINKS, "1"));
+            }
         }
         if self.mode == Mode::Tangent {
             // The per-pair reverse sweep of the backward, contracted with the directions.
@@ -228,6 +233,10 @@ impl ShadeKernel {
     }
 }
 
+/// The define of `shaders/grad.comp` that builds each round's per-scratch lists on every thread
+/// (`link_lists`) rather than on thread 0: the same lists, so the same gradients.
+pub const PARALLEL_LINKS: &str = "SA_PARALLEL_LINKS";
+
 /// The shading kernels a [`super::Renderer`] builds: one forward and one backward kernel.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub struct KernelSet {
@@ -240,6 +249,10 @@ pub struct KernelSet {
     /// a scene searches (the store is sized after it); so does any backward whose scene's store
     /// does not fit the device. The dual-number oracle ([`Mode::BackwardDual`]) always searches.
     pub replay: bool,
+    /// The backward's round lists built by every thread (true) or by thread 0 (false); None:
+    /// the device's choice (every thread on a GPU). The gradients are the same bits either way
+    /// (`tests/replay.rs`); a test compares the two on a CPU driver.
+    pub links: Option<bool>,
 }
 
 impl KernelSet {
@@ -260,6 +273,16 @@ impl KernelSet {
                 mode: backward,
             },
             replay: backward == Mode::Backward,
+            links: None,
+        }
+    }
+
+    /// The same kernels with the backward's round lists built by every thread (`true`) or by
+    /// thread 0 (`false`), whatever the device.
+    pub fn with_links(self, parallel: bool) -> KernelSet {
+        KernelSet {
+            links: Some(parallel),
+            ..self
         }
     }
 

@@ -101,23 +101,37 @@ fn shade_pipeline(
     k: &ShadeKernel,
     replay: bool,
 ) -> Result<ComputePipeline, GpuError> {
-    shade_pipeline_with(ctx, sc, k, replay, false)
+    shade_pipeline_with(ctx, sc, k, replay, false, None)
 }
 
 /// [`shade_pipeline`], with `arcs`: the build that weighs arc chords (`SA_ARCS`,
-/// `shaders/inc/patch_ndf.glsl`); without it the kernel has no trace of them.
+/// `shaders/inc/patch_ndf.glsl`); without it the kernel has no trace of them. `links`: a
+/// backward's round lists built by every thread or by one ([`KernelSet::links`]; None: the
+/// device's choice).
 fn shade_pipeline_with(
     ctx: &Arc<Context>,
     sc: &ShaderCompiler,
     k: &ShadeKernel,
     replay: bool,
     arcs: bool,
+    links: Option<bool>,
 ) -> Result<ComputePipeline, GpuError> {
     let (mut name, mut defines) = if replay {
         (k.replay_name(), k.replay_defines(ctx.info()))
     } else {
         (k.name(), k.defines(ctx.info()))
     };
+    if let Some(parallel) = links.filter(|_| k.is_backward()) {
+        defines.retain(|d| d.0 != kernels::PARALLEL_LINKS);
+        if parallel {
+            defines.push((kernels::PARALLEL_LINKS, "1"));
+        }
+        name.push_str(if parallel {
+            " (lists by every thread)"
+        } else {
+            " (lists by one thread)"
+        });
+    }
     if arcs {
         name.push_str(" (arcs)");
         defines.push(("SA_ARCS", "1"));
@@ -224,11 +238,16 @@ impl Renderer {
         }
         let sc = ShaderCompiler::embedded()?;
         if self.kernels.replay {
-            let _ = self
-                .grad_replay
-                .set(shade_pipeline(&self.ctx, &sc, &self.kernels.backward, true)?);
+            let _ = self.grad_replay.set(shade_pipeline_with(
+                &self.ctx,
+                &sc,
+                &self.kernels.backward,
+                true,
+                false,
+                self.kernels.links,
+            )?);
         }
-        let p = shade_pipeline(&self.ctx, &sc, &self.kernels.backward, false)?;
+        let p = shade_pipeline_with(&self.ctx, &sc, &self.kernels.backward, false, false, self.kernels.links)?;
         let _ = self.grad.set(p);
         Ok(())
     }
@@ -328,7 +347,7 @@ impl Renderer {
         };
         let _ = self
             .grad_arcs
-            .set(shade_pipeline_with(&self.ctx, &sc, &k, false, true)?);
+            .set(shade_pipeline_with(&self.ctx, &sc, &k, false, true, None)?);
         Ok(())
     }
 
@@ -353,7 +372,7 @@ impl Renderer {
             )));
         }
         let sc = ShaderCompiler::embedded()?;
-        let p = shade_pipeline_with(&self.ctx, &sc, &self.kernels.forward, false, true)?;
+        let p = shade_pipeline_with(&self.ctx, &sc, &self.kernels.forward, false, true, None)?;
         let _ = self.forward_arcs.set(p);
         Ok(())
     }
