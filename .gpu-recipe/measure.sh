@@ -77,7 +77,7 @@ fi
   echo "# GPU measurements ($(date -u +%F))"
   echo; echo "## bench (default bands)"; grep -E '^\||^device|^###' "$OUT/bench.md"
   echo; echo "## bench, pair search in the groups mode (with the GPU's bands, then none)"; grep -E '^\| [A-Z]' "$OUT/bench_nobands.md" | head -10
-  echo; echo "## design $DESIGN, then --preset paper"; grep -E 'wall|preset|corr_' "$OUT/design.log"
+  echo; echo "## design $DESIGN, then --preset paper"; grep -E 'wall|preset|corr_|device_memory' "$OUT/design.log"
   echo; echo "## viewer"; grep -E '^###|^mode|^headless|^device|^  [0-9]' "$OUT/viewer.md"
   echo; echo "## adaptive against the closed form; the backward's replay against search"; cat "$OUT/adaptive.md" 2>/dev/null
   echo; echo "## study verdict"; tail -n 4 "$OUT/study_verdict.txt" 2>/dev/null
