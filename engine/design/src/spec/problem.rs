@@ -95,11 +95,10 @@ pub fn problem(spec: &DesignSpec, info: &DeviceInfo, obs: &dyn Observer) -> Resu
         }
         views.iter_mut().for_each(|v| v.light = lamp.clone());
     }
-    check_size(spec, &views, n_scratches, info)?;
-    let sizes: Vec<(u32, u32)> = views.iter().map(|v| (v.camera.width, v.camera.height)).collect();
+    let dims = check_size(spec, &views, n_scratches, info)?;
     obs.info(&format!(
         "device memory: at least {} of the device's {} (the tile lists grow with the pairs)",
-        scratchart_render::limits::mib(SceneDims::new(&sizes, n_scratches as u64, true).device_bytes(info)),
+        scratchart_render::limits::mib(dims.device_bytes(info)),
         scratchart_render::limits::mib(info.device_memory)
     ));
     for w in views.iter().flat_map(scratchart_render::limits::view_warnings) {
@@ -314,13 +313,19 @@ fn picture_problem(spec: &DesignSpec, scene: Scene, obs: &dyn Observer) -> Resul
     Ok(problem)
 }
 
-/// Checks the job's size against the device and the host before anything is computed; the
-/// error names the flag to change and the largest value that fits.
-fn check_size(spec: &DesignSpec, views: &[View], n_scratches: usize, info: &DeviceInfo) -> Result<(), SpecError> {
+/// Checks the job's size against the device and the host before anything is computed, and
+/// returns it; the error names the flag to change and the largest value that fits.
+fn check_size(
+    spec: &DesignSpec,
+    views: &[View],
+    n_scratches: usize,
+    info: &DeviceInfo,
+) -> Result<SceneDims, SpecError> {
     let sizes: Vec<(u32, u32)> = views.iter().map(|v| (v.camera.width, v.camera.height)).collect();
     let n = n_scratches as u64;
-    let Err(why) = SceneDims::new(&sizes, n, true).check(info) else {
-        return Ok(());
+    let dims = SceneDims::new(&sizes, n, true);
+    let Err(why) = dims.check(info) else {
+        return Ok(dims);
     };
     let fits = |sizes: &[(u32, u32)], n: u64| SceneDims::new(sizes, n, true).check(info).is_ok();
     let max_n = largest_fitting(n, |k| fits(&sizes, k));
