@@ -252,8 +252,10 @@ struct Evaluator<'a, 'r> {
     tangent_passes: u32,
     /// Bootstrap weights of the residuals (None: all 1), applied as sqrt(w) r.
     weights: Option<Vec<f64>>,
-    /// The card on the device, re-used with new scratch parameters for every render.
+    /// The card on the device, re-used with new scratch parameters for every render: the tiles
+    /// the residuals read (`Evaluator::window`), or the whole images while `whole`.
     gs: Option<scratchart_render::GpuScene>,
+    whole: bool,
     /// Renders at this many times the photos' resolution (`SUPERSAMPLE`; more for the check
     /// of the model's own error).
     ss: u32,
@@ -283,6 +285,7 @@ impl<'a, 'r> Evaluator<'a, 'r> {
             tangent_passes: 0,
             weights: None,
             gs: None,
+            whole: false,
             ss: SUPERSAMPLE,
             jpeg_shift: vec![None; n],
             transfer: noise::for_views(data),
@@ -326,6 +329,9 @@ pub struct FitConfig {
     pub starts: Option<Vec<Start>>,
     /// Bootstrap replicates for a second set of uncertainties (0: none).
     pub bootstrap: u32,
+    /// Every render of the whole images, not the tiles the residuals read
+    /// (`Evaluator::window`): the same fit to the bit, slower.
+    pub whole_renders: bool,
 }
 
 impl Default for FitConfig {
@@ -335,6 +341,7 @@ impl Default for FitConfig {
             init: None,
             starts: None,
             bootstrap: 0,
+            whole_renders: false,
         }
     }
 }
@@ -351,6 +358,7 @@ pub fn fit_kind(
     on_starts: &mut dyn FnMut(&[Start]),
 ) -> Result<FitResult, FitError> {
     let mut ev = Evaluator::of_kind(renderer, data, kind);
+    ev.whole = cfg.whole_renders;
     let intervals = OffsetIntervals::of(data.card);
     // Starting points: those of an interrupted fit, the tool given, or a search.
     let mut starts: Vec<Start> = cfg.starts.clone().unwrap_or_default();
@@ -379,7 +387,7 @@ pub fn fit_kind(
     // (`Evaluator::simulated_light` holds the same condition for the views it simulates.)
     if data.jpeg.iter().any(|q| q.is_some()) || (0..data.capture.views.len()).any(|v| shrunk_jpeg(v).is_some()) {
         for pass in 0..2 {
-            let lin = ev.render(&x)?;
+            let lin = ev.render_whole(&x)?;
             let pred = ev.predict(&lin, &x);
             for v in 0..data.capture.views.len() {
                 let c = &data.capture.views[v].camera;
@@ -481,7 +489,7 @@ pub fn fit_kind(
 pub fn predict(renderer: &Renderer, data: &Data, res: &FitResult) -> Result<(Vec<Vec<f32>>, Vec<Vec<f32>>), FitError> {
     let mut ev = Evaluator::of_kind(renderer, data, res.kind);
     let x: Vec<f64> = res.params.iter().map(|p| p.1).collect();
-    let lin = ev.render(&x)?;
+    let lin = ev.render_whole(&x)?;
     let photos = (0..data.capture.views.len()).map(|v| data.photos[v].clone()).collect();
     Ok((ev.predict(&lin, &x), photos))
 }

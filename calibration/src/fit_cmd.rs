@@ -71,6 +71,10 @@ pub struct FitArgs {
     /// No progress bar
     #[arg(long)]
     pub quiet: bool,
+    /// Render every view whole rather than the tiles its residuals read (the same fit to the
+    /// bit, slower: the check of the windowed renders)
+    #[arg(long, hide = true)]
+    pub whole_renders: bool,
 }
 
 impl FitArgs {
@@ -90,6 +94,7 @@ impl FitArgs {
             quiet: true,
             allow_unidentified: false,
             check: false,
+            whole_renders: false,
         }
     }
 }
@@ -269,6 +274,7 @@ fn fit_kinds(
             init: init.clone(),
             starts: state.current.as_ref().filter(|c| c.0 == k.name()).map(|c| c.1.clone()),
             bootstrap: args.bootstrap,
+            whole_renders: args.whole_renders,
         };
         let mut saved: Result<()> = Ok(());
         let got = fit_kind(renderer, data, k, &cfg, obs, &mut |starts: &[Start]| {

@@ -13,7 +13,7 @@ use scratchart_tests::{assert_no_validation, gpu};
 use scratchart_tool::Tool;
 
 mod common;
-use common::{card, fit, right_or_refused, shoot, stated, tmp};
+use common::{as_phone_jpegs, card, fit, right_or_refused, shoot, stated, tmp};
 
 /// The capture views as a hand-held camera would take them: moved `shift_mm` sideways and up,
 /// aimed a little off centre, zoomed by `zoom`.
@@ -27,25 +27,6 @@ fn posed(views: &[View], shift_mm: f64, zoom: f64) -> Vec<View> {
             v.camera.target = [0.02 * shift_mm, -0.03 * shift_mm, 0.0];
             v.camera.fov_y_deg /= zoom;
             v
-        })
-        .collect()
-}
-
-/// As a phone stores them: colour JPEGs (quality 92) of the grey photos, named after the views.
-fn as_phone_jpegs(pngs: &[PathBuf]) -> Vec<PathBuf> {
-    use image::ImageEncoder as _;
-    pngs.iter()
-        .map(|p| {
-            let g = image::open(p).unwrap().to_luma8();
-            let rgb = image::DynamicImage::ImageLuma8(g).to_rgb8();
-            let mut buf = Vec::new();
-            image::codecs::jpeg::JpegEncoder::new_with_quality(&mut buf, 92)
-                .write_image(rgb.as_raw(), rgb.width(), rgb.height(), image::ExtendedColorType::Rgb8)
-                .unwrap();
-            let j = p.with_extension("jpg");
-            std::fs::write(&j, buf).unwrap();
-            std::fs::remove_file(p).unwrap();
-            j
         })
         .collect()
 }
@@ -587,6 +568,7 @@ fn an_interrupted_fit_resumes_where_it_stopped() {
         quiet: true,
         allow_unidentified: false,
         check: false,
+        whole_renders: false,
     };
     // Uninterrupted.
     run(&r, &args("whole/tool.json", false), &Silent).unwrap();
@@ -664,6 +646,7 @@ fn recovers_a_ball_cutter_with_bootstrap_uncertainties() {
         quiet: true,
         allow_unidentified: false,
         check: false,
+        whole_renders: false,
     };
     run(&r, &args, &Silent).unwrap();
     let (tool, fitted) = Tool::load_fitted(&out).unwrap();

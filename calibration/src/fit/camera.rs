@@ -98,7 +98,7 @@ impl Evaluator<'_, '_> {
         let k_ss = self.ss as usize;
         // The blurred supersampled images (their gradients move them), per view.
         let blurred: Vec<Vec<f32>> = par_map(lin.len(), |v| self.blurred(&lin[v], v, x));
-        let pred0: Vec<Vec<f32>> = par_map(lin.len(), |v| self.expose(&blurred[v], v, x));
+        let pred0: Vec<Vec<f32>> = par_map(lin.len(), |v| self.expose_masked(&blurred[v], v, x));
         let base = self.residuals(&pred0);
         par_map(ks.len(), |i| {
             let k = ks[i];
@@ -129,7 +129,7 @@ impl Evaluator<'_, '_> {
                 }
             }
             let mut pred = pred0.clone();
-            pred[v] = self.expose(&moved, v, x);
+            pred[v] = self.expose_masked(&moved, v, x);
             let r1 = self.residuals(&pred);
             r1.iter().zip(&base).map(|(a, b)| (a - b) / h).collect()
         })
@@ -139,6 +139,16 @@ impl Evaluator<'_, '_> {
     /// `expose`), as `simulate` makes photos.
     pub(super) fn predict(&self, lin: &[Vec<f32>], x: &[f64]) -> Vec<Vec<f32>> {
         par_map(lin.len(), |v| self.expose(&self.blurred(&lin[v], v, x), v, x))
+    }
+
+    /// [`Self::predict`] at the pixels the residuals read alone (each photo's mask; 0 elsewhere).
+    pub(super) fn predict_masked(&self, lin: &[Vec<f32>], x: &[f64]) -> Vec<Vec<f32>> {
+        par_map(lin.len(), |v| self.expose_masked(&self.blurred(&lin[v], v, x), v, x))
+    }
+
+    /// [`Self::expose`] at the pixels of photo v's mask alone.
+    pub(super) fn expose_masked(&self, b: &[f32], v: usize, x: &[f64]) -> Vec<f32> {
+        self.expose_where(b, v, x, Some(&self.data.masks[v]))
     }
 
     /// The light the optics bring to the sensor of view v, from a linear render at `ss` times
@@ -162,31 +172,74 @@ impl Evaluator<'_, '_> {
     /// brighter than the photo's and bias the widths low), each of the fit's pixels adds up its
     /// subpixels, and the display transform encodes the result.
     pub(super) fn expose(&self, b: &[f32], v: usize, x: &[f64]) -> Vec<f32> {
-        let mut lit = self.light(b, v, x);
+        self.expose_where(b, v, x, None)
+    }
+
+    /// [`Self::expose`] at the pixels of `only` alone (the others 0), the same bits there: what
+    /// the residuals read (the photo's mask), a quarter of the photo on the guide's capture.
+    pub(super) fn expose_where(&self, b: &[f32], v: usize, x: &[f64], only: Option<&[bool]>) -> Vec<f32> {
+        let c = &self.data.capture.views[v].camera;
+        let (w, h) = (c.width as usize, c.height as usize);
+        let k = self.ss as usize;
+        let ws = k * w;
+        let e = self.lay.exposure(x, v);
+        let (fx, fy) = self.shading(v, x, b.len());
         let u = self.lay.ln_noise(x, v);
-        // A shrunk photo: each subpixel's light as its clipped noise lifts it (`noise`).
-        if let Some(t) = &self.transfer[v] {
-            lit.iter_mut().for_each(|l| *l = t.subpixel(*l, u));
-        }
+        let transfer = &self.transfer[v];
+        // Subpixel i's light as the sensor gets it (`light`), lifted by a shrunk photo's clipped
+        // noise (`noise`).
+        let sub = |i: usize| -> f32 {
+            let f = fx[i % ws] * fy[i / ws];
+            let l = (b[i] as f64 * e * f) as f32;
+            let l = match &self.clip[v] {
+                Some(c) => c.apply(l),
+                None => l.min(1.0),
+            };
+            match transfer {
+                Some(t) => t.subpixel(l, u),
+                None => l,
+            }
+        };
         let power = (-self.lay.tone(x, v)).exp() as f32;
-        self.reduce(&lit, v)
-            .into_iter()
-            .map(|l| {
+        let norm = 1.0 / (k * k) as f32;
+        let mut out = vec![0f32; w * h];
+        for y in 0..h {
+            for xo in 0..w {
+                let p = y * w + xo;
+                if only.is_some_and(|m| !m[p]) {
+                    continue;
+                }
+                // The pixel adds up its subpixels as `reduce` does (row by row).
+                let l = if k == 1 {
+                    sub(p)
+                } else {
+                    let mut o = 0f32;
+                    for sy in 0..k {
+                        let row = (y * k + sy) * ws + xo * k;
+                        let mut acc = 0.0;
+                        for sx in 0..k {
+                            acc += sub(row + sx);
+                        }
+                        o += acc * norm;
+                    }
+                    o
+                };
                 let l = if power != 1.0 && l > 0.0 { l.powf(power) } else { l };
                 let d = crate::encoding::encode_f32(l).min(1.0);
                 // A photo used as taken: its pixel's expected value under clipped noise.
-                match &self.transfer[v] {
+                out[p] = match transfer {
                     Some(t) => t.pixel(d, u),
                     None => d,
-                }
-            })
-            .collect()
+                };
+            }
+        }
+        out
     }
 
-    /// The light of view v's subpixels (at `ss` times its resolution) as the sensor gets it:
-    /// `b` scaled by the exposure and the shading, clipped at full scale (see `expose`).
-    pub(super) fn light(&self, b: &[f32], v: usize, x: &[f64]) -> Vec<f32> {
-        let e = self.lay.exposure(x, v);
+    /// The shading across view v's frame at `ss` times its resolution, as factors per column
+    /// and per row of the `n` subpixels: exp(gx px + gy py + q (px^2 + py^2)) = exp(gx px + q
+    /// px^2) exp(gy py + q py^2), one exponential per column and per row, not per subpixel.
+    fn shading(&self, v: usize, x: &[f64], n: usize) -> (Vec<f64>, Vec<f64>) {
         let c = &self.data.capture.views[v].camera;
         let [gx, gy, q] = self.lay.shade(x, v);
         let k = self.ss as usize;
@@ -194,8 +247,6 @@ impl Evaluator<'_, '_> {
         let ws = k * w;
         let (cx, cy, s) = (0.5 * w as f64, 0.5 * hh, 2.0 / hh);
         let kf = k as f64;
-        // exp(gx px + gy py + q (px^2 + py^2)) = exp(gx px + q px^2) exp(gy py + q py^2): one
-        // exponential per column and per row, not per subpixel.
         let along = |n: usize, g: f64, c0: f64| -> Vec<f64> {
             (0..n)
                 .map(|j| {
@@ -204,7 +255,15 @@ impl Evaluator<'_, '_> {
                 })
                 .collect()
         };
-        let (fx, fy) = (along(ws, gx, cx), along(b.len() / ws.max(1), gy, cy));
+        (along(ws, gx, cx), along(n / ws.max(1), gy, cy))
+    }
+
+    /// The light of view v's subpixels (at `ss` times its resolution) as the sensor gets it:
+    /// `b` scaled by the exposure and the shading, clipped at full scale (see `expose`).
+    pub(super) fn light(&self, b: &[f32], v: usize, x: &[f64]) -> Vec<f32> {
+        let e = self.lay.exposure(x, v);
+        let ws = self.ss as usize * self.data.capture.views[v].camera.width as usize;
+        let (fx, fy) = self.shading(v, x, b.len());
         b.iter()
             .enumerate()
             .map(|(i, &l)| {
@@ -218,31 +277,6 @@ impl Evaluator<'_, '_> {
             .collect()
     }
 
-    /// Each pixel of view v adds up the light of its `SUPERSAMPLE` x `SUPERSAMPLE` subpixels.
-    pub(super) fn reduce(&self, b: &[f32], v: usize) -> Vec<f32> {
-        let c = &self.data.capture.views[v].camera;
-        let k = self.ss as usize;
-        let (w, h) = (c.width as usize, c.height as usize);
-        if k == 1 {
-            return b.to_vec();
-        }
-        let norm = 1.0 / (k * k) as f32;
-        let mut out = vec![0f32; w * h];
-        for y in 0..h {
-            for sy in 0..k {
-                let row = &b[(y * k + sy) * k * w..(y * k + sy + 1) * k * w];
-                for xo in 0..w {
-                    let mut acc = 0.0;
-                    for sx in 0..k {
-                        acc += row[xo * k + sx];
-                    }
-                    out[y * w + xo] += acc * norm;
-                }
-            }
-        }
-        out
-    }
-
     /// The log exposure of view `v` that fits its photo best with the rest of `x` (a scan in
     /// steps of 1 over [-10, 10], then golden-section search; no render).
     pub(super) fn best_exposure(&self, v: usize, lin: &[f32], x: &[f64]) -> f64 {
@@ -252,7 +286,7 @@ impl Evaluator<'_, '_> {
             let mut xe = x.to_vec();
             xe[k] = le;
             let r: Vec<f64> = self
-                .expose(&b, v, &xe)
+                .expose_masked(&b, v, &xe)
                 .iter()
                 .zip(self.photo(v))
                 .zip(&self.data.masks[v])

@@ -111,18 +111,46 @@ impl Evaluator<'_, '_> {
                 views,
                 scratches,
             };
-            self.gs = Some(self.renderer.upload(&scene).map_err(anyhow::Error::from)?);
+            let windows: Vec<_> = (0..scene.views.len())
+                .map(|v| if self.whole { None } else { self.window(v) })
+                .collect();
+            self.gs = Some(
+                self.renderer
+                    .upload_windowed(&scene, &windows)
+                    .map_err(anyhow::Error::from)?,
+            );
         }
         Ok(())
     }
 
-    /// Linear renders of the card for the tool part of `x`.
+    /// The tiles of view v's render that its residuals read ([`render_window`]).
+    fn window(&self, v: usize) -> Option<scratchart_render::layout::TileWindow> {
+        let c = &self.data.capture.views[v].camera;
+        render_window(&self.data.masks[v], c.width, c.height, self.ss, self.lay.blur_max(v))
+    }
+
+    /// Linear renders of the card for the tool part of `x`: the tiles of each view's [`Self::window`]
+    /// (0 outside them).
     pub(super) fn render(&mut self, x: &[f64]) -> Result<Vec<Vec<f32>>, FitError> {
         self.sync(x)?;
         let gs = self.gs.as_mut().expect("uploaded");
         let frame = self.renderer.render(gs).map_err(anyhow::Error::from)?;
         self.renders += 1;
         Ok(frame.images)
+    }
+
+    /// [`Self::render`] of the whole images, for what reads beyond the residuals' pixels (a
+    /// JPEG's blocks and a shrink straddle the mask's edge; the residual images).
+    pub(super) fn render_whole(&mut self, x: &[f64]) -> Result<Vec<Vec<f32>>, FitError> {
+        if self.whole {
+            return self.render(x);
+        }
+        let windowed = self.gs.take();
+        self.whole = true;
+        let lin = self.render(x);
+        self.whole = false;
+        self.gs = windowed;
+        lin
     }
 
     /// The Jacobian columns (d residual / d x_k) of the parameters `ks`, each of which moves only
@@ -190,8 +218,8 @@ impl Evaluator<'_, '_> {
                         .map(|(l, t)| l.iter().zip(t).map(|(a, d)| a + (sign * h) as f32 * d[j]).collect())
                         .collect()
                 };
-                let rp = this.residuals(&this.predict(&moved(1.0), x));
-                let rm = this.residuals(&this.predict(&moved(-1.0), x));
+                let rp = this.residuals(&this.predict_masked(&moved(1.0), x));
+                let rm = this.residuals(&this.predict_masked(&moved(-1.0), x));
                 rp.iter()
                     .zip(&rm)
                     .map(|(a, b)| (a - b) / (2.0 * h))
@@ -241,12 +269,81 @@ impl Evaluator<'_, '_> {
 
     /// Residuals at `x` from linear renders `lin` already made for its tool part.
     pub(super) fn residuals_at(&self, x: &[f64], lin: &[Vec<f32>]) -> Vec<f64> {
-        self.residuals(&self.predict(lin, x))
+        self.residuals(&self.predict_masked(lin, x))
     }
 
     /// Renders for `x`: the residuals and the linear renders.
     pub(super) fn eval(&mut self, x: &[f64]) -> Result<(Vec<f64>, Vec<Vec<f32>>), FitError> {
         let lin = self.render(x)?;
         Ok((self.residuals_at(x, &lin), lin))
+    }
+}
+
+/// The tiles of a render at `ss` times a `width` x `height` photo's resolution that the
+/// residuals at `mask`'s pixels read: its subpixels and those a blur of up to `blur_px` (the
+/// photo's pixels) and the image's motion (a subpixel either side) reach from them. Inside, a
+/// windowed render is the whole render's, bit for bit, so the blurred light at the mask is too
+/// (None: an empty mask, the whole image).
+fn render_window(
+    mask: &[bool],
+    width: u32,
+    height: u32,
+    ss: u32,
+    blur_px: f64,
+) -> Option<scratchart_render::layout::TileWindow> {
+    let w = width as usize;
+    let (mut x0, mut y0, mut x1, mut y1) = (usize::MAX, usize::MAX, 0, 0);
+    for (i, _) in mask.iter().enumerate().filter(|(_, &m)| m) {
+        let (x, y) = (i % w, i / w);
+        (x0, y0, x1, y1) = (x0.min(x), y0.min(y), x1.max(x + 1), y1.max(y + 1));
+    }
+    if x0 >= x1 {
+        return None;
+    }
+    let k = ss as usize;
+    let reach = crate::simulate::blur_reach(k as f64 * blur_px) + 1;
+    Some(scratchart_render::layout::TileWindow::covering(
+        ss * width,
+        ss * height,
+        (k * x0).saturating_sub(reach) as u32,
+        (k * y0).saturating_sub(reach) as u32,
+        (k * x1 + reach) as u32,
+        (k * y1 + reach) as u32,
+    ))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::render_window;
+    use crate::simulate::blur_reach;
+
+    #[test]
+    fn the_window_holds_every_subpixel_the_residuals_read() {
+        let (w, h) = (80u32, 60u32);
+        for (ss, blur) in [(1u32, 0.0), (2, 0.6), (2, 4.0), (4, 1.5)] {
+            let mut mask = vec![false; (w * h) as usize];
+            for (x, y) in [(3, 4), (12, 9), (20, 17)] {
+                mask[(y * w + x) as usize] = true;
+            }
+            let win = render_window(&mask, w, h, ss, blur).unwrap();
+            let reach = blur_reach(ss as f64 * blur) as i64 + 1;
+            let (ws, hs) = ((ss * w) as i64, (ss * h) as i64);
+            let mut inside = 0;
+            for (i, _) in mask.iter().enumerate().filter(|(_, &m)| m) {
+                let (px, py) = ((i as u32 % w) as i64, (i as u32 / w) as i64);
+                for sy in ss as i64 * py - reach..ss as i64 * (py + 1) + reach {
+                    for sx in ss as i64 * px - reach..ss as i64 * (px + 1) + reach {
+                        if (0..ws).contains(&sx) && (0..hs).contains(&sy) {
+                            assert!(win.contains(sx as u32, sy as u32), "ss {ss} blur {blur}: ({sx}, {sy})");
+                            inside += 1;
+                        }
+                    }
+                }
+            }
+            assert!(inside > 0);
+            // And no more than the tiles about them: the far corner is left out.
+            assert!(!win.contains(ws as u32 - 1, hs as u32 - 1), "ss {ss}: {win:?}");
+        }
+        assert!(render_window(&[false; 12], 4, 3, 2, 1.0).is_none());
     }
 }

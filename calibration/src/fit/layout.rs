@@ -244,6 +244,10 @@ impl Layout {
     pub(super) fn blur(&self, x: &[f64], v: usize) -> f64 {
         x[self.n_tool + 1 + self.n_views + v]
     }
+    /// The widest blur view v's photo may be fitted with, pixels.
+    pub(super) fn blur_max(&self, v: usize) -> f64 {
+        self.params[self.n_tool + 1 + self.n_views + v].hi
+    }
     /// The registration shift of view v, pixels (zero without refinement).
     pub(super) fn shift(&self, x: &[f64], v: usize) -> (f64, f64) {
         if self.reg {

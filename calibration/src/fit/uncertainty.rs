@@ -330,7 +330,7 @@ fn degrade_shift(
     x: &[f64],
     normal: &Normal,
 ) -> Result<(Option<Vec<f64>>, Option<Vec<f64>>, Option<Vec<f64>>), FitError> {
-    let lin = ev.render(x)?;
+    let lin = ev.render_whole(x)?;
     let pred = ev.predict(&lin, x);
     let base = ev.residuals(&pred);
     let lifts = std::mem::replace(&mut ev.transfer, vec![None; data.capture.views.len()]);

@@ -134,3 +134,22 @@ pub fn right_or_refused(
     }
     got.is_ok()
 }
+
+/// As a phone stores them: colour JPEGs (quality 92) of the grey photos, named after the views.
+pub fn as_phone_jpegs(pngs: &[PathBuf]) -> Vec<PathBuf> {
+    use image::ImageEncoder as _;
+    pngs.iter()
+        .map(|p| {
+            let g = image::open(p).unwrap().to_luma8();
+            let rgb = image::DynamicImage::ImageLuma8(g).to_rgb8();
+            let mut buf = Vec::new();
+            image::codecs::jpeg::JpegEncoder::new_with_quality(&mut buf, 92)
+                .write_image(rgb.as_raw(), rgb.width(), rgb.height(), image::ExtendedColorType::Rgb8)
+                .unwrap();
+            let j = p.with_extension("jpg");
+            std::fs::write(&j, buf).unwrap();
+            std::fs::remove_file(p).unwrap();
+            j
+        })
+        .collect()
+}

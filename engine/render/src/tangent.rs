@@ -80,9 +80,19 @@ impl Renderer {
             .iter()
             .map(|v| {
                 let n = v.dims[0] as usize * v.dims[1] as usize;
+                // A window's pass leaves the pixels outside it unwritten: 0 there.
+                let win = v.window();
+                let whole = win == crate::layout::TileWindow::whole(v.dims[0], v.dims[1]);
                 all[v.base[1] as usize..v.base[1] as usize + n]
                     .iter()
-                    .map(|t| [t[0], t[1], t[2], t[3], t[4], t[5], t[6]])
+                    .enumerate()
+                    .map(|(k, t)| {
+                        if whole || win.contains(k as u32 % v.dims[0], k as u32 / v.dims[0]) {
+                            [t[0], t[1], t[2], t[3], t[4], t[5], t[6]]
+                        } else {
+                            [0.0; TANGENT_DIRECTIONS]
+                        }
+                    })
                     .collect()
             })
             .collect();
