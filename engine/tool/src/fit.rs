@@ -46,19 +46,32 @@ const GL8: [(f64, f64); 8] = [
     (0.960_289_856_497_536_3, 0.101_228_536_290_376_26),
 ];
 
-/// Mean squared depth difference over [0, W/2] (the profiles are symmetric).
-fn misfit(width: f64, rho: f64, depth: &dyn Fn(f64) -> f64) -> f64 {
-    let (w, d) = groove(width, rho);
+/// The quadrature of [`misfit`] over [0, W/2] for a groove of visible width `width`: per node,
+/// its position u, its weight and the profile's depth there (the same for every rho: computed
+/// once per profile, not once per rho tried).
+fn nodes(width: f64, depth: &dyn Fn(f64) -> f64) -> Vec<(f64, f64, f64)> {
     let half = 0.5 * width;
     let panels = 8;
-    let mut acc = 0.0;
+    let mut out = Vec::with_capacity(panels * GL8.len());
     for p in 0..panels {
         let (a, b) = (half * p as f64 / panels as f64, half * (p + 1) as f64 / panels as f64);
         for (x, wt) in GL8 {
             let u = 0.5 * (a + b) + 0.5 * (b - a) * x;
-            let e = model_depth(w, d, u) - depth(u);
-            acc += 0.5 * (b - a) * wt * e * e;
+            out.push((u, 0.5 * (b - a) * wt, depth(u)));
         }
+    }
+    out
+}
+
+/// Mean squared depth difference over [0, W/2] (the profiles are symmetric), on the profile's
+/// [`nodes`].
+fn misfit(width: f64, rho: f64, nodes: &[(f64, f64, f64)]) -> f64 {
+    let (w, d) = groove(width, rho);
+    let half = 0.5 * width;
+    let mut acc = 0.0;
+    for &(u, weight, depth) in nodes {
+        let e = model_depth(w, d, u) - depth;
+        acc += weight * e * e;
     }
     acc / half
 }
@@ -66,14 +79,16 @@ fn misfit(width: f64, rho: f64, depth: &dyn Fn(f64) -> f64) -> f64 {
 /// The least-squares model groove of a profile `depth(u)` of visible width `width` (see the
 /// module doc).
 pub fn fit_profile(width: f64, depth: &dyn Fn(f64) -> f64) -> ModelGroove {
-    let f = |rho: f64| misfit(width, rho, depth);
+    let at = nodes(width, depth);
+    let f = |rho: f64| misfit(width, rho, &at);
     let n = 400;
-    let grid: Vec<f64> = (1..n).map(|k| k as f64 / n as f64).collect();
+    // The grid's first least misfit (each value computed once).
+    let grid: Vec<(f64, f64)> = (1..n).map(|k| k as f64 / n as f64).map(|r| (r, f(r))).collect();
     let best = grid
         .iter()
-        .copied()
-        .min_by(|a, b| f(*a).total_cmp(&f(*b)))
-        .expect("a non-empty grid");
+        .min_by(|a, b| a.1.total_cmp(&b.1))
+        .expect("a non-empty grid")
+        .0;
     let (mut lo, mut hi) = (
         (best - 1.0 / n as f64).max(1e-9),
         (best + 1.0 / n as f64).min(1.0 - 1e-12),
@@ -201,5 +216,88 @@ mod tests {
         let g = p.model(0.02).unwrap();
         assert!((g.w - 0.105).abs() < 1e-12);
         assert!((g.w * (1.0 - (-2.0 * g.d / g.w).exp()).sqrt() - 0.07).abs() < 1e-12);
+    }
+
+    /// The fit as first written (the depth at every node for every rho tried, each grid value
+    /// computed once per comparison): the fit on precomputed nodes must give the same bits.
+    fn fit_profile_per_rho(width: f64, depth: &dyn Fn(f64) -> f64) -> ModelGroove {
+        let f = |rho: f64| {
+            let (w, d) = groove(width, rho);
+            let half = 0.5 * width;
+            let mut acc = 0.0;
+            for p in 0..8 {
+                let (a, b) = (half * p as f64 / 8.0, half * (p + 1) as f64 / 8.0);
+                for (x, wt) in GL8 {
+                    let u = 0.5 * (a + b) + 0.5 * (b - a) * x;
+                    let e = model_depth(w, d, u) - depth(u);
+                    acc += 0.5 * (b - a) * wt * e * e;
+                }
+            }
+            acc / half
+        };
+        let grid: Vec<f64> = (1..400).map(|k| k as f64 / 400.0).collect();
+        let best = grid.iter().copied().min_by(|a, b| f(*a).total_cmp(&f(*b))).unwrap();
+        let (mut lo, mut hi) = ((best - 1.0 / 400.0).max(1e-9), (best + 1.0 / 400.0).min(1.0 - 1e-12));
+        let g = 0.5 * (5f64.sqrt() - 1.0);
+        let (mut x1, mut x2) = (hi - g * (hi - lo), lo + g * (hi - lo));
+        let (mut f1, mut f2) = (f(x1), f(x2));
+        while hi - lo > 1e-12 {
+            if f1 <= f2 {
+                (hi, x2, f2) = (x2, x1, f1);
+                x1 = hi - g * (hi - lo);
+                f1 = f(x1);
+            } else {
+                (lo, x1, f1) = (x1, x2, f2);
+                x2 = lo + g * (hi - lo);
+                f2 = f(x2);
+            }
+        }
+        let rho = 0.5 * (lo + hi);
+        let (w, d) = groove(width, rho);
+        ModelGroove {
+            w,
+            d,
+            width,
+            rms_mm: f(rho).sqrt(),
+        }
+    }
+
+    #[test]
+    fn the_fit_on_precomputed_nodes_is_the_fit_per_rho_to_the_bit() {
+        let tools = [
+            Tool::VBit {
+                angle_deg: 75.0,
+                tip_flat_mm: 0.015,
+                z_offset_mm: 0.007,
+            },
+            Tool::VBit {
+                angle_deg: 23.0,
+                tip_flat_mm: 0.0,
+                z_offset_mm: -0.003,
+            },
+            Tool::Ball {
+                radius_mm: 0.1,
+                z_offset_mm: 0.0,
+            },
+            Tool::TaperedBall {
+                radius_mm: 0.03,
+                angle_deg: 40.0,
+                z_offset_mm: 0.002,
+            },
+        ];
+        let mut n = 0;
+        for t in &tools {
+            for z in [0.004, 0.01, 0.03, 0.08] {
+                let Some(s) = t.section(z) else { continue };
+                let (a, b) = (model_of_section(&s), fit_profile_per_rho(s.width, &|u| s.depth_at(u)));
+                assert_eq!(
+                    [a.w, a.d, a.width, a.rms_mm].map(f64::to_bits),
+                    [b.w, b.d, b.width, b.rms_mm].map(f64::to_bits),
+                    "{t:?} at {z}"
+                );
+                n += 1;
+            }
+        }
+        assert!(n >= 12, "{n} sections");
     }
 }
