@@ -114,8 +114,14 @@ impl Evaluator<'_, '_> {
             let (w, hh) = (k_ss * c.width as usize, k_ss * c.height as usize);
             let b = &blurred[v];
             let mut moved = b.clone();
+            // (Only the subpixels of the mask's pixels: the residuals read no others.)
+            let mask = &self.data.masks[v];
+            let pw = c.width as usize;
             for yy in 1..hh - 1 {
                 for xx in 1..w - 1 {
+                    if !mask[(yy / k_ss) * pw + xx / k_ss] {
+                        continue;
+                    }
                     let (sx, sy) = (xx as f64 + 0.5, yy as f64 + 0.5);
                     let Some(q) = g0.hit(sx, sy) else { continue };
                     let Some(p1) = g1.project([q[0], q[1], 0.0]) else {
