@@ -123,10 +123,12 @@ impl Evaluator<'_, '_> {
         Ok(())
     }
 
-    /// The tiles of view v's render that its residuals read ([`render_window`]).
+    /// The tiles of view v's render that its residuals read ([`render_window`]), for the widest
+    /// blur the fit gives the photo (the layout's bound, the start search's smoothing on top).
     fn window(&self, v: usize) -> Option<scratchart_render::layout::TileWindow> {
         let c = &self.data.capture.views[v].camera;
-        render_window(&self.data.masks[v], c.width, c.height, self.ss, self.lay.blur_max(v))
+        let widest = self.lay.blur_max(v).hypot(starts::SEARCH_BLUR_PX);
+        render_window(&self.data.masks[v], c.width, c.height, self.ss, widest)
     }
 
     /// Linear renders of the card for the tool part of `x`: the tiles of each view's [`Self::window`]

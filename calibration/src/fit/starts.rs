@@ -39,7 +39,7 @@ impl OffsetIntervals {
 }
 
 /// How much the search for start points smooths the photos and the model (pixels).
-const SEARCH_BLUR_PX: f64 = 1.5;
+pub(super) const SEARCH_BLUR_PX: f64 = 1.5;
 /// The blur a refinement starts from (pixels).
 const START_BLUR_PX: f64 = 0.5;
 
