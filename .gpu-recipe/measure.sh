@@ -72,12 +72,23 @@ RGB="$BIN/replay_gain"; [ -x "$RGB" ] || RGB="$BIN/examples/replay_gain"
 if [ -x "$RGB" ]; then
   { echo; echo "### replay against search"; "$RGB" $AG --repeats 7; } >> "$OUT/adaptive.md" 2>&1
 fi
+# 7. Issue 47's fit time: the README's calibration walk-through (the card, `simulate`'s defaults,
+#    `fit --kind v-bit`), into design.log (8 files at most come back).
+CAL="$BIN/scratchart-cal"
+if [ -x "$CAL" ] && [ "$QUICK" != quick ]; then
+  rm -rf /tmp/cal && mkdir -p /tmp/cal
+  echo '{"kind":"v-bit","angle_deg":75,"tip_flat_mm":0.015,"z_offset_mm":0.007}' > /tmp/cal/truth.json
+  "$CAL" card --out /tmp/cal/card > /dev/null 2>&1
+  "$CAL" simulate --card /tmp/cal/card/card.json --tool /tmp/cal/truth.json --out /tmp/cal/photos > /dev/null 2>&1
+  { echo "calibration fit:"; time "$CAL" fit --quiet --card /tmp/cal/card/card.json /tmp/cal/photos/cam_south.png \
+      /tmp/cal/photos/cam_west.png --kind v-bit --out /tmp/cal/fit/tool.json; } >> "$OUT/design.log" 2>&1
+fi
 
 {
   echo "# GPU measurements ($(date -u +%F))"
   echo; echo "## bench (default bands)"; grep -E '^\||^device|^###' "$OUT/bench.md"
   echo; echo "## bench, pair search in the groups mode (with the GPU's bands, then none)"; grep -E '^\| [A-Z]' "$OUT/bench_nobands.md" | head -10
-  echo; echo "## design $DESIGN, then --preset paper"; grep -E 'wall|preset|corr_|device_memory' "$OUT/design.log"
+  echo; echo "## design $DESIGN, then --preset paper; the calibration fit"; grep -E 'wall|preset|corr_|device_memory|calibration|fitted' "$OUT/design.log"
   echo; echo "## viewer"; grep -E '^###|^mode|^headless|^device|^  [0-9]' "$OUT/viewer.md"
   echo; echo "## adaptive against the closed form; the backward's replay against search"; cat "$OUT/adaptive.md" 2>/dev/null
   echo; echo "## study verdict"; tail -n 4 "$OUT/study_verdict.txt" 2>/dev/null

@@ -16,10 +16,16 @@ if ! ls .gl/libglvnd0_*.deb > /dev/null 2>&1; then
   (cd .gpu/vl && apt-get $o download vulkan-validationlayers)
 fi
 cargo build --release --workspace --examples
-for b in scratchart scratchart-view examples/adaptive_gain examples/replay_gain; do
+for b in scratchart scratchart-view scratchart-cal examples/adaptive_gain examples/replay_gain; do
   cp target/release/$b .gpu/bin/
 done
 strip .gpu/bin/*
 cp .gpu-recipe/measure.sh .gpu-recipe/run.sh .gpu/
 du -sh .gl .gpu
+# A call carries at most 64 MiB: say so here rather than have the device call refuse it.
+total=$(du -sbc .gl .gpu | tail -1 | cut -f1)
+if [ "$total" -gt $((64 * 1024 * 1024)) ]; then
+  echo "error: .gl and .gpu hold $total bytes, over the 64 MiB a device call carries: leave a binary out of prepare.sh" >&2
+  exit 1
+fi
 echo 'now: device run, command "bash .gpu/run.sh", carry [".gl", ".gpu"], timeout_s 300'
