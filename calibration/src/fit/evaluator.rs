@@ -236,17 +236,25 @@ impl Evaluator<'_, '_> {
     pub(super) fn residuals(&self, pred: &[Vec<f32>]) -> Vec<f64> {
         let mut r = Vec::new();
         for (v, img) in pred.iter().enumerate() {
-            let photo = self.photo(v);
-            let shift = self.jpeg_shift.get(v).and_then(|s| s.as_deref());
-            for (i, ((m, &ph), &ok)) in img.iter().zip(photo.iter()).zip(&self.data.masks[v]).enumerate() {
-                if ok {
-                    let j = shift.map_or(0.0, |s| s[i]);
-                    r.push((*m + j - ph) as f64);
-                }
+            r.extend(self.residuals_of(v, img, r.len()));
+        }
+        r
+    }
+
+    /// Photo v's block of [`Self::residuals`] for its model photo `img`, the block starting at
+    /// `at` in the whole (where its bootstrap weights start).
+    pub(super) fn residuals_of(&self, v: usize, img: &[f32], at: usize) -> Vec<f64> {
+        let photo = self.photo(v);
+        let shift = self.jpeg_shift.get(v).and_then(|s| s.as_deref());
+        let mut r = Vec::new();
+        for (i, ((m, &ph), &ok)) in img.iter().zip(photo.iter()).zip(&self.data.masks[v]).enumerate() {
+            if ok {
+                let j = shift.map_or(0.0, |s| s[i]);
+                r.push((*m + j - ph) as f64);
             }
         }
         if let Some(w) = &self.weights {
-            for (e, w) in r.iter_mut().zip(w) {
+            for (e, w) in r.iter_mut().zip(&w[at..]) {
                 *e *= w.sqrt();
             }
         }

@@ -302,6 +302,18 @@ impl Layout {
 
     /// The view whose camera parameter `k` moves (an off-pose photo's eye, or a view's
     /// registration shift): its Jacobian column comes from the image's motion, not a tangent.
+    /// The photo whose camera model alone parameter `k` is a term of (its exposure, blur,
+    /// shading, noise scale or tone curve: no render), or None.
+    pub(super) fn photo_term(&self, k: usize) -> Option<usize> {
+        let q = &self.params[k];
+        let per_photo = ["ln_exposure[", "blur_px[", "shade[", "ln_noise[", "tone["];
+        if q.render || !per_photo.iter().any(|p| q.name.starts_with(p)) {
+            return None;
+        }
+        let (_, rest) = q.name.split_once('[')?;
+        rest.split_once(']')?.0.parse().ok().filter(|v| *v < self.n_views)
+    }
+
     pub(super) fn camera_view(&self, k: usize) -> Option<usize> {
         if let Some(v) = (0..self.n_views).find(|&v| self.pose_at[v].is_some_and(|i| (i..i + POSE_PARAMS).contains(&k)))
         {

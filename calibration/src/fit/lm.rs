@@ -91,6 +91,12 @@ impl LeastSquares for Refinement<'_, '_, '_> {
             None => self.ev.render(x)?,
         };
         let mut motion = self.ev.motion_columns(x, &lin, &eyes).into_iter();
+        // Each photo's blurred light at x, and where its residuals start.
+        let blurred: Vec<Vec<f32>> = (0..lin.len()).map(|v| self.ev.blurred(&lin[v], v, x)).collect();
+        let masked = |v: usize| self.ev.data.masks[v].iter().filter(|m| **m).count();
+        let starts: Vec<usize> = (0..lin.len())
+            .scan(0, |at, v| Some(std::mem::replace(at, *at + masked(v))))
+            .collect();
         // The rest by forward differences (away from the nearer bound).
         let mut cols: Vec<Vec<f64>> = Vec::with_capacity(np);
         for k in 0..np {
@@ -113,6 +119,23 @@ impl LeastSquares for Refinement<'_, '_, '_> {
                 h = lo + 0.5 * (hi - lo) - x[k];
             }
             xh[k] = x[k] + h;
+            // A term of one photo's camera model (its exposure, blur, shading, noise, tone
+            // curve) changes that photo's residuals alone: the others' differences are 0, and
+            // its model photo comes from its blurred light at x unless the term is its blur.
+            // The same bits as differencing every residual.
+            if let Some(v) = self.ev.lay.photo_term(k) {
+                let b = match self.ev.lay.blur(&xh, v) == self.ev.lay.blur(x, v) {
+                    true => blurred[v].clone(),
+                    false => self.ev.blurred(&lin[v], v, &xh),
+                };
+                let rv = self.ev.residuals_of(v, &self.ev.expose_masked(&b, v, &xh), starts[v]);
+                let mut col = vec![0.0 / h; r.len()];
+                for (i, e) in rv.iter().enumerate() {
+                    col[starts[v] + i] = (e - r[starts[v] + i]) / h;
+                }
+                cols.push(col);
+                continue;
+            }
             let rh = self.eval(&xh)?;
             cols.push(rh.iter().zip(r).map(|(a, b)| (a - b) / h).collect());
         }
