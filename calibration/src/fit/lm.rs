@@ -9,6 +9,7 @@ use scratchart_observe::Observer;
 use scratchart_optim::least_squares::{self, Interrupted, LeastSquares, Solution};
 
 use super::{Evaluator, FitError};
+use scratchart_model::par::par_map;
 
 /// The smallest robust scale of the residuals (display units).
 pub(super) const MIN_SCALE: f64 = 0.002;
@@ -91,12 +92,36 @@ impl LeastSquares for Refinement<'_, '_, '_> {
             None => self.ev.render(x)?,
         };
         let mut motion = self.ev.motion_columns(x, &lin, &eyes).into_iter();
-        // Each photo's blurred light at x, and where its residuals start.
-        let blurred: Vec<Vec<f32>> = (0..lin.len()).map(|v| self.ev.blurred(&lin[v], v, x)).collect();
-        let masked = |v: usize| self.ev.data.masks[v].iter().filter(|m| **m).count();
-        let starts: Vec<usize> = (0..lin.len())
-            .scan(0, |at, v| Some(std::mem::replace(at, *at + masked(v))))
+        // A term of one photo's camera model (its exposure, blur, shading, noise, tone curve)
+        // changes that photo's residuals alone: the others' differences are 0, and its model
+        // photo comes from its blurred light at x unless the term is its blur. The same bits as
+        // differencing every residual; the terms side by side on the host's cores.
+        let photo_terms: Vec<(usize, usize)> = (0..np)
+            .filter_map(|k| self.ev.lay.photo_term(k).map(|v| (k, v)))
             .collect();
+        let mut photo_cols = {
+            let ev = &*self.ev;
+            let blurred: Vec<Vec<f32>> = par_map(lin.len(), |v| ev.blurred(&lin[v], v, x));
+            let masked = |v: usize| ev.data.masks[v].iter().filter(|m| **m).count();
+            let starts: Vec<usize> = (0..lin.len())
+                .scan(0, |at, v| Some(std::mem::replace(at, *at + masked(v))))
+                .collect();
+            par_map(photo_terms.len(), |i| {
+                let (k, v) = photo_terms[i];
+                let (xh, h) = forward_step(x, k, ev.lay.params[k].step, bounds[k]);
+                let b = match ev.lay.blur(&xh, v) == ev.lay.blur(x, v) {
+                    true => blurred[v].clone(),
+                    false => ev.blurred(&lin[v], v, &xh),
+                };
+                let rv = ev.residuals_of(v, &ev.expose_masked(&b, v, &xh), starts[v]);
+                let mut col = vec![0.0 / h; r.len()];
+                for (j, e) in rv.iter().enumerate() {
+                    col[starts[v] + j] = (e - r[starts[v] + j]) / h;
+                }
+                col
+            })
+            .into_iter()
+        };
         // The rest by forward differences (away from the nearer bound).
         let mut cols: Vec<Vec<f64>> = Vec::with_capacity(np);
         for k in 0..np {
@@ -108,39 +133,32 @@ impl LeastSquares for Refinement<'_, '_, '_> {
                 cols.push(motion.next().expect("one column per camera term"));
                 continue;
             }
-            let (lo, hi) = bounds[k];
-            let mut xh = x.to_vec();
-            let mut h = self.ev.lay.params[k].step;
-            if x[k] + h > hi {
-                h = -h;
-            }
-            if x[k] + h < lo {
-                // no room either way: the middle of the bounds
-                h = lo + 0.5 * (hi - lo) - x[k];
-            }
-            xh[k] = x[k] + h;
-            // A term of one photo's camera model (its exposure, blur, shading, noise, tone
-            // curve) changes that photo's residuals alone: the others' differences are 0, and
-            // its model photo comes from its blurred light at x unless the term is its blur.
-            // The same bits as differencing every residual.
-            if let Some(v) = self.ev.lay.photo_term(k) {
-                let b = match self.ev.lay.blur(&xh, v) == self.ev.lay.blur(x, v) {
-                    true => blurred[v].clone(),
-                    false => self.ev.blurred(&lin[v], v, &xh),
-                };
-                let rv = self.ev.residuals_of(v, &self.ev.expose_masked(&b, v, &xh), starts[v]);
-                let mut col = vec![0.0 / h; r.len()];
-                for (i, e) in rv.iter().enumerate() {
-                    col[starts[v] + i] = (e - r[starts[v] + i]) / h;
-                }
-                cols.push(col);
+            if self.ev.lay.photo_term(k).is_some() {
+                cols.push(photo_cols.next().expect("one column per photo term"));
                 continue;
             }
+            let (xh, h) = forward_step(x, k, self.ev.lay.params[k].step, bounds[k]);
             let rh = self.eval(&xh)?;
             cols.push(rh.iter().zip(r).map(|(a, b)| (a - b) / h).collect());
         }
         Ok(cols)
     }
+}
+
+/// `x` moved along parameter `k` by its `step` for a forward difference, away from the nearer of
+/// `bounds` (the middle of the bounds where there is no room either way), and the step taken.
+fn forward_step(x: &[f64], k: usize, step: f64, (lo, hi): (f64, f64)) -> (Vec<f64>, f64) {
+    let mut xh = x.to_vec();
+    let mut h = step;
+    if x[k] + h > hi {
+        h = -h;
+    }
+    if x[k] + h < lo {
+        // no room either way: the middle of the bounds
+        h = lo + 0.5 * (hi - lo) - x[k];
+    }
+    xh[k] = x[k] + h;
+    (xh, h)
 }
 
 /// Robust Levenberg-Marquardt from `x` with the z offset (if any) kept in `off_range`.
