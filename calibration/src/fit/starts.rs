@@ -40,6 +40,9 @@ impl OffsetIntervals {
 
 /// How much the search for start points smooths the photos and the model (pixels).
 pub(super) const SEARCH_BLUR_PX: f64 = 1.5;
+/// Start points rendered before their exposure searches run side by side (bounds the renders
+/// held at once).
+const SEARCH_BATCH: usize = 16;
 /// The blur a refinement starts from (pixels).
 const START_BLUR_PX: f64 = 0.5;
 
@@ -122,34 +125,52 @@ pub(super) fn search_starts(
     };
     let mut scored: Vec<(f64, Vec<f64>, Option<(f64, f64)>)> = Vec::new();
     let total = (offs.len() * ev.lay.shapes().len()) as u64;
-    for (i, rg) in offs.iter().enumerate() {
-        for (j, shape) in ev.lay.shapes().into_iter().enumerate() {
-            if obs.should_stop() {
-                return Err(FitError::Interrupted);
-            }
-            obs.progress(&Progress::new(
-                "search",
-                (i * ev.lay.shapes().len() + j) as u64,
-                total,
-                format!("{} start points", kind.name()),
-            ));
+    let points: Vec<(Option<(f64, f64)>, Vec<f64>)> = offs
+        .iter()
+        .flat_map(|rg| ev.lay.shapes().into_iter().map(move |shape| (*rg, shape)))
+        .map(|(rg, shape)| {
             let off = rg.map_or(0.0, |(a, b)| 0.5 * (a + b));
             let mut x = ev.lay.start(off, shape);
             for v in 0..ev.lay.n_views {
                 x[blur_at + v] = x[blur_at + v].hypot(SEARCH_BLUR_PX);
             }
-            let lin = ev.render(&x)?;
-            let this = &*ev;
-            let exposures = scratchart_model::par::par_map(ev.lay.n_views, |v| this.best_exposure(v, &lin[v], &x));
-            for (v, e) in exposures.into_iter().enumerate() {
-                x[ev.lay.n_tool + 1 + v] = e;
+            (rg, x)
+        })
+        .collect();
+    // A batch of start points rendered one after another, then their exposure searches (no
+    // render) side by side on the host's cores, each (start point, view) its own.
+    for batch in points.chunks(SEARCH_BATCH) {
+        let mut lins = Vec::with_capacity(batch.len());
+        for (rg, x) in batch {
+            if obs.should_stop() {
+                return Err(FitError::Interrupted);
             }
-            let r = ev.residuals_at(&x, &lin);
-            for v in 0..ev.lay.n_views {
+            obs.progress(&Progress::new(
+                "search",
+                scored.len() as u64 + lins.len() as u64,
+                total,
+                format!("{} start points", kind.name()),
+            ));
+            lins.push((ev.render(x)?, *rg));
+        }
+        let this = &*ev;
+        let nv = this.lay.n_views;
+        let exposures = scratchart_model::par::par_map(batch.len() * nv, |i| {
+            let (s, v) = (i / nv, i % nv);
+            this.best_exposure(v, &lins[s].0[v], &batch[s].1)
+        });
+        let got = scratchart_model::par::par_map(batch.len(), |s| {
+            let mut x = batch[s].1.clone();
+            for v in 0..nv {
+                x[this.lay.n_tool + 1 + v] = exposures[s * nv + v];
+            }
+            let r = this.residuals_at(&x, &lins[s].0);
+            for v in 0..nv {
                 x[blur_at + v] = START_BLUR_PX;
             }
-            scored.push((cauchy(&r, 0.01), x, *rg));
-        }
+            (cauchy(&r, 0.01), x, lins[s].1)
+        });
+        scored.extend(got);
     }
     obs.finish("search");
     ev.compared = None;
