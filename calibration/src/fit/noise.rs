@@ -353,16 +353,20 @@ impl super::Evaluator<'_, '_> {
         } else {
             (1, &[1.0])
         };
+        // Each draw its own seed: side by side on the host's cores, added up in order.
+        let n_signs = signs.len();
+        let draws = scratchart_model::par::par_map(pairs as usize * n_signs, |i| {
+            let (p, sign) = (i / n_signs, signs[i % n_signs]);
+            let mut rng = scratchart_design::scenes::Rng::new(0x5111_f7ed ^ ((v as u64) << 8) ^ p as u64);
+            self.shrunk_draw(lit, v, sigma, q, &mut || sign * rng.normal())
+        });
         let mut mean = vec![0.0f64; model.len()];
-        for p in 0..pairs {
-            for &sign in signs {
-                let mut rng = scratchart_design::scenes::Rng::new(0x5111_f7ed ^ ((v as u64) << 8) ^ p as u64);
-                let draw = self.shrunk_draw(lit, v, sigma, q, &mut || sign * rng.normal())?;
-                if draw.len() != mean.len() {
-                    return None;
-                }
-                mean.iter_mut().zip(&draw).for_each(|(m, x)| *m += *x as f64);
+        for draw in draws {
+            let draw = draw?;
+            if draw.len() != mean.len() {
+                return None;
             }
+            mean.iter_mut().zip(&draw).for_each(|(m, x)| *m += *x as f64);
         }
         let n = (pairs as usize * signs.len()) as f64;
         Some(mean.iter().zip(model).map(|(m, p)| (m / n) as f32 - p).collect())
@@ -453,7 +457,14 @@ impl Lift {
     /// [`Transfer::subpixel`] at the noise's scale exp(u).
     pub(crate) fn subpixel(&self, l: f32, u: f64) -> f32 {
         let (a, b, f) = self.at(u);
-        a.subpixel(l) * (1.0 - f) + b.subpixel(l) * f
+        match (a, b) {
+            // (The light encoded once for both tables: the same bits.)
+            (Transfer::Shrunk(ta), Transfer::Shrunk(tb)) => {
+                let d = crate::encoding::encode_f32(l);
+                Transfer::lookup(ta, d) * (1.0 - f) + Transfer::lookup(tb, d) * f
+            }
+            _ => a.subpixel(l) * (1.0 - f) + b.subpixel(l) * f,
+        }
     }
 
     /// [`Transfer::pixel`] at the noise's scale exp(u).
