@@ -191,7 +191,7 @@ impl Evaluator<'_, '_> {
         let e = self.lay.exposure(x, v);
         let (fx, fy) = self.shading(v, x, b.len());
         let u = self.lay.ln_noise(x, v);
-        let transfer = &self.transfer[v];
+        let transfer = self.transfer[v].as_ref().map(|t| t.at_scale(u));
         // Subpixel i's light as the sensor gets it (`light`), lifted by a shrunk photo's clipped
         // noise (`noise`).
         let sub = |i: usize| -> f32 {
@@ -201,8 +201,8 @@ impl Evaluator<'_, '_> {
                 Some(c) => c.apply(l),
                 None => l.min(1.0),
             };
-            match transfer {
-                Some(t) => t.subpixel(l, u),
+            match &transfer {
+                Some(t) => t.subpixel(l),
                 None => l,
             }
         };
@@ -233,8 +233,8 @@ impl Evaluator<'_, '_> {
                 let l = if power != 1.0 && l > 0.0 { l.powf(power) } else { l };
                 let d = crate::encoding::encode_f32(l).min(1.0);
                 // A photo used as taken: its pixel's expected value under clipped noise.
-                out[p] = match transfer {
-                    Some(t) => t.pixel(d, u),
+                out[p] = match &transfer {
+                    Some(t) => t.pixel(d),
                     None => d,
                 };
             }

@@ -455,8 +455,35 @@ impl Lift {
     }
 
     /// [`Transfer::subpixel`] at the noise's scale exp(u).
+    #[cfg(test)]
     pub(crate) fn subpixel(&self, l: f32, u: f64) -> f32 {
+        self.at_scale(u).subpixel(l)
+    }
+
+    /// [`Transfer::pixel`] at the noise's scale exp(u).
+    #[cfg(test)]
+    pub(crate) fn pixel(&self, d: f32, u: f64) -> f32 {
+        self.at_scale(u).pixel(d)
+    }
+
+    /// The lift at the noise's scale exp(u), for many pixels.
+    pub(crate) fn at_scale(&self, u: f64) -> LiftAt<'_> {
         let (a, b, f) = self.at(u);
+        LiftAt { a, b, f }
+    }
+}
+
+/// A [`Lift`] at one noise scale: its two tables about it and the weight of the second.
+pub(crate) struct LiftAt<'a> {
+    a: &'a Transfer,
+    b: &'a Transfer,
+    f: f32,
+}
+
+impl LiftAt<'_> {
+    /// [`Transfer::subpixel`] at this scale.
+    pub(crate) fn subpixel(&self, l: f32) -> f32 {
+        let (a, b, f) = (self.a, self.b, self.f);
         match (a, b) {
             // (The light encoded once for both tables: the same bits.)
             (Transfer::Shrunk(ta), Transfer::Shrunk(tb)) => {
@@ -467,10 +494,9 @@ impl Lift {
         }
     }
 
-    /// [`Transfer::pixel`] at the noise's scale exp(u).
-    pub(crate) fn pixel(&self, d: f32, u: f64) -> f32 {
-        let (a, b, f) = self.at(u);
-        a.pixel(d) * (1.0 - f) + b.pixel(d) * f
+    /// [`Transfer::pixel`] at this scale.
+    pub(crate) fn pixel(&self, d: f32) -> f32 {
+        self.a.pixel(d) * (1.0 - self.f) + self.b.pixel(d) * self.f
     }
 }
 
