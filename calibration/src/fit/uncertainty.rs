@@ -373,59 +373,86 @@ fn degrade_shift(
     let lights: Vec<Option<Vec<f32>>> = (0..data.capture.views.len())
         .map(|v| ev.simulated_light(&lin[v], v, x))
         .collect();
+    // How many normal draws each photo's degraded copy takes (a shrunk photo: one per channel of
+    // each of its own pixels; one as the model has it, none), so that the draws of a repetition
+    // come from the one generator in the order they always did, and the photos then degrade
+    // side by side on the host's cores (the same bits).
+    let chans = |v: usize| {
+        if data.colour.get(v).copied().unwrap_or(false) {
+            3
+        } else {
+            1
+        }
+    };
+    let shrunk = |v: usize| data.shrink.get(v).copied().unwrap_or(1) > 1;
+    let draws_of = |v: usize| -> usize {
+        if !shrunk(v) {
+            return raw[v].len() * chans(v);
+        }
+        let q = data.saved_jpeg.get(v).copied().flatten();
+        match &lights[v] {
+            Some(_) if ev.sigma(x, v) > 0.0 || q.is_some() => {
+                let (c, k) = (&data.capture.views[v].camera, data.shrink[v] as usize);
+                k * c.width as usize * k * c.height as usize * chans(v)
+            }
+            _ => 0,
+        }
+    };
+    let counts: Vec<usize> = (0..raw.len()).map(draws_of).collect();
     for _ in 0..reps {
-        let deg: Vec<Vec<f32>> = raw
-            .iter()
-            .zip(&pred)
-            .enumerate()
-            .map(|(v, (img, lifted))| {
-                let sigma = ev.sigma(x, v);
-                let colour = data.colour.get(v).copied().unwrap_or(false);
-                if data.shrink.get(v).copied().unwrap_or(1) > 1 {
-                    // A shrunk photo as its camera made it, at its own resolution: the noise
-                    // and its JPEG there, then the shrink (`noise::shrunk_photo_draw`). One
-                    // shrunk by more than `SIMULATED_SHRINK`, or clean and lossless, stays as
-                    // the model has it.
-                    let q = data.saved_jpeg.get(v).copied().flatten();
-                    // Against the model with its change for a shrunk JPEG (what the fit
-                    // compares): the residuals add that change to whatever they are given.
-                    return match &lights[v] {
-                        Some(lit) if sigma > 0.0 || q.is_some() => ev
-                            .shrunk_draw(lit, v, sigma, q, &mut || rng.normal())
-                            .map(|d| match &ev.jpeg_shift[v] {
+        let noise: Vec<Vec<f64>> = counts.iter().map(|&n| (0..n).map(|_| rng.normal()).collect()).collect();
+        let evr = &*ev;
+        let deg: Vec<Vec<f32>> = scratchart_model::par::par_map(raw.len(), |v| {
+            let (img, lifted) = (&raw[v], &pred[v]);
+            let mut draws = noise[v].iter().copied();
+            let mut normal = || draws.next().expect("a draw counted for each");
+            let sigma = evr.sigma(x, v);
+            let colour = chans(v) == 3;
+            if shrunk(v) {
+                // A shrunk photo as its camera made it, at its own resolution: the noise
+                // and its JPEG there, then the shrink (`noise::shrunk_photo_draw`). One
+                // shrunk by more than `SIMULATED_SHRINK`, or clean and lossless, stays as
+                // the model has it.
+                let q = data.saved_jpeg.get(v).copied().flatten();
+                // Against the model with its change for a shrunk JPEG (what the fit
+                // compares): the residuals add that change to whatever they are given.
+                return match &lights[v] {
+                    Some(lit) if sigma > 0.0 || q.is_some() => {
+                        evr.shrunk_draw(lit, v, sigma, q, &mut normal)
+                            .map(|d| match &evr.jpeg_shift[v] {
                                 Some(sh) => d.iter().zip(sh).map(|(d, s)| d - s).collect(),
                                 None => d,
-                            }),
-                        _ => None,
+                            })
                     }
-                    .unwrap_or_else(|| lifted.clone());
+                    _ => None,
                 }
-                let q = |d: f64| (d.clamp(0.0, 1.0) * 255.0).round() / 255.0;
-                let noisy: Vec<f32> = img
-                    .iter()
-                    .map(|&m| {
-                        let m = m as f64;
-                        if colour {
-                            LUMA.iter().map(|w| w * q(m + sigma * rng.normal())).sum::<f64>() as f32
-                        } else {
-                            q(m + sigma * rng.normal()) as f32
-                        }
-                    })
-                    .collect();
-                match data.jpeg.get(v).copied().flatten() {
-                    // Against the model with its JPEG change (what the fit compares).
-                    Some(qual) => {
-                        let c = &data.capture.views[v].camera;
-                        let back = crate::photo::jpeg_round_trip(&noisy, c.width, c.height, qual);
-                        match &ev.jpeg_shift[v] {
-                            Some(sh) => back.iter().zip(sh).map(|(b, s)| b - s).collect(),
-                            None => back,
-                        }
+                .unwrap_or_else(|| lifted.clone());
+            }
+            let q = |d: f64| (d.clamp(0.0, 1.0) * 255.0).round() / 255.0;
+            let noisy: Vec<f32> = img
+                .iter()
+                .map(|&m| {
+                    let m = m as f64;
+                    if colour {
+                        LUMA.iter().map(|w| w * q(m + sigma * normal())).sum::<f64>() as f32
+                    } else {
+                        q(m + sigma * normal()) as f32
                     }
-                    None => noisy,
+                })
+                .collect();
+            match data.jpeg.get(v).copied().flatten() {
+                // Against the model with its JPEG change (what the fit compares).
+                Some(qual) => {
+                    let c = &data.capture.views[v].camera;
+                    let back = crate::photo::jpeg_round_trip(&noisy, c.width, c.height, qual);
+                    match &evr.jpeg_shift[v] {
+                        Some(sh) => back.iter().zip(sh).map(|(b, s)| b - s).collect(),
+                        None => back,
+                    }
                 }
-            })
-            .collect();
+                None => noisy,
+            }
+        });
         let rd = ev.residuals(&deg);
         let shift: Vec<f64> = base.iter().zip(&rd).map(|(b, a)| b - a).collect();
         match normal.step(&shift) {
