@@ -146,3 +146,32 @@ fn passes_change_no_bit() {
     }
     assert_no_validation(&ctx);
 }
+
+/// Several groups of directions in one submission (`tangent_groups`: one render, a tangent pass
+/// per group) give each group's derivatives and the images to the bit of a call per group.
+#[test]
+fn groups_in_one_submission_change_no_bit() {
+    let ctx = gpu();
+    let scene = two_view_scene(3, 400, 40, 21);
+    let r = Renderer::new(&ctx).unwrap();
+    let a = seeds(&scene);
+    // A second group: the first's directions in reverse order, halved.
+    let b: Vec<ScratchTangent> = a
+        .iter()
+        .map(|t| std::array::from_fn(|j| t[TANGENT_DIRECTIONS - 1 - j].map(|x| 0.5 * x)))
+        .collect();
+    let mut gs = r.upload(&scene).unwrap();
+    let (img_a, ta) = r.tangents(&mut gs, &a).unwrap();
+    let (_, tb) = r.tangents(&mut gs, &b).unwrap();
+    let (img, groups) = r.tangent_groups(&mut gs, &[a, b]).unwrap();
+    let bits = |t: &[Vec<[f32; TANGENT_DIRECTIONS]>]| -> Vec<u32> {
+        t.iter().flatten().flat_map(|d| d.map(f32::to_bits)).collect()
+    };
+    assert_eq!(groups.len(), 2);
+    assert_eq!(bits(&groups[0]), bits(&ta));
+    assert_eq!(bits(&groups[1]), bits(&tb));
+    assert_ne!(bits(&ta), bits(&tb), "the two groups must differ");
+    let img_bits = |i: &[Vec<f32>]| -> Vec<u32> { i.iter().flatten().map(|x| x.to_bits()).collect() };
+    assert_eq!(img_bits(&img), img_bits(&img_a));
+    assert_no_validation(&ctx);
+}

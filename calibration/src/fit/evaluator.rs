@@ -158,15 +158,19 @@ impl Evaluator<'_, '_> {
     /// The Jacobian columns (d residual / d x_k) of the parameters `ks`, each of which moves only
     /// the grooves' (w, d, alpha): the tool's parameters, its z offset, alpha. Differentiable
     /// rendering: the engine gives the pixel values' derivatives along up to 7 parameters per
-    /// pass (`Renderer::tangents`, the reverse sweep of the pair integral), seeded
+    /// pass (`Renderer::tangent_groups`, the reverse sweep of the pair integral, every pass after
+    /// one render in one submission), seeded
     /// with each groove's d(w, d, alpha)/dx_k (central differences of the tool model on the host,
     /// no render); the camera model (blur, exposure, display encoding, clipping) is then
     /// differenced around that linearized render, over the parameter's own step.
     pub(super) fn tangent_columns(&mut self, x: &[f64], ks: &[usize]) -> Result<Vec<Vec<f64>>, FitError> {
         // A cut that does not reach the plate is a placeholder groove (see `scratches`).
         let reaches = |s: &Scratch| !(s.w == 1e-6 && s.d == 1e-6);
+        if ks.is_empty() {
+            return Ok(Vec::new());
+        }
         let base = self.scratches(&self.lay.tool(x), self.lay.alpha(x));
-        let mut cols = Vec::with_capacity(ks.len());
+        let mut groups: Vec<Vec<ScratchTangent>> = Vec::new();
         for group in ks.chunks(TANGENT_DIRECTIONS) {
             let mut seeds: Vec<ScratchTangent> = vec![[[0.0; 3]; TANGENT_DIRECTIONS]; base.len()];
             // The grooves a step up and a step down each parameter cut (each its own fit of
@@ -206,28 +210,30 @@ impl Evaluator<'_, '_> {
                     }
                 }
             }
-            self.sync(x)?;
-            let gs = self.gs.as_mut().expect("uploaded");
-            let (lin, tang) = self.renderer.tangents(gs, &seeds).map_err(anyhow::Error::from)?;
-
-            self.tangent_passes += 1;
-            let this = &*self;
-            cols.extend(scratchart_model::par::par_map(group.len(), |j| {
-                let h = this.lay.params[group[j]].step;
-                let moved = |sign: f64| -> Vec<Vec<f32>> {
-                    lin.iter()
-                        .zip(&tang)
-                        .map(|(l, t)| l.iter().zip(t).map(|(a, d)| a + (sign * h) as f32 * d[j]).collect())
-                        .collect()
-                };
-                let rp = this.residuals(&this.predict_masked(&moved(1.0), x));
-                let rm = this.residuals(&this.predict_masked(&moved(-1.0), x));
-                rp.iter()
-                    .zip(&rm)
-                    .map(|(a, b)| (a - b) / (2.0 * h))
-                    .collect::<Vec<f64>>()
-            }));
+            groups.push(seeds);
         }
+        // Every group's tangent pass after one render, in one submission.
+        self.sync(x)?;
+        let gs = self.gs.as_mut().expect("uploaded");
+        let (lin, tangs) = self.renderer.tangent_groups(gs, &groups).map_err(anyhow::Error::from)?;
+        self.tangent_passes += groups.len() as u32;
+        let this = &*self;
+        let cols = scratchart_model::par::par_map(ks.len(), |i| {
+            let (tang, j) = (&tangs[i / TANGENT_DIRECTIONS], i % TANGENT_DIRECTIONS);
+            let h = this.lay.params[ks[i]].step;
+            let moved = |sign: f64| -> Vec<Vec<f32>> {
+                lin.iter()
+                    .zip(tang)
+                    .map(|(l, t)| l.iter().zip(t).map(|(a, d)| a + (sign * h) as f32 * d[j]).collect())
+                    .collect()
+            };
+            let rp = this.residuals(&this.predict_masked(&moved(1.0), x));
+            let rm = this.residuals(&this.predict_masked(&moved(-1.0), x));
+            rp.iter()
+                .zip(&rm)
+                .map(|(a, b)| (a - b) / (2.0 * h))
+                .collect::<Vec<f64>>()
+        });
         Ok(cols)
     }
 

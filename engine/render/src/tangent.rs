@@ -40,62 +40,87 @@ impl Renderer {
         gs: &mut GpuScene,
         seeds: &[ScratchTangent],
     ) -> Result<(Vec<Vec<f32>>, Vec<Vec<[f32; TANGENT_DIRECTIONS]>>), GpuError> {
+        let (images, mut per_group) = self.tangent_groups(gs, std::slice::from_ref(&seeds.to_vec()))?;
+        Ok((images, per_group.remove(0)))
+    }
+
+    /// [`Renderer::tangents`] for several groups of 7 directions at once: one render and one
+    /// tangent pass per group, all in one submission (the same bits as a call per group). Per
+    /// group, per view, per pixel, dL/dθ_j.
+    #[allow(clippy::type_complexity)]
+    pub fn tangent_groups(
+        &self,
+        gs: &mut GpuScene,
+        groups: &[Vec<ScratchTangent>],
+    ) -> Result<(Vec<Vec<f32>>, Vec<Vec<Vec<[f32; TANGENT_DIRECTIONS]>>>), GpuError> {
         gs.refuse_arcs("tangents")?;
-        assert_eq!(
-            seeds.len(),
-            gs.n_scratches as usize,
-            "one tangent per scratch of the uploaded scene"
-        );
-        self.prepare_tangent()?;
-        // Per scratch 6 vec4: the 7 directions' tangents of w (and a zero), of d, of alpha.
-        let mut flat = Vec::with_capacity(seeds.len() * 24);
-        for s in seeds {
-            for q in 0..3 {
-                flat.extend(s.iter().map(|dir| dir[q]));
-                flat.push(0.0);
-            }
+        for seeds in groups {
+            assert_eq!(
+                seeds.len(),
+                gs.n_scratches as usize,
+                "one tangent per scratch of the uploaded scene"
+            );
         }
-        let seed_buf = self.ctx.upload("tangent seeds (6 vec4 per scratch)", &flat)?;
-        let tang = Buffer::new(
-            &self.ctx,
-            "tangents (2 vec4 per pixel of every view)",
-            gs.slots.n_pixels * 32,
-            MemLoc::GpuOnly,
-        )?;
+        self.prepare_tangent()?;
+        let mut bufs = Vec::with_capacity(groups.len());
+        for seeds in groups {
+            // Per scratch 6 vec4: the 7 directions' tangents of w (and a zero), of d, of alpha.
+            let mut flat = Vec::with_capacity(seeds.len() * 24);
+            for s in seeds {
+                for q in 0..3 {
+                    flat.extend(s.iter().map(|dir| dir[q]));
+                    flat.push(0.0);
+                }
+            }
+            let seed_buf = self.ctx.upload("tangent seeds (6 vec4 per scratch)", &flat)?;
+            let tang = Buffer::new(
+                &self.ctx,
+                "tangents (2 vec4 per pixel of every view)",
+                gs.slots.n_pixels * 32,
+                MemLoc::GpuOnly,
+            )?;
+            bufs.push((seed_buf, tang));
+        }
         let mut rec = Recorder::new(&self.ctx)?;
         let kernel = self.tangent.get().expect("prepared");
         self.submit(&mut rec, gs, |rec, gs| {
             self.record_render(rec, gs);
-            let role = super::bindings::Role::Tangent {
-                seeds: &seed_buf,
-                tangents: &tang,
-            };
-            super::record_passes(rec, kernel, gs, role);
+            for (seed_buf, tang) in &bufs {
+                let role = super::bindings::Role::Tangent {
+                    seeds: seed_buf,
+                    tangents: tang,
+                };
+                super::record_passes(rec, kernel, gs, role);
+            }
         })?;
         let images = self.download_images(gs)?;
-        let all: Vec<[f32; 8]> = self.ctx.download(&tang)?;
-        let per_view = gs
-            .slots
-            .views
-            .iter()
-            .map(|v| {
-                let n = v.dims[0] as usize * v.dims[1] as usize;
-                // A window's pass leaves the pixels outside it unwritten: 0 there.
-                let win = v.window();
-                let whole = win == crate::layout::TileWindow::whole(v.dims[0], v.dims[1]);
-                all[v.base[1] as usize..v.base[1] as usize + n]
+        let mut per_group = Vec::with_capacity(bufs.len());
+        for (_, tang) in &bufs {
+            let all: Vec<[f32; 8]> = self.ctx.download(tang)?;
+            per_group.push(
+                gs.slots
+                    .views
                     .iter()
-                    .enumerate()
-                    .map(|(k, t)| {
-                        if whole || win.contains(k as u32 % v.dims[0], k as u32 / v.dims[0]) {
-                            [t[0], t[1], t[2], t[3], t[4], t[5], t[6]]
-                        } else {
-                            [0.0; TANGENT_DIRECTIONS]
-                        }
+                    .map(|v| {
+                        let n = v.dims[0] as usize * v.dims[1] as usize;
+                        // A window's pass leaves the pixels outside it unwritten: 0 there.
+                        let win = v.window();
+                        let whole = win == crate::layout::TileWindow::whole(v.dims[0], v.dims[1]);
+                        all[v.base[1] as usize..v.base[1] as usize + n]
+                            .iter()
+                            .enumerate()
+                            .map(|(k, t)| {
+                                if whole || win.contains(k as u32 % v.dims[0], k as u32 / v.dims[0]) {
+                                    [t[0], t[1], t[2], t[3], t[4], t[5], t[6]]
+                                } else {
+                                    [0.0; TANGENT_DIRECTIONS]
+                                }
+                            })
+                            .collect()
                     })
-                    .collect()
-            })
-            .collect();
-        Ok((images, per_view))
+                    .collect(),
+            );
+        }
+        Ok((images, per_group))
     }
 }
