@@ -163,7 +163,7 @@ fn groups_in_one_submission_change_no_bit() {
     let mut gs = r.upload(&scene).unwrap();
     let (img_a, ta) = r.tangents(&mut gs, &a).unwrap();
     let (_, tb) = r.tangents(&mut gs, &b).unwrap();
-    let (img, groups) = r.tangent_groups(&mut gs, &[a, b]).unwrap();
+    let (img, groups) = r.tangent_groups(&mut gs, &[&a, &b]).unwrap();
     let bits = |t: &[Vec<[f32; TANGENT_DIRECTIONS]>]| -> Vec<u32> {
         t.iter().flatten().flat_map(|d| d.map(f32::to_bits)).collect()
     };

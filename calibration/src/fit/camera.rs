@@ -94,11 +94,11 @@ impl Evaluator<'_, '_> {
     /// -grad(B) . F_k dx_k, which the pixels then add up. What the move does to the light itself
     /// (the half-vector turns by a fraction of a degree per millimetre) is left out of the
     /// derivative; every step is still judged on a real render.
-    pub(super) fn motion_columns(&self, x: &[f64], lin: &[Vec<f32>], ks: &[usize]) -> Vec<Vec<f64>> {
+    /// `blurred`: each view's blurred supersampled image at `x` ([`Self::blurred`]; its
+    /// gradients move it).
+    pub(super) fn motion_columns(&self, x: &[f64], blurred: &[Vec<f32>], ks: &[usize]) -> Vec<Vec<f64>> {
         let k_ss = self.ss as usize;
-        // The blurred supersampled images (their gradients move them), per view.
-        let blurred: Vec<Vec<f32>> = par_map(lin.len(), |v| self.blurred(&lin[v], v, x));
-        let pred0: Vec<Vec<f32>> = par_map(lin.len(), |v| self.expose_masked(&blurred[v], v, x));
+        let pred0: Vec<Vec<f32>> = par_map(blurred.len(), |v| self.expose_masked(&blurred[v], v, x));
         let base = self.residuals(&pred0);
         par_map(ks.len(), |i| {
             let k = ks[i];
@@ -188,19 +188,13 @@ impl Evaluator<'_, '_> {
         let (w, h) = (c.width as usize, c.height as usize);
         let k = self.ss as usize;
         let ws = k * w;
-        let e = self.lay.exposure(x, v);
-        let (fx, fy) = self.shading(v, x, b.len());
         let u = self.lay.ln_noise(x, v);
         let transfer = self.transfer[v].as_ref().map(|t| t.at_scale(u));
-        // Subpixel i's light as the sensor gets it (`light`), lifted by a shrunk photo's clipped
+        // Subpixel i's light as the sensor gets it (`sensor`), lifted by a shrunk photo's clipped
         // noise (`noise`).
+        let sensor = self.sensor(b, v, x);
         let sub = |i: usize| -> f32 {
-            let f = fx[i % ws] * fy[i / ws];
-            let l = (b[i] as f64 * e * f) as f32;
-            let l = match &self.clip[v] {
-                Some(c) => c.apply(l),
-                None => l.min(1.0),
-            };
+            let l = sensor(i);
             match &transfer {
                 Some(t) => t.subpixel(l),
                 None => l,
@@ -267,20 +261,23 @@ impl Evaluator<'_, '_> {
     /// The light of view v's subpixels (at `ss` times its resolution) as the sensor gets it:
     /// `b` scaled by the exposure and the shading, clipped at full scale (see `expose`).
     pub(super) fn light(&self, b: &[f32], v: usize, x: &[f64]) -> Vec<f32> {
+        (0..b.len()).map(self.sensor(b, v, x)).collect()
+    }
+
+    /// Subpixel i's light of `b` as view v's sensor gets it ([`Self::light`]).
+    fn sensor<'s>(&'s self, b: &'s [f32], v: usize, x: &[f64]) -> impl Fn(usize) -> f32 + 's {
         let e = self.lay.exposure(x, v);
         let ws = self.ss as usize * self.data.capture.views[v].camera.width as usize;
         let (fx, fy) = self.shading(v, x, b.len());
-        b.iter()
-            .enumerate()
-            .map(|(i, &l)| {
-                let f = fx[i % ws] * fy[i / ws];
-                let l = (l as f64 * e * f) as f32;
-                match &self.clip[v] {
-                    Some(c) => c.apply(l),
-                    None => l.min(1.0),
-                }
-            })
-            .collect()
+        let clip = &self.clip[v];
+        move |i| {
+            let f = fx[i % ws] * fy[i / ws];
+            let l = (b[i] as f64 * e * f) as f32;
+            match clip {
+                Some(c) => c.apply(l),
+                None => l.min(1.0),
+            }
+        }
     }
 
     /// The log exposure of view `v` that fits its photo best with the rest of `x` (a scan in

@@ -90,27 +90,31 @@ impl Evaluator<'_, '_> {
         view
     }
 
-    /// Puts the card for `x` on the device (its grooves, and the eyes of photos taken off the
-    /// capture pose), uploading it the first time.
+    /// The card for `x`: its grooves, and the eyes of photos taken off the capture pose.
+    fn scene_at(&self, x: &[f64]) -> Scene {
+        Scene {
+            plate: self.data.capture.plate.clone(),
+            views: (0..self.data.capture.views.len())
+                .map(|v| self.render_view(x, v))
+                .collect(),
+            scratches: self.scratches(&self.lay.tool(x), self.lay.alpha(x)),
+        }
+    }
+
+    /// Puts the card for `x` on the device ([`Self::scene_at`]), uploading it the first time,
+    /// each view windowed ([`Self::window`]) unless every render is whole.
     pub(super) fn sync(&mut self, x: &[f64]) -> Result<(), FitError> {
-        let scratches = self.scratches(&self.lay.tool(x), self.lay.alpha(x));
+        let scene = self.scene_at(x);
         let ctx = self.renderer.ctx.clone();
-        let views: Vec<_> = (0..self.data.capture.views.len())
-            .map(|v| self.render_view(x, v))
-            .collect();
         let reuse = match &mut self.gs {
             Some(gs) => {
-                gs.update_scratches(&ctx, &scratches).map_err(anyhow::Error::from)?
-                    && gs.update_views(&views).map_err(anyhow::Error::from)?
+                gs.update_scratches(&ctx, &scene.scratches)
+                    .map_err(anyhow::Error::from)?
+                    && gs.update_views(&scene.views).map_err(anyhow::Error::from)?
             }
             None => false,
         };
         if !reuse {
-            let scene = Scene {
-                plate: self.data.capture.plate.clone(),
-                views,
-                scratches,
-            };
             let windows: Vec<_> = (0..scene.views.len())
                 .map(|v| if self.whole { None } else { self.window(v) })
                 .collect();
@@ -142,17 +146,16 @@ impl Evaluator<'_, '_> {
     }
 
     /// [`Self::render`] of the whole images, for what reads beyond the residuals' pixels (a
-    /// JPEG's blocks and a shrink straddle the mask's edge; the residual images).
+    /// JPEG's blocks and a shrink straddle the mask's edge; the residual images): a few per fit,
+    /// each its own upload, the windowed scene kept for the iterations.
     pub(super) fn render_whole(&mut self, x: &[f64]) -> Result<Vec<Vec<f32>>, FitError> {
         if self.whole {
             return self.render(x);
         }
-        let windowed = self.gs.take();
-        self.whole = true;
-        let lin = self.render(x);
-        self.whole = false;
-        self.gs = windowed;
-        lin
+        let mut gs = self.renderer.upload(&self.scene_at(x)).map_err(anyhow::Error::from)?;
+        let frame = self.renderer.render(&mut gs).map_err(anyhow::Error::from)?;
+        self.renders += 1;
+        Ok(frame.images)
     }
 
     /// The Jacobian columns (d residual / d x_k) of the parameters `ks`, each of which moves only
@@ -215,7 +218,8 @@ impl Evaluator<'_, '_> {
         // Every group's tangent pass after one render, in one submission.
         self.sync(x)?;
         let gs = self.gs.as_mut().expect("uploaded");
-        let (lin, tangs) = self.renderer.tangent_groups(gs, &groups).map_err(anyhow::Error::from)?;
+        let seeds: Vec<&[ScratchTangent]> = groups.iter().map(Vec::as_slice).collect();
+        let (lin, tangs) = self.renderer.tangent_groups(gs, &seeds).map_err(anyhow::Error::from)?;
         self.tangent_passes += groups.len() as u32;
         let this = &*self;
         let cols = scratchart_model::par::par_map(ks.len(), |i| {
@@ -307,25 +311,8 @@ fn render_window(
     ss: u32,
     blur_px: f64,
 ) -> Option<scratchart_render::layout::TileWindow> {
-    let w = width as usize;
-    let (mut x0, mut y0, mut x1, mut y1) = (usize::MAX, usize::MAX, 0, 0);
-    for (i, _) in mask.iter().enumerate().filter(|(_, &m)| m) {
-        let (x, y) = (i % w, i / w);
-        (x0, y0, x1, y1) = (x0.min(x), y0.min(y), x1.max(x + 1), y1.max(y + 1));
-    }
-    if x0 >= x1 {
-        return None;
-    }
-    let k = ss as usize;
-    let reach = crate::simulate::blur_reach(k as f64 * blur_px) + 1;
-    Some(scratchart_render::layout::TileWindow::covering(
-        ss * width,
-        ss * height,
-        (k * x0).saturating_sub(reach) as u32,
-        (k * y0).saturating_sub(reach) as u32,
-        (k * x1 + reach) as u32,
-        (k * y1 + reach) as u32,
-    ))
+    let reach = crate::simulate::blur_reach(ss as f64 * blur_px) + 1;
+    scratchart_render::layout::TileWindow::covering_mask(mask, width, height, ss, reach as u32)
 }
 
 #[cfg(test)]

@@ -305,13 +305,19 @@ impl Layout {
     /// The photo whose camera model alone parameter `k` is a term of (its exposure, blur,
     /// shading, noise scale or tone curve: no render), or None.
     pub(super) fn photo_term(&self, k: usize) -> Option<usize> {
-        let q = &self.params[k];
-        let per_photo = ["ln_exposure[", "blur_px[", "shade[", "ln_noise[", "tone["];
-        if q.render || !per_photo.iter().any(|p| q.name.starts_with(p)) {
-            return None;
+        let n = self.n_views;
+        // ln_exposure[v], then blur_px[v], after the tool and alpha.
+        let first = self.n_tool + 1;
+        if (first..first + 2 * n).contains(&k) {
+            return Some((k - first) % n);
         }
-        let (_, rest) = q.name.split_once('[')?;
-        rest.split_once(']')?.0.parse().ok().filter(|v| *v < self.n_views)
+        if (self.shade_at..self.shade_at + 3 * n).contains(&k) {
+            return Some((k - self.shade_at) / 3);
+        }
+        if self.tone_free && (self.tone_at..self.tone_at + n).contains(&k) {
+            return Some(k - self.tone_at);
+        }
+        (0..n).find(|&v| self.noise_at[v] == Some(k))
     }
 
     pub(super) fn camera_view(&self, k: usize) -> Option<usize> {
@@ -359,6 +365,43 @@ impl Layout {
                 .collect(),
             Kind::Ball | Kind::TaperedBall => [0.02, 0.04, 0.08, 0.16, 0.32, 0.64].map(|r| (r, 0.0)).to_vec(),
             Kind::Profile => vec![(0.0, 0.0)],
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::card::{Card, CardSpec};
+
+    /// Every per-photo camera-model term (and nothing else) is found with its photo, whatever
+    /// the kind and the optional terms: the index of each agrees with the view its name gives.
+    #[test]
+    fn each_photo_term_names_its_photo() {
+        let card = Card::new(&CardSpec::default());
+        for kind in [Kind::VBit, Kind::Ball, Kind::TaperedBall, Kind::Profile] {
+            for (reg, tone) in [(false, false), (true, true)] {
+                let lay = Layout::new(kind, &card, 3, reg, &[true, false, true], &[false, true, true], tone);
+                let mut seen = 0;
+                for (k, q) in lay.params.iter().enumerate() {
+                    let per_photo = ["ln_exposure[", "blur_px[", "shade[", "ln_noise[", "tone["];
+                    let named = per_photo.iter().any(|p| q.name.starts_with(p)).then(|| {
+                        q.name
+                            .split_once('[')
+                            .unwrap()
+                            .1
+                            .split_once(']')
+                            .unwrap()
+                            .0
+                            .parse::<usize>()
+                            .unwrap()
+                    });
+                    assert_eq!(lay.photo_term(k), named, "{kind:?} {}", q.name);
+                    seen += usize::from(named.is_some());
+                }
+                // Exposure, blur and 3 shading terms each, 2 noise scales, the tone curves.
+                assert_eq!(seen, 3 * 5 + 2 + if tone { 3 } else { 0 }, "{kind:?}");
+            }
         }
     }
 }

@@ -91,7 +91,12 @@ impl LeastSquares for Refinement<'_, '_, '_> {
             Some((_, lin)) => lin.clone(),
             None => self.ev.render(x)?,
         };
-        let mut motion = self.ev.motion_columns(x, &lin, &eyes).into_iter();
+        // Each photo's blurred light at x, for the camera terms' columns below.
+        let blurred: Vec<Vec<f32>> = {
+            let ev = &*self.ev;
+            par_map(lin.len(), |v| ev.blurred(&lin[v], v, x))
+        };
+        let mut motion = self.ev.motion_columns(x, &blurred, &eyes).into_iter();
         // A term of one photo's camera model (its exposure, blur, shading, noise, tone curve)
         // changes that photo's residuals alone: the others' differences are 0, and its model
         // photo comes from its blurred light at x unless the term is its blur. The same bits as
@@ -101,7 +106,6 @@ impl LeastSquares for Refinement<'_, '_, '_> {
             .collect();
         let mut photo_cols = {
             let ev = &*self.ev;
-            let blurred: Vec<Vec<f32>> = par_map(lin.len(), |v| ev.blurred(&lin[v], v, x));
             let masked = |v: usize| ev.data.masks[v].iter().filter(|m| **m).count();
             let starts: Vec<usize> = (0..lin.len())
                 .scan(0, |at, v| Some(std::mem::replace(at, *at + masked(v))))

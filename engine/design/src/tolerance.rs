@@ -260,22 +260,7 @@ pub(crate) fn display_images(images: Vec<Vec<f32>>) -> Vec<Vec<f32>> {
 /// The tiles of view `v` that hold the pixels of `mask` and the pixels next to them (None for
 /// an empty mask: nothing there is compared).
 fn mask_window(v: &View, mask: &[bool]) -> Option<TileWindow> {
-    let w = v.camera.width as usize;
-    let (mut x0, mut y0, mut x1, mut y1) = (usize::MAX, usize::MAX, 0, 0);
-    for (k, _) in mask.iter().enumerate().filter(|(_, &m)| m) {
-        let (x, y) = (k % w, k / w);
-        (x0, y0, x1, y1) = (x0.min(x), y0.min(y), x1.max(x + 1), y1.max(y + 1));
-    }
-    (x0 < x1).then(|| {
-        TileWindow::covering(
-            v.camera.width,
-            v.camera.height,
-            x0.saturating_sub(1) as u32,
-            y0.saturating_sub(1) as u32,
-            (x1 + 1) as u32,
-            (y1 + 1) as u32,
-        )
-    })
+    TileWindow::covering_mask(mask, v.camera.width, v.camera.height, 1, 1)
 }
 
 /// A view's picture as the designed view shows it, or as it appears from a moved eye (see

@@ -82,6 +82,29 @@ impl TileWindow {
         }
     }
 
+    /// The tiles of a render at `scale` times a `width` x `height` image that cover the pixels
+    /// of `mask` (row-major at the image's size) and `margin` of the render's pixels about them;
+    /// None for an empty mask.
+    pub fn covering_mask(mask: &[bool], width: u32, height: u32, scale: u32, margin: u32) -> Option<TileWindow> {
+        let w = width as usize;
+        let (mut x0, mut y0, mut x1, mut y1) = (usize::MAX, usize::MAX, 0, 0);
+        for (i, _) in mask.iter().enumerate().filter(|(_, &m)| m) {
+            let (x, y) = (i % w, i / w);
+            (x0, y0, x1, y1) = (x0.min(x), y0.min(y), x1.max(x + 1), y1.max(y + 1));
+        }
+        let (k, m) = (scale as usize, margin as usize);
+        (x0 < x1).then(|| {
+            TileWindow::covering(
+                scale * width,
+                scale * height,
+                (k * x0).saturating_sub(m) as u32,
+                (k * y0).saturating_sub(m) as u32,
+                (k * x1 + m) as u32,
+                (k * y1 + m) as u32,
+            )
+        })
+    }
+
     /// The whole image of a `width` x `height` view.
     pub fn whole(width: u32, height: u32) -> TileWindow {
         TileWindow {

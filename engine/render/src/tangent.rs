@@ -40,7 +40,7 @@ impl Renderer {
         gs: &mut GpuScene,
         seeds: &[ScratchTangent],
     ) -> Result<(Vec<Vec<f32>>, Vec<Vec<[f32; TANGENT_DIRECTIONS]>>), GpuError> {
-        let (images, mut per_group) = self.tangent_groups(gs, std::slice::from_ref(&seeds.to_vec()))?;
+        let (images, mut per_group) = self.tangent_groups(gs, &[seeds])?;
         Ok((images, per_group.remove(0)))
     }
 
@@ -51,7 +51,7 @@ impl Renderer {
     pub fn tangent_groups(
         &self,
         gs: &mut GpuScene,
-        groups: &[Vec<ScratchTangent>],
+        groups: &[&[ScratchTangent]],
     ) -> Result<(Vec<Vec<f32>>, Vec<Vec<Vec<[f32; TANGENT_DIRECTIONS]>>>), GpuError> {
         gs.refuse_arcs("tangents")?;
         for seeds in groups {
@@ -63,7 +63,7 @@ impl Renderer {
         }
         self.prepare_tangent()?;
         let mut bufs = Vec::with_capacity(groups.len());
-        for seeds in groups {
+        for &seeds in groups {
             // Per scratch 6 vec4: the 7 directions' tangents of w (and a zero), of d, of alpha.
             let mut flat = Vec::with_capacity(seeds.len() * 24);
             for s in seeds {

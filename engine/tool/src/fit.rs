@@ -218,52 +218,26 @@ mod tests {
         assert!((g.w * (1.0 - (-2.0 * g.d / g.w).exp()).sqrt() - 0.07).abs() < 1e-12);
     }
 
-    /// The fit as first written (the depth at every node for every rho tried, each grid value
-    /// computed once per comparison): the fit on precomputed nodes must give the same bits.
-    fn fit_profile_per_rho(width: f64, depth: &dyn Fn(f64) -> f64) -> ModelGroove {
-        let f = |rho: f64| {
-            let (w, d) = groove(width, rho);
-            let half = 0.5 * width;
-            let mut acc = 0.0;
-            for p in 0..8 {
-                let (a, b) = (half * p as f64 / 8.0, half * (p + 1) as f64 / 8.0);
-                for (x, wt) in GL8 {
-                    let u = 0.5 * (a + b) + 0.5 * (b - a) * x;
-                    let e = model_depth(w, d, u) - depth(u);
-                    acc += 0.5 * (b - a) * wt * e * e;
-                }
-            }
-            acc / half
-        };
-        let grid: Vec<f64> = (1..400).map(|k| k as f64 / 400.0).collect();
-        let best = grid.iter().copied().min_by(|a, b| f(*a).total_cmp(&f(*b))).unwrap();
-        let (mut lo, mut hi) = ((best - 1.0 / 400.0).max(1e-9), (best + 1.0 / 400.0).min(1.0 - 1e-12));
-        let g = 0.5 * (5f64.sqrt() - 1.0);
-        let (mut x1, mut x2) = (hi - g * (hi - lo), lo + g * (hi - lo));
-        let (mut f1, mut f2) = (f(x1), f(x2));
-        while hi - lo > 1e-12 {
-            if f1 <= f2 {
-                (hi, x2, f2) = (x2, x1, f1);
-                x1 = hi - g * (hi - lo);
-                f1 = f(x1);
-            } else {
-                (lo, x1, f1) = (x1, x2, f2);
-                x2 = lo + g * (hi - lo);
-                f2 = f(x2);
-            }
-        }
-        let rho = 0.5 * (lo + hi);
+    /// The misfit as first written (the profile's depth computed at every node for every rho
+    /// tried): the misfit on precomputed nodes must give the same bits, so the fit, a
+    /// deterministic search over misfit values, gives the same (w, d).
+    fn misfit_per_rho(width: f64, rho: f64, depth: &dyn Fn(f64) -> f64) -> f64 {
         let (w, d) = groove(width, rho);
-        ModelGroove {
-            w,
-            d,
-            width,
-            rms_mm: f(rho).sqrt(),
+        let half = 0.5 * width;
+        let mut acc = 0.0;
+        for p in 0..8 {
+            let (a, b) = (half * p as f64 / 8.0, half * (p + 1) as f64 / 8.0);
+            for (x, wt) in GL8 {
+                let u = 0.5 * (a + b) + 0.5 * (b - a) * x;
+                let e = model_depth(w, d, u) - depth(u);
+                acc += 0.5 * (b - a) * wt * e * e;
+            }
         }
+        acc / half
     }
 
     #[test]
-    fn the_fit_on_precomputed_nodes_is_the_fit_per_rho_to_the_bit() {
+    fn the_misfit_on_precomputed_nodes_is_the_misfit_per_rho_to_the_bit() {
         let tools = [
             Tool::VBit {
                 angle_deg: 75.0,
@@ -289,12 +263,17 @@ mod tests {
         for t in &tools {
             for z in [0.004, 0.01, 0.03, 0.08] {
                 let Some(s) = t.section(z) else { continue };
-                let (a, b) = (model_of_section(&s), fit_profile_per_rho(s.width, &|u| s.depth_at(u)));
-                assert_eq!(
-                    [a.w, a.d, a.width, a.rms_mm].map(f64::to_bits),
-                    [b.w, b.d, b.width, b.rms_mm].map(f64::to_bits),
-                    "{t:?} at {z}"
-                );
+                let depth = |u: f64| s.depth_at(u);
+                let at = nodes(s.width, &depth);
+                // The grid of the search, and the optimum it refines to.
+                let best = model_of_section(&s).width / model_of_section(&s).w;
+                for rho in (1..400).map(|k| k as f64 / 400.0).chain([best]) {
+                    assert_eq!(
+                        misfit(s.width, rho, &at).to_bits(),
+                        misfit_per_rho(s.width, rho, &depth).to_bits(),
+                        "{t:?} at {z}, rho {rho}"
+                    );
+                }
                 n += 1;
             }
         }
