@@ -1,7 +1,8 @@
 //! A design that fails is said to fail: written for inspection, exit 1.
 use scratchart_tests::run_scratchart;
 
-/// A design that shows none of its pictures (one iteration from a random start) is written for
+/// A design that shows none of its pictures (one iteration from a random start, `--aim 0`: an
+/// aimed start shows its pictures from the first iteration) is written for
 /// inspection but exits 1, saying why: a script that carves what `design` made never carves it.
 #[test]
 fn a_design_that_shows_no_picture_exits_1() {
@@ -15,6 +16,8 @@ fn a_design_that_shows_no_picture_exits_1() {
         "1",
         "--res",
         "32",
+        "--aim",
+        "0",
         "--out",
         out.to_str().unwrap(),
     ]);

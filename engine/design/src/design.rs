@@ -95,6 +95,9 @@ impl<'r> Optimizer<'r> {
         if let Some(fab) = &cfg.tool {
             fingerprint["fabrication"] = fab.fingerprint();
         }
+        if cfg.aim > 0.0 {
+            fingerprint["aim"] = json!(cfg.aim);
+        }
         if let Some(a) = &cfg.arcs {
             fingerprint["arcs"] = json!(format!("{a:?}"));
         }

@@ -53,6 +53,7 @@
 //! Determinism: every GPU reduction runs in a fixed order and the host feeds back only values it
 //! read from the GPU, so a run is bit-reproducible on one device, and a resumed run equals an
 //! uninterrupted one bit for bit.
+pub mod aim;
 pub mod arcs;
 pub mod balance;
 pub mod bend;

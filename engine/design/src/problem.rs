@@ -73,6 +73,8 @@ pub struct DesignConfig {
     pub hooks: Hooks,
     /// Seed of the initialization (recorded; the optimizer itself draws no random numbers).
     pub seed: u64,
+    /// The share of the initial scratches drawn facing a view (`--aim`; recorded).
+    pub aim: f64,
     /// Scale the lights at the start so that each view's mean on-plate L matches its target's.
     pub calibrate_lights: bool,
     /// `--exposure fixed`: the views of each lamp stay tied (one intensity moves, each view's
@@ -116,6 +118,7 @@ impl DesignConfig {
             prune: PruneConfig::default(),
             hooks: Hooks::default(),
             seed: 1,
+            aim: 0.0,
             calibrate_lights: true,
             keep_exposures: false,
             blank_views: Vec::new(),

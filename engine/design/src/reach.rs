@@ -43,7 +43,7 @@ pub fn lobe(alpha: f64) -> f64 {
 }
 
 /// The half vector at plate point `x` of view `g`.
-fn half_vector(g: &ViewGeom, x: [f64; 2]) -> [f64; 3] {
+pub(crate) fn half_vector(g: &ViewGeom, x: [f64; 2]) -> [f64; 3] {
     // In the surface frame at x (the world's on a flat plate): what the grooves there see.
     let q = g.shape.at_sheet(x);
     let (o, i) = (g.omega_o_at(q.p), g.light_at_point(q.p).omega_i);

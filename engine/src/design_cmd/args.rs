@@ -185,7 +185,8 @@ pub struct DesignArgs {
     pub init_d: f64,
     #[arg(long, default_value_t = 0.06)]
     pub init_alpha: f64,
-    /// Learning rate of the endpoints, mm per step (default 1.5e-3 x plate size)
+    /// Learning rate of the endpoints, mm per step (default 1.5e-3 x plate size; half that where
+    /// the scratches start facing the views: --aim)
     #[arg(long)]
     pub lr_end: Option<f32>,
     /// Learning rate of w, mm per step
@@ -234,6 +235,14 @@ pub struct DesignArgs {
     /// engine/docs/worst_view.md measures it)
     #[arg(long, default_value_t = 0.0, value_name = "K")]
     pub crosstalk: f32,
+    /// The share of the first scratches drawn facing a view, 0 to 1: each turned across the half
+    /// vector of a view drawn in proportion to the light its picture asks for, placed where that
+    /// picture asks for light; the rest in random directions. Default: 1 for a ring of views on a
+    /// flat plate (with straight scratches), whose endpoints' learning rate is then halved unless
+    /// --lr-end is given; 0 for walks, objects, view files, bent plates and arcs. --aim 0 draws
+    /// every scratch at random, as designs before it did (engine/docs/worst_view.md)
+    #[arg(long, value_name = "SHARE", allow_hyphen_values = true)]
+    pub aim: Option<f64>,
     /// Output directory
     #[arg(long, default_value = "out")]
     pub out: PathBuf,
@@ -414,6 +423,7 @@ impl DesignArgs {
             max_bulge: self.max_bulge,
             blur_sigma: self.blur_sigma,
             crosstalk: self.crosstalk,
+            aim: self.aim,
             out: self.out.clone(),
             checkpoint_every: self.checkpoint_every,
             resume: self.resume,

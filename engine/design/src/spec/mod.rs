@@ -129,6 +129,9 @@ pub struct DesignSpec {
     pub blur_sigma: f32,
     /// `--crosstalk`: the loss's cross-talk weight kappa (0: none; `LossConfig::crosstalk`).
     pub crosstalk: f32,
+    /// `--aim`: the share of the initial scratches turned to face a view ([`crate::aim`]); None:
+    /// [`DesignSpec::aim_share`]'s default.
+    pub aim: Option<f64>,
     pub out: PathBuf,
     pub checkpoint_every: u32,
     pub resume: bool,
@@ -150,7 +153,29 @@ pub struct DesignSpec {
     pub inject_stop_at: Option<u32>,
 }
 
+/// The share of the initial scratches a ring of views on a flat plate draws facing a view
+/// (`--aim`; [`crate::aim`]), and the endpoints' learning rate it runs with, as a share of the
+/// plate's default: scratches that start facing their views need less moving, and moving them
+/// as far as random ones need undoes their placement (engine/docs/worst_view.md, "Scratches
+/// drawn facing the views").
+pub const RING_AIM: f64 = 1.0;
+pub const AIMED_LR_END_SHARE: f32 = 0.5;
+
 impl DesignSpec {
+    /// The share of the initial scratches drawn facing a view: `--aim`, else [`RING_AIM`] for a
+    /// ring of views on a flat plate with straight scratches (where it was measured) and 0 for
+    /// walks, holds, objects, view files, bent plates and arcs.
+    pub fn aim_share(&self) -> f64 {
+        self.aim.unwrap_or({
+            let ring = self.walk.is_empty() && self.hold.is_none() && self.object.is_none() && self.view_file.is_none();
+            if ring && !self.cylinder && self.arcs.is_none() {
+                RING_AIM
+            } else {
+                0.0
+            }
+        })
+    }
+
     /// The plate's shape the flags say: flat, or the carved sheet bent into a cylinder of
     /// `--radius` about `--bend-axis` (convex unless `--concave`), engine/docs/model.md section 10.
     pub fn plate_shape(&self) -> Result<PlateShape, SpecError> {
@@ -237,6 +262,7 @@ impl Default for DesignSpec {
             max_bulge: 0.5,
             blur_sigma: 1.0,
             crosstalk: 0.0,
+            aim: None,
             out: PathBuf::from("out"),
             checkpoint_every: 50,
             resume: false,
@@ -303,12 +329,14 @@ pub fn config(spec: &DesignSpec) -> DesignConfig {
     let mut cfg = DesignConfig::new(spec.plate, spec.out.clone());
     cfg.iters = spec.iters;
     cfg.seed = spec.seed;
+    cfg.aim = spec.aim_share();
     cfg.loss.lambda_p = spec.lambda_p;
     cfg.loss.lambda_g = spec.lambda_g;
     cfg.loss.sigma = spec.blur_sigma;
     cfg.loss.crosstalk = spec.crosstalk;
     let a = &mut cfg.adam;
-    a.lr_end = spec.lr_end.unwrap_or(a.lr_end);
+    let aimed_share = if cfg.aim > 0.0 { AIMED_LR_END_SHARE } else { 1.0 };
+    a.lr_end = spec.lr_end.unwrap_or(aimed_share * a.lr_end);
     a.lr_w = spec.lr_w.unwrap_or(a.lr_w);
     a.lr_d = spec.lr_d.unwrap_or(a.lr_d);
     a.lr_alpha = spec.lr_alpha.unwrap_or(a.lr_alpha);
@@ -345,6 +373,10 @@ pub fn prepare(
     ensure_flag!(
         spec.crosstalk >= 0.0 && spec.crosstalk.is_finite(),
         "--crosstalk must be a finite number >= 0 (0: no cross-talk term)"
+    );
+    ensure_flag!(
+        spec.aim.is_none_or(|a| (0.0..=1.0).contains(&a)),
+        "--aim must be a share between 0 and 1 (0: every scratch in a random direction)"
     );
     // What only a design for a machine has.
     let machine_given = spec.machine.is_some() || spec.machine_file.is_some();
@@ -493,4 +525,69 @@ fn machine_limits(
         min_length_mm,
         min_length_from,
     }))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A ring on a flat plate starts aimed, with half the endpoints' learning rate; `--aim 0`,
+    /// a walk, a bent plate and arcs start at random with the whole rate; `--lr-end` wins.
+    #[test]
+    fn a_ring_on_a_flat_plate_starts_aimed_at_half_the_endpoints_rate() {
+        let whole = config(&DesignSpec {
+            aim: Some(0.0),
+            ..Default::default()
+        })
+        .adam
+        .lr_end;
+        assert_eq!(whole, (1.5e-3 * 100.0) as f32);
+        let ring = DesignSpec::default();
+        assert_eq!(ring.aim_share(), RING_AIM);
+        assert_eq!(config(&ring).adam.lr_end, AIMED_LR_END_SHARE * whole);
+        assert_eq!(config(&ring).aim, RING_AIM);
+        for other in [
+            DesignSpec {
+                walk: vec![PathBuf::from("a.png"), PathBuf::from("b.png")],
+                ..Default::default()
+            },
+            DesignSpec {
+                hold: Some(PathBuf::from("a.png")),
+                ..Default::default()
+            },
+            DesignSpec {
+                object: Some(PathBuf::from("a.obj")),
+                ..Default::default()
+            },
+            DesignSpec {
+                view_file: Some(PathBuf::from("v.json")),
+                ..Default::default()
+            },
+            DesignSpec {
+                cylinder: true,
+                ..Default::default()
+            },
+            DesignSpec {
+                arcs: Some(8),
+                ..Default::default()
+            },
+        ] {
+            assert_eq!(other.aim_share(), 0.0);
+            assert_eq!(config(&other).adam.lr_end, whole);
+        }
+        let given = DesignSpec {
+            lr_end: Some(0.2),
+            ..Default::default()
+        };
+        assert_eq!(config(&given).adam.lr_end, 0.2);
+        let half = DesignSpec {
+            walk: vec![PathBuf::from("a.png")],
+            aim: Some(0.5),
+            ..Default::default()
+        };
+        assert_eq!(
+            (half.aim_share(), config(&half).adam.lr_end),
+            (0.5, AIMED_LR_END_SHARE * whole)
+        );
+    }
 }

@@ -36,8 +36,30 @@ fn lamp(spec: &DesignSpec, distance: f64, default_azimuth: f64) -> Result<Light,
     Ok(orbit_light(light_distance, light_elevation, azimuth, 1.0e4))
 }
 
-/// Builds the problem (views, initial scratches, targets) of `spec`.
+/// Builds the problem (views, initial scratches, targets) of `spec`: the scratches drawn at
+/// random, then [`DesignSpec::aim_share`] of them turned to face the views ([`crate::aim`]).
 pub fn problem(spec: &DesignSpec, info: &DeviceInfo, obs: &dyn Observer) -> Result<Problem, SpecError> {
+    let mut problem = drawn(spec, info, obs)?;
+    let share = spec.aim_share();
+    if share > 0.0 {
+        let aimed = crate::aim::aim(&mut problem, share, spec.seed);
+        obs.info(&format!(
+            "{} of {} scratches drawn facing a view ({} per view; --aim)",
+            aimed.per_view.iter().sum::<usize>(),
+            problem.scene.scratches.len(),
+            aimed
+                .per_view
+                .iter()
+                .map(|n| n.to_string())
+                .collect::<Vec<_>>()
+                .join(" / ")
+        ));
+    }
+    Ok(problem)
+}
+
+/// The problem with every scratch drawn in a random direction.
+fn drawn(spec: &DesignSpec, info: &DeviceInfo, obs: &dyn Observer) -> Result<Problem, SpecError> {
     let plate_mm = spec.plate;
     ensure_flag!(plate_mm > 0.0, "--plate must be > 0 mm");
     let walk = walk_arc(spec)?;
