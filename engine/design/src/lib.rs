@@ -11,6 +11,8 @@
 //!   tool and the machine's limits, steering).
 //! - [`scenes`]: built-in scenes and their parts (seeded random scratches, views on a ring framed
 //!   on the plate, orbiting lamps, the demo plate, the benchmark scenes).
+//! - [`aim`]: the initial scratches turned to face the views, placed where each view's picture
+//!   asks for light (`--aim`).
 //!
 //! In `scratchart-optim`:
 //! - `driver`: the generic optimizer: iterate, roll back, checkpoint, resume, over any
