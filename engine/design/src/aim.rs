@@ -13,13 +13,11 @@
 //! sequence, so each view's scratches are placed by its own picture alone and do not clump);
 //! each keeps its drawn length. The rest keep their random places and directions.
 use scratchart_model::camera::ViewGeom;
+use scratchart_model::display::linear;
 
 use crate::problem::Problem;
 use crate::reach::{half_vector, lobe};
 use crate::scenes::Rng;
-
-/// The display's power: a target value v asks for light v^2.2.
-const DISPLAY_GAMMA: f64 = 2.2;
 
 /// What every view is asked for at least, in linear light, when a scratch's view is drawn: a
 /// view dark at a point still gets a few of its scratches (its picture may brighten as the
@@ -89,8 +87,6 @@ pub fn aim(problem: &mut Problem, share: f64, seed: u64) -> Aimed {
             })
             .unwrap_or(m - 1);
         let l = (s.p1[0] - s.p0[0]).hypot(s.p1[1] - s.p0[1]);
-        // A midpoint where view j asks for light: at most 1000 tries (a view that asks for
-        // light on a sliver of the plate), else the scratch keeps its own.
         // A midpoint where view j asks for light, by rejection on the view's own R3 sequence
         // (x, y and the acceptance level): stratified, so the view's scratches do not clump
         // as independent draws do (clumps are streaks of light a smooth picture cannot
@@ -123,8 +119,8 @@ pub fn aim(problem: &mut Problem, share: f64, seed: u64) -> Aimed {
     aimed
 }
 
-/// The light view `g`'s target asks for at sheet point `x` (linear, plus [`FLOOR`]); 0 where the
-/// view does not see it.
+/// The light view `g`'s target asks for at sheet point `x` (its display value made linear, at
+/// most 1, plus [`FLOOR`]); 0 where the view does not see it.
 fn asked(g: &ViewGeom, target: &[f32], x: [f64; 2]) -> f64 {
     let p = g.shape.at_sheet(x).p;
     let Some((sx, sy)) = g.project(p) else {
@@ -134,8 +130,7 @@ fn asked(g: &ViewGeom, target: &[f32], x: [f64; 2]) -> f64 {
     if !(sx >= 0.0 && sy >= 0.0) || sx as usize >= w || sy as usize >= h || target.len() != w * h {
         return 0.0;
     }
-    let v = f64::from(target[sy as usize * w + sx as usize]).clamp(0.0, 1.0);
-    FLOOR + v.powf(DISPLAY_GAMMA)
+    FLOOR + linear(f64::from(target[sy as usize * w + sx as usize]).min(1.0))
 }
 
 #[cfg(test)]
@@ -183,7 +178,7 @@ mod tests {
         assert_eq!(aimed.per_view.iter().sum::<usize>(), 3000, "{aimed:?}");
         // View 0 asks for light on half the plate at 1.0, the others everywhere at 0.5^2.2.
         let expect0 = 0.5 * (1.0 + FLOOR) + 0.5 * FLOOR;
-        let expect = [expect0, FLOOR + 0.5f64.powf(2.2), FLOOR + 0.5f64.powf(2.2)];
+        let expect = [expect0, FLOOR + linear(0.5), FLOOR + linear(0.5)];
         let share0 = expect[0] / expect.iter().sum::<f64>();
         let got0 = aimed.per_view[0] as f64 / 3000.0;
         assert!(
