@@ -652,12 +652,12 @@ fn negative_numbers_reach_the_range_checks() {
         "--plate must be > 0 mm",
         "--plate -5",
     );
-    for share in ["-0.5", "1.5", "NaN"] {
-        let o = run(
-            "scratchart",
-            &["design", "--aim", share, "--out", out.to_str().unwrap()],
-        );
-        expect(&o, 2, "--aim must be a share between 0 and 1", share);
+    for (flag, share) in ["--aim", "--lr-final"]
+        .iter()
+        .flat_map(|f| ["-0.5", "1.5", "NaN"].map(|s| (*f, s)))
+    {
+        let o = run("scratchart", &["design", flag, share, "--out", out.to_str().unwrap()]);
+        expect(&o, 2, &format!("{flag} must be a share between 0 and 1"), share);
     }
     let _ = std::fs::remove_dir_all(&d);
 }

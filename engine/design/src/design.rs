@@ -98,6 +98,9 @@ impl<'r> Optimizer<'r> {
         if cfg.aim > 0.0 {
             fingerprint["aim"] = json!(cfg.aim);
         }
+        if cfg.lr_final != 1.0 {
+            fingerprint["lr_final"] = json!(cfg.lr_final);
+        }
         if let Some(a) = &cfg.arcs {
             fingerprint["arcs"] = json!(format!("{a:?}"));
         }
@@ -109,6 +112,7 @@ impl<'r> Optimizer<'r> {
             max_rollbacks: cfg.max_rollbacks,
             hooks: cfg.hooks,
             task: "design",
+            lr_final: cfg.lr_final,
         };
         let driver = Driver::new(renderer, gs, Box::new(loss), params, dcfg, fingerprint)?;
         Ok(Optimizer {

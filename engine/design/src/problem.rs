@@ -59,6 +59,9 @@ impl Problem {
     }
 }
 
+/// The scratches' first width parameter w (mm) from a random start (`--init-w`'s default there).
+pub const INIT_W: f64 = 0.05;
+
 #[derive(Clone, Debug)]
 pub struct DesignConfig {
     pub iters: u32,
@@ -75,6 +78,11 @@ pub struct DesignConfig {
     pub seed: u64,
     /// The share of the initial scratches drawn facing a view (`--aim`; recorded).
     pub aim: f64,
+    /// The scratches' first width parameter w, mm (`--init-w`; recorded).
+    pub init_w: f64,
+    /// The learning rates' share at the last step (`--lr-final`; 1: constant;
+    /// [`scratchart_optim::driver::lr_schedule`]).
+    pub lr_final: f64,
     /// Scale the lights at the start so that each view's mean on-plate L matches its target's.
     pub calibrate_lights: bool,
     /// `--exposure fixed`: the views of each lamp stay tied (one intensity moves, each view's
@@ -119,6 +127,8 @@ impl DesignConfig {
             hooks: Hooks::default(),
             seed: 1,
             aim: 0.0,
+            init_w: INIT_W,
+            lr_final: 1.0,
             calibrate_lights: true,
             keep_exposures: false,
             blank_views: Vec::new(),

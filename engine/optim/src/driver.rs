@@ -122,6 +122,20 @@ pub struct DriverConfig {
     pub hooks: Hooks,
     /// Names the job in progress reports ("design", "calibration", ...).
     pub task: &'static str,
+    /// The learning rates' share at the last step: they hold until half the run and fall
+    /// linearly to it ([`lr_schedule`]; 1: constant).
+    pub lr_final: f64,
+}
+
+/// The learning rates' factor at the step of iteration `k` of `iters`: 1 until half the run,
+/// then falling linearly to `lr_final` at the run's end (1: constant).
+pub fn lr_schedule(k: u32, iters: u32, lr_final: f64) -> f64 {
+    let f = k as f64 / iters.max(1) as f64;
+    if f <= 0.5 {
+        1.0
+    } else {
+        1.0 + (lr_final - 1.0) * ((f - 0.5) / 0.5).min(1.0)
+    }
 }
 
 /// A rejected step.
@@ -499,7 +513,7 @@ impl Inner<'_> {
             &groups,
             &self.cfg.hyper,
             self.st.t + 1,
-            self.st.lr_scale,
+            self.st.lr_scale * lr_schedule(self.st.k, self.cfg.iters, self.cfg.lr_final),
             &check,
         )?;
         let before: Vec<&Buffer> = self.blocks.iter().map(|s| &s.snap.params).collect();
@@ -577,5 +591,26 @@ fn padded(v: &[f32]) -> Vec<f32> {
 fn copy(rec: &mut Recorder, from: [&Buffer; 3], to: [&Buffer; 3]) {
     for (a, b) in from.iter().zip(to.iter()) {
         rec.copy(a, b, a.size().min(b.size()));
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::lr_schedule;
+
+    /// Constant through the first half, then a straight fall to the final share at the end; a
+    /// final share of 1 is constant throughout.
+    #[test]
+    fn the_rates_hold_then_fall_to_their_final_share() {
+        for k in [0, 10, 35] {
+            assert_eq!(lr_schedule(k, 70, 0.1), 1.0);
+        }
+        assert!((lr_schedule(52, 70, 0.1) - (1.0 - 0.9 * 17.0 / 35.0)).abs() < 1e-12);
+        assert!((lr_schedule(70, 70, 0.1) - 0.1).abs() < 1e-12);
+        let falls: Vec<f64> = (35..=70).map(|k| lr_schedule(k, 70, 0.1)).collect();
+        assert!(falls.windows(2).all(|w| w[1] < w[0]), "{falls:?}");
+        assert!((0..=70).all(|k| lr_schedule(k, 70, 1.0) == 1.0));
+        // No division by zero for a run of no steps.
+        assert_eq!(lr_schedule(0, 0, 0.1), 1.0);
     }
 }

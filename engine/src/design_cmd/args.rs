@@ -178,9 +178,11 @@ pub struct DesignArgs {
     pub len_min_pct: f64,
     #[arg(long, default_value_t = 8.0)]
     pub len_max_pct: f64,
-    /// Initial width parameter w, depth d (mm) and roughness alpha of every scratch
-    #[arg(long, default_value_t = 0.05)]
-    pub init_w: f64,
+    /// Initial width parameter w, depth d (mm) and roughness alpha of every scratch. --init-w's
+    /// default: 0.1 where the scratches start facing the views (--aim), 0.05 where they start at
+    /// random
+    #[arg(long)]
+    pub init_w: Option<f64>,
     #[arg(long, default_value_t = 0.05)]
     pub init_d: f64,
     #[arg(long, default_value_t = 0.06)]
@@ -189,6 +191,11 @@ pub struct DesignArgs {
     /// the scratches start facing the views: --aim)
     #[arg(long)]
     pub lr_end: Option<f32>,
+    /// The learning rates' share at the last step: they hold until half the run, then fall
+    /// linearly to it (default: 0.1 where the scratches start facing the views, --aim; 1,
+    /// constant rates, elsewhere)
+    #[arg(long, value_name = "SHARE", allow_hyphen_values = true)]
+    pub lr_final: Option<f64>,
     /// Learning rate of w, mm per step
     #[arg(long)]
     pub lr_w: Option<f32>,
@@ -424,6 +431,7 @@ impl DesignArgs {
             blur_sigma: self.blur_sigma,
             crosstalk: self.crosstalk,
             aim: self.aim,
+            lr_final: self.lr_final,
             out: self.out.clone(),
             checkpoint_every: self.checkpoint_every,
             resume: self.resume,

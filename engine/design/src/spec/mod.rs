@@ -109,7 +109,8 @@ pub struct DesignSpec {
     pub concave: bool,
     pub len_min_pct: f64,
     pub len_max_pct: f64,
-    pub init_w: f64,
+    /// `--init-w`; None: [`DesignSpec::init_w`]'s default.
+    pub init_w: Option<f64>,
     pub init_d: f64,
     pub init_alpha: f64,
     pub lr_end: Option<f32>,
@@ -117,6 +118,8 @@ pub struct DesignSpec {
     pub lr_d: Option<f32>,
     pub lr_alpha: Option<f32>,
     pub lr_light: Option<f32>,
+    /// `--lr-final`; None: [`DesignSpec::lr_final`]'s default.
+    pub lr_final: Option<f64>,
     pub lambda_p: f32,
     pub lambda_g: f32,
     /// Each view's weight follows its shortfall against its cap ([`crate::balance`]).
@@ -161,6 +164,18 @@ pub struct DesignSpec {
 pub const RING_AIM: f64 = 1.0;
 pub const AIMED_LR_END_SHARE: f32 = 0.5;
 
+/// The scratches' first width parameter w (mm) from an aimed start (from a random one:
+/// [`INIT_W`]): a start that faces its views at 0.05 mm leaves a dark picture 0.012 below what
+/// the random start gives it (engine/docs/worst_view.md, "The aimed start's width").
+pub const AIMED_INIT_W: f64 = 0.1;
+use crate::problem::INIT_W;
+
+/// The learning rates' share at an aimed design's last step (they fall linearly to it over the
+/// run's second half): a design near its caps, at a constant rate, still moves enough at its end
+/// to lose a view's correlation (the clock set's worst view 0.875 to 0.886 over four seeds; with
+/// the fall 0.882 to 0.884; engine/docs/worst_view.md, "The learning rates' fall").
+pub const AIMED_LR_FINAL: f64 = 0.1;
+
 impl DesignSpec {
     /// The share of the initial scratches drawn facing a view: `--aim`, else [`RING_AIM`] for a
     /// ring of views on a flat plate with straight scratches (where it was measured) and 0 for
@@ -174,6 +189,20 @@ impl DesignSpec {
                 0.0
             }
         })
+    }
+
+    /// The scratches' first width parameter w, mm: `--init-w`, else [`AIMED_INIT_W`] where they
+    /// start facing the views ([`DesignSpec::aim_share`] above 0) and [`INIT_W`] elsewhere.
+    pub fn init_w(&self) -> f64 {
+        self.init_w
+            .unwrap_or(if self.aim_share() > 0.0 { AIMED_INIT_W } else { INIT_W })
+    }
+
+    /// The learning rates' share at the last step: `--lr-final`, else [`AIMED_LR_FINAL`] where
+    /// the scratches start facing the views and 1 (constant rates) elsewhere.
+    pub fn lr_final(&self) -> f64 {
+        self.lr_final
+            .unwrap_or(if self.aim_share() > 0.0 { AIMED_LR_FINAL } else { 1.0 })
     }
 
     /// The plate's shape the flags say: flat, or the carved sheet bent into a cylinder of
@@ -247,10 +276,11 @@ impl Default for DesignSpec {
             concave: false,
             len_min_pct: 2.0,
             len_max_pct: 8.0,
-            init_w: 0.05,
+            init_w: None,
             init_d: 0.05,
             init_alpha: 0.06,
             lr_end: None,
+            lr_final: None,
             lr_w: None,
             lr_d: None,
             lr_alpha: None,
@@ -330,6 +360,8 @@ pub fn config(spec: &DesignSpec) -> DesignConfig {
     cfg.iters = spec.iters;
     cfg.seed = spec.seed;
     cfg.aim = spec.aim_share();
+    cfg.init_w = spec.init_w();
+    cfg.lr_final = spec.lr_final();
     cfg.loss.lambda_p = spec.lambda_p;
     cfg.loss.lambda_g = spec.lambda_g;
     cfg.loss.sigma = spec.blur_sigma;
@@ -377,6 +409,10 @@ pub fn prepare(
     ensure_flag!(
         spec.aim.is_none_or(|a| (0.0..=1.0).contains(&a)),
         "--aim must be a share between 0 and 1 (0: every scratch in a random direction)"
+    );
+    ensure_flag!(
+        spec.lr_final.is_none_or(|a| (0.0..=1.0).contains(&a)),
+        "--lr-final must be a share between 0 and 1 (1: constant learning rates)"
     );
     // What only a design for a machine has.
     let machine_given = spec.machine.is_some() || spec.machine_file.is_some();
@@ -448,7 +484,7 @@ pub fn prepare(
             0.01 * spec.len_min_pct * problem.scene.plate.size_mm,
             0.01 * spec.len_max_pct * problem.scene.plate.size_mm,
         ),
-        w: spec.init_w,
+        w: spec.init_w(),
         d: spec.init_d,
         alpha: spec.init_alpha,
     });
@@ -531,10 +567,11 @@ fn machine_limits(
 mod tests {
     use super::*;
 
-    /// A ring on a flat plate starts aimed, with half the endpoints' learning rate; `--aim 0`,
-    /// a walk, a bent plate and arcs start at random with the whole rate; `--lr-end` wins.
+    /// A ring on a flat plate starts aimed, with half the endpoints' learning rate and wider
+    /// scratches; `--aim 0`, a walk, a bent plate and arcs start at random with the whole rate
+    /// and the old width; `--lr-end` and `--init-w` win.
     #[test]
-    fn a_ring_on_a_flat_plate_starts_aimed_at_half_the_endpoints_rate() {
+    fn a_ring_on_a_flat_plate_starts_aimed_wide_at_half_the_endpoints_rate() {
         let whole = config(&DesignSpec {
             aim: Some(0.0),
             ..Default::default()
@@ -546,6 +583,8 @@ mod tests {
         assert_eq!(ring.aim_share(), RING_AIM);
         assert_eq!(config(&ring).adam.lr_end, AIMED_LR_END_SHARE * whole);
         assert_eq!(config(&ring).aim, RING_AIM);
+        assert_eq!((ring.init_w(), config(&ring).init_w), (AIMED_INIT_W, AIMED_INIT_W));
+        assert_eq!(config(&ring).lr_final, AIMED_LR_FINAL);
         for other in [
             DesignSpec {
                 walk: vec![PathBuf::from("a.png"), PathBuf::from("b.png")],
@@ -574,7 +613,19 @@ mod tests {
         ] {
             assert_eq!(other.aim_share(), 0.0);
             assert_eq!(config(&other).adam.lr_end, whole);
+            assert_eq!(other.init_w(), INIT_W);
+            assert_eq!(config(&other).lr_final, 1.0);
         }
+        let given_w = DesignSpec {
+            init_w: Some(0.07),
+            ..Default::default()
+        };
+        assert_eq!(given_w.init_w(), 0.07);
+        let given_final = DesignSpec {
+            lr_final: Some(0.5),
+            ..Default::default()
+        };
+        assert_eq!(config(&given_final).lr_final, 0.5);
         let given = DesignSpec {
             lr_end: Some(0.2),
             ..Default::default()

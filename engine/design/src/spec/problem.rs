@@ -133,7 +133,7 @@ fn drawn(spec: &DesignSpec, info: &DeviceInfo, obs: &dyn Observer) -> Result<Pro
         plate_mm,
         0.01 * spec.len_min_pct * plate_mm,
         0.01 * spec.len_max_pct * plate_mm,
-        spec.init_w,
+        spec.init_w(),
         spec.init_d,
         spec.init_alpha,
     );
@@ -156,7 +156,7 @@ fn drawn(spec: &DesignSpec, info: &DeviceInfo, obs: &dyn Observer) -> Result<Pro
 
 /// The flags of the initial scratches and of the learning rates, each within its range.
 fn check_scratch_flags(spec: &DesignSpec) -> Result<(), SpecError> {
-    ensure_flag!(spec.init_w > 0.0, "--init-w must be > 0 mm (it is {})", spec.init_w);
+    ensure_flag!(spec.init_w() > 0.0, "--init-w must be > 0 mm (it is {})", spec.init_w());
     ensure_flag!(spec.init_d > 0.0, "--init-d must be > 0 mm (it is {})", spec.init_d);
     ensure_flag!(
         spec.init_alpha > 0.0 && spec.init_alpha < 1.0,
