@@ -86,6 +86,21 @@ fn design_balance_records_the_weights_it_ended_with() {
     assert!(s.get("balance").is_none(), "{s}");
     let said = run(&[]);
     assert!(said.contains("balance at iteration 12: view weights"), "{said}");
+    // Each update says where every view stands against its cap.
+    let line = said.lines().find(|l| l.contains("balance at iteration 12")).unwrap();
+    let stands: Vec<&str> = line
+        .rsplit(": ")
+        .next()
+        .unwrap()
+        .trim_end_matches(')')
+        .split(", ")
+        .collect();
+    assert_eq!(stands.len(), 3, "{line}");
+    for s in stands {
+        let (c, cap) = s.split_once(" of ").expect(line);
+        let (c, cap): (f64, f64) = (c.parse().expect(line), cap.parse().expect(line));
+        assert!((-1.0..=1.0).contains(&c) && cap > 0.9 && cap <= 1.0, "{line}");
+    }
     let s: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
     let w: Vec<f64> = s["balance"]["view_weights"]

@@ -168,8 +168,13 @@ impl Balance {
         live.loss.set_view_weights(&live.renderer.ctx, &w)?;
         self.record(k, &w)?;
         obs.info(&format!(
-            "balance at iteration {k}: view weights {}",
-            w.iter().map(|x| format!("{x:.2}")).collect::<Vec<_>>().join(" ")
+            "balance at iteration {k}: view weights {} (each view's correlation with its picture, of what the picture allows: {})",
+            w.iter().map(|x| format!("{x:.2}")).collect::<Vec<_>>().join(" "),
+            q.iter()
+                .zip(&self.caps)
+                .map(|(q, cap)| format!("{:.3} of {cap:.3}", q.corr))
+                .collect::<Vec<_>>()
+                .join(", ")
         ));
         Ok(())
     }
