@@ -59,9 +59,6 @@ impl Problem {
     }
 }
 
-/// The scratches' first width parameter w (mm) from a random start (`--init-w`'s default there).
-pub const INIT_W: f64 = 0.05;
-
 #[derive(Clone, Debug)]
 pub struct DesignConfig {
     pub iters: u32,
@@ -78,8 +75,6 @@ pub struct DesignConfig {
     pub seed: u64,
     /// The share of the initial scratches drawn facing a view (`--aim`; recorded).
     pub aim: f64,
-    /// The scratches' first width parameter w, mm (`--init-w`; recorded).
-    pub init_w: f64,
     /// The learning rates' share at the last step (`--lr-final`; 1: constant;
     /// [`scratchart_optim::driver::lr_schedule`]).
     pub lr_final: f64,
@@ -127,7 +122,6 @@ impl DesignConfig {
             hooks: Hooks::default(),
             seed: 1,
             aim: 0.0,
-            init_w: INIT_W,
             lr_final: 1.0,
             calibrate_lights: true,
             keep_exposures: false,

@@ -322,7 +322,7 @@ pub fn write_outputs(
             "lambda_p": cfg.loss.lambda_p, "lambda_g": cfg.loss.lambda_g, "blur_sigma": cfg.loss.sigma, "crosstalk_weight": cfg.loss.crosstalk,
             "lr_end_mm": cfg.adam.lr_end, "lr_w_mm": cfg.adam.lr_w, "lr_d_mm": cfg.adam.lr_d,
             "lr_alpha": cfg.adam.lr_alpha, "lr_light_log": cfg.adam.lr_light, "seed": cfg.seed,
-            "aim": cfg.aim, "init_w_mm": cfg.init_w, "lr_final": cfg.lr_final,
+            "aim": cfg.aim, "init_w_mm": problem.init.map(|i| i.w), "lr_final": cfg.lr_final,
         },
     });
     scratchart_render::io::write_atomic(

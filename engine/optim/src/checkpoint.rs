@@ -109,7 +109,11 @@ pub(super) fn read<S: serde::de::DeserializeOwned>(
     }
     if &header.fingerprint != fingerprint {
         let what: Vec<String> = match (fingerprint.as_object(), header.fingerprint.as_object()) {
-            (Some(a), Some(b)) => a.keys().filter(|k| a.get(*k) != b.get(*k)).cloned().collect(),
+            // Keys on either side: a setting only the checkpoint or only this run has differs too.
+            (Some(a), Some(b)) => {
+                let keys: std::collections::BTreeSet<&String> = a.keys().chain(b.keys()).collect();
+                keys.into_iter().filter(|k| a.get(*k) != b.get(*k)).cloned().collect()
+            }
             _ => vec!["settings".into()],
         };
         return Err(OptimError::Mismatch {
@@ -135,4 +139,27 @@ pub(super) fn read<S: serde::de::DeserializeOwned>(
         return Err(bad("trailing bytes after the last chunk"));
     }
     Ok((header.state, chunks))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A checkpoint whose settings differ from the run's is refused naming every setting that
+    /// differs, also one only the checkpoint has (a schedule the run no longer asks for).
+    #[test]
+    fn a_mismatch_names_the_settings_on_either_side() {
+        let dir = std::env::temp_dir().join(format!("scratchart-ckpt-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let saved = serde_json::json!({"seed": 1, "lr_final": 0.1, "loss": "a"});
+        write(&dir, &saved, &7u32, &[]).unwrap();
+        let now = serde_json::json!({"seed": 1, "loss": "b", "aim": 1.0});
+        let err = match read::<u32>(&dir, &now) {
+            Err(e) => e.to_string(),
+            Ok(_) => panic!("a checkpoint of other settings was read"),
+        };
+        assert!(err.contains("(aim, loss, lr_final differ)"), "{err}");
+        assert!(matches!(read::<u32>(&dir, &saved), Ok((7, _))));
+        let _ = std::fs::remove_dir_all(&dir);
+    }
 }

@@ -164,11 +164,11 @@ pub struct DesignSpec {
 pub const RING_AIM: f64 = 1.0;
 pub const AIMED_LR_END_SHARE: f32 = 0.5;
 
-/// The scratches' first width parameter w (mm) from an aimed start (from a random one:
-/// [`INIT_W`]): a start that faces its views at 0.05 mm leaves a dark picture 0.012 below what
-/// the random start gives it (engine/docs/worst_view.md, "The aimed start's width").
+/// The scratches' first width parameter w (mm) from a random start, and from an aimed one: a
+/// start that faces its views at 0.05 mm leaves a dark picture 0.012 below what the random start
+/// gives it (engine/docs/worst_view.md, "The aimed start's width").
+pub const INIT_W: f64 = 0.05;
 pub const AIMED_INIT_W: f64 = 0.1;
-use crate::problem::INIT_W;
 
 /// The learning rates' share at an aimed design's last step (they fall linearly to it over the
 /// run's second half): a design near its caps, at a constant rate, still moves enough at its end
@@ -360,7 +360,6 @@ pub fn config(spec: &DesignSpec) -> DesignConfig {
     cfg.iters = spec.iters;
     cfg.seed = spec.seed;
     cfg.aim = spec.aim_share();
-    cfg.init_w = spec.init_w();
     cfg.lr_final = spec.lr_final();
     cfg.loss.lambda_p = spec.lambda_p;
     cfg.loss.lambda_g = spec.lambda_g;
@@ -583,7 +582,7 @@ mod tests {
         assert_eq!(ring.aim_share(), RING_AIM);
         assert_eq!(config(&ring).adam.lr_end, AIMED_LR_END_SHARE * whole);
         assert_eq!(config(&ring).aim, RING_AIM);
-        assert_eq!((ring.init_w(), config(&ring).init_w), (AIMED_INIT_W, AIMED_INIT_W));
+        assert_eq!(ring.init_w(), AIMED_INIT_W);
         assert_eq!(config(&ring).lr_final, AIMED_LR_FINAL);
         for other in [
             DesignSpec {
