@@ -90,8 +90,8 @@ pub fn aim(problem: &mut Problem, share: f64, seed: u64) -> Aimed {
         // A midpoint where view j asks for light, by rejection on the view's own R3 sequence
         // (x, y and the acceptance level): stratified, so the view's scratches do not clump
         // as independent draws do (clumps are streaks of light a smooth picture cannot
-        // lose in 70 iterations). At most 1000 tries (a view that asks for light on a sliver
-        // of the plate), else the scratch keeps its own place and direction.
+        // lose in the default's iterations). At most 1000 tries (a view that asks for light
+        // on a sliver of the plate), else the scratch keeps its own place and direction.
         let mid = (0..1000).find_map(|_| {
             let k = next[j] as f64;
             next[j] += 1;

@@ -110,7 +110,7 @@ pub struct DesignArgs {
     #[arg(long, conflicts_with_all = ["views", "res", "elevation", "light_azimuth", "light_elevation", "light_distance"])]
     pub view_file: Option<PathBuf>,
     /// The design's size where --scratches, --iters and --res do not say: `default` (18,000
-    /// scratches, 70 iterations, 128 px: where a 2-core CPU's 20 seconds pay most,
+    /// scratches, 60 iterations, 144 px: where a 2-core CPU's 20 seconds pay most,
     /// engine/docs/worst_view.md; a walk, a hold or an object: 1000 scratches per view, at least
     /// 10,000, 140 iterations, 112 px) or `paper` (the paper's scale for a GPU: 40,000 scratches, 300
     /// iterations, 512 px; a few seconds on a large GPU, hours on a CPU)
@@ -120,10 +120,10 @@ pub struct DesignArgs {
     /// at least 10000: a plate that shows more pictures needs more scratches)
     #[arg(long)]
     pub scratches: Option<usize>,
-    /// Optimization iterations (default 70, a walk's 140, --preset paper 300)
+    /// Optimization iterations (default 60, a walk's 140, --preset paper 300)
     #[arg(long)]
     pub iters: Option<u32>,
-    /// View resolution (square), pixels (default 128, a walk's 112, --preset paper 512)
+    /// View resolution (square), pixels (default 144, a walk's 112, --preset paper 512)
     #[arg(long)]
     pub res: Option<u32>,
     /// Seed of the random initial scratches
@@ -332,7 +332,7 @@ pub struct DesignArgs {
 /// `--preset`: the design's size where its flags do not say.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
 pub enum Preset {
-    /// 18,000 scratches, 70 iterations, 128 px (a walk: 1000 scratches per view, at least
+    /// 18,000 scratches, 60 iterations, 144 px (a walk: 1000 scratches per view, at least
     /// 10,000, 140 iterations, 112 px).
     Default,
     /// The paper's scale: 40,000 scratches, 300 iterations, 512 px.
@@ -514,9 +514,9 @@ mod tests {
         let mixed = spec(&["design", "--preset", "paper", "--iters", "50", "--scratches", "900"]);
         assert_eq!((mixed.scratches, mixed.iters, mixed.res), (Some(900), 50, 512));
         let default = spec(&["design", "--res", "64"]);
-        assert_eq!((default.scratches, default.iters, default.res), (None, 70, 64));
+        assert_eq!((default.scratches, default.iters, default.res), (None, 60, 64));
         let ring = spec(&["design"]);
-        assert_eq!((ring.iters, ring.res), (70, 128));
+        assert_eq!((ring.iters, ring.res), (60, 144));
         // A walk (many views) keeps its own size; its scratches follow its views.
         let walk = spec(&["design", "--walk", "a.png", "b.png", "c.png"]);
         assert_eq!((walk.scratches, walk.iters, walk.res), (None, 140, 112));

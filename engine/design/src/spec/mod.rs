@@ -44,12 +44,13 @@ pub const LIGHT_ELEVATION_ABOVE_VIEWS: f64 = 20.0;
 /// ... and this many times the views' distance from the plate centre.
 pub const LIGHT_DISTANCE_FACTOR: f64 = 1.0;
 /// Scratches, iterations and view resolution (square, pixels) of a ring design without
-/// `scratches`, `iters` or `res`: where a 2-core CPU's 20 seconds pay most (18,000 x 70 at 128
-/// px beat 9,000 x 130 at 120 px on every photo set measured, in the same time: small pictures
-/// of fine detail need scratches more than iterations; engine/docs/worst_view.md).
+/// `scratches`, `iters` or `res`: where a 2-core CPU's 20 seconds pay most (18,000 x 60 at 144
+/// px beat 18,000 x 70 at 128 px on every photo set measured, in the same time: a view that ends
+/// within 0.01 of its cap is held by its resolution, not by the optimizer; 160 px stripes large
+/// bright areas; engine/docs/worst_view.md, "The default's resolution").
 pub const DEFAULT_SCRATCHES: usize = 18_000;
-pub const DEFAULT_ITERS: u32 = 70;
-pub const DEFAULT_RES: u32 = 128;
+pub const DEFAULT_ITERS: u32 = 60;
+pub const DEFAULT_RES: u32 = 144;
 /// The same for a walk, a hold or an object (many views): 1000 scratches per view, at least
 /// this many; 140 iterations; 112 px.
 pub const WALK_MIN_SCRATCHES: usize = 10_000;
