@@ -344,6 +344,24 @@ fn awkward_target_files() {
     )
     .unwrap_err();
     assert!(e.to_string().contains("corrupt.png"), "{e}");
+    // What a phone or a messenger keeps, which this does not read: named, with what to do.
+    for (name, head, says) in [
+        ("IMG_0001.HEIC", &b"\0\0\0\x18ftypheic\0\0\0\0mif1heic"[..], "HEIC"),
+        ("IMG_0002.DNG", b"II*\0\x08\0\0\0", "raw DNG"),
+        ("photo.webp", b"RIFF\x10\0\0\0WEBPVP8 ", "WebP"),
+    ] {
+        let p = dir.join(name);
+        let mut bytes = head.to_vec();
+        bytes.resize(256, 0);
+        std::fs::write(&p, bytes).unwrap();
+        let e = load_fitted_targets(&[p.clone(), p.clone(), p], &scene, Fit::Contain, 0.0, &[]).unwrap_err();
+        let msg = e.to_string();
+        assert!(
+            msg.contains(name) && msg.contains(says) && msg.contains("export"),
+            "{msg}"
+        );
+        assert_eq!(scratchart::exit::code(&e), 3);
+    }
     // 1x1
     let one = dir.join("one.png");
     image::GrayImage::from_raw(1, 1, vec![200]).unwrap().save(&one).unwrap();

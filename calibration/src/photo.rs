@@ -126,6 +126,9 @@ pub fn load_photo_with_channels(path: &Path) -> Result<(Gray, Option<Channels>),
     use image::ImageDecoder as _;
     let name = path.display();
     let bytes = std::fs::read(path).map_err(|e| format!("cannot read photo `{name}`: {e}"))?;
+    if let Some((what, advice)) = scratchart_render::io::unread_format(&bytes) {
+        return Err(format!("photo `{name}` is {what}: {advice}"));
+    }
     if scratchart_render::io::jpeg_cut_short(&bytes) {
         return Err(format!(
             "photo `{name}` was cut short (a JPEG that ends inside its image data: an interrupted copy or download); copy it again"

@@ -126,6 +126,18 @@ fn refuses_what_it_cannot_fit() {
         scratchart::exit::code(&*fit(&r, &card_path, vec![good[0].clone()], "v-bit", &out).unwrap_err()),
         3
     );
+    // The west photo as an iPhone keeps it by default (HEIC): named, with how to get a JPEG.
+    let heic = dir.join("IMG_0002.HEIC");
+    let mut bytes = b"\0\0\0\x18ftypheic\0\0\0\0mif1heic".to_vec();
+    bytes.resize(4096, 7);
+    std::fs::write(&heic, bytes).unwrap();
+    let e = fit(&r, &card_path, vec![good[0].clone(), heic], "v-bit", &out).unwrap_err();
+    assert_eq!(scratchart::exit::code(&*e), 3);
+    let e = msg(e);
+    assert!(
+        e.contains("IMG_0002.HEIC") && e.contains("HEIC") && e.contains("Most Compatible"),
+        "{e}"
+    );
     // A photo of nothing: uniform grey.
     let blank = dir.join("cam_west.png");
     scratchart_render::io::write_png_gray(&blank, 256, 256, &vec![40u8; 256 * 256]).unwrap();

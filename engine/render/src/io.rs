@@ -34,6 +34,14 @@ pub enum IoError {
     Image { path: PathBuf, cause: image::ImageError },
     #[error("bad image arguments for `{path}`: {msg}")]
     Args { path: PathBuf, msg: String },
+    /// A file of a kind this does not read (a phone's HEIC, a raw DNG, a messenger's WebP),
+    /// named with what to do instead ([`unread_format`]).
+    #[error("`{path}` is {what}: {advice}")]
+    Unread {
+        what: &'static str,
+        path: PathBuf,
+        advice: &'static str,
+    },
 }
 
 impl IoError {
@@ -259,12 +267,79 @@ fn write_png(
     write_atomic(path, &buf)
 }
 
+/// What a file that is not a PNG or JPEG is, by its first bytes, with what to do instead, for
+/// the kinds a phone, a camera or a messenger gives: HEIF (an iPhone's photos by default, and
+/// AVIF), a TIFF (a raw DNG from a phone's RAW mode, most cameras' raw files, or a scan), WebP
+/// (what some messengers and web pages keep), GIF and BMP. `None` for anything else (a PNG, a
+/// JPEG, or bytes this does not know, which the decoder then names).
+///
+/// Raw files are not read on purpose: the photo pipeline models a photo as the camera app
+/// develops it (its tone curve, JPEG's blocks, the noise after demosaicing; the design's
+/// pictures as display values), and a raw file is the sensor's mosaic before any of that.
+pub fn unread_format(bytes: &[u8]) -> Option<(&'static str, &'static str)> {
+    const EXPORT: &str = "this reads PNG or JPEG only; export the photo as a JPEG at its full size";
+    let at = |i: usize, m: &[u8]| bytes.get(i..i + m.len()) == Some(m);
+    if at(4, b"ftyp") {
+        let brand = bytes.get(8..12).unwrap_or(&[]);
+        let heif = [
+            &b"heic"[..],
+            b"heix",
+            b"hevc",
+            b"hevx",
+            b"heim",
+            b"heis",
+            b"mif1",
+            b"msf1",
+        ];
+        if brand == b"avif" || brand == b"avis" {
+            return Some(("an AVIF image", EXPORT));
+        }
+        if heif.contains(&brand) {
+            return Some((
+                "a HEIC (HEIF) photo, an iPhone's default",
+                "this reads PNG or JPEG only; export it as a JPEG at its full size (on the phone, \
+                 Settings > Photos > Transfer to Mac or PC: Automatic, or Settings > Camera > Formats: \
+                 Most Compatible before taking it; on a computer, any photo app's export as JPEG)",
+            ));
+        }
+    }
+    if at(0, b"II*\0") || at(0, b"MM\0*") {
+        return Some((
+            "a TIFF file (a phone's raw DNG, a camera's raw file, or a scan)",
+            "this reads PNG or JPEG only, as the camera app develops a photo (a raw file is the \
+             sensor's data before its tone curve and colour); take the photo with RAW off, or \
+             export it as a JPEG at its full size",
+        ));
+    }
+    if at(0, b"RIFF") && at(8, b"WEBP") {
+        return Some((
+            "a WebP image (as some messengers and web pages keep photos)",
+            "this reads PNG or JPEG only; use the original photo from the phone (a messenger \
+             also shrinks it), or export it as a JPEG at its full size",
+        ));
+    }
+    if at(0, b"GIF8") {
+        return Some(("a GIF image", EXPORT));
+    }
+    if at(0, b"BM") && bytes.len() >= 26 && at(6, &[0, 0, 0, 0]) {
+        return Some(("a BMP image", EXPORT));
+    }
+    None
+}
+
 /// Read a PNG or JPEG image as gray values in [0, 1] (colour is converted to luma by the
 /// `image` crate's Rec. 709 weights on the stored, display-encoded values; alpha is composited over black; any bit depth;
 /// the EXIF orientation applied; a JPEG cut short refused).
 /// Returns (width, height, data) top row first.
 pub fn read_image_gray(path: &Path) -> Result<(u32, u32, Vec<f32>), IoError> {
     let bytes = fs::read(path).map_err(|e| io_err("read", path, e))?;
+    if let Some((what, advice)) = unread_format(&bytes) {
+        return Err(IoError::Unread {
+            what,
+            path: path.to_path_buf(),
+            advice,
+        });
+    }
     if jpeg_cut_short(&bytes) {
         // The JPEG decoder fills what a cut-short file lacks with grey and reports nothing.
         return Err(IoError::Format {
