@@ -346,9 +346,13 @@ fn awkward_target_files() {
     assert!(e.to_string().contains("corrupt.png"), "{e}");
     // What a phone or a messenger keeps, which this does not read: named, with what to do.
     for (name, head, says) in [
-        ("IMG_0001.HEIC", &b"\0\0\0\x18ftypheic\0\0\0\0mif1heic"[..], "HEIC"),
+        (
+            "IMG_0001.HEIC",
+            &b"\0\0\0\x18ftypheic\0\0\0\0mif1heic"[..],
+            "a HEIC (HEIF) photo",
+        ),
         ("IMG_0002.DNG", b"II*\0\x08\0\0\0", "raw DNG"),
-        ("photo.webp", b"RIFF\x10\0\0\0WEBPVP8 ", "WebP"),
+        ("photo.webp", b"RIFF\x10\0\0\0WEBPVP8 ", "a WebP image"),
     ] {
         let p = dir.join(name);
         let mut bytes = head.to_vec();

@@ -125,17 +125,9 @@ fn channel_gains(rgb: &image::Rgb32FImage) -> [f64; 3] {
 pub fn load_photo_with_channels(path: &Path) -> Result<(Gray, Option<Channels>), String> {
     use image::ImageDecoder as _;
     let name = path.display();
-    let bytes = std::fs::read(path).map_err(|e| format!("cannot read photo `{name}`: {e}"))?;
-    if let Some((what, advice)) = scratchart_render::io::unread_format(&bytes) {
-        return Err(format!("photo `{name}` is {what}: {advice}"));
-    }
-    if scratchart_render::io::jpeg_cut_short(&bytes) {
-        return Err(format!(
-            "photo `{name}` was cut short (a JPEG that ends inside its image data: an interrupted copy or download); copy it again"
-        ));
-    }
-    let reader = image::ImageReader::open(path)
-        .map_err(|e| format!("cannot read photo `{name}`: {e}"))?
+    // The bytes once: other kinds (HEIC, raw, WebP) and a JPEG cut short refused, naming it.
+    let bytes = scratchart_render::io::read_image_bytes(path).map_err(|e| format!("photo: {e}"))?;
+    let reader = image::ImageReader::new(std::io::Cursor::new(&bytes))
         .with_guessed_format()
         .map_err(|e| format!("cannot read photo `{name}`: {e}"))?;
     let mut decoder = reader

@@ -135,7 +135,7 @@ fn refuses_what_it_cannot_fit() {
     assert_eq!(scratchart::exit::code(&*e), 3);
     let e = msg(e);
     assert!(
-        e.contains("IMG_0002.HEIC") && e.contains("HEIC") && e.contains("Most Compatible"),
+        e.contains("IMG_0002.HEIC") && e.contains("a HEIC (HEIF) photo") && e.contains("Most Compatible"),
         "{e}"
     );
     // A photo of nothing: uniform grey.

@@ -327,11 +327,9 @@ pub fn unread_format(bytes: &[u8]) -> Option<(&'static str, &'static str)> {
     None
 }
 
-/// Read a PNG or JPEG image as gray values in [0, 1] (colour is converted to luma by the
-/// `image` crate's Rec. 709 weights on the stored, display-encoded values; alpha is composited over black; any bit depth;
-/// the EXIF orientation applied; a JPEG cut short refused).
-/// Returns (width, height, data) top row first.
-pub fn read_image_gray(path: &Path) -> Result<(u32, u32, Vec<f32>), IoError> {
+/// The bytes of an image file that its decoder may be given: a file of a kind this does not read
+/// ([`unread_format`]) and a JPEG cut short ([`jpeg_cut_short`]) are refused, naming the file.
+pub fn read_image_bytes(path: &Path) -> Result<Vec<u8>, IoError> {
     let bytes = fs::read(path).map_err(|e| io_err("read", path, e))?;
     if let Some((what, advice)) = unread_format(&bytes) {
         return Err(IoError::Unread {
@@ -350,6 +348,15 @@ pub fn read_image_gray(path: &Path) -> Result<(u32, u32, Vec<f32>), IoError> {
                 .into(),
         });
     }
+    Ok(bytes)
+}
+
+/// Read a PNG or JPEG image as gray values in [0, 1] (colour is converted to luma by the
+/// `image` crate's Rec. 709 weights on the stored, display-encoded values; alpha is composited over black; any bit depth;
+/// the EXIF orientation applied; other kinds and a JPEG cut short refused: [`read_image_bytes`]).
+/// Returns (width, height, data) top row first.
+pub fn read_image_gray(path: &Path) -> Result<(u32, u32, Vec<f32>), IoError> {
+    let bytes = read_image_bytes(path)?;
     let img_err = |cause| IoError::Image {
         path: path.to_path_buf(),
         cause,
