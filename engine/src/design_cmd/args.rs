@@ -244,7 +244,7 @@ pub struct DesignArgs {
     pub crosstalk: f32,
     /// The share of the first scratches drawn facing a view, 0 to 1: each turned across the half
     /// vector of a view drawn in proportion to the light its picture asks for, placed where that
-    /// picture asks for light; the rest in random directions. Default: 1 for a ring of views on a
+    /// picture asks for light and cut where it turns dark; the rest in random directions. Default: 1 for a ring of views on a
     /// flat plate (with straight scratches), whose endpoints' learning rate is then halved unless
     /// --lr-end is given; 0 for walks, objects, view files, bent plates and arcs. --aim 0 draws
     /// every scratch at random, as designs before it did (engine/docs/worst_view.md)
