@@ -142,9 +142,11 @@ const RUN_LEVEL: f64 = 0.25;
 
 /// The stretch of a scratch of drawn length `l` through `mid` along `t` that stays where view
 /// `g` asks for light: from `mid` each way, in steps of half a pixel's size on the plate, while
-/// the light asked is at least [`RUN_LEVEL`] of what it is at `mid`; the scratch keeps its drawn length
-/// where the run holds it (moved along itself to lie within the run), else takes the run's
-/// length (at least two pixels' size) and its middle. Returns the midpoint and the length.
+/// the light asked is at least [`RUN_LEVEL`] of what it is at `mid`; the scratch keeps its
+/// drawn length where the run holds it (moved along itself to lie within the run), else takes
+/// the run's length (at least two pixels' size, never more than drawn) and its middle. Returns
+/// the midpoint and the length. Each side walks at most the drawn length: about 80 samples of
+/// the target a side at 512 px, 20 at the default's 144.
 fn fit_run(g: &ViewGeom, target: &[f32], mid: [f64; 2], t: [f64; 2], l: f64, plate_mm: f64) -> ([f64; 2], f64) {
     let px = plate_mm / g.width.max(g.height).max(1) as f64;
     let step = 0.5 * px;
