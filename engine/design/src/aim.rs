@@ -17,7 +17,7 @@
 //! lights the stroke (engine/docs/worst_view.md, "Lengths fitted to the picture"). The rest keep
 //! their random places, directions and lengths.
 use scratchart_model::camera::ViewGeom;
-use scratchart_model::display::linear;
+use scratchart_model::display::{display, linear};
 
 use crate::problem::Problem;
 use crate::reach::{half_vector, lobe};
@@ -150,12 +150,15 @@ const RUN_LEVEL: f64 = 0.25;
 fn fit_run(g: &ViewGeom, target: &[f32], mid: [f64; 2], t: [f64; 2], l: f64, plate_mm: f64) -> ([f64; 2], f64) {
     let px = plate_mm / g.width.max(g.height).max(1) as f64;
     let step = 0.5 * px;
-    let level = RUN_LEVEL * asked(g, target, mid);
+    // The light asked, FLOOR + linear(d), is at least the level where the display value d is at
+    // least `dark` (one power here rather than one a sample).
+    let need = RUN_LEVEL * asked(g, target, mid) - FLOOR;
+    let dark = if need > 0.0 { display(need) } else { f64::NEG_INFINITY };
     let walk = |sign: f64| -> f64 {
         let mut s = 0.0;
         while s < l {
             let x = [mid[0] + sign * (s + step) * t[0], mid[1] + sign * (s + step) * t[1]];
-            if asked(g, target, x) < level {
+            if !seen(g, target, x).is_some_and(|d| d >= dark) {
                 break;
             }
             s += step;
@@ -173,15 +176,19 @@ fn fit_run(g: &ViewGeom, target: &[f32], mid: [f64; 2], t: [f64; 2], l: f64, pla
 /// The light view `g`'s target asks for at sheet point `x` (its display value made linear, at
 /// most 1, plus [`FLOOR`]); 0 where the view does not see it.
 fn asked(g: &ViewGeom, target: &[f32], x: [f64; 2]) -> f64 {
+    seen(g, target, x).map_or(0.0, |d| FLOOR + linear(d))
+}
+
+/// View `g`'s target at sheet point `x` (its display value, at most 1), or None where the view
+/// does not see it.
+fn seen(g: &ViewGeom, target: &[f32], x: [f64; 2]) -> Option<f64> {
     let p = g.shape.at_sheet(x).p;
-    let Some((sx, sy)) = g.project(p) else {
-        return 0.0;
-    };
+    let (sx, sy) = g.project(p)?;
     let (w, h) = (g.width as usize, g.height as usize);
     if !(sx >= 0.0 && sy >= 0.0) || sx as usize >= w || sy as usize >= h || target.len() != w * h {
-        return 0.0;
+        return None;
     }
-    FLOOR + linear(f64::from(target[sy as usize * w + sx as usize]).min(1.0))
+    Some(f64::from(target[sy as usize * w + sx as usize]).min(1.0))
 }
 
 #[cfg(test)]
