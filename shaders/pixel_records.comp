@@ -6,7 +6,8 @@
 // where a queue entry needs another pixel's data, and by every kernel for its own pixel, so the
 // float64 set-up runs once per render instead of once per kernel. Written through a
 // storage texel buffer, so its size is bounded by the device's texel count, not by its
-// storage-buffer range. One workgroup per 16x16 tile, laid out as the shading kernels'.
+// storage-buffer range. The last texel holds (scale, on the plate, corners counter-clockwise on
+// the plate, -): inc/centroid.glsl undoes the reordering with the third. One workgroup per 16x16 tile, laid out as the shading kernels'.
 #extension GL_GOOGLE_include_directive : require
 #include "inc/common.glsl"
 #include "inc/pixel.glsl"
@@ -36,5 +37,5 @@ void main() {
     imageStore(out_recs, b + 1, vec4(f2, f3));
     imageStore(out_recs, b + 2, vec4(P.h, P.d_flat));
     imageStore(out_recs, b + 3, vec4(P.centre, P.radius, P.inv_sp));
-    imageStore(out_recs, b + 4, vec4(P.scale, P.on_plate ? 1.0 : 0.0, 0.0, 0.0));
+    imageStore(out_recs, b + 4, vec4(P.scale, P.on_plate ? 1.0 : 0.0, P.ccw ? 1.0 : 0.0, 0.0));
 }

@@ -15,6 +15,13 @@
 // tangents. So any number of directions costs one reverse sweep per pair (7 per pass here).
 // Work layout, order and passes are the forward's (inc/tile_loop.glsl); the per-pixel sums carry
 // across passes in the output buffer. No atomics on floats: results are bit-reproducible.
+//
+// The build with SA_MOMENTS computes no derivatives: per pixel, the first moments of its light
+// about the footprint's centre, in the render's pixels (engine/render/src/tangent.rs,
+// `Renderer::moments`). Each pair adds its light g_k = gI I_k + gA A_k (the groove's light less
+// the plate light its area covers: the same weights) times the offset of the centroid of
+// F ∩ R_k from F's (inc/centroid.glsl); a blur applied to the image can then place each
+// pixel's light where it falls within the pixel, to first order, instead of at its centre.
 #extension GL_GOOGLE_include_directive : require
 #ifndef SA_EDGE_ADJOINT
 #error tangent.comp is built with SA_EDGE_ADJOINT (engine/render/src/kernels.rs)
@@ -34,6 +41,9 @@ layout(local_size_x = 16, local_size_y = 16) in;
 // shared memory.
 const uint QCAP = 256u;
 #include "inc/tile_loop.glsl"
+#ifdef SA_MOMENTS
+#include "inc/centroid.glsl"
+#endif
 
 shared vec4 sh_r[2u * QCAP];       // per entry: dL/dθ_j (0-3, 4-6)
 
@@ -48,6 +58,16 @@ void pair_eval(uint i, uint px, uint k, bool fast) {
     vec3 h;
     pixel_pair_data(px, fp, h);
     vec2 gp = sh_pv[px];  // gI, gA
+#ifdef SA_MOMENTS
+    uint sm = chunk_scratch(k);
+    vec4 ca = rec_cull_a(sm), cb = rec_cull_b(sm);  // p0, t; len, w, s_e, alpha
+    float I, A;
+    pair_integrate(ca.x, ca.y, ca.z, ca.w, cb.x, cb.y, cb.z, cb.w, fp, h, fast, I, A);
+    float gl = gp.x * I + gp.y * A;
+    vec2 m = A > 0.0 ? covered_offset(ca, cb, fp) : vec2(0.0);
+    sh_r[2u * i] = vec4(gl * m, gl, 0.0);
+    sh_r[2u * i + 1u] = vec4(0.0);
+#else
     vec4 d0;
     vec3 g;
     uint si = chunk_scratch(k);
@@ -56,6 +76,7 @@ void pair_eval(uint i, uint px, uint k, bool fast) {
     // dL/dθ_j = g . (dw, dd, dalpha)/dθ_j
     sh_r[2u * i] = g.x * seeds[b] + g.y * seeds[b + 2u] + g.z * seeds[b + 4u];
     sh_r[2u * i + 1u] = g.x * seeds[b + 1u] + g.y * seeds[b + 3u] + g.z * seeds[b + 5u];
+#endif
 }
 
 // (Tested at the bottom: see tile_loop in inc/tile_loop.glsl.)
@@ -110,6 +131,10 @@ void main() {
     tile_loop(begin, stop, V, t0, lid, live, P, cand);
     if (loop_limit_hit(pc.sentinel)) { atomicOr(stats[6], 1u); atomicOr(stats[5], 1u); }
     if (!inside) return;
+#ifdef SA_MOMENTS
+    // The tile's last pass: the moments from the plate's (x, y) into the render's pixels.
+    if (stop >= end) acc0.xy = live ? plate_to_pixels(pix, acc0.xy) : vec2(0.0);
+#endif
     tang[2u * pix] = acc0;
     tang[2u * pix + 1u] = vec4(acc1.xyz, 0.0);
 }

@@ -87,7 +87,15 @@ fn main() -> anyhow::Result<()> {
             scratches: vec![],
         };
         println!("\n== {cname}");
-        for (tname, tool) in &tools() {
+        let pick = std::env::var("CAPTURE_INFO_TOOLS").ok();
+        for (tname, tool) in &tools(&card) {
+            // CAPTURE_INFO_TOOLS=profile,V 60: only the tools whose names contain one of these.
+            if pick
+                .as_deref()
+                .is_some_and(|p| !p.split(',').any(|t| tname.contains(t)))
+            {
+                continue;
+            }
             let t0 = std::time::Instant::now();
             let cells = bounds(&renderer, &card, &capture, tool, noise)?;
             println!(
@@ -148,7 +156,7 @@ fn captures(p: f64, d: f64, res: u32) -> Vec<(String, Vec<View>)> {
 }
 
 /// The tools of the table, named.
-fn tools() -> Vec<(String, Tool)> {
+fn tools(card: &Card) -> Vec<(String, Tool)> {
     vec![
         (
             "V 30".into(),
@@ -227,7 +235,32 @@ fn tools() -> Vec<(String, Tool)> {
                 z_offset_mm: 0.007,
             },
         ),
+        ("profile".into(), profile_of_v60(card)),
     ]
+}
+
+/// A measured profile: the widths a V 60 (flat 15 um, offset 7 um) cuts at the card's depths,
+/// the model's w at 1.5 times each width.
+fn profile_of_v60(card: &Card) -> Tool {
+    let v = Tool::VBit {
+        angle_deg: 60.0,
+        tip_flat_mm: 0.015,
+        z_offset_mm: 0.007,
+    };
+    let mut w = 0.0f64;
+    let points = card
+        .depths_mm
+        .iter()
+        .map(|&z| {
+            w = w.max(v.section(z).map_or(0.0, |s| s.width));
+            [z, w]
+        })
+        .collect();
+    Tool::Profile {
+        points,
+        w_over_w: 1.5,
+        z_offset_mm: 0.0,
+    }
 }
 
 /// The light (over full scale) at which each view's brightest groove pixels sit: the fourth
@@ -305,8 +338,15 @@ fn bounds(renderer: &Renderer, card: &Card, capture: &Scene, tool: &Tool, noise:
         let c: Vec<String> = info[..n_tool]
             .iter()
             .map(|(name, sd)| {
-                let scale = if name.ends_with("_mm") { 1000.0 } else { 1.0 };
-                let short = name.trim_end_matches("_mm").trim_end_matches("_deg");
+                let scale = if name.ends_with("_mm") || name.starts_with("W_mm@") {
+                    1000.0
+                } else {
+                    1.0
+                };
+                let short = name
+                    .trim_end_matches("_mm")
+                    .trim_end_matches("_deg")
+                    .replace("W_mm@", "W@");
                 match sd {
                     Some(s) => format!("{short} {:.3}", s * scale),
                     None => format!("{short} -"),

@@ -80,6 +80,9 @@ pub struct Renderer {
     grad_light: ComputePipeline,
     /// The tangent kernel (`tangent.comp`), compiled on first use ([`Renderer::tangents`]).
     tangent: std::sync::OnceLock<ComputePipeline>,
+    /// The tangent kernel's build that writes each pixel's first moments of light
+    /// (`SA_MOMENTS`), compiled on first use ([`Renderer::moments`]).
+    moments: std::sync::OnceLock<ComputePipeline>,
     /// The forward kernel's build for scenes with arcs (`shade_pipeline_with`), compiled by the
     /// first upload of one.
     forward_arcs: std::sync::OnceLock<ComputePipeline>,
@@ -101,13 +104,13 @@ fn shade_pipeline(
     k: &ShadeKernel,
     replay: bool,
 ) -> Result<ComputePipeline, GpuError> {
-    shade_pipeline_with(ctx, sc, k, replay, false, None)
+    shade_pipeline_with(ctx, sc, k, replay, false, None, &[])
 }
 
 /// [`shade_pipeline`], with `arcs`: the build that weighs arc chords (`SA_ARCS`,
 /// `shaders/inc/patch_ndf.glsl`); without it the kernel has no trace of them. `links`: a
 /// backward's round lists built by every thread or by one ([`KernelSet::links`]; None: the
-/// device's choice).
+/// device's choice). `extra`: more defines (a build of another role: `SA_MOMENTS`).
 fn shade_pipeline_with(
     ctx: &Arc<Context>,
     sc: &ShaderCompiler,
@@ -115,6 +118,7 @@ fn shade_pipeline_with(
     replay: bool,
     arcs: bool,
     links: Option<bool>,
+    extra: &[(&'static str, &'static str)],
 ) -> Result<ComputePipeline, GpuError> {
     let (mut name, mut defines) = if replay {
         (k.replay_name(), k.replay_defines(ctx.info()))
@@ -135,6 +139,10 @@ fn shade_pipeline_with(
     if arcs {
         name.push_str(" (arcs)");
         defines.push(("SA_ARCS", "1"));
+    }
+    for &(d, v) in extra {
+        name.push_str(&format!(" ({d})"));
+        defines.push((d, v));
     }
     let spirv = sc.compile(k.file(), &defines)?;
     ComputePipeline::with_texels(
@@ -219,6 +227,7 @@ impl Renderer {
             grad_reduce: ComputePipeline::new(ctx, &sc, "grad_reduce.comp", &[], 4, scan_push)?,
             grad_light: ComputePipeline::new(ctx, &sc, "grad_light.comp", &[], 5, 0)?,
             tangent: std::sync::OnceLock::new(),
+            moments: std::sync::OnceLock::new(),
             forward_arcs: std::sync::OnceLock::new(),
             grad_arcs: std::sync::OnceLock::new(),
             arc_chords: std::sync::atomic::AtomicU32::new(0),
@@ -245,9 +254,18 @@ impl Renderer {
                 true,
                 false,
                 self.kernels.links,
+                &[],
             )?);
         }
-        let p = shade_pipeline_with(&self.ctx, &sc, &self.kernels.backward, false, false, self.kernels.links)?;
+        let p = shade_pipeline_with(
+            &self.ctx,
+            &sc,
+            &self.kernels.backward,
+            false,
+            false,
+            self.kernels.links,
+            &[],
+        )?;
         let _ = self.grad.set(p);
         Ok(())
     }
@@ -347,7 +365,7 @@ impl Renderer {
         };
         let _ = self
             .grad_arcs
-            .set(shade_pipeline_with(&self.ctx, &sc, &k, false, true, None)?);
+            .set(shade_pipeline_with(&self.ctx, &sc, &k, false, true, None, &[])?);
         Ok(())
     }
 
@@ -372,7 +390,7 @@ impl Renderer {
             )));
         }
         let sc = ShaderCompiler::embedded()?;
-        let p = shade_pipeline_with(&self.ctx, &sc, &self.kernels.forward, false, true, None)?;
+        let p = shade_pipeline_with(&self.ctx, &sc, &self.kernels.forward, false, true, None, &[])?;
         let _ = self.forward_arcs.set(p);
         Ok(())
     }

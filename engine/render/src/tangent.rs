@@ -30,6 +30,66 @@ impl Renderer {
         Ok(())
     }
 
+    /// Renders `gs` and, per view, per pixel, the first moments of its light about its centre,
+    /// in the render's pixels (x right, y down): the sums over its pairs of each groove's light,
+    /// less the plate light its area covers, times where the covered part of the footprint has
+    /// its centroid (`tangent.comp` built with `SA_MOMENTS`; shaders/inc/centroid.glsl). A blur
+    /// of the image can then place each pixel's light where it falls within the pixel, to first
+    /// order (the calibration's model of a photo renders at twice the photo's resolution, and a
+    /// groove a tenth of a pixel wide lands up to a quarter of a photo pixel off without it).
+    /// One submission; 0 outside a window and off the plate.
+    #[allow(clippy::type_complexity)]
+    pub fn moments(&self, gs: &mut GpuScene) -> Result<(Vec<Vec<f32>>, Vec<Vec<[f32; 2]>>), GpuError> {
+        gs.refuse_arcs("moments")?;
+        if self.moments.get().is_none() {
+            let k = ShadeKernel {
+                integrator: Integrator::ClosedForm,
+                mode: Mode::Tangent,
+            };
+            let sc = ShaderCompiler::embedded()?;
+            let p = super::shade_pipeline_with(&self.ctx, &sc, &k, false, false, None, &[("SA_MOMENTS", "1")])?;
+            let _ = self.moments.set(p);
+        }
+        let out = Buffer::new(
+            &self.ctx,
+            "moments (2 vec4 per pixel of every view)",
+            gs.slots.n_pixels * 32,
+            MemLoc::GpuOnly,
+        )?;
+        let mut rec = Recorder::new(&self.ctx)?;
+        let kernel = self.moments.get().expect("prepared");
+        self.submit(&mut rec, gs, |rec, gs| {
+            self.record_render(rec, gs);
+            // The kernel reads no seeds: the scene's placeholder stands in their slot.
+            let seeds = &gs.shading.unbound;
+            let role = super::bindings::Role::Tangent { seeds, tangents: &out };
+            super::record_passes(rec, kernel, gs, role);
+        })?;
+        let images = self.download_images(gs)?;
+        let all: Vec<[f32; 8]> = self.ctx.download(&out)?;
+        let moments = gs
+            .slots
+            .views
+            .iter()
+            .map(|v| {
+                let n = v.dims[0] as usize * v.dims[1] as usize;
+                let win = v.window();
+                all[v.base[1] as usize..v.base[1] as usize + n]
+                    .iter()
+                    .enumerate()
+                    .map(|(k, t)| {
+                        if win.contains(k as u32 % v.dims[0], k as u32 / v.dims[0]) {
+                            [t[0], t[1]]
+                        } else {
+                            [0.0; 2]
+                        }
+                    })
+                    .collect()
+            })
+            .collect();
+        Ok((images, moments))
+    }
+
     /// Renders `gs` and the derivatives of every pixel value along the directions of `seeds`
     /// (one entry per scratch, in scene order): the images (one per view) and, per view, per
     /// pixel, dL/dθ_j for the 7 directions. One submission: an incomplete render is redone
