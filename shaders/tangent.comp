@@ -63,9 +63,10 @@ void pair_eval(uint i, uint px, uint k, bool fast) {
     vec4 ca = rec_cull_a(sm), cb = rec_cull_b(sm);  // p0, t; len, w, s_e, alpha
     float I, A;
     pair_integrate(ca.x, ca.y, ca.z, ca.w, cb.x, cb.y, cb.z, cb.w, fp, h, fast, I, A);
-    float gl = gp.x * I + gp.y * A;
-    vec2 m = A > 0.0 ? covered_offset(ca, cb, fp) : vec2(0.0);
-    sh_r[2u * i] = vec4(gl * m, gl, 0.0);
+    // The groove's light at its centroid, less the plate light its area covers at the area's.
+    vec2 ml = vec2(0.0), ma = vec2(0.0);
+    if (A > 0.0) covered_offsets(ca, cb, fp, h, ml, ma);
+    sh_r[2u * i] = vec4(gp.x * I * ml + gp.y * A * ma, gp.x * I + gp.y * A, 0.0);
     sh_r[2u * i + 1u] = vec4(0.0);
 #else
     vec4 d0;
@@ -124,16 +125,23 @@ void main() {
     }
     store_pixel(lid, V, t0, vec2(gI, gA));
     if (begin > start && inside) {  // an earlier pass did the chunks before `begin`
+#ifdef SA_MOMENTS
+        acc0.xy = moment_load(pix);
+#else
         acc0 = tang[2u * pix];
         acc1 = tang[2u * pix + 1u];
+#endif
     }
     uint cand = 0u;
     tile_loop(begin, stop, V, t0, lid, live, P, cand);
     if (loop_limit_hit(pc.sentinel)) { atomicOr(stats[6], 1u); atomicOr(stats[5], 1u); }
     if (!inside) return;
 #ifdef SA_MOMENTS
-    // The tile's last pass: the moments from the plate's (x, y) into the render's pixels.
+    // The tile's last pass: the moments from the plate's (x, y) into the render's pixels; two
+    // floats per pixel (inc/centroid.glsl).
     if (stop >= end) acc0.xy = live ? plate_to_pixels(pix, acc0.xy) : vec2(0.0);
+    moment_store(pix, acc0.xy);
+    return;
 #endif
     tang[2u * pix] = acc0;
     tang[2u * pix + 1u] = vec4(acc1.xyz, 0.0);

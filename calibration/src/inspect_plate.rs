@@ -134,7 +134,7 @@ impl Problem<'_> {
     /// The design's plate as carved with width scale `s` and depth change `dz`, as the photos'
     /// cameras record it (display values before each photo's exposure).
     fn images_of(&self, scene: &Scene) -> Result<Vec<Vec<f32>>> {
-        let fine = render_fine(self.renderer, scene)?;
+        let fine = render_fine(self.renderer, scene, self.blur_px)?;
         Ok(fine
             .iter()
             .zip(&scene.views)

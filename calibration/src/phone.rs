@@ -14,7 +14,7 @@ use scratchart_render::Renderer;
 use scratchart_tool::Tool;
 
 use super::card::Card;
-use super::simulate::{blur, cut_scene};
+use super::simulate::cut_scene;
 
 use super::simulate::RENDER_SCALE;
 
@@ -345,13 +345,9 @@ pub fn take_of(
         ..plate.clone()
     };
     let mut gs = renderer.upload(&scene)?;
-    let frame = renderer.render(&mut gs)?;
-    let lin = blur(
-        &frame.images[0],
-        rw,
-        rh,
-        (rh as f64 / base.camera.height as f64) * shot.blur_px,
-    );
+    let sigma = (rh as f64 / base.camera.height as f64) * shot.blur_px;
+    let frame = crate::simulate::render_for_optics(renderer, &mut gs, sigma)?;
+    let lin = crate::simulate::optics_blur(&frame[0], rw, rh, sigma);
     // The phone's own exposure: the frame's brightest light at the display value asked for.
     let exposure = match shot.auto_exposure {
         Some(target) => {

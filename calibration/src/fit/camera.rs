@@ -5,7 +5,6 @@
 use scratchart_model::camera::ViewGeom;
 
 use super::Evaluator;
-use crate::simulate::blur;
 use scratchart_optim::least_squares::cauchy;
 
 /// Table points of a [`ChannelClip`].
@@ -168,7 +167,7 @@ impl Evaluator<'_, '_> {
         let c = &self.data.capture.views[v].camera;
         let k = self.ss as usize;
         let (w, h) = (c.width as usize, c.height as usize);
-        blur(img, k * w, k * h, k as f64 * self.lay.blur(x, v))
+        crate::simulate::optics_blur(img, k * w, k * h, k as f64 * self.lay.blur(x, v))
     }
 
     /// What the sensor of view v makes of the light `b` (at `ss` times its resolution): the

@@ -136,13 +136,34 @@ impl Evaluator<'_, '_> {
     }
 
     /// Linear renders of the card for the tool part of `x`: the tiles of each view's [`Self::window`]
-    /// (0 outside them).
+    /// (0 outside them), each followed by its pixels' moments of light where they are on
+    /// (`simulate::render_for_optics`: the blur places the light within each subpixel).
     pub(super) fn render(&mut self, x: &[f64]) -> Result<Vec<Vec<f32>>, FitError> {
+        self.sync(x)?;
+        let sigma = self.optics_sigma(x);
+        let gs = self.gs.as_mut().expect("uploaded");
+        let images = crate::simulate::render_for_optics(self.renderer, gs, sigma)?;
+        self.renders += 1;
+        Ok(images)
+    }
+
+    /// [`Self::render`] without the moments of light, whatever the blur: the start search's
+    /// renders, which it smooths by [`starts::SEARCH_BLUR_PX`] on top (a coarse look at many
+    /// start points: the same renders as before the moments).
+    pub(super) fn render_plain(&mut self, x: &[f64]) -> Result<Vec<Vec<f32>>, FitError> {
         self.sync(x)?;
         let gs = self.gs.as_mut().expect("uploaded");
         let frame = self.renderer.render(gs).map_err(anyhow::Error::from)?;
         self.renders += 1;
         Ok(frame.images)
+    }
+
+    /// The widest blur of `x`'s photos, in the render's pixels (whether a render takes the
+    /// moments of light: `simulate::render_for_optics`).
+    fn optics_sigma(&self, x: &[f64]) -> f64 {
+        (0..self.lay.n_views)
+            .map(|v| self.ss as f64 * self.lay.blur(x, v))
+            .fold(0.0, f64::max)
     }
 
     /// [`Self::render`] of the whole images, for what reads beyond the residuals' pixels (a
@@ -153,9 +174,9 @@ impl Evaluator<'_, '_> {
             return self.render(x);
         }
         let mut gs = self.renderer.upload(&self.scene_at(x)).map_err(anyhow::Error::from)?;
-        let frame = self.renderer.render(&mut gs).map_err(anyhow::Error::from)?;
+        let images = crate::simulate::render_for_optics(self.renderer, &mut gs, self.optics_sigma(x))?;
         self.renders += 1;
-        Ok(frame.images)
+        Ok(images)
     }
 
     /// The Jacobian columns (d residual / d x_k) of the parameters `ks`, each of which moves only

@@ -151,7 +151,7 @@ pub(super) fn search_starts(
                 total,
                 format!("{} start points", kind.name()),
             ));
-            lins.push((ev.render(x)?, *rg));
+            lins.push((ev.render_plain(x)?, *rg));
         }
         let this = &*ev;
         let nv = this.lay.n_views;

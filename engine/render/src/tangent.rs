@@ -52,8 +52,8 @@ impl Renderer {
         }
         let out = Buffer::new(
             &self.ctx,
-            "moments (2 vec4 per pixel of every view)",
-            gs.slots.n_pixels * 32,
+            "moments (2 floats per pixel of every view)",
+            gs.slots.n_pixels.div_ceil(2) * 16,
             MemLoc::GpuOnly,
         )?;
         let mut rec = Recorder::new(&self.ctx)?;
@@ -66,7 +66,7 @@ impl Renderer {
             super::record_passes(rec, kernel, gs, role);
         })?;
         let images = self.download_images(gs)?;
-        let all: Vec<[f32; 8]> = self.ctx.download(&out)?;
+        let all: Vec<[f32; 2]> = self.ctx.download(&out)?;
         let moments = gs
             .slots
             .views
