@@ -18,10 +18,11 @@
 //
 // The build with SA_MOMENTS computes no derivatives: per pixel, the first moments of its light
 // about the footprint's centre, in the render's pixels (engine/render/src/tangent.rs,
-// `Renderer::moments`). Each pair adds its light g_k = gI I_k + gA A_k (the groove's light less
-// the plate light its area covers: the same weights) times the offset of the centroid of
-// F ∩ R_k from F's (inc/centroid.glsl); a blur applied to the image can then place each
-// pixel's light where it falls within the pixel, to first order, instead of at its centre.
+// `Renderer::moments`). Each pair adds the groove's light gI I_k times the offset of that
+// light's centroid in F ∩ R_k from F's centre, and the plate light its area covers, gA A_k
+// (negative), times the area's centroid's (inc/centroid.glsl); a blur applied to the image can
+// then place each pixel's light where it falls within the pixel, to first order, instead of at
+// its centre.
 #extension GL_GOOGLE_include_directive : require
 #ifndef SA_EDGE_ADJOINT
 #error tangent.comp is built with SA_EDGE_ADJOINT (engine/render/src/kernels.rs)

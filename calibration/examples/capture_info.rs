@@ -235,32 +235,20 @@ fn tools(card: &Card) -> Vec<(String, Tool)> {
                 z_offset_mm: 0.007,
             },
         ),
-        ("profile".into(), profile_of_v60(card)),
+        (
+            // The widths a V 60 (flat 15 um, offset 7 um) cuts at the card's depths.
+            "profile".into(),
+            scratchart_calibration::study::profile_cut_by(
+                &Tool::VBit {
+                    angle_deg: 60.0,
+                    tip_flat_mm: 0.015,
+                    z_offset_mm: 0.007,
+                },
+                card,
+                1.5,
+            ),
+        ),
     ]
-}
-
-/// A measured profile: the widths a V 60 (flat 15 um, offset 7 um) cuts at the card's depths,
-/// the model's w at 1.5 times each width.
-fn profile_of_v60(card: &Card) -> Tool {
-    let v = Tool::VBit {
-        angle_deg: 60.0,
-        tip_flat_mm: 0.015,
-        z_offset_mm: 0.007,
-    };
-    let mut w = 0.0f64;
-    let points = card
-        .depths_mm
-        .iter()
-        .map(|&z| {
-            w = w.max(v.section(z).map_or(0.0, |s| s.width));
-            [z, w]
-        })
-        .collect();
-    Tool::Profile {
-        points,
-        w_over_w: 1.5,
-        z_offset_mm: 0.0,
-    }
 }
 
 /// The light (over full scale) at which each view's brightest groove pixels sit: the fourth

@@ -124,28 +124,32 @@ pub fn random_tool(rng: &mut Rng, kind: Kind, card: &Card) -> Tool {
             z_offset_mm: off,
         },
         Kind::Profile => {
-            // A measured profile: the widths some V-bit cuts at the card's depths (its z offset is
-            // in them: a profile is given in commanded depth).
             let v = Tool::VBit {
                 angle_deg: rng.range(50.0, 100.0),
                 tip_flat_mm: rng.range(0.0, 0.02),
                 z_offset_mm: off,
             };
-            let mut w = 0.0f64;
-            let points = card
-                .depths_mm
-                .iter()
-                .map(|&z| {
-                    w = w.max(v.section(z).map_or(0.0, |s| s.width));
-                    [z, w]
-                })
-                .collect();
-            Tool::Profile {
-                points,
-                w_over_w: rng.range(1.2, 2.0),
-                z_offset_mm: 0.0,
-            }
+            profile_cut_by(&v, card, rng.range(1.2, 2.0))
         }
+    }
+}
+
+/// A measured profile: the widths `tool` cuts at the card's depths (its z offset is in them: a
+/// profile is given in commanded depth), the model's w at `w_over_w` times each width.
+pub fn profile_cut_by(tool: &Tool, card: &Card, w_over_w: f64) -> Tool {
+    let mut w = 0.0f64;
+    let points = card
+        .depths_mm
+        .iter()
+        .map(|&z| {
+            w = w.max(tool.section(z).map_or(0.0, |s| s.width));
+            [z, w]
+        })
+        .collect();
+    Tool::Profile {
+        points,
+        w_over_w,
+        z_offset_mm: 0.0,
     }
 }
 

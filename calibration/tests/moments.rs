@@ -60,7 +60,10 @@ fn moments_make_the_photo_model_depend_less_on_the_render_resolution() {
     let with = rel(&photo(2, true), &photo(8, true));
     let without = rel(&photo(2, false), &photo(8, false));
     eprintln!("2 times against 8: {with:.4} with the moments, {without:.4} without");
-    assert!(with < 2.0 / 3.0 * without, "{with:.4} with the moments, {without:.4} without");
+    assert!(
+        with < 2.0 / 3.0 * without,
+        "{with:.4} with the moments, {without:.4} without"
+    );
     assert_no_validation(&ctx);
     let _ = std::fs::remove_dir_all(&dir);
 }

@@ -257,15 +257,8 @@ impl Renderer {
                 &[],
             )?);
         }
-        let p = shade_pipeline_with(
-            &self.ctx,
-            &sc,
-            &self.kernels.backward,
-            false,
-            false,
-            self.kernels.links,
-            &[],
-        )?;
+        let links = self.kernels.links;
+        let p = shade_pipeline_with(&self.ctx, &sc, &self.kernels.backward, false, false, links, &[])?;
         let _ = self.grad.set(p);
         Ok(())
     }
