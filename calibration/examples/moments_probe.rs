@@ -5,7 +5,7 @@
 //! times render, over the card's pixels, relative to the rms of the light there.
 //! `cargo run --release -p scratchart-calibration --example moments_probe -- CARD.json TOOL.json BLUR_PX`
 use scratchart_calibration::card::Card;
-use scratchart_calibration::simulate::{cut_scene, optics_blur, render_for_optics};
+use scratchart_calibration::simulate::{cut_scene, light_at, moments_on};
 use scratchart_render::Renderer;
 use scratchart_tool::Tool;
 use scratchart_vulkan::{Context, ContextDesc};
@@ -19,23 +19,9 @@ fn main() -> anyhow::Result<()> {
     let renderer = Renderer::new(&ctx)?;
     let scene = cut_scene(&card, &capture, &tool);
     let photo = |k: u32| -> anyhow::Result<Vec<Vec<f64>>> {
-        let mut out = Vec::new();
-        for v in &scene.views {
-            let mut s = scene.clone();
-            s.views = vec![v.clone()];
-            s.views[0].camera.width *= k;
-            s.views[0].camera.height *= k;
-            let mut gs = renderer.upload(&s)?;
-            let fine = render_for_optics(&renderer, &mut gs, k as f64 * blur_px)?;
-            let (w, h, k) = (v.camera.width as usize, v.camera.height as usize, k as usize);
-            let b = optics_blur(&fine[0], k * w, k * h, k as f64 * blur_px);
-            let mut small = vec![0f64; w * h];
-            for (i, l) in b.iter().enumerate() {
-                small[((i / (k * w)) / k) * w + (i % (k * w)) / k] += *l as f64 / (k * k) as f64;
-            }
-            out.push(small);
-        }
-        Ok(out)
+        (0..scene.views.len())
+            .map(|v| light_at(&renderer, &scene, v, k, blur_px, moments_on()))
+            .collect()
     };
     if std::env::var("PROBE_TIME").is_ok() {
         // A render against a render with moments, of the capture at twice its resolution.

@@ -343,6 +343,36 @@ pub fn render_fine(renderer: &Renderer, scene: &Scene, blur_px: f64) -> anyhow::
     Ok(out)
 }
 
+/// The light view `v` of `scene` brings to each of its pixels (linear, f64), rendered at `k`
+/// times its resolution with or without the moments (`moments`), blurred by `blur_px` of its
+/// pixels and added up: the photo model at any resolution, to compare resolutions
+/// (`examples/moments_probe`, `tests/moments.rs`).
+pub fn light_at(
+    renderer: &Renderer,
+    scene: &Scene,
+    v: usize,
+    k: u32,
+    blur_px: f64,
+    moments: bool,
+) -> anyhow::Result<Vec<f64>> {
+    let view = &scene.views[v];
+    let mut one = Scene {
+        views: vec![view.clone()],
+        ..scene.clone()
+    };
+    one.views[0].camera.width *= k;
+    one.views[0].camera.height *= k;
+    let mut gs = renderer.upload(&one)?;
+    let fine = render_for_optics_with(renderer, &mut gs, k as f64 * blur_px, moments)?;
+    let (w, h, k) = (view.camera.width as usize, view.camera.height as usize, k as usize);
+    let b = optics_blur(&fine[0], k * w, k * h, k as f64 * blur_px);
+    let mut small = vec![0f64; w * h];
+    for (i, l) in b.iter().enumerate() {
+        small[((i / (k * w)) / k) * w + (i % (k * w)) / k] += *l as f64 / (k * k) as f64;
+    }
+    Ok(small)
+}
+
 /// A fine render ([`render_fine`]) of a `w` x `h` view as its camera records the light: the
 /// optics' blur (`blur_px` in the view's pixels), then each pixel adding up its light (linear).
 pub fn develop(fine: &[f32], w: usize, h: usize, blur_px: f64) -> Vec<f32> {

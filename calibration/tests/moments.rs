@@ -7,7 +7,7 @@
 mod common;
 
 use scratchart_calibration::fit_cmd::fit_mask;
-use scratchart_calibration::simulate::{cut_scene, optics_blur, render_for_optics_with};
+use scratchart_calibration::simulate::{cut_scene, light_at};
 use scratchart_render::Renderer;
 use scratchart_tests::{assert_no_validation, gpu};
 use scratchart_tool::Tool;
@@ -28,24 +28,7 @@ fn moments_make_the_photo_model_depend_less_on_the_render_resolution() {
     let scene = cut_scene(&card, &capture, &tool);
     let blur_px = 0.6;
     // View 0's photo, its render `k` times finer, with or without the moments.
-    let photo = |k: u32, moments: bool| -> Vec<f64> {
-        let v = &scene.views[0];
-        let mut s = scene.clone();
-        s.views = vec![v.clone()];
-        s.views[0].camera.width *= k;
-        s.views[0].camera.height *= k;
-        let mut gs = r.upload(&s).unwrap();
-        let fine = render_for_optics_with(&r, &mut gs, k as f64 * blur_px, moments).unwrap();
-        let n = (v.camera.width * k * v.camera.height * k) as usize;
-        assert_eq!(fine[0].len(), if moments { 3 * n } else { n }, "the moments' planes");
-        let (w, h, k) = (v.camera.width as usize, v.camera.height as usize, k as usize);
-        let b = optics_blur(&fine[0], k * w, k * h, k as f64 * blur_px);
-        let mut small = vec![0f64; w * h];
-        for (i, l) in b.iter().enumerate() {
-            small[((i / (k * w)) / k) * w + (i % (k * w)) / k] += *l as f64 / (k * k) as f64;
-        }
-        small
-    };
+    let photo = |k: u32, moments: bool| light_at(&r, &scene, 0, k, blur_px, moments).unwrap();
     let mask = fit_mask(&card, &scene.views[0], 0.5 * card.plate_mm);
     let rel = |a: &[f64], t: &[f64]| -> f64 {
         let (mut d, mut n) = (0.0, 0.0);
