@@ -14,6 +14,56 @@ use scratchart_model::par::par_map;
 /// The smallest robust scale of the residuals (display units).
 pub(super) const MIN_SCALE: f64 = 0.002;
 
+/// The fit's robust loss, as `SCRATCHART_FIT_LOSS` says (`docs/fit.md`, "The loss and the
+/// noise"; an experiment's switch, as `SCRATCHART_MOMENTS` is):
+/// - `cauchy` (the default): Cauchy at the robust scale (1.4826 MAD of the residuals, about the
+///   photo's noise), where the model's error at a groove's edge, a speck of dust or a stray
+///   reflection pull little. It estimates the mean only of symmetric noise, and the model is
+///   the photo's mean (the lift of noise clipped at black is in it: `noise`).
+/// - `split`: Cauchy, but least squares within [`CORE_K`] robust scales (Cauchy's tail beyond)
+///   where the model is within a few noises of black (`Evaluator::skewed`).
+/// - `huber`: Huber at [`CORE_K`] robust scales everywhere.
+pub(super) fn loss() -> FitLoss {
+    match std::env::var("SCRATCHART_FIT_LOSS").ok().as_deref() {
+        Some("split") => FitLoss::Split,
+        Some("huber") => FitLoss::Huber,
+        _ => FitLoss::Cauchy,
+    }
+}
+
+/// The fit's robust loss (see [`loss`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) enum FitLoss {
+    Cauchy,
+    Split,
+    Huber,
+}
+
+impl FitLoss {
+    /// The loss of the residuals that are not skewed, and of those that are.
+    fn pair(self) -> (least_squares::Loss, least_squares::Loss) {
+        match self {
+            FitLoss::Cauchy => (least_squares::Loss::Cauchy, least_squares::Loss::Cauchy),
+            FitLoss::Split => (least_squares::Loss::Cauchy, least_squares::Loss::CauchyTail(CORE_K)),
+            FitLoss::Huber => (least_squares::Loss::Huber(CORE_K), least_squares::Loss::Huber(CORE_K)),
+        }
+    }
+}
+
+/// The half-width of a quadratic core, in robust scales.
+pub(super) const CORE_K: f64 = 3.0;
+
+/// The losses of residuals `r` of `ev` (see [`loss`]).
+pub(super) fn losses(ev: &Evaluator, r: &[f64]) -> least_squares::Losses {
+    let fl = loss();
+    let (loss, skewed_loss) = fl.pair();
+    least_squares::Losses {
+        loss,
+        skewed_loss,
+        skewed: (fl == FitLoss::Split).then(|| ev.skewed(r)),
+    }
+}
+
 impl From<Interrupted> for FitError {
     fn from(_: Interrupted) -> FitError {
         FitError::Interrupted
@@ -27,6 +77,8 @@ struct Refinement<'x, 'a, 'r> {
     ev: &'x mut Evaluator<'a, 'r>,
     off_range: Option<(f64, f64)>,
     renders: Vec<(Vec<f64>, Vec<Vec<f32>>)>,
+    /// The residuals at the start (which of them are skewed: [`LeastSquares::skewed`]).
+    first: Option<Vec<f64>>,
 }
 
 impl Refinement<'_, '_, '_> {
@@ -74,7 +126,16 @@ impl LeastSquares for Refinement<'_, '_, '_> {
     }
 
     fn residuals(&mut self, x: &[f64]) -> Result<Vec<f64>, FitError> {
-        self.eval(x)
+        let r = self.eval(x)?;
+        if self.first.is_none() {
+            self.first = Some(r.clone());
+        }
+        Ok(r)
+    }
+
+    fn skewed(&mut self) -> Option<Vec<bool>> {
+        let r = self.first.as_ref().filter(|_| loss() == FitLoss::Split)?;
+        Some(self.ev.skewed(r))
     }
 
     fn jacobian(&mut self, x: &[f64], r: &[f64]) -> Result<Vec<Vec<f64>>, FitError> {
@@ -178,10 +239,13 @@ pub(super) fn refine(
         ev,
         off_range,
         renders: Vec::new(),
+        first: None,
     };
     let cfg = least_squares::Config {
         iters,
         min_scale: MIN_SCALE,
+        loss: loss().pair().0,
+        skewed_loss: loss().pair().1,
         task: "fit",
         label: label.to_string(),
     };
@@ -199,6 +263,7 @@ pub(super) fn jacobian_at(
         ev,
         off_range,
         renders: Vec::new(),
+        first: None,
     };
     let r = p.eval(x)?;
     let cols = p.jacobian(x, &r)?;

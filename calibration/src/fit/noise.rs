@@ -301,6 +301,28 @@ impl super::Evaluator<'_, '_> {
         (k > 1 && k <= SIMULATED_SHRINK).then(|| self.light(&self.blurred(lin, v, x), v, x))
     }
 
+    /// Per residual (the order of [`Self::residuals`], `r` its values): whether the model shows
+    /// it within [`SKEWED_NOISE`] of its photo's noise of black, where that noise, clipped, is
+    /// skewed (where `lm::loss` is `split`, the fit takes a quadratic core there). The model's value is the
+    /// residual plus the photo's (less a JPEG's simulated change, over a bootstrap weight).
+    pub(super) fn skewed(&self, r: &[f64]) -> Vec<bool> {
+        let mut out = Vec::with_capacity(r.len());
+        for v in 0..self.data.masks.len() {
+            let sigma = self.data.native_noise.get(v).copied().unwrap_or(0.0);
+            let photo = self.photo(v);
+            let shift = self.jpeg_shift.get(v).and_then(|s| s.as_deref());
+            for (i, _) in self.data.masks[v].iter().enumerate().filter(|(_, m)| **m) {
+                let k = out.len();
+                let Some(&e) = r.get(k) else { break };
+                let w = self.weights.as_ref().map_or(1.0, |w| w[k]);
+                let model = e / w.sqrt() + photo[i] as f64 - shift.map_or(0.0, |s| s[i] as f64);
+                out.push(sigma > 0.0 && model < SKEWED_NOISE * sigma);
+            }
+        }
+        out.resize(r.len(), false);
+        out
+    }
+
     /// View v's sensor noise at `x`: the one measured on its photo, scaled as the fit refined it.
     pub(super) fn sigma(&self, x: &[f64], v: usize) -> f64 {
         self.data.native_noise.get(v).copied().unwrap_or(0.0) * self.lay.ln_noise(x, v).exp()
@@ -413,6 +435,10 @@ pub(super) fn lift_seen(data: &super::Data) -> Vec<bool> {
         })
         .collect()
 }
+
+/// A model's pixel within this many times its photo's sensor noise of black has skewed noise
+/// (clipped at black; beyond three, under one part in a thousand is clipped).
+pub(super) const SKEWED_NOISE: f64 = 3.0;
 
 /// A pixel within this many times its photo's sensor noise of black shows the lift.
 const LIFT_SEEN: f64 = 2.0;

@@ -63,7 +63,7 @@ pub(super) fn at_optimum(
     let n = r.len();
     let np = ev.lay.params.len();
     let s_r = scratchart_optim::least_squares::robust_scale(&r, lm::MIN_SCALE);
-    let wts = scratchart_optim::least_squares::cauchy_weights(&r, s_r);
+    let wts = lm::losses(ev, &r).weights(&r, s_r);
     let jtj = scratchart_optim::least_squares::weighted_gram(&cols, &wts);
     let wsum: f64 = r.iter().zip(&wts).map(|(e, w)| w * e * e).sum();
     let s2 = wsum / (n.saturating_sub(np)).max(1) as f64;
