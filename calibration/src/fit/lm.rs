@@ -77,8 +77,6 @@ struct Refinement<'x, 'a, 'r> {
     ev: &'x mut Evaluator<'a, 'r>,
     off_range: Option<(f64, f64)>,
     renders: Vec<(Vec<f64>, Vec<Vec<f32>>)>,
-    /// The residuals at the start (which of them are skewed: [`LeastSquares::skewed`]).
-    first: Option<Vec<f64>>,
 }
 
 impl Refinement<'_, '_, '_> {
@@ -126,16 +124,11 @@ impl LeastSquares for Refinement<'_, '_, '_> {
     }
 
     fn residuals(&mut self, x: &[f64]) -> Result<Vec<f64>, FitError> {
-        let r = self.eval(x)?;
-        if self.first.is_none() {
-            self.first = Some(r.clone());
-        }
-        Ok(r)
+        self.eval(x)
     }
 
-    fn skewed(&mut self) -> Option<Vec<bool>> {
-        let r = self.first.as_ref().filter(|_| loss() == FitLoss::Split)?;
-        Some(self.ev.skewed(r))
+    fn skewed(&mut self, r: &[f64]) -> Option<Vec<bool>> {
+        (loss() == FitLoss::Split).then(|| self.ev.skewed(r))
     }
 
     fn jacobian(&mut self, x: &[f64], r: &[f64]) -> Result<Vec<Vec<f64>>, FitError> {
@@ -239,7 +232,6 @@ pub(super) fn refine(
         ev,
         off_range,
         renders: Vec::new(),
-        first: None,
     };
     let cfg = least_squares::Config {
         iters,
@@ -263,7 +255,6 @@ pub(super) fn jacobian_at(
         ev,
         off_range,
         renders: Vec::new(),
-        first: None,
     };
     let r = p.eval(x)?;
     let cols = p.jacobian(x, &r)?;

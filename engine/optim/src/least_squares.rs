@@ -34,9 +34,10 @@ pub trait LeastSquares {
     /// The Jacobian at `x` (where the residuals are `r`), column by column: d r / d x_k.
     fn jacobian(&mut self, x: &[f64], r: &[f64]) -> Result<Vec<Vec<f64>>, Self::Error>;
     /// Per residual, whether its noise is skewed (clipped at a bound, as a photo's noise at
-    /// black): those take [`Config::skewed_loss`] for the whole run. Asked once, after the
-    /// residuals at the start. None: every residual takes [`Config::loss`].
-    fn skewed(&mut self) -> Option<Vec<bool>> {
+    /// black), `r` the residuals where an iteration starts: those take [`Config::skewed_loss`]
+    /// for that iteration (asked with the robust scale, at each iteration's start). None: every
+    /// residual takes [`Config::loss`].
+    fn skewed(&mut self, _r: &[f64]) -> Option<Vec<bool>> {
         None
     }
 }
@@ -301,10 +302,10 @@ pub fn solve<P: LeastSquares>(
     clamp(&mut x);
     let mut lambda = 1e-3;
     let mut r = p.residuals(&x)?;
-    let losses = Losses {
+    let mut losses = Losses {
         loss: cfg.loss,
         skewed_loss: cfg.skewed_loss,
-        skewed: p.skewed(),
+        skewed: p.skewed(&r),
     };
     let mut s = robust_scale(&r, cfg.min_scale);
     let mut cost = losses.cost(&r, s);
@@ -322,6 +323,7 @@ pub fn solve<P: LeastSquares>(
         ));
         iterations = it + 1;
         s = robust_scale(&r, cfg.min_scale);
+        losses.skewed = p.skewed(&r);
         cost = losses.cost(&r, s);
         let wts = losses.weights(&r, s);
         let cols = p.jacobian(&x, &r)?;
@@ -505,7 +507,7 @@ mod tests {
             let d = (clipped_mean(x[0] + h, self.sigma) - clipped_mean(x[0] - h, self.sigma)) / (2.0 * h);
             Ok(vec![vec![d; self.y.len()]])
         }
-        fn skewed(&mut self) -> Option<Vec<bool>> {
+        fn skewed(&mut self, _r: &[f64]) -> Option<Vec<bool>> {
             self.flagged.then(|| vec![true; self.y.len()])
         }
     }
