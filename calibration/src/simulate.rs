@@ -330,17 +330,22 @@ pub fn render_fine(renderer: &Renderer, scene: &Scene, blur_px: f64) -> anyhow::
     // device buffer (lavapipe binds 128 MiB).
     let k = RENDER_SCALE;
     let mut out = Vec::with_capacity(scene.views.len());
-    for v in &scene.views {
-        let mut one = Scene {
-            views: vec![v.clone()],
-            ..scene.clone()
-        };
-        one.views[0].camera.width *= k;
-        one.views[0].camera.height *= k;
-        let mut gs = renderer.upload(&one)?;
+    for v in 0..scene.views.len() {
+        let mut gs = renderer.upload(&view_finer(scene, v, k))?;
         out.extend(render_for_optics(renderer, &mut gs, k as f64 * blur_px)?);
     }
     Ok(out)
+}
+
+/// View `v` of `scene` alone, its camera's pixels `k` times finer each way.
+fn view_finer(scene: &Scene, v: usize, k: u32) -> Scene {
+    let mut one = Scene {
+        views: vec![scene.views[v].clone()],
+        ..scene.clone()
+    };
+    one.views[0].camera.width *= k;
+    one.views[0].camera.height *= k;
+    one
 }
 
 /// The light view `v` of `scene` brings to each of its pixels (linear, f64), rendered at `k`
@@ -356,13 +361,7 @@ pub fn light_at(
     moments: bool,
 ) -> anyhow::Result<Vec<f64>> {
     let view = &scene.views[v];
-    let mut one = Scene {
-        views: vec![view.clone()],
-        ..scene.clone()
-    };
-    one.views[0].camera.width *= k;
-    one.views[0].camera.height *= k;
-    let mut gs = renderer.upload(&one)?;
+    let mut gs = renderer.upload(&view_finer(scene, v, k))?;
     let fine = render_for_optics_with(renderer, &mut gs, k as f64 * blur_px, moments)?;
     let (w, h, k) = (view.camera.width as usize, view.camera.height as usize, k as usize);
     let b = optics_blur(&fine[0], k * w, k * h, k as f64 * blur_px);

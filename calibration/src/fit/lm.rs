@@ -233,11 +233,12 @@ pub(super) fn refine(
         off_range,
         renders: Vec::new(),
     };
+    let (loss, skewed_loss) = loss().pair();
     let cfg = least_squares::Config {
         iters,
         min_scale: MIN_SCALE,
-        loss: loss().pair().0,
-        skewed_loss: loss().pair().1,
+        loss,
+        skewed_loss,
         task: "fit",
         label: label.to_string(),
     };

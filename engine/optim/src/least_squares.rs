@@ -85,65 +85,43 @@ pub enum Loss {
 impl Loss {
     /// The loss of residuals `r` at scale `s`.
     pub fn cost(self, r: &[f64], s: f64) -> f64 {
-        match self {
-            Loss::Cauchy => cauchy(r, s),
-            Loss::Huber(k) => {
-                let c = k * s;
-                r.iter()
-                    .map(|x| {
-                        let a = x.abs();
-                        if a <= c {
-                            0.5 * a * a
-                        } else {
-                            c * (a - 0.5 * c)
-                        }
-                    })
-                    .sum()
-            }
-            Loss::CauchyTail(k) => {
-                let c = k * s;
-                r.iter()
-                    .map(|x| {
-                        if x.abs() <= c {
-                            0.5 * x * x
-                        } else {
-                            0.5 * c * c * (1.0 + (x * x / (c * c)).ln())
-                        }
-                    })
-                    .sum()
-            }
-        }
+        r.iter().map(|e| self.rho(*e, s)).sum()
     }
 
     /// Each residual's weight in the normal equations (iteratively reweighted least squares).
     pub fn weights(self, r: &[f64], s: f64) -> Vec<f64> {
-        match self {
-            // (the same bits as `cauchy_weights`)
-            Loss::Cauchy => cauchy_weights(r, s),
-            _ => r.iter().map(|e| self.weight(*e, s)).collect(),
-        }
+        r.iter().map(|e| self.weight(*e, s)).collect()
     }
 
-    /// One residual's weight (see [`Self::weights`]).
-    pub fn weight(self, e: f64, s: f64) -> f64 {
+    /// One residual's loss (see [`Self::cost`]).
+    pub fn rho(self, e: f64, s: f64) -> f64 {
         match self {
-            Loss::Cauchy => 1.0 / (1.0 + e * e / (s * s)),
+            Loss::Cauchy => 0.5 * s * s * (e * e / (s * s)).ln_1p(),
             Loss::Huber(k) => {
-                let c = k * s;
-                if e.abs() <= c {
-                    1.0
+                let (a, c) = (e.abs(), k * s);
+                if a <= c {
+                    0.5 * a * a
                 } else {
-                    c / e.abs()
+                    c * (a - 0.5 * c)
                 }
             }
             Loss::CauchyTail(k) => {
                 let c = k * s;
                 if e.abs() <= c {
-                    1.0
+                    0.5 * e * e
                 } else {
-                    c * c / (e * e)
+                    0.5 * c * c * (1.0 + (e * e / (c * c)).ln())
                 }
             }
+        }
+    }
+
+    /// One residual's weight (see [`Self::weights`]): rho'(e) / e.
+    pub fn weight(self, e: f64, s: f64) -> f64 {
+        match self {
+            Loss::Cauchy => 1.0 / (1.0 + e * e / (s * s)),
+            Loss::Huber(k) => (k * s / e.abs()).min(1.0),
+            Loss::CauchyTail(k) => ((k * s) * (k * s) / (e * e)).min(1.0),
         }
     }
 }
@@ -157,63 +135,39 @@ pub struct Losses {
 }
 
 impl Losses {
-    /// Every residual with `loss`.
-    pub fn one(loss: Loss) -> Losses {
-        Losses {
-            loss,
-            skewed_loss: loss,
-            skewed: None,
-        }
-    }
-
-    /// The residuals `r` split by loss: those of `loss`, those of `skewed_loss`, and where
-    /// each went.
-    fn split(&self, r: &[f64]) -> (Vec<f64>, Vec<f64>) {
+    /// Residual i's loss.
+    fn of(&self, i: usize) -> Loss {
         match &self.skewed {
-            None => (r.to_vec(), Vec::new()),
-            Some(k) => {
-                assert_eq!(k.len(), r.len(), "one flag per residual");
-                let mut a = Vec::with_capacity(r.len());
-                let mut b = Vec::new();
-                for (e, &sk) in r.iter().zip(k) {
-                    if sk {
-                        b.push(*e);
-                    } else {
-                        a.push(*e);
-                    }
-                }
-                (a, b)
-            }
+            Some(k) if k[i] => self.skewed_loss,
+            _ => self.loss,
         }
     }
 
     /// The loss of residuals `r` at scale `s`.
     pub fn cost(&self, r: &[f64], s: f64) -> f64 {
-        let (a, b) = self.split(r);
-        self.loss.cost(&a, s) + self.skewed_loss.cost(&b, s)
+        match &self.skewed {
+            None => self.loss.cost(r, s),
+            Some(_) => r.iter().enumerate().map(|(i, e)| self.of(i).rho(*e, s)).sum(),
+        }
     }
 
     /// Each residual's weight in the normal equations.
     pub fn weights(&self, r: &[f64], s: f64) -> Vec<f64> {
         match &self.skewed {
             None => self.loss.weights(r, s),
-            Some(k) => r
-                .iter()
-                .zip(k)
-                .map(|(e, &sk)| if sk { self.skewed_loss } else { self.loss }.weight(*e, s))
-                .collect(),
+            Some(_) => r.iter().enumerate().map(|(i, e)| self.of(i).weight(*e, s)).collect(),
         }
     }
 }
 
 /// The Cauchy loss of residuals `r` at scale `s`.
 pub fn cauchy(r: &[f64], s: f64) -> f64 {
-    r.iter().map(|x| 0.5 * s * s * (x * x / (s * s)).ln_1p()).sum()
+    Loss::Cauchy.cost(r, s)
 }
 
 /// The Cauchy loss's weight of each residual at scale `s` (the W of the normal equations).
 pub fn cauchy_weights(r: &[f64], s: f64) -> Vec<f64> {
-    r.iter().map(|e| 1.0 / (1.0 + e * e / (s * s))).collect()
+    Loss::Cauchy.weights(r, s)
 }
 
 /// J^T W J for the Jacobian's columns `cols` and the residuals' weights `wts` (W diagonal).
