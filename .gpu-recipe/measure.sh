@@ -19,6 +19,10 @@ if [ "$QUICK" = quick ]; then SIZES=S; DESIGN="--scratches 2000 --res 64 --iters
 #    GPUs' before 2026-11-29), for the comparison with the default's lists by every thread.
 echo "### backward with --links one" >> "$OUT/bench.md"
 "$BIN/scratchart" bench --sizes "$SIZES" --iters 0 --compare-backward --links one >> "$OUT/bench.md" 2>&1
+#    and with --links every (the masks walked by one thread per scratch: the CPU build's sums;
+#    the GPUs' default since 2026-11-30 is --links split, two threads per scratch).
+echo "### backward with --links every" >> "$OUT/bench.md"
+"$BIN/scratchart" bench --sizes "$SIZES" --iters 0 --compare-backward --links every >> "$OUT/bench.md" 2>&1
 #    and four times L's scratches (640,000 on 3 x 1024^2, 290 M pairs), the largest figure kept.
 if [ "$QUICK" != quick ]; then
   "$BIN/scratchart" bench --sizes 640000x3x1024 --iters 3 --repeats 3 --warmup 1 >> "$OUT/bench.md" 2>&1

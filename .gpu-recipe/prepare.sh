@@ -15,14 +15,16 @@ if ! ls .gl/libglvnd0_*.deb > /dev/null 2>&1; then
   (cd .gl && apt-get $o download libvulkan1 libglvnd0 libegl1 libgl1 libglx0 libopengl0 libgles2)
   (cd .gpu/vl && apt-get $o download vulkan-validationlayers)
 fi
-cargo build --release --workspace --examples
+# (--examples alone builds no binary: name both)
+cargo build --release --workspace --bins --examples
+rm -rf .gpu/bin && mkdir -p .gpu/bin
 for b in scratchart scratchart-view scratchart-cal examples/adaptive_gain examples/replay_gain; do
   cp target/release/$b .gpu/bin/
 done
 strip .gpu/bin/*
 # The five binaries pass 60 MB stripped: they travel gzipped (run.sh unpacks them there).
-rm -f .gpu/bin/*.gz; gzip -9 .gpu/bin/*
-cp .gpu-recipe/measure.sh .gpu-recipe/run.sh .gpu/
+gzip -9 .gpu/bin/*
+cp .gpu-recipe/measure.sh .gpu-recipe/run.sh .gpu-recipe/probe.sh .gpu/
 du -sh .gl .gpu
 # A call carries at most 64 MiB: say so here rather than have the device call refuse it.
 total=$(du -sbc .gl .gpu | tail -1 | cut -f1)

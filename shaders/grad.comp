@@ -19,9 +19,10 @@
 // scratch's entries in the same order: rounds may hold the end of one chunk and the start of the
 // next), so the gradients are bit-identical to the search's (tests/replay.rs). For each
 // chunk, thread k < 64 adds scratch k's per-pair contributions in queue order (a per-round list
-// of its entries, see round_accumulate) and writes one
-// partial gradient per tile-list entry; grad_reduce.comp then adds a scratch's partials in
-// enumeration order. No float atomics: gradients are bit-reproducible.
+// of its entries, see round_accumulate; on GPUs masks, and two threads per scratch with
+// SA_WALK_SPLIT: kernels::Walk) and writes one partial gradient per tile-list entry;
+// grad_reduce.comp then adds a scratch's partials in enumeration order. No float atomics:
+// gradients are bit-reproducible on each build.
 #extension GL_GOOGLE_include_directive : require
 #if !defined(SA_DUAL) && !defined(SA_EDGE_ADJOINT)
 #error grad.comp needs SA_EDGE_ADJOINT (reverse mode) or SA_DUAL (dual numbers), see engine/render/src/kernels.rs
@@ -52,10 +53,22 @@ layout(local_size_x = 16, local_size_y = 16) in;
 const uint QCAP = GRAD_QCAP;
 #include "inc/tile_loop.glsl"
 
+#if defined(SA_WALK_SPLIT) && !defined(SA_PARALLEL_LINKS)
+#undef SA_WALK_SPLIT  // a variant of the masks' walk only
+#endif
+#ifdef SA_PARALLEL_LINKS
+// Entry i's contribution: [2i] d/d(x0, y0, x1, y1), [2i + 1] d/d(w, d, alpha, kappa) (kappa: an
+// arc's chord, the dual build with SA_ARCS; else 0).
+shared vec4 sh_c[2u * QCAP];
+#ifdef SA_WALK_SPLIT
+#extension GL_KHR_shader_subgroup_shuffle : require
+#endif
+#else
 shared vec4 sh_c0[QCAP];           // per-pair contribution d/d(x0, y0, x1, y1)
 shared vec4 sh_c1[QCAP];           // d/d(w, d, alpha); w (bits): the chunk scratch, then the list link
 #ifdef SA_ARCS
 shared float sh_ck[QCAP];          // d/d(kappa) of an arc's chord (the dual build with SA_ARCS)
+#endif
 #endif
 // Scratches a round can hold: one chunk's in the search; in the replay the end of one chunk and
 // the start of the next, the second's scratches numbered k + CHUNK (chunk_scratch).
@@ -64,12 +77,17 @@ const uint NK = 2u * CHUNK;
 #else
 const uint NK = CHUNK;
 #endif
-shared uint sh_head[NK];           // per scratch of the round: its first entry in the round
 #ifdef SA_PARALLEL_LINKS
-shared uint sh_tail[NK];           // per scratch of the round: its last entry (where it has one)
+// Per scratch of the round, a bit for each of its entries (MW words of 32 entries): set by the
+// thread that evaluates the entry (pair_eval), read and cleared by the scratch's thread.
+const uint MW = QCAP / 32u;
+shared uint sh_mask[NK * MW];
+#else
+shared uint sh_head[NK];           // per scratch of the round: its first entry in the round
 #endif
 const uint LIST_END = 0xFFFFFFFFu;  // the end of a scratch's list (sh_head, the links)
-// Thread k < NK: scratch k's contributions so far (private: only thread k touches them).
+// Thread k < NK: scratch k's contributions so far (private: only thread k touches them). With
+// SA_WALK_SPLIT threads 2k and 2k + 1 each hold a share of scratch k's (see round_walk).
 vec4 acc0 = vec4(0.0), acc1 = vec4(0.0);
 
 void chunk_begin(uint lid) {
@@ -86,6 +104,7 @@ void pair_eval(uint i, uint px, uint k, bool fast) {
     vec2 g = sh_pv[px];  // gI, gA: coefficients of dI and dA
     vec4 r0;
     vec3 r1;
+    float ck = 0.0;  // d/d(kappa): the dual build with SA_ARCS
 #ifdef SA_REVERSE
     pair_adjoint(E, S, fp, h, g.x, g.y, fast, r0, r1);
 #else
@@ -100,7 +119,7 @@ void pair_eval(uint i, uint px, uint k, bool fast) {
 #ifdef SA_ARCS
     vec4 r1k = g.x * I.g1 + g.y * A.g1;
     r1 = r1k.xyz;
-    sh_ck[i] = g.x == 0.0 ? 0.0 : r1k.w;
+    ck = g.x == 0.0 ? 0.0 : r1k.w;
 #else
     r1 = g.x * I.g1 + g.y * A.g1;
 #endif
@@ -111,46 +130,69 @@ void pair_eval(uint i, uint px, uint k, bool fast) {
     // adds +0 stays +0).
     if (g.x == 0.0) { r0 = vec4(0.0); r1 = vec3(0.0); }
 #endif
+#ifdef SA_PARALLEL_LINKS
+    sh_c[2u * i] = r0;
+    sh_c[2u * i + 1u] = vec4(r1, ck);
+    atomicOr(sh_mask[k * MW + (i >> 5)], 1u << (i & 31u));
+#else
     sh_c0[i] = r0;
     sh_c1[i] = vec4(r1, uintBitsToFloat(k));  // w: the chunk scratch, replaced by the list link
+#ifdef SA_ARCS
+    sh_ck[i] = ck;
+#endif
+#endif
 }
 
 #ifdef SA_PARALLEL_LINKS
-// The chunk scratch of the round's entry i (pair_eval left it in the 4th float of sh_c1).
-uint entry_scratch(uint i) { return floatBitsToUint(sh_c1[i].w); }
-
-// link_lists's successor of entry i: the next entry of its scratch, or LIST_END after its last.
-uint successor(uint i) {
-    uint kk = entry_scratch(i);
-    if (i == sh_tail[kk]) return LIST_END;
-    uint j = i + 1u;
-    while (entry_scratch(j) != kk) ++j;  // ends: a later entry of kk exists
-    return j;
+// GPUs: no lists. Each entry's bit in its scratch's mask (set by pair_eval, seen after the
+// round's barrier) orders a scratch's entries as the queue does, so scratch k's thread walks
+// them in the order thread 0's lists give (the same sums, so the same bits: tests/replay.rs),
+// and clears its words for the next round. Until 2026-11-30 every thread linked the lists, by
+// atomicMin/atomicMax of each scratch's ends and a scan to each entry's successor: 40% of the
+// backward on an H200 (engine/BENCHMARKS.md).
+void mask_clear(uint lid) {
+    for (uint w = lid; w < NK * MW; w += 256u) sh_mask[w] = 0u;
 }
 
-// The lists of link_lists below built by every thread at once (GPUs, where thread 0 alone walking
-// the round left the others waiting): each scratch's first and last entries by atomicMin and
-// atomicMax (whose results do not depend on the order they run in), each entry's successor by a
-// scan forward to the next entry of its scratch. The same lists, so the same sums and bits
-// (tests/replay.rs).
-void link_lists(uint lid, uint n) {
-    if (lid < NK) { sh_head[lid] = LIST_END; sh_tail[lid] = 0u; }
-    barrier();
-    uint i = lid;
-    if (i < n) do {
-        atomicMin(sh_head[entry_scratch(i)], i);
-        atomicMax(sh_tail[entry_scratch(i)], i);
-        i += 256u;
-    } while (i < n);
-    barrier();
-    // Every successor is found before any link replaces a scratch that a scan reads.
-    uint nx[QCAP / 256u];
-    for (uint r = 0u; r < QCAP / 256u; ++r) nx[r] = lid + 256u * r < n ? successor(lid + 256u * r) : LIST_END;
-    barrier();
-    for (uint r = 0u; r < QCAP / 256u; ++r) {
-        if (lid + 256u * r < n) sh_c1[lid + 256u * r].w = uintBitsToFloat(nx[r]);
+// Thread t adds entry i (word w of its scratch's mask) to acc0/acc1.
+void walk_word(uint kk, uint w) {
+    uint m = sh_mask[kk * MW + w];
+    if (m != 0u) {
+        sh_mask[kk * MW + w] = 0u;
+        do {
+            uint i = 32u * w + uint(findLSB(m));
+            m &= m - 1u;
+            acc0 += sh_c[2u * i];
+            acc1 += sh_c[2u * i + 1u];
+        } while (m != 0u);
     }
 }
+
+// Scratch k's entries of the round, in queue order, by thread k. With SA_WALK_SPLIT (a timing
+// build, kernels::grad_diagnostics "split": other sums, so other bits than the CPU build's)
+// threads 2k and 2k + 1 take the even and the odd words, so the longest scratch's walk is
+// halved; their sums are added when the chunk closes (split_total).
+void round_walk(uint lid, uint n) {
+    uint nw = (n + 31u) / 32u;
+#ifdef SA_WALK_SPLIT
+    if (lid < 2u * NK) {  // whole subgroups: NK is 64 or 128
+        for (uint w = lid & 1u; w < nw; w += 2u) walk_word(lid >> 1, w);
+    }
+#else
+    if (lid < NK) {
+        for (uint w = 0u; w < nw; ++w) walk_word(lid, w);
+    }
+#endif
+}
+
+#ifdef SA_WALK_SPLIT
+// The two shares of scratch lid / 2 added (the same sum in both threads: a + b = b + a).
+void split_total() {
+    vec4 o0 = subgroupShuffleXor(acc0, 1u), o1 = subgroupShuffleXor(acc1, 1u);
+    acc0 += o0;
+    acc1 += o1;
+}
+#endif
 #else
 // Thread 0 links each scratch's entries into a list in queue order (one pass over the round,
 // backwards; the link replaces the chunk scratch pair_eval left in the 4th float of sh_c1).
@@ -170,11 +212,27 @@ void link_lists(uint lid, uint n) {
 #endif
 
 // Scratch k's contributions of this round, in queue order, into thread k's private acc0/acc1:
-// the round's entries linked into a list per scratch in queue order (link_lists), thread k then
-// walks only its own entries, instead of every thread testing every entry. The loops test at
+// the round's entries linked into a list per scratch in queue order (link_lists; on GPUs the
+// masks of round_walk instead), thread k then walks only its own entries, instead of every
+// thread testing every entry. The loops test at
 // the bottom: on CPU drivers one that tests at the top runs its body once more with every lane
 // off.
 void round_accumulate(uint lid, uint r0, uint n, uint cnt, uvec2 fmask, uint fbase, uvec2 gmask, uint gbase) {
+#if defined(SA_DIAG_NO_ACCUM) || defined(SA_DIAG_NO_WALK)
+    // Timing builds (kernels::grad_diagnostics, wrong gradients): one entry read per thread
+    // keeps the stores of pair_eval alive.
+#if !defined(SA_DIAG_NO_ACCUM) && !defined(SA_PARALLEL_LINKS)
+    link_lists(lid, n);
+    barrier();
+#endif
+#ifdef SA_PARALLEL_LINKS
+    if (lid < NK && lid < n) { acc0 += sh_c[2u * lid]; acc1 += sh_c[2u * lid + 1u]; }
+#else
+    if (lid < NK && lid < n) { acc0 += sh_c0[lid]; acc1 += vec4(sh_c1[lid].xyz, 0.0); }
+#endif
+#elif defined(SA_PARALLEL_LINKS)
+    round_walk(lid, n);
+#else
     link_lists(lid, n);
     barrier();
     if (lid < NK) {  // a scratch with no entries has an empty list
@@ -190,13 +248,19 @@ void round_accumulate(uint lid, uint r0, uint n, uint cnt, uvec2 fmask, uint fba
             i = floatBitsToUint(c1.w);
         } while (i != LIST_END);
     }
+#endif
 }
 
 void chunk_end(uint lid, uint c0, uint cnt) {
+#ifdef SA_WALK_SPLIT
+    if (lid < 2u * NK) split_total();
+    if (lid < 2u * cnt) partial[2u * c0 + lid] = (lid & 1u) == 0u ? acc0 : acc1;  // scratch lid / 2
+#else
     if (lid < cnt) {
         partial[2u * (c0 + lid)] = acc0;
         partial[2u * (c0 + lid) + 1u] = acc1;
     }
+#endif
 }
 
 #ifdef SA_REPLAY
@@ -218,7 +282,17 @@ uint chunk_record(uint c0, out uint base, out uint nfast) {
 // Chunk c0 of the pass [begin, end) is done: its scratches' threads (CHUNK of them, the even or
 // the odd chunks' half of threads 0..NK) write its partial gradients and start afresh.
 void close_chunk(uint lid, uint begin, uint end, uint c0) {
-    uint par = ((c0 - begin) / CHUNK) & 1u, k = lid & (CHUNK - 1u);
+    uint par = ((c0 - begin) / CHUNK) & 1u;
+#ifdef SA_WALK_SPLIT
+    uint kk = lid >> 1, k = kk & (CHUNK - 1u);  // thread lid: a share of scratch kk
+    if ((kk / CHUNK) == par) {
+        split_total();
+        if (k < min(CHUNK, end - c0)) partial[2u * (c0 + k) + (lid & 1u)] = (lid & 1u) == 0u ? acc0 : acc1;
+        acc0 = vec4(0.0);
+        acc1 = vec4(0.0);
+    }
+#else
+    uint k = lid & (CHUNK - 1u);
     if (lid < NK && (lid / CHUNK) == par) {
         if (k < min(CHUNK, end - c0)) {
             partial[2u * (c0 + k)] = acc0;
@@ -227,6 +301,7 @@ void close_chunk(uint lid, uint begin, uint end, uint c0) {
         acc0 = vec4(0.0);
         acc1 = vec4(0.0);
     }
+#endif
 }
 
 // Closes chunk ca of [begin, end) if its `total` entries are all done (pa of them) and every empty
@@ -315,6 +390,9 @@ void main() {
         live = g != 0.0;
     }
     store_pixel(lid, V, t0, vec2(gI, gA));
+#ifdef SA_PARALLEL_LINKS
+    mask_clear(lid);  // seen after the first round's barrier
+#endif
 #ifdef SA_REPLAY
     replay_stream(begin, stop, lid);
 #else

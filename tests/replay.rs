@@ -3,7 +3,7 @@
 //! searching the pairs again (`replay_stream` in `shaders/grad.comp`). It must change no
 //! bit of the gradients against the backward that searches, whatever the store holds: sized by
 //! the host, too small for the scene, left over from other scratches, or split into passes.
-use scratchart_render::kernels::KernelSet;
+use scratchart_render::kernels::{KernelSet, Walk};
 use scratchart_render::{GpuScene, Renderer};
 use scratchart_tests::*;
 
@@ -143,32 +143,94 @@ fn a_store_that_lacks_chunks_is_grown_not_trusted() {
     assert_no_validation(&ctx);
 }
 
-/// The backward's round lists built by every thread (`SA_PARALLEL_LINKS`, GPUs) or by thread 0
-/// (CPU drivers) are the same lists: gradients equal bit for bit, searching and replaying, on
-/// a scene whose tiles hold many scratches (full rounds, scratches far apart in a round) and in
-/// passes of one chunk.
+/// The backward of `walk` on `scene` (searching, or replaying the forward's queues).
+fn run_walk(
+    ctx: &std::sync::Arc<scratchart_vulkan::Context>,
+    scene: &scratchart_model::scene::Scene,
+    walk: Walk,
+    replay: bool,
+) -> Run {
+    let mut k = KernelSet::default().with_walk(walk);
+    if !replay {
+        k = k.without_replay();
+    }
+    let r = Renderer::with_kernels(ctx, k).unwrap();
+    let mut gs = r.upload(scene).unwrap();
+    let dl = seeds(gs.n_pixels() as usize);
+    if replay {
+        replayed(&r, &mut gs, &dl)
+    } else {
+        r.gradients(&mut gs, &dl).unwrap()
+    }
+}
+
+/// The backward's rounds walked by masks that every thread sets (`Walk::Every`) or by lists of
+/// thread 0 (`Walk::One`, CPU drivers) add each scratch's entries in the same order: gradients
+/// equal bit for bit, searching and replaying, on a scene whose tiles hold many scratches (full
+/// rounds, scratches far apart in a round) and in passes of one chunk.
 #[test]
 fn lists_built_by_every_thread_change_no_bit() {
     let ctx = gpu();
     for (seed, n) in [(3, 1500), (8, 6000)] {
         let scene = two_view_scene(seed, n, 40, 33);
         for replay in [false, true] {
-            let run = |parallel: bool| -> Run {
-                let mut k = KernelSet::default().with_links(parallel);
-                if !replay {
-                    k = k.without_replay();
-                }
-                let r = Renderer::with_kernels(&ctx, k).unwrap();
-                let mut gs = r.upload(&scene).unwrap();
-                let dl = seeds(gs.n_pixels() as usize);
-                if replay {
-                    replayed(&r, &mut gs, &dl)
-                } else {
-                    r.gradients(&mut gs, &dl).unwrap()
-                }
-            };
             let label = format!("{n} scratches, replay {replay}");
-            assert_same_bits(&label, &run(false), &run(true));
+            assert_same_bits(
+                &label,
+                &run_walk(&ctx, &scene, Walk::One, replay),
+                &run_walk(&ctx, &scene, Walk::Every, replay),
+            );
+        }
+    }
+    assert_no_validation(&ctx);
+}
+
+/// GPUs' walk (`Walk::Split`: two threads per scratch, whose shares are added when a chunk
+/// closes) sums in another order than the CPU's: every gradient within SPLIT_TOL of its
+/// parameter's largest gradient over the scene, the images the same bits.
+#[test]
+fn the_split_walk_differs_only_by_rounding() {
+    const SPLIT_TOL: f64 = 1e-6;
+    let ctx = gpu();
+    for (seed, n) in [(3, 1500), (8, 6000)] {
+        let scene = two_view_scene(seed, n, 40, 33);
+        for replay in [false, true] {
+            let label = format!("{n} scratches, replay {replay}");
+            let (a, b) = (
+                run_walk(&ctx, &scene, Walk::One, replay),
+                run_walk(&ctx, &scene, Walk::Split, replay),
+            );
+            for (v, (x, y)) in a.0.iter().zip(&b.0).enumerate() {
+                assert!(
+                    x.iter().zip(y).all(|(p, q)| p.to_bits() == q.to_bits()),
+                    "{label}: view {v}'s images differ"
+                );
+            }
+            let (ga, gb) = (&a.1.scratches, &b.1.scratches);
+            let (mut worst, mut differ) = (0.0f64, 0usize);
+            for p in 0..7 {
+                let scale = ga.iter().map(|g| g[p].abs() as f64).fold(0.0, f64::max);
+                assert!(scale > 0.0, "{label}: parameter {p} has no gradient");
+                for (k, (x, y)) in ga.iter().zip(gb).enumerate() {
+                    let d = (x[p] as f64 - y[p] as f64).abs() / scale;
+                    assert!(
+                        d <= SPLIT_TOL,
+                        "{label}: scratch {k} parameter {p}: {} vs {} ({d:.2e} of the largest)",
+                        x[p],
+                        y[p]
+                    );
+                    worst = worst.max(d);
+                    differ += (x[p] != y[p]) as usize;
+                }
+            }
+            eprintln!("{label}: {differ} gradients differ, the largest by {worst:.2e} of its parameter's largest");
+            for (x, y) in a.1.lights.iter().zip(&b.1.lights) {
+                let s = x.abs().max(1e-30);
+                assert!(
+                    ((x - y) / s).abs() <= SPLIT_TOL as f32 * 10.0,
+                    "{label}: light gradients {x} vs {y}"
+                );
+            }
         }
     }
     assert_no_validation(&ctx);

@@ -162,6 +162,10 @@ pub struct FitResult {
     pub renders: u32,
     #[serde(default)]
     pub tangent_passes: u32,
+    /// Wall seconds spent in the engine's calls (uploads, renders, tangent passes and their
+    /// read-backs): the rest of the fit's time is the host's.
+    #[serde(default)]
+    pub engine_seconds: f64,
     pub iterations: u32,
     /// Bootstrap standard deviations of every parameter (`--bootstrap N`), in `params`' order.
     #[serde(default)]
@@ -250,6 +254,8 @@ struct Evaluator<'a, 'r> {
     renders: u32,
     /// Tangent passes (`Renderer::tangents`) run for Jacobians.
     tangent_passes: u32,
+    /// Wall seconds in the engine's calls ([`FitResult::engine_seconds`]).
+    engine_s: f64,
     /// Bootstrap weights of the residuals (None: all 1), applied as sqrt(w) r.
     weights: Option<Vec<f64>>,
     /// The card on the device, re-used with new scratch parameters for every render: the tiles
@@ -283,6 +289,7 @@ impl<'a, 'r> Evaluator<'a, 'r> {
             lay,
             renders: 0,
             tangent_passes: 0,
+            engine_s: 0.0,
             weights: None,
             gs: None,
             whole: false,
@@ -467,6 +474,7 @@ pub fn fit_kind(
         bic,
         renders: ev.renders,
         tangent_passes: ev.tangent_passes,
+        engine_seconds: ev.engine_s,
         iterations,
         bootstrap,
         curvature,

@@ -69,8 +69,8 @@ pub fn median(mut v: Vec<f64>) -> f64 {
 /// Times binning and shading of each scene: `warmup` untimed runs, then the median of `repeats`.
 /// With `compare_backward`, every submission also runs the all-dual-number backward kernel
 /// (the oracle of the default one) after the default backward, so the two are timed side by side.
-/// `links`: the default backward's round lists built by every thread or by one (None: the
-/// device's choice).
+/// `links`: how the default backward's rounds add each scratch's entries (None: the device's
+/// choice).
 /// `binning_mode` and `binning_bands` override the device's choice of binning mode and of bands
 /// of tile rows in the pair search.
 pub fn run_forward(
@@ -78,13 +78,13 @@ pub fn run_forward(
     scenes: &[(String, Scene)],
     warmup: usize,
     repeats: usize,
-    (compare_backward, links): (bool, Option<bool>),
+    (compare_backward, links): (bool, Option<scratchart_render::kernels::Walk>),
     binning_mode: Option<scratchart_render::BinMode>,
     binning_bands: Option<u32>,
 ) -> Result<Vec<ForwardRow>, GpuError> {
     use scratchart_render::kernels::{Integrator, KernelSet, Mode};
     let renderer = match links {
-        Some(parallel) => Renderer::with_kernels(ctx, KernelSet::default().with_links(parallel))?,
+        Some(walk) => Renderer::with_kernels(ctx, KernelSet::default().with_walk(walk))?,
         None => Renderer::new(ctx)?,
     };
     renderer.prepare_backward()?;

@@ -113,10 +113,11 @@ enum Cmd {
         /// in the same submissions, and print the ratios
         #[arg(long)]
         compare_backward: bool,
-        /// How the backward of the forward table builds each round's per-scratch lists: `every`
-        /// thread at once (GPUs' default) or thread `one` (CPU drivers' default); the same
-        /// gradients either way. Default: the device's choice
-        #[arg(long, value_parser = ["every", "one"])]
+        /// How the backward of the forward table adds each scratch's pair contributions: lists
+        /// built by thread `one` (CPU drivers' default), masks set by `every` thread (the same
+        /// gradients, bit for bit), or the masks walked by two threads per scratch (`split`, GPUs'
+        /// default: other sums, within float rounding). Default: the device's choice
+        #[arg(long, value_parser = ["one", "every", "split"])]
         links: Option<String>,
         /// Bands of tile rows per view for the pair search of the forward table (0: none, one
         /// thread per scratch group does every view). Default: the device's choice (none on a CPU
@@ -264,7 +265,10 @@ fn run(cli: Cli) -> Result<()> {
             *warmup,
             *iters,
             targets.as_deref(),
-            (*compare_backward, links.as_deref().map(|l| l == "every")),
+            (
+                *compare_backward,
+                links.as_deref().and_then(scratchart_render::kernels::Walk::parse),
+            ),
             (binning, *binning_bands),
         ),
     }
@@ -370,7 +374,7 @@ fn bench_cmd(
     warmup: usize,
     iters: u32,
     targets: Option<&Path>,
-    (compare_backward, links): (bool, Option<bool>),
+    (compare_backward, links): (bool, Option<scratchart_render::kernels::Walk>),
     (binning, binning_bands): (&[scratchart_render::BinMode], Option<u32>),
 ) -> Result<()> {
     let scenes: Vec<(String, Scene)> = match scene {
@@ -564,7 +568,7 @@ fn setup_command(
             SheetInputs::approximate(&renderer, scene, dir, &term::Terminal::new(true))?
         }
     };
-    let (setup, _, advice) = scratchart_design::setup::write_setup(out, &renderer, scene, &inputs)?;
+    let (setup, _, advice, _) = scratchart_design::setup::write_setup(out, &renderer, scene, &inputs)?;
     for a in advice {
         println!("{a}");
     }

@@ -139,11 +139,13 @@ impl Evaluator<'_, '_> {
     /// (0 outside them), each followed by its pixels' moments of light where they are on
     /// (`simulate::render_for_optics`: the blur places the light within each subpixel).
     pub(super) fn render(&mut self, x: &[f64]) -> Result<Vec<Vec<f32>>, FitError> {
+        let t = std::time::Instant::now();
         self.sync(x)?;
         let sigma = self.optics_sigma(x);
         let gs = self.gs.as_mut().expect("uploaded");
         let images = crate::simulate::render_for_optics(self.renderer, gs, sigma)?;
         self.renders += 1;
+        self.engine_s += t.elapsed().as_secs_f64();
         Ok(images)
     }
 
@@ -151,10 +153,12 @@ impl Evaluator<'_, '_> {
     /// renders, which it smooths by [`starts::SEARCH_BLUR_PX`] on top (a coarse look at many
     /// start points: the same renders as before the moments).
     pub(super) fn render_plain(&mut self, x: &[f64]) -> Result<Vec<Vec<f32>>, FitError> {
+        let t = std::time::Instant::now();
         self.sync(x)?;
         let gs = self.gs.as_mut().expect("uploaded");
         let frame = self.renderer.render(gs).map_err(anyhow::Error::from)?;
         self.renders += 1;
+        self.engine_s += t.elapsed().as_secs_f64();
         Ok(frame.images)
     }
 
@@ -173,9 +177,11 @@ impl Evaluator<'_, '_> {
         if self.whole {
             return self.render(x);
         }
+        let t = std::time::Instant::now();
         let mut gs = self.renderer.upload(&self.scene_at(x)).map_err(anyhow::Error::from)?;
         let images = crate::simulate::render_for_optics(self.renderer, &mut gs, self.optics_sigma(x))?;
         self.renders += 1;
+        self.engine_s += t.elapsed().as_secs_f64();
         Ok(images)
     }
 
@@ -237,11 +243,13 @@ impl Evaluator<'_, '_> {
             groups.push(seeds);
         }
         // Every group's tangent pass after one render, in one submission.
+        let t = std::time::Instant::now();
         self.sync(x)?;
         let gs = self.gs.as_mut().expect("uploaded");
         let seeds: Vec<&[ScratchTangent]> = groups.iter().map(Vec::as_slice).collect();
         let (lin, tangs) = self.renderer.tangent_groups(gs, &seeds).map_err(anyhow::Error::from)?;
         self.tangent_passes += groups.len() as u32;
+        self.engine_s += t.elapsed().as_secs_f64();
         let this = &*self;
         let cols = scratchart_model::par::par_map(ks.len(), |i| {
             let (tang, j) = (&tangs[i / TANGENT_DIRECTIONS], i % TANGENT_DIRECTIONS);

@@ -210,6 +210,7 @@ pub(super) fn fit_record(
         })),
         "renders": results.iter().map(|r| r.renders).sum::<u32>(),
         "tangent_passes": results.iter().map(|r| r.tangent_passes).sum::<u32>(),
+        "engine_seconds": results.iter().map(|r| r.engine_seconds).sum::<f64>(),
         "jacobian": "engine derivatives (tangent passes) for the tool, z offset and alpha; differences for eyes and camera terms",
     })
 }

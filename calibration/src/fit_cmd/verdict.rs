@@ -312,6 +312,7 @@ mod verdict_tests {
             bic: 0.0,
             renders: 0,
             tangent_passes: 0,
+            engine_seconds: 0.0,
             iterations: 0,
             bootstrap: None,
             curvature: vec![None; 5],

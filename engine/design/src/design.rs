@@ -438,6 +438,7 @@ pub fn run_design_live(
             reports: 0.0,
             final_render,
             set_up_sheet: 0.0,
+            sheet: Default::default(),
         },
         device_bytes,
     };
@@ -581,8 +582,9 @@ fn write_design_outputs(
     };
     inputs.save(&cfg.out, &wr.scene)?;
     let t_sheet = std::time::Instant::now();
-    let (setup, sensitivity, advice) = crate::setup::write_setup(&cfg.out, renderer, &wr.scene, &inputs)?;
+    let (setup, sensitivity, advice, sheet) = crate::setup::write_setup(&cfg.out, renderer, &wr.scene, &inputs)?;
     report.wall.set_up_sheet = t_sheet.elapsed().as_secs_f64();
+    report.wall.sheet = sheet;
     if !problem.steering.is_empty() {
         summary["steering"] = json!(problem.steering);
         summary["steering_is"] =

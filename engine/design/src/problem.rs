@@ -173,6 +173,8 @@ pub struct WallTimes {
     /// (its searches' renders and measures, its text and picture).
     pub final_render: f64,
     pub set_up_sheet: f64,
+    /// Of `set_up_sheet`: its searches, their engine calls, and its picture.
+    pub sheet: crate::setup::SheetWall,
 }
 
 impl WallTimes {
@@ -184,6 +186,10 @@ impl WallTimes {
             "final_render_and_reports": self.reports,
             "final_render": self.final_render,
             "set_up_sheet": self.set_up_sheet,
+            "set_up_sheet_searches": self.sheet.searches,
+            "set_up_sheet_searches_engine": self.sheet.searches_engine,
+            "set_up_sheet_search_steps": self.sheet.search_steps,
+            "set_up_sheet_png": self.sheet.png,
             "total": self.start_up + self.iterations + self.pruning + self.reports,
         })
     }

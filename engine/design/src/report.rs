@@ -391,7 +391,13 @@ fn wall_line(w: &serde_json::Value) -> String {
         f(&w["pruning"]),
         f(&w["final_render_and_reports"]),
         match (w["final_render"].as_f64(), w["set_up_sheet"].as_f64()) {
-            (Some(r), Some(s)) => format!(" (the final render {r:.2} s, the set-up sheet {s:.2} s)"),
+            (Some(r), Some(s)) => match (w["set_up_sheet_searches_engine"].as_f64(), w["set_up_sheet_search_steps"].as_u64()) {
+                (Some(e), Some(n)) => format!(
+                    " (the final render {r:.2} s, the set-up sheet {s:.2} s: {n} search steps, {e:.2} s of their renders, the picture {:.2} s)",
+                    f(&w["set_up_sheet_png"])
+                ),
+                _ => format!(" (the final render {r:.2} s, the set-up sheet {s:.2} s)"),
+            },
             _ => String::new(),
         }
     )

@@ -312,8 +312,10 @@ pub fn write_setup(
     renderer: &Renderer,
     scene: &Scene,
     inputs: &SheetInputs,
-) -> Result<(Value, Value, Vec<String>), OptimError> {
+) -> Result<(Value, Value, Vec<String>, SheetWall), OptimError> {
+    let t0 = std::time::Instant::now();
     let sens = sensitivity(renderer, scene, inputs)?;
+    let searches = t0.elapsed().as_secs_f64();
     let blank: Vec<bool> = scene
         .views
         .iter()
@@ -329,13 +331,37 @@ pub fn write_setup(
     text.insert_str(at, &crate::bend::bend_text(scene, &sens.base, &bend));
     scratchart_render::io::write_atomic(&out.join("setup.txt"), text.as_bytes())?;
     crate::bend::write_template(&out.join("bend_template.svg"), scene)?;
+    let t_png = std::time::Instant::now();
     crate::setup_sheet::setup_png(&out.join("setup.png"), scene, &sens)?;
+    let png = t_png.elapsed().as_secs_f64();
     let mut setup = setup_json(scene);
     // (Only for a bent plate: a flat plate's set-up is what the viewer prints, unchanged.)
     if !scene.plate.shape.is_flat() {
         setup["bend"] = crate::bend::bend_json(scene, &sens.base, &bend);
     }
-    Ok((setup, sensitivity_json(scene, &sens), advice(scene, &sens, &blank)))
+    let wall = SheetWall {
+        searches,
+        searches_engine: sens.engine_s,
+        search_steps: sens.steps,
+        png,
+    };
+    Ok((
+        setup,
+        sensitivity_json(scene, &sens),
+        advice(scene, &sens, &blank),
+        wall,
+    ))
+}
+
+/// Where the set-up sheet's wall time went: its tolerance searches (of them, the engine's
+/// uploads, renders and read-backs; the steps, each its moves' renders in batches) and its
+/// picture.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct SheetWall {
+    pub searches: f64,
+    pub searches_engine: f64,
+    pub search_steps: usize,
+    pub png: f64,
 }
 
 #[cfg(test)]

@@ -209,6 +209,10 @@ pub struct Sensitivity {
     pub base: Vec<f64>,
     pub tolerances: Vec<Tolerance>,
     pub samples: Vec<Moved>,
+    /// Wall seconds of the searches in the engine's calls (uploads, renders, read-backs and
+    /// the display conversion), and the search steps (each renders its moves in batches).
+    pub engine_s: f64,
+    pub steps: usize,
 }
 
 impl Sensitivity {
@@ -317,7 +321,9 @@ pub fn sensitivity(renderer: &Renderer, scene: &Scene, inputs: &SheetInputs) -> 
         .map(|j| picture_of(scene, inputs, j, None))
         .collect();
     let masks: Vec<&[bool]> = designed.iter().map(|(_, m)| m.as_slice()).collect();
+    let t_base = std::time::Instant::now();
     let images = render_views(renderer, scene, scene.views.clone(), &masks)?;
+    let mut engine_s = t_base.elapsed().as_secs_f64();
     let base: Vec<f64> = images
         .iter()
         .enumerate()
@@ -349,6 +355,7 @@ pub fn sensitivity(renderer: &Renderer, scene: &Scene, inputs: &SheetInputs) -> 
         }
     }
     let mut samples = Vec::new();
+    let mut steps = 0;
     let mut lamps = lamp::LampRenders::default();
     let mut memo: std::collections::HashMap<MoveKey, f64> = (0..scene.views.len())
         .map(|j| (move_key(j, &scene.views[j]), base[j]))
@@ -389,7 +396,8 @@ pub fn sensitivity(renderer: &Renderer, scene: &Scene, inputs: &SheetInputs) -> 
                 moved: views[k].clone(),
             })
             .collect();
-        let corrs = render_moves(renderer, scene, inputs, &designed, &mut lamps, &moves)?;
+        let corrs = render_moves(renderer, scene, inputs, &designed, &mut lamps, &moves, &mut engine_s)?;
+        steps += 1;
         for (&k, corr) in fresh.iter().zip(corrs) {
             memo.insert(keys[k], corr);
         }
@@ -426,6 +434,8 @@ pub fn sensitivity(renderer: &Renderer, scene: &Scene, inputs: &SheetInputs) -> 
         base,
         tolerances,
         samples,
+        engine_s,
+        steps,
     })
 }
 
@@ -440,7 +450,7 @@ struct Move {
 
 /// Each move's correlation with its picture: the lamp moves rendered on their kept tile lists
 /// ([`lamp`]), the eye moves binned afresh (their cameras move); the moved eyes' pictures and
-/// every correlation computed on all cores.
+/// every correlation computed on all cores. `engine_s` gains the wall seconds of the renders.
 fn render_moves(
     renderer: &Renderer,
     scene: &Scene,
@@ -448,6 +458,7 @@ fn render_moves(
     designed: &[Picture],
     lamps: &mut lamp::LampRenders,
     moves: &[Move],
+    engine_s: &mut f64,
 ) -> Result<Vec<f64>, OptimError> {
     // (A moved lamp leaves the picture where it was: the designed view's, not copied.)
     let own = scratchart_model::par::par_map(moves.len(), |k| {
@@ -464,8 +475,10 @@ fn render_moves(
     let views_of = |ks: &[usize]| ks.iter().map(|&k| moves[k].moved.clone()).collect::<Vec<_>>();
     let masks_of = |ks: &[usize]| ks.iter().map(|&k| pictures[k].1.as_slice()).collect::<Vec<_>>();
     let searches: Vec<usize> = lamp_k.iter().map(|&k| moves[k].search).collect();
+    let t = std::time::Instant::now();
     let lamp_imgs = lamps.render(renderer, scene, &searches, views_of(&lamp_k), &masks_of(&lamp_k))?;
     let eye_imgs = render_views(renderer, scene, views_of(&eye_k), &masks_of(&eye_k))?;
+    *engine_s += t.elapsed().as_secs_f64();
     let mut images: Vec<Vec<f32>> = vec![Vec::new(); moves.len()];
     for (k, img) in lamp_k.into_iter().zip(lamp_imgs).chain(eye_k.into_iter().zip(eye_imgs)) {
         images[k] = img;

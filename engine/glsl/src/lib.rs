@@ -102,7 +102,8 @@ pub const PRECOMPILED: &[(&str, &[(&str, &str)])] = &[
             ("SA_REPLAY", "1"),
         ],
     ),
-    // A GPU's backward: each round's lists built by every thread (SA_PARALLEL_LINKS).
+    // A GPU's backward: each round's entries in masks set by every thread, walked by two threads
+    // per scratch (kernels::Walk::Split).
     (
         "grad.comp",
         &[
@@ -110,6 +111,7 @@ pub const PRECOMPILED: &[(&str, &[(&str, &str)])] = &[
             ("SA_EDGE_ADJOINT", "1"),
             ("GRAD_QCAP", "512"),
             ("SA_PARALLEL_LINKS", "1"),
+            ("SA_WALK_SPLIT", "1"),
         ],
     ),
     (
@@ -119,6 +121,7 @@ pub const PRECOMPILED: &[(&str, &[(&str, &str)])] = &[
             ("SA_EDGE_ADJOINT", "1"),
             ("GRAD_QCAP", "512"),
             ("SA_PARALLEL_LINKS", "1"),
+            ("SA_WALK_SPLIT", "1"),
             ("SA_REPLAY", "1"),
         ],
     ),
@@ -129,6 +132,7 @@ pub const PRECOMPILED: &[(&str, &[(&str, &str)])] = &[
             ("SA_EDGE_ADJOINT", "1"),
             ("GRAD_QCAP", "512"),
             ("SA_PARALLEL_LINKS", "1"),
+            ("SA_WALK_SPLIT", "1"),
             ("SA_NO_F64", "1"),
         ],
     ),
@@ -139,6 +143,7 @@ pub const PRECOMPILED: &[(&str, &[(&str, &str)])] = &[
             ("SA_EDGE_ADJOINT", "1"),
             ("GRAD_QCAP", "512"),
             ("SA_PARALLEL_LINKS", "1"),
+            ("SA_WALK_SPLIT", "1"),
             ("SA_NO_F64", "1"),
             ("SA_REPLAY", "1"),
         ],

@@ -215,11 +215,10 @@ impl ShadeKernel {
                 "256"
             };
             defs.push(("GRAD_QCAP", qcap));
-            // A round's lists by every thread on a GPU; by thread 0 on a CPU driver, where a
-            // thread is a SIMD lane and the scans of every lane cost more than one walk.
-            if info.kind != "cpu" {
-                defs.push((PARALLEL_LINKS, "1"));
-            }
+            // How a round adds each scratch's entries ([`Walk`]): on a GPU split between two
+            // threads per scratch; by lists of thread 0 on a CPU driver, where a thread is a SIMD
+            // lane.
+            defs.extend(Walk::device_default(info).defines());
         }
         if self.mode == Mode::Tangent {
             // The per-pair reverse sweep of the backward, contracted with the directions.
@@ -233,9 +232,90 @@ impl ShadeKernel {
     }
 }
 
-/// The define of `shaders/grad.comp` that builds each round's per-scratch lists on every thread
-/// (`link_lists`) rather than on thread 0: the same lists, so the same gradients.
+/// Builds of the backward that measure where its time goes, from `SCRATCHART_GRAD_DIAG` (a
+/// comma-separated list; `scratchart bench --compare-backward` times them, engine/BENCHMARKS.md):
+/// `no-walk` (each round's lists or masks built, not walked), `no-accum` (neither: the pairs
+/// evaluated and stored only), `qcap=N` (N queue entries per round, N = 256 or 512).
+/// The first two give wrong gradients: timing only, never a design. Unknown entries are ignored
+/// with a warning. (`scratchart bench --links one|every|split` picks the walk.)
+pub fn grad_diagnostics() -> Vec<(&'static str, &'static str)> {
+    let Ok(spec) = std::env::var("SCRATCHART_GRAD_DIAG") else {
+        return Vec::new();
+    };
+    let mut out = Vec::new();
+    for item in spec.split(',').map(str::trim).filter(|s| !s.is_empty()) {
+        match item {
+            "no-walk" => out.push(("SA_DIAG_NO_WALK", "1")),
+            "no-accum" => out.push(("SA_DIAG_NO_ACCUM", "1")),
+            "qcap=256" => out.push(("GRAD_QCAP", "256")),
+            "qcap=512" => out.push(("GRAD_QCAP", "512")),
+            other => eprintln!("warning: SCRATCHART_GRAD_DIAG: unknown entry {other:?} ignored (no-walk, no-accum, qcap=256, qcap=512)"),
+        }
+    }
+    out
+}
+
+/// The define of `shaders/grad.comp` that marks each round's entries in per-scratch masks on
+/// every thread (`round_walk`) rather than linking lists on thread 0 ([`Walk::Every`]).
 pub const PARALLEL_LINKS: &str = "SA_PARALLEL_LINKS";
+/// The define of `shaders/grad.comp` that walks the masks with two threads per scratch
+/// ([`Walk::Split`]; with [`PARALLEL_LINKS`]).
+pub const WALK_SPLIT: &str = "SA_WALK_SPLIT";
+
+/// How the backward's rounds add each scratch's pair contributions (`shaders/grad.comp`). A
+/// round evaluates up to QCAP queue entries on all 256 threads; each scratch's contributions are
+/// then added by one thread (two with `Split`), and a chunk's sum per scratch is one partial
+/// gradient.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Walk {
+    /// Thread 0 links each scratch's entries into a list in queue order, thread k walks scratch
+    /// k's: CPU drivers' default (a thread there is a SIMD lane).
+    One,
+    /// Every thread marks its entries in per-scratch masks, thread k walks scratch k's in queue
+    /// order: the same sums as `One`, bit for bit (`tests/replay.rs`).
+    Every,
+    /// The masks walked by two threads per scratch (the even and the odd words of the round),
+    /// whose shares are added when the chunk closes: GPUs' default, which halves the longest
+    /// scratch's walk (engine/BENCHMARKS.md). Other sums than `One`'s: `tests/replay.rs`
+    /// bounds the difference.
+    Split,
+}
+
+impl Walk {
+    /// The device's choice: `Split` on a GPU, `One` on a CPU driver.
+    pub fn device_default(info: &DeviceInfo) -> Walk {
+        if info.kind == "cpu" {
+            Walk::One
+        } else {
+            Walk::Split
+        }
+    }
+
+    /// Its defines of `shaders/grad.comp`.
+    pub fn defines(self) -> Vec<(&'static str, &'static str)> {
+        match self {
+            Walk::One => vec![],
+            Walk::Every => vec![(PARALLEL_LINKS, "1")],
+            Walk::Split => vec![(PARALLEL_LINKS, "1"), (WALK_SPLIT, "1")],
+        }
+    }
+
+    /// Its name on the command line (`scratchart bench --links`) and in pipeline names.
+    pub fn name(self) -> &'static str {
+        match self {
+            Walk::One => "one",
+            Walk::Every => "every",
+            Walk::Split => "split",
+        }
+    }
+
+    /// The walk named `s` (`one`, `every`, `split`).
+    pub fn parse(s: &str) -> Option<Walk> {
+        [Walk::One, Walk::Every, Walk::Split]
+            .into_iter()
+            .find(|w| w.name() == s)
+    }
+}
 
 /// The shading kernels a [`super::Renderer`] builds: one forward and one backward kernel.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -249,10 +329,9 @@ pub struct KernelSet {
     /// a scene searches (the store is sized after it); so does any backward whose scene's store
     /// does not fit the device. The dual-number oracle ([`Mode::BackwardDual`]) always searches.
     pub replay: bool,
-    /// The backward's round lists built by every thread (true) or by thread 0 (false); None:
-    /// the device's choice (every thread on a GPU). The gradients are the same bits either way
-    /// (`tests/replay.rs`); a test compares the two on a CPU driver.
-    pub links: Option<bool>,
+    /// How the backward's rounds add each scratch's entries ([`Walk`]); None: the device's
+    /// choice ([`Walk::device_default`]).
+    pub walk: Option<Walk>,
 }
 
 impl KernelSet {
@@ -273,15 +352,15 @@ impl KernelSet {
                 mode: backward,
             },
             replay: backward == Mode::Backward,
-            links: None,
+            walk: None,
         }
     }
 
-    /// The same kernels with the backward's round lists built by every thread (`true`) or by
-    /// thread 0 (`false`), whatever the device.
-    pub fn with_links(self, parallel: bool) -> KernelSet {
+    /// The same kernels with the backward's rounds adding each scratch's entries by `walk`,
+    /// whatever the device.
+    pub fn with_walk(self, walk: Walk) -> KernelSet {
         KernelSet {
-            links: Some(parallel),
+            walk: Some(walk),
             ..self
         }
     }

@@ -108,16 +108,16 @@ fn shade_pipeline(
 }
 
 /// [`shade_pipeline`], with `arcs`: the build that weighs arc chords (`SA_ARCS`,
-/// `shaders/inc/patch_ndf.glsl`); without it the kernel has no trace of them. `links`: a
-/// backward's round lists built by every thread or by one ([`KernelSet::links`]; None: the
-/// device's choice). `extra`: more defines (a build of another role: `SA_MOMENTS`).
+/// `shaders/inc/patch_ndf.glsl`); without it the kernel has no trace of them. `walk`: how a
+/// backward's rounds add each scratch's entries ([`KernelSet::walk`]; None: the device's
+/// choice). `extra`: more defines (a build of another role: `SA_MOMENTS`).
 fn shade_pipeline_with(
     ctx: &Arc<Context>,
     sc: &ShaderCompiler,
     k: &ShadeKernel,
     replay: bool,
     arcs: bool,
-    links: Option<bool>,
+    walk: Option<kernels::Walk>,
     extra: &[(&'static str, &'static str)],
 ) -> Result<ComputePipeline, GpuError> {
     let (mut name, mut defines) = if replay {
@@ -125,20 +125,21 @@ fn shade_pipeline_with(
     } else {
         (k.name(), k.defines(ctx.info()))
     };
-    if let Some(parallel) = links.filter(|_| k.is_backward()) {
-        defines.retain(|d| d.0 != kernels::PARALLEL_LINKS);
-        if parallel {
-            defines.push((kernels::PARALLEL_LINKS, "1"));
-        }
-        name.push_str(if parallel {
-            " (lists by every thread)"
-        } else {
-            " (lists by one thread)"
-        });
+    if let Some(w) = walk.filter(|_| k.is_backward()) {
+        defines.retain(|d| d.0 != kernels::PARALLEL_LINKS && d.0 != kernels::WALK_SPLIT);
+        defines.extend(w.defines());
+        name.push_str(&format!(" (walk {})", w.name()));
     }
     if arcs {
         name.push_str(" (arcs)");
         defines.push(("SA_ARCS", "1"));
+    }
+    if k.is_backward() {
+        for (d, v) in kernels::grad_diagnostics() {
+            name.push_str(&format!(" ({d}={v})"));
+            defines.retain(|x| x.0 != d);
+            defines.push((d, v));
+        }
     }
     for &(d, v) in extra {
         name.push_str(&format!(" ({d})"));
@@ -253,12 +254,12 @@ impl Renderer {
                 &self.kernels.backward,
                 true,
                 false,
-                self.kernels.links,
+                self.kernels.walk,
                 &[],
             )?);
         }
-        let links = self.kernels.links;
-        let p = shade_pipeline_with(&self.ctx, &sc, &self.kernels.backward, false, false, links, &[])?;
+        let walk = self.kernels.walk;
+        let p = shade_pipeline_with(&self.ctx, &sc, &self.kernels.backward, false, false, walk, &[])?;
         let _ = self.grad.set(p);
         Ok(())
     }
