@@ -124,11 +124,13 @@ void pair_eval(uint i, uint px, uint k, bool fast) {
     r1 = g.x * I.g1 + g.y * A.g1;
 #endif
 #endif
-#ifdef SA_REPLAY
+#if defined(SA_REPLAY) || defined(SA_WALK_SPLIT)
     // A pixel with a zero seed (gI = 0, so gA = 0) has no pairs in tile_loop's queue; here it
     // adds exact zeros, so sums (and bits) are the same (never -0: a sum that starts at +0 and
-    // adds +0 stays +0).
-    if (g.x == 0.0) { r0 = vec4(0.0); r1 = vec3(0.0); }
+    // adds +0 stays +0). The split walk's search queues them too, as the forward did: its shares
+    // follow the entries' places in the chunk's queue, so they must be the forward's (the
+    // replay's) places.
+    if (g.x == 0.0) { r0 = vec4(0.0); r1 = vec3(0.0); ck = 0.0; }
 #endif
 #ifdef SA_PARALLEL_LINKS
     sh_c[2u * i] = r0;
@@ -154,33 +156,48 @@ void mask_clear(uint lid) {
     for (uint w = lid; w < NK * MW; w += 256u) sh_mask[w] = 0u;
 }
 
-// Thread t adds entry i (word w of its scratch's mask) to acc0/acc1.
-void walk_word(uint kk, uint w) {
-    uint m = sh_mask[kk * MW + w];
-    if (m != 0u) {
-        sh_mask[kk * MW + w] = 0u;
-        do {
-            uint i = 32u * w + uint(findLSB(m));
-            m &= m - 1u;
-            acc0 += sh_c[2u * i];
-            acc1 += sh_c[2u * i + 1u];
-        } while (m != 0u);
-    }
+// Adds the entries of mask m (word w of the round) to acc0/acc1, in queue order.
+void walk_bits(uint w, uint m) {
+    if (m != 0u) do {
+        uint i = 32u * w + uint(findLSB(m));
+        m &= m - 1u;
+        acc0 += sh_c[2u * i];
+        acc1 += sh_c[2u * i + 1u];
+    } while (m != 0u);
 }
 
-// Scratch k's entries of the round, in queue order, by thread k. With SA_WALK_SPLIT (a timing
-// build, kernels::grad_diagnostics "split": other sums, so other bits than the CPU build's)
-// threads 2k and 2k + 1 take the even and the odd words, so the longest scratch's walk is
-// halved; their sums are added when the chunk closes (split_total).
+#ifdef SA_WALK_SPLIT
+// Word w of the round holds run w + off of its chunk's queue (32 entries each), off for the
+// scratches k < CHUNK and for k >= CHUNK (the replay's second chunk).
+int g_off_lo = 0, g_off_hi = 0;
+#endif
+
+// Scratch k's entries of the round (its n places), in queue order, by thread k, which clears its
+// mask words for the next round. With SA_WALK_SPLIT (kernels::Walk::Split, GPUs' default)
+// threads 2k and 2k + 1 share scratch k's: each takes the words of the even or of the odd runs
+// of 32 of the chunk's queue (counted from the chunk's start, not the round's, so the search and
+// the replay give the same shares and the same bits), so the longest scratch's walk is about
+// halved; the shares are added when the chunk closes (split_total), in another order than the
+// CPU build's sums.
 void round_walk(uint lid, uint n) {
     uint nw = (n + 31u) / 32u;
 #ifdef SA_WALK_SPLIT
     if (lid < 2u * NK) {  // whole subgroups: NK is 64 or 128
-        for (uint w = lid & 1u; w < nw; w += 2u) walk_word(lid >> 1, w);
+        uint kk = lid >> 1;
+        int off = kk < CHUNK ? g_off_lo : g_off_hi;
+        for (uint w = uint((int(lid & 1u) - off) & 1); w < nw; w += 2u) {
+            uint m = sh_mask[kk * MW + w];
+            if (m != 0u) sh_mask[kk * MW + w] = 0u;
+            walk_bits(w, m);
+        }
     }
 #else
     if (lid < NK) {
-        for (uint w = 0u; w < nw; ++w) walk_word(lid, w);
+        for (uint w = 0u; w < nw; ++w) {
+            uint m = sh_mask[lid * MW + w];
+            if (m != 0u) sh_mask[lid * MW + w] = 0u;
+            walk_bits(w, m);
+        }
     }
 #endif
 }
@@ -231,6 +248,9 @@ void round_accumulate(uint lid, uint r0, uint n, uint cnt, uvec2 fmask, uint fba
     if (lid < NK && lid < n) { acc0 += sh_c0[lid]; acc1 += vec4(sh_c1[lid].xyz, 0.0); }
 #endif
 #elif defined(SA_PARALLEL_LINKS)
+#if defined(SA_WALK_SPLIT) && !defined(SA_REPLAY)
+    g_off_lo = int(r0 >> 5);  // the search's rounds hold one chunk, from its entry r0
+#endif
     round_walk(lid, n);
 #else
     link_lists(lid, n);
@@ -330,9 +350,22 @@ void replay_stream(uint begin, uint end, uint lid) {
     uint base_a, fast_a, total_a = chunk_record(ca, base_a, fast_a);
     close_done(lid, begin, end, ca, pa, total_a, base_a, fast_a);  // empty chunks at the start
     if (ca < end) do {  // tested at the bottom (see tile_loop)
-        uint na = min(QCAP, total_a - pa);
+#ifdef SA_WALK_SPLIT
+        // The split walk shares a scratch's entries by runs of 32 of its chunk's queue: each
+        // chunk's entries go where the round's words are those runs (chunk ca's entry pa at
+        // place pa % 32, chunk cb's first at a word's start; the places between hold nothing).
+        uint sa = pa & 31u;
+#else
+        uint sa = 0u;
+#endif
+        uint na = min(QCAP - sa, total_a - pa);
+#ifdef SA_WALK_SPLIT
+        uint pb = (sa + na + 31u) & ~31u;
+#else
+        uint pb = na;
+#endif
         uint cb = ca + CHUNK, base_b = 0u, fast_b = 0u, nb = 0u;
-        if (na < QCAP && cb < end) nb = min(QCAP - na, chunk_record(cb, base_b, fast_b));
+        if (pa + na == total_a && pb < QCAP && cb < end) nb = min(QCAP - pb, chunk_record(cb, base_b, fast_b));
         bool odd = (((ca - begin) / CHUNK) & 1u) != 0u;
         g_chunk = odd ? cb : ca;
         g_chunk_hi = odd ? ca : cb;
@@ -344,11 +377,16 @@ void replay_stream(uint begin, uint end, uint lid) {
             uint idx = in_a ? pa + i : i - na;
             uint e = texelFetch(store_tex, int(2u * pc.capacity + (in_a ? base_a : base_b) + idx)).x;
             uint k = (e & 255u) + ((in_a != odd) ? 0u : CHUNK);  // the odd chunk's scratches: k + CHUNK
-            pair_eval(i, e >> 8, k, idx < (in_a ? fast_a : fast_b));
+            pair_eval(in_a ? sa + i : pb + (i - na), e >> 8, k, idx < (in_a ? fast_a : fast_b));
             i += 256u;
         } while (i < n);
         barrier();
-        round_accumulate(lid, 0u, n, NK, uvec2(0u), 0u, uvec2(0u), 0u);
+#ifdef SA_WALK_SPLIT
+        // Word w of the round is run w + off of its chunk: chunk ca's off is pa / 32, cb's -pb / 32.
+        g_off_lo = odd ? -int(pb >> 5) : int(pa >> 5);
+        g_off_hi = odd ? int(pa >> 5) : -int(pb >> 5);
+#endif
+        round_accumulate(lid, 0u, nb > 0u ? pb + nb : sa + na, NK, uvec2(0u), 0u, uvec2(0u), 0u);
         pa += na;
         if (nb > 0u) {  // chunk ca ended within the round: go on with cb
             close_chunk(lid, begin, end, ca);
@@ -387,7 +425,9 @@ void main() {
         float g = dl[pix] * P.scale * P.inv_sp;
         gI = g;
         gA = cov_raw[pix] < 1.0 ? -g * P.d_flat : 0.0;
-        live = g != 0.0;
+#ifndef SA_WALK_SPLIT
+        live = g != 0.0;  // (the split walk queues what the forward queued: see pair_eval)
+#endif
     }
     store_pixel(lid, V, t0, vec2(gI, gA));
 #ifdef SA_PARALLEL_LINKS

@@ -187,7 +187,8 @@ fn lists_built_by_every_thread_change_no_bit() {
 
 /// GPUs' walk (`Walk::Split`: two threads per scratch, whose shares are added when a chunk
 /// closes) sums in another order than the CPU's: every gradient within SPLIT_TOL of its
-/// parameter's largest gradient over the scene, the images the same bits.
+/// parameter's largest gradient over the scene, the images the same bits; its search and its
+/// replay give the same bits.
 #[test]
 fn the_split_walk_differs_only_by_rounding() {
     const SPLIT_TOL: f64 = 1e-6;
@@ -200,6 +201,12 @@ fn the_split_walk_differs_only_by_rounding() {
                 run_walk(&ctx, &scene, Walk::One, replay),
                 run_walk(&ctx, &scene, Walk::Split, replay),
             );
+            if replay {
+                // Its shares follow the entries' places in their chunk's queue: the search's
+                // are the replay's.
+                let searched = run_walk(&ctx, &scene, Walk::Split, false);
+                assert_same_bits(&format!("{label}, split: search against replay"), &searched, &b);
+            }
             for (v, (x, y)) in a.0.iter().zip(&b.0).enumerate() {
                 assert!(
                     x.iter().zip(y).all(|(p, q)| p.to_bits() == q.to_bits()),
