@@ -12,10 +12,15 @@ use scratchart_tool::Tool;
 
 use common::{as_phone_jpegs, card, shoot, tmp};
 
-/// tool.json without the fit's wall time (the one thing allowed to differ).
+/// tool.json without the fit's wall times (its seconds, and those in the engine's calls: the
+/// things allowed to differ).
 fn fitted(path: &std::path::Path) -> serde_json::Value {
     let mut v: serde_json::Value = serde_json::from_slice(&std::fs::read(path).unwrap()).unwrap();
-    v["fit"].as_object_mut().unwrap().remove("seconds");
+    let fit = v["fit"].as_object_mut().unwrap();
+    fit.remove("seconds");
+    assert!(fit
+        .remove("engine_seconds")
+        .is_some_and(|s| s.as_f64().is_some_and(|s| s > 0.0)));
     v
 }
 

@@ -377,6 +377,7 @@ pub fn run_design_live(
     let evals = st.evals.max(1) as f64;
     let mean_pairs = st.pairs_sum / evals;
     let gpu_ms: Vec<(String, f64)> = st.gpu_ms.iter().map(|(l, ms)| (l.clone(), ms / evals)).collect();
+    let loop_parts = (st.submit_s, st.checkpoint_s, st.hooks_s);
     let history = opt.history();
     let rollbacks = opt.rollbacks().to_vec();
     drop(opt);
@@ -439,6 +440,9 @@ pub fn run_design_live(
             final_render,
             set_up_sheet: 0.0,
             sheet: Default::default(),
+            iterations_submissions: loop_parts.0,
+            iterations_checkpoints: loop_parts.1,
+            iterations_hooks: loop_parts.2,
         },
         device_bytes,
     };

@@ -175,6 +175,11 @@ pub struct WallTimes {
     pub set_up_sheet: f64,
     /// Of `set_up_sheet`: its searches, their engine calls, and its picture.
     pub sheet: crate::setup::SheetWall,
+    /// Of `iterations`: the evaluations' submissions (recording, the device's work, the wait),
+    /// the checkpoints and the hooks after each iteration (`scratchart_optim::driver::RunStats`).
+    pub iterations_submissions: f64,
+    pub iterations_checkpoints: f64,
+    pub iterations_hooks: f64,
 }
 
 impl WallTimes {
@@ -190,6 +195,9 @@ impl WallTimes {
             "set_up_sheet_searches_engine": self.sheet.searches_engine,
             "set_up_sheet_search_steps": self.sheet.search_steps,
             "set_up_sheet_png": self.sheet.png,
+            "iterations_submissions": self.iterations_submissions,
+            "iterations_checkpoints": self.iterations_checkpoints,
+            "iterations_hooks": self.iterations_hooks,
             "total": self.start_up + self.iterations + self.pruning + self.reports,
         })
     }

@@ -384,10 +384,18 @@ pub fn verdict(summary: &serde_json::Value) -> Option<String> {
 fn wall_line(w: &serde_json::Value) -> String {
     let f = |v: &serde_json::Value| v.as_f64().unwrap_or(f64::NAN);
     format!(
-        "  wall time {:.1} s: start-up {:.1} s (device, kernels, uploads, first render), iterations {:.1} s, pruning {:.1} s, final render and reports {:.1} s{}",
+        "  wall time {:.1} s: start-up {:.1} s (device, kernels, uploads, first render), iterations {:.1} s{}, pruning {:.1} s, final render and reports {:.1} s{}",
         f(&w["total"]),
         f(&w["start_up"]),
         f(&w["iterations"]),
+        match w["iterations_submissions"].as_f64() {
+            Some(sub) => format!(
+                " (submissions {sub:.2} s, checkpoints {:.2} s, hooks {:.2} s)",
+                f(&w["iterations_checkpoints"]),
+                f(&w["iterations_hooks"])
+            ),
+            None => String::new(),
+        },
         f(&w["pruning"]),
         f(&w["final_render_and_reports"]),
         match (w["final_render"].as_f64(), w["set_up_sheet"].as_f64()) {

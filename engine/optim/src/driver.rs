@@ -226,6 +226,13 @@ pub struct RunStats {
     pub gpu_ms: Vec<(String, f64)>,
     /// GPU milliseconds per stage of every accepted evaluation, in order (for benchmarks).
     pub timing_log: Vec<Vec<(String, f64)>>,
+    /// Wall seconds of the evaluations' submissions (recording, the device's work, the wait and
+    /// the counters' read; retries and rollbacks included), of the checkpoints, and of the
+    /// hooks after each iteration (a design's balance, steering and live view): where a run's
+    /// wall time per iteration goes beyond its GPU time.
+    pub submit_s: f64,
+    pub checkpoint_s: f64,
+    pub hooks_s: f64,
 }
 
 /// A running optimization: the device scene, the objective, the parameter set, Adam's state.
@@ -342,7 +349,9 @@ impl<'r> Driver<'r> {
             if let Some(dir) = &cfg.checkpoint_dir {
                 if k > 0 && (k == cfg.iters || (cfg.checkpoint_every > 0 && k % cfg.checkpoint_every == 0)) {
                     let dir = dir.clone();
+                    let t = Instant::now();
                     self.save_checkpoint(&dir)?;
+                    self.stats.checkpoint_s += t.elapsed().as_secs_f64();
                 }
             }
             if self.inner.cfg.hooks.stop_at == Some(k) {
@@ -369,7 +378,10 @@ impl<'r> Driver<'r> {
                 total,
                 format!("loss {:.5}", ev.total),
             ));
-            if !after(self, &ev)? {
+            let t = Instant::now();
+            let go_on = after(self, &ev)?;
+            self.stats.hooks_s += t.elapsed().as_secs_f64();
+            if !go_on {
                 break;
             }
         }
@@ -389,11 +401,13 @@ impl<'r> Driver<'r> {
             let mut failed = None;
             inner.params.begin_iteration(k, step);
             let inner_ref = &*inner;
+            let t = Instant::now();
             let (stats, timings) = inner.renderer.submit(rec, &mut self.gs, |rec, gs| {
                 if let Err(e) = inner_ref.record_eval(rec, gs, step, nan_image, nan_grad) {
                     failed = Some(e);
                 }
             })?;
+            self.stats.submit_s += t.elapsed().as_secs_f64();
             if let Some(e) = failed {
                 return Err(e.into());
             }
