@@ -166,6 +166,10 @@ pub struct FitResult {
     /// read-backs): the rest of the fit's time is the host's.
     #[serde(default)]
     pub engine_seconds: f64,
+    /// Of `engine_seconds`: the grooves of each evaluated tool (the tool model on the host) and
+    /// the card's uploads (`Evaluator::sync`).
+    #[serde(default)]
+    pub engine_sync_seconds: f64,
     pub iterations: u32,
     /// Bootstrap standard deviations of every parameter (`--bootstrap N`), in `params`' order.
     #[serde(default)]
@@ -254,8 +258,10 @@ struct Evaluator<'a, 'r> {
     renders: u32,
     /// Tangent passes (`Renderer::tangents`) run for Jacobians.
     tangent_passes: u32,
-    /// Wall seconds in the engine's calls ([`FitResult::engine_seconds`]).
+    /// Wall seconds in the engine's calls ([`FitResult::engine_seconds`]), and of them in
+    /// [`Evaluator::sync`].
     engine_s: f64,
+    sync_s: f64,
     /// Bootstrap weights of the residuals (None: all 1), applied as sqrt(w) r.
     weights: Option<Vec<f64>>,
     /// The card on the device, re-used with new scratch parameters for every render: the tiles
@@ -290,6 +296,7 @@ impl<'a, 'r> Evaluator<'a, 'r> {
             renders: 0,
             tangent_passes: 0,
             engine_s: 0.0,
+            sync_s: 0.0,
             weights: None,
             gs: None,
             whole: false,
@@ -475,6 +482,7 @@ pub fn fit_kind(
         renders: ev.renders,
         tangent_passes: ev.tangent_passes,
         engine_seconds: ev.engine_s,
+        engine_sync_seconds: ev.sync_s,
         iterations,
         bootstrap,
         curvature,

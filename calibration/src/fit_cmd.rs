@@ -141,12 +141,13 @@ pub fn run(renderer: &Renderer, args: &FitArgs, obs: &dyn Observer) -> Result<()
     let (pred, registered) = predict(renderer, &data, &best)?;
     // Report.
     obs.result(&format!(
-        "fitted {} to {} photo(s) in {secs:.1} s ({} renders, {} tangent passes; {:.1} s in the engine's calls): rms residual {:.4} (display units)",
+        "fitted {} to {} photo(s) in {secs:.1} s ({} renders, {} tangent passes; {:.1} s in the engine's calls, {:.1} s of them setting the grooves and uploading): rms residual {:.4} (display units)",
         best.kind.name(),
         files.len(),
         results.iter().map(|r| r.renders).sum::<u32>(),
         results.iter().map(|r| r.tangent_passes).sum::<u32>(),
         results.iter().map(|r| r.engine_seconds).sum::<f64>(),
+        results.iter().map(|r| r.engine_sync_seconds).sum::<f64>(),
         best.rms
     ));
     print_fit(&best, &results, obs);

@@ -104,6 +104,14 @@ impl Evaluator<'_, '_> {
     /// Puts the card for `x` on the device ([`Self::scene_at`]), uploading it the first time,
     /// each view windowed ([`Self::window`]) unless every render is whole.
     pub(super) fn sync(&mut self, x: &[f64]) -> Result<(), FitError> {
+        let t = std::time::Instant::now();
+        let r = self.sync_now(x);
+        self.sync_s += t.elapsed().as_secs_f64();
+        r
+    }
+
+    /// [`Self::sync`]'s work.
+    fn sync_now(&mut self, x: &[f64]) -> Result<(), FitError> {
         let scene = self.scene_at(x);
         let ctx = self.renderer.ctx.clone();
         let reuse = match &mut self.gs {

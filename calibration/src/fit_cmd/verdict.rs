@@ -313,6 +313,7 @@ mod verdict_tests {
             renders: 0,
             tangent_passes: 0,
             engine_seconds: 0.0,
+            engine_sync_seconds: 0.0,
             iterations: 0,
             bootstrap: None,
             curvature: vec![None; 5],

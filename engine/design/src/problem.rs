@@ -157,6 +157,17 @@ impl From<&Evaluation> for IterRecord {
     }
 }
 
+/// Where the set-up sheet's wall time went: its tolerance searches (of them, the engine's
+/// uploads, renders and read-backs; the steps, each its moves' renders in batches) and its
+/// picture.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct SheetWall {
+    pub searches: f64,
+    pub searches_engine: f64,
+    pub search_steps: usize,
+    pub png: f64,
+}
+
 /// Wall-clock seconds of a design run's phases.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct WallTimes {
@@ -174,7 +185,7 @@ pub struct WallTimes {
     pub final_render: f64,
     pub set_up_sheet: f64,
     /// Of `set_up_sheet`: its searches, their engine calls, and its picture.
-    pub sheet: crate::setup::SheetWall,
+    pub sheet: SheetWall,
     /// Of `iterations`: the evaluations' submissions (recording, the device's work, the wait),
     /// the checkpoints and the hooks after each iteration (`scratchart_optim::driver::RunStats`).
     pub iterations_submissions: f64,

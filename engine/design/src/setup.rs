@@ -312,7 +312,7 @@ pub fn write_setup(
     renderer: &Renderer,
     scene: &Scene,
     inputs: &SheetInputs,
-) -> Result<(Value, Value, Vec<String>, SheetWall), OptimError> {
+) -> Result<(Value, Value, Vec<String>, crate::problem::SheetWall), OptimError> {
     let t0 = std::time::Instant::now();
     let sens = sensitivity(renderer, scene, inputs)?;
     let searches = t0.elapsed().as_secs_f64();
@@ -339,7 +339,7 @@ pub fn write_setup(
     if !scene.plate.shape.is_flat() {
         setup["bend"] = crate::bend::bend_json(scene, &sens.base, &bend);
     }
-    let wall = SheetWall {
+    let wall = crate::problem::SheetWall {
         searches,
         searches_engine: sens.engine_s,
         search_steps: sens.steps,
@@ -351,17 +351,6 @@ pub fn write_setup(
         advice(scene, &sens, &blank),
         wall,
     ))
-}
-
-/// Where the set-up sheet's wall time went: its tolerance searches (of them, the engine's
-/// uploads, renders and read-backs; the steps, each its moves' renders in batches) and its
-/// picture.
-#[derive(Clone, Copy, Debug, Default)]
-pub struct SheetWall {
-    pub searches: f64,
-    pub searches_engine: f64,
-    pub search_steps: usize,
-    pub png: f64,
 }
 
 #[cfg(test)]
