@@ -84,8 +84,8 @@ const uint MW = QCAP / 32u;
 shared uint sh_mask[NK * MW];
 #else
 shared uint sh_head[NK];           // per scratch of the round: its first entry in the round
-#endif
 const uint LIST_END = 0xFFFFFFFFu;  // the end of a scratch's list (sh_head, the links)
+#endif
 // Thread k < NK: scratch k's contributions so far (private: only thread k touches them). With
 // SA_WALK_SPLIT threads 2k and 2k + 1 each hold a share of scratch k's (see round_walk).
 vec4 acc0 = vec4(0.0), acc1 = vec4(0.0);

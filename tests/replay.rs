@@ -169,7 +169,7 @@ fn run_walk(
 /// equal bit for bit, searching and replaying, on a scene whose tiles hold many scratches (full
 /// rounds, scratches far apart in a round) and in passes of one chunk.
 #[test]
-fn lists_built_by_every_thread_change_no_bit() {
+fn masks_walked_by_one_thread_change_no_bit() {
     let ctx = gpu();
     for (seed, n) in [(3, 1500), (8, 6000)] {
         let scene = two_view_scene(seed, n, 40, 33);
@@ -231,13 +231,10 @@ fn the_split_walk_differs_only_by_rounding() {
                 }
             }
             eprintln!("{label}: {differ} gradients differ, the largest by {worst:.2e} of its parameter's largest");
-            for (x, y) in a.1.lights.iter().zip(&b.1.lights) {
-                let s = x.abs().max(1e-30);
-                assert!(
-                    ((x - y) / s).abs() <= SPLIT_TOL as f32 * 10.0,
-                    "{label}: light gradients {x} vs {y}"
-                );
-            }
+            // Another order of sums shows in some bits: none would mean the split was not built.
+            assert!(differ > 0, "{label}: the split walk summed as thread 0's lists do");
+            // The lamps' gradients do not go through the walk.
+            assert_eq!(a.1.lights, b.1.lights, "{label}: light gradients differ");
         }
     }
     assert_no_validation(&ctx);

@@ -236,12 +236,19 @@ impl ShadeKernel {
 /// comma-separated list; `scratchart bench --compare-backward` times them, engine/BENCHMARKS.md):
 /// `no-walk` (each round's lists or masks built, not walked), `no-accum` (neither: the pairs
 /// evaluated and stored only), `qcap=N` (N queue entries per round, N = 256 or 512).
-/// The first two give wrong gradients: timing only, never a design. Unknown entries are ignored
-/// with a warning. (`scratchart bench --links one|every|split` picks the walk.)
+/// The first two give wrong gradients: timing only, never a design; a process that builds one
+/// says so once on stderr. Unknown entries are ignored with a warning. (`scratchart bench
+/// --links one|every|split` picks the walk.)
 pub fn grad_diagnostics() -> Vec<(&'static str, &'static str)> {
     let Ok(spec) = std::env::var("SCRATCHART_GRAD_DIAG") else {
         return Vec::new();
     };
+    static SAID: std::sync::Once = std::sync::Once::new();
+    if spec.contains("no-") {
+        SAID.call_once(|| {
+            eprintln!("warning: SCRATCHART_GRAD_DIAG={spec}: the backward is a timing build, its gradients are wrong")
+        });
+    }
     let mut out = Vec::new();
     for item in spec.split(',').map(str::trim).filter(|s| !s.is_empty()) {
         match item {
