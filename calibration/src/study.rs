@@ -259,6 +259,10 @@ pub fn run(renderer: &Renderer, args: &StudyArgs, obs: &dyn Observer) -> Result<
             continue;
         }
         let dir = args.out.join(format!("trial{t:02}"));
+        std::fs::create_dir_all(&dir).with_context(|| format!("cannot create {}", dir.display()))?;
+        // The true tool beside its photos: a trial's fit can be rerun and compared by hand.
+        scratchart_model::fsio::write_atomic(&dir.join("truth.json"), truth.to_json().as_bytes())
+            .with_context(|| format!("cannot write {}", dir.join("truth.json").display()))?;
         let mut images = Vec::new();
         for (v, shot) in shots.iter().enumerate() {
             let (p, _) = take(renderer, &card, &capture, v, &truth, shot, &dir)?;
@@ -408,6 +412,25 @@ fn describe_shots(shots: &[Shot]) -> String {
         .join(" / ")
 }
 
+/// A refusal's reason short enough for a table row: a photo named by its view (the path is in
+/// study.csv), cut at a word boundary after about 150 characters (numbers kept whole).
+fn brief(reason: &str) -> String {
+    let mut r = reason.to_string();
+    if let (Some(a), Some(b)) = (r.find("(view "), r.find("): ")) {
+        if r.starts_with("photo `") && a < b {
+            r = format!("{}: {}", &r[a + 6..b], &r[b + 3..]);
+        }
+    }
+    if r.chars().count() <= 160 {
+        return r;
+    }
+    let cut: String = r.chars().take(150).collect();
+    match cut.rfind(' ') {
+        Some(k) => format!("{} ...", &cut[..k]),
+        None => format!("{cut} ..."),
+    }
+}
+
 fn fmt_err(e: Option<f64>, scale: f64, digits: usize) -> String {
     e.map_or("-".into(), |v| {
         if v.is_finite() {
@@ -454,7 +477,7 @@ fn write_tables(dir: &Path, trials: &[Trial], args: &StudyArgs) -> Result<()> {
             if reason.is_empty() {
                 String::new()
             } else {
-                format!(": {}", reason.chars().take(90).collect::<String>())
+                format!(": {}", brief(&reason))
             },
             fmt_err(tr.errors[0], 1.0, 2) + " deg",
             fmt_err(tr.errors[1], 1e3, 2) + " um",
@@ -558,4 +581,24 @@ fn write_tables(dir: &Path, trials: &[Trial], args: &StudyArgs) -> Result<()> {
         .as_bytes(),
     )?;
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::brief;
+
+    /// A table row names the photo's view and keeps the refusal's numbers whole.
+    #[test]
+    fn a_refusal_is_briefed_with_its_numbers_whole() {
+        let r = "photo `study_k/trial03/cam_south.jpg` (view cam_south): the fit leaves a residual of rms \
+                 0.0038, 3.0 times what the photo's own noise (0.0007) and the model's own error (0.0004) \
+                 explain (at most 3): this is not the card as a profile cuts it (another tool, another card)";
+        let b = brief(r);
+        assert!(
+            b.starts_with("cam_south: the fit leaves a residual of rms 0.0038, 3.0 times"),
+            "{b}"
+        );
+        assert!(b.ends_with(" ...") && b.chars().count() <= 154, "{b}");
+        assert_eq!(brief("angle_deg is not identified"), "angle_deg is not identified");
+    }
 }

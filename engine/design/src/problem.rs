@@ -166,6 +166,8 @@ pub struct SheetWall {
     pub searches_engine: f64,
     pub search_steps: usize,
     pub png: f64,
+    /// The searches' seconds taken apart (`set_up_sheet_uploads`, `..._render_s`, ...).
+    pub clock: crate::tolerance::SearchClock,
 }
 
 /// Wall-clock seconds of a design run's phases.
@@ -195,7 +197,7 @@ pub struct WallTimes {
 
 impl WallTimes {
     pub fn to_json(&self) -> serde_json::Value {
-        json!({
+        let mut v = json!({
             "start_up": self.start_up,
             "iterations": self.iterations,
             "pruning": self.pruning,
@@ -210,7 +212,11 @@ impl WallTimes {
             "iterations_checkpoints": self.iterations_checkpoints,
             "iterations_hooks": self.iterations_hooks,
             "total": self.start_up + self.iterations + self.pruning + self.reports,
-        })
+        });
+        if let (Some(w), serde_json::Value::Object(c)) = (v.as_object_mut(), self.sheet.clock.to_json()) {
+            w.extend(c);
+        }
+        v
     }
 }
 

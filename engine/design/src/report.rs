@@ -401,7 +401,8 @@ fn wall_line(w: &serde_json::Value) -> String {
         match (w["final_render"].as_f64(), w["set_up_sheet"].as_f64()) {
             (Some(r), Some(s)) => match (w["set_up_sheet_searches_engine"].as_f64(), w["set_up_sheet_search_steps"].as_u64()) {
                 (Some(e), Some(n)) => format!(
-                    " (the final render {r:.2} s, the set-up sheet {s:.2} s: {n} search steps, {e:.2} s of their renders, the picture {:.2} s)",
+                    " (the final render {r:.2} s, the set-up sheet {s:.2} s: {n} search steps, {e:.2} s of their renders{}, the picture {:.2} s)",
+                    sheet_split(w),
                     f(&w["set_up_sheet_png"])
                 ),
                 _ => format!(" (the final render {r:.2} s, the set-up sheet {s:.2} s)"),
@@ -409,6 +410,26 @@ fn wall_line(w: &serde_json::Value) -> String {
             _ => String::new(),
         }
     )
+}
+
+/// The set-up sheet's searches taken apart, where summary.json has them: " (U uploads in a s,
+/// S submissions in b s, read-backs c s; on the host: pictures d s, measures e s)".
+fn sheet_split(w: &serde_json::Value) -> String {
+    let g = |k: &str| w[format!("set_up_sheet_{k}")].as_f64();
+    match (
+        g("uploads"),
+        g("upload_s"),
+        g("submissions"),
+        g("render_s"),
+        g("read_s"),
+        g("pictures_s"),
+        g("measure_s"),
+    ) {
+        (Some(u), Some(us), Some(n), Some(rs), Some(rd), Some(p), Some(m)) => format!(
+            " ({u:.0} uploads in {us:.2} s, {n:.0} submissions in {rs:.2} s, read-backs {rd:.2} s; on the host: pictures {p:.2} s, measures {m:.2} s)"
+        ),
+        _ => String::new(),
+    }
 }
 
 /// The summary of a design run as the `design` command prints it.

@@ -344,6 +344,7 @@ pub fn write_setup(
         searches_engine: sens.engine_s,
         search_steps: sens.steps,
         png,
+        clock: sens.clock,
     };
     Ok((
         setup,

@@ -213,6 +213,8 @@ pub struct Sensitivity {
     /// the display conversion), and the search steps (each renders its moves in batches).
     pub engine_s: f64,
     pub steps: usize,
+    /// The same seconds taken apart, with the host's and the round trips.
+    pub clock: SearchClock,
 }
 
 impl Sensitivity {
@@ -239,14 +241,34 @@ pub(crate) fn render_views(
     views: Vec<View>,
     masks: &[&[bool]],
 ) -> Result<Vec<Vec<f32>>, OptimError> {
+    render_views_clocked(renderer, scene, views, masks, &mut SearchClock::default())
+}
+
+/// [`render_views`], its seconds and round trips added to `clock`.
+fn render_views_clocked(
+    renderer: &Renderer,
+    scene: &Scene,
+    views: Vec<View>,
+    masks: &[&[bool]],
+    clock: &mut SearchClock,
+) -> Result<Vec<Vec<f32>>, OptimError> {
     let mut out = Vec::with_capacity(views.len());
     let batch = batch_views(renderer, scene, &views);
+    let mut rec: Option<scratchart_vulkan::Recorder> = None;
     for (chunk, masks) in views.chunks(batch).zip(masks.chunks(batch)) {
         let mut batch = scene.clone();
         batch.views = chunk.to_vec();
         let windows: Vec<Option<TileWindow>> = chunk.iter().zip(masks).map(|(v, m)| mask_window(v, m)).collect();
-        let mut gs = renderer.upload_windowed(&batch, &windows)?;
-        out.extend(display_images(renderer.render(&mut gs)?.images));
+        let mut gs = clock.time(|c| &mut c.upload_s, || renderer.upload_windowed(&batch, &windows))?;
+        clock.uploads += 1;
+        if rec.is_none() {
+            rec = Some(scratchart_vulkan::Recorder::new(&renderer.ctx)?);
+        }
+        let rec = rec.as_mut().expect("made above");
+        clock.time(|c| &mut c.render_s, || renderer.run(rec, &mut gs))?;
+        clock.submissions += 1;
+        let images = clock.time(|c| &mut c.read_s, || renderer.download_images(&gs).map(display_images))?;
+        out.extend(images);
     }
     Ok(out)
 }
@@ -321,14 +343,12 @@ pub fn sensitivity(renderer: &Renderer, scene: &Scene, inputs: &SheetInputs) -> 
         .map(|j| picture_of(scene, inputs, j, None))
         .collect();
     let masks: Vec<&[bool]> = designed.iter().map(|(_, m)| m.as_slice()).collect();
-    let t_base = std::time::Instant::now();
-    let images = render_views(renderer, scene, scene.views.clone(), &masks)?;
-    let mut engine_s = t_base.elapsed().as_secs_f64();
-    let base: Vec<f64> = images
-        .iter()
-        .enumerate()
-        .map(|(j, img)| corr_of(scene, inputs, img, j, &designed[j]))
-        .collect();
+    let mut clock = SearchClock::default();
+    let images = render_views_clocked(renderer, scene, scene.views.clone(), &masks, &mut clock)?;
+    let base: Vec<f64> = clock.time(
+        |c| &mut c.measure_s,
+        || scratchart_model::par::par_map(images.len(), |j| corr_of(scene, inputs, &images[j], j, &designed[j])),
+    );
     let mut searches = Vec::new();
     for (j, v) in scene.views.iter().enumerate() {
         if inputs.blank_views.contains(&v.name) || !(base[j] >= ADVICE_MIN_CORR) {
@@ -396,7 +416,7 @@ pub fn sensitivity(renderer: &Renderer, scene: &Scene, inputs: &SheetInputs) -> 
                 moved: views[k].clone(),
             })
             .collect();
-        let corrs = render_moves(renderer, scene, inputs, &designed, &mut lamps, &moves, &mut engine_s)?;
+        let corrs = render_moves(renderer, scene, inputs, &designed, &mut lamps, &moves, &mut clock)?;
         steps += 1;
         for (&k, corr) in fresh.iter().zip(corrs) {
             memo.insert(keys[k], corr);
@@ -434,8 +454,9 @@ pub fn sensitivity(renderer: &Renderer, scene: &Scene, inputs: &SheetInputs) -> 
         base,
         tolerances,
         samples,
-        engine_s,
+        engine_s: clock.engine_s(),
         steps,
+        clock,
     })
 }
 
@@ -450,7 +471,7 @@ struct Move {
 
 /// Each move's correlation with its picture: the lamp moves rendered on their kept tile lists
 /// ([`lamp`]), the eye moves binned afresh (their cameras move); the moved eyes' pictures and
-/// every correlation computed on all cores. `engine_s` gains the wall seconds of the renders.
+/// every correlation computed on all cores. `clock` gains their seconds.
 fn render_moves(
     renderer: &Renderer,
     scene: &Scene,
@@ -458,13 +479,18 @@ fn render_moves(
     designed: &[Picture],
     lamps: &mut lamp::LampRenders,
     moves: &[Move],
-    engine_s: &mut f64,
+    clock: &mut SearchClock,
 ) -> Result<Vec<f64>, OptimError> {
     // (A moved lamp leaves the picture where it was: the designed view's, not copied.)
-    let own = scratchart_model::par::par_map(moves.len(), |k| {
-        let m = &moves[k];
-        (!m.lamp).then(|| picture_of(scene, inputs, m.view, Some(&m.moved)))
-    });
+    let own = clock.time(
+        |c| &mut c.pictures_s,
+        || {
+            scratchart_model::par::par_map(moves.len(), |k| {
+                let m = &moves[k];
+                (!m.lamp).then(|| picture_of(scene, inputs, m.view, Some(&m.moved)))
+            })
+        },
+    );
     let pictures: Vec<&Picture> = moves
         .iter()
         .zip(&own)
@@ -475,17 +501,20 @@ fn render_moves(
     let views_of = |ks: &[usize]| ks.iter().map(|&k| moves[k].moved.clone()).collect::<Vec<_>>();
     let masks_of = |ks: &[usize]| ks.iter().map(|&k| pictures[k].1.as_slice()).collect::<Vec<_>>();
     let searches: Vec<usize> = lamp_k.iter().map(|&k| moves[k].search).collect();
-    let t = std::time::Instant::now();
-    let lamp_imgs = lamps.render(renderer, scene, &searches, views_of(&lamp_k), &masks_of(&lamp_k))?;
-    let eye_imgs = render_views(renderer, scene, views_of(&eye_k), &masks_of(&eye_k))?;
-    *engine_s += t.elapsed().as_secs_f64();
+    let lamp_imgs = lamps.render(renderer, scene, &searches, views_of(&lamp_k), &masks_of(&lamp_k), clock)?;
+    let eye_imgs = render_views_clocked(renderer, scene, views_of(&eye_k), &masks_of(&eye_k), clock)?;
     let mut images: Vec<Vec<f32>> = vec![Vec::new(); moves.len()];
     for (k, img) in lamp_k.into_iter().zip(lamp_imgs).chain(eye_k.into_iter().zip(eye_imgs)) {
         images[k] = img;
     }
-    Ok(scratchart_model::par::par_map(moves.len(), |k| {
-        corr_of(scene, inputs, &images[k], moves[k].view, pictures[k])
-    }))
+    Ok(clock.time(
+        |c| &mut c.measure_s,
+        || {
+            scratchart_model::par::par_map(moves.len(), |k| {
+                corr_of(scene, inputs, &images[k], moves[k].view, pictures[k])
+            })
+        },
+    ))
 }
 
 /// View `designed`'s picture (its target, display values, and its picture's pixels) as it
@@ -586,8 +615,11 @@ impl Place {
 /// the lamp may move "to keep 90% of it" says nothing useful (90% of about nothing).
 pub const ADVICE_MIN_CORR: f64 = 0.3;
 
+mod clock;
 mod inputs;
 mod lamp;
+
+pub use clock::SearchClock;
 
 pub use inputs::SheetInputs;
 

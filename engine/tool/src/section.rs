@@ -6,19 +6,26 @@ use super::Tool;
 #[derive(Clone, Debug, PartialEq)]
 pub struct Section {
     tool: Tool,
-    /// Real depth at the groove's centre, mm (> 0).
+    /// Real depth at the groove's centre, mm (> 0; a measured profile's cut at a commanded depth
+    /// of 0 or less: 0).
     pub depth: f64,
     /// Visible width at the plate surface, mm.
     pub width: f64,
 }
 
 impl Section {
-    /// The cut of `tool` at commanded depth `z`; `None` when it does not reach the plate.
+    /// The cut of `tool` at commanded depth `z`; `None` when it does not reach the plate. A
+    /// measured profile cuts wherever its points say it is wider than 0, within them: its widths
+    /// are at commanded depths, so a tool that reaches below its commanded zero (a positive z
+    /// offset, folded into the points) cuts a groove at a commanded depth of 0 or less, as
+    /// photos of its card show (the depth there, unknown, is taken as 0).
     pub fn of(tool: &Tool, z: f64) -> Option<Section> {
         let depth = z + tool.z_offset_mm();
-        if !(depth > 0.0) {
+        let listed = matches!(tool, Tool::Profile { points, .. } if points.first().is_some_and(|p| z >= p[0]));
+        if !(depth > 0.0 || listed) {
             return None;
         }
+        let depth = depth.max(0.0);
         let width = match tool {
             Tool::VBit {
                 angle_deg, tip_flat_mm, ..
@@ -146,5 +153,28 @@ mod tests {
             z_offset_mm: 0.0,
         };
         assert!((p.section(0.02).unwrap().width - 0.07).abs() < 1e-12);
+    }
+
+    /// A measured profile's points at commanded depths of 0 or less (a tool that reaches below
+    /// its commanded zero) are cuts; below its first point, above the plate, nothing is.
+    #[test]
+    fn a_profile_cuts_where_its_points_say_it_does() {
+        let p = Tool::Profile {
+            points: vec![[-0.01, 0.0], [-0.005, 0.01], [0.0, 0.02], [0.01, 0.04]],
+            w_over_w: 1.2,
+            z_offset_mm: 0.0,
+        };
+        assert!(p.section(-0.01).is_none(), "width 0: no cut");
+        let s = p.section(-0.005).expect("a listed width above 0 is a cut");
+        assert!((s.width - 0.01).abs() < 1e-15 && s.depth == 0.0);
+        assert!((p.section(0.0).unwrap().width - 0.02).abs() < 1e-15);
+        assert!(p.model(-0.005).is_some_and(|m| m.w > 0.0 && m.d > 0.0));
+        let q = Tool::Profile {
+            points: vec![[0.01, 0.05], [0.03, 0.09]],
+            w_over_w: 1.2,
+            z_offset_mm: 0.0,
+        };
+        assert!(q.section(-0.002).is_none(), "above the plate and below its first point");
+        assert!((q.section(0.005).unwrap().depth - 0.005).abs() < 1e-15);
     }
 }

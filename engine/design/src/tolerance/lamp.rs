@@ -10,7 +10,7 @@ use scratchart_render::GpuScene;
 use scratchart_render::Renderer;
 use scratchart_vulkan::Recorder;
 
-use super::{batch_views, display_images, mask_window};
+use super::{batch_views, display_images, mask_window, SearchClock};
 
 #[derive(Default)]
 pub(super) struct LampRenders {
@@ -32,13 +32,14 @@ impl LampRenders {
         searches: &[usize],
         views: Vec<View>,
         masks: &[&[bool]],
+        clock: &mut SearchClock,
     ) -> Result<Vec<Vec<f32>>, OptimError> {
         let mut keep = self.slots == searches;
         let batch = batch_views(renderer, scene, &views);
         if keep {
             // The same cameras and windows: only the lamps move.
             for (gs, chunk) in self.scenes.iter_mut().zip(views.chunks(batch)) {
-                keep = keep && gs.update_views(chunk)?;
+                keep = keep && clock.time(|c| &mut c.upload_s, || gs.update_views(chunk))?;
             }
         }
         if !keep {
@@ -47,7 +48,9 @@ impl LampRenders {
                 let mut batch = scene.clone();
                 batch.views = chunk.to_vec();
                 let windows: Vec<_> = chunk.iter().zip(masks).map(|(v, m)| mask_window(v, m)).collect();
-                self.scenes.push(renderer.upload_windowed(&batch, &windows)?);
+                self.scenes
+                    .push(clock.time(|c| &mut c.upload_s, || renderer.upload_windowed(&batch, &windows))?);
+                clock.uploads += 1;
             }
             self.slots = searches.to_vec();
         }
@@ -59,11 +62,17 @@ impl LampRenders {
         for gs in self.scenes.iter_mut() {
             // Bin on a fresh upload, and on any retry (a retry may have changed the lists).
             let mut first = keep;
-            renderer.submit(rec, gs, |rec, gs| {
-                renderer.record_render_with(rec, gs, !first);
-                first = false;
-            })?;
-            out.extend(display_images(renderer.download_images(gs)?));
+            clock.time(
+                |c| &mut c.render_s,
+                || {
+                    renderer.submit(rec, gs, |rec, gs| {
+                        renderer.record_render_with(rec, gs, !first);
+                        first = false;
+                    })
+                },
+            )?;
+            clock.submissions += 1;
+            out.extend(clock.time(|c| &mut c.read_s, || renderer.download_images(gs).map(display_images))?);
         }
         Ok(out)
     }
