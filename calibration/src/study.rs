@@ -264,10 +264,20 @@ pub fn run(renderer: &Renderer, args: &StudyArgs, obs: &dyn Observer) -> Result<
         scratchart_model::fsio::write_atomic(&dir.join("truth.json"), truth.to_json().as_bytes())
             .with_context(|| format!("cannot write {}", dir.join("truth.json").display()))?;
         let mut images = Vec::new();
+        let mut cameras = Vec::new();
         for (v, shot) in shots.iter().enumerate() {
-            let (p, _) = take(renderer, &card, &capture, v, &truth, shot, &dir)?;
+            let (p, phone) = take(renderer, &card, &capture, v, &truth, shot, &dir)?;
             images.push(p);
+            let c = &phone.camera;
+            cameras.push(serde_json::json!({
+                "view": capture.views[v].name, "eye_mm": c.eye, "target_mm": c.target, "up": c.up,
+                "fov_y_deg": c.fov_y_deg, "size": [c.width, c.height],
+            }));
         }
+        // The phones' true cameras (at the render's resolution), to compare with what the marks gave.
+        let truth_cameras = serde_json::to_string_pretty(&cameras)?;
+        scratchart_model::fsio::write_atomic(&dir.join("truth_cameras.json"), truth_cameras.as_bytes())
+            .with_context(|| format!("cannot write {}", dir.join("truth_cameras.json").display()))?;
         let out = dir.join("fit").join("tool.json");
         let fa = FitArgs::quiet(&card_path, images, Some(kind.name()), &out);
         let t0 = Instant::now();
