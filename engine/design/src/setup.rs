@@ -341,7 +341,6 @@ pub fn write_setup(
     }
     let wall = crate::problem::SheetWall {
         searches,
-        searches_engine: sens.engine_s,
         search_steps: sens.steps,
         png,
         clock: sens.clock,

@@ -209,11 +209,10 @@ pub struct Sensitivity {
     pub base: Vec<f64>,
     pub tolerances: Vec<Tolerance>,
     pub samples: Vec<Moved>,
-    /// Wall seconds of the searches in the engine's calls (uploads, renders, read-backs and
-    /// the display conversion), and the search steps (each renders its moves in batches).
-    pub engine_s: f64,
+    /// The search steps (each renders its moves in batches).
     pub steps: usize,
-    /// The same seconds taken apart, with the host's and the round trips.
+    /// Wall seconds of the searches: in the engine's calls (uploads, renders, read-backs and
+    /// the display conversion; [`SearchClock::engine_s`]) and the host's, with the round trips.
     pub clock: SearchClock,
 }
 
@@ -454,7 +453,6 @@ pub fn sensitivity(renderer: &Renderer, scene: &Scene, inputs: &SheetInputs) -> 
         base,
         tolerances,
         samples,
-        engine_s: clock.engine_s(),
         steps,
         clock,
     })
