@@ -395,7 +395,7 @@ pub fn fit_kind(
     let shrunk_jpeg = |v: usize| {
         data.saved_jpeg.get(v).copied().flatten().filter(|_| {
             let k = data.shrink.get(v).copied().unwrap_or(1);
-            k > 1 && k <= noise::SIMULATED_SHRINK
+            k > 1 && k <= noise::shrunk::SIMULATED_SHRINK
         })
     };
     // (`Evaluator::simulated_light` holds the same condition for the views it simulates.)

@@ -61,10 +61,24 @@ fn smoothed_photo(data: &Data, v: usize, sigma: f64) -> Vec<f32> {
         .collect()
 }
 
-/// The start point of a tool given (`--init`), where it is of this layout's kind.
+/// The start point of a tool given (`--init`), where it is of this layout's kind; a profile
+/// starts from the widths any tool cuts at the card's depths (a profile's own, a V-bit's).
 pub(super) fn start_from(lay: &Layout, tool: &Tool, alpha: Option<f64>, intervals: &OffsetIntervals) -> Option<Start> {
     let mut x = lay.start(tool.z_offset_mm(), (60.0, 0.005));
     let t = lay.tool(&x);
+    if matches!(t, Tool::Profile { .. }) {
+        let n = lay.depths.len();
+        for (k, z) in lay.depths.iter().enumerate() {
+            x[k] = tool.section(*z).map_or(0.0, |s| s.width);
+        }
+        if let Tool::Profile { w_over_w, .. } = tool {
+            x[n] = *w_over_w;
+        }
+        if let Some(a) = alpha {
+            x[lay.n_tool] = a;
+        }
+        return Some((x, None));
+    }
     if std::mem::discriminant(&t) == std::mem::discriminant(tool) {
         match tool {
             Tool::VBit {
@@ -80,7 +94,7 @@ pub(super) fn start_from(lay: &Layout, tool: &Tool, alpha: Option<f64>, interval
                 x[0] = *radius_mm;
                 x[1] = *angle_deg;
             }
-            Tool::Profile { .. } => {}
+            Tool::Profile { .. } => {} // (a profile layout returned above)
         }
         if let Some(a) = alpha {
             x[lay.n_tool] = a;
@@ -240,3 +254,48 @@ pub(super) fn refine_starts(
 
 /// How many more times the best refinement goes on where it used all its iterations.
 const MORE_ROUNDS: u32 = 3;
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::card::CardSpec;
+
+    /// A profile fit given a tool (`--init`) starts from the widths that tool cuts at the card's
+    /// depths and, where it is a profile, its w/W: a previous profile fit re-run on new photos
+    /// starts where it ended (it started from a typical profile before, whatever was given).
+    #[test]
+    fn a_profile_starts_from_the_widths_of_the_tool_given() {
+        let card = Card::new(&CardSpec::default());
+        let lay = Layout::new(Kind::Profile, &card, 2, false, &[false, false], &[false, false], true);
+        let intervals = OffsetIntervals::of(&card);
+        let n = card.depths_mm.len();
+        let v = Tool::VBit {
+            angle_deg: 70.0,
+            tip_flat_mm: 0.012,
+            z_offset_mm: 0.004,
+        };
+        let profile = crate::study::profile_cut_by(&v, &card, 1.7);
+        for (tool, ratio) in [(&v, None), (&profile, Some(1.7))] {
+            let (x, rg) = start_from(&lay, tool, Some(0.07), &intervals).expect("a profile starts from any tool");
+            assert!(rg.is_none());
+            for (k, z) in card.depths_mm.iter().enumerate() {
+                let want = v.section(*z).map_or(0.0, |s| s.width);
+                assert!((x[k] - want).abs() < 1e-12, "{tool:?} at {z}: {} for {want}", x[k]);
+            }
+            if let Some(r) = ratio {
+                assert_eq!(x[n], r);
+            }
+            assert_eq!(lay.alpha(&x), 0.07);
+            // And the layout reads back the tool it started from.
+            if let Tool::Profile { points, .. } = lay.tool(&x) {
+                assert!(points.iter().zip(&card.depths_mm).all(|(p, z)| p[0] == *z));
+            } else {
+                panic!("not a profile");
+            }
+        }
+        // A kind's own layout still takes only its own kind.
+        let vlay = Layout::new(Kind::VBit, &card, 2, false, &[false, false], &[false, false], true);
+        assert!(start_from(&vlay, &profile, None, &intervals).is_none());
+        assert!(start_from(&vlay, &v, None, &intervals).is_some());
+    }
+}

@@ -316,7 +316,7 @@ fn model_shift(
 /// of these steps (JPEG's quantization of a noisy groove is not JPEG's quantization of the
 /// groove, and the lift of a single pixel is not the lift of its mean), added in quadrature like
 /// the model's own error (it also holds half the noise's own spread over four draws: the sum
-/// errs large). A shrunk photo is simulated at its own resolution (`noise::shrunk_photo_draw`:
+/// errs large). A shrunk photo is simulated at its own resolution (`noise::shrunk::shrunk_photo_draw`:
 /// the model's light under the photo's white balance, the noise, the JPEG there, the shrink),
 /// so the term sees what the JPEG of a coloured groove and of noise does after the model's own
 /// JPEG change (a cast of 19% under JPEG had fixed a measured profile's wall shape at 2.16 +-
@@ -410,7 +410,7 @@ fn degrade_shift(
             let colour = chans(v) == 3;
             if shrunk(v) {
                 // A shrunk photo as its camera made it, at its own resolution: the noise
-                // and its JPEG there, then the shrink (`noise::shrunk_photo_draw`). One
+                // and its JPEG there, then the shrink (`noise::shrunk::shrunk_photo_draw`). One
                 // shrunk by more than `SIMULATED_SHRINK`, or clean and lossless, stays as
                 // the model has it.
                 let q = data.saved_jpeg.get(v).copied().flatten();
