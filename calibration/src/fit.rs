@@ -208,6 +208,11 @@ pub struct FitResult {
     /// the residual may be (`fit_cmd::verdict`).
     #[serde(default)]
     pub model_error_rms: Vec<f64>,
+    /// Per photo, the RMS residual that copies of it made as it was (its noise, white balance,
+    /// 8-bit steps and JPEG, at its own pixels where it was shrunk) leave against the fitted
+    /// model (display units; None where none was drawn). Part of what the residual may be.
+    #[serde(default)]
+    pub degraded_rms: Vec<Option<f64>>,
     /// Each parameter's limit of identification (its standard deviation at most this).
     #[serde(default)]
     pub limits: Vec<f64>,
@@ -432,6 +437,7 @@ pub fn fit_kind(
         jpeg_change,
         per_photo,
         model_error_rms,
+        degraded_rms,
         unseen,
         residuals: r,
         in_valley,
@@ -494,6 +500,7 @@ pub fn fit_kind(
         jpeg_change,
         per_photo,
         model_error_rms,
+        degraded_rms,
         limits: ev.lay.params.iter().map(|q| q.limit).collect(),
         unseen,
         at_bound,

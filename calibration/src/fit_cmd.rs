@@ -157,7 +157,11 @@ pub fn run(renderer: &Renderer, args: &FitArgs, obs: &dyn Observer) -> Result<()
             "  photo {}: residual rms {rms:.4}, its own noise {nz:.4}, the model's own error {:.4} ({:.1} times both)",
             files[v].display(),
             best.model_error_rms.get(v).copied().unwrap_or(0.0),
-            rms / verdict::explained(*nz, best.model_error_rms.get(v).copied())
+            rms / verdict::explained(
+                *nz,
+                best.degraded_rms.get(v).copied().flatten(),
+                best.model_error_rms.get(v).copied()
+            )
         ));
     }
     let photo_names: Vec<String> = files

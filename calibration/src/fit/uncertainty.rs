@@ -30,6 +30,10 @@ pub(super) struct Uncertainty {
     pub(super) per_photo: Vec<Vec<Option<f64>>>,
     /// Per photo, the RMS of the model's own error over its pixels (see `model_shift`).
     pub(super) model_error_rms: Vec<f64>,
+    /// Per photo, the RMS residual that copies of it made as it was (its noise, white balance,
+    /// 8-bit steps and JPEG, at its own pixels where it was shrunk) leave against the model
+    /// (see `degrade_shift`; None where none was drawn).
+    pub(super) degraded_rms: Vec<Option<f64>>,
     pub(super) unseen: Vec<String>,
     pub(super) residuals: Vec<f64>,
     /// Per parameter: it trades with a parameter of the grooves that is not identified (their
@@ -79,7 +83,7 @@ pub(super) fn at_optimum(
         wts: &wts,
     };
     let (model_shift, model_error_rms) = model_shift(ev, x, &r, &normal)?;
-    let (degrade_shift, lift_shift, change_shift) = degrade_shift(ev, data, x, &normal)?;
+    let (degrade_shift, lift_shift, change_shift, degraded_rms) = degrade_shift(ev, data, x, &normal)?;
     // What the photos say each on its own: a bias that one photo's degradations bring (clipped
     // noise averaged by a shrink, JPEG, blur the model does not follow) moves that photo's answer
     // and not the other's, and the joint fit sits between them with a spread no pixel noise
@@ -158,6 +162,7 @@ pub(super) fn at_optimum(
         jpeg_change,
         per_photo,
         model_error_rms,
+        degraded_rms,
         unseen,
         residuals: r,
         in_valley,
@@ -323,13 +328,17 @@ fn model_shift(
 /// 0.07 for 1.97: with this term it is +- 0.9, not identified).
 /// Also returns the parameter shift that the model's lift of clipped noise (`noise`) makes, the
 /// fit with it against the fit without it (linearized), of which [`LIFT_TRUST`] goes into the
-/// uncertainty.
+/// uncertainty, the shift of a shrunk JPEG's simulated change, and per photo the RMS residual
+/// its degraded copies leave against the model (what a photo made as this one was would leave
+/// were the model right: a JPEG of a low-noise photo rounds the grooves' edges, which the model
+/// cannot follow pixel by pixel, where the noise measured on the flat plate is small).
+#[allow(clippy::type_complexity)]
 fn degrade_shift(
     ev: &mut Evaluator,
     data: &Data,
     x: &[f64],
     normal: &Normal,
-) -> Result<(Option<Vec<f64>>, Option<Vec<f64>>, Option<Vec<f64>>), FitError> {
+) -> Result<(Option<Vec<f64>>, Option<Vec<f64>>, Option<Vec<f64>>, Vec<Option<f64>>), FitError> {
     let lin = ev.render_whole(x)?;
     let pred = ev.predict(&lin, x);
     let base = ev.residuals(&pred);
@@ -399,6 +408,7 @@ fn degrade_shift(
         }
     };
     let counts: Vec<usize> = (0..raw.len()).map(draws_of).collect();
+    let mut squares = vec![0.0f64; raw.len()];
     for _ in 0..reps {
         let noise: Vec<Vec<f64>> = counts.iter().map(|&n| (0..n).map(|_| rng.normal()).collect()).collect();
         let evr = &*ev;
@@ -455,12 +465,31 @@ fn degrade_shift(
         });
         let rd = ev.residuals(&deg);
         let shift: Vec<f64> = base.iter().zip(&rd).map(|(b, a)| b - a).collect();
+        add_squares(&mut squares, &shift, &data.masks, reps);
         match normal.step(&shift) {
             Some(d) => mean.iter_mut().zip(&d).for_each(|(m, d)| *m += d / reps as f64),
             None => ok = false,
         }
     }
-    Ok((ok.then_some(mean), lift, change))
+    let degraded = squares
+        .iter()
+        .enumerate()
+        .map(|(v, sq)| (counts[v] > 0 || !shrunk(v)).then(|| sq.sqrt()))
+        .collect();
+    Ok((ok.then_some(mean), lift, change, degraded))
+}
+
+/// Adds each photo's mean square of `shift` (the residuals' order: the views in turn, their
+/// compared pixels by `masks`) over `reps` repetitions to `squares`.
+fn add_squares(squares: &mut [f64], shift: &[f64], masks: &[Vec<bool>], reps: usize) {
+    let mut at = 0;
+    for (sq, mask) in squares.iter_mut().zip(masks) {
+        let n = mask.iter().filter(|m| **m).count();
+        if let Some(block) = shift.get(at..at + n) {
+            *sq += block.iter().map(|e| e * e).sum::<f64>() / (n.max(1) * reps) as f64;
+        }
+        at += n;
+    }
 }
 
 /// How far a shrunk JPEG's simulated change (`Evaluator::simulated_shift`) is trusted: this

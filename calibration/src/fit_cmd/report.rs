@@ -199,6 +199,7 @@ pub(super) fn fit_record(
             p["noise"] = json!(nz);
             p["residual_rms"] = json!(rms);
             p["model_error_rms"] = json!(best.model_error_rms.get(v));
+            p["degraded_rms"] = json!(best.degraded_rms.get(v).copied().flatten());
             p
         }).collect::<Vec<_>>(),
         "card": args.card.display().to_string(),

@@ -48,11 +48,16 @@ pub fn verdict(best: &FitResult, residual: &[(f64, f64)], photos: &[String], all
     }
 }
 
-/// What a photo's residual may be: its own noise (at least [`RESIDUAL_FLOOR`]) and the model's
-/// own error on it (`FitResult::model_error_rms`: a render at four times the photo's resolution
-/// against the fit's twice; a low-noise photo of wide grooves shows it), in quadrature.
-pub fn explained(nz: f64, model_error_rms: Option<f64>) -> f64 {
-    nz.max(RESIDUAL_FLOOR).hypot(model_error_rms.unwrap_or(0.0))
+/// What a photo's residual may be: its own noise (at least [`RESIDUAL_FLOOR`]), or where larger
+/// the residual its degraded copies leave against the model (`FitResult::degraded_rms`: a JPEG
+/// of a low-noise photo rounds the bright grooves' edges where the noise measured on the flat
+/// plate is small), and the model's own error on it (`FitResult::model_error_rms`: a render at
+/// four times the photo's resolution against the fit's twice; a low-noise photo of wide grooves
+/// shows it), in quadrature.
+pub fn explained(nz: f64, degraded_rms: Option<f64>, model_error_rms: Option<f64>) -> f64 {
+    nz.max(RESIDUAL_FLOOR)
+        .max(degraded_rms.unwrap_or(0.0))
+        .hypot(model_error_rms.unwrap_or(0.0))
 }
 
 /// Each photo whose residual is above [`RESIDUAL_MAX`] times what [`explained`] allows.
@@ -60,10 +65,12 @@ fn residual_reasons(best: &FitResult, residual: &[(f64, f64)], photos: &[String]
     let mut reasons: Vec<String> = Vec::new();
     for (v, (rms, nz)) in residual.iter().enumerate() {
         let me = best.model_error_rms.get(v).copied();
-        let floor = explained(*nz, me);
+        let dg = best.degraded_rms.get(v).copied().flatten();
+        let floor = explained(*nz, dg, me);
         if !(rms / floor <= RESIDUAL_MAX) {
+            let copies = dg.map_or(String::new(), |d| format!(", copies of it made as it was ({d:.4})"));
             reasons.push(format!(
-                "{}: the fit leaves a residual of rms {rms:.4}, {:.1} times what the photo's own noise ({nz:.4}) \
+                "{}: the fit leaves a residual of rms {rms:.4}, {:.1} times what the photo's own noise ({nz:.4}){copies} \
                  and the model's own error ({:.4}) explain (at most {RESIDUAL_MAX}): this is not the card as a {} \
                  cuts it (another tool, another card, not a card), or the photo has what the model lacks (glare, a \
                  smudge, a card that is not flat); see the residual image",
@@ -325,6 +332,7 @@ mod verdict_tests {
             jpeg_change: vec![None; 5],
             per_photo: vec![],
             model_error_rms: vec![],
+            degraded_rms: vec![],
             limits: limits.to_vec(),
             unseen: vec![],
             at_bound: at_bound.iter().map(|s| s.to_string()).collect(),
@@ -388,6 +396,27 @@ mod verdict_tests {
         assert_eq!(v.reasons.len(), 1, "{v:?}");
         assert!(
             v.reasons[0].contains("b.jpg") && v.reasons[0].contains("5.4 times") && v.reasons[0].contains("0.0005"),
+            "{v:?}"
+        );
+        // So is what copies of the photo made as it was leave against the model (a low-noise
+        // JPEG's rounding of bright grooves): 0.0061 against a photo whose noise is 0.0001 and
+        // whose copies leave 0.0035 is 1.7 times (study seed 1, trial 21's west photo, a right
+        // ball); without the copies, 4.9 times. A photo whose copies leave less than its noise
+        // is held to its noise.
+        let mut copies = result([0.1, 0.001, 0.0005], &[]);
+        copies.model_error_rms = vec![0.0003, 0.0003];
+        copies.degraded_rms = vec![Some(0.0035), None];
+        let v = verdict(&copies, &[(0.0061, 0.0001), (0.0061, 0.0001)], &photos(), false);
+        assert_eq!(v.reasons.len(), 1, "{v:?}");
+        assert!(
+            v.reasons[0].contains("b.jpg") && v.reasons[0].contains("4.9 times"),
+            "{v:?}"
+        );
+        copies.degraded_rms = vec![Some(0.0035), Some(0.0001)];
+        let v = verdict(&copies, &[(0.0061, 0.0001), (0.02, 0.005)], &photos(), false);
+        assert_eq!(v.reasons.len(), 1, "{v:?}");
+        assert!(
+            v.reasons[0].contains("b.jpg") && v.reasons[0].contains("4.0 times") && v.reasons[0].contains("(0.0001)"),
             "{v:?}"
         );
         // NaN is refused, not passed.

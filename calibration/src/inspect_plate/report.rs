@@ -107,7 +107,7 @@ fn unexplained(p: &Problem, at: &Eval) -> Vec<String> {
             data: ph.pixels.clone(),
         };
         let noise = crate::photo::pixel_noise_in(&img, Some(&ph.used));
-        let against = explained(noise, None);
+        let against = explained(noise, None, None);
         if !(rms <= RESIDUAL_MAX * against) {
             out.push(format!(
                 "{} leaves a residual of rms {rms:.4}, {:.1} times what its own noise ({noise:.4}) explains (at most \
