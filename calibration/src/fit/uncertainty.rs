@@ -379,7 +379,7 @@ fn degrade_shift(
     let mut mean = vec![0.0; normal.seen.len()];
     let mut ok = true;
     // A shrunk photo's light, once for all the draws (`Evaluator::simulated_light`).
-    let lights: Vec<Option<Vec<f32>>> = (0..data.capture.views.len())
+    let lights: Vec<Option<super::noise::shrunk::ShrunkLight>> = (0..data.capture.views.len())
         .map(|v| ev.simulated_light(&lin[v], v, x))
         .collect();
     // How many normal draws each photo's degraded copy takes (a shrunk photo: one per channel of

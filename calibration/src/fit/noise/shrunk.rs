@@ -10,38 +10,81 @@ use super::saved_grey;
 /// photo's JPEG moved a measured profile's widest rung by 5 um.
 pub(in crate::fit) const SIMULATED_SHRINK: u32 = 32;
 
-/// One draw of a shrunk photo as its camera made it, from the model's subpixel light `lit`
-/// (`ss` times the view's `w` x `h`): the light over the photo's own pixels (k times the view's),
-/// each channel's share of it under the photo's white balance `gains` (as `camera::ChannelClip`
-/// scales them) display-encoded, each channel's noise `sigma` (`colour`: three channels, each its
-/// own) clipped and stepped to 8 bits, the JPEG at `q` where the photo was one, read back as
-/// grey and shrunk by k in light as the fit shrank the photo. What JPEG at the photo's own
-/// resolution and the noise do to the fit, where no model term follows them: a JPEG keeps its
-/// colour at half the resolution and in coarse steps, and where a cast colours the grooves that
-/// leaks into the grey (a measured profile's widest rung 8 um narrow under a 19% cast).
-#[allow(clippy::too_many_arguments)]
-pub(in crate::fit) fn shrunk_photo_draw(
-    lit: &[f32],
-    ss: u32,
-    (w, h): (u32, u32),
+/// The model's light of a photo simulated at its own resolution, once for all its draws: its
+/// light at the photo's own pixels (k times the view's `w` x `h`), interpolated (bilinear, in
+/// light: the optics spread it smoothly over them), and per view pixel what that interpolation
+/// alone moves between the view's pixels (display units), which each draw takes off. Blocks of
+/// k / ss pixels with sharp edges gave the JPEG edges no photo has: a noiseless 20 MP JPEG's
+/// grooves were left 2.5 to 3 times the model's error, where the same photo as a PNG fitted to
+/// its floor.
+pub(in crate::fit) struct ShrunkLight {
+    native: Vec<f32>,
+    spread: Vec<f32>,
+    w: u32,
+    h: u32,
     k: u32,
+}
+
+impl ShrunkLight {
+    /// From the model's subpixel light `lit` (`ss` times the view's `w` x `h`), for a photo
+    /// shrunk by `k`.
+    pub(in crate::fit) fn of(lit: &[f32], ss: u32, (w, h): (u32, u32), k: u32) -> ShrunkLight {
+        let native = scratchart_render::io::resize_bilinear(lit, ss * w, ss * h, k * w, k * h);
+        let shown = |light: &[f32], (sw, sh): (u32, u32)| {
+            let g = crate::photo::Gray {
+                width: sw,
+                height: sh,
+                data: light.iter().map(|&l| crate::encoding::encode_f32(l)).collect(),
+            };
+            crate::photo::resize(&g, w, h).data
+        };
+        let spread = shown(&native, (k * w, k * h))
+            .iter()
+            .zip(shown(lit, (ss * w, ss * h)))
+            .map(|(s, kept)| s - kept)
+            .collect();
+        ShrunkLight {
+            native,
+            spread,
+            w,
+            h,
+            k,
+        }
+    }
+}
+
+/// One draw of a shrunk photo as its camera made it, from the model's `light`: each of the
+/// photo's own pixels' channels' share of it under the photo's white balance `gains` (as
+/// `camera::ChannelClip` scales them) display-encoded, each channel's noise `sigma` (`colour`:
+/// three channels, each its own) clipped and stepped to 8 bits, the JPEG at `q` where the photo
+/// was one, read back as grey and shrunk by k in light as the fit shrank the photo, less what
+/// the interpolation alone moved (so that without noise or JPEG the draw is the model's light
+/// shrunk, within the 8-bit steps). What JPEG at the photo's own resolution and the noise do to
+/// the fit, where no model term follows them: a JPEG keeps its colour at half the resolution
+/// and in coarse steps, and where a cast colours the grooves that leaks into the grey (a
+/// measured profile's widest rung 8 um narrow under a 19% cast).
+pub(in crate::fit) fn shrunk_photo_draw(
+    light: &ShrunkLight,
     sigma: f64,
     colour: bool,
     gains: [f64; 3],
     q: Option<u8>,
     normal: &mut dyn FnMut() -> f64,
 ) -> Option<Vec<f32>> {
-    // The light at the photo's own pixels, interpolated (bilinear, in light): the optics
-    // spread it smoothly over them. Blocks of k / ss pixels with sharp edges gave the JPEG edges
-    // that no photo has: a noiseless 20 MP JPEG's grooves were left 2.5 to 3 times the model's
-    // error (a V 60 fitted 65.9 +- 3.5), where the same photo as a PNG fitted to its floor.
-    let native = scratchart_render::io::resize_bilinear(lit, ss * w, ss * h, k * w, k * h);
+    let ShrunkLight {
+        native,
+        spread,
+        w,
+        h,
+        k,
+    } = light;
+    let (w, h, k) = (*w, *h, *k);
     let chans = if colour { 3 } else { 1 };
     // Each channel's light: the grey's light times its gain, scaled as `ChannelClip` does.
     let scale = super::super::camera::ChannelClip::gain_scale(gains);
     let g: [f64; 3] = if colour { gains.map(|g| g * scale) } else { [1.0; 3] };
     let mut bytes = Vec::with_capacity(native.len() * chans);
-    for &l in &native {
+    for &l in native {
         let l = (l as f64).max(0.0);
         for gc in g.iter().take(chans) {
             let dc = crate::encoding::encode((l * gc).min(1.0));
@@ -53,46 +96,25 @@ pub(in crate::fit) fn shrunk_photo_draw(
         height: k * h,
         data: saved_grey(&bytes, k * w, k * h, colour, q)?,
     };
-    // Less what the interpolation alone moves between the view's pixels (it spreads a
-    // subpixel's light into its neighbours): the draw is then the model's light shrunk but for
-    // what the encoding, the noise, the 8-bit steps and the JPEG do.
-    let shown = |data: Vec<f32>, (sw, sh): (u32, u32)| {
-        crate::photo::resize(
-            &crate::photo::Gray {
-                width: sw,
-                height: sh,
-                data,
-            },
-            w,
-            h,
-        )
-        .data
-    };
-    let spread = shown(
-        native.iter().map(|&l| crate::encoding::encode_f32(l)).collect(),
-        (k * w, k * h),
-    );
-    let kept = shown(
-        lit.iter().map(|&l| crate::encoding::encode_f32(l)).collect(),
-        (ss * w, ss * h),
-    );
     let drawn = crate::photo::resize(&full, w, h).data;
-    Some(
-        drawn
-            .iter()
-            .zip(spread.iter().zip(&kept))
-            .map(|(d, (s, kept))| d - (s - kept))
-            .collect(),
-    )
+    Some(drawn.iter().zip(spread).map(|(d, s)| d - s).collect())
 }
 
 impl super::super::Evaluator<'_, '_> {
     /// View v's photo, when it is simulated at its own resolution (shrunk by 2 to
-    /// [`SIMULATED_SHRINK`]): the light of its subpixels at `x` from the render `lin`
-    /// ([`shrunk_photo_draw`]'s input), computed once for all the draws.
-    pub(in crate::fit) fn simulated_light(&self, lin: &[f32], v: usize, x: &[f64]) -> Option<Vec<f32>> {
+    /// [`SIMULATED_SHRINK`]): the light at `x` from the render `lin` ([`shrunk_photo_draw`]'s
+    /// input), computed once for all the draws.
+    pub(in crate::fit) fn simulated_light(&self, lin: &[f32], v: usize, x: &[f64]) -> Option<ShrunkLight> {
         let k = self.data.shrink.get(v).copied().unwrap_or(1);
-        (k > 1 && k <= SIMULATED_SHRINK).then(|| self.light(&self.blurred(lin, v, x), v, x))
+        let c = &self.data.capture.views[v].camera;
+        (k > 1 && k <= SIMULATED_SHRINK).then(|| {
+            ShrunkLight::of(
+                &self.light(&self.blurred(lin, v, x), v, x),
+                self.ss,
+                (c.width, c.height),
+                k,
+            )
+        })
     }
 
     /// One [`shrunk_photo_draw`] of view v's photo from its light `lit`
@@ -100,19 +122,15 @@ impl super::super::Evaluator<'_, '_> {
     /// `sigma` and the JPEG `q`.
     pub(in crate::fit) fn shrunk_draw(
         &self,
-        lit: &[f32],
+        lit: &ShrunkLight,
         v: usize,
         sigma: f64,
         q: Option<u8>,
         normal: &mut dyn FnMut() -> f64,
     ) -> Option<Vec<f32>> {
         let d = self.data;
-        let c = &d.capture.views[v].camera;
         shrunk_photo_draw(
             lit,
-            self.ss,
-            (c.width, c.height),
-            d.shrink[v],
             sigma,
             d.colour.get(v).copied().unwrap_or(false),
             d.gains.get(v).copied().unwrap_or([1.0; 3]),
@@ -130,7 +148,13 @@ impl super::super::Evaluator<'_, '_> {
     /// the photo's white balance. A JPEG's change taken without the noise (the model's light
     /// alone through the JPEG) put the ringing by bright grooves below black, clipped there, and
     /// lifted the dark plate a second time. Seeded by view: the same fit gives the same shift.
-    pub(in crate::fit) fn simulated_shift(&self, lit: &[f32], v: usize, x: &[f64], model: &[f32]) -> Option<Vec<f32>> {
+    pub(in crate::fit) fn simulated_shift(
+        &self,
+        lit: &ShrunkLight,
+        v: usize,
+        x: &[f64],
+        model: &[f32],
+    ) -> Option<Vec<f32>> {
         let d = self.data;
         let sigma = self.sigma(x, v);
         let q = d.saved_jpeg.get(v).copied().flatten();
@@ -177,9 +201,10 @@ mod tests {
         let lit: Vec<f32> = (0..(ss * w * ss * h) as usize)
             .map(|i| if (i % (ss * w) as usize) % 7 == 3 { 0.6 } else { 0.004 })
             .collect();
+        let light = ShrunkLight::of(&lit, ss, (w, h), k);
         let mut rng = scratchart_design::scenes::Rng::new(3);
         let mut draw = |gains: [f64; 3], q: Option<u8>| {
-            shrunk_photo_draw(&lit, ss, (w, h), k, 0.0, true, gains, q, &mut || rng.normal()).unwrap()
+            shrunk_photo_draw(&light, 0.0, true, gains, q, &mut || rng.normal()).unwrap()
         };
         let model: Vec<f32> = {
             let sub = crate::photo::Gray {
@@ -269,8 +294,8 @@ mod tests {
             .iter()
             .map(|&d| crate::encoding::decode(d as f64) as f32)
             .collect();
-        let draw =
-            |q: Option<u8>| shrunk_photo_draw(&lit, ss, (w, h), k, 0.0, false, [1.0; 3], q, &mut || 0.0).unwrap();
+        let light = ShrunkLight::of(&lit, ss, (w, h), k);
+        let draw = |q: Option<u8>| shrunk_photo_draw(&light, 0.0, false, [1.0; 3], q, &mut || 0.0).unwrap();
         let fit_change: Vec<f64> = draw(Some(q))
             .iter()
             .zip(draw(None))
